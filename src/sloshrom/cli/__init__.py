@@ -1,0 +1,9 @@
+"""Command line: ``sloshrom --help``.
+
+Each sub-module registers its commands on the shared ``app`` of ``sloshrom.cli._app``; importing
+this package imports them all.
+"""
+
+from sloshrom.cli._app import app
+
+__all__ = ["app"]
