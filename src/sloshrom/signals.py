@@ -9,6 +9,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.interpolate import CubicSpline
+
+from sloshrom.config import G, Tank
 
 
 @dataclass(frozen=True)
@@ -106,3 +109,451 @@ def harmonic(
     i0 = int(round((n_ramp + n_settle) * period * fs))
     i1 = int(round((n_ramp + n_settle + n_cycles) * period * fs))
     return Harmonic(t, w, v, acc, slice(i0, i1), float(frequency), float(amplitude))
+
+
+def _ramp_c2(t: np.ndarray, t_up: float, t_total: float) -> tuple[np.ndarray, ...]:
+    """Quintic smooth-step fade in over [0, t_up] and out over the last t_up, with r', r''.
+
+    C2-continuous (unlike the raised cosine), so the acceleration of a ramped motion has no jumps.
+    """
+    r = np.ones_like(t)
+    dr = np.zeros_like(t)
+    ddr = np.zeros_like(t)
+    if t_up <= 0:
+        return r, dr, ddr
+    for mask, tau, sign in ((t < t_up, t, 1.0), (t > t_total - t_up, t_total - t, -1.0)):
+        x = tau[mask] / t_up
+        r[mask] = x**3 * (10.0 - 15.0 * x + 6.0 * x * x)
+        dr[mask] = sign * 30.0 * x * x * (1.0 - x) ** 2 / t_up
+        ddr[mask] = 60.0 * x * (1.0 - x) * (1.0 - 2.0 * x) / t_up**2
+    return r, dr, ddr
+
+
+# --------------------------------------------------------------------------------------------
+# VFA: variable frequency and amplitude (paper section 2.1, Figs. 5 and 7a)
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ShakerLimits:
+    """Limits of the electrodynamic shaker that a VFA path must respect (SI).
+
+    The paper does not give its shaker; the defaults are engineering estimates of a small
+    laboratory shaker (±12.5 mm stroke, 1 m/s, 6 g) and are only upper bounds: the VFA domain
+    (``a_bar <= 0.45`` of the paper tank, i.e. 12.2 mm) is usually the tighter one.
+
+    Attributes
+    ----------
+    max_displacement : float
+        Displacement amplitude limit, m.
+    max_velocity : float
+        Velocity amplitude limit, m/s.
+    max_acceleration : float
+        Acceleration amplitude limit, m/s^2.
+    """
+
+    max_displacement: float = 0.0125
+    max_velocity: float = 1.0
+    max_acceleration: float = 6.0 * G
+
+    def __post_init__(self) -> None:
+        for name in ("max_displacement", "max_velocity", "max_acceleration"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v > 0):
+                raise ValueError(f"ShakerLimits.{name} must be finite and positive, got {v!r}")
+
+
+@dataclass(frozen=True)
+class VFA:
+    """A VFA acceleration law and its path in the (omega_bar, a_bar) plane.
+
+    Motion ``w(t) = -a(t) cos(theta(t))``, ``theta' = Omega(t)``, hence
+    ``w'' = A(t) cos(theta) + O(a', Omega')`` with ``A = a Omega^2`` (the paper's law
+    ``w'' = f(t) cos(int Omega dt)``); displacement, velocity and acceleration are exact
+    derivatives of each other (no integration drift), and all three are zero at both ends.
+
+    Attributes
+    ----------
+    time : ndarray
+        s, uniform at ``fs``.
+    displacement, velocity, acceleration : ndarray
+        m, m/s, m/s^2 (w up positive).
+    frequency : ndarray
+        Instantaneous frequency Omega / 2 pi, Hz.
+    amplitude : ndarray
+        Instantaneous displacement amplitude a(t), m.
+    fs : float
+        Sample rate, Hz.
+    split : str
+        ``"train"`` or ``"validation"``.
+    seed : int
+        Seed of the path's phase.
+    height : float
+        Tank height h, m (for ``a_bar``, ``omega_bar``).
+
+    Properties ``omega_bar`` (Omega / sqrt(g/h)), ``a_bar`` (a / h) and ``gamma`` (acceleration
+    amplitude in g, ``a Omega^2 / g = a_bar omega_bar^2``) give the non-dimensional path.
+    """
+
+    time: np.ndarray
+    displacement: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    frequency: np.ndarray
+    amplitude: np.ndarray
+    fs: float
+    split: str
+    seed: int
+    height: float
+
+    @property
+    def omega_bar(self) -> np.ndarray:
+        """Omega / sqrt(g/h)."""
+        return 2.0 * np.pi * self.frequency / np.sqrt(G / self.height)
+
+    @property
+    def a_bar(self) -> np.ndarray:
+        """a / h."""
+        return self.amplitude / self.height
+
+    @property
+    def gamma(self) -> np.ndarray:
+        """Acceleration amplitude a Omega^2 / g, in g."""
+        return self.amplitude * (2.0 * np.pi * self.frequency) ** 2 / G
+
+
+# Lissajous-like path families: the normalised log-frequency x(s) = (1 - cos(2 pi p s + phi)) / 2
+# sweeps the band p times, while the normalised amplitude y(s) = (1 - cos(2 pi q s)) / 2 goes from
+# rest to the limit and back q times (q integer, so both ends are at rest). Different (p, q, phi)
+# give two different paths over the same domain; q / (2 p) is kept away from integers, otherwise
+# successive sweeps retrace the same arches and leave gaps (chosen by the 95th percentile of the
+# distance from a 60 x 60 grid of the normalised domain to the path: 0.013 train, 0.032
+# validation).
+_VFA_FAMILIES = {
+    "train": {"duration": 480.0, "p": 2.5, "q": 38, "phase": 0.0},
+    "validation": {"duration": 240.0, "p": 2.5, "q": 19, "phase": np.pi},
+}
+
+
+def _softmin_log(values: list[np.ndarray], tau: float = 0.03) -> np.ndarray:
+    """Smooth minimum of positive arrays (log-sum-exp on logs): smooth, <= min, within ~3 %."""
+    logs = np.stack([np.log(v) for v in values])
+    m = logs.min(axis=0)
+    return np.exp(m - tau * np.log(np.sum(np.exp(-(logs - m) / tau), axis=0)))
+
+
+def vfa_gamma_limit(
+    frequency: np.ndarray,
+    tank: Tank | None = None,
+    a_bar_max: float = 0.45,
+    gamma_max: float = 6.0,
+    limits: ShakerLimits | None = None,
+) -> np.ndarray:
+    """Largest acceleration amplitude (in g) a VFA path may reach at each frequency.
+
+    Smooth minimum of ``gamma_max``, ``a_bar_max omega_bar^2`` and the shaker's displacement,
+    velocity and acceleration limits.
+
+    Parameters
+    ----------
+    frequency : array_like
+        Hz.
+    tank : Tank, optional
+        Sets h (default: the paper tank).
+    a_bar_max : float
+        Largest a / h.
+    gamma_max : float
+        Largest acceleration amplitude, g.
+    limits : ShakerLimits, optional
+
+    Returns
+    -------
+    ndarray
+        Acceleration amplitude limit, g.
+    """
+    tank = Tank() if tank is None else tank
+    limits = ShakerLimits() if limits is None else limits
+    om = 2.0 * np.pi * np.asarray(frequency, dtype=float)
+    omb2 = om**2 / (G / tank.height)
+    ones = np.ones_like(om)
+    return _softmin_log(
+        [
+            gamma_max * ones,
+            a_bar_max * omb2,
+            limits.max_displacement * om**2 / G,
+            limits.max_velocity * om / G,
+            limits.max_acceleration / G * ones,
+        ]
+    )
+
+
+def vfa(
+    fs: float,
+    split: str = "train",
+    duration: float | None = None,
+    tank: Tank | None = None,
+    seed: int = 0,
+    f_min: float = 5.0,
+    f_max: float = 25.0,
+    a_bar_max: float = 0.45,
+    gamma_max: float = 6.0,
+    limits: ShakerLimits | None = None,
+    ramp: float = 2.0,
+) -> VFA:
+    """Variable-frequency-and-amplitude (VFA) tank motion (paper section 2.1, Fig. 5).
+
+    The path sweeps log-frequency between ``f_min`` and ``f_max`` slowly (``p`` sweeps) while the
+    acceleration amplitude goes from rest to ``vfa_gamma_limit(f)`` and back ``q`` times, so that
+    (omega_bar, a_bar) covers the domain bounded by ``gamma <= gamma_max``,
+    ``a_bar <= a_bar_max`` and the shaker limits. ``"train"`` (480 s, p = 2.5, q = 38) and
+    ``"validation"`` (240 s, p = 2.5, q = 19, starting at ``f_max``) are different paths over
+    the same domain. Both start and end at rest (amplitude zero, plus a C2 smooth-step ramp of
+    ``ramp`` s).
+
+    Parameters
+    ----------
+    fs : float
+        Sample rate, Hz (at least 8 samples per cycle of ``f_max``).
+    split : {"train", "validation"}
+    duration : float, optional
+        s; default 480 (train) or 240 (validation). A different duration scales the same path.
+    tank : Tank, optional
+        Sets h for omega_bar and a_bar (default: the paper tank).
+    seed : int
+        Seeds a random phase shift (within ±pi/4) of the frequency sweep.
+    f_min, f_max : float
+        Frequency band, Hz.
+    a_bar_max : float
+        Largest displacement amplitude / tank height.
+    gamma_max : float
+        Largest acceleration amplitude, g.
+    limits : ShakerLimits, optional
+        Shaker displacement/velocity/acceleration limits.
+    ramp : float
+        Smooth-step (quintic, C2) fade in/out, s.
+
+    Returns
+    -------
+    VFA
+    """
+    tank = Tank() if tank is None else tank
+    limits = ShakerLimits() if limits is None else limits
+    if split not in _VFA_FAMILIES:
+        raise ValueError(f"split must be 'train' or 'validation', got {split!r}")
+    fam = _VFA_FAMILIES[split]
+    duration = fam["duration"] if duration is None else float(duration)
+    if not (np.isfinite(fs) and fs > 0):
+        raise ValueError(f"fs must be a finite positive rate in Hz, got {fs!r}")
+    if not (0 < f_min < f_max and np.isfinite(f_max)):
+        raise ValueError(f"need 0 < f_min < f_max, got f_min={f_min!r}, f_max={f_max!r}")
+    if fs < 8 * f_max:
+        raise ValueError(f"fs={fs} Hz is too low for f_max={f_max} Hz (need >= 8 samples/cycle)")
+    if not (np.isfinite(duration) and duration > 2 * ramp and duration >= 10.0):
+        raise ValueError(f"duration must be >= 10 s and > 2*ramp, got {duration!r}")
+    rng = np.random.default_rng(seed)
+    phase = fam["phase"] + rng.uniform(-0.25, 0.25) * np.pi
+    p, q = fam["p"], fam["q"]
+    log_ratio = np.log(f_max / f_min)
+
+    def envelope(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Slow displacement amplitude a(t) (m) and angular frequency Omega(t) (rad/s)."""
+        s = np.clip(t / duration, 0.0, 1.0)
+        x = 0.5 - 0.5 * np.cos(2.0 * np.pi * p * s + phase)
+        y = 0.5 - 0.5 * np.cos(2.0 * np.pi * q * s)
+        f = f_min * np.exp(x * log_ratio)
+        gam = y * vfa_gamma_limit(f, tank, a_bar_max, gamma_max, limits)
+        om = 2.0 * np.pi * f
+        return gam * G / om**2, om
+
+    n = int(round(duration * fs)) + 1
+    t = np.arange(n) / fs
+    duration = float(t[-1])  # the path ends exactly on the last sample
+    # The envelope varies over seconds: sample it at 100 Hz and interpolate with C2 cubic splines,
+    # whose derivatives and antiderivative are exact; w, v and acc below are then exact
+    # derivatives of one smooth function, at any fs, at the cost of a few arrays of size n.
+    t_env = np.linspace(0.0, duration, int(np.ceil(duration * 100.0)) + 1)
+    a_env, om_env = envelope(t_env)
+    a_spl = CubicSpline(t_env, a_env, bc_type="clamped")
+    om_spl = CubicSpline(t_env, om_env)
+    # the ramp multiplies the spline exactly (product rule), so that w, v and acc are exactly
+    # zero at both ends (the spline is exactly zero at its end knots)
+    r, dr, ddr = _ramp_c2(t, ramp, duration)
+    a_s, da_s, dda_s = a_spl(t), a_spl(t, 1), a_spl(t, 2)
+    a = r * a_s
+    da = dr * a_s + r * da_s
+    dda = ddr * a_s + 2.0 * dr * da_s + r * dda_s
+    del r, dr, ddr, a_s, da_s, dda_s
+    om = om_spl(t)
+    dom = om_spl(t, 1)
+    theta = om_spl.antiderivative()(t)
+    c = np.cos(theta)
+    s_ = np.sin(theta)
+    del theta
+    w = -a * c
+    v = a * om * s_ - da * c
+    acc = (a * om**2 - dda) * c
+    acc += (2.0 * da * om + a * dom) * s_
+    return VFA(
+        time=t,
+        displacement=w,
+        velocity=v,
+        acceleration=acc,
+        frequency=om / (2 * np.pi),
+        amplitude=a,
+        fs=float(fs),
+        split=split,
+        seed=int(seed),
+        height=tank.height,
+    )
+
+
+def plot_vfa_paths(paths, ax=None, gammas=(1, 2, 3, 4, 5, 6), max_points: int = 20000):
+    """Plot VFA paths in the (omega_bar, a_bar) plane over the Gamma iso-lines (paper Fig. 5/7a).
+
+    Parameters
+    ----------
+    paths : VFA or sequence of VFA
+    ax : matplotlib Axes, optional
+    gammas : sequence of float
+        Iso-lines ``a_bar = Gamma / omega_bar^2`` to draw (Gamma in g).
+    max_points : int
+        Each path is decimated to at most this many points for drawing.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    import matplotlib.pyplot as plt
+
+    if isinstance(paths, VFA):
+        paths = [paths]
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6.4, 4.4), constrained_layout=True)
+    wmax = max(float(np.max(p.omega_bar)) for p in paths) * 1.05
+    amax = max(float(np.max(p.a_bar)) for p in paths) * 1.1
+    ob = np.linspace(0.3, wmax, 400)
+    for gm in gammas:
+        ax.plot(ob, gm / ob**2, color="0.6", lw=0.7, ls="--")
+        ob_lab = np.sqrt(gm / (0.85 * amax))
+        if ob_lab < wmax:
+            ax.text(ob_lab, 0.85 * amax, f"{gm:g} g", color="0.4", fontsize=8)
+    colors = {"train": "tab:blue", "validation": "tab:orange"}
+    for p in paths:
+        step = max(1, len(p.time) // max_points)
+        ax.plot(
+            p.omega_bar[::step],
+            p.a_bar[::step],
+            lw=0.6,
+            color=colors.get(p.split),
+            label=f"{p.split} ({p.time[-1]:.0f} s)",
+        )
+    ax.set_xlim(0, wmax)
+    ax.set_ylim(0, amax)
+    ax.set_xlabel(r"$\bar\omega = \Omega/\sqrt{g/h}$")
+    ax.set_ylabel(r"$\bar a = a/h$")
+    ax.legend(loc="upper right")
+    return ax
+
+
+# --------------------------------------------------------------------------------------------
+# Random base acceleration with a Gaussian PSD (paper Eq. 8)
+# --------------------------------------------------------------------------------------------
+
+
+def gaussian_psd(f, f0: float, sigma: float, A: float) -> np.ndarray:
+    """One-sided Gaussian-shaped PSD of paper Eq. (8).
+
+    ``S(f) = A / (sigma sqrt(2 pi)) [exp(-(f - f0)^2 / 2 sigma^2) + exp(-(f + f0)^2 / 2 sigma^2)]``;
+    its integral over f >= 0 is exactly ``A`` (the variance).
+
+    Parameters
+    ----------
+    f : array_like
+        Frequency, Hz (>= 0).
+    f0 : float
+        Centre, Hz.
+    sigma : float
+        Standard deviation, Hz.
+    A : float
+        Variance of the signal (e.g. (m/s^2)^2).
+
+    Returns
+    -------
+    ndarray
+        PSD in units of A per Hz.
+    """
+    if not (np.isfinite(sigma) and sigma > 0):
+        raise ValueError(f"sigma must be a positive frequency in Hz, got {sigma!r}")
+    f = np.asarray(f, dtype=float)
+    k = A / (sigma * np.sqrt(2.0 * np.pi))
+    return k * (
+        np.exp(-((f - f0) ** 2) / (2 * sigma**2)) + np.exp(-((f + f0) ** 2) / (2 * sigma**2))
+    )
+
+
+def random_base_acceleration(
+    fs: float,
+    duration: float,
+    rms,
+    f0: float = 12.0,
+    sigma: float = 4.0,
+    seed: int = 0,
+    fade: float = 0.0,
+) -> np.ndarray:
+    """Random acceleration with the Gaussian PSD of paper Eq. (8) and an exact RMS.
+
+    Random-phase inverse FFT: the amplitude of each FFT bin follows ``sqrt(S(f))`` exactly and the
+    phases are uniform random (seeded), so the periodogram of the (periodic) record is the target
+    shape without statistical scatter. The record is then scaled to the exact RMS. Several levels
+    share the SAME phases (the same signal, scaled), as the paper's 0.1/0.2/0.4 g tests.
+
+    Parameters
+    ----------
+    fs : float
+        Sample rate, Hz (must exceed 2 (f0 + 4 sigma)).
+    duration : float
+        s; n = round(duration fs) samples.
+    rms : float or sequence of float
+        Target RMS, m/s^2 (multiply g-levels by ``sloshrom.config.G``).
+    f0, sigma : float
+        Centre and standard deviation of the PSD, Hz (defaults are estimates).
+    seed : int
+        Seed of the random phases.
+    fade : float
+        Raised-cosine fade in/out at each end, s (0: none). The mean is still removed and the RMS
+        is exact over the whole returned record, fades included.
+
+    Returns
+    -------
+    ndarray
+        Shape (n,) for a scalar ``rms``, (n_levels, n) for a sequence; zero mean.
+    """
+    if not (np.isfinite(fs) and fs > 0):
+        raise ValueError(f"fs must be a finite positive rate in Hz, got {fs!r}")
+    if not (np.isfinite(f0) and f0 >= 0 and np.isfinite(sigma) and sigma > 0):
+        raise ValueError(f"need f0 >= 0 and sigma > 0 in Hz, got f0={f0!r}, sigma={sigma!r}")
+    if fs <= 2 * (f0 + 4 * sigma):
+        raise ValueError(f"fs={fs} Hz is too low for the PSD (need fs > 2 (f0 + 4 sigma))")
+    n = int(round(duration * fs))
+    if n < 16:
+        raise ValueError(f"duration={duration!r} s gives fewer than 16 samples at fs={fs} Hz")
+    if not (np.isfinite(fade) and 0 <= 2 * fade < duration):
+        raise ValueError(f"fade must be in [0, duration/2), got {fade!r}")
+    levels = np.asarray(rms, dtype=float)
+    if levels.ndim > 1 or not np.all(np.isfinite(levels)) or np.any(levels < 0):
+        raise ValueError(f"rms must be a non-negative number or 1-D sequence (m/s^2), got {rms!r}")
+    rng = np.random.default_rng(seed)
+    freqs = np.fft.rfftfreq(n, 1.0 / fs)
+    mag = np.sqrt(gaussian_psd(freqs, f0, sigma, 1.0))
+    mag[0] = 0.0  # zero mean
+    if n % 2 == 0:
+        mag[-1] = 0.0  # the Nyquist bin is real; leave it out
+    phases = rng.uniform(0.0, 2.0 * np.pi, size=freqs.size)
+    x = np.fft.irfft(mag * np.exp(1j * phases), n)
+    if fade > 0:
+        t = np.arange(n) / fs
+        r, _, _ = _ramp(t, fade, t[-1])
+        x = x * r
+        x = x - (x.mean() / r.mean()) * r  # zero mean, ends still at zero
+    x = x / np.sqrt(np.mean(x**2))
+    return np.multiply.outer(levels, x) if levels.ndim else float(levels) * x
