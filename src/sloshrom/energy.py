@@ -1,0 +1,321 @@
+"""Energy dissipated by sloshing in harmonic motion: hysteresis loops and Phi_d maps.
+
+Conventions (DESIGN section 4, paper section 2): w up positive, ``f_S = -m_l w'' + dF`` is the
+force the liquid exerts on the tank, the energy dissipated per cycle is
+``L_d = -oint f_S dw = -oint dF dw`` (the inertia term integrates to zero over whole cycles),
+``Phi_d = L_d / (m_l a^2 Omega^2)``, ``omega_bar = Omega / sqrt(g/h)``, ``a_bar = a / h`` and the
+acceleration amplitude in g is ``Gamma = a_bar omega_bar^2``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from sloshrom.config import Tank
+from sloshrom.signals import harmonic
+
+__all__ = [
+    "default_grid",
+    "dissipated_energy",
+    "hysteresis_loop",
+    "map_maximum",
+    "phi_d",
+    "phi_d_map",
+    "plot_hysteresis",
+    "plot_phi_d_map",
+    "shaker_envelope",
+]
+
+
+def dissipated_energy(
+    w: Any, dynamic_force: Any, n_cycles: int = 1, rule: str = "trapezoid"
+) -> np.ndarray:
+    """Energy dissipated per cycle ``L_d = -oint dF dw`` (J), over whole cycles.
+
+    Parameters
+    ----------
+    w : array_like
+        Tank displacement over an integer number of cycles, m, shape ``(..., n)``.
+    dynamic_force : array_like
+        Dynamic force dF (or f_S: same result over whole cycles), N, same shape.
+    n_cycles : int
+        Number of whole cycles in the samples; the result is per cycle.
+    rule : {"trapezoid", "step"}
+        ``"trapezoid"``: force samples at the sample instants (ROMs, measured data);
+        ``"step"``: force sample k is the average over [t_k, t_k+1] (the virtual rig's output).
+
+    Returns
+    -------
+    ndarray
+        L_d per cycle, J, shape ``(...)``.
+    """
+    w = np.asarray(w, dtype=np.float64)
+    f = np.asarray(dynamic_force, dtype=np.float64)
+    if w.shape != f.shape or w.ndim == 0 or w.shape[-1] < 2:
+        raise ValueError("w and dynamic_force must have the same shape with >= 2 samples")
+    if n_cycles < 1:
+        raise ValueError(f"n_cycles must be >= 1, got {n_cycles}")
+    dw = np.diff(w, axis=-1)
+    if rule == "trapezoid":
+        fm = 0.5 * (f[..., 1:] + f[..., :-1])
+    elif rule == "step":
+        fm = f[..., :-1]
+    else:
+        raise ValueError(f"rule must be 'trapezoid' or 'step', got {rule!r}")
+    return -np.sum(fm * dw, axis=-1) / n_cycles
+
+
+def phi_d(l_d: Any, amplitude: Any, omega: Any, liquid_mass: float) -> np.ndarray:
+    """Non-dimensional dissipated energy ``Phi_d = L_d / (m_l a^2 Omega^2)``.
+
+    Parameters
+    ----------
+    l_d : array_like
+        Energy per cycle, J.
+    amplitude : array_like
+        Displacement amplitude a, m.
+    omega : array_like
+        Angular frequency Omega, rad/s.
+    liquid_mass : float
+        m_l, kg.
+    """
+    a = np.asarray(amplitude, dtype=np.float64)
+    om = np.asarray(omega, dtype=np.float64)
+    return np.asarray(l_d, dtype=np.float64) / (liquid_mass * a * a * om * om)
+
+
+def hysteresis_loop(
+    w: Any,
+    dynamic_force: Any,
+    acceleration: Any,
+    amplitude: float,
+    omega: float,
+    liquid_mass: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Normalised hysteresis loop of the sloshing force (paper Fig. 3b).
+
+    Parameters
+    ----------
+    w, dynamic_force, acceleration : array_like
+        Tank displacement (m), dynamic force dF (N) and tank acceleration (m/s^2).
+    amplitude, omega : float
+        a (m) and Omega (rad/s) of the harmonic motion.
+    liquid_mass : float
+        m_l, kg.
+
+    Returns
+    -------
+    x : ndarray
+        ``w / a``.
+    y : ndarray
+        ``f_S / (m_l a Omega^2)`` with ``f_S = dF - m_l w''``.
+    """
+    if not (amplitude > 0 and omega > 0 and liquid_mass > 0):
+        raise ValueError("amplitude, omega and liquid_mass must be positive")
+    w = np.asarray(w, dtype=np.float64)
+    f_s = np.asarray(dynamic_force, dtype=np.float64) - liquid_mass * np.asarray(
+        acceleration, dtype=np.float64
+    )
+    return w / amplitude, f_s / (liquid_mass * amplitude * omega**2)
+
+
+def shaker_envelope(
+    omega_bar: Any,
+    a_bar: Any,
+    tank: Tank,
+    f_min: float = 5.0,
+    f_max: float = 25.0,
+    gamma_max: float = 6.0,
+    a_bar_max: float = 0.45,
+) -> np.ndarray:
+    """Boolean mask (omega_bar, a_bar) of the points the shaker can play (estimates)."""
+    ob = np.asarray(omega_bar, dtype=np.float64)[:, None]
+    ab = np.asarray(a_bar, dtype=np.float64)[None, :]
+    f = ob * tank.reference_frequency / (2 * math.pi)
+    return (
+        (f >= f_min * (1 - 1e-9))
+        & (f <= f_max * (1 + 1e-9))
+        & (ab * ob**2 <= gamma_max * (1 + 1e-9))
+        & (ab <= a_bar_max * (1 + 1e-9))
+        & (ab > 0)
+    )
+
+
+def default_grid(n: int = 30, tank: Tank | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Default (omega_bar, a_bar) grid: 5-25 Hz and a_bar in [0.01, 0.45], n x n points."""
+    tank = tank if tank is not None else Tank()
+    w0 = tank.reference_frequency
+    ob = np.linspace(2 * math.pi * 5.0 / w0, 2 * math.pi * 25.0 / w0, n)
+    ab = np.linspace(0.01, 0.45, n)
+    return ob, ab
+
+
+def phi_d_map(
+    model: Any,
+    omega_bar: Any,
+    a_bar: Any,
+    tank: Tank | None = None,
+    n_cycles: int = 12,
+    n_ramp: int = 3,
+    settle_time: float = 0.5,
+    f_min: float = 5.0,
+    f_max: float = 25.0,
+    gamma_max: float = 6.0,
+    a_bar_max: float = 0.45,
+    progress: Callable[[int, int], None] | None = None,
+) -> xr.DataArray:
+    """Phi_d(omega_bar, a_bar) from batched ramped harmonic tests through ``model.simulate``.
+
+    For each omega_bar all amplitudes inside the shaker envelope run as one batch at the model's
+    step ``model.dt``; points outside the envelope are NaN.
+
+    Parameters
+    ----------
+    model : sloshing model
+        Anything with ``dt`` and ``simulate(velocity, acceleration)`` (rig, ROM, frozen).
+    omega_bar, a_bar : array_like
+        1-D grids of Omega / sqrt(g/h) and a / h.
+    tank : Tank, optional
+        Sets h, m_l (default: ``model.tank`` if present, else the paper tank).
+    n_cycles : int
+        Steady cycles evaluated per point.
+    n_ramp : int
+        Ramp cycles at each end.
+    settle_time : float
+        Time held at full amplitude before the evaluated cycles, s (at least 2 cycles).
+    f_min, f_max, gamma_max, a_bar_max : float
+        Shaker envelope (Hz, Hz, g, -), engineering estimates.
+    progress : callable, optional
+        Called as ``progress(done, total)`` after each frequency.
+
+    Returns
+    -------
+    xarray.DataArray
+        ``phi_d`` with dims ``(omega_bar, a_bar)``, coordinate ``frequency`` (Hz) on omega_bar,
+        attrs with units and provenance.
+    """
+    if tank is None:
+        tank = getattr(model, "tank", None) or Tank()
+    ob = np.atleast_1d(np.asarray(omega_bar, dtype=np.float64))
+    ab = np.atleast_1d(np.asarray(a_bar, dtype=np.float64))
+    if ob.ndim != 1 or ab.ndim != 1 or np.any(ob <= 0) or np.any(~np.isfinite(ab)):
+        raise ValueError("omega_bar and a_bar must be 1-D grids of positive numbers")
+    fs = 1.0 / float(model.dt)
+    rule = getattr(model, "force_rule", "trapezoid")
+    mask = shaker_envelope(ob, ab, tank, f_min, f_max, gamma_max, a_bar_max)
+    out = np.full((ob.size, ab.size), np.nan)
+    t0 = time.perf_counter()
+    h_ref = tank.height
+    w0 = tank.reference_frequency
+    for i, obi in enumerate(ob):
+        cols = np.flatnonzero(mask[i])
+        if cols.size:
+            freq = obi * w0 / (2 * math.pi)
+            if fs < 8 * freq:
+                raise ValueError(f"model rate {fs} Hz too low for {freq:.1f} Hz")
+            n_settle = max(2, int(math.ceil(settle_time * freq)))
+            sigs = [
+                harmonic(fs, freq, ab[j] * h_ref, n_cycles=n_cycles, n_ramp=n_ramp,
+                         n_settle=n_settle)
+                for j in cols
+            ]
+            vel = np.stack([s.velocity for s in sigs])
+            acc = np.stack([s.acceleration for s in sigs])
+            df = np.asarray(model.simulate(vel, acc), dtype=np.float64)
+            sl = sigs[0].steady
+            disp = np.stack([s.displacement for s in sigs])
+            # include the sample that closes the last cycle
+            seg = slice(sl.start, sl.stop + 1)
+            l_d = dissipated_energy(disp[:, seg], df[:, seg], n_cycles=n_cycles, rule=rule)
+            out[i, cols] = phi_d(l_d, ab[cols] * h_ref, 2 * math.pi * freq, tank.liquid_mass)
+        if progress is not None:
+            progress(i + 1, ob.size)
+    elapsed = time.perf_counter() - t0
+    da = xr.DataArray(
+        out,
+        dims=("omega_bar", "a_bar"),
+        coords={
+            "omega_bar": ("omega_bar", ob, {"units": "1", "long_name": "Omega / sqrt(g/h)"}),
+            "a_bar": ("a_bar", ab, {"units": "1", "long_name": "a / h"}),
+            "frequency": ("omega_bar", ob * w0 / (2 * math.pi), {"units": "Hz"}),
+        },
+        name="phi_d",
+        attrs={
+            "units": "1",
+            "long_name": "non-dimensional dissipated energy L_d / (m_l a^2 Omega^2)",
+            "model": type(model).__name__,
+            "model_dt": float(model.dt),
+            "n_cycles": int(n_cycles),
+            "n_ramp": int(n_ramp),
+            "settle_time": float(settle_time),
+            "envelope": f"{f_min}-{f_max} Hz, Gamma <= {gamma_max} g, a_bar <= {a_bar_max}",
+            "tank_height": tank.height,
+            "tank_fill": tank.fill,
+            "liquid_mass": tank.liquid_mass,
+            "elapsed_s": elapsed,
+            "provenance": "sloshrom.energy.phi_d_map (ramped harmonic tests)",
+        },
+    )
+    return da
+
+
+def map_maximum(da: xr.DataArray) -> dict[str, float]:
+    """Location and value of the maximum of a Phi_d map (omega_bar, a_bar, Gamma, Hz)."""
+    vals = np.asarray(da.values)
+    if np.all(np.isnan(vals)):
+        raise ValueError("the map is all NaN")
+    i, j = np.unravel_index(np.nanargmax(vals), vals.shape)
+    ob = float(da.omega_bar[i])
+    ab = float(da.a_bar[j])
+    return {
+        "phi_d": float(vals[i, j]),
+        "omega_bar": ob,
+        "a_bar": ab,
+        "gamma": ab * ob**2,
+        "frequency": float(da.frequency[i]) if "frequency" in da.coords else float("nan"),
+    }
+
+
+def plot_phi_d_map(da: xr.DataArray, ax: Any = None, levels: int = 15) -> Any:
+    """Contour map of Phi_d(omega_bar, a_bar) with the Gamma = 1 and Gamma = 4 iso-lines.
+
+    Returns the matplotlib Axes.
+    """
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6, 4.5))
+    ob = np.asarray(da.omega_bar)
+    ab = np.asarray(da.a_bar)
+    z = np.asarray(da.values).T
+    cs = ax.contourf(ob, ab, np.ma.masked_invalid(z), levels=levels, cmap="Blues")
+    ax.figure.colorbar(cs, ax=ax, label=r"$\Phi_d$")
+    obf = np.linspace(ob.min(), ob.max(), 200)
+    for gam, style in ((1.0, "--"), (4.0, "-")):
+        ax.plot(obf, gam / obf**2, "k" + style, lw=1, label=rf"$\Gamma$ = {gam:g} g")
+    ax.set_ylim(ab.min(), ab.max())
+    ax.set_xlabel(r"$\bar\omega = \Omega/\sqrt{g/h}$")
+    ax.set_ylabel(r"$\bar a = a/h$")
+    ax.legend(loc="upper right", fontsize=8)
+    return ax
+
+
+def plot_hysteresis(x: Any, y: Any, ax: Any = None, label: str | None = None) -> Any:
+    """Plot a normalised hysteresis loop (``w/a`` vs ``f_S/(m_l a Omega^2)``); returns Axes."""
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(5, 4))
+    ax.plot(x, y, lw=0.8, label=label)
+    ax.set_xlabel(r"$w/a$")
+    ax.set_ylabel(r"$f_S/(m_l a \Omega^2)$")
+    if label:
+        ax.legend()
+    return ax
+
