@@ -421,7 +421,8 @@ def _unflatten_attrs(raw: Mapping[str, Any]) -> dict[str, Any]:
 def read_record(
     path: str | Path, fs: float | None = None, units: Mapping[str, str] | None = None, si=True
 ) -> Record:
-    """Read a record from NetCDF (``.nc``), CSV (``.csv``) or MATLAB (``.mat``, v5 or v7.3).
+    """Read a record from NetCDF (``.nc``), CSV (``.csv``), MATLAB (``.mat``, v5 or v7.3) or
+    UFF dataset 58 (``.uff``/``.unv``, see :func:`sloshrom.uff.read_uff58`).
 
     Parameters
     ----------
@@ -455,8 +456,14 @@ def read_record(
         rec = _read_csv(p, fs, units or {})
     elif suffix == ".mat":
         rec = _read_mat(p, fs, units or {})
+    elif suffix in (".uff", ".unv"):
+        from sloshrom.uff import read_uff58  # UFF dataset 58 time histories (pyuff)
+
+        rec = read_uff58(p, units=units or {})
     else:
-        raise RecordError(f"{p}: unknown record format {suffix!r} (use .nc, .csv or .mat)")
+        raise RecordError(
+            f"{p}: unknown record format {suffix!r} (use .nc, .csv, .mat, .uff or .unv)"
+        )
     rec.attrs.setdefault("source", str(p))
     return rec.to_si() if si else rec
 

@@ -111,6 +111,7 @@ def stage_data(ctx: Context) -> tuple[dict[str, Any], list[str]]:
         meas = rig.measure(sig.acceleration)
         rec = record_from_measurement(
             meas, tank, truth=True, split=split, seed=int(seed),
+            rig_seed=int(cfg["rig"]["seed"]),
             provenance=f"sloshrom {__version__} reproduce: virtual rig VFA {split}",
         )
         p = ctx.path("data", f"{split}.nc")

@@ -15,7 +15,7 @@ QUICK: dict[str, dict[str, Any]] = {
     "data": {"train_duration": 120.0, "validation_duration": 60.0},
     "rom": {"delays": 40, "neurons": 15, "max_epochs": 60},
     "map": {"n_omega": 10, "n_a": 8},
-    "beam": {"free_duration": 5.0, "random_duration": 30.0},
+    "beam": {"free_duration": 6.0, "random_duration": 70.0},
 }
 
 

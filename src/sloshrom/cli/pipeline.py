@@ -20,6 +20,52 @@ def _fail(msg: str) -> None:
     raise typer.Exit(code=2)
 
 
+def _check_config(cfg: dict) -> None:
+    """Validate values that would otherwise fail deep inside a stage, after minutes of work.
+
+    Raises ``ConfigError`` naming the key (bad-input suite, tests/test_bad_input.py).
+    """
+    import math
+
+    from sloshrom.config import ConfigError, Tank
+
+    try:
+        Tank.from_dict(dict(cfg["tank"]))
+    except ConfigError as exc:
+        raise ConfigError(f"[tank]: {exc}") from None
+    positive = {"rig": ("fs",), "data": ("train_duration", "validation_duration"),
+                "map": ("f_min", "f_max", "gamma_max", "a_bar_min", "a_bar_max"),
+                "beam": ("free_duration", "random_duration")}
+    for sec, keys in positive.items():
+        for key in keys:
+            v = cfg.get(sec, {}).get(key)
+            if v is not None and not (math.isfinite(v) and v > 0):
+                raise ConfigError(f"'{sec}.{key}' must be a finite positive number, got {v!r}")
+    for sec, key, lo in (("rom", "delays", 1), ("rom", "neurons", 1), ("rom", "max_epochs", 0),
+                         ("map", "n_omega", 2), ("map", "n_a", 2), ("beam", "n_modes", 1)):
+        v = cfg.get(sec, {}).get(key)
+        if v is not None and not (isinstance(v, int) and v >= lo):
+            raise ConfigError(f"'{sec}.{key}' must be an integer >= {lo}, got {v!r}")
+    rom = cfg.get("rom", {})
+    if rom.get("arch", "nfir") not in ("nfir", "noe"):
+        raise ConfigError(f"'rom.arch' must be \"nfir\" or \"noe\", got {rom['arch']!r}")
+    if rom.get("hidden", "matlab") not in ("matlab", "distance"):
+        raise ConfigError(f"'rom.hidden' must be \"matlab\" or \"distance\", "
+                          f"got {rom['hidden']!r}")
+
+
+def _load_config(config: Path | None, quick: bool) -> dict:
+    from sloshrom import settings
+    from sloshrom.config import ConfigError
+
+    try:
+        cfg = settings.load(config, quick=quick)
+        _check_config(cfg)
+    except ConfigError as exc:
+        _fail(str(exc))
+    return cfg
+
+
 @config_app.command("show")
 def config_show(
     config: Annotated[Path | None, typer.Option(help="Merge this TOML file over the "
@@ -31,15 +77,11 @@ def config_show(
     Example: ``sloshrom config show > my.toml``, edit, then ``sloshrom reproduce --config my.toml``.
     """
     from sloshrom import settings
-    from sloshrom.config import ConfigError
 
     if config is None and not quick:
         typer.echo(settings.default_text())
         return
-    try:
-        typer.echo(json.dumps(settings.load(config, quick=quick), indent=1))
-    except ConfigError as exc:
-        _fail(str(exc))
+    typer.echo(json.dumps(_load_config(config, quick), indent=1))
 
 
 @app.command()
@@ -62,13 +104,11 @@ def reproduce(
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from sloshrom import pipeline, settings
+    from sloshrom import pipeline
     from sloshrom.config import ConfigError
+    from sloshrom.data import RecordError
 
-    try:
-        cfg = settings.load(config, quick=quick)
-    except ConfigError as exc:
-        _fail(str(exc))
+    cfg = _load_config(config, quick)
     if sweep:
         cfg["rom"]["sweep"] = True
     console = Console(stderr=True)
@@ -82,7 +122,14 @@ def reproduce(
                 tasks[stage] = prog.add_task(text, total=total, stage=stage)
             prog.update(tasks[stage], completed=done, total=total, description=text)
 
-        summary = pipeline.run(out, cfg, progress=report)
+        try:
+            summary = pipeline.run(out, cfg, progress=report)
+        except (ConfigError, RecordError, OSError) as exc:  # user input, not a bug: no traceback
+            prog.stop()
+            _fail(str(exc))
+        except ValueError as exc:  # a config value a stage rejects (e.g. a too short duration)
+            prog.stop()
+            _fail(f"{exc} (check the configuration: sloshrom config show --config FILE)")
     for name, st in summary["stages"].items():
         console.print(f"{name:7s} {'reused' if st['reused'] else 'done'}"
                       f" ({summary['timings_s'].get(name, 0.0):.1f} s)")
@@ -117,6 +164,9 @@ def map_cmd(
         _fail("give exactly one of --rig or --model FILE")
     if n_omega < 2 or n_a < 2:
         _fail("--n-omega and --n-a must be at least 2")
+    ref = None
+    if reference is not None:  # read it first: a bad reference must not cost a whole map
+        ref = _read_reference(reference)
     cfg = settings.defaults()
     cfg["map"].update(n_omega=n_omega, n_a=n_a)
     tank = Tank()
@@ -130,7 +180,10 @@ def map_cmd(
 
         if not model.is_file():
             _fail(f"model file not found: {model}")
-        sm = load_model(model)
+        try:
+            sm = load_model(model)
+        except ValueError as exc:  # ModelFileError: wrong format/version, tampered arrays
+            _fail(str(exc))
         title = f"ROM {model.name}"
     with Progress(transient=True) as prog:
         task = prog.add_task("harmonic tests", total=n_omega)
@@ -142,12 +195,26 @@ def map_cmd(
     typer.echo(f"max Phi_d = {mx['phi_d']:.3g} at omega_bar = {mx['omega_bar']:.2f}, "
                f"a_bar = {mx['a_bar']:.3f} (Gamma = {mx['gamma']:.2f} g, "
                f"{mx['frequency']:.1f} Hz); wrote {out} and {out.with_suffix('.png')}")
-    if reference is not None:
-        import xarray as xr
-
-        with xr.open_dataset(reference, engine="h5netcdf") as ref:
-            r = ref["phi_d"].values
+    if ref is not None:
+        r = ref
         if r.shape != da.shape:
             _fail(f"reference map has shape {r.shape}, this map {da.shape}: use the same grid")
         err = pipeline.relative_map_error(r, da.values)
         typer.echo(f"relative L2 error against {reference}: {err:.1%}")
+
+
+def _read_reference(path: Path):
+    """``phi_d`` of a map file written by ``sloshrom map``, or a clear error."""
+    import numpy as np
+    import xarray as xr
+
+    if not path.is_file():
+        _fail(f"reference map not found: {path}")
+    try:
+        with xr.open_dataset(path, engine="h5netcdf") as ds:
+            r = np.asarray(ds["phi_d"].values)
+    except KeyError:
+        _fail(f"{path}: not a map file (no 'phi_d' variable)")
+    except Exception as exc:  # h5py/xarray raise many types for corrupt files
+        _fail(f"{path}: not a readable NetCDF map ({type(exc).__name__}: {exc})")
+    return r

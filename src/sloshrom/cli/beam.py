@@ -1,0 +1,393 @@
+"""``sloshrom beam``: sloshing-beam free and random responses, damping analysis, figures.
+
+Every run simulates the frozen-liquid reference and each requested sloshing model (``rig`` = the
+virtual rig, the "experiment"; or a ROM file written by ``sloshrom train``) on the same modal
+beam, writes one NetCDF per case into ``--out`` and the figures/tables of the paper's Sect. 4-5.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
+import typer
+
+from sloshrom.cli._app import app
+from sloshrom.config import ConfigError, G, Tank
+
+beam_app = typer.Typer(
+    help="Sloshing-beam simulations (free and random responses) and damping analysis.",
+    no_args_is_help=True,
+)
+app.add_typer(beam_app, name="beam")
+
+SENSOR_FS = 500.0  # Hz, output rate of the rig runs and the frozen reference
+
+
+def _fail(msg: str) -> None:
+    typer.secho(f"error: {msg}", fg=typer.colors.RED, err=True)
+    raise typer.Exit(code=2)
+
+
+def _model(name: str, tank: Tank, seed: int) -> tuple[str, Any]:
+    from sloshrom.models import FrozenLiquid
+
+    if name == "frozen":
+        return "frozen", FrozenLiquid(1.0 / SENSOR_FS)
+    if name == "rig":
+        from sloshrom.rig import VirtualRig
+
+        return "rig", VirtualRig(tank=tank, seed=seed)
+    p = Path(name)
+    if not p.is_file():
+        _fail(f"--sloshing must be 'frozen', 'rig' or a ROM model file; {p} does not exist")
+    from sloshrom.rom import load_model
+
+    try:
+        return p.stem, load_model(p)
+    except ValueError as exc:
+        _fail(str(exc))
+    raise AssertionError  # unreachable
+
+
+def _modal(modal_toml: Path | None, tank: Tank):
+    from sloshrom.structure import ModalModel
+
+    return ModalModel.from_toml(modal_toml) if modal_toml else ModalModel.from_beam(tank=tank)
+
+
+def to_dataset(out: dict, case: str, kind: str, tank: Tank, modal) -> Any:
+    """xarray Dataset of a coupled-simulation result (standard beam-result names)."""
+    import xarray as xr
+
+    lead = out["tank_acceleration"].shape[:-1]
+    ldims = ("level",) if len(lead) == 1 else ()
+    t = out["time"]
+    ds = xr.Dataset(
+        {
+            "base_acceleration": (ldims + ("time",), out["base_acceleration"],
+                                  {"units": "m/s^2"}),
+            "tank_acceleration": (ldims + ("time",), out["tank_acceleration"],
+                                  {"units": "m/s^2", "long_name": "tank absolute acceleration"}),
+            "interface_force": (ldims + ("time",), out["interface_force"],
+                                {"units": "N", "long_name": "-(m_struct + m_l) acc + dynamic"}),
+            "dynamic_force": (ldims + ("time",), out["dynamic_force"], {"units": "N"}),
+            "tank_velocity": (ldims + ("time",), out["tank_velocity"],
+                              {"units": "m/s", "long_name": "tank absolute velocity"}),
+            "station_acceleration": (ldims + ("time", "station"), out["station_acceleration"],
+                                     {"units": "m/s^2", "long_name": "absolute"}),
+            "modal_acceleration": (ldims + ("time", "mode"), out["modal_acceleration"],
+                                   {"units": "m/s^2"}),
+            "q": (ldims + ("time", "mode"), out["q"], {"units": "m"}),
+        },
+        coords={"time": ("time", t, {"units": "s"}),
+                "station": ("station", modal.stations, {"units": "m"}),
+                "mode": ("mode", np.arange(1, modal.n_modes + 1))},
+        attrs={"case": case, "test": kind, "fs": float(out["fs"]),
+               "tank_fill": tank.fill, "liquid_mass": tank.liquid_mass,
+               "structure_mass": modal.structure_mass,
+               "modal_frequencies_Hz": modal.frequencies,
+               "modal_damping": modal.damping},
+    )
+    if ldims:
+        ds = ds.assign_coords(level=("level", out["rms_levels_g"], {"units": "g (RMS)"}))
+    return ds
+
+
+def _atomic(path: Path, write) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
+    os.close(fd)
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        Path(tmp).unlink(missing_ok=True)
+
+
+def _write_nc(ds: Any, path: Path) -> None:
+    _atomic(path, lambda tmp: ds.to_netcdf(tmp, engine="h5netcdf"))
+
+
+def _write_table(rows: list[dict], path_stem: Path) -> None:
+    keys = list(rows[0])
+
+    def csv(tmp):
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(",".join(keys) + "\n")
+            for r in rows:
+                fh.write(",".join(f"{r[k]}" for k in keys) + "\n")
+
+    def md(tmp):
+        def fmt(v):
+            return f"{v:.4g}" if isinstance(v, float) else str(v)
+
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write("| " + " | ".join(keys) + " |\n|" + "---|" * len(keys) + "\n")
+            for r in rows:
+                fh.write("| " + " | ".join(fmt(r[k]) for k in keys) + " |\n")
+
+    _atomic(path_stem.with_suffix(".csv"), csv)
+    _atomic(path_stem.with_suffix(".md"), md)
+
+
+def _savefig(fig, path: Path) -> None:
+    import matplotlib.pyplot as plt
+
+    _atomic(path, lambda tmp: fig.savefig(tmp, dpi=120, format="png"))
+    plt.close(fig)
+
+
+def _run_cases(names: list[str], tank: Tank, modal, seed: int, label: str, fn) -> dict:
+    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+    results = {}
+    with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
+                  transient=True) as progress:
+        for name in ["frozen", *[n for n in names if n != "frozen"]]:
+            case, model = _model(name, tank, seed)
+            task = progress.add_task(f"{label}: {case}", total=None)
+            out_fs = SENSOR_FS if 1.0 / model.dt > SENSOR_FS else None
+            results[case] = fn(model, out_fs)
+            progress.remove_task(task)
+    return results
+
+
+# ------------------------------------------------------------------------------------------
+# Figures (paper Figs. 14, 16, 18, 20-23)
+# ------------------------------------------------------------------------------------------
+
+
+def free_figures(res: dict, modal, tank: Tank) -> dict:
+    """Figures of a free-response comparison: dict name -> matplotlib Figure."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from sloshrom.analysis import instantaneous_damping, log_decrement, modal_filter
+    from sloshrom.structure import coupled_frozen_modes
+
+    figs = {}
+    cases = list(res)
+    fig, axes = plt.subplots(len(cases), 1, figsize=(8, 2.6 * len(cases)), sharex=True,
+                             squeeze=False)
+    for ax, case in zip(axes[:, 0], cases, strict=True):
+        r = res[case]
+        for j, x in enumerate(modal.stations):
+            ax.plot(r["time"], r["station_acceleration"][:, j] / G, lw=0.6, label=f"x={x:.3f} m")
+        ax.set_ylabel("acceleration (g)")
+        ax.set_title(f"{case}: station accelerations")
+    axes[0, 0].legend(fontsize=7, ncol=3)
+    axes[-1, 0].set_xlabel("time (s)")
+    figs["fig14_station_accelerations"] = fig
+
+    # modal filtering of the virtual accelerometers (relative to the base), as for measured data
+    filtered = {
+        case: modal_filter(r["station_acceleration"] - r["base_acceleration"][..., None],
+                           modal.psi_stations)
+        for case, r in res.items()
+    }
+    fig, axes = plt.subplots(modal.n_modes, 1, figsize=(8, 2.2 * modal.n_modes), sharex=True,
+                             squeeze=False)
+    for n in range(modal.n_modes):
+        for case in cases:
+            r = res[case]
+            axes[n, 0].plot(r["time"], filtered[case][:, n], lw=0.6, label=case)
+        axes[n, 0].set_ylabel(f"q''_{n + 1} (m/s²)")
+    axes[0, 0].legend(fontsize=8)
+    axes[-1, 0].set_xlabel("time (s)")
+    fig.suptitle("Modal accelerations (modal filtering of the station accelerations)")
+    figs["fig16_modal_accelerations"] = fig
+
+    fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
+    for case in cases:
+        r = res[case]
+        axes[0].plot(r["time"], r["tank_acceleration"] / G, lw=0.6, label=case)
+        axes[1].plot(r["time"], r["interface_force"], lw=0.6, label=case)
+        axes[2].plot(r["time"], r["dynamic_force"], lw=0.6, label=case)
+    for ax, lab in zip(axes, ("tank acc. (g)", "interface force (N)", "dynamic force (N)"),
+                       strict=True):
+        ax.set_ylabel(lab)
+    axes[0].legend(fontsize=8)
+    axes[-1].set_xlabel("time (s)")
+    figs["fig20_tank_interface_dynamic"] = fig
+
+    f1 = float(coupled_frozen_modes(modal, tank.liquid_mass)[0][0])
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for case in cases:
+        r = res[case]
+        h = instantaneous_damping(filtered[case][:, 0], r["fs"], f1,
+                                  reference=r["tank_acceleration"])
+        line, = ax.plot(h["amplitude"] / G, 100 * h["zeta"], lw=1.0, label=f"{case} (Hilbert)")
+        ld = log_decrement(filtered[case][:, 0], r["fs"], f1,
+                           reference=r["tank_acceleration"])
+        ax.plot(ld["amplitude"] / G, 100 * ld["zeta"], "o", ms=3, color=line.get_color(),
+                label=f"{case} (log decrement)")
+    ax.set_xlabel("tank acceleration amplitude (g)")
+    ax.set_ylabel("first-mode damping ratio (%)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    figs["fig21_instantaneous_damping"] = fig
+    return figs
+
+
+def random_figures(res: dict, levels: list[float], window: tuple[float, float] = (40, 42)):
+    """Figures of the random-response comparison: dict name -> Figure."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from sloshrom.analysis import welch_psd
+
+    figs = {}
+    cases = list(res)
+    slosh = [c for c in cases if c != "frozen"] or cases
+    fig, axes = plt.subplots(len(levels), 1, figsize=(8, 2.3 * len(levels)), sharex=True,
+                             squeeze=False)
+    r = res[slosh[0]]
+    for i, lv in enumerate(levels):
+        axes[i, 0].plot(r["time"], r["tank_acceleration"][i] / G, lw=0.4)
+        axes[i, 0].set_ylabel(f"{lv:g} g RMS\ntank acc. (g)")
+    axes[-1, 0].set_xlabel("time (s)")
+    fig.suptitle(f"Tank acceleration, {slosh[0]}")
+    figs["fig18_tank_acceleration"] = fig
+
+    fig, axes = plt.subplots(len(levels), 1, figsize=(8, 2.3 * len(levels)), sharex=True,
+                             squeeze=False)
+    for case in cases:
+        r = res[case]
+        sel = (r["time"] >= window[0]) & (r["time"] <= window[1])
+        for i in range(len(levels)):
+            axes[i, 0].plot(r["time"][sel], r["tank_acceleration"][i][sel] / G, lw=0.8,
+                            label=case)
+    for i, lv in enumerate(levels):
+        axes[i, 0].set_ylabel(f"{lv:g} g RMS (g)")
+    axes[0, 0].legend(fontsize=8)
+    axes[-1, 0].set_xlabel("time (s)")
+    figs["fig22_tank_acceleration_window"] = fig
+
+    fig, axes = plt.subplots(1, len(levels), figsize=(4 * len(levels), 3.8), squeeze=False)
+    for case in cases:
+        r = res[case]
+        f, p = welch_psd(r["tank_acceleration"], r["fs"], nperseg=8192)
+        for i in range(len(levels)):
+            axes[0, i].semilogy(f, p[i], lw=0.8, label=case)
+    for i, lv in enumerate(levels):
+        top = max(ln.get_ydata().max() for ln in axes[0, i].get_lines())
+        axes[0, i].set_ylim(top * 1e-6, top * 3)  # six decades around the peak
+        axes[0, i].set_xlim(0, 40)
+        axes[0, i].set_title(f"{lv:g} g RMS")
+        axes[0, i].set_xlabel("frequency (Hz)")
+    axes[0, 0].set_ylabel("PSD tank acc. ((m/s²)²/Hz)")
+    axes[0, 0].legend(fontsize=8)
+    figs["fig23_psd"] = fig
+    return figs
+
+
+_TankOpt = Annotated[
+    Path | None, typer.Option(help="Tank TOML (\\[tank] table); default: paper.")]
+_ModalOpt = Annotated[
+    Path | None, typer.Option(help="Own modal data TOML (\\[modal] table, see docs/beam.md).")]
+_SloshOpt = Annotated[
+    list[str], typer.Option("--sloshing", help="frozen | rig | ROM model file (repeatable).")]
+
+
+@beam_app.command("free")
+def free(
+    out: Annotated[Path, typer.Option(help="Output directory.")],
+    sloshing: _SloshOpt = ["rig"],  # noqa: B006 (typer default)
+    tip_displacement: Annotated[float, typer.Option(help="Initial tip displacement, m.")] = 0.0146,
+    duration: Annotated[float, typer.Option(help="s.")] = 10.0,
+    tank_toml: _TankOpt = None,
+    modal_toml: _ModalOpt = None,
+    seed: Annotated[int, typer.Option(help="Rig seed.")] = 0,
+) -> None:
+    """Free response from a static tip deflection (paper Figs. 14, 16, 20, 21; Table 1).
+
+    Example: ``sloshrom beam free --sloshing rig --sloshing nfir.npz --out results/beam``
+    """
+    from sloshrom.coupled import free_response
+    from sloshrom.structure import coupled_frozen_modes, frozen_modal_table
+
+    try:
+        tank = Tank.from_toml(tank_toml) if tank_toml else Tank()
+        modal = _modal(modal_toml, tank)
+    except ConfigError as exc:
+        _fail(str(exc))
+    if not (0 < duration <= 600) or not (0 < abs(tip_displacement) < 0.2):
+        _fail("need 0 < duration <= 600 s and 0 < |tip displacement| < 0.2 m")
+    out.mkdir(parents=True, exist_ok=True)
+    res = _run_cases(sloshing, tank, modal, seed, "free response",
+                     lambda m, fs: free_response(m, modal, tip_displacement, duration, tank, fs))
+    for case, r in res.items():
+        _write_nc(to_dataset(r, case, "free", tank, modal), out / f"free_{case}.nc")
+    if modal_toml is None:
+        rows = frozen_modal_table(tank, n_modes=modal.n_modes)
+    else:  # user modes: frozen-liquid frequencies of the coupled model only
+        fc, _ = coupled_frozen_modes(modal, tank.liquid_mass)
+        rows = [{"mode": n + 1, "f_dry_Hz": float(modal.frequencies[n]),
+                 "f_coupled_Hz": float(fc[n]), "damping": float(modal.damping[n])}
+                for n in range(modal.n_modes)]
+    _write_table(rows, out / "table1_frozen_modes")
+    for name, fig in free_figures(res, modal, tank).items():
+        _savefig(fig, out / f"{name}.png")
+    typer.echo(f"wrote {len(res)} result file(s) and figures to {out}")
+
+
+@beam_app.command("random")
+def random(
+    out: Annotated[Path, typer.Option(help="Output directory.")],
+    sloshing: _SloshOpt = ["rig"],  # noqa: B006
+    levels: Annotated[str, typer.Option(help="RMS base accelerations, g, comma separated.")] = (
+        "0.1,0.2,0.4"),
+    duration: Annotated[float, typer.Option(help="s.")] = 90.0,
+    seed: Annotated[int, typer.Option(help="Seed of the random phases (and of the rig).")] = 0,
+    f0: Annotated[float, typer.Option(help="PSD centre, Hz (estimate).")] = 12.0,
+    sigma: Annotated[float, typer.Option(help="PSD standard deviation, Hz (estimate).")] = 4.0,
+    tank_toml: _TankOpt = None,
+    modal_toml: _ModalOpt = None,
+) -> None:
+    """Random base excitation at several RMS levels (paper Figs. 18, 22, 23; Table 2).
+
+    Example: ``sloshrom beam random --sloshing rig --levels 0.1,0.2,0.4 --duration 90 --out res``
+    """
+    from sloshrom.analysis import mode1_damping_random
+    from sloshrom.coupled import random_response
+    from sloshrom.structure import coupled_frozen_modes
+
+    try:
+        lv = [float(x) for x in levels.split(",") if x.strip()]
+    except ValueError:
+        _fail(f"--levels must be comma-separated numbers in g, got {levels!r}")
+    if not lv or any(not (0 < x <= 2) for x in lv):
+        _fail("--levels must be RMS values in (0, 2] g")
+    if not (10 <= duration <= 3600):
+        _fail("--duration must be between 10 and 3600 s")
+    if not (np.isfinite(f0) and np.isfinite(sigma) and f0 > 0 and sigma > 0):
+        _fail(f"--f0 and --sigma must be positive frequencies in Hz, got {f0!r}, {sigma!r}")
+    try:
+        tank = Tank.from_toml(tank_toml) if tank_toml else Tank()
+        modal = _modal(modal_toml, tank)
+    except ConfigError as exc:
+        _fail(str(exc))
+    out.mkdir(parents=True, exist_ok=True)
+    res = _run_cases(sloshing, tank, modal, seed, "random response",
+                     lambda m, fs: random_response(m, modal, lv, duration, seed, f0, sigma,
+                                                   tank=tank, output_fs=fs))
+    for case, r in res.items():
+        _write_nc(to_dataset(r, case, "random", tank, modal), out / f"random_{case}.nc")
+    f1 = float(coupled_frozen_modes(modal, tank.liquid_mass)[0][0])
+    rows = []
+    for case, r in res.items():
+        for i, level in enumerate(lv):
+            d = mode1_damping_random(r["base_acceleration"][i], r["tank_acceleration"][i],
+                                     r["fs"], f1)
+            rows.append({"case": case, "rms_g": level, **d})
+    _write_table(rows, out / "table2_mode1_damping")
+    for name, fig in random_figures(res, lv).items():
+        _savefig(fig, out / f"{name}.png")
+    typer.echo(f"wrote {len(res)} result file(s), Table 2 and figures to {out}")

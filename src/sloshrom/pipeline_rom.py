@@ -1,0 +1,80 @@
+"""The ``rom`` stage of `sloshrom reproduce`: identify the ROM, validate it (paper Figs. 8, 10)."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from sloshrom.pipeline import Context, _plt, _savefig
+
+
+def error_figures(y: np.ndarray, y_hat: np.ndarray) -> dict[str, float]:
+    """MSE (N^2), NRMSE (RMS error / RMS of y) and MATLAB-style fit % (100 (1 - |e|/|y - ȳ|))."""
+    e = y_hat - y
+    mse = float(np.mean(e**2))
+    nrmse = float(np.sqrt(mse) / np.sqrt(np.mean(y**2)))
+    fit = float(100.0 * (1.0 - np.linalg.norm(e) / np.linalg.norm(y - y.mean())))
+    return {"mse": mse, "nrmse": nrmse, "fit": fit}
+
+
+def stage_rom(ctx: Context) -> tuple[dict[str, Any], list[str]]:
+    from sloshrom.data import read_record
+    from sloshrom.rom import NFIR, NOE
+
+    plt = _plt()
+    cfg = ctx.cfg["rom"]
+    train = read_record(ctx.out / "data" / "train.nc")
+    val = read_record(ctx.out / "data" / "validation.nc")
+    u, y = train["velocity"], train["dynamic_force"]
+    uv, yv = val["velocity"], val["dynamic_force"]
+    files: list[str] = []
+    outputs: dict[str, Any] = {}
+    if cfg["sweep"]:
+        from sloshrom.pipeline_sweep import run_sweep  # noqa: PLC0415
+
+        sweep_out, sweep_files = run_sweep(ctx, train, val)
+        outputs.update(sweep_out)
+        files += sweep_files
+    cls = {"nfir": NFIR, "noe": NOE}[cfg["arch"]]
+    model = cls(delays=cfg["delays"], neurons=cfg["neurons"], hidden=cfg["hidden"],
+                max_epochs=cfg["max_epochs"], seed=cfg["seed"])
+    name = f"{cfg['arch'].upper()}({cfg['delays']}, {cfg['neurons']})"
+
+    def cb(epoch: int, *args: Any, **kwargs: Any) -> None:
+        ctx.progress("rom", epoch, cfg["max_epochs"], f"training {name}, epoch {epoch}")
+
+    t0 = time.perf_counter()
+    model.fit(u, y, fs=train.fs, validation=(uv, yv), callback=cb)
+    train_seconds = time.perf_counter() - t0
+    ctx.progress("rom", cfg["max_epochs"], cfg["max_epochs"], "validation")
+    path = ctx.path("models", f"{cfg['arch']}.npz")
+    model.save(path)
+    files.append(ctx.rel(path))
+    yv_hat = np.asarray(model.predict(uv))
+    y_hat = np.asarray(model.predict(u))
+    ev, et = error_figures(yv, yv_hat), error_figures(y, y_hat)
+    hist = getattr(model, "history_", {}) or {}
+    outputs.update(
+        model=ctx.rel(path), name=name, train_seconds=train_seconds,
+        val_mse=ev["mse"], val_nrmse=ev["nrmse"], val_fit=ev["fit"],
+        train_mse=et["mse"], train_nrmse=et["nrmse"], train_fit=et["fit"],
+        epochs=len(hist.get("train_mse", [])) if isinstance(hist, dict) else None,
+        stop_reason=hist.get("stop_reason") if isinstance(hist, dict) else None,
+    )
+    fig, axs = plt.subplots(2, 1, figsize=(9, 5.5), constrained_layout=True)
+    t = val.time
+    axs[0].plot(t, yv, "k", lw=0.4, label="rig (validation)")
+    axs[0].plot(t, yv_hat, "r", lw=0.4, alpha=0.8, label=name)
+    axs[0].set_ylabel(r"$\Delta f$ [N]")
+    axs[0].legend(loc="upper right")
+    axs[0].set_title(f"validation: fit {ev['fit']:.1f} %, NRMSE {ev['nrmse']:.3f}")
+    i0 = int(np.argmax(np.abs(yv)))
+    sl = slice(max(0, i0 - int(0.5 * val.fs)), i0 + int(0.5 * val.fs))
+    axs[1].plot(t[sl], yv[sl], "k", lw=1, label="rig")
+    axs[1].plot(t[sl], yv_hat[sl], "r--", lw=1, label=name)
+    axs[1].set_xlabel("time [s]")
+    axs[1].set_ylabel(r"$\Delta f$ [N]")
+    files.append(ctx.rel(_savefig(fig, ctx.path("figures", "fig10_validation.png"))))
+    return outputs, files

@@ -1,0 +1,484 @@
+"""Bad-input suite: every reader and every command, fed what users actually feed them.
+
+Each case must give ONE clear error naming the problem: a ``RecordError``/``ConfigError``/
+``ModelFileError`` (all ``ValueError``) from the Python API; from the CLI an ``error: ...`` line,
+exit code != 0, no Python traceback, and no (half-)written output file. The number of cases is
+quoted in docs/interchange.md (``pytest --collect-only -q tests/test_bad_input.py``).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from sloshrom.cli import app
+from sloshrom.config import ConfigError
+from sloshrom.data import Record, RecordError, preprocess, read_record, write_record
+
+FS = 100.0
+N = 200
+
+
+def _good() -> Record:
+    t = np.arange(N) / FS
+    return Record(t, FS, {"acceleration": np.sin(2 * np.pi * 5 * t),
+                          "force": 0.1 * np.cos(2 * np.pi * 5 * t)},
+                  {"acceleration": "m/s^2", "force": "N"}, {"fill": 0.5})
+
+
+def _csv(tmp: Path, header: str, rows: list[str], name: str = "r.csv") -> Path:
+    p = tmp / name
+    p.write_text("\n".join([header, *rows]) + "\n")
+    return p
+
+
+def _good_rows(n: int = 20) -> list[str]:
+    return [f"{k / FS!r},{np.sin(k / 3):.6f},{np.cos(k / 5):.6f}" for k in range(n)]
+
+
+def _written(tmp: Path, suffix: str) -> Path:
+    if suffix in (".uff", ".unv"):
+        from sloshrom.uff import write_uff58
+
+        return write_uff58(_good(), tmp / f"good{suffix}")
+    return write_record(_good(), tmp / f"good{suffix}")
+
+
+def _truncated(suffix: str, keep: float = 0.5) -> Callable[[Path], Path]:
+    def make(tmp: Path) -> Path:
+        p = _written(tmp, suffix)
+        data = p.read_bytes()
+        p.write_bytes(data[: int(len(data) * keep)])
+        return p
+
+    return make
+
+
+def _empty(suffix: str) -> Callable[[Path], Path]:
+    def make(tmp: Path) -> Path:
+        p = tmp / f"empty{suffix}"
+        p.write_bytes(b"")
+        return p
+
+    return make
+
+
+def _mat73(tmp: Path) -> Path:
+    """A MATLAB v7.3 (HDF5) file, cut in half."""
+    import h5py
+
+    p = tmp / "r73.mat"
+    with h5py.File(p, "w") as fh:
+        fh["time"] = (np.arange(N) / FS)[None, :]
+        fh["acceleration"] = np.ones((1, N))
+    data = p.read_bytes()
+    p.write_bytes(data[: len(data) // 3])
+    return p
+
+
+def _nc_with(tmp: Path, edit: Callable) -> Path:
+    ds = _good().to_dataset()
+    ds = edit(ds)
+    p = tmp / "edited.nc"
+    ds.to_netcdf(p, engine="h5netcdf")
+    return p
+
+
+def _mat_with(tmp: Path, **items) -> Path:
+    import scipy.io
+
+    p = tmp / "edited.mat"
+    rec = _good()
+    out = {"time": rec.time, "acceleration": rec["acceleration"], "force": rec["force"],
+           "units": {"acceleration": "m/s^2", "force": "N"}, **items}
+    scipy.io.savemat(p, out)
+    return p
+
+
+def _uff_rates(tmp: Path) -> Path:
+    import pyuff
+
+    from sloshrom.uff import write_uff58
+
+    a = write_uff58(_good(), tmp / "a.uff")
+    t = np.arange(N) / (2 * FS)
+    b = write_uff58(Record(t, 2 * FS, {"force": np.ones(N)}, {"force": "N"}), tmp / "b.uff")
+    sets = [s for s in pyuff.UFF(str(a)).read_sets() if s["type"] == 58][:1]
+    sets += [s for s in pyuff.UFF(str(b)).read_sets() if s["type"] == 58]
+    for s in sets:
+        s.setdefault("func_id", 0)
+        for k in ("abscissa_axis_lab", "ordinate_axis_lab", "orddenom_axis_lab",
+                  "z_axis_axis_lab"):
+            s[k] = s.get(k) or ""
+    p = tmp / "rates.uff"
+    pyuff.UFF(str(p)).write_sets(sets, mode="overwrite")
+    return p
+
+
+def _nan_in(ds, value=np.nan):
+    ds["force"].values[17] = value
+    return ds
+
+
+# (id, build(tmp) -> path, read_record kwargs, regex the message must match)
+READER_CASES = [
+    ("empty-nc", _empty(".nc"), {}, r"empty\.nc: file is empty"),
+    ("empty-csv", _empty(".csv"), {}, r"empty\.csv: file is empty"),
+    ("empty-mat", _empty(".mat"), {}, r"empty\.mat: file is empty"),
+    ("empty-uff", _empty(".uff"), {}, r"empty\.uff: file is empty"),
+    ("missing-file", lambda tmp: tmp / "nope.nc", {}, r"nope\.nc: no such file"),
+    ("unknown-suffix", lambda tmp: _csv(tmp, "a", ["1"], name="r.xlsx"), {},
+     r"unknown record format '\.xlsx'"),
+    ("truncated-nc", _truncated(".nc"), {}, r"good\.nc: not a readable NetCDF file"),
+    ("truncated-nc-header", _truncated(".nc", 0.02), {}, r"good\.nc: not a readable NetCDF"),
+    ("truncated-mat5", _truncated(".mat"), {}, r"good\.mat: not a readable MAT file"),
+    ("truncated-mat73", _mat73, {}, r"r73\.mat: not a readable MAT"),
+    ("truncated-uff", _truncated(".uff"), {}, r"good\.uff: truncated or not a UFF file"),
+    ("csv-truncated-row", lambda tmp: _csv(tmp, "time [s],acceleration [g],force [N]",
+                                           [*_good_rows(), "0.2,0.1"]), {},
+     r"bad data row \(data row 21 has 2 fields"),
+    ("csv-nan", lambda tmp: _csv(tmp, "time [s],acceleration [g],force [N]",
+                                 [*_good_rows(), "0.2,nan,1"]), {},
+     r"'acceleration' contains NaN/inf \(first at sample 20"),
+    ("csv-inf", lambda tmp: _csv(tmp, "time [s],acceleration [g],force [N]",
+                                 [*_good_rows(), "0.2,1,inf"]), {},
+     r"'force' contains NaN/inf \(first at sample 20"),
+    ("nc-nan", lambda tmp: _nc_with(tmp, _nan_in), {}, r"'force' contains NaN/inf"),
+    ("nc-inf", lambda tmp: _nc_with(tmp, lambda ds: _nan_in(ds, -np.inf)), {},
+     r"'force' contains NaN/inf \(first at sample 17"),
+    ("mat-nan", lambda tmp: _mat_with(tmp, force=np.r_[np.ones(N - 1), np.nan]), {},
+     r"'force' contains NaN/inf \(first at sample 199"),
+    ("csv-missing-unit", lambda tmp: _csv(tmp, "time [s],acceleration,force [N]",
+                                          _good_rows()), {},
+     r"'acceleration' has no unit \(give units="),
+    ("nc-missing-unit", lambda tmp: _nc_with(
+        tmp, lambda ds: ds.assign(force=ds["force"].copy(data=ds["force"].values).drop_attrs())),
+     {}, r"variable 'force' has no 'units' attribute"),
+    ("csv-time-unit-wrong", lambda tmp: _csv(tmp, "time [m],acceleration [g],force [N]",
+                                             _good_rows()), {},
+     r"time unit 'm' is not a time unit"),
+    ("csv-non-monotonic", lambda tmp: _csv(tmp, "time [s],acceleration [g],force [N]",
+                                           [*_good_rows()[:5], _good_rows()[6],
+                                            _good_rows()[5], *_good_rows()[7:]]), {},
+     r"time is not strictly increasing \(sample 6"),
+    ("csv-duplicated-sample", lambda tmp: _csv(tmp, "time [s],acceleration [g],force [N]",
+                                               [*_good_rows()[:8], _good_rows()[7],
+                                                *_good_rows()[8:]]), {},
+     r"time is not strictly increasing \(sample 8"),
+    ("csv-non-uniform", lambda tmp: _csv(tmp, "time [s],acceleration [g],force [N]",
+                                         [*_good_rows()[:10], *_good_rows(40)[30:]]), {},
+     r"time is not uniformly sampled"),
+    ("csv-fs-mismatch", lambda tmp: _csv(tmp, "time [s],acceleration [g],force [N]",
+                                         _good_rows()), {"fs": 1000.0},
+     r"fs=1000\.0 Hz does not match the time axis"),
+    ("mat-fs-mismatch", lambda tmp: _mat_with(tmp, fs=250.0), {},
+     r"fs=250\.0 Hz does not match the time axis"),
+    ("mat-length-mismatch", lambda tmp: _mat_with(tmp, force=np.ones(N - 3)), {},
+     r"'force' has shape \(197,\), expected \(200, \.\.\.\)"),
+    ("uff-rate-mismatch", _uff_rates, {}, r"different sample rates: 'force' 200 Hz"),
+    ("csv-no-time-no-fs", lambda tmp: _csv(tmp, "acceleration [g],force [N]",
+                                           ["1,2", "3,4"]), {},
+     r"no 'time' column/variable; pass fs="),
+]
+
+
+@pytest.mark.parametrize(("build", "kwargs", "match"), [c[1:] for c in READER_CASES],
+                         ids=[c[0] for c in READER_CASES])
+def test_reader_rejects(tmp_path, build, kwargs, match):
+    path = build(tmp_path)
+    with pytest.raises(RecordError) as info:
+        read_record(path, **kwargs)
+    msg = str(info.value)
+    assert re.search(match, msg), msg
+    assert "\n" not in msg.strip() and len(msg) < 400  # one line, not a dump
+
+
+@pytest.mark.parametrize(
+    ("units", "match"),
+    [({"acceleration": "kg", "force": "N"}, r"'acceleration' has unit 'kg', expected 'm/s\^2'"),
+     ({"acceleration": "m/s^2", "force": "m"}, r"'force' has unit 'm', expected 'N'")],
+    ids=["preprocess-wrong-acc-unit", "preprocess-wrong-force-unit"],
+)
+def test_preprocess_rejects_wrong_units(units, match):
+    rec = _good()
+    rec = Record(rec.time, rec.fs, rec.variables, units)
+    with pytest.raises(RecordError, match=match):
+        preprocess(rec)
+
+
+# -- CLI --------------------------------------------------------------------------------------
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def model_files(tmp_path_factory):
+    """A tiny fitted NFIR saved, plus a newer-version copy and a tampered copy."""
+    from sloshrom.rom import NFIR
+
+    d = tmp_path_factory.mktemp("models")
+    rng = np.random.default_rng(0)
+    u = np.convolve(rng.standard_normal(600), np.ones(8) / 8, mode="same") * 0.05
+    y = np.tanh(20 * np.roll(u, 2)) * 0.5
+    good = NFIR(delays=4, neurons=3, max_epochs=3).fit(u, y, fs=500.0).save(d / "good.npz")
+    with np.load(good, allow_pickle=False) as z:
+        files = dict(z.items())
+    meta = json.loads(str(files["metadata"]))
+    newer = {**files, "metadata": np.array(json.dumps({**meta, "format_version": 99}))}
+    np.savez(d / "newer.npz", **newer)
+    np.savez(d / "tampered.npz", **{**files, "W": files["W"][:, :-1]})
+    (d / "text.npz").write_text("not a model\n")
+    return d
+
+
+def _write_text(name: str, text: str) -> Callable[[Path], None]:
+    def make(tmp: Path) -> None:
+        (tmp / name).write_text(text)
+
+    return make
+
+
+def _mkdir(name: str) -> Callable[[Path], None]:
+    return lambda tmp: (tmp / name).mkdir()
+
+
+# (id, setup(tmp), argv with {tmp}/{models}, regex of the error)
+H = ["rig", "harmonic", "--frequency", "12", "--accel-g", "4"]
+CLI_CASES = [
+    ("harmonic-fill-1.5", None, [*H, "--fill", "1.5", "--out", "{tmp}/h.nc"],
+     r"fill level must be in \(0, 1\).*1\.5"),
+    ("harmonic-height-mm-as-m", _write_text("t.toml", "[tank]\nheight = 27.2\n"),
+     [*H, "--tank", "{tmp}/t.toml", "--out", "{tmp}/h.nc"], r"look like millimetres.*27\.2"),
+    ("harmonic-unknown-tank-key", _write_text("t.toml", "[tank]\nfil = 0.5\n"),
+     [*H, "--tank", "{tmp}/t.toml", "--out", "{tmp}/h.nc"], r"unknown tank parameter\(s\): fil"),
+    ("harmonic-tank-no-table", _write_text("t.toml", "fill = 0.5\n"),
+     [*H, "--tank", "{tmp}/t.toml", "--out", "{tmp}/h.nc"], r"no \[tank\] table"),
+    ("harmonic-tank-bad-toml", _write_text("t.toml", "[tank\nfill="),
+     [*H, "--tank", "{tmp}/t.toml", "--out", "{tmp}/h.nc"], r"not valid TOML"),
+    ("harmonic-tank-missing", None, [*H, "--tank", "{tmp}/none.toml", "--out", "{tmp}/h.nc"],
+     r"config file not found"),
+    ("harmonic-tank-nan", _write_text("t.toml", "[tank]\ndensity = nan\n"),
+     [*H, "--tank", "{tmp}/t.toml", "--out", "{tmp}/h.nc"], r"density must be a finite positive"),
+    ("harmonic-negative-frequency", None,
+     ["rig", "harmonic", "--frequency", "-12", "--accel-g", "4", "--out", "{tmp}/h.nc"],
+     r"--frequency must be positive"),
+    ("harmonic-nan-frequency", None,
+     ["rig", "harmonic", "--frequency", "nan", "--accel-g", "4", "--out", "{tmp}/h.nc"],
+     r"--frequency must be positive, got nan"),
+    ("harmonic-inf-amplitude", None,
+     ["rig", "harmonic", "--frequency", "12", "--accel-g", "inf", "--out", "{tmp}/h.nc"],
+     r"amplitude must be a finite non-negative length"),
+    ("harmonic-both-amplitudes", None,
+     [*H, "--amplitude", "0.001", "--out", "{tmp}/h.nc"], r"exactly one of --amplitude"),
+    ("harmonic-zero-cycles", None, [*H, "--cycles", "0", "--out", "{tmp}/h.nc"],
+     r"n_cycles must be >= 1"),
+    ("harmonic-unknown-out-format", None, [*H, "--out", "{tmp}/h.xlsx"],
+     r"unknown record format '\.xlsx'"),
+    ("harmonic-out-is-a-directory", _mkdir("h.nc"), [*H, "--out", "{tmp}/h.nc"],
+     r"[Ii]s a directory"),
+    ("vfa-unknown-split", None, ["rig", "vfa", "--split", "test", "--out", "{tmp}/v.nc"],
+     r"--split must be 'train' or 'validation'"),
+    ("vfa-negative-duration", None, ["rig", "vfa", "--duration", "-1", "--out", "{tmp}/v.nc"],
+     r"duration must be >= 10 s"),
+    ("vfa-fill-zero", None, ["rig", "vfa", "--fill", "0", "--out", "{tmp}/v.nc"],
+     r"fill level must be in \(0, 1\)"),
+    ("config-show-unknown-key", _write_text("c.toml", "[rom]\ndelay = 5\n"),
+     ["config", "show", "--config", "{tmp}/c.toml"], r"unknown configuration key 'rom\.delay'"),
+    ("config-show-unknown-table", _write_text("c.toml", "[tanks]\nfill = 0.5\n"),
+     ["config", "show", "--config", "{tmp}/c.toml"], r"unknown configuration key 'tanks'"),
+    ("config-show-fill-1.5", _write_text("c.toml", "[tank]\nfill = 1.5\n"),
+     ["config", "show", "--config", "{tmp}/c.toml"], r"\[tank\]: fill level must be in \(0, 1\)"),
+    ("config-show-wrong-type", _write_text("c.toml", "[rom]\nneurons = \"many\"\n"),
+     ["config", "show", "--config", "{tmp}/c.toml"], r"'rom\.neurons' must be a number"),
+    ("config-show-missing-file", None, ["config", "show", "--config", "{tmp}/none.toml"],
+     r"config file not found"),
+    ("reproduce-unknown-key", _write_text("c.toml", "[tank]\nfil = 0.5\n"),
+     ["reproduce", "--config", "{tmp}/c.toml", "--out", "{tmp}/res"],
+     r"unknown configuration key 'tank\.fil'"),
+    ("reproduce-fill-1.5", _write_text("c.toml", "[tank]\nfill = 1.5\n"),
+     ["reproduce", "--config", "{tmp}/c.toml", "--out", "{tmp}/res"],
+     r"\[tank\]: fill level must be in \(0, 1\)"),
+    ("reproduce-height-mm-as-m", _write_text("c.toml", "[tank]\nheight = 27.2\n"),
+     ["reproduce", "--config", "{tmp}/c.toml", "--out", "{tmp}/res"],
+     r"\[tank\]: tank dimensions look like millimetres"),
+    ("reproduce-negative-delays", _write_text("c.toml", "[rom]\ndelays = -5\n"),
+     ["reproduce", "--config", "{tmp}/c.toml", "--out", "{tmp}/res"],
+     r"'rom\.delays' must be an integer >= 1, got -5"),
+    ("reproduce-zero-duration", _write_text("c.toml", "[data]\ntrain_duration = 0.0\n"),
+     ["reproduce", "--config", "{tmp}/c.toml", "--out", "{tmp}/res"],
+     r"'data\.train_duration' must be a finite positive number"),
+    ("reproduce-short-duration", _write_text("c.toml", "[data]\ntrain_duration = 5.0\n"),
+     ["reproduce", "--config", "{tmp}/c.toml", "--out", "{tmp}/res"],
+     r"duration must be >= 10 s.*check the configuration"),
+    ("reproduce-nan-fs", _write_text("c.toml", "[rig]\nfs = nan\n"),
+     ["reproduce", "--config", "{tmp}/c.toml", "--out", "{tmp}/res"],
+     r"'rig\.fs' must be a finite positive number, got nan"),
+    ("reproduce-unknown-arch", _write_text("c.toml", "[rom]\narch = \"lstm\"\n"),
+     ["reproduce", "--config", "{tmp}/c.toml", "--out", "{tmp}/res"],
+     r"'rom\.arch' must be \"nfir\" or \"noe\", got 'lstm'"),
+    ("map-neither-rig-nor-model", None, ["map", "--out", "{tmp}/m.nc"],
+     r"exactly one of --rig or --model"),
+    ("map-tiny-grid", None, ["map", "--rig", "--n-omega", "1", "--out", "{tmp}/m.nc"],
+     r"--n-omega and --n-a must be at least 2"),
+    ("map-model-missing", None, ["map", "--model", "{tmp}/none.npz", "--out", "{tmp}/m.nc"],
+     r"model file not found"),
+    ("map-model-newer-version", None,
+     ["map", "--model", "{models}/newer.npz", "--out", "{tmp}/m.nc"],
+     r"format version 99 is newer"),
+    ("map-model-tampered-shape", None,
+     ["map", "--model", "{models}/tampered.npz", "--out", "{tmp}/m.nc"],
+     r"parameter W tampered: expected float \(3, 4\)"),
+    ("map-model-not-a-model", None,
+     ["map", "--model", "{models}/text.npz", "--out", "{tmp}/m.nc"],
+     r"text\.npz: not a sloshrom model file"),
+    ("map-reference-not-netcdf", _write_text("ref.nc", "hello"),
+     ["map", "--rig", "--reference", "{tmp}/ref.nc", "--out", "{tmp}/m.nc"],
+     r"ref\.nc: not a readable NetCDF map"),
+    ("map-reference-not-a-map", lambda tmp: write_record(_good(), tmp / "ref.nc"),
+     ["map", "--rig", "--reference", "{tmp}/ref.nc", "--out", "{tmp}/m.nc"],
+     r"ref\.nc: not a map file \(no 'phi_d' variable\)"),
+]
+
+
+def _rom_files(tmp: Path) -> None:
+    """Records for `train`/`predict`: a good one at 500 Hz, one at 250 Hz, one without y."""
+    t = np.arange(1500) / 500.0
+    u = 0.05 * np.sin(2 * np.pi * 7 * t) * np.sin(np.pi * t / t[-1])
+    write_record(Record(t, 500.0, {"velocity": u, "dynamic_force": np.tanh(20 * u)},
+                        {"velocity": "m/s", "dynamic_force": "N"}), tmp / "good.nc")
+    write_record(Record(2 * t, 250.0, {"velocity": u, "dynamic_force": u},
+                        {"velocity": "m/s", "dynamic_force": "N"}), tmp / "r250.nc")
+    write_record(Record(t, 500.0, {"acceleration": u}, {"acceleration": "m/s^2"}),
+                 tmp / "acc.nc")
+    (tmp / "empty.nc").write_bytes(b"")
+
+
+TR = ["train", "--max-epochs", "2", "--delays", "4", "--neurons", "3", "--out", "{tmp}/m.npz"]
+# `sloshrom train/predict` (sloshrom.cli.rom, the ROM engineer's module): skipped if absent
+ROM_CLI_CASES = [
+    ("train-empty-record", [*TR, "--data", "{tmp}/empty.nc", "--validation", "{tmp}/good.nc"],
+     r"empty\.nc: file is empty"),
+    ("train-missing-variables", [*TR, "--data", "{tmp}/acc.nc", "--validation",
+                                 "{tmp}/good.nc"], r"acc\.nc: no variable velocity"),
+    ("train-mismatched-rates", [*TR, "--data", "{tmp}/good.nc", "--validation",
+                                "{tmp}/r250.nc"], r"sample-rate mismatch.*500 Hz vs 250 Hz"),
+    ("train-zero-delays", [*TR, "--delays", "0", "--data", "{tmp}/good.nc", "--validation",
+                           "{tmp}/good.nc"], r"delays must be >= 1"),
+    ("predict-newer-model", ["predict", "--model", "{models}/newer.npz", "--data",
+                             "{tmp}/good.nc", "--out", "{tmp}/p.nc"], r"format version 99"),
+    ("predict-tampered-model", ["predict", "--model", "{models}/tampered.npz", "--data",
+                                "{tmp}/good.nc", "--out", "{tmp}/p.nc"], r"parameter W tampered"),
+    ("predict-mismatched-rate", ["predict", "--model", "{models}/good.npz", "--data",
+                                 "{tmp}/r250.nc", "--out", "{tmp}/p.nc"],
+     r"sample-rate mismatch.*250 Hz vs 500 Hz"),
+    ("predict-missing-variable", ["predict", "--model", "{models}/good.npz", "--data",
+                                  "{tmp}/acc.nc", "--out", "{tmp}/p.nc"],
+     r"acc\.nc: no variable velocity"),
+]
+
+
+@pytest.mark.parametrize(("argv", "match"), [c[1:] for c in ROM_CLI_CASES],
+                         ids=[c[0] for c in ROM_CLI_CASES])
+def test_rom_cli_rejects(tmp_path, model_files, argv, match):
+    pytest.importorskip("sloshrom.cli.rom")  # registers train/predict on the app
+    _rom_files(tmp_path)
+    _check_cli(tmp_path, model_files, None, argv, match)
+
+
+def _beam_files(tmp: Path) -> None:
+    (tmp / "fill.toml").write_text("[tank]\nfill = 1.5\n")
+    (tmp / "mm.toml").write_text("[tank]\nheight = 27.2\n")
+    (tmp / "modal.toml").write_text("[modal]\nfrequencies = [-1.0]\n")
+    (tmp / "bad.toml").write_text("[modal\n")
+    (tmp / "text.npz").write_text("not a model\n")
+
+
+BF = ["beam", "free", "--out", "{tmp}/res"]
+BR = ["beam", "random", "--out", "{tmp}/res"]
+# `sloshrom beam free/random` (sloshrom.cli.beam, the beam engineer's module): skipped if absent
+BEAM_CLI_CASES = [
+    ("beam-fill-1.5", [*BF, "--tank-toml", "{tmp}/fill.toml", "--sloshing", "frozen"],
+     r"fill level must be in \(0, 1\)"),
+    ("beam-height-mm-as-m", [*BF, "--tank-toml", "{tmp}/mm.toml", "--sloshing", "frozen"],
+     r"look like millimetres"),
+    ("beam-model-missing", [*BF, "--sloshing", "{tmp}/none.npz"], r"none\.npz does not exist"),
+    ("beam-not-a-model", [*BF, "--sloshing", "{tmp}/text.npz"], r"not a sloshrom model file"),
+    ("beam-tampered-model", [*BF, "--sloshing", "{models}/tampered.npz"],
+     r"parameter W tampered"),
+    ("beam-negative-duration", [*BF, "--sloshing", "frozen", "--duration", "-1"],
+     r"0 < duration"),
+    ("beam-nan-duration", [*BF, "--sloshing", "frozen", "--duration", "nan"], r"0 < duration"),
+    ("beam-tip-27-m", [*BF, "--sloshing", "frozen", "--tip-displacement", "27"],
+     r"tip displacement"),
+    ("beam-modal-missing-keys", [*BF, "--sloshing", "frozen", "--modal-toml",
+                                 "{tmp}/modal.toml"], r"modal data: missing key"),
+    ("beam-modal-bad-toml", [*BF, "--sloshing", "frozen", "--modal-toml", "{tmp}/bad.toml"],
+     r"not valid TOML"),
+    ("beam-levels-not-numbers", [*BR, "--levels", "abc"], r"--levels must be comma-separated"),
+    ("beam-negative-level", [*BR, "--levels", "-0.1", "--sloshing", "frozen"],
+     r"--levels must be RMS values"),
+    ("beam-zero-sigma", [*BR, "--sigma", "0", "--duration", "20", "--sloshing", "frozen"],
+     r"sigma"),
+]
+_BEAM_XFAIL: dict[str, str] = {}  # known gaps, each with its reason
+
+
+@pytest.mark.parametrize(
+    ("argv", "match"),
+    [pytest.param(*c[1:], id=c[0], marks=[pytest.mark.xfail(strict=True, reason=_BEAM_XFAIL[c[0]])]
+                  if c[0] in _BEAM_XFAIL else []) for c in BEAM_CLI_CASES],
+)
+def test_beam_cli_rejects(tmp_path, model_files, argv, match):
+    pytest.importorskip("sloshrom.cli.beam")  # registers `beam` on the app
+    _beam_files(tmp_path)
+    _check_cli(tmp_path, model_files, None, argv, match)
+
+
+def _snapshot(tmp: Path) -> set[str]:
+    return {str(p.relative_to(tmp)) for p in tmp.rglob("*") if p.is_file()}
+
+
+@pytest.mark.parametrize(("setup", "argv", "match"), [c[1:] for c in CLI_CASES],
+                         ids=[c[0] for c in CLI_CASES])
+def test_cli_rejects(tmp_path, model_files, setup, argv, match):
+    _check_cli(tmp_path, model_files, setup, argv, match)
+
+
+def _check_cli(tmp_path, model_files, setup, argv, match):
+    if setup is not None:
+        setup(tmp_path)
+    before = _snapshot(tmp_path)
+    args = [a.format(tmp=tmp_path, models=model_files) for a in argv]
+    res = runner.invoke(app, args)
+    out = res.output
+    assert res.exit_code != 0, out
+    # a clean exit (typer.Exit -> SystemExit), not an exception escaping the command
+    assert res.exception is None or isinstance(res.exception, SystemExit), repr(res.exception)
+    assert "Traceback" not in out
+    errors = [ln for ln in out.splitlines() if ln.startswith("error:")]
+    assert len(errors) == 1, out
+    assert re.search(match, errors[0]), errors[0]
+    # nothing new written (no output, no temporary file left behind)
+    new = _snapshot(tmp_path) - before
+    assert not new, f"files left behind: {sorted(new)}"
+
+
+def test_case_count():
+    """The docs quote this count; keep them in step."""
+    n = len(READER_CASES) + 2 + len(CLI_CASES) + len(ROM_CLI_CASES) + len(BEAM_CLI_CASES)
+    doc = Path(__file__).resolve().parents[1] / "docs" / "interchange.md"
+    if doc.is_file():
+        assert f"{n} cases" in doc.read_text(), f"docs/interchange.md must say '{n} cases'"
+
+
+def test_config_error_is_value_error():
+    # every user-input error type is a ValueError: callers can catch one thing
+    from sloshrom.rom import ModelFileError
+
+    assert issubclass(ConfigError, ValueError) and issubclass(RecordError, ValueError)
+    assert issubclass(ModelFileError, ValueError)
