@@ -152,8 +152,6 @@ def test_pipeline_records_carry_the_rig_seed(pipeline_records):
     assert 7 in [v for _, v in _seed_values(pipeline_records[0].attrs)]
 
 
-@pytest.mark.xfail(strict=True, reason="sloshrom.rom model files do not record the package "
-                   "version (metadata has format_version, hyperparameters, seed); reported")
 def test_model_file_records_package_version(tmp_path):
     p = _tiny_fit(0).save(tmp_path / "m.npz")
     with np.load(p, allow_pickle=False) as z:

@@ -1,0 +1,237 @@
+"""Sensitivity analysis over delays x neurons (paper section 3, Fig. 8; DESIGN.md section 6).
+
+Every grid point trains one network; its score is the mean of the training and validation MSE
+(free-run simulation, N^2). Each finished point writes its model (``<name>.npz``) and its result
+(``<name>.json``) to the output directory, so an interrupted sweep resumes where it stopped.
+Unstable NOE networks are kept in the table with ``unstable = True`` and an infinite score.
+
+Grid points run in parallel through Dask: a ``dask.distributed.LocalCluster`` by default, an
+existing cluster given by its scheduler address, or ``"threads"``/``"sequential"`` (tests).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+import tempfile
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["default_grid", "plot_sweep", "point_name", "run_sweep", "write_table"]
+
+NFIR_DELAYS = (50, 60, 70)
+NFIR_NEURONS = (5, 10, 15, 20, 25, 30, 35, 40)
+NOE_DELAYS = (2,)
+NOE_NEURONS = (10, 15, 20)
+COLUMNS = ("name", "arch", "delays", "neurons", "train_mse", "val_mse", "score", "unstable",
+           "epochs", "stop_reason", "seconds", "model")
+
+
+def default_grid(arch: str = "both") -> list[tuple[str, int, int]]:
+    """DESIGN section 6 grid as ``(arch, delays, neurons)``: NFIR {50,60,70} x {5..40}, NOE 2 x
+    {10,15,20}; ``arch`` = ``"nfir"``, ``"noe"`` or ``"both"``."""
+    pts: list[tuple[str, int, int]] = []
+    if arch in ("nfir", "both"):
+        pts += [("nfir", d, n) for d in NFIR_DELAYS for n in NFIR_NEURONS]
+    if arch in ("noe", "both"):
+        pts += [("noe", d, n) for d in NOE_DELAYS for n in NOE_NEURONS]
+    if not pts:
+        raise ValueError(f"arch must be 'nfir', 'noe' or 'both', got {arch!r}")
+    return pts
+
+
+def point_name(arch: str, delays: int, neurons: int) -> str:
+    return f"{arch}_d{delays}_n{neurons}"
+
+
+def _atomic_text(path: Path, text: str) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def fit_point(
+    point: tuple[str, int, int],
+    train: tuple[np.ndarray, np.ndarray],
+    validation: tuple[np.ndarray, np.ndarray],
+    fs: float,
+    out_dir: str,
+    options: dict[str, Any],
+) -> dict[str, Any]:
+    """Train (or resume from disk) one grid point; returns its result row."""
+    import time
+
+    from sloshrom.rom import NFIR, NOE, UnstableModelError
+
+    arch, delays, neurons = point
+    name = point_name(arch, delays, neurons)
+    out = Path(out_dir)
+    res_path = out / f"{name}.json"
+    if res_path.is_file():  # finished before: resume
+        return json.loads(res_path.read_text(encoding="utf-8"))
+    cls = {"nfir": NFIR, "noe": NOE}[arch]
+    model = cls(delays=delays, neurons=neurons, **options)
+    row: dict[str, Any] = {"name": name, "arch": arch, "delays": delays, "neurons": neurons}
+    t0 = time.perf_counter()
+    try:
+        model.fit(*train, fs=fs, validation=validation)
+        tr = float(np.mean((model.predict(train[0]) - train[1]) ** 2))
+        va = float(np.mean((model.predict(validation[0]) - validation[1]) ** 2))
+        row.update(train_mse=tr, val_mse=va, score=0.5 * (tr + va), unstable=False,
+                   epochs=len(model.history_["train_mse"]) - 1,
+                   stop_reason=model.history_["stop_reason"])
+        row["model"] = model.save(out / f"{name}.npz").name
+    except UnstableModelError as exc:
+        row.update(train_mse=math.inf, val_mse=math.inf, score=math.inf, unstable=True,
+                   epochs=0, stop_reason=f"unstable: {exc}", model="")
+    row["seconds"] = time.perf_counter() - t0
+    _atomic_text(res_path, json.dumps(row))
+    return row
+
+
+def run_sweep(
+    train: tuple[Any, Any],
+    validation: tuple[Any, Any],
+    fs: float,
+    out_dir: str | Path,
+    points: Iterable[tuple[str, int, int]] | None = None,
+    scheduler: str | None = None,
+    n_workers: int = 2,
+    options: dict[str, Any] | None = None,
+    progress: Callable[[dict[str, Any]], Any] | None = None,
+) -> list[dict[str, Any]]:
+    """Run the sensitivity analysis.
+
+    Parameters
+    ----------
+    train, validation : (u, y)
+        Input (m/s) and output (N) records sampled at ``fs``.
+    fs : float
+        Sample rate, Hz.
+    out_dir : path
+        Models, per-point results, ``sweep.csv``/``sweep.json`` go here.
+    points : iterable of (arch, delays, neurons), optional
+        Default :func:`default_grid`.
+    scheduler : str, optional
+        None: a new ``LocalCluster(n_workers)``; ``"threads"`` or ``"sequential"``: no cluster;
+        anything else: the address of an existing Dask scheduler.
+    options : dict, optional
+        Extra estimator arguments (``max_epochs``, ``hidden``, ``seed``, ``trainer``).
+    progress : callable, optional
+        Called with each finished row.
+
+    Returns
+    -------
+    list of dict
+        One row per point (columns ``COLUMNS``), sorted by score.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    pts = list(points) if points is not None else default_grid()
+    opts = dict(options or {})
+    train = (np.asarray(train[0], float), np.asarray(train[1], float))
+    validation = (np.asarray(validation[0], float), np.asarray(validation[1], float))
+    args = (train, validation, float(fs), str(out), opts)
+    rows: list[dict[str, Any]] = []
+
+    def done(row: dict[str, Any]) -> None:
+        rows.append(row)
+        if progress is not None:
+            progress(row)
+
+    if scheduler == "sequential":
+        for p in pts:
+            done(fit_point(p, *args))
+    elif scheduler == "threads":
+        from concurrent.futures import ThreadPoolExecutor, as_completed
+
+        with ThreadPoolExecutor(max_workers=n_workers) as ex:
+            for f in as_completed([ex.submit(fit_point, p, *args) for p in pts]):
+                done(f.result())
+    else:
+        from dask.distributed import Client, LocalCluster, as_completed
+
+        cluster = None
+        if scheduler is None:
+            cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                                   dashboard_address=None)
+            client = Client(cluster)
+        else:
+            client = Client(scheduler)
+        try:
+            data = client.scatter(list(args[:2]), broadcast=True)
+            futs = [client.submit(fit_point, p, data[0], data[1], *args[2:], pure=False)
+                    for p in pts]
+            for f in as_completed(futs):
+                done(f.result())
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    rows.sort(key=lambda r: (r["score"], r["name"]))
+    write_table(rows, out)
+    return rows
+
+
+def write_table(rows: list[dict[str, Any]], out_dir: Path) -> tuple[Path, Path]:
+    """Write ``sweep.csv`` and ``sweep.json`` (atomically)."""
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=COLUMNS, extrasaction="ignore")
+    w.writeheader()
+    w.writerows(rows)
+    csv_path, json_path = out_dir / "sweep.csv", out_dir / "sweep.json"
+    _atomic_text(csv_path, buf.getvalue())
+    safe = [{k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+             for k, v in r.items()} for r in rows]
+    _atomic_text(json_path, json.dumps(safe, indent=1))
+    return csv_path, json_path
+
+
+def plot_sweep(rows: list[dict[str, Any]], path: str | Path) -> Path:
+    """Paper Fig. 8: score (mean of train and validation MSE, N^2) against neurons."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.5, 4), constrained_layout=True)
+    groups: dict[tuple[str, int], list[dict[str, Any]]] = {}
+    for r in rows:
+        groups.setdefault((r["arch"], r["delays"]), []).append(r)
+    for (arch, d), rs in sorted(groups.items()):
+        rs = sorted(rs, key=lambda r: r["neurons"])
+        x = [r["neurons"] for r in rs if math.isfinite(r["score"])]
+        y = [r["score"] for r in rs if math.isfinite(r["score"])]
+        ax.plot(x, y, "o-" if arch == "nfir" else "s--", label=f"{arch.upper()}, {d} delays")
+        bad = [r["neurons"] for r in rs if not math.isfinite(r["score"])]
+        if bad and y:
+            ax.plot(bad, [max(y)] * len(bad), "rx", label=f"{arch.upper()} {d}: unstable")
+    ax.set_yscale("log")
+    ax.set_xlabel("hidden neurons")
+    ax.set_ylabel(r"mean(train, validation) MSE [N$^2$]")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=p.suffix)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=120)
+        os.replace(tmp, p)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    finally:
+        plt.close(fig)
+    return p

@@ -1,0 +1,231 @@
+"""Levenberg-Marquardt (trainlm) schedule, stopping rules, Jacobians and small end-to-end fits."""
+
+from __future__ import annotations
+
+import math
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from sloshrom import rom, training
+from sloshrom.training import LMProblem, levenberg_marquardt
+
+
+def _linear_problem(A: np.ndarray, b: np.ndarray, val=None) -> LMProblem:
+    """Least squares ``min ||A x - b||^2``: J = A, e = A x - b."""
+
+    def normal_eq(x):
+        e = A @ x - b
+        return A.T @ A, A.T @ e, float(e @ e), b.size
+
+    def sse(x):
+        e = A @ x - b
+        return float(e @ e)
+
+    return LMProblem(normal_eq, sse, val)
+
+
+def test_lm_identifies_linear_fir_to_machine_precision():
+    # a linear FIR system, regressors = delayed inputs: linear in the parameters, so LM (Gauss-
+    # Newton with a vanishing mu) must land on the exact coefficients
+    rng = np.random.default_rng(0)
+    u = rng.standard_normal(2000)
+    h = rng.standard_normal(8)
+    X = np.column_stack([np.concatenate([np.zeros(d), u[:-d]]) for d in range(1, 9)])
+    y = X @ h
+    res = levenberg_marquardt(_linear_problem(X, y), np.zeros(8), max_epochs=50)
+    np.testing.assert_allclose(res.theta, h, rtol=0, atol=1e-12)
+    assert res.stop_reason == "min_grad"
+
+
+def test_lm_mu_decreases_by_10_on_success():
+    rng = np.random.default_rng(1)
+    A, b = rng.standard_normal((50, 3)), rng.standard_normal(50)
+    res = levenberg_marquardt(_linear_problem(A, b), np.ones(3), max_epochs=2, min_grad=0.0)
+    np.testing.assert_allclose(res.history["mu"], [1e-3, 1e-4, 1e-5], rtol=1e-12)
+    assert res.stop_reason == "max_epochs"
+
+
+def test_lm_mu_increases_by_10_on_failure_and_retries_within_the_epoch():
+    # steps longer than 0.05 are "failures" (sse = inf): mu must grow x10 until the step is short
+    rng = np.random.default_rng(2)
+    A, b = rng.standard_normal((50, 3)), 10 * rng.standard_normal(50)
+    base = _linear_problem(A, b)
+    tried = []
+    x0 = np.zeros(3)
+
+    def sse(x):
+        tried.append(np.linalg.norm(x - current[0]))
+        return base.sse(x) if tried[-1] < 0.05 else math.inf
+
+    current = [x0]
+
+    prob = LMProblem(base.normal_eq, sse)
+    res = levenberg_marquardt(prob, x0, max_epochs=1)
+    # epoch 1: tried with mu = 1e-3, 1e-2, ... until the step is shorter than 0.05
+    jtj, jte, _, _ = base.normal_eq(x0)
+    expect_mu = 1e-3
+    while np.linalg.norm(np.linalg.solve(jtj + expect_mu * np.eye(3), jte)) >= 0.05:
+        expect_mu *= 10
+    assert len(tried) == round(math.log10(expect_mu / 1e-3)) + 1
+    np.testing.assert_allclose(res.history["mu"][-1], expect_mu * 0.1, rtol=1e-12)
+
+
+def test_lm_stops_at_mu_max_when_nothing_improves():
+    A, b = np.eye(2), np.ones(2)
+    prob = LMProblem(_linear_problem(A, b).normal_eq, lambda x: math.inf)
+    res = levenberg_marquardt(prob, np.zeros(2), max_epochs=100)
+    assert res.stop_reason == "mu_max"
+    assert len(res.history["mu"]) == 2  # epoch 0 and the one failed epoch
+    assert res.history["mu"][-1] > 1e10
+
+
+def test_lm_early_stopping_after_6_validation_failures_returns_best():
+    xs = []
+
+    def val(x):
+        xs.append(np.array(x))
+        k = len(xs) - 1  # epoch
+        return 1.0 / (k + 1) if k <= 3 else 1.0 + k  # best at epoch 3, worse afterwards
+
+    # an over-estimated curvature (100 I for a unit Hessian) makes every step a small success,
+    # so only the validation rule can stop the run
+    def normal_eq(x):
+        return 100 * np.eye(4), x - 1.0, float((x - 1.0) @ (x - 1.0)), 4
+
+    prob = LMProblem(normal_eq, lambda x: float((x - 1.0) @ (x - 1.0)), val)
+    res = levenberg_marquardt(prob, np.zeros(4), max_epochs=100, min_grad=0.0)
+    assert res.stop_reason == "validation_stop"
+    assert len(res.history["val_mse"]) == 3 + 6 + 1  # epochs 0..9
+    assert res.best_epoch == 3
+    np.testing.assert_array_equal(res.theta, xs[3])
+
+
+def test_nfir_jacobian_matches_finite_differences():
+    rng = np.random.default_rng(4)
+    delays, h = (1, 2, 3, 5), 3
+    p = rom.n_params(4, h)
+    theta = rng.standard_normal(p)
+    u = rng.uniform(-1, 1, 40)
+    up = jnp.asarray(np.concatenate([np.zeros(5), u]))
+    ys = jnp.asarray(rng.standard_normal(40))
+    rows = jnp.arange(10, 20)
+    for hidden in ("matlab", "distance"):
+        J, e = training._nfir_jac_chunk(jnp.asarray(theta), up, ys, rows, jnp.ones(10), delays,
+                                        h, hidden)
+
+        def f(th, hidden=hidden):
+            return np.asarray(rom.nfir_rows(jnp.asarray(th), up, rows, np.asarray(delays), h,
+                                            hidden))
+
+        fd = np.empty((10, p))
+        for i in range(p):
+            d = np.zeros(p)
+            d[i] = 1e-6
+            fd[:, i] = (f(theta + d) - f(theta - d)) / 2e-6
+        np.testing.assert_allclose(np.asarray(J), fd, atol=1e-7)
+        np.testing.assert_allclose(np.asarray(e), f(theta) - np.asarray(ys[rows]), atol=1e-14)
+
+
+def test_noe_jacobian_through_time_matches_finite_differences_across_chunks():
+    rng = np.random.default_rng(5)
+    delays, m, h = (1, 2), 2, 3
+    p = rom.n_params(4, h)
+    theta = 0.5 * rng.standard_normal(p)
+    n = 37
+    u = rng.uniform(-1, 1, n)
+    y = rng.uniform(-1, 1, n)
+    # chunk 10 (not dividing n) checks the state sensitivities carried between chunks
+    prob = training.noe_problem(u, y, delays, m, h, "matlab", 0.1, -0.2, 1e6, chunk=10)
+    jtj, jte, sse, nn = prob.normal_eq(theta)
+
+    def sim(th):
+        return np.asarray(training._noe_run(jnp.asarray(th), jnp.asarray(u), 0.1, -0.2, delays,
+                                            m, h, "matlab"))
+
+    fd = np.empty((n, p))
+    for i in range(p):
+        d = np.zeros(p)
+        d[i] = 1e-6
+        fd[:, i] = (sim(theta + d) - sim(theta - d)) / 2e-6
+    e = sim(theta) - y
+    assert nn == n
+    np.testing.assert_allclose(sse, e @ e, rtol=1e-12)
+    np.testing.assert_allclose(jte, fd.T @ e, rtol=1e-6, atol=1e-8)
+    np.testing.assert_allclose(jtj, fd.T @ fd, rtol=1e-6, atol=1e-8)
+
+
+def _system(u):
+    """A nonlinear FIR test system (saturating + quadratic on a decaying impulse response)."""
+    h = np.exp(-np.arange(1, 16) / 4.0)
+    lin = np.convolve(np.concatenate([[0.0], u[:-1]]), h)[: u.size]
+    return np.tanh(lin) + 0.3 * lin**2
+
+
+def _signal(n, seed):
+    from scipy.signal import butter, filtfilt
+
+    b, a = butter(4, 0.08)
+    return 3 * filtfilt(b, a, np.random.default_rng(seed).standard_normal(n))
+
+
+@pytest.mark.filterwarnings("ignore::sloshrom.rom.EnvelopeWarning")
+@pytest.mark.parametrize("trainer", ["fast", "lm"])
+def test_nfir_fit_reduces_validation_error(trainer):
+    u, uv = _signal(3000, 1), _signal(1500, 2)
+    y, yv = _system(u), _system(uv)
+    m = rom.NFIR(delays=15, neurons=6, max_epochs=15, trainer=trainer).fit(
+        u, y, fs=100.0, validation=(uv, yv)
+    )
+    hist = m.history_
+    assert hist["val_mse"][m.history_["best_epoch"]] < 0.5 * hist["val_mse"][0]
+    # the returned network is the best-validation one
+    np.testing.assert_allclose(np.mean((m.predict(uv) - yv) ** 2), min(hist["val_mse"]),
+                               rtol=1e-9)
+
+
+@pytest.mark.filterwarnings("ignore::sloshrom.rom.EnvelopeWarning")
+def test_noe_fit_reduces_simulation_error():
+    u, uv = _signal(2000, 3), _signal(1000, 4)
+    y, yv = _system(u), _system(uv)
+    m = rom.NOE(delays=2, neurons=5, max_epochs=8).fit(u, y, fs=100.0, validation=(uv, yv))
+    assert min(m.history_["val_mse"]) < m.history_["val_mse"][0]
+    np.testing.assert_allclose(np.mean((m.predict(uv) - yv) ** 2), min(m.history_["val_mse"]),
+                               rtol=1e-9)
+
+
+def test_callback_called_every_epoch():
+    u = _signal(800, 5)
+    calls = []
+    m = rom.NFIR(delays=5, neurons=3, max_epochs=3).fit(u, _system(u), fs=100.0,
+                                                         callback=lambda e, info: calls.append(e))
+    assert calls == [0, 1, 2, 3]
+    for k in ("train_mse", "val_mse", "mu", "grad", "seconds"):
+        assert len(m.history_[k]) == 4
+    assert m.history_["stop_reason"] == "max_epochs" and m.history_["train_seconds"] > 0
+
+
+def test_callback_returning_true_stops():
+    u = _signal(800, 6)
+    m = rom.NFIR(delays=5, neurons=3, max_epochs=50).fit(u, _system(u), fs=100.0,
+                                                          callback=lambda e, info: e >= 2)
+    assert m.history_["stop_reason"] == "callback" and len(m.history_["mu"]) == 3
+
+
+@pytest.mark.filterwarnings("ignore::sloshrom.rom.EnvelopeWarning")
+def test_adam_trainer_early_stopping_and_best_network():
+    u, uv = _signal(3000, 7), _signal(1500, 8)
+    y, yv = _system(u), _system(uv)
+    m = rom.NFIR(delays=15, neurons=6, max_epochs=40, trainer="adam").fit(
+        u, y, fs=100.0, validation=(uv, yv)
+    )
+    h = m.history_
+    assert h["trainer"] == "adam"
+    assert h["val_mse"][h["best_epoch"]] < 0.5 * h["val_mse"][0]
+    assert h["val_mse"][h["best_epoch"]] == min(h["val_mse"])
+    if h["stop_reason"] == "validation_stop":  # 6 epochs without a new best
+        assert len(h["val_mse"]) - 1 == h["best_epoch"] + 6
+    np.testing.assert_allclose(np.mean((m.predict(uv) - yv) ** 2), min(h["val_mse"]), rtol=1e-9)
+    with pytest.raises(ValueError, match="NFIR only"):
+        rom.NOE(trainer="adam").fit(u, y, fs=100.0)
