@@ -24,9 +24,7 @@ import csv
 import io
 import json
 import math
-import os
 import re
-import tempfile
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -36,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from sloshrom.config import G, Tank
+from sloshrom.fileio import atomic_write
 
 __all__ = [
     "STANDARD_UNITS",
@@ -682,21 +681,16 @@ def write_record(record: Record, path: str | Path) -> Path:
     suffix = p.suffix.lower()
     if suffix not in (".nc", ".csv", ".mat"):
         raise RecordError(f"{p}: unknown record format {suffix!r} (use .nc, .csv or .mat)")
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=suffix)
-    os.close(fd)
-    try:
+
+    def write(tmp: str) -> None:
         if suffix == ".nc":
             record.to_dataset().to_netcdf(tmp, engine="h5netcdf")
         elif suffix == ".csv":
             _write_csv(record, tmp)
         else:
             _write_mat(record, tmp)
-        os.replace(tmp, p)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return p
+
+    return atomic_write(p, write, suffix=suffix)
 
 
 def _write_csv(record: Record, tmp: str) -> None:

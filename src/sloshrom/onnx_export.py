@@ -28,12 +28,12 @@ The arithmetic follows :mod:`sloshrom.rom` exactly: ``x = scale(u)``, ``n = x W^
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from sloshrom.fileio import atomic_write
 
 __all__ = ["FORMAT_VERSION", "SIGN_CONVENTION", "export_onnx", "onnx_model"]
 
@@ -290,13 +290,4 @@ def export_onnx(model: Any, path: str | Path, form: str = "step", dtype: str = "
 
     proto = onnx_model(model, form=form, dtype=dtype)
     p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".onnx")
-    os.close(fd)
-    try:
-        onnx.save_model(proto, tmp)
-        os.replace(tmp, p)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return p
+    return atomic_write(p, lambda tmp: onnx.save_model(proto, tmp), suffix=".onnx")

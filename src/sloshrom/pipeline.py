@@ -29,7 +29,8 @@ import numpy as np
 
 from sloshrom import __version__
 from sloshrom.config import G, Tank
-from sloshrom.stages import StageCache, StageResult, atomic_write_text
+from sloshrom.fileio import atomic_write, atomic_write_text
+from sloshrom.stages import StageCache, StageResult
 
 # Called as ``report(stage, done, total, text)``; the CLI turns it into progress bars.
 Progress = Callable[[str, float, float, str], None]
@@ -73,10 +74,9 @@ def _timer(ctx: Context, name: str):
 def _savefig(fig: Any, path: Path) -> Path:
     import matplotlib.pyplot as plt
 
-    tmp = path.with_name(f".{path.stem}.tmp.png")
-    fig.savefig(tmp, dpi=110)
+    # suffix ".png": savefig takes the format from the (temporary) name, always PNG here
+    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110), suffix=".png")
     plt.close(fig)
-    tmp.replace(path)
     return path
 
 
@@ -186,9 +186,7 @@ def write_map(da: Any, path: Path, title: str) -> list[Path]:
     from sloshrom.energy import plot_phi_d_map
 
     plt = _plt()
-    tmp = path.with_name(f".{path.name}.tmp")
-    da.to_dataset().to_netcdf(tmp, engine="h5netcdf")
-    tmp.replace(path)
+    atomic_write(path, lambda tmp: da.to_dataset().to_netcdf(tmp, engine="h5netcdf"))
     fig, ax = plt.subplots(figsize=(6.4, 4.6), constrained_layout=True)
     plot_phi_d_map(da, ax=ax)
     ax.set_title(title)

@@ -35,8 +35,6 @@ the dissipation map has the shape the paper reports (``benchmarks/calibrate_rig.
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 import tomllib
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
@@ -47,6 +45,7 @@ import numpy as np
 from scipy import signal as sps
 
 from sloshrom.config import ConfigError, G, Tank
+from sloshrom.fileio import atomic_write_text
 
 __all__ = [
     "RigParams",
@@ -211,15 +210,7 @@ class RigParams:
         text = tomli_w.dumps({"rig": self.to_dict()})
         if comment:
             text = "".join(f"# {line}\n" for line in comment.splitlines()) + text
-        fd, tmp = tempfile.mkstemp(prefix=p.name + ".", suffix=".tmp", dir=p.parent or ".")
-        try:
-            with os.fdopen(fd, "w") as fh:
-                fh.write(text)
-            os.replace(tmp, p)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
+        atomic_write_text(p, text)
 
     @classmethod
     def default(cls) -> RigParams:

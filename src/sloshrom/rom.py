@@ -24,8 +24,6 @@ Initial conditions: every delay line starts at rest (zero physical input and out
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -40,6 +38,8 @@ jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 from jax import lax  # noqa: E402
+
+from sloshrom.fileio import atomic_write  # noqa: E402
 
 __all__ = [
     "FORMAT_VERSION",
@@ -509,16 +509,12 @@ class _TDNN:
             "history": self.history_,
         }
         arrays = {k: np.asarray(self.params_[k], dtype=np.float64) for k in PARAM_NAMES}
-        p.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".npz")
-        try:
-            with os.fdopen(fd, "wb") as fh:
+
+        def write(tmp: str) -> None:
+            with open(tmp, "wb") as fh:  # a file object: np.savez adds no ".npz" to the name
                 np.savez(fh, metadata=np.array(json.dumps(meta)), **arrays)
-            os.replace(tmp, p)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-        return p
+
+        return atomic_write(p, write, suffix=".npz")
 
 
 class NFIR(_TDNN):

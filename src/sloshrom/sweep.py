@@ -15,13 +15,13 @@ import csv
 import io
 import json
 import math
-import os
-import tempfile
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from sloshrom.fileio import atomic_write, atomic_write_text
 
 __all__ = ["default_grid", "plot_sweep", "point_name", "run_sweep", "write_table"]
 
@@ -48,17 +48,6 @@ def default_grid(arch: str = "both") -> list[tuple[str, int, int]]:
 
 def point_name(arch: str, delays: int, neurons: int) -> str:
     return f"{arch}_d{delays}_n{neurons}"
-
-
-def _atomic_text(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def fit_point(
@@ -96,7 +85,7 @@ def fit_point(
         row.update(train_mse=math.inf, val_mse=math.inf, score=math.inf, unstable=True,
                    epochs=0, stop_reason=f"unstable: {exc}", model="")
     row["seconds"] = time.perf_counter() - t0
-    _atomic_text(res_path, json.dumps(row))
+    atomic_write_text(res_path, json.dumps(row))
     return row
 
 
@@ -191,10 +180,10 @@ def write_table(rows: list[dict[str, Any]], out_dir: Path) -> tuple[Path, Path]:
     w.writeheader()
     w.writerows(rows)
     csv_path, json_path = out_dir / "sweep.csv", out_dir / "sweep.json"
-    _atomic_text(csv_path, buf.getvalue())
+    atomic_write_text(csv_path, buf.getvalue())
     safe = [{k: (None if isinstance(v, float) and not math.isfinite(v) else v)
              for k, v in r.items()} for r in rows]
-    _atomic_text(json_path, json.dumps(safe, indent=1))
+    atomic_write_text(json_path, json.dumps(safe, indent=1))
     return csv_path, json_path
 
 
@@ -222,16 +211,7 @@ def plot_sweep(rows: list[dict[str, Any]], path: str | Path) -> Path:
     ax.set_ylabel(r"mean(train, validation) MSE [N$^2$]")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=p.suffix)
-    os.close(fd)
     try:
-        fig.savefig(tmp, dpi=120)
-        os.replace(tmp, p)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        return atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=120))
     finally:
         plt.close(fig)
-    return p

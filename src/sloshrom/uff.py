@@ -23,9 +23,7 @@ atomically; it is what the tests use to produce files "as pyuff writes them".
 from __future__ import annotations
 
 import math
-import os
 import re
-import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -33,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from sloshrom.data import STANDARD_UNITS, Record, RecordError
+from sloshrom.fileio import atomic_write
 
 __all__ = ["read_uff58", "write_uff58"]
 
@@ -288,13 +287,7 @@ def write_uff58(record: Record, path: str | Path, binary: bool = False) -> Path:
             if sets[-1].get(key) is None:  # pyuff's writer needs every label field
                 sets[-1][key] = ""
         sets[-1]["func_id"] = 0
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=p.suffix or ".uff")
-    os.close(fd)
-    try:
-        pyuff.UFF(tmp).write_sets(sets, mode="overwrite")
-        os.replace(tmp, p)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return p
+    return atomic_write(
+        p, lambda tmp: pyuff.UFF(tmp).write_sets(sets, mode="overwrite"),
+        suffix=p.suffix or ".uff",
+    )

@@ -7,8 +7,6 @@ beam, writes one NetCDF per case into ``--out`` and the figures/tables of the pa
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -17,6 +15,7 @@ import typer
 
 from sloshrom.cli._app import app
 from sloshrom.config import ConfigError, G, Tank
+from sloshrom.fileio import atomic_write
 
 beam_app = typer.Typer(
     help="Sloshing-beam simulations (free and random responses) and damping analysis.",
@@ -97,18 +96,8 @@ def to_dataset(out: dict, case: str, kind: str, tank: Tank, modal) -> Any:
     return ds
 
 
-def _atomic(path: Path, write) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    finally:
-        Path(tmp).unlink(missing_ok=True)
-
-
 def _write_nc(ds: Any, path: Path) -> None:
-    _atomic(path, lambda tmp: ds.to_netcdf(tmp, engine="h5netcdf"))
+    atomic_write(path, lambda tmp: ds.to_netcdf(tmp, engine="h5netcdf"))
 
 
 def _write_table(rows: list[dict], path_stem: Path) -> None:
@@ -129,14 +118,14 @@ def _write_table(rows: list[dict], path_stem: Path) -> None:
             for r in rows:
                 fh.write("| " + " | ".join(fmt(r[k]) for k in keys) + " |\n")
 
-    _atomic(path_stem.with_suffix(".csv"), csv)
-    _atomic(path_stem.with_suffix(".md"), md)
+    atomic_write(path_stem.with_suffix(".csv"), csv)
+    atomic_write(path_stem.with_suffix(".md"), md)
 
 
 def _savefig(fig, path: Path) -> None:
     import matplotlib.pyplot as plt
 
-    _atomic(path, lambda tmp: fig.savefig(tmp, dpi=120, format="png"))
+    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=120, format="png"))
     plt.close(fig)
 
 

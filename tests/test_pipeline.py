@@ -1,0 +1,76 @@
+"""End to end: `sloshrom reproduce --quick`, interrupted mid-way and restarted."""
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from sloshrom import pipeline, settings
+from sloshrom.cli import app
+
+FIGURES = [
+    "fig03_hysteresis", "fig05_vfa_paths", "fig06_train_io", "fig07_validation_io",
+    "fig10_validation", "fig14_station_accelerations", "fig16_modal_accelerations",
+    "fig18_tank_acceleration", "fig20_tank_interface_dynamic", "fig21_instantaneous_damping",
+    "fig22_tank_acceleration_window", "fig23_psd",
+]
+
+
+class Interrupt(Exception):
+    pass
+
+
+def test_reproduce_quick_interrupted_then_resumed(tmp_path):
+    out = tmp_path / "results"
+    cfg = settings.load(quick=True)
+
+    def stop_at_maps(stage, done, total, text):
+        if stage == "maps":
+            raise Interrupt
+
+    with pytest.raises(Interrupt):
+        pipeline.run(out, cfg, progress=stop_at_maps)
+    assert (out / "models" / "nfir.npz").is_file()
+    assert not (out / "report.html").exists()
+
+    res = CliRunner().invoke(app, ["reproduce", "--out", str(out), "--quick"])
+    assert res.exit_code == 0, res.output
+    s = json.loads((out / "summary.json").read_text())
+    st = s["stages"]
+    # finished stages are not redone, the interrupted one and those after it are
+    assert st["data"]["reused"] and st["rom"]["reused"]
+    assert not st["maps"]["reused"] and not st["beam"]["reused"]
+    assert s["not_built"] == []
+
+    html = (out / "report.html").read_text()
+    assert html.count("data:image/png;base64,") >= len(FIGURES) + 3  # + the three maps
+    for name in FIGURES:
+        assert (out / "figures" / f"{name}.png").stat().st_size > 10_000, name
+    for name in ("phi_d_rig", "phi_d_rom", "phi_d_difference"):
+        assert (out / "maps" / f"{name}.nc").is_file() and (out / "maps" / f"{name}.png").is_file()
+
+    # headline figures within physical bounds
+    rom = st["rom"]
+    assert 0 < rom["val_nrmse"] < 1.0 and 0 < rom["val_fit"] < 100
+    assert rom["val_mse"] > 0 and rom["train_seconds"] > 0
+    m = st["maps"]
+    assert 1.0 < m["rig_maximum"]["gamma"] <= 6.0 + 1e-9  # dissipation only above 1 g
+    assert 0 < m["rig_maximum"]["phi_d"] < 10
+    assert 0 < m["rom_relative_l2_error"] < 1.0
+    b = st["beam"]
+    assert 5 < b["f1_frozen_hz"] < 20
+    frozen = [r for r in b["table2"] if r["case"] == "frozen"]
+    # the frozen beam has the dry damping ratio given to mode 1
+    for r in frozen:
+        assert r["lscf_h1"] == pytest.approx(cfg["beam"]["damping"][0], rel=0.15)
+    inst = b["instantaneous_damping"]
+    assert inst["rig"]["2-3 g"] > 1.2 * inst["frozen"]["2-3 g"]  # sloshing damps mode 1
+    assert np.isfinite(inst["rom"]["2-3 g"])
+    assert set(s["timings_s"]) >= {"data", "rom", "maps", "beam"}
+
+    # a third run reuses everything
+    res = CliRunner().invoke(app, ["reproduce", "--out", str(out), "--quick"])
+    assert res.exit_code == 0, res.output
+    s = json.loads((out / "summary.json").read_text())
+    assert all(v["reused"] for v in s["stages"].values())
