@@ -298,3 +298,15 @@ def test_rom_in_the_loop_and_cli(modal, tmp_path):
                                    "--out", str(tmp_path / "out")])
     assert res.exit_code == 0, res.output
     assert (tmp_path / "out" / "free_rom.nc").is_file()
+
+
+def test_diverging_simulation_stops_with_the_time():
+    from sloshrom.coupled import SimulationDivergedError
+
+    modal = ModalModel.from_beam()
+    dt = 0.002
+    # a negative damper feeds energy in: the response grows without bound
+    with pytest.raises(SimulationDivergedError, match=r"diverged at t = \d"):
+        free_response(LinearDamper(-40.0, dt), modal, duration=20.0)
+    # the same stand-in with positive damping is fine (the guard does not fire on a decay)
+    free_response(LinearDamper(40.0, dt), modal, duration=2.0)

@@ -69,6 +69,17 @@ def test_reproduce_quick_interrupted_then_resumed(tmp_path):
     assert np.isfinite(inst["rom"]["2-3 g"])
     assert set(s["timings_s"]) >= {"data", "rom", "maps", "beam"}
 
+    # every result file records the package version and the seed
+    import xarray as xr
+
+    from sloshrom import __version__
+
+    for f in ("beam/free_rig.nc", "beam/random_rom.nc", "maps/phi_d_rig.nc"):
+        with xr.open_dataset(out / f, engine="h5netcdf") as ds:
+            attrs = {**ds.attrs, **(ds["phi_d"].attrs if "phi_d" in ds else {})}
+        assert attrs["sloshrom_version"] == __version__, f
+        assert "seed" in attrs or "model_seed" in attrs, f
+
     # a third run reuses everything
     res = CliRunner().invoke(app, ["reproduce", "--out", str(out), "--quick"])
     assert res.exit_code == 0, res.output

@@ -165,10 +165,32 @@ def test_load_errors(tmp_path):
     _rewrite(p, meta, W=np.ones((3, 5)))
     with pytest.raises(ModelFileError, match="tampered"):
         rom.load_model(p)
-    # object arrays would need pickle: refused
+    # same shapes, changed values: caught by the checksum
+    good = m.save(tmp_path / "good.npz")
+    with np.load(good) as z:
+        arrays = {k: z[k] for k in rom.PARAM_NAMES}
+    arrays["W"] = arrays["W"] + 1e-9
+    _rewrite(good, meta, **arrays)
+    with pytest.raises(ModelFileError, match="checksum mismatch"):
+        rom.load_model(good)
+    # object arrays would need pickle: refused, with a message that does not advise pickle
     np.savez(tmp_path / "obj.npz", metadata=np.array([{"a": 1}], dtype=object))
-    with pytest.raises(ModelFileError):
+    with pytest.raises(ModelFileError, match="never loads") as err:
         rom.load_model(tmp_path / "obj.npz")
+    assert "allow_pickle" not in str(err.value)
+
+
+def test_checksum_detects_changed_metadata(tmp_path):
+    m = _random_model(NFIR, delays=4, neurons=3)
+    p = m.save(tmp_path / "m.npz")
+    with np.load(p) as z:
+        meta = json.loads(str(z["metadata"]))
+        arrays = {k: z[k] for k in rom.PARAM_NAMES}
+    assert meta["checksum"].startswith("sha256:")
+    assert rom.load_model(p).fs_ == m.fs_
+    _rewrite(p, {**meta, "fs": meta["fs"] * 2}, **arrays)
+    with pytest.raises(ModelFileError, match="checksum mismatch"):
+        rom.load_model(p)
 
 
 def test_envelope_warning_once_with_amount():

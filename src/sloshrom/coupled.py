@@ -50,6 +50,10 @@ from sloshrom.structure import ModalModel
 jax.config.update("jax_enable_x64", True)
 
 
+class SimulationDivergedError(RuntimeError):
+    """The coupled simulation blew up (reported with the time at which it did)."""
+
+
 class StepMismatchError(ValueError):
     """A sloshing model's time step does not match the step the simulation was asked to use."""
 
@@ -322,7 +326,25 @@ class CoupledSimulator:
                 else:
                     outs.append(_python_loop(self.model, self.disc, row, z0))
             out = {k: np.stack([o[k] for o in outs]) for k in outs[0]}
+        self._check_divergence(out["q"])
         return {k: v.reshape(lead + v.shape[1:]) for k, v in out.items()}
+
+    def _check_divergence(self, q: np.ndarray) -> None:
+        """Stop with the time of divergence instead of returning NaNs.
+
+        Diverged = a non-finite modal displacement, or one larger than the beam itself (with
+        modes normalised to unit maximum displacement, |q| > L is no longer a beam vibration).
+        """
+        bound = float(getattr(self.modal, "length", 1.0) or 1.0)
+        bad = ~np.isfinite(q) | (np.abs(np.nan_to_num(q, nan=np.inf)) > bound)
+        if not bad.any():
+            return
+        k = int(np.argmax(bad.reshape(bad.shape[0], bad.shape[1], -1).any(axis=(0, 2))))
+        raise SimulationDivergedError(
+            f"the coupled simulation diverged at t = {k * self.disc.dt:.4g} s "
+            f"(modal displacement non-finite or beyond {bound:g} m); the sloshing model "
+            f"({type(self.model).__name__}) is probably outside its valid range"
+        )
 
     def _check_envelope(self, v: np.ndarray) -> None:
         # a ROM inside the loop cannot warn from within lax.scan: check its input afterwards

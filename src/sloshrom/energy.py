@@ -260,9 +260,17 @@ def phi_d_map(
             "liquid_mass": tank.liquid_mass,
             "elapsed_s": elapsed,
             "provenance": "sloshrom.energy.phi_d_map (ramped harmonic tests)",
+            "sloshrom_version": _version(),
+            "model_seed": int(getattr(model, "seed", -1)),
         },
     )
     return da
+
+
+def _version() -> str:
+    from sloshrom import __version__
+
+    return __version__
 
 
 def map_maximum(da: xr.DataArray) -> dict[str, float]:

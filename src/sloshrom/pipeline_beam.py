@@ -86,7 +86,7 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     for case in models:
         for kind, res in (("free", free_res), ("random", rand_res)):
             p = out / f"{kind}_{case}.nc"
-            _write_nc(to_dataset(res[case], case, kind, tank, modal), p)
+            _write_nc(to_dataset(res[case], case, kind, tank, modal, cfg["seed"]), p)
             files.append(ctx.rel(p))
 
     inst: dict[str, Any] = {}

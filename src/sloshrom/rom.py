@@ -509,6 +509,7 @@ class _TDNN:
             "history": self.history_,
         }
         arrays = {k: np.asarray(self.params_[k], dtype=np.float64) for k in PARAM_NAMES}
+        meta["checksum"] = _checksum(meta, arrays)
 
         def write(tmp: str) -> None:
             with open(tmp, "wb") as fh:  # a file object: np.savez adds no ".npz" to the name
@@ -663,6 +664,19 @@ class NOE(_TDNN):
 # ---------------------------------------------------------------------------------------------
 
 
+def _checksum(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> str:
+    """SHA-256 of the metadata (without its checksum) and the parameter arrays."""
+    import hashlib
+
+    h = hashlib.sha256()
+    body = {k: v for k, v in meta.items() if k != "checksum"}
+    h.update(json.dumps(body, sort_keys=True).encode())
+    for k in PARAM_NAMES:
+        a = np.ascontiguousarray(arrays[k], dtype="<f8")
+        h.update(k.encode() + repr(a.shape).encode() + a.tobytes())
+    return "sha256:" + h.hexdigest()
+
+
 def load_model(path: str | Path) -> NFIR | NOE:
     """Load a model written by ``save`` (``np.load(allow_pickle=False)``; never runs code).
 
@@ -678,6 +692,11 @@ def load_model(path: str | Path) -> NFIR | NOE:
         with np.load(p, allow_pickle=False) as z:
             files = dict(z.items())
     except Exception as exc:  # zipfile/format errors, pickled object arrays
+        if "pickle" in str(exc).lower():
+            raise ModelFileError(
+                f"{p}: not a sloshrom model file (it holds Python objects, which sloshrom never "
+                "loads because loading them could run code)"
+            ) from exc
         raise ModelFileError(f"{p}: not a sloshrom model file ({exc})") from exc
     if "metadata" not in files:
         raise ModelFileError(f"{p}: not a sloshrom model file (no metadata)")
@@ -721,6 +740,10 @@ def load_model(path: str | Path) -> NFIR | NOE:
         if not np.all(np.isfinite(a)):
             raise ModelFileError(f"{p}: parameter {k} contains NaN or inf")
         params[k] = a.astype(np.float64)
+    if meta.get("checksum") != _checksum(meta, params):
+        raise ModelFileError(
+            f"{p}: checksum mismatch: the file was modified or damaged after it was saved"
+        )
     if not (model.fs_ > 0 and model.scaler_.in_max > model.scaler_.in_min
             and model.scaler_.out_max > model.scaler_.out_min):
         raise ModelFileError(f"{p}: corrupt sample rate or scaler")

@@ -58,9 +58,11 @@ def _modal(modal_toml: Path | None, tank: Tank):
     return ModalModel.from_toml(modal_toml) if modal_toml else ModalModel.from_beam(tank=tank)
 
 
-def to_dataset(out: dict, case: str, kind: str, tank: Tank, modal) -> Any:
+def to_dataset(out: dict, case: str, kind: str, tank: Tank, modal, seed: int = 0) -> Any:
     """xarray Dataset of a coupled-simulation result (standard beam-result names)."""
     import xarray as xr
+
+    from sloshrom import __version__
 
     lead = out["tank_acceleration"].shape[:-1]
     ldims = ("level",) if len(lead) == 1 else ()
@@ -86,6 +88,7 @@ def to_dataset(out: dict, case: str, kind: str, tank: Tank, modal) -> Any:
                 "station": ("station", modal.stations, {"units": "m"}),
                 "mode": ("mode", np.arange(1, modal.n_modes + 1))},
         attrs={"case": case, "test": kind, "fs": float(out["fs"]),
+               "sloshrom_version": __version__, "seed": int(seed),
                "tank_fill": tank.fill, "liquid_mass": tank.liquid_mass,
                "structure_mass": modal.structure_mass,
                "modal_frequencies_Hz": modal.frequencies,
@@ -313,7 +316,7 @@ def free(
     res = _run_cases(sloshing, tank, modal, seed, "free response",
                      lambda m, fs: free_response(m, modal, tip_displacement, duration, tank, fs))
     for case, r in res.items():
-        _write_nc(to_dataset(r, case, "free", tank, modal), out / f"free_{case}.nc")
+        _write_nc(to_dataset(r, case, "free", tank, modal, seed), out / f"free_{case}.nc")
     if modal_toml is None:
         rows = frozen_modal_table(tank, n_modes=modal.n_modes)
     else:  # user modes: frozen-liquid frequencies of the coupled model only
@@ -368,7 +371,8 @@ def random(
                      lambda m, fs: random_response(m, modal, lv, duration, seed, f0, sigma,
                                                    tank=tank, output_fs=fs))
     for case, r in res.items():
-        _write_nc(to_dataset(r, case, "random", tank, modal), out / f"random_{case}.nc")
+        _write_nc(to_dataset(r, case, "random", tank, modal, seed),
+                  out / f"random_{case}.nc")
     f1 = float(coupled_frozen_modes(modal, tank.liquid_mass)[0][0])
     rows = []
     for case, r in res.items():
