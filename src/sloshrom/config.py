@@ -117,12 +117,7 @@ class Tank:
     @classmethod
     def from_toml(cls, path: str | Path, section: str = "tank") -> Tank:
         """Read a tank from a TOML file (table ``[tank]`` by default, SI units)."""
-        data = load_toml(path)
-        if section:
-            if section not in data:
-                raise ConfigError(f"{path}: no [{section}] table")
-            data = data[section]
-        return cls.from_dict(data)
+        return cls.from_dict(load_toml_table(path, section))
 
     def replace(self, **changes: Any) -> Tank:
         return replace(self, **changes)
@@ -138,3 +133,15 @@ def load_toml(path: str | Path) -> dict[str, Any]:
             return tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{p}: not valid TOML ({exc})") from exc
+
+
+def load_toml_table(
+    path: str | Path, section: str = "", error: type[ConfigError] = ConfigError
+) -> dict[str, Any]:
+    """Table ``[section]`` of a TOML file (the whole file if ``section`` is empty)."""
+    data = load_toml(path)
+    if section:
+        if section not in data:
+            raise error(f"{path}: no [{section}] table")
+        data = data[section]
+    return data

@@ -35,7 +35,6 @@ the dissipation map has the shape the paper reports (``benchmarks/calibrate_rig.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any
@@ -44,7 +43,7 @@ import numba as nb
 import numpy as np
 from scipy import signal as sps
 
-from sloshrom.config import ConfigError, G, Tank
+from sloshrom.config import ConfigError, G, Tank, load_toml_table
 from sloshrom.fileio import atomic_write_text
 
 __all__ = [
@@ -188,19 +187,7 @@ class RigParams:
     @classmethod
     def from_toml(cls, path: str | Path, section: str = "rig") -> RigParams:
         """Read parameters from table ``[rig]`` of a TOML file (missing keys keep defaults)."""
-        p = Path(path)
-        if not p.is_file():
-            raise ConfigError(f"rig parameter file not found: {p}")
-        try:
-            with p.open("rb") as fh:
-                data = tomllib.load(fh)
-        except tomllib.TOMLDecodeError as exc:
-            raise ConfigError(f"{p}: not valid TOML ({exc})") from exc
-        if section:
-            if section not in data:
-                raise ConfigError(f"{p}: no [{section}] table")
-            data = data[section]
-        return cls.from_dict(data)
+        return cls.from_dict(load_toml_table(path, section))
 
     def to_toml(self, path: str | Path, comment: str = "") -> None:
         """Write the parameters as table ``[rig]`` (atomically: temporary file, then replace)."""

@@ -30,7 +30,7 @@ import numpy as np
 from scipy.integrate import simpson
 from scipy.optimize import brentq
 
-from sloshrom.config import ConfigError, Tank, load_toml
+from sloshrom.config import ConfigError, Tank, load_toml_table
 
 #: default damping ratios of modes 1, 2, 3 (estimates; the paper's Table 1 values are not given)
 DEFAULT_DAMPING = (0.010, 0.005, 0.005)
@@ -402,12 +402,7 @@ class ModalModel:
     @classmethod
     def from_toml(cls, path: str | Path, section: str = "modal") -> ModalModel:
         """Read user modal data from TOML table ``[modal]`` (SI units, see :meth:`from_dict`)."""
-        data = load_toml(path)
-        if section:
-            if section not in data:
-                raise ModalDataError(f"{path}: no [{section}] table")
-            data = data[section]
-        return cls.from_dict(data)
+        return cls.from_dict(load_toml_table(path, section, ModalDataError))
 
     def to_dict(self) -> dict[str, Any]:
         d = {

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import NoReturn
+
 import typer
 
 app = typer.Typer(
@@ -23,3 +25,9 @@ def version() -> None:
     from sloshrom import __version__
 
     typer.echo(__version__)
+
+
+def fail(msg: str) -> NoReturn:
+    """Report a user error in one red line on stderr and exit with code 2 (no traceback)."""
+    typer.secho(f"error: {msg}", fg=typer.colors.RED, err=True)
+    raise typer.Exit(code=2)

@@ -13,7 +13,7 @@ from typing import Annotated, Any
 import numpy as np
 import typer
 
-from sloshrom.cli._app import app
+from sloshrom.cli._app import app, fail
 from sloshrom.config import ConfigError, G, Tank
 from sloshrom.fileio import atomic_write
 
@@ -24,11 +24,6 @@ beam_app = typer.Typer(
 app.add_typer(beam_app, name="beam")
 
 SENSOR_FS = 500.0  # Hz, output rate of the rig runs and the frozen reference
-
-
-def _fail(msg: str) -> None:
-    typer.secho(f"error: {msg}", fg=typer.colors.RED, err=True)
-    raise typer.Exit(code=2)
 
 
 def _model(name: str, tank: Tank, seed: int) -> tuple[str, Any]:
@@ -42,13 +37,13 @@ def _model(name: str, tank: Tank, seed: int) -> tuple[str, Any]:
         return "rig", VirtualRig(tank=tank, seed=seed)
     p = Path(name)
     if not p.is_file():
-        _fail(f"--sloshing must be 'frozen', 'rig' or a ROM model file; {p} does not exist")
+        fail(f"--sloshing must be 'frozen', 'rig' or a ROM model file; {p} does not exist")
     from sloshrom.rom import load_model
 
     try:
         return p.stem, load_model(p)
     except ValueError as exc:
-        _fail(str(exc))
+        fail(str(exc))
     raise AssertionError  # unreachable
 
 
@@ -309,9 +304,9 @@ def free(
         tank = Tank.from_toml(tank_toml) if tank_toml else Tank()
         modal = _modal(modal_toml, tank)
     except ConfigError as exc:
-        _fail(str(exc))
+        fail(str(exc))
     if not (0 < duration <= 600) or not (0 < abs(tip_displacement) < 0.2):
-        _fail("need 0 < duration <= 600 s and 0 < |tip displacement| < 0.2 m")
+        fail("need 0 < duration <= 600 s and 0 < |tip displacement| < 0.2 m")
     out.mkdir(parents=True, exist_ok=True)
     res = _run_cases(sloshing, tank, modal, seed, "free response",
                      lambda m, fs: free_response(m, modal, tip_displacement, duration, tank, fs))
@@ -354,18 +349,18 @@ def random(
     try:
         lv = [float(x) for x in levels.split(",") if x.strip()]
     except ValueError:
-        _fail(f"--levels must be comma-separated numbers in g, got {levels!r}")
+        fail(f"--levels must be comma-separated numbers in g, got {levels!r}")
     if not lv or any(not (0 < x <= 2) for x in lv):
-        _fail("--levels must be RMS values in (0, 2] g")
+        fail("--levels must be RMS values in (0, 2] g")
     if not (10 <= duration <= 3600):
-        _fail("--duration must be between 10 and 3600 s")
+        fail("--duration must be between 10 and 3600 s")
     if not (np.isfinite(f0) and np.isfinite(sigma) and f0 > 0 and sigma > 0):
-        _fail(f"--f0 and --sigma must be positive frequencies in Hz, got {f0!r}, {sigma!r}")
+        fail(f"--f0 and --sigma must be positive frequencies in Hz, got {f0!r}, {sigma!r}")
     try:
         tank = Tank.from_toml(tank_toml) if tank_toml else Tank()
         modal = _modal(modal_toml, tank)
     except ConfigError as exc:
-        _fail(str(exc))
+        fail(str(exc))
     out.mkdir(parents=True, exist_ok=True)
     res = _run_cases(sloshing, tank, modal, seed, "random response",
                      lambda m, fs: random_response(m, modal, lv, duration, seed, f0, sigma,

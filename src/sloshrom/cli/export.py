@@ -8,16 +8,11 @@ from typing import Annotated
 
 import typer
 
-from sloshrom.cli._app import app
+from sloshrom.cli._app import app, fail
 
 export_app = typer.Typer(help="Export a trained ROM for other simulators (ONNX).",
                          no_args_is_help=True)
 app.add_typer(export_app, name="export")
-
-
-def _fail(msg: str) -> None:
-    typer.secho(f"error: {msg}", fg=typer.colors.RED, err=True)
-    raise typer.Exit(code=2)
 
 
 @export_app.command("onnx")
@@ -46,20 +41,20 @@ def onnx_cmd(
     from sloshrom.onnx_export import export_onnx
 
     if form not in ("step", "sequence"):
-        _fail(f"--form must be 'step' or 'sequence', got {form!r}")
+        fail(f"--form must be 'step' or 'sequence', got {form!r}")
     if dtype not in ("float64", "float32"):
-        _fail(f"--dtype must be 'float64' or 'float32', got {dtype!r}")
+        fail(f"--dtype must be 'float64' or 'float32', got {dtype!r}")
     if out.suffix.lower() != ".onnx":
-        _fail(f"output must be a .onnx file, got {out} (MODEL comes first, then OUT)")
+        fail(f"output must be a .onnx file, got {out} (MODEL comes first, then OUT)")
     if not model.is_file():
-        _fail(f"model file not found: {model}")
+        fail(f"model file not found: {model}")
     from sloshrom.rom import load_model
 
     try:
         rom = load_model(model)
         path = export_onnx(rom, out, form=form, dtype=dtype)
     except (ValueError, OSError) as exc:  # ModelFileError is a ValueError
-        _fail(str(exc))
+        fail(str(exc))
     msg = (f"wrote {path}: {type(rom).__name__} {form} form, {dtype}, {rom.fs_:g} Hz, "
            f"{rom.max_delay} input delays")
     if check:
@@ -71,7 +66,7 @@ def onnx_cmd(
         limit = 1e-6 if dtype == "float64" else 1e-4
         if not rel <= limit:
             path.unlink(missing_ok=True)
-            _fail(f"exported graph differs from the ROM by {rel:.2e} (> {limit:g}); removed "
+            fail(f"exported graph differs from the ROM by {rel:.2e} (> {limit:g}); removed "
                   f"{path}")
     typer.echo(msg)
 
@@ -125,7 +120,7 @@ def _pairs(items: list[str], what: str) -> dict[str, str]:
     for item in items:
         key, sep, value = item.partition("=")
         if not sep or not key.strip() or not value.strip():
-            _fail(f"{what} must look like KEY=VALUE, got {item!r}")
+            fail(f"{what} must look like KEY=VALUE, got {item!r}")
         out[key.strip()] = value.strip()
     return out
 
@@ -162,7 +157,7 @@ def import_uff_cmd(
         names[int(key) if key.isdigit() else key] = value
     units = _pairs(unit, "--unit")
     if not uff.is_file():
-        _fail(f"{uff}: no such file")
+        fail(f"{uff}: no such file")
     try:
         rec = read_uff58(uff, names=names, units=units).to_si()
         if preprocess:
@@ -170,6 +165,6 @@ def import_uff_cmd(
             rec = _preprocess(rec, tank, f_highpass=f_highpass)
         write_record(rec, out)
     except (ValueError, OSError) as exc:  # RecordError, ConfigError; f_highpass out of range
-        _fail(str(exc))
+        fail(str(exc))
     typer.echo(f"wrote {out}: {', '.join(rec.names)}; {len(rec)} samples at {rec.fs:g} Hz "
                f"({rec.duration:.1f} s)")

@@ -8,16 +8,11 @@ from typing import Annotated
 
 import typer
 
-from sloshrom.cli._app import app
+from sloshrom.cli._app import app, fail
 
 config_app = typer.Typer(help="Show the configuration of `sloshrom reproduce`.",
                          no_args_is_help=True)
 app.add_typer(config_app, name="config")
-
-
-def _fail(msg: str) -> None:
-    typer.secho(f"error: {msg}", fg=typer.colors.RED, err=True)
-    raise typer.Exit(code=2)
 
 
 def _check_config(cfg: dict) -> None:
@@ -62,7 +57,7 @@ def _load_config(config: Path | None, quick: bool) -> dict:
         cfg = settings.load(config, quick=quick)
         _check_config(cfg)
     except ConfigError as exc:
-        _fail(str(exc))
+        fail(str(exc))
     return cfg
 
 
@@ -126,10 +121,10 @@ def reproduce(
             summary = pipeline.run(out, cfg, progress=report)
         except (ConfigError, RecordError, OSError) as exc:  # user input, not a bug: no traceback
             prog.stop()
-            _fail(str(exc))
+            fail(str(exc))
         except ValueError as exc:  # a config value a stage rejects (e.g. a too short duration)
             prog.stop()
-            _fail(f"{exc} (check the configuration: sloshrom config show --config FILE)")
+            fail(f"{exc} (check the configuration: sloshrom config show --config FILE)")
     for name, st in summary["stages"].items():
         console.print(f"{name:7s} {'reused' if st['reused'] else 'done'}"
                       f" ({summary['timings_s'].get(name, 0.0):.1f} s)")
@@ -161,9 +156,9 @@ def map_cmd(
     from sloshrom.energy import map_maximum
 
     if rig == (model is not None):
-        _fail("give exactly one of --rig or --model FILE")
+        fail("give exactly one of --rig or --model FILE")
     if n_omega < 2 or n_a < 2:
-        _fail("--n-omega and --n-a must be at least 2")
+        fail("--n-omega and --n-a must be at least 2")
     ref = None
     if reference is not None:  # read it first: a bad reference must not cost a whole map
         ref = _read_reference(reference)
@@ -179,11 +174,11 @@ def map_cmd(
         from sloshrom.rom import load_model
 
         if not model.is_file():
-            _fail(f"model file not found: {model}")
+            fail(f"model file not found: {model}")
         try:
             sm = load_model(model)
         except ValueError as exc:  # ModelFileError: wrong format/version, tampered arrays
-            _fail(str(exc))
+            fail(str(exc))
         title = f"ROM {model.name}"
     with Progress(transient=True) as prog:
         task = prog.add_task("harmonic tests", total=n_omega)
@@ -198,7 +193,7 @@ def map_cmd(
     if ref is not None:
         r = ref
         if r.shape != da.shape:
-            _fail(f"reference map has shape {r.shape}, this map {da.shape}: use the same grid")
+            fail(f"reference map has shape {r.shape}, this map {da.shape}: use the same grid")
         err = pipeline.relative_map_error(r, da.values)
         typer.echo(f"relative L2 error against {reference}: {err:.1%}")
 
@@ -209,12 +204,12 @@ def _read_reference(path: Path):
     import xarray as xr
 
     if not path.is_file():
-        _fail(f"reference map not found: {path}")
+        fail(f"reference map not found: {path}")
     try:
         with xr.open_dataset(path, engine="h5netcdf") as ds:
             r = np.asarray(ds["phi_d"].values)
     except KeyError:
-        _fail(f"{path}: not a map file (no 'phi_d' variable)")
+        fail(f"{path}: not a map file (no 'phi_d' variable)")
     except Exception as exc:  # h5py/xarray raise many types for corrupt files
-        _fail(f"{path}: not a readable NetCDF map ({type(exc).__name__}: {exc})")
+        fail(f"{path}: not a readable NetCDF map ({type(exc).__name__}: {exc})")
     return r

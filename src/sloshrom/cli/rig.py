@@ -19,7 +19,7 @@ from typing import Annotated, Any
 import numpy as np
 import typer
 
-from sloshrom.cli._app import app
+from sloshrom.cli._app import app, fail
 from sloshrom.config import ConfigError, G, Tank
 
 rig_app = typer.Typer(
@@ -27,11 +27,6 @@ rig_app = typer.Typer(
     no_args_is_help=True,
 )
 app.add_typer(rig_app, name="rig")
-
-
-def _fail(msg: str) -> None:
-    typer.secho(f"error: {msg}", fg=typer.colors.RED, err=True)
-    raise typer.Exit(code=2)
 
 
 def _tank(tank_toml: Path | None, fill: float | None) -> Tank:
@@ -44,7 +39,7 @@ def _make_rig(tank: Tank, seed: int) -> Any:
     try:
         rig_mod = importlib.import_module("sloshrom.rig")
     except ImportError as exc:
-        _fail(f"the virtual rig (sloshrom.rig) is not available: {exc}")
+        fail(f"the virtual rig (sloshrom.rig) is not available: {exc}")
     return rig_mod.VirtualRig(tank=tank, seed=seed)
 
 
@@ -125,7 +120,7 @@ def vfa_cmd(
     from sloshrom.signals import vfa
 
     if split not in ("train", "validation"):
-        _fail(f"--split must be 'train' or 'validation', got {split!r}")
+        fail(f"--split must be 'train' or 'validation', got {split!r}")
     try:
         tank = _tank(tank_toml, fill)
         rig = _make_rig(tank, seed)
@@ -145,7 +140,7 @@ def vfa_cmd(
         )
         _write(rec, out)
     except (ConfigError, ValueError, OSError) as exc:
-        _fail(str(exc))
+        fail(str(exc))
 
 
 @rig_app.command("harmonic")
@@ -172,7 +167,7 @@ def harmonic_cmd(
     from sloshrom.signals import harmonic
 
     if (amplitude is None) == (accel_g is None):
-        _fail("give exactly one of --amplitude (m) and --accel-g (g)")
+        fail("give exactly one of --amplitude (m) and --accel-g (g)")
     try:
         if frequency <= 0 or not np.isfinite(frequency):
             raise ValueError(f"--frequency must be positive, got {frequency!r}")
@@ -204,4 +199,4 @@ def harmonic_cmd(
         )
         _write(rec, out)
     except (ConfigError, ValueError, OSError) as exc:
-        _fail(str(exc))
+        fail(str(exc))

@@ -12,14 +12,9 @@ from typing import Annotated, Any
 import numpy as np
 import typer
 
-from sloshrom.cli._app import app
+from sloshrom.cli._app import app, fail
 
 __all__ = ["predict", "sweep", "train"]
-
-
-def _fail(msg: str) -> None:
-    typer.secho(f"error: {msg}", fg=typer.colors.RED, err=True)
-    raise typer.Exit(code=2)
 
 
 def _read(path: Path, names: list[str]):
@@ -28,19 +23,19 @@ def _read(path: Path, names: list[str]):
     try:
         rec = read_record(path)
     except ValueError as exc:
-        _fail(str(exc))
+        fail(str(exc))
     missing = [n for n in names if n not in rec]
     if missing:
-        _fail(f"{path}: no variable {', '.join(missing)} (has: {', '.join(rec.names)})")
+        fail(f"{path}: no variable {', '.join(missing)} (has: {', '.join(rec.names)})")
     for n in names:
         if np.ndim(rec[n]) != 1:
-            _fail(f"{path}: variable {n} is not 1-D")
+            fail(f"{path}: variable {n} is not 1-D")
     return rec
 
 
 def _same_rate(a: float, b: float, what: str) -> None:
     if not np.isclose(a, b, rtol=1e-6):
-        _fail(f"sample-rate mismatch: {what} ({a:g} Hz vs {b:g} Hz); resample first")
+        fail(f"sample-rate mismatch: {what} ({a:g} Hz vs {b:g} Hz); resample first")
 
 
 def _parse_ints(text: str | None, name: str) -> list[int] | None:
@@ -49,9 +44,9 @@ def _parse_ints(text: str | None, name: str) -> list[int] | None:
     try:
         vals = [int(v) for v in text.replace(" ", "").split(",") if v]
     except ValueError:
-        _fail(f"{name} must be a comma-separated list of integers, got {text!r}")
+        fail(f"{name} must be a comma-separated list of integers, got {text!r}")
     if not vals or min(vals) < 1:
-        _fail(f"{name} must list positive integers, got {text!r}")
+        fail(f"{name} must list positive integers, got {text!r}")
     return vals
 
 
@@ -89,7 +84,7 @@ def train(
     from sloshrom.rom import NFIR, NOE, UnstableModelError
 
     if arch not in ("nfir", "noe"):
-        _fail(f"--arch must be nfir or noe, got {arch!r}")
+        fail(f"--arch must be nfir or noe, got {arch!r}")
     rec = _read(data, [input_name, output_name])
     val = _read(validation, [input_name, output_name])
     _same_rate(rec.fs, val.fs, f"{data} vs {validation}")
@@ -106,7 +101,7 @@ def train(
     try:
         model = cls(**kw)
     except ValueError as exc:
-        _fail(str(exc))
+        fail(str(exc))
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[info]}"),
                   TimeElapsedColumn()) as progress:
         task = progress.add_task(f"training {arch.upper()}", total=max_epochs, info="")
@@ -120,7 +115,7 @@ def train(
             model.fit(rec[input_name], rec[output_name], fs=rec.fs,
                       validation=(val[input_name], val[output_name]), callback=cb)
         except (ValueError, RecordError, UnstableModelError) as exc:
-            _fail(str(exc))
+            fail(str(exc))
     path = model.save(out)
     h = model.history_
     typer.echo(
@@ -149,7 +144,7 @@ def predict(
     try:
         m = load_model(model)
     except ModelFileError as exc:
-        _fail(str(exc))
+        fail(str(exc))
     in_name, out_name = m.names
     rec = _read(data, [in_name])
     _same_rate(rec.fs, m.fs_, f"data {data} vs model {model}")
@@ -158,7 +153,7 @@ def predict(
         try:
             y = m.predict(rec[in_name])
         except UnstableModelError as exc:
-            _fail(str(exc))
+            fail(str(exc))
     for w in caught:
         typer.secho(f"warning: {w.message}", fg=typer.colors.YELLOW, err=True)
     new = rec.with_variables({f"{out_name}_pred": y}, {f"{out_name}_pred": m.units[1]},
@@ -212,7 +207,7 @@ def sweep(
     try:
         pts = default_grid(arch)
     except ValueError as exc:
-        _fail(str(exc))
+        fail(str(exc))
     dl, nl = _parse_ints(delays, "--delays"), _parse_ints(neurons, "--neurons")
     if dl or nl:
         archs = sorted({p[0] for p in pts})
