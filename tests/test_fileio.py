@@ -86,3 +86,59 @@ def test_written_file_has_umask_permissions(tmp_path):
     finally:
         os.umask(old)
     assert (p.stat().st_mode & 0o777) == 0o644
+
+
+def test_long_legal_name_gets_a_legal_temporary(tmp_path):
+    from sloshrom.fileio import OutputBatch
+
+    name = "r" * 247 + ".nc"  # 250 bytes: legal; ".{name}.XXXXXXXX.nc" would not be
+    target = atomic_write(tmp_path / name, _write_text("x"))
+    assert target.read_text() == "x"
+    with OutputBatch() as batch:
+        batch.write_text(tmp_path / ("s" * 250), "y")
+    assert (tmp_path / ("s" * 250)).read_text() == "y"
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([name, "s" * 250])
+
+
+def test_output_batch_all_or_nothing(tmp_path):
+    from sloshrom.fileio import OutputBatch
+
+    (tmp_path / "a.txt").write_text("old a")
+    with pytest.raises(RuntimeError, match="late failure"):
+        with OutputBatch() as batch:
+            batch.write_text(tmp_path / "a.txt", "new a")
+            batch.write_text(tmp_path / "sub" / "b.txt", "new b")
+            raise RuntimeError("late failure")
+    assert (tmp_path / "a.txt").read_text() == "old a"
+    assert not (tmp_path / "sub" / "b.txt").exists()
+    assert [p.name for p in tmp_path.rglob("*") if p.is_file()] == ["a.txt"]
+    with OutputBatch() as batch:
+        batch.write_text(tmp_path / "a.txt", "new a")
+        batch.write_text(tmp_path / "sub" / "b.txt", "new b")
+        assert not (tmp_path / "sub" / "b.txt").exists()  # nothing appears before the commit
+    assert (tmp_path / "a.txt").read_text() == "new a"
+    assert (tmp_path / "sub" / "b.txt").read_text() == "new b"
+
+
+def test_check_output_rejects_before_any_work(tmp_path):
+    from sloshrom.fileio import OutputPathError, check_output
+
+    (tmp_path / "in.nc").write_text("data")
+    (tmp_path / "afile").write_text("x")
+    (tmp_path / "adir").mkdir()
+    assert check_output(tmp_path / "new" / "deeper" / "o.nc", suffixes=(".nc",)) == (
+        tmp_path / "new" / "deeper" / "o.nc")
+    cases = [
+        (dict(path=tmp_path / "o.xlsx", suffixes=(".nc", ".csv")), r"unknown format '\.xlsx'"),
+        (dict(path=tmp_path / "in.nc", inputs=(tmp_path / "in.nc",)), r"also an input"),
+        (dict(path=tmp_path / "." / "in.nc", inputs=(tmp_path / "in.nc",)), r"also an input"),
+        (dict(path=tmp_path / "adir"), r"is a directory"),
+        (dict(path=tmp_path / "afile", directory=True), r"not a directory"),
+        (dict(path=tmp_path / "afile" / "o.nc"), r"afile is not a directory"),
+        (dict(path=tmp_path / ("x" * 256 + ".nc")), r"longer than 255 bytes"),
+    ]
+    for kw, match in cases:
+        path = kw.pop("path")
+        with pytest.raises(OutputPathError, match=match):
+            check_output(path, what="--out", **kw)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["adir", "afile", "in.nc"]

@@ -1,7 +1,9 @@
-"""Atomic file writes: write a temporary file in the target's directory, then ``os.replace``.
+"""Atomic file writes and output-path checks.
 
-A reader never sees a half-written file and an interrupted or failed write leaves the previous
-file (if any) untouched and no temporary behind.
+A reader never sees a half-written file (a temporary file in the target's directory, then
+``os.replace``), an interrupted or failed write leaves the previous file (if any) untouched and no
+temporary behind, and :class:`OutputBatch` makes several files appear together or not at all.
+:func:`check_output` tells, before any work starts, whether a path can be written at all.
 """
 
 from __future__ import annotations
@@ -11,7 +13,19 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["atomic_write", "atomic_write_text"]
+__all__ = [
+    "OutputBatch", "OutputPathError", "atomic_write", "atomic_write_text", "check_output",
+    "same_file",
+]
+
+# Bytes of a temporary name beyond the (possibly shortened) target name: "." + name + "." +
+# mkstemp's 8 random characters + the suffix.
+_TMP_EXTRA = 2 + 8
+_NAME_MAX = 255
+
+
+class OutputPathError(ValueError):
+    """An output path cannot be written (the message names the path and the reason)."""
 
 
 def _umask() -> int:
@@ -48,19 +62,176 @@ def atomic_write(
         ``path`` as a :class:`~pathlib.Path`.
     """
     p = Path(path)
+    tmp = _write_temporary(p, write, suffix)
+    try:
+        os.replace(tmp, p)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return p
+
+
+def _temporary_prefix(name: str, suffix: str) -> str:
+    # a legal 250-byte name must not become an illegal temporary name: shorten the copy of it
+    room = _NAME_MAX - _TMP_EXTRA - len(os.fsencode(suffix))
+    raw = os.fsencode(name)[: max(room, 0)]
+    return "." + raw.decode(errors="ignore") + "."
+
+
+def _write_temporary(p: Path, write: Callable[[str], None], suffix: str | None) -> str:
+    """Write the complete content to a new temporary file beside ``p``; return its name."""
     p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(
-        dir=p.parent, prefix=f".{p.name}.", suffix=p.suffix if suffix is None else suffix
-    )
+    sfx = p.suffix if suffix is None else suffix
+    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=_temporary_prefix(p.name, sfx), suffix=sfx)
     os.close(fd)
     try:
         write(tmp)
         # mkstemp makes the file 0600; a result file gets the permissions of an ordinary one
         os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, p)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+    return tmp
+
+
+class OutputBatch:
+    """Several files that appear together or not at all.
+
+    Each :meth:`write` writes its file completely to a temporary beside the target; leaving the
+    ``with`` block without an exception moves every temporary onto its target, an exception
+    removes them all and leaves every target as it was. A command that writes a result
+    directory uses one batch, so that a failure half-way leaves no partial set of results.
+
+    Examples
+    --------
+    >>> with OutputBatch() as batch:                                    # doctest: +SKIP
+    ...     batch.write("out/a.nc", lambda tmp: ds.to_netcdf(tmp))
+    ...     batch.write_text("out/a.md", "| table |")
+    """
+
+    def __init__(self) -> None:
+        self._pending: list[tuple[str, Path]] = []
+
+    def write(
+        self, path: str | Path, write: Callable[[str], None], suffix: str | None = None
+    ) -> Path:
+        """Write ``path``'s content now (to a temporary); it appears when the batch commits."""
+        p = Path(path)
+        self._pending.append((_write_temporary(p, write, suffix), p))
+        return p
+
+    def write_text(self, path: str | Path, text: str) -> Path:
+        def write(tmp: str) -> None:
+            with open(tmp, "w", encoding="utf-8") as fh:
+                fh.write(text)
+
+        return self.write(path, write, suffix=".tmp")
+
+    @property
+    def paths(self) -> list[Path]:
+        """The targets written so far."""
+        return [p for _, p in self._pending]
+
+    def discard(self) -> None:
+        for tmp, _ in self._pending:
+            Path(tmp).unlink(missing_ok=True)
+        self._pending.clear()
+
+    def commit(self) -> None:
+        try:
+            while self._pending:
+                tmp, p = self._pending[0]
+                os.replace(tmp, p)
+                self._pending.pop(0)
+        finally:
+            self.discard()
+
+    def __enter__(self) -> OutputBatch:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.commit()
+        else:
+            self.discard()
+
+
+def same_file(a: str | Path, b: str | Path) -> bool:
+    """True if ``a`` and ``b`` name the same file (existing: same inode; else same real path)."""
+    pa, pb = Path(a), Path(b)
+    try:
+        if pa.exists() and pb.exists():
+            return os.path.samefile(pa, pb)
+    except OSError:
+        pass
+    return os.path.realpath(pa) == os.path.realpath(pb)
+
+
+def check_output(
+    path: str | Path,
+    *,
+    suffixes: tuple[str, ...] | None = None,
+    inputs: tuple[str | Path, ...] = (),
+    directory: bool = False,
+    what: str = "output",
+) -> Path:
+    """Check that ``path`` can be written, before any work is done.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file (or directory, if ``directory``) to write.
+    suffixes : tuple of str, optional
+        Accepted suffixes (lower case, with the dot), e.g. ``(".nc", ".csv")``.
+    inputs : tuple of paths
+        Files the command reads: the output must not be one of them.
+    directory : bool
+        ``path`` is a results directory (created if missing) rather than a file.
+    what : str
+        How to name the path in messages (e.g. ``"--out"``).
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    OutputPathError
+        Unknown suffix, a name too long for the file system, a directory where a file is
+        expected (or the reverse), a parent that is a file or not writable, or an input file.
+    """
+    p = Path(path)
+    if not str(path).strip():
+        raise OutputPathError(f"{what}: empty path")
+    if suffixes is not None and not directory and p.suffix.lower() not in suffixes:
+        raise OutputPathError(
+            f"{what} {p}: unknown format {p.suffix or '(no suffix)'!r} "
+            f"(use {', '.join(suffixes)})"
+        )
+    for part in p.parts:
+        if len(os.fsencode(part)) > _NAME_MAX:
+            raise OutputPathError(f"{what} {p}: a path component is longer than {_NAME_MAX} bytes")
+    for src in inputs:
+        if src is not None and same_file(p, src):
+            raise OutputPathError(
+                f"{what} {p} is also an input of this command: refusing to overwrite it "
+                "(choose another output name)"
+            )
+    if directory:
+        if p.exists() and not p.is_dir():
+            raise OutputPathError(f"{what} {p}: exists and is not a directory")
+    elif p.is_dir():
+        raise OutputPathError(f"{what} {p}: is a directory, expected a file name")
+    # the nearest existing ancestor must be a directory we can create entries in
+    anc = p if directory and p.exists() else p.parent
+    while not anc.exists() and anc != anc.parent:
+        if anc.is_symlink():  # dangling link
+            raise OutputPathError(f"{what} {p}: {anc} is a broken symbolic link")
+        anc = anc.parent
+    if not anc.is_dir():
+        raise OutputPathError(f"{what} {p}: {anc} is not a directory")
+    if not os.access(anc, os.W_OK | os.X_OK):
+        raise OutputPathError(f"{what} {p}: directory {anc} is not writable")
     return p
 
 
