@@ -1,22 +1,30 @@
-# Every target creates .venv from the project's files when it is missing.
-PYTHON ?= python3
-VENV   := .venv
-BIN    := $(VENV)/bin
-STAMP  := $(VENV)/.installed
+# Every target creates .venv from the project's files when it is missing or out of date:
+# requirements.lock pins every package (hashes included), so a fresh machine installs exactly
+# what the tests passed with. `make lock` refreshes the lock from the ranges in pyproject.toml;
+# `make test-latest` runs the tests against the newest releases those ranges allow.
+PYTHON     ?= python3
+VENV       := .venv
+BIN        := $(VENV)/bin
+STAMP      := $(VENV)/.installed
+LOCK       := requirements.lock
+UV_VERSION := 0.13.9
+TOOLS      := .venv-tools
+LATEST     := .venv-latest
 
-.PHONY: reproduce test test-slow test-all lint bench clean
+.PHONY: reproduce test test-slow test-all test-latest lint bench lock clean
 
-$(STAMP): pyproject.toml
+$(STAMP): $(LOCK) pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	$(BIN)/python -m pip install --quiet --require-hashes --no-deps -r $(LOCK)
+	$(BIN)/python -m pip install --quiet --no-deps --no-build-isolation -e .
+	$(BIN)/python -m pip check
 	touch $(STAMP)
 
 reproduce: $(STAMP)
 	$(BIN)/sloshrom reproduce --out results
 
 test: $(STAMP)
-	$(BIN)/ruff check src tests benchmarks
+	$(BIN)/ruff check src tests benchmarks tools
 	$(BIN)/python -m pytest -m "not slow" -q
 
 test-slow: $(STAMP)
@@ -24,8 +32,30 @@ test-slow: $(STAMP)
 
 test-all: test test-slow
 
+lint: $(STAMP)
+	$(BIN)/ruff check src tests benchmarks tools
+
 bench: $(STAMP)
 	for f in benchmarks/*.py; do $(BIN)/python $$f || exit 1; done
 
+# Refresh the lock (pinned uv in its own venv; one version set for CPython 3.11+ on every OS).
+lock:
+	test -x $(TOOLS)/bin/uv || ($(PYTHON) -m venv $(TOOLS) && \
+		$(TOOLS)/bin/python -m pip install --quiet uv==$(UV_VERSION))
+	$(TOOLS)/bin/uv pip compile pyproject.toml tools/build-requirements.in --extra dev \
+		--generate-hashes --universal --fork-strategy fewest --python-version 3.11 \
+		--quiet -o $(LOCK)
+	@echo "wrote $(LOCK); run 'make test' to install and test it"
+
+# Scheduled-style check: a fresh venv with the newest releases the ranges allow; prints every
+# package that differs from the lock (the names to look at when this fails), then the tests.
+test-latest:
+	rm -rf $(LATEST)
+	$(PYTHON) -m venv $(LATEST)
+	$(LATEST)/bin/python -m pip install --quiet --upgrade pip
+	$(LATEST)/bin/python -m pip install --quiet --upgrade --upgrade-strategy eager -e '.[dev]'
+	$(LATEST)/bin/python tools/lock_diff.py $(LOCK)
+	$(LATEST)/bin/python -m pytest -m "not slow" -q
+
 clean:
-	rm -rf $(VENV) results .pytest_cache
+	rm -rf $(VENV) $(TOOLS) $(LATEST) results .pytest_cache
