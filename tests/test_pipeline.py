@@ -12,8 +12,8 @@ from sloshrom.cli import app
 FIGURES = [
     "fig03_hysteresis", "fig05_vfa_paths", "fig06_train_io", "fig07_validation_io",
     "fig10_validation", "fig14_station_accelerations", "fig16_modal_accelerations",
-    "fig18_tank_acceleration", "fig20_tank_interface_dynamic", "fig21_instantaneous_damping",
-    "fig22_tank_acceleration_window", "fig23_psd",
+    "fig17_base_excitation", "fig18_tank_acceleration", "fig20_tank_interface_dynamic",
+    "fig21_instantaneous_damping", "fig22_tank_acceleration_window", "fig23_psd",
 ]
 
 
@@ -57,9 +57,30 @@ def test_reproduce_quick_interrupted_then_resumed(tmp_path):
     m = st["maps"]
     assert 1.0 < m["rig_maximum"]["gamma"] <= 6.0 + 1e-9  # dissipation only above 1 g
     assert 0 < m["rig_maximum"]["phi_d"] < 10
-    assert 0 < m["rom_relative_l2_error"] < 1.0
+    # the summary's map error, recomputed here from the written maps (dissipative region:
+    # rig Phi_d > 10 % of its maximum); the quick ROM (NFIR(40, 15), 120 s of data) measured
+    # 14.7 %: 35 % still fails a broken chain (a zero ROM gives 100 %, a sign error > 100 %)
+    import xarray as xr
+
+    with xr.open_dataset(out / "maps" / "phi_d_rig.nc", engine="h5netcdf") as ds:
+        rig_map = ds["phi_d"].values
+    with xr.open_dataset(out / "maps" / "phi_d_rom.nc", engine="h5netcdf") as ds:
+        rom_map = ds["phi_d"].values
+    sel = rig_map > 0.1 * rig_map.max()
+    err = np.linalg.norm(rom_map[sel] - rig_map[sel]) / np.linalg.norm(rig_map[sel])
+    assert m["rom_relative_l2_error"] == pytest.approx(err, rel=1e-12)
+    assert m["rom_relative_l2_error"] < 0.35
     b = st["beam"]
-    assert 5 < b["f1_frozen_hz"] < 20
+    # the first mode of the truncated coupled model is a Rayleigh-Ritz upper bound of the
+    # frozen beam's exact frequency (frequency equation, liquid added to the tip mass)
+    from sloshrom.config import Tank
+    from sloshrom.structure import CantileverBeam
+
+    tank = Tank()
+    dry = CantileverBeam.with_tank(tank)
+    f1 = CantileverBeam(tip_mass=dry.tip_mass + tank.liquid_mass,
+                        tip_inertia=dry.tip_inertia).frequencies(1)[0]
+    assert f1 <= b["f1_frozen_hz"] <= f1 * (1 + 2e-3)
     frozen = [r for r in b["table2"] if r["case"] == "frozen"]
     # the frozen beam has the dry damping ratio given to mode 1
     for r in frozen:

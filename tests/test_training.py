@@ -224,8 +224,24 @@ def test_adam_trainer_early_stopping_and_best_network():
     assert h["trainer"] == "adam"
     assert h["val_mse"][h["best_epoch"]] < 0.5 * h["val_mse"][0]
     assert h["val_mse"][h["best_epoch"]] == min(h["val_mse"])
-    if h["stop_reason"] == "validation_stop":  # 6 epochs without a new best
-        assert len(h["val_mse"]) - 1 == h["best_epoch"] + 6
     np.testing.assert_allclose(np.mean((m.predict(uv) - yv) ** 2), min(h["val_mse"]), rtol=1e-9)
     with pytest.raises(ValueError, match="NFIR only"):
         rom.NOE(trainer="adam").fit(u, y, fs=100.0)
+
+
+@pytest.mark.filterwarnings("ignore::sloshrom.rom.EnvelopeWarning")
+def test_adam_validation_stop_returns_the_best_network():
+    # validation targets of the opposite sign: the better the fit to the training record, the
+    # worse the validation error, so the stop after 6 epochs without a new best must happen
+    u, uv = _signal(3000, 7), _signal(1500, 8)
+    y, yv = _system(u), -_system(uv)
+    m = rom.NFIR(delays=15, neurons=6, max_epochs=200, trainer="adam").fit(
+        u, y, fs=100.0, validation=(uv, yv)
+    )
+    h = m.history_
+    assert h["stop_reason"] == "validation_stop"
+    assert len(h["val_mse"]) - 1 == h["best_epoch"] + 6
+    assert h["val_mse"][h["best_epoch"]] == min(h["val_mse"])
+    # the returned network is the best-validation one, not the last one
+    np.testing.assert_allclose(np.mean((m.predict(uv) - yv) ** 2), min(h["val_mse"]), rtol=1e-9)
+    assert min(h["val_mse"]) < h["val_mse"][-1]

@@ -4,7 +4,8 @@ Stages (each cached in ``OUT/.stages``; a rerun reuses a finished stage whose co
 upstream stages did not change):
 
 ``data``    VFA training/validation records from the virtual rig (paper Figs. 5–7)
-``rom``     NFIR/NOE identification (Fig. 8 sweep on request, Fig. 10 validation)
+``sweep``   sensitivity analysis over delays x neurons (Fig. 8), on request (``[rom] sweep``)
+``rom``     NFIR/NOE identification (Fig. 10 validation)
 ``maps``    Phi_d maps of rig and ROM and their difference (Figs. 4, 11)
 ``beam``    sloshing-beam free and random tests with rig, ROM and frozen liquid (Figs. 14–23)
 ``report``  ``OUT/report.html`` and ``OUT/summary.json``
@@ -55,6 +56,13 @@ class Context:
     def tank(self) -> Tank:
         return Tank.from_dict(self.cfg["tank"])
 
+    def rig(self) -> Any:
+        """The virtual rig of the configuration; its sensors record at ``[rig] fs``."""
+        from sloshrom.rig import SensorParams, VirtualRig
+
+        return VirtualRig(tank=self.tank, seed=self.cfg["rig"]["seed"],
+                          sensors=SensorParams(output_rate=self.cfg["rig"]["fs"]))
+
     def path(self, *parts: str) -> Path:
         p = self.out.joinpath(*parts)
         p.parent.mkdir(parents=True, exist_ok=True)
@@ -95,11 +103,10 @@ def _plt():
 def stage_data(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     from sloshrom import signals
     from sloshrom.data import record_from_measurement, write_record
-    from sloshrom.rig import VirtualRig
 
     plt = _plt()
     cfg, tank = ctx.cfg, ctx.tank
-    rig = VirtualRig(tank=tank, seed=cfg["rig"]["seed"])
+    rig = ctx.rig()
     files, outputs, paths, records = [], {}, [], {}
     splits = [
         ("train", cfg["data"]["train_duration"], cfg["data"]["train_seed"]),
@@ -225,7 +232,6 @@ def hysteresis_figure(rig: Any, rom: Any, tank: Tank, path: Path,
 
 def stage_maps(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], list[str]]:
     from sloshrom.energy import map_maximum
-    from sloshrom.rig import VirtualRig
 
     tank = ctx.tank
     files: list[str] = []
@@ -234,7 +240,7 @@ def stage_maps(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     def prog(label):
         return lambda done, total: ctx.progress("maps", done, total, label)
 
-    rig = VirtualRig(tank=tank, seed=ctx.cfg["rig"]["seed"])
+    rig = ctx.rig()
     rom = None
     if rom_path is not None:
         from sloshrom.rom import load_model
@@ -281,11 +287,18 @@ def run(out: str | Path, cfg: dict[str, Any], progress: Progress = _quiet) -> di
         )
     rom_path = None
     if available("sloshrom.pipeline_rom"):
-        from sloshrom.pipeline_rom import stage_rom  # noqa: PLC0415
+        from sloshrom.pipeline_rom import SWEEP_KEYS, stage_rom, stage_sweep  # noqa: PLC0415
 
+        if cfg["rom"]["sweep"]:
+            with _timer(ctx, "sweep"):
+                results["sweep"] = cache.run(
+                    "sweep", {k: cfg["rom"][k] for k in SWEEP_KEYS}, [results["data"]],
+                    lambda: stage_sweep(ctx), __version__,
+                )
+        rom_keys = {k: v for k, v in cfg["rom"].items() if not k.startswith("sweep")}
         with _timer(ctx, "rom"):
             results["rom"] = cache.run(
-                "rom", cfg["rom"], [results["data"]], lambda: stage_rom(ctx), __version__
+                "rom", rom_keys, [results["data"]], lambda: stage_rom(ctx), __version__
             )
         rom_path = ctx.out / results["rom"].outputs["model"]
     else:

@@ -13,7 +13,7 @@ from sloshrom.config import G
 from sloshrom.pipeline import Context
 from sloshrom.report import Figure, Section, Table
 
-SENSOR_FS = 500.0  # Hz, output rate of fine-step (rig) runs
+BEAM_KEYS = ("length", "width", "thickness", "youngs_modulus", "density")
 
 # tank-acceleration bands (g) in which the instantaneous first-mode damping is averaged
 BANDS = ((0.5, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 5.0))
@@ -28,6 +28,64 @@ def damping_by_band(zeta: np.ndarray, amplitude_g: np.ndarray) -> dict[str, floa
     return out
 
 
+def beam_structure(cfg: dict[str, Any], tank: Any) -> tuple[Any, Any]:
+    """The dry beam of the ``[beam]`` configuration and its modal model.
+
+    Virtual accelerometers at 1/5, 2/5, ..., 5/5 of the length (the last at the tank).
+    """
+    from sloshrom.structure import CantileverBeam, ModalModel
+
+    beam = CantileverBeam.with_tank(tank, **{k: cfg[k] for k in BEAM_KEYS})
+    stations = tuple(beam.length * k / 5 for k in range(1, 6))
+    modal = ModalModel.from_beam(beam, tank, n_modes=cfg["n_modes"], damping=cfg["damping"],
+                                 stations=stations)
+    return beam, modal
+
+
+def base_excitation_figure(res: dict[str, Any], cfg: dict[str, Any], fs: float) -> Any:
+    """Paper Fig. 17: the imposed base accelerations, time histories and Welch PSDs.
+
+    The dashed curves are the target spectrum of Eq. (8) scaled to each RMS level; the inset
+    zooms on the lowest level, as in the paper.
+    """
+    from sloshrom.analysis import welch_psd
+    from sloshrom.pipeline import _plt
+    from sloshrom.signals import gaussian_psd
+
+    plt = _plt()
+    a = np.asarray(res["base_acceleration"])
+    t = np.asarray(res["time"])
+    levels = list(cfg["rms_g"])
+    fig, (ax_t, ax_f) = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True)
+    t0 = min(40.0, 0.5 * t[-1])
+    sel = (t >= t0) & (t <= t0 + 2.0)
+    for i, lv in enumerate(levels):
+        ax_t.plot(t[sel], a[i][sel] / G, lw=0.7, label=f"{lv:g} g RMS")
+    ax_t.set_xlabel("time [s]")
+    ax_t.set_ylabel("base acceleration [g]")
+    ax_t.set_title("(a) imposed base acceleration (2 s window)")
+    ax_t.legend(fontsize=8)
+    f, p = welch_psd(a / G, fs, nperseg=min(4096, a.shape[-1]))
+    fmax = cfg["f0"] + 5 * cfg["sigma"]
+    lines = []
+    for i, lv in enumerate(levels):
+        (ln,) = ax_f.plot(f, p[i], lw=0.8, label=f"{lv:g} g RMS")
+        lines.append(ln)
+        ax_f.plot(f, gaussian_psd(f, cfg["f0"], cfg["sigma"], lv**2), "k--", lw=0.8)
+    ax_f.set_xlim(0, fmax)
+    ax_f.set_xlabel("frequency [Hz]")
+    ax_f.set_ylabel("PSD [g²/Hz]")
+    ax_f.set_title("(b) Welch PSD (Hann, 4096 samples); dashed: Eq. (8)")
+    ax_f.legend(fontsize=8, loc="upper left")
+    ins = ax_f.inset_axes([0.64, 0.45, 0.34, 0.4])
+    ins.plot(f, p[0], lw=0.8, color=lines[0].get_color())
+    ins.plot(f, gaussian_psd(f, cfg["f0"], cfg["sigma"], levels[0] ** 2), "k--", lw=0.8)
+    ins.set_xlim(0, fmax)
+    ins.set_title(f"{levels[0]:g} g RMS", fontsize=7)
+    ins.tick_params(labelsize=6)
+    return fig
+
+
 def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], list[str]]:
     from sloshrom.analysis import instantaneous_damping, modal_filter, mode1_damping_random
     from sloshrom.cli.beam import (
@@ -40,18 +98,15 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     )
     from sloshrom.coupled import free_response, random_response
     from sloshrom.models import FrozenLiquid
-    from sloshrom.rig import VirtualRig
-    from sloshrom.structure import ModalModel, coupled_frozen_modes, frozen_modal_table
+    from sloshrom.structure import coupled_frozen_modes, frozen_modal_table
 
     cfg = ctx.cfg["beam"]
+    fs = float(ctx.cfg["rig"]["fs"])  # the beam's sensors record at the rig's record rate
     tank = ctx.tank
     out = ctx.out / "beam"
     out.mkdir(parents=True, exist_ok=True)
-    modal = ModalModel.from_beam(tank=tank, n_modes=cfg["n_modes"], damping=cfg["damping"])
-    models: dict[str, Any] = {
-        "frozen": FrozenLiquid(1.0 / SENSOR_FS),
-        "rig": VirtualRig(tank=tank, seed=ctx.cfg["rig"]["seed"]),
-    }
+    beam, modal = beam_structure(cfg, tank)
+    models: dict[str, Any] = {"frozen": FrozenLiquid(1.0 / fs), "rig": ctx.rig()}
     if rom_path is not None:
         from sloshrom.rom import load_model
 
@@ -61,7 +116,7 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     f1 = float(coupled_frozen_modes(modal, tank.liquid_mass)[0][0])
     outputs["f1_frozen_hz"] = f1
 
-    rows = frozen_modal_table(tank, n_modes=cfg["n_modes"], damping=cfg["damping"])
+    rows = frozen_modal_table(tank, beam=beam, n_modes=cfg["n_modes"], damping=cfg["damping"])
     _write_table(rows, out / "table1_frozen_modes")
     files += ["beam/table1_frozen_modes.csv", "beam/table1_frozen_modes.md"]
     outputs["table1"] = rows
@@ -71,16 +126,16 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     free_res, rand_res = {}, {}
     for case, model in models.items():
         ctx.progress("beam", k, steps, f"free response: {case}")
-        out_fs = SENSOR_FS if 1.0 / model.dt > SENSOR_FS else None
+        out_fs = fs if 1.0 / model.dt > fs else None
         free_res[case] = free_response(model, modal, cfg["tip_displacement"],
                                        cfg["free_duration"], tank, out_fs)
         k += 1
     for case, model in models.items():
         ctx.progress("beam", k, steps, f"random response: {case}")
-        out_fs = SENSOR_FS if 1.0 / model.dt > SENSOR_FS else None
+        out_fs = fs if 1.0 / model.dt > fs else None
         rand_res[case] = random_response(model, modal, cfg["rms_g"], cfg["random_duration"],
-                                         cfg["seed"], cfg["f0"], cfg["sigma"], tank=tank,
-                                         output_fs=out_fs)
+                                         cfg["seed"], cfg["f0"], cfg["sigma"], signal_fs=fs,
+                                         tank=tank, output_fs=out_fs)
         k += 1
     ctx.progress("beam", steps, steps, "analysis and figures")
     for case in models:
@@ -114,6 +169,7 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     figs = {**free_figures(free_res, modal, tank), **random_figures(rand_res, cfg["rms_g"],
             window=(min(40.0, cfg["random_duration"] / 2), min(42.0, cfg["random_duration"] / 2
                                                                 + 2)))}
+    figs["fig17_base_excitation"] = base_excitation_figure(rand_res["frozen"], cfg, fs)
     for name, fig in figs.items():
         p = ctx.path("figures", f"{name}.png")
         _savefig(fig, p)
@@ -180,8 +236,11 @@ def report_sections(ctx: Context, b: dict[str, Any]) -> list[Section]:
             + html.escape(", ".join(f"{g:g}" for g in ctx.cfg["beam"]["rms_g"]))
             + f" g RMS, {ctx.cfg['beam']['random_duration']:.0f} s, the same phases for every "
             "level and every case.</p>",
-            fig("fig18_tank_acceleration", "Fig. 18 — tank acceleration at the three levels "
-                "(sloshing).")
+            fig("fig17_base_excitation", "Fig. 17 — the base accelerations imposed at the "
+                "beam root (the same signal for every case): a 2 s window and their Welch PSDs "
+                "against the Gaussian spectrum of Eq. (8) (dashed).")
+            + fig("fig18_tank_acceleration", "Fig. 18 — tank acceleration at the three levels "
+                  "(sloshing).")
             + fig("fig22_tank_acceleration_window", "Fig. 22 — tank acceleration in a 2 s "
                   "window: rig, ROM and frozen.")
             + fig("fig23_psd", "Fig. 23 — Welch PSDs of the tank acceleration: sloshing lowers "

@@ -6,7 +6,7 @@ import html
 from pathlib import Path
 from typing import Any
 
-from sloshrom import report
+from sloshrom import report, settings
 from sloshrom.config import Tank
 from sloshrom.report import Figure, Section, Table
 
@@ -31,23 +31,42 @@ def _num(d: dict[str, Any], *keys: str, fmt: str = "{:.3g}", default: str = "n/a
 
 
 def _setup_section(cfg: dict[str, Any]) -> Section:
+    defaults = settings.defaults()
+
+    def source(table: str, *keys: str, paper: str = "paper", other: str = "estimate") -> str:
+        # a value the user changed is theirs, whatever the default's source
+        if any(cfg[table][k] != defaults[table][k] for k in keys):
+            return "configuration"
+        return paper if paper else other
+
     tank = Tank.from_dict(cfg["tank"])
+    b = cfg["beam"]
     rows = [
-        ["tank inner base l1 × l2", "117.2 × 78.0 mm", "paper"],
-        ["tank height h", f"{tank.height * 1e3:.1f} mm", "paper"],
-        ["fill level α", f"{tank.fill:.2f}", "paper (50 %)"],
-        ["liquid mass m_l", f"{tank.liquid_mass * 1e3:.1f} g", "derived (water)"],
-        ["structure mass above load cells", f"{tank.structure_mass:.3f} kg", "estimate"],
-        ["record rate", f"{cfg['rig']['fs']:.0f} Hz", "estimate"],
+        ["tank inner base l1 × l2", f"{tank.length * 1e3:.1f} × {tank.width * 1e3:.1f} mm",
+         source("tank", "length", "width")],
+        ["tank height h", f"{tank.height * 1e3:.1f} mm", source("tank", "height")],
+        ["fill level α", f"{tank.fill:.2f}", source("tank", "fill", paper="paper (50 %)")],
+        ["liquid mass m_l", f"{tank.liquid_mass * 1e3:.1f} g",
+         f"derived (ρ = {tank.density:g} kg/m³)"],
+        ["structure mass above load cells", f"{tank.structure_mass:.3f} kg",
+         source("tank", "structure_mass", paper="")],
+        ["record rate (rig sensors and beam accelerometers)", f"{cfg['rig']['fs']:g} Hz",
+         source("rig", "fs", paper="")],
         ["VFA train / validation", f"{cfg['data']['train_duration']:.0f} / "
-         f"{cfg['data']['validation_duration']:.0f} s", "paper"],
+         f"{cfg['data']['validation_duration']:.0f} s",
+         source("data", "train_duration", "validation_duration")],
         ["ROM", f"{cfg['rom']['arch'].upper()}({cfg['rom']['delays']}, "
-         f"{cfg['rom']['neurons']})", "paper: NFIR(70, 35)"],
-        ["beam", "Al, 0.74 × 0.10 × 0.01 m, clamped", "paper (E, ρ: handbook)"],
-        ["dry modal damping", ", ".join(f"{z * 100:.2f} %" for z in cfg["beam"]["damping"]),
-         "estimate"],
-        ["random PSD centre / σ", f"{cfg['beam']['f0']} / {cfg['beam']['sigma']} Hz", "estimate"],
-        ["random RMS levels", ", ".join(f"{g} g" for g in cfg["beam"]["rms_g"]), "paper"],
+         f"{cfg['rom']['neurons']})",
+         source("rom", "arch", "delays", "neurons", paper="paper: NFIR(70, 35)")],
+        ["beam length × width × thickness", f"{b['length']:g} × {b['width']:g} × "
+         f"{b['thickness']:g} m, clamped", source("beam", "length", "width", "thickness")],
+        ["beam E, ρ", f"{b['youngs_modulus'] / 1e9:g} GPa, {b['density']:g} kg/m³",
+         source("beam", "youngs_modulus", "density", paper="", other="estimate (aluminium)")],
+        ["dry modal damping", ", ".join(f"{z * 100:.2f} %" for z in b["damping"]),
+         source("beam", "damping", paper="")],
+        ["random PSD centre / σ", f"{b['f0']:g} / {b['sigma']:g} Hz",
+         source("beam", "f0", "sigma", paper="")],
+        ["random RMS levels", ", ".join(f"{g:g} g" for g in b["rms_g"]), source("beam", "rms_g")],
         ["virtual-rig physics", "impacting column + RT release gate + Faraday modes",
          "model (docs/rig.md): calibrated estimates"],
     ]
@@ -80,15 +99,17 @@ def build_sections(ctx: Any, summary: dict[str, Any]) -> list[Section]:
         + _fig(ctx, "fig07_validation_io.png", "Fig. 7b — validation input and output."),
     ))
     r = st.get("rom")
+    sw = st.get("sweep")
     if r:
         secs.append(Section(
             "3. Model selection (paper Fig. 8)",
-            "<p>" + (r.get("sweep_text") or "The sensitivity sweep was not run (use "
-                     "<code>--sweep</code>); the paper's selection is trained directly.") + "</p>",
+            "<p>" + (html.escape(sw["sweep_text"]) if sw else "The sensitivity sweep was not "
+                     "run (use <code>--sweep</code>); the paper's selection is trained "
+                     "directly.") + "</p>",
             _fig(ctx, "fig08_sensitivity.png", "Fig. 8 — mean of train and validation MSE "
-                 "against neurons for each delay line."),
+                 "against neurons for each delay line.") if sw else [],
             [Table(["architecture", "delays", "neurons", "score (MSE, N²)", "stable"],
-                   r["sweep_rows"])] if r.get("sweep_rows") else [],
+                   sw["sweep_rows"])] if sw else [],
         ))
         secs.append(Section(
             "4. Validation (paper Fig. 10)",

@@ -19,6 +19,65 @@ def error_figures(y: np.ndarray, y_hat: np.ndarray) -> dict[str, float]:
     return {"mse": mse, "nrmse": nrmse, "fit": fit}
 
 
+def sweep_points(cfg: dict[str, Any]) -> list[tuple[str, int, int]]:
+    """The sensitivity-analysis grid of the ``[rom]`` configuration as (arch, delays, neurons)."""
+    return ([("nfir", d, n) for d in cfg["sweep_nfir_delays"] for n in cfg["sweep_nfir_neurons"]]
+            + [("noe", d, n) for d in cfg["sweep_noe_delays"] for n in cfg["sweep_noe_neurons"]])
+
+
+SWEEP_KEYS = ("sweep_nfir_delays", "sweep_nfir_neurons", "sweep_noe_delays", "sweep_noe_neurons",
+              "max_epochs", "hidden", "seed")
+
+
+def stage_sweep(ctx: Context) -> tuple[dict[str, Any], list[str]]:
+    """Paper Fig. 8: train every grid point, score = mean of train and validation MSE.
+
+    Points run in parallel (Dask LocalCluster, ``sweep_workers`` processes; 1 = in this
+    process). Each finished point is kept in ``OUT/sweep/``, so an interrupted sweep resumes.
+    """
+    from sloshrom.data import read_record
+    from sloshrom.sweep import plot_sweep, run_sweep
+
+    cfg = ctx.cfg["rom"]
+    pts = sweep_points(cfg)
+    train = read_record(ctx.out / "data" / "train.nc")
+    val = read_record(ctx.out / "data" / "validation.nc")
+    out_dir = ctx.out / "sweep"
+    done = [0]
+
+    def prog(row: dict[str, Any]) -> None:
+        done[0] += 1
+        ctx.progress("sweep", done[0], len(pts), f"{done[0]}/{len(pts)}: {row['name']}")
+
+    ctx.progress("sweep", 0, len(pts), f"{len(pts)} networks")
+    t0 = time.perf_counter()
+    workers = int(cfg["sweep_workers"])
+    rows = run_sweep((train["velocity"], train["dynamic_force"]),
+                     (val["velocity"], val["dynamic_force"]), train.fs, out_dir, pts,
+                     scheduler="sequential" if workers == 1 else None, n_workers=workers,
+                     options={"max_epochs": cfg["max_epochs"], "hidden": cfg["hidden"],
+                              "seed": cfg["seed"]},
+                     progress=prog)
+    seconds = time.perf_counter() - t0
+    fig = plot_sweep(rows, ctx.path("figures", "fig08_sensitivity.png"))
+    files = [ctx.rel(fig), "sweep/sweep.csv", "sweep/sweep.json"]
+    files += [f"sweep/{r['model']}" for r in rows if r.get("model")]
+    stable = [r for r in rows if not r["unstable"]]
+    best = stable[0] if stable else None
+    n_bad = len(rows) - len(stable)
+    text = (f"Sensitivity analysis over {len(rows)} networks in {seconds:.0f} s: "
+            + (f"lowest score {best['name']} ({best['score']:.4g} N²)" if best else
+               "no stable network")
+            + f"; {n_bad} unstable NOE network(s). The ROM of the next sections is the "
+            f"configured {cfg['arch'].upper()}({cfg['delays']}, {cfg['neurons']}), as the "
+            "paper's selection, not necessarily the lowest score.")
+    table = [[r["arch"].upper(), r["delays"], r["neurons"],
+              r["score"] if not r["unstable"] else "unstable", "no" if r["unstable"] else "yes"]
+             for r in sorted(rows, key=lambda r: (r["arch"], r["delays"], r["neurons"]))]
+    return {"sweep_seconds": seconds, "sweep_best": best["name"] if best else None,
+            "sweep_text": text, "sweep_rows": table}, files
+
+
 def stage_rom(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     from sloshrom.data import read_record
     from sloshrom.rom import NFIR, NOE
@@ -31,12 +90,6 @@ def stage_rom(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     uv, yv = val["velocity"], val["dynamic_force"]
     files: list[str] = []
     outputs: dict[str, Any] = {}
-    if cfg["sweep"]:
-        from sloshrom.pipeline_sweep import run_sweep  # noqa: PLC0415
-
-        sweep_out, sweep_files = run_sweep(ctx, train, val)
-        outputs.update(sweep_out)
-        files += sweep_files
     cls = {"nfir": NFIR, "noe": NOE}[cfg["arch"]]
     model = cls(delays=cfg["delays"], neurons=cfg["neurons"], hidden=cfg["hidden"],
                 max_epochs=cfg["max_epochs"], seed=cfg["seed"])

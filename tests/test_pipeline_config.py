@@ -1,0 +1,109 @@
+"""The reproduce pipeline follows its configuration: sweep (Fig. 8), record rate, tank and beam."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from sloshrom import pipeline, settings
+from sloshrom.cli import app
+from sloshrom.config import Tank
+
+TINY = """
+[data]
+train_duration = 30.0
+validation_duration = 15.0
+[rom]
+delays = 6
+neurons = 3
+max_epochs = 4
+sweep_nfir_delays = [4, 6]
+sweep_nfir_neurons = [2]
+sweep_noe_delays = [2]
+sweep_noe_neurons = [2]
+sweep_workers = 1
+[map]
+n_omega = 3
+n_a = 3
+[beam]
+free_duration = 4.0
+random_duration = 70.0
+"""
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+def test_reproduce_sweep_writes_fig8_and_is_cached(tmp_path):
+    cfg_file = tmp_path / "tiny.toml"
+    cfg_file.write_text(TINY)
+    out = tmp_path / "res"
+    res = CliRunner().invoke(app, ["reproduce", "--sweep", "--config", str(cfg_file),
+                                   "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    s = json.loads((out / "summary.json").read_text())
+    sw = s["stages"]["sweep"]
+    assert len(sw["sweep_rows"]) == 3  # nfir d4 n2, nfir d6 n2, noe d2 n2
+    assert {(r[0], r[1], r[2]) for r in sw["sweep_rows"]} == {("NFIR", 4, 2), ("NFIR", 6, 2),
+                                                             ("NOE", 2, 2)}
+    table = json.loads((out / "sweep" / "sweep.json").read_text())
+    assert sorted(t["name"] for t in table) == ["nfir_d4_n2", "nfir_d6_n2", "noe_d2_n2"]
+    assert (out / "figures" / "fig08_sensitivity.png").stat().st_size > 10_000
+    html = (out / "report.html").read_text()
+    assert "Fig. 8" in html and "Sensitivity analysis over 3 networks" in html
+    # the sweep is its own stage: the ROM of the report is the configured one, and switching
+    # the sweep off again reuses the trained ROM instead of training it again
+    res = CliRunner().invoke(app, ["reproduce", "--config", str(cfg_file), "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    s = json.loads((out / "summary.json").read_text())
+    assert "sweep" not in s["stages"] and s["stages"]["rom"]["reused"]
+    assert "The sensitivity sweep was not run" in (out / "report.html").read_text()
+
+
+def test_rig_fs_is_the_record_rate(tmp_path):
+    cfg = settings.merge(settings.defaults(), {
+        "rig": {"fs": 1000.0}, "data": {"train_duration": 12.0, "validation_duration": 12.0}})
+    ctx = pipeline.Context(tmp_path, cfg)
+    assert ctx.rig().sensors.output_rate == 1000.0
+    outputs, files = pipeline.stage_data(ctx)
+    from sloshrom.data import read_record
+
+    for split in ("train", "validation"):
+        rec = read_record(tmp_path / "data" / f"{split}.nc")
+        assert rec.fs == pytest.approx(1000.0) and outputs[split]["fs_hz"] == pytest.approx(1000.0)
+
+
+def test_report_setup_follows_the_configuration():
+    from sloshrom.pipeline_report import _setup_section
+
+    cfg = settings.merge(settings.defaults(), {
+        "tank": {"length": 0.2, "width": 0.1}, "beam": {"length": 0.5, "thickness": 0.008},
+        "rig": {"fs": 1000.0}})
+    rows = {r[0]: r[1:] for r in _setup_section(cfg).tables[0].rows}
+    assert rows["tank inner base l1 × l2"] == ["200.0 × 100.0 mm", "configuration"]
+    assert rows["beam length × width × thickness"] == ["0.5 × 0.1 × 0.008 m, clamped",
+                                                       "configuration"]
+    assert rows["record rate (rig sensors and beam accelerometers)"] == ["1000 Hz",
+                                                                         "configuration"]
+    assert rows["tank height h"] == ["27.2 mm", "paper"]
+    default_rows = {r[0]: r[1:] for r in _setup_section(settings.defaults()).tables[0].rows}
+    assert default_rows["tank inner base l1 × l2"] == ["117.2 × 78.0 mm", "paper"]
+    assert default_rows["beam length × width × thickness"] == ["0.74 × 0.1 × 0.01 m, clamped",
+                                                               "paper"]
+
+
+def test_beam_structure_follows_the_configuration():
+    from sloshrom.pipeline_beam import beam_structure
+    from sloshrom.structure import CantileverBeam
+
+    cfg = settings.merge(settings.defaults(), {"beam": {"length": 0.5, "density": 2800.0}})
+    tank = Tank()
+    beam, modal = beam_structure(cfg["beam"], tank)
+    ref = CantileverBeam(length=0.5, density=2800.0, tip_mass=tank.structure_mass,
+                         tip_inertia=beam.tip_inertia)
+    np.testing.assert_allclose(modal.frequencies, ref.frequencies(3), rtol=1e-12)
+    np.testing.assert_allclose(modal.stations, [0.1, 0.2, 0.3, 0.4, 0.5])
+    # a shorter beam is stiffer: every mode is higher than the paper's beam
+    _, paper = beam_structure(settings.defaults()["beam"], tank)
+    assert np.all(modal.frequencies > paper.frequencies)
