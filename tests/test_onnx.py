@@ -5,14 +5,12 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import onnxruntime as ort
 import pytest
 
-ort = pytest.importorskip("onnxruntime")
-pytest.importorskip("onnx")
-
-import sloshrom.cli.export  # noqa: E402,F401  (registers `sloshrom export`)
-from sloshrom.cli import app  # noqa: E402
-from sloshrom.cli.export import run_onnx  # noqa: E402
+import sloshrom.cli.export  # noqa: F401  (registers `sloshrom export`)
+from sloshrom.cli import app
+from sloshrom.cli.export import run_onnx
 from sloshrom.onnx_export import SIGN_CONVENTION, export_onnx  # noqa: E402
 from sloshrom.rom import NFIR, NOE  # noqa: E402
 
