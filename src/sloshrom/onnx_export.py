@@ -28,6 +28,7 @@ The arithmetic follows :mod:`sloshrom.rom` exactly: ``x = scale(u)``, ``n = x W^
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -271,8 +272,19 @@ def onnx_model(model: Any, form: str = "step", dtype: str = "float64") -> Any:
     return proto
 
 
-def export_onnx(model: Any, path: str | Path, form: str = "step", dtype: str = "float64") -> Path:
+def export_onnx(
+    model: Any,
+    path: str | Path,
+    form: str = "step",
+    dtype: str = "float64",
+    verify: Callable[[Path], None] | None = None,
+) -> Path:
     """Write the ONNX graph of a fitted ROM atomically (temporary file, then rename).
+
+    The graph is built and checked before anything is written; it is then written completely
+    to a temporary file beside ``path``, optionally verified there, and only then renamed onto
+    ``path``. A failure at any step (including in ``verify``) leaves a previous ``path``, if any,
+    untouched and no temporary file behind.
 
     Parameters
     ----------
@@ -281,6 +293,9 @@ def export_onnx(model: Any, path: str | Path, form: str = "step", dtype: str = "
         Output ``.onnx`` file.
     form, dtype
         See :func:`onnx_model`.
+    verify : callable, optional
+        ``verify(tmp_path)`` is called with the complete temporary file (a ``.onnx`` name);
+        raising rejects the export (e.g. an onnxruntime parity check that fails).
 
     Returns
     -------
@@ -290,4 +305,10 @@ def export_onnx(model: Any, path: str | Path, form: str = "step", dtype: str = "
 
     proto = onnx_model(model, form=form, dtype=dtype)
     p = Path(path)
-    return atomic_write(p, lambda tmp: onnx.save_model(proto, tmp), suffix=".onnx")
+
+    def write(tmp: str) -> None:
+        onnx.save_model(proto, tmp)
+        if verify is not None:
+            verify(Path(tmp))
+
+    return atomic_write(p, write, suffix=".onnx")

@@ -23,7 +23,6 @@ Initial conditions: every delay line starts at rest (zero physical input and out
 
 from __future__ import annotations
 
-import json
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -40,6 +39,15 @@ import numpy as np  # noqa: E402
 from jax import lax  # noqa: E402
 
 from sloshrom.fileio import atomic_write  # noqa: E402
+from sloshrom.modelfile import (  # noqa: E402
+    FORMAT_VERSION,
+    HIDDEN_KINDS,
+    PARAM_NAMES,
+    ModelFileError,
+    read_model_file,
+    validate_for_save,
+)
+from sloshrom.modelfile import checksum as _checksum  # noqa: E402
 
 __all__ = [
     "FORMAT_VERSION",
@@ -56,15 +64,6 @@ __all__ = [
     "noe_simulate",
     "rbf_apply",
 ]
-
-FORMAT_VERSION = 1
-HIDDEN_KINDS = ("matlab", "distance")
-PARAM_NAMES = ("W", "b", "c", "c0")
-
-
-class ModelFileError(ValueError):
-    """A model file is missing, not a sloshrom model, of another format version, or corrupt."""
-
 
 class UnstableModelError(RuntimeError):
     """A recurrent (NOE) simulation became non-finite or left its stability bound."""
@@ -487,7 +486,16 @@ class _TDNN:
 
         The file holds the parameter arrays ``W``, ``b``, ``c``, ``c0`` and a JSON string
         ``metadata`` (format version, class, sloshrom version, hyperparameters, fs, units,
-        variable names, scaler, envelope, history).
+        variable names, scaler, envelope, history, checksum); docs/formats.md, "Model files".
+        The metadata is checked against the schema :func:`load_model` applies before anything
+        is written, so a model that could not be loaded back is never saved.
+
+        Raises
+        ------
+        ValueError
+            A hyperparameter, the sample rate, the scaler or the envelope is outside the bounds of
+            the model-file format, or the training history is too long to store; the message names
+            the field and nothing is written.
         """
         from sloshrom import __version__
 
@@ -510,10 +518,14 @@ class _TDNN:
         }
         arrays = {k: np.asarray(self.params_[k], dtype=np.float64) for k in PARAM_NAMES}
         meta["checksum"] = _checksum(meta, arrays)
+        try:
+            text = validate_for_save(meta, arrays, str(p))
+        except ModelFileError as exc:
+            raise ValueError(f"cannot save the model: {exc}") from None
 
         def write(tmp: str) -> None:
             with open(tmp, "wb") as fh:  # a file object: np.savez adds no ".npz" to the name
-                np.savez(fh, metadata=np.array(json.dumps(meta)), **arrays)
+                np.savez(fh, metadata=np.array(text), **arrays)
 
         return atomic_write(p, write, suffix=".npz")
 
@@ -664,89 +676,42 @@ class NOE(_TDNN):
 # ---------------------------------------------------------------------------------------------
 
 
-def _checksum(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> str:
-    """SHA-256 of the metadata (without its checksum) and the parameter arrays."""
-    import hashlib
-
-    h = hashlib.sha256()
-    body = {k: v for k, v in meta.items() if k != "checksum"}
-    h.update(json.dumps(body, sort_keys=True).encode())
-    for k in PARAM_NAMES:
-        a = np.ascontiguousarray(arrays[k], dtype="<f8")
-        h.update(k.encode() + repr(a.shape).encode() + a.tobytes())
-    return "sha256:" + h.hexdigest()
-
-
 def load_model(path: str | Path) -> NFIR | NOE:
-    """Load a model written by ``save`` (``np.load(allow_pickle=False)``; never runs code).
+    """Load a model written by ``save``; never runs code (no pickle).
+
+    Every metadata field is validated against a schema with bounds and the arrays against the
+    metadata before the model is built (:mod:`sloshrom.modelfile`; docs/formats.md, "Model
+    files"), so a loaded model can be simulated, coupled and exported.
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``.npz`` model file.
+
+    Returns
+    -------
+    NFIR or NOE
 
     Raises
     ------
     ModelFileError
-        Missing file, not a sloshrom model, other/newer format version, tampered shapes or values.
+        Missing file, not a sloshrom model, other/newer format version, corrupt or truncated file
+        (checksum), a metadata field out of bounds or inconsistent (the message names it),
+        parameter arrays that do not match the metadata.
     """
-    p = Path(path)
-    if not p.is_file():
-        raise ModelFileError(f"{p}: no such model file")
-    try:
-        with np.load(p, allow_pickle=False) as z:
-            files = dict(z.items())
-    except Exception as exc:  # zipfile/format errors, pickled object arrays
-        if "pickle" in str(exc).lower():
-            raise ModelFileError(
-                f"{p}: not a sloshrom model file (it holds Python objects, which sloshrom never "
-                "loads because loading them could run code)"
-            ) from exc
-        raise ModelFileError(f"{p}: not a sloshrom model file ({exc})") from exc
-    if "metadata" not in files:
-        raise ModelFileError(f"{p}: not a sloshrom model file (no metadata)")
-    try:
-        meta = json.loads(str(files["metadata"]))
-    except (json.JSONDecodeError, TypeError) as exc:
-        raise ModelFileError(f"{p}: corrupt metadata ({exc})") from exc
-    if not isinstance(meta, dict) or meta.get("format") != "sloshrom-rom":
-        raise ModelFileError(f"{p}: not a sloshrom model file")
-    ver = meta.get("format_version")
-    if not isinstance(ver, int):
-        raise ModelFileError(f"{p}: missing format version")
-    if ver > FORMAT_VERSION:
-        raise ModelFileError(
-            f"{p}: format version {ver} is newer than this sloshrom reads ({FORMAT_VERSION}); "
-            "upgrade sloshrom"
-        )
-    if ver != FORMAT_VERSION:
-        raise ModelFileError(f"{p}: unsupported format version {ver} (reads {FORMAT_VERSION})")
-    cls = {"NFIR": NFIR, "NOE": NOE}.get(meta.get("class"))
-    if cls is None:
-        raise ModelFileError(f"{p}: unknown model class {meta.get('class')!r}")
+    mf = read_model_file(path)
+    meta = mf.meta
+    cls = NFIR if meta["class"] == "NFIR" else NOE
     try:
         model = cls(**meta["hyperparameters"])
-        sc = meta["scaler"]
-        model.scaler_ = MinMaxScaler(**{k: float(sc[k]) for k in
-                                        ("in_min", "in_max", "out_min", "out_max")})
-        model.fs_ = float(meta["fs"])
-        model.envelope_ = meta["envelope"]
-        model.history_ = meta.get("history", {})
-    except (KeyError, TypeError, ValueError) as exc:
-        raise ModelFileError(f"{p}: corrupt metadata ({exc})") from exc
-    h, d = int(model.neurons), model.n_inputs
-    shapes = {"W": (h, d), "b": (h,), "c": (h,), "c0": ()}
-    params = {}
-    for k, shp in shapes.items():
-        a = files.get(k)
-        if a is None or a.shape != shp or a.dtype.kind != "f":
-            got = None if a is None else (a.shape, str(a.dtype))
-            raise ModelFileError(f"{p}: parameter {k} tampered: expected float {shp}, got {got}")
-        if not np.all(np.isfinite(a)):
-            raise ModelFileError(f"{p}: parameter {k} contains NaN or inf")
-        params[k] = a.astype(np.float64)
-    if meta.get("checksum") != _checksum(meta, params):
-        raise ModelFileError(
-            f"{p}: checksum mismatch: the file was modified or damaged after it was saved"
-        )
-    if not (model.fs_ > 0 and model.scaler_.in_max > model.scaler_.in_min
-            and model.scaler_.out_max > model.scaler_.out_min):
-        raise ModelFileError(f"{p}: corrupt sample rate or scaler")
-    model.params_ = params
+    except (TypeError, ValueError) as exc:  # unreachable after validation; kept as a net
+        raise ModelFileError(f"{path}: corrupt metadata ({exc})") from None
+    sc = meta["scaler"]
+    model.scaler_ = MinMaxScaler(**{k: float(sc[k]) for k in
+                                    ("in_min", "in_max", "out_min", "out_max")})
+    model.fs_ = float(meta["fs"])
+    model.envelope_ = meta["envelope"]
+    model.history_ = meta.get("history", {})
+    model.params_ = mf.arrays
     model._warned = False
     return model

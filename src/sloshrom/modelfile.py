@@ -1,0 +1,662 @@
+"""Reading and validating ROM model files (``.npz``) without trusting their content.
+
+A model file is a zip archive of ``.npy`` members: ``metadata`` (one JSON text) and the float
+parameter arrays ``W``, ``b``, ``c``, ``c0`` (see :meth:`sloshrom.rom.NFIR.save`). This module
+reads it defensively, in an order that never lets the content choose how much work is done:
+
+1. the file and each zip member are size-bounded before anything is read; a member's ``.npy``
+   header (dtype, shape) is checked against the bytes it has *before* the array is allocated,
+   object (pickled) arrays are refused, only stored/deflated members are read (deflate output is
+   bounded by the member's declared size);
+2. the metadata text is bounded (:data:`MAX_METADATA_CHARS`) and scanned iteratively for its
+   bracket nesting depth (:data:`MAX_DEPTH`) before :func:`json.loads`, so deep nesting is refused
+   with a message instead of a ``RecursionError``;
+3. the format and format version are checked, then the checksum (SHA-256 of the metadata and the
+   arrays): it detects accidental corruption and truncation, **not** forgery — anyone can
+   recompute it;
+4. every metadata field is validated against a schema with bounds (pydantic, unknown fields
+   refused), then cross-field rules (frequency band within ``[0, fs/2]``, regressor and weight
+   counts bounded so that simulating the model needs bounded memory), then the arrays against the
+   metadata (shapes, finite values of bounded magnitude).
+
+Every failure is a :class:`ModelFileError` (a ``ValueError``) naming the file and, for metadata,
+the field. Loading never runs code (no pickle anywhere).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import hmac
+import json
+import math
+import re
+import reprlib
+import zipfile
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import numpy as np
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    PlainValidator,
+    StringConstraints,
+    ValidationError,
+    field_validator,
+)
+
+__all__ = [
+    "FORMAT_VERSION", "HIDDEN_KINDS", "MAX_DELAY", "MAX_DEPTH", "MAX_FILE_BYTES",
+    "MAX_METADATA_CHARS", "MAX_NEURONS", "MAX_REGRESSOR", "MAX_WEIGHTS", "PARAM_NAMES",
+    "ModelFile", "ModelFileError", "checksum", "read_model_file", "validate_for_save",
+]
+
+FORMAT = "sloshrom-rom"
+FORMAT_VERSION = 1
+HIDDEN_KINDS = ("matlab", "distance")
+PARAM_NAMES = ("W", "b", "c", "c0")
+
+# -- limits (all checked before the corresponding memory is allocated) --------------------------
+#: Largest model file, bytes (metadata <= 16 MiB as UCS-4 text + W <= 32 MiB + headers).
+MAX_FILE_BYTES = 64 * 2**20
+#: Longest metadata JSON text, characters (a history of ~40 000 epochs fits).
+MAX_METADATA_CHARS = 4 * 2**20
+#: Deepest bracket nesting of the metadata JSON (a valid file has 3).
+MAX_DEPTH = 16
+#: Largest input delay, samples (length of the input delay line).
+MAX_DELAY = 10_000
+#: Most regressor entries, ``len(delays) + out_delays``: a free run builds chunks of 8192
+#: regressor rows, so this bounds its memory to well under 1 GB.
+MAX_REGRESSOR = 4096
+#: Most fed-back outputs of an NOE.
+MAX_OUT_DELAYS = 1000
+#: Most hidden neurons.
+MAX_NEURONS = 4096
+#: Most entries of ``W`` (neurons x regressor entries): 32 MiB of float64.
+MAX_WEIGHTS = 2**22
+#: Largest sample rate, Hz.
+MAX_FS = 1e6
+#: Largest magnitude of a scaler or envelope bound (physical units).
+MAX_ABS = 1e15
+#: Smallest scaler range: ``2 / (max - min)`` must not overflow.
+MIN_SPAN = 1e-100
+#: Largest magnitude of a network parameter: squares and sums of them cannot overflow.
+MAX_PARAM = 1e50
+#: Most training epochs (and so entries of each history list).
+MAX_EPOCHS = 10_000_000
+#: Longest name, unit, version or stop-reason string, characters.
+MAX_TEXT = 64
+
+_MEMBERS = ("metadata", *PARAM_NAMES)
+_MAX_MEMBERS = 64
+_MAX_NPY_HEADER = 10_000
+# a member may hold its header and at most this many bytes of data
+_MAX_DATA = {"metadata": 4 * MAX_METADATA_CHARS, **dict.fromkeys(PARAM_NAMES, 8 * MAX_WEIGHTS)}
+
+
+class ModelFileError(ValueError):
+    """A model file is missing, not a sloshrom model, of another format version, or corrupt."""
+
+
+# ---------------------------------------------------------------------------------------------
+# Checksum
+# ---------------------------------------------------------------------------------------------
+
+
+def checksum(meta: Mapping[str, Any], arrays: Mapping[str, np.ndarray]) -> str:
+    """SHA-256 of the metadata (without its ``checksum``) and the parameter arrays.
+
+    Protects against accidental corruption and truncation, not against forgery: the algorithm
+    is public and anyone can recompute it after an edit (:func:`read_model_file` validates the
+    content for that reason).
+
+    Parameters
+    ----------
+    meta : mapping
+        The metadata (JSON-serialisable).
+    arrays : mapping of str to ndarray
+        ``W``, ``b``, ``c``, ``c0`` (any float dtype; hashed as little-endian float64).
+
+    Returns
+    -------
+    str
+        ``"sha256:<64 hex digits>"``.
+    """
+    h = hashlib.sha256()
+    body = {k: v for k, v in meta.items() if k != "checksum"}
+    h.update(json.dumps(body, sort_keys=True).encode())
+    for k in PARAM_NAMES:
+        a = np.ascontiguousarray(arrays[k], dtype="<f8")
+        h.update(k.encode() + repr(a.shape).encode() + a.tobytes())
+    return "sha256:" + h.hexdigest()
+
+
+def _checksum_matches(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> bool:
+    stored = meta.get("checksum")
+    if not isinstance(stored, str):
+        return False
+    if any(k not in arrays or arrays[k].dtype.kind != "f" for k in PARAM_NAMES):
+        return False  # not hashable as float64: cannot be what save wrote
+    return hmac.compare_digest(stored, checksum(meta, arrays))
+
+
+# ---------------------------------------------------------------------------------------------
+# Schema
+# ---------------------------------------------------------------------------------------------
+
+
+def _printable(s: str) -> str:
+    if not s.isprintable():
+        raise ValueError("must be printable text (no control characters)")
+    return s
+
+
+def _number_or_null(v: Any) -> float | None:
+    # history entries: NaN marks "not applicable" (e.g. mu under Adam), inf an unstable
+    # validation run, exactly as the trainer records them; they are informational only
+    if v is None:
+        return None
+    if type(v) not in (int, float):  # bool is an int subclass: refused by the exact type check
+        raise ValueError("must be a number or null")
+    return float(v)
+
+
+def _delays_value(v: Any) -> int | list[int]:
+    """``n`` (delays 1..n) or a list of distinct delays, each in 1..MAX_DELAY."""
+    if type(v) is int:
+        if v < 1:
+            raise ValueError("must be >= 1")
+        if v > MAX_DELAY:
+            raise ValueError(f"must be <= {MAX_DELAY}")
+        return v
+    if type(v) is not list:
+        raise ValueError("must be an integer or a list of integers")
+    if not 1 <= len(v) <= MAX_REGRESSOR:
+        raise ValueError(f"must list 1 to {MAX_REGRESSOR} delays")
+    for i, d in enumerate(v):
+        if type(d) is not int or not 1 <= d <= MAX_DELAY:
+            raise ValueError(f"entry [{i}] must be an integer in 1..{MAX_DELAY}")
+    if len(set(v)) != len(v):
+        raise ValueError("must be distinct")
+    return v
+
+
+# short printable text: non-empty (names, version) or possibly empty (units, stop reason)
+Text = Annotated[str, StringConstraints(min_length=1, max_length=MAX_TEXT),
+                 AfterValidator(_printable)]
+Unit = Annotated[str, StringConstraints(max_length=MAX_TEXT), AfterValidator(_printable)]
+Bound = Annotated[float, Field(allow_inf_nan=False, ge=-MAX_ABS, le=MAX_ABS)]
+HistoryList = Annotated[list[Annotated[float | None, PlainValidator(_number_or_null)]],
+                        Field(max_length=MAX_EPOCHS + 1)]
+
+
+class _Strict(BaseModel):
+    # strict: JSON types only (no "3" -> 3, no true -> 1); unknown fields are refused
+    model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
+
+
+def _above(lower: str):
+    """Field validator: the value must exceed the already validated field ``lower``."""
+
+    def check(v: float, info: Any) -> float:
+        lo = info.data.get(lower)
+        if lo is not None and not v - lo >= MIN_SPAN:
+            raise ValueError(f"must be greater than {lower} ({lo!r}) by at least {MIN_SPAN:g}")
+        return v
+
+    return check
+
+
+class _Scaler(_Strict):
+    in_min: Bound
+    in_max: Bound
+    out_min: Bound
+    out_max: Bound
+
+    _in = field_validator("in_max")(_above("in_min"))
+    _out = field_validator("out_max")(_above("out_min"))
+
+
+class _Envelope(_Strict):
+    input_min: Bound
+    input_max: Bound
+    output_min: Bound
+    output_max: Bound
+    frequency_band: Annotated[
+        list[Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=MAX_FS)]],
+        Field(min_length=2, max_length=2),
+    ]
+
+    _in = field_validator("input_max")(_above("input_min"))
+    _out = field_validator("output_max")(_above("output_min"))
+
+    @field_validator("frequency_band")
+    @classmethod
+    def _ordered(cls, v: list[float]) -> list[float]:
+        if not v[0] <= v[1]:
+            raise ValueError("must be ordered (low <= high)")
+        return v
+
+
+class _Pair(_Strict):
+    input: Unit
+    output: Unit
+
+
+class _Names(_Strict):
+    input: Text
+    output: Text
+
+
+class _History(_Strict):
+    train_mse: HistoryList | None = None
+    val_mse: HistoryList | None = None
+    mu: HistoryList | None = None
+    grad: HistoryList | None = None
+    seconds: HistoryList | None = None
+    stop_reason: Unit | None = None
+    best_epoch: Annotated[int, Field(ge=0, le=MAX_EPOCHS)] | None = None
+    trainer: Literal["fast", "lm", "adam"] | None = None
+    n_rows: Annotated[int, Field(ge=0, le=10**12)] | None = None
+    train_seconds: Annotated[float, Field(allow_inf_nan=False, ge=0.0)] | None = None
+
+
+TwoUnits = Annotated[list[Unit], Field(min_length=2, max_length=2)]
+TwoNames = Annotated[list[Text], Field(min_length=2, max_length=2)]
+
+
+class _NFIRHyper(_Strict):
+    delays: Annotated[int | list[int], PlainValidator(_delays_value)]
+    neurons: Annotated[int, Field(ge=1, le=MAX_NEURONS)]
+    hidden: Literal["matlab", "distance"]
+    max_epochs: Annotated[int, Field(ge=0, le=MAX_EPOCHS)]
+    seed: Annotated[int, Field(ge=0, le=2**63 - 1)]
+    trainer: Literal["fast", "lm", "adam"]
+    units: TwoUnits
+    names: TwoNames
+
+
+class _NOEHyper(_NFIRHyper):
+    trainer: Literal["fast", "lm"]  # Adam trains NFIRs only
+    out_delays: Annotated[int, Field(ge=1, le=MAX_OUT_DELAYS)]
+    unstable_bound: Annotated[float, Field(allow_inf_nan=False, gt=0.0, le=1e12)]
+
+
+class _Meta(_Strict):
+    format: Literal["sloshrom-rom"]
+    format_version: Literal[1]
+    class_: Literal["NFIR", "NOE"] = Field(alias="class")
+    sloshrom_version: Text
+    hyperparameters: _NFIRHyper
+    fs: Annotated[float, Field(allow_inf_nan=False, gt=0.0, le=MAX_FS)]
+    units: _Pair
+    names: _Names
+    scaler: _Scaler
+    envelope: _Envelope
+    history: _History = _History()
+    checksum: Annotated[str, StringConstraints(pattern=r"^sha256:[0-9a-f]{64}$")]
+
+
+class _NFIRMeta(_Meta):
+    class_: Literal["NFIR"] = Field(alias="class")
+
+
+class _NOEMeta(_Meta):
+    class_: Literal["NOE"] = Field(alias="class")
+    hyperparameters: _NOEHyper
+
+
+_MESSAGES = {
+    "missing": "is missing",
+    "extra_forbidden": "is not a field of this format",
+    "finite_number": "must be a finite number",
+    "int_type": "must be an integer",
+    "float_type": "must be a number",
+    "string_type": "must be a string",
+    "list_type": "must be a list",
+    "model_type": "must be an object",
+    "model_attributes_type": "must be an object",
+    "dict_type": "must be an object",
+}
+_repr = reprlib.Repr()
+_repr.maxstring, _repr.maxother, _repr.maxlist, _repr.maxdict, _repr.maxlevel = 60, 60, 4, 4, 2
+
+
+def _field_path(loc: tuple[Any, ...]) -> str:
+    out = ""
+    for part in loc:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out
+
+
+def _describe(err: Any) -> str:
+    """One pydantic error as ``metadata field 'a.b': must be <= 10, got 11``."""
+    t, ctx = err["type"], err.get("ctx") or {}
+    bounds = {"less_than_equal": ("<=", "le"), "less_than": ("<", "lt"),
+              "greater_than_equal": (">=", "ge"), "greater_than": (">", "gt")}
+    if t in bounds:
+        op, key = bounds[t]
+        msg = f"must be {op} {ctx[key]}"
+    elif t == "literal_error":
+        msg = f"must be {ctx['expected']}"
+    elif t in ("too_short", "too_long"):
+        msg = f"has {ctx.get('actual_length')} entries, allowed {ctx.get('min_length', 0)}.." \
+              f"{ctx.get('max_length', '')}"
+    elif t in ("string_too_short", "string_too_long"):
+        msg = "must be a non-empty string" if t == "string_too_short" else \
+            f"must be at most {ctx['max_length']} characters"
+    elif t == "string_pattern_mismatch":
+        msg = f"must match {ctx['pattern']}"
+    elif t == "value_error":
+        msg = str(ctx.get("error", err["msg"]))
+    else:
+        msg = _MESSAGES.get(t, err["msg"])
+    got = "" if t == "missing" else f", got {_repr.repr(err['input'])}"
+    return f"metadata field '{_field_path(err['loc'])}': {msg}{got}"
+
+
+# ---------------------------------------------------------------------------------------------
+# Validation
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ModelFile:
+    """A validated model file: its metadata (as stored) and float64 parameter arrays."""
+
+    meta: dict[str, Any]
+    arrays: dict[str, np.ndarray]
+
+    @property
+    def hyperparameters(self) -> dict[str, Any]:
+        return self.meta["hyperparameters"]
+
+
+def _fail_field(where: str, field: str, msg: str, value: Any) -> ModelFileError:
+    return ModelFileError(f"{where}: metadata field '{field}': {msg}, got {_repr.repr(value)}")
+
+
+def _regressor_size(hyper: Mapping[str, Any]) -> int:
+    d = hyper["delays"]
+    return (d if isinstance(d, int) else len(d)) + int(hyper.get("out_delays", 0))
+
+
+def _validate_meta(meta: dict[str, Any], where: str) -> None:
+    """Schema and cross-field rules; raises :class:`ModelFileError` naming the first bad field."""
+    schema = _NOEMeta if meta.get("class") == "NOE" else _NFIRMeta
+    try:
+        schema.model_validate(meta)
+    except ValidationError as exc:
+        errors = exc.errors(include_url=False)
+        n = len(errors) - 1
+        more = f" (and {n} more problem{'s' if n > 1 else ''})" if n else ""
+        raise ModelFileError(f"{where}: {_describe(errors[0])}{more}") from None
+    hyper = meta["hyperparameters"]
+    d = _regressor_size(hyper)
+    if d > MAX_REGRESSOR:
+        raise _fail_field(where, "hyperparameters.delays",
+                          f"the regressor would have {d} entries (delays + output delays), more "
+                          f"than {MAX_REGRESSOR}", hyper["delays"])
+    if hyper["neurons"] * d > MAX_WEIGHTS:
+        raise _fail_field(where, "hyperparameters.neurons",
+                          f"{hyper['neurons']} neurons x {d} regressor entries is more than "
+                          f"{MAX_WEIGHTS} weights", hyper["neurons"])
+    nyquist = meta["fs"] / 2
+    band = meta["envelope"]["frequency_band"]
+    if band[1] > nyquist * (1 + 1e-9):  # rfftfreq's last bin is fs/2 up to rounding
+        raise _fail_field(where, "envelope.frequency_band",
+                          f"must lie within [0, fs/2 = {nyquist:g}] Hz", band)
+    for key in ("units", "names"):
+        pair = [meta[key]["input"], meta[key]["output"]]
+        if pair != hyper[key]:
+            raise _fail_field(where, f"hyperparameters.{key}",
+                              f"must equal the '{key}' field {pair}", hyper[key])
+    hist = meta.get("history", {})
+    best, val = hist.get("best_epoch"), hist.get("val_mse")
+    if isinstance(best, int) and isinstance(val, list) and best >= len(val):
+        raise _fail_field(where, "history.best_epoch",
+                          f"must index history.val_mse ({len(val)} entries)", best)
+
+
+def _check_arrays(meta: dict[str, Any], arrays: dict[str, np.ndarray], where: str
+                  ) -> dict[str, np.ndarray]:
+    """Parameter arrays against validated metadata; returns them as float64."""
+    hyper = meta["hyperparameters"]
+    h, d = hyper["neurons"], _regressor_size(hyper)
+    shapes = {"W": (h, d), "b": (h,), "c": (h,), "c0": ()}
+    out = {}
+    for k, shp in shapes.items():
+        a = arrays.get(k)
+        if a is None or a.shape != shp or a.dtype.kind != "f":
+            got = None if a is None else (a.shape, str(a.dtype))
+            raise ModelFileError(
+                f"{where}: parameter {k} tampered: expected float {shp} for {h} neurons and "
+                f"{d} regressor entries (metadata fields 'hyperparameters.neurons', "
+                f"'hyperparameters.delays'), got {got}"
+            )
+        a = a.astype(np.float64)
+        if not np.all(np.isfinite(a)):
+            raise ModelFileError(f"{where}: parameter {k} contains NaN or inf")
+        if a.size and float(np.max(np.abs(a))) > MAX_PARAM:
+            raise ModelFileError(f"{where}: parameter {k} has values beyond +-{MAX_PARAM:g}")
+        out[k] = a
+    return out
+
+
+def validate_for_save(meta: dict[str, Any], arrays: dict[str, np.ndarray], where: str) -> str:
+    """The metadata JSON text :meth:`save` writes, after checking that it will load.
+
+    Parameters
+    ----------
+    meta : dict
+        Metadata with its checksum.
+    arrays : dict of str to ndarray
+        The parameter arrays.
+    where : str
+        How to name the file in messages.
+
+    Returns
+    -------
+    str
+        The JSON text.
+
+    Raises
+    ------
+    ModelFileError
+        The model would be refused by :func:`read_model_file` (out-of-bounds hyperparameter,
+        too long a history, ...); nothing should be written.
+    """
+    text = json.dumps(meta)
+    if len(text) > MAX_METADATA_CHARS:
+        raise ModelFileError(
+            f"{where}: metadata of {len(text)} characters is more than {MAX_METADATA_CHARS} "
+            "(shorten the training history, model.history_)"
+        )
+    back = json.loads(text)  # validate exactly what a reader will see
+    _validate_meta(back, where)
+    _check_arrays(back, arrays, where)
+    return text
+
+
+# ---------------------------------------------------------------------------------------------
+# Reading
+# ---------------------------------------------------------------------------------------------
+
+_JSON_SPECIAL = re.compile(r'[\[\]{}"\\]')
+
+
+def json_depth_exceeds(text: str, limit: int) -> bool:
+    """True if the JSON ``text`` nests brackets deeper than ``limit`` (iterative, linear).
+
+    Brackets inside strings do not count; an unterminated string makes the count conservative
+    (malformed text is refused by the parser afterwards anyway).
+    """
+    depth, in_string, skip = 0, False, -1
+    for m in _JSON_SPECIAL.finditer(text):
+        i, c = m.start(), m.group()
+        if i == skip:  # the character after a backslash inside a string
+            continue
+        if in_string:
+            if c == "\\":
+                skip = i + 1
+            elif c == '"':
+                in_string = False
+        elif c == '"':
+            in_string = True
+        elif c in "[{":
+            depth += 1
+            if depth > limit:
+                return True
+        elif c in "]}":
+            depth -= 1
+    return False
+
+
+def _read_npy(zf: zipfile.ZipFile, info: zipfile.ZipInfo, name: str, where: str) -> np.ndarray:
+    """One ``.npy`` member, header checked against the member's size before allocating."""
+    if info.compress_type not in (zipfile.ZIP_STORED, zipfile.ZIP_DEFLATED):
+        raise ModelFileError(f"{where}: not a sloshrom model file (member {name!r} uses an "
+                             "unsupported compression)")
+    if info.file_size > _MAX_DATA[name] + _MAX_NPY_HEADER + 16:
+        raise ModelFileError(f"{where}: not a sloshrom model file (member {name!r} has "
+                             f"{info.file_size} bytes, more than a model file holds)")
+    with zf.open(info) as fh:
+        version = np.lib.format.read_magic(fh)
+        if version == (1, 0):
+            shape, fortran, dtype = np.lib.format.read_array_header_1_0(
+                fh, max_header_size=_MAX_NPY_HEADER)
+        elif version == (2, 0):
+            shape, fortran, dtype = np.lib.format.read_array_header_2_0(
+                fh, max_header_size=_MAX_NPY_HEADER)
+        else:
+            raise ModelFileError(f"{where}: not a sloshrom model file (member {name!r}: .npy "
+                                 f"version {version})")
+        if dtype.hasobject:
+            raise ModelFileError(
+                f"{where}: not a sloshrom model file (it holds Python objects, which sloshrom "
+                "never loads because loading them could run code)"
+            )
+        if name == "metadata" and dtype.kind == "U" and dtype.itemsize // 4 > MAX_METADATA_CHARS:
+            raise ModelFileError(f"{where}: metadata of {dtype.itemsize // 4} characters is "
+                                 f"more than {MAX_METADATA_CHARS}")
+        nbytes = math.prod(shape) * dtype.itemsize
+        fits = min(shape, default=0) >= 0 and nbytes <= _MAX_DATA[name]
+        if not fits or fh.tell() + nbytes != info.file_size:
+            raise ModelFileError(f"{where}: not a sloshrom model file (member {name!r}: array "
+                                 f"{shape} {dtype} does not match its {info.file_size} bytes)")
+        data = fh.read(nbytes)
+        if len(data) != nbytes or fh.read(1):  # reading to the end also checks the CRC
+            raise ModelFileError(f"{where}: member {name!r} is truncated")
+    return np.frombuffer(data, dtype=dtype).reshape(shape, order="F" if fortran else "C")
+
+
+def _read_members(p: Path, where: str) -> tuple[dict[str, np.ndarray], list[str]]:
+    """The known members of the archive and the names of unknown ones."""
+    arrays: dict[str, np.ndarray] = {}
+    with zipfile.ZipFile(p) as zf:
+        infos = zf.infolist()
+        if len(infos) > _MAX_MEMBERS:
+            raise ModelFileError(f"{where}: not a sloshrom model file ({len(infos)} members)")
+        names = [i.filename for i in infos]
+        if len(set(names)) != len(names):
+            raise ModelFileError(f"{where}: not a sloshrom model file (duplicate members)")
+        if "metadata.npy" not in names:
+            raise ModelFileError(f"{where}: not a sloshrom model file (no metadata)")
+        unknown = [n for n in names if n.removesuffix(".npy") not in _MEMBERS
+                   or not n.endswith(".npy")]
+        for info in infos:
+            name = info.filename.removesuffix(".npy")
+            if info.filename.endswith(".npy") and name in _MEMBERS:
+                arrays[name] = _read_npy(zf, info, name, where)
+    return arrays, unknown
+
+
+def _metadata(raw: np.ndarray, where: str) -> dict[str, Any]:
+    if raw.shape != () or raw.dtype.kind != "U":
+        raise ModelFileError(f"{where}: not a sloshrom model file (metadata is not a text)")
+    try:
+        text = str(raw.item())
+    except Exception as exc:  # invalid code points
+        raise ModelFileError(f"{where}: corrupt metadata ({exc})") from None
+    if len(text) > MAX_METADATA_CHARS:
+        raise ModelFileError(f"{where}: metadata of {len(text)} characters is more than "
+                             f"{MAX_METADATA_CHARS}")
+    if json_depth_exceeds(text, MAX_DEPTH):
+        raise ModelFileError(f"{where}: corrupt metadata (nested more than {MAX_DEPTH} levels "
+                             "deep)")
+    try:
+        meta = json.loads(text)
+    except (ValueError, RecursionError) as exc:  # JSONDecodeError, too long integers
+        raise ModelFileError(f"{where}: corrupt metadata ({exc})") from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise ModelFileError(f"{where}: not a sloshrom model file")
+    return meta
+
+
+def read_model_file(path: str | Path) -> ModelFile:
+    """Read and validate a model file (see the module docstring for the order of the checks).
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``.npz`` file written by :meth:`sloshrom.rom.NFIR.save` / ``NOE.save``.
+
+    Returns
+    -------
+    ModelFile
+        Validated metadata and float64 parameter arrays.
+
+    Raises
+    ------
+    ModelFileError
+        For any file that is missing, not a model file, of another format version, corrupt, or
+        whose content is out of bounds or inconsistent; never anything else for a bad file.
+    """
+    p = Path(path)
+    where = str(p)
+    if not p.is_file():
+        raise ModelFileError(f"{where}: no such model file")
+    try:
+        size = p.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise ModelFileError(f"{where}: not a sloshrom model file ({size} bytes, more than "
+                                 f"the {MAX_FILE_BYTES} a model file can have)")
+        arrays, unknown = _read_members(p, where)
+    except (ModelFileError, MemoryError):
+        raise
+    except Exception as exc:  # zipfile, zlib, .npy header and OS errors of a damaged file
+        raise ModelFileError(f"{where}: not a sloshrom model file ({exc})") from None
+    meta = _metadata(arrays.pop("metadata"), where)
+    ver = meta.get("format_version")
+    if type(ver) is not int:
+        raise ModelFileError(f"{where}: missing format version")
+    if ver > FORMAT_VERSION:
+        raise ModelFileError(
+            f"{where}: format version {ver} is newer than this sloshrom reads ({FORMAT_VERSION});"
+            " upgrade sloshrom"
+        )
+    if ver != FORMAT_VERSION:
+        raise ModelFileError(f"{where}: unsupported format version {ver} (reads "
+                             f"{FORMAT_VERSION})")
+    if meta.get("class") not in ("NFIR", "NOE"):
+        raise ModelFileError(f"{where}: unknown model class {_repr.repr(meta.get('class'))}")
+    if unknown:
+        raise ModelFileError(f"{where}: not a sloshrom model file (unexpected member "
+                             f"{_repr.repr(unknown[0])})")
+    if not _checksum_matches(meta, arrays):
+        # name a parameter array that disagrees with intact metadata, else the mismatch itself
+        try:
+            _validate_meta(meta, where)
+        except ModelFileError:
+            pass
+        else:
+            _check_arrays(meta, arrays, where)
+        raise ModelFileError(
+            f"{where}: checksum mismatch: the file was modified or damaged after it was saved"
+        )
+    _validate_meta(meta, where)
+    return ModelFile(meta, _check_arrays(meta, arrays, where))
