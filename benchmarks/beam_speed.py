@@ -1,6 +1,6 @@
 """Speed of the coupled sloshing-beam simulation with an NFIR(70, 35)-sized ROM.
 
-Target (DESIGN §8): 10 s of free response in <= 20 ms after compilation; batched random responses
+Target: 10 s of free response in <= 20 ms after compilation; batched random responses
 in one ``vmap``. Baseline in the same run: the same discretisation and the same (jitted) network
 step driven by a plain Python loop. Run: ``.venv/bin/python benchmarks/beam_speed.py``.
 """

@@ -1,6 +1,6 @@
 """Calibrate the virtual rig's Phi_d map to the shape the paper reports (coarse grid search).
 
-Targets (paper Fig. 4, DESIGN section 4): Phi_d ~ 0 below Gamma = 1, strong dissipation above,
+Targets (paper Fig. 4): Phi_d ~ 0 below Gamma = 1, strong dissipation above,
 maximum near omega_bar = 4, a_bar = 0.25 (about 4 g, 12 Hz), falling off at high frequency.
 
 Searched: bubble_rate C_b, gate_relaxation tau_s, coherence_gamma Gamma_0, restitution e and

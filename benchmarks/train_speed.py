@@ -15,7 +15,7 @@ Trainers compared (same data, same seeded initialisation):
 (``adam_baseline`` below is a standalone plain-JAX Adam kept for experiments.)
 
 Run: ``.venv/bin/python benchmarks/train_speed.py`` (about 7 min with the default cap, alone).
-Target (DESIGN section 8): <= 2 min on this machine; the paper: ~40 min (MATLAB).
+Target: <= 2 min on this machine; the paper: ~40 min (MATLAB).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Coupled sloshing-beam simulation (paper Eqs. 4, 7, 9; DESIGN §7).
+"""Coupled sloshing-beam simulation (paper Eqs. 4, 7, 9).
 
 Relative modal coordinates q (dry structure modes, see :mod:`sloshrom.structure`), base
 acceleration ``a_s``::

@@ -1,6 +1,6 @@
 """Energy dissipated by sloshing in harmonic motion: hysteresis loops and Phi_d maps.
 
-Conventions (DESIGN section 4, paper section 2): w up positive, ``f_S = -m_l w'' + dF`` is the
+Conventions (paper section 2): w up positive, ``f_S = -m_l w'' + dF`` is the
 force the liquid exerts on the tank, the energy dissipated per cycle is
 ``L_d = -oint f_S dw = -oint dF dw`` (the inertia term integrates to zero over whole cycles),
 ``Phi_d = L_d / (m_l a^2 Omega^2)``, ``omega_bar = Omega / sqrt(g/h)``, ``a_bar = a / h`` and the

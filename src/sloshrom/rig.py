@@ -1,6 +1,6 @@
 """Virtual shaker rig: a physics-based simulator of vertical sloshing that plays the experiment.
 
-The model (DESIGN section 4; see ``docs/rig.md`` for the equations and what it does and does not
+The model (see ``docs/rig.md`` for the equations and what it does and does not
 reproduce) is written in the tank frame with ``g_eff(t) = g + w''(t)`` (w up positive):
 
 * **Impacting liquid column.** A fraction ``beta`` of the liquid is split into ``n_layers``
@@ -20,7 +20,7 @@ reproduce) is written in the tank frame with ``g_eff(t) = g + w''(t)`` (w up pos
   ``a'' + 2 zeta_eff omega a' + (omega^2 + kappa w'') a = 0`` (``kappa = k tanh(k d)``), with
   amplitude saturation (``zeta_eff`` grows as ``(A / a_sat)^4``), a deterministic noise floor
   (amplitude never below ``mode_noise``, seeded phases) and extra damping ``zeta_frag`` times the
-  detached fraction of the column (fragmented surface; DESIGN's "frozen while detached", made
+  detached fraction of the column (fragmented surface; rather than "frozen while detached", made
   gradual so that the wave energy it removes is accounted as a loss).
 * **Output** ``dF = -chi sum m_i z_i'' - sum rho S_n (a_n a_n')'`` (N): minus the liquid mass
   times the acceleration of its centre of mass relative to the tank.

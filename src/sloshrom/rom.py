@@ -1,6 +1,6 @@
 """Time-delay neural-network reduced-order models: NFIR and NOE with a normalized RBF layer.
 
-Paper section 3 and Appendix A; DESIGN.md section 6. Both models map a scalar input history
+Paper section 3 and Appendix A. Both models map a scalar input history
 (tank vertical velocity, m/s) to a scalar output (dynamic sloshing force, N), but work for any
 single-input single-output record.
 

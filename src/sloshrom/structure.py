@@ -1,4 +1,4 @@
-"""Modal model of the sloshing beam's structure (paper Sect. 4, Eqs. 3-9; DESIGN §7).
+"""Modal model of the sloshing beam's structure (paper Sect. 4, Eqs. 3-9).
 
 A clamped Euler-Bernoulli cantilever with a rigid body (the tank) at its tip, of mass ``M`` and
 rotary inertia ``J`` about the tank centre, which sits on the beam axis at ``x = L``.

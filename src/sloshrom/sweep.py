@@ -1,4 +1,4 @@
-"""Sensitivity analysis over delays x neurons (paper section 3, Fig. 8; DESIGN.md section 6).
+"""Sensitivity analysis over delays x neurons (paper section 3, Fig. 8).
 
 Every grid point trains one network; its score is the mean of the training and validation MSE
 (free-run simulation, N^2). Each finished point writes its model (``<name>.npz``) and its result
@@ -34,7 +34,7 @@ COLUMNS = ("name", "arch", "delays", "neurons", "train_mse", "val_mse", "score",
 
 
 def default_grid(arch: str = "both") -> list[tuple[str, int, int]]:
-    """DESIGN section 6 grid as ``(arch, delays, neurons)``: NFIR {50,60,70} x {5..40}, NOE 2 x
+    """The paper's grid as ``(arch, delays, neurons)``: NFIR {50,60,70} x {5..40}, NOE 2 x
     {10,15,20}; ``arch`` = ``"nfir"``, ``"noe"`` or ``"both"``."""
     pts: list[tuple[str, int, int]] = []
     if arch in ("nfir", "both"):

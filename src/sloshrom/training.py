@@ -1,4 +1,4 @@
-"""Training of the NFIR/NOE networks: MATLAB ``trainlm`` Levenberg-Marquardt (DESIGN.md section 6).
+"""Training of the NFIR/NOE networks: MATLAB ``trainlm`` Levenberg-Marquardt (paper section 3).
 
 Algorithm (as ``trainlm``): at each epoch the Jacobian ``J = d y^/d theta`` and the error
 ``e = y^ - y`` (scaled units) give ``J^T J`` and ``J^T e``; the step
