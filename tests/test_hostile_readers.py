@@ -840,6 +840,13 @@ def test_preprocess_converts_imperial_and_names_file(tmp_path):
         resample(read_record(p), -1.0)
 
 
+def test_preprocess_names_file_of_bad_tank_attributes(tmp_path):
+    p = _nc(lambda ds: ds.assign_attrs(tank_fill=1.5))(tmp_path)
+    with pytest.raises(RecordError, match=r"r\.nc: attribute 'tank': fill level must be in "
+                                          r"\(0, 1\)"):
+        preprocess(read_record(p))
+
+
 def test_missing_variable_says_why_it_was_ignored(tmp_path):
     p = _mat(acceleration="1 2 3", units={"force": "N"})(tmp_path)
     rec = read_record(p)

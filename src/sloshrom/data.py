@@ -303,7 +303,9 @@ def _as_float_array(name: str, value: Any) -> np.ndarray:
             f"variable {name!r}: complex values (dtype {raw.dtype}, max |imag| {peak:.3g}): a "
             "time history must be real (export the real part if the imaginary part is round-off)"
         )
-    if kind in "USV":
+    if kind == "V":
+        raise RecordError(f"variable {name!r}: structured values (dtype {raw.dtype}), not numbers")
+    if kind in "US":
         raise RecordError(
             f"variable {name!r}: text, not numbers (dtype {raw.dtype}, e.g. "
             f"{_show(raw.reshape(-1)[0] if raw.size else '')})"
@@ -1468,7 +1470,11 @@ def preprocess(
     for name, si in (("acceleration", "m/s^2"), ("force", "N")):
         require_unit(rec, name, si)  # unknown units (volts) are refused, never taken for SI
     if tank is None:
-        tank = rec.tank or Tank()
+        try:
+            tank = rec.tank or Tank()
+        except ValueError as exc:  # ConfigError: tank_* attributes of a file out of range
+            src = rec.attrs.get("source", "record")
+            raise RecordError(f"{src}: attribute 'tank': {exc}") from None
     if fs is not None and fs != rec.fs:
         rec = resample(rec, fs)
     acc = rec["acceleration"]
