@@ -30,7 +30,16 @@ from typing import Any
 
 import numpy as np
 
-from sloshrom.data import STANDARD_UNITS, Record, RecordError
+from sloshrom.data import (
+    STANDARD_UNITS,
+    Record,
+    RecordError,
+    _show,
+    _time_unit,
+    _unit_text,
+    _why,
+    is_known_unit,
+)
 from sloshrom.fileio import atomic_write
 
 __all__ = ["read_uff58", "write_uff58"]
@@ -80,27 +89,33 @@ def read_uff58(
         1: "force"}``.
     units : dict, optional
         Unit per variable name or channel label, for channels whose file gives none (or to
-        override the file), e.g. ``{"force": "kN"}``.
+        override the file), e.g. ``{"force": "kN"}``; a key that is neither is an error.
 
     Returns
     -------
     Record
         Units as in the file (convert with :meth:`Record.to_si`); ``attrs["uff_channels"]``
-        lists label, node, direction, specific data type and unit source of every channel.
+        lists dataset number, label, node, direction, specific data type and unit source of
+        every channel.
 
     Raises
     ------
     RecordError
-        Unreadable file, no time-response dataset, complex or mismatched channels (length,
-        start time, sample rate), uneven sampling, duplicate names, missing units.
+        One line naming the file, the dataset/channel and the problem: unreadable or truncated
+        file, a non-numeric data line (its line number), a header that declares more or fewer
+        points than the dataset holds, a non-positive abscissa increment, an abscissa that is not
+        time, no time-response dataset, complex or mismatched channels (length, start time,
+        sample rate), uneven sampling, duplicate names, missing units.
     """
     import pyuff
 
     p = Path(path)
     names = dict(names or {})
-    units = dict(units or {})
+    units = {k: _given_unit(p, k, v) for k, v in dict(units or {}).items()}
     if not p.is_file():
         raise RecordError(f"{p}: no such file")
+    if p.stat().st_size == 0:
+        raise RecordError(f"{p}: file is empty")
     with p.open("rb") as fh:  # every UFF dataset ends with a "    -1" line
         fh.seek(max(p.stat().st_size - 64, 0))
         tail = fh.read().rstrip()
@@ -108,36 +123,40 @@ def read_uff58(
         raise RecordError(f"{p}: truncated or not a UFF file (does not end with a '-1' line)")
     try:
         uff = pyuff.UFF(str(p))
-        types = list(uff.get_set_types())
-        sets = uff.read_sets() if types else []
+        types = [int(t) for t in uff.get_set_types()]
     except Exception as exc:  # pyuff raises bare Exception/ValueError/IndexError on bad files
-        raise RecordError(f"{p}: not a readable UFF file ({type(exc).__name__}: {exc})") from exc
-    if isinstance(sets, dict):  # pyuff returns a dict for a single dataset
-        sets = [sets]
+        raise RecordError(f"{p}: not a readable UFF file ({_why(exc)})") from exc
+    sets: list[tuple[int, dict[str, Any]]] = []
+    for i, typ in enumerate(types):
+        try:
+            sets.append((i, uff.read_sets(i)))  # one at a time: a failure names its dataset
+        except Exception as exc:
+            raise RecordError(_unreadable_dataset(p, uff, i, typ, len(types), exc)) from exc
     if not sets:
         raise RecordError(f"{p}: no UFF datasets found (not a UFF file, or truncated)")
     si_file = any(int(s.get("type", 0)) == 164 and int(s.get("units_code", 0) or 0) == 1
-                  for s in sets)
-    d58 = [s for s in sets if int(s.get("type", 0)) == 58]
-    time_sets = [s for s in d58 if int(s.get("func_type", -1)) == 1]
+                  for _, s in sets)
+    d58 = [(i, s) for i, s in sets if int(s.get("type", 0)) == 58]
+    time_sets = [(i, s) for i, s in d58 if int(s.get("func_type", -1)) == 1]
     skipped = len(d58) - len(time_sets)
     if not time_sets:
         raise RecordError(
             f"{p}: no time-response channels (dataset 58 with function type 1); found dataset "
-            f"types {sorted({int(s.get('type', 0)) for s in sets})}"
+            f"types {sorted(set(types))}"
             + (f" and {len(d58)} dataset-58 functions of other types (FRF, spectra, ...)"
                if d58 else "")
         )
+    labels = [_label(s) for _, s in time_sets]
     unknown = [k for k in names if not (isinstance(k, int) and 0 <= k < len(time_sets))
-               and k not in {_label(s) for s in time_sets}]
+               and k not in labels]
     if unknown:
         raise RecordError(
-            f"{p}: names= refers to unknown channel(s) {unknown}; channels are "
-            f"{[_label(s) for s in time_sets]} (or indices 0..{len(time_sets) - 1})"
+            f"{p}: names= refers to unknown channel(s) {_show(unknown)}; channels are "
+            f"{_show(labels)} (or indices 0..{len(time_sets) - 1})"
         )
 
     spec_count: dict[str, int] = {}
-    for s in time_sets:
+    for _, s in time_sets:
         std = _SPEC_TYPES.get(int(s.get("ordinate_spec_data_type", 0) or 0))
         if std:
             spec_count[std[0]] = spec_count.get(std[0], 0) + 1
@@ -147,25 +166,9 @@ def read_uff58(
     channels = []
     time_ref: np.ndarray | None = None
     ref_label = ""
-    for i, s in enumerate(time_sets):
-        label = _label(s)
-        data = np.asarray(s.get("data"))
-        if np.iscomplexobj(data):
-            raise RecordError(f"{p}: channel {label!r} holds complex data, not a time response")
-        data = data.astype(float).ravel()
-        x = np.asarray(s.get("x"), dtype=float).ravel()
-        if data.size < 2 or x.size != data.size:
-            raise RecordError(
-                f"{p}: channel {label!r} has {data.size} samples and {x.size} abscissa values "
-                "(truncated?)"
-            )
-        t = x
-        if int(s.get("abscissa_spacing", 0) or 0) == 1:
-            # even spacing: pyuff rebuilds x from the 6-digit increment; use min + k * inc
-            inc = float(s.get("abscissa_inc", 0.0) or 0.0)
-            if not (math.isfinite(inc) and inc > 0):
-                raise RecordError(f"{p}: channel {label!r}: abscissa increment {inc!r} s invalid")
-            t = float(s.get("abscissa_min", 0.0) or 0.0) + inc * np.arange(data.size)
+    for k, ((i, s), label) in enumerate(zip(time_sets, labels, strict=True)):
+        where = f"{p}: dataset {i + 1} (channel {label!r})"
+        data, t = _channel(where, s)
         if time_ref is None:
             time_ref, ref_label = t, label
         else:
@@ -189,8 +192,8 @@ def read_uff58(
         std = _SPEC_TYPES.get(spec)
         if label in names:
             name = names[label]
-        elif i in names:
-            name = names[i]
+        elif k in names:
+            name = names[k]
         elif std and spec_count[std[0]] == 1:
             name = std[0]
         else:
@@ -200,27 +203,35 @@ def read_uff58(
                 f"{p}: two channels map to the variable {name!r} (second: {label!r}); "
                 "give names= to tell them apart"
             )
-        file_unit = str(s.get("ordinate_axis_units_lab", "") or "").strip()
+        file_unit = _unit_text(s.get("ordinate_axis_units_lab", "") or "", where)
+        if file_unit is not None and file_unit.upper() == "NONE":
+            file_unit = None
         if name in units or label in units:
             unit, how = units.get(name, units.get(label)), "units="
-        elif file_unit and file_unit.upper() != "NONE":
+        elif file_unit is not None:
             unit, how = file_unit, "ordinate units label"
         elif si_file and std:
             unit, how = std[1], "dataset 164 (SI) + specific data type"
         else:
             raise RecordError(
-                f"{p}: channel {label!r} ({name!r}) has no unit in the file; give "
+                f"{where} ({name!r}) has no unit in the file; give "
                 f"units={{{name!r}: ...}} (SI for this name: "
                 f"{STANDARD_UNITS.get(name, 'unknown')!r})"
             )
         variables[name] = data
         var_units[name] = str(unit)
         channels.append({
-            "index": i, "label": label, "variable": name,
+            "index": k, "dataset": i + 1, "label": label, "variable": name,
             "node": int(s.get("rsp_node", 0) or 0),
             "direction": _DIRS.get(int(s.get("rsp_dir", 0) or 0), str(s.get("rsp_dir"))),
             "spec_data_type": spec, "unit": str(unit), "unit_from": how,
         })
+    stray = [u for u in units if u not in variables and u not in labels]
+    if stray:
+        raise RecordError(
+            f"{p}: units= names {_show(stray)}, neither a variable nor a channel label (variables "
+            f"{_show(list(variables))}, channels {_show(labels)})"
+        )
     assert time_ref is not None  # time_sets is not empty
     step = (time_ref[-1] - time_ref[0]) / (time_ref.size - 1)
     fs = 1.0 / step
@@ -235,6 +246,139 @@ def read_uff58(
         return Record(time_ref, fs, variables, var_units, attrs)
     except RecordError as exc:
         raise RecordError(f"{p}: {exc}") from None
+
+
+def _given_unit(p: Path, key: Any, value: Any) -> str:
+    """A unit of ``units=``: a non-empty string."""
+    unit = _unit_text(value, f"{p}: units={{{key!r}: ...}}")
+    if unit is None:
+        raise RecordError(f"{p}: units={{{key!r}: ...}} is empty")
+    return unit
+
+
+# Abscissa specific data types that are not time: a "time response" over them is mislabelled.
+_NOT_TIME = {18: "frequency", 19: "rpm", 20: "order"}
+
+
+def _channel(where: str, s: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
+    """Ordinate values and time (s) of one dataset 58, with its header checked against its data.
+
+    ``where`` names the file, dataset and channel in messages.
+    """
+    data = np.asarray(s.get("data"))
+    if np.iscomplexobj(data):
+        raise RecordError(f"{where}: complex data (ordinate type "
+                          f"{s.get('ord_data_type')}): a time response must be real")
+    data = data.astype(float).ravel()
+    declared = s.get("num_pts")
+    if declared is not None and int(declared) != data.size:
+        raise RecordError(
+            f"{where}: the header declares {declared} points but the dataset holds "
+            f"{data.size} (truncated or edited file)"
+        )
+    if data.size < 2:
+        raise RecordError(f"{where}: {data.size} sample(s); a record needs at least 2")
+    spacing = s.get("abscissa_spacing")
+    aspec = int(s.get("abscissa_spec_data_type", 0) or 0)
+    if aspec in _NOT_TIME:
+        raise RecordError(
+            f"{where}: the abscissa is {_NOT_TIME[aspec]} (specific data type {aspec}), not time"
+        )
+    k = _abscissa_factor(where, s, aspec)
+    if spacing == 1:
+        # even spacing: pyuff rebuilds x from the 6-digit increment; use min + k * inc
+        inc = float(s.get("abscissa_inc", float("nan")) or 0.0)
+        t0 = float(s.get("abscissa_min", 0.0) or 0.0)
+        if not (math.isfinite(inc) and inc > 0):
+            raise RecordError(
+                f"{where}: abscissa increment {inc!r} s; it must be a finite positive step"
+            )
+        if not math.isfinite(t0):
+            raise RecordError(f"{where}: abscissa minimum {t0!r} s is not finite")
+        return data, (t0 + inc * np.arange(data.size)) * k
+    if spacing == 0:
+        x = np.asarray(s.get("x"), dtype=float).ravel()
+        if x.size != data.size:
+            raise RecordError(f"{where}: {x.size} abscissa values for {data.size} samples")
+        bad = ~np.isfinite(x)
+        bad[1:] |= ~(np.diff(x) > 0)
+        if np.any(bad):
+            j = int(np.flatnonzero(bad)[0])
+            after = f" after {float(x[j - 1])!r}" if j else ""
+            raise RecordError(
+                f"{where}: abscissa (time) value {float(x[j])!r} at sample {j}{after}: the "
+                "abscissa must be finite and strictly increasing"
+            )
+        return data, x * k
+    raise RecordError(
+        f"{where}: abscissa spacing code {s.get('abscissa_spacing')!r} (0 uneven, 1 even)"
+    )
+
+
+def _abscissa_factor(where: str, s: Mapping[str, Any], aspec: int) -> float:
+    """Seconds per abscissa unit, from the abscissa units label.
+
+    Time in every UFF unit system is in seconds; the label is checked so that a file labelled
+    ``ms`` is converted and one labelled ``Hz`` is refused. An empty label, or an unknown one on
+    an abscissa typed as time (specific data type 17), means seconds.
+    """
+    label = _unit_text(s.get("abscissa_axis_units_lab", "") or "", f"{where}: abscissa")
+    if label is None or label.upper() == "NONE":
+        return 1.0
+    conv = _time_unit(label)
+    if conv is not None:
+        return conv[0]
+    if is_known_unit(label) or aspec != 17:
+        raise RecordError(
+            f"{where}: abscissa units {label!r} are not a time unit (specific data type {aspec})"
+        )
+    return 1.0
+
+
+def _unreadable_dataset(p: Path, uff: Any, i: int, typ: int, n: int, exc: Exception) -> str:
+    """Message for a dataset pyuff cannot parse: its number, channel and the bad line."""
+    label = ""
+    try:
+        head = uff.read_sets(i, header_only=True)
+        label = f", channel {_label(head)!r}"
+    except Exception:  # the header itself is broken: the line scan below says where
+        pass
+    where = f"{p}: dataset {i + 1} of {n} (type {typ}{label})"
+    bad = _first_bad_line(p, i) if typ == 58 else None
+    return f"{where}: {bad}" if bad else f"{where}: unreadable header or data ({_why(exc, 80)})"
+
+
+def _first_bad_line(p: Path, index: int) -> str | None:
+    """What is wrong in dataset ``index`` (ASCII 58) that pyuff cannot parse, with its line."""
+    lines = p.read_bytes().decode("latin-1").splitlines()
+    # datasets are delimited by "    -1" lines (as pyuff finds them)
+    marks = [j for j, ln in enumerate(lines) if ln.rstrip() == "    -1"]
+    if len(marks) < 2 * index + 2:
+        return None
+    start, end = marks[2 * index], marks[2 * index + 1]
+    block = lines[start:end]
+    if len(block) > 1 and len(block[1]) > 6 and block[1][6].lower() == "b":
+        return None  # binary data: no lines to point at
+    # record 7 (line 9 of the block: data type, num_pts, spacing, min, increment, z) and the
+    # data lines (from line 14) must be numbers
+    for j in [start + 8, *range(start + 13, end)]:
+        what = "header record 7" if j == start + 8 else "data"
+        for tok in lines[j].split() if j < end else []:
+            try:
+                float(tok)
+            except ValueError:
+                return f"line {j + 1} ({what}): {_show(tok, 40)} is not a number"
+    fields = lines[start + 8].split() if start + 8 < end else []
+    if len(fields) >= 3:
+        ord_type, spacing = int(float(fields[0])), int(float(fields[2]))
+        if ord_type not in (2, 4, 5, 6):
+            return (f"line {start + 9} (header record 7): ordinate data type {ord_type} "
+                    "(2/4 real, 5/6 complex)")
+        if spacing not in (0, 1):
+            return (f"line {start + 9} (header record 7): abscissa spacing code {spacing} "
+                    "(0 uneven, 1 even)")
+    return None
+
 
 
 def write_uff58(record: Record, path: str | Path, binary: bool = False) -> Path:
