@@ -61,6 +61,9 @@ MIN_RANDOM_DURATION = math.ceil(WELCH_NPERSEG / BEAM_FS)
 FREE_DAMPING_PERIODS = 2 * 5 + 4 + 4
 #: Longest beam simulation, s (the rig runs at 10 kHz inside the coupled loop).
 MAX_BEAM_SECONDS = 600.0
+#: Random responses of the rig hold about 2.1 MB per second and per level at its 10 kHz step
+#: (measured): duration x number of levels is bounded to keep a run within about 4 GB.
+MAX_LEVEL_SECONDS = 1800.0
 #: Accelerometer stations of the beam: the modal filter separates at most this many modes.
 MAX_MODES = 5
 
@@ -334,6 +337,12 @@ def _relations(cfg: dict[str, Any], tank: Tank) -> None:
         raise ConfigError(f"'beam.damping' has {len(b['damping'])} ratio(s) but 'beam.n_modes' "
                           f"is {b['n_modes']}: give one damping ratio per mode")
     check_psd_band(b["f0"], b["sigma"], names=("'beam.f0'", "'beam.sigma'"), error=ConfigError)
+    level_seconds = b["random_duration"] * len(b["rms_g"])
+    if level_seconds > MAX_LEVEL_SECONDS:
+        raise ConfigError(
+            f"'beam.random_duration' x {len(b['rms_g'])} levels = {level_seconds:g} s is more "
+            f"than {MAX_LEVEL_SECONDS:g} s (memory: the rig holds about 2.1 MB per second and "
+            "level at its 10 kHz step)")
     f1 = first_frozen_frequency(tank, b["n_modes"], b["damping"][: b["n_modes"]])
     need = min_free_duration(f1)
     if b["free_duration"] < need:

@@ -162,13 +162,16 @@ def check_number(
     ok = ok and (hi is None or (value < hi if hi_open else value <= hi))
     if ok:
         return
+    def g(v: float) -> str:
+        return str(v) if isinstance(v, int) else f"{v:g}"
+
     u = f" {unit}" if unit else ""
     if lo is not None and hi is not None:
-        rng = f"in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}{u}"
+        rng = f"in {'(' if lo_open else '['}{g(lo)}, {g(hi)}{')' if hi_open else ']'}{u}"
     elif lo is not None:
-        rng = f"{'>' if lo_open else '>='} {lo:g}{u}"
+        rng = f"{'>' if lo_open else '>='} {g(lo)}{u}"
     elif hi is not None:
-        rng = f"{'<' if hi_open else '<='} {hi:g}{u}"
+        rng = f"{'<' if hi_open else '<='} {g(hi)}{u}"
     else:
         rng = "a finite number"
     fail(f"{name} must be {rng}, got {value!r}" + (f" ({why})" if why else ""))

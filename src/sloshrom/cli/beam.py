@@ -19,6 +19,7 @@ from sloshrom.fileio import OutputBatch, atomic_write
 from sloshrom.settings import (
     FREE_DAMPING_PERIODS,
     MAX_BEAM_SECONDS,
+    MAX_LEVEL_SECONDS,
     MIN_RANDOM_DURATION,
     check_analysis_band,
     check_psd_band,
@@ -33,9 +34,6 @@ app.add_typer(beam_app, name="beam")
 
 SENSOR_FS = 500.0  # Hz, output rate of the rig runs and the frozen reference
 MAX_SEED = 2**32 - 1
-#: Random responses of the rig hold about 2.1 MB per second and per level at its 10 kHz step:
-#: duration x number of levels is bounded to keep a run within about 4 GB of memory.
-MAX_LEVEL_SECONDS = 1800.0
 MAX_LEVEL_G = 2.0  # RMS; the rig's calibrated envelope is 6 g peak, about 3 x RMS
 
 

@@ -65,9 +65,7 @@ def reproduce(
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from sloshrom import pipeline
-
-    from sloshrom import settings
+    from sloshrom import pipeline, settings
 
     cfg = _load_config(config, quick)
     if sweep:

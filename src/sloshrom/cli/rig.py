@@ -51,7 +51,8 @@ def _tank(tank_toml: Path | None, fill: float | None) -> Tank:
         tank = Tank.from_toml(tank_toml) if tank_toml is not None else Tank()
         return tank.replace(fill=fill) if fill is not None else tank
     except user_errors() as exc:
-        fail(f"--tank {tank_toml}: {exc}" if tank_toml is not None else str(exc))
+        msg = str(exc)
+        fail(msg if tank_toml is None or str(tank_toml) in msg else f"--tank {tank_toml}: {msg}")
 
 
 def _check_common(out: Path, seed: int, fill: float | None, tank_toml: Path | None) -> Tank:
@@ -231,7 +232,9 @@ def harmonic_cmd(
                                      ("acceleration", a * om**2 / G, "acceleration", "g"),
                                      ("velocity", a * om, "velocity", "m/s")):
         if value > hard[limit] * (1 + 1e-12):
-            fail(f"{opt} at {frequency:g} Hz gives a {name} amplitude of {value:.4g} {unit}, "
+            article = "an" if name[0] in "aeiou" else "a"
+            fail(f"{opt} at {frequency:g} Hz gives {article} {name} amplitude of {value:.4g} "
+                 f"{unit}, "
                  f"beyond ten times the shaker's limit ({SHAKER_LIMITS[limit]:g} {unit})")
     tank = _check_common(out, seed, fill, tank_toml)
     lo, hi = CALIBRATED_BAND
