@@ -182,6 +182,9 @@ HOSTILE_CASES = [
     ("harmonic-cycles-at-1-mhz", None,
      [*H, "-f", "0.001", "--accel-g", "1e-9", "--cycles", "20"],
      r"--cycles 20 at 0\.001 Hz make a 2\.8e\+04 s test"),
+    ("harmonic-too-short-for-the-sensors", None,
+     [*H, "-f", "200", "--accel-g", "1", "--cycles", "1"],
+     r"--cycles 1 at 200 Hz make a 0\.045 s test; the sensors' filters need at least 0\.08 s"),
     ("harmonic-cycles--1", None, [*H12, "--accel-g", "1", "--cycles", "-1"],
      r"--cycles must be >= 1, got -1"),
     ("harmonic-amplitude-0", None, [*H12, "-a", "0"],
@@ -251,6 +254,12 @@ HOSTILE_CASES = [
      [*TR, "--data", "{tmp}/good.nc", "--validation", "{tmp}/rads.nc", "--out", "{tmp}/m.npz"],
      r"unit mismatch: variable 'velocity' is in 'm/s' in .*good\.nc but in 'rad/s' in "
      r".*rads\.nc"),
+    ("train-units-swapped", lambda tmp: write_record(
+        Record(np.arange(200) / 500.0, 500.0, {"velocity": np.ones(200),
+                                               "dynamic_force": np.ones(200)},
+               {"velocity": "N", "dynamic_force": "m/s"}), tmp / "swapped.nc"),
+     [*TR, "--data", "{tmp}/swapped.nc", "--validation", "{tmp}/swapped.nc", "--out",
+      "{tmp}/m.npz"], r"swapped\.nc: variable 'velocity' is in 'N', but velocity is in 'm/s'"),
     ("train-record-too-short", None,
      ["train", "--delays", "1000", "--neurons", "1000", "--data", "{tmp}/good.nc",
       "--validation", "{tmp}/good.nc", "--out", "{tmp}/m.npz"],

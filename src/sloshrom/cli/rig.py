@@ -38,6 +38,8 @@ SENSOR_PASSBAND = 0.8 * 500.0 / 2
 #: The rig's calibrated domain (the paper's shaker envelope, estimates): outside it the record
 #: is made but the sloshing physics is extrapolated, hence a warning.
 CALIBRATED_BAND = (5.0, 25.0)  # Hz
+#: ``VirtualRig.measure`` needs 40 samples at the 500 Hz output rate (its sensor filters).
+MIN_SENSOR_SECONDS = 40 / 500.0
 SHAKER_LIMITS = {"displacement": 0.0125, "velocity": 1.0, "acceleration": 6.0}  # m, m/s, g
 #: Beyond ten times the shaker's limits the rig's model means nothing: refused.
 HARD_FACTOR = 10.0
@@ -225,6 +227,10 @@ def harmonic_cmd(
     if seconds > MAX_FINE_SECONDS:
         fail(f"--cycles {cycles} at {frequency:g} Hz make a {seconds:.4g} s test, more than "
              f"{MAX_FINE_SECONDS:g} s ({_MEMORY})")
+    if seconds < MIN_SENSOR_SECONDS:
+        fail(f"--cycles {cycles} at {frequency:g} Hz make a {seconds:.3g} s test; the sensors' "
+             f"filters need at least {MIN_SENSOR_SECONDS:g} s (40 samples at 500 Hz): give more "
+             "--cycles")
     om = 2.0 * np.pi * frequency
     a = float(amplitude) if amplitude is not None else float(accel_g) * G / om**2
     opt = "--amplitude" if amplitude is not None else "--accel-g"

@@ -57,6 +57,17 @@ def _same_units(a: Any, pa: Path, b: Any, pb: Path, names: list[str]) -> None:
             fail(f"unit mismatch: variable '{n}' is in '{ua}' in {pa} but in '{ub}' in {pb}")
 
 
+def _standard_units(rec: Any, path: Path, names: list[str]) -> None:
+    """A variable with a standard name must be in that name's unit (swapped columns, ...)."""
+    from sloshrom.data import STANDARD_UNITS
+
+    for n in names:
+        si = STANDARD_UNITS.get(n)
+        if si is not None and _si(rec.units[n]) != si:
+            fail(f"{path}: variable '{n}' is in '{rec.units[n]}', but {n} is in '{si}' "
+                 "(columns swapped? name the variables with --input/--output)")
+
+
 def _same_rate(a: float, b: float, what: str) -> None:
     if not np.isclose(a, b, rtol=1e-6):
         fail(f"sample-rate mismatch: {what} ({a:g} Hz vs {b:g} Hz); resample first")
@@ -154,6 +165,7 @@ def train(
     val = _read(validation, names, "--validation")
     _same_rate(rec.fs, val.fs, f"{data} vs {validation}")
     _same_units(rec, data, val, validation, names)
+    _standard_units(rec, data, names)
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -326,6 +338,7 @@ def sweep(
     val = _read(validation, names, "--validation")
     _same_rate(rec.fs, val.fs, f"{data} vs {validation}")
     _same_units(rec, data, val, validation, names)
+    _standard_units(rec, data, names)
 
     from rich.progress import (
         BarColumn,
