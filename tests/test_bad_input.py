@@ -219,9 +219,13 @@ runner = CliRunner()
 @pytest.fixture(scope="module")
 def model_files(tmp_path_factory):
     """A tiny fitted NFIR saved, plus a newer-version copy and a tampered copy."""
+    return make_model_files(tmp_path_factory.mktemp("models"))
+
+
+def make_model_files(d: Path) -> Path:
+    """Write good.npz (NFIR, 500 Hz, m/s -> N), newer.npz, tampered.npz and text.npz into d."""
     from sloshrom.rom import NFIR
 
-    d = tmp_path_factory.mktemp("models")
     rng = np.random.default_rng(0)
     u = np.convolve(rng.standard_normal(600), np.ones(8) / 8, mode="same") * 0.05
     y = np.tanh(20 * np.roll(u, 2)) * 0.5
@@ -251,7 +255,7 @@ def _mkdir(name: str) -> Callable[[Path], None]:
 H = ["rig", "harmonic", "--frequency", "12", "--accel-g", "4"]
 CLI_CASES = [
     ("harmonic-fill-1.5", None, [*H, "--fill", "1.5", "--out", "{tmp}/h.nc"],
-     r"fill level must be in \(0, 1\).*1\.5"),
+     r"--fill must be in \(0, 1\), got 1\.5"),
     ("harmonic-height-mm-as-m", _write_text("t.toml", "[tank]\nheight = 27.2\n"),
      [*H, "--tank", "{tmp}/t.toml", "--out", "{tmp}/h.nc"], r"look like millimetres.*27\.2"),
     ("harmonic-unknown-tank-key", _write_text("t.toml", "[tank]\nfil = 0.5\n"),
@@ -261,32 +265,32 @@ CLI_CASES = [
     ("harmonic-tank-bad-toml", _write_text("t.toml", "[tank\nfill="),
      [*H, "--tank", "{tmp}/t.toml", "--out", "{tmp}/h.nc"], r"not valid TOML"),
     ("harmonic-tank-missing", None, [*H, "--tank", "{tmp}/none.toml", "--out", "{tmp}/h.nc"],
-     r"config file not found"),
+     r"--tank .*none\.toml: no such file"),
     ("harmonic-tank-nan", _write_text("t.toml", "[tank]\ndensity = nan\n"),
      [*H, "--tank", "{tmp}/t.toml", "--out", "{tmp}/h.nc"], r"density must be a finite positive"),
     ("harmonic-negative-frequency", None,
      ["rig", "harmonic", "--frequency", "-12", "--accel-g", "4", "--out", "{tmp}/h.nc"],
-     r"--frequency must be positive"),
+     r"--frequency must be in \(0, 200\] Hz, got -12"),
     ("harmonic-nan-frequency", None,
      ["rig", "harmonic", "--frequency", "nan", "--accel-g", "4", "--out", "{tmp}/h.nc"],
-     r"--frequency must be positive, got nan"),
+     r"--frequency must be in \(0, 200\] Hz, got nan"),
     ("harmonic-inf-amplitude", None,
      ["rig", "harmonic", "--frequency", "12", "--accel-g", "inf", "--out", "{tmp}/h.nc"],
-     r"amplitude must be a finite non-negative length"),
+     r"--accel-g must be in \(0, 60\] g, got inf"),
     ("harmonic-both-amplitudes", None,
      [*H, "--amplitude", "0.001", "--out", "{tmp}/h.nc"], r"exactly one of --amplitude"),
     ("harmonic-zero-cycles", None, [*H, "--cycles", "0", "--out", "{tmp}/h.nc"],
-     r"n_cycles must be >= 1"),
+     r"--cycles must be >= 1, got 0"),
     ("harmonic-unknown-out-format", None, [*H, "--out", "{tmp}/h.xlsx"],
-     r"unknown record format '\.xlsx'"),
+     r"--out .*h\.xlsx: unknown format '\.xlsx'"),
     ("harmonic-out-is-a-directory", _mkdir("h.nc"), [*H, "--out", "{tmp}/h.nc"],
      r"[Ii]s a directory"),
     ("vfa-unknown-split", None, ["rig", "vfa", "--split", "test", "--out", "{tmp}/v.nc"],
      r"--split must be 'train' or 'validation'"),
     ("vfa-negative-duration", None, ["rig", "vfa", "--duration", "-1", "--out", "{tmp}/v.nc"],
-     r"duration must be >= 10 s"),
+     r"--duration must be in \[10, 3600\] s, got -1"),
     ("vfa-fill-zero", None, ["rig", "vfa", "--fill", "0", "--out", "{tmp}/v.nc"],
-     r"fill level must be in \(0, 1\)"),
+     r"--fill must be in \(0, 1\), got 0"),
     ("config-show-unknown-key", _write_text("c.toml", "[rom]\ndelay = 5\n"),
      ["config", "show", "--config", "{tmp}/c.toml"], r"unknown configuration key 'rom\.delay'"),
     ("config-show-unknown-table", _write_text("c.toml", "[tanks]\nfill = 0.5\n"),
@@ -296,7 +300,7 @@ CLI_CASES = [
     ("config-show-wrong-type", _write_text("c.toml", "[rom]\nneurons = \"many\"\n"),
      ["config", "show", "--config", "{tmp}/c.toml"], r"'rom\.neurons' must be a number"),
     ("config-show-missing-file", None, ["config", "show", "--config", "{tmp}/none.toml"],
-     r"config file not found"),
+     r"--config .*none\.toml: no such file"),
     ("reproduce-unknown-key", _write_text("c.toml", "[tank]\nfil = 0.5\n"),
      ["reproduce", "--config", "{tmp}/c.toml", "--out", "{tmp}/res"],
      r"unknown configuration key 'tank\.fil'"),
@@ -308,25 +312,26 @@ CLI_CASES = [
      r"\[tank\]: tank dimensions look like millimetres"),
     ("reproduce-negative-delays", _write_text("c.toml", "[rom]\ndelays = -5\n"),
      ["reproduce", "--config", "{tmp}/c.toml", "--out", "{tmp}/res"],
-     r"'rom\.delays' must be an integer >= 1, got -5"),
+     r"'rom\.delays' must be an integer in \[1, 1000\], got -5"),
     ("reproduce-zero-duration", _write_text("c.toml", "[data]\ntrain_duration = 0.0\n"),
      ["reproduce", "--config", "{tmp}/c.toml", "--out", "{tmp}/res"],
-     r"'data\.train_duration' must be a finite positive number"),
+     r"'data\.train_duration' must be a VFA duration in s in \[10, 3600\], got 0\.0"),
     ("reproduce-short-duration", _write_text("c.toml", "[data]\ntrain_duration = 5.0\n"),
      ["reproduce", "--config", "{tmp}/c.toml", "--out", "{tmp}/res"],
-     r"duration must be >= 10 s.*check the configuration"),
+     r"'data\.train_duration' must be a VFA duration in s in \[10, 3600\], got 5\.0 "
+     r"\(the shortest VFA path is 10 s"),
     ("reproduce-nan-fs", _write_text("c.toml", "[rig]\nfs = nan\n"),
      ["reproduce", "--config", "{tmp}/c.toml", "--out", "{tmp}/res"],
-     r"'rig\.fs' must be a finite positive number, got nan"),
+     r"'rig\.fs' must be a record rate in Hz in \[100, 5000\], got nan"),
     ("reproduce-unknown-arch", _write_text("c.toml", "[rom]\narch = \"lstm\"\n"),
      ["reproduce", "--config", "{tmp}/c.toml", "--out", "{tmp}/res"],
      r"'rom\.arch' must be \"nfir\" or \"noe\", got 'lstm'"),
     ("map-neither-rig-nor-model", None, ["map", "--out", "{tmp}/m.nc"],
      r"exactly one of --rig or --model"),
     ("map-tiny-grid", None, ["map", "--rig", "--n-omega", "1", "--out", "{tmp}/m.nc"],
-     r"--n-omega and --n-a must be at least 2"),
+     r"--n-omega must be in \[2, 200\], got 1"),
     ("map-model-missing", None, ["map", "--model", "{tmp}/none.npz", "--out", "{tmp}/m.nc"],
-     r"model file not found"),
+     r"--model .*none\.npz: no such file"),
     ("map-model-newer-version", None,
      ["map", "--model", "{models}/newer.npz", "--out", "{tmp}/m.nc"],
      r"format version 99 is newer"),
@@ -359,7 +364,7 @@ def _rom_files(tmp: Path) -> None:
 
 
 TR = ["train", "--max-epochs", "2", "--delays", "4", "--neurons", "3", "--out", "{tmp}/m.npz"]
-# `sloshrom train/predict` (sloshrom.cli.rom, the ROM engineer's module): skipped if absent
+# `sloshrom train/predict` (sloshrom.cli.rom)
 ROM_CLI_CASES = [
     ("train-empty-record", [*TR, "--data", "{tmp}/empty.nc", "--validation", "{tmp}/good.nc"],
      r"empty\.nc: file is empty"),
@@ -368,7 +373,7 @@ ROM_CLI_CASES = [
     ("train-mismatched-rates", [*TR, "--data", "{tmp}/good.nc", "--validation",
                                 "{tmp}/r250.nc"], r"sample-rate mismatch.*500 Hz vs 250 Hz"),
     ("train-zero-delays", [*TR, "--delays", "0", "--data", "{tmp}/good.nc", "--validation",
-                           "{tmp}/good.nc"], r"delays must be >= 1"),
+                           "{tmp}/good.nc"], r"--delays must be in \[1, 1000\], got 0"),
     ("predict-newer-model", ["predict", "--model", "{models}/newer.npz", "--data",
                              "{tmp}/good.nc", "--out", "{tmp}/p.nc"], r"format version 99"),
     ("predict-tampered-model", ["predict", "--model", "{models}/tampered.npz", "--data",
@@ -385,7 +390,6 @@ ROM_CLI_CASES = [
 @pytest.mark.parametrize(("argv", "match"), [c[1:] for c in ROM_CLI_CASES],
                          ids=[c[0] for c in ROM_CLI_CASES])
 def test_rom_cli_rejects(tmp_path, model_files, argv, match):
-    pytest.importorskip("sloshrom.cli.rom")  # registers train/predict on the app
     _rom_files(tmp_path)
     _check_cli(tmp_path, model_files, None, argv, match)
 
@@ -400,7 +404,7 @@ def _beam_files(tmp: Path) -> None:
 
 BF = ["beam", "free", "--out", "{tmp}/res"]
 BR = ["beam", "random", "--out", "{tmp}/res"]
-# `sloshrom beam free/random` (sloshrom.cli.beam, the beam engineer's module): skipped if absent
+# `sloshrom beam free/random` (sloshrom.cli.beam)
 BEAM_CLI_CASES = [
     ("beam-fill-1.5", [*BF, "--tank-toml", "{tmp}/fill.toml", "--sloshing", "frozen"],
      r"fill level must be in \(0, 1\)"),
@@ -411,19 +415,20 @@ BEAM_CLI_CASES = [
     ("beam-tampered-model", [*BF, "--sloshing", "{models}/tampered.npz"],
      r"parameter W tampered"),
     ("beam-negative-duration", [*BF, "--sloshing", "frozen", "--duration", "-1"],
-     r"0 < duration"),
-    ("beam-nan-duration", [*BF, "--sloshing", "frozen", "--duration", "nan"], r"0 < duration"),
+     r"--duration must be in \(0, 600\] s, got -1"),
+    ("beam-nan-duration", [*BF, "--sloshing", "frozen", "--duration", "nan"],
+     r"--duration must be in \(0, 600\] s, got nan"),
     ("beam-tip-27-m", [*BF, "--sloshing", "frozen", "--tip-displacement", "27"],
-     r"tip displacement"),
+     r"--tip-displacement must be in \(-0\.2, 0\.2\) m, got 27"),
     ("beam-modal-missing-keys", [*BF, "--sloshing", "frozen", "--modal-toml",
                                  "{tmp}/modal.toml"], r"modal data: missing key"),
     ("beam-modal-bad-toml", [*BF, "--sloshing", "frozen", "--modal-toml", "{tmp}/bad.toml"],
      r"not valid TOML"),
     ("beam-levels-not-numbers", [*BR, "--levels", "abc"], r"--levels must be comma-separated"),
     ("beam-negative-level", [*BR, "--levels", "-0.1", "--sloshing", "frozen"],
-     r"--levels must be RMS values"),
+     r"--levels must be RMS values in \(0, 2\] g, got '-0\.1'"),
     ("beam-zero-sigma", [*BR, "--sigma", "0", "--duration", "20", "--sloshing", "frozen"],
-     r"sigma"),
+     r"--sigma must be a positive frequency in Hz, got 0\.0"),
 ]
 _BEAM_XFAIL: dict[str, str] = {}  # known gaps, each with its reason
 
@@ -434,13 +439,22 @@ _BEAM_XFAIL: dict[str, str] = {}  # known gaps, each with its reason
                   if c[0] in _BEAM_XFAIL else []) for c in BEAM_CLI_CASES],
 )
 def test_beam_cli_rejects(tmp_path, model_files, argv, match):
-    pytest.importorskip("sloshrom.cli.beam")  # registers `beam` on the app
     _beam_files(tmp_path)
     _check_cli(tmp_path, model_files, None, argv, match)
 
 
-def _snapshot(tmp: Path) -> set[str]:
-    return {str(p.relative_to(tmp)) for p in tmp.rglob("*") if p.is_file()}
+def _snapshot(*roots: Path) -> dict[str, tuple[int, int, str]]:
+    """Every file under ``roots``: (size, mtime in ns, SHA-256) by path."""
+    import hashlib
+
+    out = {}
+    for root in roots:
+        for p in root.rglob("*"):
+            if p.is_file():
+                st = p.stat()
+                out[str(p)] = (st.st_size, st.st_mtime_ns,
+                               hashlib.sha256(p.read_bytes()).hexdigest())
+    return out
 
 
 @pytest.mark.parametrize(("setup", "argv", "match"), [c[1:] for c in CLI_CASES],
@@ -450,30 +464,48 @@ def test_cli_rejects(tmp_path, model_files, setup, argv, match):
 
 
 def _check_cli(tmp_path, model_files, setup, argv, match):
+    """Run ``sloshrom ARGV`` and check the bad-input contract.
+
+    Exit code exactly 2, no exception but the clean exit, no traceback, exactly one
+    ``error:`` line matching ``match``, and no file created, removed or modified (names, sizes,
+    modification times and contents of every file under the test's directories).
+    """
     if setup is not None:
         setup(tmp_path)
-    before = _snapshot(tmp_path)
+    before = _snapshot(tmp_path, model_files)
     args = [a.format(tmp=tmp_path, models=model_files) for a in argv]
     res = runner.invoke(app, args)
     out = res.output
-    assert res.exit_code != 0, out
+    assert res.exit_code == 2, out
     # a clean exit (typer.Exit -> SystemExit), not an exception escaping the command
     assert res.exception is None or isinstance(res.exception, SystemExit), repr(res.exception)
     assert "Traceback" not in out
     errors = [ln for ln in out.splitlines() if ln.startswith("error:")]
     assert len(errors) == 1, out
     assert re.search(match, errors[0]), errors[0]
-    # nothing new written (no output, no temporary file left behind)
-    new = _snapshot(tmp_path) - before
-    assert not new, f"files left behind: {sorted(new)}"
+    after = _snapshot(tmp_path, model_files)
+    new = sorted(set(after) - set(before))
+    assert not new, f"files left behind: {new}"
+    gone = sorted(set(before) - set(after))
+    assert not gone, f"files removed: {gone}"
+    changed = sorted(k for k in before if before[k] != after[k])
+    assert not changed, f"files modified: {changed}"
+
+
+def n_cases() -> int:
+    """Cases of this suite and of tests/test_hostile_cli.py (quoted in docs/interchange.md)."""
+    from test_hostile_cli import HOSTILE_CASES
+
+    return (len(READER_CASES) + 2 + len(CLI_CASES) + len(ROM_CLI_CASES) + len(BEAM_CLI_CASES)
+            + len(HOSTILE_CASES))
 
 
 def test_case_count():
-    """The docs quote this count; keep them in step."""
-    n = len(READER_CASES) + 2 + len(CLI_CASES) + len(ROM_CLI_CASES) + len(BEAM_CLI_CASES)
+    """The docs quote this count; keep them in step (a missing page fails too)."""
+    n = n_cases()
     doc = Path(__file__).resolve().parents[1] / "docs" / "interchange.md"
-    if doc.is_file():
-        assert f"{n} cases" in doc.read_text(), f"docs/interchange.md must say '{n} cases'"
+    assert doc.is_file(), f"{doc} is missing: it must quote the bad-input case count"
+    assert f"**{n} cases**" in doc.read_text(), f"docs/interchange.md must say '**{n} cases**'"
 
 
 def test_config_error_is_value_error():

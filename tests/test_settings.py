@@ -32,3 +32,78 @@ def test_bad_user_config(tmp_path, text, match):
     p.write_text(text)
     with pytest.raises(ConfigError, match=match):
         settings.load(p)
+
+
+# -- validate -------------------------------------------------------------------------------------
+def test_every_default_key_has_a_check():
+    """A key added to defaults.toml without a check in settings.validate fails here."""
+    cfg = settings.defaults()
+    checked = {f"{t}.{k}" for t, keys in settings._SPEC.items() for k in keys}
+    keys = {f"{t}.{k}" for t, sec in cfg.items() if t != "tank" for k in sec}
+    assert keys == checked
+    assert settings.validate(settings.defaults()) is not None
+    assert settings.validate(settings.merge(settings.defaults(), settings.QUICK))
+
+
+@pytest.mark.parametrize(
+    "edit, match",
+    [
+        (lambda c: c["beam"].update(rms_g=[]), r"'beam\.rms_g' must be a non-empty list"),
+        (lambda c: c["beam"].update(rms_g=[0.1, True]), r"'beam\.rms_g\[1\]'"),
+        (lambda c: c["beam"].update(damping=[0.01, 0.01]), r"'beam\.damping' has 2 ratio"),
+        (lambda c: c["map"].update(f_min=25.0), r"'map\.f_min' \(25 Hz\) must be below"),
+        (lambda c: c["rig"].update(fs=float("inf")), r"'rig\.fs' must be a record rate"),
+        (lambda c: c["rom"].update(arch="lstm"), r"'rom\.arch' must be \"nfir\" or \"noe\""),
+        (lambda c: c["rom"].update(sweep="yes"), r"'rom\.sweep' must be true or false"),
+        (lambda c: c["rom"].update(sweep_nfir_delays=[50, 50]), r"must not repeat a value"),
+        (lambda c: c["beam"].pop("seed"), r"configuration key 'beam\.seed' is missing"),
+        (lambda c: c.pop("map"), r"configuration table \[map\] is missing"),
+        (lambda c: c.update(extra={}), r"unknown configuration key 'extra'"),
+        (lambda c: c["tank"].update(fill=1.5), r"\[tank\]: fill level must be in \(0, 1\)"),
+        (lambda c: c["data"].update(validation_seed=-3), r"'data\.validation_seed'"),
+    ],
+)
+def test_validate_names_the_key(edit, match):
+    cfg = settings.defaults()
+    edit(cfg)
+    with pytest.raises(ConfigError, match=match):
+        settings.validate(cfg)
+
+
+def test_load_validates(tmp_path):
+    p = tmp_path / "c.toml"
+    p.write_text("[beam]\nrms_g = []\n")
+    with pytest.raises(ConfigError, match=r"'beam\.rms_g'"):
+        settings.load(p)
+
+
+def test_min_free_duration_is_what_the_damping_analysis_needs():
+    """At the minimum the analysis runs and keeps samples; a little shorter it cannot run."""
+    import numpy as np
+
+    from sloshrom.analysis import instantaneous_damping
+
+    fs, f1 = settings.BEAM_FS, 10.19
+    need = settings.min_free_duration(f1)
+    assert need == pytest.approx(settings.FREE_DAMPING_PERIODS / f1, abs=0.1)
+    t = np.arange(int(need * fs)) / fs
+    x = np.exp(-0.01 * 2 * np.pi * f1 * t) * np.sin(2 * np.pi * f1 * t)
+    h = instantaneous_damping(x, fs, f1)
+    assert h["zeta"].size > 0
+    short = x[: int((2 * 5 + 4) / f1 * fs)]  # trimmed ends + smoothing window only
+    with pytest.raises(ValueError, match="too short"):
+        instantaneous_damping(short, fs, f1)
+
+
+def test_random_minimum_holds_one_welch_segment():
+    assert settings.MIN_RANDOM_DURATION * settings.BEAM_FS >= settings.WELCH_NPERSEG
+
+
+@pytest.mark.parametrize(("f0", "sigma", "ok"), [(12.0, 4.0, True), (5.0, 4.0, False),
+                                                 (240.0, 4.0, False), (12.0, 0.0, False)])
+def test_psd_band(f0, sigma, ok):
+    if ok:
+        settings.check_psd_band(f0, sigma)
+    else:
+        with pytest.raises(ConfigError):
+            settings.check_psd_band(f0, sigma)

@@ -1,28 +1,92 @@
-"""The shared typer application that every CLI sub-module registers its commands on."""
+"""The shared typer application that every CLI sub-module registers its commands on, and the
+helpers that keep every user error to one line.
+
+A user error (bad option, bad file, bad configuration) ends in ONE red ``error: ...`` line on
+stderr naming the option, file or key, with exit code 2, no traceback, and before any work or any
+output (:func:`fail`, :func:`check_out`, :func:`check_number`). Warnings are routed too
+(:func:`route_warnings`): one yellow ``warning: ...`` line each, third-party deprecation noise
+silenced.
+"""
 
 from __future__ import annotations
 
+import importlib
+import math
+import re
+import sys
+import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 import typer
+from typer.core import TyperGroup
+
+__all__ = [
+    "app", "check_number", "check_out", "fail", "route_warnings", "user_errors", "warn",
+]
+
+
+def _click_exceptions() -> Any:
+    """The click exceptions module typer uses (its vendored copy in recent versions)."""
+    base = typer.Context.__mro__[1].__module__.rsplit(".", 1)[0]  # "typer._click" or "click"
+    return importlib.import_module(f"{base}.exceptions")
+
+
+class _OneLineErrors(TyperGroup):
+    """Root group whose usage errors (missing option, not a number, ...) are one line too.
+
+    typer prints them in a framed panel over several lines; users (and scripts grepping
+    ``error:``) get the same one-line form as the commands' own errors, exit code 2.
+    """
+
+    def main(self, args: Any = None, prog_name: str | None = None,
+             complete_var: str | None = None, standalone_mode: bool = True,
+             **extra: Any) -> Any:
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        exc = _click_exceptions()
+        try:
+            rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except exc.ClickException as e:
+            if type(e).__name__ == "NoArgsIsHelpError":  # `sloshrom rig`: the help, as before
+                typer.echo(e.format_message(), err=True)
+                sys.exit(e.exit_code)
+            msg = " ".join(e.format_message().split())
+            ctx = getattr(e, "ctx", None)
+            if ctx is not None and isinstance(e, exc.UsageError):
+                msg += f" (see '{ctx.command_path} --help')"
+            typer.secho(f"error: {msg}", fg=typer.colors.RED, err=True)
+            sys.exit(e.exit_code)
+        except exc.Abort:
+            typer.secho("error: aborted", fg=typer.colors.RED, err=True)
+            sys.exit(1)
+        sys.exit(rv if isinstance(rv, int) else 0)
+
 
 app = typer.Typer(
     name="sloshrom",
     help="Neural-network reduced-order models of vertical sloshing and the sloshing beam.",
     no_args_is_help=True,
     add_completion=False,
+    cls=_OneLineErrors,
 )
 
 
 @app.callback()
-def _main() -> None:
+def _main(ctx: typer.Context) -> None:
     """Identify sloshing ROMs from shaker data and couple them with a flexible beam."""
+    # for the whole command: closed (filters restored) when the command ends, however it ends
+    ctx.with_resource(route_warnings())
 
 
 @app.command()
 def version() -> None:
-    """Print the package version."""
+    """Print the package version.
+
+    Example: ``sloshrom version``
+    """
     from sloshrom import __version__
 
     typer.echo(__version__)
@@ -30,8 +94,31 @@ def version() -> None:
 
 def fail(msg: str) -> NoReturn:
     """Report a user error in one red line on stderr and exit with code 2 (no traceback)."""
-    typer.secho(f"error: {msg}", fg=typer.colors.RED, err=True)
+    typer.secho(f"error: {' '.join(str(msg).split())}", fg=typer.colors.RED, err=True)
     raise typer.Exit(code=2)
+
+
+def warn(msg: str) -> None:
+    """One yellow ``warning: ...`` line on stderr (the command goes on)."""
+    typer.secho(f"warning: {' '.join(str(msg).split())}", fg=typer.colors.YELLOW, err=True)
+
+
+def user_errors() -> tuple[type[BaseException], ...]:
+    """The package's own error types for bad user input (all ``ValueError`` subclasses).
+
+    Commands catch these, never a bare ``ValueError``: a plain ``ValueError`` from deep inside is
+    a programming error and must keep its traceback. ``ModelFileError`` is included only once
+    ``sloshrom.rom`` is imported (importing it loads JAX; it cannot be raised before).
+    """
+    from sloshrom.config import ConfigError
+    from sloshrom.data import RecordError
+    from sloshrom.fileio import OutputPathError
+
+    types: list[type[BaseException]] = [ConfigError, RecordError, OutputPathError]
+    rom = sys.modules.get("sloshrom.rom")
+    if rom is not None:
+        types.append(rom.ModelFileError)
+    return tuple(types)
 
 
 def check_out(
@@ -50,3 +137,96 @@ def check_out(
                             directory=directory, what=what)
     except OutputPathError as exc:
         fail(str(exc))
+
+
+def check_number(
+    value: float | int | None,
+    name: str,
+    lo: float | None = None,
+    hi: float | None = None,
+    *,
+    lo_open: bool = False,
+    hi_open: bool = False,
+    unit: str = "",
+    why: str = "",
+) -> None:
+    """Fail unless ``value`` is finite and in the range (``None`` means: option not given).
+
+    The message names the option, the accepted range with its unit, the value given and, if
+    given, why the range is what it is.
+    """
+    if value is None:
+        return
+    ok = math.isfinite(value)
+    ok = ok and (lo is None or (value > lo if lo_open else value >= lo))
+    ok = ok and (hi is None or (value < hi if hi_open else value <= hi))
+    if ok:
+        return
+    def g(v: float) -> str:
+        return str(v) if isinstance(v, int) else f"{v:g}"
+
+    u = f" {unit}" if unit else ""
+    if lo is not None and hi is not None:
+        rng = f"in {'(' if lo_open else '['}{g(lo)}, {g(hi)}{')' if hi_open else ']'}{u}"
+    elif lo is not None:
+        rng = f"{'>' if lo_open else '>='} {g(lo)}{u}"
+    elif hi is not None:
+        rng = f"{'<' if hi_open else '<='} {g(hi)}{u}"
+    else:
+        rng = "a finite number"
+    fail(f"{name} must be {rng}, got {value!r}" + (f" ({why})" if why else ""))
+
+
+def check_input(path: Path | None, what: str) -> None:
+    """Fail unless ``path`` (if given) is an existing regular file."""
+    if path is None:
+        return
+    if not str(path).strip():
+        fail(f"{what}: empty path")
+    if path.is_dir():
+        fail(f"{what} {path}: is a directory, expected a file")
+    if not path.is_file():
+        fail(f"{what} {path}: no such file")
+
+
+# -- warnings ------------------------------------------------------------------------------------
+_NOISE = (DeprecationWarning, PendingDeprecationWarning, FutureWarning)
+_SITE = re.compile(r"(?:site|dist)-packages[/\\]([A-Za-z0-9_]+)")
+
+
+def _origin(filename: str) -> str:
+    """The package a warning comes from (``sloshrom``, ``numpy``, ...; ``""`` if unknown)."""
+    m = _SITE.search(filename)
+    if m:
+        return m.group(1)
+    return "sloshrom" if re.search(r"[/\\]sloshrom[/\\]", filename) else ""
+
+
+@contextmanager
+def route_warnings() -> Iterator[None]:
+    """Warnings as one yellow ``warning: ...`` line each, while the block runs.
+
+    Our own warnings (``EnvelopeWarning``, a ROM leaving its training envelope, a test outside
+    the rig's calibrated domain) and third-party warnings about the user's data (numpy
+    ``RuntimeWarning``, scipy's "nperseg is greater than the input length", ...) are shown
+    once each, the latter with their origin; third-party ``DeprecationWarning``/
+    ``FutureWarning`` (xarray, JAX, ... talking to developers) are silenced.
+    """
+    seen: set[str] = set()
+
+    def show(message: Any, category: type[Warning], filename: str, lineno: int,
+             file: Any = None, line: str | None = None) -> None:
+        text = " ".join(str(message).split())
+        origin = _origin(filename)
+        if origin != "sloshrom":
+            text += f" ({category.__name__}{' from ' + origin if origin else ''})"
+        if text not in seen:
+            seen.add(text)
+            warn(text)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("default")
+        for cat in _NOISE:  # not ours: a module name that does not start with "sloshrom"
+            warnings.filterwarnings("ignore", category=cat, module=r"(?!sloshrom\b)")
+        warnings.showwarning = show
+        yield

@@ -13,9 +13,18 @@ from typing import Annotated, Any
 import numpy as np
 import typer
 
-from sloshrom.cli._app import app, fail
-from sloshrom.config import ConfigError, G, Tank
-from sloshrom.fileio import atomic_write
+from sloshrom.cli._app import app, check_input, check_number, check_out, fail, user_errors
+from sloshrom.config import G, Tank
+from sloshrom.fileio import OutputBatch, atomic_write
+from sloshrom.settings import (
+    FREE_DAMPING_PERIODS,
+    MAX_BEAM_SECONDS,
+    MAX_LEVEL_SECONDS,
+    MIN_RANDOM_DURATION,
+    check_analysis_band,
+    check_psd_band,
+    min_free_duration,
+)
 
 beam_app = typer.Typer(
     help="Sloshing-beam simulations (free and random responses) and damping analysis.",
@@ -24,9 +33,12 @@ beam_app = typer.Typer(
 app.add_typer(beam_app, name="beam")
 
 SENSOR_FS = 500.0  # Hz, output rate of the rig runs and the frozen reference
+MAX_SEED = 2**32 - 1
+MAX_LEVEL_G = 2.0  # RMS; the rig's calibrated envelope is 6 g peak, about 3 x RMS
 
 
 def _model(name: str, tank: Tank, seed: int) -> tuple[str, Any]:
+    """``(case name, sloshing model)`` of a ``--sloshing`` value; a user error if unusable."""
     from sloshrom.models import FrozenLiquid
 
     if name == "frozen":
@@ -36,21 +48,66 @@ def _model(name: str, tank: Tank, seed: int) -> tuple[str, Any]:
 
         return "rig", VirtualRig(tank=tank, seed=seed)
     p = Path(name)
-    if not p.is_file():
+    if not name.strip() or not p.is_file():
         fail(f"--sloshing must be 'frozen', 'rig' or a ROM model file; {p} does not exist")
+    from sloshrom.data import canonical_unit
     from sloshrom.rom import load_model
 
     try:
-        return p.stem, load_model(p)
-    except ValueError as exc:
+        rom = load_model(p)
+    except user_errors() as exc:
         fail(str(exc))
-    raise AssertionError  # unreachable
+    units = tuple(canonical_unit(u)[0] for u in rom.units)
+    if units != ("m/s", "N"):
+        fail(f"--sloshing {p}: the ROM maps '{rom.units[0]}' to '{rom.units[1]}'; the beam "
+             "feeds it the tank velocity in m/s and expects the dynamic force in N")
+    ratio = rom.fs_ / SENSOR_FS
+    if not (ratio >= 1 - 1e-9 and abs(ratio - round(ratio)) < 1e-6):
+        fail(f"--sloshing {p}: the ROM runs at {rom.fs_:g} Hz; the beam needs a multiple of "
+             f"{SENSOR_FS:g} Hz (the rate of its results and of the random excitation)")
+    return p.stem, rom
+
+
+def _models(names: list[str], tank: Tank, seed: int) -> dict[str, Any]:
+    """Every sloshing model, loaded and checked before any simulation (frozen first)."""
+    models: dict[str, Any] = {}
+    for name in ["frozen", *[n for n in names if n != "frozen"]]:
+        case, model = _model(name, tank, seed)
+        if case in models:
+            fail(f"--sloshing {name}: a second case named '{case}' (each case writes "
+                 f"<test>_{case}.nc; rename the model file)")
+        models[case] = model
+    return models
 
 
 def _modal(modal_toml: Path | None, tank: Tank):
     from sloshrom.structure import ModalModel
 
     return ModalModel.from_toml(modal_toml) if modal_toml else ModalModel.from_beam(tank=tank)
+
+
+def _setup(tank_toml: Path | None, modal_toml: Path | None, seed: int):
+    """Tank, modal model and first frozen-liquid mode (Hz), or a user error."""
+    from sloshrom.structure import coupled_frozen_modes
+
+    check_number(seed, "--seed", 0, MAX_SEED)
+    check_input(tank_toml, "--tank-toml")
+    check_input(modal_toml, "--modal-toml")
+    try:
+        tank = Tank.from_toml(tank_toml) if tank_toml else Tank()
+        modal = _modal(modal_toml, tank)
+        f1 = float(coupled_frozen_modes(modal, tank.liquid_mass)[0][0])
+        check_analysis_band(f1)
+    except user_errors() as exc:
+        fail(str(exc))
+    return tank, modal, f1
+
+
+def _check_outputs(out: Path, names: list[str], inputs: tuple[Path | None, ...]) -> None:
+    """The directory and every file the command will write, before any work."""
+    check_out(out, directory=True, inputs=inputs)
+    for name in names:
+        check_out(out / name, inputs=inputs, what="result file")
 
 
 def to_dataset(out: dict, case: str, kind: str, tank: Tank, modal, seed: int = 0) -> Any:
@@ -94,11 +151,12 @@ def to_dataset(out: dict, case: str, kind: str, tank: Tank, modal, seed: int = 0
     return ds
 
 
-def _write_nc(ds: Any, path: Path) -> None:
-    atomic_write(path, lambda tmp: ds.to_netcdf(tmp, engine="h5netcdf"))
+def _write_nc(ds: Any, path: Path, batch: OutputBatch | None = None) -> None:
+    write = batch.write if batch is not None else atomic_write
+    write(path, lambda tmp: ds.to_netcdf(tmp, engine="h5netcdf"))
 
 
-def _write_table(rows: list[dict], path_stem: Path) -> None:
+def _write_table(rows: list[dict], path_stem: Path, batch: OutputBatch | None = None) -> None:
     keys = list(rows[0])
 
     def csv(tmp):
@@ -116,30 +174,43 @@ def _write_table(rows: list[dict], path_stem: Path) -> None:
             for r in rows:
                 fh.write("| " + " | ".join(fmt(r[k]) for k in keys) + " |\n")
 
-    atomic_write(path_stem.with_suffix(".csv"), csv)
-    atomic_write(path_stem.with_suffix(".md"), md)
+    write = batch.write if batch is not None else atomic_write
+    write(path_stem.with_suffix(".csv"), csv)
+    write(path_stem.with_suffix(".md"), md)
 
 
-def _savefig(fig, path: Path) -> None:
+def _savefig(fig, path: Path, batch: OutputBatch | None = None) -> None:
     import matplotlib.pyplot as plt
 
-    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=120, format="png"))
-    plt.close(fig)
+    write = batch.write if batch is not None else atomic_write
+    try:
+        write(path, lambda tmp: fig.savefig(tmp, dpi=120, format="png"))
+    finally:
+        plt.close(fig)
 
 
-def _run_cases(names: list[str], tank: Tank, modal, seed: int, label: str, fn) -> dict:
+def _run_cases(models: dict[str, Any], label: str, fn) -> dict:
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+    from sloshrom.coupled import SimulationDivergedError
 
     results = {}
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
                   transient=True) as progress:
-        for name in ["frozen", *[n for n in names if n != "frozen"]]:
-            case, model = _model(name, tank, seed)
+        for case, model in models.items():
             task = progress.add_task(f"{label}: {case}", total=None)
             out_fs = SENSOR_FS if 1.0 / model.dt > SENSOR_FS else None
-            results[case] = fn(model, out_fs)
+            try:
+                results[case] = fn(model, out_fs)
+            except SimulationDivergedError as exc:  # a ROM far outside its training range
+                fail(f"{label} with {case}: {exc}")
             progress.remove_task(task)
     return results
+
+
+_FREE_FIGS = ("fig14_station_accelerations", "fig16_modal_accelerations",
+              "fig20_tank_interface_dynamic", "fig21_instantaneous_damping")
+_RANDOM_FIGS = ("fig18_tank_acceleration", "fig22_tank_acceleration_window", "fig23_psd")
 
 
 # ------------------------------------------------------------------------------------------
@@ -280,38 +351,52 @@ _TankOpt = Annotated[
 _ModalOpt = Annotated[
     Path | None, typer.Option(help="Own modal data TOML (\\[modal] table, see docs/beam.md).")]
 _SloshOpt = Annotated[
-    list[str], typer.Option("--sloshing", help="frozen | rig | ROM model file (repeatable).")]
+    list[str], typer.Option("--sloshing", help="frozen | rig | ROM model file (repeatable; "
+                                               "a ROM at a multiple of 500 Hz, m/s -> N).")]
 
 
 @beam_app.command("free")
 def free(
     out: Annotated[Path, typer.Option(help="Output directory.")],
     sloshing: _SloshOpt = ["rig"],  # noqa: B006 (typer default)
-    tip_displacement: Annotated[float, typer.Option(help="Initial tip displacement, m.")] = 0.0146,
-    duration: Annotated[float, typer.Option(help="s.")] = 10.0,
+    tip_displacement: Annotated[float, typer.Option(help="Initial tip displacement, m "
+                                                         "(0 < |x| < 0.2).")] = 0.0146,
+    duration: Annotated[float, typer.Option(help="s: from 18 periods of mode 1 (1.8 s for "
+                                                 f"the paper beam) to {MAX_BEAM_SECONDS:g} "
+                                                 "s.")] = 10.0,
     tank_toml: _TankOpt = None,
     modal_toml: _ModalOpt = None,
-    seed: Annotated[int, typer.Option(help="Rig seed.")] = 0,
+    seed: Annotated[int, typer.Option(help="Rig seed (>= 0).")] = 0,
 ) -> None:
     """Free response from a static tip deflection (paper Figs. 14, 16, 20, 21; Table 1).
+
+    The duration must leave the instantaneous-damping analysis of mode 1 something to analyse:
+    it trims 5 periods at each end and smooths over 4, hence at least 18 periods. All result
+    files appear together at the end, or none if the run fails.
 
     Example: ``sloshrom beam free --sloshing rig --sloshing nfir.npz --out results/beam``
     """
     from sloshrom.coupled import free_response
     from sloshrom.structure import coupled_frozen_modes, frozen_modal_table
 
-    try:
-        tank = Tank.from_toml(tank_toml) if tank_toml else Tank()
-        modal = _modal(modal_toml, tank)
-    except ConfigError as exc:
-        fail(str(exc))
-    if not (0 < duration <= 600) or not (0 < abs(tip_displacement) < 0.2):
-        fail("need 0 < duration <= 600 s and 0 < |tip displacement| < 0.2 m")
-    out.mkdir(parents=True, exist_ok=True)
-    res = _run_cases(sloshing, tank, modal, seed, "free response",
+    check_number(tip_displacement, "--tip-displacement", -0.2, 0.2, lo_open=True, hi_open=True,
+                 unit="m")
+    if tip_displacement == 0:
+        fail("--tip-displacement must not be 0 (0 < |tip displacement| < 0.2 m): "
+             "a beam at rest has no free response")
+    check_number(duration, "--duration", 0.0, MAX_BEAM_SECONDS, lo_open=True, unit="s")
+    tank, modal, f1 = _setup(tank_toml, modal_toml, seed)
+    need = min_free_duration(f1)
+    if duration < need:
+        fail(f"--duration {duration:g} s is too short for the damping analysis of mode 1 "
+             f"({f1:.3g} Hz): need at least {need:g} s ({FREE_DAMPING_PERIODS} periods)")
+    models = _models(sloshing, tank, seed)
+    inputs = (tank_toml, modal_toml, *(Path(n) for n in sloshing if n not in ("frozen", "rig")))
+    files = [*(f"free_{c}.nc" for c in models), "table1_frozen_modes.csv",
+             "table1_frozen_modes.md", *(f"{f}.png" for f in _FREE_FIGS)]
+    _check_outputs(out, files, inputs)
+    res = _run_cases(models, "free response",
                      lambda m, fs: free_response(m, modal, tip_displacement, duration, tank, fs))
-    for case, r in res.items():
-        _write_nc(to_dataset(r, case, "free", tank, modal, seed), out / f"free_{case}.nc")
     if modal_toml is None:
         rows = frozen_modal_table(tank, n_modes=modal.n_modes)
     else:  # user modes: frozen-liquid frequencies of the coupled model only
@@ -319,9 +404,13 @@ def free(
         rows = [{"mode": n + 1, "f_dry_Hz": float(modal.frequencies[n]),
                  "f_coupled_Hz": float(fc[n]), "damping": float(modal.damping[n])}
                 for n in range(modal.n_modes)]
-    _write_table(rows, out / "table1_frozen_modes")
-    for name, fig in free_figures(res, modal, tank).items():
-        _savefig(fig, out / f"{name}.png")
+    with OutputBatch() as batch:  # all result files or none
+        for case, r in res.items():
+            _write_nc(to_dataset(r, case, "free", tank, modal, seed), out / f"free_{case}.nc",
+                      batch)
+        _write_table(rows, out / "table1_frozen_modes", batch)
+        for name, fig in free_figures(res, modal, tank).items():
+            _savefig(fig, out / f"{name}.png", batch)
     typer.echo(f"wrote {len(res)} result file(s) and figures to {out}")
 
 
@@ -329,53 +418,72 @@ def free(
 def random(
     out: Annotated[Path, typer.Option(help="Output directory.")],
     sloshing: _SloshOpt = ["rig"],  # noqa: B006
-    levels: Annotated[str, typer.Option(help="RMS base accelerations, g, comma separated.")] = (
+    levels: Annotated[str, typer.Option(help=f"RMS base accelerations, g, each in (0, "
+                                             f"{MAX_LEVEL_G:g}], comma separated.")] = (
         "0.1,0.2,0.4"),
-    duration: Annotated[float, typer.Option(help="s.")] = 90.0,
-    seed: Annotated[int, typer.Option(help="Seed of the random phases (and of the rig).")] = 0,
+    duration: Annotated[float, typer.Option(help=f"s, {MIN_RANDOM_DURATION:g} (one Welch "
+                                                 f"segment of Table 2) to "
+                                                 f"{MAX_BEAM_SECONDS:g}.")] = 90.0,
+    seed: Annotated[int, typer.Option(help="Seed of the random phases (and of the rig), "
+                                           ">= 0.")] = 0,
     f0: Annotated[float, typer.Option(help="PSD centre, Hz (estimate).")] = 12.0,
-    sigma: Annotated[float, typer.Option(help="PSD standard deviation, Hz (estimate).")] = 4.0,
+    sigma: Annotated[float, typer.Option(help="PSD standard deviation, Hz (estimate); "
+                                              "f0 - 3 sigma >= 0 and f0 + 4 sigma < 250 Hz.")
+                     ] = 4.0,
     tank_toml: _TankOpt = None,
     modal_toml: _ModalOpt = None,
 ) -> None:
     """Random base excitation at several RMS levels (paper Figs. 18, 22, 23; Table 2).
 
+    The excitation is synthesised at 500 Hz: its Gaussian PSD must lie inside (0, 250 Hz)
+    (f0 - 3 sigma >= 0, f0 + 4 sigma < 250 Hz). Table 2's estimators use Welch segments of
+    16384 samples (32.8 s), hence the shortest duration; duration x number of levels is at most
+    1800 s (the rig holds about 2.1 MB per second and level). All result files appear together
+    at the end, or none if the run fails.
+
     Example: ``sloshrom beam random --sloshing rig --levels 0.1,0.2,0.4 --duration 90 --out res``
     """
     from sloshrom.analysis import mode1_damping_random
+    from sloshrom.config import ConfigError
     from sloshrom.coupled import random_response
-    from sloshrom.structure import coupled_frozen_modes
 
     try:
         lv = [float(x) for x in levels.split(",") if x.strip()]
     except ValueError:
         fail(f"--levels must be comma-separated numbers in g, got {levels!r}")
-    if not lv or any(not (0 < x <= 2) for x in lv):
-        fail("--levels must be RMS values in (0, 2] g")
-    if not (10 <= duration <= 3600):
-        fail("--duration must be between 10 and 3600 s")
-    if not (np.isfinite(f0) and np.isfinite(sigma) and f0 > 0 and sigma > 0):
-        fail(f"--f0 and --sigma must be positive frequencies in Hz, got {f0!r}, {sigma!r}")
+    if not lv or any(not (0 < x <= MAX_LEVEL_G) for x in lv):
+        fail(f"--levels must be RMS values in (0, {MAX_LEVEL_G:g}] g, got {levels!r}")
     try:
-        tank = Tank.from_toml(tank_toml) if tank_toml else Tank()
-        modal = _modal(modal_toml, tank)
+        check_psd_band(f0, sigma)
     except ConfigError as exc:
         fail(str(exc))
-    out.mkdir(parents=True, exist_ok=True)
-    res = _run_cases(sloshing, tank, modal, seed, "random response",
+    check_number(duration, "--duration", MIN_RANDOM_DURATION, MAX_BEAM_SECONDS, unit="s",
+                 why="Table 2 needs one 16384-sample Welch segment at 500 Hz")
+    if duration * len(lv) > MAX_LEVEL_SECONDS:
+        fail(f"--duration {duration:g} s x {len(lv)} level(s) = {duration * len(lv):g} s is "
+             f"more than {MAX_LEVEL_SECONDS:g} s (memory: the rig holds about 2.1 MB per second "
+             "and level at its 10 kHz step)")
+    tank, modal, f1 = _setup(tank_toml, modal_toml, seed)
+    models = _models(sloshing, tank, seed)
+    inputs = (tank_toml, modal_toml, *(Path(n) for n in sloshing if n not in ("frozen", "rig")))
+    files = [*(f"random_{c}.nc" for c in models), "table2_mode1_damping.csv",
+             "table2_mode1_damping.md", *(f"{f}.png" for f in _RANDOM_FIGS)]
+    _check_outputs(out, files, inputs)
+    res = _run_cases(models, "random response",
                      lambda m, fs: random_response(m, modal, lv, duration, seed, f0, sigma,
                                                    tank=tank, output_fs=fs))
-    for case, r in res.items():
-        _write_nc(to_dataset(r, case, "random", tank, modal, seed),
-                  out / f"random_{case}.nc")
-    f1 = float(coupled_frozen_modes(modal, tank.liquid_mass)[0][0])
     rows = []
     for case, r in res.items():
         for i, level in enumerate(lv):
             d = mode1_damping_random(r["base_acceleration"][i], r["tank_acceleration"][i],
                                      r["fs"], f1)
             rows.append({"case": case, "rms_g": level, **d})
-    _write_table(rows, out / "table2_mode1_damping")
-    for name, fig in random_figures(res, lv).items():
-        _savefig(fig, out / f"{name}.png")
+    with OutputBatch() as batch:  # all result files or none
+        for case, r in res.items():
+            _write_nc(to_dataset(r, case, "random", tank, modal, seed),
+                      out / f"random_{case}.nc", batch)
+        _write_table(rows, out / "table2_mode1_damping", batch)
+        window = (min(40.0, duration / 2), min(42.0, duration / 2 + 2))  # inside the record
+        for name, fig in random_figures(res, lv, window).items():
+            _savefig(fig, out / f"{name}.png", batch)
     typer.echo(f"wrote {len(res)} result file(s), Table 2 and figures to {out}")

@@ -8,7 +8,7 @@ from typing import Annotated
 
 import typer
 
-from sloshrom.cli._app import app, fail
+from sloshrom.cli._app import app, check_input, check_number, check_out, fail, user_errors
 
 export_app = typer.Typer(help="Export a trained ROM for other simulators (ONNX).",
                          no_args_is_help=True)
@@ -36,9 +36,10 @@ def onnx_cmd(
 
     Example: ``sloshrom export onnx results/models/nfir.npz nfir_step.onnx``
     """
-    import numpy as np
+    import shutil
+    import tempfile
 
-    from sloshrom.onnx_export import export_onnx
+    import numpy as np
 
     if form not in ("step", "sequence"):
         fail(f"--form must be 'step' or 'sequence', got {form!r}")
@@ -48,26 +49,33 @@ def onnx_cmd(
         fail(f"output must be a .onnx file, got {out} (MODEL comes first, then OUT)")
     if not model.is_file():
         fail(f"model file not found: {model}")
+    check_out(out, suffixes=(".onnx",), inputs=(model,), what="OUT")
+    from sloshrom.fileio import atomic_write
+    from sloshrom.onnx_export import export_onnx
     from sloshrom.rom import load_model
 
     try:
         rom = load_model(model)
-        path = export_onnx(rom, out, form=form, dtype=dtype)
-    except (ValueError, OSError) as exc:  # ModelFileError is a ValueError
+    except user_errors() as exc:
         fail(str(exc))
-    msg = (f"wrote {path}: {type(rom).__name__} {form} form, {dtype}, {rom.fs_:g} Hz, "
-           f"{rom.max_delay} input delays")
-    if check:
-        u = _check_input(rom)
-        ref = np.asarray(rom.predict(u))
-        y = run_onnx(path, u)
-        rel = float(np.max(np.abs(y - ref)) / max(np.max(np.abs(ref)), 1e-300))
-        msg += f"; onnxruntime vs sloshrom on {u.size} samples: max rel. difference {rel:.2e}"
-        limit = 1e-6 if dtype == "float64" else 1e-4
-        if not rel <= limit:
-            path.unlink(missing_ok=True)
-            fail(f"exported graph differs from the ROM by {rel:.2e} (> {limit:g}); removed "
-                  f"{path}")
+    # export and check in a scratch directory: OUT appears only once the graph is verified, and
+    # an existing OUT is not lost when the check fails
+    with tempfile.TemporaryDirectory(prefix="sloshrom-onnx-") as scratch:
+        tmp = export_onnx(rom, Path(scratch) / "model.onnx", form=form, dtype=dtype)
+        msg = (f"wrote {out}: {type(rom).__name__} {form} form, {dtype}, {rom.fs_:g} Hz, "
+               f"{rom.max_delay} input delays")
+        if check:
+            u = _check_input(rom)
+            ref = np.asarray(rom.predict(u))
+            y = run_onnx(tmp, u)
+            rel = float(np.max(np.abs(y - ref)) / max(np.max(np.abs(ref)), 1e-300))
+            msg += (f"; onnxruntime vs sloshrom on {u.size} samples: max rel. difference "
+                    f"{rel:.2e}")
+            limit = 1e-6 if dtype == "float64" else 1e-4
+            if not rel <= limit:
+                fail(f"exported graph differs from the ROM by {rel:.2e} (> {limit:g}); {out} "
+                     "not written")
+        atomic_write(out, lambda t: shutil.copyfile(tmp, t))
     typer.echo(msg)
 
 
@@ -156,15 +164,19 @@ def import_uff_cmd(
     for key, value in _pairs(name, "--name").items():
         names[int(key) if key.isdigit() else key] = value
     units = _pairs(unit, "--unit")
-    if not uff.is_file():
-        fail(f"{uff}: no such file")
+    check_number(f_highpass, "--f-highpass", 0.0, unit="Hz")
+    check_input(uff, "UFF")
+    check_input(tank_toml, "--tank")
+    check_out(out, suffixes=(".nc", ".csv", ".mat"), inputs=(uff, tank_toml), what="OUT")
     try:
+        tank = Tank.from_toml(tank_toml) if tank_toml is not None else Tank()
         rec = read_uff58(uff, names=names, units=units).to_si()
         if preprocess:
-            tank = Tank.from_toml(tank_toml) if tank_toml is not None else Tank()
+            check_number(f_highpass, "--f-highpass", 0.0, rec.fs / 2, hi_open=True, unit="Hz",
+                         why=f"below the Nyquist frequency of the {rec.fs:g} Hz record")
             rec = _preprocess(rec, tank, f_highpass=f_highpass)
         write_record(rec, out)
-    except (ValueError, OSError) as exc:  # RecordError, ConfigError; f_highpass out of range
+    except user_errors() as exc:  # RecordError, ConfigError
         fail(str(exc))
     typer.echo(f"wrote {out}: {', '.join(rec.names)}; {len(rec)} samples at {rec.fs:g} Hz "
                f"({rec.duration:.1f} s)")

@@ -8,57 +8,23 @@ from typing import Annotated
 
 import typer
 
-from sloshrom.cli._app import app, fail
+from sloshrom.cli._app import app, check_input, check_number, check_out, fail, user_errors
+from sloshrom.config import Tank
 
 config_app = typer.Typer(help="Show the configuration of `sloshrom reproduce`.",
                          no_args_is_help=True)
 app.add_typer(config_app, name="config")
 
 
-def _check_config(cfg: dict) -> None:
-    """Validate values that would otherwise fail deep inside a stage, after minutes of work.
-
-    Raises ``ConfigError`` naming the key (bad-input suite, tests/test_bad_input.py).
-    """
-    import math
-
-    from sloshrom.config import ConfigError, Tank
-
-    try:
-        Tank.from_dict(dict(cfg["tank"]))
-    except ConfigError as exc:
-        raise ConfigError(f"[tank]: {exc}") from None
-    positive = {"rig": ("fs",), "data": ("train_duration", "validation_duration"),
-                "map": ("f_min", "f_max", "gamma_max", "a_bar_min", "a_bar_max"),
-                "beam": ("free_duration", "random_duration")}
-    for sec, keys in positive.items():
-        for key in keys:
-            v = cfg.get(sec, {}).get(key)
-            if v is not None and not (math.isfinite(v) and v > 0):
-                raise ConfigError(f"'{sec}.{key}' must be a finite positive number, got {v!r}")
-    for sec, key, lo in (("rom", "delays", 1), ("rom", "neurons", 1), ("rom", "max_epochs", 0),
-                         ("map", "n_omega", 2), ("map", "n_a", 2), ("beam", "n_modes", 1)):
-        v = cfg.get(sec, {}).get(key)
-        if v is not None and not (isinstance(v, int) and v >= lo):
-            raise ConfigError(f"'{sec}.{key}' must be an integer >= {lo}, got {v!r}")
-    rom = cfg.get("rom", {})
-    if rom.get("arch", "nfir") not in ("nfir", "noe"):
-        raise ConfigError(f"'rom.arch' must be \"nfir\" or \"noe\", got {rom['arch']!r}")
-    if rom.get("hidden", "matlab") not in ("matlab", "distance"):
-        raise ConfigError(f"'rom.hidden' must be \"matlab\" or \"distance\", "
-                          f"got {rom['hidden']!r}")
-
-
 def _load_config(config: Path | None, quick: bool) -> dict:
+    """The merged configuration, validated by :func:`sloshrom.settings.validate`."""
     from sloshrom import settings
-    from sloshrom.config import ConfigError
 
+    check_input(config, "--config")
     try:
-        cfg = settings.load(config, quick=quick)
-        _check_config(cfg)
-    except ConfigError as exc:
+        return settings.load(config, quick=quick)
+    except user_errors() as exc:
         fail(str(exc))
-    return cfg
 
 
 @config_app.command("show")
@@ -99,13 +65,16 @@ def reproduce(
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from sloshrom import pipeline
-    from sloshrom.config import ConfigError
-    from sloshrom.data import RecordError
+    from sloshrom import pipeline, settings
 
     cfg = _load_config(config, quick)
     if sweep:
         cfg["rom"]["sweep"] = True
+        try:
+            settings.validate(cfg)  # the sweep grid must fit the training record too
+        except user_errors() as exc:
+            fail(str(exc))
+    check_out(out, directory=True, inputs=(config,))
     console = Console(stderr=True)
     tasks: dict[str, int] = {}
     with Progress(TextColumn("[bold]{task.fields[stage]:<7}"), BarColumn(),
@@ -119,12 +88,9 @@ def reproduce(
 
         try:
             summary = pipeline.run(out, cfg, progress=report)
-        except (ConfigError, RecordError, OSError) as exc:  # user input, not a bug: no traceback
+        except (*user_errors(), OSError) as exc:  # user input or disk, not a bug: one line
             prog.stop()
             fail(str(exc))
-        except ValueError as exc:  # a config value a stage rejects (e.g. a too short duration)
-            prog.stop()
-            fail(f"{exc} (check the configuration: sloshrom config show --config FILE)")
     for name, st in summary["stages"].items():
         console.print(f"{name:7s} {'reused' if st['reused'] else 'done'}"
                       f" ({summary['timings_s'].get(name, 0.0):.1f} s)")
@@ -133,83 +99,142 @@ def reproduce(
     console.print(f"report: {Path(out) / 'report.html'}   summary: {Path(out) / 'summary.json'}")
 
 
+MAP_SUFFIXES = (".nc",)
+MAX_GRID = 200  # points per axis: each frequency runs n_a harmonic tests as one 10 kHz batch
+MAX_SEED = 2**32 - 1
+
+
 @app.command("map")
 def map_cmd(
     out: Annotated[Path, typer.Option(help="Output NetCDF file (a PNG is written beside it).")],
     rig: Annotated[bool, typer.Option("--rig", help="Map the virtual rig.")] = False,
     model: Annotated[Path | None, typer.Option(help="Map this ROM file instead.")] = None,
-    n_omega: Annotated[int, typer.Option(help="Frequency points (5-25 Hz).")] = 30,
-    n_a: Annotated[int, typer.Option(help="Amplitude points (a/h in 0.01-0.45).")] = 30,
-    reference: Annotated[Path | None, typer.Option(help="A map file to compare with "
-                                                   "(prints the relative L2 error).")] = None,
-    seed: Annotated[int, typer.Option(help="Rig seed.")] = 0,
+    n_omega: Annotated[int, typer.Option(help=f"Frequency points (5-25 Hz), 2-{MAX_GRID}.")
+                       ] = 30,
+    n_a: Annotated[int, typer.Option(help=f"Amplitude points (a/h in 0.01-0.45), 2-{MAX_GRID}.")
+                   ] = 30,
+    reference: Annotated[Path | None, typer.Option(help="A map file on the same grid to "
+                                                   "compare with (prints the relative L2 "
+                                                   "error).")] = None,
+    seed: Annotated[int, typer.Option(help="Rig seed (>= 0).")] = 0,
 ) -> None:
     """Dissipated-energy map Phi_d(omega_bar, a_bar) from batched harmonic tests.
+
+    The NetCDF file and its PNG appear together at the end, or neither if the run fails; the
+    reference map is read and compared with the grid before the (long) map starts.
 
     Example: ``sloshrom map --rig --out rig_map.nc`` then
     ``sloshrom map --model nfir.npz --reference rig_map.nc --out rom_map.nc``.
     """
-    from rich.progress import Progress
-
-    from sloshrom import pipeline, settings
-    from sloshrom.config import Tank
-    from sloshrom.energy import map_maximum
+    from sloshrom import settings
 
     if rig == (model is not None):
         fail("give exactly one of --rig or --model FILE")
-    if n_omega < 2 or n_a < 2:
-        fail("--n-omega and --n-a must be at least 2")
-    ref = None
-    if reference is not None:  # read it first: a bad reference must not cost a whole map
-        ref = _read_reference(reference)
+    for name, n in (("--n-omega", n_omega), ("--n-a", n_a)):
+        check_number(n, name, 2, MAX_GRID,
+                     why="each frequency runs the amplitudes as one batch at the rig's 10 kHz "
+                         "step; the grid size sets memory and time")
+    check_number(seed, "--seed", 0, MAX_SEED)
+    check_input(model, "--model")
+    check_input(reference, "--reference")
+    check_out(out, suffixes=MAP_SUFFIXES, inputs=(model, reference))
+    check_out(out.with_suffix(".png"), inputs=(model, reference), what="--out (its PNG)")
     cfg = settings.defaults()
     cfg["map"].update(n_omega=n_omega, n_a=n_a)
     tank = Tank()
+    ref = None
+    if reference is not None:  # read it first: a bad reference must not cost a whole map
+        ref = _read_reference(reference, cfg, tank)
     if rig:
         from sloshrom.rig import VirtualRig
 
         sm = VirtualRig(tank=tank, seed=seed)
         title = "virtual rig"
     else:
-        from sloshrom.rom import load_model
-
-        if not model.is_file():
-            fail(f"model file not found: {model}")
-        try:
-            sm = load_model(model)
-        except ValueError as exc:  # ModelFileError: wrong format/version, tampered arrays
-            fail(str(exc))
+        sm = _load_rom(model, 8 * cfg["map"]["f_max"])
         title = f"ROM {model.name}"
+    from rich.progress import Progress
+
+    from sloshrom import pipeline
+    from sloshrom.energy import map_maximum
+
     with Progress(transient=True) as prog:
         task = prog.add_task("harmonic tests", total=n_omega)
         da = pipeline.compute_map(sm, cfg, tank,
                                   lambda d, t: prog.update(task, completed=d, total=t))
-    out.parent.mkdir(parents=True, exist_ok=True)
-    pipeline.write_map(da, out, title)
+    _write_map(da, out, title)
     mx = map_maximum(da)
     typer.echo(f"max Phi_d = {mx['phi_d']:.3g} at omega_bar = {mx['omega_bar']:.2f}, "
                f"a_bar = {mx['a_bar']:.3f} (Gamma = {mx['gamma']:.2f} g, "
                f"{mx['frequency']:.1f} Hz); wrote {out} and {out.with_suffix('.png')}")
     if ref is not None:
-        r = ref
-        if r.shape != da.shape:
-            fail(f"reference map has shape {r.shape}, this map {da.shape}: use the same grid")
-        err = pipeline.relative_map_error(r, da.values)
+        err = pipeline.relative_map_error(ref, da.values)
         typer.echo(f"relative L2 error against {reference}: {err:.1%}")
 
 
-def _read_reference(path: Path):
-    """``phi_d`` of a map file written by ``sloshrom map``, or a clear error."""
+def _load_rom(path: Path, min_fs: float):
+    """A ROM usable for harmonic tests (m/s -> N, fast enough for the top frequency)."""
+    from sloshrom.data import canonical_unit
+    from sloshrom.rom import load_model
+
+    try:
+        m = load_model(path)
+    except user_errors() as exc:  # ModelFileError: wrong format/version, tampered arrays
+        fail(str(exc))
+    if tuple(canonical_unit(u)[0] for u in m.units) != ("m/s", "N"):
+        fail(f"--model {path}: the ROM maps '{m.units[0]}' to '{m.units[1]}'; the harmonic "
+             "tests feed it the tank velocity in m/s and read the dynamic force in N")
+    if m.fs_ < min_fs:
+        fail(f"--model {path}: the ROM runs at {m.fs_:g} Hz, too slow for harmonic tests up to "
+             f"{min_fs / 8:g} Hz (need at least {min_fs:g} Hz, 8 samples per cycle)")
+    return m
+
+
+def _write_map(da, out: Path, title: str) -> None:
+    """NetCDF and PNG of a map, both or neither (one batch)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from sloshrom.energy import plot_phi_d_map
+    from sloshrom.fileio import OutputBatch
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.6), constrained_layout=True)
+    try:
+        plot_phi_d_map(da, ax=ax)
+        ax.set_title(title)
+        with OutputBatch() as batch:
+            batch.write(out, lambda tmp: da.to_dataset().to_netcdf(tmp, engine="h5netcdf"))
+            batch.write(out.with_suffix(".png"), lambda tmp: fig.savefig(tmp, dpi=110),
+                        suffix=".png")
+    finally:
+        plt.close(fig)
+
+
+def _read_reference(path: Path, cfg: dict, tank: Tank):
+    """``phi_d`` of a map file written by ``sloshrom map`` on this grid, or a clear error."""
     import numpy as np
     import xarray as xr
 
-    if not path.is_file():
-        fail(f"reference map not found: {path}")
+    from sloshrom.pipeline import map_grid
+
     try:
         with xr.open_dataset(path, engine="h5netcdf") as ds:
             r = np.asarray(ds["phi_d"].values)
+            coords = {k: np.asarray(ds[k].values) for k in ("omega_bar", "a_bar") if k in ds}
     except KeyError:
         fail(f"{path}: not a map file (no 'phi_d' variable)")
     except Exception as exc:  # h5py/xarray raise many types for corrupt files
         fail(f"{path}: not a readable NetCDF map ({type(exc).__name__}: {exc})")
+    ob, ab = map_grid(cfg, tank)
+    if r.shape != (ob.size, ab.size):
+        fail(f"--reference {path}: map of shape {r.shape}, this map will be "
+             f"({ob.size}, {ab.size}): use the same --n-omega and --n-a")
+    for name, mine in (("omega_bar", ob), ("a_bar", ab)):
+        theirs = coords.get(name)
+        if theirs is None or theirs.shape != mine.shape or not np.allclose(theirs, mine,
+                                                                           rtol=1e-6):
+            fail(f"--reference {path}: its {name} grid differs from this map's (another tank "
+                 "or envelope): the maps cannot be compared point by point")
     return r

@@ -19,8 +19,9 @@ from typing import Annotated, Any
 import numpy as np
 import typer
 
-from sloshrom.cli._app import app, fail
-from sloshrom.config import ConfigError, G, Tank
+from sloshrom.cli._app import app, check_input, check_number, check_out, fail, user_errors, warn
+from sloshrom.config import G, Tank
+from sloshrom.settings import MAX_FINE_SECONDS, MIN_VFA_DURATION
 
 rig_app = typer.Typer(
     help="Generate virtual-rig shaker records (the paper's VFA data and harmonic tests).",
@@ -29,9 +30,40 @@ rig_app = typer.Typer(
 app.add_typer(rig_app, name="rig")
 
 
+RECORD_SUFFIXES = (".nc", ".csv", ".mat")
+MAX_SEED = 2**32 - 1
+#: Passband of the rig's sensors (SensorParams: anti-alias at 0.8 x the Nyquist frequency of the
+#: 500 Hz output rate); a sine above it is attenuated (300 Hz: 0.5 % of its amplitude is left).
+SENSOR_PASSBAND = 0.8 * 500.0 / 2
+#: The rig's calibrated domain (the paper's shaker envelope, estimates): outside it the record
+#: is made but the sloshing physics is extrapolated, hence a warning.
+CALIBRATED_BAND = (5.0, 25.0)  # Hz
+#: ``VirtualRig.measure`` needs 40 samples at the 500 Hz output rate (its sensor filters).
+MIN_SENSOR_SECONDS = 40 / 500.0
+SHAKER_LIMITS = {"displacement": 0.0125, "velocity": 1.0, "acceleration": 6.0}  # m, m/s, g
+#: Beyond ten times the shaker's limits the rig's model means nothing: refused.
+HARD_FACTOR = 10.0
+_MEMORY = ("at the rig's 10 kHz step a run needs about 1.6 MB of memory per second "
+           "(1 h: about 6 GB)")
+
+
 def _tank(tank_toml: Path | None, fill: float | None) -> Tank:
-    tank = Tank.from_toml(tank_toml) if tank_toml is not None else Tank()
-    return tank.replace(fill=fill) if fill is not None else tank
+    """The tank of the command (a user error, naming the file, if the TOML is bad)."""
+    try:
+        tank = Tank.from_toml(tank_toml) if tank_toml is not None else Tank()
+        return tank.replace(fill=fill) if fill is not None else tank
+    except user_errors() as exc:
+        msg = str(exc)
+        fail(msg if tank_toml is None or str(tank_toml) in msg else f"--tank {tank_toml}: {msg}")
+
+
+def _check_common(out: Path, seed: int, fill: float | None, tank_toml: Path | None) -> Tank:
+    check_number(seed, "--seed", 0, MAX_SEED)
+    check_number(fill, "--fill", 0.0, 1.0, lo_open=True, hi_open=True,
+                 why="liquid depth / tank height")
+    check_input(tank_toml, "--tank")
+    check_out(out, suffixes=RECORD_SUFFIXES, inputs=(tank_toml,))
+    return _tank(tank_toml, fill)
 
 
 def _make_rig(tank: Tank, seed: int) -> Any:
@@ -101,13 +133,16 @@ TruthOpt = Annotated[
 
 @rig_app.command("vfa")
 def vfa_cmd(
-    out: Annotated[Path, typer.Option("--out", "-o", help="Output record (.nc).")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output record (.nc, .csv or .mat).")],
     split: Annotated[
         str, typer.Option("--split", help="Path family: 'train' (480 s) or 'validation' (240 s).")
     ] = "train",
-    seed: Annotated[int, typer.Option("--seed", help="Seed of the path phase and rig noise.")] = 0,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the path phase and rig noise "
+                                                     "(>= 0).")] = 0,
     duration: Annotated[
-        float | None, typer.Option("--duration", help="s; default 480 (train) / 240 (validation).")
+        float | None, typer.Option("--duration", help="s; default 480 (train) / 240 (validation);"
+                                                      f" {MIN_VFA_DURATION:g} s to "
+                                                      f"{MAX_FINE_SECONDS:g} s (memory).")
     ] = None,
     tank_toml: TankOpt = None,
     fill: FillOpt = None,
@@ -115,38 +150,43 @@ def vfa_cmd(
 ) -> None:
     """Variable-frequency-and-amplitude (VFA) test on the virtual rig (paper section 2.1).
 
+    Durations are bounded by memory: the rig runs at 10 kHz and holds about 20 arrays per fine
+    sample (1.6 MB per second of record), so 1 h (the maximum) needs about 6 GB.
+
     Example: sloshrom rig vfa --split validation --out data/validation.nc --seed 2
     """
     from sloshrom.signals import vfa
 
     if split not in ("train", "validation"):
         fail(f"--split must be 'train' or 'validation', got {split!r}")
-    try:
-        tank = _tank(tank_toml, fill)
-        rig = _make_rig(tank, seed)
-        path = vfa(1.0 / rig.dt, split, duration=duration, tank=tank, seed=seed)
-        acc, t_end = path.acceleration, float(path.time[-1])
-        del path  # ~40 MB per array at the rig's 10 kHz: keep only what the rig needs
-        signal = {"kind": "vfa", "split": split, "seed": seed, "duration": t_end}
-        rec = _run(
-            rig,
-            acc,
-            tank,
-            truth,
-            f"VFA {split}: {t_end:.0f} s on the virtual rig",
-            seed=seed,
-            split=split,
-            provenance=_provenance("vfa", signal, rig),
-        )
-        _write(rec, out)
-    except (ConfigError, ValueError, OSError) as exc:
-        fail(str(exc))
+    check_number(duration, "--duration", MIN_VFA_DURATION, MAX_FINE_SECONDS, unit="s",
+                 why=f"the shortest VFA path is {MIN_VFA_DURATION:g} s; {_MEMORY}")
+    tank = _check_common(out, seed, fill, tank_toml)
+    rig = _make_rig(tank, seed)
+    path = vfa(1.0 / rig.dt, split, duration=duration, tank=tank, seed=seed)
+    acc, t_end = path.acceleration, float(path.time[-1])
+    del path  # ~40 MB per array at the rig's 10 kHz: keep only what the rig needs
+    signal = {"kind": "vfa", "split": split, "seed": seed, "duration": t_end}
+    rec = _run(
+        rig,
+        acc,
+        tank,
+        truth,
+        f"VFA {split}: {t_end:.0f} s on the virtual rig",
+        seed=seed,
+        split=split,
+        provenance=_provenance("vfa", signal, rig),
+    )
+    _write(rec, out)
 
 
 @rig_app.command("harmonic")
 def harmonic_cmd(
-    out: Annotated[Path, typer.Option("--out", "-o", help="Output record (.nc).")],
-    frequency: Annotated[float, typer.Option("--frequency", "-f", help="Hz.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output record (.nc, .csv or .mat).")],
+    frequency: Annotated[float, typer.Option(
+        "--frequency", "-f", help=f"Hz, up to {SENSOR_PASSBAND:g} (the sensors' passband); "
+                                  f"outside {CALIBRATED_BAND[0]:g}-{CALIBRATED_BAND[1]:g} Hz "
+                                  "(the calibrated shaker band) with a warning.")],
     amplitude: Annotated[
         float | None, typer.Option("--amplitude", "-a", help="Displacement amplitude a, m.")
     ] = None,
@@ -154,13 +194,19 @@ def harmonic_cmd(
         float | None,
         typer.Option("--accel-g", help="Acceleration amplitude a Omega^2 in g (instead of -a)."),
     ] = None,
-    cycles: Annotated[int, typer.Option("--cycles", help="Steady cycles.")] = 20,
-    seed: Annotated[int, typer.Option("--seed", help="Seed of the rig noise.")] = 0,
+    cycles: Annotated[int, typer.Option("--cycles", help="Steady cycles (>= 1).")] = 20,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the rig noise (>= 0).")] = 0,
     tank_toml: TankOpt = None,
     fill: FillOpt = None,
     truth: TruthOpt = True,
 ) -> None:
     """Ramped harmonic test ``w = a cos(2 pi f t)`` on the virtual rig.
+
+    Refused: frequencies above the sensors' passband (200 Hz: the 500 Hz record would hold an
+    attenuated, meaningless sine), amplitudes beyond ten times the shaker's limits (60 g,
+    0.125 m, 10 m/s) and tests longer than 1 h at the rig's 10 kHz step (memory). Recorded with
+    a warning: tests outside the rig's calibrated domain (5-25 Hz, 6 g, 12.5 mm, 1 m/s), where
+    the sloshing physics is extrapolated.
 
     Example: sloshrom rig harmonic --frequency 12 --accel-g 4 --out h12.nc
     """
@@ -168,35 +214,67 @@ def harmonic_cmd(
 
     if (amplitude is None) == (accel_g is None):
         fail("give exactly one of --amplitude (m) and --accel-g (g)")
-    try:
-        if frequency <= 0 or not np.isfinite(frequency):
-            raise ValueError(f"--frequency must be positive, got {frequency!r}")
-        om = 2.0 * np.pi * frequency
-        a = float(amplitude) if amplitude is not None else float(accel_g) * G / om**2
-        tank = _tank(tank_toml, fill)
-        rig = _make_rig(tank, seed)
-        h = harmonic(1.0 / rig.dt, frequency, a, n_cycles=cycles)
-        signal = {
-            "kind": "harmonic",
-            "frequency": float(frequency),
-            "amplitude": a,
-            "accel_g": a * om**2 / G,
-            "omega_bar": om / tank.reference_frequency,
-            "a_bar": a / tank.height,
-            "steady_start_s": h.steady.start * rig.dt,
-            "steady_stop_s": h.steady.stop * rig.dt,
-        }
-        rec = _run(
-            rig,
-            h.acceleration,
-            tank,
-            truth,
-            f"harmonic {frequency:g} Hz, {a * 1e3:.3g} mm on the virtual rig",
-            seed=seed,
-            frequency=float(frequency),
-            amplitude=a,
-            provenance=_provenance("harmonic", signal, rig),
-        )
-        _write(rec, out)
-    except (ConfigError, ValueError, OSError) as exc:
-        fail(str(exc))
+    check_number(frequency, "--frequency", 0.0, SENSOR_PASSBAND, lo_open=True, unit="Hz",
+                 why="the rig's sensors record 500 Hz after an anti-alias filter at 200 Hz")
+    hard = {k: HARD_FACTOR * v for k, v in SHAKER_LIMITS.items()}
+    check_number(amplitude, "--amplitude", 0.0, hard["displacement"], lo_open=True, unit="m",
+                 why="ten times the shaker's stroke")
+    check_number(accel_g, "--accel-g", 0.0, hard["acceleration"], lo_open=True, unit="g",
+                 why="ten times the shaker's acceleration limit")
+    check_number(cycles, "--cycles", 1)
+    n_ramp, n_settle = 3, 2  # the defaults of signals.harmonic
+    seconds = (2 * n_ramp + n_settle + cycles) / frequency
+    if seconds > MAX_FINE_SECONDS:
+        fail(f"--cycles {cycles} at {frequency:g} Hz make a {seconds:.4g} s test, more than "
+             f"{MAX_FINE_SECONDS:g} s ({_MEMORY})")
+    if seconds < MIN_SENSOR_SECONDS:
+        fail(f"--cycles {cycles} at {frequency:g} Hz make a {seconds:.3g} s test; the sensors' "
+             f"filters need at least {MIN_SENSOR_SECONDS:g} s (40 samples at 500 Hz): give more "
+             "--cycles")
+    om = 2.0 * np.pi * frequency
+    a = float(amplitude) if amplitude is not None else float(accel_g) * G / om**2
+    opt = "--amplitude" if amplitude is not None else "--accel-g"
+    for name, value, limit, unit in (("displacement", a, "displacement", "m"),
+                                     ("acceleration", a * om**2 / G, "acceleration", "g"),
+                                     ("velocity", a * om, "velocity", "m/s")):
+        if value > hard[limit] * (1 + 1e-12):
+            article = "an" if name[0] in "aeiou" else "a"
+            fail(f"{opt} at {frequency:g} Hz gives {article} {name} amplitude of {value:.4g} "
+                 f"{unit}, "
+                 f"beyond ten times the shaker's limit ({SHAKER_LIMITS[limit]:g} {unit})")
+    tank = _check_common(out, seed, fill, tank_toml)
+    lo, hi = CALIBRATED_BAND
+    if not lo <= frequency <= hi:
+        warn(f"{frequency:g} Hz is outside the rig's calibrated band {lo:g}-{hi:g} Hz: the "
+             "sloshing force is extrapolated")
+    over = [f"{name} {value:.3g} {unit} > {SHAKER_LIMITS[limit]:g} {unit}"
+            for name, value, limit, unit in (("displacement", a, "displacement", "m"),
+                                             ("acceleration", a * om**2 / G, "acceleration", "g"),
+                                             ("velocity", a * om, "velocity", "m/s"))
+            if value > SHAKER_LIMITS[limit] * (1 + 1e-9)]
+    if over:
+        warn(f"beyond the shaker's limits ({', '.join(over)}): the rig is not calibrated there")
+    rig = _make_rig(tank, seed)
+    h = harmonic(1.0 / rig.dt, frequency, a, n_cycles=cycles, n_ramp=n_ramp, n_settle=n_settle)
+    signal = {
+        "kind": "harmonic",
+        "frequency": float(frequency),
+        "amplitude": a,
+        "accel_g": a * om**2 / G,
+        "omega_bar": om / tank.reference_frequency,
+        "a_bar": a / tank.height,
+        "steady_start_s": h.steady.start * rig.dt,
+        "steady_stop_s": h.steady.stop * rig.dt,
+    }
+    rec = _run(
+        rig,
+        h.acceleration,
+        tank,
+        truth,
+        f"harmonic {frequency:g} Hz, {a * 1e3:.3g} mm on the virtual rig",
+        seed=seed,
+        frequency=float(frequency),
+        amplitude=a,
+        provenance=_provenance("harmonic", signal, rig),
+    )
+    _write(rec, out)

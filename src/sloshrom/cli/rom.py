@@ -2,27 +2,37 @@
 
 Records are read with :func:`sloshrom.data.read_record` (NetCDF, CSV, MATLAB) and written with
 :func:`sloshrom.data.write_record`; models are ``.npz`` files (:func:`sloshrom.rom.load_model`).
+Every option, file and unit is checked before reading data or training: a bad input costs one
+``error:`` line, not a model trained in vain.
 """
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Annotated, Any
 
 import numpy as np
 import typer
 
-from sloshrom.cli._app import app, fail
+from sloshrom.cli._app import app, check_input, check_number, check_out, fail, user_errors
 
 __all__ = ["predict", "sweep", "train"]
 
+RECORD_SUFFIXES = (".nc", ".csv", ".mat")
+MAX_DELAYS = 1000
+MAX_NEURONS = 1000
+MAX_EPOCHS = 100_000
+MAX_SEED = 2**32 - 1  # JAX PRNG keys take 32-bit seeds
 
-def _read(path: Path, names: list[str]):
+
+def _read(path: Path, names: list[str], what: str):
     from sloshrom.data import read_record
 
+    check_input(path, what)
     try:
         rec = read_record(path)
-    except ValueError as exc:
+    except user_errors() as exc:
         fail(str(exc))
     missing = [n for n in names if n not in rec]
     if missing:
@@ -33,21 +43,73 @@ def _read(path: Path, names: list[str]):
     return rec
 
 
+def _si(unit: str) -> str:
+    from sloshrom.data import canonical_unit
+
+    return canonical_unit(unit)[0]
+
+
+def _same_units(a: Any, pa: Path, b: Any, pb: Path, names: list[str]) -> None:
+    """Training and validation records must measure each variable in the same unit."""
+    for n in names:
+        ua, ub = a.units[n], b.units[n]
+        if _si(ua) != _si(ub):
+            fail(f"unit mismatch: variable '{n}' is in '{ua}' in {pa} but in '{ub}' in {pb}")
+
+
+def _standard_units(rec: Any, path: Path, names: list[str]) -> None:
+    """A variable with a standard name must be in that name's unit (swapped columns, ...)."""
+    from sloshrom.data import STANDARD_UNITS
+
+    for n in names:
+        si = STANDARD_UNITS.get(n)
+        if si is not None and _si(rec.units[n]) != si:
+            fail(f"{path}: variable '{n}' is in '{rec.units[n]}', but {n} is in '{si}' "
+                 "(columns swapped? name the variables with --input/--output)")
+
+
 def _same_rate(a: float, b: float, what: str) -> None:
     if not np.isclose(a, b, rtol=1e-6):
         fail(f"sample-rate mismatch: {what} ({a:g} Hz vs {b:g} Hz); resample first")
 
 
-def _parse_ints(text: str | None, name: str) -> list[int] | None:
+def _parse_ints(text: str | None, name: str, hi: int) -> list[int] | None:
     if text is None:
         return None
     try:
         vals = [int(v) for v in text.replace(" ", "").split(",") if v]
     except ValueError:
         fail(f"{name} must be a comma-separated list of integers, got {text!r}")
-    if not vals or min(vals) < 1:
-        fail(f"{name} must list positive integers, got {text!r}")
+    if not vals or min(vals) < 1 or max(vals) > hi:
+        fail(f"{name} must list integers in [1, {hi}], got {text!r}")
+    if len(set(vals)) != len(vals):
+        fail(f"{name} must not repeat a value, got {text!r}")
     return vals
+
+
+def _check_names(input_name: str, output_name: str) -> None:
+    for opt, n in (("--input", input_name), ("--output", output_name)):
+        if not n.strip():
+            fail(f"{opt} must name a variable of the records, got an empty name")
+    if input_name == output_name:
+        fail(f"--input and --output must be different variables, both are {input_name!r}")
+
+
+def _check_common(max_epochs: int, seed: int, hidden: str) -> None:
+    check_number(max_epochs, "--max-epochs", 0, MAX_EPOCHS)
+    check_number(seed, "--seed", 0, MAX_SEED)
+    if hidden not in ("matlab", "distance"):
+        fail(f"--hidden must be matlab or distance, got {hidden!r}")
+
+
+def _check_length(rec: Any, path: Path, arch: str, delays: int, neurons: int, what: str) -> None:
+    """The record must hold enough samples for the network (the check of ``fit``, before it)."""
+    from sloshrom.settings import training_samples
+
+    need = training_samples(arch, delays, neurons)
+    if len(rec) < need:
+        fail(f"{path}: {len(rec)} samples are too few for {arch.upper()}({delays}, {neurons}) "
+             f"({what} needs at least {need})")
 
 
 InputOpt = Annotated[str, typer.Option("--input", help="Input variable of the records.")]
@@ -64,30 +126,51 @@ def train(
     input_name: InputOpt = "velocity",
     output_name: OutputOpt = "dynamic_force",
     arch: Annotated[str, typer.Option("--arch", help="nfir or noe.")] = "nfir",
-    delays: Annotated[int | None, typer.Option(help="Input delays (NFIR 70, NOE 2).")] = None,
-    neurons: Annotated[int | None, typer.Option(help="Hidden neurons (NFIR 35, NOE 10).")] = None,
-    hidden: Annotated[str, typer.Option(help="RBF variant: matlab or distance.")] = "matlab",
-    max_epochs: Annotated[int, typer.Option(help="Levenberg-Marquardt epochs at most.")] = 1000,
-    trainer: Annotated[
-        str | None, typer.Option(help="NFIR: adam (default), fast (subsampled LM) or lm (trainlm).")
+    delays: Annotated[
+        int | None, typer.Option(help=f"Input delays (NFIR 70, NOE 2), 1-{MAX_DELAYS}.")
     ] = None,
-    seed: Annotated[int, typer.Option(help="Seed of the initialisation.")] = 0,
+    neurons: Annotated[
+        int | None, typer.Option(help=f"Hidden neurons (NFIR 35, NOE 10), 1-{MAX_NEURONS}.")
+    ] = None,
+    hidden: Annotated[str, typer.Option(help="RBF variant: matlab or distance.")] = "matlab",
+    max_epochs: Annotated[int, typer.Option(help="Training epochs at most.")] = 1000,
+    trainer: Annotated[
+        str | None, typer.Option(help="NFIR: adam (default), fast (subsampled LM) or lm (trainlm);"
+                                      " NOE: lm.")
+    ] = None,
+    seed: Annotated[int, typer.Option(help="Seed of the initialisation (>= 0).")] = 0,
 ) -> None:
     """Identify an NFIR or NOE ROM from an input/output record.
+
+    The two records must have the same sample rate and the same units of the input and of the
+    output; the model file may not be one of the records.
 
     Example: sloshrom train --data train.nc --validation validation.nc --arch nfir --delays 70
     --neurons 35 --out nfir.npz
     """
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
-    from sloshrom.data import RecordError
-    from sloshrom.rom import NFIR, NOE, UnstableModelError
-
     if arch not in ("nfir", "noe"):
         fail(f"--arch must be nfir or noe, got {arch!r}")
-    rec = _read(data, [input_name, output_name])
-    val = _read(validation, [input_name, output_name])
+    _check_names(input_name, output_name)
+    check_number(delays, "--delays", 1, MAX_DELAYS)
+    check_number(neurons, "--neurons", 1, MAX_NEURONS)
+    _check_common(max_epochs, seed, hidden)
+    trainers = ("adam", "fast", "lm") if arch == "nfir" else ("fast", "lm")
+    if trainer is not None and trainer not in trainers:
+        fail(f"--trainer for {arch.upper()} must be {', '.join(trainers)}, got {trainer!r}")
+    check_input(data, "--data")
+    check_input(validation, "--validation")
+    check_out(out, suffixes=(".npz",), inputs=(data, validation))
+    names = [input_name, output_name]
+    rec = _read(data, names, "--data")
+    val = _read(validation, names, "--validation")
     _same_rate(rec.fs, val.fs, f"{data} vs {validation}")
+    _same_units(rec, data, val, validation, names)
+    _standard_units(rec, data, names)
+
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from sloshrom.rom import NFIR, NOE, UnstableModelError
+
     cls = NFIR if arch == "nfir" else NOE
     kw: dict[str, Any] = {"hidden": hidden, "max_epochs": max_epochs, "seed": seed,
                           "units": (rec.units[input_name], rec.units[output_name]),
@@ -98,10 +181,10 @@ def train(
         kw["neurons"] = neurons
     if trainer is not None:
         kw["trainer"] = trainer
-    try:
-        model = cls(**kw)
-    except ValueError as exc:
-        fail(str(exc))
+    model = cls(**kw)  # every hyperparameter is checked above
+    _check_length(rec, data, arch, model.max_delay, int(model.neurons), "training")
+    if len(val) <= model.max_delay:
+        fail(f"{validation}: {len(val)} samples are too few for {model.max_delay} delays")
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[info]}"),
                   TimeElapsedColumn()) as progress:
         task = progress.add_task(f"training {arch.upper()}", total=max_epochs, info="")
@@ -114,7 +197,7 @@ def train(
         try:
             model.fit(rec[input_name], rec[output_name], fs=rec.fs,
                       validation=(val[input_name], val[output_name]), callback=cb)
-        except (ValueError, RecordError, UnstableModelError) as exc:
+        except UnstableModelError as exc:
             fail(str(exc))
     path = model.save(out)
     h = model.history_
@@ -130,40 +213,84 @@ def train(
 def predict(
     model: Annotated[Path, typer.Option("--model", "-m", help="Model file (.npz).")],
     data: Annotated[Path, typer.Option("--data", help="Input record.")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="Output record (.nc/.csv/.mat).")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output record (.nc/.csv/.mat); not "
+                                                          "the input record.")],
 ) -> None:
     """Simulate a ROM on an input record; writes the record plus ``<output>_pred``.
 
+    The record's input variable must be at the model's sample rate and in the model's unit
+    (after conversion to SI: a record in mm/s is fine for a model in m/s, one in ft/s is not).
+
     Example: sloshrom predict --model nfir.npz --data validation.nc --out prediction.nc
     """
-    import warnings
-
+    check_input(model, "--model")
+    check_input(data, "--data")
+    check_out(out, suffixes=RECORD_SUFFIXES, inputs=(data, model))
     from sloshrom.data import write_record
-    from sloshrom.rom import ModelFileError, UnstableModelError, load_model
+    from sloshrom.rom import UnstableModelError, load_model
 
     try:
         m = load_model(model)
-    except ModelFileError as exc:
+    except user_errors() as exc:
         fail(str(exc))
     in_name, out_name = m.names
-    rec = _read(data, [in_name])
+    rec = _read(data, [in_name], "--data")
     _same_rate(rec.fs, m.fs_, f"data {data} vs model {model}")
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        try:
-            y = m.predict(rec[in_name])
-        except UnstableModelError as exc:
-            fail(str(exc))
-    for w in caught:
-        typer.secho(f"warning: {w.message}", fg=typer.colors.YELLOW, err=True)
+    if _si(rec.units[in_name]) != _si(m.units[0]):
+        fail(f"{data}: variable '{in_name}' is in '{rec.units[in_name]}', the model {model} "
+             f"expects '{m.units[0]}'")
+    if out.suffix.lower() == ".csv":
+        two_d = [n for n in rec.names if np.ndim(rec[n]) != 1]
+        if two_d:
+            fail(f"--out {out}: CSV holds 1-D variables only, {data} has 2-D {', '.join(two_d)} "
+                 "(use .nc)")
+    try:
+        y = m.predict(rec[in_name])
+    except UnstableModelError as exc:
+        fail(str(exc))
     new = rec.with_variables({f"{out_name}_pred": y}, {f"{out_name}_pred": m.units[1]},
                              prediction_model=str(model))
     write_record(new, out)
     msg = f"wrote {out}: {out_name}_pred ({len(y)} samples)"
     if out_name in rec:
-        e = y - rec[out_name]
-        msg += f", MSE {np.mean(e**2):.4g} {m.units[1]}^2 against {out_name}"
+        if _si(rec.units[out_name]) == _si(m.units[1]):
+            e = y - rec[out_name]
+            msg += f", MSE {np.mean(e**2):.4g} {m.units[1]}^2 against {out_name}"
+        else:
+            msg += (f" (no MSE: {out_name} is in '{rec.units[out_name]}', the model gives "
+                    f"'{m.units[1]}')")
     typer.echo(msg)
+
+
+def check_scheduler(address: str, timeout: float = 5.0) -> None:
+    """Fail unless a Dask scheduler address is well formed and accepts a TCP connection.
+
+    A plain socket, not a Dask client: an unreachable address costs ``timeout`` seconds and one
+    line, before any data is read (a client would wait and then print its own tracebacks).
+    """
+    import socket
+    from urllib.parse import urlsplit
+
+    text = address.strip()
+    if not text:
+        fail("--scheduler: empty address (give tcp://HOST:PORT, 'threads' or 'sequential')")
+    parts = urlsplit(text if "://" in text else f"tcp://{text}")
+    if parts.scheme not in ("tcp", "tls"):
+        fail(f"--scheduler {address!r}: unsupported protocol {parts.scheme!r} (use tcp://HOST:PORT,"
+             " 'threads' or 'sequential')")
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError:
+        host, port = None, None
+    if not host or port is None:
+        fail(f"--scheduler {address!r}: expected tcp://HOST:PORT")
+    try:
+        with socket.create_connection((host, port), timeout=timeout):
+            pass
+    except OSError as exc:
+        reason = "timed out" if isinstance(exc, TimeoutError) else (exc.strerror or str(exc))
+        fail(f"--scheduler {address}: no Dask scheduler reachable ({reason}); start one with "
+             "`dask scheduler` or leave --scheduler out for a local cluster")
 
 
 @app.command()
@@ -176,21 +303,43 @@ def sweep(
     arch: Annotated[str, typer.Option(help="nfir, noe or both.")] = "both",
     delays: Annotated[str | None, typer.Option(help="Delays list, e.g. 50,60,70.")] = None,
     neurons: Annotated[str | None, typer.Option(help="Neurons list, e.g. 5,10,15.")] = None,
-    max_epochs: Annotated[int, typer.Option(help="LM epochs at most per model.")] = 1000,
+    max_epochs: Annotated[int, typer.Option(help="Training epochs at most per model.")] = 1000,
     hidden: Annotated[str, typer.Option(help="RBF variant: matlab or distance.")] = "matlab",
-    seed: Annotated[int, typer.Option(help="Initialisation seed.")] = 0,
+    seed: Annotated[int, typer.Option(help="Initialisation seed (>= 0).")] = 0,
     scheduler: Annotated[
         str | None,
-        typer.Option(help="Dask scheduler address; 'threads' or 'sequential' for no cluster; "
-                          "default: a new LocalCluster."),
+        typer.Option(help="Dask scheduler address tcp://HOST:PORT (checked before any work); "
+                          "'threads' or 'sequential' for no cluster; default: a new "
+                          "LocalCluster."),
     ] = None,
-    workers: Annotated[int, typer.Option(help="LocalCluster workers / threads.")] = 2,
+    workers: Annotated[int, typer.Option(help="LocalCluster workers / threads, 1 to the number "
+                                              "of CPUs.")] = 2,
 ) -> None:
     """Sensitivity analysis over delays x neurons (paper Fig. 8); resumes an interrupted run.
 
     Example: sloshrom sweep --data train.nc --validation validation.nc --out sweep/ --arch nfir
     --delays 50,70 --neurons 10,20,35
     """
+    if arch not in ("nfir", "noe", "both"):
+        fail(f"--arch must be nfir, noe or both, got {arch!r}")
+    _check_names(input_name, output_name)
+    _check_common(max_epochs, seed, hidden)
+    dl = _parse_ints(delays, "--delays", MAX_DELAYS)
+    nl = _parse_ints(neurons, "--neurons", MAX_NEURONS)
+    n_cpu = os.cpu_count() or 1
+    check_number(workers, "--workers", 1, n_cpu, why=f"this machine has {n_cpu} CPU(s)")
+    if scheduler not in (None, "threads", "sequential"):
+        check_scheduler(scheduler)
+    check_input(data, "--data")
+    check_input(validation, "--validation")
+    check_out(out, directory=True, inputs=(data, validation))
+    names = [input_name, output_name]
+    rec = _read(data, names, "--data")
+    val = _read(validation, names, "--validation")
+    _same_rate(rec.fs, val.fs, f"{data} vs {validation}")
+    _same_units(rec, data, val, validation, names)
+    _standard_units(rec, data, names)
+
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
@@ -201,19 +350,16 @@ def sweep(
 
     from sloshrom.sweep import default_grid, plot_sweep, run_sweep
 
-    rec = _read(data, [input_name, output_name])
-    val = _read(validation, [input_name, output_name])
-    _same_rate(rec.fs, val.fs, f"{data} vs {validation}")
-    try:
-        pts = default_grid(arch)
-    except ValueError as exc:
-        fail(str(exc))
-    dl, nl = _parse_ints(delays, "--delays"), _parse_ints(neurons, "--neurons")
+    pts = default_grid(arch)
     if dl or nl:
         archs = sorted({p[0] for p in pts})
         pts = [(a, d, n) for a in archs
                for d in (dl or sorted({p[1] for p in pts if p[0] == a}))
                for n in (nl or sorted({p[2] for p in pts if p[0] == a}))]
+    for a in sorted({p[0] for p in pts}):
+        big = [p for p in pts if p[0] == a]
+        _check_length(rec, data, a, max(p[1] for p in big), max(p[2] for p in big),
+                      "the largest network of the grid")
     with Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(),
                   TextColumn("{task.fields[info]}"), TimeElapsedColumn()) as progress:
         task = progress.add_task("sweep", total=len(pts), info="")

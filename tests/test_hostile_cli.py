@@ -1,0 +1,627 @@
+"""Hostile CLI cases: every option of every command fed 0, -1, nan, inf, huge values, empty
+strings, directories, paths under a file, output = input, wrong units and wrong types.
+
+Same contract as tests/test_bad_input.py (its ``_check_cli``): exit code 2, exactly one
+``error:`` line naming the option/file/key and the problem, no traceback, and no file created,
+removed or modified. Every case fails *before* any work (no rig run, no training, no beam
+simulation), so the whole suite runs in seconds. The count is quoted in docs/interchange.md.
+"""
+
+from __future__ import annotations
+
+import shutil
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sloshrom.cli import app
+from sloshrom.data import Record, write_record
+from sloshrom.uff import write_uff58
+from test_bad_input import _check_cli, _good, make_model_files, runner
+
+
+@pytest.fixture(scope="module")
+def model_files(tmp_path_factory):
+    """The models of test_bad_input plus ROMs the beam and the map cannot use."""
+    from sloshrom.rom import NFIR
+
+    d = make_model_files(tmp_path_factory.mktemp("models"))
+    rng = np.random.default_rng(1)
+    u = np.convolve(rng.standard_normal(600), np.ones(8) / 8, mode="same") * 0.05
+    y = np.tanh(20 * np.roll(u, 2)) * 0.5
+    NFIR(delays=4, neurons=3, max_epochs=2, units=("m/s^2", "N"),
+         names=("acceleration", "dynamic_force")).fit(u, y, fs=500.0).save(d / "acc.npz")
+    NFIR(delays=4, neurons=3, max_epochs=2).fit(u, y, fs=250.0).save(d / "r250.npz")
+    NFIR(delays=4, neurons=3, max_epochs=2).fit(u, y, fs=100.0).save(d / "slow100.npz")
+    return d
+
+
+def _map_file(path: Path, ob: np.ndarray, ab: np.ndarray) -> None:
+    import xarray as xr
+
+    da = xr.DataArray(np.ones((ob.size, ab.size)), dims=("omega_bar", "a_bar"),
+                      coords={"omega_bar": ob, "a_bar": ab}, name="phi_d")
+    da.to_dataset().to_netcdf(path, engine="h5netcdf")
+
+
+def _world(tmp: Path) -> None:
+    """Everything the cases read: records, TOML files, a directory, a file used as a parent."""
+    t = np.arange(1500) / 500.0
+    u = 0.05 * np.sin(2 * np.pi * 7 * t) * np.sin(np.pi * t / t[-1])
+    good = Record(t, 500.0, {"velocity": u, "dynamic_force": np.tanh(20 * u)},
+                  {"velocity": "m/s", "dynamic_force": "N"}, {"calibration": "lab 3"})
+    for suffix in (".nc", ".csv", ".mat"):
+        write_record(good, tmp / f"good{suffix}")
+    # a unit no table converts to m/s: the ROM must not take it for one
+    write_record(Record(t, 500.0, {"velocity": u, "dynamic_force": u},
+                        {"velocity": "rad/s", "dynamic_force": "N"}), tmp / "rads.nc")
+    write_record(Record(t, 500.0, {"velocity": u, "station_acceleration": np.zeros((t.size, 2))},
+                        {"velocity": "m/s", "station_acceleration": "m/s^2"}), tmp / "twod.nc")
+    (tmp / "adir").mkdir()
+    (tmp / "afile").write_text("a file, not a directory\n")
+    (tmp / "t.toml").write_text("[tank]\nfill = 0.5\n")
+    (tmp / "tank.nc").write_text("[tank]\nfill = 0.5\n")  # TOML content, record suffix
+    (tmp / "raw.nc").write_text("not read: the output check comes first\n")
+    write_uff58(_good(), tmp / "good.uff")  # 100 Hz, acceleration + force
+    (tmp / "modal300.toml").write_text(
+        "[modal]\nfrequencies = [300.0]\ndamping = [0.01]\nmodal_masses = [1.0]\n"
+        "psi_tank = [1.0]\nparticipation = [1.0]\nstations = [0.5]\npsi_stations = [[1.0]]\n"
+        "structure_mass = 0.45\n")
+    from sloshrom import settings
+    from sloshrom.config import Tank
+    from sloshrom.pipeline import map_grid
+
+    cfg = settings.defaults()
+    cfg["map"].update(n_omega=2, n_a=2)
+    ob, ab = map_grid(cfg, Tank())
+    _map_file(tmp / "ref22.nc", ob, ab)
+    _map_file(tmp / "ref22_other.nc", ob * 1.1, ab)
+
+
+def _copy(src: str, dst: str):
+    """Copy ``src`` ({tmp}, {models}) to ``tmp/dst``: a file where the command must not write."""
+
+    def make(tmp: Path, models: Path) -> None:
+        (tmp / dst).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(src.format(tmp=tmp, models=models), tmp / dst)
+
+    make.wants_models = True
+    return make
+
+
+def _text(name: str, text: str):
+    def make(tmp: Path) -> None:
+        (tmp / name).write_text(text)
+
+    return make
+
+
+TOO_LONG = "y" * 300 + ".nc"
+V = ["rig", "vfa"]
+VO = [*V, "--out", "{tmp}/v.nc"]
+H = ["rig", "harmonic", "--out", "{tmp}/h.nc"]
+H12 = [*H, "--frequency", "12"]
+TR = ["train", "--max-epochs", "2", "--delays", "4", "--neurons", "3"]
+TRG = [*TR, "--data", "{tmp}/good.nc", "--validation", "{tmp}/good.nc"]
+TRO = [*TRG, "--out", "{tmp}/m.npz"]
+P = ["predict", "--model", "{models}/good.npz"]
+S = ["sweep", "--data", "{tmp}/good.nc", "--validation", "{tmp}/good.nc", "--max-epochs", "2"]
+SO = [*S, "--out", "{tmp}/sw"]
+M = ["map", "--rig", "--out", "{tmp}/m.nc"]
+CS = ["config", "show", "--config", "{tmp}/c.toml"]
+RP = ["reproduce", "--config", "{tmp}/c.toml", "--out", "{tmp}/res"]
+BF = ["beam", "free", "--sloshing", "frozen"]
+BFO = [*BF, "--out", "{tmp}/res"]
+BR = ["beam", "random", "--sloshing", "frozen"]
+BRO = [*BR, "--out", "{tmp}/res"]
+E = ["export", "onnx"]
+U = ["import", "uff"]
+SEED_MAX = r"\[0, 4294967295\]"
+
+
+def _cfg(text: str):
+    return _text("c.toml", text)
+
+
+# (id, extra setup(tmp) or None, argv, regex of the one error line)
+HOSTILE_CASES = [
+    # -- the application ----------------------------------------------------------------------
+    ("no-such-command", None, ["frobnicate"], r"No such command 'frobnicate'"),
+    ("version-extra-argument", None, ["version", "now"], r"unexpected extra argument"),
+    # -- rig vfa --------------------------------------------------------------------------------
+    ("vfa-no-out", None, V, r"Missing option '--out'"),
+    ("vfa-seed--1", None, [*VO, "--seed", "-1"], rf"--seed must be in {SEED_MAX}, got -1"),
+    ("vfa-seed-huge", None, [*VO, "--seed", "99999999999999"],
+     rf"--seed must be in {SEED_MAX}, got 99999999999999"),
+    ("vfa-seed-not-a-number", None, [*VO, "--seed", "abc"], r"Invalid value for '--seed'"),
+    ("vfa-seed-float", None, [*VO, "--seed", "1.5"], r"Invalid value for '--seed'"),
+    ("vfa-duration-nan", None, [*VO, "--duration", "nan"],
+     r"--duration must be in \[10, 3600\] s, got nan"),
+    ("vfa-duration-inf", None, [*VO, "--duration", "inf"],
+     r"--duration must be in \[10, 3600\] s, got inf"),
+    ("vfa-duration-1e7-memory", None, [*VO, "--duration", "1e7"],
+     r"--duration must be in \[10, 3600\] s, got 10000000\.0 .*memory"),
+    ("vfa-duration-1e308", None, [*VO, "--duration", "1e308"], r"--duration must be in"),
+    ("vfa-duration-9.9", None, [*VO, "--duration", "9.9"], r"shortest VFA path is 10 s"),
+    ("vfa-duration-empty", None, [*VO, "--duration", ""], r"Invalid value for '--duration'"),
+    ("vfa-out-empty", None, [*V, "--out", ""], r"--out \.: unknown format '\(no suffix\)'"),
+    ("vfa-out-is-a-directory", lambda tmp: (tmp / "d.nc").mkdir(), [*V, "--out", "{tmp}/d.nc"],
+     r"d\.nc: is a directory"),
+    ("vfa-out-under-a-file", None, [*V, "--out", "{tmp}/afile/v.nc"],
+     r"afile is not a directory"),
+    ("vfa-out-name-too-long", None, [*V, "--out", "{tmp}/" + TOO_LONG],
+     r"longer than 255 bytes"),
+    ("vfa-out-no-suffix", None, [*V, "--out", "{tmp}/v"], r"unknown format '\(no suffix\)'"),
+    ("vfa-out-is-the-tank-file", None, [*V, "--tank", "{tmp}/tank.nc", "--out", "{tmp}/tank.nc"],
+     r"tank\.nc is also an input of this command: refusing to overwrite it"),
+    ("vfa-fill-nan", None, [*VO, "--fill", "nan"], r"--fill must be in \(0, 1\), got nan"),
+    ("vfa-fill-1", None, [*VO, "--fill", "1"], r"--fill must be in \(0, 1\), got 1\.0"),
+    ("vfa-fill--0.5", None, [*VO, "--fill", "-0.5"], r"--fill must be in \(0, 1\), got -0\.5"),
+    ("vfa-tank-is-a-directory", None, [*VO, "--tank", "{tmp}/adir"],
+     r"--tank .*adir: is a directory"),
+    ("vfa-tank-zero-height", _text("z.toml", "[tank]\nheight = 0\n"),
+     [*VO, "--tank", "{tmp}/z.toml"], r"height must be a finite positive number"),
+    ("vfa-split-empty", None, [*VO, "--split", ""], r"--split must be 'train' or 'validation'"),
+    ("vfa-misspelt-option", None, [*VO, "--durration", "10"], r"No such option: --durration"),
+    # -- rig harmonic ---------------------------------------------------------------------------
+    ("harmonic-300-hz-above-sensors", None, [*H, "-f", "300", "--accel-g", "1"],
+     r"--frequency must be in \(0, 200\] Hz, got 300\.0 .*anti-alias filter at 200 Hz"),
+    ("harmonic-frequency-0", None, [*H, "-f", "0", "--accel-g", "1"],
+     r"--frequency must be in \(0, 200\] Hz, got 0\.0"),
+    ("harmonic-frequency-inf", None, [*H, "-f", "inf", "--accel-g", "1"],
+     r"--frequency must be in \(0, 200\] Hz, got inf"),
+    ("harmonic-frequency-1e308", None, [*H, "-f", "1e308", "--accel-g", "1"],
+     r"--frequency must be in \(0, 200\] Hz, got 1e\+308"),
+    ("harmonic-frequency-text", None, [*H, "-f", "twelve", "--accel-g", "1"],
+     r"Invalid value for '--frequency'"),
+    ("harmonic-no-frequency", None, [*H, "--accel-g", "1"], r"Missing option '--frequency'"),
+    ("harmonic-cycles-huge-memory", None, [*H12, "--accel-g", "1", "--cycles", "10000000"],
+     r"--cycles 10000000 at 12 Hz make a 8\.333e\+05 s test, more than 3600 s .*memory"),
+    ("harmonic-cycles-at-1-mhz", None,
+     [*H, "-f", "0.001", "--accel-g", "1e-9", "--cycles", "20"],
+     r"--cycles 20 at 0\.001 Hz make a 2\.8e\+04 s test"),
+    ("harmonic-too-short-for-the-sensors", None,
+     [*H, "-f", "200", "--accel-g", "1", "--cycles", "1"],
+     r"--cycles 1 at 200 Hz make a 0\.045 s test; the sensors' filters need at least 0\.08 s"),
+    ("harmonic-cycles--1", None, [*H12, "--accel-g", "1", "--cycles", "-1"],
+     r"--cycles must be >= 1, got -1"),
+    ("harmonic-amplitude-0", None, [*H12, "-a", "0"],
+     r"--amplitude must be in \(0, 0\.125\] m, got 0\.0"),
+    ("harmonic-amplitude-negative", None, [*H12, "-a", "-0.001"],
+     r"--amplitude must be in \(0, 0\.125\] m, got -0\.001"),
+    ("harmonic-amplitude-1-m", None, [*H12, "-a", "1"],
+     r"--amplitude must be in \(0, 0\.125\] m, got 1\.0 \(ten times the shaker's stroke\)"),
+    ("harmonic-accel-g-nan", None, [*H12, "--accel-g", "nan"],
+     r"--accel-g must be in \(0, 60\] g, got nan"),
+    ("harmonic-accel-g-1000", None, [*H12, "--accel-g", "1000"],
+     r"--accel-g must be in \(0, 60\] g, got 1000\.0"),
+    ("harmonic-derived-acceleration", None, [*H, "-f", "100", "-a", "0.1"],
+     r"--amplitude at 100 Hz gives an acceleration amplitude of 4026 g, beyond ten times "
+     r"the shaker's limit \(6 g\)"),
+    ("harmonic-seed--1", None, [*H12, "--accel-g", "1", "--seed", "-1"],
+     rf"--seed must be in {SEED_MAX}"),
+    ("harmonic-fill-2", None, [*H12, "--accel-g", "1", "--fill", "2"],
+     r"--fill must be in \(0, 1\), got 2\.0"),
+    ("harmonic-out-csv-under-file", None,
+     ["rig", "harmonic", "-f", "12", "--accel-g", "1", "--out", "{tmp}/afile/h.csv"],
+     r"afile is not a directory"),
+    # -- train ----------------------------------------------------------------------------------
+    ("train-out-is-the-data", _copy("{tmp}/good.nc", "rec.npz"),
+     [*TR, "--data", "{tmp}/rec.npz", "--validation", "{tmp}/good.nc", "--out", "{tmp}/rec.npz"],
+     r"rec\.npz is also an input of this command"),
+    ("train-out-is-the-validation", _copy("{tmp}/good.nc", "rec.npz"),
+     [*TR, "--data", "{tmp}/good.nc", "--validation", "{tmp}/rec.npz", "--out", "{tmp}/rec.npz"],
+     r"rec\.npz is also an input of this command"),
+    ("train-out-record-suffix", None, [*TRG, "--out", "{tmp}/m.nc"],
+     r"--out .*m\.nc: unknown format '\.nc' \(use \.npz\)"),
+    ("train-out-is-a-directory", None, [*TRG, "--out", "{tmp}/adir"],
+     r"unknown format '\(no suffix\)'"),
+    ("train-out-npz-directory", lambda tmp: (tmp / "d.npz").mkdir(), [*TRG, "--out", "{tmp}/d.npz"],
+     r"d\.npz: is a directory"),
+    ("train-out-under-a-file", None, [*TRG, "--out", "{tmp}/afile/m.npz"],
+     r"afile is not a directory"),
+    ("train-delays--1", None, [*TRO, "--delays", "-1"], r"--delays must be in \[1, 1000\], got -1"),
+    ("train-delays-huge", None, [*TRO, "--delays", "1000000"],
+     r"--delays must be in \[1, 1000\], got 1000000"),
+    ("train-neurons-0", None, [*TRO, "--neurons", "0"], r"--neurons must be in \[1, 1000\], got 0"),
+    ("train-neurons-text", None, [*TRO, "--neurons", "many"], r"Invalid value for '--neurons'"),
+    ("train-max-epochs--1", None, [*TRO, "--max-epochs", "-1"],
+     r"--max-epochs must be in \[0, 100000\], got -1"),
+    ("train-seed--1", None, [*TRO, "--seed", "-1"], rf"--seed must be in {SEED_MAX}, got -1"),
+    ("train-seed-2**40", None, [*TRO, "--seed", str(2**40)], rf"--seed must be in {SEED_MAX}"),
+    ("train-arch-lstm", None, [*TRO, "--arch", "lstm"], r"--arch must be nfir or noe, got 'lstm'"),
+    ("train-hidden-gauss", None, [*TRO, "--hidden", "gauss"],
+     r"--hidden must be matlab or distance, got 'gauss'"),
+    ("train-trainer-sgd", None, [*TRO, "--trainer", "sgd"],
+     r"--trainer for NFIR must be adam, fast, lm, got 'sgd'"),
+    ("train-trainer-adam-for-noe", None, [*TRO, "--arch", "noe", "--trainer", "adam"],
+     r"--trainer for NOE must be fast, lm, got 'adam'"),
+    ("train-input-empty", None, [*TRO, "--input", ""], r"--input must name a variable"),
+    ("train-input-is-output", None, [*TRO, "--input", "velocity", "--output", "velocity"],
+     r"--input and --output must be different variables"),
+    ("train-data-missing", None,
+     [*TR, "--data", "{tmp}/none.nc", "--validation", "{tmp}/good.nc", "--out", "{tmp}/m.npz"],
+     r"--data .*none\.nc: no such file"),
+    ("train-data-is-a-directory", None,
+     [*TR, "--data", "{tmp}/adir", "--validation", "{tmp}/good.nc", "--out", "{tmp}/m.npz"],
+     r"--data .*adir: is a directory"),
+    ("train-validation-empty-path", None,
+     [*TR, "--data", "{tmp}/good.nc", "--validation", "", "--out", "{tmp}/m.npz"],
+     r"--validation \.: is a directory, expected a file"),
+    ("train-validation-other-unit", None,
+     [*TR, "--data", "{tmp}/good.nc", "--validation", "{tmp}/rads.nc", "--out", "{tmp}/m.npz"],
+     r"unit mismatch: variable 'velocity' is in 'm/s' in .*good\.nc but in 'rad/s' in "
+     r".*rads\.nc"),
+    ("train-units-swapped", lambda tmp: write_record(
+        Record(np.arange(200) / 500.0, 500.0, {"velocity": np.ones(200),
+                                               "dynamic_force": np.ones(200)},
+               {"velocity": "N", "dynamic_force": "m/s"}), tmp / "swapped.nc"),
+     [*TR, "--data", "{tmp}/swapped.nc", "--validation", "{tmp}/swapped.nc", "--out",
+      "{tmp}/m.npz"], r"swapped\.nc: variable 'velocity' is in 'N', but velocity is in 'm/s'"),
+    ("train-record-too-short", None,
+     ["train", "--delays", "1000", "--neurons", "1000", "--data", "{tmp}/good.nc",
+      "--validation", "{tmp}/good.nc", "--out", "{tmp}/m.npz"],
+     r"good\.nc: 1500 samples are too few for NFIR\(1000, 1000\) \(training needs at least "
+     r"21050\)"),
+    # -- predict --------------------------------------------------------------------------------
+    ("predict-out-is-the-data-nc", None, [*P, "--data", "{tmp}/good.nc", "--out", "{tmp}/good.nc"],
+     r"good\.nc is also an input of this command: refusing to overwrite it"),
+    ("predict-out-is-the-data-csv", None,
+     [*P, "--data", "{tmp}/good.csv", "--out", "{tmp}/good.csv"],
+     r"good\.csv is also an input of this command"),
+    ("predict-out-is-the-data-mat", None,
+     [*P, "--data", "{tmp}/good.mat", "--out", "{tmp}/good.mat"],
+     r"good\.mat is also an input of this command"),
+    ("predict-out-is-the-data-other-spelling", None,
+     [*P, "--data", "{tmp}/good.nc", "--out", "{tmp}/adir/../good.nc"],
+     r"good\.nc is also an input of this command"),
+    ("predict-out-is-the-model", _copy("{models}/good.npz", "model.nc"),
+     ["predict", "--model", "{tmp}/model.nc", "--data", "{tmp}/good.nc", "--out",
+      "{tmp}/model.nc"], r"model\.nc is also an input of this command"),
+    ("predict-input-in-other-unit", None, [*P, "--data", "{tmp}/rads.nc", "--out", "{tmp}/p.nc"],
+     r"rads\.nc: variable 'velocity' is in 'rad/s', the model .*good\.npz expects 'm/s'"),
+    ("predict-out-xlsx", None, [*P, "--data", "{tmp}/good.nc", "--out", "{tmp}/p.xlsx"],
+     r"unknown format '\.xlsx' \(use \.nc, \.csv, \.mat\)"),
+    ("predict-out-under-a-file", None,
+     [*P, "--data", "{tmp}/good.nc", "--out", "{tmp}/afile/p.nc"], r"afile is not a directory"),
+    ("predict-2d-record-to-csv", None, [*P, "--data", "{tmp}/twod.nc", "--out", "{tmp}/p.csv"],
+     r"CSV holds 1-D variables only, .*twod\.nc has 2-D station_acceleration"),
+    ("predict-model-is-a-directory", None,
+     ["predict", "--model", "{tmp}/adir", "--data", "{tmp}/good.nc", "--out", "{tmp}/p.nc"],
+     r"--model .*adir: is a directory"),
+    ("predict-model-missing", None,
+     ["predict", "--model", "{tmp}/none.npz", "--data", "{tmp}/good.nc", "--out", "{tmp}/p.nc"],
+     r"--model .*none\.npz: no such file"),
+    ("predict-data-empty-path", None, [*P, "--data", "", "--out", "{tmp}/p.nc"],
+     r"--data \.: is a directory, expected a file"),
+    # -- sweep ----------------------------------------------------------------------------------
+    ("sweep-scheduler-unreachable", None, [*SO, "--scheduler", "tcp://127.0.0.1:1"],
+     r"--scheduler tcp://127\.0\.0\.1:1: no Dask scheduler reachable"),
+    ("sweep-scheduler-no-port", None, [*SO, "--scheduler", "localhost"],
+     r"--scheduler 'localhost': expected tcp://HOST:PORT"),
+    ("sweep-scheduler-bad-port", None, [*SO, "--scheduler", "tcp://localhost:99999"],
+     r"expected tcp://HOST:PORT"),
+    ("sweep-scheduler-protocol", None, [*SO, "--scheduler", "ucx://host:8786"],
+     r"unsupported protocol 'ucx'"),
+    ("sweep-scheduler-empty", None, [*SO, "--scheduler", ""], r"--scheduler: empty address"),
+    ("sweep-workers-0", None, [*SO, "--workers", "0"], r"--workers must be in \[1, \d+\], got 0"),
+    ("sweep-workers-1000", None, [*SO, "--workers", "1000"],
+     r"--workers must be in \[1, \d+\], got 1000 \(this machine has"),
+    ("sweep-arch-all", None, [*SO, "--arch", "all"], r"--arch must be nfir, noe or both"),
+    ("sweep-delays-text", None, [*SO, "--delays", "a,b"],
+     r"--delays must be a comma-separated list of integers"),
+    ("sweep-delays-zero", None, [*SO, "--delays", "0,5"],
+     r"--delays must list integers in \[1, 1000\], got '0,5'"),
+    ("sweep-delays-repeated", None, [*SO, "--delays", "5,5"], r"--delays must not repeat"),
+    ("sweep-neurons-huge", None, [*SO, "--neurons", "100000"],
+     r"--neurons must list integers in \[1, 1000\]"),
+    ("sweep-neurons-empty", None, [*SO, "--neurons", ""],
+     r"--neurons must list integers in \[1, 1000\], got ''"),
+    ("sweep-out-is-a-file", None, [*S, "--out", "{tmp}/afile"],
+     r"afile: exists and is not a directory"),
+    ("sweep-out-is-the-data", None, [*S, "--out", "{tmp}/good.nc"],
+     r"good\.nc is also an input of this command"),
+    ("sweep-validation-other-unit", None,
+     ["sweep", "--data", "{tmp}/good.nc", "--validation", "{tmp}/rads.nc", "--out", "{tmp}/sw"],
+     r"unit mismatch: variable 'velocity'"),
+    ("sweep-max-epochs--1", None, [*SO, "--max-epochs", "-1"], r"--max-epochs must be in"),
+    ("sweep-seed--1", None, [*SO, "--seed", "-1"], rf"--seed must be in {SEED_MAX}"),
+    ("sweep-grid-too-big", None, [*SO, "--arch", "nfir", "--delays", "900"],
+     r"good\.nc: 1500 samples are too few for NFIR\(900, 40\)"),
+    # -- map ------------------------------------------------------------------------------------
+    ("map-rig-and-model", None, [*M, "--model", "{models}/good.npz"],
+     r"exactly one of --rig or --model"),
+    ("map-n-omega-huge", None, [*M, "--n-omega", "1000000"],
+     r"--n-omega must be in \[2, 200\], got 1000000 \(each frequency"),
+    ("map-n-a-0", None, [*M, "--n-a", "0"], r"--n-a must be in \[2, 200\], got 0"),
+    ("map-n-a-float", None, [*M, "--n-a", "2.5"], r"Invalid value for '--n-a'"),
+    ("map-seed--1", None, [*M, "--seed", "-1"], rf"--seed must be in {SEED_MAX}"),
+    ("map-out-is-the-reference", None,
+     ["map", "--rig", "--reference", "{tmp}/ref22.nc", "--out", "{tmp}/ref22.nc"],
+     r"ref22\.nc is also an input of this command"),
+    ("map-out-png", None, ["map", "--rig", "--out", "{tmp}/m.png"],
+     r"unknown format '\.png' \(use \.nc\)"),
+    ("map-out-under-a-file", None, ["map", "--rig", "--out", "{tmp}/afile/m.nc"],
+     r"afile is not a directory"),
+    ("map-out-png-is-a-directory", lambda tmp: (tmp / "m.png").mkdir(),
+     ["map", "--rig", "--out", "{tmp}/m.nc"], r"--out \(its PNG\) .*m\.png: is a directory"),
+    ("map-reference-other-shape", None,
+     [*M, "--reference", "{tmp}/ref22.nc", "--n-omega", "3", "--n-a", "2"],
+     r"map of shape \(2, 2\), this map will be \(3, 2\): use the same --n-omega and --n-a"),
+    ("map-reference-other-grid", None,
+     [*M, "--reference", "{tmp}/ref22_other.nc", "--n-omega", "2", "--n-a", "2"],
+     r"its omega_bar grid differs from this map's"),
+    ("map-reference-is-a-directory", None, [*M, "--reference", "{tmp}/adir"],
+     r"--reference .*adir: is a directory"),
+    ("map-model-in-acceleration", None,
+     ["map", "--model", "{models}/acc.npz", "--out", "{tmp}/m.nc"],
+     r"the ROM maps 'm/s\^2' to 'N'"),
+    ("map-model-too-slow", None, ["map", "--model", "{models}/slow100.npz", "--out", "{tmp}/m.nc"],
+     r"the ROM runs at 100 Hz, too slow for harmonic tests up to 25 Hz"),
+    # -- config show / reproduce ----------------------------------------------------------------
+    ("config-rms-empty", _cfg("[beam]\nrms_g = []\n"), CS,
+     r"'beam\.rms_g' must be a non-empty list of RMS levels in g, each in \(0, 2\], got \[\]"),
+    ("reproduce-rms-empty", _cfg("[beam]\nrms_g = []\n"), RP,
+     r"'beam\.rms_g' must be a non-empty list of RMS levels in g"),
+    ("config-rms-string", _cfg("[beam]\nrms_g = \"0.1\"\n"), CS, r"'beam\.rms_g' must be a list"),
+    ("config-rms-negative", _cfg("[beam]\nrms_g = [0.1, -0.2]\n"), CS,
+     r"'beam\.rms_g\[1\]' must be an RMS level in g in \(0, 2\], got -0\.2"),
+    ("config-damping-too-short", _cfg("[beam]\ndamping = [0.01]\n"), CS,
+     r"'beam\.damping' has 1 ratio\(s\) but 'beam\.n_modes' is 3"),
+    ("config-damping-1", _cfg("[beam]\ndamping = [1.0, 0.005, 0.005]\n"), CS,
+     r"'beam\.damping\[0\]' must be a damping ratio in \[0, 1\), got 1\.0"),
+    ("config-n-modes-6", _cfg("[beam]\nn_modes = 6\ndamping = [0.01, 0.01, 0.01, 0.01, 0.01, "
+                              "0.01]\n"), CS,
+     r"'beam\.n_modes' must be an integer in \[1, 5\], got 6 \(the modal filter"),
+    ("config-f-min-above-f-max", _cfg("[map]\nf_min = 30.0\n"), CS,
+     r"'map\.f_min' \(30 Hz\) must be below 'map\.f_max' \(25 Hz\)"),
+    ("config-a-bar-swapped", _cfg("[map]\na_bar_min = 0.5\na_bar_max = 0.1\n"), CS,
+     r"'map\.a_bar_min' \(0\.5\) must be below 'map\.a_bar_max' \(0\.1\)"),
+    ("config-n-omega-huge", _cfg("[map]\nn_omega = 100000\n"), CS,
+     r"'map\.n_omega' must be an integer in \[2, 200\], got 100000"),
+    ("config-fs-0", _cfg("[rig]\nfs = 0\n"), CS,
+     r"'rig\.fs' must be a record rate in Hz in \[100, 5000\], got 0\.0"),
+    ("config-fs-10-khz", _cfg("[rig]\nfs = 10000.0\n"), CS,
+     r"'rig\.fs' must be a record rate in Hz in \[100, 5000\], got 10000\.0 \(decimated"),
+    ("config-free-duration-1", _cfg("[beam]\nfree_duration = 1.0\n"), CS,
+     r"'beam\.free_duration' = 1 s is too short for the damping analysis of mode 1 "
+     r"\(10\.2 Hz\): need at least 1\.8 s"),
+    ("config-random-duration-20", _cfg("[beam]\nrandom_duration = 20.0\n"), CS,
+     r"'beam\.random_duration' must be a duration in s in \[33, 600\], got 20\.0 \(Table 2"),
+    ("config-random-memory", _cfg("[beam]\nrandom_duration = 600.0\n"
+                                  "rms_g = [0.1, 0.2, 0.3, 0.4]\n"), CS,
+     r"'beam\.random_duration' x 4 levels = 2400 s is more than 1800 s"),
+    ("config-f0-1e6", _cfg("[beam]\nf0 = 1e6\n"), CS,
+     r"'beam\.f0' must be a frequency in Hz in \(0, 250\], got 1000000\.0"),
+    ("config-sigma-60", _cfg("[beam]\nsigma = 60.0\n"), CS,
+     r"'beam\.f0' \+ 4 'beam\.sigma' = 252 Hz must stay below 250 Hz"),
+    ("config-psd-below-0-hz", _cfg("[beam]\nf0 = 5.0\n"), CS,
+     r"'beam\.f0' - 3 'beam\.sigma' = -7 Hz must not be below 0 Hz"),
+    ("config-sweep-grid-empty", _cfg("[rom]\nsweep_nfir_delays = []\n"), CS,
+     r"'rom\.sweep_nfir_delays' must be a non-empty list of delays"),
+    ("config-sweep-grid-strings", _cfg("[rom]\nsweep_noe_neurons = [\"ten\"]\n"), CS,
+     r"'rom\.sweep_noe_neurons\[0\]' must be an integer in \[1, 1000\], got 'ten'"),
+    ("config-sweep-workers-0", _cfg("[rom]\nsweep_workers = 0\n"), CS,
+     r"'rom\.sweep_workers' must be a number of parallel trainings in \[1, 64\], got 0"),
+    ("config-neurons-float", _cfg("[rom]\nneurons = 3.5\n"), CS,
+     r"'rom\.neurons' must be an integer in \[1, 1000\], got 3\.5"),
+    ("config-max-epochs-negative", _cfg("[rom]\nmax_epochs = -1\n"), CS,
+     r"'rom\.max_epochs' must be an integer in \[0, 100000\], got -1"),
+    ("config-rig-seed-negative", _cfg("[rig]\nseed = -1\n"), CS,
+     r"'rig\.seed' must be a non-negative integer seed in \[0, 4294967295\], got -1"),
+    ("config-hidden-gauss", _cfg("[rom]\nhidden = \"gauss\"\n"), CS,
+     r"'rom\.hidden' must be \"matlab\" or \"distance\", got 'gauss'"),
+    ("config-train-duration-memory", _cfg("[data]\ntrain_duration = 1e7\n"), CS,
+     r"'data\.train_duration' must be a VFA duration in s in \[10, 3600\], got 10000000\.0 "
+     r".*memory"),
+    ("config-tip-0", _cfg("[beam]\ntip_displacement = 0.0\n"), CS,
+     r"'beam\.tip_displacement' must be an initial tip displacement in m in \(0, 0\.2\]"),
+    ("config-network-too-big", _cfg("[rom]\ndelays = 1000\nneurons = 1000\n"
+                                    "[data]\ntrain_duration = 10.0\n"), CS,
+     r"'rom\.delays'/'rom\.neurons' = 1000/1000 \(NFIR\) need at least 21050 training samples"),
+    ("reproduce-sweep-grid-too-big", _cfg("[rom]\nsweep_nfir_delays = [1000]\n"
+                                          "sweep_nfir_neurons = [1000]\n"
+                                          "[data]\ntrain_duration = 10.0\n"),
+     ["reproduce", "--sweep", "--config", "{tmp}/c.toml", "--out", "{tmp}/res"],
+     r"the largest of 'rom\.sweep_nfir_delays'/'rom\.sweep_nfir_neurons' = 1000/1000"),
+    ("reproduce-out-is-a-file", None, ["reproduce", "--quick", "--out", "{tmp}/afile"],
+     r"afile: exists and is not a directory"),
+    ("reproduce-out-is-the-config", _cfg("[rom]\nseed = 1\n"),
+     ["reproduce", "--config", "{tmp}/c.toml", "--out", "{tmp}/c.toml"],
+     r"c\.toml is also an input of this command"),
+    ("reproduce-config-is-a-directory", None, ["reproduce", "--config", "{tmp}/adir"],
+     r"--config .*adir: is a directory"),
+    ("config-show-empty-path", None, ["config", "show", "--config", ""],
+     r"--config \.: is a directory, expected a file"),
+    # -- beam free ------------------------------------------------------------------------------
+    ("beam-free-no-out", None, BF, r"Missing option '--out'"),
+    ("beam-free-duration-1", None, [*BFO, "--duration", "1"],
+     r"--duration 1 s is too short for the damping analysis of mode 1 \(10\.2 Hz\): need at "
+     r"least 1\.8 s \(18 periods\)"),
+    ("beam-free-duration-inf", None, [*BFO, "--duration", "inf"],
+     r"--duration must be in \(0, 600\] s, got inf"),
+    ("beam-free-duration-1e6", None, [*BFO, "--duration", "1e6"],
+     r"--duration must be in \(0, 600\] s, got 1000000\.0"),
+    ("beam-free-tip-0", None, [*BFO, "--tip-displacement", "0"],
+     r"--tip-displacement must not be 0"),
+    ("beam-free-tip-nan", None, [*BFO, "--tip-displacement", "nan"],
+     r"--tip-displacement must be in \(-0\.2, 0\.2\) m, got nan"),
+    ("beam-free-seed--1", None, [*BFO, "--seed", "-1"], rf"--seed must be in {SEED_MAX}"),
+    ("beam-free-out-is-a-file", None, [*BF, "--out", "{tmp}/afile"],
+     r"afile: exists and is not a directory"),
+    ("beam-free-out-under-a-file", None, [*BF, "--out", "{tmp}/afile/res"],
+     r"afile is not a directory"),
+    ("beam-free-model-where-a-result-goes",
+     _copy("{models}/good.npz", "res/table1_frozen_modes.csv"),
+     [*BFO, "--sloshing", "{tmp}/res/table1_frozen_modes.csv"],
+     r"table1_frozen_modes\.csv is also an input of this command"),
+    ("beam-free-tank-where-a-result-goes", _copy("{tmp}/t.toml", "res/table1_frozen_modes.md"),
+     [*BFO, "--tank-toml", "{tmp}/res/table1_frozen_modes.md"],
+     r"table1_frozen_modes\.md is also an input of this command"),
+    ("beam-free-result-is-a-directory", lambda tmp: (tmp / "res" / "free_frozen.nc").mkdir(
+        parents=True), BFO, r"free_frozen\.nc: is a directory"),
+    ("beam-free-rig-twice", None, [*BFO, "--sloshing", "rig", "--sloshing", "rig"],
+     r"--sloshing rig: a second case named 'rig'"),
+    ("beam-free-rom-named-rig", _copy("{models}/good.npz", "rig.npz"),
+     [*BFO, "--sloshing", "rig", "--sloshing", "{tmp}/rig.npz"],
+     r"rig\.npz: a second case named 'rig'"),
+    ("beam-free-rom-in-acceleration", None, [*BFO, "--sloshing", "{models}/acc.npz"],
+     r"acc\.npz: the ROM maps 'm/s\^2' to 'N'; the beam feeds it the tank velocity in m/s"),
+    ("beam-free-rom-at-250-hz", None, [*BFO, "--sloshing", "{models}/r250.npz"],
+     r"r250\.npz: the ROM runs at 250 Hz; the beam needs a multiple of 500 Hz"),
+    ("beam-free-sloshing-empty", None, [*BFO, "--sloshing", ""], r"does not exist"),
+    ("beam-free-mode-1-at-300-hz", None, [*BFO, "--modal-toml", "{tmp}/modal300.toml"],
+     r"the first beam mode \(\d+(\.\d+)? Hz\) is too high for the 500 Hz results"),
+    ("beam-free-modal-is-a-directory", None, [*BFO, "--modal-toml", "{tmp}/adir"],
+     r"--modal-toml .*adir: is a directory"),
+    ("beam-free-tank-missing", None, [*BFO, "--tank-toml", "{tmp}/none.toml"],
+     r"--tank-toml .*none\.toml: no such file"),
+    # -- beam random ----------------------------------------------------------------------------
+    ("beam-random-f0-1e6", None, [*BRO, "--f0", "1e6"],
+     r"--f0 \+ 4 --sigma = 1\.00002e\+06 Hz must stay below 250 Hz"),
+    ("beam-random-f0-nan", None, [*BRO, "--f0", "nan"],
+     r"--f0 must be a positive frequency in Hz, got nan"),
+    ("beam-random-sigma-negative", None, [*BRO, "--sigma", "-4"],
+     r"--sigma must be a positive frequency in Hz, got -4\.0"),
+    ("beam-random-psd-below-0-hz", None, [*BRO, "--f0", "5", "--sigma", "4"],
+     r"--f0 - 3 --sigma = -7 Hz must not be below 0 Hz"),
+    ("beam-random-duration-20", None, [*BRO, "--duration", "20"],
+     r"--duration must be in \[33, 600\] s, got 20\.0 \(Table 2 needs one 16384-sample"),
+    ("beam-random-memory", None, [*BRO, "--duration", "600", "--levels", "0.1,0.2,0.3,0.4"],
+     r"--duration 600 s x 4 level\(s\) = 2400 s is more than 1800 s"),
+    ("beam-random-level-inf", None, [*BRO, "--levels", "inf"],
+     r"--levels must be RMS values in \(0, 2\] g, got 'inf'"),
+    ("beam-random-level-nan", None, [*BRO, "--levels", "0.1,nan"],
+     r"--levels must be RMS values in \(0, 2\] g, got '0\.1,nan'"),
+    ("beam-random-levels-empty", None, [*BRO, "--levels", ""],
+     r"--levels must be RMS values in \(0, 2\] g, got ''"),
+    ("beam-random-level-3-g", None, [*BRO, "--levels", "3"], r"--levels must be RMS values"),
+    ("beam-random-seed--1", None, [*BRO, "--seed", "-1"], rf"--seed must be in {SEED_MAX}"),
+    ("beam-random-out-is-a-file", None, [*BR, "--out", "{tmp}/afile"],
+     r"afile: exists and is not a directory"),
+    # -- export onnx ----------------------------------------------------------------------------
+    ("onnx-out-is-the-model", _copy("{models}/good.npz", "m.onnx"),
+     [*E, "{tmp}/m.onnx", "{tmp}/m.onnx"], r"m\.onnx is also an input of this command"),
+    ("onnx-dtype-float16", None, [*E, "{models}/good.npz", "{tmp}/o.onnx", "--dtype", "float16"],
+     r"--dtype must be 'float64' or 'float32', got 'float16'"),
+    ("onnx-out-is-a-directory", lambda tmp: (tmp / "o.onnx").mkdir(),
+     [*E, "{models}/good.npz", "{tmp}/o.onnx"], r"o\.onnx: is a directory"),
+    ("onnx-out-under-a-file", None, [*E, "{models}/good.npz", "{tmp}/afile/o.onnx"],
+     r"afile is not a directory"),
+    ("onnx-tampered-model", None, [*E, "{models}/tampered.npz", "{tmp}/o.onnx"],
+     r"parameter W tampered"),
+    ("onnx-no-arguments", None, E, r"(?i)Missing argument 'MODEL'"),
+    # -- import uff -----------------------------------------------------------------------------
+    ("uff-out-is-the-input", None, [*U, "{tmp}/raw.nc", "{tmp}/raw.nc"],
+     r"raw\.nc is also an input of this command"),
+    ("uff-f-highpass-nan", None, [*U, "{tmp}/good.uff", "{tmp}/o.nc", "--f-highpass", "nan"],
+     r"--f-highpass must be >= 0 Hz, got nan"),
+    ("uff-f-highpass--1", None, [*U, "{tmp}/good.uff", "{tmp}/o.nc", "--f-highpass", "-1"],
+     r"--f-highpass must be >= 0 Hz, got -1\.0"),
+    ("uff-f-highpass-above-nyquist", None,
+     [*U, "{tmp}/good.uff", "{tmp}/o.nc", "--f-highpass", "60"],
+     r"--f-highpass must be in \[0, 50\) Hz, got 60\.0 \(below the Nyquist frequency"),
+    ("uff-input-missing", None, [*U, "{tmp}/none.uff", "{tmp}/o.nc"], r"UFF .*none\.uff: no such"),
+    ("uff-input-is-a-directory", None, [*U, "{tmp}/adir", "{tmp}/o.nc"], r"adir: is a directory"),
+    ("uff-out-txt", None, [*U, "{tmp}/good.uff", "{tmp}/o.txt"],
+     r"OUT .*o\.txt: unknown format '\.txt'"),
+    ("uff-tank-missing", None, [*U, "{tmp}/good.uff", "{tmp}/o.nc", "--tank", "{tmp}/none.toml"],
+     r"--tank .*none\.toml: no such file"),
+    ("uff-name-without-key", None, [*U, "{tmp}/good.uff", "{tmp}/o.nc", "--name", "=force"],
+     r"--name must look like KEY=VALUE, got '=force'"),
+]
+
+
+@pytest.mark.parametrize(("setup", "argv", "match"), [c[1:] for c in HOSTILE_CASES],
+                         ids=[c[0] for c in HOSTILE_CASES])
+def test_hostile_cli_rejects(tmp_path, model_files, setup, argv, match):
+    def both(tmp: Path) -> None:
+        _world(tmp)
+        if getattr(setup, "wants_models", False):
+            setup(tmp, model_files)
+        elif setup is not None:
+            setup(tmp)
+
+    _check_cli(tmp_path, model_files, both, argv, match)
+
+
+def test_case_ids_are_unique():
+    ids = [c[0] for c in HOSTILE_CASES]
+    assert len(ids) == len(set(ids))
+
+
+# -- beyond single cases ---------------------------------------------------------------------------
+def test_late_failure_leaves_no_partial_results(tmp_path, monkeypatch):
+    """A failure after the simulations (here: the third figure) leaves no result file at all."""
+    import sloshrom.cli.beam as beam
+
+    real = beam._savefig
+    calls = []
+
+    def flaky(fig, path, batch=None):
+        calls.append(path)
+        if len(calls) == 3:
+            raise OSError("disk full")
+        real(fig, path, batch)
+
+    monkeypatch.setattr(beam, "_savefig", flaky)
+    out = tmp_path / "res"
+    res = runner.invoke(app, ["beam", "free", "--sloshing", "frozen", "--duration", "2",
+                              "--out", str(out)])
+    assert res.exit_code != 0 and len(calls) == 3
+    assert not [p for p in tmp_path.rglob("*") if p.is_file()], "partial results left behind"
+
+
+def test_warnings_are_one_line_each(capsys):
+    """Our warnings: one yellow line; third-party deprecations: silenced; others: with origin."""
+    from sloshrom.cli._app import route_warnings
+    from sloshrom.rom import EnvelopeWarning
+
+    with route_warnings():
+        for _ in range(2):  # the same warning twice: shown once
+            warnings.warn_explicit("input outside the training envelope\n  by 3 %",
+                                   EnvelopeWarning, "/x/src/sloshrom/rom.py", 10,
+                                   module="sloshrom.rom")
+        warnings.warn_explicit("old API", FutureWarning,
+                               "/v/lib/python3.11/site-packages/xarray/core.py", 1,
+                               module="xarray.core")
+        warnings.warn_explicit("old API", DeprecationWarning,
+                               "/v/lib/python3.11/site-packages/jax/_src/x.py", 1,
+                               module="jax._src.x")
+        warnings.warn_explicit("overflow encountered in exp", RuntimeWarning,
+                               "/v/lib/python3.11/site-packages/numpy/core.py", 1,
+                               module="numpy.core")
+    err = capsys.readouterr().err.splitlines()
+    assert err == ["warning: input outside the training envelope by 3 %",
+                   "warning: overflow encountered in exp (RuntimeWarning from numpy)"], err
+
+
+def test_user_errors_are_value_errors_and_no_bare_value_error_is_caught():
+    """The CLI catches the package's own error types only: a bug keeps its traceback."""
+    import inspect
+
+    import sloshrom.cli.beam
+    import sloshrom.cli.export
+    import sloshrom.cli.pipeline
+    import sloshrom.cli.rig
+    import sloshrom.cli.rom  # noqa: F401
+    from sloshrom.cli._app import user_errors
+
+    assert all(issubclass(t, ValueError) for t in user_errors())
+    for mod in ("beam", "export", "pipeline", "rig", "rom"):
+        src = inspect.getsource(__import__(f"sloshrom.cli.{mod}", fromlist=["x"]))
+        assert "except ValueError as" not in src and "(ValueError," not in src, mod
+
+
+def test_bad_config_fails_in_the_library():
+    """settings.validate is the library's check: pipeline.run callers get it too."""
+    from sloshrom import settings
+    from sloshrom.config import ConfigError
+
+    cfg = settings.defaults()
+    settings.validate(cfg)
+    cfg["beam"]["rms_g"] = []
+    with pytest.raises(ConfigError, match=r"'beam\.rms_g' must be a non-empty list"):
+        settings.validate(cfg)
