@@ -45,17 +45,23 @@ MIN_VFA_DURATION = 10.0
 #: arrays per fine sample at its peak (path, derivatives, filtered sensor channels): measured
 #: 1.6 MB per second of record, so one hour needs about 6 GB of memory and a minute of CPU.
 MAX_FINE_SECONDS = 3600.0
-#: Rate of the rig's records today (``SensorParams.output_rate``); ``rig.fs`` is to replace it.
-RECORD_FS = 500.0
+#: The virtual rig's integration rate (``VirtualRig.dt`` = 1e-4 s): ``rig.fs`` must divide it.
+RIG_RATE = 10_000.0
 #: Fed-back outputs of the NOE built by `reproduce` (``NOE(out_delays=2)``, the default).
 NOE_OUT_DELAYS = 2
-#: Rate of the beam results (the coupled simulations are written at the sensors' 500 Hz).
+#: Default rate of the beam results (``sloshrom beam``); `reproduce` uses ``rig.fs``.
 BEAM_FS = 500.0
 #: Welch segment of the random-response damping estimators (``analysis.mode1_damping_random``).
 WELCH_NPERSEG = 16384
 #: A random response must hold at least one Welch segment (32.8 s at 500 Hz); 90 s (paper) give
 #: four half-overlapping segments, hence a much smoother estimate.
 MIN_RANDOM_DURATION = math.ceil(WELCH_NPERSEG / BEAM_FS)
+#: Bounds of the beam's geometry and material (SI): a laboratory or wing-like beam, not a typo
+#: in mm or GPa.
+_BEAM_BOUNDS = {"length": (0.01, 100.0, "a length in m"), "width": (1e-4, 10.0, "a width in m"),
+                "thickness": (1e-4, 1.0, "a thickness in m"),
+                "youngs_modulus": (1e6, 1e13, "a Young's modulus in Pa"),
+                "density": (1.0, 3e4, "a density in kg/m^3")}
 #: ``analysis.instantaneous_damping`` trims 5 periods of mode 1 at each end and smooths over 4;
 #: 4 more periods leave a decay to analyse (18 periods: 1.8 s for the paper beam, f1 = 10.2 Hz).
 FREE_DAMPING_PERIODS = 2 * 5 + 4 + 4
@@ -235,16 +241,15 @@ _SPEC: dict[str, dict[str, Check]] = {
         "gamma_max": _number(0.0, 60.0, lo_open=True, what="an acceleration amplitude in g"),
     },
     "beam": {
+        **{k: _number(lo, hi, what=what) for k, (lo, hi, what) in _BEAM_BOUNDS.items()},
         "tip_displacement": _number(0.0, 0.2, lo_open=True, what="an initial tip displacement "
                                                                  "in m"),
         "free_duration": _number(0.0, MAX_BEAM_SECONDS, lo_open=True, what="a duration in s"),
-        "random_duration": _number(MIN_RANDOM_DURATION, MAX_BEAM_SECONDS, what="a duration in s",
-                                   why="Table 2 needs at least one 16384-sample Welch segment "
-                                       "at 500 Hz"),
+        "random_duration": _number(0.0, MAX_BEAM_SECONDS, lo_open=True, what="a duration in s"),
         "rms_g": _list(_number(0.0, 2.0, lo_open=True, what="an RMS level in g"),
                        "RMS levels in g, each in (0, 2]"),
-        "f0": _number(0.0, BEAM_FS / 2, lo_open=True, what="a frequency in Hz"),
-        "sigma": _number(0.0, BEAM_FS / 2, lo_open=True, what="a frequency in Hz"),
+        "f0": _number(0.0, lo_open=True, what="a frequency in Hz"),
+        "sigma": _number(0.0, lo_open=True, what="a frequency in Hz"),
         "seed": _SEED,
         "damping": _list(_number(0.0, 1.0, hi_open=True, what="a damping ratio"),
                          "modal damping ratios, each in [0, 1)"),
@@ -312,16 +317,21 @@ def validate(cfg: dict[str, Any]) -> dict[str, Any]:
 def _relations(cfg: dict[str, Any], tank: Tank) -> None:
     """Checks that involve several keys (each value is already valid on its own)."""
     rig, m, b = cfg["rig"], cfg["map"], cfg["beam"]
-    if not 25.0 <= 0.8 * rig["fs"] / 2:  # implied by fs >= 100 Hz; kept explicit for the reason
-        raise ConfigError(f"'rig.fs' = {rig['fs']:g} Hz leaves the VFA band (up to 25 Hz) "
+    fs = rig["fs"]
+    if not 25.0 <= 0.8 * fs / 2:  # implied by fs >= 100 Hz; kept explicit for the reason
+        raise ConfigError(f"'rig.fs' = {fs:g} Hz leaves the VFA band (up to 25 Hz) "
                           "outside the anti-alias passband 0.8 fs/2")
+    if abs(RIG_RATE / fs - round(RIG_RATE / fs)) > 1e-9:
+        raise ConfigError(f"'rig.fs' = {fs:g} Hz must divide the rig's {RIG_RATE:g} Hz "
+                          "integration rate (e.g. 250, 500, 1000, 2000 Hz): the beam's random "
+                          "excitation is made at fs and upsampled exactly for the rig")
     if not m["f_min"] < m["f_max"]:
         raise ConfigError(f"'map.f_min' ({m['f_min']:g} Hz) must be below 'map.f_max' "
                           f"({m['f_max']:g} Hz)")
     if not m["a_bar_min"] < m["a_bar_max"]:
         raise ConfigError(f"'map.a_bar_min' ({m['a_bar_min']:g}) must be below 'map.a_bar_max' "
                           f"({m['a_bar_max']:g})")
-    rom, n_train = cfg["rom"], cfg["data"]["train_duration"] * RECORD_FS
+    rom, n_train = cfg["rom"], cfg["data"]["train_duration"] * fs
     grid = [(rom["arch"], rom["delays"], rom["neurons"], "'rom.delays'/'rom.neurons'")]
     if rom["sweep"]:
         grid += [(a, max(rom[f"sweep_{a}_delays"]), max(rom[f"sweep_{a}_neurons"]),
@@ -332,25 +342,44 @@ def _relations(cfg: dict[str, Any], tank: Tank) -> None:
         if need > n_train:
             raise ConfigError(
                 f"{names} = {delays}/{neurons} ({arch.upper()}) need at least {need} training "
-                f"samples, but 'data.train_duration' gives {n_train:.0f} at {RECORD_FS:g} Hz")
+                f"samples, but 'data.train_duration' gives {n_train:.0f} at {fs:g} Hz")
     if len(b["damping"]) < b["n_modes"]:
         raise ConfigError(f"'beam.damping' has {len(b['damping'])} ratio(s) but 'beam.n_modes' "
                           f"is {b['n_modes']}: give one damping ratio per mode")
-    check_psd_band(b["f0"], b["sigma"], names=("'beam.f0'", "'beam.sigma'"), error=ConfigError)
+    check_psd_band(b["f0"], b["sigma"], names=("'beam.f0'", "'beam.sigma'"), error=ConfigError,
+                   fs=fs)
+    if b["random_duration"] * fs < WELCH_NPERSEG:
+        raise ConfigError(
+            f"'beam.random_duration' = {b['random_duration']:g} s must hold at least one "
+            f"{WELCH_NPERSEG}-sample Welch segment at 'rig.fs' = {fs:g} Hz "
+            f"({WELCH_NPERSEG / fs:.3g} s) for the damping estimates of Table 2")
     level_seconds = b["random_duration"] * len(b["rms_g"])
     if level_seconds > MAX_LEVEL_SECONDS:
         raise ConfigError(
             f"'beam.random_duration' x {len(b['rms_g'])} levels = {level_seconds:g} s is more "
             f"than {MAX_LEVEL_SECONDS:g} s (memory: the rig holds about 2.1 MB per second and "
             "level at its 10 kHz step)")
-    f1 = first_frozen_frequency(tank, b["n_modes"], b["damping"][: b["n_modes"]])
+    from sloshrom.structure import CantileverBeam
+
+    try:
+        beam = CantileverBeam.with_tank(tank, **{k: b[k] for k in _BEAM_BOUNDS})
+    except ConfigError as exc:
+        raise ConfigError(f"[beam]: {exc}") from None
+    f1 = first_frozen_frequency(tank, b["n_modes"], b["damping"][: b["n_modes"]], beam=beam)
     need = min_free_duration(f1)
     if b["free_duration"] < need:
         raise ConfigError(
             f"'beam.free_duration' = {b['free_duration']:g} s is too short for the damping "
             f"analysis of mode 1 ({f1:.3g} Hz): need at least {need:g} s "
             f"({FREE_DAMPING_PERIODS} periods)")
-    check_analysis_band(f1, error=ConfigError)
+    check_analysis_band(f1, error=ConfigError, fs=fs)
+    # the ROM and the frozen case run the structure at fs: every kept mode below Nyquist
+    modes = beam.frequencies(b["n_modes"])
+    if modes[-1] >= fs / 2:
+        raise ConfigError(
+            f"'beam.n_modes' = {b['n_modes']}: mode {b['n_modes']} of the beam "
+            f"({modes[-1]:.4g} Hz) lies above the Nyquist frequency of 'rig.fs' = {fs:g} Hz: "
+            "raise 'rig.fs' or keep fewer modes")
 
 
 def training_samples(arch: str, delays: int, neurons: int) -> int:
@@ -361,14 +390,14 @@ def training_samples(arch: str, delays: int, neurons: int) -> int:
 
 
 def first_frozen_frequency(tank: Tank, n_modes: int = 3, damping: Any = None,
-                           modal_toml: str | Path | None = None) -> float:
+                           modal_toml: str | Path | None = None, beam: Any = None) -> float:
     """First mode (Hz) of the beam with frozen liquid: the mode the damping analyses follow."""
     from sloshrom.structure import ModalModel, coupled_frozen_modes
 
     if modal_toml is not None:
         modal = ModalModel.from_toml(modal_toml)
     else:
-        modal = ModalModel.from_beam(tank=tank, n_modes=n_modes, damping=damping)
+        modal = ModalModel.from_beam(beam, tank=tank, n_modes=n_modes, damping=damping)
     return float(coupled_frozen_modes(modal, tank.liquid_mass)[0][0])
 
 
@@ -377,19 +406,20 @@ def min_free_duration(f1: float) -> float:
     return math.ceil(10 * FREE_DAMPING_PERIODS / f1) / 10
 
 
-def check_analysis_band(f1: float, error: type[ValueError] = ConfigError) -> None:
+def check_analysis_band(f1: float, error: type[ValueError] = ConfigError,
+                        fs: float = BEAM_FS) -> None:
     """Mode 1 must lie well below the results' Nyquist frequency (band-pass up to 1.5 f1)."""
-    if not 1.5 * f1 < 0.8 * BEAM_FS / 2:
-        raise error(f"the first beam mode ({f1:.4g} Hz) is too high for the 500 Hz results: "
+    if not 1.5 * f1 < 0.8 * fs / 2:
+        raise error(f"the first beam mode ({f1:.4g} Hz) is too high for the {fs:g} Hz results: "
                     f"the damping analyses band-pass up to 1.5 f1, which must stay below "
-                    f"{0.8 * BEAM_FS / 2:g} Hz")
+                    f"{0.8 * fs / 2:g} Hz")
 
 
 def check_psd_band(f0: float, sigma: float, names: tuple[str, str] = ("--f0", "--sigma"),
-                   error: type[ValueError] = ConfigError) -> None:
-    """The random-excitation PSD (paper Eq. 8) must lie inside (0, Nyquist) of the 500 Hz signal.
+                   error: type[ValueError] = ConfigError, fs: float = BEAM_FS) -> None:
+    """The random-excitation PSD (paper Eq. 8) must lie inside (0, Nyquist) of the signal at fs.
 
-    The base acceleration is synthesised at 500 Hz (then upsampled band-limited for the rig):
+    The base acceleration is synthesised at ``fs`` (then upsampled band-limited for the rig):
     ``sloshrom.signals.random_base_acceleration`` needs ``f0 + 4 sigma`` below the Nyquist
     frequency, and a band reaching below 0 Hz (``f0 - 3 sigma < 0``) would fold onto positive
     frequencies and no longer be the Gaussian asked for.
@@ -398,10 +428,10 @@ def check_psd_band(f0: float, sigma: float, names: tuple[str, str] = ("--f0", "-
     for name, v in ((n0, f0), (ns, sigma)):
         if not (_is_number(v) and math.isfinite(v) and v > 0):
             raise error(f"{name} must be a positive frequency in Hz, got {v!r}")
-    nyq = BEAM_FS / 2
+    nyq = fs / 2
     if f0 + 4 * sigma >= nyq:
         raise error(f"{n0} + 4 {ns} = {f0 + 4 * sigma:g} Hz must stay below {nyq:g} Hz, the "
-                    f"Nyquist frequency of the {BEAM_FS:g} Hz excitation (got f0 = {f0:g} Hz, "
+                    f"Nyquist frequency of the {fs:g} Hz excitation (got f0 = {f0:g} Hz, "
                     f"sigma = {sigma:g} Hz)")
     if f0 - 3 * sigma < -1e-9:
         raise error(f"{n0} - 3 {ns} = {f0 - 3 * sigma:g} Hz must not be below 0 Hz (the PSD "

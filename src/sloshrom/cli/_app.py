@@ -104,11 +104,12 @@ def warn(msg: str) -> None:
 
 
 def user_errors() -> tuple[type[BaseException], ...]:
-    """The package's own error types for bad user input (all ``ValueError`` subclasses).
+    """The package's own error types for bad user input.
 
     Commands catch these, never a bare ``ValueError``: a plain ``ValueError`` from deep inside is
-    a programming error and must keep its traceback. ``ModelFileError`` is included only once
-    ``sloshrom.rom`` is imported (importing it loads JAX; it cannot be raised before).
+    a programming error and must keep its traceback. ``ModelFileError`` and
+    ``UnstableModelError`` are included only once ``sloshrom.rom`` is imported (importing it
+    loads JAX; they cannot be raised before).
     """
     from sloshrom.config import ConfigError
     from sloshrom.data import RecordError
@@ -117,7 +118,8 @@ def user_errors() -> tuple[type[BaseException], ...]:
     types: list[type[BaseException]] = [ConfigError, RecordError, OutputPathError]
     rom = sys.modules.get("sloshrom.rom")
     if rom is not None:
-        types.append(rom.ModelFileError)
+        # an unstable NOE on the user's input is a property of their model, not a bug
+        types += [rom.ModelFileError, rom.UnstableModelError]
     return tuple(types)
 
 

@@ -36,9 +36,6 @@ def onnx_cmd(
 
     Example: ``sloshrom export onnx results/models/nfir.npz nfir_step.onnx``
     """
-    import shutil
-    import tempfile
-
     import numpy as np
 
     if form not in ("step", "sequence"):
@@ -50,32 +47,33 @@ def onnx_cmd(
     if not model.is_file():
         fail(f"model file not found: {model}")
     check_out(out, suffixes=(".onnx",), inputs=(model,), what="OUT")
-    from sloshrom.fileio import atomic_write
     from sloshrom.onnx_export import export_onnx
     from sloshrom.rom import load_model
 
+    limit = 1e-6 if dtype == "float64" else 1e-4
+    rel = [float("nan")]
     try:
         rom = load_model(model)
-    except user_errors() as exc:
-        fail(str(exc))
-    # export and check in a scratch directory: OUT appears only once the graph is verified, and
-    # an existing OUT is not lost when the check fails
-    with tempfile.TemporaryDirectory(prefix="sloshrom-onnx-") as scratch:
-        tmp = export_onnx(rom, Path(scratch) / "model.onnx", form=form, dtype=dtype)
-        msg = (f"wrote {out}: {type(rom).__name__} {form} form, {dtype}, {rom.fs_:g} Hz, "
-               f"{rom.max_delay} input delays")
         if check:
             u = _check_input(rom)
             ref = np.asarray(rom.predict(u))
-            y = run_onnx(tmp, u)
-            rel = float(np.max(np.abs(y - ref)) / max(np.max(np.abs(ref)), 1e-300))
-            msg += (f"; onnxruntime vs sloshrom on {u.size} samples: max rel. difference "
-                    f"{rel:.2e}")
-            limit = 1e-6 if dtype == "float64" else 1e-4
-            if not rel <= limit:
-                fail(f"exported graph differs from the ROM by {rel:.2e} (> {limit:g}); {out} "
-                     "not written")
-        atomic_write(out, lambda t: shutil.copyfile(tmp, t))
+
+            def verify(tmp: str) -> None:
+                # runs on the complete temporary file: OUT appears only once the graph is
+                # verified, and an existing OUT is left as it was when the check fails
+                y = run_onnx(tmp, u)
+                rel[0] = float(np.max(np.abs(y - ref)) / max(np.max(np.abs(ref)), 1e-300))
+                if not rel[0] <= limit:
+                    fail(f"exported graph differs from the ROM by {rel[0]:.2e} (> {limit:g}); "
+                         f"{out} not written")
+
+        export_onnx(rom, out, form=form, dtype=dtype, verify=verify if check else None)
+    except user_errors() as exc:
+        fail(str(exc))
+    msg = (f"wrote {out}: {type(rom).__name__} {form} form, {dtype}, {rom.fs_:g} Hz, "
+           f"{rom.max_delay} input delays")
+    if check:
+        msg += f"; onnxruntime vs sloshrom on {u.size} samples: max rel. difference {rel[0]:.2e}"
     typer.echo(msg)
 
 
