@@ -203,6 +203,8 @@ def check_output(
     p = Path(path)
     if not str(path).strip():
         raise OutputPathError(f"{what}: empty path")
+    if not directory and p.is_dir():
+        raise OutputPathError(f"{what} {p}: is a directory, expected a file name")
     if suffixes is not None and not directory and p.suffix.lower() not in suffixes:
         raise OutputPathError(
             f"{what} {p}: unknown format {p.suffix or '(no suffix)'!r} "
@@ -217,11 +219,8 @@ def check_output(
                 f"{what} {p} is also an input of this command: refusing to overwrite it "
                 "(choose another output name)"
             )
-    if directory:
-        if p.exists() and not p.is_dir():
-            raise OutputPathError(f"{what} {p}: exists and is not a directory")
-    elif p.is_dir():
-        raise OutputPathError(f"{what} {p}: is a directory, expected a file name")
+    if directory and p.exists() and not p.is_dir():
+        raise OutputPathError(f"{what} {p}: exists and is not a directory")
     # the nearest existing ancestor must be a directory we can create entries in
     anc = p if directory and p.exists() else p.parent
     while not anc.exists() and anc != anc.parent:

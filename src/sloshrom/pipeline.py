@@ -189,15 +189,21 @@ def relative_map_error(reference: Any, other: Any, threshold: float = 0.1) -> fl
 
 
 def write_map(da: Any, path: Path, title: str) -> list[Path]:
-    """NetCDF (atomic) + PNG beside it."""
+    """NetCDF + PNG beside it, both or neither (one :class:`~sloshrom.fileio.OutputBatch`)."""
     from sloshrom.energy import plot_phi_d_map
+    from sloshrom.fileio import OutputBatch
 
     plt = _plt()
-    atomic_write(path, lambda tmp: da.to_dataset().to_netcdf(tmp, engine="h5netcdf"))
     fig, ax = plt.subplots(figsize=(6.4, 4.6), constrained_layout=True)
-    plot_phi_d_map(da, ax=ax)
-    ax.set_title(title)
-    png = _savefig(fig, path.with_suffix(".png"))
+    try:
+        plot_phi_d_map(da, ax=ax)
+        ax.set_title(title)
+        with OutputBatch() as batch:
+            batch.write(path, lambda tmp: da.to_dataset().to_netcdf(tmp, engine="h5netcdf"))
+            png = batch.write(path.with_suffix(".png"), lambda tmp: fig.savefig(tmp, dpi=110),
+                              suffix=".png")
+    finally:
+        plt.close(fig)
     return [path, png]
 
 
@@ -273,7 +279,14 @@ def stage_maps(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
 # orchestration
 # ----------------------------------------------------------------------------------------------
 def run(out: str | Path, cfg: dict[str, Any], progress: Progress = _quiet) -> dict[str, Any]:
-    """Run every stage that is built, reuse cached ones, write the summary; return it."""
+    """Run every stage that is built, reuse cached ones, write the summary; return it.
+
+    The configuration is validated first (:func:`sloshrom.settings.validate`): a bad value
+    costs one ``ConfigError`` naming the key, before any work.
+    """
+    from sloshrom.settings import validate
+
+    validate(cfg)
     ctx = Context(Path(out), cfg, progress)
     ctx.out.mkdir(parents=True, exist_ok=True)
     cache = StageCache(ctx.out)

@@ -37,7 +37,8 @@ def beam_structure(cfg: dict[str, Any], tank: Any) -> tuple[Any, Any]:
 
     beam = CantileverBeam.with_tank(tank, **{k: cfg[k] for k in BEAM_KEYS})
     stations = tuple(beam.length * k / 5 for k in range(1, 6))
-    modal = ModalModel.from_beam(beam, tank, n_modes=cfg["n_modes"], damping=cfg["damping"],
+    damping = cfg["damping"][: cfg["n_modes"]]  # one ratio per kept mode (extra ones unused)
+    modal = ModalModel.from_beam(beam, tank, n_modes=cfg["n_modes"], damping=damping,
                                  stations=stations)
     return beam, modal
 
@@ -97,6 +98,7 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
         to_dataset,
     )
     from sloshrom.coupled import free_response, random_response
+    from sloshrom.fileio import OutputBatch
     from sloshrom.models import FrozenLiquid
     from sloshrom.structure import coupled_frozen_modes, frozen_modal_table
 
@@ -111,14 +113,12 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
         from sloshrom.rom import load_model
 
         models["rom"] = load_model(rom_path)
-    files: list[str] = []
     outputs: dict[str, Any] = {}
     f1 = float(coupled_frozen_modes(modal, tank.liquid_mass)[0][0])
     outputs["f1_frozen_hz"] = f1
 
-    rows = frozen_modal_table(tank, beam=beam, n_modes=cfg["n_modes"], damping=cfg["damping"])
-    _write_table(rows, out / "table1_frozen_modes")
-    files += ["beam/table1_frozen_modes.csv", "beam/table1_frozen_modes.md"]
+    rows = frozen_modal_table(tank, beam=beam, n_modes=cfg["n_modes"],
+                              damping=modal.damping.tolist())
     outputs["table1"] = rows
 
     steps = 2 * len(models)
@@ -138,11 +138,6 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
                                          tank=tank, output_fs=out_fs)
         k += 1
     ctx.progress("beam", steps, steps, "analysis and figures")
-    for case in models:
-        for kind, res in (("free", free_res), ("random", rand_res)):
-            p = out / f"{kind}_{case}.nc"
-            _write_nc(to_dataset(res[case], case, kind, tank, modal, cfg["seed"]), p)
-            files.append(ctx.rel(p))
 
     inst: dict[str, Any] = {}
     for case, r in free_res.items():
@@ -162,18 +157,23 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
             table2.append({"case": case, "rms_g": level,
                            "max_tank_acceleration_g": float(np.max(np.abs(
                                r["tank_acceleration"][i])) / G), **d})
-    _write_table(table2, out / "table2_mode1_damping")
-    files += ["beam/table2_mode1_damping.csv", "beam/table2_mode1_damping.md"]
     outputs["table2"] = table2
 
     figs = {**free_figures(free_res, modal, tank), **random_figures(rand_res, cfg["rms_g"],
             window=(min(40.0, cfg["random_duration"] / 2), min(42.0, cfg["random_duration"] / 2
                                                                 + 2)))}
     figs["fig17_base_excitation"] = base_excitation_figure(rand_res["frozen"], cfg, fs)
-    for name, fig in figs.items():
-        p = ctx.path("figures", f"{name}.png")
-        _savefig(fig, p)
-        files.append(ctx.rel(p))
+    # every result file of the stage appears together, once everything above has succeeded
+    with OutputBatch() as batch:
+        for case in models:
+            for kind, res in (("free", free_res), ("random", rand_res)):
+                _write_nc(to_dataset(res[case], case, kind, tank, modal, cfg["seed"]),
+                          out / f"{kind}_{case}.nc", batch)
+        _write_table(rows, out / "table1_frozen_modes", batch)
+        _write_table(table2, out / "table2_mode1_damping", batch)
+        for name, fig in figs.items():
+            _savefig(fig, ctx.path("figures", f"{name}.png"), batch)
+        files = [ctx.rel(p) for p in batch.paths]
     return outputs, files
 
 

@@ -157,7 +157,7 @@ def run_sweep(
                                    dashboard_address=None)
             client = Client(cluster)
         else:
-            client = Client(scheduler)
+            client = Client(scheduler, timeout=10)  # an unreachable address fails, not hangs
         try:
             data = client.scatter(list(args[:2]), broadcast=True)
             futs = [client.submit(fit_point, p, data[0], data[1], *args[2:], pure=False)

@@ -232,3 +232,15 @@ def route_warnings() -> Iterator[None]:
             warnings.filterwarnings("ignore", category=cat, module=r"(?!sloshrom\b)")
         warnings.showwarning = show
         yield
+
+
+def check_sloshing_rom(rom: Any, path: Path, what: str, user: str) -> None:
+    """A ROM used as a sloshing model must map the tank velocity (m/s) to a force (N).
+
+    ``user`` says who feeds it, as the subject of "feeds it the tank velocity ...".
+    """
+    from sloshrom.data import same_unit
+
+    if not (same_unit(rom.units[0], "m/s") and same_unit(rom.units[1], "N")):
+        fail(f"{what} {path}: the ROM maps '{rom.units[0]}' to '{rom.units[1]}'; {user} feeds "
+             "it the tank velocity in m/s and reads the dynamic force in N")

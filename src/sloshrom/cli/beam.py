@@ -13,7 +13,15 @@ from typing import Annotated, Any
 import numpy as np
 import typer
 
-from sloshrom.cli._app import app, check_input, check_number, check_out, fail, user_errors
+from sloshrom.cli._app import (
+    app,
+    check_input,
+    check_number,
+    check_out,
+    check_sloshing_rom,
+    fail,
+    user_errors,
+)
 from sloshrom.config import G, Tank
 from sloshrom.fileio import OutputBatch, atomic_write
 from sloshrom.settings import (
@@ -50,17 +58,13 @@ def _model(name: str, tank: Tank, seed: int) -> tuple[str, Any]:
     p = Path(name)
     if not name.strip() or not p.is_file():
         fail(f"--sloshing must be 'frozen', 'rig' or a ROM model file; {p} does not exist")
-    from sloshrom.data import canonical_unit
     from sloshrom.rom import load_model
 
     try:
         rom = load_model(p)
     except user_errors() as exc:
         fail(str(exc))
-    units = tuple(canonical_unit(u)[0] for u in rom.units)
-    if units != ("m/s", "N"):
-        fail(f"--sloshing {p}: the ROM maps '{rom.units[0]}' to '{rom.units[1]}'; the beam "
-             "feeds it the tank velocity in m/s and expects the dynamic force in N")
+    check_sloshing_rom(rom, p, "--sloshing", "the beam")
     ratio = rom.fs_ / SENSOR_FS
     if not (ratio >= 1 - 1e-9 and abs(ratio - round(ratio)) < 1e-6):
         fail(f"--sloshing {p}: the ROM runs at {rom.fs_:g} Hz; the beam needs a multiple of "

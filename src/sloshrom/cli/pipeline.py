@@ -8,7 +8,15 @@ from typing import Annotated
 
 import typer
 
-from sloshrom.cli._app import app, check_input, check_number, check_out, fail, user_errors
+from sloshrom.cli._app import (
+    app,
+    check_input,
+    check_number,
+    check_out,
+    check_sloshing_rom,
+    fail,
+    user_errors,
+)
 from sloshrom.config import Tank
 
 config_app = typer.Typer(help="Show the configuration of `sloshrom reproduce`.",
@@ -162,7 +170,7 @@ def map_cmd(
         task = prog.add_task("harmonic tests", total=n_omega)
         da = pipeline.compute_map(sm, cfg, tank,
                                   lambda d, t: prog.update(task, completed=d, total=t))
-    _write_map(da, out, title)
+    pipeline.write_map(da, out, title)
     mx = map_maximum(da)
     typer.echo(f"max Phi_d = {mx['phi_d']:.3g} at omega_bar = {mx['omega_bar']:.2f}, "
                f"a_bar = {mx['a_bar']:.3f} (Gamma = {mx['gamma']:.2f} g, "
@@ -174,42 +182,17 @@ def map_cmd(
 
 def _load_rom(path: Path, min_fs: float):
     """A ROM usable for harmonic tests (m/s -> N, fast enough for the top frequency)."""
-    from sloshrom.data import canonical_unit
     from sloshrom.rom import load_model
 
     try:
         m = load_model(path)
     except user_errors() as exc:  # ModelFileError: wrong format/version, tampered arrays
         fail(str(exc))
-    if tuple(canonical_unit(u)[0] for u in m.units) != ("m/s", "N"):
-        fail(f"--model {path}: the ROM maps '{m.units[0]}' to '{m.units[1]}'; the harmonic "
-             "tests feed it the tank velocity in m/s and read the dynamic force in N")
+    check_sloshing_rom(m, path, "--model", "the map")
     if m.fs_ < min_fs:
         fail(f"--model {path}: the ROM runs at {m.fs_:g} Hz, too slow for harmonic tests up to "
              f"{min_fs / 8:g} Hz (need at least {min_fs:g} Hz, 8 samples per cycle)")
     return m
-
-
-def _write_map(da, out: Path, title: str) -> None:
-    """NetCDF and PNG of a map, both or neither (one batch)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from sloshrom.energy import plot_phi_d_map
-    from sloshrom.fileio import OutputBatch
-
-    fig, ax = plt.subplots(figsize=(6.4, 4.6), constrained_layout=True)
-    try:
-        plot_phi_d_map(da, ax=ax)
-        ax.set_title(title)
-        with OutputBatch() as batch:
-            batch.write(out, lambda tmp: da.to_dataset().to_netcdf(tmp, engine="h5netcdf"))
-            batch.write(out.with_suffix(".png"), lambda tmp: fig.savefig(tmp, dpi=110),
-                        suffix=".png")
-    finally:
-        plt.close(fig)
 
 
 def _read_reference(path: Path, cfg: dict, tank: Tank):

@@ -43,27 +43,23 @@ def _read(path: Path, names: list[str], what: str):
     return rec
 
 
-def _si(unit: str) -> str:
-    from sloshrom.data import canonical_unit
-
-    return canonical_unit(unit)[0]
-
-
 def _same_units(a: Any, pa: Path, b: Any, pb: Path, names: list[str]) -> None:
     """Training and validation records must measure each variable in the same unit."""
+    from sloshrom.data import same_unit
+
     for n in names:
         ua, ub = a.units[n], b.units[n]
-        if _si(ua) != _si(ub):
+        if not same_unit(ua, ub):
             fail(f"unit mismatch: variable '{n}' is in '{ua}' in {pa} but in '{ub}' in {pb}")
 
 
 def _standard_units(rec: Any, path: Path, names: list[str]) -> None:
     """A variable with a standard name must be in that name's unit (swapped columns, ...)."""
-    from sloshrom.data import STANDARD_UNITS
+    from sloshrom.data import STANDARD_UNITS, same_unit
 
     for n in names:
         si = STANDARD_UNITS.get(n)
-        if si is not None and _si(rec.units[n]) != si:
+        if si is not None and not same_unit(rec.units[n], si):
             fail(f"{path}: variable '{n}' is in '{rec.units[n]}', but {n} is in '{si}' "
                  "(columns swapped? name the variables with --input/--output)")
 
@@ -219,14 +215,15 @@ def predict(
     """Simulate a ROM on an input record; writes the record plus ``<output>_pred``.
 
     The record's input variable must be at the model's sample rate and in the model's unit
-    (after conversion to SI: a record in mm/s is fine for a model in m/s, one in ft/s is not).
+    after conversion to SI (a record in mm/s or ft/s is converted for a model in m/s; one in
+    rad/s, or in a unit sloshrom does not know, is refused).
 
     Example: sloshrom predict --model nfir.npz --data validation.nc --out prediction.nc
     """
     check_input(model, "--model")
     check_input(data, "--data")
     check_out(out, suffixes=RECORD_SUFFIXES, inputs=(data, model))
-    from sloshrom.data import write_record
+    from sloshrom.data import same_unit, write_record
     from sloshrom.rom import UnstableModelError, load_model
 
     try:
@@ -236,7 +233,7 @@ def predict(
     in_name, out_name = m.names
     rec = _read(data, [in_name], "--data")
     _same_rate(rec.fs, m.fs_, f"data {data} vs model {model}")
-    if _si(rec.units[in_name]) != _si(m.units[0]):
+    if not same_unit(rec.units[in_name], m.units[0]):
         fail(f"{data}: variable '{in_name}' is in '{rec.units[in_name]}', the model {model} "
              f"expects '{m.units[0]}'")
     if out.suffix.lower() == ".csv":
@@ -253,7 +250,7 @@ def predict(
     write_record(new, out)
     msg = f"wrote {out}: {out_name}_pred ({len(y)} samples)"
     if out_name in rec:
-        if _si(rec.units[out_name]) == _si(m.units[1]):
+        if same_unit(rec.units[out_name], m.units[1]):
             e = y - rec[out_name]
             msg += f", MSE {np.mean(e**2):.4g} {m.units[1]}^2 against {out_name}"
         else:
