@@ -203,6 +203,9 @@ def check_output(
     p = Path(path)
     if not str(path).strip():
         raise OutputPathError(f"{what}: empty path")
+    for part in p.parts:
+        if len(os.fsencode(part)) > _NAME_MAX:
+            raise OutputPathError(f"{what} {p}: a path component is longer than {_NAME_MAX} bytes")
     if not directory and p.is_dir():
         raise OutputPathError(f"{what} {p}: is a directory, expected a file name")
     if suffixes is not None and not directory and p.suffix.lower() not in suffixes:
@@ -210,9 +213,6 @@ def check_output(
             f"{what} {p}: unknown format {p.suffix or '(no suffix)'!r} "
             f"(use {', '.join(suffixes)})"
         )
-    for part in p.parts:
-        if len(os.fsencode(part)) > _NAME_MAX:
-            raise OutputPathError(f"{what} {p}: a path component is longer than {_NAME_MAX} bytes")
     for src in inputs:
         if src is not None and same_file(p, src):
             raise OutputPathError(
