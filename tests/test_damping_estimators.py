@@ -48,11 +48,11 @@ DURATION = 600.0
 # (mean, median, std) of zeta_hat / zeta - 1 over seeds 0-49, 600 s, from
 # `PYTHONPATH=src python benchmarks/damping_estimators.py --cases sdof`
 BENCH_600 = {
-    "lscf_h1": (0.0236, 0.0240, 0.0051),
-    "lscf_output": (0.0067, 0.0162, 0.0648),
+    "lscf_h1": (0.0265, 0.0264, 0.0034),
+    "lscf_output": (-0.0053, -0.0111, 0.0680),
     "half_power": (0.0450, 0.0436, 0.0305),
-    "frequency_h1": (-0.00004, -0.00004, 0.00003),
-    "frequency_output": (-0.00010, -0.00013, 0.00062),
+    "frequency_h1": (-0.00006, -0.00006, 0.00003),
+    "frequency_output": (-0.00030, -0.00035, 0.00074),
 }
 
 
@@ -102,11 +102,11 @@ def test_random_frequency_statistics_600s(table2_600s, key):
 
 def test_cluster_spread_and_size(table2_600s):
     for d in table2_600s:
-        # benchmark: at least 11 stable poles per record (of 19 possible) at 600 s. The spread
-        # across model orders (consecutive orders agree within 5 %) measured <= 6.3 % of zeta
-        # on these records; it is not the statistical error (for H1 it exceeds the 0.5 %
-        # record-to-record scatter of the median)
-        assert d["lscf_h1_n"] >= 11 and d["lscf_output_n"] >= 11
+        # benchmark, 50 records of 600 s: at least 18 (H1) and 15 (output-only) stable poles of
+        # 19 possible. The spread across model orders (consecutive orders agree within 5 %)
+        # measured <= 0.7 % (H1) and <= 6.2 % (output-only) of zeta on these records; it is not
+        # the statistical error of the record
+        assert d["lscf_h1_n"] >= 15 and d["lscf_output_n"] >= 15
         assert 0 <= d["lscf_h1_iqr"] < 0.1 * ZETA
         assert 0 <= d["lscf_output_iqr"] < 0.1 * ZETA
 
@@ -126,15 +126,17 @@ def _exact_correlation(n_lag: int) -> np.ndarray:
 
 @pytest.mark.parametrize("window_end", [0.001, 0.01])
 def test_window_correction_on_exact_correlation(window_end):
-    # without statistical error: what is left is the method (fit of the windowed peak);
-    # measured -0.3 % (window_end 0.01) and -0.2 % (0.001) at 30 periods
+    # without statistical error what is left is the method (LSCF fit of the windowed peak):
+    # measured -0.16 % (window_end 0.01) and +0.22 % (0.001) at 30 periods, frequency -1.2e-4
+    # and -4e-6
     r = _exact_correlation(int(30 / F1 * FS) + 1)
     hs = half_spectrum(r, FS, window_end)
     poles = lscf_poles(hs["f"], hs["spectrum"], BAND)
     c = stable_pole_cluster(poles, F1, decay_correction=hs["beta"])
     assert c["zeta"] == pytest.approx(ZETA, rel=0.01)
-    assert c["frequency"] == pytest.approx(F1, rel=1e-4)
-    # the window alone adds beta / omega_n to first order (here 2.4 % or 3.7 % absolute)
+    assert c["frequency"] == pytest.approx(F1, rel=5e-4)
+    # the window alone adds beta / omega_n to first order (here 3.7 % or 2.4 % absolute, 3.7
+    # or 2.4 times the true damping); measured within 0.14 % of it
     w = stable_pole_cluster(poles, F1, zeta_max=0.9)
     assert w["zeta"] - c["zeta"] == pytest.approx(hs["beta"] / (2 * np.pi * F1), rel=0.01)
 
@@ -166,6 +168,35 @@ def test_lscf_on_exact_frf():
     assert lscf_damping(f, h, F1, BAND)["zeta"] == pytest.approx(ZETA, rel=5e-3)
 
 
+def test_qr_solver_matches_sdypy_on_a_clean_frf():
+    # same LSCF model, two solvers: on noise-free data the mode's pole agrees at every order
+    # (they differ where sdypy's normal equations lose digits, i.e. on noisy data at high order)
+    f = np.arange(0, 50, 0.01)
+    s = 2j * np.pi * f
+    wn = 2 * np.pi * F1
+    h = (2 * ZETA * wn * s + wn**2) / (s**2 + 2 * ZETA * wn * s + wn**2)
+    pq, ps = (lscf_poles(f, h, BAND, 10, solver=k) for k in ("qr", "sdypy"))
+    for n in range(4, 21, 2):
+        a = pq["pole"][pq["order"] == n]
+        b = ps["pole"][ps["order"] == n]
+        a, b = a[np.argmin(np.abs(a - 1j * wn))], b[np.argmin(np.abs(b - 1j * wn))]
+        assert abs(a - b) <= 1e-3 * abs(a.real), n  # 0.1 % of the damping
+    with pytest.raises(ValueError, match="solver"):
+        lscf_poles(f, h, BAND, solver="svd")
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_estimates_do_not_depend_on_round_off(seed):
+    # scaling the response by 3 changes nothing but the round-off: measured <= 6e-6
+    # (output-only) and <= 9e-5 (H1) relative over 20 records with the QR solver, up to 9e-2
+    # and 2.4e-2 with sdypy's normal equations
+    u, y = sdof_base_response(90.0, seed)
+    for a, b in [(output_only_damping(y, FS, F1, BAND), output_only_damping(3 * y, FS, F1, BAND)),
+                 (lscf_cluster_damping(*frf_h1(u, y, FS, 16384)[:2], F1, BAND),
+                  lscf_cluster_damping(*frf_h1(u, 3 * y, FS, 16384)[:2], F1, BAND))]:
+        assert b["zeta"] == pytest.approx(a["zeta"], rel=1e-3)
+
+
 def _pole_table(lines, n_orders=20):
     """Synthetic LSCF output: lines of (frequency Hz, zeta, first order) repeated per order."""
     order, pole = [], []
@@ -190,9 +221,10 @@ def test_stable_pole_cluster_picks_the_mode():
     assert c["n_poles"] == 19  # orders 4 .. 40 (order 2 has no lower order to agree with)
     np.testing.assert_array_equal(c["orders"], np.arange(4, 41, 2))
     assert c["zeta_iqr"] == pytest.approx(0.0, abs=1e-12)
-    # aimed at the shorter line, it is found (5 stable poles: orders 32 .. 40)
-    c = stable_pole_cluster(p, 10.6, f_window=0.03)
+    # aimed at the shorter line: 5 stable poles (orders 32 .. 40), a cluster if 5 are enough
+    c = stable_pole_cluster(p, 10.6, f_window=0.03, min_poles=5)
     assert c["zeta"] == pytest.approx(0.02, rel=1e-9) and c["n_poles"] == 5
+    assert math.isnan(stable_pole_cluster(p, 10.6, f_window=0.03)["zeta"])
 
 
 def test_stable_pole_cluster_median_resists_a_jumping_order():
@@ -212,8 +244,8 @@ def test_stable_pole_cluster_no_cluster_is_nan_with_a_reason():
     c = stable_pole_cluster(_pole_table([(10.0, -0.01, 2)]), 10.0)  # unstable only
     assert math.isnan(c["zeta"]) and math.isnan(c["frequency"]) and c["n_poles"] == 0
     assert "no stable physical pole" in c["reason"]
-    c = stable_pole_cluster(_pole_table([(10.0, 0.01, 36)]), 10.0)  # stable at 3 orders only
-    assert math.isnan(c["zeta"]) and "fewer than 5" in c["reason"]
+    c = stable_pole_cluster(_pole_table([(10.0, 0.01, 24)]), 10.0)  # stable at 8 orders only
+    assert math.isnan(c["zeta"]) and "fewer than 10" in c["reason"]
     c = stable_pole_cluster(_pole_table([(10.0, 0.01, 2)]), 12.0)  # outside the 10 % window
     assert math.isnan(c["zeta"])
 
@@ -229,8 +261,9 @@ def test_decay_correction_shifts_every_pole():
 
 @pytest.mark.parametrize("seed", range(3))
 def test_estimators_fail_honestly_without_a_mode(seed):
-    # independent white noises: there is no mode near 10 Hz, so no stable cluster (the
-    # benchmark found at most 2 stable poles where valid records give >= 9)
+    # independent white noises: there is no mode near 10 Hz, so no cluster of >= 10 stable
+    # poles (200 such records: largest clusters 0 (H1) and 11 (output-only, once; >= 8 in 2 %),
+    # against >= 14 on every valid 90 s record of the benchmark)
     rng = np.random.default_rng(seed)
     u, y = rng.standard_normal((2, int(90 * FS)))
     r = output_only_damping(y, FS, F1, BAND)
@@ -261,8 +294,8 @@ def test_bad_inputs():
 # --- slow tier: an independent check of the benchmark's statistics (other seeds) ---------
 
 BENCH_90 = {  # seeds 0-49, 90 s
-    "lscf_h1": (0.0335, 0.0335, 0.0184),
-    "lscf_output": (-0.0348, -0.0553, 0.1573),
+    "lscf_h1": (0.0357, 0.0354, 0.0172),
+    "lscf_output": (-0.0578, -0.0601, 0.1715),
     "half_power": (-0.0137, 0.0060, 0.1123),
 }
 
