@@ -1,15 +1,16 @@
-"""Damping and spectral estimators on signals with known answers."""
+"""Damping and spectral estimators on signals with known answers.
+
+The random-response estimators (LSCF on H1, output-only half-spectrum LSCF, half power) are
+tested over many seeds in test_damping_estimators.py.
+"""
 
 import numpy as np
 import pytest
-from scipy import signal
 
 from sloshrom.analysis import (
-    frf_h1,
     half_power_damping,
     instantaneous_damping,
     log_decrement,
-    lscf_damping,
     modal_filter,
     welch_psd,
 )
@@ -26,14 +27,44 @@ def _decay(zeta=ZETA, f1=F1, duration=15.0):
 
 @pytest.mark.parametrize("zeta", [0.005, 0.02, 0.05])
 def test_hilbert_and_log_decrement_recover_zeta(zeta):
+    # noise-free decay: the error is the method's alone, measured <= 0.25 % (Hilbert at
+    # zeta = 5 %, band edge effects) and <= 0.01 % (log decrement); 1 % leaves room for the
+    # filter design's numerics, not for a change of method
     x = _decay(zeta)
     r = instantaneous_damping(x, FS, F1)
-    assert np.median(r["zeta"]) == pytest.approx(zeta, rel=0.05)
-    assert np.median(r["frequency"]) == pytest.approx(F1 * np.sqrt(1 - zeta**2), rel=0.01)
+    assert np.median(r["zeta"]) == pytest.approx(zeta, rel=0.01)
+    # measured <= 3e-5 relative
+    assert np.median(r["frequency"]) == pytest.approx(F1 * np.sqrt(1 - zeta**2), rel=1e-3)
     ld = log_decrement(x, FS, F1)
-    assert np.median(ld["zeta"]) == pytest.approx(zeta, rel=0.05)
+    assert np.median(ld["zeta"]) == pytest.approx(zeta, rel=0.01)
     # the envelope decreases along the record
     assert r["amplitude"][0] > r["amplitude"][-1]
+
+
+# (mean, median, std) of zeta_hat / zeta - 1 for a 1 %, 10 Hz, 15 s decay plus white noise of
+# 1 % of the initial amplitude, seeds 0-49, from
+# `PYTHONPATH=src python benchmarks/damping_estimators.py --cases decay`
+BENCH_DECAY_1PCT = {"hilbert": (-0.0030, -0.0034, 0.0064),
+                    "log_decrement": (-0.0130, -0.0156, 0.0261)}
+
+
+@pytest.mark.parametrize("method", ["hilbert", "log_decrement"])
+def test_decay_estimators_with_measurement_noise(method):
+    # 10 seeds: every record within |bias| + 4 std (P(any outside) ~ 6e-4 for normal errors);
+    # their median within 3 standard errors of the median (1.2533 std / sqrt(n)) of the
+    # benchmark's, plus the benchmark median's own standard error (50 seeds)
+    zeta = 0.01
+    e = []
+    for seed in range(10):
+        x = _decay(zeta) + 0.01 * np.random.default_rng(seed).standard_normal(int(15 * FS))
+        if method == "hilbert":
+            z = np.median(instantaneous_damping(x, FS, F1)["zeta"])
+        else:
+            z = np.median(log_decrement(x, FS, F1)["zeta"])
+        e.append(z / zeta - 1)
+    mean, median, std = BENCH_DECAY_1PCT[method]
+    assert np.max(np.abs(e)) <= abs(mean) + 4 * std
+    assert abs(np.median(e) - median) <= 3 * 1.2533 * std * (1 / np.sqrt(10) + 1 / np.sqrt(50))
 
 
 def test_hilbert_tracks_amplitude_dependent_damping():
@@ -50,30 +81,6 @@ def test_hilbert_tracks_amplitude_dependent_damping():
     r = instantaneous_damping(x, FS, F1)
     expected = 0.01 + 0.02 * r["amplitude"]
     np.testing.assert_allclose(r["zeta"], expected, atol=0.002)
-
-
-def _sdof_random(zeta=ZETA, duration=90.0, seed=0):
-    rng = np.random.default_rng(seed)
-    a = rng.standard_normal(int(duration * FS))
-    wn = 2 * np.pi * F1
-    sys = signal.lti([2 * zeta * wn, wn**2], [1, 2 * zeta * wn, wn**2])  # base -> absolute acc
-    _, y, _ = signal.lsim(sys, a, np.arange(a.size) / FS)
-    return a, y
-
-
-def test_lscf_on_h1_and_psd_recovers_zeta():
-    a, y = _sdof_random()
-    f, h, coh = frf_h1(a, y, FS, nperseg=4096)
-    assert np.all(coh[(f > 5) & (f < 20)] > 0.8)  # dips at resonance (window bias)
-    r = lscf_damping(f, h, F1, (5.0, 20.0))
-    assert r["zeta"] == pytest.approx(ZETA, rel=0.05)
-    assert r["frequency"] == pytest.approx(F1, rel=0.01)
-    fp, p = welch_psd(y, FS, nperseg=4096)
-    rp = lscf_damping(fp, p, F1, (5.0, 20.0))
-    assert rp["zeta"] == pytest.approx(ZETA, rel=0.05)
-    hp = half_power_damping(f, h, (5.0, 20.0))
-    # half power is biased up by the Hann window's resolution: a check, looser
-    assert hp["zeta"] == pytest.approx(ZETA, rel=0.15)
 
 
 def test_welch_psd_integral_is_variance():

@@ -217,11 +217,21 @@ def test_random_frozen_mode1_damping_estimators(modal):
     out = random_response(FrozenLiquid(1 / 500), modal, rms_levels=(0.1,), duration=90.0)
     f1 = coupled_frozen_modes(modal, Tank().liquid_mass)[0][0]
     d = mode1_damping_random(out["base_acceleration"][0], out["tank_acceleration"][0], 500, f1)
-    # the frozen first mode has exactly modal.damping[0] = 1 %
-    assert d["lscf_h1"] == pytest.approx(modal.damping[0], rel=0.10)
-    assert d["lscf_psd"] == pytest.approx(modal.damping[0], rel=0.10)
-    assert d["half_power"] == pytest.approx(modal.damping[0], rel=0.10)
-    assert d["frequency_h1"] == pytest.approx(f1, rel=0.005)
+    # The frozen first mode has exactly modal.damping[0] = 1 %. Bounds |bias| + 3 std of one
+    # 90 s record, bias and std of zeta_hat/zeta - 1 measured over 50 seeds of this very case by
+    # `benchmarks/damping_estimators.py --cases beam`:
+    #   LSCF on H1 (cluster median)    +3.7 % +- 1.7 %  ->  9 %
+    #   output-only half-spectrum      -0.6 % +- 3.8 %  -> 12 %
+    #   half power on |H1|             +2.0 % +- 10.4 % -> 33 %  (+-10 % is not achievable
+    #                                                             from 90 s with 4 averages)
+    #   frequency_h1                   -0.04 % +- 0.01 % -> 0.1 %
+    zeta1 = modal.damping[0]
+    assert d["lscf_h1"] == pytest.approx(zeta1, rel=0.09)
+    assert d["lscf_output"] == pytest.approx(zeta1, rel=0.12)
+    assert d["lscf_psd"] == d["lscf_output"]  # the column name of earlier versions
+    assert d["half_power"] == pytest.approx(zeta1, rel=0.33)
+    assert d["frequency_h1"] == pytest.approx(f1, rel=1e-3)
+    assert d["lscf_h1_n"] >= 10 and d["lscf_output_n"] >= 10
 
 
 def test_cli_beam_free_and_random(tmp_path):
