@@ -90,8 +90,6 @@ def table2_600s():
 @pytest.mark.parametrize("key", ["lscf_h1", "lscf_output", "half_power"])
 def test_random_damping_statistics_600s(table2_600s, key):
     assert_statistics([d[key] for d in table2_600s], ZETA, BENCH_600[key])
-    if key == "lscf_output":
-        assert all(d["lscf_psd"] == d["lscf_output"] for d in table2_600s)  # compatibility key
 
 
 @pytest.mark.parametrize("key", ["frequency_h1", "frequency_output"])

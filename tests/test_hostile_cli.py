@@ -146,7 +146,7 @@ HOSTILE_CASES = [
     ("vfa-duration-1e308", None, [*VO, "--duration", "1e308"], r"--duration must be in"),
     ("vfa-duration-9.9", None, [*VO, "--duration", "9.9"], r"shortest VFA path is 10 s"),
     ("vfa-duration-empty", None, [*VO, "--duration", ""], r"Invalid value for '--duration'"),
-    ("vfa-out-empty", None, [*V, "--out", ""], r"--out \.: unknown format '\(no suffix\)'"),
+    ("vfa-out-empty", None, [*V, "--out", ""], r"--out \.: is a directory"),
     ("vfa-out-is-a-directory", lambda tmp: (tmp / "d.nc").mkdir(), [*V, "--out", "{tmp}/d.nc"],
      r"d\.nc: is a directory"),
     ("vfa-out-under-a-file", None, [*V, "--out", "{tmp}/afile/v.nc"],
@@ -217,7 +217,7 @@ HOSTILE_CASES = [
     ("train-out-record-suffix", None, [*TRG, "--out", "{tmp}/m.nc"],
      r"--out .*m\.nc: unknown format '\.nc' \(use \.npz\)"),
     ("train-out-is-a-directory", None, [*TRG, "--out", "{tmp}/adir"],
-     r"unknown format '\(no suffix\)'"),
+     r"adir: is a directory, expected a file name"),
     ("train-out-npz-directory", lambda tmp: (tmp / "d.npz").mkdir(), [*TRG, "--out", "{tmp}/d.npz"],
      r"d\.npz: is a directory"),
     ("train-out-under-a-file", None, [*TRG, "--out", "{tmp}/afile/m.npz"],
@@ -389,12 +389,12 @@ HOSTILE_CASES = [
      r"'beam\.free_duration' = 1 s is too short for the damping analysis of mode 1 "
      r"\(10\.2 Hz\): need at least 1\.8 s"),
     ("config-random-duration-20", _cfg("[beam]\nrandom_duration = 20.0\n"), CS,
-     r"'beam\.random_duration' must be a duration in s in \[33, 600\], got 20\.0 \(Table 2"),
+     r"'beam\.random_duration' = 20 s must hold at least one 16384-sample Welch segment"),
     ("config-random-memory", _cfg("[beam]\nrandom_duration = 600.0\n"
                                   "rms_g = [0.1, 0.2, 0.3, 0.4]\n"), CS,
      r"'beam\.random_duration' x 4 levels = 2400 s is more than 1800 s"),
     ("config-f0-1e6", _cfg("[beam]\nf0 = 1e6\n"), CS,
-     r"'beam\.f0' must be a frequency in Hz in \(0, 250\], got 1000000\.0"),
+     r"'beam\.f0' \+ 4 'beam\.sigma' = 1\.00002e\+06 Hz must stay below 250 Hz"),
     ("config-sigma-60", _cfg("[beam]\nsigma = 60.0\n"), CS,
      r"'beam\.f0' \+ 4 'beam\.sigma' = 252 Hz must stay below 250 Hz"),
     ("config-psd-below-0-hz", _cfg("[beam]\nf0 = 5.0\n"), CS,
@@ -609,7 +609,10 @@ def test_user_errors_are_value_errors_and_no_bare_value_error_is_caught():
     import sloshrom.cli.rom  # noqa: F401
     from sloshrom.cli._app import user_errors
 
-    assert all(issubclass(t, ValueError) for t in user_errors())
+    from sloshrom.rom import UnstableModelError
+
+    # all ValueErrors, but for an unstable NOE on the user's input (a RuntimeError by nature)
+    assert all(issubclass(t, ValueError) for t in user_errors() if t is not UnstableModelError)
     for mod in ("beam", "export", "pipeline", "rig", "rom"):
         src = inspect.getsource(__import__(f"sloshrom.cli.{mod}", fromlist=["x"]))
         assert "except ValueError as" not in src and "(ValueError," not in src, mod

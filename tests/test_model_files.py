@@ -524,8 +524,13 @@ def test_cli_reports_hostile_model_without_traceback(tmp_path, saved, argv):
     import sloshrom.cli.rom  # noqa: F401
     from sloshrom.cli import app
 
+    from sloshrom.data import Record, write_record
+
     p = _hostile(saved["NFIR"], tmp_path / "m.npz", _set("envelope", "input_min", 9.0))
-    args = [a.format(m=p, d=tmp_path / "none.nc", o=tmp_path / "out") for a in argv]
+    t = np.arange(1000) / 500.0  # a valid input record: the model is the only problem
+    d = write_record(Record(t, 500.0, {"velocity": 0.01 * np.sin(40 * t)}, {"velocity": "m/s"}),
+                     tmp_path / "d.nc")
+    args = [a.format(m=p, d=d, o=tmp_path / "out") for a in argv]
     res = CliRunner().invoke(app, args)
     assert res.exit_code != 0
     assert "Traceback" not in res.output

@@ -66,7 +66,9 @@ def test_reproduce_quick_interrupted_then_resumed(tmp_path):
         rig_map = ds["phi_d"].values
     with xr.open_dataset(out / "maps" / "phi_d_rom.nc", engine="h5netcdf") as ds:
         rom_map = ds["phi_d"].values
-    sel = rig_map > 0.1 * rig_map.max()
+    # NaN marks grid points outside the shaker's envelope (not tested)
+    sel = np.isfinite(rig_map) & np.isfinite(rom_map)
+    sel &= np.where(sel, rig_map, -np.inf) > 0.1 * np.nanmax(rig_map)
     err = np.linalg.norm(rom_map[sel] - rig_map[sel]) / np.linalg.norm(rig_map[sel])
     assert m["rom_relative_l2_error"] == pytest.approx(err, rel=1e-12)
     assert m["rom_relative_l2_error"] < 0.35

@@ -640,9 +640,8 @@ def mode1_damping_random(
     * ``lscf_h1``: LSCF on H1 = base -> tank acceleration (Welch, Hann, ``nperseg`` samples,
       50 % overlap), median over the stable-pole cluster (:func:`lscf_cluster_damping`);
     * ``lscf_output``: output-only, LSCF on the half-spectrum of the tank acceleration with the
-      exponential-window correction, cluster median (:func:`output_only_damping`);
-      ``lscf_psd`` is the same value under the column name of earlier versions (it used to be
-      a single-pole LSCF on the Welch PSD, which is biased);
+      exponential-window correction, cluster median (:func:`output_only_damping`; it replaces
+      the earlier ``lscf_psd``, a single-pole LSCF on the Welch PSD, which is biased);
     * ``half_power``: half-power bandwidth of |H1|.
 
     Band ``f1 (1 -/+ rel_band)`` Hz. The default 16384 samples (33 s at 500 Hz, 0.03 Hz
@@ -655,7 +654,7 @@ def mode1_damping_random(
     Returns
     -------
     dict
-        Damping ratios (-): ``lscf_h1``, ``lscf_output``, ``lscf_psd``, ``half_power``; their
+        Damping ratios (-): ``lscf_h1``, ``lscf_output``, ``half_power``; their
         spreads over the stable-pole cluster ``lscf_h1_iqr``, ``lscf_output_iqr`` (-,
         interquartile range across model orders) and cluster sizes ``lscf_h1_n``,
         ``lscf_output_n``; frequencies ``frequency_h1``, ``frequency_output`` (Hz). An estimator
@@ -669,8 +668,7 @@ def mode1_damping_random(
         hp = half_power_damping(f, h, band)["zeta"]
     except ValueError:
         hp = float("nan")
-    return {"lscf_h1": r_h1["zeta"], "lscf_output": r_out["zeta"], "lscf_psd": r_out["zeta"],
-            "half_power": hp, "frequency_h1": r_h1["frequency"],
+    return {"lscf_h1": r_h1["zeta"], "lscf_output": r_out["zeta"], "half_power": hp, "frequency_h1": r_h1["frequency"],
             "frequency_output": r_out["frequency"], "lscf_h1_iqr": r_h1["zeta_iqr"],
             "lscf_output_iqr": r_out["zeta_iqr"], "lscf_h1_n": r_h1["n_poles"],
             "lscf_output_n": r_out["n_poles"]}
