@@ -608,7 +608,6 @@ def test_user_errors_are_value_errors_and_no_bare_value_error_is_caught():
     import sloshrom.cli.rig
     import sloshrom.cli.rom  # noqa: F401
     from sloshrom.cli._app import user_errors
-
     from sloshrom.rom import UnstableModelError
 
     # all ValueErrors, but for an unstable NOE on the user's input (a RuntimeError by nature)

@@ -523,7 +523,6 @@ def test_cli_reports_hostile_model_without_traceback(tmp_path, saved, argv):
     import sloshrom.cli.export  # noqa: F401  (registers `sloshrom export`)
     import sloshrom.cli.rom  # noqa: F401
     from sloshrom.cli import app
-
     from sloshrom.data import Record, write_record
 
     p = _hostile(saved["NFIR"], tmp_path / "m.npz", _set("envelope", "input_min", 9.0))

@@ -668,7 +668,8 @@ def mode1_damping_random(
         hp = half_power_damping(f, h, band)["zeta"]
     except ValueError:
         hp = float("nan")
-    return {"lscf_h1": r_h1["zeta"], "lscf_output": r_out["zeta"], "half_power": hp, "frequency_h1": r_h1["frequency"],
+    return {"lscf_h1": r_h1["zeta"], "lscf_output": r_out["zeta"], "half_power": hp,
+            "frequency_h1": r_h1["frequency"],
             "frequency_output": r_out["frequency"], "lscf_h1_iqr": r_h1["zeta_iqr"],
             "lscf_output_iqr": r_out["zeta_iqr"], "lscf_h1_n": r_h1["n_poles"],
             "lscf_output_n": r_out["n_poles"]}
