@@ -24,7 +24,8 @@ import typer
 from typer.core import TyperGroup
 
 __all__ = [
-    "app", "check_number", "check_out", "fail", "route_warnings", "user_errors", "warn",
+    "app", "check_input", "check_number", "check_out", "check_sloshing_rom", "fail",
+    "route_warnings", "user_errors", "warn",
 ]
 
 
