@@ -64,6 +64,16 @@ def _standard_units(rec: Any, path: Path, names: list[str]) -> None:
                  "(columns swapped? name the variables with --input/--output)")
 
 
+def _read_pair(data: Path, validation: Path, names: list[str]) -> tuple[Any, Any]:
+    """Training and validation records: same rate, same units, standard names in SI."""
+    rec = _read(data, names, "--data")
+    val = _read(validation, names, "--validation")
+    _same_rate(rec.fs, val.fs, f"{data} vs {validation}")
+    _same_units(rec, data, val, validation, names)
+    _standard_units(rec, data, names)
+    return rec, val
+
+
 def _same_rate(a: float, b: float, what: str) -> None:
     if not np.isclose(a, b, rtol=1e-6):
         fail(f"sample-rate mismatch: {what} ({a:g} Hz vs {b:g} Hz); resample first")
@@ -156,12 +166,7 @@ def train(
     check_input(data, "--data")
     check_input(validation, "--validation")
     check_out(out, suffixes=(".npz",), inputs=(data, validation))
-    names = [input_name, output_name]
-    rec = _read(data, names, "--data")
-    val = _read(validation, names, "--validation")
-    _same_rate(rec.fs, val.fs, f"{data} vs {validation}")
-    _same_units(rec, data, val, validation, names)
-    _standard_units(rec, data, names)
+    rec, val = _read_pair(data, validation, [input_name, output_name])
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -330,12 +335,7 @@ def sweep(
     check_input(data, "--data")
     check_input(validation, "--validation")
     check_out(out, directory=True, inputs=(data, validation))
-    names = [input_name, output_name]
-    rec = _read(data, names, "--data")
-    val = _read(validation, names, "--validation")
-    _same_rate(rec.fs, val.fs, f"{data} vs {validation}")
-    _same_units(rec, data, val, validation, names)
-    _standard_units(rec, data, names)
+    rec, val = _read_pair(data, validation, [input_name, output_name])
 
     from rich.progress import (
         BarColumn,
