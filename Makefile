@@ -53,7 +53,8 @@ test-latest:
 	rm -rf $(LATEST)
 	$(PYTHON) -m venv $(LATEST)
 	$(LATEST)/bin/python -m pip install --quiet --upgrade pip
-	$(LATEST)/bin/python -m pip install --quiet --upgrade --upgrade-strategy eager -e '.[dev]'
+	$(LATEST)/bin/python -m pip install --quiet --upgrade --upgrade-strategy eager \
+		-r tools/build-requirements.in -e '.[dev]'
 	$(LATEST)/bin/python tools/lock_diff.py $(LOCK)
 	$(LATEST)/bin/python -m pytest -m "not slow" -q
 
