@@ -12,17 +12,17 @@ import time
 import jax
 import numpy as np
 
+from sloshrom.beam.coupled import CoupledSimulator, upsample_periodic
+from sloshrom.beam.structure import ModalModel
 from sloshrom.config import G
-from sloshrom.coupled import CoupledSimulator, upsample_periodic
 from sloshrom.signals import random_base_acceleration
-from sloshrom.structure import ModalModel
 
 FS = 500.0
 
 
 def make_rom():
     """A real sloshrom NFIR(70, 35) with a couple of LM epochs on a synthetic record."""
-    from sloshrom.rom import NFIR
+    from sloshrom.rom.estimators import NFIR
 
     t = np.arange(0, 8, 1 / FS)
     u = 0.3 * np.sin(2 * np.pi * (4 + 1.5 * t) * t)

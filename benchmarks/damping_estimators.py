@@ -13,7 +13,7 @@ Cases (true damping ratio 1 % in all):
   noise of 0.1 % and 1 % of the initial amplitude: Hilbert (median of the instantaneous
   damping) and log decrement (median).
 
-Random-response estimators, as :func:`sloshrom.analysis.mode1_damping_random` (Welch Hann,
+Random-response estimators, as :func:`sloshrom.beam.analysis.mode1_damping_random` (Welch Hann,
 nperseg 16384, 50 % overlap; band f1 -/+ 50 %):
 
 * ``lscf_h1``      LSCF on H1, median of the stable-pole cluster;
@@ -44,7 +44,7 @@ import time
 import numpy as np
 from scipy import signal
 
-from sloshrom.analysis import (
+from sloshrom.beam.analysis import (
     instantaneous_damping,
     log_decrement,
     lscf_damping,
@@ -135,10 +135,10 @@ def run_random(case: str, duration: float, seeds: list[int]) -> None:
             u, y = sdof_base_response(duration, s)
             collect(random_estimates(u, y, FS, f1))
     else:
+        from sloshrom.beam.coupled import random_response
+        from sloshrom.beam.structure import ModalModel, coupled_frozen_modes
         from sloshrom.config import Tank
-        from sloshrom.coupled import random_response
         from sloshrom.models import FrozenLiquid
-        from sloshrom.structure import ModalModel, coupled_frozen_modes
 
         modal = ModalModel.from_beam()
         f1, zeta = float(coupled_frozen_modes(modal, Tank().liquid_mass)[0][0]), modal.damping[0]

@@ -1,7 +1,7 @@
 """Time to train the reference NFIR(70, 35) on default-like data, against baselines in one run.
 
 Data: the virtual rig's VFA tests (``sloshrom.signals.vfa`` + ``sloshrom.rig.VirtualRig.measure``,
-preprocessed by ``sloshrom.data.record_from_measurement``): 480 s training, 240 s validation at
+preprocessed by ``sloshrom.io.record_from_measurement``): 480 s training, 240 s validation at
 500 Hz (cached in the temporary directory). Falls back to a synthetic nonlinear system if the rig
 is not available.
 
@@ -33,8 +33,8 @@ def rig_data(duration: float, split: str, seed: int) -> tuple[np.ndarray, np.nda
     if cache.is_file():
         z = np.load(cache, allow_pickle=False)
         return z["u"], z["y"], float(z["fs"])
-    from sloshrom.data import record_from_measurement
-    from sloshrom.rig import VirtualRig
+    from sloshrom.io.record import record_from_measurement
+    from sloshrom.rig.virtual import VirtualRig
     from sloshrom.signals import vfa
 
     rig = VirtualRig(seed=seed)
@@ -62,7 +62,8 @@ def adam_baseline(u, y, uv, yv, fs, model_kw, target, cap, lr=1e-3, batch=4096):
     import jax
     import jax.numpy as jnp
 
-    from sloshrom import rom, training
+    from sloshrom.rom import estimators as rom
+    from sloshrom.rom import training
 
     m = rom.NFIR(**model_kw)
     sc = rom.MinMaxScaler.fit(u, y)
@@ -116,7 +117,7 @@ def main() -> None:
     ap.add_argument("--synthetic", action="store_true", help="synthetic system instead of rig")
     args = ap.parse_args()
 
-    from sloshrom.rom import NFIR
+    from sloshrom.rom.estimators import NFIR
 
     t0 = time.perf_counter()
     source = "synthetic"

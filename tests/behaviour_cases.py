@@ -12,12 +12,12 @@ import warnings
 import numpy as np
 
 from sloshrom import FrozenLiquid, Tank
-from sloshrom.coupled import free_response, random_response
+from sloshrom.beam.coupled import free_response, random_response
+from sloshrom.beam.structure import CantileverBeam, ModalModel
 from sloshrom.energy import phi_d_map
-from sloshrom.rig import SensorParams, VirtualRig
-from sloshrom.rom import NFIR, NOE
+from sloshrom.rig.virtual import SensorParams, VirtualRig
+from sloshrom.rom.estimators import NFIR, NOE
 from sloshrom.signals import harmonic, vfa
-from sloshrom.structure import CantileverBeam, ModalModel
 
 #: cases whose arrays must match bit for bit (the rest: to round-off)
 EXACT = ("vfa_", "rig_")

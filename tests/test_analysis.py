@@ -7,7 +7,7 @@ tested over many seeds in test_damping_estimators.py.
 import numpy as np
 import pytest
 
-from sloshrom.analysis import (
+from sloshrom.beam.analysis import (
     half_power_damping,
     instantaneous_damping,
     log_decrement,

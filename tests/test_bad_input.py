@@ -19,7 +19,7 @@ from typer.testing import CliRunner
 
 from sloshrom.cli import app
 from sloshrom.config import ConfigError
-from sloshrom.data import Record, RecordError, preprocess, read_record, write_record
+from sloshrom.io.record import Record, RecordError, preprocess, read_record, write_record
 
 FS = 100.0
 N = 200
@@ -44,7 +44,7 @@ def _good_rows(n: int = 20) -> list[str]:
 
 def _written(tmp: Path, suffix: str) -> Path:
     if suffix in (".uff", ".unv"):
-        from sloshrom.uff import write_uff58
+        from sloshrom.io.uff import write_uff58
 
         return write_uff58(_good(), tmp / f"good{suffix}")
     return write_record(_good(), tmp / f"good{suffix}")
@@ -104,7 +104,7 @@ def _mat_with(tmp: Path, **items) -> Path:
 def _uff_rates(tmp: Path) -> Path:
     import pyuff
 
-    from sloshrom.uff import write_uff58
+    from sloshrom.io.uff import write_uff58
 
     a = write_uff58(_good(), tmp / "a.uff")
     t = np.arange(N) / (2 * FS)
@@ -224,7 +224,7 @@ def model_files(tmp_path_factory):
 
 def make_model_files(d: Path) -> Path:
     """Write good.npz (NFIR, 500 Hz, m/s -> N), newer.npz, tampered.npz and text.npz into d."""
-    from sloshrom.rom import NFIR
+    from sloshrom.rom.estimators import NFIR
 
     rng = np.random.default_rng(0)
     u = np.convolve(rng.standard_normal(600), np.ones(8) / 8, mode="same") * 0.05
@@ -510,7 +510,7 @@ def test_case_count():
 
 def test_config_error_is_value_error():
     # every user-input error type is a ValueError: callers can catch one thing
-    from sloshrom.rom import ModelFileError
+    from sloshrom.rom.estimators import ModelFileError
 
     assert issubclass(ConfigError, ValueError) and issubclass(RecordError, ValueError)
     assert issubclass(ModelFileError, ValueError)

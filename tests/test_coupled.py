@@ -5,9 +5,8 @@ import numba as nb
 import numpy as np
 import pytest
 
-from sloshrom.analysis import instantaneous_damping, modal_filter
-from sloshrom.config import G, Tank
-from sloshrom.coupled import (
+from sloshrom.beam.analysis import instantaneous_damping, modal_filter
+from sloshrom.beam.coupled import (
     CoupledSimulator,
     StepMismatchError,
     discretise,
@@ -15,8 +14,9 @@ from sloshrom.coupled import (
     modal_energy,
     random_response,
 )
+from sloshrom.beam.structure import ModalModel
+from sloshrom.config import G, Tank
 from sloshrom.models import FrozenLiquid
-from sloshrom.structure import ModalModel
 
 
 class LinearDamper:
@@ -179,7 +179,7 @@ def test_discretise_rejects_bad_dt(modal):
 
 
 def test_rig_numba_backend_runs(modal):
-    from sloshrom.rig import VirtualRig
+    from sloshrom.rig.virtual import VirtualRig
 
     rig = VirtualRig()
     out = free_response(rig, modal, duration=1.0, output_fs=500)
@@ -192,7 +192,7 @@ def test_rig_numba_backend_runs(modal):
 
 @pytest.mark.slow
 def test_rig_more_damping_than_frozen_at_high_amplitude(modal):
-    from sloshrom.rig import VirtualRig
+    from sloshrom.rig.virtual import VirtualRig
 
     f1 = 10.19
     frozen = free_response(FrozenLiquid(1e-4), modal, duration=10.0, output_fs=500)
@@ -211,8 +211,8 @@ def test_rig_more_damping_than_frozen_at_high_amplitude(modal):
 
 
 def test_random_frozen_mode1_damping_estimators(modal):
-    from sloshrom.analysis import mode1_damping_random
-    from sloshrom.structure import coupled_frozen_modes
+    from sloshrom.beam.analysis import mode1_damping_random
+    from sloshrom.beam.structure import coupled_frozen_modes
 
     out = random_response(FrozenLiquid(1 / 500), modal, rms_levels=(0.1,), duration=90.0)
     f1 = coupled_frozen_modes(modal, Tank().liquid_mass)[0][0]
@@ -282,7 +282,7 @@ def test_rom_in_the_loop_and_cli(modal, tmp_path):
 
     import sloshrom.cli.beam  # noqa: F401
     from sloshrom.cli._app import app
-    from sloshrom.rom import NFIR, load_model
+    from sloshrom.rom.estimators import NFIR, load_model
 
     t = np.arange(0, 4, 1 / 500)
     u = 0.3 * np.sin(2 * np.pi * (4 + 2 * t) * t)
@@ -310,7 +310,7 @@ def test_rom_in_the_loop_and_cli(modal, tmp_path):
 
 
 def test_diverging_simulation_stops_with_the_time():
-    from sloshrom.coupled import SimulationDivergedError
+    from sloshrom.beam.coupled import SimulationDivergedError
 
     modal = ModalModel.from_beam()
     dt = 0.002

@@ -27,7 +27,7 @@ import numpy as np
 import pytest
 from scipy import fft, signal
 
-from sloshrom.analysis import (
+from sloshrom.beam.analysis import (
     correlation,
     frf_h1,
     half_power_damping,

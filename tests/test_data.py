@@ -8,7 +8,7 @@ import pytest
 import scipy.io
 
 from sloshrom.config import G, Tank
-from sloshrom.data import (
+from sloshrom.io.record import (
     Record,
     canonical_unit,
     dynamic_force,
@@ -292,9 +292,9 @@ def fake_rig(monkeypatch):
     import sys
     import types
 
-    mod = types.ModuleType("sloshrom.rig")
+    mod = types.ModuleType("sloshrom.rig.virtual")
     mod.VirtualRig = _FakeRig
-    monkeypatch.setitem(sys.modules, "sloshrom.rig", mod)
+    monkeypatch.setitem(sys.modules, "sloshrom.rig.virtual", mod)
     return mod
 
 
@@ -370,8 +370,8 @@ def test_cli_rig_real_harmonic(tmp_path):
 @pytest.mark.slow
 def test_preprocessing_exact_on_noise_free_rig():
     """Without sensor noise, preprocessing the real rig's output recovers its truth."""
-    import sloshrom.rig as rig_mod
-    from sloshrom.data import record_from_measurement
+    import sloshrom.rig.virtual as rig_mod
+    from sloshrom.io.record import record_from_measurement
 
     rig = rig_mod.VirtualRig(sensors=rig_mod.SensorParams(force_noise=0.0, acceleration_noise=0.0))
     p = vfa(1.0 / rig.dt, "validation", duration=20.0)

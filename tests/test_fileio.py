@@ -2,8 +2,8 @@ from pathlib import Path
 
 import pytest
 
-from sloshrom import stages
 from sloshrom.fileio import atomic_write, atomic_write_text
+from sloshrom.pipeline import cache as stages
 
 
 def _write_text(content: str):

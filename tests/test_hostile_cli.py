@@ -17,15 +17,15 @@ import numpy as np
 import pytest
 
 from sloshrom.cli import app
-from sloshrom.data import Record, write_record
-from sloshrom.uff import write_uff58
+from sloshrom.io.record import Record, write_record
+from sloshrom.io.uff import write_uff58
 from test_bad_input import _check_cli, _good, make_model_files, runner
 
 
 @pytest.fixture(scope="module")
 def model_files(tmp_path_factory):
     """The models of test_bad_input plus ROMs the beam and the map cannot use."""
-    from sloshrom.rom import NFIR
+    from sloshrom.rom.estimators import NFIR
 
     d = make_model_files(tmp_path_factory.mktemp("models"))
     rng = np.random.default_rng(1)
@@ -69,9 +69,9 @@ def _world(tmp: Path) -> None:
         "[modal]\nfrequencies = [300.0]\ndamping = [0.01]\nmodal_masses = [1.0]\n"
         "psi_tank = [1.0]\nparticipation = [1.0]\nstations = [0.5]\npsi_stations = [[1.0]]\n"
         "structure_mass = 0.45\n")
-    from sloshrom import settings
     from sloshrom.config import Tank
-    from sloshrom.pipeline import map_grid
+    from sloshrom.pipeline import settings
+    from sloshrom.pipeline.chain import map_grid
 
     cfg = settings.defaults()
     cfg["map"].update(n_omega=2, n_a=2)
@@ -577,13 +577,13 @@ def test_late_failure_leaves_no_partial_results(tmp_path, monkeypatch):
 def test_warnings_are_one_line_each(capsys):
     """Our warnings: one yellow line; third-party deprecations: silenced; others: with origin."""
     from sloshrom.cli._app import route_warnings
-    from sloshrom.rom import EnvelopeWarning
+    from sloshrom.rom.estimators import EnvelopeWarning
 
     with route_warnings():
         for _ in range(2):  # the same warning twice: shown once
             warnings.warn_explicit("input outside the training envelope\n  by 3 %",
                                    EnvelopeWarning, "/x/src/sloshrom/rom.py", 10,
-                                   module="sloshrom.rom")
+                                   module="sloshrom.rom.estimators")
         warnings.warn_explicit("old API", FutureWarning,
                                "/v/lib/python3.11/site-packages/xarray/core.py", 1,
                                module="xarray.core")
@@ -608,7 +608,7 @@ def test_user_errors_are_value_errors_and_no_bare_value_error_is_caught():
     import sloshrom.cli.rig
     import sloshrom.cli.rom  # noqa: F401
     from sloshrom.cli._app import user_errors
-    from sloshrom.rom import UnstableModelError
+    from sloshrom.rom.estimators import UnstableModelError
 
     # all ValueErrors, but for an unstable NOE on the user's input (a RuntimeError by nature)
     assert all(issubclass(t, ValueError) for t in user_errors() if t is not UnstableModelError)
@@ -619,8 +619,8 @@ def test_user_errors_are_value_errors_and_no_bare_value_error_is_caught():
 
 def test_bad_config_fails_in_the_library():
     """settings.validate is the library's check: pipeline.run callers get it too."""
-    from sloshrom import settings
     from sloshrom.config import ConfigError
+    from sloshrom.pipeline import settings
 
     cfg = settings.defaults()
     settings.validate(cfg)

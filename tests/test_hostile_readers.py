@@ -21,7 +21,7 @@ import scipy.io
 import xarray as xr
 
 from sloshrom.config import G
-from sloshrom.data import (
+from sloshrom.io.record import (
     MAX_ABS_VALUE,
     Record,
     RecordError,
@@ -34,7 +34,7 @@ from sloshrom.data import (
     same_unit,
     write_record,
 )
-from sloshrom.uff import read_uff58, write_uff58
+from sloshrom.io.uff import read_uff58, write_uff58
 
 FS = 100.0
 N = 200

@@ -18,8 +18,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sloshrom import modelfile, rom
-from sloshrom.rom import NFIR, NOE, MinMaxScaler, ModelFileError
+from sloshrom.rom import estimators as rom
+from sloshrom.rom import modelfile
+from sloshrom.rom.estimators import NFIR, NOE, MinMaxScaler, ModelFileError
 
 DATA = Path(__file__).parent / "data"
 
@@ -487,7 +488,7 @@ def test_failed_onnx_export_leaves_the_previous_file(tmp_path, monkeypatch):
     pytest.importorskip("onnx")
     import onnx
 
-    from sloshrom.onnx_export import export_onnx
+    from sloshrom.rom.onnx import export_onnx
 
     m = _model(NFIR, delays=4, neurons=3)
     out = tmp_path / "m.onnx"
@@ -527,7 +528,7 @@ def test_cli_reports_hostile_model_without_traceback(tmp_path, saved, argv):
     import sloshrom.cli.export  # noqa: F401  (registers `sloshrom export`)
     import sloshrom.cli.rom  # noqa: F401
     from sloshrom.cli import app
-    from sloshrom.data import Record, write_record
+    from sloshrom.io.record import Record, write_record
 
     p = _hostile(saved["NFIR"], tmp_path / "m.npz", _set("envelope", "input_min", 9.0))
     t = np.arange(1000) / 500.0  # a valid input record: the model is the only problem

@@ -11,16 +11,16 @@ import pytest
 import sloshrom.cli.export  # noqa: F401  (registers `sloshrom export`)
 from sloshrom.cli import app
 from sloshrom.cli.export import run_onnx
-from sloshrom.onnx_export import SIGN_CONVENTION, export_onnx  # noqa: E402
-from sloshrom.rom import NFIR, NOE  # noqa: E402
+from sloshrom.rom.estimators import NFIR, NOE  # noqa: E402
+from sloshrom.rom.onnx import SIGN_CONVENTION, export_onnx  # noqa: E402
 
 # the validation record exceeds the short training record's input range by ~1 %: expected here
 pytestmark = pytest.mark.filterwarnings("ignore::sloshrom.rom.EnvelopeWarning")
 
 
 def _rig_record(seed: int, split: str):
-    from sloshrom.data import record_from_measurement
-    from sloshrom.rig import VirtualRig
+    from sloshrom.io.record import record_from_measurement
+    from sloshrom.rig.virtual import VirtualRig
     from sloshrom.signals import vfa
 
     rig = VirtualRig(seed=seed)

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from sloshrom import pipeline, settings
 from sloshrom.cli import app
+from sloshrom.pipeline import chain as pipeline
+from sloshrom.pipeline import settings
 
 FIGURES = [
     "fig03_hysteresis", "fig05_vfa_paths", "fig06_train_io", "fig07_validation_io",
@@ -75,8 +76,8 @@ def test_reproduce_quick_interrupted_then_resumed(tmp_path):
     b = st["beam"]
     # the first mode of the truncated coupled model is a Rayleigh-Ritz upper bound of the
     # frozen beam's exact frequency (frequency equation, liquid added to the tip mass)
+    from sloshrom.beam.structure import CantileverBeam
     from sloshrom.config import Tank
-    from sloshrom.structure import CantileverBeam
 
     tank = Tank()
     dry = CantileverBeam.with_tank(tank)

@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from sloshrom import pipeline, settings
 from sloshrom.cli import app
 from sloshrom.config import Tank
+from sloshrom.pipeline import chain as pipeline
+from sloshrom.pipeline import settings
 
 TINY = """
 [data]
@@ -67,7 +68,7 @@ def test_rig_fs_is_the_record_rate(tmp_path):
     ctx = pipeline.Context(tmp_path, cfg)
     assert ctx.rig().sensors.output_rate == 1000.0
     outputs, files = pipeline.stage_data(ctx)
-    from sloshrom.data import read_record
+    from sloshrom.io.record import read_record
 
     for split in ("train", "validation"):
         rec = read_record(tmp_path / "data" / f"{split}.nc")
@@ -75,7 +76,7 @@ def test_rig_fs_is_the_record_rate(tmp_path):
 
 
 def test_report_setup_follows_the_configuration():
-    from sloshrom.pipeline_report import _setup_section
+    from sloshrom.pipeline.report import _setup_section
 
     cfg = settings.merge(settings.defaults(), {
         "tank": {"length": 0.2, "width": 0.1}, "beam": {"length": 0.5, "thickness": 0.008},
@@ -94,8 +95,8 @@ def test_report_setup_follows_the_configuration():
 
 
 def test_beam_structure_follows_the_configuration():
-    from sloshrom.pipeline_beam import beam_structure
-    from sloshrom.structure import CantileverBeam
+    from sloshrom.beam.structure import CantileverBeam
+    from sloshrom.pipeline.beam import beam_structure
 
     cfg = settings.merge(settings.defaults(), {"beam": {"length": 0.5, "density": 2800.0}})
     tank = Tank()

@@ -3,7 +3,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from sloshrom import report  # noqa: E402
+from sloshrom.pipeline import html as report  # noqa: E402
 
 
 def test_report_is_self_contained(tmp_path):

@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 from sloshrom import __version__
 from sloshrom.cli import app
 from sloshrom.config import Tank
-from sloshrom.data import read_record
+from sloshrom.io.record import read_record
 
 runner = CliRunner()
 HARMONIC = ["rig", "harmonic", "--frequency", "11", "--accel-g", "3", "--cycles", "4"]
@@ -87,7 +87,7 @@ def test_vfa_same_seed_identical_other_seed_different(tmp_path):
 
 
 def _tiny_fit(seed: int):
-    from sloshrom.rom import NFIR
+    from sloshrom.rom.estimators import NFIR
 
     rng = np.random.default_rng(11)
     u = np.convolve(rng.standard_normal(800), np.ones(8) / 8, mode="same") * 0.05
@@ -125,8 +125,8 @@ def _seed_values(obj, path=""):
 @pytest.fixture(scope="module")
 def pipeline_records(tmp_path_factory):
     """The `reproduce` data stage (10 s records), run twice with the same config."""
-    from sloshrom import settings
-    from sloshrom.pipeline import Context, stage_data
+    from sloshrom.pipeline import settings
+    from sloshrom.pipeline.chain import Context, stage_data
 
     cfg = settings.load(None, quick=True)
     cfg["data"].update(train_duration=10.0, validation_duration=10.0)

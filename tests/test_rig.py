@@ -8,10 +8,10 @@ import numba as nb
 import numpy as np
 import pytest
 
-from sloshrom import rig as rigmod
 from sloshrom.config import ConfigError, G, Tank
 from sloshrom.energy import default_grid, dissipated_energy, map_maximum, phi_d_map
-from sloshrom.rig import RigParams, SensorParams, VirtualRig, energy_audit
+from sloshrom.rig import virtual as rigmod
+from sloshrom.rig.virtual import RigParams, SensorParams, VirtualRig, energy_audit
 from sloshrom.signals import harmonic
 
 TANK = Tank()

@@ -10,8 +10,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sloshrom import rom
-from sloshrom.rom import NFIR, NOE, MinMaxScaler, ModelFileError, UnstableModelError
+from sloshrom.rom import estimators as rom
+from sloshrom.rom.estimators import NFIR, NOE, MinMaxScaler, ModelFileError, UnstableModelError
 
 
 def _random_model(cls, seed=0, **kw):
@@ -244,7 +244,7 @@ def test_bad_input():
 def _record(n, seed, fs=100.0):
     from scipy.signal import butter, filtfilt
 
-    from sloshrom.data import Record
+    from sloshrom.io.record import Record
 
     b, a = butter(4, 0.08)
     u = filtfilt(b, a, np.random.default_rng(seed).standard_normal(n))
@@ -259,7 +259,7 @@ def test_cli_train_predict(tmp_path):
 
     import sloshrom.cli.rom  # noqa: F401  (registers the commands)
     from sloshrom.cli._app import app
-    from sloshrom.data import read_record, write_record
+    from sloshrom.io.record import read_record, write_record
 
     write_record(_record(1500, 1), tmp_path / "tr.nc")
     write_record(_record(800, 2), tmp_path / "va.nc")

@@ -3,7 +3,7 @@ import json
 
 import pytest
 
-from sloshrom.stages import StageCache, atomic_write_text, file_sha256, stable_hash
+from sloshrom.pipeline.cache import StageCache, atomic_write_text, file_sha256, stable_hash
 
 
 def test_stage_reused_only_when_key_and_files_match(tmp_path):

@@ -4,14 +4,14 @@ import numpy as np
 import pytest
 from scipy.linalg import eigh
 
-from sloshrom.config import ConfigError, Tank
-from sloshrom.structure import (
+from sloshrom.beam.structure import (
     CantileverBeam,
     ModalDataError,
     ModalModel,
     coupled_frozen_modes,
     frozen_modal_table,
 )
+from sloshrom.config import ConfigError, Tank
 
 
 def test_bare_cantilever_roots():

@@ -8,7 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from sloshrom import rom, sweep
+from sloshrom.rom import estimators as rom
+from sloshrom.rom import sweep
 
 
 def _data(n, seed):

@@ -8,8 +8,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sloshrom import rom, training
-from sloshrom.training import LMProblem, levenberg_marquardt
+from sloshrom.rom import estimators as rom
+from sloshrom.rom import training
+from sloshrom.rom.training import LMProblem, levenberg_marquardt
 
 
 def _linear_problem(A: np.ndarray, b: np.ndarray, val=None) -> LMProblem:

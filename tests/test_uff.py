@@ -9,8 +9,8 @@ import pytest
 import pyuff  # a hard dependency: an import error must fail, not skip
 
 from sloshrom.config import G, Tank
-from sloshrom.data import Record, RecordError, preprocess, read_record
-from sloshrom.uff import read_uff58, write_uff58
+from sloshrom.io.record import Record, RecordError, preprocess, read_record
+from sloshrom.io.uff import read_uff58, write_uff58
 
 
 def _d58(label, data, fs, unit="", spec=0, func_type=1, rsp_dir=3, t0=0.0, node=1):
@@ -42,7 +42,7 @@ def _write(path, sets):
 @pytest.fixture(scope="module")
 def rig_measurement():
     """A short harmonic test on the virtual rig (12 Hz, 7 mm = 4 g: sloshing, 1.5 s)."""
-    from sloshrom.rig import VirtualRig
+    from sloshrom.rig.virtual import VirtualRig
     from sloshrom.signals import harmonic
 
     rig = VirtualRig(seed=3)
@@ -77,7 +77,7 @@ def test_pyuff_file_read_preprocessed_and_trained(tmp_path, rig_measurement):
     # preprocessing recovers the rig's true dynamic force from the UFF data
     assert np.sqrt(np.mean(err**2)) < 0.1 * np.std(m["true_dynamic_force"])
 
-    from sloshrom.rom import NFIR
+    from sloshrom.rom.estimators import NFIR
 
     u, y = pre["velocity"], pre["dynamic_force"]
     model = NFIR(delays=21, neurons=10, max_epochs=30, seed=0).fit(u, y, fs=pre.fs)
@@ -174,8 +174,8 @@ def test_cli_train_on_uff(tmp_path, rig_measurement):
 
     import sloshrom.cli.rom  # noqa: F401  (registers `train` on the app)
     from sloshrom.cli import app
-    from sloshrom.data import record_from_measurement
-    from sloshrom.rom import load_model
+    from sloshrom.io.record import record_from_measurement
+    from sloshrom.rom.estimators import load_model
 
     rec = record_from_measurement(rig_measurement, truth=False)
     path = write_uff58(rec, tmp_path / "pre.uff")

@@ -113,11 +113,11 @@ def user_errors() -> tuple[type[BaseException], ...]:
     loads JAX; they cannot be raised before).
     """
     from sloshrom.config import ConfigError
-    from sloshrom.data import RecordError
     from sloshrom.fileio import OutputPathError
+    from sloshrom.io.record import RecordError
 
     types: list[type[BaseException]] = [ConfigError, RecordError, OutputPathError]
-    rom = sys.modules.get("sloshrom.rom")
+    rom = sys.modules.get("sloshrom.rom.estimators")
     if rom is not None:
         # an unstable NOE on the user's input is a property of their model, not a bug
         types += [rom.ModelFileError, rom.UnstableModelError]
@@ -240,7 +240,7 @@ def check_sloshing_rom(rom: Any, path: Path, what: str, user: str) -> None:
 
     ``user`` says who feeds it, as the subject of "feeds it the tank velocity ...".
     """
-    from sloshrom.data import same_unit
+    from sloshrom.io.record import same_unit
 
     if not (same_unit(rom.units[0], "m/s") and same_unit(rom.units[1], "N")):
         fail(f"{what} {path}: the ROM maps '{rom.units[0]}' to '{rom.units[1]}'; {user} feeds "

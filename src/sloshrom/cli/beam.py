@@ -24,7 +24,7 @@ from sloshrom.cli._app import (
 )
 from sloshrom.config import G, Tank
 from sloshrom.fileio import OutputBatch, atomic_write
-from sloshrom.settings import (
+from sloshrom.pipeline.settings import (
     FREE_DAMPING_PERIODS,
     MAX_BEAM_SECONDS,
     MAX_LEVEL_SECONDS,
@@ -52,13 +52,13 @@ def _model(name: str, tank: Tank, seed: int) -> tuple[str, Any]:
     if name == "frozen":
         return "frozen", FrozenLiquid(1.0 / SENSOR_FS)
     if name == "rig":
-        from sloshrom.rig import VirtualRig
+        from sloshrom.rig.virtual import VirtualRig
 
         return "rig", VirtualRig(tank=tank, seed=seed)
     p = Path(name)
     if not name.strip() or not p.is_file():
         fail(f"--sloshing must be 'frozen', 'rig' or a ROM model file; {p} does not exist")
-    from sloshrom.rom import load_model
+    from sloshrom.rom.estimators import load_model
 
     try:
         rom = load_model(p)
@@ -85,14 +85,14 @@ def _models(names: list[str], tank: Tank, seed: int) -> dict[str, Any]:
 
 
 def _modal(modal_toml: Path | None, tank: Tank):
-    from sloshrom.structure import ModalModel
+    from sloshrom.beam.structure import ModalModel
 
     return ModalModel.from_toml(modal_toml) if modal_toml else ModalModel.from_beam(tank=tank)
 
 
 def _setup(tank_toml: Path | None, modal_toml: Path | None, seed: int):
     """Tank, modal model and first frozen-liquid mode (Hz), or a user error."""
-    from sloshrom.structure import coupled_frozen_modes
+    from sloshrom.beam.structure import coupled_frozen_modes
 
     check_number(seed, "--seed", 0, MAX_SEED)
     check_input(tank_toml, "--tank-toml")
@@ -196,7 +196,7 @@ def _savefig(fig, path: Path, batch: OutputBatch | None = None) -> None:
 def _run_cases(models: dict[str, Any], label: str, fn) -> dict:
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-    from sloshrom.coupled import SimulationDivergedError
+    from sloshrom.beam.coupled import SimulationDivergedError
 
     results = {}
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
@@ -229,8 +229,8 @@ def free_figures(res: dict, modal, tank: Tank) -> dict:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from sloshrom.analysis import instantaneous_damping, log_decrement, modal_filter
-    from sloshrom.structure import coupled_frozen_modes
+    from sloshrom.beam.analysis import instantaneous_damping, log_decrement, modal_filter
+    from sloshrom.beam.structure import coupled_frozen_modes
 
     figs = {}
     cases = list(res)
@@ -303,7 +303,7 @@ def random_figures(res: dict, levels: list[float], window: tuple[float, float] =
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from sloshrom.analysis import welch_psd
+    from sloshrom.beam.analysis import welch_psd
 
     figs = {}
     cases = list(res)
@@ -380,8 +380,8 @@ def free(
 
     Example: ``sloshrom beam free --sloshing rig --sloshing nfir.npz --out results/beam``
     """
-    from sloshrom.coupled import free_response
-    from sloshrom.structure import coupled_frozen_modes, frozen_modal_table
+    from sloshrom.beam.coupled import free_response
+    from sloshrom.beam.structure import coupled_frozen_modes, frozen_modal_table
 
     check_number(tip_displacement, "--tip-displacement", -0.2, 0.2, lo_open=True, hi_open=True,
                  unit="m")
@@ -447,9 +447,9 @@ def random(
 
     Example: ``sloshrom beam random --sloshing rig --levels 0.1,0.2,0.4 --duration 90 --out res``
     """
-    from sloshrom.analysis import mode1_damping_random
+    from sloshrom.beam.analysis import mode1_damping_random
+    from sloshrom.beam.coupled import random_response
     from sloshrom.config import ConfigError
-    from sloshrom.coupled import random_response
 
     try:
         lv = [float(x) for x in levels.split(",") if x.strip()]

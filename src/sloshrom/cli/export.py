@@ -47,8 +47,8 @@ def onnx_cmd(
     if not model.is_file():
         fail(f"model file not found: {model}")
     check_out(out, suffixes=(".onnx",), inputs=(model,), what="OUT")
-    from sloshrom.onnx_export import export_onnx
-    from sloshrom.rom import load_model
+    from sloshrom.rom.estimators import load_model
+    from sloshrom.rom.onnx import export_onnx
 
     limit = 1e-6 if dtype == "float64" else 1e-4
     rel = [float("nan")]
@@ -154,9 +154,9 @@ def import_uff_cmd(
     --name "Load cell=force" --unit force=N``
     """
     from sloshrom.config import Tank
-    from sloshrom.data import preprocess as _preprocess
-    from sloshrom.data import write_record
-    from sloshrom.uff import read_uff58
+    from sloshrom.io.record import preprocess as _preprocess
+    from sloshrom.io.record import write_record
+    from sloshrom.io.uff import read_uff58
 
     names: dict[str | int, str] = {}
     for key, value in _pairs(name, "--name").items():

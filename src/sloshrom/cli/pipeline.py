@@ -25,8 +25,8 @@ app.add_typer(config_app, name="config")
 
 
 def _load_config(config: Path | None, quick: bool) -> dict:
-    """The merged configuration, validated by :func:`sloshrom.settings.validate`."""
-    from sloshrom import settings
+    """The merged configuration, validated by :func:`sloshrom.pipeline.settings.validate`."""
+    from sloshrom.pipeline import settings
 
     check_input(config, "--config")
     try:
@@ -45,7 +45,7 @@ def config_show(
 
     Example: ``sloshrom config show > my.toml``, edit, then ``sloshrom reproduce --config my.toml``.
     """
-    from sloshrom import settings
+    from sloshrom.pipeline import settings
 
     if config is None and not quick:
         typer.echo(settings.default_text())
@@ -73,7 +73,8 @@ def reproduce(
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from sloshrom import pipeline, settings
+    from sloshrom.pipeline import chain as pipeline
+    from sloshrom.pipeline import settings
 
     cfg = _load_config(config, quick)
     if sweep:
@@ -134,7 +135,7 @@ def map_cmd(
     Example: ``sloshrom map --rig --out rig_map.nc`` then
     ``sloshrom map --model nfir.npz --reference rig_map.nc --out rom_map.nc``.
     """
-    from sloshrom import settings
+    from sloshrom.pipeline import settings
 
     if rig == (model is not None):
         fail("give exactly one of --rig or --model FILE")
@@ -154,7 +155,7 @@ def map_cmd(
     if reference is not None:  # read it first: a bad reference must not cost a whole map
         ref = _read_reference(reference, cfg, tank)
     if rig:
-        from sloshrom.rig import VirtualRig
+        from sloshrom.rig.virtual import VirtualRig
 
         sm = VirtualRig(tank=tank, seed=seed)
         title = "virtual rig"
@@ -163,8 +164,8 @@ def map_cmd(
         title = f"ROM {model.name}"
     from rich.progress import Progress
 
-    from sloshrom import pipeline
     from sloshrom.energy import map_maximum
+    from sloshrom.pipeline import chain as pipeline
 
     with Progress(transient=True) as prog:
         task = prog.add_task("harmonic tests", total=n_omega)
@@ -182,7 +183,7 @@ def map_cmd(
 
 def _load_rom(path: Path, min_fs: float):
     """A ROM usable for harmonic tests (m/s -> N, fast enough for the top frequency)."""
-    from sloshrom.rom import load_model
+    from sloshrom.rom.estimators import load_model
 
     try:
         m = load_model(path)
@@ -200,7 +201,7 @@ def _read_reference(path: Path, cfg: dict, tank: Tank):
     import numpy as np
     import xarray as xr
 
-    from sloshrom.pipeline import map_grid
+    from sloshrom.pipeline.chain import map_grid
 
     try:
         with xr.open_dataset(path, engine="h5netcdf") as ds:

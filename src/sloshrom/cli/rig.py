@@ -21,7 +21,7 @@ import typer
 
 from sloshrom.cli._app import app, check_input, check_number, check_out, fail, user_errors, warn
 from sloshrom.config import G, Tank
-from sloshrom.settings import MAX_FINE_SECONDS, MIN_VFA_DURATION
+from sloshrom.pipeline.settings import MAX_FINE_SECONDS, MIN_VFA_DURATION
 
 rig_app = typer.Typer(
     help="Generate virtual-rig shaker records (the paper's VFA data and harmonic tests).",
@@ -69,9 +69,9 @@ def _check_common(out: Path, seed: int, fill: float | None, tank_toml: Path | No
 def _make_rig(tank: Tank, seed: int) -> Any:
     # import_module (not ``from sloshrom import rig``) so that tests can substitute the module.
     try:
-        rig_mod = importlib.import_module("sloshrom.rig")
+        rig_mod = importlib.import_module("sloshrom.rig.virtual")
     except ImportError as exc:
-        fail(f"the virtual rig (sloshrom.rig) is not available: {exc}")
+        fail(f"the virtual rig (sloshrom.rig.virtual) is not available: {exc}")
     return rig_mod.VirtualRig(tank=tank, seed=seed)
 
 
@@ -92,7 +92,7 @@ def _provenance(kind: str, signal: dict[str, Any], rig: Any) -> dict[str, Any]:
 def _run(rig: Any, acceleration: np.ndarray, tank: Tank, truth: bool, label: str, **attrs: Any):
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-    from sloshrom.data import record_from_measurement
+    from sloshrom.io.record import record_from_measurement
 
     with Progress(
         SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), transient=True
@@ -103,7 +103,7 @@ def _run(rig: Any, acceleration: np.ndarray, tank: Tank, truth: bool, label: str
 
 
 def _write(record, out: Path) -> None:
-    from sloshrom.data import write_record
+    from sloshrom.io.record import write_record
 
     write_record(record, out)
     df = record["dynamic_force"]

@@ -1,7 +1,7 @@
 """``sloshrom train | predict | sweep``: identify NFIR/NOE ROMs from records and use them.
 
-Records are read with :func:`sloshrom.data.read_record` (NetCDF, CSV, MATLAB) and written with
-:func:`sloshrom.data.write_record`; models are ``.npz`` files (:func:`sloshrom.rom.load_model`).
+Records are read with :func:`sloshrom.io.read_record` (NetCDF, CSV, MATLAB) and written with
+:func:`sloshrom.io.write_record`; models are ``.npz`` files (:func:`sloshrom.rom.load_model`).
 Every option, file and unit is checked before reading data or training: a bad input costs one
 ``error:`` line, not a model trained in vain.
 """
@@ -27,7 +27,7 @@ MAX_SEED = 2**32 - 1  # JAX PRNG keys take 32-bit seeds
 
 
 def _read(path: Path, names: list[str], what: str):
-    from sloshrom.data import read_record
+    from sloshrom.io.record import read_record
 
     check_input(path, what)
     try:
@@ -45,7 +45,7 @@ def _read(path: Path, names: list[str], what: str):
 
 def _same_units(a: Any, pa: Path, b: Any, pb: Path, names: list[str]) -> None:
     """Training and validation records must measure each variable in the same unit."""
-    from sloshrom.data import same_unit
+    from sloshrom.io.record import same_unit
 
     for n in names:
         ua, ub = a.units[n], b.units[n]
@@ -55,7 +55,7 @@ def _same_units(a: Any, pa: Path, b: Any, pb: Path, names: list[str]) -> None:
 
 def _standard_units(rec: Any, path: Path, names: list[str]) -> None:
     """A variable with a standard name must be in that name's unit (swapped columns, ...)."""
-    from sloshrom.data import STANDARD_UNITS, same_unit
+    from sloshrom.io.record import STANDARD_UNITS, same_unit
 
     for n in names:
         si = STANDARD_UNITS.get(n)
@@ -110,7 +110,7 @@ def _check_common(max_epochs: int, seed: int, hidden: str) -> None:
 
 def _check_length(rec: Any, path: Path, arch: str, delays: int, neurons: int, what: str) -> None:
     """The record must hold enough samples for the network (the check of ``fit``, before it)."""
-    from sloshrom.settings import training_samples
+    from sloshrom.pipeline.settings import training_samples
 
     need = training_samples(arch, delays, neurons)
     if len(rec) < need:
@@ -170,7 +170,7 @@ def train(
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from sloshrom.rom import NFIR, NOE, UnstableModelError
+    from sloshrom.rom.estimators import NFIR, NOE, UnstableModelError
 
     cls = NFIR if arch == "nfir" else NOE
     kw: dict[str, Any] = {"hidden": hidden, "max_epochs": max_epochs, "seed": seed,
@@ -228,8 +228,8 @@ def predict(
     check_input(model, "--model")
     check_input(data, "--data")
     check_out(out, suffixes=RECORD_SUFFIXES, inputs=(data, model))
-    from sloshrom.data import same_unit, write_record
-    from sloshrom.rom import UnstableModelError, load_model
+    from sloshrom.io.record import same_unit, write_record
+    from sloshrom.rom.estimators import UnstableModelError, load_model
 
     try:
         m = load_model(model)
@@ -345,7 +345,7 @@ def sweep(
         TimeElapsedColumn,
     )
 
-    from sloshrom.sweep import default_grid, plot_sweep, run_sweep
+    from sloshrom.rom.sweep import default_grid, plot_sweep, run_sweep
 
     pts = default_grid(arch)
     if dl or nl:

@@ -6,9 +6,10 @@ import html
 from pathlib import Path
 from typing import Any
 
-from sloshrom import report, settings
 from sloshrom.config import Tank
-from sloshrom.report import Figure, Section, Table
+from sloshrom.pipeline import html as report
+from sloshrom.pipeline import settings
+from sloshrom.pipeline.html import Figure, Section, Table
 
 
 def _fig(ctx: Any, name: str, caption: str) -> list[Figure]:
@@ -148,7 +149,7 @@ def build_sections(ctx: Any, summary: dict[str, Any]) -> list[Section]:
     ))
     b = st.get("beam")
     if b:
-        from sloshrom.pipeline_beam import report_sections  # noqa: PLC0415
+        from sloshrom.pipeline.beam import report_sections  # noqa: PLC0415
 
         secs.extend(report_sections(ctx, b))
     else:

@@ -39,7 +39,7 @@ import numpy as np  # noqa: E402
 from jax import lax  # noqa: E402
 
 from sloshrom.fileio import atomic_write  # noqa: E402
-from sloshrom.modelfile import (  # noqa: E402
+from sloshrom.rom.modelfile import (  # noqa: E402
     FORMAT_VERSION,
     HIDDEN_KINDS,
     PARAM_NAMES,
@@ -47,7 +47,7 @@ from sloshrom.modelfile import (  # noqa: E402
     read_model_file,
     validate_for_save,
 )
-from sloshrom.modelfile import checksum as _checksum  # noqa: E402
+from sloshrom.rom.modelfile import checksum as _checksum  # noqa: E402
 
 __all__ = [
     "FORMAT_VERSION",
@@ -378,7 +378,7 @@ class _TDNN:
         -------
         self
         """
-        from sloshrom import training
+        from sloshrom.rom import training
 
         self._validate_hyper()
         if not (np.isfinite(fs) and fs > 0):
@@ -550,7 +550,7 @@ class NFIR(_TDNN):
         accumulated on a fixed decimated subset of the samples; ``"adam"`` (default): minibatch
         Adam with the same validation early stopping, which reached a lower validation error
         than both LM variants in less time on the virtual-rig data (see
-        :mod:`sloshrom.training` and docs/rom.md).
+        :mod:`sloshrom.rom.training` and docs/rom.md).
     """
 
     arch = "nfir"
@@ -680,7 +680,7 @@ def load_model(path: str | Path) -> NFIR | NOE:
     """Load a model written by ``save``; never runs code (no pickle).
 
     Every metadata field is validated against a schema with bounds and the arrays against the
-    metadata before the model is built (:mod:`sloshrom.modelfile`; docs/formats.md, "Model
+    metadata before the model is built (:mod:`sloshrom.rom.modelfile`; docs/formats.md, "Model
     files"), so a loaded model can be simulated, coupled and exported.
 
     Parameters

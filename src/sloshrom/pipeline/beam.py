@@ -10,8 +10,8 @@ from typing import Any
 import numpy as np
 
 from sloshrom.config import G
-from sloshrom.pipeline import Context
-from sloshrom.report import Figure, Section, Table
+from sloshrom.pipeline.chain import Context
+from sloshrom.pipeline.html import Figure, Section, Table
 
 BEAM_KEYS = ("length", "width", "thickness", "youngs_modulus", "density")
 
@@ -33,7 +33,7 @@ def beam_structure(cfg: dict[str, Any], tank: Any) -> tuple[Any, Any]:
 
     Virtual accelerometers at 1/5, 2/5, ..., 5/5 of the length (the last at the tank).
     """
-    from sloshrom.structure import CantileverBeam, ModalModel
+    from sloshrom.beam.structure import CantileverBeam, ModalModel
 
     beam = CantileverBeam.with_tank(tank, **{k: cfg[k] for k in BEAM_KEYS})
     stations = tuple(beam.length * k / 5 for k in range(1, 6))
@@ -49,8 +49,8 @@ def base_excitation_figure(res: dict[str, Any], cfg: dict[str, Any], fs: float) 
     The dashed curves are the target spectrum of Eq. (8) scaled to each RMS level; the inset
     zooms on the lowest level, as in the paper.
     """
-    from sloshrom.analysis import welch_psd
-    from sloshrom.pipeline import _plt
+    from sloshrom.beam.analysis import welch_psd
+    from sloshrom.pipeline.chain import _plt
     from sloshrom.signals import gaussian_psd
 
     plt = _plt()
@@ -88,7 +88,9 @@ def base_excitation_figure(res: dict[str, Any], cfg: dict[str, Any], fs: float) 
 
 
 def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], list[str]]:
-    from sloshrom.analysis import instantaneous_damping, modal_filter, mode1_damping_random
+    from sloshrom.beam.analysis import instantaneous_damping, modal_filter, mode1_damping_random
+    from sloshrom.beam.coupled import free_response, random_response
+    from sloshrom.beam.structure import coupled_frozen_modes, frozen_modal_table
     from sloshrom.cli.beam import (
         _savefig,
         _write_nc,
@@ -97,10 +99,8 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
         random_figures,
         to_dataset,
     )
-    from sloshrom.coupled import free_response, random_response
     from sloshrom.fileio import OutputBatch
     from sloshrom.models import FrozenLiquid
-    from sloshrom.structure import coupled_frozen_modes, frozen_modal_table
 
     cfg = ctx.cfg["beam"]
     fs = float(ctx.cfg["rig"]["fs"])  # the beam's sensors record at the rig's record rate
@@ -110,7 +110,7 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     beam, modal = beam_structure(cfg, tank)
     models: dict[str, Any] = {"frozen": FrozenLiquid(1.0 / fs), "rig": ctx.rig()}
     if rom_path is not None:
-        from sloshrom.rom import load_model
+        from sloshrom.rom.estimators import load_model
 
         models["rom"] = load_model(rom_path)
     outputs: dict[str, Any] = {}

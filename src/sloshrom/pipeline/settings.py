@@ -76,7 +76,7 @@ MAX_MODES = 5
 
 def default_text() -> str:
     """The shipped defaults, as TOML text with comments."""
-    return resources.files("sloshrom").joinpath("defaults.toml").read_text(encoding="utf-8")
+    return (resources.files("sloshrom.pipeline") / "defaults.toml").read_text(encoding="utf-8")
 
 
 def defaults() -> dict[str, Any]:
@@ -359,7 +359,7 @@ def _relations(cfg: dict[str, Any], tank: Tank) -> None:
             f"'beam.random_duration' x {len(b['rms_g'])} levels = {level_seconds:g} s is more "
             f"than {MAX_LEVEL_SECONDS:g} s (memory: the rig holds about 2.1 MB per second and "
             "level at its 10 kHz step)")
-    from sloshrom.structure import CantileverBeam
+    from sloshrom.beam.structure import CantileverBeam
 
     try:
         beam = CantileverBeam.with_tank(tank, **{k: b[k] for k in _BEAM_BOUNDS})
@@ -383,7 +383,7 @@ def _relations(cfg: dict[str, Any], tank: Tank) -> None:
 
 
 def training_samples(arch: str, delays: int, neurons: int) -> int:
-    """Samples a training record needs for a ROM (the check of ``sloshrom.rom`` ``fit``)."""
+    """Samples a training record needs for a ROM (the check of ``NFIR.fit``)."""
     out_delays = NOE_OUT_DELAYS if arch == "noe" else 0
     n_params = neurons * (delays + out_delays + 2) + 1  # RBF network: H (D + 2) + 1
     return delays + out_delays + 2 * n_params // 100 + 10
@@ -392,7 +392,7 @@ def training_samples(arch: str, delays: int, neurons: int) -> int:
 def first_frozen_frequency(tank: Tank, n_modes: int = 3, damping: Any = None,
                            modal_toml: str | Path | None = None, beam: Any = None) -> float:
     """First mode (Hz) of the beam with frozen liquid: the mode the damping analyses follow."""
-    from sloshrom.structure import ModalModel, coupled_frozen_modes
+    from sloshrom.beam.structure import ModalModel, coupled_frozen_modes
 
     if modal_toml is not None:
         modal = ModalModel.from_toml(modal_toml)

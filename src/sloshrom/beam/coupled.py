@@ -1,6 +1,6 @@
 """Coupled sloshing-beam simulation (paper Eqs. 4, 7, 9).
 
-Relative modal coordinates q (dry structure modes, see :mod:`sloshrom.structure`), base
+Relative modal coordinates q (dry structure modes, see :mod:`sloshrom.beam.structure`), base
 acceleration ``a_s``::
 
     (M + m_l psi psi^T) q'' + C q' + K q = psi * df(v_abs, a_abs) - (Gamma + m_l psi) a_s
@@ -21,7 +21,7 @@ convention as the rig's load cells.
 
 Damping: ``C = M_f V diag(2 zeta_n omega_n) V^T M_f`` with (omega_n, V) the mass-normalised modes
 of the frozen system ``(M_f = M + m_l psi psi^T, K)``; so the modal damping ratios given in the
-:class:`~sloshrom.structure.ModalModel` are those of the frozen-liquid modes (paper Table 1).
+:class:`~sloshrom.beam.structure.ModalModel` are those of the frozen-liquid modes (paper Table 1).
 
 Backends: JAX ``lax.scan`` (jit; ``vmap`` over batches of base accelerations) for models with a
 jax-traceable ``step`` (ROMs, :class:`~sloshrom.models.FrozenLiquid`); a numba loop for models with
@@ -43,9 +43,9 @@ import numpy as np
 from scipy.linalg import eigh, expm
 from scipy.signal import resample_poly
 
+from sloshrom.beam.structure import ModalModel
 from sloshrom.config import Tank
 from sloshrom.models import FrozenLiquid
-from sloshrom.structure import ModalModel
 
 jax.config.update("jax_enable_x64", True)
 

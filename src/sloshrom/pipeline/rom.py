@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from sloshrom.pipeline import Context, _plt, _savefig
+from sloshrom.pipeline.chain import Context, _plt, _savefig
 
 
 def error_figures(y: np.ndarray, y_hat: np.ndarray) -> dict[str, float]:
@@ -35,8 +35,8 @@ def stage_sweep(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     Points run in parallel (Dask LocalCluster, ``sweep_workers`` processes; 1 = in this
     process). Each finished point is kept in ``OUT/sweep/``, so an interrupted sweep resumes.
     """
-    from sloshrom.data import read_record
-    from sloshrom.sweep import plot_sweep, run_sweep
+    from sloshrom.io.record import read_record
+    from sloshrom.rom.sweep import plot_sweep, run_sweep
 
     cfg = ctx.cfg["rom"]
     pts = sweep_points(cfg)
@@ -79,8 +79,8 @@ def stage_sweep(ctx: Context) -> tuple[dict[str, Any], list[str]]:
 
 
 def stage_rom(ctx: Context) -> tuple[dict[str, Any], list[str]]:
-    from sloshrom.data import read_record
-    from sloshrom.rom import NFIR, NOE
+    from sloshrom.io.record import read_record
+    from sloshrom.rom.estimators import NFIR, NOE
 
     plt = _plt()
     cfg = ctx.cfg["rom"]

@@ -48,7 +48,7 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 import scipy.linalg  # noqa: E402
 
-from sloshrom import rom  # noqa: E402
+from sloshrom.rom import estimators as rom  # noqa: E402
 
 __all__ = [
     "FAST_MAX_ROWS",

@@ -31,7 +31,7 @@ import numpy as np
 from sloshrom import __version__
 from sloshrom.config import G, Tank
 from sloshrom.fileio import atomic_write, atomic_write_text
-from sloshrom.stages import StageCache, StageResult
+from sloshrom.pipeline.cache import StageCache, StageResult
 
 # Called as ``report(stage, done, total, text)``; the CLI turns it into progress bars.
 Progress = Callable[[str, float, float, str], None]
@@ -58,7 +58,7 @@ class Context:
 
     def rig(self) -> Any:
         """The virtual rig of the configuration; its sensors record at ``[rig] fs``."""
-        from sloshrom.rig import SensorParams, VirtualRig
+        from sloshrom.rig.virtual import SensorParams, VirtualRig
 
         return VirtualRig(tank=self.tank, seed=self.cfg["rig"]["seed"],
                           sensors=SensorParams(output_rate=self.cfg["rig"]["fs"]))
@@ -102,7 +102,7 @@ def _plt():
 # ----------------------------------------------------------------------------------------------
 def stage_data(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     from sloshrom import signals
-    from sloshrom.data import record_from_measurement, write_record
+    from sloshrom.io.record import record_from_measurement, write_record
 
     plt = _plt()
     cfg, tank = ctx.cfg, ctx.tank
@@ -249,7 +249,7 @@ def stage_maps(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     rig = ctx.rig()
     rom = None
     if rom_path is not None:
-        from sloshrom.rom import load_model
+        from sloshrom.rom.estimators import load_model
 
         rom = load_model(rom_path)
     files.append(ctx.rel(hysteresis_figure(rig, rom, tank, ctx.path("figures",
@@ -281,10 +281,10 @@ def stage_maps(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
 def run(out: str | Path, cfg: dict[str, Any], progress: Progress = _quiet) -> dict[str, Any]:
     """Run every stage that is built, reuse cached ones, write the summary; return it.
 
-    The configuration is validated first (:func:`sloshrom.settings.validate`): a bad value
+    The configuration is validated first (:func:`sloshrom.pipeline.settings.validate`): a bad value
     costs one ``ConfigError`` naming the key, before any work.
     """
-    from sloshrom.settings import validate
+    from sloshrom.pipeline.settings import validate
 
     validate(cfg)
     ctx = Context(Path(out), cfg, progress)
@@ -299,8 +299,8 @@ def run(out: str | Path, cfg: dict[str, Any], progress: Progress = _quiet) -> di
             lambda: stage_data(ctx), __version__,
         )
     rom_path = None
-    if available("sloshrom.pipeline_rom"):
-        from sloshrom.pipeline_rom import SWEEP_KEYS, stage_rom, stage_sweep  # noqa: PLC0415
+    if available("sloshrom.pipeline.rom"):
+        from sloshrom.pipeline.rom import SWEEP_KEYS, stage_rom, stage_sweep  # noqa: PLC0415
 
         if cfg["rom"]["sweep"]:
             with _timer(ctx, "sweep"):
@@ -322,8 +322,8 @@ def run(out: str | Path, cfg: dict[str, Any], progress: Progress = _quiet) -> di
             "maps", {k: cfg[k] for k in ("tank", "rig", "map")}, deps,
             lambda: stage_maps(ctx, rom_path), __version__,
         )
-    if available("sloshrom.pipeline_beam"):
-        from sloshrom.pipeline_beam import stage_beam  # noqa: PLC0415
+    if available("sloshrom.pipeline.beam"):
+        from sloshrom.pipeline.beam import stage_beam  # noqa: PLC0415
 
         with _timer(ctx, "beam"):
             deps = [results[k] for k in ("data", "rom") if k in results]
@@ -341,7 +341,7 @@ def run(out: str | Path, cfg: dict[str, Any], progress: Progress = _quiet) -> di
         "timings_s": ctx.timings,
         "not_built": not_built,
     }
-    from sloshrom.pipeline_report import write_report  # noqa: PLC0415
+    from sloshrom.pipeline.report import write_report  # noqa: PLC0415
 
     write_report(ctx, summary)
     atomic_write_text(ctx.out / "summary.json", json.dumps(summary, indent=1, default=float))

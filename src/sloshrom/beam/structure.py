@@ -240,7 +240,7 @@ class ModalModel:
         Natural frequencies, Hz.
     damping : array (n_modes,)
         Modal damping ratios (-). The coupled simulation applies them to the modes of the
-        frozen-liquid system (see :func:`sloshrom.coupled.damping_matrix`).
+        frozen-liquid system (see :func:`sloshrom.beam.coupled.damping_matrix`).
     modal_masses : array (n_modes,)
         kg, for the mode normalisation used (here unit maximum displacement).
     psi_tank : array (n_modes,)
@@ -471,9 +471,9 @@ _COUPLED = ("CoupledSimulator", "free_response", "random_response", "StepMismatc
 
 
 def __getattr__(name: str) -> Any:
-    # the coupled simulation lives in sloshrom.coupled; re-exported lazily (no import cycle)
+    # the coupled simulation lives in sloshrom.beam.coupled; re-exported lazily (no import cycle)
     if name in _COUPLED:
-        from sloshrom import coupled
+        from sloshrom.beam import coupled
 
         return getattr(coupled, name)
-    raise AttributeError(f"module 'sloshrom.structure' has no attribute {name!r}")
+    raise AttributeError(f"module 'sloshrom.beam.structure' has no attribute {name!r}")

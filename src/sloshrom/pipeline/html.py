@@ -8,7 +8,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from sloshrom.stages import atomic_write_text
+from sloshrom.pipeline.cache import atomic_write_text
 
 
 @dataclass

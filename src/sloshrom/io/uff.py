@@ -1,4 +1,4 @@
-"""Universal File Format (UFF/UNV) dataset 58 time histories as :class:`sloshrom.data.Record`.
+"""Universal File Format (UFF/UNV) dataset 58 time histories as :class:`sloshrom.io.Record`.
 
 Test-lab software (LMS/Siemens Testlab, m+p, Dewesoft, ...) exports measured channels as UFF
 dataset 58 ("function at nodal DOF"). Each dataset is one channel; function type 1 is a time
@@ -30,7 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from sloshrom.data import (
+from sloshrom.fileio import atomic_write
+from sloshrom.io.record import (
     STANDARD_UNITS,
     Record,
     RecordError,
@@ -40,7 +41,6 @@ from sloshrom.data import (
     _why,
     is_known_unit,
 )
-from sloshrom.fileio import atomic_write
 
 __all__ = ["read_uff58", "write_uff58"]
 

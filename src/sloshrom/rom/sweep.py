@@ -61,7 +61,7 @@ def fit_point(
     """Train (or resume from disk) one grid point; returns its result row."""
     import time
 
-    from sloshrom.rom import NFIR, NOE, UnstableModelError
+    from sloshrom.rom.estimators import NFIR, NOE, UnstableModelError
 
     arch, delays, neurons = point
     name = point_name(arch, delays, neurons)

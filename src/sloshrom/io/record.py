@@ -10,7 +10,7 @@ records, so that they read each other's output and the user's own shaker data. F
   column or the ``fs`` argument.
 - MATLAB (``.mat``) v5 (scipy) and v7.3 (HDF5, h5py): one array per variable, optional ``fs``
   and ``units`` struct, optionally all inside one struct.
-- UFF dataset 58 (``.uff``/``.unv``): :mod:`sloshrom.uff`.
+- UFF dataset 58 (``.uff``/``.unv``): :mod:`sloshrom.io.uff`.
 
 Every bad input ends in one :class:`RecordError` whose single-line message names the file, the
 variable and the problem; nothing is dropped or guessed silently (complex values, huge values,
@@ -847,7 +847,7 @@ def read_record(
     si: bool = True,
 ) -> Record:
     """Read a record from NetCDF (``.nc``), CSV (``.csv``), MATLAB (``.mat``, v5 or v7.3) or
-    UFF dataset 58 (``.uff``/``.unv``, see :func:`sloshrom.uff.read_uff58`).
+    UFF dataset 58 (``.uff``/``.unv``, see :func:`sloshrom.io.uff.read_uff58`).
 
     Parameters
     ----------
@@ -859,7 +859,7 @@ def read_record(
     units : dict, optional
         Units for variables whose file gives none, e.g. ``{"acceleration": "g"}``. For NetCDF,
         CSV and MAT a unit that contradicts the file's, or a name the file does not have, is an
-        error; for UFF they override the ordinate labels (see :func:`sloshrom.uff.read_uff58`).
+        error; for UFF they override the ordinate labels (see :func:`sloshrom.io.uff.read_uff58`).
     si : bool
         Convert known units (g, mm, kN, mN, ms, ft/s, lbf, ...) to SI (default). Unknown units
         (``"V"``) are kept as written.
@@ -894,7 +894,7 @@ def read_record(
         elif suffix == ".mat":
             rec = _read_mat(p, fs, given)
         elif suffix in (".uff", ".unv"):
-            from sloshrom.uff import read_uff58  # UFF dataset 58 time histories (pyuff)
+            from sloshrom.io.uff import read_uff58  # UFF dataset 58 time histories (pyuff)
 
             rec = read_uff58(p, units=given)
             if fs is not None and abs(rec.fs - fs) > 1e-3 * fs:

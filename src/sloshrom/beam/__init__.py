@@ -1,0 +1,1 @@
+"""The sloshing beam: modal structure, coupled simulation and the damping analyses."""
