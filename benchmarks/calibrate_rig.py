@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from sloshrom.energy import default_grid, map_maximum, phi_d_map
-from sloshrom.rig.virtual import RigParams, VirtualRig
+from sloshrom.rig import RigParams, VirtualRig
 
 GRID = {
     "bubble_rate": [0.2, 0.3, 0.4],
