@@ -201,8 +201,10 @@ class Record:
         Sample rate, Hz; ``None`` derives it from ``time``. If given it must be a finite positive
         number matching ``time`` (0.1 %).
     variables : dict of str to array_like
-        Each of shape ``(n,)`` or ``(n, k)`` with ``n = len(time)``; real, finite values of
-        magnitude below :data:`MAX_ABS_VALUE` (1e100).
+        Each of shape ``(n,)`` or ``(n, k)`` with ``n = len(time)``: **time on axis 0**, as in
+        the files (the numerical core puts time on the last axis: transpose 2-D variables before
+        passing them to it). Real, finite values of magnitude below :data:`MAX_ABS_VALUE`
+        (1e100).
     units : dict of str to str
         A non-empty unit string for every variable (``"time"`` optional, always ``"s"``). Known
         spellings are normalised (``"m/s2"`` -> ``"m/s^2"``); values are NOT converted (see
