@@ -35,7 +35,8 @@ from pathlib import Path
 import numpy as np
 
 from sloshrom.energy import default_grid, map_maximum, phi_d_map
-from sloshrom.rig.virtual import RigParams, VirtualRig
+from sloshrom.rig import RigParams, VirtualRig
+from sloshrom.signals import SHAKER_ENVELOPE
 
 GRID = {
     "bubble_rate": [0.2, 0.3, 0.4],
@@ -117,7 +118,7 @@ def main(write: bool = False) -> RigParams:
     print(f"\n{len(results)} candidates in {elapsed:.0f} s; best score {best_s:.3f}")
     print(best)
     if write:
-        path = Path(__file__).resolve().parents[1] / "src" / "sloshrom" / "rig_params.toml"
+        path = Path(__file__).resolve().parents[1] / "src" / "sloshrom" / "rig" / "rig_params.toml"
         best.to_toml(
             path,
             comment=(
@@ -179,7 +180,7 @@ def figures(out_dir: Path | None = None) -> dict:
     for fr in (6.0, 8.0, 10.0, 12.0, 15.0, 18.0, 22.0):
         obar = 2 * math.pi * fr / rig.tank.reference_frequency
         abar = 4.0 / obar**2
-        if abar <= 0.45:
+        if abar <= SHAKER_ENVELOPE.a_bar_max:
             val = float(phi_d_map(rig, [obar], [abar]).values[0, 0])
             rows.append((fr, obar, abar, val))
             print(f"Gamma 4 g: f {fr:5.1f} Hz omega_bar {obar:.2f} a_bar {abar:.3f} "

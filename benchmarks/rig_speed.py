@@ -22,7 +22,7 @@ import time
 import numpy as np
 
 from sloshrom.energy import default_grid, map_maximum, phi_d_map
-from sloshrom.rig.virtual import VirtualRig, rig_step
+from sloshrom.rig import VirtualRig, rig_step
 from sloshrom.signals import harmonic
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sloshrom.io.record import Record, RecordError, preprocess, read_record, require, write_record
+from sloshrom.io import Record, RecordError, preprocess, read_record, require, write_record
 
 T = np.arange(100) / 100.0
 X = np.sin(T)

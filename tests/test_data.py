@@ -8,7 +8,7 @@ import pytest
 import scipy.io
 
 from sloshrom.config import G, Tank
-from sloshrom.io.record import (
+from sloshrom.io import (
     Record,
     canonical_unit,
     dynamic_force,
@@ -371,7 +371,7 @@ def test_cli_rig_real_harmonic(tmp_path):
 def test_preprocessing_exact_on_noise_free_rig():
     """Without sensor noise, preprocessing the real rig's output recovers its truth."""
     import sloshrom.rig.virtual as rig_mod
-    from sloshrom.io.record import record_from_measurement
+    from sloshrom.io import record_from_measurement
 
     rig = rig_mod.VirtualRig(sensors=rig_mod.SensorParams(force_noise=0.0, acceleration_noise=0.0))
     p = vfa(1.0 / rig.dt, "validation", duration=20.0)

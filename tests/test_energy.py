@@ -30,6 +30,8 @@ TANK = Tank()
 class LinearDamper:
     """f_S = -c w' (so dF = -c w' + m_l w''): Phi_d = pi c / (m_l Omega) exactly."""
 
+    force_rule = "trapezoid"  # point samples (the model contract)
+
     def __init__(self, c: float, dt: float = 1e-3, tank: Tank = TANK) -> None:
         self.c = c
         self.dt = dt

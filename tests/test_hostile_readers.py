@@ -21,7 +21,7 @@ import scipy.io
 import xarray as xr
 
 from sloshrom.config import G
-from sloshrom.io.record import (
+from sloshrom.io import (
     MAX_ABS_VALUE,
     Record,
     RecordError,

@@ -10,8 +10,9 @@ import pytest
 
 from sloshrom.config import ConfigError, G, Tank
 from sloshrom.energy import default_grid, dissipated_energy, map_maximum, phi_d_map
-from sloshrom.rig import virtual as rigmod
-from sloshrom.rig.virtual import RigParams, SensorParams, VirtualRig, energy_audit
+from sloshrom.models import CompiledKernel, SloshingModel
+from sloshrom.rig import RigParams, SensorParams, VirtualRig, energy_audit
+from sloshrom.rig import physics as rigmod
 from sloshrom.signals import harmonic
 
 TANK = Tank()
@@ -162,6 +163,12 @@ def test_simulate_batched_leading_axes(rig):
     out = rig.simulate(v, a)
     assert out.shape == (2, 2, n)
     np.testing.assert_array_equal(out[1, 0], rig.simulate(v[1, 0], a[1, 0]))
+
+
+def test_rig_satisfies_the_model_protocols(rig):
+    assert isinstance(rig, SloshingModel)
+    assert isinstance(rig, CompiledKernel)
+    assert rig.force_rule == "step"
 
 
 def test_kernel_inside_numba_loop(rig):

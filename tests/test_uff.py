@@ -9,7 +9,7 @@ import pytest
 import pyuff  # a hard dependency: an import error must fail, not skip
 
 from sloshrom.config import G, Tank
-from sloshrom.io.record import Record, RecordError, preprocess, read_record
+from sloshrom.io import Record, RecordError, preprocess, read_record
 from sloshrom.io.uff import read_uff58, write_uff58
 
 
@@ -174,7 +174,7 @@ def test_cli_train_on_uff(tmp_path, rig_measurement):
 
     import sloshrom.cli.rom  # noqa: F401  (registers `train` on the app)
     from sloshrom.cli import app
-    from sloshrom.io.record import record_from_measurement
+    from sloshrom.io import record_from_measurement
     from sloshrom.rom.estimators import load_model
 
     rec = record_from_measurement(rig_measurement, truth=False)

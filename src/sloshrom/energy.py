@@ -5,6 +5,10 @@ force the liquid exerts on the tank, the energy dissipated per cycle is
 ``L_d = -oint f_S dw = -oint dF dw`` (the inertia term integrates to zero over whole cycles),
 ``Phi_d = L_d / (m_l a^2 Omega^2)``, ``omega_bar = Omega / sqrt(g/h)``, ``a_bar = a / h`` and the
 acceleration amplitude in g is ``Gamma = a_bar omega_bar^2``.
+
+The maps are evaluated inside the shaker envelope :data:`sloshrom.signals.SHAKER_ENVELOPE` (the
+one definition of the test domain, shared with the VFA paths). Arrays put time on the last axis,
+independent runs (batches) on the leading axes, as ``SloshingModel.simulate`` does.
 """
 
 from __future__ import annotations
@@ -18,9 +22,11 @@ import numpy as np
 import xarray as xr
 
 from sloshrom.config import Tank
-from sloshrom.signals import harmonic
+from sloshrom.models import SloshingModel
+from sloshrom.signals import SHAKER_ENVELOPE, harmonic
 
 __all__ = [
+    "DEFAULT_A_BAR_MIN",
     "default_grid",
     "dissipated_energy",
     "hysteresis_loop",
@@ -129,12 +135,27 @@ def shaker_envelope(
     omega_bar: Any,
     a_bar: Any,
     tank: Tank,
-    f_min: float = 5.0,
-    f_max: float = 25.0,
-    gamma_max: float = 6.0,
-    a_bar_max: float = 0.45,
+    f_min: float = SHAKER_ENVELOPE.f_min,
+    f_max: float = SHAKER_ENVELOPE.f_max,
+    gamma_max: float = SHAKER_ENVELOPE.gamma_max,
+    a_bar_max: float = SHAKER_ENVELOPE.a_bar_max,
 ) -> np.ndarray:
-    """Boolean mask (omega_bar, a_bar) of the points the shaker can play (estimates)."""
+    """Boolean mask of the grid points (omega_bar, a_bar) the shaker can play.
+
+    Parameters
+    ----------
+    omega_bar, a_bar : array_like
+        1-D grids of Omega / sqrt(g/h) and a / h.
+    tank : Tank
+        Sets h.
+    f_min, f_max, gamma_max, a_bar_max : float
+        The envelope (Hz, Hz, g, -); default :data:`sloshrom.signals.SHAKER_ENVELOPE`.
+
+    Returns
+    -------
+    ndarray of bool
+        Shape ``(len(omega_bar), len(a_bar))``.
+    """
     ob = np.asarray(omega_bar, dtype=np.float64)[:, None]
     ab = np.asarray(a_bar, dtype=np.float64)[None, :]
     f = ob * tank.reference_frequency / (2 * math.pi)
@@ -147,27 +168,47 @@ def shaker_envelope(
     )
 
 
+#: Smallest a_bar of the default map grid (below it the force is at the noise floor).
+DEFAULT_A_BAR_MIN = 0.01
+
+
 def default_grid(n: int = 30, tank: Tank | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Default (omega_bar, a_bar) grid: 5-25 Hz and a_bar in [0.01, 0.45], n x n points."""
+    """Default (omega_bar, a_bar) grid over the shaker envelope, n x n points.
+
+    Frequencies ``SHAKER_ENVELOPE.f_min`` to ``f_max`` (5-25 Hz) and a_bar from
+    :data:`DEFAULT_A_BAR_MIN` to ``SHAKER_ENVELOPE.a_bar_max`` (0.01-0.45), both linear.
+
+    Parameters
+    ----------
+    n : int
+        Points per axis.
+    tank : Tank, optional
+        Sets sqrt(g/h) (default: the paper tank).
+
+    Returns
+    -------
+    omega_bar, a_bar : ndarray
+    """
     tank = tank if tank is not None else Tank()
+    env = SHAKER_ENVELOPE
     w0 = tank.reference_frequency
-    ob = np.linspace(2 * math.pi * 5.0 / w0, 2 * math.pi * 25.0 / w0, n)
-    ab = np.linspace(0.01, 0.45, n)
+    ob = np.linspace(2 * math.pi * env.f_min / w0, 2 * math.pi * env.f_max / w0, n)
+    ab = np.linspace(DEFAULT_A_BAR_MIN, env.a_bar_max, n)
     return ob, ab
 
 
 def phi_d_map(
-    model: Any,
+    model: SloshingModel,
     omega_bar: Any,
     a_bar: Any,
     tank: Tank | None = None,
     n_cycles: int = 12,
     n_ramp: int = 3,
     settle_time: float = 0.5,
-    f_min: float = 5.0,
-    f_max: float = 25.0,
-    gamma_max: float = 6.0,
-    a_bar_max: float = 0.45,
+    f_min: float = SHAKER_ENVELOPE.f_min,
+    f_max: float = SHAKER_ENVELOPE.f_max,
+    gamma_max: float = SHAKER_ENVELOPE.gamma_max,
+    a_bar_max: float = SHAKER_ENVELOPE.a_bar_max,
     progress: Callable[[int, int], None] | None = None,
 ) -> xr.DataArray:
     """Phi_d(omega_bar, a_bar) from batched ramped harmonic tests through ``model.simulate``.
@@ -177,12 +218,14 @@ def phi_d_map(
 
     Parameters
     ----------
-    model : sloshing model
-        Anything with ``dt`` and ``simulate(velocity, acceleration)`` (rig, ROM, frozen).
+    model : SloshingModel
+        Rig, ROM or frozen liquid: ``dt``, ``force_rule`` (how its force samples integrate) and
+        ``simulate(velocity, acceleration)`` on batches ``(n_runs, n)``.
     omega_bar, a_bar : array_like
         1-D grids of Omega / sqrt(g/h) and a / h.
     tank : Tank, optional
-        Sets h, m_l (default: ``model.tank`` if present, else the paper tank).
+        Sets h, m_l. Pass it for models identified on another tank than the paper's; default:
+        the model's own tank if it carries one (the virtual rig's ``tank``), else the paper tank.
     n_cycles : int
         Steady cycles evaluated per point.
     n_ramp : int
@@ -190,7 +233,7 @@ def phi_d_map(
     settle_time : float
         Time held at full amplitude before the evaluated cycles, s (at least 2 cycles).
     f_min, f_max, gamma_max, a_bar_max : float
-        Shaker envelope (Hz, Hz, g, -), engineering estimates.
+        Shaker envelope (Hz, Hz, g, -); default :data:`sloshrom.signals.SHAKER_ENVELOPE`.
     progress : callable, optional
         Called as ``progress(done, total)`` after each frequency.
 
@@ -201,12 +244,14 @@ def phi_d_map(
         attrs with units and provenance.
     """
     if tank is None:
+        # not part of the model contract: the rig carries its tank, ROMs and FrozenLiquid do not
         tank = getattr(model, "tank", None) or Tank()
     ob = np.atleast_1d(np.asarray(omega_bar, dtype=np.float64))
     ab = np.atleast_1d(np.asarray(a_bar, dtype=np.float64))
     if ob.ndim != 1 or ab.ndim != 1 or np.any(ob <= 0) or np.any(~np.isfinite(ab)):
         raise ValueError("omega_bar and a_bar must be 1-D grids of positive numbers")
     fs = 1.0 / float(model.dt)
+    # Transitional default: the contract requires force_rule, which the ROMs do not carry yet.
     rule = getattr(model, "force_rule", "trapezoid")
     mask = shaker_envelope(ob, ab, tank, f_min, f_max, gamma_max, a_bar_max)
     out = np.full((ob.size, ab.size), np.nan)
@@ -261,6 +306,7 @@ def phi_d_map(
             "elapsed_s": elapsed,
             "provenance": "sloshrom.energy.phi_d_map (ramped harmonic tests)",
             "sloshrom_version": _version(),
+            # provenance only (not part of the contract): -1 for models without a seed
             "model_seed": int(getattr(model, "seed", -1)),
         },
     )

@@ -135,12 +135,51 @@ def _ramp_c2(t: np.ndarray, t_up: float, t_total: float) -> tuple[np.ndarray, ..
 
 
 @dataclass(frozen=True)
+class ShakerEnvelope:
+    """The domain of the shaker tests: VFA paths and Phi_d maps (estimates, SI except as noted).
+
+    The one definition of the test domain: :func:`vfa`, :func:`vfa_gamma_limit`,
+    :func:`sloshrom.energy.shaker_envelope`, :func:`sloshrom.energy.phi_d_map` and
+    :func:`sloshrom.energy.default_grid` take their defaults from :data:`SHAKER_ENVELOPE`. The
+    paper plays 5-25 Hz up to 6 g; ``a_bar_max`` keeps the displacement within the shaker's
+    stroke for the paper tank (0.45 h = 12.2 mm < 12.5 mm, see :class:`ShakerLimits`).
+
+    Attributes
+    ----------
+    f_min, f_max : float
+        Frequency band, Hz.
+    gamma_max : float
+        Largest acceleration amplitude ``a Omega^2 / g``, g.
+    a_bar_max : float
+        Largest displacement amplitude over tank height ``a / h``, -.
+    """
+
+    f_min: float = 5.0
+    f_max: float = 25.0
+    gamma_max: float = 6.0
+    a_bar_max: float = 0.45
+
+    def __post_init__(self) -> None:
+        for name in ("f_min", "f_max", "gamma_max", "a_bar_max"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v > 0):
+                raise ValueError(f"ShakerEnvelope.{name} must be finite and positive, got {v!r}")
+        if not self.f_min < self.f_max:
+            raise ValueError(f"ShakerEnvelope: need f_min < f_max, got {self.f_min}, {self.f_max}")
+
+
+#: The shaker-test domain of the paper (5-25 Hz, Gamma <= 6 g, a_bar <= 0.45): the defaults.
+SHAKER_ENVELOPE = ShakerEnvelope()
+
+
+@dataclass(frozen=True)
 class ShakerLimits:
     """Limits of the electrodynamic shaker that a VFA path must respect (SI).
 
     The paper does not give its shaker; the defaults are engineering estimates of a small
     laboratory shaker (±12.5 mm stroke, 1 m/s, 6 g) and are only upper bounds: the VFA domain
-    (``a_bar <= 0.45`` of the paper tank, i.e. 12.2 mm) is usually the tighter one.
+    (:data:`SHAKER_ENVELOPE`, ``a_bar <= 0.45`` of the paper tank, i.e. 12.2 mm) is usually the
+    tighter one. The acceleration limit is the envelope's ``gamma_max`` (one definition of 6 g).
 
     Attributes
     ----------
@@ -154,13 +193,17 @@ class ShakerLimits:
 
     max_displacement: float = 0.0125
     max_velocity: float = 1.0
-    max_acceleration: float = 6.0 * G
+    max_acceleration: float = SHAKER_ENVELOPE.gamma_max * G
 
     def __post_init__(self) -> None:
         for name in ("max_displacement", "max_velocity", "max_acceleration"):
             v = getattr(self, name)
             if not (np.isfinite(v) and v > 0):
                 raise ValueError(f"ShakerLimits.{name} must be finite and positive, got {v!r}")
+
+
+#: The (estimated) limits of the paper's shaker: 12.5 mm, 1 m/s, 6 g.
+SHAKER_LIMITS = ShakerLimits()
 
 
 @dataclass(frozen=True)
@@ -245,8 +288,8 @@ def _softmin_log(values: list[np.ndarray], tau: float = 0.03) -> np.ndarray:
 def vfa_gamma_limit(
     frequency: np.ndarray,
     tank: Tank | None = None,
-    a_bar_max: float = 0.45,
-    gamma_max: float = 6.0,
+    a_bar_max: float = SHAKER_ENVELOPE.a_bar_max,
+    gamma_max: float = SHAKER_ENVELOPE.gamma_max,
     limits: ShakerLimits | None = None,
 ) -> np.ndarray:
     """Largest acceleration amplitude (in g) a VFA path may reach at each frequency.
@@ -265,6 +308,7 @@ def vfa_gamma_limit(
     gamma_max : float
         Largest acceleration amplitude, g.
     limits : ShakerLimits, optional
+        Default :data:`SHAKER_LIMITS`.
 
     Returns
     -------
@@ -272,7 +316,7 @@ def vfa_gamma_limit(
         Acceleration amplitude limit, g.
     """
     tank = Tank() if tank is None else tank
-    limits = ShakerLimits() if limits is None else limits
+    limits = SHAKER_LIMITS if limits is None else limits
     om = 2.0 * np.pi * np.asarray(frequency, dtype=float)
     omb2 = om**2 / (G / tank.height)
     ones = np.ones_like(om)
@@ -293,10 +337,10 @@ def vfa(
     duration: float | None = None,
     tank: Tank | None = None,
     seed: int = 0,
-    f_min: float = 5.0,
-    f_max: float = 25.0,
-    a_bar_max: float = 0.45,
-    gamma_max: float = 6.0,
+    f_min: float = SHAKER_ENVELOPE.f_min,
+    f_max: float = SHAKER_ENVELOPE.f_max,
+    a_bar_max: float = SHAKER_ENVELOPE.a_bar_max,
+    gamma_max: float = SHAKER_ENVELOPE.gamma_max,
     limits: ShakerLimits | None = None,
     ramp: float = 2.0,
 ) -> VFA:
@@ -337,7 +381,7 @@ def vfa(
     VFA
     """
     tank = Tank() if tank is None else tank
-    limits = ShakerLimits() if limits is None else limits
+    limits = SHAKER_LIMITS if limits is None else limits
     if split not in _VFA_FAMILIES:
         raise ValueError(f"split must be 'train' or 'validation', got {split!r}")
     fam = _VFA_FAMILIES[split]

@@ -31,16 +31,8 @@ from typing import Any
 import numpy as np
 
 from sloshrom.fileio import atomic_write
-from sloshrom.io.record import (
-    STANDARD_UNITS,
-    Record,
-    RecordError,
-    _show,
-    _time_unit,
-    _unit_text,
-    _why,
-    is_known_unit,
-)
+from sloshrom.io.record import Record, RecordError, _show, _unit_text, _why
+from sloshrom.io.units import STANDARD_UNITS, _time_unit, is_known_unit
 
 __all__ = ["read_uff58", "write_uff58"]
 

@@ -1,4 +1,21 @@
-"""The virtual shaker rig: a physics-based tank simulator that plays the shaker experiment."""
+"""The virtual shaker rig: a physics-based tank simulator that plays the shaker experiment.
 
-from sloshrom.rig.virtual import *  # noqa: F403
-from sloshrom.rig.virtual import __all__  # noqa: F401
+Modules: :mod:`~sloshrom.rig.params` (parameters, TOML), :mod:`~sloshrom.rig.physics` (tank modes,
+numba kernel), :mod:`~sloshrom.rig.virtual` (:class:`VirtualRig`, sensors) and
+:mod:`~sloshrom.rig.audit` (energy balance).
+"""
+
+from sloshrom.rig.audit import energy_audit
+from sloshrom.rig.params import RigParams, SensorParams
+from sloshrom.rig.physics import faraday_modes, rig_kernel_step, rig_step
+from sloshrom.rig.virtual import VirtualRig
+
+__all__ = [
+    "RigParams",
+    "SensorParams",
+    "VirtualRig",
+    "energy_audit",
+    "faraday_modes",
+    "rig_kernel_step",
+    "rig_step",
+]
