@@ -170,10 +170,11 @@ def _number(lo: float | None = None, hi: float | None = None, *, lo_open: bool =
     """A finite number (an integer if ``integer``) in [lo, hi] (open ends on request)."""
     ends = ("-inf" if lo is None else _fmt(lo), "inf" if hi is None else _fmt(hi))
     interval = f"{'(' if lo_open else '['}{ends[0]}, {ends[1]}{')' if hi_open else ']'}"
+    says = _Says(f"{what} in {interval}", why)
     bounds = Field(gt=lo if lo_open else None, ge=None if lo_open else lo,
                    lt=hi if hi_open else None, le=None if hi_open else hi,
-                   **({} if integer else {"allow_inf_nan": False}))
-    return Annotated[int if integer else float, bounds, _Says(f"{what} in {interval}", why)]
+                   description=says.what, **({} if integer else {"allow_inf_nan": False}))
+    return Annotated[int if integer else float, bounds, says]
 
 
 def _distinct(v: list[Any]) -> list[Any]:
@@ -348,6 +349,8 @@ class _BeamTable(_Table):
 
 class ReproduceConfig(_Table):
     """The whole configuration of `sloshrom reproduce`, one model per table of ``defaults.toml``.
+
+    ``ReproduceConfig.model_json_schema()`` gives it as a JSON schema (for an editor).
 
     Every key is required (:func:`load` starts from the defaults); the checks between tables
     (a network's training samples, the excitation band and the beam's modes against the record
