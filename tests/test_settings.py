@@ -37,10 +37,11 @@ def test_bad_user_config(tmp_path, text, match):
 
 # -- validate -------------------------------------------------------------------------------------
 def test_every_default_key_has_a_check():
-    """A key added to defaults.toml without a check in settings.validate fails here."""
+    """defaults.toml and the schema list the same keys: a key added to one fails here."""
     cfg = settings.defaults()
-    checked = {f"{t}.{k}" for t, keys in settings._SPEC.items() for k in keys}
-    keys = {f"{t}.{k}" for t, sec in cfg.items() if t != "tank" for k in sec}
+    tables = settings.ReproduceConfig.model_fields
+    checked = {f"{t}.{k}" for t, f in tables.items() for k in f.annotation.model_fields}
+    keys = {f"{t}.{k}" for t, sec in cfg.items() for k in sec}
     assert keys == checked
     assert settings.validate(settings.defaults()) is not None
     assert settings.validate(settings.merge(settings.defaults(), settings.QUICK))
@@ -62,6 +63,21 @@ def test_every_default_key_has_a_check():
         (lambda c: c.update(extra={}), r"unknown configuration key 'extra'"),
         (lambda c: c["tank"].update(fill=1.5), r"\[tank\]: fill level must be in \(0, 1\)"),
         (lambda c: c["data"].update(validation_seed=-3), r"'data\.validation_seed'"),
+        (lambda c: c["tank"].update(spill=1.0), r"unknown configuration key 'tank\.spill'"),
+        (lambda c: c["tank"].update(fill="half"), r"'tank\.fill' must be a number, got 'half'"),
+        (lambda c: c.update(rom=3), r"^'rom' must be a table$"),
+        (lambda c: c["rom"].update(neurons=3.0),
+         r"^'rom\.neurons' must be an integer in \[1, 1000\], got 3\.0$"),
+        (lambda c: c["rom"].update(sweep_noe_neurons=[3, 3]),
+         r"^'rom\.sweep_noe_neurons' must not repeat a value, got \[3, 3\]$"),
+        (lambda c: c["map"].update(a_bar_min=float("nan")),
+         r"^'map\.a_bar_min' must be a displacement amplitude / tank height in \(0, 1\], got nan$"),
+        (lambda c: c["beam"].update(f0=0.0), r"'beam\.f0' must be a frequency in Hz in \(0, inf\]"),
+        (lambda c: c["rig"].update(fs=300.0), r"'rig\.fs' = 300 Hz must divide the rig's 10000 Hz"),
+        (lambda c: c["beam"].update(youngs_modulus=70.0),
+         r"'beam\.youngs_modulus' must be a Young's modulus in Pa in \[1e\+06, 1e\+13\]"),
+        (lambda c: c["beam"].update(n_modes=5, damping=[0.01] * 5),
+         r"'beam\.n_modes' = 5: mode 5 of the beam \(676 Hz\) lies above the Nyquist"),
     ],
 )
 def test_validate_names_the_key(edit, match):
@@ -69,6 +85,38 @@ def test_validate_names_the_key(edit, match):
     edit(cfg)
     with pytest.raises(ConfigError, match=match):
         settings.validate(cfg)
+
+
+def test_missing_and_unknown_keys_come_before_values():
+    """The first problem reported is a structural one, whatever the order of the tables."""
+    cfg = settings.defaults()
+    cfg["rig"]["fs"] = -1.0  # a bad value in an early table ...
+    cfg["beam"]["colour"] = "red"  # ... and an unknown key in a later one
+    with pytest.raises(ConfigError, match=r"^unknown configuration key 'beam\.colour'$"):
+        settings.validate(cfg)
+
+
+def test_relations_wait_for_valid_values():
+    """A relation is checked only once the keys it involves are valid on their own."""
+    cfg = settings.defaults()
+    cfg["map"].update(f_min=30.0)  # f_min > f_max: a relation
+    cfg["beam"].update(seed=-1)  # a value: reported first
+    with pytest.raises(ConfigError, match=r"^'beam\.seed' must be a non-negative integer seed"):
+        settings.validate(cfg)
+
+
+def test_validate_returns_the_dict_unchanged():
+    cfg = settings.defaults()
+    cfg["rig"]["seed"] = 7
+    snapshot = repr(cfg)
+    assert settings.validate(cfg) is cfg and repr(cfg) == snapshot
+
+
+def test_schema_is_the_single_source_of_bounds():
+    """The interval in a message is the one pydantic enforces (both come from one call)."""
+    field = settings.ReproduceConfig.model_fields["rig"].annotation.model_fields["fs"]
+    bounds = {type(m).__name__: m for m in field.metadata}
+    assert bounds["Ge"].ge == 100.0 and bounds["Le"].le == 5000.0
 
 
 def test_load_validates(tmp_path):

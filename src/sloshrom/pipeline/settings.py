@@ -1,8 +1,9 @@
 """Configuration of `sloshrom reproduce`: the shipped defaults, merged with a user's TOML file.
 
-:func:`load` merges and then :func:`validate`\\ s: every key of ``defaults.toml`` is checked
-(type, bounds, list contents and the relations between keys) *before* any stage runs, so that a
-bad value costs one error line naming the key, not a traceback after minutes of work.
+:func:`load` merges and then :func:`validate`\\ s against :class:`ReproduceConfig`, a pydantic
+schema with one model per TOML table: every key of ``defaults.toml`` is checked (type, bounds,
+list contents and the relations between keys) *before* any stage runs, so that a bad value costs
+one error line naming the key, not a traceback after minutes of work. Unknown keys are refused.
 """
 
 from __future__ import annotations
@@ -10,24 +11,45 @@ from __future__ import annotations
 import copy
 import math
 import tomllib
-from collections.abc import Callable
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, Literal, get_args
 
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    model_validator,
+)
+from pydantic_core import ErrorDetails, PydanticCustomError
+
+from sloshrom.beam.structure import CantileverBeam, ModalModel, coupled_frozen_modes
 from sloshrom.config import ConfigError, Tank, load_toml
 
 __all__ = [
+    "BEAM_FS",
     "FREE_DAMPING_PERIODS",
+    "MAX_BEAM_SECONDS",
     "MAX_FINE_SECONDS",
+    "MAX_LEVEL_SECONDS",
     "MIN_RANDOM_DURATION",
     "MIN_VFA_DURATION",
     "QUICK",
+    "RIG_RATE",
+    "WELCH_NPERSEG",
+    "ReproduceConfig",
+    "check_analysis_band",
+    "check_psd_band",
     "default_text",
     "defaults",
+    "first_frozen_frequency",
     "load",
     "merge",
     "min_free_duration",
+    "training_samples",
     "validate",
 ]
 
@@ -56,12 +78,6 @@ WELCH_NPERSEG = 16384
 #: A random response must hold at least one Welch segment (32.8 s at 500 Hz); 90 s (paper) give
 #: four half-overlapping segments, hence a much smoother estimate.
 MIN_RANDOM_DURATION = math.ceil(WELCH_NPERSEG / BEAM_FS)
-#: Bounds of the beam's geometry and material (SI): a laboratory or wing-like beam, not a typo
-#: in mm or GPa.
-_BEAM_BOUNDS = {"length": (0.01, 100.0, "a length in m"), "width": (1e-4, 10.0, "a width in m"),
-                "thickness": (1e-4, 1.0, "a thickness in m"),
-                "youngs_modulus": (1e6, 1e13, "a Young's modulus in Pa"),
-                "density": (1.0, 3e4, "a density in kg/m^3")}
 #: ``analysis.instantaneous_damping`` trims 5 periods of mode 1 at each end and smooths over 4;
 #: 4 more periods leave a decay to analyse (18 periods: 1.8 s for the paper beam, f1 = 10.2 Hz).
 FREE_DAMPING_PERIODS = 2 * 5 + 4 + 4
@@ -85,7 +101,11 @@ def defaults() -> dict[str, Any]:
 
 
 def merge(base: dict[str, Any], override: dict[str, Any], where: str = "") -> dict[str, Any]:
-    """Deep-merge ``override`` into a copy of ``base``; unknown keys or wrong types are errors."""
+    """Deep-merge ``override`` into a copy of ``base``; unknown keys or wrong types are errors.
+
+    A number given where ``base`` holds a float becomes a float (TOML ``fs = 500`` reads as an
+    integer), so a merged configuration has the types of the defaults.
+    """
     out = copy.deepcopy(base)
     for key, value in override.items():
         path = f"{where}{key}"
@@ -127,137 +147,263 @@ def load(path: str | Path | None = None, quick: bool = False) -> dict[str, Any]:
     return validate(cfg)
 
 
-# -- validation --------------------------------------------------------------------------------
-Check = Callable[[str, Any], None]
-
-
-def _is_number(v: Any) -> bool:
-    return isinstance(v, int | float) and not isinstance(v, bool)
-
-
+# -- field types: bounds for pydantic, words for the messages -----------------------------------
 def _fmt(v: float) -> str:
     return str(v) if isinstance(v, int) else f"{v:g}"
 
 
+@dataclass(frozen=True)
+class _Says:
+    """How a key is described in an error message: ``what`` it is and, for a list, its items."""
+
+    what: str
+    why: str = ""
+    item: _Says | None = None
+
+    def value(self, key: str, v: Any) -> str:
+        return f"'{key}' must be {self.what}, got {v!r}" + (f" ({self.why})" if self.why else "")
+
+
 def _number(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False,
             hi_open: bool = False, integer: bool = False, what: str = "a number",
-            why: str = "") -> Check:
+            why: str = "") -> Any:
     """A finite number (an integer if ``integer``) in [lo, hi] (open ends on request)."""
-
-    def check(key: str, v: Any) -> None:
-        ok = isinstance(v, int) and not isinstance(v, bool) if integer else _is_number(v)
-        ok = ok and math.isfinite(v)
-        ok = ok and (lo is None or (v > lo if lo_open else v >= lo))
-        ok = ok and (hi is None or (v < hi if hi_open else v <= hi))
-        if not ok:
-            ends = ("-inf" if lo is None else _fmt(lo), "inf" if hi is None else _fmt(hi))
-            rng = f"{'(' if lo_open else '['}{ends[0]}, {ends[1]}{')' if hi_open else ']'}"
-            raise ConfigError(f"'{key}' must be {what} in {rng}, got {v!r}"
-                              + (f" ({why})" if why else ""))
-
-    return check
+    ends = ("-inf" if lo is None else _fmt(lo), "inf" if hi is None else _fmt(hi))
+    interval = f"{'(' if lo_open else '['}{ends[0]}, {ends[1]}{')' if hi_open else ']'}"
+    says = _Says(f"{what} in {interval}", why)
+    bounds = Field(gt=lo if lo_open else None, ge=None if lo_open else lo,
+                   lt=hi if hi_open else None, le=None if hi_open else hi,
+                   description=says.what, **({} if integer else {"allow_inf_nan": False}))
+    return Annotated[int if integer else float, bounds, says]
 
 
-def _choice(*options: str) -> Check:
-    def check(key: str, v: Any) -> None:
-        if v not in options:
+def _distinct(v: list[Any]) -> list[Any]:
+    if len(set(v)) != len(v):
+        raise PydanticCustomError("distinct", "must not repeat a value")
+    return v
+
+
+def _list(item: Any, what: str, distinct: bool = False) -> Any:
+    """A non-empty list whose every element is an ``item``."""
+    says = _Says(f"a non-empty list of {what}", item=next(
+        m for m in get_args(item) if isinstance(m, _Says)))
+    checks = (AfterValidator(_distinct),) if distinct else ()
+    return Annotated[list[item], Field(min_length=1), says, *checks]
+
+
+Seed = _number(0, 2**32 - 1, integer=True, what="a non-negative integer seed")
+VfaSeconds = _number(MIN_VFA_DURATION, MAX_FINE_SECONDS, what="a VFA duration in s",
+                     why="the shortest VFA path is 10 s; 1 h at the rig's 10 kHz step needs "
+                         "about 6 GB of memory")
+Size = _number(1, 1000, integer=True, what="an integer")
+GridSize = _number(2, 200, integer=True, what="an integer")
+MapFrequency = _number(1.0, 200.0, what="a frequency in Hz")
+ABar = _number(0.0, 1.0, lo_open=True, what="a displacement amplitude / tank height")
+PositiveHz = _number(0.0, lo_open=True, what="a frequency in Hz")
+BeamSeconds = _number(0.0, MAX_BEAM_SECONDS, lo_open=True, what="a duration in s")
+Grid = _list(Size, "delays (integers in [1, 1000])", distinct=True)
+NeuronGrid = _list(Size, "neuron counts (integers in [1, 1000])", distinct=True)
+
+
+class _Table(BaseModel):
+    # strict: TOML types only (no "3" -> 3, no true -> 1, no 3.0 -> 3); unknown keys are refused
+    model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
+
+
+class _TankTable(_Table):
+    """``[tank]``: numbers here, values checked by :class:`sloshrom.config.Tank` itself."""
+
+    length: int | float
+    width: int | float
+    height: int | float
+    fill: int | float
+    density: int | float
+    surface_tension: int | float
+    structure_mass: int | float
+
+    def tank(self) -> Tank:
+        try:
+            return Tank(**self.model_dump())
+        except ConfigError as exc:
+            raise ConfigError(f"[tank]: {exc}") from None
+
+    @model_validator(mode="after")
+    def _physical(self) -> _TankTable:
+        self.tank()
+        return self
+
+
+class _RigTable(_Table):
+    seed: Seed
+    # the record rate of the rig's sensors: decimated from the 5 kHz acquisition, and the VFA
+    # band (up to 25 Hz) must lie well inside the anti-alias passband 0.8 fs/2
+    fs: _number(100.0, 5000.0, what="a record rate in Hz",
+                why="decimated from the sensors' 5 kHz acquisition; 25 Hz must stay inside the "
+                    "anti-alias passband 0.8 fs/2")
+
+    @model_validator(mode="after")
+    def _divides_rig_rate(self) -> _RigTable:
+        if abs(RIG_RATE / self.fs - round(RIG_RATE / self.fs)) > 1e-9:
             raise ConfigError(
-                f"'{key}' must be " + " or ".join(f'"{o}"' for o in options) + f", got {v!r}")
-
-    return check
-
-
-def _boolean(key: str, v: Any) -> None:
-    if not isinstance(v, bool):
-        raise ConfigError(f"'{key}' must be true or false, got {v!r}")
+                f"'rig.fs' = {self.fs:g} Hz must divide the rig's {RIG_RATE:g} Hz integration "
+                "rate (e.g. 250, 500, 1000, 2000 Hz): the beam's random excitation is made at "
+                "fs and upsampled exactly for the rig")
+        return self
 
 
-def _list(element: Check, what: str, distinct: bool = False) -> Check:
-    """A non-empty list whose every element passes ``element``."""
-
-    def check(key: str, v: Any) -> None:
-        if not isinstance(v, list) or not v:
-            raise ConfigError(f"'{key}' must be a non-empty list of {what}, got {v!r}")
-        for i, x in enumerate(v):
-            try:
-                element(f"{key}[{i}]", x)
-            except ConfigError as exc:
-                raise ConfigError(f"'{key}' must be a non-empty list of {what}: {exc}") from None
-        if distinct and len(set(v)) != len(v):
-            raise ConfigError(f"'{key}' must not repeat a value, got {v!r}")
-
-    return check
+class _DataTable(_Table):
+    train_duration: VfaSeconds
+    validation_duration: VfaSeconds
+    train_seed: Seed
+    validation_seed: Seed
 
 
-_SEED = _number(0, 2**32 - 1, integer=True, what="a non-negative integer seed")
-_VFA_SECONDS = _number(MIN_VFA_DURATION, MAX_FINE_SECONDS, what="a VFA duration in s",
-                       why="the shortest VFA path is 10 s; 1 h at the rig's 10 kHz step needs "
-                           "about 6 GB of memory")
-_GRID_DELAYS = _list(_number(1, 1000, integer=True, what="an integer"),
-                     "delays (integers in [1, 1000])", distinct=True)
-_GRID_NEURONS = _list(_number(1, 1000, integer=True, what="an integer"),
-                      "neuron counts (integers in [1, 1000])", distinct=True)
+class _RomTable(_Table):
+    arch: Literal["nfir", "noe"]
+    delays: Size
+    neurons: Size
+    hidden: Literal["matlab", "distance"]
+    max_epochs: _number(0, 100_000, integer=True, what="an integer")
+    seed: Seed
+    sweep: bool
+    sweep_nfir_delays: Grid
+    sweep_nfir_neurons: NeuronGrid
+    sweep_noe_delays: Grid
+    sweep_noe_neurons: NeuronGrid
+    sweep_workers: _number(1, 64, integer=True, what="a number of parallel trainings")
 
-# Every key of defaults.toml, with its check. The [tank] table is checked by ``Tank`` itself.
-_SPEC: dict[str, dict[str, Check]] = {
-    "rig": {
-        "seed": _SEED,
-        # the record rate of the rig's sensors: decimated from the 5 kHz acquisition, and the
-        # VFA band (up to 25 Hz) must lie well inside the anti-alias passband 0.8 fs/2
-        "fs": _number(100.0, 5000.0, what="a record rate in Hz",
-                      why="decimated from the sensors' 5 kHz acquisition; 25 Hz must stay "
-                          "inside the anti-alias passband 0.8 fs/2"),
-    },
-    "data": {
-        "train_duration": _VFA_SECONDS,
-        "validation_duration": _VFA_SECONDS,
-        "train_seed": _SEED,
-        "validation_seed": _SEED,
-    },
-    "rom": {
-        "arch": _choice("nfir", "noe"),
-        "delays": _number(1, 1000, integer=True, what="an integer"),
-        "neurons": _number(1, 1000, integer=True, what="an integer"),
-        "hidden": _choice("matlab", "distance"),
-        "max_epochs": _number(0, 100_000, integer=True, what="an integer"),
-        "seed": _SEED,
-        "sweep": _boolean,
-        "sweep_nfir_delays": _GRID_DELAYS,
-        "sweep_nfir_neurons": _GRID_NEURONS,
-        "sweep_noe_delays": _GRID_DELAYS,
-        "sweep_noe_neurons": _GRID_NEURONS,
-        "sweep_workers": _number(1, 64, integer=True, what="a number of parallel trainings"),
-    },
-    "map": {
-        # each frequency runs n_a harmonic tests as one batch at the rig's 10 kHz step
-        "n_omega": _number(2, 200, integer=True, what="an integer"),
-        "n_a": _number(2, 200, integer=True, what="an integer"),
-        "f_min": _number(1.0, 200.0, what="a frequency in Hz"),
-        "f_max": _number(1.0, 200.0, what="a frequency in Hz"),
-        "a_bar_min": _number(0.0, 1.0, lo_open=True, what="a displacement amplitude / tank "
-                                                          "height"),
-        "a_bar_max": _number(0.0, 1.0, lo_open=True, what="a displacement amplitude / tank "
-                                                          "height"),
-        "gamma_max": _number(0.0, 60.0, lo_open=True, what="an acceleration amplitude in g"),
-    },
-    "beam": {
-        **{k: _number(lo, hi, what=what) for k, (lo, hi, what) in _BEAM_BOUNDS.items()},
-        "tip_displacement": _number(0.0, 0.2, lo_open=True, what="an initial tip displacement "
-                                                                 "in m"),
-        "free_duration": _number(0.0, MAX_BEAM_SECONDS, lo_open=True, what="a duration in s"),
-        "random_duration": _number(0.0, MAX_BEAM_SECONDS, lo_open=True, what="a duration in s"),
-        "rms_g": _list(_number(0.0, 2.0, lo_open=True, what="an RMS level in g"),
-                       "RMS levels in g, each in (0, 2]"),
-        "f0": _number(0.0, lo_open=True, what="a frequency in Hz"),
-        "sigma": _number(0.0, lo_open=True, what="a frequency in Hz"),
-        "seed": _SEED,
-        "damping": _list(_number(0.0, 1.0, hi_open=True, what="a damping ratio"),
-                         "modal damping ratios, each in [0, 1)"),
-        "n_modes": _number(1, MAX_MODES, integer=True, what="an integer",
-                           why="the modal filter separates at most as many modes as the beam "
-                               "has accelerometer stations"),
-    },
-}
+    def networks(self) -> list[tuple[str, int, int, str]]:
+        """(arch, delays, neurons, keys) of the largest network of each kind to be trained."""
+        out = [(self.arch, self.delays, self.neurons, "'rom.delays'/'rom.neurons'")]
+        if self.sweep:
+            out += [(a, max(getattr(self, f"sweep_{a}_delays")),
+                     max(getattr(self, f"sweep_{a}_neurons")),
+                     f"the largest of 'rom.sweep_{a}_delays'/'rom.sweep_{a}_neurons'")
+                    for a in ("nfir", "noe")]
+        return out
+
+
+class _MapTable(_Table):
+    # each frequency runs n_a harmonic tests as one batch at the rig's 10 kHz step
+    n_omega: GridSize
+    n_a: GridSize
+    f_min: MapFrequency
+    f_max: MapFrequency
+    a_bar_min: ABar
+    a_bar_max: ABar
+    gamma_max: _number(0.0, 60.0, lo_open=True, what="an acceleration amplitude in g")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> _MapTable:
+        if not self.f_min < self.f_max:
+            raise ConfigError(f"'map.f_min' ({self.f_min:g} Hz) must be below 'map.f_max' "
+                              f"({self.f_max:g} Hz)")
+        if not self.a_bar_min < self.a_bar_max:
+            raise ConfigError(f"'map.a_bar_min' ({self.a_bar_min:g}) must be below "
+                              f"'map.a_bar_max' ({self.a_bar_max:g})")
+        return self
+
+
+class _BeamTable(_Table):
+    # geometry and material (SI): a laboratory or wing-like beam, not a typo in mm or GPa
+    length: _number(0.01, 100.0, what="a length in m")
+    width: _number(1e-4, 10.0, what="a width in m")
+    thickness: _number(1e-4, 1.0, what="a thickness in m")
+    youngs_modulus: _number(1e6, 1e13, what="a Young's modulus in Pa")
+    density: _number(1.0, 3e4, what="a density in kg/m^3")
+    tip_displacement: _number(0.0, 0.2, lo_open=True, what="an initial tip displacement in m")
+    free_duration: BeamSeconds
+    random_duration: BeamSeconds
+    rms_g: _list(_number(0.0, 2.0, lo_open=True, what="an RMS level in g"),
+                 "RMS levels in g, each in (0, 2]")
+    f0: PositiveHz
+    sigma: PositiveHz
+    seed: Seed
+    damping: _list(_number(0.0, 1.0, hi_open=True, what="a damping ratio"),
+                   "modal damping ratios, each in [0, 1)")
+    n_modes: _number(1, MAX_MODES, integer=True, what="an integer",
+                     why="the modal filter separates at most as many modes as the beam has "
+                         "accelerometer stations")
+
+    @model_validator(mode="after")
+    def _consistent(self) -> _BeamTable:
+        if len(self.damping) < self.n_modes:
+            raise ConfigError(f"'beam.damping' has {len(self.damping)} ratio(s) but "
+                              f"'beam.n_modes' is {self.n_modes}: give one damping ratio per mode")
+        level_seconds = self.random_duration * len(self.rms_g)
+        if level_seconds > MAX_LEVEL_SECONDS:
+            raise ConfigError(
+                f"'beam.random_duration' x {len(self.rms_g)} levels = {level_seconds:g} s is "
+                f"more than {MAX_LEVEL_SECONDS:g} s (memory: the rig holds about 2.1 MB per "
+                "second and level at its 10 kHz step)")
+        return self
+
+    def structure(self, tank: Tank) -> CantileverBeam:
+        try:
+            return CantileverBeam.with_tank(
+                tank, length=self.length, width=self.width, thickness=self.thickness,
+                youngs_modulus=self.youngs_modulus, density=self.density)
+        except ConfigError as exc:
+            raise ConfigError(f"[beam]: {exc}") from None
+
+
+class ReproduceConfig(_Table):
+    """The whole configuration of `sloshrom reproduce`, one model per table of ``defaults.toml``.
+
+    ``ReproduceConfig.model_json_schema()`` gives it as a JSON schema (for an editor).
+
+    Every key is required (:func:`load` starts from the defaults); the checks between tables
+    (a network's training samples, the excitation band and the beam's modes against the record
+    rate, the free response against the first mode) run once every table is valid on its own.
+    """
+
+    tank: _TankTable
+    rig: _RigTable
+    data: _DataTable
+    rom: _RomTable
+    map: _MapTable
+    beam: _BeamTable
+
+    @model_validator(mode="after")
+    def _across_tables(self) -> ReproduceConfig:
+        fs, b = self.rig.fs, self.beam
+        n_train = self.data.train_duration * fs
+        for arch, delays, neurons, names in self.rom.networks():
+            need = training_samples(arch, delays, neurons)
+            if need > n_train:
+                raise ConfigError(
+                    f"{names} = {delays}/{neurons} ({arch.upper()}) need at least {need} "
+                    f"training samples, but 'data.train_duration' gives {n_train:.0f} at "
+                    f"{fs:g} Hz")
+        check_psd_band(b.f0, b.sigma, names=("'beam.f0'", "'beam.sigma'"), error=ConfigError,
+                       fs=fs)
+        if b.random_duration * fs < WELCH_NPERSEG:
+            raise ConfigError(
+                f"'beam.random_duration' = {b.random_duration:g} s must hold at least one "
+                f"{WELCH_NPERSEG}-sample Welch segment at 'rig.fs' = {fs:g} Hz "
+                f"({WELCH_NPERSEG / fs:.3g} s) for the damping estimates of Table 2")
+        tank = self.tank.tank()
+        beam = b.structure(tank)
+        f1 = first_frozen_frequency(tank, b.n_modes, b.damping[: b.n_modes], beam=beam)
+        need = min_free_duration(f1)
+        if b.free_duration < need:
+            raise ConfigError(
+                f"'beam.free_duration' = {b.free_duration:g} s is too short for the damping "
+                f"analysis of mode 1 ({f1:.3g} Hz): need at least {need:g} s "
+                f"({FREE_DAMPING_PERIODS} periods)")
+        check_analysis_band(f1, error=ConfigError, fs=fs)
+        # the ROM and the frozen case run the structure at fs: every kept mode below Nyquist
+        top = beam.frequencies(b.n_modes)[-1]
+        if top >= fs / 2:
+            raise ConfigError(
+                f"'beam.n_modes' = {b.n_modes}: mode {b.n_modes} of the beam ({top:.4g} Hz) "
+                f"lies above the Nyquist frequency of 'rig.fs' = {fs:g} Hz: raise 'rig.fs' or "
+                "keep fewer modes")
+        return self
+
+
+# -- validation: pydantic's errors as one line naming the key ----------------------------------
+_STRUCTURE = {"missing", "extra_forbidden", "model_type", "model_attributes_type", "dict_type"}
 
 
 def validate(cfg: dict[str, Any]) -> dict[str, Any]:
@@ -267,7 +413,7 @@ def validate(cfg: dict[str, Any]) -> dict[str, Any]:
     and within bounds; lists must be non-empty with valid elements; and keys must agree with
     each other (``f_min < f_max``, ``a_bar_min < a_bar_max``, one damping ratio per mode, the
     random-excitation PSD inside the simulation's band, a free response long enough for the
-    damping analysis of mode 1, ...).
+    damping analysis of mode 1, ...): see :class:`ReproduceConfig`.
 
     Parameters
     ----------
@@ -286,100 +432,52 @@ def validate(cfg: dict[str, Any]) -> dict[str, Any]:
         The first problem found, naming the key, e.g.
         ``'beam.rms_g' must be a non-empty list of RMS levels in g, each in (0, 2], got []``.
     """
-    ref = defaults()
     if not isinstance(cfg, dict):
         raise ConfigError(f"configuration must be a dict of tables, got {type(cfg).__name__}")
-    for table in cfg:
-        if table not in ref:
-            raise ConfigError(f"unknown configuration key '{table}'")
-    for table, keys in ref.items():
-        sec = cfg.get(table)
-        if not isinstance(sec, dict):
-            raise ConfigError(f"'{table}' must be a table" if table in cfg
-                              else f"configuration table [{table}] is missing")
-        for key in sec:
-            if key not in keys:
-                raise ConfigError(f"unknown configuration key '{table}.{key}'")
-        for key in keys:
-            if key not in sec:
-                raise ConfigError(f"configuration key '{table}.{key}' is missing")
     try:
-        tank = Tank.from_dict(dict(cfg["tank"]))
-    except ConfigError as exc:
-        raise ConfigError(f"[tank]: {exc}") from None
-    for table, checks in _SPEC.items():
-        for key, check in checks.items():
-            check(f"{table}.{key}", cfg[table][key])
-    _relations(cfg, tank)
+        ReproduceConfig.model_validate(cfg)
+    except ValidationError as exc:
+        # missing and unknown keys first, then values, then relations between keys
+        errors = exc.errors(include_url=False)
+        first = min(errors, key=lambda e: (e["type"] not in _STRUCTURE, _raised(e) is not None))
+        if isinstance(_raised(first), ConfigError):  # a relation: the validator wrote the message
+            raise _raised(first) from None
+        raise ConfigError(_message(first)) from None
     return cfg
 
 
-def _relations(cfg: dict[str, Any], tank: Tank) -> None:
-    """Checks that involve several keys (each value is already valid on its own)."""
-    rig, m, b = cfg["rig"], cfg["map"], cfg["beam"]
-    fs = rig["fs"]
-    if not 25.0 <= 0.8 * fs / 2:  # implied by fs >= 100 Hz; kept explicit for the reason
-        raise ConfigError(f"'rig.fs' = {fs:g} Hz leaves the VFA band (up to 25 Hz) "
-                          "outside the anti-alias passband 0.8 fs/2")
-    if abs(RIG_RATE / fs - round(RIG_RATE / fs)) > 1e-9:
-        raise ConfigError(f"'rig.fs' = {fs:g} Hz must divide the rig's {RIG_RATE:g} Hz "
-                          "integration rate (e.g. 250, 500, 1000, 2000 Hz): the beam's random "
-                          "excitation is made at fs and upsampled exactly for the rig")
-    if not m["f_min"] < m["f_max"]:
-        raise ConfigError(f"'map.f_min' ({m['f_min']:g} Hz) must be below 'map.f_max' "
-                          f"({m['f_max']:g} Hz)")
-    if not m["a_bar_min"] < m["a_bar_max"]:
-        raise ConfigError(f"'map.a_bar_min' ({m['a_bar_min']:g}) must be below 'map.a_bar_max' "
-                          f"({m['a_bar_max']:g})")
-    rom, n_train = cfg["rom"], cfg["data"]["train_duration"] * fs
-    grid = [(rom["arch"], rom["delays"], rom["neurons"], "'rom.delays'/'rom.neurons'")]
-    if rom["sweep"]:
-        grid += [(a, max(rom[f"sweep_{a}_delays"]), max(rom[f"sweep_{a}_neurons"]),
-                  f"the largest of 'rom.sweep_{a}_delays'/'rom.sweep_{a}_neurons'")
-                 for a in ("nfir", "noe")]
-    for arch, delays, neurons, names in grid:
-        need = training_samples(arch, delays, neurons)
-        if need > n_train:
-            raise ConfigError(
-                f"{names} = {delays}/{neurons} ({arch.upper()}) need at least {need} training "
-                f"samples, but 'data.train_duration' gives {n_train:.0f} at {fs:g} Hz")
-    if len(b["damping"]) < b["n_modes"]:
-        raise ConfigError(f"'beam.damping' has {len(b['damping'])} ratio(s) but 'beam.n_modes' "
-                          f"is {b['n_modes']}: give one damping ratio per mode")
-    check_psd_band(b["f0"], b["sigma"], names=("'beam.f0'", "'beam.sigma'"), error=ConfigError,
-                   fs=fs)
-    if b["random_duration"] * fs < WELCH_NPERSEG:
-        raise ConfigError(
-            f"'beam.random_duration' = {b['random_duration']:g} s must hold at least one "
-            f"{WELCH_NPERSEG}-sample Welch segment at 'rig.fs' = {fs:g} Hz "
-            f"({WELCH_NPERSEG / fs:.3g} s) for the damping estimates of Table 2")
-    level_seconds = b["random_duration"] * len(b["rms_g"])
-    if level_seconds > MAX_LEVEL_SECONDS:
-        raise ConfigError(
-            f"'beam.random_duration' x {len(b['rms_g'])} levels = {level_seconds:g} s is more "
-            f"than {MAX_LEVEL_SECONDS:g} s (memory: the rig holds about 2.1 MB per second and "
-            "level at its 10 kHz step)")
-    from sloshrom.beam.structure import CantileverBeam
+def _raised(error: ErrorDetails) -> Exception | None:
+    return error.get("ctx", {}).get("error")
 
-    try:
-        beam = CantileverBeam.with_tank(tank, **{k: b[k] for k in _BEAM_BOUNDS})
-    except ConfigError as exc:
-        raise ConfigError(f"[beam]: {exc}") from None
-    f1 = first_frozen_frequency(tank, b["n_modes"], b["damping"][: b["n_modes"]], beam=beam)
-    need = min_free_duration(f1)
-    if b["free_duration"] < need:
-        raise ConfigError(
-            f"'beam.free_duration' = {b['free_duration']:g} s is too short for the damping "
-            f"analysis of mode 1 ({f1:.3g} Hz): need at least {need:g} s "
-            f"({FREE_DAMPING_PERIODS} periods)")
-    check_analysis_band(f1, error=ConfigError, fs=fs)
-    # the ROM and the frozen case run the structure at fs: every kept mode below Nyquist
-    modes = beam.frequencies(b["n_modes"])
-    if modes[-1] >= fs / 2:
-        raise ConfigError(
-            f"'beam.n_modes' = {b['n_modes']}: mode {b['n_modes']} of the beam "
-            f"({modes[-1]:.4g} Hz) lies above the Nyquist frequency of 'rig.fs' = {fs:g} Hz: "
-            "raise 'rig.fs' or keep fewer modes")
+
+def _message(error: ErrorDetails) -> str:
+    """One line for one pydantic error: the key, what it must be, and the value given."""
+    loc, kind, v = error["loc"], error["type"], error["input"]
+    if _raised(error) is not None:  # another ValueError of a validator
+        return str(_raised(error))
+    key = ".".join(str(p) for p in loc[:2])
+    if kind == "extra_forbidden":
+        return f"unknown configuration key '{key}'"
+    if kind == "missing":
+        return (f"configuration table [{key}] is missing" if len(loc) == 1
+                else f"configuration key '{key}' is missing")
+    if len(loc) == 1:
+        return f"'{key}' must be a table"
+    field = ReproduceConfig.model_fields[loc[0]].annotation.model_fields[loc[1]]
+    says = next((m for m in field.metadata if isinstance(m, _Says)), None)
+    if kind == "literal_error":
+        options = " or ".join(f'"{o}"' for o in get_args(field.annotation))
+        return f"'{key}' must be {options}, got {v!r}"
+    if kind == "bool_type":
+        return f"'{key}' must be true or false, got {v!r}"
+    if says is None:  # [tank] values: Tank checks them once they are numbers
+        return f"'{key}' must be a number, got {v!r}"
+    if kind == "distinct":
+        return f"'{key}' {error['msg']}, got {v!r}"
+    if len(loc) == 3 and says.item is not None:
+        item = says.item.value(f"{key}[{loc[2]}]", v)
+        return f"'{key}' must be {says.what}: {item}"
+    return says.value(key, v)
 
 
 def training_samples(arch: str, delays: int, neurons: int) -> int:
@@ -392,8 +490,6 @@ def training_samples(arch: str, delays: int, neurons: int) -> int:
 def first_frozen_frequency(tank: Tank, n_modes: int = 3, damping: Any = None,
                            modal_toml: str | Path | None = None, beam: Any = None) -> float:
     """First mode (Hz) of the beam with frozen liquid: the mode the damping analyses follow."""
-    from sloshrom.beam.structure import ModalModel, coupled_frozen_modes
-
     if modal_toml is not None:
         modal = ModalModel.from_toml(modal_toml)
     else:
@@ -426,7 +522,8 @@ def check_psd_band(f0: float, sigma: float, names: tuple[str, str] = ("--f0", "-
     """
     n0, ns = names
     for name, v in ((n0, f0), (ns, sigma)):
-        if not (_is_number(v) and math.isfinite(v) and v > 0):
+        if not (isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+                and v > 0):
             raise error(f"{name} must be a positive frequency in Hz, got {v!r}")
     nyq = fs / 2
     if f0 + 4 * sigma >= nyq:

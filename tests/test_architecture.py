@@ -1,0 +1,274 @@
+"""The package's architecture, checked on the source: rooms, the direction of imports, no cycles.
+
+Every module under ``src/sloshrom`` is parsed (nothing is imported) and put in a *room*:
+
+========== =======================================================================
+base       ``sloshrom`` (the package root), ``config``, ``fileio``, ``models``, ``signals``
+domain     ``io``, ``rig``, ``rom``, ``energy``, ``beam`` (each one room)
+plotting   ``plotting``: figures only
+pipeline   ``pipeline``: the reproduce chain
+cli        ``cli``: the command line
+========== =======================================================================
+
+Imports point one way, ``cli -> pipeline -> plotting / domain rooms -> base``; :data:`ALLOWED`
+is the table of the rooms each room may import. See ``docs/architecture.md``.
+"""
+
+from __future__ import annotations
+
+import ast
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[1] / "src"
+PACKAGE = "sloshrom"
+
+BASE = {"config", "fileio", "models", "signals"}
+DOMAIN = ("io", "rig", "rom", "energy", "beam")
+
+#: The rooms each room may import (its own room is always allowed). Domain rooms see the base
+#: and ``io`` (the records they read), never each other: a sloshing model reaches the beam and
+#: the energy maps through the step contract of ``sloshrom.models``, not through ``rig``/``rom``.
+ALLOWED: dict[str, set[str]] = {
+    "base": {"base"},
+    "io": {"base"},
+    "rig": {"base", "io"},
+    "rom": {"base", "io"},
+    "energy": {"base", "io"},
+    "beam": {"base", "io"},
+    "plotting": {"base", "io"},
+    "pipeline": {"base", *DOMAIN, "plotting"},
+    "cli": {"base", *DOMAIN, "plotting", "pipeline"},
+}
+
+#: Calls that change process-wide state of a library the user's process shares with us.
+FORBIDDEN_CALLS = {
+    "jax.config.update": "flips a JAX flag for the whole process (use jax.enable_x64(True) "
+                         "around our own calls)",
+    "matplotlib.use": "selects a backend for the user's process",
+    "matplotlib.pyplot.switch_backend": "selects a backend for the user's process",
+}
+
+
+@dataclass(frozen=True)
+class Import:
+    """One import statement of a module, resolved to the module it loads."""
+
+    target: str  # dotted name of the imported module (deepest existing module)
+    line: int
+    in_function: bool
+    type_checking: bool
+
+
+def _module_name(path: Path) -> str:
+    parts = list(path.relative_to(SRC).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+MODULES: dict[str, Path] = {
+    _module_name(p): p for p in sorted((SRC / PACKAGE).rglob("*.py"))
+}
+
+
+def room(module: str) -> str:
+    """The room of a module of the package (``base`` for the root and base modules)."""
+    parts = module.split(".")
+    if len(parts) == 1 or parts[1] in BASE:
+        return "base"
+    if parts[1] in (*DOMAIN, "plotting", "pipeline", "cli"):
+        return parts[1]
+    raise AssertionError(f"{module}: in no room; add it to the table of tests/test_architecture")
+
+
+def _resolve(module: str, name: str) -> str:
+    """The deepest module of the package that ``name`` (dotted) denotes."""
+    parts = name.split(".")
+    while parts and ".".join(parts) not in MODULES:
+        parts.pop()
+    return ".".join(parts) if parts else name
+
+
+def _absolute(module: str, node: ast.ImportFrom) -> str:
+    if not node.level:
+        return node.module or ""
+    is_package = MODULES[module].name == "__init__.py"
+    base = module.split(".")
+    base = base if is_package else base[:-1]
+    base = base[: len(base) - (node.level - 1)]
+    return ".".join([*base, node.module] if node.module else base)
+
+
+class _Visitor(ast.NodeVisitor):
+    def __init__(self, module: str) -> None:
+        self.module = module
+        self.imports: list[Import] = []
+        self.aliases: dict[str, str] = {}  # local name -> dotted name it is bound to
+        self.calls: list[tuple[str, int]] = []
+        self._function = 0
+        self._type_checking = 0
+
+    def _add(self, target: str, line: int) -> None:
+        imp = Import(target, line, self._function > 0, self._type_checking > 0)
+        if imp not in self.imports:  # `from m import a, b` is one import of m
+            self.imports.append(imp)
+
+    def visit_Import(self, node: ast.Import) -> None:
+        for a in node.names:
+            if a.asname:
+                self.aliases[a.asname] = a.name
+            else:
+                self.aliases[a.name.split(".")[0]] = a.name.split(".")[0]
+            if a.name.split(".")[0] == PACKAGE:
+                self._add(_resolve(self.module, a.name), node.lineno)
+
+    def visit_ImportFrom(self, node: ast.ImportFrom) -> None:
+        source = _absolute(self.module, node)
+        for a in node.names:
+            self.aliases[a.asname or a.name] = f"{source}.{a.name}"
+            if source.split(".")[0] == PACKAGE:
+                self._add(_resolve(self.module, f"{source}.{a.name}"), node.lineno)
+
+    def _scope(self, node: ast.AST) -> None:
+        self._function += 1
+        self.generic_visit(node)
+        self._function -= 1
+
+    visit_FunctionDef = visit_AsyncFunctionDef = visit_Lambda = _scope
+
+    def visit_If(self, node: ast.If) -> None:
+        test = ast.unparse(node.test)
+        if test in ("TYPE_CHECKING", "typing.TYPE_CHECKING"):
+            self._type_checking += 1
+            for child in node.body:
+                self.visit(child)
+            self._type_checking -= 1
+            for child in node.orelse:
+                self.visit(child)
+        else:
+            self.generic_visit(node)
+
+    def visit_Call(self, node: ast.Call) -> None:
+        chain, func = [], node.func
+        while isinstance(func, ast.Attribute):
+            chain.append(func.attr)
+            func = func.value
+        if isinstance(func, ast.Name):
+            head = self.aliases.get(func.id, func.id)
+            self.calls.append((".".join([head, *reversed(chain)]), node.lineno))
+        self.generic_visit(node)
+
+
+def _parse(module: str) -> _Visitor:
+    v = _Visitor(module)
+    v.visit(ast.parse(MODULES[module].read_text(encoding="utf-8"), str(MODULES[module])))
+    return v
+
+
+PARSED = {m: _parse(m) for m in MODULES}
+
+
+def _where(module: str, imp: Import) -> str:
+    return f"{MODULES[module].relative_to(SRC)}:{imp.line} imports {imp.target}"
+
+
+# ---------------------------------------------------------------------------------------------
+def test_every_module_is_in_a_room():
+    assert len(MODULES) > 20
+    for module in MODULES:
+        assert room(module) in ALLOWED
+
+
+def test_nothing_outside_cli_imports_cli():
+    bad = [_where(m, i) for m, v in PARSED.items() for i in v.imports
+           if room(m) != "cli" and room(i.target) == "cli"]
+    assert not bad, "only the command line imports sloshrom.cli:\n" + "\n".join(bad)
+
+
+def test_imports_point_one_way():
+    bad = [f"{_where(m, i)} ({room(m)} -> {room(i.target)})"
+           for m, v in PARSED.items() for i in v.imports
+           if room(i.target) != room(m) and room(i.target) not in ALLOWED[room(m)]]
+    assert not bad, "imports against the direction of the rooms:\n" + "\n".join(bad)
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components with more than one module, or a module importing itself
+    (Tarjan's algorithm, iterative)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    out: list[list[str]] = []
+    counter = 0
+    for root in sorted(graph):
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = counter
+        counter += 1
+        stack.append(root)
+        on_stack.add(root)
+        while work:
+            node, children = work[-1]
+            child = next(children, None)
+            if child is not None:
+                if child not in index:
+                    index[child] = low[child] = counter
+                    counter += 1
+                    stack.append(child)
+                    on_stack.add(child)
+                    work.append((child, iter(sorted(graph.get(child, ())))))
+                elif child in on_stack:
+                    low[node] = min(low[node], index[child])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[node])
+            if low[node] == index[node]:
+                comp = []
+                while True:
+                    top = stack.pop()
+                    on_stack.discard(top)
+                    comp.append(top)
+                    if top == node:
+                        break
+                if len(comp) > 1 or node in graph.get(node, ()):
+                    out.append(sorted(comp))
+    return out
+
+
+def test_cycle_finder():
+    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert _cycles({"a": {"b"}, "b": set()}) == []
+    assert _cycles({"a": {"a"}}) == [["a"]]
+
+
+def test_no_import_cycles():
+    """Run-time imports (module level and inside functions; not ``if TYPE_CHECKING``)."""
+    graph = {m: {i.target for i in v.imports if not i.type_checking and i.target != m}
+             for m, v in PARSED.items()}
+    cycles = _cycles(graph)
+    lines = []
+    for comp in cycles:
+        members = set(comp)
+        lines.append(" <-> ".join(comp) + ": " + "; ".join(
+            _where(m, i) for m in comp for i in PARSED[m].imports
+            if i.target in members and not i.type_checking))
+    assert not cycles, "import cycles:\n" + "\n".join(lines)
+
+
+@pytest.mark.parametrize("call", sorted(FORBIDDEN_CALLS))
+def test_no_process_wide_switches(call):
+    bad = [f"{MODULES[m].relative_to(SRC)}:{line}" for m, v in PARSED.items()
+           for name, line in v.calls if name == call]
+    assert not bad, f"{call} {FORBIDDEN_CALLS[call]}: " + ", ".join(bad)
+
+
+def test_no_function_local_imports_of_the_package():
+    """Imports inside functions are for optional or heavy third-party packages only."""
+    bad = [_where(m, i) for m, v in PARSED.items() for i in v.imports if i.in_function]
+    assert not bad, "function-local imports of sloshrom modules:\n" + "\n".join(bad)

@@ -1,0 +1,57 @@
+"""The README's examples run: its Python example as written, its commands as far as ``--help``."""
+
+from __future__ import annotations
+
+import re
+import shlex
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from sloshrom.cli import app
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+def _blocks(language: str) -> list[str]:
+    """The fenced code blocks of the README in ``language``, in order."""
+    text = README.read_text(encoding="utf-8")
+    return re.findall(rf"^```{language}\n(.*?)^```$", text, flags=re.DOTALL | re.MULTILINE)
+
+
+def test_readme_starts_with_make():
+    lines = [ln.strip() for ln in README.read_text(encoding="utf-8").splitlines() if ln.strip()]
+    assert lines[1].startswith("make reproduce") and lines[2].startswith("make test")
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+def test_python_example_runs(tmp_path, monkeypatch, capsys):
+    """Every ``python`` block, in order, in one namespace, in an empty directory."""
+    blocks = _blocks("python")
+    assert blocks, "README.md has no ```python block"
+    monkeypatch.chdir(tmp_path)
+    namespace: dict = {"__name__": "__readme__"}
+    for i, code in enumerate(blocks):
+        exec(compile(code, f"README.md (python block {i + 1})", "exec"), namespace)
+    out = capsys.readouterr().out
+    assert "validation: normalised RMS error" in out
+    assert (tmp_path / "nfir.npz").is_file()
+    assert namespace["phi"].shape == (5, 5)
+
+
+def _commands() -> list[list[str]]:
+    """The ``sloshrom`` sub-command of every line of the README's ``bash`` blocks."""
+    out = []
+    for block in _blocks("bash"):
+        for line in block.splitlines():
+            words = shlex.split(line, comments=True)
+            if words[:1] == ["sloshrom"]:
+                out.append([w for w in words[1:3] if not w.startswith("-")])
+    return out
+
+
+@pytest.mark.parametrize("command", _commands(), ids=" ".join)
+def test_commands_exist(command):
+    res = CliRunner().invoke(app, [*command, "--help"])
+    assert res.exit_code == 0, res.output
