@@ -49,6 +49,16 @@ def test_only_the_cli_imports_the_cli():
     assert not bad, bad
 
 
+def test_no_backend_selection_and_no_pyplot_in_the_library():
+    for name, tree in _modules():
+        mods = [m for m, _ in _imports(tree)]
+        assert "matplotlib.pyplot" not in mods, name
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Attribute) and node.attr == "use":
+                assert not (isinstance(node.value, ast.Name) and node.value.id == "matplotlib"), \
+                    name
+
+
 @pytest.mark.parametrize("room", ["pipeline/", "plotting/", "beam/", "cli/"])
 def test_no_private_name_is_imported_across_modules(room):
     bad = [(name, mod, n) for name, tree in _modules() if name.startswith(room)
