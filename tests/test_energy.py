@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 
-import matplotlib
 import numpy as np
 import pytest
 
@@ -16,13 +15,10 @@ from sloshrom.energy import (
     map_maximum,
     phi_d,
     phi_d_map,
-    plot_hysteresis,
-    plot_phi_d_map,
 )
 from sloshrom.models import FrozenLiquid
+from sloshrom.plotting.maps import plot_hysteresis, plot_phi_d_map
 from sloshrom.signals import harmonic
-
-matplotlib.use("Agg")
 
 TANK = Tank()
 

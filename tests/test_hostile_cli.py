@@ -71,7 +71,7 @@ def _world(tmp: Path) -> None:
         "structure_mass = 0.45\n")
     from sloshrom.config import Tank
     from sloshrom.pipeline import settings
-    from sloshrom.pipeline.chain import map_grid
+    from sloshrom.pipeline.maps import map_grid
 
     cfg = settings.defaults()
     cfg["map"].update(n_omega=2, n_a=2)
@@ -557,7 +557,7 @@ def test_late_failure_leaves_no_partial_results(tmp_path, monkeypatch):
     """A failure after the simulations (here: the third figure) leaves no result file at all."""
     import sloshrom.cli.beam as beam
 
-    real = beam._savefig
+    real = beam.savefig
     calls = []
 
     def flaky(fig, path, batch=None):
@@ -566,7 +566,7 @@ def test_late_failure_leaves_no_partial_results(tmp_path, monkeypatch):
             raise OSError("disk full")
         real(fig, path, batch)
 
-    monkeypatch.setattr(beam, "_savefig", flaky)
+    monkeypatch.setattr(beam, "savefig", flaky)
     out = tmp_path / "res"
     res = runner.invoke(app, ["beam", "free", "--sloshing", "frozen", "--duration", "2",
                               "--out", str(out)])

@@ -10,8 +10,8 @@ from typer.testing import CliRunner
 
 from sloshrom.cli import app
 from sloshrom.config import Tank
-from sloshrom.pipeline import chain as pipeline
-from sloshrom.pipeline import settings
+from sloshrom.pipeline import Context, settings
+from sloshrom.pipeline.data import stage_data
 
 TINY = """
 [data]
@@ -65,9 +65,9 @@ def test_reproduce_sweep_writes_fig8_and_is_cached(tmp_path):
 def test_rig_fs_is_the_record_rate(tmp_path):
     cfg = settings.merge(settings.defaults(), {
         "rig": {"fs": 1000.0}, "data": {"train_duration": 12.0, "validation_duration": 12.0}})
-    ctx = pipeline.Context(tmp_path, cfg)
+    ctx = Context(tmp_path, cfg)
     assert ctx.rig().sensors.output_rate == 1000.0
-    outputs, files = pipeline.stage_data(ctx)
+    outputs, files = stage_data(ctx)
     from sloshrom.io.record import read_record
 
     for split in ("train", "validation"):

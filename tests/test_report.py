@@ -1,17 +1,13 @@
-import matplotlib
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-
-from sloshrom.pipeline import html as report  # noqa: E402
+from sloshrom.pipeline import html as report
+from sloshrom.plotting import savefig
 
 
 def test_report_is_self_contained(tmp_path):
-    fig, ax = plt.subplots()
-    ax.plot([0, 1], [0, 1])
-    png = tmp_path / "f.png"
-    fig.savefig(png)
-    plt.close(fig)
+    fig = Figure()
+    fig.subplots().plot([0, 1], [0, 1])
+    png = savefig(fig, tmp_path / "f.png")
     out = report.write(
         tmp_path / "r.html",
         "T",

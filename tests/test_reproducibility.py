@@ -125,8 +125,8 @@ def _seed_values(obj, path=""):
 @pytest.fixture(scope="module")
 def pipeline_records(tmp_path_factory):
     """The `reproduce` data stage (10 s records), run twice with the same config."""
-    from sloshrom.pipeline import settings
-    from sloshrom.pipeline.chain import Context, stage_data
+    from sloshrom.pipeline import Context, settings
+    from sloshrom.pipeline.data import stage_data
 
     cfg = settings.load(None, quick=True)
     cfg["data"].update(train_duration=10.0, validation_duration=10.0)

@@ -33,8 +33,6 @@ __all__ = [
     "map_maximum",
     "phi_d",
     "phi_d_map",
-    "plot_hysteresis",
-    "plot_phi_d_map",
     "shaker_envelope",
 ]
 
@@ -334,42 +332,3 @@ def map_maximum(da: xr.DataArray) -> dict[str, float]:
         "gamma": ab * ob**2,
         "frequency": float(da.frequency[i]) if "frequency" in da.coords else float("nan"),
     }
-
-
-def plot_phi_d_map(da: xr.DataArray, ax: Any = None, levels: int = 15) -> Any:
-    """Contour map of Phi_d(omega_bar, a_bar) with the Gamma = 1 and Gamma = 4 iso-lines.
-
-    Returns the matplotlib Axes.
-    """
-    import matplotlib.pyplot as plt
-
-    if ax is None:
-        _, ax = plt.subplots(figsize=(6, 4.5))
-    ob = np.asarray(da.omega_bar)
-    ab = np.asarray(da.a_bar)
-    z = np.asarray(da.values).T
-    cs = ax.contourf(ob, ab, np.ma.masked_invalid(z), levels=levels, cmap="Blues")
-    ax.figure.colorbar(cs, ax=ax, label=r"$\Phi_d$")
-    obf = np.linspace(ob.min(), ob.max(), 200)
-    for gam, style in ((1.0, "--"), (4.0, "-")):
-        ax.plot(obf, gam / obf**2, "k" + style, lw=1, label=rf"$\Gamma$ = {gam:g} g")
-    ax.set_ylim(ab.min(), ab.max())
-    ax.set_xlabel(r"$\bar\omega = \Omega/\sqrt{g/h}$")
-    ax.set_ylabel(r"$\bar a = a/h$")
-    ax.legend(loc="upper right", fontsize=8)
-    return ax
-
-
-def plot_hysteresis(x: Any, y: Any, ax: Any = None, label: str | None = None) -> Any:
-    """Plot a normalised hysteresis loop (``w/a`` vs ``f_S/(m_l a Omega^2)``); returns Axes."""
-    import matplotlib.pyplot as plt
-
-    if ax is None:
-        _, ax = plt.subplots(figsize=(5, 4))
-    ax.plot(x, y, lw=0.8, label=label)
-    ax.set_xlabel(r"$w/a$")
-    ax.set_ylabel(r"$f_S/(m_l a \Omega^2)$")
-    if label:
-        ax.legend()
-    return ax
-

@@ -451,54 +451,6 @@ def vfa(
     )
 
 
-def plot_vfa_paths(paths, ax=None, gammas=(1, 2, 3, 4, 5, 6), max_points: int = 20000):
-    """Plot VFA paths in the (omega_bar, a_bar) plane over the Gamma iso-lines (paper Fig. 5/7a).
-
-    Parameters
-    ----------
-    paths : VFA or sequence of VFA
-    ax : matplotlib Axes, optional
-    gammas : sequence of float
-        Iso-lines ``a_bar = Gamma / omega_bar^2`` to draw (Gamma in g).
-    max_points : int
-        Each path is decimated to at most this many points for drawing.
-
-    Returns
-    -------
-    matplotlib.axes.Axes
-    """
-    import matplotlib.pyplot as plt
-
-    if isinstance(paths, VFA):
-        paths = [paths]
-    if ax is None:
-        _, ax = plt.subplots(figsize=(6.4, 4.4), constrained_layout=True)
-    wmax = max(float(np.max(p.omega_bar)) for p in paths) * 1.05
-    amax = max(float(np.max(p.a_bar)) for p in paths) * 1.1
-    ob = np.linspace(0.3, wmax, 400)
-    for gm in gammas:
-        ax.plot(ob, gm / ob**2, color="0.6", lw=0.7, ls="--")
-        ob_lab = np.sqrt(gm / (0.85 * amax))
-        if ob_lab < wmax:
-            ax.text(ob_lab, 0.85 * amax, f"{gm:g} g", color="0.4", fontsize=8)
-    colors = {"train": "tab:blue", "validation": "tab:orange"}
-    for p in paths:
-        step = max(1, len(p.time) // max_points)
-        ax.plot(
-            p.omega_bar[::step],
-            p.a_bar[::step],
-            lw=0.6,
-            color=colors.get(p.split),
-            label=f"{p.split} ({p.time[-1]:.0f} s)",
-        )
-    ax.set_xlim(0, wmax)
-    ax.set_ylim(0, amax)
-    ax.set_xlabel(r"$\bar\omega = \Omega/\sqrt{g/h}$")
-    ax.set_ylabel(r"$\bar a = a/h$")
-    ax.legend(loc="upper right")
-    return ax
-
-
 # --------------------------------------------------------------------------------------------
 # Random base acceleration with a Gaussian PSD (paper Eq. 8)
 # --------------------------------------------------------------------------------------------

@@ -17,7 +17,10 @@
   pick, kept as a baseline.
 * :func:`mode1_damping_random` - the first-mode damping of a random test (paper Table 2).
 
-Pure numerical functions: arrays in, arrays/dicts out; signal functions take ``fs`` (Hz).
+Pure numerical functions: arrays in, arrays/dicts out; signal functions take ``fs`` (Hz). A
+response that cannot be analysed (too short, no peak in the band, modes that the stations cannot
+separate) raises :class:`AnalysisError`, a property of the data; a malformed argument (wrong
+dimension, unknown option) raises a plain ``ValueError``, a programming error.
 """
 
 from __future__ import annotations
@@ -31,6 +34,11 @@ from typing import Any
 import numpy as np
 from scipy import signal
 from scipy.ndimage import minimum_filter1d
+
+
+class AnalysisError(ValueError):
+    """A response cannot be analysed as asked (too short, no resonance peak in the band, modes
+    the stations cannot separate): a property of the data or of the user's modal model."""
 
 
 def modal_filter(station_acceleration: Any, psi_stations: Any) -> np.ndarray:
@@ -56,7 +64,8 @@ def modal_filter(station_acceleration: Any, psi_stations: Any) -> np.ndarray:
             f"got {psi.shape}"
         )
     if np.linalg.matrix_rank(psi) < psi.shape[1]:
-        raise ValueError("mode shapes at the stations are not independent: cannot separate modes")
+        raise AnalysisError(
+            "mode shapes at the stations are not independent: cannot separate modes")
     return a @ np.linalg.pinv(psi).T
 
 
@@ -116,7 +125,7 @@ def instantaneous_damping(
     n_win = int(round(smooth_periods * fs / f1)) | 1
     n_trim = int(round(trim_periods * fs / f1))
     if x.size <= 2 * n_trim + n_win:
-        raise ValueError("record too short for the smoothing window and end trimming")
+        raise AnalysisError("record too short for the smoothing window and end trimming")
     xa = _analytic(_bandpass(x, fs, f1, rel_band))
     ln_a = np.log(np.abs(xa))
     phase = np.unwrap(np.angle(xa))
@@ -192,20 +201,21 @@ def half_power_damping(f: Any, spectrum: Any, band: tuple[float, float]) -> dict
 
     For an FRF magnitude the half-power level is ``peak/sqrt(2)``; pass ``|H|`` (or
     ``sqrt(PSD)``). ``zeta = (f_b - f_a) / (2 f_n)`` with linearly interpolated crossings.
-    Raises ValueError when the band has no interior peak or its half-power points are not found.
+    Raises :class:`AnalysisError` when the band has no interior peak or its half-power points
+    are not found.
     """
     f = np.asarray(f, dtype=float)
     s = np.abs(np.asarray(spectrum))
     sel = np.nonzero((f >= band[0]) & (f <= band[1]))[0]
     if sel.size < 5:
-        raise ValueError(f"too few frequency points in band {band} Hz")
+        raise AnalysisError(f"too few frequency points in band {band} Hz")
     ip = sel[np.argmax(s[sel])]
     if not (sel[0] < ip < sel[-1] and s[ip] > 0):
-        raise ValueError(f"no peak inside band {band} Hz (maximum at its edge)")
+        raise AnalysisError(f"no peak inside band {band} Hz (maximum at its edge)")
     # parabolic refinement of the peak on the log magnitude
     y0, y1, y2 = np.log(s[ip - 1 : ip + 2])
     if not y0 - 2 * y1 + y2 < 0:
-        raise ValueError(f"no peak inside band {band} Hz (flat maximum)")
+        raise AnalysisError(f"no peak inside band {band} Hz (flat maximum)")
     off = 0.5 * (y0 - y2) / (y0 - 2 * y1 + y2)
     fn = f[ip] + off * (f[1] - f[0])
     peak = math.exp(y1 - 0.25 * (y0 - y2) * off)
@@ -217,7 +227,7 @@ def half_power_damping(f: Any, spectrum: Any, band: tuple[float, float]) -> dict
     while j < f.size - 1 and s[j] > level:
         j += 1
     if s[i] > level or s[j] > level:
-        raise ValueError("half-power points not found: widen the band or the record")
+        raise AnalysisError("half-power points not found: widen the band or the record")
     fa = np.interp(level, [s[i], s[i + 1]], [f[i], f[i + 1]])
     fb = np.interp(level, [s[j], s[j - 1]], [f[j], f[j - 1]])
     return {"frequency": float(fn), "zeta": float((fb - fa) / (2 * fn))}
@@ -272,7 +282,7 @@ def lscf_poles(
     h = np.asarray(spectrum)
     sel = f <= band[1]
     if np.count_nonzero(sel & (f >= band[0])) < 8:
-        raise ValueError(f"too few frequency points in band {band} Hz")
+        raise AnalysisError(f"too few frequency points in band {band} Hz")
     if solver == "qr":
         order, pole = _lscf_qr(f, h, band, int(pol_order_high))
     elif solver == "sdypy":
@@ -469,7 +479,8 @@ def correlation(x: Any, fs: float, max_lag: float) -> tuple[np.ndarray, np.ndarr
         raise ValueError("x must be 1-D")
     n_lag = int(round(max_lag * fs)) + 1
     if not 2 <= n_lag <= x.size // 2:
-        raise ValueError(f"max_lag = {max_lag} s must be between one sample and half the record")
+        raise AnalysisError(
+            f"max_lag = {max_lag} s must be between one sample and half the record")
     x = x - x.mean()
     m = fft.next_fast_len(2 * x.size, real=True)
     xf = fft.rfft(x, m)
@@ -613,7 +624,7 @@ def lscf_damping(
     h = np.asarray(spectrum)
     sel = f <= band[1]
     if np.count_nonzero(sel & (f >= band[0])) < 8:
-        raise ValueError(f"too few frequency points in band {band} Hz")
+        raise AnalysisError(f"too few frequency points in band {band} Hz")
     fw = max(1, int(round(band[1] - band[0])))
     with warnings.catch_warnings(), contextlib.redirect_stderr(io.StringIO()):
         warnings.simplefilter("ignore", UserWarning)
@@ -666,7 +677,7 @@ def mode1_damping_random(
     r_out = output_only_damping(tank, fs, f1, band, pol_order_high=pol_order_high)
     try:
         hp = half_power_damping(f, h, band)["zeta"]
-    except ValueError:
+    except AnalysisError:  # no clear peak in this record: the estimate is missing, not a bug
         hp = float("nan")
     return {"lscf_h1": r_h1["zeta"], "lscf_output": r_out["zeta"], "half_power": hp,
             "frequency_h1": r_h1["frequency"],

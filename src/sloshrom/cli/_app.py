@@ -110,7 +110,9 @@ def user_errors() -> tuple[type[BaseException], ...]:
     Commands catch these, never a bare ``ValueError``: a plain ``ValueError`` from deep inside is
     a programming error and must keep its traceback. ``ModelFileError`` and
     ``UnstableModelError`` are included only once ``sloshrom.rom`` is imported (importing it
-    loads JAX; they cannot be raised before).
+    loads JAX; they cannot be raised before), ``AnalysisError`` (a response the damping analysis
+    cannot handle, e.g. modes the user's stations cannot separate) once
+    ``sloshrom.beam.analysis`` is.
     """
     from sloshrom.config import ConfigError
     from sloshrom.fileio import OutputPathError
@@ -121,6 +123,9 @@ def user_errors() -> tuple[type[BaseException], ...]:
     if rom is not None:
         # an unstable NOE on the user's input is a property of their model, not a bug
         types += [rom.ModelFileError, rom.UnstableModelError]
+    analysis = sys.modules.get("sloshrom.beam.analysis")
+    if analysis is not None:
+        types.append(analysis.AnalysisError)
     return tuple(types)
 
 

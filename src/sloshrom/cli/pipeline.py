@@ -1,4 +1,8 @@
-"""``sloshrom reproduce``, ``sloshrom config show`` and ``sloshrom map``."""
+"""``sloshrom reproduce``, ``sloshrom config show`` and ``sloshrom map``.
+
+The library modules are imported inside the commands: ``sloshrom --help`` must not load JAX,
+xarray and matplotlib.
+"""
 
 from __future__ import annotations
 
@@ -73,16 +77,11 @@ def reproduce(
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from sloshrom.pipeline import chain as pipeline
-    from sloshrom.pipeline import settings
+    from sloshrom.pipeline import run
 
     cfg = _load_config(config, quick)
     if sweep:
-        cfg["rom"]["sweep"] = True
-        try:
-            settings.validate(cfg)  # the sweep grid must fit the training record too
-        except user_errors() as exc:
-            fail(str(exc))
+        cfg["rom"]["sweep"] = True  # run() validates again: the sweep grid must fit the data too
     check_out(out, directory=True, inputs=(config,))
     console = Console(stderr=True)
     tasks: dict[str, int] = {}
@@ -96,15 +95,13 @@ def reproduce(
             prog.update(tasks[stage], completed=done, total=total, description=text)
 
         try:
-            summary = pipeline.run(out, cfg, progress=report)
+            summary = run(out, cfg, progress=report)
         except (*user_errors(), OSError) as exc:  # user input or disk, not a bug: one line
             prog.stop()
             fail(str(exc))
     for name, st in summary["stages"].items():
         console.print(f"{name:7s} {'reused' if st['reused'] else 'done'}"
                       f" ({summary['timings_s'].get(name, 0.0):.1f} s)")
-    for item in summary["not_built"]:
-        console.print(f"[yellow]not built yet: {item}")
     console.print(f"report: {Path(out) / 'report.html'}   summary: {Path(out) / 'summary.json'}")
 
 
@@ -165,19 +162,18 @@ def map_cmd(
     from rich.progress import Progress
 
     from sloshrom.energy import map_maximum
-    from sloshrom.pipeline import chain as pipeline
+    from sloshrom.pipeline.maps import compute_map, relative_map_error, write_map
 
     with Progress(transient=True) as prog:
         task = prog.add_task("harmonic tests", total=n_omega)
-        da = pipeline.compute_map(sm, cfg, tank,
-                                  lambda d, t: prog.update(task, completed=d, total=t))
-    pipeline.write_map(da, out, title)
+        da = compute_map(sm, cfg, tank, lambda d, t: prog.update(task, completed=d, total=t))
+    write_map(da, out, title)
     mx = map_maximum(da)
     typer.echo(f"max Phi_d = {mx['phi_d']:.3g} at omega_bar = {mx['omega_bar']:.2f}, "
                f"a_bar = {mx['a_bar']:.3f} (Gamma = {mx['gamma']:.2f} g, "
                f"{mx['frequency']:.1f} Hz); wrote {out} and {out.with_suffix('.png')}")
     if ref is not None:
-        err = pipeline.relative_map_error(ref, da.values)
+        err = relative_map_error(ref, da.values)
         typer.echo(f"relative L2 error against {reference}: {err:.1%}")
 
 
@@ -201,7 +197,7 @@ def _read_reference(path: Path, cfg: dict, tank: Tank):
     import numpy as np
     import xarray as xr
 
-    from sloshrom.pipeline.chain import map_grid
+    from sloshrom.pipeline.maps import map_grid
 
     try:
         with xr.open_dataset(path, engine="h5netcdf") as ds:

@@ -9,12 +9,11 @@ rig's noise-free ``true_velocity``/``true_dynamic_force`` unless ``--no-truth``)
 
 from __future__ import annotations
 
-import importlib
 import shlex
 import sys
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
 import typer
@@ -22,6 +21,10 @@ import typer
 from sloshrom.cli._app import app, check_input, check_number, check_out, fail, user_errors, warn
 from sloshrom.config import G, Tank
 from sloshrom.pipeline.settings import MAX_FINE_SECONDS, MIN_VFA_DURATION
+
+if TYPE_CHECKING:
+    from sloshrom.io.record import Record
+    from sloshrom.rig.virtual import VirtualRig
 
 rig_app = typer.Typer(
     help="Generate virtual-rig shaker records (the paper's VFA data and harmonic tests).",
@@ -66,16 +69,14 @@ def _check_common(out: Path, seed: int, fill: float | None, tank_toml: Path | No
     return _tank(tank_toml, fill)
 
 
-def _make_rig(tank: Tank, seed: int) -> Any:
-    # import_module (not ``from sloshrom import rig``) so that tests can substitute the module.
-    try:
-        rig_mod = importlib.import_module("sloshrom.rig.virtual")
-    except ImportError as exc:
-        fail(f"the virtual rig (sloshrom.rig.virtual) is not available: {exc}")
-    return rig_mod.VirtualRig(tank=tank, seed=seed)
+def _make_rig(tank: Tank, seed: int) -> VirtualRig:
+    """The virtual rig of the command (imported here: it loads numba, slow for ``--help``)."""
+    from sloshrom.rig.virtual import VirtualRig
+
+    return VirtualRig(tank=tank, seed=seed)
 
 
-def _provenance(kind: str, signal: dict[str, Any], rig: Any) -> dict[str, Any]:
+def _provenance(kind: str, signal: dict[str, Any], rig: VirtualRig) -> dict[str, Any]:
     from sloshrom import __version__
 
     return {
@@ -89,7 +90,8 @@ def _provenance(kind: str, signal: dict[str, Any], rig: Any) -> dict[str, Any]:
     }
 
 
-def _run(rig: Any, acceleration: np.ndarray, tank: Tank, truth: bool, label: str, **attrs: Any):
+def _run(rig: VirtualRig, acceleration: np.ndarray, tank: Tank, truth: bool, label: str,
+         **attrs: Any) -> Record:
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
     from sloshrom.io.record import record_from_measurement

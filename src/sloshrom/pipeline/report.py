@@ -1,4 +1,8 @@
-"""The reproduce report: ``OUT/report.html``, one self-contained page in the paper's order."""
+"""The reproduce report: ``OUT/report.html``, one self-contained page in the paper's order.
+
+Built from the configuration and the stages' outputs (``summary.json``): no size, duration or
+level is written into the text here.
+"""
 
 from __future__ import annotations
 
@@ -6,13 +10,19 @@ import html
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from sloshrom.config import Tank
 from sloshrom.pipeline import html as report
 from sloshrom.pipeline import settings
+from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.html import Figure, Section, Table
+from sloshrom.pipeline.maps import HYSTERESIS_FREQUENCY, HYSTERESIS_GAMMA
+
+__all__ = ["build_sections", "write_report"]
 
 
-def _fig(ctx: Any, name: str, caption: str) -> list[Figure]:
+def _fig(ctx: Context, name: str, caption: str) -> list[Figure]:
     p = Path(ctx.out) / "figures" / name
     if not p.is_file():
         p = Path(ctx.out) / name
@@ -42,11 +52,13 @@ def _setup_section(cfg: dict[str, Any]) -> Section:
 
     tank = Tank.from_dict(cfg["tank"])
     b = cfg["beam"]
+    paper_rom = defaults["rom"]
     rows = [
         ["tank inner base l1 × l2", f"{tank.length * 1e3:.1f} × {tank.width * 1e3:.1f} mm",
          source("tank", "length", "width")],
         ["tank height h", f"{tank.height * 1e3:.1f} mm", source("tank", "height")],
-        ["fill level α", f"{tank.fill:.2f}", source("tank", "fill", paper="paper (50 %)")],
+        ["fill level α", f"{tank.fill:.2f}",
+         source("tank", "fill", paper=f"paper ({defaults['tank']['fill'] * 100:g} %)")],
         ["liquid mass m_l", f"{tank.liquid_mass * 1e3:.1f} g",
          f"derived (ρ = {tank.density:g} kg/m³)"],
         ["structure mass above load cells", f"{tank.structure_mass:.3f} kg",
@@ -58,7 +70,9 @@ def _setup_section(cfg: dict[str, Any]) -> Section:
          source("data", "train_duration", "validation_duration")],
         ["ROM", f"{cfg['rom']['arch'].upper()}({cfg['rom']['delays']}, "
          f"{cfg['rom']['neurons']})",
-         source("rom", "arch", "delays", "neurons", paper="paper: NFIR(70, 35)")],
+         source("rom", "arch", "delays", "neurons",
+                paper=f"paper: {paper_rom['arch'].upper()}({paper_rom['delays']}, "
+                      f"{paper_rom['neurons']})")],
         ["beam length × width × thickness", f"{b['length']:g} × {b['width']:g} × "
          f"{b['thickness']:g} m, clamped", source("beam", "length", "width", "thickness")],
         ["beam E, ρ", f"{b['youngs_modulus'] / 1e9:g} GPa, {b['density']:g} kg/m³",
@@ -81,7 +95,7 @@ def _setup_section(cfg: dict[str, Any]) -> Section:
                    tables=[Table(["quantity", "value", "source"], rows)])
 
 
-def build_sections(ctx: Any, summary: dict[str, Any]) -> list[Section]:
+def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
     st = summary["stages"]
     secs = [_setup_section(ctx.cfg)]
     d = st.get("data", {})
@@ -99,31 +113,28 @@ def build_sections(ctx: Any, summary: dict[str, Any]) -> list[Section]:
                "(dynamic sloshing force).")
         + _fig(ctx, "fig07_validation_io.png", "Fig. 7b — validation input and output."),
     ))
-    r = st.get("rom")
+    r = st["rom"]
     sw = st.get("sweep")
-    if r:
-        secs.append(Section(
-            "3. Model selection (paper Fig. 8)",
-            "<p>" + (html.escape(sw["sweep_text"]) if sw else "The sensitivity sweep was not "
-                     "run (use <code>--sweep</code>); the paper's selection is trained "
-                     "directly.") + "</p>",
-            _fig(ctx, "fig08_sensitivity.png", "Fig. 8 — mean of train and validation MSE "
-                 "against neurons for each delay line.") if sw else [],
-            [Table(["architecture", "delays", "neurons", "score (MSE, N²)", "stable"],
-                   sw["sweep_rows"])] if sw else [],
-        ))
-        secs.append(Section(
-            "4. Validation (paper Fig. 10)",
-            f"<p>{html.escape(r.get('name', 'ROM'))}: validation MSE {_num(r, 'val_mse')} N², "
-            f"NRMSE {_num(r, 'val_nrmse', fmt='{:.3f}')}, fit {_num(r, 'val_fit', fmt='{:.1f}')} "
-            f"%; training took {_num(r, 'train_seconds', fmt='{:.1f}')} s "
-            f"({_num(r, 'epochs', fmt='{:.0f}')} epochs, stop: "
-            f"{html.escape(str(r.get('stop_reason', 'n/a')))}).</p>",
-            _fig(ctx, "fig10_validation.png", "Fig. 10 — ROM free-run prediction against the "
-                 "rig's dynamic force on the validation record."),
-        ))
-    else:
-        secs.append(Section("3–4. ROM", "<p class='note'>Not built yet in this version.</p>"))
+    secs.append(Section(
+        "3. Model selection (paper Fig. 8)",
+        "<p>" + (html.escape(sw["sweep_text"]) if sw else "The sensitivity sweep was not "
+                 "run (use <code>--sweep</code>); the paper's selection is trained "
+                 "directly.") + "</p>",
+        _fig(ctx, "fig08_sensitivity.png", "Fig. 8 — mean of train and validation MSE "
+             "against neurons for each delay line.") if sw else [],
+        [Table(["architecture", "delays", "neurons", "score (MSE, N²)", "stable"],
+               sw["sweep_rows"])] if sw else [],
+    ))
+    secs.append(Section(
+        "4. Validation (paper Fig. 10)",
+        f"<p>{html.escape(r.get('name', 'ROM'))}: validation MSE {_num(r, 'val_mse')} N², "
+        f"NRMSE {_num(r, 'val_nrmse', fmt='{:.3f}')}, fit {_num(r, 'val_fit', fmt='{:.1f}')} "
+        f"%; training took {_num(r, 'train_seconds', fmt='{:.1f}')} s "
+        f"({_num(r, 'epochs', fmt='{:.0f}')} epochs, stop: "
+        f"{html.escape(str(r.get('stop_reason', 'n/a')))}).</p>",
+        _fig(ctx, "fig10_validation.png", "Fig. 10 — ROM free-run prediction against the "
+             "rig's dynamic force on the validation record."),
+    ))
     m = st.get("maps", {})
     text = (
         f"<p>Rig map maximum Φ_d = {_num(m, 'rig_maximum', 'phi_d')} at ω̄ = "
@@ -141,33 +152,106 @@ def build_sections(ctx: Any, summary: dict[str, Any]) -> list[Section]:
     secs.append(Section(
         "5. Dissipation maps (paper Figs. 3, 4, 11)", text,
         _fig(ctx, "fig03_hysteresis.png", "Fig. 3 — normalised sloshing force and hysteresis "
-             "loop at 3 g, 17 Hz; the enclosed area is the dissipated energy per cycle.")
+             f"loop at {HYSTERESIS_GAMMA:g} g, {HYSTERESIS_FREQUENCY:g} Hz; the enclosed area is "
+             "the dissipated energy per cycle.")
         + _fig(ctx, "maps/phi_d_rig.png", "Fig. 4 — Φ_d(ω̄, ā) of the virtual rig.")
         + _fig(ctx, "maps/phi_d_rom.png", "Fig. 11 — Φ_d(ω̄, ā) predicted by the ROM.")
         + _fig(ctx, "maps/phi_d_difference.png", "ROM minus rig: where the ROM over- (positive)"
                " or under-predicts dissipation."),
     ))
-    b = st.get("beam")
-    if b:
-        from sloshrom.pipeline.beam import report_sections  # noqa: PLC0415
-
-        secs.extend(report_sections(ctx, b))
-    else:
-        secs.append(Section("6. Sloshing beam", "<p class='note'>Not built yet in this "
-                                                 "version.</p>"))
+    secs.extend(_beam_sections(ctx, st["beam"]))
     t = summary.get("timings_s", {})
     secs.append(Section(
         "Run", "<p>" + ", ".join(f"{k}: {v:.1f} s" for k, v in t.items())
         + (" (cached stages reused: "
            + ", ".join(k for k, v in st.items() if v.get("reused")) + ")"
-           if any(v.get("reused") for v in st.values()) else "") + "</p>"
-        + (f"<p class='note'>Not built in this version: {', '.join(summary['not_built'])}.</p>"
-           if summary.get("not_built") else ""),
+           if any(v.get("reused") for v in st.values()) else "") + "</p>",
     ))
     return secs
 
 
-def write_report(ctx: Any, summary: dict[str, Any]) -> Path:
+def _pct(v: Any) -> str:
+    try:
+        return "–" if not np.isfinite(v) else f"{100 * float(v):.2f} %"
+    except TypeError:
+        return "–"
+
+
+def _beam_sections(ctx: Context, b: dict[str, Any]) -> list[Section]:
+    """Sections 6-8: the sloshing beam (outputs ``b`` of the ``beam`` stage)."""
+    figdir = Path(ctx.out) / "figures"
+
+    def fig(name: str, cap: str) -> list[Figure]:
+        p = figdir / f"{name}.png"
+        return [Figure(p, cap)] if p.is_file() else []
+
+    t1 = Table(["mode", "f dry [Hz]", "f frozen [Hz]", "f coupled [Hz]", "ζ", "modal mass [kg]"],
+               [[r["mode"], r["f_dry_Hz"], r["f_frozen_Hz"], r["f_coupled_Hz"],
+                 _pct(r["damping"]), r["modal_mass_kg"]] for r in b["table1"]],
+               "Table 1 analogue: modes of the beam with frozen liquid (unit maximum "
+               "displacement normalisation; damping ratios are estimates).")
+    inst = b["instantaneous_damping"]
+    cases = list(inst)
+    bands = [k for k in next(iter(inst.values())) if k.endswith(" g")]
+    t_inst = Table(["tank acceleration"] + cases,
+                   [[band] + [_pct(inst[c][band]) for c in cases] for band in bands],
+                   "Median first-mode instantaneous damping (Hilbert) in bands of tank "
+                   "acceleration amplitude, free response.")
+
+    def spread(r: dict[str, Any], key: str) -> str:
+        return f"{_pct(r[key])} ± {_pct(r[key + '_iqr'] / 2)}"
+
+    t2 = Table(["case", "RMS [g]", "max tank acc. [g]", "LSCF on H1", "output-only LSCF",
+                "half power"],
+               [[r["case"], r["rms_g"], r["max_tank_acceleration_g"], spread(r, "lscf_h1"),
+                 spread(r, "lscf_output"), _pct(r["half_power"])] for r in b["table2"]],
+               "Table 2 analogue: first-mode damping from the random tests. LSCF columns: "
+               "median over the stable poles of model orders 2-40 ± half their interquartile "
+               "range; output-only: half-spectrum of the tank acceleration (no base signal "
+               "needed), corrected for its exponential window.")
+    free_text = (
+        f"<p>Free response from a {ctx.cfg['beam']['tip_displacement'] * 100:.2f} cm static tip "
+        f"deflection (initial tank acceleration "
+        f"{inst.get('frozen', {}).get('initial_tank_acceleration_g', float('nan')):.1f} g). "
+        "The rig plays the experiment; the ROM runs in the same coupled model; the frozen case "
+        "has Δf = 0. First-mode frequency with frozen liquid: "
+        f"{b['f1_frozen_hz']:.2f} Hz.</p>"
+    )
+    return [
+        Section("6. Sloshing beam: modes (paper Table 1)", "", tables=[t1]),
+        Section(
+            "7. Free response (paper Figs. 14, 16, 20, 21)", free_text,
+            fig("fig14_station_accelerations", "Fig. 14 — virtual accelerometers along the beam,"
+                " frozen vs sloshing.")
+            + fig("fig16_modal_accelerations", "Fig. 16 — modal accelerations from modal "
+                  "filtering: sloshing damps mode 1 most.")
+            + fig("fig20_tank_interface_dynamic", "Fig. 20 — tank acceleration, interface force"
+                  " and dynamic sloshing force.")
+            + fig("fig21_instantaneous_damping", "Fig. 21 — first-mode instantaneous damping "
+                  "against tank acceleration amplitude (Hilbert envelope, log-decrement dots)."),
+            [t_inst],
+        ),
+        Section(
+            "8. Random base excitation (paper Figs. 18, 22, 23, Table 2)",
+            "<p>Gaussian-PSD base acceleration (Eq. 8), "
+            + html.escape(", ".join(f"{g:g}" for g in ctx.cfg["beam"]["rms_g"]))
+            + f" g RMS, {ctx.cfg['beam']['random_duration']:.0f} s, the same phases for every "
+            "level and every case.</p>",
+            fig("fig17_base_excitation", "Fig. 17 — the base accelerations imposed at the "
+                "beam root (the same signal for every case): a 2 s window and their Welch PSDs "
+                "against the Gaussian spectrum of Eq. (8) (dashed).")
+            + fig("fig18_tank_acceleration", "Fig. 18 — tank acceleration at each RMS level "
+                  "(sloshing).")
+            + fig("fig22_tank_acceleration_window", "Fig. 22 — tank acceleration in a 2 s "
+                  "window: rig, ROM and frozen.")
+            + fig("fig23_psd", "Fig. 23 — Welch PSDs of the tank acceleration: sloshing lowers "
+                  "the resonance peak."),
+            [t2],
+        ),
+    ]
+
+
+def write_report(ctx: Context, summary: dict[str, Any]) -> Path:
     intro = (
         "<p>Reproduction of <i>Neural network-based reduced-order model of vertical sloshing "
         "and its experimental validation on a sloshing beam</i> with <b>sloshrom "

@@ -1,4 +1,5 @@
-"""The ``rom`` stage of `sloshrom reproduce`: identify the ROM, validate it (paper Figs. 8, 10)."""
+"""The ``sweep`` and ``rom`` stages of `sloshrom reproduce`: sensitivity analysis (paper Fig. 8),
+then identify the configured ROM and validate it (Fig. 10)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,14 @@ from typing import Any
 
 import numpy as np
 
-from sloshrom.pipeline.chain import Context, _plt, _savefig
+from sloshrom.io.record import read_record
+from sloshrom.pipeline.context import Context
+from sloshrom.plotting import savefig
+from sloshrom.plotting.rom import plot_sweep, validation_figure
+from sloshrom.rom.estimators import NFIR, NOE
+from sloshrom.rom.sweep import run_sweep
+
+__all__ = ["SWEEP_KEYS", "error_figures", "stage_rom", "stage_sweep", "sweep_points"]
 
 
 def error_figures(y: np.ndarray, y_hat: np.ndarray) -> dict[str, float]:
@@ -35,9 +43,6 @@ def stage_sweep(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     Points run in parallel (Dask LocalCluster, ``sweep_workers`` processes; 1 = in this
     process). Each finished point is kept in ``OUT/sweep/``, so an interrupted sweep resumes.
     """
-    from sloshrom.io.record import read_record
-    from sloshrom.rom.sweep import plot_sweep, run_sweep
-
     cfg = ctx.cfg["rom"]
     pts = sweep_points(cfg)
     train = read_record(ctx.out / "data" / "train.nc")
@@ -79,10 +84,17 @@ def stage_sweep(ctx: Context) -> tuple[dict[str, Any], list[str]]:
 
 
 def stage_rom(ctx: Context) -> tuple[dict[str, Any], list[str]]:
-    from sloshrom.io.record import read_record
-    from sloshrom.rom.estimators import NFIR, NOE
+    """Train the configured NFIR/NOE on the training record, validate it (paper Fig. 10).
 
-    plt = _plt()
+    Returns
+    -------
+    outputs : dict
+        ``model`` (its file), ``name``, ``train_seconds`` (s), MSE (N^2), NRMSE (-) and fit (%)
+        on the validation (``val_*``) and training (``train_*``) records, ``epochs``,
+        ``stop_reason``.
+    files : list of str
+        The model file and Fig. 10, relative to ``ctx.out``.
+    """
     cfg = ctx.cfg["rom"]
     train = read_record(ctx.out / "data" / "train.nc")
     val = read_record(ctx.out / "data" / "validation.nc")
@@ -116,18 +128,6 @@ def stage_rom(ctx: Context) -> tuple[dict[str, Any], list[str]]:
         epochs=len(hist.get("train_mse", [])) if isinstance(hist, dict) else None,
         stop_reason=hist.get("stop_reason") if isinstance(hist, dict) else None,
     )
-    fig, axs = plt.subplots(2, 1, figsize=(9, 5.5), constrained_layout=True)
-    t = val.time
-    axs[0].plot(t, yv, "k", lw=0.4, label="rig (validation)")
-    axs[0].plot(t, yv_hat, "r", lw=0.4, alpha=0.8, label=name)
-    axs[0].set_ylabel(r"$\Delta f$ [N]")
-    axs[0].legend(loc="upper right")
-    axs[0].set_title(f"validation: fit {ev['fit']:.1f} %, NRMSE {ev['nrmse']:.3f}")
-    i0 = int(np.argmax(np.abs(yv)))
-    sl = slice(max(0, i0 - int(0.5 * val.fs)), i0 + int(0.5 * val.fs))
-    axs[1].plot(t[sl], yv[sl], "k", lw=1, label="rig")
-    axs[1].plot(t[sl], yv_hat[sl], "r--", lw=1, label=name)
-    axs[1].set_xlabel("time [s]")
-    axs[1].set_ylabel(r"$\Delta f$ [N]")
-    files.append(ctx.rel(_savefig(fig, ctx.path("figures", "fig10_validation.png"))))
+    fig = validation_figure(val.time, yv, yv_hat, name, val.fs, ev["fit"], ev["nrmse"])
+    files.append(ctx.rel(savefig(fig, ctx.path("figures", "fig10_validation.png"))))
     return outputs, files

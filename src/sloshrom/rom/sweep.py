@@ -21,9 +21,9 @@ from typing import Any
 
 import numpy as np
 
-from sloshrom.fileio import atomic_write, atomic_write_text
+from sloshrom.fileio import atomic_write_text
 
-__all__ = ["default_grid", "plot_sweep", "point_name", "run_sweep", "write_table"]
+__all__ = ["default_grid", "point_name", "run_sweep", "write_table"]
 
 NFIR_DELAYS = (50, 60, 70)
 NFIR_NEURONS = (5, 10, 15, 20, 25, 30, 35, 40)
@@ -185,33 +185,3 @@ def write_table(rows: list[dict[str, Any]], out_dir: Path) -> tuple[Path, Path]:
              for k, v in r.items()} for r in rows]
     atomic_write_text(json_path, json.dumps(safe, indent=1))
     return csv_path, json_path
-
-
-def plot_sweep(rows: list[dict[str, Any]], path: str | Path) -> Path:
-    """Paper Fig. 8: score (mean of train and validation MSE, N^2) against neurons."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(6.5, 4), constrained_layout=True)
-    groups: dict[tuple[str, int], list[dict[str, Any]]] = {}
-    for r in rows:
-        groups.setdefault((r["arch"], r["delays"]), []).append(r)
-    for (arch, d), rs in sorted(groups.items()):
-        rs = sorted(rs, key=lambda r: r["neurons"])
-        x = [r["neurons"] for r in rs if math.isfinite(r["score"])]
-        y = [r["score"] for r in rs if math.isfinite(r["score"])]
-        ax.plot(x, y, "o-" if arch == "nfir" else "s--", label=f"{arch.upper()}, {d} delays")
-        bad = [r["neurons"] for r in rs if not math.isfinite(r["score"])]
-        if bad and y:
-            ax.plot(bad, [max(y)] * len(bad), "rx", label=f"{arch.upper()} {d}: unstable")
-    ax.set_yscale("log")
-    ax.set_xlabel("hidden neurons")
-    ax.set_ylabel(r"mean(train, validation) MSE [N$^2$]")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
-    try:
-        return atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=120))
-    finally:
-        plt.close(fig)

@@ -1,0 +1,298 @@
+"""Results of the sloshing-beam tests: simulation of every case, first-mode damping summaries,
+Table 1/Table 2 rows and the result files (NetCDF datasets, CSV/Markdown tables).
+
+Shared by ``sloshrom beam`` and the ``beam`` stage of ``sloshrom reproduce``, so that both
+analyse and write their results the same way.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from sloshrom import __version__
+from sloshrom.beam.analysis import (
+    instantaneous_damping,
+    log_decrement,
+    modal_filter,
+    mode1_damping_random,
+)
+from sloshrom.beam.structure import (
+    CantileverBeam,
+    ModalModel,
+    coupled_frozen_modes,
+    frozen_modal_table,
+)
+from sloshrom.config import G, Tank
+from sloshrom.fileio import OutputBatch, atomic_write
+from sloshrom.models import SloshingModel
+
+__all__ = [
+    "BANDS", "Mode1Decay", "damping_by_band", "damping_summary", "frozen_modes_table",
+    "modal_accelerations", "mode1_damping_table", "mode1_decay", "output_rate",
+    "simulate_cases", "to_dataset", "write_dataset", "write_table",
+]
+
+#: Bands of tank-acceleration amplitude (g) in which the instantaneous first-mode damping is
+#: summarised (median).
+BANDS = ((0.5, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 5.0))
+
+#: A simulation of one case: ``simulate(model, output_fs)`` returns the result dict of
+#: ``sloshrom.beam.coupled.free_response``/``random_response``.
+Simulate = Callable[[SloshingModel, float | None], dict[str, Any]]
+
+
+# -- simulation ----------------------------------------------------------------------------------
+def output_rate(model: SloshingModel, fs: float) -> float | None:
+    """Rate of a case's results, Hz: ``fs``, or ``None`` (the model's own rate) if it is slower.
+
+    A fast model (the rig at 10 kHz) is decimated to the sensors' rate ``fs``; a model running at
+    ``fs`` or below keeps its own step.
+    """
+    return fs if 1.0 / model.dt > fs else None
+
+
+def simulate_cases(models: Mapping[str, SloshingModel], simulate: Simulate, fs: float,
+                   on_case: Callable[[str], None] | None = None) -> dict[str, dict[str, Any]]:
+    """Run ``simulate`` for every case, in order; results at :func:`output_rate`.
+
+    Parameters
+    ----------
+    models : mapping
+        Case name -> sloshing model.
+    simulate : callable
+        ``simulate(model, output_fs)`` -> result dict.
+    fs : float
+        Rate of the results (the beam's sensors), Hz.
+    on_case : callable, optional
+        Called with the case name before its simulation (progress reports).
+
+    Returns
+    -------
+    dict
+        Case name -> result dict.
+    """
+    results = {}
+    for case, model in models.items():
+        if on_case is not None:
+            on_case(case)
+        results[case] = simulate(model, output_rate(model, fs))
+    return results
+
+
+# -- analysis ------------------------------------------------------------------------------------
+def modal_accelerations(res: Mapping[str, Any], modal: ModalModel) -> np.ndarray:
+    """Modal accelerations (m/s^2, shape (n, n_modes)) by modal filtering of the virtual
+    accelerometers relative to the base, as for measured data."""
+    return modal_filter(res["station_acceleration"] - res["base_acceleration"][..., None],
+                        modal.psi_stations)
+
+
+@dataclass
+class Mode1Decay:
+    """The first-mode damping of a free response (paper Fig. 21).
+
+    Attributes
+    ----------
+    modal : ndarray (n, n_modes)
+        Modal accelerations, m/s^2 (:func:`modal_accelerations`).
+    hilbert : dict
+        ``sloshrom.beam.analysis.instantaneous_damping`` of mode 1 against the tank
+        acceleration amplitude (``amplitude`` in m/s^2, ``zeta`` -).
+    log_decrement : dict
+        ``sloshrom.beam.analysis.log_decrement`` of mode 1, same reference.
+    """
+
+    modal: np.ndarray
+    hilbert: dict[str, np.ndarray]
+    log_decrement: dict[str, np.ndarray]
+
+
+def mode1_decay(res: Mapping[str, Any], modal: ModalModel, f1: float) -> Mode1Decay:
+    """Modal filtering and first-mode damping (Hilbert and log decrement) of a free response.
+
+    Parameters
+    ----------
+    res : mapping
+        A free response (``sloshrom.beam.coupled.free_response``).
+    modal : ModalModel
+        The beam's modal model (stations and their mode shapes).
+    f1 : float
+        First mode with frozen liquid, Hz (the band-pass centre).
+
+    Raises
+    ------
+    AnalysisError
+        The stations cannot separate the modes, or the record is too short.
+    """
+    q = modal_accelerations(res, modal)
+    ref = res["tank_acceleration"]
+    return Mode1Decay(
+        modal=q,
+        hilbert=instantaneous_damping(q[:, 0], res["fs"], f1, reference=ref),
+        log_decrement=log_decrement(q[:, 0], res["fs"], f1, reference=ref),
+    )
+
+
+def damping_by_band(zeta: np.ndarray, amplitude_g: np.ndarray) -> dict[str, float]:
+    """Median instantaneous damping ratio (-) in each band of :data:`BANDS` (amplitude in g).
+
+    NaN for a band with 10 samples or fewer. Keys: ``"0.5-1 g"``, ``"1-2 g"``, ...
+    """
+    out = {}
+    for lo, hi in BANDS:
+        sel = (amplitude_g >= lo) & (amplitude_g < hi)
+        out[f"{lo:g}-{hi:g} g"] = float(np.median(zeta[sel])) if sel.sum() > 10 else float("nan")
+    return out
+
+
+def damping_summary(free: Mapping[str, Mapping[str, Any]],
+                    decays: Mapping[str, Mode1Decay]) -> dict[str, dict[str, float]]:
+    """Per case: the banded median first-mode damping (:func:`damping_by_band`) and
+    ``initial_tank_acceleration_g``, the largest tank acceleration of the free response (g)."""
+    out: dict[str, dict[str, float]] = {}
+    for case, r in free.items():
+        h = decays[case].hilbert
+        out[case] = damping_by_band(h["zeta"], h["amplitude"] / G)
+        out[case]["initial_tank_acceleration_g"] = float(np.max(np.abs(r["tank_acceleration"]))
+                                                         / G)
+    return out
+
+
+def mode1_damping_table(random: Mapping[str, Mapping[str, Any]], levels: Sequence[float],
+                        f1: float, max_tank_acceleration: bool = False) -> list[dict[str, Any]]:
+    """Paper Table 2: first-mode damping of every random response, one row per case and level.
+
+    Columns ``case``, ``rms_g`` (g), ``max_tank_acceleration_g`` (g, only if
+    ``max_tank_acceleration``), then those of ``sloshrom.beam.analysis.mode1_damping_random``.
+    """
+    rows = []
+    for case, r in random.items():
+        for i, level in enumerate(levels):
+            d = mode1_damping_random(r["base_acceleration"][i], r["tank_acceleration"][i],
+                                     r["fs"], f1)
+            row: dict[str, Any] = {"case": case, "rms_g": level}
+            if max_tank_acceleration:
+                row["max_tank_acceleration_g"] = float(np.max(np.abs(r["tank_acceleration"][i]))
+                                                       / G)
+            rows.append({**row, **d})
+    return rows
+
+
+def frozen_modes_table(tank: Tank, modal: ModalModel,
+                       beam: CantileverBeam | None = None) -> list[dict[str, float]]:
+    """Paper Table 1: the beam's modes with frozen liquid, one row per mode of ``modal``.
+
+    With the Euler-Bernoulli ``beam`` that ``modal`` was made from: the full table of
+    ``sloshrom.beam.structure.frozen_modal_table`` (dry, frozen and coupled frequencies, Hz;
+    damping; modal masses, kg). Without it (the user's own modal data): ``mode``, ``f_dry_Hz``,
+    ``f_coupled_Hz`` (frozen liquid in the coupled model) and ``damping`` only.
+    """
+    if beam is not None:
+        return frozen_modal_table(tank, beam=beam, n_modes=modal.n_modes,
+                                  damping=modal.damping.tolist())
+    fc, _ = coupled_frozen_modes(modal, tank.liquid_mass)
+    return [{"mode": n + 1, "f_dry_Hz": float(modal.frequencies[n]),
+             "f_coupled_Hz": float(fc[n]), "damping": float(modal.damping[n])}
+            for n in range(modal.n_modes)]
+
+
+# -- result files --------------------------------------------------------------------------------
+def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank, modal: ModalModel,
+               seed: int = 0) -> xr.Dataset:
+    """xarray Dataset of a coupled-simulation result (the standard beam-result names).
+
+    Parameters
+    ----------
+    res : mapping
+        A free or random response (``sloshrom.beam.coupled``); random responses have a leading
+        ``level`` dimension (``rms_levels_g``, g RMS).
+    case : str
+        The sloshing model's case name (``frozen``, ``rig``, a ROM's name).
+    kind : str
+        ``"free"`` or ``"random"`` (the ``test`` attribute).
+    tank : Tank
+        The tank (fill level and liquid mass go into the attributes).
+    modal : ModalModel
+        The beam's modal model (stations, modes, frequencies, damping).
+    seed : int
+        Seed of the run (attribute).
+
+    Returns
+    -------
+    xarray.Dataset
+        Accelerations in m/s^2, forces in N, velocity in m/s, ``q`` in m; time in s.
+    """
+    lead = res["tank_acceleration"].shape[:-1]
+    ldims = ("level",) if len(lead) == 1 else ()
+    t = res["time"]
+    ds = xr.Dataset(
+        {
+            "base_acceleration": (ldims + ("time",), res["base_acceleration"],
+                                  {"units": "m/s^2"}),
+            "tank_acceleration": (ldims + ("time",), res["tank_acceleration"],
+                                  {"units": "m/s^2", "long_name": "tank absolute acceleration"}),
+            "interface_force": (ldims + ("time",), res["interface_force"],
+                                {"units": "N", "long_name": "-(m_struct + m_l) acc + dynamic"}),
+            "dynamic_force": (ldims + ("time",), res["dynamic_force"], {"units": "N"}),
+            "tank_velocity": (ldims + ("time",), res["tank_velocity"],
+                              {"units": "m/s", "long_name": "tank absolute velocity"}),
+            "station_acceleration": (ldims + ("time", "station"), res["station_acceleration"],
+                                     {"units": "m/s^2", "long_name": "absolute"}),
+            "modal_acceleration": (ldims + ("time", "mode"), res["modal_acceleration"],
+                                   {"units": "m/s^2"}),
+            "q": (ldims + ("time", "mode"), res["q"], {"units": "m"}),
+        },
+        coords={"time": ("time", t, {"units": "s"}),
+                "station": ("station", modal.stations, {"units": "m"}),
+                "mode": ("mode", np.arange(1, modal.n_modes + 1))},
+        attrs={"case": case, "test": kind, "fs": float(res["fs"]),
+               "sloshrom_version": __version__, "seed": int(seed),
+               "tank_fill": tank.fill, "liquid_mass": tank.liquid_mass,
+               "structure_mass": modal.structure_mass,
+               "modal_frequencies_Hz": modal.frequencies,
+               "modal_damping": modal.damping},
+    )
+    if ldims:
+        ds = ds.assign_coords(level=("level", res["rms_levels_g"], {"units": "g (RMS)"}))
+    return ds
+
+
+def write_dataset(ds: xr.Dataset, path: str | Path, batch: OutputBatch | None = None) -> Path:
+    """Write ``ds`` as NetCDF-4 (h5netcdf), atomically or into ``batch``; return the path."""
+    write = batch.write if batch is not None else atomic_write
+    return write(path, lambda tmp: ds.to_netcdf(tmp, engine="h5netcdf"))
+
+
+def write_table(rows: Sequence[Mapping[str, Any]], path_stem: str | Path,
+                batch: OutputBatch | None = None) -> tuple[Path, Path]:
+    """Write ``rows`` (dicts with the same keys) as ``<stem>.csv`` and ``<stem>.md``.
+
+    The CSV holds the values as Python prints them; the Markdown table rounds floats to four
+    significant digits. Returns both paths.
+    """
+    keys = list(rows[0])
+
+    def csv(tmp: str) -> None:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(",".join(keys) + "\n")
+            for r in rows:
+                fh.write(",".join(f"{r[k]}" for k in keys) + "\n")
+
+    def md(tmp: str) -> None:
+        def fmt(v: Any) -> str:
+            return f"{v:.4g}" if isinstance(v, float) else str(v)
+
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write("| " + " | ".join(keys) + " |\n|" + "---|" * len(keys) + "\n")
+            for r in rows:
+                fh.write("| " + " | ".join(fmt(r[k]) for k in keys) + " |\n")
+
+    write = batch.write if batch is not None else atomic_write
+    stem = Path(path_stem)
+    return write(stem.with_suffix(".csv"), csv), write(stem.with_suffix(".md"), md)

@@ -1,0 +1,62 @@
+"""What every stage of `sloshrom reproduce` gets: the output directory, the configuration and
+the progress callback (:class:`Context`)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from sloshrom.config import Tank
+from sloshrom.rig.virtual import SensorParams, VirtualRig
+
+__all__ = ["Context", "Progress", "quiet"]
+
+#: Called as ``progress(stage, done, total, text)``; the CLI turns it into progress bars.
+Progress = Callable[[str, float, float, str], None]
+
+
+def quiet(stage: str, done: float, total: float, text: str) -> None:
+    """A :data:`Progress` that reports nothing."""
+
+
+@dataclass
+class Context:
+    """One run of the chain.
+
+    Attributes
+    ----------
+    out : Path
+        The output directory.
+    cfg : dict
+        The validated configuration (``sloshrom.pipeline.settings``).
+    progress : Progress
+        Progress callback.
+    timings : dict
+        Stage name -> wall time, s (filled by :func:`sloshrom.pipeline.run`).
+    """
+
+    out: Path
+    cfg: dict[str, Any]
+    progress: Progress = quiet
+    timings: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def tank(self) -> Tank:
+        return Tank.from_dict(self.cfg["tank"])
+
+    def rig(self) -> VirtualRig:
+        """The virtual rig of the configuration; its sensors record at ``[rig] fs``."""
+        return VirtualRig(tank=self.tank, seed=self.cfg["rig"]["seed"],
+                          sensors=SensorParams(output_rate=self.cfg["rig"]["fs"]))
+
+    def path(self, *parts: str) -> Path:
+        """``out/parts...``, its directory created."""
+        p = self.out.joinpath(*parts)
+        p.parent.mkdir(parents=True, exist_ok=True)
+        return p
+
+    def rel(self, p: Path) -> str:
+        """``p`` relative to the output directory, as listed in the stage's files."""
+        return str(Path(p).relative_to(self.out))

@@ -1,0 +1,165 @@
+"""Figures of the sloshing-beam tests: free response (paper Figs. 14, 16, 20, 21) and random
+response (Figs. 18, 22, 23).
+
+Each function returns ``{file stem: Figure}``; the stems are the result files' names.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from matplotlib.figure import Figure
+
+from sloshrom.beam.analysis import welch_psd
+from sloshrom.beam.results import Mode1Decay
+from sloshrom.beam.structure import ModalModel
+from sloshrom.config import G
+
+__all__ = ["FREE_FIGURES", "RANDOM_FIGURES", "free_figures", "random_figures", "random_window"]
+
+FREE_FIGURES = ("fig14_station_accelerations", "fig16_modal_accelerations",
+                "fig20_tank_interface_dynamic", "fig21_instantaneous_damping")
+RANDOM_FIGURES = ("fig18_tank_acceleration", "fig22_tank_acceleration_window", "fig23_psd")
+
+
+def free_figures(res: Mapping[str, Mapping[str, Any]], modal: ModalModel,
+                 decays: Mapping[str, Mode1Decay]) -> dict[str, Figure]:
+    """Figures of a free-response comparison between cases.
+
+    Parameters
+    ----------
+    res : mapping
+        Case -> free response (``sloshrom.beam.coupled.free_response``).
+    modal : ModalModel
+        The beam's modal model (station positions, number of modes).
+    decays : mapping
+        Case -> its first-mode analysis (``sloshrom.beam.results.mode1_decay``).
+
+    Returns
+    -------
+    dict
+        :data:`FREE_FIGURES` stem -> Figure.
+    """
+    figs = {}
+    cases = list(res)
+    fig = Figure(figsize=(8, 2.6 * len(cases)))
+    axes = fig.subplots(len(cases), 1, sharex=True, squeeze=False)
+    for ax, case in zip(axes[:, 0], cases, strict=True):
+        r = res[case]
+        for j, x in enumerate(modal.stations):
+            ax.plot(r["time"], r["station_acceleration"][:, j] / G, lw=0.6, label=f"x={x:.3f} m")
+        ax.set_ylabel("acceleration (g)")
+        ax.set_title(f"{case}: station accelerations")
+    axes[0, 0].legend(fontsize=7, ncol=3)
+    axes[-1, 0].set_xlabel("time (s)")
+    figs["fig14_station_accelerations"] = fig
+
+    fig = Figure(figsize=(8, 2.2 * modal.n_modes))
+    axes = fig.subplots(modal.n_modes, 1, sharex=True, squeeze=False)
+    for n in range(modal.n_modes):
+        for case in cases:
+            axes[n, 0].plot(res[case]["time"], decays[case].modal[:, n], lw=0.6, label=case)
+        axes[n, 0].set_ylabel(f"q''_{n + 1} (m/s²)")
+    axes[0, 0].legend(fontsize=8)
+    axes[-1, 0].set_xlabel("time (s)")
+    fig.suptitle("Modal accelerations (modal filtering of the station accelerations)")
+    figs["fig16_modal_accelerations"] = fig
+
+    fig = Figure(figsize=(8, 7))
+    axes = fig.subplots(3, 1, sharex=True)
+    for case in cases:
+        r = res[case]
+        axes[0].plot(r["time"], r["tank_acceleration"] / G, lw=0.6, label=case)
+        axes[1].plot(r["time"], r["interface_force"], lw=0.6, label=case)
+        axes[2].plot(r["time"], r["dynamic_force"], lw=0.6, label=case)
+    for ax, lab in zip(axes, ("tank acc. (g)", "interface force (N)", "dynamic force (N)"),
+                       strict=True):
+        ax.set_ylabel(lab)
+    axes[0].legend(fontsize=8)
+    axes[-1].set_xlabel("time (s)")
+    figs["fig20_tank_interface_dynamic"] = fig
+
+    fig = Figure(figsize=(7, 4.5))
+    ax = fig.subplots()
+    for case in cases:
+        h, ld = decays[case].hilbert, decays[case].log_decrement
+        line, = ax.plot(h["amplitude"] / G, 100 * h["zeta"], lw=1.0, label=f"{case} (Hilbert)")
+        ax.plot(ld["amplitude"] / G, 100 * ld["zeta"], "o", ms=3, color=line.get_color(),
+                label=f"{case} (log decrement)")
+    ax.set_xlabel("tank acceleration amplitude (g)")
+    ax.set_ylabel("first-mode damping ratio (%)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    figs["fig21_instantaneous_damping"] = fig
+    return figs
+
+
+def random_window(duration: float) -> tuple[float, float]:
+    """The 2 s window (s) of Fig. 22: from 40 s, or from the middle of a shorter record."""
+    return min(40.0, duration / 2), min(42.0, duration / 2 + 2)
+
+
+def random_figures(res: Mapping[str, Mapping[str, Any]], levels: Sequence[float],
+                   window: tuple[float, float] = (40, 42)) -> dict[str, Figure]:
+    """Figures of a random-response comparison between cases.
+
+    Parameters
+    ----------
+    res : mapping
+        Case -> random response (``sloshrom.beam.coupled.random_response``), one row per level.
+    levels : sequence of float
+        The RMS base-acceleration levels, g.
+    window : (float, float)
+        Time window of Fig. 22, s (:func:`random_window`).
+
+    Returns
+    -------
+    dict
+        :data:`RANDOM_FIGURES` stem -> Figure. Fig. 18 shows the first sloshing case (not
+        ``frozen``), Fig. 23 the Welch PSDs (8192 samples) on six decades below each peak.
+    """
+    figs = {}
+    cases = list(res)
+    slosh = [c for c in cases if c != "frozen"] or cases
+    fig = Figure(figsize=(8, 2.3 * len(levels)))
+    axes = fig.subplots(len(levels), 1, sharex=True, squeeze=False)
+    r = res[slosh[0]]
+    for i, lv in enumerate(levels):
+        axes[i, 0].plot(r["time"], r["tank_acceleration"][i] / G, lw=0.4)
+        axes[i, 0].set_ylabel(f"{lv:g} g RMS\ntank acc. (g)")
+    axes[-1, 0].set_xlabel("time (s)")
+    fig.suptitle(f"Tank acceleration, {slosh[0]}")
+    figs["fig18_tank_acceleration"] = fig
+
+    fig = Figure(figsize=(8, 2.3 * len(levels)))
+    axes = fig.subplots(len(levels), 1, sharex=True, squeeze=False)
+    for case in cases:
+        r = res[case]
+        sel = (r["time"] >= window[0]) & (r["time"] <= window[1])
+        for i in range(len(levels)):
+            axes[i, 0].plot(r["time"][sel], r["tank_acceleration"][i][sel] / G, lw=0.8,
+                            label=case)
+    for i, lv in enumerate(levels):
+        axes[i, 0].set_ylabel(f"{lv:g} g RMS (g)")
+    axes[0, 0].legend(fontsize=8)
+    axes[-1, 0].set_xlabel("time (s)")
+    figs["fig22_tank_acceleration_window"] = fig
+
+    fig = Figure(figsize=(4 * len(levels), 3.8))
+    axes = fig.subplots(1, len(levels), squeeze=False)
+    for case in cases:
+        r = res[case]
+        f, p = welch_psd(r["tank_acceleration"], r["fs"], nperseg=8192)
+        for i in range(len(levels)):
+            axes[0, i].semilogy(f, p[i], lw=0.8, label=case)
+    for i, lv in enumerate(levels):
+        top = max(ln.get_ydata().max() for ln in axes[0, i].get_lines())
+        axes[0, i].set_ylim(top * 1e-6, top * 3)  # six decades around the peak
+        axes[0, i].set_xlim(0, 40)
+        axes[0, i].set_title(f"{lv:g} g RMS")
+        axes[0, i].set_xlabel("frequency (Hz)")
+    axes[0, 0].set_ylabel("PSD tank acc. ((m/s²)²/Hz)")
+    axes[0, 0].legend(fontsize=8)
+    figs["fig23_psd"] = fig
+    return figs

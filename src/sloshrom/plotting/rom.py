@@ -1,0 +1,70 @@
+"""Figures of the ROM identification: sensitivity sweep (paper Fig. 8) and validation
+(Fig. 10)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from sloshrom.plotting import savefig
+
+__all__ = ["plot_sweep", "sweep_figure", "validation_figure"]
+
+
+def sweep_figure(rows: list[dict[str, Any]]) -> Figure:
+    """Paper Fig. 8: score (mean of train and validation MSE, N^2) against neurons.
+
+    ``rows`` as returned by ``sloshrom.rom.sweep.run_sweep``; unstable networks (infinite
+    score) are marked with red crosses at the top of their line.
+    """
+    fig = Figure(figsize=(6.5, 4), layout="constrained")
+    ax = fig.subplots()
+    groups: dict[tuple[str, int], list[dict[str, Any]]] = {}
+    for r in rows:
+        groups.setdefault((r["arch"], r["delays"]), []).append(r)
+    for (arch, d), rs in sorted(groups.items()):
+        rs = sorted(rs, key=lambda r: r["neurons"])
+        x = [r["neurons"] for r in rs if math.isfinite(r["score"])]
+        y = [r["score"] for r in rs if math.isfinite(r["score"])]
+        ax.plot(x, y, "o-" if arch == "nfir" else "s--", label=f"{arch.upper()}, {d} delays")
+        bad = [r["neurons"] for r in rs if not math.isfinite(r["score"])]
+        if bad and y:
+            ax.plot(bad, [max(y)] * len(bad), "rx", label=f"{arch.upper()} {d}: unstable")
+    ax.set_yscale("log")
+    ax.set_xlabel("hidden neurons")
+    ax.set_ylabel(r"mean(train, validation) MSE [N$^2$]")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    return fig
+
+
+def plot_sweep(rows: list[dict[str, Any]], path: str | Path) -> Path:
+    """Write paper Fig. 8 (:func:`sweep_figure`) to the PNG file ``path``; return ``path``."""
+    return savefig(sweep_figure(rows), path)
+
+
+def validation_figure(time: np.ndarray, y: np.ndarray, y_hat: np.ndarray, name: str,
+                      fs: float, fit: float, nrmse: float) -> Figure:
+    """Paper Fig. 10: free-run prediction against the measured dynamic force (N).
+
+    Top: the whole validation record; bottom: one second around its largest force.
+    ``fit`` (%) and ``nrmse`` (-) go into the title; ``fs`` (Hz) is the record's rate.
+    """
+    fig = Figure(figsize=(9, 5.5), layout="constrained")
+    axs = fig.subplots(2, 1)
+    axs[0].plot(time, y, "k", lw=0.4, label="rig (validation)")
+    axs[0].plot(time, y_hat, "r", lw=0.4, alpha=0.8, label=name)
+    axs[0].set_ylabel(r"$\Delta f$ [N]")
+    axs[0].legend(loc="upper right")
+    axs[0].set_title(f"validation: fit {fit:.1f} %, NRMSE {nrmse:.3f}")
+    i0 = int(np.argmax(np.abs(y)))
+    sl = slice(max(0, i0 - int(0.5 * fs)), i0 + int(0.5 * fs))
+    axs[1].plot(time[sl], y[sl], "k", lw=1, label="rig")
+    axs[1].plot(time[sl], y_hat[sl], "r--", lw=1, label=name)
+    axs[1].set_xlabel("time [s]")
+    axs[1].set_ylabel(r"$\Delta f$ [N]")
+    return fig
