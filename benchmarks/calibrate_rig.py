@@ -138,13 +138,9 @@ def figures(out_dir: Path | None = None) -> dict:
     """Figures for docs/rig.md with the shipped parameters: 30 x 30 map and a hysteresis loop."""
     import math
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     from sloshrom.config import G
-    from sloshrom.energy import hysteresis_loop, plot_hysteresis, plot_phi_d_map
+    from sloshrom.energy import hysteresis_loop
+    from sloshrom.plotting.maps import plot_hysteresis, plot_phi_d_map
     from sloshrom.signals import harmonic
 
     root = Path(__file__).resolve().parents[1]
@@ -160,7 +156,6 @@ def figures(out_dir: Path | None = None) -> dict:
                  f"omega_bar {mx['omega_bar']:.2f}, a_bar {mx['a_bar']:.2f}")
     ax.figure.tight_layout()
     ax.figure.savefig(out_dir / "rig_phi_d_map.png", dpi=120)
-    plt.close(ax.figure)
     # hysteresis at the paper's Fig. 3 point (3 g, 17 Hz)
     f, gam = 17.0, 3.0
     om = 2 * math.pi * f
@@ -173,7 +168,6 @@ def figures(out_dir: Path | None = None) -> dict:
     ax = plot_hysteresis(x, y, label="3 g, 17 Hz, 5 cycles")
     ax.figure.tight_layout()
     ax.figure.savefig(out_dir / "rig_hysteresis_3g_17Hz.png", dpi=120)
-    plt.close(ax.figure)
     print(f"figures in {out_dir}; map maximum {mx}")
     # Phi_d along Gamma = 4 g against frequency (the fall-off at high frequency)
     rows = []

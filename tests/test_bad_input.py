@@ -19,7 +19,7 @@ from typer.testing import CliRunner
 
 from sloshrom.cli import app
 from sloshrom.config import ConfigError
-from sloshrom.io.record import Record, RecordError, preprocess, read_record, write_record
+from sloshrom.io import Record, RecordError, preprocess, read_record, write_record
 
 FS = 100.0
 N = 200

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from sloshrom.cli import app
-from sloshrom.io.record import Record, write_record
+from sloshrom.io import Record, write_record
 from sloshrom.io.uff import write_uff58
 from test_bad_input import _check_cli, _good, make_model_files, runner
 

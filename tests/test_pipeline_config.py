@@ -68,7 +68,7 @@ def test_rig_fs_is_the_record_rate(tmp_path):
     ctx = Context(tmp_path, cfg)
     assert ctx.rig().sensors.output_rate == 1000.0
     outputs, files = stage_data(ctx)
-    from sloshrom.io.record import read_record
+    from sloshrom.io import read_record
 
     for split in ("train", "validation"):
         rec = read_record(tmp_path / "data" / f"{split}.nc")

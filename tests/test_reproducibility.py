@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 from sloshrom import __version__
 from sloshrom.cli import app
 from sloshrom.config import Tank
-from sloshrom.io.record import read_record
+from sloshrom.io import read_record
 
 runner = CliRunner()
 HARMONIC = ["rig", "harmonic", "--frequency", "11", "--accel-g", "3", "--cycles", "4"]

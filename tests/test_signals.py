@@ -167,16 +167,10 @@ def test_random_bad_input():
 
 
 def test_plot_vfa_paths(tmp_path, paths):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from sloshrom.signals import plot_vfa_paths
+    from sloshrom.plotting.signals import plot_vfa_paths
 
     ax = plot_vfa_paths([paths["train"], paths["validation"]])
     assert len(ax.get_legend().get_texts()) == 2
     assert ax.get_xlabel() and ax.get_ylabel()
     ax.figure.savefig(tmp_path / "p.png")
-    plt.close(ax.figure)
     assert (tmp_path / "p.png").stat().st_size > 1000

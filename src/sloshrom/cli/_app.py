@@ -116,7 +116,7 @@ def user_errors() -> tuple[type[BaseException], ...]:
     """
     from sloshrom.config import ConfigError
     from sloshrom.fileio import OutputPathError
-    from sloshrom.io.record import RecordError
+    from sloshrom.io import RecordError
 
     types: list[type[BaseException]] = [ConfigError, RecordError, OutputPathError]
     rom = sys.modules.get("sloshrom.rom.estimators")
@@ -245,7 +245,7 @@ def check_sloshing_rom(rom: Any, path: Path, what: str, user: str) -> None:
 
     ``user`` says who feeds it, as the subject of "feeds it the tank velocity ...".
     """
-    from sloshrom.io.record import same_unit
+    from sloshrom.io import same_unit
 
     if not (same_unit(rom.units[0], "m/s") and same_unit(rom.units[1], "N")):
         fail(f"{what} {path}: the ROM maps '{rom.units[0]}' to '{rom.units[1]}'; {user} feeds "

@@ -23,7 +23,7 @@ from sloshrom.config import G, Tank
 from sloshrom.pipeline.settings import MAX_FINE_SECONDS, MIN_VFA_DURATION
 
 if TYPE_CHECKING:
-    from sloshrom.io.record import Record
+    from sloshrom.io import Record
     from sloshrom.rig.virtual import VirtualRig
 
 rig_app = typer.Typer(
@@ -94,7 +94,7 @@ def _run(rig: VirtualRig, acceleration: np.ndarray, tank: Tank, truth: bool, lab
          **attrs: Any) -> Record:
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-    from sloshrom.io.record import record_from_measurement
+    from sloshrom.io import record_from_measurement
 
     with Progress(
         SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), transient=True
@@ -105,7 +105,7 @@ def _run(rig: VirtualRig, acceleration: np.ndarray, tank: Tank, truth: bool, lab
 
 
 def _write(record, out: Path) -> None:
-    from sloshrom.io.record import write_record
+    from sloshrom.io import write_record
 
     write_record(record, out)
     df = record["dynamic_force"]

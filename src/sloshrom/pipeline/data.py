@@ -9,7 +9,7 @@ import numpy as np
 
 from sloshrom import __version__, signals
 from sloshrom.config import G
-from sloshrom.io.record import record_from_measurement, write_record
+from sloshrom.io import record_from_measurement, write_record
 from sloshrom.pipeline.context import Context
 from sloshrom.plotting import savefig
 from sloshrom.plotting.signals import record_io_figure, vfa_paths_figure

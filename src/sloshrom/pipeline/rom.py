@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from sloshrom.io.record import read_record
+from sloshrom.io import read_record
 from sloshrom.pipeline.context import Context
 from sloshrom.plotting import savefig
 from sloshrom.plotting.rom import plot_sweep, validation_figure

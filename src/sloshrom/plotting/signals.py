@@ -12,7 +12,7 @@ from matplotlib.figure import Figure
 
 from sloshrom.beam.analysis import welch_psd
 from sloshrom.config import G
-from sloshrom.io.record import Record
+from sloshrom.io import Record
 from sloshrom.signals import VFA, gaussian_psd
 
 __all__ = ["base_excitation_figure", "plot_vfa_paths", "record_io_figure", "vfa_paths_figure"]
