@@ -42,7 +42,7 @@ def test_default_grid_spans_the_envelope():
     f = ob * tank.reference_frequency / (2 * math.pi)
     assert f[0] == pytest.approx(SHAKER_ENVELOPE.f_min)
     assert f[-1] == pytest.approx(SHAKER_ENVELOPE.f_max)
-    assert (ab[0], ab[-1]) == (energy.DEFAULT_A_BAR_MIN, SHAKER_ENVELOPE.a_bar_max)
+    assert (ab[0], ab[-1]) == (signals.DEFAULT_A_BAR_MIN, SHAKER_ENVELOPE.a_bar_max)
 
 
 def test_pipeline_defaults_agree_with_the_envelope():
@@ -53,7 +53,7 @@ def test_pipeline_defaults_agree_with_the_envelope():
     assert m["f_max"] == SHAKER_ENVELOPE.f_max
     assert m["gamma_max"] == SHAKER_ENVELOPE.gamma_max
     assert m["a_bar_max"] == SHAKER_ENVELOPE.a_bar_max
-    assert m["a_bar_min"] == energy.DEFAULT_A_BAR_MIN
+    assert m["a_bar_min"] == signals.DEFAULT_A_BAR_MIN
 
 
 def test_limits_share_the_acceleration_limit():

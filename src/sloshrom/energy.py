@@ -23,10 +23,9 @@ import xarray as xr
 
 from sloshrom.config import Tank
 from sloshrom.models import SloshingModel
-from sloshrom.signals import SHAKER_ENVELOPE, harmonic
+from sloshrom.signals import DEFAULT_A_BAR_MIN, SHAKER_ENVELOPE, harmonic
 
 __all__ = [
-    "DEFAULT_A_BAR_MIN",
     "default_grid",
     "dissipated_energy",
     "hysteresis_loop",
@@ -164,10 +163,6 @@ def shaker_envelope(
         & (ab <= a_bar_max * (1 + 1e-9))
         & (ab > 0)
     )
-
-
-#: Smallest a_bar of the default map grid (below it the force is at the noise floor).
-DEFAULT_A_BAR_MIN = 0.01
 
 
 def default_grid(n: int = 30, tank: Tank | None = None) -> tuple[np.ndarray, np.ndarray]:

@@ -9,7 +9,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from sloshrom.config import G, Tank
 
@@ -170,6 +169,9 @@ class ShakerEnvelope:
 
 #: The shaker-test domain of the paper (5-25 Hz, Gamma <= 6 g, a_bar <= 0.45): the defaults.
 SHAKER_ENVELOPE = ShakerEnvelope()
+
+#: Smallest a_bar of the default map grid (below it the force is at the noise floor).
+DEFAULT_A_BAR_MIN = 0.01
 
 
 @dataclass(frozen=True)
@@ -415,6 +417,8 @@ def vfa(
     # The envelope varies over seconds: sample it at 100 Hz and interpolate with C2 cubic splines,
     # whose derivatives and antiderivative are exact; w, v and acc below are then exact
     # derivatives of one smooth function, at any fs, at the cost of a few arrays of size n.
+    from scipy.interpolate import CubicSpline  # heavy (0.8 s): loaded when a path is made
+
     t_env = np.linspace(0.0, duration, int(np.ceil(duration * 100.0)) + 1)
     a_env, om_env = envelope(t_env)
     a_spl = CubicSpline(t_env, a_env, bc_type="clamped")

@@ -23,6 +23,11 @@ from typing import Any, NoReturn
 import typer
 from typer.core import TyperGroup
 
+from sloshrom import __version__
+from sloshrom.config import ConfigError
+from sloshrom.fileio import OutputPathError, check_output
+from sloshrom.io import RecordError, same_unit
+
 __all__ = [
     "app", "check_input", "check_number", "check_out", "check_sloshing_rom", "fail",
     "route_warnings", "user_errors", "warn",
@@ -88,8 +93,6 @@ def version() -> None:
 
     Example: ``sloshrom version``
     """
-    from sloshrom import __version__
-
     typer.echo(__version__)
 
 
@@ -114,10 +117,6 @@ def user_errors() -> tuple[type[BaseException], ...]:
     cannot handle, e.g. modes the user's stations cannot separate) once
     ``sloshrom.beam.analysis`` is.
     """
-    from sloshrom.config import ConfigError
-    from sloshrom.fileio import OutputPathError
-    from sloshrom.io import RecordError
-
     types: list[type[BaseException]] = [ConfigError, RecordError, OutputPathError]
     rom = sys.modules.get("sloshrom.rom.estimators")
     if rom is not None:
@@ -138,8 +137,6 @@ def check_out(
     what: str = "--out",
 ) -> Path:
     """:func:`sloshrom.fileio.check_output` before any work; a user error if it fails."""
-    from sloshrom.fileio import OutputPathError, check_output
-
     try:
         return check_output(path, suffixes=suffixes, inputs=tuple(i for i in inputs if i),
                             directory=directory, what=what)
@@ -245,8 +242,6 @@ def check_sloshing_rom(rom: Any, path: Path, what: str, user: str) -> None:
 
     ``user`` says who feeds it, as the subject of "feeds it the tank velocity ...".
     """
-    from sloshrom.io import same_unit
-
     if not (same_unit(rom.units[0], "m/s") and same_unit(rom.units[1], "N")):
         fail(f"{what} {path}: the ROM maps '{rom.units[0]}' to '{rom.units[1]}'; {user} feeds "
              "it the tank velocity in m/s and reads the dynamic force in N")

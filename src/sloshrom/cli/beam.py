@@ -28,6 +28,7 @@ from sloshrom.cli._app import (
 )
 from sloshrom.config import ConfigError, Tank
 from sloshrom.fileio import OutputBatch
+from sloshrom.models import FrozenLiquid
 from sloshrom.pipeline.settings import (
     BEAM_FS,
     FREE_DAMPING_PERIODS,
@@ -56,8 +57,6 @@ MAX_LEVEL_G = 2.0  # RMS; the rig's calibrated envelope is 6 g peak, about 3 x R
 
 def _model(name: str, tank: Tank, seed: int) -> tuple[str, SloshingModel]:
     """``(case name, sloshing model)`` of a ``--sloshing`` value; a user error if unusable."""
-    from sloshrom.models import FrozenLiquid
-
     if name == "frozen":
         return "frozen", FrozenLiquid(1.0 / BEAM_FS)
     if name == "rig":

@@ -22,6 +22,9 @@ from sloshrom.cli._app import (
     user_errors,
 )
 from sloshrom.config import Tank
+from sloshrom.pipeline import settings
+from sloshrom.signals import DEFAULT_A_BAR_MIN
+from sloshrom.signals import SHAKER_ENVELOPE as _ENV
 
 config_app = typer.Typer(help="Show the configuration of `sloshrom reproduce`.",
                          no_args_is_help=True)
@@ -30,8 +33,6 @@ app.add_typer(config_app, name="config")
 
 def _load_config(config: Path | None, quick: bool) -> dict:
     """The merged configuration, validated by :func:`sloshrom.pipeline.settings.validate`."""
-    from sloshrom.pipeline import settings
-
     check_input(config, "--config")
     try:
         return settings.load(config, quick=quick)
@@ -49,8 +50,6 @@ def config_show(
 
     Example: ``sloshrom config show > my.toml``, edit, then ``sloshrom reproduce --config my.toml``.
     """
-    from sloshrom.pipeline import settings
-
     if config is None and not quick:
         typer.echo(settings.default_text())
         return
@@ -107,6 +106,9 @@ def reproduce(
 
 MAP_SUFFIXES = (".nc",)
 MAX_GRID = 200  # points per axis: each frequency runs n_a harmonic tests as one 10 kHz batch
+_N_OMEGA_HELP = f"Frequency points ({_ENV.f_min:g}-{_ENV.f_max:g} Hz), 2-{MAX_GRID}."
+_N_A_HELP = (f"Amplitude points (a/h in {DEFAULT_A_BAR_MIN:g}-{_ENV.a_bar_max:g}), "
+             f"2-{MAX_GRID}.")
 MAX_SEED = 2**32 - 1
 
 
@@ -115,10 +117,8 @@ def map_cmd(
     out: Annotated[Path, typer.Option(help="Output NetCDF file (a PNG is written beside it).")],
     rig: Annotated[bool, typer.Option("--rig", help="Map the virtual rig.")] = False,
     model: Annotated[Path | None, typer.Option(help="Map this ROM file instead.")] = None,
-    n_omega: Annotated[int, typer.Option(help=f"Frequency points (5-25 Hz), 2-{MAX_GRID}.")
-                       ] = 30,
-    n_a: Annotated[int, typer.Option(help=f"Amplitude points (a/h in 0.01-0.45), 2-{MAX_GRID}.")
-                   ] = 30,
+    n_omega: Annotated[int, typer.Option(help=_N_OMEGA_HELP)] = 30,
+    n_a: Annotated[int, typer.Option(help=_N_A_HELP)] = 30,
     reference: Annotated[Path | None, typer.Option(help="A map file on the same grid to "
                                                    "compare with (prints the relative L2 "
                                                    "error).")] = None,
@@ -132,8 +132,6 @@ def map_cmd(
     Example: ``sloshrom map --rig --out rig_map.nc`` then
     ``sloshrom map --model nfir.npz --reference rig_map.nc --out rom_map.nc``.
     """
-    from sloshrom.pipeline import settings
-
     if rig == (model is not None):
         fail("give exactly one of --rig or --model FILE")
     for name, n in (("--n-omega", n_omega), ("--n-a", n_a)):

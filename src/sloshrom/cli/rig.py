@@ -18,9 +18,13 @@ from typing import TYPE_CHECKING, Annotated, Any
 import numpy as np
 import typer
 
+from sloshrom import __version__
 from sloshrom.cli._app import app, check_input, check_number, check_out, fail, user_errors, warn
 from sloshrom.config import G, Tank
+from sloshrom.io import record_from_measurement, write_record
 from sloshrom.pipeline.settings import MAX_FINE_SECONDS, MIN_VFA_DURATION
+from sloshrom.signals import SHAKER_ENVELOPE, harmonic, vfa
+from sloshrom.signals import SHAKER_LIMITS as _LIMITS
 
 if TYPE_CHECKING:
     from sloshrom.io import Record
@@ -40,10 +44,11 @@ MAX_SEED = 2**32 - 1
 SENSOR_PASSBAND = 0.8 * 500.0 / 2
 #: The rig's calibrated domain (the paper's shaker envelope, estimates): outside it the record
 #: is made but the sloshing physics is extrapolated, hence a warning.
-CALIBRATED_BAND = (5.0, 25.0)  # Hz
+CALIBRATED_BAND = (SHAKER_ENVELOPE.f_min, SHAKER_ENVELOPE.f_max)  # Hz
 #: ``VirtualRig.measure`` needs 40 samples at the 500 Hz output rate (its sensor filters).
 MIN_SENSOR_SECONDS = 40 / 500.0
-SHAKER_LIMITS = {"displacement": 0.0125, "velocity": 1.0, "acceleration": 6.0}  # m, m/s, g
+SHAKER_LIMITS = {"displacement": _LIMITS.max_displacement, "velocity": _LIMITS.max_velocity,
+                 "acceleration": SHAKER_ENVELOPE.gamma_max}  # m, m/s, g
 #: Beyond ten times the shaker's limits the rig's model means nothing: refused.
 HARD_FACTOR = 10.0
 _MEMORY = ("at the rig's 10 kHz step a run needs about 1.6 MB of memory per second "
@@ -77,8 +82,6 @@ def _make_rig(tank: Tank, seed: int) -> VirtualRig:
 
 
 def _provenance(kind: str, signal: dict[str, Any], rig: VirtualRig) -> dict[str, Any]:
-    from sloshrom import __version__
-
     return {
         "generator": f"sloshrom rig {kind}",
         "command": shlex.join(["sloshrom", *sys.argv[1:]]) if sys.argv else "",
@@ -94,8 +97,6 @@ def _run(rig: VirtualRig, acceleration: np.ndarray, tank: Tank, truth: bool, lab
          **attrs: Any) -> Record:
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-    from sloshrom.io import record_from_measurement
-
     with Progress(
         SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), transient=True
     ) as progress:
@@ -105,8 +106,6 @@ def _run(rig: VirtualRig, acceleration: np.ndarray, tank: Tank, truth: bool, lab
 
 
 def _write(record, out: Path) -> None:
-    from sloshrom.io import write_record
-
     write_record(record, out)
     df = record["dynamic_force"]
     msg = (
@@ -157,8 +156,6 @@ def vfa_cmd(
 
     Example: sloshrom rig vfa --split validation --out data/validation.nc --seed 2
     """
-    from sloshrom.signals import vfa
-
     if split not in ("train", "validation"):
         fail(f"--split must be 'train' or 'validation', got {split!r}")
     check_number(duration, "--duration", MIN_VFA_DURATION, MAX_FINE_SECONDS, unit="s",
@@ -212,8 +209,6 @@ def harmonic_cmd(
 
     Example: sloshrom rig harmonic --frequency 12 --accel-g 4 --out h12.nc
     """
-    from sloshrom.signals import harmonic
-
     if (amplitude is None) == (accel_g is None):
         fail("give exactly one of --amplitude (m) and --accel-g (g)")
     check_number(frequency, "--frequency", 0.0, SENSOR_PASSBAND, lo_open=True, unit="Hz",
