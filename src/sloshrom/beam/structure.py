@@ -420,12 +420,23 @@ class ModalModel:
         return d
 
 
+def frozen_mass_matrix(modal: ModalModel, liquid_mass: float) -> np.ndarray:
+    """Mass matrix of the structure with the liquid frozen in the tank, kg.
+
+    ``M_f = M + m_l psi psi^T`` on the dry modes: ``M = diag(modal masses)``, the liquid mass
+    ``m_l`` (kg) rigidly attached at the tank, where the modes have the values ``psi``.
+    """
+    return np.diag(modal.modal_masses) + liquid_mass * np.outer(modal.psi_tank, modal.psi_tank)
+
+
 def coupled_frozen_modes(modal: ModalModel, liquid_mass: float) -> tuple[np.ndarray, np.ndarray]:
-    """Frequencies (Hz) and mode vectors (columns, in q) of ``(M + m_l psi psi^T, K)``."""
+    """Frequencies (Hz) and mode vectors (columns, in q) of ``(M + m_l psi psi^T, K)``.
+
+    The vectors are mass-normalised: ``V^T M_f V = I`` (:func:`frozen_mass_matrix`).
+    """
     from scipy.linalg import eigh
 
-    m = np.diag(modal.modal_masses) + liquid_mass * np.outer(modal.psi_tank, modal.psi_tank)
-    w2, vec = eigh(np.diag(modal.stiffness), m)
+    w2, vec = eigh(np.diag(modal.stiffness), frozen_mass_matrix(modal, liquid_mass))
     return np.sqrt(w2) / (2 * np.pi), vec
 
 
@@ -466,14 +477,3 @@ def frozen_modal_table(
         for n in range(n_modes)
     ]
 
-
-_COUPLED = ("CoupledSimulator", "free_response", "random_response", "StepMismatchError")
-
-
-def __getattr__(name: str) -> Any:
-    # the coupled simulation lives in sloshrom.beam.coupled; re-exported lazily (no import cycle)
-    if name in _COUPLED:
-        from sloshrom.beam import coupled
-
-        return getattr(coupled, name)
-    raise AttributeError(f"module 'sloshrom.beam.structure' has no attribute {name!r}")
