@@ -21,16 +21,16 @@ def _data(n, seed):
     return u, np.tanh(lin)
 
 
-def test_default_grid_is_design_grid():
-    g = sweep.default_grid()
+def test_sweep_grid_is_the_paper_grid():
+    g = sweep.sweep_grid()
     nfir = [p for p in g if p[0] == "nfir"]
     noe = [p for p in g if p[0] == "noe"]
     assert {p[1] for p in nfir} == {50, 60, 70}
     assert sorted({p[2] for p in nfir}) == [5, 10, 15, 20, 25, 30, 35, 40]
     assert len(nfir) == 24
     assert noe == [("noe", 2, 10), ("noe", 2, 15), ("noe", 2, 20)]
-    with pytest.raises(ValueError):
-        sweep.default_grid("narx")
+    with pytest.raises(rom.ROMError, match="arch"):
+        sweep.sweep_grid("narx")
 
 
 @pytest.mark.filterwarnings("ignore::sloshrom.rom.EnvelopeWarning")

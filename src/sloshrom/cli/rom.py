@@ -170,7 +170,7 @@ def train(
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from sloshrom.rom.estimators import NFIR, NOE, UnstableModelError
+    from sloshrom.rom.estimators import NFIR, NOE
 
     cls = NFIR if arch == "nfir" else NOE
     kw: dict[str, Any] = {"hidden": hidden, "max_epochs": max_epochs, "seed": seed,
@@ -198,9 +198,12 @@ def train(
         try:
             model.fit(rec[input_name], rec[output_name], fs=rec.fs,
                       validation=(val[input_name], val[output_name]), callback=cb)
-        except UnstableModelError as exc:
+        except user_errors() as exc:  # ROMError (a constant record, ...), UnstableModelError
             fail(str(exc))
-    path = model.save(out)
+    try:
+        path = model.save(out)
+    except user_errors() as exc:  # ROMError: a value beyond the model-file format's bounds
+        fail(str(exc))
     h = model.history_
     typer.echo(
         f"wrote {path}: {arch.upper()}({model.delays}, {model.neurons}), {model.n_params} "
@@ -229,7 +232,7 @@ def predict(
     check_input(data, "--data")
     check_out(out, suffixes=RECORD_SUFFIXES, inputs=(data, model))
     from sloshrom.io.record import same_unit, write_record
-    from sloshrom.rom.estimators import UnstableModelError, load_model
+    from sloshrom.rom.estimators import load_model
 
     try:
         m = load_model(model)
@@ -248,7 +251,7 @@ def predict(
                  "(use .nc)")
     try:
         y = m.predict(rec[in_name])
-    except UnstableModelError as exc:
+    except user_errors() as exc:  # UnstableModelError, ROMError (NaN in the record)
         fail(str(exc))
     new = rec.with_variables({f"{out_name}_pred": y}, {f"{out_name}_pred": m.units[1]},
                              prediction_model=str(model))
@@ -345,9 +348,9 @@ def sweep(
         TimeElapsedColumn,
     )
 
-    from sloshrom.rom.sweep import default_grid, plot_sweep, run_sweep
+    from sloshrom.rom.sweep import plot_sweep, run_sweep, sweep_grid
 
-    pts = default_grid(arch)
+    pts = sweep_grid(arch)
     if dl or nl:
         archs = sorted({p[0] for p in pts})
         pts = [(a, d, n) for a in archs

@@ -340,7 +340,10 @@ class _TDNN:
         return 1.0 / self.fs_
 
     def _check_envelope(self, u: np.ndarray) -> None:
-        lo, hi = self.envelope_["input_min"], self.envelope_["input_max"]
+        env = getattr(self, "envelope_", None)
+        if env is None:  # rebuilt from pytree leaves: no training record to compare with
+            return
+        lo, hi = env["input_min"], env["input_max"]
         span = hi - lo
         over = max(float(np.max(u)) - hi, lo - float(np.min(u)), 0.0)
         if over > 0:
