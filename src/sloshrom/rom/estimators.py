@@ -536,7 +536,8 @@ class NFIR(_TDNN):
         """
         s = self.scaler_
         d = np.asarray(self.spec.delays)
-        y_s = rbf_apply(self.params_, state[d - 1], self.hidden)
+        # single: W x, fast in a scan whose weights are traced (the coupled simulation)
+        y_s = rbf_apply(self.params_, state[d - 1], self.hidden, single=True)
         u_s = s.u(jnp.asarray(velocity, jnp.float64))
         state = jnp.concatenate([jnp.reshape(u_s, (1,)), state[:-1]])
         return state, s.y_inverse(y_s)
@@ -643,7 +644,7 @@ class NOE(_TDNN):
         spec = self.spec
         u_s = s.u(jnp.asarray(velocity, jnp.float64))
         state, y_s = noe_step(pack(self.params_), state, u_s, spec.delays, spec.out_delays,
-                              spec.neurons, spec.hidden)
+                              spec.neurons, spec.hidden, single=True)
         return state, s.y_inverse(y_s)
 
 
