@@ -12,7 +12,8 @@ Trainers compared (same data, same seeded initialisation):
 3. ``lm``: MATLAB ``trainlm`` on every row, stopped at the validation MSE the fast trainer
    reached or at ``--lm-cap`` seconds.
 
-(``adam_baseline`` below is a standalone plain-JAX Adam kept for experiments.)
+(``adam_baseline`` below is a standalone hand-written JAX Adam kept for experiments; the
+package's trainer uses ``optax.adam``.)
 
 Run: ``.venv/bin/python benchmarks/train_speed.py`` (about 7 min with the default cap, alone).
 Target: <= 2 min on this machine; the paper: ~40 min (MATLAB).
@@ -33,7 +34,7 @@ def rig_data(duration: float, split: str, seed: int) -> tuple[np.ndarray, np.nda
     if cache.is_file():
         z = np.load(cache, allow_pickle=False)
         return z["u"], z["y"], float(z["fs"])
-    from sloshrom.io.record import record_from_measurement
+    from sloshrom.io import record_from_measurement
     from sloshrom.rig.virtual import VirtualRig
     from sloshrom.signals import vfa
 
@@ -60,26 +61,33 @@ def synthetic_data(duration: float, seed: int, fs: float = 500.0):
 def adam_baseline(u, y, uv, yv, fs, model_kw, target, cap, lr=1e-3, batch=4096):
     """Plain minibatch Adam on the NFIR (JAX), from the same initialisation as LM."""
     import jax
+
+    with jax.enable_x64(True):  # float64 as the package's trainers
+        return _adam_baseline(u, y, uv, yv, fs, model_kw, target, cap, lr, batch)
+
+
+def _adam_baseline(u, y, uv, yv, fs, model_kw, target, cap, lr, batch):
+    import jax
     import jax.numpy as jnp
 
-    from sloshrom.rom import estimators as rom
-    from sloshrom.rom import training
+    from sloshrom.rom import network, training
+    from sloshrom.rom.estimators import NFIR
 
-    m = rom.NFIR(**model_kw)
-    sc = rom.MinMaxScaler.fit(u, y)
+    spec = NFIR(**model_kw).spec
+    sc = network.MinMaxScaler.fit(u, y)
     us, ys, uvs = sc.u(u), sc.y(y), sc.u(uv)
     rest = float(sc.u(0.0))
-    d, h = m._delays, m.neurons
+    d, h, hidden = spec.delays, spec.neurons, spec.hidden
     n = us.size
     stride = -(-n // training.FAST_MAX_ROWS)
     rows0 = np.arange(stride // 2, n, stride)
     theta = jnp.asarray(training.init_theta(training._regressors(us, ys, rows0, d, 0, rest, 0.0),
-                                            ys[rows0], h, m.hidden, m.seed))
+                                            ys[rows0], h, hidden, model_kw.get("seed", 0)))
     up = jnp.asarray(np.concatenate([np.full(max(d), rest), us]))
     ysj = jnp.asarray(ys)
 
     def loss(th, rows):
-        e = rom.nfir_rows(th, up, rows, np.asarray(d), h, m.hidden) - ysj[rows]
+        e = network.nfir_rows(th, up, rows, d, h, hidden) - ysj[rows]
         return jnp.mean(e**2)
 
     @jax.jit
@@ -91,7 +99,7 @@ def adam_baseline(u, y, uv, yv, fs, model_kw, target, cap, lr=1e-3, batch=4096):
         return th - lr * mh / (jnp.sqrt(vh) + 1e-8), mom, vel
 
     def val_mse(th):
-        yh = rom._nfir_free_run(th, jnp.asarray(uvs), rest, d, h, m.hidden)
+        yh = network.nfir_free_run(th, jnp.asarray(uvs), rest, d, h, hidden)
         return float(np.mean((np.asarray(sc.y_inverse(yh)) - yv) ** 2))
 
     rng = np.random.default_rng(0)

@@ -20,9 +20,10 @@ from sloshrom.models import FrozenLiquid
 
 
 class LinearDamper:
-    """Stand-in sloshing model: a viscous damper df = -c v (jax-traceable)."""
+    """Stand-in sloshing model: a viscous damper df = -c v (a JaxModel, not a pytree)."""
 
     jax_traceable = True
+    force_rule = "trapezoid"
 
     def __init__(self, c: float, dt: float) -> None:
         self.c, self.dt = c, dt
@@ -33,8 +34,13 @@ class LinearDamper:
     def step(self, state, velocity, acceleration):
         return state, -self.c * velocity
 
+    def simulate(self, velocity, acceleration):
+        return -self.c * np.asarray(velocity)
+
 
 class NumpyDamper(LinearDamper):
+    """The same, declared not jax-traceable: the Python loop."""
+
     jax_traceable = False
 
 
@@ -131,7 +137,9 @@ def test_numba_backend_matches_jax(modal):
     sim = CoupledSimulator(NumbaDamper(20.0, dt), modal, output_fs=500)
     assert sim.backend == "numba"
     raw_nb = sim.run_raw(a)
-    raw_jax = CoupledSimulator(LinearDamper(20.0, dt), modal).run_raw(a)
+    sim_jax = CoupledSimulator(LinearDamper(20.0, dt), modal)
+    assert sim_jax.backend == "jax"
+    raw_jax = sim_jax.run_raw(a)
     for k in ("tank_acceleration", "dynamic_force", "tank_velocity", "q"):
         np.testing.assert_allclose(raw_nb[k], raw_jax[k], rtol=1e-9, atol=1e-12)
     out = sim.run(a)
@@ -176,6 +184,20 @@ def test_model_step_mismatch(modal):
 def test_discretise_rejects_bad_dt(modal):
     with pytest.raises(ValueError, match="dt"):
         discretise(modal, 0.1, 0.0)
+
+
+def test_discretisation_uses_the_frozen_mass_matrix(modal):
+    from sloshrom.beam.coupled import damping_matrix
+    from sloshrom.beam.structure import coupled_frozen_modes, frozen_mass_matrix
+
+    ml = Tank().liquid_mass
+    d = discretise(modal, ml, 1 / 500)
+    mf = frozen_mass_matrix(modal, ml)
+    np.testing.assert_array_equal(d.mass, mf)
+    # C = M_f V diag(2 zeta omega) V^T M_f: the frozen modes get exactly the given ratios
+    f, v = coupled_frozen_modes(modal, ml)
+    c_modal = np.diag(v.T @ damping_matrix(modal, ml) @ v)
+    np.testing.assert_allclose(c_modal, 2 * modal.damping * 2 * np.pi * f, rtol=1e-10)
 
 
 def test_rig_numba_backend_runs(modal):

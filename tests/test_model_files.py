@@ -528,7 +528,7 @@ def test_cli_reports_hostile_model_without_traceback(tmp_path, saved, argv):
     import sloshrom.cli.export  # noqa: F401  (registers `sloshrom export`)
     import sloshrom.cli.rom  # noqa: F401
     from sloshrom.cli import app
-    from sloshrom.io.record import Record, write_record
+    from sloshrom.io import Record, write_record
 
     p = _hostile(saved["NFIR"], tmp_path / "m.npz", _set("envelope", "input_min", 9.0))
     t = np.arange(1000) / 500.0  # a valid input record: the model is the only problem

@@ -145,3 +145,23 @@ def test_stations_off_beam_from_beam():
         ModalModel.from_beam(stations=(0.1, 0.8))
     with pytest.raises(ConfigError):
         CantileverBeam(thickness=0.0)
+
+
+def test_frozen_mass_matrix_and_no_coupled_import():
+    import subprocess
+    import sys
+
+    from sloshrom.beam import structure
+
+    modal = ModalModel.from_beam()
+    ml = Tank().liquid_mass
+    mf = structure.frozen_mass_matrix(modal, ml)
+    expected = np.diag(modal.modal_masses) + ml * np.outer(modal.psi_tank, modal.psi_tank)
+    np.testing.assert_array_equal(mf, expected)
+    w2, _ = eigh(np.diag(modal.stiffness), mf)
+    np.testing.assert_allclose(coupled_frozen_modes(modal, ml)[0], np.sqrt(w2) / (2 * np.pi))
+    # the structure does not know the coupled simulation (no import circle, no re-export)
+    assert not hasattr(structure, "CoupledSimulator")
+    code = ("import sys, sloshrom.beam.structure; "
+            "assert 'sloshrom.beam.coupled' not in sys.modules")
+    assert subprocess.run([sys.executable, "-c", code]).returncode == 0

@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from sloshrom.plotting.rom import plot_sweep
 from sloshrom.rom import estimators as rom
 from sloshrom.rom import sweep
 
@@ -21,16 +22,16 @@ def _data(n, seed):
     return u, np.tanh(lin)
 
 
-def test_default_grid_is_design_grid():
-    g = sweep.default_grid()
+def test_sweep_grid_is_the_paper_grid():
+    g = sweep.sweep_grid()
     nfir = [p for p in g if p[0] == "nfir"]
     noe = [p for p in g if p[0] == "noe"]
     assert {p[1] for p in nfir} == {50, 60, 70}
     assert sorted({p[2] for p in nfir}) == [5, 10, 15, 20, 25, 30, 35, 40]
     assert len(nfir) == 24
     assert noe == [("noe", 2, 10), ("noe", 2, 15), ("noe", 2, 20)]
-    with pytest.raises(ValueError):
-        sweep.default_grid("narx")
+    with pytest.raises(rom.ROMError, match="arch"):
+        sweep.sweep_grid("narx")
 
 
 @pytest.mark.filterwarnings("ignore::sloshrom.rom.EnvelopeWarning")
@@ -58,7 +59,7 @@ def test_sweep_scores_table_resume_and_plot(tmp_path, monkeypatch):
     again = sweep.run_sweep(tr, va, 100.0, tmp_path, pts, scheduler="threads",
                             options={"max_epochs": 3})
     assert [r["name"] for r in again] == [r["name"] for r in rows]
-    assert sweep.plot_sweep(again, tmp_path / "fig8.png").stat().st_size > 1000
+    assert plot_sweep(again, tmp_path / "fig8.png").stat().st_size > 1000
 
 
 def test_unstable_noe_is_flagged_not_dropped(tmp_path, monkeypatch):
@@ -70,7 +71,7 @@ def test_unstable_noe_is_flagged_not_dropped(tmp_path, monkeypatch):
     rows = sweep.run_sweep(tr, va, 100.0, tmp_path, [("noe", 2, 2)], scheduler="sequential")
     assert rows[0]["unstable"] is True and math.isinf(rows[0]["score"])
     assert json.loads((tmp_path / "sweep.json").read_text())[0]["score"] is None
-    sweep.plot_sweep(rows, tmp_path / "f.png")
+    plot_sweep(rows, tmp_path / "f.png")
 
 
 @pytest.mark.slow

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import math
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from sloshrom.rom import estimators as rom
-from sloshrom.rom import training
+from sloshrom.rom import network, training
 from sloshrom.rom.training import LMProblem, levenberg_marquardt
 
 
@@ -103,10 +104,11 @@ def test_lm_early_stopping_after_6_validation_failures_returns_best():
     np.testing.assert_array_equal(res.theta, xs[3])
 
 
+@jax.enable_x64(True)  # the trainers' internals follow the caller's precision
 def test_nfir_jacobian_matches_finite_differences():
     rng = np.random.default_rng(4)
     delays, h = (1, 2, 3, 5), 3
-    p = rom.n_params(4, h)
+    p = network.n_params(4, h)
     theta = rng.standard_normal(p)
     u = rng.uniform(-1, 1, 40)
     up = jnp.asarray(np.concatenate([np.zeros(5), u]))
@@ -117,8 +119,7 @@ def test_nfir_jacobian_matches_finite_differences():
                                         h, hidden)
 
         def f(th, hidden=hidden):
-            return np.asarray(rom.nfir_rows(jnp.asarray(th), up, rows, np.asarray(delays), h,
-                                            hidden))
+            return np.asarray(network.nfir_rows(jnp.asarray(th), up, rows, delays, h, hidden))
 
         fd = np.empty((10, p))
         for i in range(p):
@@ -129,10 +130,11 @@ def test_nfir_jacobian_matches_finite_differences():
         np.testing.assert_allclose(np.asarray(e), f(theta) - np.asarray(ys[rows]), atol=1e-14)
 
 
+@jax.enable_x64(True)
 def test_noe_jacobian_through_time_matches_finite_differences_across_chunks():
     rng = np.random.default_rng(5)
     delays, m, h = (1, 2), 2, 3
-    p = rom.n_params(4, h)
+    p = network.n_params(4, h)
     theta = 0.5 * rng.standard_normal(p)
     n = 37
     u = rng.uniform(-1, 1, n)
@@ -142,8 +144,8 @@ def test_noe_jacobian_through_time_matches_finite_differences_across_chunks():
     jtj, jte, sse, nn = prob.normal_eq(theta)
 
     def sim(th):
-        return np.asarray(training._noe_run(jnp.asarray(th), jnp.asarray(u), 0.1, -0.2, delays,
-                                            m, h, "matlab"))
+        return np.asarray(network.noe_free_run(jnp.asarray(th), jnp.asarray(u), 0.1, -0.2,
+                                               delays, m, h, "matlab"))
 
     fd = np.empty((n, p))
     for i in range(p):
@@ -246,3 +248,41 @@ def test_adam_validation_stop_returns_the_best_network():
     # the returned network is the best-validation one, not the last one
     np.testing.assert_allclose(np.mean((m.predict(uv) - yv) ** 2), min(h["val_mse"]), rtol=1e-9)
     assert min(h["val_mse"]) < h["val_mse"][-1]
+
+
+@jax.enable_x64(True)
+def test_optax_adam_is_the_textbook_adam_with_eps_outside_the_root():
+    # what adam_nfir relies on: optax.adam(lr, b1, b2, eps) = Kingma & Ba, Algorithm 1
+    import optax
+
+    rng = np.random.default_rng(9)
+    A, b = rng.standard_normal((20, 4)), rng.standard_normal(20)
+
+    def loss(x):
+        return jnp.mean((A @ x - b) ** 2)
+
+    opt = optax.adam(1e-2, b1=0.9, b2=0.999, eps=1e-8)
+    x, state = jnp.zeros(4), opt.init(jnp.zeros(4))
+    y, m, v = np.zeros(4), np.zeros(4), np.zeros(4)
+    for t in range(1, 51):
+        upd, state = opt.update(jax.grad(loss)(x), state, x)
+        x = optax.apply_updates(x, upd)
+        g = np.asarray(jax.grad(loss)(jnp.asarray(y)))
+        m, v = 0.9 * m + 0.1 * g, 0.999 * v + 0.001 * g**2
+        y = y - 1e-2 * (m / (1 - 0.9**t)) / (np.sqrt(v / (1 - 0.999**t)) + 1e-8)
+    np.testing.assert_allclose(np.asarray(x), y, rtol=1e-12, atol=1e-15)
+
+
+def test_train_takes_the_architecture_explicitly():
+    u = _signal(800, 10)
+    y = _system(u)
+    spec = network.NetworkSpec("nfir", (1, 2, 3), 3)
+    sc = network.MinMaxScaler.fit(u, y)
+    theta, hist = training.train(spec, u, y, sc, trainer="lm", max_epochs=2)
+    assert theta.shape == (spec.n_params,) and hist["trainer"] == "lm"
+    assert len(hist["train_mse"]) == 3
+    with pytest.raises(rom.ROMError, match="trainer"):
+        training.train(spec, u, y, sc, trainer="sgd")
+    with pytest.raises(rom.ROMError, match="NFIR only"):
+        training.train(network.NetworkSpec("noe", (1, 2), 3, out_delays=2), u, y, sc,
+                       trainer="adam")

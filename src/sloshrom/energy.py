@@ -244,8 +244,7 @@ def phi_d_map(
     if ob.ndim != 1 or ab.ndim != 1 or np.any(ob <= 0) or np.any(~np.isfinite(ab)):
         raise ValueError("omega_bar and a_bar must be 1-D grids of positive numbers")
     fs = 1.0 / float(model.dt)
-    # Transitional default: the contract requires force_rule, which the ROMs do not carry yet.
-    rule = getattr(model, "force_rule", "trapezoid")
+    rule = model.force_rule
     mask = shaker_envelope(ob, ab, tank, f_min, f_max, gamma_max, a_bar_max)
     out = np.full((ob.size, ab.size), np.nan)
     t0 = time.perf_counter()

@@ -23,17 +23,26 @@ Damping: ``C = M_f V diag(2 zeta_n omega_n) V^T M_f`` with (omega_n, V) the mass
 of the frozen system ``(M_f = M + m_l psi psi^T, K)``; so the modal damping ratios given in the
 :class:`~sloshrom.beam.structure.ModalModel` are those of the frozen-liquid modes (paper Table 1).
 
-Backends: JAX ``lax.scan`` (jit; ``vmap`` over batches of base accelerations) for models with a
-jax-traceable ``step`` (ROMs, :class:`~sloshrom.models.FrozenLiquid`); a numba loop for models with
-``kernel()`` (the virtual rig, at its fine step, output decimated to a sensor rate); a plain
-Python loop for anything else.
+Backends, chosen by the model's capabilities (:mod:`sloshrom.models`): a JAX ``lax.scan`` (jit;
+``vmap`` over batches of base accelerations) for a :class:`~sloshrom.models.JaxModel` (ROMs,
+:class:`~sloshrom.models.FrozenLiquid`); a numba loop for a
+:class:`~sloshrom.models.CompiledKernel` (the virtual rig, at its fine step, output decimated to
+a sensor rate); a plain Python loop for any other sloshing model.
+
+The JAX backend is the pure function :func:`simulate_jax` of the model and the discretisation,
+both pytrees: a model whose parameters are pytree leaves (the ROMs) is an *argument* of the
+jitted scan, so one compilation serves every model of the same architecture and record length,
+and ``jax.grad`` of any function of the response with respect to the model's parameters works.
+A jax-traceable model that is not a pytree (:class:`~sloshrom.models.FrozenLiquid`) is compiled
+in as a constant. Simulations run in float64 (``jax.enable_x64`` around the call) without
+changing the process's JAX configuration.
 """
 
 from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import jax
@@ -43,11 +52,24 @@ import numpy as np
 from scipy.linalg import eigh, expm
 from scipy.signal import resample_poly
 
-from sloshrom.beam.structure import ModalModel
+from sloshrom.beam.structure import ModalModel, frozen_mass_matrix
 from sloshrom.config import Tank
-from sloshrom.models import FrozenLiquid
+from sloshrom.models import CompiledKernel, Enveloped, JaxModel, SloshingModel
+from sloshrom.rom._x64 import float64
 
-jax.config.update("jax_enable_x64", True)
+__all__ = [
+    "CoupledSimulator",
+    "Discretisation",
+    "SimulationDivergedError",
+    "StepMismatchError",
+    "damping_matrix",
+    "discretise",
+    "free_response",
+    "modal_energy",
+    "random_response",
+    "simulate_jax",
+    "upsample_periodic",
+]
 
 
 class SimulationDivergedError(RuntimeError):
@@ -60,28 +82,32 @@ class StepMismatchError(ValueError):
 
 def damping_matrix(modal: ModalModel, liquid_mass: float) -> np.ndarray:
     """Modal damping matrix giving the frozen-liquid modes the ratios ``modal.damping``, N s/m."""
-    mf = np.diag(modal.modal_masses) + liquid_mass * np.outer(modal.psi_tank, modal.psi_tank)
+    mf = frozen_mass_matrix(modal, liquid_mass)
     w2, v = eigh(np.diag(modal.stiffness), mf)  # v^T mf v = I
     # the coupled modes keep the order of the dry ones (tank mass only shifts them a little)
     c_modal = 2.0 * modal.damping * np.sqrt(w2)
     return mf @ v @ np.diag(c_modal) @ v.T @ mf
 
 
+@jax.tree_util.register_dataclass
 @dataclass
 class Discretisation:
-    """Exact ZOH discretisation of the structure: z = [q, q'], u = [df, a_s]."""
+    """Exact ZOH discretisation of the structure: z = [q, q'], u = [df, a_s].
 
-    dt: float
+    A JAX pytree (every field a leaf): passed into the jitted scan as data, so beams of the
+    same number of modes share one compilation.
+    """
+
+    dt: float  # s
     Phi: np.ndarray  # (2N, 2N)
     Gam: np.ndarray  # (2N, 2)
     A2: np.ndarray  # (N, 2N): q'' = A2 z + B2 u
     B2: np.ndarray  # (N, 2)
-    mass: np.ndarray  # M + m_l psi psi^T
-    stiffness: np.ndarray
-    damping: np.ndarray
-    psi: np.ndarray
-    m_total: float  # m_struct + m_l at the interface
-    extra: dict[str, Any] = field(default_factory=dict)
+    mass: np.ndarray  # M + m_l psi psi^T, kg
+    stiffness: np.ndarray  # N/m
+    damping: np.ndarray  # N s/m
+    psi: np.ndarray  # (N,) modes at the tank
+    m_total: float  # m_struct + m_l at the interface, kg
 
 
 def discretise(modal: ModalModel, liquid_mass: float, dt: float) -> Discretisation:
@@ -90,7 +116,7 @@ def discretise(modal: ModalModel, liquid_mass: float, dt: float) -> Discretisati
         raise ValueError(f"dt must be a finite positive step in s, got {dt!r}")
     n = modal.n_modes
     psi = modal.psi_tank
-    mass = np.diag(modal.modal_masses) + liquid_mass * np.outer(psi, psi)
+    mass = frozen_mass_matrix(modal, liquid_mass)
     k = np.diag(modal.stiffness)
     c = damping_matrix(modal, liquid_mass)
     mi = np.linalg.inv(mass)
@@ -117,13 +143,42 @@ def discretise(modal: ModalModel, liquid_mass: float, dt: float) -> Discretisati
 # ------------------------------------------------------------------------------------------
 
 
-def _jax_scan(model: Any, d: Discretisation):
-    """jit-compiled ``run(a_s (n,), z0 (2N,)) -> dict of (n, ...)`` arrays."""
-    Phi, Gam = jnp.asarray(d.Phi), jnp.asarray(d.Gam)
-    A2, B2, psi = jnp.asarray(d.A2), jnp.asarray(d.B2), jnp.asarray(d.psi)
-    n = d.psi.size
-    dt, m_total = d.dt, d.m_total
-    mstate0 = model.init_state()
+def _outputs(q: Any, qdd: Any, acc: Any, df: Any, vel: Any, m_total: Any) -> dict[str, Any]:
+    """The per-step outputs of every backend (NumPy or JAX arrays, time on axis 0)."""
+    return {"q": q, "qdd": qdd, "tank_acceleration": acc, "dynamic_force": df,
+            "interface_force": -m_total * acc + df, "tank_velocity": vel}
+
+
+def simulate_jax(model: JaxModel, disc: Discretisation, base_acceleration: Any,
+                 z0: Any) -> dict[str, Any]:
+    """Coupled simulation at the model rate as a pure JAX function (``lax.scan``).
+
+    Traceable in ``model`` and ``disc`` (both pytrees): jit it, ``vmap`` it over base
+    accelerations, or differentiate a function of its outputs with respect to the model's
+    parameters (``jax.grad(lambda m: loss(simulate_jax(m, disc, a, z0)))(rom)``). Precision
+    follows the caller's JAX configuration (float64 under ``jax.enable_x64(True)``).
+
+    Parameters
+    ----------
+    model : JaxModel
+        Sloshing model with a traceable ``step`` at the step ``disc.dt``.
+    disc : Discretisation
+        The structure, :func:`discretise` d at ``model.dt``.
+    base_acceleration : array_like, shape (n,)
+        Base acceleration a_s, m/s^2.
+    z0 : array_like, shape (2 N,)
+        Initial modal displacements (m) and velocities (m/s), ``[q0, qd0]``.
+
+    Returns
+    -------
+    dict
+        Arrays of shape (n[, N]): ``q`` (m), ``qdd`` (m/s^2), ``tank_acceleration`` (m/s^2),
+        ``dynamic_force``, ``interface_force`` (N), ``tank_velocity`` (m/s).
+    """
+    Phi, Gam = jnp.asarray(disc.Phi), jnp.asarray(disc.Gam)
+    A2, B2, psi = jnp.asarray(disc.A2), jnp.asarray(disc.B2), jnp.asarray(disc.psi)
+    n = psi.shape[0]
+    dt = disc.dt
 
     def body(carry, a_s):
         z, vs, acc_prev, ms = carry
@@ -134,16 +189,43 @@ def _jax_scan(model: Any, d: Discretisation):
         qdd = A2 @ z + B2 @ u
         acc = psi @ qdd + a_s
         z_next = Phi @ z + Gam @ u
-        out = (z[:n], qdd, acc, df, -m_total * acc + df, v_abs)
-        return (z_next, vs + dt * a_s, acc, ms), out
+        return (z_next, vs + dt * a_s, acc, ms), (z[:n], qdd, acc, df, v_abs)
 
-    def run(a_s, z0):
-        carry = (z0, jnp.zeros(()), jnp.zeros(()), mstate0)
-        _, (q, qdd, acc, df, fi, v) = jax.lax.scan(body, carry, a_s)
-        return {"q": q, "qdd": qdd, "tank_acceleration": acc, "dynamic_force": df,
-                "interface_force": fi, "tank_velocity": v}
+    carry = (jnp.asarray(z0), jnp.zeros(()), jnp.zeros(()), model.init_state())
+    _, (q, qdd, acc, df, v) = jax.lax.scan(body, carry, jnp.asarray(base_acceleration))
+    return _outputs(q, qdd, acc, df, v, disc.m_total)
 
-    return run
+
+@jax.tree_util.register_pytree_node_class
+class _Constant:
+    """A jax-traceable model that is not a pytree, carried as static data (compiled in)."""
+
+    def __init__(self, model: JaxModel) -> None:
+        self.model = model
+
+    def tree_flatten(self) -> tuple[tuple[()], JaxModel]:
+        return (), self.model  # hashed by identity: one compilation per such model
+
+    @classmethod
+    def tree_unflatten(cls, model: JaxModel, children: tuple[()]) -> _Constant:
+        return cls(model)
+
+
+def _simulate(model: Any, disc: Discretisation, base_acceleration: Any, z0: Any) -> dict:
+    return simulate_jax(model.model if isinstance(model, _Constant) else model, disc,
+                        base_acceleration, z0)
+
+
+# module level, the model an argument: the compiled scans are shared by every simulator
+_simulate_one = jax.jit(_simulate)
+_simulate_batch = jax.jit(jax.vmap(_simulate, in_axes=(None, None, 0, None)))
+
+
+def _jax_argument(model: JaxModel) -> Any:
+    """The model as a jit argument: itself if it is a pytree, else wrapped as a constant."""
+    if jax.tree_util.treedef_is_leaf(jax.tree_util.tree_structure(model)):
+        return _Constant(model)
+    return model
 
 
 @nb.njit(cache=True)
@@ -187,7 +269,8 @@ def _numba_loop(step_fn, mstate, mparams, Phi, Gam, A2, B2, psi, a_s, z0, dt, m_
     return q, qdd, acc, dfo, vel
 
 
-def _python_loop(model: Any, d: Discretisation, a_s: np.ndarray, z0: np.ndarray) -> dict:
+def _python_loop(model: SloshingModel, d: Discretisation, a_s: np.ndarray,
+                 z0: np.ndarray) -> dict:
     n = d.psi.size
     nt = a_s.size
     q, qdd = np.empty((nt, n)), np.empty((nt, n))
@@ -205,15 +288,18 @@ def _python_loop(model: Any, d: Discretisation, a_s: np.ndarray, z0: np.ndarray)
         z = d.Phi @ z + d.Gam @ u
         vs += d.dt * a_s[k]
         acc_prev = acc[k]
-    return {"q": q, "qdd": qdd, "tank_acceleration": acc, "dynamic_force": dfo,
-            "interface_force": -d.m_total * acc + dfo, "tank_velocity": vel}
+    return _outputs(q, qdd, acc, dfo, vel, d.m_total)
 
 
-def _is_jax_model(model: Any) -> bool:
-    if isinstance(model, FrozenLiquid):
-        return True
-    return type(model).__module__.startswith("sloshrom.rom") or getattr(model, "jax_traceable",
-                                                                         False)
+def _is_jax(model: Any) -> bool:
+    # the protocol checks that the attribute exists; a model may declare it False
+    return isinstance(model, JaxModel) and getattr(model, "jax_traceable", False) is True
+
+
+def _default_backend(model: Any) -> str:
+    if isinstance(model, CompiledKernel):
+        return "numba"
+    return "jax" if _is_jax(model) else "python"
 
 
 # ------------------------------------------------------------------------------------------
@@ -226,9 +312,10 @@ class CoupledSimulator:
 
     Parameters
     ----------
-    model : sloshing model
+    model : SloshingModel
         Implements the contract of :mod:`sloshrom.models` (``dt``, ``init_state``, ``step``);
-        with ``kernel()`` (virtual rig) the numba backend is used.
+        ``"auto"`` picks the numba backend for a :class:`~sloshrom.models.CompiledKernel`
+        (virtual rig), JAX for a :class:`~sloshrom.models.JaxModel`, else the Python loop.
     modal : ModalModel
         Dry-structure modes (beam + tank structure).
     tank : Tank
@@ -243,7 +330,7 @@ class CoupledSimulator:
 
     def __init__(
         self,
-        model: Any,
+        model: SloshingModel,
         modal: ModalModel,
         tank: Tank | None = None,
         dt: float | None = None,
@@ -269,19 +356,16 @@ class CoupledSimulator:
             )
         self.decimation = int(round(ratio))
         if backend == "auto":
-            if hasattr(model, "kernel"):
-                backend = "numba"
-            elif _is_jax_model(model):
-                backend = "jax"
-            else:
-                backend = "python"
+            backend = _default_backend(model)
         if backend not in ("jax", "numba", "python"):
             raise ValueError(f"unknown backend {backend!r} (jax, numba, python)")
-        if backend == "numba" and not hasattr(model, "kernel"):
+        if backend == "numba" and not isinstance(model, CompiledKernel):
             raise ValueError("the numba backend needs a model with kernel()")
+        if backend == "jax" and not _is_jax(model):
+            raise ValueError("the jax backend needs a jax-traceable model (sloshrom.models."
+                             "JaxModel)")
         self.backend = backend
         self.disc = discretise(modal, self.tank.liquid_mass, mdt)
-        self._run = None
 
     # -- core -------------------------------------------------------------------------------
     def _z0(self, q0: Any, qd0: Any) -> np.ndarray:
@@ -293,6 +377,7 @@ class CoupledSimulator:
             z0[n:] = np.broadcast_to(np.asarray(qd0, dtype=float), (n,))
         return z0
 
+    @float64
     def run_raw(self, base_acceleration: Any, q0: Any = None, qd0: Any = None) -> dict:
         """Simulate at the model rate; arrays of shape (batch..., n[, n_modes]); no decimation."""
         a = np.asarray(base_acceleration, dtype=np.float64)
@@ -304,12 +389,12 @@ class CoupledSimulator:
         lead = a.shape[:-1]
         flat = a.reshape(-1, a.shape[-1])
         if self.backend == "jax":
-            if self._run is None:
-                run = _jax_scan(self.model, self.disc)
-                self._run = (jax.jit(run), jax.jit(jax.vmap(run, in_axes=(0, None))))
-            fn = self._run[1] if flat.shape[0] > 1 else (lambda x, z: jax.tree_util.tree_map(
-                lambda y: y[None], self._run[0](x[0], z)))
-            out = {k: np.asarray(v) for k, v in fn(jnp.asarray(flat), jnp.asarray(z0)).items()}
+            m, d, zj = _jax_argument(self.model), self.disc, jnp.asarray(z0)
+            if flat.shape[0] > 1:
+                res = _simulate_batch(m, d, jnp.asarray(flat), zj)
+            else:
+                res = {k: v[None] for k, v in _simulate_one(m, d, jnp.asarray(flat[0]), zj).items()}
+            out = {k: np.asarray(v) for k, v in res.items()}
         else:
             outs = []
             for row in flat:
@@ -320,9 +405,7 @@ class CoupledSimulator:
                         step_fn, state, params, d.Phi, d.Gam, d.A2, d.B2, d.psi,
                         np.ascontiguousarray(row), z0, d.dt, d.m_total,
                     )
-                    outs.append({"q": q, "qdd": qdd, "tank_acceleration": acc,
-                                 "dynamic_force": dfo, "tank_velocity": vel,
-                                 "interface_force": -self.disc.m_total * acc + dfo})
+                    outs.append(_outputs(q, qdd, acc, dfo, vel, d.m_total))
                 else:
                     outs.append(_python_loop(self.model, self.disc, row, z0))
             out = {k: np.stack([o[k] for o in outs]) for k in outs[0]}
@@ -348,7 +431,9 @@ class CoupledSimulator:
 
     def _check_envelope(self, v: np.ndarray) -> None:
         # a ROM inside the loop cannot warn from within lax.scan: check its input afterwards
-        env = getattr(self.model, "envelope_", None)
+        if not isinstance(self.model, Enveloped):
+            return
+        env = self.model.envelope_
         if not isinstance(env, dict) or "input_min" not in env:
             return
         lo, hi = float(env["input_min"]), float(env["input_max"])
@@ -405,7 +490,7 @@ class CoupledSimulator:
 
 
 def free_response(
-    model: Any,
+    model: SloshingModel,
     modal: ModalModel,
     tip_displacement: float = 0.0146,
     duration: float = 10.0,
@@ -444,7 +529,7 @@ def upsample_periodic(x: np.ndarray, factor: int) -> np.ndarray:
 
 
 def random_response(
-    model: Any,
+    model: SloshingModel,
     modal: ModalModel,
     rms_levels: Any = (0.1, 0.2, 0.4),
     duration: float = 90.0,

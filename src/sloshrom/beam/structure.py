@@ -27,15 +27,19 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.integrate import simpson
-from scipy.optimize import brentq
 
 from sloshrom.config import ConfigError, Tank, load_toml_table
 
 #: default damping ratios of modes 1, 2, 3 (estimates; the paper's Table 1 values are not given)
 DEFAULT_DAMPING = (0.010, 0.005, 0.005)
-#: default accelerometer stations along the beam, m (estimates; the tip station is the tank)
-DEFAULT_STATIONS = (0.148, 0.296, 0.444, 0.592, 0.74)
+#: default number of accelerometer stations, evenly spaced to the tip (estimates; the tip
+#: station is the tank): 1/5, 2/5, ..., 5/5 of the length
+N_STATIONS = 5
+
+
+def default_stations(length: float) -> tuple[float, ...]:
+    """Accelerometer stations (m) at 1/5, 2/5, ..., 5/5 of a beam of ``length`` m."""
+    return tuple(length * k / N_STATIONS for k in range(1, N_STATIONS + 1))
 
 
 class ModalDataError(ConfigError):
@@ -142,11 +146,13 @@ class CantileverBeam:
         """The first ``n_modes`` roots beta_n L of the frequency equation (dimensionless)."""
         if n_modes < 1:
             raise ValueError(f"n_modes must be >= 1, got {n_modes}")
+        from scipy import optimize  # heavy (0.5 s): loaded when a beam is solved, not at import
+
         roots: list[float] = []
         grid = np.arange(0.05, (n_modes + 2) * math.pi, 0.01)
         vals = np.array([self._det(x) for x in grid])
         for i in np.nonzero(np.sign(vals[:-1]) * np.sign(vals[1:]) < 0)[0]:
-            roots.append(brentq(self._det, grid[i], grid[i + 1], xtol=1e-14))
+            roots.append(optimize.brentq(self._det, grid[i], grid[i + 1], xtol=1e-14))
             if len(roots) == n_modes:
                 break
         if len(roots) < n_modes:
@@ -202,18 +208,20 @@ class CantileverBeam:
     def modal_properties(self, n_modes: int = 3, n_grid: int = 4001) -> dict[str, np.ndarray]:
         """Frequencies (Hz), modal masses (kg), stiffnesses (N/m, from the curvature integral),
         participation Gamma (kg), tip displacement and rotation of each mode."""
+        from scipy import integrate  # heavy: see beta_l
+
         x = np.linspace(0.0, self.length, n_grid)
         psi = self.mode_shapes(x, n_modes)
         curv = self.mode_shapes(x, n_modes, deriv=2)
         tip = psi[-1]
         rot = self.mode_shapes([self.length], n_modes, deriv=1)[0]
         mass = (
-            self.mu * simpson(psi**2, x=x, axis=0)
+            self.mu * integrate.simpson(psi**2, x=x, axis=0)
             + self.tip_mass * tip**2
             + self.tip_inertia * rot**2
         )
-        stiff = self.EI * simpson(curv**2, x=x, axis=0)
-        gamma = self.mu * simpson(psi, x=x, axis=0) + self.tip_mass * tip
+        stiff = self.EI * integrate.simpson(curv**2, x=x, axis=0)
+        gamma = self.mu * integrate.simpson(psi, x=x, axis=0) + self.tip_mass * tip
         return {
             "frequency": self.frequencies(n_modes),
             "modal_mass": mass,
@@ -350,17 +358,19 @@ class ModalModel:
         tank: Tank | None = None,
         n_modes: int = 3,
         damping: Sequence[float] | None = None,
-        stations: Sequence[float] = DEFAULT_STATIONS,
+        stations: Sequence[float] | None = None,
     ) -> ModalModel:
         """Dry-structure modal model: the beam with the tank *structure* at its tip.
 
         ``beam`` defaults to :meth:`CantileverBeam.with_tank` (tank structure mass and rotary
         inertia); its tip body must be the tank structure only (the liquid enters the coupled
         model separately). ``damping`` defaults to 1.0 / 0.5 / 0.5 % (then 0.5 % for higher
-        modes).
+        modes). ``stations`` (m) default to :func:`default_stations` of the beam's length.
         """
         tank = tank if tank is not None else Tank()
         beam = beam if beam is not None else CantileverBeam.with_tank(tank)
+        if stations is None:
+            stations = default_stations(beam.length)
         props = beam.modal_properties(n_modes)
         if damping is None:
             damping = [DEFAULT_DAMPING[min(i, 2)] for i in range(n_modes)]
@@ -420,12 +430,23 @@ class ModalModel:
         return d
 
 
+def frozen_mass_matrix(modal: ModalModel, liquid_mass: float) -> np.ndarray:
+    """Mass matrix of the structure with the liquid frozen in the tank, kg.
+
+    ``M_f = M + m_l psi psi^T`` on the dry modes: ``M = diag(modal masses)``, the liquid mass
+    ``m_l`` (kg) rigidly attached at the tank, where the modes have the values ``psi``.
+    """
+    return np.diag(modal.modal_masses) + liquid_mass * np.outer(modal.psi_tank, modal.psi_tank)
+
+
 def coupled_frozen_modes(modal: ModalModel, liquid_mass: float) -> tuple[np.ndarray, np.ndarray]:
-    """Frequencies (Hz) and mode vectors (columns, in q) of ``(M + m_l psi psi^T, K)``."""
+    """Frequencies (Hz) and mode vectors (columns, in q) of ``(M + m_l psi psi^T, K)``.
+
+    The vectors are mass-normalised: ``V^T M_f V = I`` (:func:`frozen_mass_matrix`).
+    """
     from scipy.linalg import eigh
 
-    m = np.diag(modal.modal_masses) + liquid_mass * np.outer(modal.psi_tank, modal.psi_tank)
-    w2, vec = eigh(np.diag(modal.stiffness), m)
+    w2, vec = eigh(np.diag(modal.stiffness), frozen_mass_matrix(modal, liquid_mass))
     return np.sqrt(w2) / (2 * np.pi), vec
 
 
@@ -466,14 +487,3 @@ def frozen_modal_table(
         for n in range(n_modes)
     ]
 
-
-_COUPLED = ("CoupledSimulator", "free_response", "random_response", "StepMismatchError")
-
-
-def __getattr__(name: str) -> Any:
-    # the coupled simulation lives in sloshrom.beam.coupled; re-exported lazily (no import cycle)
-    if name in _COUPLED:
-        from sloshrom.beam import coupled
-
-        return getattr(coupled, name)
-    raise AttributeError(f"module 'sloshrom.beam.structure' has no attribute {name!r}")

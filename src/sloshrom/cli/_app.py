@@ -111,17 +111,17 @@ def user_errors() -> tuple[type[BaseException], ...]:
     """The package's own error types for bad user input.
 
     Commands catch these, never a bare ``ValueError``: a plain ``ValueError`` from deep inside is
-    a programming error and must keep its traceback. ``ModelFileError`` and
+    a programming error and must keep its traceback. ``ROMError`` (bad model files included) and
     ``UnstableModelError`` are included only once ``sloshrom.rom`` is imported (importing it
     loads JAX; they cannot be raised before), ``AnalysisError`` (a response the damping analysis
     cannot handle, e.g. modes the user's stations cannot separate) once
     ``sloshrom.beam.analysis`` is.
     """
     types: list[type[BaseException]] = [ConfigError, RecordError, OutputPathError]
-    rom = sys.modules.get("sloshrom.rom.estimators")
+    rom = sys.modules.get("sloshrom.rom.errors")
     if rom is not None:
         # an unstable NOE on the user's input is a property of their model, not a bug
-        types += [rom.ModelFileError, rom.UnstableModelError]
+        types += [rom.ROMError, rom.UnstableModelError]
     analysis = sys.modules.get("sloshrom.beam.analysis")
     if analysis is not None:
         types.append(analysis.AnalysisError)

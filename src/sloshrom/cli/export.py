@@ -4,11 +4,16 @@ and ``sloshrom import uff IN.uff OUT.nc`` (test-lab UFF58 time histories into a 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from sloshrom.cli._app import app, check_input, check_number, check_out, fail, user_errors
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from sloshrom.rom.estimators import NFIR, NOE
 
 export_app = typer.Typer(help="Export a trained ROM for other simulators (ONNX).",
                          no_args_is_help=True)
@@ -48,7 +53,7 @@ def onnx_cmd(
         fail(f"model file not found: {model}")
     check_out(out, suffixes=(".onnx",), inputs=(model,), what="OUT")
     from sloshrom.rom.estimators import load_model
-    from sloshrom.rom.onnx import export_onnx
+    from sloshrom.rom.onnx import export_onnx, run_onnx
 
     limit = 1e-6 if dtype == "float64" else 1e-4
     rel = [float("nan")]
@@ -58,7 +63,7 @@ def onnx_cmd(
             u = _check_input(rom)
             ref = np.asarray(rom.predict(u))
 
-            def verify(tmp: str) -> None:
+            def verify(tmp: Path) -> None:
                 # runs on the complete temporary file: OUT appears only once the graph is
                 # verified, and an existing OUT is left as it was when the check fails
                 y = run_onnx(tmp, u)
@@ -77,7 +82,7 @@ def onnx_cmd(
     typer.echo(msg)
 
 
-def _check_input(rom) -> object:
+def _check_input(rom: NFIR | NOE) -> np.ndarray:
     """A band-limited input inside the training envelope (2 s), starting and ending at rest."""
     import numpy as np
 
@@ -93,27 +98,6 @@ def _check_input(rom) -> object:
     u = u * np.sin(np.pi * t / t[-1]) ** 2  # at rest at both ends
     amp = 0.9 * min(abs(env.get("input_min", -1.0)), abs(env.get("input_max", 1.0)))
     return u / np.max(np.abs(u)) * amp
-
-
-def run_onnx(path: Path, u) -> object:
-    """Free-run output of an exported graph (either form) for input ``u`` with onnxruntime."""
-    import numpy as np
-    import onnxruntime as ort
-
-    sess = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
-    meta = sess.get_modelmeta().custom_metadata_map
-    dt = np.dtype(meta.get("dtype", "float64"))
-    u = np.asarray(u, dtype=dt)
-    if meta.get("form") == "sequence":
-        return sess.run(None, {"velocity": u})[0].astype(float)
-    state = {i.name: np.zeros((1, i.shape[1]), dt) for i in sess.get_inputs()
-             if i.name != "velocity"}
-    y = np.empty(u.size)
-    for k in range(u.size):
-        res = sess.run(None, {"velocity": u[k : k + 1].reshape(1, 1), **state})
-        y[k] = res[0][0, 0]
-        state = {name: r for name, r in zip(state, res[1:], strict=True)}
-    return y
 
 
 import_app = typer.Typer(help="Import test-lab files as sloshrom records (UFF dataset 58).",
@@ -154,8 +138,8 @@ def import_uff_cmd(
     --name "Load cell=force" --unit force=N``
     """
     from sloshrom.config import Tank
-    from sloshrom.io.record import preprocess as _preprocess
-    from sloshrom.io.record import write_record
+    from sloshrom.io import preprocess as _preprocess
+    from sloshrom.io import write_record
     from sloshrom.io.uff import read_uff58
 
     names: dict[str | int, str] = {}

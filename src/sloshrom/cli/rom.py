@@ -27,7 +27,7 @@ MAX_SEED = 2**32 - 1  # JAX PRNG keys take 32-bit seeds
 
 
 def _read(path: Path, names: list[str], what: str):
-    from sloshrom.io.record import read_record
+    from sloshrom.io import read_record
 
     check_input(path, what)
     try:
@@ -45,7 +45,7 @@ def _read(path: Path, names: list[str], what: str):
 
 def _same_units(a: Any, pa: Path, b: Any, pb: Path, names: list[str]) -> None:
     """Training and validation records must measure each variable in the same unit."""
-    from sloshrom.io.record import same_unit
+    from sloshrom.io import same_unit
 
     for n in names:
         ua, ub = a.units[n], b.units[n]
@@ -55,7 +55,7 @@ def _same_units(a: Any, pa: Path, b: Any, pb: Path, names: list[str]) -> None:
 
 def _standard_units(rec: Any, path: Path, names: list[str]) -> None:
     """A variable with a standard name must be in that name's unit (swapped columns, ...)."""
-    from sloshrom.io.record import STANDARD_UNITS, same_unit
+    from sloshrom.io import STANDARD_UNITS, same_unit
 
     for n in names:
         si = STANDARD_UNITS.get(n)
@@ -170,7 +170,7 @@ def train(
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from sloshrom.rom.estimators import NFIR, NOE, UnstableModelError
+    from sloshrom.rom.estimators import NFIR, NOE
 
     cls = NFIR if arch == "nfir" else NOE
     kw: dict[str, Any] = {"hidden": hidden, "max_epochs": max_epochs, "seed": seed,
@@ -198,9 +198,12 @@ def train(
         try:
             model.fit(rec[input_name], rec[output_name], fs=rec.fs,
                       validation=(val[input_name], val[output_name]), callback=cb)
-        except UnstableModelError as exc:
+        except user_errors() as exc:  # ROMError (a constant record, ...), UnstableModelError
             fail(str(exc))
-    path = model.save(out)
+    try:
+        path = model.save(out)
+    except user_errors() as exc:  # ROMError: a value beyond the model-file format's bounds
+        fail(str(exc))
     h = model.history_
     typer.echo(
         f"wrote {path}: {arch.upper()}({model.delays}, {model.neurons}), {model.n_params} "
@@ -228,8 +231,8 @@ def predict(
     check_input(model, "--model")
     check_input(data, "--data")
     check_out(out, suffixes=RECORD_SUFFIXES, inputs=(data, model))
-    from sloshrom.io.record import same_unit, write_record
-    from sloshrom.rom.estimators import UnstableModelError, load_model
+    from sloshrom.io import same_unit, write_record
+    from sloshrom.rom.estimators import load_model
 
     try:
         m = load_model(model)
@@ -248,7 +251,7 @@ def predict(
                  "(use .nc)")
     try:
         y = m.predict(rec[in_name])
-    except UnstableModelError as exc:
+    except user_errors() as exc:  # UnstableModelError, ROMError (NaN in the record)
         fail(str(exc))
     new = rec.with_variables({f"{out_name}_pred": y}, {f"{out_name}_pred": m.units[1]},
                              prediction_model=str(model))
@@ -345,9 +348,10 @@ def sweep(
         TimeElapsedColumn,
     )
 
-    from sloshrom.rom.sweep import default_grid, plot_sweep, run_sweep
+    from sloshrom.plotting.rom import plot_sweep
+    from sloshrom.rom.sweep import run_sweep, sweep_grid
 
-    pts = default_grid(arch)
+    pts = sweep_grid(arch)
     if dl or nl:
         archs = sorted({p[0] for p in pts})
         pts = [(a, d, n) for a in archs

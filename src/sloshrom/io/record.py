@@ -735,24 +735,3 @@ def _ignored_note(ignored: Mapping[str, str]) -> str:
         return ""
     return " (ignored: " + ", ".join(f"{k!r} ({v})" for k, v in list(ignored.items())[:6]) + ")"
 
-
-# Transitional: these names lived here before io/ was split by format. Other modules still
-# import them from sloshrom.io.record; resolved lazily (no import cycle) until they import them
-# from sloshrom.io. Remove once nothing does.
-_MOVED = {
-    "read_record": "sloshrom.io.read",
-    "write_record": "sloshrom.io.read",
-    "dynamic_force": "sloshrom.io.preprocess",
-    "preprocess": "sloshrom.io.preprocess",
-    "record_from_measurement": "sloshrom.io.preprocess",
-    "resample": "sloshrom.io.preprocess",
-    "velocity_from_acceleration": "sloshrom.io.preprocess",
-}
-
-
-def __getattr__(name: str) -> Any:
-    if name in _MOVED:
-        import importlib
-
-        return getattr(importlib.import_module(_MOVED[name]), name)
-    raise AttributeError(f"module 'sloshrom.io.record' has no attribute {name!r}")

@@ -36,13 +36,12 @@ BEAM_KEYS = ("length", "width", "thickness", "youngs_modulus", "density")
 def beam_structure(cfg: dict[str, Any], tank: Tank) -> tuple[CantileverBeam, ModalModel]:
     """The dry beam of the ``[beam]`` configuration and its modal model.
 
-    Virtual accelerometers at 1/5, 2/5, ..., 5/5 of the length (the last at the tank).
+    Virtual accelerometers at the default stations, 1/5, 2/5, ..., 5/5 of the length (the last
+    at the tank).
     """
     beam = CantileverBeam.with_tank(tank, **{k: cfg[k] for k in BEAM_KEYS})
-    stations = tuple(beam.length * k / 5 for k in range(1, 6))
     damping = cfg["damping"][: cfg["n_modes"]]  # one ratio per kept mode (extra ones unused)
-    modal = ModalModel.from_beam(beam, tank, n_modes=cfg["n_modes"], damping=damping,
-                                 stations=stations)
+    modal = ModalModel.from_beam(beam, tank, n_modes=cfg["n_modes"], damping=damping)
     return beam, modal
 
 

@@ -26,7 +26,12 @@ from pydantic import (
 )
 from pydantic_core import ErrorDetails, PydanticCustomError
 
-from sloshrom.beam.structure import CantileverBeam, ModalModel, coupled_frozen_modes
+from sloshrom.beam.structure import (
+    N_STATIONS,
+    CantileverBeam,
+    ModalModel,
+    coupled_frozen_modes,
+)
 from sloshrom.config import ConfigError, Tank, load_toml
 
 __all__ = [
@@ -87,7 +92,7 @@ MAX_BEAM_SECONDS = 600.0
 #: (measured): duration x number of levels is bounded to keep a run within about 4 GB.
 MAX_LEVEL_SECONDS = 1800.0
 #: Accelerometer stations of the beam: the modal filter separates at most this many modes.
-MAX_MODES = 5
+MAX_MODES = N_STATIONS
 
 
 def default_text() -> str:

@@ -1,45 +1,52 @@
 """Time-delay neural-network reduced-order models: NFIR and NOE with a normalized RBF layer.
 
-Paper section 3 and Appendix A. Both models map a scalar input history
-(tank vertical velocity, m/s) to a scalar output (dynamic sloshing force, N), but work for any
-single-input single-output record.
+Paper section 3 and Appendix A. Both models map a scalar input history (tank vertical velocity,
+m/s) to a scalar output (dynamic sloshing force, N), but work for any single-input single-output
+record. The network equations and the pure functions that evaluate them are in
+:mod:`sloshrom.rom.network`; the trainers in :mod:`sloshrom.rom.training`.
 
-Model equations (all in min-max scaled units, ``s(v) = 2 (v - v_min)/(v_max - v_min) - 1``):
+The estimators follow the scikit-learn conventions: the constructor only stores its arguments,
+:meth:`~_TDNN.fit` validates them, :meth:`~_TDNN.get_params`/:meth:`~_TDNN.set_params` cover
+every constructor argument, and :meth:`~_TDNN.predict` does not change the model. Fitted
+attributes end in ``_`` (``params_``, ``scaler_``, ``fs_``, ``envelope_``, ``history_``).
 
-- regressor at step k: ``x_k = [u_{k-d_1}, ..., u_{k-d_n}]`` (delays ``d_i``, default 1..n as
-  MATLAB's ``timedelaynet``); the NOE appends its own past outputs ``[y^_{k-1}, ..., y^_{k-m}]``.
-- hidden layer, normalized RBF, ``a_j = exp(-n_j^2) / sum_l exp(-n_l^2)`` with
-  ``"matlab"``: ``n_j = W_j . x + b_j`` (MATLAB ``radbasn``) or
-  ``"distance"``: ``n_j = b_j ||x - C_j||``;
-- linear output ``y = sum_j c_j a_j + c_0``.
+A fitted model is also a JAX pytree (:class:`sloshrom.models.JaxModel`): its parameters
+(``params_``) and scaler bounds (``scaler_``) are the leaves, its hyperparameters and sample rate
+the static part. Passed as an argument into a jitted function, its :meth:`step` is traced with
+the weights as data: one compilation serves every model of the same hyperparameters and shapes,
+and ``jax.grad`` with respect to the model gives the gradient of each parameter (a model-shaped
+pytree). The training record (``envelope_``, ``history_``) is not part of the pytree: a model
+rebuilt from leaves (inside ``jit``, a gradient) has the network and scaler only.
 
-The parameter count is ``H (D + 2) + 1`` (H neurons, D regressor entries): NFIR(70, 35) has 2,521.
 The normalized RBF output is bounded by ``max |c_j| + |c_0|``, so an NOE cannot run off to
 infinity; an "unstable" NOE shows up as an output far beyond the training range (limit cycles,
 saturation), which :meth:`NOE.predict` detects against ``unstable_bound`` and raises.
 
 Initial conditions: every delay line starts at rest (zero physical input and output).
+
+Precision: fitting, prediction and saving run in float64 (``jax.enable_x64`` around the call,
+:mod:`sloshrom.rom._x64`) without changing the process's JAX configuration; :meth:`step` and
+:meth:`init_state` are JAX functions that follow the caller's configuration.
 """
 
 from __future__ import annotations
 
+import functools
+import inspect
+import operator
 import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
-from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar, Literal
 
 import jax
+import jax.numpy as jnp
+import numpy as np
 
-jax.config.update("jax_enable_x64", True)
-
-import jax.numpy as jnp  # noqa: E402
-import numpy as np  # noqa: E402
-from jax import lax  # noqa: E402
-
-from sloshrom.fileio import atomic_write  # noqa: E402
-from sloshrom.rom.modelfile import (  # noqa: E402
+from sloshrom.fileio import atomic_write
+from sloshrom.rom._x64 import float64
+from sloshrom.rom.errors import EnvelopeWarning, NotFittedError, ROMError, UnstableModelError
+from sloshrom.rom.modelfile import (
     FORMAT_VERSION,
     HIDDEN_KINDS,
     PARAM_NAMES,
@@ -47,212 +54,52 @@ from sloshrom.rom.modelfile import (  # noqa: E402
     read_model_file,
     validate_for_save,
 )
-from sloshrom.rom.modelfile import checksum as _checksum  # noqa: E402
+from sloshrom.rom.modelfile import checksum as _checksum
+from sloshrom.rom.network import (
+    MinMaxScaler,
+    NetworkSpec,
+    check_delays,
+    hidden_activations,
+    n_params,
+    nfir_free_run,
+    noe_free_run,
+    noe_rest_state,
+    noe_simulate,
+    noe_step,
+    pack,
+    rbf_apply,
+    unpack,
+)
 
 __all__ = [
     "FORMAT_VERSION",
     "NFIR",
     "NOE",
     "EnvelopeWarning",
-    "ModelFileError",
     "MinMaxScaler",
+    "ModelFileError",
+    "NotFittedError",
+    "ROMError",
     "UnstableModelError",
     "hidden_activations",
     "load_model",
     "n_params",
-    "nfir_apply",
     "noe_simulate",
+    "pack",
     "rbf_apply",
+    "unpack",
 ]
 
-class UnstableModelError(RuntimeError):
-    """A recurrent (NOE) simulation became non-finite or left its stability bound."""
-
-
-class EnvelopeWarning(UserWarning):
-    """The input passed to a ROM lies outside the range it was trained on."""
-
-
-# ---------------------------------------------------------------------------------------------
-# Scaling
-# ---------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class MinMaxScaler:
-    """Min-max scaling of the input and the output to [-1, 1] (MATLAB ``mapminmax``)."""
-
-    in_min: float
-    in_max: float
-    out_min: float
-    out_max: float
-
-    @classmethod
-    def fit(cls, u: np.ndarray, y: np.ndarray) -> MinMaxScaler:
-        u_min, u_max = float(np.min(u)), float(np.max(u))
-        y_min, y_max = float(np.min(y)), float(np.max(y))
-        if not u_max > u_min:
-            raise ValueError(f"input is constant ({u_min!r}): nothing to identify from")
-        if not y_max > y_min:
-            raise ValueError(f"output is constant ({y_min!r}): nothing to identify")
-        return cls(u_min, u_max, y_min, y_max)
-
-    def u(self, u: Any) -> Any:
-        return 2.0 * (u - self.in_min) / (self.in_max - self.in_min) - 1.0
-
-    def y(self, y: Any) -> Any:
-        return 2.0 * (y - self.out_min) / (self.out_max - self.out_min) - 1.0
-
-    def y_inverse(self, ys: Any) -> Any:
-        return (ys + 1.0) * 0.5 * (self.out_max - self.out_min) + self.out_min
-
-    @property
-    def out_half_range(self) -> float:
-        """Half the output range: physical MSE = scaled MSE * out_half_range**2."""
-        return 0.5 * (self.out_max - self.out_min)
-
-    def to_dict(self) -> dict[str, float]:
-        return {k: float(getattr(self, k)) for k in ("in_min", "in_max", "out_min", "out_max")}
-
-
-# ---------------------------------------------------------------------------------------------
-# Pure model functions (scaled units)
-# ---------------------------------------------------------------------------------------------
-
-
-def n_params(n_inputs: int, neurons: int) -> int:
-    """Number of parameters of the RBF network: ``H (D + 2) + 1``."""
-    return neurons * (n_inputs + 2) + 1
-
-
-def pack(params: dict[str, Any]) -> jnp.ndarray:
-    """Flatten ``{"W", "b", "c", "c0"}`` into one parameter vector (row-major ``W`` first)."""
-    return jnp.concatenate([jnp.ravel(jnp.asarray(params[k])) for k in PARAM_NAMES])
-
-
-def unpack(theta: Any, n_inputs: int, neurons: int) -> dict[str, Any]:
-    """Inverse of :func:`pack`."""
-    h, d = neurons, n_inputs
-    i = h * d
-    return {
-        "W": theta[:i].reshape(h, d),
-        "b": theta[i : i + h],
-        "c": theta[i + h : i + 2 * h],
-        "c0": theta[i + 2 * h],
-    }
-
-
-def hidden_activations(params: dict[str, Any], X: Any, hidden: str = "matlab") -> jnp.ndarray:
-    """Normalized RBF activations ``a`` of shape ``(..., H)`` for regressors ``X`` ``(..., D)``.
-
-    ``"matlab"``: ``n = X W^T + b``; ``"distance"``: ``n_j = b_j ||x - C_j||`` with the centres
-    ``C`` stored in ``params["W"]``. ``a = softmax(-n^2)`` (log-sum-exp stable).
-    """
-    W, b = params["W"], params["b"]
-    if hidden == "matlab":
-        n2 = (X @ W.T + b) ** 2
-    elif hidden == "distance":
-        # squared distance without sqrt: differentiable at x = C_j
-        d2 = jnp.sum(X**2, axis=-1, keepdims=True) - 2.0 * X @ W.T + jnp.sum(W**2, axis=-1)
-        n2 = b**2 * jnp.maximum(d2, 0.0)
-    else:
-        raise ValueError(f"hidden must be one of {HIDDEN_KINDS}, got {hidden!r}")
-    return jax.nn.softmax(-n2, axis=-1)
-
-
-def rbf_apply(params: dict[str, Any], X: Any, hidden: str = "matlab") -> jnp.ndarray:
-    """Network output (scaled) ``y = a(X) . c + c0`` for regressors ``X`` of shape ``(..., D)``."""
-    return hidden_activations(params, X, hidden) @ params["c"] + params["c0"]
-
-
-def nfir_apply(params: dict[str, Any], X: Any, hidden: str = "matlab") -> jnp.ndarray:
-    """NFIR output (scaled) for a matrix of delayed-input regressors ``X`` (rows = time steps)."""
-    return rbf_apply(params, X, hidden)
-
-
-def _row_index(rows: jnp.ndarray, delays: np.ndarray) -> jnp.ndarray:
-    """Indices into the rest-padded input ``up`` (``up[dmax + k] = u_k``) of rows ``k``."""
-    dmax = int(delays.max())
-    return rows[:, None] + (dmax - delays)[None, :]
-
-
-def nfir_rows(theta: Any, up: Any, rows: Any, delays: np.ndarray, neurons: int, hidden: str):
-    """NFIR scaled outputs at time indices ``rows`` from the rest-padded scaled input ``up``."""
-    X = up[_row_index(rows, delays)]
-    return nfir_apply(unpack(theta, len(delays), neurons), X, hidden)
-
-
-@partial(jax.jit, static_argnames=("delays", "neurons", "hidden", "chunk"))
-def _nfir_free_run(theta, u_s, rest_u, delays, neurons, hidden, chunk=8192):
-    """NFIR over a whole (scaled) input in chunks of rows (memory bounded), rest before start."""
-    d = np.asarray(delays)
-    dmax = int(d.max())
-    n = u_s.shape[0]
-    n_chunks = -(-n // chunk)
-    up = jnp.concatenate([jnp.full(dmax, rest_u), u_s, jnp.full(n_chunks * chunk - n, rest_u)])
-
-    def one(start):
-        rows = start + jnp.arange(chunk)
-        return nfir_rows(theta, up, rows, d, neurons, hidden)
-
-    y = lax.map(one, jnp.arange(n_chunks) * chunk)
-    return y.reshape(-1)[:n]
-
-
-def noe_step(theta, state, u_s, delays, out_delays, neurons, hidden):
-    """One NOE step in scaled units: ``state = (u_buf, y_buf)`` most recent first."""
-    ubuf, ybuf = state
-    d = np.asarray(delays)
-    x = jnp.concatenate([ubuf[d - 1], ybuf])
-    y = rbf_apply(unpack(theta, len(d) + out_delays, neurons), x, hidden)
-    ubuf = jnp.concatenate([jnp.reshape(u_s, (1,)), ubuf[:-1]])
-    ybuf = jnp.concatenate([jnp.reshape(y, (1,)), ybuf[:-1]])
-    return (ubuf, ybuf), y
-
-
-def noe_rest_state(rest_u, rest_y, delays, out_delays):
-    dmax = int(np.max(delays))
-    return (jnp.full(dmax, rest_u, dtype=jnp.float64), jnp.full(out_delays, rest_y, jnp.float64))
-
-
-def noe_simulate(theta, u_s, state0, delays, out_delays, neurons, hidden):
-    """Closed-loop NOE simulation (``lax.scan``) of a scaled input; returns ``(state, y_s)``."""
-
-    def body(state, uk):
-        return noe_step(theta, state, uk, delays, out_delays, neurons, hidden)
-
-    return lax.scan(body, state0, u_s)
-
-
-@partial(jax.jit, static_argnames=("delays", "out_delays", "neurons", "hidden"))
-def _noe_free_run(theta, u_s, rest_u, rest_y, delays, out_delays, neurons, hidden):
-    state0 = noe_rest_state(rest_u, rest_y, np.asarray(delays), out_delays)
-    return noe_simulate(theta, u_s, state0, delays, out_delays, neurons, hidden)[1]
-
-
-# ---------------------------------------------------------------------------------------------
-# Estimators
-# ---------------------------------------------------------------------------------------------
-
-
-def _check_delays(delays: int | Sequence[int], name: str = "delays") -> tuple[int, ...]:
-    if isinstance(delays, int | np.integer):
-        if delays < 1:
-            raise ValueError(f"{name} must be >= 1, got {delays}")
-        return tuple(range(1, int(delays) + 1))
-    d = tuple(int(x) for x in delays)
-    if not d or min(d) < 1 or len(set(d)) != len(d):
-        raise ValueError(f"{name} must be distinct integers >= 1, got {delays!r}")
-    return d
+TRAINERS = ("fast", "lm", "adam")
 
 
 def _as_signal(name: str, x: Any, allow_batch: bool = False) -> np.ndarray:
     a = np.asarray(x, dtype=np.float64)
     if a.ndim != 1 and not (allow_batch and a.ndim == 2):
         shape = "(n,) or (batch, n)" if allow_batch else "(n,)"
-        raise ValueError(f"{name} must have shape {shape}, got {a.shape}")
+        raise ROMError(f"{name} must have shape {shape}, got {a.shape}")
     if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} contains NaN or inf (first at index {np.argmin(np.isfinite(a))})")
+        raise ROMError(f"{name} contains NaN or inf (first at index {np.argmin(np.isfinite(a))})")
     return a
 
 
@@ -267,87 +114,143 @@ def _frequency_band(u: np.ndarray, fs: float, lo: float = 0.01, hi: float = 0.99
     return [float(f[np.searchsorted(c, lo)]), float(f[min(np.searchsorted(c, hi), f.size - 1)])]
 
 
+def _plain(v: Any) -> Any:
+    """NumPy scalars and arrays, tuples -> plain Python numbers and lists (JSON-serialisable)."""
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    if isinstance(v, tuple | list):
+        return [_plain(x) for x in v]
+    return v
+
+
+def _frozen(v: Any) -> Any:
+    """Lists -> tuples (hashable pytree aux data)."""
+    return tuple(_frozen(x) for x in v) if isinstance(v, list) else v
+
+
+def _thawed(v: Any) -> Any:
+    return [_thawed(x) for x in v] if isinstance(v, tuple) else v
+
+
+def _integer(name: str, v: Any, lo: int) -> int:
+    try:
+        i = operator.index(v)  # ints and NumPy integers, not floats or bools' cousins
+    except TypeError:
+        raise ROMError(f"{name} must be an integer, got {v!r}") from None
+    if isinstance(v, bool) or i < lo:
+        raise ROMError(f"{name} must be an integer >= {lo}, got {v!r}")
+    return i
+
+
 class _TDNN:
-    """Shared code of NFIR and NOE (sklearn-style estimator + sloshing-model contract)."""
+    """Shared code of NFIR and NOE (scikit-learn estimator + sloshing-model contract)."""
 
-    arch = ""
-
-    def __init__(
-        self,
-        delays: int | Sequence[int],
-        neurons: int,
-        hidden: str = "matlab",
-        max_epochs: int = 1000,
-        seed: int = 0,
-        trainer: str = "fast",
-        out_delays: int = 0,
-        unstable_bound: float = 10.0,
-        units: tuple[str, str] = ("m/s", "N"),
-        names: tuple[str, str] = ("velocity", "dynamic_force"),
-    ) -> None:
-        self.delays = delays
-        self.neurons = neurons
-        self.hidden = hidden
-        self.max_epochs = max_epochs
-        self.seed = seed
-        self.trainer = trainer
-        self.out_delays = out_delays
-        self.unstable_bound = unstable_bound
-        self.units = tuple(units)
-        self.names = tuple(names)
-        self._validate_hyper()
+    arch: ClassVar[str] = ""
+    #: the force at sample k is the force at t_k (energy integrals: trapezoid rule)
+    force_rule: ClassVar[Literal["trapezoid"]] = "trapezoid"
+    #: step is a pure JAX function and a fitted model is a pytree (sloshrom.models.JaxModel)
+    jax_traceable: ClassVar[Literal[True]] = True
+    #: fed-back past outputs: none for the NFIR (an NOE constructor parameter)
+    out_delays: int = 0
+    #: stability bound of the scaled output (an NOE constructor parameter)
+    unstable_bound: float = 10.0
 
     # -- hyperparameters ----------------------------------------------------------------------
-    def _validate_hyper(self) -> None:
-        self._delays = _check_delays(self.delays)
-        if int(self.neurons) < 1:
-            raise ValueError(f"neurons must be >= 1, got {self.neurons}")
-        if self.hidden not in HIDDEN_KINDS:
-            raise ValueError(f"hidden must be one of {HIDDEN_KINDS}, got {self.hidden!r}")
-        if int(self.max_epochs) < 0:
-            raise ValueError(f"max_epochs must be >= 0, got {self.max_epochs}")
-        if int(self.out_delays) < 0:
-            raise ValueError(f"out_delays must be >= 0, got {self.out_delays}")
+    @classmethod
+    @functools.cache
+    def _param_names(cls) -> tuple[str, ...]:
+        sig = inspect.signature(cls.__init__)
+        return tuple(p.name for p in sig.parameters.values() if p.name != "self")
 
-    def get_params(self) -> dict[str, Any]:
-        """Hyperparameters (JSON-serialisable), as given to the constructor."""
-        d = self.delays
-        return {
-            "delays": d if isinstance(d, int | np.integer) else list(d),
-            "neurons": int(self.neurons),
-            "hidden": self.hidden,
-            "max_epochs": int(self.max_epochs),
-            "seed": int(self.seed),
-            "trainer": self.trainer,
-            "out_delays": int(self.out_delays),
-            "unstable_bound": float(self.unstable_bound),
-            "units": list(self.units),
-            "names": list(self.names),
-        }
+    def get_params(self, deep: bool = True) -> dict[str, Any]:
+        """Every constructor argument by name, in plain Python types (JSON-serialisable).
+
+        ``deep`` is accepted for scikit-learn compatibility (there are no nested estimators).
+        """
+        return {k: _plain(getattr(self, k)) for k in self._param_names()}
+
+    def set_params(self, **params: Any) -> _TDNN:
+        """Set constructor arguments by name (checked by the next :meth:`fit`); returns self.
+
+        Raises
+        ------
+        ROMError
+            A name that is not a constructor argument.
+        """
+        valid = self._param_names()
+        for k, v in params.items():
+            if k not in valid:
+                raise ROMError(f"{type(self).__name__} has no parameter {k!r} "
+                               f"(valid: {', '.join(valid)})")
+            setattr(self, k, v)
+        return self
+
+    def _check_hyperparameters(self) -> NetworkSpec:
+        """Validate the constructor arguments; the network architecture they give.
+
+        Raises
+        ------
+        ROMError
+            The first argument out of its domain, named.
+        """
+        delays = check_delays(self.delays)
+        neurons = _integer("neurons", self.neurons, 1)
+        if self.hidden not in HIDDEN_KINDS:
+            raise ROMError(f"hidden must be one of {HIDDEN_KINDS}, got {self.hidden!r}")
+        _integer("max_epochs", self.max_epochs, 0)
+        _integer("seed", self.seed, 0)
+        out_delays = _integer("out_delays", self.out_delays, 0)
+        if self.trainer not in TRAINERS:
+            raise ROMError(f"trainer must be 'fast', 'lm' or 'adam', got {self.trainer!r}")
+        return NetworkSpec(self.arch, delays, neurons, self.hidden, out_delays)
+
+    @property
+    def spec(self) -> NetworkSpec:
+        """The network architecture (validated hyperparameters)."""
+        return self._check_hyperparameters()
 
     @property
     def n_inputs(self) -> int:
         """Length D of the regressor."""
-        return len(self._delays) + int(self.out_delays)
+        return self.spec.n_inputs
 
     @property
     def n_params(self) -> int:
-        return n_params(self.n_inputs, int(self.neurons))
+        return self.spec.n_params
 
     @property
     def max_delay(self) -> int:
-        return max(self._delays)
+        return self.spec.max_delay
 
     def _check_fitted(self) -> None:
         if not hasattr(self, "params_"):
-            raise RuntimeError(f"this {type(self).__name__} is not fitted: call fit() first")
+            raise NotFittedError(f"this {type(self).__name__} is not fitted: call fit() first")
 
     @property
     def theta_(self) -> jnp.ndarray:
+        """The parameters packed into one vector (:func:`~sloshrom.rom.network.pack`)."""
         self._check_fitted()
         return pack(self.params_)
 
+    # -- pytree (parameters are leaves, hyperparameters static) -------------------------------
+    def tree_flatten(self) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
+        children = (self.params_, self.scaler_) if hasattr(self, "params_") else ()
+        hyper = tuple((k, _frozen(v)) for k, v in self.get_params().items())
+        return children, (hyper, getattr(self, "fs_", None))
+
+    @classmethod
+    def tree_unflatten(cls, aux: tuple[Any, ...], children: tuple[Any, ...]) -> _TDNN:
+        hyper, fs = aux
+        obj = cls(**{k: _thawed(v) for k, v in hyper})
+        if children:
+            obj.params_, obj.scaler_ = children
+            obj.fs_ = fs
+        return obj
+
     # -- training -----------------------------------------------------------------------------
+    @float64
     def fit(
         self,
         u: Any,
@@ -377,31 +280,44 @@ class _TDNN:
         Returns
         -------
         self
+
+        Raises
+        ------
+        ROMError
+            A hyperparameter out of its domain, a bad record (shape, NaN, constant, too short)
+            or sample rate.
+        UnstableModelError
+            An NOE unstable at its initial parameters.
         """
         from sloshrom.rom import training
 
-        self._validate_hyper()
+        spec = self._check_hyperparameters()
         if not (np.isfinite(fs) and fs > 0):
-            raise ValueError(f"fs must be a finite positive sample rate in Hz, got {fs!r}")
+            raise ROMError(f"fs must be a finite positive sample rate in Hz, got {fs!r}")
         u = _as_signal("u", u)
         y = _as_signal("y", y)
         if u.shape != y.shape:
-            raise ValueError(f"u and y must have the same length, got {u.size} and {y.size}")
-        need = self.max_delay + max(int(self.out_delays), 0) + 2 * self.n_params // 100 + 10
+            raise ROMError(f"u and y must have the same length, got {u.size} and {y.size}")
+        need = spec.max_delay + spec.out_delays + 2 * spec.n_params // 100 + 10
         if u.size < need:
-            raise ValueError(
-                f"{u.size} samples are too few for {self.max_delay} delays "
+            raise ROMError(
+                f"{u.size} samples are too few for {spec.max_delay} delays "
                 f"(need at least {need})"
             )
         if validation is not None:
             uv = _as_signal("validation input", validation[0])
             yv = _as_signal("validation output", validation[1])
             if uv.shape != yv.shape:
-                raise ValueError("validation input and output must have the same length")
-            if uv.size <= self.max_delay:
-                raise ValueError(f"validation record too short for {self.max_delay} delays")
+                raise ROMError("validation input and output must have the same length")
+            if uv.size <= spec.max_delay:
+                raise ROMError(f"validation record too short for {spec.max_delay} delays")
             validation = (uv, yv)
         scaler = MinMaxScaler.fit(u, y)
+        theta, history = training.train(
+            spec, u, y, scaler, validation, trainer=self.trainer,
+            max_epochs=int(self.max_epochs), seed=int(self.seed),
+            unstable_bound=float(self.unstable_bound), callback=callback,
+        )
         self.scaler_ = scaler
         self.fs_ = float(fs)
         self.envelope_ = {
@@ -411,11 +327,9 @@ class _TDNN:
             "output_max": scaler.out_max,
             "frequency_band": _frequency_band(u, fs),
         }
-        theta, history = training.train(self, u, y, validation, callback)
-        self.params_ = {k: np.asarray(v) for k, v in unpack(theta, self.n_inputs,
-                                                            int(self.neurons)).items()}
+        self.params_ = {k: np.asarray(v) for k, v in
+                        unpack(theta, spec.n_inputs, spec.neurons).items()}
         self.history_ = history
-        self._warned = False
         return self
 
     # -- prediction ---------------------------------------------------------------------------
@@ -426,21 +340,26 @@ class _TDNN:
         return 1.0 / self.fs_
 
     def _check_envelope(self, u: np.ndarray) -> None:
-        lo, hi = self.envelope_["input_min"], self.envelope_["input_max"]
+        env = getattr(self, "envelope_", None)
+        if env is None:  # rebuilt from pytree leaves: no training record to compare with
+            return
+        lo, hi = env["input_min"], env["input_max"]
         span = hi - lo
         over = max(float(np.max(u)) - hi, lo - float(np.min(u)), 0.0)
-        if over > 0 and not getattr(self, "_warned", False):
-            self._warned = True
+        if over > 0:
+            # every call warns; the warnings filters decide what is shown (once per place by
+            # default): no once-flag on the model, so predict leaves the model as it was
             warnings.warn(
                 f"input outside the training envelope [{lo:.4g}, {hi:.4g}] "
                 f"{self.units[0]} by {over:.4g} {self.units[0]} ({100 * over / span:.1f} % of "
                 "the range): the ROM extrapolates",
                 EnvelopeWarning,
-                stacklevel=3,
+                stacklevel=4,  # _check_envelope < predict < float64 wrapper < the caller
             )
 
+    @float64
     def predict(self, u: Any) -> np.ndarray:
-        """Free-run simulation from rest.
+        """Free-run simulation from rest; does not change the model.
 
         Parameters
         ----------
@@ -450,7 +369,21 @@ class _TDNN:
         Returns
         -------
         ndarray, same shape as ``u``
-            Output (physical units, e.g. N).
+            Output (physical units, e.g. N), float64.
+
+        Raises
+        ------
+        NotFittedError
+            The model is not fitted.
+        ROMError
+            ``u`` of another shape, or with NaN or inf.
+        UnstableModelError
+            An NOE whose simulation left its stability bound.
+
+        Warns
+        -----
+        EnvelopeWarning
+            ``u`` leaves the input range of the training record.
         """
         self._check_fitted()
         u = _as_signal("u", u, allow_batch=True)
@@ -470,17 +403,18 @@ class _TDNN:
         """Sloshing-model contract: dynamic force (N) from velocity (m/s); acceleration ignored."""
         return self.predict(velocity)
 
-    def init_state(self):
+    def init_state(self) -> Any:
         """Delay line(s) at rest (scaled units), a pytree of arrays."""
         raise NotImplementedError
 
-    def step(self, state, velocity, acceleration=None):
+    def step(self, state: Any, velocity: Any, acceleration: Any = None) -> tuple[Any, Any]:
         raise NotImplementedError
 
-    def _free_run_fn(self) -> Callable:
+    def _free_run_fn(self) -> Callable[[Any], Any]:
         raise NotImplementedError
 
     # -- persistence --------------------------------------------------------------------------
+    @float64
     def save(self, path: str | Path) -> Path:
         """Write the fitted model to a ``.npz`` file atomically (no pickle).
 
@@ -492,7 +426,7 @@ class _TDNN:
 
         Raises
         ------
-        ValueError
+        ROMError
             A hyperparameter, the sample rate, the scaler or the envelope is outside the bounds of
             the model-file format, or the training history is too long to store; the message names
             the field and nothing is written.
@@ -521,7 +455,7 @@ class _TDNN:
         try:
             text = validate_for_save(meta, arrays, str(p))
         except ModelFileError as exc:
-            raise ValueError(f"cannot save the model: {exc}") from None
+            raise ROMError(f"cannot save the model: {exc}") from None
 
         def write(tmp: str) -> None:
             with open(tmp, "wb") as fh:  # a file object: np.savez adds no ".npz" to the name
@@ -530,6 +464,7 @@ class _TDNN:
         return atomic_write(p, write, suffix=".npz")
 
 
+@jax.tree_util.register_pytree_node_class
 class NFIR(_TDNN):
     """Nonlinear finite-impulse-response network: ``y_k = f(u_{k-1}, ..., u_{k-n})``.
 
@@ -540,17 +475,23 @@ class NFIR(_TDNN):
     neurons : int
         Hidden normalized RBF neurons H.
     hidden : {"matlab", "distance"}
-        RBF variant (see module docstring).
+        RBF variant (see :mod:`sloshrom.rom.network`).
     max_epochs : int
-        Levenberg-Marquardt epochs at most.
+        Training epochs at most.
     seed : int
-        Seeds the initialisation.
+        Seeds the initialisation (>= 0).
     trainer : {"fast", "lm", "adam"}
         ``"lm"``: MATLAB ``trainlm`` on all samples; ``"fast"``: the same algorithm with J^T J
         accumulated on a fixed decimated subset of the samples; ``"adam"`` (default): minibatch
         Adam with the same validation early stopping, which reached a lower validation error
         than both LM variants in less time on the virtual-rig data (see
         :mod:`sloshrom.rom.training` and docs/rom.md).
+    units : (str, str)
+        Units of the input and the output.
+    names : (str, str)
+        Variable names of the input and the output.
+
+    Parameters are checked by :meth:`fit` (and by :func:`load_model`), not by the constructor.
     """
 
     arch = "nfir"
@@ -563,39 +504,46 @@ class NFIR(_TDNN):
         max_epochs: int = 1000,
         seed: int = 0,
         trainer: str = "adam",
-        units: tuple[str, str] = ("m/s", "N"),
-        names: tuple[str, str] = ("velocity", "dynamic_force"),
+        units: Sequence[str] = ("m/s", "N"),
+        names: Sequence[str] = ("velocity", "dynamic_force"),
     ) -> None:
-        super().__init__(delays, neurons, hidden, max_epochs, seed, trainer, 0, 10.0, units,
-                         names)
+        self.delays = delays
+        self.neurons = neurons
+        self.hidden = hidden
+        self.max_epochs = max_epochs
+        self.seed = seed
+        self.trainer = trainer
+        self.units = units
+        self.names = names
 
-    def get_params(self) -> dict[str, Any]:
-        p = super().get_params()
-        p.pop("out_delays")
-        p.pop("unstable_bound")
-        return p
-
-    def _free_run_fn(self) -> Callable:
-        theta = self.theta_
+    def _free_run_fn(self) -> Callable[[Any], Any]:
+        spec = self.spec
+        theta = pack(self.params_)
         rest_u = float(self.scaler_.u(0.0))
-        return lambda u_s: _nfir_free_run(theta, u_s, rest_u, self._delays, int(self.neurons),
-                                          self.hidden)
+        return lambda u_s: nfir_free_run(theta, u_s, rest_u, spec.delays, spec.neurons,
+                                         spec.hidden)
 
     def init_state(self) -> jnp.ndarray:
         """Input delay line at rest, scaled, most recent first: shape (max_delay,)."""
         self._check_fitted()
         return jnp.full(self.max_delay, self.scaler_.u(0.0), dtype=jnp.float64)
 
-    def step(self, state, velocity, acceleration=None):
-        """One pure, jax-traceable step: ``(state, dynamic_force)`` at the current sample."""
+    def step(self, state: Any, velocity: Any, acceleration: Any = None) -> tuple[Any, Any]:
+        """One pure, jax-traceable step: ``(state, dynamic_force)`` at the current sample.
+
+        Reads the weights and the scaler from the model's pytree leaves, so a model passed as an
+        argument into ``jit`` is traced, not compiled in.
+        """
         s = self.scaler_
-        d = np.asarray(self._delays)
-        y_s = rbf_apply(self.params_, state[d - 1], self.hidden)
+        d = np.asarray(self.spec.delays)
+        # single: W x, fast in a scan whose weights are traced (the coupled simulation)
+        y_s = rbf_apply(self.params_, state[d - 1], self.hidden, single=True)
         u_s = s.u(jnp.asarray(velocity, jnp.float64))
         state = jnp.concatenate([jnp.reshape(u_s, (1,)), state[:-1]])
         return state, s.y_inverse(y_s)
 
 
+@jax.tree_util.register_pytree_node_class
 class NOE(_TDNN):
     """Nonlinear output-error network: ``y^_k = f(u_{k-1..k-n}, y^_{k-1..k-m})`` (recurrent).
 
@@ -605,14 +553,19 @@ class NOE(_TDNN):
         Input delays (default 2 -> 1, 2).
     neurons : int
         Hidden normalized RBF neurons.
+    hidden, max_epochs, seed
+        As :class:`NFIR`.
+    trainer : {"lm", "fast"}
+        Levenberg-Marquardt on the simulation (output) error with forward-mode derivatives
+        through the recurrence (``"fast"`` is the same for the NOE).
     out_delays : int
         Number of fed-back past outputs m (default 2).
     unstable_bound : float
         A simulation whose scaled output exceeds this magnitude (10 = ten half-ranges of the
         training output) or is non-finite is unstable: :meth:`predict` raises
         :class:`UnstableModelError`.
-    Other parameters as :class:`NFIR`. Training uses the simulation (output) error with
-    forward-mode derivatives through the recurrence.
+    units, names
+        As :class:`NFIR`.
     """
 
     arch = "noe"
@@ -627,25 +580,44 @@ class NOE(_TDNN):
         trainer: str = "lm",
         out_delays: int = 2,
         unstable_bound: float = 10.0,
-        units: tuple[str, str] = ("m/s", "N"),
-        names: tuple[str, str] = ("velocity", "dynamic_force"),
+        units: Sequence[str] = ("m/s", "N"),
+        names: Sequence[str] = ("velocity", "dynamic_force"),
     ) -> None:
-        super().__init__(delays, neurons, hidden, max_epochs, seed, trainer, out_delays,
-                         unstable_bound, units, names)
+        self.delays = delays
+        self.neurons = neurons
+        self.hidden = hidden
+        self.max_epochs = max_epochs
+        self.seed = seed
+        self.trainer = trainer
+        self.out_delays = out_delays
+        self.unstable_bound = unstable_bound
+        self.units = units
+        self.names = names
 
-    def _validate_hyper(self) -> None:
-        super()._validate_hyper()
-        if int(self.out_delays) < 1:
-            raise ValueError(f"NOE needs out_delays >= 1, got {self.out_delays}")
+    def _check_hyperparameters(self) -> NetworkSpec:
+        spec = super()._check_hyperparameters()
+        if spec.out_delays < 1:
+            raise ROMError(f"NOE needs out_delays >= 1, got {self.out_delays}")
+        if self.trainer == "adam":
+            raise ROMError("trainer 'adam' is available for NFIR only")
+        try:
+            bound = float(self.unstable_bound)
+        except (TypeError, ValueError):
+            bound = float("nan")
+        if not (np.isfinite(bound) and bound > 0):
+            raise ROMError(f"unstable_bound must be a finite number > 0, got "
+                           f"{self.unstable_bound!r}")
+        return spec
 
-    def _rest(self) -> tuple[float, float]:
-        return float(self.scaler_.u(0.0)), float(self.scaler_.y(0.0))
+    def _rest(self) -> tuple[Any, Any]:
+        return self.scaler_.u(0.0), self.scaler_.y(0.0)
 
-    def _free_run_fn(self) -> Callable:
-        theta = self.theta_
-        ru, ry = self._rest()
-        return lambda u_s: _noe_free_run(theta, u_s, ru, ry, self._delays, int(self.out_delays),
-                                         int(self.neurons), self.hidden)
+    def _free_run_fn(self) -> Callable[[Any], Any]:
+        spec = self.spec
+        theta = pack(self.params_)
+        ru, ry = (float(r) for r in self._rest())
+        return lambda u_s: noe_free_run(theta, u_s, ru, ry, spec.delays, spec.out_delays,
+                                        spec.neurons, spec.hidden)
 
     def _check_stable(self, y_s: np.ndarray) -> None:
         bad = ~np.isfinite(y_s) | (np.abs(y_s) > self.unstable_bound)
@@ -656,18 +628,23 @@ class NOE(_TDNN):
                 f"half-ranges of the training output at sample {k} (t = {k / self.fs_:.3f} s)"
             )
 
-    def init_state(self):
+    def init_state(self) -> tuple[jnp.ndarray, jnp.ndarray]:
         """``(input delay line, output delay line)`` at rest, scaled, most recent first."""
         self._check_fitted()
+        spec = self.spec
         ru, ry = self._rest()
-        return noe_rest_state(ru, ry, np.asarray(self._delays), int(self.out_delays))
+        return noe_rest_state(ru, ry, spec.delays, spec.out_delays)
 
-    def step(self, state, velocity, acceleration=None):
-        """One pure, jax-traceable closed-loop step: ``(state, dynamic_force)``."""
+    def step(self, state: Any, velocity: Any, acceleration: Any = None) -> tuple[Any, Any]:
+        """One pure, jax-traceable closed-loop step: ``(state, dynamic_force)``.
+
+        Reads the weights and the scaler from the model's pytree leaves (see :meth:`NFIR.step`).
+        """
         s = self.scaler_
+        spec = self.spec
         u_s = s.u(jnp.asarray(velocity, jnp.float64))
-        state, y_s = noe_step(self.theta_, state, u_s, self._delays, int(self.out_delays),
-                              int(self.neurons), self.hidden)
+        state, y_s = noe_step(pack(self.params_), state, u_s, spec.delays, spec.out_delays,
+                              spec.neurons, spec.hidden, single=True)
         return state, s.y_inverse(y_s)
 
 
@@ -681,7 +658,8 @@ def load_model(path: str | Path) -> NFIR | NOE:
 
     Every metadata field is validated against a schema with bounds and the arrays against the
     metadata before the model is built (:mod:`sloshrom.rom.modelfile`; docs/formats.md, "Model
-    files"), so a loaded model can be simulated, coupled and exported.
+    files"), then the hyperparameters as :meth:`~_TDNN.fit` checks them, so a loaded model can be
+    simulated, coupled and exported.
 
     Parameters
     ----------
@@ -704,7 +682,8 @@ def load_model(path: str | Path) -> NFIR | NOE:
     cls = NFIR if meta["class"] == "NFIR" else NOE
     try:
         model = cls(**meta["hyperparameters"])
-    except (TypeError, ValueError) as exc:  # unreachable after validation; kept as a net
+        model._check_hyperparameters()
+    except (TypeError, ROMError) as exc:  # unreachable after the schema; kept as a net
         raise ModelFileError(f"{path}: corrupt metadata ({exc})") from None
     sc = meta["scaler"]
     model.scaler_ = MinMaxScaler(**{k: float(sc[k]) for k in
@@ -713,5 +692,4 @@ def load_model(path: str | Path) -> NFIR | NOE:
     model.envelope_ = meta["envelope"]
     model.history_ = meta.get("history", {})
     model.params_ = mf.arrays
-    model._warned = False
     return model

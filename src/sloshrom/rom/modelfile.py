@@ -19,8 +19,9 @@ reads it defensively, in an order that never lets the content choose how much wo
    counts bounded so that simulating the model needs bounded memory), then the arrays against the
    metadata (shapes, finite values of bounded magnitude).
 
-Every failure is a :class:`ModelFileError` (a ``ValueError``) naming the file and, for metadata,
-the field. Loading never runs code (no pickle anywhere).
+Every failure is a :class:`ModelFileError` (a :class:`~sloshrom.rom.errors.ROMError`, hence a
+``ValueError``) naming the file and, for metadata, the field. Loading never runs code (no
+pickle anywhere).
 """
 
 from __future__ import annotations
@@ -48,6 +49,8 @@ from pydantic import (
     ValidationError,
     field_validator,
 )
+
+from sloshrom.rom.errors import ROMError
 
 __all__ = [
     "FORMAT_VERSION", "HIDDEN_KINDS", "MAX_DELAY", "MAX_DEPTH", "MAX_FILE_BYTES",
@@ -98,7 +101,7 @@ _MAX_NPY_HEADER = 10_000
 _MAX_DATA = {"metadata": 4 * MAX_METADATA_CHARS, **dict.fromkeys(PARAM_NAMES, 8 * MAX_WEIGHTS)}
 
 
-class ModelFileError(ValueError):
+class ModelFileError(ROMError):
     """A model file is missing, not a sloshrom model, of another format version, or corrupt."""
 
 

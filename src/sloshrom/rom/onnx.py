@@ -30,15 +30,22 @@ from __future__ import annotations
 import json
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from sloshrom.fileio import atomic_write
+from sloshrom.rom.errors import ROMError
 
-__all__ = ["FORMAT_VERSION", "SIGN_CONVENTION", "export_onnx", "onnx_model"]
+if TYPE_CHECKING:
+    from sloshrom.rom.estimators import NFIR, NOE
 
-FORMAT_VERSION = 1
+    ROM = NFIR | NOE
+
+__all__ = ["ONNX_FORMAT_VERSION", "SIGN_CONVENTION", "export_onnx", "onnx_model", "run_onnx"]
+
+#: version of the ONNX graph layout and metadata (not the ``.npz`` model-file format version)
+ONNX_FORMAT_VERSION = 1
 OPSET = 17
 SIGN_CONVENTION = (
     "input: tank vertical velocity w_dot (m/s), w up positive; output: dynamic sloshing force "
@@ -47,10 +54,9 @@ SIGN_CONVENTION = (
 )
 
 
-def _delays(model: Any) -> np.ndarray:
-    """Input delays (samples) from the public hyperparameters: ``n`` means 1..n."""
-    d = model.get_params()["delays"]
-    return np.arange(1, int(d) + 1) if np.ndim(d) == 0 else np.asarray(d, dtype=np.int64)
+def _delays(model: ROM) -> np.ndarray:
+    """Input delays (samples) of the model's architecture."""
+    return np.asarray(model.spec.delays, dtype=np.int64)
 
 
 class _Graph:
@@ -109,13 +115,13 @@ def _rbf(g: _Graph, x_s: str, params: dict[str, np.ndarray], hidden: str) -> str
         d2 = g.op("Max", [d2, g.const("zero", 0.0)])
         n2 = g.op("Mul", [g.const("b2", b**2), d2])
     else:
-        raise ValueError(f"unknown hidden layer kind {hidden!r}")
+        raise ROMError(f"unknown hidden layer kind {hidden!r}")
     a = g.op("Softmax", [g.op("Neg", [n2])], axis=-1)
     y = g.op("MatMul", [a, g.const("c", c[:, None])])
     return g.op("Add", [y, g.const("c0", c0)])
 
 
-def _step_nodes(g: _Graph, model: Any, velocity: str, u_state: str, y_state: str | None,
+def _step_nodes(g: _Graph, model: ROM, velocity: str, u_state: str, y_state: str | None,
                 out_y: str, out_u_state: str, out_y_state: str | None) -> None:
     """Nodes of one step (see module docstring) writing ``out_*``."""
     s = model.scaler_
@@ -149,19 +155,19 @@ def _step_nodes(g: _Graph, model: Any, velocity: str, u_state: str, y_state: str
 
     shift(u_state, velocity, dmax, out_u_state)
     if y_state is not None and out_y_state is not None:
-        shift(y_state, out_y, int(model.out_delays), out_y_state)
+        shift(y_state, out_y, model.spec.out_delays, out_y_state)
 
 
-def _metadata(model: Any, form: str, dtype: np.dtype) -> dict[str, str]:
+def _metadata(model: ROM, form: str, dtype: np.dtype) -> dict[str, str]:
     from sloshrom import __version__
 
-    noe = type(model).__name__ == "NOE"
+    noe = model.spec.arch == "noe"
     state = ("u_state (batch, max_delay) m/s, past velocities most recent first, zeros = rest"
              + ("; y_state (batch, out_delays) N, past outputs most recent first, zeros = rest"
                 if noe else ""))
     meta = {
         "format": "sloshrom-onnx",
-        "format_version": str(FORMAT_VERSION),
+        "format_version": str(ONNX_FORMAT_VERSION),
         "form": form,
         "dtype": dtype.name,
         "model_class": type(model).__name__,
@@ -169,7 +175,7 @@ def _metadata(model: Any, form: str, dtype: np.dtype) -> dict[str, str]:
         "dt_s": repr(1.0 / float(model.fs_)),
         "delays": json.dumps([int(x) for x in _delays(model)]),
         "max_delay": str(int(_delays(model).max())),
-        "out_delays": str(int(getattr(model, "out_delays", 0)) if noe else 0),
+        "out_delays": str(model.spec.out_delays),
         "neurons": str(int(model.neurons)),
         "hidden": str(model.hidden),
         "input_name": str(model.names[0]),
@@ -185,7 +191,7 @@ def _metadata(model: Any, form: str, dtype: np.dtype) -> dict[str, str]:
     return meta
 
 
-def onnx_model(model: Any, form: str = "step", dtype: str = "float64") -> Any:
+def onnx_model(model: ROM, form: str = "step", dtype: str = "float64") -> Any:
     """Build the ONNX ``ModelProto`` of a fitted NFIR/NOE (see module docstring).
 
     Parameters
@@ -201,20 +207,25 @@ def onnx_model(model: Any, form: str = "step", dtype: str = "float64") -> Any:
     -------
     onnx.ModelProto
         Checked with ``onnx.checker``.
+
+    Raises
+    ------
+    ROMError
+        An unfitted model, an unknown ``form`` or ``dtype``.
     """
     import onnx
     from onnx import TensorProto, helper
 
     if not hasattr(model, "params_"):
-        raise ValueError("the model is not fitted: nothing to export")
+        raise ROMError("the model is not fitted: nothing to export")
     if form not in ("step", "sequence"):
-        raise ValueError(f"form must be 'step' or 'sequence', got {form!r}")
+        raise ROMError(f"form must be 'step' or 'sequence', got {form!r}")
+    if dtype not in ("float64", "float32"):
+        raise ROMError(f"dtype must be 'float64' or 'float32', got {dtype!r}")
     dt = np.dtype(dtype)
-    if dt not in (np.float64, np.float32):
-        raise ValueError(f"dtype must be 'float64' or 'float32', got {dtype!r}")
     elem = TensorProto.DOUBLE if dt == np.float64 else TensorProto.FLOAT
-    noe = type(model).__name__ == "NOE"
-    dmax, m = int(_delays(model).max()), int(getattr(model, "out_delays", 0)) if noe else 0
+    noe = model.spec.arch == "noe"
+    dmax, m = model.spec.max_delay, model.spec.out_delays
 
     if form == "step":
         g = _Graph("", dt)
@@ -273,7 +284,7 @@ def onnx_model(model: Any, form: str = "step", dtype: str = "float64") -> Any:
 
 
 def export_onnx(
-    model: Any,
+    model: ROM,
     path: str | Path,
     form: str = "step",
     dtype: str = "float64",
@@ -312,3 +323,36 @@ def export_onnx(
             verify(Path(tmp))
 
     return atomic_write(p, write, suffix=".onnx")
+
+
+def run_onnx(path: str | Path, u: Any) -> np.ndarray:
+    """Free-run output of an exported graph (either form) for input ``u`` with onnxruntime.
+
+    Parameters
+    ----------
+    path : str or Path
+        An ``.onnx`` file written by :func:`export_onnx`.
+    u : array_like, shape (n,)
+        Input record from rest (physical units, e.g. m/s), at the model's sample rate.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Output (physical units, e.g. N), float64 (computed in the graph's precision).
+    """
+    import onnxruntime as ort
+
+    sess = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+    meta = sess.get_modelmeta().custom_metadata_map
+    dt = np.dtype(meta.get("dtype", "float64"))
+    u = np.asarray(u, dtype=dt)
+    if meta.get("form") == "sequence":
+        return sess.run(None, {"velocity": u})[0].astype(float)
+    state = {i.name: np.zeros((1, i.shape[1]), dt) for i in sess.get_inputs()
+             if i.name != "velocity"}
+    y = np.empty(u.size)
+    for k in range(u.size):
+        res = sess.run(None, {"velocity": u[k : k + 1].reshape(1, 1), **state})
+        y[k] = res[0][0, 0]
+        state = {name: r for name, r in zip(state, res[1:], strict=True)}
+    return y

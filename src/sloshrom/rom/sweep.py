@@ -22,8 +22,9 @@ from typing import Any
 import numpy as np
 
 from sloshrom.fileio import atomic_write_text
+from sloshrom.rom.errors import ROMError
 
-__all__ = ["default_grid", "point_name", "run_sweep", "write_table"]
+__all__ = ["fit_point", "point_name", "run_sweep", "sweep_grid", "write_table"]
 
 NFIR_DELAYS = (50, 60, 70)
 NFIR_NEURONS = (5, 10, 15, 20, 25, 30, 35, 40)
@@ -33,16 +34,22 @@ COLUMNS = ("name", "arch", "delays", "neurons", "train_mse", "val_mse", "score",
            "epochs", "stop_reason", "seconds", "model")
 
 
-def default_grid(arch: str = "both") -> list[tuple[str, int, int]]:
+def sweep_grid(arch: str = "both") -> list[tuple[str, int, int]]:
     """The paper's grid as ``(arch, delays, neurons)``: NFIR {50,60,70} x {5..40}, NOE 2 x
-    {10,15,20}; ``arch`` = ``"nfir"``, ``"noe"`` or ``"both"``."""
+    {10,15,20}; ``arch`` = ``"nfir"``, ``"noe"`` or ``"both"``.
+
+    Raises
+    ------
+    ROMError
+        Another ``arch``.
+    """
     pts: list[tuple[str, int, int]] = []
     if arch in ("nfir", "both"):
         pts += [("nfir", d, n) for d in NFIR_DELAYS for n in NFIR_NEURONS]
     if arch in ("noe", "both"):
         pts += [("noe", d, n) for d in NOE_DELAYS for n in NOE_NEURONS]
     if not pts:
-        raise ValueError(f"arch must be 'nfir', 'noe' or 'both', got {arch!r}")
+        raise ROMError(f"arch must be 'nfir', 'noe' or 'both', got {arch!r}")
     return pts
 
 
@@ -111,7 +118,7 @@ def run_sweep(
     out_dir : path
         Models, per-point results, ``sweep.csv``/``sweep.json`` go here.
     points : iterable of (arch, delays, neurons), optional
-        Default :func:`default_grid`.
+        Default :func:`sweep_grid`.
     scheduler : str, optional
         None: a new ``LocalCluster(n_workers)``; ``"threads"`` or ``"sequential"``: no cluster;
         anything else: the address of an existing Dask scheduler.
@@ -127,7 +134,7 @@ def run_sweep(
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    pts = list(points) if points is not None else default_grid()
+    pts = list(points) if points is not None else sweep_grid()
     opts = dict(options or {})
     train = (np.asarray(train[0], float), np.asarray(train[1], float))
     validation = (np.asarray(validation[0], float), np.asarray(validation[1], float))

@@ -21,14 +21,19 @@ subset of the training samples (at most ``FAST_MAX_ROWS`` rows; neighbouring sam
 are nearly collinear regressors, so a subset carries almost the same information for ~10x less
 work); the validation error (early stopping, best network) is always on the whole validation
 record. The NOE always trains on the whole record (``"fast"`` = ``"lm"``). ``"adam"`` (NFIR
-only, the NFIR default) is plain minibatch Adam (lr 1e-3, 4096 samples per step, 200 steps per
-"epoch") with the same validation early stopping: on the virtual-rig data it reached a lower
-validation error than LM in far less time (see docs/rom.md), but it is not the paper's algorithm.
+only, the NFIR default) is minibatch Adam (``optax.adam``: lr 1e-3, b1 0.9, b2 0.999, eps 1e-8;
+4096 samples per step, 200 steps per "epoch") with the same validation early stopping: on the
+virtual-rig data it reached a lower validation error than LM in far less time (see
+docs/rom.md), but it is not the paper's algorithm.
 
 Initialisation (seeded): RBF centres are training regressors drawn at random; ``"matlab"``
 weights are random unit directions scaled by the spread of the data along them (Nguyen-Widrow
 like), with biases putting ``n_j = 0`` at the centre; ``"distance"`` widths from the median
 centre spacing; the linear output layer is then solved by least squares.
+
+The network itself (:mod:`sloshrom.rom.network`) and its architecture (:class:`NetworkSpec`) are
+explicit arguments: this module knows nothing of the estimator classes. :func:`train` runs in
+float64 (``jax.enable_x64`` around the call) without changing the process's JAX configuration.
 """
 
 from __future__ import annotations
@@ -41,19 +46,34 @@ from functools import partial
 from typing import Any
 
 import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+import scipy.linalg
 
-jax.config.update("jax_enable_x64", True)
-
-import jax.numpy as jnp  # noqa: E402
-import numpy as np  # noqa: E402
-import scipy.linalg  # noqa: E402
-
-from sloshrom.rom import estimators as rom  # noqa: E402
+from sloshrom.rom._x64 import float64
+from sloshrom.rom.errors import ROMError, UnstableModelError
+from sloshrom.rom.network import (
+    MinMaxScaler,
+    NetworkSpec,
+    hidden_activations,
+    n_params,
+    nfir_free_run,
+    nfir_rows,
+    noe_free_run,
+    noe_rest_state,
+    noe_simulate,
+    rbf_apply,
+    row_index,
+    unpack,
+)
 
 __all__ = [
     "FAST_MAX_ROWS",
+    "TRAINERS",
     "LMProblem",
     "LMResult",
+    "adam_nfir",
     "init_theta",
     "levenberg_marquardt",
     "nfir_problem",
@@ -63,6 +83,7 @@ __all__ = [
 
 FAST_MAX_ROWS = 16384
 CHUNK = 4096
+TRAINERS = ("fast", "lm", "adam")
 
 
 @dataclass
@@ -218,7 +239,7 @@ def init_theta(
         dist = np.sqrt(((centres[:, None, :] - centres[None, :, :]) ** 2).sum(-1))
         m = np.median(dist[np.triu_indices(h, 1)]) if h > 1 else 1.0
         b = np.full(h, kappa / max(m, 1e-6))
-    A = np.asarray(rom.hidden_activations({"W": W, "b": b}, X, hidden))
+    A = np.asarray(hidden_activations({"W": W, "b": b}, X, hidden))
     coef, *_ = np.linalg.lstsq(np.column_stack([A, np.ones(n)]), y_s, rcond=None)
     return np.concatenate([W.ravel(), b, coef[:h], coef[h:]])
 
@@ -231,10 +252,10 @@ def init_theta(
 @partial(jax.jit, static_argnames=("delays", "neurons", "hidden"))
 def _nfir_jac_chunk(theta, up, ys, rows, w, delays, neurons, hidden):
     d = np.asarray(delays)
-    X = up[rom._row_index(rows, d)]
+    X = up[row_index(rows, d)]
 
     def f(th, x):
-        return rom.rbf_apply(rom.unpack(th, len(d), neurons), x, hidden)
+        return rbf_apply(unpack(th, len(d), neurons), x, hidden)
 
     J = jax.vmap(jax.grad(f), in_axes=(None, 0))(theta, X)
     e = jax.vmap(f, in_axes=(None, 0))(theta, X) - ys[rows]
@@ -247,7 +268,7 @@ def _nfir_sse(theta, up, ys, rows2d, w2d, delays, neurons, hidden):
 
     def one(args):
         rows, w = args
-        e = rom.nfir_rows(theta, up, rows, d, neurons, hidden) - ys[rows]
+        e = nfir_rows(theta, up, rows, d, neurons, hidden) - ys[rows]
         return jnp.sum((e * w) ** 2)
 
     return jnp.sum(jax.lax.map(one, (rows2d, w2d)))
@@ -282,7 +303,7 @@ def nfir_problem(
     chunk = min(chunk, rows.size)
     r2, w2 = _padded_rows(rows, chunk)
     r2j, w2j = jnp.asarray(r2), jnp.asarray(w2)
-    p = rom.n_params(d.size, neurons)
+    p = n_params(d.size, neurons)
 
     def normal_eq(theta):
         th = jnp.asarray(theta)
@@ -306,8 +327,8 @@ def nfir_problem(
         uv, yv = jnp.asarray(validation[0]), np.asarray(validation[1])
 
         def val(theta):
-            yh = np.asarray(rom._nfir_free_run(jnp.asarray(theta), uv, rest_u, delays, neurons,
-                                               hidden))
+            yh = np.asarray(nfir_free_run(jnp.asarray(theta), uv, rest_u, delays, neurons,
+                                          hidden))
             m = float(np.mean((yh - yv) ** 2))
             return m if np.isfinite(m) else math.inf
 
@@ -325,7 +346,7 @@ def _noe_jac_chunk(theta, state, dstate, u_chunk, y_chunk, w, delays, out_delays
     """Simulate one chunk with forward-mode sensitivities of the state carried in and out."""
 
     def f(th, st):
-        return rom.noe_simulate(th, u_chunk, st, delays, out_delays, neurons, hidden)
+        return noe_simulate(th, u_chunk, st, delays, out_delays, neurons, hidden)
 
     eye = jnp.eye(theta.size)
 
@@ -337,11 +358,6 @@ def _noe_jac_chunk(theta, state, dstate, u_chunk, y_chunk, w, delays, out_delays
     e = (y - y_chunk) * w
     J = dy.T * w[:, None]
     return st_end, dst_end, J, e, y
-
-
-@partial(jax.jit, static_argnames=("delays", "out_delays", "neurons", "hidden"))
-def _noe_run(theta, u_s, rest_u, rest_y, delays, out_delays, neurons, hidden):
-    return rom._noe_free_run(theta, u_s, rest_u, rest_y, delays, out_delays, neurons, hidden)
 
 
 def noe_problem(
@@ -369,16 +385,16 @@ def noe_problem(
     w = np.zeros(m)
     w[:n] = 1.0
     up, yp, w = (jnp.asarray(a.reshape(-1, chunk)) for a in (up, yp, w))
-    p = rom.n_params(d.size + out_delays, neurons)
+    p = n_params(d.size + out_delays, neurons)
     uj, ysj = jnp.asarray(u_s), np.asarray(y_s)
 
     def simulate(theta):
-        return np.asarray(_noe_run(jnp.asarray(theta), uj, rest_u, rest_y, delays, out_delays,
-                                   neurons, hidden))
+        return np.asarray(noe_free_run(jnp.asarray(theta), uj, rest_u, rest_y, delays,
+                                       out_delays, neurons, hidden))
 
     def normal_eq(theta):
         th = jnp.asarray(theta)
-        state = rom.noe_rest_state(rest_u, rest_y, d, out_delays)
+        state = noe_rest_state(rest_u, rest_y, d, out_delays)
         dstate = jax.tree_util.tree_map(lambda a: jnp.zeros((p, *a.shape)), state)
         jtj, jte, sse = np.zeros((p, p)), np.zeros(p), 0.0
         for i in range(up.shape[0]):
@@ -401,8 +417,8 @@ def noe_problem(
         uv, yv = jnp.asarray(validation[0]), np.asarray(validation[1])
 
         def val(theta):
-            yh = np.asarray(_noe_run(jnp.asarray(theta), uv, rest_u, rest_y, delays, out_delays,
-                                     neurons, hidden))
+            yh = np.asarray(noe_free_run(jnp.asarray(theta), uv, rest_u, rest_y, delays,
+                                         out_delays, neurons, hidden))
             if not np.all(np.isfinite(yh)) or np.max(np.abs(yh)) > bound:
                 return math.inf
             return float(np.mean((yh - yv) ** 2))
@@ -413,6 +429,7 @@ def noe_problem(
 # ---------------------------------------------------------------------------------------------
 # First-order alternative (NFIR): minibatch Adam with the same stopping rules
 # ---------------------------------------------------------------------------------------------
+
 
 
 def adam_nfir(
@@ -433,45 +450,47 @@ def adam_nfir(
     seed: int = 0,
     callback: Callable[[int, dict], Any] | None = None,
     mse_scale: float = 1.0,
+    b1: float = 0.9,
+    b2: float = 0.999,
+    eps: float = 1e-8,
 ) -> LMResult:
-    """Minibatch Adam on the NFIR MSE (scaled units); an "epoch" is ``steps_per_epoch`` steps.
+    """Minibatch Adam (``optax.adam``) on the NFIR MSE (scaled units); an "epoch" is
+    ``steps_per_epoch`` steps of ``batch`` samples drawn (seeded) from every sample.
 
     Stops at ``max_epochs`` or after ``max_fail`` epochs without a new best validation MSE
     (best-validation parameters returned); ``problem`` supplies the training SSE (on its
-    ``n_rows`` rows) and the validation MSE reported in the history.
+    ``n_rows`` rows) and the validation MSE reported in the history. ``lr``, ``b1``, ``b2``,
+    ``eps`` as :func:`optax.adam` (``eps`` outside the square root).
     """
     d = np.asarray(delays)
     up = jnp.asarray(np.concatenate([np.full(int(d.max()), rest_u), u_s]))
     ysj = jnp.asarray(y_s)
     n = u_s.size
+    opt = optax.adam(lr, b1=b1, b2=b2, eps=eps)
 
     def loss(th, rows):
-        e = rom.nfir_rows(th, up, rows, d, neurons, hidden) - ysj[rows]
+        e = nfir_rows(th, up, rows, d, neurons, hidden) - ysj[rows]
         return jnp.mean(e**2)
 
     @jax.jit
-    def run(th, m, v, t, rows2d):
+    def run(th, state, rows2d):
         def body(carry, rows):
-            th, m, v, t = carry
-            g = jax.grad(loss)(th, rows)
-            t = t + 1
-            m = 0.9 * m + 0.1 * g
-            v = 0.999 * v + 0.001 * g**2
-            th = th - lr * (m / (1 - 0.9**t)) / (jnp.sqrt(v / (1 - 0.999**t)) + 1e-8)
-            return (th, m, v, t), None
+            th, state = carry
+            updates, state = opt.update(jax.grad(loss)(th, rows), state, th)
+            return (optax.apply_updates(th, updates), state), None
 
-        return jax.lax.scan(body, (th, m, v, t), rows2d)[0]
+        return jax.lax.scan(body, (th, state), rows2d)[0]
 
     rng = np.random.default_rng(seed)
     theta = jnp.asarray(theta0)
-    m, v, t = jnp.zeros_like(theta), jnp.zeros_like(theta), jnp.asarray(0.0)
+    state = opt.init(theta)
     t0 = time.perf_counter()
     hist: dict[str, list] = {k: [] for k in ("train_mse", "val_mse", "mu", "grad", "seconds")}
     best_theta, best_v, best_epoch, fail, reason = np.asarray(theta), math.inf, 0, 0, "max_epochs"
     for epoch in range(max_epochs + 1):
         if epoch > 0:
             rows = jnp.asarray(rng.integers(0, n, (steps_per_epoch, batch)))
-            theta, m, v, t = run(theta, m, v, t, rows)
+            theta, state = run(theta, state, rows)
         th = np.asarray(theta)
         tr = problem.sse(th) / n_rows
         vv = problem.val_mse(th) if problem.val_mse else tr
@@ -509,45 +528,90 @@ def _regressors(u_s, y_s, rows, delays, out_delays, rest_u, rest_y):
     return X
 
 
-def train(model, u: np.ndarray, y: np.ndarray, validation, callback=None):
-    """Train ``model`` (an :class:`sloshrom.rom.NFIR` or ``NOE`` with ``scaler_`` set).
+@float64
+def train(
+    spec: NetworkSpec,
+    u: np.ndarray,
+    y: np.ndarray,
+    scaler: MinMaxScaler,
+    validation: tuple[np.ndarray, np.ndarray] | None = None,
+    *,
+    trainer: str = "fast",
+    max_epochs: int = 1000,
+    seed: int = 0,
+    unstable_bound: float = 10.0,
+    callback: Callable[[int, dict], Any] | None = None,
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """Train the network ``spec`` on a record (physical units, scaled here by ``scaler``).
 
-    Returns ``(theta, history)``; ``history`` is a JSON-serialisable dict.
+    Parameters
+    ----------
+    spec : NetworkSpec
+        Architecture (NFIR or NOE, delays, neurons, hidden kind, output delays).
+    u, y : ndarray, shape (n,)
+        Input and output records (physical units), starting at rest.
+    scaler : MinMaxScaler
+        Scaling of the input and output (normally fitted on ``u``, ``y``).
+    validation : (u_val, y_val), optional
+        Validation record (early stopping, best network).
+    trainer : {"fast", "lm", "adam"}
+        See the module docstring; ``"adam"`` for the NFIR only.
+    max_epochs, seed : int
+        Epochs at most; seed of the initialisation (and of the Adam minibatches).
+    unstable_bound : float
+        NOE: a scaled output beyond this magnitude is unstable (the trial step is rejected).
+    callback : callable, optional
+        ``callback(epoch, info)`` after every epoch; True stops the training.
+
+    Returns
+    -------
+    theta : ndarray
+        The best parameters, packed (:func:`~sloshrom.rom.network.pack`), scaled units.
+    history : dict
+        JSON-serialisable: per-epoch ``train_mse``, ``val_mse`` (physical units squared),
+        ``mu``, ``grad``, ``seconds``; ``stop_reason``, ``best_epoch``, ``trainer``,
+        ``n_rows``, ``train_seconds``.
+
+    Raises
+    ------
+    ROMError
+        Unknown trainer, or Adam for an NOE.
+    UnstableModelError
+        An NOE unstable at its initial parameters.
     """
-    sc = model.scaler_
+    sc = scaler
     u_s, y_s = sc.u(u), sc.y(y)
     rest_u, rest_y = float(sc.u(0.0)), float(sc.y(0.0))
     val = None if validation is None else (sc.u(validation[0]), sc.y(validation[1]))
-    delays, h, hidden = model._delays, int(model.neurons), model.hidden
-    trainer = model.trainer
-    if trainer not in ("fast", "lm", "adam"):
-        raise ValueError(f"trainer must be 'fast', 'lm' or 'adam', got {trainer!r}")
-    if trainer == "adam" and model.arch != "nfir":
-        raise ValueError("trainer 'adam' is available for NFIR only")
+    delays, h, hidden, out_delays = spec.delays, spec.neurons, spec.hidden, spec.out_delays
+    if trainer not in TRAINERS:
+        raise ROMError(f"trainer must be 'fast', 'lm' or 'adam', got {trainer!r}")
+    if trainer == "adam" and spec.arch != "nfir":
+        raise ROMError("trainer 'adam' is available for NFIR only")
     n = u_s.size
-    if model.arch == "nfir" and trainer in ("fast", "adam") and n > FAST_MAX_ROWS:
+    if spec.arch == "nfir" and trainer in ("fast", "adam") and n > FAST_MAX_ROWS:
         stride = -(-n // FAST_MAX_ROWS)
         rows = np.arange(stride // 2, n, stride)
     else:
         rows = np.arange(n)
     init_rows = rows if rows.size <= FAST_MAX_ROWS else rows[:: -(-rows.size // FAST_MAX_ROWS)]
-    X0 = _regressors(u_s, y_s, init_rows, delays, int(model.out_delays), rest_u, rest_y)
-    theta0 = init_theta(X0, y_s[init_rows], h, hidden, int(model.seed))
-    if model.arch == "nfir":
+    X0 = _regressors(u_s, y_s, init_rows, delays, out_delays, rest_u, rest_y)
+    theta0 = init_theta(X0, y_s[init_rows], h, hidden, int(seed))
+    if spec.arch == "nfir":
         problem = nfir_problem(u_s, y_s, delays, h, hidden, rest_u, rows, val)
     else:
-        problem = noe_problem(u_s, y_s, delays, int(model.out_delays), h, hidden, rest_u, rest_y,
-                              float(model.unstable_bound), val)
+        problem = noe_problem(u_s, y_s, delays, out_delays, h, hidden, rest_u, rest_y,
+                              float(unstable_bound), val)
         if not np.isfinite(problem.sse(theta0)):
-            raise rom.UnstableModelError("NOE unstable at its initial parameters")
+            raise UnstableModelError("NOE unstable at its initial parameters")
     t0 = time.perf_counter()
     if trainer == "adam":
         # minibatches from every sample; the reported training MSE on the decimated rows
         res = adam_nfir(u_s, y_s, theta0, delays, h, hidden, rest_u, problem, int(rows.size),
-                        max_epochs=int(model.max_epochs), seed=int(model.seed),
+                        max_epochs=int(max_epochs), seed=int(seed),
                         callback=callback, mse_scale=sc.out_half_range**2)
     else:
-        res = levenberg_marquardt(problem, theta0, max_epochs=int(model.max_epochs),
+        res = levenberg_marquardt(problem, theta0, max_epochs=int(max_epochs),
                                   callback=callback, mse_scale=sc.out_half_range**2)
     history = dict(res.history)
     history.update(

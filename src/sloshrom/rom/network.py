@@ -1,0 +1,312 @@
+"""The pure network of the NFIR/NOE ROMs: normalized RBF layer, scalers, delay lines.
+
+Everything here is a pure JAX function of explicit arguments (no estimator object): the
+estimators (:mod:`sloshrom.rom.estimators`) and the trainers (:mod:`sloshrom.rom.training`) are
+both built on it. Units are the min-max *scaled* ones (``s(v) = 2 (v - v_min)/(v_max - v_min) -
+1``) unless a docstring says otherwise.
+
+Model equations:
+
+- regressor at step k: ``x_k = [u_{k-d_1}, ..., u_{k-d_n}]`` (delays ``d_i``, samples); the NOE
+  appends its own past outputs ``[y^_{k-1}, ..., y^_{k-m}]``;
+- hidden layer, normalized RBF, ``a_j = exp(-n_j^2) / sum_l exp(-n_l^2)`` with ``"matlab"``:
+  ``n_j = W_j . x + b_j`` (MATLAB ``radbasn``) or ``"distance"``: ``n_j = b_j ||x - C_j||``;
+- linear output ``y = sum_j c_j a_j + c_0``.
+
+The parameters are ``{"W": (H, D), "b": (H,), "c": (H,), "c0": ()}`` or the same packed into one
+vector ``theta`` of length ``H (D + 2) + 1`` (:func:`pack`, :func:`unpack`). Hyperparameters
+(delays, neurons, hidden kind, output delays) are static arguments of the jitted functions: one
+compilation per architecture and input shape.
+
+Precision follows the caller's JAX configuration; the estimators and trainers call these
+functions inside ``jax.enable_x64(True)`` (:mod:`sloshrom.rom._x64`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import partial
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax import lax
+
+from sloshrom.rom.errors import ROMError
+from sloshrom.rom.modelfile import HIDDEN_KINDS, PARAM_NAMES
+
+__all__ = [
+    "MinMaxScaler",
+    "NetworkSpec",
+    "check_delays",
+    "hidden_activations",
+    "n_params",
+    "nfir_free_run",
+    "nfir_rows",
+    "noe_free_run",
+    "noe_rest_state",
+    "noe_simulate",
+    "noe_step",
+    "pack",
+    "rbf_apply",
+    "row_index",
+    "unpack",
+]
+
+
+# ---------------------------------------------------------------------------------------------
+# Scaling
+# ---------------------------------------------------------------------------------------------
+
+
+@partial(jax.tree_util.register_dataclass,
+         data_fields=["in_min", "in_max", "out_min", "out_max"], meta_fields=[])
+@dataclass(frozen=True)
+class MinMaxScaler:
+    """Min-max scaling of the input and the output to [-1, 1] (MATLAB ``mapminmax``).
+
+    A JAX pytree: the four bounds (physical units) are its leaves, so a model passed into a
+    jitted function carries its scaler as data, not as compiled-in constants.
+    """
+
+    in_min: float
+    in_max: float
+    out_min: float
+    out_max: float
+
+    @classmethod
+    def fit(cls, u: np.ndarray, y: np.ndarray) -> MinMaxScaler:
+        """Bounds of an input record ``u`` and an output record ``y``.
+
+        Raises
+        ------
+        ROMError
+            The input or the output is constant (nothing to identify).
+        """
+        u_min, u_max = float(np.min(u)), float(np.max(u))
+        y_min, y_max = float(np.min(y)), float(np.max(y))
+        if not u_max > u_min:
+            raise ROMError(f"input is constant ({u_min!r}): nothing to identify from")
+        if not y_max > y_min:
+            raise ROMError(f"output is constant ({y_min!r}): nothing to identify")
+        return cls(u_min, u_max, y_min, y_max)
+
+    def u(self, u: Any) -> Any:
+        """Scaled input."""
+        return 2.0 * (u - self.in_min) / (self.in_max - self.in_min) - 1.0
+
+    def y(self, y: Any) -> Any:
+        """Scaled output."""
+        return 2.0 * (y - self.out_min) / (self.out_max - self.out_min) - 1.0
+
+    def y_inverse(self, ys: Any) -> Any:
+        """Physical output from the scaled one."""
+        return (ys + 1.0) * 0.5 * (self.out_max - self.out_min) + self.out_min
+
+    @property
+    def out_half_range(self) -> float:
+        """Half the output range: physical MSE = scaled MSE * out_half_range**2."""
+        return 0.5 * (self.out_max - self.out_min)
+
+    def to_dict(self) -> dict[str, float]:
+        return {k: float(getattr(self, k)) for k in ("in_min", "in_max", "out_min", "out_max")}
+
+
+# ---------------------------------------------------------------------------------------------
+# Architecture
+# ---------------------------------------------------------------------------------------------
+
+
+def check_delays(delays: int | Sequence[int], name: str = "delays") -> tuple[int, ...]:
+    """Delays (samples) as a tuple: ``n`` means ``1..n`` (MATLAB ``timedelaynet``).
+
+    Raises
+    ------
+    ROMError
+        ``n < 1``, an empty list, a delay < 1 or a repeated delay.
+    """
+    if isinstance(delays, int | np.integer):
+        if delays < 1:
+            raise ROMError(f"{name} must be >= 1, got {delays}")
+        return tuple(range(1, int(delays) + 1))
+    d = tuple(int(x) for x in delays)
+    if not d or min(d) < 1 or len(set(d)) != len(d):
+        raise ROMError(f"{name} must be distinct integers >= 1, got {delays!r}")
+    return d
+
+
+@dataclass(frozen=True)
+class NetworkSpec:
+    """The static architecture of a time-delay RBF network (hashable: a jit static argument).
+
+    Parameters
+    ----------
+    arch : {"nfir", "noe"}
+    delays : tuple of int
+        Input delays, samples.
+    neurons : int
+        Hidden neurons H.
+    hidden : {"matlab", "distance"}
+    out_delays : int
+        Fed-back past outputs m (NOE; 0 for the NFIR).
+    """
+
+    arch: str
+    delays: tuple[int, ...]
+    neurons: int
+    hidden: str = "matlab"
+    out_delays: int = 0
+
+    @property
+    def n_inputs(self) -> int:
+        """Length D of the regressor."""
+        return len(self.delays) + self.out_delays
+
+    @property
+    def n_params(self) -> int:
+        return n_params(self.n_inputs, self.neurons)
+
+    @property
+    def max_delay(self) -> int:
+        return max(self.delays)
+
+
+def n_params(n_inputs: int, neurons: int) -> int:
+    """Number of parameters of the RBF network: ``H (D + 2) + 1``."""
+    return neurons * (n_inputs + 2) + 1
+
+
+def pack(params: dict[str, Any]) -> jnp.ndarray:
+    """Flatten ``{"W", "b", "c", "c0"}`` into one parameter vector (row-major ``W`` first)."""
+    return jnp.concatenate([jnp.ravel(jnp.asarray(params[k])) for k in PARAM_NAMES])
+
+
+def unpack(theta: Any, n_inputs: int, neurons: int) -> dict[str, Any]:
+    """Inverse of :func:`pack`."""
+    h, d = neurons, n_inputs
+    i = h * d
+    return {
+        "W": theta[:i].reshape(h, d),
+        "b": theta[i : i + h],
+        "c": theta[i + h : i + 2 * h],
+        "c0": theta[i + 2 * h],
+    }
+
+
+# ---------------------------------------------------------------------------------------------
+# Network (scaled units)
+# ---------------------------------------------------------------------------------------------
+
+
+def hidden_activations(params: dict[str, Any], X: Any, hidden: str = "matlab", *,
+                       single: bool = False) -> jnp.ndarray:
+    """Normalized RBF activations ``a`` of shape ``(..., H)`` for regressors ``X`` ``(..., D)``.
+
+    ``"matlab"``: ``n = X W^T + b``; ``"distance"``: ``n_j = b_j ||x - C_j||`` with the centres
+    ``C`` stored in ``params["W"]``. ``a = softmax(-n^2)`` (log-sum-exp stable).
+
+    ``single=True``: ``X`` is one regressor (D,) and ``X W^T`` is computed as ``W X`` (the same
+    products, perhaps summed in another order): inside a ``lax.scan`` whose ``W`` is traced (a
+    model passed into ``jit``), XLA runs this form about twice as fast.
+    """
+    W, b = params["W"], params["b"]
+
+    def times_wt(x: Any) -> Any:  # x W^T
+        return W @ x if single else x @ W.T
+
+    if hidden == "matlab":
+        n2 = (times_wt(X) + b) ** 2
+    elif hidden == "distance":
+        # squared distance without sqrt: differentiable at x = C_j
+        d2 = jnp.sum(X**2, axis=-1, keepdims=True) - times_wt(2.0 * X) + jnp.sum(W**2, axis=-1)
+        n2 = b**2 * jnp.maximum(d2, 0.0)
+    else:
+        raise ROMError(f"hidden must be one of {HIDDEN_KINDS}, got {hidden!r}")
+    return jax.nn.softmax(-n2, axis=-1)
+
+
+def rbf_apply(params: dict[str, Any], X: Any, hidden: str = "matlab", *,
+              single: bool = False) -> jnp.ndarray:
+    """Network output (scaled) ``y = a(X) . c + c0`` for regressors ``X`` of shape ``(..., D)``
+    (``single``: see :func:`hidden_activations`)."""
+    return hidden_activations(params, X, hidden, single=single) @ params["c"] + params["c0"]
+
+
+def row_index(rows: Any, delays: Sequence[int]) -> jnp.ndarray:
+    """Indices into the rest-padded input ``up`` (``up[dmax + k] = u_k``) of the regressor rows
+    at time indices ``rows``: shape ``(len(rows), len(delays))``."""
+    d = np.asarray(delays)
+    dmax = int(d.max())
+    return rows[:, None] + (dmax - d)[None, :]
+
+
+def nfir_rows(theta: Any, up: Any, rows: Any, delays: Sequence[int], neurons: int,
+              hidden: str) -> jnp.ndarray:
+    """NFIR scaled outputs at time indices ``rows`` from the rest-padded scaled input ``up``."""
+    X = up[row_index(rows, delays)]
+    return rbf_apply(unpack(theta, len(delays), neurons), X, hidden)
+
+
+@partial(jax.jit, static_argnames=("delays", "neurons", "hidden", "chunk"))
+def nfir_free_run(theta: Any, u_s: Any, rest_u: Any, delays: tuple[int, ...], neurons: int,
+                  hidden: str, chunk: int = 8192) -> jnp.ndarray:
+    """NFIR over a whole scaled input ``u_s`` (n,), at rest (``rest_u``) before the start.
+
+    Rows are evaluated in chunks of ``chunk`` (memory bounded). Returns the scaled output (n,).
+    """
+    d = np.asarray(delays)
+    dmax = int(d.max())
+    n = u_s.shape[0]
+    n_chunks = -(-n // chunk)
+    up = jnp.concatenate([jnp.full(dmax, rest_u), u_s, jnp.full(n_chunks * chunk - n, rest_u)])
+
+    def one(start):
+        rows = start + jnp.arange(chunk)
+        return nfir_rows(theta, up, rows, d, neurons, hidden)
+
+    y = lax.map(one, jnp.arange(n_chunks) * chunk)
+    return y.reshape(-1)[:n]
+
+
+def noe_step(theta: Any, state: tuple[Any, Any], u_s: Any, delays: Sequence[int],
+             out_delays: int, neurons: int, hidden: str, *,
+             single: bool = False) -> tuple[tuple[Any, Any], Any]:
+    """One NOE step in scaled units: ``state = (u_buf, y_buf)``, most recent first.
+
+    Returns the new state and the output at the current sample (it depends on the past only).
+    ``single``: see :func:`hidden_activations`.
+    """
+    ubuf, ybuf = state
+    d = np.asarray(delays)
+    x = jnp.concatenate([ubuf[d - 1], ybuf])
+    y = rbf_apply(unpack(theta, len(d) + out_delays, neurons), x, hidden, single=single)
+    ubuf = jnp.concatenate([jnp.reshape(u_s, (1,)), ubuf[:-1]])
+    ybuf = jnp.concatenate([jnp.reshape(y, (1,)), ybuf[:-1]])
+    return (ubuf, ybuf), y
+
+
+def noe_rest_state(rest_u: Any, rest_y: Any, delays: Sequence[int],
+                   out_delays: int) -> tuple[jnp.ndarray, jnp.ndarray]:
+    """NOE delay lines at rest (scaled units): ``(u_buf (max_delay,), y_buf (out_delays,))``."""
+    dmax = int(np.max(delays))
+    return (jnp.full(dmax, rest_u, dtype=jnp.float64), jnp.full(out_delays, rest_y, jnp.float64))
+
+
+def noe_simulate(theta: Any, u_s: Any, state0: tuple[Any, Any], delays: Sequence[int],
+                 out_delays: int, neurons: int, hidden: str) -> tuple[Any, jnp.ndarray]:
+    """Closed-loop NOE simulation (``lax.scan``) of a scaled input; returns ``(state, y_s)``."""
+
+    def body(state, uk):
+        return noe_step(theta, state, uk, delays, out_delays, neurons, hidden)
+
+    return lax.scan(body, state0, u_s)
+
+
+@partial(jax.jit, static_argnames=("delays", "out_delays", "neurons", "hidden"))
+def noe_free_run(theta: Any, u_s: Any, rest_u: Any, rest_y: Any, delays: tuple[int, ...],
+                 out_delays: int, neurons: int, hidden: str) -> jnp.ndarray:
+    """NOE free run (closed loop) of a scaled input from rest; returns the scaled output."""
+    state0 = noe_rest_state(rest_u, rest_y, np.asarray(delays), out_delays)
+    return noe_simulate(theta, u_s, state0, delays, out_delays, neurons, hidden)[1]
