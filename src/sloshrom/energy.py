@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from sloshrom import __version__
 from sloshrom.config import Tank
 from sloshrom.models import SloshingModel
 from sloshrom.signals import DEFAULT_A_BAR_MIN, SHAKER_ENVELOPE, harmonic
@@ -306,8 +307,6 @@ def phi_d_map(
 
 
 def _version() -> str:
-    from sloshrom import __version__
-
     return __version__
 
 

@@ -52,10 +52,11 @@ import numpy as np
 from scipy.linalg import eigh, expm
 from scipy.signal import resample_poly
 
+from sloshrom._x64 import float64
 from sloshrom.beam.structure import ModalModel, frozen_mass_matrix
-from sloshrom.config import Tank
+from sloshrom.config import G, Tank
 from sloshrom.models import CompiledKernel, Enveloped, JaxModel, SloshingModel
-from sloshrom.rom._x64 import float64
+from sloshrom.signals import random_base_acceleration
 
 __all__ = [
     "CoupledSimulator",
@@ -562,9 +563,6 @@ def random_response(
     dict
         As :meth:`CoupledSimulator.run` with leading axes ([seed,] level).
     """
-    from sloshrom.config import G
-    from sloshrom.signals import random_base_acceleration
-
     sim = CoupledSimulator(model, modal, tank=tank, output_fs=output_fs)
     fs_model = 1.0 / sim.dt
     factor = fs_model / signal_fs

@@ -9,6 +9,10 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from sloshrom.cli._app import app, check_input, check_number, check_out, fail, user_errors
+from sloshrom.config import Tank
+from sloshrom.io import preprocess as _preprocess
+from sloshrom.io import write_record
+from sloshrom.io.uff import read_uff58
 
 if TYPE_CHECKING:
     import numpy as np
@@ -137,11 +141,6 @@ def import_uff_cmd(
     Example: ``sloshrom import uff run12.uff run12.nc --name "Tank Z=acceleration"
     --name "Load cell=force" --unit force=N``
     """
-    from sloshrom.config import Tank
-    from sloshrom.io import preprocess as _preprocess
-    from sloshrom.io import write_record
-    from sloshrom.io.uff import read_uff58
-
     names: dict[str | int, str] = {}
     for key, value in _pairs(name, "--name").items():
         names[int(key) if key.isdigit() else key] = value

@@ -16,6 +16,8 @@ import numpy as np
 import typer
 
 from sloshrom.cli._app import app, check_input, check_number, check_out, fail, user_errors
+from sloshrom.io import STANDARD_UNITS, read_record, same_unit, write_record
+from sloshrom.pipeline.settings import training_samples
 
 __all__ = ["predict", "sweep", "train"]
 
@@ -27,8 +29,6 @@ MAX_SEED = 2**32 - 1  # JAX PRNG keys take 32-bit seeds
 
 
 def _read(path: Path, names: list[str], what: str):
-    from sloshrom.io import read_record
-
     check_input(path, what)
     try:
         rec = read_record(path)
@@ -45,8 +45,6 @@ def _read(path: Path, names: list[str], what: str):
 
 def _same_units(a: Any, pa: Path, b: Any, pb: Path, names: list[str]) -> None:
     """Training and validation records must measure each variable in the same unit."""
-    from sloshrom.io import same_unit
-
     for n in names:
         ua, ub = a.units[n], b.units[n]
         if not same_unit(ua, ub):
@@ -55,8 +53,6 @@ def _same_units(a: Any, pa: Path, b: Any, pb: Path, names: list[str]) -> None:
 
 def _standard_units(rec: Any, path: Path, names: list[str]) -> None:
     """A variable with a standard name must be in that name's unit (swapped columns, ...)."""
-    from sloshrom.io import STANDARD_UNITS, same_unit
-
     for n in names:
         si = STANDARD_UNITS.get(n)
         if si is not None and not same_unit(rec.units[n], si):
@@ -110,8 +106,6 @@ def _check_common(max_epochs: int, seed: int, hidden: str) -> None:
 
 def _check_length(rec: Any, path: Path, arch: str, delays: int, neurons: int, what: str) -> None:
     """The record must hold enough samples for the network (the check of ``fit``, before it)."""
-    from sloshrom.pipeline.settings import training_samples
-
     need = training_samples(arch, delays, neurons)
     if len(rec) < need:
         fail(f"{path}: {len(rec)} samples are too few for {arch.upper()}({delays}, {neurons}) "
@@ -231,7 +225,6 @@ def predict(
     check_input(model, "--model")
     check_input(data, "--data")
     check_out(out, suffixes=RECORD_SUFFIXES, inputs=(data, model))
-    from sloshrom.io import same_unit, write_record
     from sloshrom.rom.estimators import load_model
 
     try:

@@ -25,7 +25,7 @@ saturation), which :meth:`NOE.predict` detects against ``unstable_bound`` and ra
 Initial conditions: every delay line starts at rest (zero physical input and output).
 
 Precision: fitting, prediction and saving run in float64 (``jax.enable_x64`` around the call,
-:mod:`sloshrom.rom._x64`) without changing the process's JAX configuration; :meth:`step` and
+:mod:`sloshrom._x64`) without changing the process's JAX configuration; :meth:`step` and
 :meth:`init_state` are JAX functions that follow the caller's configuration.
 """
 
@@ -43,8 +43,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from sloshrom import __version__
+from sloshrom._x64 import float64
 from sloshrom.fileio import atomic_write
-from sloshrom.rom._x64 import float64
+from sloshrom.rom import training
 from sloshrom.rom.errors import EnvelopeWarning, NotFittedError, ROMError, UnstableModelError
 from sloshrom.rom.modelfile import (
     FORMAT_VERSION,
@@ -289,8 +291,6 @@ class _TDNN:
         UnstableModelError
             An NOE unstable at its initial parameters.
         """
-        from sloshrom.rom import training
-
         spec = self._check_hyperparameters()
         if not (np.isfinite(fs) and fs > 0):
             raise ROMError(f"fs must be a finite positive sample rate in Hz, got {fs!r}")
@@ -431,8 +431,6 @@ class _TDNN:
             the model-file format, or the training history is too long to store; the message names
             the field and nothing is written.
         """
-        from sloshrom import __version__
-
         self._check_fitted()
         p = Path(path)
         if p.suffix != ".npz":

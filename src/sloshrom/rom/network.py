@@ -19,7 +19,7 @@ vector ``theta`` of length ``H (D + 2) + 1`` (:func:`pack`, :func:`unpack`). Hyp
 compilation per architecture and input shape.
 
 Precision follows the caller's JAX configuration; the estimators and trainers call these
-functions inside ``jax.enable_x64(True)`` (:mod:`sloshrom.rom._x64`).
+functions inside ``jax.enable_x64(True)`` (:mod:`sloshrom._x64`).
 """
 
 from __future__ import annotations

@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from sloshrom import __version__
 from sloshrom.fileio import atomic_write
 from sloshrom.rom.errors import ROMError
 
@@ -159,8 +160,6 @@ def _step_nodes(g: _Graph, model: ROM, velocity: str, u_state: str, y_state: str
 
 
 def _metadata(model: ROM, form: str, dtype: np.dtype) -> dict[str, str]:
-    from sloshrom import __version__
-
     noe = model.spec.arch == "noe"
     state = ("u_state (batch, max_delay) m/s, past velocities most recent first, zeros = rest"
              + ("; y_state (batch, out_delays) N, past outputs most recent first, zeros = rest"

@@ -15,6 +15,7 @@ import csv
 import io
 import json
 import math
+import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
@@ -23,6 +24,7 @@ import numpy as np
 
 from sloshrom.fileio import atomic_write_text
 from sloshrom.rom.errors import ROMError
+from sloshrom.rom.estimators import NFIR, NOE, UnstableModelError
 
 __all__ = ["fit_point", "point_name", "run_sweep", "sweep_grid", "write_table"]
 
@@ -66,10 +68,6 @@ def fit_point(
     options: dict[str, Any],
 ) -> dict[str, Any]:
     """Train (or resume from disk) one grid point; returns its result row."""
-    import time
-
-    from sloshrom.rom.estimators import NFIR, NOE, UnstableModelError
-
     arch, delays, neurons = point
     name = point_name(arch, delays, neurons)
     out = Path(out_dir)

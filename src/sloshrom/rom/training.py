@@ -51,7 +51,7 @@ import numpy as np
 import optax
 import scipy.linalg
 
-from sloshrom.rom._x64 import float64
+from sloshrom._x64 import float64
 from sloshrom.rom.errors import ROMError, UnstableModelError
 from sloshrom.rom.network import (
     MinMaxScaler,
