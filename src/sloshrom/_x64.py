@@ -15,18 +15,16 @@ from typing import Any, TypeVar
 
 import jax
 
-__all__ = ["float64", "x64"]
+__all__ = ["float64"]
 
 F = TypeVar("F", bound=Callable[..., Any])
 
 
-def x64() -> Any:
-    """Context manager: JAX in double precision for the block (``jax.enable_x64(True)``)."""
-    return jax.enable_x64(True)
-
-
 def float64(fn: F) -> F:
-    """Decorator: run ``fn`` with JAX in double precision (see :func:`x64`)."""
+    """Decorator: run ``fn`` with JAX in double precision (``jax.enable_x64(True)``).
+
+    A fresh context per call, so that decorated functions calling each other nest correctly.
+    """
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:

@@ -298,16 +298,12 @@ def phi_d_map(
             "liquid_mass": tank.liquid_mass,
             "elapsed_s": elapsed,
             "provenance": "sloshrom.energy.phi_d_map (ramped harmonic tests)",
-            "sloshrom_version": _version(),
+            "sloshrom_version": __version__,
             # provenance only (not part of the contract): -1 for models without a seed
             "model_seed": int(getattr(model, "seed", -1)),
         },
     )
     return da
-
-
-def _version() -> str:
-    return __version__
 
 
 def map_maximum(da: xr.DataArray) -> dict[str, float]:

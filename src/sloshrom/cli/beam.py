@@ -28,7 +28,7 @@ from sloshrom.cli._app import (
 )
 from sloshrom.config import ConfigError, Tank
 from sloshrom.fileio import OutputBatch
-from sloshrom.models import FrozenLiquid
+from sloshrom.models import FrozenLiquid, SloshingModel
 from sloshrom.pipeline.settings import (
     BEAM_FS,
     FREE_DAMPING_PERIODS,
@@ -43,7 +43,6 @@ from sloshrom.plotting import savefig
 
 if TYPE_CHECKING:
     from sloshrom.beam.structure import CantileverBeam, ModalModel
-    from sloshrom.models import SloshingModel
 
 beam_app = typer.Typer(
     help="Sloshing-beam simulations (free and random responses) and damping analysis.",

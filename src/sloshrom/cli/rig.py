@@ -21,13 +21,12 @@ import typer
 from sloshrom import __version__
 from sloshrom.cli._app import app, check_input, check_number, check_out, fail, user_errors, warn
 from sloshrom.config import G, Tank
-from sloshrom.io import record_from_measurement, write_record
+from sloshrom.io import Record, record_from_measurement, write_record
 from sloshrom.pipeline.settings import MAX_FINE_SECONDS, MIN_VFA_DURATION
 from sloshrom.signals import SHAKER_ENVELOPE, harmonic, vfa
 from sloshrom.signals import SHAKER_LIMITS as _LIMITS
 
 if TYPE_CHECKING:
-    from sloshrom.io import Record
     from sloshrom.rig.virtual import VirtualRig
 
 rig_app = typer.Typer(
