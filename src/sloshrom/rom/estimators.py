@@ -158,6 +158,9 @@ class _TDNN:
     out_delays: int = 0
     #: stability bound of the scaled output (an NOE constructor parameter)
     unstable_bound: float = 10.0
+    #: loss options of the Adam trainer (NFIR constructor parameters; off for the NOE)
+    amplitude_weighting: float = 0.0
+    passivity: float = 0.0
 
     # -- hyperparameters ----------------------------------------------------------------------
     @classmethod
@@ -206,6 +209,13 @@ class _TDNN:
         out_delays = _integer("out_delays", self.out_delays, 0)
         if self.trainer not in TRAINERS:
             raise ROMError(f"trainer must be 'fast', 'lm' or 'adam', got {self.trainer!r}")
+        for name in ("amplitude_weighting", "passivity"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int | float | np.floating | np.integer) \
+                    or not (np.isfinite(v) and v >= 0):
+                raise ROMError(f"{name} must be a finite number >= 0, got {v!r}")
+            if v > 0 and self.trainer != "adam":
+                raise ROMError(f"{name} > 0 needs trainer='adam', got trainer={self.trainer!r}")
         return NetworkSpec(self.arch, delays, neurons, self.hidden, out_delays)
 
     @property
@@ -313,10 +323,13 @@ class _TDNN:
                 raise ROMError(f"validation record too short for {spec.max_delay} delays")
             validation = (uv, yv)
         scaler = MinMaxScaler.fit(u, y)
+        band = _frequency_band(u, fs)
         theta, history = training.train(
             spec, u, y, scaler, validation, trainer=self.trainer,
             max_epochs=int(self.max_epochs), seed=int(self.seed),
-            unstable_bound=float(self.unstable_bound), callback=callback,
+            unstable_bound=float(self.unstable_bound), callback=callback, fs=float(fs),
+            amplitude_weighting=float(self.amplitude_weighting),
+            passivity=float(self.passivity), frequency_band=(band[0], band[1]),
         )
         self.scaler_ = scaler
         self.fs_ = float(fs)
@@ -325,7 +338,8 @@ class _TDNN:
             "input_max": scaler.in_max,
             "output_min": scaler.out_min,
             "output_max": scaler.out_max,
-            "frequency_band": _frequency_band(u, fs),
+            "frequency_band": band,
+            "acceleration_max": float(np.max(np.abs(np.gradient(u)))) * float(fs),
         }
         self.params_ = {k: np.asarray(v) for k, v in
                         unpack(theta, spec.n_inputs, spec.neurons).items()}
@@ -488,6 +502,17 @@ class NFIR(_TDNN):
         Units of the input and the output.
     names : (str, str)
         Variable names of the input and the output.
+    amplitude_weighting : float
+        ``eps`` (input units, e.g. m/s) of the loss weights ``1 / (a^2 + eps^2)``, ``a`` the
+        local input amplitude (:func:`sloshrom.rom.training.amplitude_weights`): small-amplitude
+        cycles count in the loss as they count in Phi_d. 0 (default) = plain MSE, as the
+        paper. Adam only.
+    passivity : float
+        Weight of the passivity penalty: the squared negative part of the network's
+        dissipated energy on harmonic probes inside the training envelope
+        (:func:`sloshrom.rom.training.harmonic_probes`). 0 (default) = none, as the paper.
+        Adam only. ``sloshrom reproduce`` and ``sloshrom train`` use 0.05 m/s and 1.0
+        (docs/rom.md, "A passive ROM").
 
     Parameters are checked by :meth:`fit` (and by :func:`load_model`), not by the constructor.
     """
@@ -504,6 +529,8 @@ class NFIR(_TDNN):
         trainer: str = "adam",
         units: Sequence[str] = ("m/s", "N"),
         names: Sequence[str] = ("velocity", "dynamic_force"),
+        amplitude_weighting: float = 0.0,
+        passivity: float = 0.0,
     ) -> None:
         self.delays = delays
         self.neurons = neurons
@@ -513,6 +540,8 @@ class NFIR(_TDNN):
         self.trainer = trainer
         self.units = units
         self.names = names
+        self.amplitude_weighting = amplitude_weighting
+        self.passivity = passivity
 
     def _free_run_fn(self) -> Callable[[Any], Any]:
         spec = self.spec

@@ -233,6 +233,8 @@ class _Envelope(_Strict):
         list[Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=MAX_FS)]],
         Field(min_length=2, max_length=2),
     ]
+    # peak |du/dt| of the training input (files written before it have none)
+    acceleration_max: Annotated[float, Field(allow_inf_nan=False, ge=0.0)] | None = None
 
     _in = field_validator("input_max")(_above("input_min"))
     _out = field_validator("output_max")(_above("output_min"))
@@ -258,6 +260,7 @@ class _Names(_Strict):
 class _History(_Strict):
     train_mse: HistoryList | None = None
     val_mse: HistoryList | None = None
+    val_objective: HistoryList | None = None
     mu: HistoryList | None = None
     grad: HistoryList | None = None
     seconds: HistoryList | None = None
@@ -281,9 +284,19 @@ class _NFIRHyper(_Strict):
     trainer: Literal["fast", "lm", "adam"]
     units: TwoUnits
     names: TwoNames
+    # loss options (files written before them trained without: 0)
+    amplitude_weighting: Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=1e12)] = 0.0
+    passivity: Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=1e12)] = 0.0
 
 
-class _NOEHyper(_NFIRHyper):
+class _NOEHyper(_Strict):
+    delays: Annotated[int | list[int], PlainValidator(_delays_value)]
+    neurons: Annotated[int, Field(ge=1, le=MAX_NEURONS)]
+    hidden: Literal["matlab", "distance"]
+    max_epochs: Annotated[int, Field(ge=0, le=MAX_EPOCHS)]
+    seed: Annotated[int, Field(ge=0, le=2**63 - 1)]
+    units: TwoUnits
+    names: TwoNames
     trainer: Literal["fast", "lm"]  # Adam trains NFIRs only
     out_delays: Annotated[int, Field(ge=1, le=MAX_OUT_DELAYS)]
     unstable_bound: Annotated[float, Field(allow_inf_nan=False, gt=0.0, le=1e12)]

@@ -71,13 +71,18 @@ from sloshrom.rom.network import (
 __all__ = [
     "FAST_MAX_ROWS",
     "TRAINERS",
+    "HarmonicProbes",
     "LMProblem",
     "LMResult",
     "adam_nfir",
+    "amplitude_weights",
+    "harmonic_probes",
     "init_theta",
     "levenberg_marquardt",
     "nfir_problem",
     "noe_problem",
+    "passivity_penalty",
+    "probe_dissipation",
     "train",
 ]
 
@@ -427,6 +432,122 @@ def noe_problem(
 
 
 # ---------------------------------------------------------------------------------------------
+# Physics in the loss (NFIR): amplitude weighting and passivity on harmonic probes
+# ---------------------------------------------------------------------------------------------
+
+
+def amplitude_weights(u: np.ndarray, fs: float, eps: float, window: float = 1.0) -> np.ndarray:
+    """Per-sample loss weights ``1 / (a^2 + eps^2)``, normalised to mean 1.
+
+    ``a`` is the local amplitude of the input, sqrt(2) times its RMS over ``window`` seconds
+    (centred). Phi_d divides the dissipated energy by the squared amplitude, so a cycle at
+    small amplitude matters to the map as much as any; with a plain MSE its small forces
+    barely count.
+
+    Parameters
+    ----------
+    u : ndarray, shape (n,)
+        Input record, physical units (m/s).
+    fs : float
+        Sample rate, Hz.
+    eps : float
+        Amplitude floor, units of ``u``; below it every sample weighs the same.
+    window : float
+        RMS window, s.
+    """
+    u = np.asarray(u, dtype=np.float64)
+    k = max(1, min(int(round(window * fs)), u.size))
+    ms = np.convolve(u**2, np.full(k, 1.0 / k), mode="same")
+    w = 1.0 / (2.0 * ms + eps**2)
+    return w / w.mean()
+
+
+@partial(jax.tree_util.register_dataclass, data_fields=["windows", "weight"], meta_fields=[])
+@dataclass(frozen=True)
+class HarmonicProbes:
+    """Steady harmonic inputs on which the NFIR's dissipated energy is evaluated.
+
+    ``windows`` (p, max_delay + P_max): scaled input, the harmonic already running before the
+    first counted sample; ``weight`` (p, P_max): for the counted samples (one whole period,
+    zero after it), ``-v / (fs m_ref V^2) * out_half_range``, so that
+    ``phi = sum(y_scaled * weight)`` is the dissipated energy per cycle over ``m_ref V^2``
+    (a Phi_d with the data's mass scale ``m_ref`` in place of the liquid mass).
+    """
+
+    windows: Any
+    weight: Any
+
+    @property
+    def n(self) -> int:
+        return int(self.windows.shape[0])
+
+
+def harmonic_probes(
+    u: np.ndarray,
+    fs: float,
+    scaler: MinMaxScaler,
+    delays: tuple[int, ...],
+    band: tuple[float, float],
+    n_freq: int = 14,
+    n_amp: int = 14,
+    amp_ratio: float = 50.0,
+) -> HarmonicProbes:
+    """Harmonic probes inside the training envelope of the input record ``u``.
+
+    Frequencies ``fs / P`` (integer periods P, so a period is summed exactly) spaced
+    logarithmically over ``band``; velocity amplitudes V spaced logarithmically from
+    ``V_top / amp_ratio`` to ``V_top = min(max |u|, max |du/dt| / Omega)`` (inside both the
+    velocity and the acceleration range the network was trained on). The mass scale is
+    ``m_ref = out_half_range / max |du/dt|`` (kg for m/s in, N out).
+    """
+    u = np.asarray(u, dtype=np.float64)
+    d = np.asarray(delays)
+    dmax = int(d.max())
+    v_max = min(-scaler.in_min, scaler.in_max)
+    a_max = float(np.max(np.abs(np.gradient(u)))) * fs
+    if not (v_max > 0 and a_max > 0):
+        raise ROMError("passivity probes need an input that swings both ways around rest")
+    m_ref = scaler.out_half_range / a_max
+    f_lo, f_hi = max(band[0], fs / 1e4), min(band[1], fs / 4.0)
+    if not f_hi > f_lo:
+        f_lo, f_hi = fs / 100.0, fs / 4.0
+    periods = np.unique(np.round(np.geomspace(fs / f_hi, fs / f_lo, n_freq)).astype(int))
+    p_max = int(periods.max())
+    k = np.arange(dmax + p_max) - dmax
+    windows, weight = [], []
+    for P in periods:
+        om = 2.0 * np.pi * fs / P
+        v_top = min(v_max, a_max / om)
+        for V in np.geomspace(v_top / amp_ratio, v_top, n_amp):
+            v = V * np.sin(2.0 * np.pi * k / P)
+            windows.append(scaler.u(v))
+            counted = np.where((k >= 0) & (k < P), v, 0.0)[dmax:]
+            weight.append(-counted * scaler.out_half_range / (fs * m_ref * V * V))
+    return HarmonicProbes(jnp.asarray(np.array(windows)), jnp.asarray(np.array(weight)))
+
+
+def probe_dissipation(theta: Any, probes: HarmonicProbes, idx: Any, delays: Any,
+                      neurons: int, hidden: str) -> jnp.ndarray:
+    """Normalised dissipated energy per cycle of the NFIR ``theta`` at the probes ``idx``.
+
+    The output's offset drops out: a whole period of a sine sums to zero.
+    """
+    d = np.asarray(delays)
+    dmax = int(d.max())
+    rows = jnp.arange(probes.weight.shape[1]) + dmax
+    X = probes.windows[idx][:, rows[:, None] - d[None, :]]
+    y = rbf_apply(unpack(theta, len(d), neurons), X, hidden)
+    return jnp.sum(y * probes.weight[idx], axis=-1)
+
+
+def passivity_penalty(theta: Any, probes: HarmonicProbes, idx: Any, delays: Any,
+                      neurons: int, hidden: str) -> jnp.ndarray:
+    """Mean squared negative part of :func:`probe_dissipation`: zero for a passive network."""
+    phi = probe_dissipation(theta, probes, idx, delays, neurons, hidden)
+    return jnp.mean(jnp.minimum(phi, 0.0) ** 2)
+
+
+# ---------------------------------------------------------------------------------------------
 # First-order alternative (NFIR): minibatch Adam with the same stopping rules
 # ---------------------------------------------------------------------------------------------
 
@@ -453,53 +574,81 @@ def adam_nfir(
     b1: float = 0.9,
     b2: float = 0.999,
     eps: float = 1e-8,
+    weights: np.ndarray | None = None,
+    val_weighted: Callable[[np.ndarray], float] | None = None,
+    probes: HarmonicProbes | None = None,
+    passivity: float = 0.0,
+    probes_per_step: int = 24,
 ) -> LMResult:
     """Minibatch Adam (``optax.adam``) on the NFIR MSE (scaled units); an "epoch" is
     ``steps_per_epoch`` steps of ``batch`` samples drawn (seeded) from every sample.
 
-    Stops at ``max_epochs`` or after ``max_fail`` epochs without a new best validation MSE
-    (best-validation parameters returned); ``problem`` supplies the training SSE (on its
-    ``n_rows`` rows) and the validation MSE reported in the history. ``lr``, ``b1``, ``b2``,
-    ``eps`` as :func:`optax.adam` (``eps`` outside the square root).
+    The loss is the MSE, each sample weighted by ``weights`` (default 1), plus ``passivity``
+    times :func:`passivity_penalty` on ``probes_per_step`` probes drawn from ``probes`` at every
+    step. Stops at ``max_epochs`` or after ``max_fail`` epochs without a new best validation
+    objective (best parameters returned): the validation MSE, or ``val_weighted(theta)`` if
+    given, plus the passivity term on every probe. ``problem`` supplies the training SSE (on
+    its ``n_rows`` rows) and the validation MSE reported in the history. ``lr``, ``b1``,
+    ``b2``, ``eps`` as :func:`optax.adam` (``eps`` outside the square root).
     """
     d = np.asarray(delays)
     up = jnp.asarray(np.concatenate([np.full(int(d.max()), rest_u), u_s]))
     ysj = jnp.asarray(y_s)
     n = u_s.size
+    wj = jnp.ones(n) if weights is None else jnp.asarray(weights)
     opt = optax.adam(lr, b1=b1, b2=b2, eps=eps)
+    n_probes = 0 if probes is None or passivity <= 0 else probes.n
+    n_draw = min(probes_per_step, n_probes)
 
-    def loss(th, rows):
+    def loss(th, rows, pidx):
         e = nfir_rows(th, up, rows, d, neurons, hidden) - ysj[rows]
-        return jnp.mean(e**2)
+        value = jnp.mean(wj[rows] * e**2)
+        if n_draw:
+            value += passivity * passivity_penalty(th, probes, pidx, d, neurons, hidden)
+        return value
 
     @jax.jit
-    def run(th, state, rows2d):
-        def body(carry, rows):
+    def run(th, state, rows2d, probes2d):
+        def body(carry, xs):
             th, state = carry
-            updates, state = opt.update(jax.grad(loss)(th, rows), state, th)
+            updates, state = opt.update(jax.grad(loss)(th, *xs), state, th)
             return (optax.apply_updates(th, updates), state), None
 
-        return jax.lax.scan(body, (th, state), rows2d)[0]
+        return jax.lax.scan(body, (th, state), (rows2d, probes2d))[0]
+
+    every_probe = jnp.arange(n_probes)
+
+    @jax.jit
+    def penalty_all(th):
+        return passivity_penalty(th, probes, every_probe, d, neurons, hidden)
+
+    def objective(th: np.ndarray, val_mse: float) -> float:
+        # early stopping on the loss being minimised: weighted error + passivity term
+        value = val_mse if val_weighted is None else val_weighted(th)
+        return value + (passivity * float(penalty_all(jnp.asarray(th))) if n_draw else 0.0)
 
     rng = np.random.default_rng(seed)
     theta = jnp.asarray(theta0)
     state = opt.init(theta)
     t0 = time.perf_counter()
-    hist: dict[str, list] = {k: [] for k in ("train_mse", "val_mse", "mu", "grad", "seconds")}
+    hist: dict[str, list] = {k: [] for k in ("train_mse", "val_mse", "val_objective", "mu",
+                                             "grad", "seconds")}
     best_theta, best_v, best_epoch, fail, reason = np.asarray(theta), math.inf, 0, 0, "max_epochs"
     for epoch in range(max_epochs + 1):
         if epoch > 0:
             rows = jnp.asarray(rng.integers(0, n, (steps_per_epoch, batch)))
-            theta, state = run(theta, state, rows)
+            pidx = jnp.asarray(rng.integers(0, max(n_probes, 1), (steps_per_epoch, n_draw)))
+            theta, state = run(theta, state, rows, pidx)
         th = np.asarray(theta)
         tr = problem.sse(th) / n_rows
         vv = problem.val_mse(th) if problem.val_mse else tr
-        if vv < best_v:
-            best_theta, best_v, best_epoch, fail = th, vv, epoch, 0
+        obj = objective(th, vv)
+        if obj < best_v:
+            best_theta, best_v, best_epoch, fail = th, obj, epoch, 0
         else:
             fail += 1
-        info = {"train_mse": tr * mse_scale, "val_mse": vv * mse_scale, "mu": math.nan,
-                "grad": math.nan, "seconds": time.perf_counter() - t0}
+        info = {"train_mse": tr * mse_scale, "val_mse": vv * mse_scale, "val_objective": obj,
+                "mu": math.nan, "grad": math.nan, "seconds": time.perf_counter() - t0}
         for k, val in info.items():
             hist[k].append(float(val))
         if callback is not None and callback(epoch, info):
@@ -541,6 +690,10 @@ def train(
     seed: int = 0,
     unstable_bound: float = 10.0,
     callback: Callable[[int, dict], Any] | None = None,
+    fs: float | None = None,
+    amplitude_weighting: float = 0.0,
+    passivity: float = 0.0,
+    frequency_band: tuple[float, float] | None = None,
 ) -> tuple[np.ndarray, dict[str, Any]]:
     """Train the network ``spec`` on a record (physical units, scaled here by ``scaler``).
 
@@ -562,6 +715,13 @@ def train(
         NOE: a scaled output beyond this magnitude is unstable (the trial step is rejected).
     callback : callable, optional
         ``callback(epoch, info)`` after every epoch; True stops the training.
+    fs : float, optional
+        Sample rate, Hz; needed by ``amplitude_weighting`` and ``passivity``.
+    amplitude_weighting : float
+        ``eps`` of :func:`amplitude_weights` (units of ``u``); 0 = plain MSE. Adam only.
+    passivity : float
+        Weight of :func:`passivity_penalty` on :func:`harmonic_probes` over
+        ``frequency_band`` (Hz); 0 = none. Adam only.
 
     Returns
     -------
@@ -588,6 +748,10 @@ def train(
         raise ROMError(f"trainer must be 'fast', 'lm' or 'adam', got {trainer!r}")
     if trainer == "adam" and spec.arch != "nfir":
         raise ROMError("trainer 'adam' is available for NFIR only")
+    if (amplitude_weighting > 0 or passivity > 0) and trainer != "adam":
+        raise ROMError("amplitude_weighting and passivity need trainer 'adam' (NFIR)")
+    if (amplitude_weighting > 0 or passivity > 0) and not (fs is not None and fs > 0):
+        raise ROMError("amplitude_weighting and passivity need the sample rate fs")
     n = u_s.size
     if spec.arch == "nfir" and trainer in ("fast", "adam") and n > FAST_MAX_ROWS:
         stride = -(-n // FAST_MAX_ROWS)
@@ -606,10 +770,26 @@ def train(
             raise UnstableModelError("NOE unstable at its initial parameters")
     t0 = time.perf_counter()
     if trainer == "adam":
+        weights = val_weighted = probes = None
+        if amplitude_weighting > 0:
+            weights = amplitude_weights(u, fs, amplitude_weighting)
+            if validation is not None:
+                wv = amplitude_weights(validation[0], fs, amplitude_weighting)
+                uvj, yv = jnp.asarray(val[0]), np.asarray(val[1])
+
+                def val_weighted(theta: np.ndarray) -> float:
+                    yh = np.asarray(nfir_free_run(jnp.asarray(theta), uvj, rest_u, delays, h,
+                                                  hidden))
+                    m = float(np.mean(wv * (yh - yv) ** 2))
+                    return m if np.isfinite(m) else math.inf
+        if passivity > 0:
+            band = frequency_band if frequency_band is not None else (0.0, math.inf)
+            probes = harmonic_probes(u, fs, sc, delays, band)
         # minibatches from every sample; the reported training MSE on the decimated rows
         res = adam_nfir(u_s, y_s, theta0, delays, h, hidden, rest_u, problem, int(rows.size),
                         max_epochs=int(max_epochs), seed=int(seed),
-                        callback=callback, mse_scale=sc.out_half_range**2)
+                        callback=callback, mse_scale=sc.out_half_range**2, weights=weights,
+                        val_weighted=val_weighted, probes=probes, passivity=float(passivity))
     else:
         res = levenberg_marquardt(problem, theta0, max_epochs=int(max_epochs),
                                   callback=callback, mse_scale=sc.out_half_range**2)
