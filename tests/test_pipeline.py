@@ -72,6 +72,18 @@ def test_reproduce_quick_interrupted_then_resumed(tmp_path):
     err = np.linalg.norm(rom_map[sel] - rig_map[sel]) / np.linalg.norm(rig_map[sel])
     assert m["rom_relative_l2_error"] == pytest.approx(err, rel=1e-12)
     assert m["rom_relative_l2_error"] < 0.35
+    # the whole picture: full map, dissipative region (the figure above), passivity
+    fid = m["rom_fidelity"]
+    assert fid["dissipative_l2"] == m["rom_relative_l2_error"]
+    both = np.isfinite(rig_map) & np.isfinite(rom_map)
+    assert fid["n_points"] == both.sum() and fid["n_dissipative"] == sel.sum()
+    full = np.linalg.norm(rom_map[both] - rig_map[both]) / np.linalg.norm(rig_map[both])
+    assert fid["full_l2"] == pytest.approx(full, rel=1e-12)
+    assert fid["n_nonpassive"] == np.sum(rom_map[both] < -0.02 * np.nanmax(rig_map))
+    assert fid["min_phi_d"] == np.min(rom_map[both])
+    at = [html.index(k) for k in ("full map: relative L2 error", "dissipative region",
+                                  "passivity:")]
+    assert at == sorted(at)
     b = st["beam"]
     # the first mode of the truncated coupled model is a Rayleigh-Ritz upper bound of the
     # frozen beam's exact frequency (frequency equation, liquid added to the tip mass)

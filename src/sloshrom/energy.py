@@ -9,6 +9,7 @@ acceleration amplitude in g is ``Gamma = a_bar omega_bar^2``.
 The maps are evaluated inside the shaker envelope :data:`sloshrom.signals.SHAKER_ENVELOPE` (the
 one definition of the test domain, shared with the VFA paths). Arrays put time on the last axis,
 independent runs (batches) on the leading axes, as ``SloshingModel.simulate`` does.
+:func:`map_fidelity` compares a map with a reference: whole map, dissipative region, passivity.
 """
 
 from __future__ import annotations
@@ -27,14 +28,23 @@ from sloshrom.models import SloshingModel
 from sloshrom.signals import DEFAULT_A_BAR_MIN, SHAKER_ENVELOPE, harmonic
 
 __all__ = [
+    "DISSIPATIVE_THRESHOLD",
+    "PASSIVITY_TOLERANCE",
     "default_grid",
     "dissipated_energy",
     "hysteresis_loop",
+    "map_fidelity",
     "map_maximum",
     "phi_d",
     "phi_d_map",
     "shaker_envelope",
 ]
+
+#: Dissipative region of a map: where Phi_d exceeds this fraction of the map's maximum (-).
+DISSIPATIVE_THRESHOLD = 0.1
+#: Non-passive points: Phi_d below minus this fraction of the reference maximum (-); smaller
+#: negative values are round-off of the energy integral where nothing dissipates.
+PASSIVITY_TOLERANCE = 0.02
 
 
 def dissipated_energy(
@@ -320,4 +330,134 @@ def map_maximum(da: xr.DataArray) -> dict[str, float]:
         "a_bar": ab,
         "gamma": ab * ob**2,
         "frequency": float(da.frequency[i]) if "frequency" in da.coords else float("nan"),
+    }
+
+
+def _point_coords(da: Any, index: tuple[int, ...]) -> tuple[float, float]:
+    """(omega_bar, a_bar) of one grid point of ``da``; NaN where ``da`` does not carry them."""
+    if not isinstance(da, xr.DataArray):
+        return float("nan"), float("nan")
+    point = da.isel(dict(zip(da.dims, index, strict=True)))
+    return tuple(  # type: ignore[return-value]
+        float(point[name]) if name in point.coords else float("nan")
+        for name in ("omega_bar", "a_bar")
+    )
+
+
+def _relative_l2(r: np.ndarray, o: np.ndarray) -> float:
+    """``||o - r|| / ||r||`` (-), NaN for no points or a zero reference."""
+    norm = np.linalg.norm(r)
+    if r.size == 0 or norm == 0:
+        return float("nan")
+    return float(np.linalg.norm(o - r) / norm)
+
+
+def map_fidelity(
+    reference: Any,
+    other: Any,
+    dissipative_threshold: float = DISSIPATIVE_THRESHOLD,
+    passivity_tolerance: float = PASSIVITY_TOLERANCE,
+) -> dict[str, float | int]:
+    """How well the Phi_d map ``other`` (a ROM) matches ``reference`` (the rig): whole map first.
+
+    Every figure is computed on the points where both maps are finite (NaN marks points outside
+    the shaker envelope). A single error over the dissipative region hides what the model does
+    everywhere else, in particular whether it stays passive (Phi_d >= 0: the liquid can only
+    take energy from the tank), so the whole map, the dissipative region and the passivity are
+    reported side by side.
+
+    Parameters
+    ----------
+    reference, other : array_like or xarray.DataArray
+        Phi_d maps (-) on the same grid, e.g. dims ``(omega_bar, a_bar)``. DataArrays with the
+        same dims in another order are aligned; differing grid coordinates raise.
+    dissipative_threshold : float
+        The dissipative region is where ``reference > dissipative_threshold * max(reference)``
+        (-, fraction of the reference maximum).
+    passivity_tolerance : float
+        A point is non-passive where ``other < -passivity_tolerance * max(reference)`` (-,
+        fraction of the reference maximum): small negative values are numerical noise.
+
+    Returns
+    -------
+    dict
+        Plain ``float``/``int`` values (NaN where undefined, e.g. an empty region):
+
+        ``full_l2``
+            ``||o - r|| / ||r||`` over all compared points (-).
+        ``dissipative_l2``
+            The same over the dissipative region only (-).
+        ``n_points``, ``n_dissipative``, ``n_nonpassive``
+            Compared points, those in the dissipative region, those below the passivity
+            threshold.
+        ``nonpassive_fraction``
+            ``n_nonpassive / n_points`` (-).
+        ``min_phi_d``, ``min_omega_bar``, ``min_a_bar``
+            The smallest (most negative) value of ``other`` (-) and where it is (-; NaN unless
+            ``other`` or ``reference`` is a DataArray with ``omega_bar``/``a_bar`` coordinates).
+        ``reference_maximum``
+            ``max(reference)`` over its finite points (-).
+        ``dissipative_threshold``, ``dissipative_level``
+            The fraction passed and the Phi_d level it sets (-).
+        ``passivity_tolerance``, ``passivity_threshold``
+            The fraction passed and the Phi_d level it sets, ``-passivity_tolerance *
+            max(0, reference_maximum)`` (-).
+
+    Raises
+    ------
+    ValueError
+        The maps differ in shape or grid, or a fraction is negative or not finite.
+    """
+    for name, value in (("dissipative_threshold", dissipative_threshold),
+                        ("passivity_tolerance", passivity_tolerance)):
+        if not (math.isfinite(value) and value >= 0):
+            raise ValueError(f"{name} must be a finite number >= 0, got {value}")
+    if isinstance(reference, xr.DataArray) and isinstance(other, xr.DataArray):
+        if set(reference.dims) == set(other.dims):
+            other = other.transpose(*reference.dims)
+        for dim in reference.dims:
+            if dim in reference.coords and dim in other.coords and not np.allclose(
+                reference[dim].values, other[dim].values, rtol=1e-9, equal_nan=True
+            ):
+                raise ValueError(f"the maps have different {dim} grids")
+    r = np.asarray(reference, dtype=np.float64)
+    o = np.asarray(other, dtype=np.float64)
+    if r.shape != o.shape:
+        raise ValueError(f"the maps differ in shape: reference {r.shape}, other {o.shape}")
+    finite = np.isfinite(r) & np.isfinite(o)
+    r_max = float(np.max(r[np.isfinite(r)])) if np.isfinite(r).any() else float("nan")
+    level = dissipative_threshold * r_max
+    # a reference with no positive value dissipates nowhere: empty region, zero tolerance
+    if r_max > 0:
+        dissipative = finite & (r > level)
+        pass_thr = -passivity_tolerance * r_max
+    else:
+        dissipative = np.zeros_like(finite)
+        pass_thr = 0.0 if math.isfinite(r_max) else float("nan")
+    nonpassive = finite & (o < pass_thr)
+    n_points = int(finite.sum())
+    n_nonpassive = int(nonpassive.sum())
+    if n_points:
+        flat = np.where(finite, o, np.inf)
+        idx = np.unravel_index(int(np.argmin(flat)), o.shape)
+        min_phi = float(o[idx])
+        coords_from = other if isinstance(other, xr.DataArray) else reference
+        min_ob, min_ab = _point_coords(coords_from, idx)
+    else:
+        min_phi = min_ob = min_ab = float("nan")
+    return {
+        "full_l2": _relative_l2(r[finite], o[finite]),
+        "dissipative_l2": _relative_l2(r[dissipative], o[dissipative]),
+        "n_points": n_points,
+        "n_dissipative": int(dissipative.sum()),
+        "n_nonpassive": n_nonpassive,
+        "nonpassive_fraction": n_nonpassive / n_points if n_points else float("nan"),
+        "min_phi_d": min_phi,
+        "min_omega_bar": min_ob,
+        "min_a_bar": min_ab,
+        "reference_maximum": r_max,
+        "dissipative_threshold": float(dissipative_threshold),
+        "dissipative_level": float(level),
+        "passivity_tolerance": float(passivity_tolerance),
+        "passivity_threshold": float(pass_thr),
     }

@@ -1,8 +1,8 @@
 """The ``maps`` stage of `sloshrom reproduce`: Phi_d maps of the rig and the ROM and their
 difference (paper Figs. 4, 11), and the hysteresis loops of Fig. 3.
 
-:func:`compute_map`, :func:`write_map` and :func:`relative_map_error` also serve
-``sloshrom map``.
+:func:`compute_map`, :func:`write_map`, :func:`relative_map_error` and
+:func:`fidelity_lines` also serve ``sloshrom map``.
 """
 
 from __future__ import annotations
@@ -17,7 +17,13 @@ import numpy as np
 import xarray as xr
 
 from sloshrom.config import G, Tank
-from sloshrom.energy import hysteresis_loop, map_maximum, phi_d_map
+from sloshrom.energy import (
+    DISSIPATIVE_THRESHOLD,
+    hysteresis_loop,
+    map_fidelity,
+    map_maximum,
+    phi_d_map,
+)
 from sloshrom.fileio import OutputBatch
 from sloshrom.models import SloshingModel
 from sloshrom.pipeline.context import Context
@@ -27,8 +33,8 @@ from sloshrom.rom.estimators import load_model
 from sloshrom.signals import harmonic
 
 __all__ = [
-    "HYSTERESIS_FREQUENCY", "HYSTERESIS_GAMMA", "compute_map", "hysteresis_loops", "map_grid",
-    "relative_map_error", "stage_maps", "write_map",
+    "HYSTERESIS_FREQUENCY", "HYSTERESIS_GAMMA", "compute_map", "fidelity_lines",
+    "hysteresis_loops", "map_grid", "relative_map_error", "stage_maps", "write_map",
 ]
 
 #: The harmonic test of paper Fig. 3: acceleration amplitude (g) and frequency (Hz).
@@ -59,24 +65,45 @@ def compute_map(model: SloshingModel, cfg: dict[str, Any], tank: Tank,
     )
 
 
-def relative_map_error(reference: Any, other: Any, threshold: float = 0.1) -> float:
-    """Relative L2 error of ``other`` against ``reference`` where the reference matters.
+def relative_map_error(reference: Any, other: Any,
+                       threshold: float = DISSIPATIVE_THRESHOLD) -> float:
+    """Relative L2 error (-) of ``other`` against ``reference`` in the dissipative region only.
 
-    "Matters" = points where the reference exceeds ``threshold`` times its maximum (the
-    dissipative region); elsewhere both are ~0 and a relative error is meaningless.
+    The region is where the reference exceeds ``threshold`` times its maximum. This is one
+    figure of :func:`sloshrom.energy.map_fidelity` (``dissipative_l2``), kept for callers that
+    want only it; reports should give the whole-map error and the passivity too.
     """
-    r = np.asarray(reference, dtype=np.float64)
-    o = np.asarray(other, dtype=np.float64)
-    ok = np.isfinite(r) & np.isfinite(o)
-    ok &= r > threshold * np.nanmax(r)
-    if not ok.any():
-        return float("nan")
-    return float(np.linalg.norm(o[ok] - r[ok]) / np.linalg.norm(r[ok]))
+    return float(map_fidelity(reference, other, dissipative_threshold=threshold)
+                 ["dissipative_l2"])
 
 
-def write_map(da: xr.DataArray, path: Path, title: str) -> list[Path]:
-    """NetCDF + PNG beside it, both or neither (one :class:`~sloshrom.fileio.OutputBatch`)."""
-    fig = phi_d_map_figure(da, title)
+def fidelity_lines(fid: dict[str, Any], against: str = "the reference") -> list[str]:
+    """Plain-text lines of a :func:`sloshrom.energy.map_fidelity` result, whole map first."""
+    where = ""
+    if math.isfinite(fid["min_omega_bar"]) and math.isfinite(fid["min_a_bar"]):
+        where = f" at omega_bar = {fid['min_omega_bar']:.2f}, a_bar = {fid['min_a_bar']:.3f}"
+    return [
+        f"against {against}, on the {fid['n_points']} points both maps cover:",
+        f"  full map:            relative L2 error {fid['full_l2']:.1%}",
+        f"  dissipative region:  relative L2 error {fid['dissipative_l2']:.1%} "
+        f"({fid['n_dissipative']} points where the reference Phi_d > "
+        f"{fid['dissipative_threshold']:.0%} of its maximum)",
+        f"  passivity:           {fid['n_nonpassive']} points ({fid['nonpassive_fraction']:.1%})"
+        f" below Phi_d = {fid['passivity_threshold']:.3g} "
+        f"(-{fid['passivity_tolerance']:.0%} of the reference maximum); "
+        f"min Phi_d = {fid['min_phi_d']:.3g}{where}",
+    ]
+
+
+def write_map(da: xr.DataArray, path: Path, title: str, kind: str = "map",
+              negative_below: float | None = None) -> list[Path]:
+    """NetCDF + PNG beside it, both or neither (one :class:`~sloshrom.fileio.OutputBatch`).
+
+    ``kind`` and ``negative_below`` go to :func:`sloshrom.plotting.maps.phi_d_map_figure`:
+    ``"map"`` (Phi_d, non-passive values below ``negative_below`` marked) or ``"difference"``
+    (diverging colours centred on zero).
+    """
+    fig = phi_d_map_figure(da, title, kind=kind, negative_below=negative_below)
     with OutputBatch() as batch:
         batch.write(path, lambda tmp: da.to_dataset().to_netcdf(tmp, engine="h5netcdf"))
         png = savefig(fig, path.with_suffix(".png"), batch)
@@ -111,8 +138,10 @@ def stage_maps(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     -------
     outputs : dict
         ``rig_seconds`` (s), ``rig_maximum`` (``sloshrom.energy.map_maximum``) and, with a ROM,
-        ``rom_seconds``, ``rom_maximum`` and ``rom_relative_l2_error`` (-,
-        :func:`relative_map_error`).
+        ``rom_seconds``, ``rom_fidelity`` (:func:`sloshrom.energy.map_fidelity` of the ROM map
+        against the rig's: whole map, dissipative region, passivity), ``rom_maximum`` and
+        ``rom_relative_l2_error`` (-, the same as ``rom_fidelity["dissipative_l2"]``, kept for
+        readers of older summaries).
     files : list of str
         Written files, relative to ``ctx.out``.
     """
@@ -142,11 +171,15 @@ def stage_maps(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
         rom_map = compute_map(rom, ctx.cfg, tank, prog("Phi_d map of the ROM"))
         outputs["rom_seconds"] = time.perf_counter() - t0
         outputs["rom_maximum"] = map_maximum(rom_map)
-        outputs["rom_relative_l2_error"] = relative_map_error(rig_map.values, rom_map.values)
-        files += [ctx.rel(p) for p in write_map(rom_map, ctx.path("maps", "phi_d_rom.nc"),
-                                                 "ROM (paper Fig. 11)")]
+        fid = map_fidelity(rig_map, rom_map)
+        outputs["rom_fidelity"] = fid
+        outputs["rom_relative_l2_error"] = fid["dissipative_l2"]
+        # the ROM figure marks exactly the points counted as non-passive
+        files += [ctx.rel(p) for p in write_map(
+            rom_map, ctx.path("maps", "phi_d_rom.nc"), "ROM (paper Fig. 11)",
+            negative_below=fid["passivity_threshold"])]
         diff = (rom_map - rig_map).rename("phi_d")
         diff.attrs = {"units": "1", "long_name": "Phi_d(ROM) - Phi_d(rig)"}
         files += [ctx.rel(p) for p in write_map(diff, ctx.path("maps", "phi_d_difference.nc"),
-                                                 "ROM minus rig")]
+                                                 "ROM minus rig", kind="difference")]
     return outputs, files

@@ -145,9 +145,8 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
     if "rom_relative_l2_error" in m:
         text += (
             f"<p>ROM map maximum Φ_d = {_num(m, 'rom_maximum', 'phi_d')} at ω̄ = "
-            f"{_num(m, 'rom_maximum', 'omega_bar')}, ā = {_num(m, 'rom_maximum', 'a_bar')}; "
-            f"relative L2 error against the rig where Φ_d > 10 % of its maximum: "
-            f"<b>{_num(m, 'rom_relative_l2_error', fmt='{:.1%}')}</b> (aim ≤ 10 %).</p>"
+            f"{_num(m, 'rom_maximum', 'omega_bar')}, ā = {_num(m, 'rom_maximum', 'a_bar')}.</p>"
+            + _fidelity_text(m)
         )
     secs.append(Section(
         "5. Dissipation maps (paper Figs. 3, 4, 11)", text,
@@ -155,9 +154,12 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
              f"loop at {HYSTERESIS_GAMMA:g} g, {HYSTERESIS_FREQUENCY:g} Hz; the enclosed area is "
              "the dissipated energy per cycle.")
         + _fig(ctx, "maps/phi_d_rig.png", "Fig. 4 — Φ_d(ω̄, ā) of the virtual rig.")
-        + _fig(ctx, "maps/phi_d_rom.png", "Fig. 11 — Φ_d(ω̄, ā) predicted by the ROM.")
-        + _fig(ctx, "maps/phi_d_difference.png", "ROM minus rig: where the ROM over- (positive)"
-               " or under-predicts dissipation."),
+        + _fig(ctx, "maps/phi_d_rom.png", "Fig. 11 — Φ_d(ω̄, ā) predicted by the ROM; orange "
+               "(outlined) where it is below the passivity threshold, i.e. where the ROM gives "
+               "energy back to the tank.")
+        + _fig(ctx, "maps/phi_d_difference.png", "ROM minus rig, on colours centred on zero: "
+               "red where the ROM over-predicts dissipation, blue where it under-predicts, "
+               "white where they agree."),
     ))
     secs.extend(_beam_sections(ctx, st["beam"]))
     t = summary.get("timings_s", {})
@@ -168,6 +170,38 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
            if any(v.get("reused") for v in st.values()) else "") + "</p>",
     ))
     return secs
+
+
+def _fidelity_text(m: dict[str, Any]) -> str:
+    """The ROM map against the rig's (``rom_fidelity`` of the ``maps`` stage): the whole map
+    first, then the dissipative region, then the passivity."""
+    f = m.get("rom_fidelity")
+    if not isinstance(f, dict):  # a maps stage cached before the fidelity was recorded
+        return (
+            "<p>Relative L2 error against the rig where Φ_d > 10 % of its maximum: "
+            f"<b>{_num(m, 'rom_relative_l2_error', fmt='{:.1%}')}</b>. The whole-map error and "
+            "the passivity were not recorded by this (cached) maps stage: rerun it.</p>"
+        )
+    where = ""
+    if np.isfinite(f.get("min_omega_bar", np.nan)):
+        where = (f" at ω̄ = {_num(f, 'min_omega_bar', fmt='{:.2f}')}, "
+                 f"ā = {_num(f, 'min_a_bar', fmt='{:.3f}')}")
+    return (
+        f"<p>ROM against the rig, on the {_num(f, 'n_points', fmt='{:d}')} grid points both "
+        "maps cover, whole map first:</p><ul>"
+        f"<li>full map: relative L2 error <b>{_num(f, 'full_l2', fmt='{:.1%}')}</b> "
+        "(‖Φ_d,ROM − Φ_d,rig‖ / ‖Φ_d,rig‖ over every point);</li>"
+        f"<li>dissipative region (rig Φ_d > {_num(f, 'dissipative_threshold', fmt='{:.0%}')} "
+        f"of its maximum, {_num(f, 'n_dissipative', fmt='{:d}')} points): relative L2 error "
+        f"<b>{_num(f, 'dissipative_l2', fmt='{:.1%}')}</b> (aim ≤ 10 %);</li>"
+        f"<li>passivity: <b>{_num(f, 'n_nonpassive', fmt='{:d}')}</b> points "
+        f"(<b>{_num(f, 'nonpassive_fraction', fmt='{:.1%}')}</b>) have a ROM Φ_d below the "
+        f"threshold {_num(f, 'passivity_threshold')} "
+        f"(−{_num(f, 'passivity_tolerance', fmt='{:.0%}')} of the rig maximum); the ROM map's "
+        f"minimum is Φ_d = <b>{_num(f, 'min_phi_d')}</b>{where}. A negative Φ_d "
+        "means the model returns energy to the tank over a cycle, which the liquid cannot "
+        "do.</li></ul>"
+    )
 
 
 def _pct(v: Any) -> str:

@@ -8,49 +8,105 @@ from dataclasses import dataclass
 
 import numpy as np
 import xarray as xr
+from matplotlib import colormaps
 from matplotlib.axes import Axes
+from matplotlib.colors import TwoSlopeNorm
 from matplotlib.figure import Figure
+from matplotlib.patches import Patch
 
-__all__ = ["Loop", "hysteresis_figure", "phi_d_map_figure", "plot_hysteresis", "plot_phi_d_map"]
+from sloshrom.energy import PASSIVITY_TOLERANCE
+
+__all__ = [
+    "MAP_KINDS", "NEGATIVE_COLOR", "Loop", "hysteresis_figure", "phi_d_map_figure",
+    "plot_hysteresis", "plot_phi_d_map",
+]
 
 
-def plot_phi_d_map(da: xr.DataArray, ax: Axes | None = None, levels: int = 15) -> Axes:
+#: Fill colour of non-passive Phi_d on a map (energy given back to the tank).
+NEGATIVE_COLOR = "#ff7f0e"
+MAP_KINDS = ("map", "difference")
+
+
+def plot_phi_d_map(da: xr.DataArray, ax: Axes | None = None, levels: int = 15,
+                   kind: str = "map", negative_below: float | None = None) -> Axes:
     """Contour map of Phi_d(omega_bar, a_bar) with the Gamma = 1 and Gamma = 4 iso-lines.
 
     Parameters
     ----------
     da : xarray.DataArray
-        A map of ``sloshrom.energy.phi_d_map`` (dimensionless, dims ``omega_bar``, ``a_bar``).
+        A map of ``sloshrom.energy.phi_d_map`` (dimensionless, dims ``omega_bar``, ``a_bar``),
+        or the difference of two maps.
     ax : matplotlib Axes, optional
         Where to draw; default: the axes of a new 6 x 4.5 in figure.
     levels : int
         Number of contour levels.
+    kind : {"map", "difference"}
+        ``"map"``: sequential colours from Phi_d = 0 up; values below ``negative_below``
+        (non-passive: the model gives energy back to the tank) are filled in
+        :data:`NEGATIVE_COLOR`, outlined by a contour at that level and named in the legend.
+        ``"difference"``: diverging colours (``RdBu_r``) with a norm centred on zero and
+        symmetric limits: red where ``da`` > 0, blue where ``da`` < 0, white at 0.
+    negative_below : float, optional
+        Phi_d level (-, <= 0) under which a ``"map"`` point counts as non-passive. Default:
+        ``-sloshrom.energy.PASSIVITY_TOLERANCE`` times the map's maximum, so that round-off
+        around Phi_d = 0 (the rig's non-dissipative region) is not painted; pass
+        ``map_fidelity(...)["passivity_threshold"]`` to match a comparison's count, or 0.
 
     Returns
     -------
     matplotlib.axes.Axes
     """
+    if kind not in MAP_KINDS:
+        raise ValueError(f"kind must be one of {MAP_KINDS}, got {kind!r}")
+    if negative_below is not None and not negative_below <= 0:
+        raise ValueError(f"negative_below must be <= 0, got {negative_below}")
     if ax is None:
         ax = Figure(figsize=(6, 4.5)).subplots()
     ob = np.asarray(da.omega_bar)
     ab = np.asarray(da.a_bar)
-    z = np.asarray(da.values).T
-    cs = ax.contourf(ob, ab, np.ma.masked_invalid(z), levels=levels, cmap="Blues")
-    ax.figure.colorbar(cs, ax=ax, label=r"$\Phi_d$")
+    z = np.ma.masked_invalid(np.asarray(da.values, dtype=np.float64).T)
+    zmin = float(z.min()) if z.count() else 0.0
+    zmax = float(z.max()) if z.count() else 0.0
+    handles: list[Patch] = []
+    if kind == "difference":
+        # symmetric limits and a norm centred on 0: the colour tells over (red) from under (blue)
+        m = max(abs(zmin), abs(zmax)) or 1.0
+        norm = TwoSlopeNorm(vcenter=0.0, vmin=-m, vmax=m)
+        cs = ax.contourf(ob, ab, z, levels=np.linspace(-m, m, levels), cmap="RdBu_r", norm=norm)
+        ax.figure.colorbar(cs, ax=ax, label=r"$\Delta\Phi_d$ (red: more, blue: less)")
+    else:
+        floor = (-PASSIVITY_TOLERANCE * max(zmax, 0.0) if negative_below is None
+                 else float(negative_below))
+        top = zmax if zmax > 0 else 1.0
+        # the lowest band reaches down to the floor (round-off around 0 stays the colour of
+        # 0); anything below is "under", a colour no band uses
+        bounds = np.linspace(0.0, top, levels)
+        bounds[0] = floor
+        cmap = colormaps["Blues"].with_extremes(under=NEGATIVE_COLOR)
+        cs = ax.contourf(ob, ab, z, levels=bounds, cmap=cmap, extend="min")
+        ax.figure.colorbar(cs, ax=ax, label=r"$\Phi_d$")
+        if zmin < floor:  # outline the non-passive patches, which may be single cells
+            ax.contour(ob, ab, z, levels=[floor], colors=NEGATIVE_COLOR, linewidths=1.0)
+        # named even when absent: the reader learns that none is hidden
+        handles = [Patch(facecolor=NEGATIVE_COLOR,
+                         label=rf"$\Phi_d$ < {floor:.2g} (not passive)")]
     obf = np.linspace(ob.min(), ob.max(), 200)
     for gam, style in ((1.0, "--"), (4.0, "-")):
         ax.plot(obf, gam / obf**2, "k" + style, lw=1, label=rf"$\Gamma$ = {gam:g} g")
     ax.set_ylim(ab.min(), ab.max())
     ax.set_xlabel(r"$\bar\omega = \Omega/\sqrt{g/h}$")
     ax.set_ylabel(r"$\bar a = a/h$")
-    ax.legend(loc="upper right", fontsize=8)
+    lines, _ = ax.get_legend_handles_labels()
+    ax.legend(handles=lines + handles, loc="upper right", fontsize=8)
     return ax
 
 
-def phi_d_map_figure(da: xr.DataArray, title: str) -> Figure:
-    """A Phi_d map (:func:`plot_phi_d_map`) with a title, on its own 6.4 x 4.6 in figure."""
+def phi_d_map_figure(da: xr.DataArray, title: str, kind: str = "map",
+                     negative_below: float | None = None) -> Figure:
+    """A Phi_d map or difference (:func:`plot_phi_d_map`: ``kind``, ``negative_below``) with a
+    title, on its own 6.4 x 4.6 in figure."""
     fig = Figure(figsize=(6.4, 4.6), layout="constrained")
-    ax = plot_phi_d_map(da, ax=fig.subplots())
+    ax = plot_phi_d_map(da, ax=fig.subplots(), kind=kind, negative_below=negative_below)
     ax.set_title(title)
     return fig
 
