@@ -131,7 +131,8 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
         f"NRMSE {_num(r, 'val_nrmse', fmt='{:.3f}')}, fit {_num(r, 'val_fit', fmt='{:.1f}')} "
         f"%; training took {_num(r, 'train_seconds', fmt='{:.1f}')} s "
         f"({_num(r, 'epochs', fmt='{:.0f}')} epochs, stop: "
-        f"{html.escape(str(r.get('stop_reason', 'n/a')))}).</p>",
+        f"{html.escape(str(r.get('stop_reason', 'n/a')))}).</p>"
+        + (f"<p>{html.escape(r['recipe_text'])}</p>" if r.get("recipe_text") else ""),
         _fig(ctx, "fig10_validation.png", "Fig. 10 — ROM free-run prediction against the "
              "rig's dynamic force on the validation record."),
     ))

@@ -276,6 +276,15 @@ class _RomTable(_Table):
     sweep_noe_delays: Grid
     sweep_noe_neurons: NeuronGrid
     sweep_workers: _number(1, 64, integer=True, what="a number of parallel trainings")
+    amplitude_weighting: _number(0.0, 100.0, what="an amplitude floor in m/s (0 = off)")
+    passivity: _number(0.0, 1e6, what="a penalty weight (0 = off)")
+
+    @model_validator(mode="after")
+    def _loss_options(self) -> _RomTable:
+        if self.arch == "noe" and (self.amplitude_weighting > 0 or self.passivity > 0):
+            raise ConfigError("'rom.amplitude_weighting' and 'rom.passivity' train the NFIR "
+                              "(Adam); set both to 0 for arch = 'noe'")
+        return self
 
     def networks(self) -> list[tuple[str, int, int, str]]:
         """(arch, delays, neurons, keys) of the largest network of each kind to be trained."""
