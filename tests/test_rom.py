@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from sloshrom.rom import estimators as rom
+from sloshrom.rom import modelfile
 from sloshrom.rom.estimators import NFIR, NOE, MinMaxScaler, ModelFileError, UnstableModelError
 
 
@@ -160,7 +161,7 @@ def test_load_errors(tmp_path):
     np.savez(tmp_path / "other.npz", x=np.ones(3))
     with pytest.raises(ModelFileError, match="not a sloshrom model"):
         rom.load_model(tmp_path / "other.npz")
-    _rewrite(p, {**meta, "format_version": rom.FORMAT_VERSION + 1})
+    _rewrite(p, {**meta, "format_version": modelfile.NEWEST_FORMAT_VERSION + 1})
     with pytest.raises(ModelFileError, match="newer"):
         rom.load_model(p)
     _rewrite(p, {**meta, "format_version": 0})

@@ -2,7 +2,8 @@
 
 The top level holds what every part of the package shares: the tank (:class:`Tank`, ``G``,
 :class:`ConfigError`) and the sloshing-model contract (:class:`SloshingModel`,
-:class:`FrozenLiquid`). The ROMs (``NFIR``, ``NOE``, ``load_model``) are re-exported lazily.
+:class:`FrozenLiquid`). The ROMs (``NFIR``, ``NOE``, ``Ensemble``, ``load_model``) are
+re-exported lazily.
 """
 
 from importlib.metadata import PackageNotFoundError, version
@@ -16,14 +17,15 @@ except PackageNotFoundError:  # pragma: no cover - running from a source tree
     __version__ = "0.0.0+unknown"
 
 __all__ = [
-    "G", "NFIR", "NOE", "ConfigError", "FrozenLiquid", "SloshingModel", "Tank", "__version__",
-    "load_model",
+    "G", "NFIR", "NOE", "ConfigError", "Ensemble", "FrozenLiquid", "SloshingModel", "Tank",
+    "__version__", "load_model",
 ]
 
 # Lazy on purpose: sloshrom.rom imports JAX (about 0.5 s warm, seconds from a cold disk cache,
 # against 0.2 s for `import sloshrom`), which the CLI's readers, the virtual rig and the energy
 # maps never need. Resolved on first attribute access (PEP 562).
-_LAZY = {"NFIR": "sloshrom.rom", "NOE": "sloshrom.rom", "load_model": "sloshrom.rom"}
+_LAZY = {"NFIR": "sloshrom.rom", "NOE": "sloshrom.rom", "Ensemble": "sloshrom.rom",
+         "load_model": "sloshrom.rom"}
 
 
 def __getattr__(name: str):

@@ -26,6 +26,7 @@ MAX_DELAYS = 1000
 MAX_NEURONS = 1000
 MAX_EPOCHS = 100_000
 MAX_SEED = 2**32 - 1  # JAX PRNG keys take 32-bit seeds
+MAX_MEMBERS = 64  # sloshrom.rom.modelfile.MAX_MEMBERS (not imported: it loads the ROM room)
 
 
 def _read(path: Path, names: list[str], what: str):
@@ -138,15 +139,30 @@ def train(
         str | None, typer.Option(help="NFIR: adam (default), fast (subsampled LM) or lm (trainlm);"
                                       " NOE: lm.")
     ] = None,
-    seed: Annotated[int, typer.Option(help="Seed of the initialisation (>= 0).")] = 0,
+    seed: Annotated[int, typer.Option(help="Seed of the initialisation (>= 0); an ensemble's "
+                                           "members have seeds SEED..SEED+K-1.")] = 0,
+    ensemble: Annotated[int, typer.Option(help="Train K networks that differ by their seed and "
+                                               "save them as one ensemble file (mean of the "
+                                               "members); 1 = a single network.")] = 1,
+    scheduler: Annotated[
+        str | None,
+        typer.Option(help="Ensemble: Dask scheduler address tcp://HOST:PORT; 'threads' or "
+                          "'sequential' for no cluster; default: a new LocalCluster of --workers "
+                          "processes (in this process for --workers 1)."),
+    ] = None,
+    workers: Annotated[int, typer.Option(help="Ensemble: members trained at once, 1 to the "
+                                              "number of CPUs.")] = 2,
 ) -> None:
-    """Identify an NFIR or NOE ROM from an input/output record.
+    """Identify an NFIR or NOE ROM (or an ensemble of them) from an input/output record.
 
     The two records must have the same sample rate and the same units of the input and of the
-    output; the model file may not be one of the records.
+    output; the model file may not be one of the records. With --ensemble K, K networks with
+    seeds SEED..SEED+K-1 are trained in parallel (Dask) and written as one model file whose
+    prediction is the mean of the members; the validation MSE of every member and their mean
+    +- standard deviation are printed.
 
     Example: sloshrom train --data train.nc --validation validation.nc --arch nfir --delays 70
-    --neurons 35 --out nfir.npz
+    --neurons 35 --out nfir.npz [--ensemble 5 --workers 2]
     """
     if arch not in ("nfir", "noe"):
         fail(f"--arch must be nfir or noe, got {arch!r}")
@@ -154,6 +170,15 @@ def train(
     check_number(delays, "--delays", 1, MAX_DELAYS)
     check_number(neurons, "--neurons", 1, MAX_NEURONS)
     _check_common(max_epochs, seed, hidden)
+    check_number(ensemble, "--ensemble", 1, MAX_MEMBERS)
+    if seed + ensemble - 1 > MAX_SEED:
+        fail(f"--seed {seed} with --ensemble {ensemble}: the last member's seed "
+             f"{seed + ensemble - 1} exceeds {MAX_SEED}")
+    if ensemble > 1:
+        n_cpu = os.cpu_count() or 1
+        check_number(workers, "--workers", 1, n_cpu, why=f"this machine has {n_cpu} CPU(s)")
+        if scheduler not in (None, "threads", "sequential"):
+            check_scheduler(scheduler)
     trainers = ("adam", "fast", "lm") if arch == "nfir" else ("fast", "lm")
     if trainer is not None and trainer not in trainers:
         fail(f"--trainer for {arch.upper()} must be {', '.join(trainers)}, got {trainer!r}")
@@ -180,6 +205,11 @@ def train(
     _check_length(rec, data, arch, model.max_delay, int(model.neurons), "training")
     if len(val) <= model.max_delay:
         fail(f"{validation}: {len(val)} samples are too few for {model.max_delay} delays")
+    if ensemble > 1:
+        _train_ensemble(model, ensemble, rec, val, input_name, output_name, out,
+                        scheduler if scheduler is not None or workers > 1 else "sequential",
+                        workers)
+        return
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[info]}"),
                   TimeElapsedColumn()) as progress:
         task = progress.add_task(f"training {arch.upper()}", total=max_epochs, info="")
@@ -204,6 +234,49 @@ def train(
         f"parameters, {len(h['train_mse']) - 1} epochs ({h['stop_reason']}), best epoch "
         f"{h['best_epoch']}, validation MSE {h['val_mse'][h['best_epoch']]:.4g} "
         f"{rec.units[output_name]}^2, {h['train_seconds']:.1f} s"
+    )
+
+
+def _train_ensemble(template: Any, k: int, rec: Any, val: Any, input_name: str,
+                    output_name: str, out: Path, scheduler: str | None, workers: int) -> None:
+    """``train --ensemble K``: K members through Dask, one file, per-member validation MSE."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from sloshrom.rom.ensemble import Ensemble, spread
+
+    ens = Ensemble(template, n_members=k)
+    arch = type(template).__name__
+    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                  TextColumn("{task.fields[info]}"), TimeElapsedColumn()) as progress:
+        task = progress.add_task(f"training {k} x {arch}", total=k, info="")
+
+        def cb(i: int, member: Any) -> None:
+            progress.update(task, advance=1, info=f"member {i} (seed {member.seed}) done")
+
+        try:
+            ens.fit(rec[input_name], rec[output_name], fs=rec.fs,
+                    validation=(val[input_name], val[output_name]), scheduler=scheduler,
+                    n_workers=workers, progress=cb)
+        except user_errors() as exc:  # ROMError (a constant record, ...), UnstableModelError
+            fail(str(exc))
+    try:
+        path = ens.save(out)
+        uv, yv = val[input_name], val[output_name]
+        preds = ens.member_predictions(uv)
+    except user_errors() as exc:
+        fail(str(exc))
+    unit = f"{rec.units[output_name]}^2"
+    mse = [float(np.mean((p - yv) ** 2)) for p in preds]
+    for i, (m, e) in enumerate(zip(ens.members_, mse, strict=True)):
+        h = m.history_
+        typer.echo(f"member {i} (seed {m.seed}): validation MSE {e:.4g} {unit}, "
+                   f"{len(h['train_mse']) - 1} epochs ({h['stop_reason']})")
+    s = spread(mse)
+    mean_mse = float(np.mean((np.mean(preds, axis=0) - yv) ** 2))
+    typer.echo(
+        f"wrote {path}: ensemble of {k} {arch}({template.delays}, {template.neurons}), "
+        f"{ens.n_params} parameters; validation MSE over members {s['mean']:.4g} +- "
+        f"{s['std']:.4g} {unit}, of the ensemble mean {mean_mse:.4g} {unit}"
     )
 
 

@@ -47,11 +47,13 @@ from sloshrom import __version__
 from sloshrom._x64 import float64
 from sloshrom.fileio import atomic_write
 from sloshrom.rom import training
+from sloshrom.rom.ensemble import Ensemble
 from sloshrom.rom.errors import EnvelopeWarning, NotFittedError, ROMError, UnstableModelError
 from sloshrom.rom.modelfile import (
     FORMAT_VERSION,
     HIDDEN_KINDS,
     PARAM_NAMES,
+    ModelFile,
     ModelFileError,
     read_model_file,
     validate_for_save,
@@ -77,6 +79,7 @@ __all__ = [
     "FORMAT_VERSION",
     "NFIR",
     "NOE",
+    "Ensemble",
     "EnvelopeWarning",
     "MinMaxScaler",
     "ModelFileError",
@@ -680,7 +683,7 @@ class NOE(_TDNN):
 # ---------------------------------------------------------------------------------------------
 
 
-def load_model(path: str | Path) -> NFIR | NOE:
+def load_model(path: str | Path) -> NFIR | NOE | Ensemble:
     """Load a model written by ``save``; never runs code (no pickle).
 
     Every metadata field is validated against a schema with bounds and the arrays against the
@@ -691,11 +694,11 @@ def load_model(path: str | Path) -> NFIR | NOE:
     Parameters
     ----------
     path : str or Path
-        A ``.npz`` model file.
+        A ``.npz`` model file: a single network or an ensemble (:meth:`Ensemble.save`).
 
     Returns
     -------
-    NFIR or NOE
+    NFIR, NOE or Ensemble
 
     Raises
     ------
@@ -705,6 +708,20 @@ def load_model(path: str | Path) -> NFIR | NOE:
         parameter arrays that do not match the metadata.
     """
     mf = read_model_file(path)
+    if not mf.is_ensemble:
+        return _from_model_file(mf, path)
+    cls = NFIR if mf.meta["member_class"] == "NFIR" else NOE
+    try:
+        return Ensemble.from_members([_from_model_file(m, path) for m in mf.members()],
+                                     template=cls(**mf.meta["hyperparameters"]))
+    except ModelFileError:
+        raise
+    except ROMError as exc:  # unreachable after the schema; kept as a net
+        raise ModelFileError(f"{path}: corrupt metadata ({exc})") from None
+
+
+def _from_model_file(mf: ModelFile, path: str | Path) -> NFIR | NOE:
+    """The network of a validated single-model file (or of one member of an ensemble file)."""
     meta = mf.meta
     cls = NFIR if meta["class"] == "NFIR" else NOE
     try:

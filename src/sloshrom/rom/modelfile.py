@@ -1,8 +1,19 @@
 """Reading and validating ROM model files (``.npz``) without trusting their content.
 
 A model file is a zip archive of ``.npy`` members: ``metadata`` (one JSON text) and the float
-parameter arrays ``W``, ``b``, ``c``, ``c0`` (see :meth:`sloshrom.rom.NFIR.save`). This module
-reads it defensively, in an order that never lets the content choose how much work is done:
+parameter arrays ``W``, ``b``, ``c``, ``c0`` (see :meth:`sloshrom.rom.NFIR.save`). Two variants
+(docs/formats.md, "Model files"):
+
+single model (format version 1, class ``"NFIR"``/``"NOE"``)
+    One network: ``W`` (H, D), ``b`` (H,), ``c`` (H,), ``c0`` ().
+ensemble (format version 2, class ``"Ensemble"``, :class:`sloshrom.rom.ensemble.Ensemble`)
+    K networks of one class and the same hyperparameters but their seeds: the same four arrays
+    with a leading member axis, ``W`` (K, H, D), ``b`` (K, H), ``c`` (K, H), ``c0`` (K,); the
+    metadata holds the member class, the shared hyperparameters and per member its seed, scaler,
+    envelope and training history.
+
+This module reads it defensively, in an order that never lets the content choose how much work
+is done:
 
 1. the file and each zip member are size-bounded before anything is read; a member's ``.npy``
    header (dtype, shape) is checked against the bytes it has *before* the array is allocated,
@@ -53,13 +64,20 @@ from pydantic import (
 from sloshrom.rom.errors import ROMError
 
 __all__ = [
-    "FORMAT_VERSION", "HIDDEN_KINDS", "MAX_DELAY", "MAX_DEPTH", "MAX_FILE_BYTES",
-    "MAX_METADATA_CHARS", "MAX_NEURONS", "MAX_REGRESSOR", "MAX_WEIGHTS", "PARAM_NAMES",
-    "ModelFile", "ModelFileError", "checksum", "read_model_file", "validate_for_save",
+    "ENSEMBLE_FORMAT_VERSION", "FORMAT_VERSION", "HIDDEN_KINDS", "MAX_DELAY", "MAX_DEPTH",
+    "MAX_FILE_BYTES", "MAX_MEMBERS", "MAX_METADATA_CHARS", "MAX_NEURONS", "MAX_REGRESSOR",
+    "MAX_WEIGHTS", "NEWEST_FORMAT_VERSION", "PARAM_NAMES", "ModelFile", "ModelFileError",
+    "checksum", "read_model_file", "validate_for_save",
 ]
 
 FORMAT = "sloshrom-rom"
+#: Version of single-model (NFIR/NOE) files: their layout has not changed since version 1, so
+#: every sloshrom reads the single models this one writes.
 FORMAT_VERSION = 1
+#: Version of ensemble files (version 1 plus the ensemble variant).
+ENSEMBLE_FORMAT_VERSION = 2
+#: The newest version this sloshrom reads (it reads every version from 1).
+NEWEST_FORMAT_VERSION = 2
 HIDDEN_KINDS = ("matlab", "distance")
 PARAM_NAMES = ("W", "b", "c", "c0")
 
@@ -68,7 +86,7 @@ PARAM_NAMES = ("W", "b", "c", "c0")
 MAX_FILE_BYTES = 64 * 2**20
 #: Longest metadata JSON text, characters (a history of ~40 000 epochs fits).
 MAX_METADATA_CHARS = 4 * 2**20
-#: Deepest bracket nesting of the metadata JSON (a valid file has 3).
+#: Deepest bracket nesting of the metadata JSON (a valid file has 3, an ensemble file 4).
 MAX_DEPTH = 16
 #: Largest input delay, samples (length of the input delay line).
 MAX_DELAY = 10_000
@@ -79,8 +97,11 @@ MAX_REGRESSOR = 4096
 MAX_OUT_DELAYS = 1000
 #: Most hidden neurons.
 MAX_NEURONS = 4096
-#: Most entries of ``W`` (neurons x regressor entries): 32 MiB of float64.
+#: Most entries of ``W`` (neurons x regressor entries, x members of an ensemble): 32 MiB of
+#: float64.
 MAX_WEIGHTS = 2**22
+#: Most members of an ensemble.
+MAX_MEMBERS = 64
 #: Largest sample rate, Hz.
 MAX_FS = 1e6
 #: Largest magnitude of a scaler or envelope bound (physical units).
@@ -122,7 +143,8 @@ def checksum(meta: Mapping[str, Any], arrays: Mapping[str, np.ndarray]) -> str:
     meta : mapping
         The metadata (JSON-serialisable).
     arrays : mapping of str to ndarray
-        ``W``, ``b``, ``c``, ``c0`` (any float dtype; hashed as little-endian float64).
+        ``W``, ``b``, ``c``, ``c0`` (any float dtype; hashed as little-endian float64, with
+        their shapes: an ensemble's stacked arrays hash as they are stored).
 
     Returns
     -------
@@ -326,6 +348,35 @@ class _NOEMeta(_Meta):
     hyperparameters: _NOEHyper
 
 
+class _Member(_Strict):
+    """One member of an ensemble: what differs between members trained on the same data."""
+
+    seed: Annotated[int, Field(ge=0, le=2**63 - 1)]
+    scaler: _Scaler
+    envelope: _Envelope
+    history: _History = _History()
+
+
+class _EnsembleMeta(_Strict):
+    format: Literal["sloshrom-rom"]
+    format_version: Literal[2]
+    class_: Literal["Ensemble"] = Field(alias="class")
+    sloshrom_version: Text
+    member_class: Literal["NFIR"]
+    hyperparameters: _NFIRHyper
+    n_members: Annotated[int, Field(ge=1, le=MAX_MEMBERS)]
+    fs: Annotated[float, Field(allow_inf_nan=False, gt=0.0, le=MAX_FS)]
+    units: _Pair
+    names: _Names
+    members: Annotated[list[_Member], Field(min_length=1, max_length=MAX_MEMBERS)]
+    checksum: Annotated[str, StringConstraints(pattern=r"^sha256:[0-9a-f]{64}$")]
+
+
+class _NOEEnsembleMeta(_EnsembleMeta):
+    member_class: Literal["NOE"]
+    hyperparameters: _NOEHyper
+
+
 _MESSAGES = {
     "missing": "is missing",
     "extra_forbidden": "is not a field of this format",
@@ -391,6 +442,33 @@ class ModelFile:
     def hyperparameters(self) -> dict[str, Any]:
         return self.meta["hyperparameters"]
 
+    @property
+    def is_ensemble(self) -> bool:
+        """True for an ensemble file (class ``"Ensemble"``)."""
+        return self.meta["class"] == "Ensemble"
+
+    def members(self) -> list[ModelFile]:
+        """The networks of the file, each as a single-model file (metadata and arrays).
+
+        A single-model file is its own only member; an ensemble's member ``k`` has the member
+        class, the shared hyperparameters with the member's seed, the member's scaler, envelope
+        and history, and the slice ``k`` of the stacked arrays.
+        """
+        if not self.is_ensemble:
+            return [self]
+        m = self.meta
+        out = []
+        for k, e in enumerate(m["members"]):
+            meta = {
+                "format": FORMAT, "format_version": FORMAT_VERSION, "class": m["member_class"],
+                "sloshrom_version": m["sloshrom_version"],
+                "hyperparameters": {**m["hyperparameters"], "seed": e["seed"]},
+                "fs": m["fs"], "units": m["units"], "names": m["names"],
+                "scaler": e["scaler"], "envelope": e["envelope"], "history": e.get("history", {}),
+            }
+            out.append(ModelFile(meta, {n: np.array(a[k]) for n, a in self.arrays.items()}))
+        return out
+
 
 def _fail_field(where: str, field: str, msg: str, value: Any) -> ModelFileError:
     return ModelFileError(f"{where}: metadata field '{field}': {msg}, got {_repr.repr(value)}")
@@ -401,41 +479,67 @@ def _regressor_size(hyper: Mapping[str, Any]) -> int:
     return (d if isinstance(d, int) else len(d)) + int(hyper.get("out_delays", 0))
 
 
+def _schema(meta: dict[str, Any]) -> type[_Strict]:
+    if meta.get("class") == "Ensemble":
+        return _NOEEnsembleMeta if meta.get("member_class") == "NOE" else _EnsembleMeta
+    return _NOEMeta if meta.get("class") == "NOE" else _NFIRMeta
+
+
+def _check_trained(part: dict[str, Any], fs: float, where: str, prefix: str) -> None:
+    """Cross-field rules of one network's training record (envelope band, history)."""
+    nyquist = fs / 2
+    band = part["envelope"]["frequency_band"]
+    if band[1] > nyquist * (1 + 1e-9):  # rfftfreq's last bin is fs/2 up to rounding
+        raise _fail_field(where, f"{prefix}envelope.frequency_band",
+                          f"must lie within [0, fs/2 = {nyquist:g}] Hz", band)
+    hist = part.get("history", {})
+    best, val = hist.get("best_epoch"), hist.get("val_mse")
+    if isinstance(best, int) and isinstance(val, list) and best >= len(val):
+        raise _fail_field(where, f"{prefix}history.best_epoch",
+                          f"must index history.val_mse ({len(val)} entries)", best)
+
+
 def _validate_meta(meta: dict[str, Any], where: str) -> None:
     """Schema and cross-field rules; raises :class:`ModelFileError` naming the first bad field."""
-    schema = _NOEMeta if meta.get("class") == "NOE" else _NFIRMeta
     try:
-        schema.model_validate(meta)
+        _schema(meta).model_validate(meta)
     except ValidationError as exc:
         errors = exc.errors(include_url=False)
         n = len(errors) - 1
         more = f" (and {n} more problem{'s' if n > 1 else ''})" if n else ""
         raise ModelFileError(f"{where}: {_describe(errors[0])}{more}") from None
     hyper = meta["hyperparameters"]
+    ensemble = meta["class"] == "Ensemble"
+    k = meta["n_members"] if ensemble else 1
     d = _regressor_size(hyper)
     if d > MAX_REGRESSOR:
         raise _fail_field(where, "hyperparameters.delays",
                           f"the regressor would have {d} entries (delays + output delays), more "
                           f"than {MAX_REGRESSOR}", hyper["delays"])
-    if hyper["neurons"] * d > MAX_WEIGHTS:
+    if k * hyper["neurons"] * d > MAX_WEIGHTS:
+        of = f"{k} members x " if ensemble else ""
         raise _fail_field(where, "hyperparameters.neurons",
-                          f"{hyper['neurons']} neurons x {d} regressor entries is more than "
+                          f"{of}{hyper['neurons']} neurons x {d} regressor entries is more than "
                           f"{MAX_WEIGHTS} weights", hyper["neurons"])
-    nyquist = meta["fs"] / 2
-    band = meta["envelope"]["frequency_band"]
-    if band[1] > nyquist * (1 + 1e-9):  # rfftfreq's last bin is fs/2 up to rounding
-        raise _fail_field(where, "envelope.frequency_band",
-                          f"must lie within [0, fs/2 = {nyquist:g}] Hz", band)
     for key in ("units", "names"):
         pair = [meta[key]["input"], meta[key]["output"]]
         if pair != hyper[key]:
             raise _fail_field(where, f"hyperparameters.{key}",
                               f"must equal the '{key}' field {pair}", hyper[key])
-    hist = meta.get("history", {})
-    best, val = hist.get("best_epoch"), hist.get("val_mse")
-    if isinstance(best, int) and isinstance(val, list) and best >= len(val):
-        raise _fail_field(where, "history.best_epoch",
-                          f"must index history.val_mse ({len(val)} entries)", best)
+    if not ensemble:
+        _check_trained(meta, meta["fs"], where, "")
+        return
+    members = meta["members"]
+    if len(members) != k:
+        raise _fail_field(where, "members", f"must list n_members = {k} members, has "
+                          f"{len(members)}", members)
+    seen: set[int] = set()
+    for i, m in enumerate(members):
+        if m["seed"] in seen:
+            raise _fail_field(where, f"members[{i}].seed",
+                              "must differ from the other members' seeds", m["seed"])
+        seen.add(m["seed"])
+        _check_trained(m, meta["fs"], where, f"members[{i}].")
 
 
 def _check_arrays(meta: dict[str, Any], arrays: dict[str, np.ndarray], where: str
@@ -443,15 +547,20 @@ def _check_arrays(meta: dict[str, Any], arrays: dict[str, np.ndarray], where: st
     """Parameter arrays against validated metadata; returns them as float64."""
     hyper = meta["hyperparameters"]
     h, d = hyper["neurons"], _regressor_size(hyper)
-    shapes = {"W": (h, d), "b": (h,), "c": (h,), "c0": ()}
+    lead: tuple[int, ...] = ()
+    of, fields = "", ""
+    if meta["class"] == "Ensemble":
+        lead = (meta["n_members"],)
+        of, fields = f"{lead[0]} members, ", "'n_members', "
+    shapes = {"W": (*lead, h, d), "b": (*lead, h), "c": (*lead, h), "c0": lead}
     out = {}
     for k, shp in shapes.items():
         a = arrays.get(k)
         if a is None or a.shape != shp or a.dtype.kind != "f":
             got = None if a is None else (a.shape, str(a.dtype))
             raise ModelFileError(
-                f"{where}: parameter {k} tampered: expected float {shp} for {h} neurons and "
-                f"{d} regressor entries (metadata fields 'hyperparameters.neurons', "
+                f"{where}: parameter {k} tampered: expected float {shp} for {of}{h} neurons and "
+                f"{d} regressor entries (metadata fields {fields}'hyperparameters.neurons', "
                 f"'hyperparameters.delays'), got {got}"
             )
         a = a.astype(np.float64)
@@ -650,16 +759,22 @@ def read_model_file(path: str | Path) -> ModelFile:
     ver = meta.get("format_version")
     if type(ver) is not int:
         raise ModelFileError(f"{where}: missing format version")
-    if ver > FORMAT_VERSION:
+    if ver > NEWEST_FORMAT_VERSION:
         raise ModelFileError(
-            f"{where}: format version {ver} is newer than this sloshrom reads ({FORMAT_VERSION});"
-            " upgrade sloshrom"
+            f"{where}: format version {ver} is newer than this sloshrom reads "
+            f"({NEWEST_FORMAT_VERSION}); upgrade sloshrom"
         )
-    if ver != FORMAT_VERSION:
+    if ver < FORMAT_VERSION:
         raise ModelFileError(f"{where}: unsupported format version {ver} (reads "
-                             f"{FORMAT_VERSION})")
-    if meta.get("class") not in ("NFIR", "NOE"):
-        raise ModelFileError(f"{where}: unknown model class {_repr.repr(meta.get('class'))}")
+                             f"{FORMAT_VERSION} to {NEWEST_FORMAT_VERSION})")
+    cls = meta.get("class")
+    if cls not in ("NFIR", "NOE", "Ensemble"):
+        raise ModelFileError(f"{where}: unknown model class {_repr.repr(cls)}")
+    expected = ENSEMBLE_FORMAT_VERSION if cls == "Ensemble" else FORMAT_VERSION
+    if ver != expected:
+        what = "an ensemble" if cls == "Ensemble" else f"a single {cls} model"
+        raise ModelFileError(f"{where}: {what} file has format version {expected}, this one "
+                             f"says {ver}")
     if unknown:
         raise ModelFileError(f"{where}: not a sloshrom model file (unexpected member "
                              f"{_repr.repr(unknown[0])})")

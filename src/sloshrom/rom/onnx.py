@@ -36,6 +36,7 @@ import numpy as np
 
 from sloshrom import __version__
 from sloshrom.fileio import atomic_write
+from sloshrom.rom.ensemble import Ensemble
 from sloshrom.rom.errors import ROMError
 
 if TYPE_CHECKING:
@@ -210,11 +211,18 @@ def onnx_model(model: ROM, form: str = "step", dtype: str = "float64") -> Any:
     Raises
     ------
     ROMError
-        An unfitted model, an unknown ``form`` or ``dtype``.
+        An unfitted model, an ensemble (one network per graph), an unknown ``form`` or
+        ``dtype``.
     """
     import onnx
     from onnx import TensorProto, helper
 
+    if isinstance(model, Ensemble):
+        raise ROMError(
+            f"an ensemble ({len(getattr(model, 'members_', []))} {model.member_class} members) "
+            "cannot be exported to ONNX: a graph holds one network; export a single model "
+            "(`sloshrom train` without --ensemble) or one member (Ensemble.members_[k].save)"
+        )
     if not hasattr(model, "params_"):
         raise ROMError("the model is not fitted: nothing to export")
     if form not in ("step", "sequence"):

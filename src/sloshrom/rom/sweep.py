@@ -5,8 +5,9 @@ Every grid point trains one network; its score is the mean of the training and v
 (``<name>.json``) to the output directory, so an interrupted sweep resumes where it stopped.
 Unstable NOE networks are kept in the table with ``unstable = True`` and an infinite score.
 
-Grid points run in parallel through Dask: a ``dask.distributed.LocalCluster`` by default, an
-existing cluster given by its scheduler address, or ``"threads"``/``"sequential"`` (tests).
+Grid points run in parallel through Dask (:func:`sloshrom.rom.parallel.run_tasks`, also used by
+the ensembles): a ``dask.distributed.LocalCluster`` by default, an existing cluster given by its
+scheduler address, or ``"threads"``/``"sequential"`` (tests).
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ import numpy as np
 from sloshrom.fileio import atomic_write_text
 from sloshrom.rom.errors import ROMError
 from sloshrom.rom.estimators import NFIR, NOE, UnstableModelError
+from sloshrom.rom.parallel import run_tasks
 
 __all__ = ["fit_point", "point_name", "run_sweep", "sweep_grid", "write_table"]
 
@@ -136,43 +138,9 @@ def run_sweep(
     opts = dict(options or {})
     train = (np.asarray(train[0], float), np.asarray(train[1], float))
     validation = (np.asarray(validation[0], float), np.asarray(validation[1], float))
-    args = (train, validation, float(fs), str(out), opts)
-    rows: list[dict[str, Any]] = []
-
-    def done(row: dict[str, Any]) -> None:
-        rows.append(row)
-        if progress is not None:
-            progress(row)
-
-    if scheduler == "sequential":
-        for p in pts:
-            done(fit_point(p, *args))
-    elif scheduler == "threads":
-        from concurrent.futures import ThreadPoolExecutor, as_completed
-
-        with ThreadPoolExecutor(max_workers=n_workers) as ex:
-            for f in as_completed([ex.submit(fit_point, p, *args) for p in pts]):
-                done(f.result())
-    else:
-        from dask.distributed import Client, LocalCluster, as_completed
-
-        cluster = None
-        if scheduler is None:
-            cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=None)
-            client = Client(cluster)
-        else:
-            client = Client(scheduler, timeout=10)  # an unreachable address fails, not hangs
-        try:
-            data = client.scatter(list(args[:2]), broadcast=True)
-            futs = [client.submit(fit_point, p, data[0], data[1], *args[2:], pure=False)
-                    for p in pts]
-            for f in as_completed(futs):
-                done(f.result())
-        finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
+    rows = run_tasks(fit_point, pts, shared=(train, validation), args=(float(fs), str(out), opts),
+                     scheduler=scheduler, n_workers=n_workers,
+                     done=None if progress is None else lambda _i, row: progress(row))
     rows.sort(key=lambda r: (r["score"], r["name"]))
     write_table(rows, out)
     return rows

@@ -1,0 +1,552 @@
+"""Ensembles of ROMs: K networks that differ only by the seed of their initialisation.
+
+A trained network is one draw of a random initialisation: another seed gives another network,
+with another validation error and another prediction. An :class:`Ensemble` trains K members of
+one template estimator (:class:`~sloshrom.rom.NFIR` or :class:`~sloshrom.rom.NOE`) with seeds
+``template.seed + k`` (or given seeds), in parallel through the Dask machinery of the sweep
+(:func:`sloshrom.rom.parallel.run_tasks`). Its prediction is the mean of the members' outputs;
+the spread of the members (:meth:`Ensemble.member_predictions`, :func:`spread`) shows how much of
+a result is the network and how much the draw.
+
+The ensemble is itself a sloshing model (:class:`sloshrom.models.JaxModel`): its state is the
+tuple of the members' states, its :meth:`~Ensemble.step` the mean of the members' steps, pure
+JAX; it is a JAX pytree whose children are the members, so the coupled beam simulation runs it
+in one ``lax.scan`` like a single network. Note that the coupled response of the ensemble (the
+beam driven by the mean force) is not the mean of the members' coupled responses.
+
+An ensemble is saved as one model file (:meth:`Ensemble.save`; docs/formats.md, "Model files",
+ensemble variant) and loaded by :func:`sloshrom.rom.load_model`.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
+from typing import Any, ClassVar, Literal
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from sloshrom import __version__
+from sloshrom.fileio import atomic_write
+from sloshrom.rom.errors import EnvelopeWarning, NotFittedError, ROMError
+from sloshrom.rom.modelfile import (
+    ENSEMBLE_FORMAT_VERSION,
+    MAX_MEMBERS,
+    PARAM_NAMES,
+    ModelFileError,
+    checksum,
+    validate_for_save,
+)
+from sloshrom.rom.network import MinMaxScaler
+from sloshrom.rom.parallel import run_tasks
+
+__all__ = ["Ensemble", "spread"]
+
+
+def spread(values: Iterable[float]) -> dict[str, Any]:
+    """Mean and standard deviation of a quantity over ensemble members, NaN ignored.
+
+    Parameters
+    ----------
+    values : iterable of float
+        One value per member (any unit; NaN marks a member without a value, e.g. unstable).
+
+    Returns
+    -------
+    dict
+        ``mean`` and ``std`` (the unit of the values; ``std`` with ``ddof=1`` when more than one
+        value, 0.0 for one value, NaN for none), ``n`` (values that are not NaN) and ``values``
+        (every value as a float, NaN included, in the given order).
+    """
+    vals = [float(v) for v in values]
+    ok = np.array([v for v in vals if not math.isnan(v)], dtype=np.float64)
+    n = int(ok.size)
+    mean = float(np.mean(ok)) if n else math.nan
+    std = float(np.std(ok, ddof=1)) if n > 1 else (0.0 if n == 1 else math.nan)
+    return {"mean": mean, "std": std, "n": n, "values": vals}
+
+
+def _frozen(v: Any) -> Any:
+    return tuple(_frozen(x) for x in v) if isinstance(v, list | tuple) else v
+
+
+def _thawed(v: Any) -> Any:
+    return [_thawed(x) for x in v] if isinstance(v, tuple) else v
+
+
+def _signal(name: str, x: Any) -> np.ndarray:
+    """A finite input of shape (n,) or (batch, n), float64."""
+    a = np.asarray(x, dtype=np.float64)
+    if a.ndim not in (1, 2):
+        raise ROMError(f"{name} must have shape (n,) or (batch, n), got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ROMError(f"{name} contains NaN or inf (first at index {np.argmin(np.isfinite(a))})")
+    return a
+
+
+def _without_seed(params: dict[str, Any]) -> dict[str, Any]:
+    return {k: v for k, v in params.items() if k != "seed"}
+
+
+def _fit_member(
+    item: tuple[int, int],
+    u: np.ndarray,
+    y: np.ndarray,
+    val_u: np.ndarray,
+    val_y: np.ndarray,
+    cls: type,
+    params: dict[str, Any],
+    fs: float,
+) -> Any:
+    """Train member ``k`` with ``seed`` (``item = (k, seed)``): a task of :func:`run_tasks`."""
+    _, seed = item
+    model = cls(**params)
+    model.set_params(seed=seed)
+    validation = (val_u, val_y) if val_u.size else None
+    return model.fit(u, y, fs=fs, validation=validation)
+
+
+@jax.tree_util.register_pytree_node_class
+class Ensemble:
+    """K ROMs of one template that differ by their seed; predicts the mean of the members.
+
+    Parameters
+    ----------
+    template : NFIR or NOE
+        The estimator every member is cloned from (``type(template)(**template.get_params())``
+        with ``seed`` set), so every hyperparameter of the template, present or future, is the
+        members'. Not fitted itself.
+    n_members : int
+        Number of members K (1 to :data:`~sloshrom.rom.modelfile.MAX_MEMBERS`).
+    seeds : sequence of int, optional
+        The members' seeds, K distinct integers >= 0; default ``template.seed + k``,
+        k = 0..K-1.
+
+    Attributes
+    ----------
+    members_ : list of NFIR or NOE
+        The fitted members, in the order of the seeds.
+    seeds_ : list of int
+        The members' seeds.
+    fs_ : float
+        Sample rate, Hz (the members').
+    scaler_ : MinMaxScaler
+        Union of the members' scaler bounds (identical bounds when trained on the same data).
+    envelope_ : dict
+        Union of the members' training envelopes (input and output ranges in their units,
+        frequency band in Hz).
+    history_ : list of dict
+        Each member's training history.
+
+    Parameters are checked by :meth:`fit`, not by the constructor (scikit-learn convention).
+    """
+
+    #: the force at sample k is the force at t_k (energy integrals: trapezoid rule)
+    force_rule: ClassVar[Literal["trapezoid"]] = "trapezoid"
+    #: step is a pure JAX function and a fitted ensemble is a pytree (sloshrom.models.JaxModel)
+    jax_traceable: ClassVar[Literal[True]] = True
+
+    def __init__(self, template: Any, n_members: int = 5, seeds: Sequence[int] | None = None
+                 ) -> None:
+        self.template = template
+        self.n_members = n_members
+        self.seeds = seeds
+
+    # -- hyperparameters ----------------------------------------------------------------------
+    def get_params(self, deep: bool = True) -> dict[str, Any]:
+        """``template``, ``n_members``, ``seeds``; with ``deep`` also ``template__<name>``."""
+        out: dict[str, Any] = {"template": self.template, "n_members": self.n_members,
+                               "seeds": None if self.seeds is None else list(self.seeds)}
+        if deep and hasattr(self.template, "get_params"):
+            out.update({f"template__{k}": v for k, v in self.template.get_params().items()})
+        return out
+
+    def set_params(self, **params: Any) -> Ensemble:
+        """Set ``template``, ``n_members``, ``seeds`` or ``template__<name>``; returns self.
+
+        Raises
+        ------
+        ROMError
+            An unknown name.
+        """
+        for k, v in params.items():
+            if k.startswith("template__"):
+                self.template.set_params(**{k.removeprefix("template__"): v})
+            elif k in ("template", "n_members", "seeds"):
+                setattr(self, k, v)
+            else:
+                raise ROMError(f"Ensemble has no parameter {k!r} (valid: template, n_members, "
+                               "seeds, template__<name>)")
+        return self
+
+    def _member_seeds(self) -> list[int]:
+        """Validated template, K and seeds; the seeds of the members."""
+        t = self.template
+        if not all(hasattr(t, a) for a in ("get_params", "set_params", "fit", "step")) or \
+                "seed" not in t.get_params():
+            raise ROMError(f"template must be an unfitted NFIR or NOE estimator, got "
+                           f"{type(t).__name__}")
+        k = self.n_members
+        if isinstance(k, bool) or not isinstance(k, int | np.integer) or not \
+                1 <= k <= MAX_MEMBERS:
+            raise ROMError(f"n_members must be an integer in 1..{MAX_MEMBERS}, got {k!r}")
+        if self.seeds is None:
+            base = t.get_params()["seed"]
+            if isinstance(base, bool) or not isinstance(base, int) or base < 0:
+                raise ROMError(f"template seed must be an integer >= 0, got {base!r}")
+            return [base + i for i in range(int(k))]
+        seeds = list(self.seeds)
+        if any(isinstance(s, bool) or not isinstance(s, int | np.integer) or s < 0
+               for s in seeds):
+            raise ROMError(f"seeds must be integers >= 0, got {seeds!r}")
+        if len(seeds) != k:
+            raise ROMError(f"seeds lists {len(seeds)} seeds for n_members = {k}")
+        if len(set(seeds)) != len(seeds):
+            raise ROMError(f"seeds must be distinct (equal seeds train equal members), got "
+                           f"{seeds!r}")
+        return [int(s) for s in seeds]
+
+    def _clone(self, seed: int) -> Any:
+        t = self.template
+        return type(t)(**t.get_params()).set_params(seed=seed)
+
+    # -- training -----------------------------------------------------------------------------
+    def fit(
+        self,
+        u: Any,
+        y: Any,
+        fs: float,
+        validation: tuple[Any, Any] | None = None,
+        *,
+        scheduler: str | None = None,
+        n_workers: int = 2,
+        progress: Callable[[int, Any], Any] | None = None,
+    ) -> Ensemble:
+        """Train the K members on the same record, in parallel.
+
+        Parameters
+        ----------
+        u, y : array_like, shape (n,)
+            Input (e.g. tank vertical velocity, m/s) and output (e.g. dynamic force, N),
+            sampled at ``fs``, starting at rest.
+        fs : float
+            Sample rate, Hz.
+        validation : (u_val, y_val), optional
+            Validation record (early stopping of every member).
+        scheduler : str, optional
+            ``None``: a new Dask ``LocalCluster(n_workers)``; ``"threads"``, ``"sequential"``;
+            or the address of a running Dask scheduler (:func:`sloshrom.rom.parallel.run_tasks`).
+        n_workers : int
+            Processes (LocalCluster) or threads.
+        progress : callable, optional
+            ``progress(k, member)`` as member k finishes.
+
+        Returns
+        -------
+        self
+
+        Raises
+        ------
+        ROMError
+            A bad template, K or seeds; any error of the members' ``fit`` (bad record, ...).
+        UnstableModelError
+            An NOE member unstable at its initial parameters.
+        """
+        seeds = self._member_seeds()
+        first = self._clone(seeds[0])
+        if hasattr(first, "spec"):
+            _ = first.spec  # the template's hyperparameters, checked before any work
+        if not (np.isfinite(fs) and fs > 0):
+            raise ROMError(f"fs must be a finite positive sample rate in Hz, got {fs!r}")
+        u = np.asarray(u, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        if validation is None:
+            vu = vy = np.empty(0)
+        else:
+            vu = np.asarray(validation[0], dtype=np.float64)
+            vy = np.asarray(validation[1], dtype=np.float64)
+            if vu.size == 0:
+                raise ROMError("validation record is empty")
+        members = run_tasks(
+            _fit_member, list(enumerate(seeds)), shared=(u, y, vu, vy),
+            args=(type(self.template), self.template.get_params(), float(fs)),
+            scheduler=scheduler, n_workers=n_workers,
+            done=None if progress is None else progress,
+        )
+        self._set_members(members)
+        return self
+
+    @classmethod
+    def from_members(cls, members: Sequence[Any], template: Any = None) -> Ensemble:
+        """An ensemble of already fitted members (same class and hyperparameters but the seed).
+
+        Parameters
+        ----------
+        members : sequence of NFIR or NOE
+            Fitted, distinct seeds, same sample rate.
+        template : NFIR or NOE, optional
+            Default: an unfitted clone of the first member.
+
+        Raises
+        ------
+        ROMError
+            No member, too many, a member not fitted, of another class, other hyperparameters,
+            another sample rate, or a repeated seed.
+        """
+        members = list(members)
+        if not 1 <= len(members) <= MAX_MEMBERS:
+            raise ROMError(f"an ensemble has 1 to {MAX_MEMBERS} members, got {len(members)}")
+        if template is None:
+            m0 = members[0]
+            template = type(m0)(**m0.get_params())
+        obj = cls(template, n_members=len(members),
+                  seeds=[int(m.get_params()["seed"]) for m in members])
+        obj._member_seeds()
+        obj._set_members(members)
+        return obj
+
+    def _set_members(self, members: list[Any]) -> None:
+        t = self.template
+        ref = _without_seed(t.get_params())
+        for k, m in enumerate(members):
+            if type(m) is not type(t):
+                raise ROMError(f"member {k} is a {type(m).__name__}, the template a "
+                               f"{type(t).__name__}")
+            if not hasattr(m, "params_"):
+                raise ROMError(f"member {k} is not fitted")
+            if _without_seed(m.get_params()) != ref:
+                diff = sorted(n for n, v in _without_seed(m.get_params()).items()
+                              if ref.get(n) != v)
+                raise ROMError(f"member {k} differs from the template in {', '.join(diff)}")
+        fs = {float(m.fs_) for m in members}
+        if len(fs) != 1:
+            raise ROMError(f"members sampled at different rates: {sorted(fs)} Hz")
+        self.members_ = list(members)
+        self.seeds_ = [int(m.get_params()["seed"]) for m in members]
+        self.fs_ = fs.pop()
+        sc = [m.scaler_ for m in members]
+        self.scaler_ = MinMaxScaler(min(float(s.in_min) for s in sc),
+                                    max(float(s.in_max) for s in sc),
+                                    min(float(s.out_min) for s in sc),
+                                    max(float(s.out_max) for s in sc))
+        envs = [getattr(m, "envelope_", None) for m in members]
+        if all(e is not None for e in envs):
+            self.envelope_ = {
+                "input_min": min(e["input_min"] for e in envs),
+                "input_max": max(e["input_max"] for e in envs),
+                "output_min": min(e["output_min"] for e in envs),
+                "output_max": max(e["output_max"] for e in envs),
+                "frequency_band": [min(e["frequency_band"][0] for e in envs),
+                                   max(e["frequency_band"][1] for e in envs)],
+            }
+        self.history_ = [getattr(m, "history_", {}) for m in members]
+
+    # -- description --------------------------------------------------------------------------
+    def _check_fitted(self) -> None:
+        if not hasattr(self, "members_"):
+            raise NotFittedError("this Ensemble is not fitted: call fit() first")
+
+    @property
+    def member_class(self) -> str:
+        """Class name of the members (``"NFIR"`` or ``"NOE"``)."""
+        return type(self.template).__name__
+
+    @property
+    def units(self) -> tuple[str, str]:
+        """Units of the input and the output (the template's)."""
+        return tuple(self.template.units)  # type: ignore[return-value]
+
+    @property
+    def names(self) -> tuple[str, str]:
+        """Variable names of the input and the output (the template's)."""
+        return tuple(self.template.names)  # type: ignore[return-value]
+
+    @property
+    def max_delay(self) -> int:
+        """Longest input delay of the members, samples."""
+        return int(self.template.max_delay)
+
+    @property
+    def n_params(self) -> int:
+        """Parameters of all members together."""
+        return int(self.template.n_params) * len(self._seeds_or_fitted())
+
+    def _seeds_or_fitted(self) -> list[int]:
+        return self.seeds_ if hasattr(self, "seeds_") else self._member_seeds()
+
+    @property
+    def dt(self) -> float:
+        """Model time step = 1/fs_, s."""
+        self._check_fitted()
+        return 1.0 / self.fs_
+
+    # -- pytree (members are the children, the template's hyperparameters static) -------------
+    def tree_flatten(self) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
+        children = tuple(self.members_) if hasattr(self, "members_") else ()
+        seeds = getattr(self, "seeds_", self.seeds)
+        aux = (type(self.template), _frozen(list(self.template.get_params().items())),
+               self.n_members, None if seeds is None else tuple(int(s) for s in seeds),
+               getattr(self, "fs_", None))
+        return children, aux
+
+    @classmethod
+    def tree_unflatten(cls, aux: tuple[Any, ...], children: tuple[Any, ...]) -> Ensemble:
+        tcls, hyper, n, seeds, fs = aux
+        obj = cls(tcls(**{k: _thawed(v) for k, v in hyper}), n_members=n,
+                  seeds=None if seeds is None else list(seeds))
+        if children:
+            # rebuilt inside jit or a gradient: the network and scalers only (no envelope)
+            obj.members_ = list(children)
+            obj.seeds_ = list(seeds)
+            obj.fs_ = fs
+        return obj
+
+    # -- prediction ---------------------------------------------------------------------------
+    def _check_envelope(self, u: np.ndarray, stacklevel: int) -> None:
+        env = getattr(self, "envelope_", None)
+        if env is None:
+            return
+        lo, hi = env["input_min"], env["input_max"]
+        over = max(float(np.max(u)) - hi, lo - float(np.min(u)), 0.0)
+        if over > 0:
+            unit = self.units[0]
+            warnings.warn(
+                f"input outside the training envelope [{lo:.4g}, {hi:.4g}] {unit} by "
+                f"{over:.4g} {unit} ({100 * over / (hi - lo):.1f} % of the range): the ROM "
+                "extrapolates",
+                EnvelopeWarning,
+                stacklevel=stacklevel,
+            )
+
+    def _outputs(self, u: Any, stacklevel: int) -> np.ndarray:
+        self._check_fitted()
+        u = _signal("u", u)
+        self._check_envelope(u, stacklevel + 1)
+        with warnings.catch_warnings():  # warned once above, for the union of the envelopes
+            warnings.simplefilter("ignore", EnvelopeWarning)
+            return np.stack([np.asarray(m.predict(u)) for m in self.members_])
+
+    def member_predictions(self, u: Any) -> np.ndarray:
+        """Every member's free-run output from rest (for spread bands).
+
+        Parameters
+        ----------
+        u : array_like, shape (n,) or (batch, n)
+            Input sampled at ``fs_`` (physical units, e.g. m/s).
+
+        Returns
+        -------
+        ndarray, shape (K, n) or (K, batch, n)
+            Output of member k in row k (physical units, e.g. N), float64.
+
+        Raises
+        ------
+        NotFittedError
+            The ensemble is not fitted.
+        ROMError
+            ``u`` of another shape, or with NaN or inf.
+        UnstableModelError
+            An NOE member whose simulation left its stability bound.
+
+        Warns
+        -----
+        EnvelopeWarning
+            ``u`` leaves the union of the members' training input ranges (once per call).
+        """
+        return self._outputs(u, stacklevel=3)
+
+    def predict(self, u: Any) -> np.ndarray:
+        """Mean of the members' free-run outputs from rest; does not change the ensemble.
+
+        Parameters, errors and warnings as :meth:`member_predictions`.
+
+        Returns
+        -------
+        ndarray, same shape as ``u``
+            Output (physical units, e.g. N), float64.
+        """
+        return np.mean(self._outputs(u, stacklevel=3), axis=0)
+
+    def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
+        """Sloshing-model contract: dynamic force (N) from velocity (m/s); acceleration ignored."""
+        return self.predict(velocity)
+
+    def init_state(self) -> tuple[Any, ...]:
+        """The members' states at rest, a tuple (a pytree of arrays)."""
+        self._check_fitted()
+        return tuple(m.init_state() for m in self.members_)
+
+    def step(self, state: Any, velocity: Any, acceleration: Any = None) -> tuple[Any, Any]:
+        """One pure, jax-traceable step: ``(state, mean of the members' dynamic forces)``.
+
+        ``state`` is the tuple of the members' states (:meth:`init_state`); each member reads
+        its weights from its pytree leaves (see :meth:`sloshrom.rom.NFIR.step`).
+        """
+        new, forces = [], []
+        for m, s in zip(self.members_, state, strict=True):
+            s, f = m.step(s, velocity, acceleration)
+            new.append(s)
+            forces.append(f)
+        return tuple(new), jnp.mean(jnp.stack(forces), axis=0)
+
+    # -- persistence --------------------------------------------------------------------------
+    def save(self, path: str | Path) -> Path:
+        """Write the fitted ensemble to ONE ``.npz`` model file atomically (no pickle).
+
+        Ensemble variant of the model-file format (docs/formats.md, "Model files"): the
+        members' ``W``, ``b``, ``c``, ``c0`` stacked on a leading member axis and a JSON
+        ``metadata`` with the member class, the shared hyperparameters, ``n_members`` and per
+        member its seed, scaler, envelope and history. Checked against the schema
+        :func:`sloshrom.rom.load_model` applies before anything is written.
+
+        Returns
+        -------
+        Path
+            The file written (``.npz`` appended to another suffix).
+
+        Raises
+        ------
+        NotFittedError
+            The ensemble is not fitted.
+        ROMError
+            A value outside the bounds of the model-file format (the message names the field);
+            nothing is written.
+        """
+        self._check_fitted()
+        p = Path(path)
+        if p.suffix != ".npz":
+            p = p.with_suffix(p.suffix + ".npz") if p.suffix else p.with_suffix(".npz")
+        t = self.template
+        hyper = t.get_params()
+        meta = {
+            "format": "sloshrom-rom",
+            "format_version": ENSEMBLE_FORMAT_VERSION,
+            "class": "Ensemble",
+            "sloshrom_version": __version__,
+            "member_class": self.member_class,
+            "hyperparameters": hyper,
+            "n_members": len(self.members_),
+            "fs": self.fs_,
+            "units": {"input": hyper["units"][0], "output": hyper["units"][1]},
+            "names": {"input": hyper["names"][0], "output": hyper["names"][1]},
+            "members": [{"seed": s, "scaler": m.scaler_.to_dict(), "envelope": m.envelope_,
+                         "history": getattr(m, "history_", {})}
+                        for s, m in zip(self.seeds_, self.members_, strict=True)],
+        }
+        arrays = {k: np.stack([np.asarray(m.params_[k], dtype=np.float64)
+                               for m in self.members_]) for k in PARAM_NAMES}
+        meta["checksum"] = checksum(meta, arrays)
+        try:
+            text = validate_for_save(meta, arrays, str(p))
+        except ModelFileError as exc:
+            raise ROMError(f"cannot save the ensemble: {exc}") from None
+
+        def write(tmp: str) -> None:
+            with open(tmp, "wb") as fh:  # a file object: np.savez adds no ".npz" to the name
+                np.savez(fh, metadata=np.array(text), **arrays)
+
+        return atomic_write(p, write, suffix=".npz")

@@ -1,0 +1,111 @@
+"""Run independent training tasks in parallel: the Dask machinery of the sweep and the ensembles.
+
+One function, :func:`run_tasks`, calls ``fn(item, *shared, *args)`` for every item and returns
+the results in the order of the items. The large arrays every task reads (the records) go in
+``shared``: a Dask cluster receives them once (``scatter``, broadcast to every worker), not once
+per task. Schedulers:
+
+``None``
+    A new ``dask.distributed.LocalCluster`` of ``n_workers`` single-threaded processes, closed
+    afterwards.
+``"threads"``
+    A thread pool of ``n_workers`` threads in this process (no cluster; tests, small jobs).
+``"sequential"``
+    One task after the other in this process (debugging, ``workers = 1``).
+anything else
+    The address of a running Dask scheduler (``tcp://HOST:PORT``).
+
+This module imports no estimator: :mod:`sloshrom.rom.sweep` and :mod:`sloshrom.rom.ensemble`
+both use it without importing each other.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Sequence
+from typing import Any, TypeVar
+
+__all__ = ["run_tasks"]
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+
+def run_tasks(
+    fn: Callable[..., R],
+    items: Iterable[T],
+    shared: Sequence[Any] = (),
+    args: Sequence[Any] = (),
+    *,
+    scheduler: str | None = None,
+    n_workers: int = 2,
+    done: Callable[[int, R], Any] | None = None,
+) -> list[R]:
+    """Call ``fn(item, *shared, *args)`` for every item, in parallel.
+
+    Parameters
+    ----------
+    fn : callable
+        A module-level function (Dask ships it to worker processes by reference).
+    items : iterable
+        One task per item.
+    shared : sequence
+        Large arguments common to every task (scattered once to a Dask cluster).
+    args : sequence
+        Small arguments common to every task.
+    scheduler : str, optional
+        ``None`` (a new LocalCluster), ``"threads"``, ``"sequential"`` or a scheduler address
+        (module docstring).
+    n_workers : int
+        Processes of the LocalCluster, threads of ``"threads"``.
+    done : callable, optional
+        ``done(index, result)`` as each task finishes (in the order they finish).
+
+    Returns
+    -------
+    list
+        The results, in the order of ``items``.
+
+    Raises
+    ------
+    Exception
+        The first exception a task raised (the other tasks are cancelled or left to finish).
+    """
+    todo = list(items)
+    results: list[Any] = [None] * len(todo)
+
+    def finish(i: int, r: Any) -> None:
+        results[i] = r
+        if done is not None:
+            done(i, r)
+
+    if scheduler == "sequential":
+        for i, it in enumerate(todo):
+            finish(i, fn(it, *shared, *args))
+    elif scheduler == "threads":
+        from concurrent.futures import ThreadPoolExecutor, as_completed
+
+        with ThreadPoolExecutor(max_workers=n_workers) as ex:
+            index = {ex.submit(fn, it, *shared, *args): i for i, it in enumerate(todo)}
+            for f in as_completed(index):
+                finish(index[f], f.result())
+    else:
+        from dask.distributed import Client, LocalCluster, as_completed
+
+        cluster = None
+        if scheduler is None:
+            cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                                   dashboard_address=None)
+            client = Client(cluster)
+        else:
+            client = Client(scheduler, timeout=10)  # an unreachable address fails, not hangs
+        try:
+            data = client.scatter(list(shared), broadcast=True) if shared else []
+            futs = [client.submit(fn, it, *data, *args, pure=False) for it in todo]
+            index = {f.key: i for i, f in enumerate(futs)}
+            for f in as_completed(futs):
+                finish(index[f.key], f.result())
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    return results
