@@ -8,6 +8,7 @@ Every option, file and unit is checked before reading data or training: a bad in
 
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 from typing import Annotated, Any
@@ -152,8 +153,20 @@ def train(
     ] = None,
     workers: Annotated[int, typer.Option(help="Ensemble: members trained at once, 1 to the "
                                               "number of CPUs.")] = 2,
+    amplitude_weighting: Annotated[
+        float | None, typer.Option(help="NFIR/Adam: loss weights 1/(a^2 + eps^2), eps in input "
+                                        "units (default 0.05; 0 = plain MSE, as the paper).")
+    ] = None,
+    passivity: Annotated[
+        float | None, typer.Option(help="NFIR/Adam: weight of the penalty on energy created at "
+                                        "harmonic probes (default 1; 0 = off, as the paper).")
+    ] = None,
 ) -> None:
     """Identify an NFIR or NOE ROM (or an ensemble of them) from an input/output record.
+
+    An NFIR trained by Adam (the default) uses the passive recipe: amplitude-weighted loss and
+    a passivity penalty (docs/rom.md, "A passive ROM"); --amplitude-weighting 0 --passivity 0
+    trains the paper's plain MSE.
 
     The two records must have the same sample rate and the same units of the input and of the
     output; the model file may not be one of the records. With --ensemble K, K networks with
@@ -201,6 +214,17 @@ def train(
         kw["neurons"] = neurons
     if trainer is not None:
         kw["trainer"] = trainer
+    adam = arch == "nfir" and trainer in (None, "adam")
+    for opt, value, default in (("amplitude_weighting", amplitude_weighting, 0.05),
+                                ("passivity", passivity, 1.0)):
+        flag = "--" + opt.replace("_", "-")
+        if value is not None and not (math.isfinite(value) and value >= 0):
+            fail(f"{flag} must be a finite number >= 0, got {value!r}")
+        if value and not adam:
+            fail(f"{flag} needs an NFIR trained by adam (got --arch {arch}"
+                 f"{'' if trainer is None else f' --trainer {trainer}'})")
+        if adam:
+            kw[opt] = default if value is None else value
     model = cls(**kw)  # every hyperparameter is checked above
     _check_length(rec, data, arch, model.max_delay, int(model.neurons), "training")
     if len(val) <= model.max_delay:

@@ -25,9 +25,10 @@ from sloshrom.pipeline.context import Context
 from sloshrom.plotting import savefig
 from sloshrom.plotting.beam import free_figures, random_figures, random_window
 from sloshrom.plotting.signals import base_excitation_figure
+from sloshrom.rom.ensemble import Ensemble, spread
 from sloshrom.rom.estimators import load_model
 
-__all__ = ["BEAM_KEYS", "beam_structure", "stage_beam"]
+__all__ = ["BEAM_KEYS", "beam_structure", "member_spread", "stage_beam"]
 
 #: Keys of the ``[beam]`` table that define the Euler-Bernoulli beam.
 BEAM_KEYS = ("length", "width", "thickness", "youngs_modulus", "density")
@@ -98,6 +99,10 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     table2 = mode1_damping_table(rand_res, cfg["rms_g"], f1, max_tank_acceleration=True)
     outputs["table2"] = table2
 
+    if isinstance(models.get("rom"), Ensemble):
+        outputs["rom_members"] = member_spread(models["rom"], modal, cfg, fs, tank, f1,
+                                               ctx)
+
     figs = {**free_figures(free_res, modal, decays),
             **random_figures(rand_res, cfg["rms_g"], random_window(cfg["random_duration"]))}
     figs["fig17_base_excitation"] = base_excitation_figure(rand_res["frozen"], cfg["rms_g"],
@@ -114,3 +119,34 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
             savefig(fig, ctx.path("figures", f"{name}.png"), batch)
         files = [ctx.rel(p) for p in batch.paths]
     return outputs, files
+
+
+def member_spread(ens: Ensemble, modal: ModalModel, cfg: dict[str, Any], fs: float,
+                  tank: Tank, f1: float, ctx: Context | None = None) -> dict[str, Any]:
+    """The beam tests with each member of an ensemble ROM alone: mean ± std over members.
+
+    Returns
+    -------
+    dict
+        ``table2``: per RMS level (g, as text) the spread of the first-mode damping ratio
+        (LSCF on H1, -); ``instantaneous_damping``: per amplitude band the spread of the
+        banded median first-mode damping of the free response (-).
+    """
+    members = {f"member{k}": m for k, m in enumerate(ens.members_)}
+    if ctx is not None:
+        ctx.progress("beam", 0, 1, f"beam tests of the {len(members)} members")
+    free = simulate_cases(
+        members, lambda m, out_fs: free_response(m, modal, cfg["tip_displacement"],
+                                                 cfg["free_duration"], tank, out_fs), fs)
+    rand = simulate_cases(
+        members, lambda m, out_fs: random_response(m, modal, cfg["rms_g"],
+                                                   cfg["random_duration"], cfg["seed"],
+                                                   cfg["f0"], cfg["sigma"], signal_fs=fs,
+                                                   tank=tank, output_fs=out_fs), fs)
+    rows = mode1_damping_table(rand, cfg["rms_g"], f1)
+    table2 = {f"{lv:g}": spread(r["lscf_h1"] for r in rows if r["rms_g"] == lv)
+              for lv in cfg["rms_g"]}
+    inst = damping_summary(free, {c: mode1_decay(r, modal, f1) for c, r in free.items()})
+    bands = [k for k in next(iter(inst.values())) if k != "initial_tank_acceleration_g"]
+    return {"table2": table2,
+            "instantaneous_damping": {b: spread(v[b] for v in inst.values()) for b in bands}}

@@ -29,6 +29,7 @@ from sloshrom.models import SloshingModel
 from sloshrom.pipeline.context import Context
 from sloshrom.plotting import savefig
 from sloshrom.plotting.maps import Loop, hysteresis_figure, phi_d_map_figure
+from sloshrom.rom.ensemble import Ensemble, spread
 from sloshrom.rom.estimators import load_model
 from sloshrom.signals import harmonic
 
@@ -40,6 +41,11 @@ __all__ = [
 #: The harmonic test of paper Fig. 3: acceleration amplitude (g) and frequency (Hz).
 HYSTERESIS_GAMMA = 3.0
 HYSTERESIS_FREQUENCY = 17.0
+
+
+#: Fidelity figures given as mean ± std over the members of an ensemble ROM.
+MEMBER_FIGURES = ("full_l2", "dissipative_l2", "n_nonpassive", "nonpassive_fraction",
+                  "min_phi_d")
 
 
 def map_grid(cfg: dict[str, Any], tank: Tank) -> tuple[np.ndarray, np.ndarray]:
@@ -174,6 +180,14 @@ def stage_maps(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
         fid = map_fidelity(rig_map, rom_map)
         outputs["rom_fidelity"] = fid
         outputs["rom_relative_l2_error"] = fid["dissipative_l2"]
+        if isinstance(rom, Ensemble):
+            # one map per member: the spread a single network's map carries
+            fids = []
+            for k, member in enumerate(rom.members_):
+                ctx.progress("maps", k, len(rom.members_), f"Phi_d map of member {k}")
+                fids.append(map_fidelity(rig_map, compute_map(member, ctx.cfg, tank)))
+            outputs["rom_fidelity_members"] = {
+                key: spread(f[key] for f in fids) for key in MEMBER_FIGURES}
         # the ROM figure marks exactly the points counted as non-passive
         files += [ctx.rel(p) for p in write_map(
             rom_map, ctx.path("maps", "phi_d_rom.nc"), "ROM (paper Fig. 11)",

@@ -12,6 +12,7 @@ from sloshrom.io import read_record
 from sloshrom.pipeline.context import Context
 from sloshrom.plotting import savefig
 from sloshrom.plotting.rom import plot_sweep, validation_figure
+from sloshrom.rom.ensemble import Ensemble, spread
 from sloshrom.rom.estimators import NFIR, NOE
 from sloshrom.rom.sweep import run_sweep
 
@@ -131,25 +132,39 @@ def stage_rom(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     def cb(epoch: int, *args: Any, **kwargs: Any) -> None:
         ctx.progress("rom", epoch, cfg["max_epochs"], f"training {name}, epoch {epoch}")
 
+    k_members = int(cfg["ensemble"])
     t0 = time.perf_counter()
-    model.fit(u, y, fs=train.fs, validation=(uv, yv), callback=cb)
+    if k_members > 1:
+        workers = int(cfg["ensemble_workers"])
+        ctx.progress("rom", 0, k_members, f"training {k_members} x {name}")
+        model = Ensemble(model, n_members=k_members).fit(
+            u, y, fs=train.fs, validation=(uv, yv),
+            scheduler="sequential" if workers == 1 else None, n_workers=workers,
+            progress=lambda k, m: ctx.progress("rom", k + 1, k_members, f"member {k} done"))
+        name = f"{name} x {k_members}"
+    else:
+        model.fit(u, y, fs=train.fs, validation=(uv, yv), callback=cb)
     train_seconds = time.perf_counter() - t0
-    ctx.progress("rom", cfg["max_epochs"], cfg["max_epochs"], "validation")
+    ctx.progress("rom", 1, 1, "validation")
     path = ctx.path("models", f"{cfg['arch']}.npz")
     model.save(path)
     files.append(ctx.rel(path))
     yv_hat = np.asarray(model.predict(uv))
     y_hat = np.asarray(model.predict(u))
     ev, et = error_figures(yv, yv_hat), error_figures(y, y_hat)
-    hist = getattr(model, "history_", {}) or {}
+    hists = model.history_ if isinstance(model, Ensemble) else [model.history_]
     outputs.update(
         model=ctx.rel(path), name=name, train_seconds=train_seconds,
-        recipe_text=recipe_text(cfg, name),
+        recipe_text=recipe_text(cfg, name), n_members=k_members,
         val_mse=ev["mse"], val_nrmse=ev["nrmse"], val_fit=ev["fit"],
         train_mse=et["mse"], train_nrmse=et["nrmse"], train_fit=et["fit"],
-        epochs=len(hist.get("train_mse", [])) if isinstance(hist, dict) else None,
-        stop_reason=hist.get("stop_reason") if isinstance(hist, dict) else None,
+        epochs=[len(h.get("train_mse", [])) for h in hists],
+        stop_reason=[h.get("stop_reason") for h in hists],
     )
+    if isinstance(model, Ensemble):
+        outputs["seeds"] = [int(s) for s in model.seeds_]
+        outputs["val_mse_members"] = spread(
+            error_figures(yv, yh)["mse"] for yh in np.asarray(model.member_predictions(uv)))
     fig = validation_figure(val.time, yv, yv_hat, name, val.fs, ev["fit"], ev["nrmse"])
     files.append(ctx.rel(savefig(fig, ctx.path("figures", "fig10_validation.png"))))
     return outputs, files

@@ -278,6 +278,8 @@ class _RomTable(_Table):
     sweep_workers: _number(1, 64, integer=True, what="a number of parallel trainings")
     amplitude_weighting: _number(0.0, 100.0, what="an amplitude floor in m/s (0 = off)")
     passivity: _number(0.0, 1e6, what="a penalty weight (0 = off)")
+    ensemble: _number(1, 64, integer=True, what="a number of ensemble members")
+    ensemble_workers: _number(1, 64, integer=True, what="a number of parallel trainings")
 
     @model_validator(mode="after")
     def _loss_options(self) -> _RomTable:

@@ -1,0 +1,132 @@
+"""Fidelity of the identified ROM against the virtual rig: every figure of the "trustworthy ROM"
+targets, for one or more `reproduce` configurations, and the paper's plain-MSE recipe as the
+baseline in the same run.
+
+Runs (or reuses, through the stage cache) ``sloshrom reproduce`` in ``OUT/<name>`` for each
+configuration and prints, from the files it writes:
+
+- Phi_d map of the ROM against the rig's: full-map relative L2 error (target <= 10 %, aim 5 %),
+  dissipative-region error (target <= 5 %), passivity (points below -0.02 max, target <= 1 %),
+  and for an ensemble the same figures as mean ± std over its members;
+- free response: first-mode instantaneous damping per amplitude band for frozen, rig and ROM;
+  ROM not more than 5 % below frozen in any band, within 15 % of the rig in bands above 1 g;
+- random response (Table 2, LSCF on H1): ROM within 10 % of the rig at each RMS level, with
+  the members' spread;
+- envelope: each ROM run's peak tank acceleration over the training record's peak (target
+  <= 1.05) and the fraction of samples outside the training envelope;
+- the wall time of each run (default `reproduce` target <= 10 min).
+
+Usage::
+
+    python benchmarks/fidelity.py --out bench_fidelity                 # default + rig B + paper
+    python benchmarks/fidelity.py --out bench_fidelity --only default  # one configuration
+
+A configuration is a TOML override file (as ``sloshrom reproduce --config``); "default" has
+none. Exit status 0 always: the figures are the result, MISS marks a target not met.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from sloshrom.pipeline import run
+from sloshrom.pipeline.settings import load
+
+HERE = Path(__file__).resolve().parent
+EXAMPLES = HERE.parent / "docs" / "examples"
+CONFIGS = {
+    "default": None,
+    "rig_b": EXAMPLES / "rig_b.toml",
+    "paper": EXAMPLES / "paper_rom.toml",
+}
+
+
+def _mark(ok: bool) -> str:
+    return "ok  " if ok else "MISS"
+
+
+def _pct(v: Any) -> str:
+    return "  n/a " if v is None or not math.isfinite(v) else f"{100 * v:6.2f}"
+
+
+def report(name: str, s: dict[str, Any], seconds: float | None) -> None:
+    st = s["stages"]
+    print(f"\n=== {name} ===")
+    if seconds is not None:
+        print(f"wall time {seconds:.0f} s ({'reused stages' if seconds < 30 else 'computed'});"
+              f" stages: " + ", ".join(f"{k} {v:.0f} s" for k, v in s["timings_s"].items()))
+    r = st["rom"]
+    print(f"ROM {r['name']}: validation MSE {r['val_mse']:.4f} N^2, train {r['train_seconds']:.0f}"
+          f" s")
+    f = st["maps"]["rom_fidelity"]
+    print(f"map  full-map L2 {_pct(f['full_l2'])} %  [{_mark(f['full_l2'] <= 0.10)} <= 10 %]")
+    print(f"map  dissipative L2 {_pct(f['dissipative_l2'])} %  "
+          f"[{_mark(f['dissipative_l2'] <= 0.05)} <= 5 %]")
+    print(f"map  non-passive {f['n_nonpassive']}/{f['n_points']} = "
+          f"{_pct(f['nonpassive_fraction'])} %  [{_mark(f['nonpassive_fraction'] <= 0.01)} "
+          f"<= 1 %], min Phi_d {f['min_phi_d']:.4f} (threshold {f['passivity_threshold']:.4f})")
+    ms = st["maps"].get("rom_fidelity_members")
+    if ms:
+        def pm(key: str, scale: float = 100.0) -> str:
+            return f"{ms[key]['mean'] * scale:.2f} ± {ms[key]['std'] * scale:.2f}"
+        print(f"map  members: full {pm('full_l2')} %, dissipative {pm('dissipative_l2')} %, "
+              f"non-passive {pm('nonpassive_fraction')} %, min {pm('min_phi_d', 1.0)}")
+    b = st["beam"]
+    inst = b["instantaneous_damping"]
+    bands = [k for k in inst["frozen"] if k.endswith(" g")]
+    print("free response, first-mode instantaneous damping (%):")
+    for band in bands:
+        fr, rg, ro = (inst[c][band] for c in ("frozen", "rig", "rom"))
+        lo = float(band.split("-")[0])
+        checks = [f"vs frozen {_mark(ro >= 0.95 * fr)}"]
+        if lo >= 1.0:
+            checks.append(f"vs rig {100 * (ro / rg - 1):+5.1f} % {_mark(abs(ro / rg - 1) <= 0.15)}")
+        print(f"  {band:>7}: frozen {_pct(fr)} rig {_pct(rg)} ROM {_pct(ro)}   "
+              + ", ".join(checks))
+    rows = {(row["case"], row["rms_g"]): row for row in b["table2"]}
+    members = (b.get("rom_members") or {}).get("table2", {})
+    print("random response, Table 2 (LSCF on H1, %):")
+    for level in s["config"]["beam"]["rms_g"]:
+        rg, ro = rows[("rig", level)]["lscf_h1"], rows[("rom", level)]["lscf_h1"]
+        fr = rows[("frozen", level)]["lscf_h1"]
+        dev = ro / rg - 1 if math.isfinite(ro) and math.isfinite(rg) else math.nan
+        sp = members.get(f"{level:g}")
+        spt = (f", members {100 * sp['mean']:.2f} ± {100 * sp['std']:.2f}" if sp else "")
+        print(f"  {level:g} g: frozen {_pct(fr)} rig {_pct(rg)} ROM {_pct(ro)} "
+              f"({100 * dev:+5.1f} %) [{_mark(abs(dev) <= 0.10)} within 10 %]{spt}")
+    env = b.get("envelope")
+    if env:
+        print("envelope (ROM runs):")
+        for run_name, e in env.items():
+            ratio = e.get("peak_ratio")
+            ok = ratio is not None and ratio <= 1.05
+            print(f"  {run_name:>12}: peak {e.get('peak_tank_acceleration_g', math.nan):5.2f} g"
+                  f" / training {e.get('training_peak_g', math.nan):5.2f} g = "
+                  f"{ratio if ratio is not None else math.nan:.3f} [{_mark(ok)} <= 1.05], "
+                  f"outside {_pct(e.get('fraction_outside'))} % of samples")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--out", type=Path, default=Path("bench_fidelity"))
+    ap.add_argument("--only", choices=sorted(CONFIGS), action="append")
+    ap.add_argument("--quick", action="store_true", help="reproduce --quick sizes")
+    args = ap.parse_args(argv)
+    names = args.only or list(CONFIGS)
+    for name in names:
+        cfg = load(CONFIGS[name], quick=args.quick)
+        t0 = time.perf_counter()
+        summary = run(args.out / name, cfg)
+        report(name, summary, time.perf_counter() - t0)
+        json.dumps(summary)  # the summary is plain JSON: what other tools read
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
