@@ -8,7 +8,9 @@ from typing import Any
 
 from sloshrom.beam.coupled import free_response, random_response
 from sloshrom.beam.results import (
+    Simulate,
     damping_summary,
+    envelope_table,
     frozen_modes_table,
     mode1_damping_table,
     mode1_decay,
@@ -27,7 +29,7 @@ from sloshrom.plotting.beam import free_figures, random_figures, random_window
 from sloshrom.plotting.signals import base_excitation_figure
 from sloshrom.rom.estimators import load_model
 
-__all__ = ["BEAM_KEYS", "beam_structure", "stage_beam"]
+__all__ = ["BEAM_KEYS", "beam_structure", "beam_tests", "stage_beam"]
 
 #: Keys of the ``[beam]`` table that define the Euler-Bernoulli beam.
 BEAM_KEYS = ("length", "width", "thickness", "youngs_modulus", "density")
@@ -45,6 +47,26 @@ def beam_structure(cfg: dict[str, Any], tank: Tank) -> tuple[CantileverBeam, Mod
     return beam, modal
 
 
+def beam_tests(cfg: dict[str, Any], modal: ModalModel, tank: Tank,
+               fs: float) -> dict[str, Simulate]:
+    """The beam tests of the ``[beam]`` configuration, as ``simulate(model, output_fs)``.
+
+    ``"free"``: release from the static tip deflection ``tip_displacement`` for
+    ``free_duration``; ``"random"``: Gaussian-PSD base acceleration at every ``rms_g`` (``seed``,
+    ``f0``, ``sigma``, ``random_duration``), made at ``fs`` (Hz). The ``beam`` stage runs them
+    with every model, the ``data`` stage with frozen liquid to design the training
+    (:func:`sloshrom.pipeline.data.training_design`): one definition, the same signals.
+    """
+    return {
+        "free": lambda m, out_fs: free_response(m, modal, cfg["tip_displacement"],
+                                                cfg["free_duration"], tank, out_fs),
+        "random": lambda m, out_fs: random_response(m, modal, cfg["rms_g"],
+                                                    cfg["random_duration"], cfg["seed"],
+                                                    cfg["f0"], cfg["sigma"], signal_fs=fs,
+                                                    tank=tank, output_fs=out_fs),
+    }
+
+
 def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], list[str]]:
     """Free and random responses of the beam with frozen liquid, the rig and the ROM.
 
@@ -52,10 +74,13 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     -------
     outputs : dict
         ``f1_frozen_hz`` (Hz), ``table1`` (rows of Table 1), ``instantaneous_damping`` (per case:
-        banded median first-mode damping, ``sloshrom.beam.results.damping_summary``) and
-        ``table2`` (rows of Table 2).
+        banded median first-mode damping, ``sloshrom.beam.results.damping_summary``),
+        ``table2`` (rows of Table 2) and ``envelope`` (per run and case: peak tank acceleration
+        against the model's training envelope, ``sloshrom.beam.results.envelope_table``;
+        ``None`` = n/a for a model without an envelope).
     files : list of str
-        ``beam/{free,random}_<case>.nc``, the tables and the figures, relative to ``ctx.out``;
+        ``beam/{free,random}_<case>.nc`` (with the envelope coverage,
+        ``sloshrom.beam.results.to_dataset``), the tables and the figures, relative to ``ctx.out``;
         they appear together once everything has succeeded.
     """
     cfg = ctx.cfg["beam"]
@@ -82,21 +107,16 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
             done[0] += 1
         return on_case
 
-    free_res = simulate_cases(
-        models, lambda m, out_fs: free_response(m, modal, cfg["tip_displacement"],
-                                                cfg["free_duration"], tank, out_fs),
-        fs, report("free"))
-    rand_res = simulate_cases(
-        models, lambda m, out_fs: random_response(m, modal, cfg["rms_g"], cfg["random_duration"],
-                                                  cfg["seed"], cfg["f0"], cfg["sigma"],
-                                                  signal_fs=fs, tank=tank, output_fs=out_fs),
-        fs, report("random"))
+    tests = beam_tests(cfg, modal, tank, fs)
+    free_res = simulate_cases(models, tests["free"], fs, report("free"))
+    rand_res = simulate_cases(models, tests["random"], fs, report("random"))
     ctx.progress("beam", steps, steps, "analysis and figures")
 
     decays = {case: mode1_decay(r, modal, f1) for case, r in free_res.items()}
     outputs["instantaneous_damping"] = damping_summary(free_res, decays)
     table2 = mode1_damping_table(rand_res, cfg["rms_g"], f1, max_tank_acceleration=True)
     outputs["table2"] = table2
+    outputs["envelope"] = envelope_table({"free": free_res, "random": rand_res})
 
     figs = {**free_figures(free_res, modal, decays),
             **random_figures(rand_res, cfg["rms_g"], random_window(cfg["random_duration"]))}
