@@ -42,7 +42,11 @@ def test_every_default_key_has_a_check():
     tables = settings.ReproduceConfig.model_fields
     checked = {f"{t}.{k}" for t, f in tables.items() for k in f.annotation.model_fields}
     keys = {f"{t}.{k}" for t, sec in cfg.items() for k in sec}
-    assert keys == checked
+    optional = {f"{t}.{k}" for t, ks in settings.OPTIONAL_KEYS.items() for k in ks}
+    assert keys | optional == checked and not keys & optional
+    # the optional keys are exactly the schema's keys that are not required
+    assert optional == {f"{t}.{k}" for t, f in tables.items()
+                        for k, fi in f.annotation.model_fields.items() if not fi.is_required()}
     assert settings.validate(settings.defaults()) is not None
     assert settings.validate(settings.merge(settings.defaults(), settings.QUICK))
 
@@ -76,6 +80,10 @@ def test_every_default_key_has_a_check():
         (lambda c: c["rig"].update(fs=300.0), r"'rig\.fs' = 300 Hz must divide the rig's 10000 Hz"),
         (lambda c: c["beam"].update(youngs_modulus=70.0),
          r"'beam\.youngs_modulus' must be a Young's modulus in Pa in \[1e\+06, 1e\+13\]"),
+        (lambda c: c["data"].update(design="lab"),
+         r"'data\.design' must be \"structure\" or \"shaker\""),
+        (lambda c: c["data"].update(margin=0.5), r"'data\.margin' must be a factor"),
+        (lambda c: c["rig"].update(restitution=1.0), r"'rig\.restitution' must be a coeff"),
         (lambda c: c["beam"].update(n_modes=5, damping=[0.01] * 5),
          r"'beam\.n_modes' = 5: mode 5 of the beam \(676 Hz\) lies above the Nyquist"),
     ],

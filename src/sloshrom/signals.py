@@ -209,6 +209,143 @@ SHAKER_LIMITS = ShakerLimits()
 
 
 @dataclass(frozen=True)
+class VFADesign:
+    """The amplitude limits of a VFA path (the keywords of :func:`vfa`), and why.
+
+    Attributes
+    ----------
+    gamma_max : float
+        Largest acceleration amplitude, g.
+    a_bar_max : float
+        Largest displacement amplitude / tank height, -.
+    limits : ShakerLimits
+        Displacement (m), velocity (m/s) and acceleration (m/s^2) limits of the path.
+    rule : str
+        ``"shaker"`` (the paper's shaker domain) or ``"structure"`` (:func:`vfa_design`).
+    margin : float
+        Factor over the structure's tank motion, - (1 for ``"shaker"``).
+    """
+
+    gamma_max: float
+    a_bar_max: float
+    limits: ShakerLimits
+    rule: str = "shaker"
+    margin: float = 1.0
+
+    def kwargs(self) -> dict[str, object]:
+        """``gamma_max``, ``a_bar_max`` and ``limits``, to pass to :func:`vfa`."""
+        return {"gamma_max": self.gamma_max, "a_bar_max": self.a_bar_max, "limits": self.limits}
+
+    def exceeds(self, shaker: ShakerLimits | None = None) -> list[str]:
+        """Which limits of ``shaker`` (default: the paper's, :data:`SHAKER_LIMITS`) the design
+        goes beyond: a subset of ``["acceleration", "velocity", "displacement"]``.
+
+        A laboratory would need a bigger shaker for those; the virtual rig has no limits.
+        """
+        shaker = SHAKER_LIMITS if shaker is None else shaker
+        tol = 1.0 + 1e-9
+        out = []
+        if self.limits.max_acceleration > shaker.max_acceleration * tol:
+            out.append("acceleration")
+        if self.limits.max_velocity > shaker.max_velocity * tol:
+            out.append("velocity")
+        if self.limits.max_displacement > shaker.max_displacement * tol:
+            out.append("displacement")
+        return out
+
+
+#: The paper's VFA domain: 6 g, a_bar <= 0.45 and the (estimated) shaker limits.
+SHAKER_DESIGN = VFADesign(SHAKER_ENVELOPE.gamma_max, SHAKER_ENVELOPE.a_bar_max, SHAKER_LIMITS)
+
+#: Width (as a frequency ratio) of the band below the structure's dominant frequency in which
+#: a structure-designed VFA may reach the full velocity, -.
+DESIGN_SPREAD = 1.25
+
+
+def vfa_design(
+    peak_acceleration: float,
+    peak_velocity: float,
+    displacement: float,
+    frequency: float,
+    tank: Tank | None = None,
+    margin: float = 1.15,
+    f_min: float = SHAKER_ENVELOPE.f_min,
+    f_max: float = SHAKER_ENVELOPE.f_max,
+    spread: float = DESIGN_SPREAD,
+) -> VFADesign:
+    """VFA limits whose acceleration and velocity cover a structure's tank motion.
+
+    The rule, never below the paper's shaker domain (:data:`SHAKER_DESIGN`: 6 g, 1 m/s,
+    12.5 mm, a_bar 0.45):
+
+    * velocity ``V = margin * peak_velocity``;
+    * displacement ``D = max(margin * displacement, V / (2 pi f / spread))`` and
+      acceleration ``A = max(margin * peak_acceleration, V 2 pi f)``, so that the velocity
+      limit alone binds between ``f / spread`` and ``f`` (f the structure's dominant
+      frequency): the path reaches the full velocity at and just below f, where it needs the
+      least acceleration;
+    * ``gamma_max = A / g``, ``a_bar_max = D / h``, ``ShakerLimits(D, V, A)``;
+    * then every limit is scaled by the same factor (>= 1) so that the smooth minimum of
+      :func:`vfa_gamma_limit` (up to ~5 % below the smallest limit) still gives an acceleration
+      amplitude ``>= margin * peak_acceleration`` somewhere in the band and a velocity amplitude
+      ``>= margin * peak_velocity`` at f (clipped into the band).
+
+    Parameters
+    ----------
+    peak_acceleration : float
+        The structure's largest tank acceleration, m/s^2.
+    peak_velocity : float
+        Its largest tank velocity, m/s.
+    displacement : float
+        Its tank displacement amplitude, m.
+    frequency : float
+        Its dominant frequency, Hz.
+    tank : Tank, optional
+        Sets h (default: the paper tank).
+    margin : float
+        Factor (>= 1) over the structure's motion, -.
+    f_min, f_max : float
+        Band of the VFA path, Hz.
+    spread : float
+        Frequency ratio (> 1) of the velocity plateau below ``frequency``, -.
+
+    Returns
+    -------
+    VFADesign
+    """
+    tank = Tank() if tank is None else tank
+    for name, v in (("peak_acceleration", peak_acceleration), ("peak_velocity", peak_velocity),
+                    ("displacement", displacement), ("frequency", frequency)):
+        if not (np.isfinite(v) and v >= 0):
+            raise ValueError(f"{name} must be finite and >= 0, got {v!r}")
+    if not (np.isfinite(margin) and margin >= 1.0):
+        raise ValueError(f"margin must be >= 1, got {margin!r}")
+    if not (np.isfinite(spread) and spread > 1.0):
+        raise ValueError(f"spread must be > 1, got {spread!r}")
+    if not 0 < f_min < f_max:
+        raise ValueError(f"need 0 < f_min < f_max, got {f_min!r}, {f_max!r}")
+    paper = SHAKER_DESIGN
+    f_dom = float(np.clip(frequency, f_min, f_max)) if frequency > 0 else f_min
+    om = 2.0 * np.pi * f_dom
+    need_acc = margin * peak_acceleration
+    need_vel = margin * peak_velocity
+    vel = max(paper.limits.max_velocity, need_vel)
+    disp = max(paper.limits.max_displacement, margin * displacement, need_vel * spread / om)
+    acc = max(paper.limits.max_acceleration, need_acc, need_vel * om)
+    a_bar = max(paper.a_bar_max, disp / tank.height)
+    # the smooth minimum sits below the smallest limit: scale all (it is homogeneous) to reach
+    f = np.geomspace(f_min, f_max, 2001)
+    reach_acc = float(np.max(vfa_gamma_limit(f, tank, a_bar, acc / G,
+                                             ShakerLimits(disp, vel, acc)))) * G
+    reach_vel = float(vfa_gamma_limit(np.array([f_dom]), tank, a_bar, acc / G,
+                                      ShakerLimits(disp, vel, acc))[0]) * G / om
+    k = max(1.0, need_acc / reach_acc, need_vel / reach_vel)
+    return VFADesign(gamma_max=k * acc / G, a_bar_max=k * a_bar,
+                     limits=ShakerLimits(k * disp, k * vel, k * acc), rule="structure",
+                     margin=float(margin))
+
+
+@dataclass(frozen=True)
 class VFA:
     """A VFA acceleration law and its path in the (omega_bar, a_bar) plane.
 

@@ -53,6 +53,7 @@ from scipy.linalg import eigh, expm
 from scipy.signal import resample_poly
 
 from sloshrom._x64 import float64
+from sloshrom.beam.envelope import envelope_coverage
 from sloshrom.beam.structure import ModalModel, frozen_mass_matrix
 from sloshrom.config import G, Tank
 from sloshrom.models import CompiledKernel, Enveloped, JaxModel, SloshingModel
@@ -464,11 +465,18 @@ class CoupledSimulator:
             ``tank_velocity`` (absolute, the sloshing model's input, m/s),
             ``interface_force``, ``dynamic_force`` (N), ``q`` (m, (..., n, modes)),
             ``modal_acceleration`` (q'', m/s^2, (..., n, modes)), ``station_acceleration``
-            (absolute, m/s^2, (..., n, stations)), ``stations`` (m).
+            (absolute, m/s^2, (..., n, stations)), ``stations`` (m); and the coverage of the
+            model's training envelope at the model rate
+            (:func:`sloshrom.beam.envelope.envelope_coverage`, shape (...), NaN for a model
+            without an envelope): ``envelope_outside_fraction`` (-),
+            ``envelope_acceleration_ratio`` (peak tank acceleration / training peak
+            acceleration, -) and ``training_peak_acceleration`` (m/s^2).
         """
         a = np.asarray(base_acceleration, dtype=np.float64)
         raw = self.run_raw(a, q0, qd0)
         self._check_envelope(raw["tank_velocity"])
+        cov = envelope_coverage(getattr(self.model, "envelope_", None), raw["tank_velocity"],
+                                raw["tank_acceleration"])
         raw["base_acceleration"] = a
         dec = self.decimation
         out: dict[str, Any] = {}
@@ -487,6 +495,9 @@ class CoupledSimulator:
             + out["base_acceleration"][..., None]
         )
         out["stations"] = self.modal.stations
+        out["envelope_outside_fraction"] = cov.outside_fraction
+        out["envelope_acceleration_ratio"] = cov.acceleration_ratio
+        out["training_peak_acceleration"] = cov.training_peak_acceleration
         return out
 
 

@@ -33,7 +33,8 @@ from sloshrom.fileio import OutputBatch, atomic_write
 from sloshrom.models import SloshingModel
 
 __all__ = [
-    "BANDS", "Mode1Decay", "damping_by_band", "damping_summary", "frozen_modes_table",
+    "BANDS", "Mode1Decay", "damping_by_band", "damping_summary", "envelope_table",
+    "frozen_modes_table",
     "modal_accelerations", "mode1_damping_table", "mode1_decay", "output_rate",
     "simulate_cases", "to_dataset", "write_dataset", "write_table",
 ]
@@ -226,7 +227,12 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank, modal: 
     Returns
     -------
     xarray.Dataset
-        Accelerations in m/s^2, forces in N, velocity in m/s, ``q`` in m; time in s.
+        Accelerations in m/s^2, forces in N, velocity in m/s, ``q`` in m; time in s. The
+        coverage of the model's training envelope (:meth:`CoupledSimulator.run
+        <sloshrom.beam.coupled.CoupledSimulator.run>`), when the result holds it:
+        variables ``envelope_outside_fraction`` and ``envelope_acceleration_ratio`` (-, one
+        value per level; NaN for a model without an envelope) and the attribute
+        ``training_peak_acceleration`` (m/s^2, NaN if unknown).
     """
     lead = res["tank_acceleration"].shape[:-1]
     ldims = ("level",) if len(lead) == 1 else ()
@@ -258,9 +264,63 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank, modal: 
                "modal_frequencies_Hz": modal.frequencies,
                "modal_damping": modal.damping},
     )
+    if "envelope_outside_fraction" in res:
+        ds["envelope_outside_fraction"] = (ldims, np.asarray(res["envelope_outside_fraction"]), {
+            "units": "1", "long_name": "fraction of samples outside the ROM's training envelope "
+                                       "(NaN: the model has none)"})
+        ds["envelope_acceleration_ratio"] = (ldims, np.asarray(
+            res["envelope_acceleration_ratio"]), {
+            "units": "1", "long_name": "peak tank acceleration / training peak acceleration "
+                                       "(NaN: unknown)"})
+        ds.attrs["training_peak_acceleration"] = float(res["training_peak_acceleration"])
     if ldims:
         ds = ds.assign_coords(level=("level", res["rms_levels_g"], {"units": "g (RMS)"}))
     return ds
+
+
+def envelope_table(results: Mapping[str, Mapping[str, Mapping[str, Any]]]
+                   ) -> list[dict[str, Any]]:
+    """How far each run goes beyond its model's training envelope: one row per test, case and
+    level.
+
+    Parameters
+    ----------
+    results : mapping
+        Test name (``"free"``, ``"random"``) -> case -> result dict of
+        :meth:`CoupledSimulator.run <sloshrom.beam.coupled.CoupledSimulator.run>` (with the
+        ``envelope_*`` entries).
+
+    Returns
+    -------
+    list of dict
+        ``run`` (e.g. ``"free"``, ``"random 0.4 g"``), ``case``, ``peak_tank_acceleration_g``,
+        ``training_peak_acceleration_g``, ``acceleration_ratio`` and ``outside_fraction``
+        (-); the last three are ``None`` (n/a) for a model without an envelope or an envelope
+        without ``acceleration_max``.
+    """
+
+    def value(x: Any) -> float | None:
+        x = float(x)
+        return x if np.isfinite(x) else None
+
+    rows = []
+    for test, cases in results.items():
+        for case, r in cases.items():
+            acc = np.asarray(r["tank_acceleration"])
+            frac = np.asarray(r.get("envelope_outside_fraction", np.nan), dtype=float)
+            ratio = np.asarray(r.get("envelope_acceleration_ratio", np.nan), dtype=float)
+            train = value(r.get("training_peak_acceleration", np.nan))
+            runs = ([(test, acc, frac, ratio)] if acc.ndim == 1 else
+                    [(f"{test} {lv:g} g", acc[i], np.broadcast_to(frac, acc.shape[:1])[i],
+                      np.broadcast_to(ratio, acc.shape[:1])[i])
+                     for i, lv in enumerate(r["rms_levels_g"])])
+            for run, a, f, q in runs:
+                rows.append({"run": run, "case": case,
+                             "peak_tank_acceleration_g": float(np.max(np.abs(a))) / G,
+                             "training_peak_acceleration_g": None if train is None
+                             else train / G,
+                             "acceleration_ratio": value(q), "outside_fraction": value(f)})
+    return rows
 
 
 def write_dataset(ds: xr.Dataset, path: str | Path, batch: OutputBatch | None = None) -> Path:

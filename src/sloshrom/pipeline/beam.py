@@ -8,7 +8,9 @@ from typing import Any
 
 from sloshrom.beam.coupled import free_response, random_response
 from sloshrom.beam.results import (
+    Simulate,
     damping_summary,
+    envelope_table,
     frozen_modes_table,
     mode1_damping_table,
     mode1_decay,
@@ -28,7 +30,7 @@ from sloshrom.plotting.signals import base_excitation_figure
 from sloshrom.rom.ensemble import Ensemble, spread
 from sloshrom.rom.estimators import load_model
 
-__all__ = ["BEAM_KEYS", "beam_structure", "member_spread", "stage_beam"]
+__all__ = ["BEAM_KEYS", "beam_structure", "beam_tests", "member_spread", "stage_beam"]
 
 #: Keys of the ``[beam]`` table that define the Euler-Bernoulli beam.
 BEAM_KEYS = ("length", "width", "thickness", "youngs_modulus", "density")
@@ -46,6 +48,26 @@ def beam_structure(cfg: dict[str, Any], tank: Tank) -> tuple[CantileverBeam, Mod
     return beam, modal
 
 
+def beam_tests(cfg: dict[str, Any], modal: ModalModel, tank: Tank,
+               fs: float) -> dict[str, Simulate]:
+    """The beam tests of the ``[beam]`` configuration, as ``simulate(model, output_fs)``.
+
+    ``"free"``: release from the static tip deflection ``tip_displacement`` for
+    ``free_duration``; ``"random"``: Gaussian-PSD base acceleration at every ``rms_g`` (``seed``,
+    ``f0``, ``sigma``, ``random_duration``), made at ``fs`` (Hz). The ``beam`` stage runs them
+    with every model, the ``data`` stage with frozen liquid to design the training
+    (:func:`sloshrom.pipeline.data.training_design`): one definition, the same signals.
+    """
+    return {
+        "free": lambda m, out_fs: free_response(m, modal, cfg["tip_displacement"],
+                                                cfg["free_duration"], tank, out_fs),
+        "random": lambda m, out_fs: random_response(m, modal, cfg["rms_g"],
+                                                    cfg["random_duration"], cfg["seed"],
+                                                    cfg["f0"], cfg["sigma"], signal_fs=fs,
+                                                    tank=tank, output_fs=out_fs),
+    }
+
+
 def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], list[str]]:
     """Free and random responses of the beam with frozen liquid, the rig and the ROM.
 
@@ -53,10 +75,13 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     -------
     outputs : dict
         ``f1_frozen_hz`` (Hz), ``table1`` (rows of Table 1), ``instantaneous_damping`` (per case:
-        banded median first-mode damping, ``sloshrom.beam.results.damping_summary``) and
-        ``table2`` (rows of Table 2).
+        banded median first-mode damping, ``sloshrom.beam.results.damping_summary``),
+        ``table2`` (rows of Table 2) and ``envelope`` (per run and case: peak tank acceleration
+        against the model's training envelope, ``sloshrom.beam.results.envelope_table``;
+        ``None`` = n/a for a model without an envelope).
     files : list of str
-        ``beam/{free,random}_<case>.nc``, the tables and the figures, relative to ``ctx.out``;
+        ``beam/{free,random}_<case>.nc`` (with the envelope coverage,
+        ``sloshrom.beam.results.to_dataset``), the tables and the figures, relative to ``ctx.out``;
         they appear together once everything has succeeded.
     """
     cfg = ctx.cfg["beam"]
@@ -83,25 +108,20 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
             done[0] += 1
         return on_case
 
-    free_res = simulate_cases(
-        models, lambda m, out_fs: free_response(m, modal, cfg["tip_displacement"],
-                                                cfg["free_duration"], tank, out_fs),
-        fs, report("free"))
-    rand_res = simulate_cases(
-        models, lambda m, out_fs: random_response(m, modal, cfg["rms_g"], cfg["random_duration"],
-                                                  cfg["seed"], cfg["f0"], cfg["sigma"],
-                                                  signal_fs=fs, tank=tank, output_fs=out_fs),
-        fs, report("random"))
+    tests = beam_tests(cfg, modal, tank, fs)
+    free_res = simulate_cases(models, tests["free"], fs, report("free"))
+    rand_res = simulate_cases(models, tests["random"], fs, report("random"))
     ctx.progress("beam", steps, steps, "analysis and figures")
 
     decays = {case: mode1_decay(r, modal, f1) for case, r in free_res.items()}
     outputs["instantaneous_damping"] = damping_summary(free_res, decays)
     table2 = mode1_damping_table(rand_res, cfg["rms_g"], f1, max_tank_acceleration=True)
     outputs["table2"] = table2
+    outputs["envelope"] = envelope_table({"free": free_res, "random": rand_res})
 
     if isinstance(models.get("rom"), Ensemble):
-        outputs["rom_members"] = member_spread(models["rom"], modal, cfg, fs, tank, f1,
-                                               ctx)
+        outputs["rom_members"] = member_spread(models["rom"], tests, modal, cfg["rms_g"], fs,
+                                               f1, ctx)
 
     figs = {**free_figures(free_res, modal, decays),
             **random_figures(rand_res, cfg["rms_g"], random_window(cfg["random_duration"]))}
@@ -121,31 +141,27 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     return outputs, files
 
 
-def member_spread(ens: Ensemble, modal: ModalModel, cfg: dict[str, Any], fs: float,
-                  tank: Tank, f1: float, ctx: Context | None = None) -> dict[str, Any]:
-    """The beam tests with each member of an ensemble ROM alone: mean ± std over members.
+def member_spread(ens: Ensemble, tests: dict[str, Simulate], modal: ModalModel,
+                  levels: list[float], fs: float, f1: float,
+                  ctx: Context | None = None) -> dict[str, Any]:
+    """The beam tests (:func:`beam_tests`) with each member of an ensemble ROM alone.
 
     Returns
     -------
     dict
-        ``table2``: per RMS level (g, as text) the spread of the first-mode damping ratio
-        (LSCF on H1, -); ``instantaneous_damping``: per amplitude band the spread of the
-        banded median first-mode damping of the free response (-).
+        ``table2``: per RMS level (g, as text) the spread (mean ± std over members,
+        ``sloshrom.rom.ensemble.spread``) of the first-mode damping ratio, LSCF on H1 (-);
+        ``instantaneous_damping``: per amplitude band the spread of the banded median
+        first-mode damping of the free response (-).
     """
     members = {f"member{k}": m for k, m in enumerate(ens.members_)}
     if ctx is not None:
         ctx.progress("beam", 0, 1, f"beam tests of the {len(members)} members")
-    free = simulate_cases(
-        members, lambda m, out_fs: free_response(m, modal, cfg["tip_displacement"],
-                                                 cfg["free_duration"], tank, out_fs), fs)
-    rand = simulate_cases(
-        members, lambda m, out_fs: random_response(m, modal, cfg["rms_g"],
-                                                   cfg["random_duration"], cfg["seed"],
-                                                   cfg["f0"], cfg["sigma"], signal_fs=fs,
-                                                   tank=tank, output_fs=out_fs), fs)
-    rows = mode1_damping_table(rand, cfg["rms_g"], f1)
+    free = simulate_cases(members, tests["free"], fs)
+    rand = simulate_cases(members, tests["random"], fs)
+    rows = mode1_damping_table(rand, levels, f1)
     table2 = {f"{lv:g}": spread(r["lscf_h1"] for r in rows if r["rms_g"] == lv)
-              for lv in cfg["rms_g"]}
+              for lv in levels}
     inst = damping_summary(free, {c: mode1_decay(r, modal, f1) for c, r in free.items()})
     bands = [k for k in next(iter(inst.values())) if k != "initial_tank_acceleration_g"]
     return {"table2": table2,

@@ -3,7 +3,8 @@
 Stages (each cached in ``OUT/.stages``; a rerun reuses a finished stage whose configuration and
 upstream stages did not change), one module each:
 
-``data``    VFA training/validation records from the virtual rig (paper Figs. 5–7)
+``data``    VFA training/validation records from the virtual rig (paper Figs. 5–7), designed
+            from the ``[beam]`` tests (``[data] design = "structure"``)
 ``sweep``   sensitivity analysis over delays x neurons (Fig. 8), on request (``[rom] sweep``)
 ``rom``     NFIR/NOE identification (Fig. 10 validation)
 ``maps``    Phi_d maps of rig and ROM and their difference (Figs. 3, 4, 11)
@@ -74,9 +75,12 @@ def run(out: str | Path, cfg: dict[str, Any], progress: Progress = quiet) -> dic
     cache = StageCache(ctx.out)
     results: dict[str, StageResult] = {}
 
+    # a structure-designed training depends on the beam tests it is designed from
+    data_tables = ("tank", "rig", "data") + (("beam",) if cfg["data"]["design"] == "structure"
+                                             else ())
     with _timer(ctx, "data"):
         results["data"] = cache.run(
-            "data", {k: cfg[k] for k in ("tank", "rig", "data")}, [],
+            "data", {k: cfg[k] for k in data_tables}, [],
             lambda: stage_data(ctx), __version__,
         )
     if cfg["rom"]["sweep"]:

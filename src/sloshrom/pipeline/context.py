@@ -9,7 +9,8 @@ from pathlib import Path
 from typing import Any
 
 from sloshrom.config import Tank
-from sloshrom.rig.virtual import SensorParams, VirtualRig
+from sloshrom.pipeline.settings import OPTIONAL_KEYS
+from sloshrom.rig.virtual import RigParams, SensorParams, VirtualRig
 
 __all__ = ["Context", "Progress", "quiet"]
 
@@ -46,9 +47,17 @@ class Context:
     def tank(self) -> Tank:
         return Tank.from_dict(self.cfg["tank"])
 
+    def rig_params(self) -> RigParams:
+        """The rig's physics: the calibrated ``rig_params.toml`` with the ``[rig]`` overrides
+        (``restitution``, ``beta``: ``sloshrom.pipeline.settings.OPTIONAL_KEYS``) applied."""
+        rig = self.cfg["rig"]
+        changes = {k: rig[k] for k in OPTIONAL_KEYS["rig"] if rig.get(k) is not None}
+        return RigParams.default().replace(**changes)
+
     def rig(self) -> VirtualRig:
-        """The virtual rig of the configuration; its sensors record at ``[rig] fs``."""
-        return VirtualRig(tank=self.tank, seed=self.cfg["rig"]["seed"],
+        """The virtual rig of the configuration (physics :meth:`rig_params`); its sensors record
+        at ``[rig] fs``."""
+        return VirtualRig(tank=self.tank, params=self.rig_params(), seed=self.cfg["rig"]["seed"],
                           sensors=SensorParams(output_rate=self.cfg["rig"]["fs"]))
 
     def path(self, *parts: str) -> Path:

@@ -1,5 +1,5 @@
 """The ``data`` stage of `sloshrom reproduce`: VFA training and validation records from the
-virtual rig (paper Figs. 5-7)."""
+virtual rig (paper Figs. 5-7), their amplitudes designed from the beam tests they serve."""
 
 from __future__ import annotations
 
@@ -8,56 +8,130 @@ from typing import Any
 import numpy as np
 
 from sloshrom import __version__, signals
-from sloshrom.config import G
+from sloshrom.beam.envelope import TankMotion, frozen_tank_motion
+from sloshrom.config import G, Tank
 from sloshrom.io import record_from_measurement, write_record
+from sloshrom.pipeline.beam import beam_structure, beam_tests
 from sloshrom.pipeline.context import Context
 from sloshrom.plotting import savefig
 from sloshrom.plotting.signals import record_io_figure, vfa_paths_figure
 
-__all__ = ["stage_data"]
+__all__ = ["design_outputs", "stage_data", "training_design"]
+
+
+def training_design(cfg: dict[str, Any], tank: Tank
+                    ) -> tuple[signals.VFADesign, TankMotion | None]:
+    """The amplitude limits of the VFA records (``[data] design``).
+
+    ``"shaker"``: the paper's shaker (:data:`sloshrom.signals.SHAKER_DESIGN`: 6 g, 1 m/s,
+    12.5 mm, a_bar 0.45). ``"structure"``: the configured beam tests (free response and random
+    excitation at every ``[beam] rms_g``, the very signals of the ``beam`` stage,
+    :func:`sloshrom.pipeline.beam.beam_tests`) are run first with frozen liquid, the
+    least-damped case whose tank motion bounds that of the rig and ROM runs; the VFA then
+    covers ``[data] margin`` times their peak tank acceleration and velocity
+    (:func:`sloshrom.signals.vfa_design`), never less than the paper's shaker.
+
+    Parameters
+    ----------
+    cfg : dict
+        The validated configuration.
+    tank : Tank
+
+    Returns
+    -------
+    design : VFADesign
+    motion : TankMotion or None
+        The frozen beam tests' tank motion (``None`` for ``"shaker"``).
+    """
+    if cfg["data"]["design"] == "shaker":
+        return signals.SHAKER_DESIGN, None
+    fs = float(cfg["rig"]["fs"])  # the beam stage's record rate, hence its signals
+    _, modal = beam_structure(cfg["beam"], tank)
+    motion = frozen_tank_motion(beam_tests(cfg["beam"], modal, tank, fs), fs)
+    design = signals.vfa_design(motion.peak_acceleration, motion.peak_velocity,
+                                motion.peak_displacement, motion.frequency, tank,
+                                margin=float(cfg["data"]["margin"]))
+    return design, motion
+
+
+def design_outputs(design: signals.VFADesign, motion: TankMotion | None) -> dict[str, Any]:
+    """The designed envelope as JSON-able outputs (g, m/s, m) and how it compares with the
+    paper's shaker (``exceeds_shaker``: the limits a laboratory shaker would have to exceed)."""
+    lim, paper = design.limits, signals.SHAKER_LIMITS
+    return {
+        "rule": design.rule,
+        "margin": design.margin,
+        "gamma_max_g": design.gamma_max,
+        "a_bar_max": design.a_bar_max,
+        "max_velocity_m_s": lim.max_velocity,
+        "max_displacement_m": lim.max_displacement,
+        "paper_shaker": {"gamma_max_g": paper.max_acceleration / G,
+                         "max_velocity_m_s": paper.max_velocity,
+                         "max_displacement_m": paper.max_displacement},
+        "exceeds_shaker": design.exceeds(),
+        "frozen_beam_tests": None if motion is None else motion.as_dict(),
+    }
 
 
 def stage_data(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     """Record the training and validation VFA tests on the rig; write records and figures.
 
+    Both records share one amplitude design (:func:`training_design`).
+
     Returns
     -------
     outputs : dict
         Per split: ``duration_s`` (s), ``fs_hz`` (Hz), ``samples``, ``max_acceleration_g`` (g),
-        ``max_dynamic_force_n`` (N).
+        ``max_velocity_m_s`` (m/s, the ROM's input), ``max_dynamic_force_n`` (N) and, with a
+        structure design, ``covers_acceleration``/``covers_velocity`` (record peak / frozen
+        beam tests' peak, -); ``design``: :func:`design_outputs`; ``rig``: the ``[rig]``
+        physics overrides in use (empty: calibrated).
     files : list of str
         ``data/train.nc``, ``data/validation.nc`` and the figures, relative to ``ctx.out``.
     """
     cfg, tank = ctx.cfg, ctx.tank
     rig = ctx.rig()
-    files, outputs, paths, records = [], {}, [], {}
+    ctx.progress("data", 0, 3, "training design (frozen beam tests)")
+    design, motion = training_design(cfg, tank)
+    files, paths, records = [], [], {}
+    outputs: dict[str, Any] = {"design": design_outputs(design, motion),
+                               "rig": {k: v for k, v in cfg["rig"].items()
+                                       if k not in ("seed", "fs") and v is not None}}
     splits = [
         ("train", cfg["data"]["train_duration"], cfg["data"]["train_seed"]),
         ("validation", cfg["data"]["validation_duration"], cfg["data"]["validation_seed"]),
     ]
     for k, (split, duration, seed) in enumerate(splits):
-        ctx.progress("data", k, len(splits), f"rig VFA {split} ({duration:.0f} s)")
-        sig = signals.vfa(1.0 / rig.dt, split=split, duration=duration, tank=tank, seed=seed)
+        ctx.progress("data", k + 1, len(splits) + 1, f"rig VFA {split} ({duration:.0f} s)")
+        sig = signals.vfa(1.0 / rig.dt, split=split, duration=duration, tank=tank, seed=seed,
+                          **design.kwargs())
         meas = rig.measure(sig.acceleration)
         rec = record_from_measurement(
             meas, tank, truth=True, split=split, seed=int(seed),
             rig_seed=int(cfg["rig"]["seed"]),
-            provenance=f"sloshrom {__version__} reproduce: virtual rig VFA {split}",
+            provenance=f"sloshrom {__version__} reproduce: virtual rig VFA {split} "
+                       f"({design.rule} design, {design.gamma_max:.3g} g)",
         )
         p = ctx.path("data", f"{split}.nc")
         write_record(rec, p)
         files.append(ctx.rel(p))
         paths.append(sig)
         records[split] = rec
+        peak_acc = float(np.max(np.abs(rec["acceleration"])))
+        peak_vel = float(np.max(np.abs(rec["velocity"])))
         outputs[split] = {
             "duration_s": float(rec.duration),
             "fs_hz": float(rec.fs),
             "samples": len(rec),
-            "max_acceleration_g": float(np.max(np.abs(rec["acceleration"])) / G),
+            "max_acceleration_g": peak_acc / G,
+            "max_velocity_m_s": peak_vel,
             "max_dynamic_force_n": float(np.max(np.abs(rec["dynamic_force"]))),
         }
+        if motion is not None:
+            outputs[split]["covers_acceleration"] = peak_acc / motion.peak_acceleration
+            outputs[split]["covers_velocity"] = peak_vel / motion.peak_velocity
         del sig, meas
-    ctx.progress("data", len(splits), len(splits), "figures")
+    ctx.progress("data", len(splits) + 1, len(splits) + 1, "figures")
     p = savefig(vfa_paths_figure(paths), ctx.path("figures", "fig05_vfa_paths.png"))
     files.append(ctx.rel(p))
     for split, name in (("train", "fig06_train_io.png"), ("validation", "fig07_validation_io.png")):

@@ -117,15 +117,18 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
         "2. Identification data (paper Figs. 5–7)",
         f"<p>VFA tests on the virtual rig: train {_num(d, 'train', 'duration_s')} s, validation "
         f"{_num(d, 'validation', 'duration_s')} s at {_num(d, 'train', 'fs_hz')} Hz; peak tank "
-        f"acceleration {_num(d, 'train', 'max_acceleration_g')} g (train), peak dynamic force "
+        f"acceleration {_num(d, 'train', 'max_acceleration_g')} g, peak tank velocity "
+        f"{_num(d, 'train', 'max_velocity_m_s')} m/s (train), peak dynamic force "
         f"{_num(d, 'train', 'max_dynamic_force_n')} N. Input = tank velocity integrated from the "
-        "measured acceleration, output = load-cell force minus liquid and structure inertia.</p>",
+        "measured acceleration, output = load-cell force minus liquid and structure inertia.</p>"
+        + _design_text(d),
         _fig(ctx, "fig05_vfa_paths.png", "Fig. 5/7a — the (ω̄, ā) paths of the training and "
              "validation VFA tests over the Γ iso-lines; they cover the same domain by "
              "different paths.")
         + _fig(ctx, "fig06_train_io.png", "Fig. 6 — training input (velocity) and output "
                "(dynamic sloshing force).")
         + _fig(ctx, "fig07_validation_io.png", "Fig. 7b — validation input and output."),
+        _design_tables(d),
     ))
     r = st["rom"]
     sw = st.get("sweep")
@@ -238,6 +241,72 @@ def _member_text(ms: Any) -> str:
     )
 
 
+def _design_text(d: dict[str, Any]) -> str:
+    """How the VFA amplitudes were chosen (outputs ``d`` of the ``data`` stage)."""
+    des = d.get("design")
+    if not isinstance(des, dict):
+        return ""
+    rig = d.get("rig") or {}
+    rig_text = ("calibrated virtual-rig physics" if not rig else "virtual-rig physics with "
+                + ", ".join(f"{html.escape(str(k))} = {v:g}" for k, v in rig.items())
+                + " (configuration overrides)")
+    env = (f"Γ ≤ {_num(des, 'gamma_max_g')} g, velocity ≤ {_num(des, 'max_velocity_m_s')} m/s, "
+           f"displacement ≤ {_num(des, 'max_displacement_m', fmt='{:.3g}')} m "
+           f"(ā ≤ {_num(des, 'a_bar_max')})")
+    if des.get("rule") != "structure":
+        return (f"<p>Training designed for the paper's shaker: {env}; {rig_text}.</p>")
+    fz = des.get("frozen_beam_tests") or {}
+    text = (
+        f"<p>Training designed from the structure: the beam tests of sections 7 and 8 were run "
+        f"first with frozen liquid (linear, the least-damped case: sloshing only adds damping, "
+        f"so the rig and ROM runs stay below it). Their tank motion peaks at "
+        f"{_num(fz, 'peak_acceleration_g')} g, {_num(fz, 'peak_velocity_m_s')} m/s "
+        f"(displacement {_num(fz, 'peak_displacement_m', fmt='{:.3g}')} m, "
+        f"{_num(fz, 'frequency_hz')} Hz); the VFA covers {_num(des, 'margin')} × that: {env}. "
+        f"The training record reaches {_num(d, 'train', 'covers_acceleration')} × the frozen "
+        f"peak acceleration and {_num(d, 'train', 'covers_velocity')} × its velocity; "
+        f"{rig_text}.</p>"
+    )
+    over = des.get("exceeds_shaker") or []
+    if over:
+        text += ("<p class='note'>This envelope exceeds the paper's shaker (6 g, 1 m/s, 12.5 mm"
+                 f") in {html.escape(', '.join(over))}: the virtual rig has no shaker limits, a "
+                 "laboratory would need a bigger shaker.</p>")
+    return text
+
+
+def _design_tables(d: dict[str, Any]) -> list[Table]:
+    """The frozen beam tests' tank motion, one row per run (structure design only)."""
+    fz = (d.get("design") or {}).get("frozen_beam_tests")
+    if not isinstance(fz, dict):
+        return []
+    return [Table(["frozen run", "peak tank acc. [g]", "peak velocity [m/s]",
+                   "displacement [mm]", "frequency [Hz]"],
+                  [[r["run"], r["peak_acceleration_g"], r["peak_velocity_m_s"],
+                    1e3 * r["peak_displacement_m"], r["frequency_hz"]] for r in fz["runs"]],
+                  "Tank motion of the beam tests with frozen liquid: what the training covers.")]
+
+
+def _envelope_table(rows: Any) -> list[Table]:
+    """Peak tank acceleration of each beam run against the model's training envelope."""
+    if not rows:
+        return []
+
+    def na(v: Any, fmt: str) -> str:
+        return "n/a" if v is None else fmt.format(v)
+
+    return [Table(["run", "case", "peak tank acc. [g]", "training peak [g]", "ratio",
+                   "fraction outside"],
+                  [[r["run"], r["case"], f"{r['peak_tank_acceleration_g']:.3g}",
+                    na(r["training_peak_acceleration_g"], "{:.3g}"),
+                    na(r["acceleration_ratio"], "{:.2f}"), na(r["outside_fraction"], "{:.2%}")]
+                   for r in rows],
+                  "Beam runs against the training envelope of each model (velocity outside "
+                  "the training range or acceleration above the training peak); n/a: the model "
+                  "has no training envelope (rig, frozen) or it does not record its peak "
+                  "acceleration.")]
+
+
 def _pct(v: Any) -> str:
     try:
         return "–" if not np.isfinite(v) else f"{100 * float(v):.2f} %"
@@ -327,7 +396,7 @@ def _beam_sections(ctx: Context, b: dict[str, Any]) -> list[Section]:
                   "window: rig, ROM and frozen.")
             + fig("fig23_psd", "Fig. 23 — Welch PSDs of the tank acceleration: sloshing lowers "
                   "the resonance peak."),
-            tables2,
+            [*tables2, *_envelope_table(b.get("envelope"))],
         ),
     ]
 

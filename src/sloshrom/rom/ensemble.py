@@ -343,6 +343,9 @@ class Ensemble:
                 "frequency_band": [min(e["frequency_band"][0] for e in envs),
                                    max(e["frequency_band"][1] for e in envs)],
             }
+            acc = [e.get("acceleration_max") for e in envs]
+            if all(a is not None for a in acc):
+                self.envelope_["acceleration_max"] = max(acc)
         self.history_ = [getattr(m, "history_", {}) for m in members]
 
     # -- description --------------------------------------------------------------------------
