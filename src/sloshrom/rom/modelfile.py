@@ -297,28 +297,24 @@ TwoUnits = Annotated[list[Unit], Field(min_length=2, max_length=2)]
 TwoNames = Annotated[list[Text], Field(min_length=2, max_length=2)]
 
 
-class _NFIRHyper(_Strict):
+class _Hyper(_Strict):
     delays: Annotated[int | list[int], PlainValidator(_delays_value)]
     neurons: Annotated[int, Field(ge=1, le=MAX_NEURONS)]
     hidden: Literal["matlab", "distance"]
     max_epochs: Annotated[int, Field(ge=0, le=MAX_EPOCHS)]
     seed: Annotated[int, Field(ge=0, le=2**63 - 1)]
-    trainer: Literal["fast", "lm", "adam"]
     units: TwoUnits
     names: TwoNames
+
+
+class _NFIRHyper(_Hyper):
+    trainer: Literal["fast", "lm", "adam"]
     # loss options (files written before them trained without: 0)
     amplitude_weighting: Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=1e12)] = 0.0
     passivity: Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=1e12)] = 0.0
 
 
-class _NOEHyper(_Strict):
-    delays: Annotated[int | list[int], PlainValidator(_delays_value)]
-    neurons: Annotated[int, Field(ge=1, le=MAX_NEURONS)]
-    hidden: Literal["matlab", "distance"]
-    max_epochs: Annotated[int, Field(ge=0, le=MAX_EPOCHS)]
-    seed: Annotated[int, Field(ge=0, le=2**63 - 1)]
-    units: TwoUnits
-    names: TwoNames
+class _NOEHyper(_Hyper):
     trainer: Literal["fast", "lm"]  # Adam trains NFIRs only
     out_delays: Annotated[int, Field(ge=1, le=MAX_OUT_DELAYS)]
     unstable_bound: Annotated[float, Field(allow_inf_nan=False, gt=0.0, le=1e12)]
