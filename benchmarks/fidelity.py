@@ -20,6 +20,7 @@ Usage::
 
     python benchmarks/fidelity.py --out bench_fidelity                 # default + rig B + paper
     python benchmarks/fidelity.py --out bench_fidelity --only default  # one configuration
+    python benchmarks/fidelity.py --summary results/summary.json       # figures of a past run
 
 A configuration is a TOML override file (as ``sloshrom reproduce --config``); "default" has
 none. Exit status 0 always: the figures are the result, MISS marks a target not met.
@@ -100,16 +101,15 @@ def report(name: str, s: dict[str, Any], seconds: float | None) -> None:
         spt = (f", members {100 * sp['mean']:.2f} ± {100 * sp['std']:.2f}" if sp else "")
         print(f"  {level:g} g: frozen {_pct(fr)} rig {_pct(rg)} ROM {_pct(ro)} "
               f"({100 * dev:+5.1f} %) [{_mark(abs(dev) <= 0.10)} within 10 %]{spt}")
-    env = b.get("envelope")
+    env = [e for e in b.get("envelope") or [] if e.get("acceleration_ratio") is not None]
     if env:
-        print("envelope (ROM runs):")
-        for run_name, e in env.items():
-            ratio = e.get("peak_ratio")
-            ok = ratio is not None and ratio <= 1.05
-            print(f"  {run_name:>12}: peak {e.get('peak_tank_acceleration_g', math.nan):5.2f} g"
-                  f" / training {e.get('training_peak_g', math.nan):5.2f} g = "
-                  f"{ratio if ratio is not None else math.nan:.3f} [{_mark(ok)} <= 1.05], "
-                  f"outside {_pct(e.get('fraction_outside'))} % of samples")
+        print("envelope (runs of models with a training envelope):")
+        for e in env:
+            ratio = e["acceleration_ratio"]
+            print(f"  {e['run']:>12} {e['case']:>6}: peak {e['peak_tank_acceleration_g']:5.2f} g"
+                  f" / training {e['training_peak_acceleration_g']:5.2f} g = {ratio:.3f} "
+                  f"[{_mark(ratio <= 1.05)} <= 1.05], outside {_pct(e['outside_fraction'])} %"
+                  " of samples")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -117,7 +117,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=Path("bench_fidelity"))
     ap.add_argument("--only", choices=sorted(CONFIGS), action="append")
     ap.add_argument("--quick", action="store_true", help="reproduce --quick sizes")
+    ap.add_argument("--summary", type=Path, action="append",
+                    help="only print the figures of an existing OUT/summary.json (repeatable)")
     args = ap.parse_args(argv)
+    if args.summary:
+        for path in args.summary:
+            report(str(path), json.loads(path.read_text()), None)
+        return 0
     names = args.only or list(CONFIGS)
     for name in names:
         cfg = load(CONFIGS[name], quick=args.quick)

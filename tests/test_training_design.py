@@ -206,7 +206,8 @@ def test_rig_overrides_reach_the_rig(tmp_path):
 
 
 # -- the data stage --------------------------------------------------------------------------------
-TINY = {"data": {"train_duration": 12.0, "validation_duration": 12.0},
+TINY = {"data": {"train_duration": 12.0, "validation_duration": 12.0,
+                 "extension_duration": 20.0},
         "beam": {"free_duration": 3.0, "random_duration": 40.0, "rms_g": [0.1, 0.3]}}
 
 
@@ -231,6 +232,14 @@ def test_data_stage_designs_from_the_structure(tmp_path):
             out[split]["max_acceleration_g"])
         assert out[split]["covers_acceleration"] >= 1.05
         assert out[split]["covers_velocity"] >= 1.05
+        # the paper's path first (its shaker domain: <= 6 g), then the structure's extension
+        ext = 20.0 if split == "train" else 10.0
+        fs = rec.fs
+        assert len(rec) == round((12.0 + ext) * fs) + 1  # two pieces, one record
+        first = np.abs(rec["acceleration"][: round(12.0 * fs) + 1])
+        assert np.max(first) / G <= 6.0 * 1.02
+        assert np.max(np.abs(rec["acceleration"][round(12.0 * fs) + 1:])) / G >= 1.05 * fz[
+            "peak_acceleration_g"]
     assert "data/train.nc" in files
 
 

@@ -16,7 +16,7 @@ from sloshrom.pipeline.context import Context
 from sloshrom.plotting import savefig
 from sloshrom.plotting.signals import record_io_figure, vfa_paths_figure
 
-__all__ = ["design_outputs", "stage_data", "training_design"]
+__all__ = ["design_outputs", "stage_data", "training_design", "vfa_pieces"]
 
 
 def training_design(cfg: dict[str, Any], tank: Tank
@@ -73,6 +73,34 @@ def design_outputs(design: signals.VFADesign, motion: TankMotion | None) -> dict
     }
 
 
+def vfa_pieces(data: dict[str, Any], split: str, duration: float, seed: int,
+               design: signals.VFADesign, motion: TankMotion | None, fs: float,
+               tank: Tank) -> list[signals.VFA]:
+    """The VFA tank motions of one record, played one after the other (each starts and ends at
+    rest).
+
+    Always the paper's path over the paper's shaker domain (``duration`` s): the domain of the
+    Phi_d maps, sampled as densely as in the paper. With a structure design
+    (``motion`` given) it is followed by an extension of ``extension_duration`` s (half of it
+    for the validation record) whose amplitude limits are ``design``'s and whose frequency
+    sweeps ``f1 / extension_band .. f1 * extension_band`` (within the shaker's 5-25 Hz band),
+    f1 the frozen beam tests' frequency: the structure's own range, without thinning the data
+    of the map's domain (a single path over 0-20 g left the network less detail below 6 g:
+    docs/rom.md).
+    """
+    pieces = [signals.vfa(fs, split=split, duration=duration, tank=tank, seed=seed,
+                          **signals.SHAKER_DESIGN.kwargs())]
+    if motion is not None:
+        ext = float(data["extension_duration"]) * (1.0 if split == "train" else 0.5)
+        band = float(data["extension_band"])
+        f_lo = max(signals.SHAKER_ENVELOPE.f_min, motion.frequency / band)
+        f_hi = min(signals.SHAKER_ENVELOPE.f_max, motion.frequency * band)
+        pieces.append(signals.vfa(fs, split=split, duration=ext,
+                                  tank=tank, seed=seed, f_min=f_lo, f_max=f_hi,
+                                  **design.kwargs()))
+    return pieces
+
+
 def stage_data(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     """Record the training and validation VFA tests on the rig; write records and figures.
 
@@ -101,11 +129,12 @@ def stage_data(ctx: Context) -> tuple[dict[str, Any], list[str]]:
         ("train", cfg["data"]["train_duration"], cfg["data"]["train_seed"]),
         ("validation", cfg["data"]["validation_duration"], cfg["data"]["validation_seed"]),
     ]
+    fs_rig = 1.0 / rig.dt
     for k, (split, duration, seed) in enumerate(splits):
         ctx.progress("data", k + 1, len(splits) + 1, f"rig VFA {split} ({duration:.0f} s)")
-        sig = signals.vfa(1.0 / rig.dt, split=split, duration=duration, tank=tank, seed=seed,
-                          **design.kwargs())
-        meas = rig.measure(sig.acceleration)
+        pieces = vfa_pieces(cfg["data"], split, duration, seed, design, motion, fs_rig, tank)
+        meas = rig.measure(np.concatenate([p.acceleration for p in pieces]))
+        sig = pieces[0]
         rec = record_from_measurement(
             meas, tank, truth=True, split=split, seed=int(seed),
             rig_seed=int(cfg["rig"]["seed"]),
@@ -115,7 +144,7 @@ def stage_data(ctx: Context) -> tuple[dict[str, Any], list[str]]:
         p = ctx.path("data", f"{split}.nc")
         write_record(rec, p)
         files.append(ctx.rel(p))
-        paths.append(sig)
+        paths.extend(pieces)
         records[split] = rec
         peak_acc = float(np.max(np.abs(rec["acceleration"])))
         peak_vel = float(np.max(np.abs(rec["velocity"])))

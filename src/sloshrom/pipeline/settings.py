@@ -281,6 +281,8 @@ class _DataTable(_Table):
     validation_seed: Seed
     design: Literal["structure", "shaker"]
     margin: _number(1.0, 3.0, what="a factor over the beam tests' tank motion")
+    extension_duration: _number(20.0, 3600.0, what="a duration in s")
+    extension_band: _number(1.0, 5.0, lo_open=True, what="a frequency factor")
 
 
 class _RomTable(_Table):

@@ -489,8 +489,8 @@ def harmonic_probes(
     delays: tuple[int, ...],
     band: tuple[float, float],
     n_freq: int = 14,
-    n_amp: int = 14,
-    amp_ratio: float = 50.0,
+    n_amp: int = 16,
+    amp_ratio: float = 100.0,
 ) -> HarmonicProbes:
     """Harmonic probes inside the training envelope of the input record ``u``.
 
