@@ -11,7 +11,7 @@ UV_VERSION := 0.13.9
 TOOLS      := .venv-tools
 LATEST     := .venv-latest
 
-.PHONY: reproduce test test-slow test-all test-latest lint bench lock clean
+.PHONY: reproduce test test-slow test-all test-latest lint bench fidelity lock clean
 
 $(STAMP): $(LOCK) pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -36,8 +36,12 @@ lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks tools
 
 bench: $(STAMP)
-	for f in benchmarks/*.py; do case $$f in */compare_checkouts.py) continue;; esac; \
+	for f in benchmarks/*.py; do case $$f in */compare_checkouts.py|*/fidelity.py) continue;; esac; \
 		$(BIN)/python $$f || exit 1; done
+
+# The ROM's fidelity targets: three full `reproduce` runs (default, rig B, the paper's recipe).
+fidelity: $(STAMP)
+	$(BIN)/python benchmarks/fidelity.py --out bench_fidelity
 
 # Refresh the lock (pinned uv in its own venv; one version set for CPython 3.11+ on every OS).
 lock:
