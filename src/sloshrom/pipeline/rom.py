@@ -133,6 +133,7 @@ def stage_rom(ctx: Context) -> tuple[dict[str, Any], list[str]]:
         ctx.progress("rom", epoch, cfg["max_epochs"], f"training {name}, epoch {epoch}")
 
     k_members = int(cfg["ensemble"])
+    recipe = recipe_text(cfg, name)
     t0 = time.perf_counter()
     if k_members > 1:
         workers = int(cfg["ensemble_workers"])
@@ -155,7 +156,7 @@ def stage_rom(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     hists = model.history_ if isinstance(model, Ensemble) else [model.history_]
     outputs.update(
         model=ctx.rel(path), name=name, train_seconds=train_seconds,
-        recipe_text=recipe_text(cfg, name), n_members=k_members,
+        recipe_text=recipe, n_members=k_members,
         val_mse=ev["mse"], val_nrmse=ev["nrmse"], val_fit=ev["fit"],
         train_mse=et["mse"], train_nrmse=et["nrmse"], train_fit=et["fit"],
         epochs=[len(h.get("train_mse", [])) for h in hists],

@@ -24,7 +24,10 @@ record. The NOE always trains on the whole record (``"fast"`` = ``"lm"``). ``"ad
 only, the NFIR default) is minibatch Adam (``optax.adam``: lr 1e-3, b1 0.9, b2 0.999, eps 1e-8;
 4096 samples per step, 200 steps per "epoch") with the same validation early stopping: on the
 virtual-rig data it reached a lower validation error than LM in far less time (see
-docs/rom.md), but it is not the paper's algorithm.
+docs/rom.md), but it is not the paper's algorithm. Adam also takes two physics terms (off by
+default): per-sample weights ``1/(a^2 + eps^2)`` of the local input amplitude a
+(:func:`amplitude_weights`) and a passivity penalty on the dissipated energy of harmonic probes
+inside the training envelope (:func:`harmonic_probes`, :func:`passivity_penalty`).
 
 Initialisation (seeded): RBF centres are training regressors drawn at random; ``"matlab"``
 weights are random unit directions scaled by the spread of the data along them (Nguyen-Widrow
