@@ -1,6 +1,6 @@
 """Model files against hostile and damaged content: every field validated, limits before work.
 
-A hostile edit here always *recomputes the checksum* (``rom._checksum``, as anyone can): the
+A hostile edit here always *recomputes the checksum* (``modelfile.checksum``, as anyone can): the
 checksum only detects accidental damage, the schema has to reject the content.
 """
 
@@ -57,7 +57,7 @@ def _parts(path):
 
 def _write(path, meta, arrays, recompute=True):
     if recompute:
-        meta["checksum"] = rom._checksum(meta, arrays)
+        meta["checksum"] = modelfile.checksum(meta, arrays)
     np.savez(path, metadata=np.array(json.dumps(meta)), **arrays)
     return path
 
@@ -233,7 +233,7 @@ def test_identity_fields(tmp_path, saved, field, value, match):
     meta, arrays = _parts(saved["NFIR"])
     meta[field] = value
     if field != "checksum":
-        meta["checksum"] = rom._checksum(meta, arrays)
+        meta["checksum"] = modelfile.checksum(meta, arrays)
     _write(tmp_path / "m.npz", meta, arrays, recompute=False)
     with pytest.raises(ModelFileError, match=match):
         rom.load_model(tmp_path / "m.npz")
@@ -253,7 +253,7 @@ def test_hostile_arrays_with_recomputed_checksum(tmp_path, saved, name, edit, ma
     arrays = {k: np.array(v) for k, v in arrays.items()}
     edit(arrays)
     if all(k in arrays and arrays[k].dtype.kind == "f" for k in rom.PARAM_NAMES):
-        meta["checksum"] = rom._checksum(meta, arrays)
+        meta["checksum"] = modelfile.checksum(meta, arrays)
     np.savez(tmp_path / "m.npz", metadata=np.array(json.dumps(meta)), **arrays)
     with pytest.raises(ModelFileError, match=match):
         rom.load_model(tmp_path / "m.npz")
@@ -297,7 +297,7 @@ def test_npy_header_claiming_a_huge_array_is_rejected_before_allocation(tmp_path
 def test_deeply_nested_metadata_is_rejected_cleanly(tmp_path, saved):
     meta, arrays = _parts(saved["NFIR"])
     meta["history"]["deep"] = 0
-    meta["checksum"] = rom._checksum(meta, arrays)
+    meta["checksum"] = modelfile.checksum(meta, arrays)
     text = json.dumps(meta).replace('"deep": 0', '"deep": ' + "[" * 10_000 + "]" * 10_000)
     np.savez(tmp_path / "m.npz", metadata=np.array(text), **arrays)
     with pytest.raises(ModelFileError, match="nested more than 16 levels"):
@@ -466,7 +466,7 @@ def test_fuzz_metadata_text_with_recomputed_checksum(tmp_path, saved):
         try:  # recompute the checksum where the text still parses, as an attacker would
             m2 = json.loads(mutated)
             if isinstance(m2, dict):
-                m2["checksum"] = rom._checksum(m2, arrays)
+                m2["checksum"] = modelfile.checksum(m2, arrays)
                 mutated = json.dumps(m2)
         except (ValueError, RecursionError):
             pass

@@ -31,15 +31,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from sloshrom import __version__
-from sloshrom.fileio import atomic_write
 from sloshrom.rom.errors import EnvelopeWarning, NotFittedError, ROMError
 from sloshrom.rom.modelfile import (
     ENSEMBLE_FORMAT_VERSION,
     MAX_MEMBERS,
     PARAM_NAMES,
-    ModelFileError,
-    checksum,
-    validate_for_save,
+    model_file_path,
+    write_model_file,
 )
 from sloshrom.rom.network import MinMaxScaler
 from sloshrom.rom.parallel import run_tasks
@@ -520,9 +518,7 @@ class Ensemble:
             nothing is written.
         """
         self._check_fitted()
-        p = Path(path)
-        if p.suffix != ".npz":
-            p = p.with_suffix(p.suffix + ".npz") if p.suffix else p.with_suffix(".npz")
+        p = model_file_path(path)
         t = self.template
         hyper = t.get_params()
         meta = {
@@ -542,14 +538,4 @@ class Ensemble:
         }
         arrays = {k: np.stack([np.asarray(m.params_[k], dtype=np.float64)
                                for m in self.members_]) for k in PARAM_NAMES}
-        meta["checksum"] = checksum(meta, arrays)
-        try:
-            text = validate_for_save(meta, arrays, str(p))
-        except ModelFileError as exc:
-            raise ROMError(f"cannot save the ensemble: {exc}") from None
-
-        def write(tmp: str) -> None:
-            with open(tmp, "wb") as fh:  # a file object: np.savez adds no ".npz" to the name
-                np.savez(fh, metadata=np.array(text), **arrays)
-
-        return atomic_write(p, write, suffix=".npz")
+        return write_model_file(p, meta, arrays, "ensemble")

@@ -45,7 +45,6 @@ import numpy as np
 
 from sloshrom import __version__
 from sloshrom._x64 import float64
-from sloshrom.fileio import atomic_write
 from sloshrom.rom import training
 from sloshrom.rom.ensemble import Ensemble
 from sloshrom.rom.errors import EnvelopeWarning, NotFittedError, ROMError, UnstableModelError
@@ -55,10 +54,10 @@ from sloshrom.rom.modelfile import (
     PARAM_NAMES,
     ModelFile,
     ModelFileError,
+    model_file_path,
     read_model_file,
-    validate_for_save,
+    write_model_file,
 )
-from sloshrom.rom.modelfile import checksum as _checksum
 from sloshrom.rom.network import (
     MinMaxScaler,
     NetworkSpec,
@@ -452,9 +451,7 @@ class _TDNN:
             the field and nothing is written.
         """
         self._check_fitted()
-        p = Path(path)
-        if p.suffix != ".npz":
-            p = p.with_suffix(p.suffix + ".npz") if p.suffix else p.with_suffix(".npz")
+        p = model_file_path(path)
         meta = {
             "format": "sloshrom-rom",
             "format_version": FORMAT_VERSION,
@@ -469,17 +466,7 @@ class _TDNN:
             "history": self.history_,
         }
         arrays = {k: np.asarray(self.params_[k], dtype=np.float64) for k in PARAM_NAMES}
-        meta["checksum"] = _checksum(meta, arrays)
-        try:
-            text = validate_for_save(meta, arrays, str(p))
-        except ModelFileError as exc:
-            raise ROMError(f"cannot save the model: {exc}") from None
-
-        def write(tmp: str) -> None:
-            with open(tmp, "wb") as fh:  # a file object: np.savez adds no ".npz" to the name
-                np.savez(fh, metadata=np.array(text), **arrays)
-
-        return atomic_write(p, write, suffix=".npz")
+        return write_model_file(p, meta, arrays, "model")
 
 
 @jax.tree_util.register_pytree_node_class

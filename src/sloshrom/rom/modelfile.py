@@ -61,13 +61,14 @@ from pydantic import (
     field_validator,
 )
 
+from sloshrom.fileio import atomic_write
 from sloshrom.rom.errors import ROMError
 
 __all__ = [
     "ENSEMBLE_FORMAT_VERSION", "FORMAT_VERSION", "HIDDEN_KINDS", "MAX_DELAY", "MAX_DEPTH",
     "MAX_FILE_BYTES", "MAX_MEMBERS", "MAX_METADATA_CHARS", "MAX_NEURONS", "MAX_REGRESSOR",
     "MAX_WEIGHTS", "NEWEST_FORMAT_VERSION", "PARAM_NAMES", "ModelFile", "ModelFileError",
-    "checksum", "read_model_file", "validate_for_save",
+    "checksum", "model_file_path", "read_model_file", "validate_for_save", "write_model_file",
 ]
 
 FORMAT = "sloshrom-rom"
@@ -566,6 +567,37 @@ def _check_arrays(meta: dict[str, Any], arrays: dict[str, np.ndarray], where: st
             raise ModelFileError(f"{where}: parameter {k} has values beyond +-{MAX_PARAM:g}")
         out[k] = a
     return out
+
+
+def model_file_path(path: str | Path) -> Path:
+    """``path`` with the ``.npz`` suffix a model file always has (appended if missing)."""
+    p = Path(path)
+    if p.suffix != ".npz":
+        p = p.with_suffix(p.suffix + ".npz") if p.suffix else p.with_suffix(".npz")
+    return p
+
+
+def write_model_file(path: Path, meta: dict[str, Any], arrays: dict[str, np.ndarray],
+                     what: str = "model") -> Path:
+    """Checksum ``meta`` and ``arrays``, check that they will load, write them atomically.
+
+    Raises
+    ------
+    ROMError
+        A value outside the bounds of the format (the message names the field); nothing is
+        written.
+    """
+    meta["checksum"] = checksum(meta, arrays)
+    try:
+        text = validate_for_save(meta, arrays, str(path))
+    except ModelFileError as exc:
+        raise ROMError(f"cannot save the {what}: {exc}") from None
+
+    def write(tmp: str) -> None:
+        with open(tmp, "wb") as fh:  # a file object: np.savez adds no ".npz" to the name
+            np.savez(fh, metadata=np.array(text), **arrays)
+
+    return atomic_write(path, write, suffix=".npz")
 
 
 def validate_for_save(meta: dict[str, Any], arrays: dict[str, np.ndarray], where: str) -> str:
