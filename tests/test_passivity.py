@@ -127,3 +127,55 @@ def test_passive_recipe_history_reports_the_objective(rig_records):
     assert len(h["val_objective"]) == len(h["val_mse"]) >= 2
     assert m.envelope_["acceleration_max"] == pytest.approx(
         float(np.max(np.abs(np.gradient(u)))) * FS)
+
+
+def test_energy_cycles_cut_whole_cycles_with_the_probe_normalisation():
+    # 10 Hz at 1 m/s, then 8 Hz at 0.5 m/s, then 0.001 m/s (below max/100: noise, dropped)
+    t = np.arange(int(3 * FS)) / FS
+    u = np.where(t < 1.0, np.sin(2 * np.pi * 10 * t),
+                 np.where(t < 2.0, 0.5 * np.sin(2 * np.pi * 8 * t),
+                          1e-3 * np.sin(2 * np.pi * 10 * t)))
+    cyc = training.energy_cycles(u, FS, (5.0, 25.0))
+    rows, w = np.asarray(cyc.rows), np.asarray(cyc.weight)
+    lengths = (w != 0).sum(axis=1)
+    # 9 whole 10 Hz cycles between upward crossings, 7 whole 8 Hz ones (and the join)
+    assert set(lengths) <= {50, 62, 63, 56, 57} and 15 <= cyc.n <= 17
+    assert np.all(np.diff(rows, axis=1)[w[:, 1:] != 0] == 1)  # contiguous samples
+    a_max = float(np.max(np.abs(np.gradient(u)))) * FS
+    for r, ww, n in zip(rows, w, lengths, strict=True):
+        v = u[r[:n]]
+        assert v[0] >= 0 > u[r[0] - 1]  # starts at an upward zero crossing
+        # sum(F v)/fs over m_ref V^2 for a unit damper F = v: (V^2 n / 2 / fs) / (m_ref V^2)
+        peak = np.abs(v).max()
+        assert np.sum(v * ww[:n]) == pytest.approx(np.sum(v**2) * a_max / (FS * peak**2))
+        assert np.sum(v**2) / peak**2 == pytest.approx(n / 2, rel=0.03)
+    with pytest.raises(ROMError, match="no input cycle"):
+        training.energy_cycles(np.linspace(0.0, 1.0, 1000), FS, (5.0, 25.0))
+
+
+def _cycle_error(m: NFIR, u: np.ndarray, y: np.ndarray) -> float:
+    """RMS error of the normalised energy of the record's cycles, model against data."""
+    cyc = training.energy_cycles(u, FS, (5.0, 25.0))
+    rows, w = np.asarray(cyc.rows), np.asarray(cyc.weight)
+    e = (m.predict(u) - y) / m.scaler_.out_half_range
+    return float(np.sqrt(np.mean(np.sum(e[rows] * w, axis=1) ** 2)))
+
+
+def test_cycle_energy_term_fits_the_energy_of_unseen_cycles(rig_records):
+    # the term is there to get the exchanged energy right: on the validation record the
+    # cycle-energy error must fall against the same recipe without it
+    _, _, (u, y), (uv, yv) = rig_records
+    kw = dict(amplitude_weighting=0.05, passivity=1.0)
+    without = _small(**kw).fit(u, y, fs=FS, validation=(uv, yv))
+    with_term = _small(cycle_energy=1.0, **kw).fit(u, y, fs=FS, validation=(uv, yv))
+    assert with_term.get_params()["cycle_energy"] == 1.0
+    e0, e1 = _cycle_error(without, uv, yv), _cycle_error(with_term, uv, yv)
+    assert e1 < 0.8 * e0, (e0, e1)
+
+
+def test_cycle_energy_option_is_checked():
+    u = np.sin(np.arange(3000) / 10.0)
+    with pytest.raises(ROMError, match="cycle_energy"):
+        _small(cycle_energy=-1.0).fit(u, u**2, fs=FS)
+    with pytest.raises(ROMError, match="trainer='adam'"):
+        _small(cycle_energy=1.0, trainer="fast").fit(u, u**2, fs=FS)

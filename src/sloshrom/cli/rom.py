@@ -161,12 +161,17 @@ def train(
         float | None, typer.Option(help="NFIR/Adam: weight of the penalty on energy created at "
                                         "harmonic probes (default 1; 0 = off, as the paper).")
     ] = None,
+    cycle_energy: Annotated[
+        float | None, typer.Option(help="NFIR/Adam: weight of the error of the energy each "
+                                        "input cycle exchanges (default 0.1; 0 = off, as the "
+                                        "paper).")
+    ] = None,
 ) -> None:
     """Identify an NFIR or NOE ROM (or an ensemble of them) from an input/output record.
 
-    An NFIR trained by Adam (the default) uses the passive recipe: amplitude-weighted loss and
-    a passivity penalty (docs/rom.md, "A passive ROM"); --amplitude-weighting 0 --passivity 0
-    trains the paper's plain MSE.
+    An NFIR trained by Adam (the default) uses the passive recipe: amplitude-weighted loss, a
+    passivity penalty and a cycle-energy term (docs/rom.md, "A passive ROM");
+    --amplitude-weighting 0 --passivity 0 --cycle-energy 0 trains the paper's plain MSE.
 
     The two records must have the same sample rate and the same units of the input and of the
     output; the model file may not be one of the records. With --ensemble K, K networks with
@@ -216,7 +221,8 @@ def train(
         kw["trainer"] = trainer
     adam = arch == "nfir" and trainer in (None, "adam")
     for opt, value, default in (("amplitude_weighting", amplitude_weighting, 0.05),
-                                ("passivity", passivity, 1.0)):
+                                ("passivity", passivity, 1.0),
+                                ("cycle_energy", cycle_energy, 0.1)):
         flag = "--" + opt.replace("_", "-")
         if value is not None and not (math.isfinite(value) and value >= 0):
             fail(f"{flag} must be a finite number >= 0, got {value!r}")

@@ -300,14 +300,17 @@ class _RomTable(_Table):
     sweep_workers: _number(1, 64, integer=True, what="a number of parallel trainings")
     amplitude_weighting: _number(0.0, 100.0, what="an amplitude floor in m/s (0 = off)")
     passivity: _number(0.0, 1e6, what="a penalty weight (0 = off)")
+    cycle_energy: _number(0.0, 1e6, what="a loss weight (0 = off)")
     ensemble: _number(1, 64, integer=True, what="a number of ensemble members")
     ensemble_workers: _number(1, 64, integer=True, what="a number of parallel trainings")
 
     @model_validator(mode="after")
     def _loss_options(self) -> _RomTable:
-        if self.arch == "noe" and (self.amplitude_weighting > 0 or self.passivity > 0):
-            raise ConfigError("'rom.amplitude_weighting' and 'rom.passivity' train the NFIR "
-                              "(Adam); set both to 0 for arch = 'noe'")
+        if self.arch == "noe" and (self.amplitude_weighting > 0 or self.passivity > 0
+                                   or self.cycle_energy > 0):
+            raise ConfigError("'rom.amplitude_weighting', 'rom.passivity' and "
+                              "'rom.cycle_energy' train the NFIR (Adam); set them to 0 for "
+                              "arch = 'noe'")
         return self
 
     def networks(self) -> list[tuple[str, int, int, str]]:

@@ -163,6 +163,7 @@ class _TDNN:
     #: loss options of the Adam trainer (NFIR constructor parameters; off for the NOE)
     amplitude_weighting: float = 0.0
     passivity: float = 0.0
+    cycle_energy: float = 0.0
 
     # -- hyperparameters ----------------------------------------------------------------------
     @classmethod
@@ -211,7 +212,7 @@ class _TDNN:
         out_delays = _integer("out_delays", self.out_delays, 0)
         if self.trainer not in TRAINERS:
             raise ROMError(f"trainer must be 'fast', 'lm' or 'adam', got {self.trainer!r}")
-        for name in ("amplitude_weighting", "passivity"):
+        for name in ("amplitude_weighting", "passivity", "cycle_energy"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | float | np.floating | np.integer) \
                     or not (np.isfinite(v) and v >= 0):
@@ -326,8 +327,8 @@ class _TDNN:
             validation = (uv, yv)
         scaler = MinMaxScaler.fit(u, y)
         band = _frequency_band(u, fs)
-        # passivity probes span the band holding all but 0.2 % of the input's power: the edges
-        # of a VFA sweep are where its central-98 % band stops short
+        # passivity probes and energy cycles span the band holding all but 0.2 % of the
+        # input's power: the edges of a VFA sweep are where its central-98 % band stops short
         probe_band = _frequency_band(u, fs, 0.001, 0.999)
         theta, history = training.train(
             spec, u, y, scaler, validation, trainer=self.trainer,
@@ -335,6 +336,7 @@ class _TDNN:
             unstable_bound=float(self.unstable_bound), callback=callback, fs=float(fs),
             amplitude_weighting=float(self.amplitude_weighting),
             passivity=float(self.passivity), frequency_band=(probe_band[0], probe_band[1]),
+            cycle_energy=float(self.cycle_energy),
         )
         self.scaler_ = scaler
         self.fs_ = float(fs)
@@ -504,8 +506,15 @@ class NFIR(_TDNN):
         Weight of the passivity penalty: the squared negative part of the network's
         dissipated energy on harmonic probes inside the training envelope
         (:func:`sloshrom.rom.training.harmonic_probes`). 0 (default) = none, as the paper.
-        Adam only. ``sloshrom reproduce`` and ``sloshrom train`` use 0.05 m/s and 1.0
-        (docs/rom.md, "A passive ROM").
+        Adam only.
+    cycle_energy : float
+        Weight of the cycle-energy term: the squared error of the energy each cycle of the
+        training record exchanges with the liquid, over the cycle's squared amplitude
+        (:func:`sloshrom.rom.training.energy_cycles`): the part of the error that changes the
+        damping. 0 (default) = none, as the paper. Adam only.
+
+    ``sloshrom reproduce`` and ``sloshrom train`` use ``amplitude_weighting = 0.05`` m/s,
+    ``passivity = 1`` and ``cycle_energy = 0.1`` (docs/rom.md, "A passive ROM").
 
     Parameters are checked by :meth:`fit` (and by :func:`load_model`), not by the constructor.
     """
@@ -524,6 +533,7 @@ class NFIR(_TDNN):
         names: Sequence[str] = ("velocity", "dynamic_force"),
         amplitude_weighting: float = 0.0,
         passivity: float = 0.0,
+        cycle_energy: float = 0.0,
     ) -> None:
         self.delays = delays
         self.neurons = neurons
@@ -535,6 +545,7 @@ class NFIR(_TDNN):
         self.names = names
         self.amplitude_weighting = amplitude_weighting
         self.passivity = passivity
+        self.cycle_energy = cycle_energy
 
     def _free_run_fn(self) -> Callable[[Any], Any]:
         spec = self.spec

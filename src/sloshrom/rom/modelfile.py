@@ -313,6 +313,7 @@ class _NFIRHyper(_Hyper):
     # loss options (files written before them trained without: 0)
     amplitude_weighting: Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=1e12)] = 0.0
     passivity: Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=1e12)] = 0.0
+    cycle_energy: Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=1e12)] = 0.0
 
 
 class _NOEHyper(_Hyper):

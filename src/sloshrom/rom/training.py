@@ -27,7 +27,9 @@ virtual-rig data it reached a lower validation error than LM in far less time (s
 docs/rom.md), but it is not the paper's algorithm. Adam also takes two physics terms (off by
 default): per-sample weights ``1/(a^2 + eps^2)`` of the local input amplitude a
 (:func:`amplitude_weights`) and a passivity penalty on the dissipated energy of harmonic probes
-inside the training envelope (:func:`harmonic_probes`, :func:`passivity_penalty`).
+inside the training envelope (:func:`harmonic_probes`, :func:`passivity_penalty`), and a
+cycle-energy term: the error of the energy each cycle of the record exchanges with the liquid
+(:func:`energy_cycles`, :func:`cycle_energy_error`).
 
 Initialisation (seeded): RBF centres are training regressors drawn at random; ``"matlab"``
 weights are random unit directions scaled by the spread of the data along them (Nguyen-Widrow
@@ -73,12 +75,16 @@ from sloshrom.rom.network import (
 
 __all__ = [
     "FAST_MAX_ROWS",
+    "MAX_CYCLE",
     "TRAINERS",
     "HarmonicProbes",
     "LMProblem",
     "LMResult",
     "adam_nfir",
+    "EnergyCycles",
     "amplitude_weights",
+    "cycle_energy_error",
+    "energy_cycles",
     "harmonic_probes",
     "init_theta",
     "levenberg_marquardt",
@@ -90,6 +96,8 @@ __all__ = [
 ]
 
 FAST_MAX_ROWS = 16384
+#: longest input cycle of the cycle-energy term, samples (the cycles are padded to the longest)
+MAX_CYCLE = 2048
 CHUNK = 4096
 TRAINERS = ("fast", "lm", "adam")
 
@@ -550,6 +558,88 @@ def passivity_penalty(theta: Any, probes: HarmonicProbes, idx: Any, delays: Any,
     return jnp.mean(jnp.minimum(phi, 0.0) ** 2)
 
 
+@partial(jax.tree_util.register_dataclass, data_fields=["rows", "weight"], meta_fields=[])
+@dataclass(frozen=True)
+class EnergyCycles:
+    """The cycles of a record over which the exchanged energy is compared.
+
+    ``rows`` (c, L): sample indices of each cycle, padded with 0; ``weight`` (c, L):
+    ``v_k a_max / (fs V^2)`` on the cycle's samples (0 on the padding), ``V`` the cycle's peak
+    velocity and ``a_max`` the record's peak acceleration, so that ``sum(e_scaled * weight)`` is
+    the error of the cycle's energy ``sum(F v) / fs`` over ``m_ref V^2`` (the normalisation of
+    :func:`harmonic_probes`, ``m_ref = out_half_range / a_max``).
+    """
+
+    rows: Any
+    weight: Any
+
+    @property
+    def n(self) -> int:
+        return int(self.rows.shape[0])
+
+
+def energy_cycles(
+    u: np.ndarray,
+    fs: float,
+    band: tuple[float, float],
+    amp_ratio: float = 100.0,
+) -> EnergyCycles:
+    """Cycles of the input record ``u`` (physical units, rest = 0) between upward zero crossings.
+
+    A cycle is kept if its length lies within half the shortest and twice the longest period
+    of ``band`` (Hz), at most ``MAX_CYCLE`` samples (bounded memory), and its peak |u| is at
+    least ``max |u| / amp_ratio`` (below it, crossings of noise are not cycles). Over a cycle
+    from one upward crossing to the next the liquid's inertia exchanges no net energy, so
+    ``sum(F v) / fs`` is the energy the liquid took.
+
+    Raises
+    ------
+    ROMError
+        No cycle in the record.
+    """
+    u = np.asarray(u, dtype=np.float64)
+    if not (fs > 0 and band[1] > band[0] >= 0):
+        raise ROMError(f"energy cycles need fs > 0 and a frequency band, got {fs}, {band}")
+    ups = np.flatnonzero((u[:-1] < 0.0) & (u[1:] >= 0.0)) + 1
+    # an open band edge (0 or inf) leaves that side to the record
+    l_min = max(4, int(fs / (2.0 * band[1])) if math.isfinite(band[1]) else 4)
+    l_max = (max(l_min + 1, int(math.ceil(2.0 * fs / band[0]))) if band[0] > 0
+             else u.size)
+    l_max = min(l_max, MAX_CYCLE)
+    v_min = float(np.max(np.abs(u))) / amp_ratio
+    a_max = float(np.max(np.abs(np.gradient(u)))) * fs
+    starts, ends, peaks = [], [], []
+    for a, b in zip(ups[:-1], ups[1:], strict=True):
+        if l_min <= b - a <= l_max:
+            peak = float(np.max(np.abs(u[a:b])))
+            if peak >= v_min:
+                starts.append(a)
+                ends.append(b)
+                peaks.append(peak)
+    if not starts:
+        raise ROMError("no input cycle for the cycle-energy term: is the record oscillating?")
+    length = max(e - a for a, e in zip(starts, ends, strict=True))
+    rows = np.zeros((len(starts), length), dtype=np.int64)
+    weight = np.zeros((len(starts), length))
+    for i, (a, b, peak) in enumerate(zip(starts, ends, peaks, strict=True)):
+        rows[i, : b - a] = np.arange(a, b)
+        weight[i, : b - a] = u[a:b] * a_max / (fs * peak**2)
+    return EnergyCycles(jnp.asarray(rows), jnp.asarray(weight))
+
+
+def cycle_energy_error(theta: Any, up: Any, ys: Any, cycles: EnergyCycles, idx: Any,
+                       delays: Any, neurons: int, hidden: str) -> jnp.ndarray:
+    """Mean squared error of the normalised energy of the cycles ``idx`` (NFIR ``theta``).
+
+    ``up``: scaled input padded in front with ``max(delays)`` rest samples; ``ys``: scaled
+    output. Only the part of the error in phase with the velocity counts: the part that
+    changes the damping the liquid adds.
+    """
+    r = cycles.rows[idx]
+    e = nfir_rows(theta, up, r.reshape(-1), np.asarray(delays), neurons, hidden).reshape(r.shape)
+    return jnp.mean(jnp.sum((e - ys[r]) * cycles.weight[idx], axis=-1) ** 2)
+
+
 # ---------------------------------------------------------------------------------------------
 # First-order alternative (NFIR): minibatch Adam with the same stopping rules
 # ---------------------------------------------------------------------------------------------
@@ -582,15 +672,22 @@ def adam_nfir(
     probes: HarmonicProbes | None = None,
     passivity: float = 0.0,
     probes_per_step: int = 24,
+    cycles: EnergyCycles | None = None,
+    cycle_energy: float = 0.0,
+    cycles_per_step: int = 32,
+    val_cycle_error: Callable[[np.ndarray], float] | None = None,
 ) -> LMResult:
     """Minibatch Adam (``optax.adam``) on the NFIR MSE (scaled units); an "epoch" is
     ``steps_per_epoch`` steps of ``batch`` samples drawn (seeded) from every sample.
 
     The loss is the MSE, each sample weighted by ``weights`` (default 1), plus ``passivity``
     times :func:`passivity_penalty` on ``probes_per_step`` probes drawn from ``probes`` at every
-    step. Stops at ``max_epochs`` or after ``max_fail`` epochs without a new best validation
-    objective (best parameters returned): the validation MSE, or ``val_weighted(theta)`` if
-    given, plus the passivity term on every probe. ``problem`` supplies the training SSE (on
+    step, plus ``cycle_energy`` times :func:`cycle_energy_error` on ``cycles_per_step`` cycles
+    drawn from ``cycles``. Stops at ``max_epochs`` or after ``max_fail`` epochs without a new
+    best validation objective (best parameters returned): the validation MSE, or
+    ``val_weighted(theta)`` if given, plus the passivity term on every probe, plus
+    ``cycle_energy * val_cycle_error(theta)`` (the cycle-energy error of the validation
+    record) if given. ``problem`` supplies the training SSE (on
     its ``n_rows`` rows) and the validation MSE reported in the history. ``lr``, ``b1``,
     ``b2``, ``eps`` as :func:`optax.adam` (``eps`` outside the square root).
     """
@@ -602,22 +699,27 @@ def adam_nfir(
     opt = optax.adam(lr, b1=b1, b2=b2, eps=eps)
     n_probes = 0 if probes is None or passivity <= 0 else probes.n
     n_draw = min(probes_per_step, n_probes)
+    n_cycles = 0 if cycles is None or cycle_energy <= 0 else cycles.n
+    c_draw = min(cycles_per_step, n_cycles)
 
-    def loss(th, rows, pidx):
+    def loss(th, rows, pidx, cidx):
         e = nfir_rows(th, up, rows, d, neurons, hidden) - ysj[rows]
         value = jnp.mean(wj[rows] * e**2)
         if n_draw:
             value += passivity * passivity_penalty(th, probes, pidx, d, neurons, hidden)
+        if c_draw:
+            value += cycle_energy * cycle_energy_error(th, up, ysj, cycles, cidx, d, neurons,
+                                                       hidden)
         return value
 
     @jax.jit
-    def run(th, state, rows2d, probes2d):
+    def run(th, state, rows2d, probes2d, cycles2d):
         def body(carry, xs):
             th, state = carry
             updates, state = opt.update(jax.grad(loss)(th, *xs), state, th)
             return (optax.apply_updates(th, updates), state), None
 
-        return jax.lax.scan(body, (th, state), (rows2d, probes2d))[0]
+        return jax.lax.scan(body, (th, state), (rows2d, probes2d, cycles2d))[0]
 
     every_probe = jnp.arange(n_probes)
 
@@ -626,8 +728,10 @@ def adam_nfir(
         return passivity_penalty(th, probes, every_probe, d, neurons, hidden)
 
     def objective(th: np.ndarray, val_mse: float) -> float:
-        # early stopping on the loss being minimised: weighted error + passivity term
+        # early stopping on the loss being minimised: weighted error + physics terms
         value = val_mse if val_weighted is None else val_weighted(th)
+        if c_draw and val_cycle_error is not None:
+            value += cycle_energy * val_cycle_error(th)
         return value + (passivity * float(penalty_all(jnp.asarray(th))) if n_draw else 0.0)
 
     rng = np.random.default_rng(seed)
@@ -641,7 +745,10 @@ def adam_nfir(
         if epoch > 0:
             rows = jnp.asarray(rng.integers(0, n, (steps_per_epoch, batch)))
             pidx = jnp.asarray(rng.integers(0, max(n_probes, 1), (steps_per_epoch, n_draw)))
-            theta, state = run(theta, state, rows, pidx)
+            # no draw when the term is off: the minibatch sequence stays that of the paper
+            cidx = (jnp.asarray(rng.integers(0, n_cycles, (steps_per_epoch, c_draw))) if c_draw
+                    else jnp.zeros((steps_per_epoch, 0), dtype=jnp.int32))
+            theta, state = run(theta, state, rows, pidx, cidx)
         th = np.asarray(theta)
         tr = problem.sse(th) / n_rows
         vv = problem.val_mse(th) if problem.val_mse else tr
@@ -697,6 +804,7 @@ def train(
     amplitude_weighting: float = 0.0,
     passivity: float = 0.0,
     frequency_band: tuple[float, float] | None = None,
+    cycle_energy: float = 0.0,
 ) -> tuple[np.ndarray, dict[str, Any]]:
     """Train the network ``spec`` on a record (physical units, scaled here by ``scaler``).
 
@@ -725,6 +833,9 @@ def train(
     passivity : float
         Weight of :func:`passivity_penalty` on :func:`harmonic_probes` over
         ``frequency_band`` (Hz); 0 = none. Adam only.
+    cycle_energy : float
+        Weight of :func:`cycle_energy_error` on the :func:`energy_cycles` of the record
+        (cycles within ``frequency_band``); 0 = none. Adam only.
 
     Returns
     -------
@@ -751,10 +862,12 @@ def train(
         raise ROMError(f"trainer must be 'fast', 'lm' or 'adam', got {trainer!r}")
     if trainer == "adam" and spec.arch != "nfir":
         raise ROMError("trainer 'adam' is available for NFIR only")
-    if (amplitude_weighting > 0 or passivity > 0) and trainer != "adam":
-        raise ROMError("amplitude_weighting and passivity need trainer 'adam' (NFIR)")
-    if (amplitude_weighting > 0 or passivity > 0) and not (fs is not None and fs > 0):
-        raise ROMError("amplitude_weighting and passivity need the sample rate fs")
+    physics = amplitude_weighting > 0 or passivity > 0 or cycle_energy > 0
+    if physics and trainer != "adam":
+        raise ROMError("amplitude_weighting, passivity and cycle_energy need trainer 'adam' "
+                       "(NFIR)")
+    if physics and not (fs is not None and fs > 0):
+        raise ROMError("amplitude_weighting, passivity and cycle_energy need the sample rate fs")
     n = u_s.size
     if spec.arch == "nfir" and trainer in ("fast", "adam") and n > FAST_MAX_ROWS:
         stride = -(-n // FAST_MAX_ROWS)
@@ -785,14 +898,36 @@ def train(
                                                   hidden))
                     m = float(np.mean(wv * (yh - yv) ** 2))
                     return m if np.isfinite(m) else math.inf
+        band = frequency_band if frequency_band is not None else (0.0, math.inf)
         if passivity > 0:
-            band = frequency_band if frequency_band is not None else (0.0, math.inf)
             probes = harmonic_probes(u, fs, sc, delays, band)
+        cycles = val_cycle_error = None
+        if cycle_energy > 0:
+            cycles = energy_cycles(u, fs, band)
+            if validation is not None:
+                cv = energy_cycles(validation[0], fs, band)
+                upv = jnp.asarray(np.concatenate([np.full(int(max(delays)), rest_u), val[0]]))
+                yvj = jnp.asarray(val[1])
+                # fixed-size chunks of cycles: one compilation, bounded memory
+                chunk = 256
+                idx = np.arange(-(-cv.n // chunk) * chunk) % cv.n
+                chunk_err = jax.jit(lambda th, i: cycle_energy_error(th, upv, yvj, cv, i,
+                                                                     delays, h, hidden))
+
+                def val_cycle_error(theta: np.ndarray) -> float:
+                    th = jnp.asarray(theta)
+                    sq = [float(chunk_err(th, jnp.asarray(idx[k:k + chunk])))
+                          for k in range(0, idx.size, chunk)]
+                    # the wrapped-around repeats weigh a little in the last chunk only
+                    value = float(np.mean(sq))
+                    return value if math.isfinite(value) else math.inf
         # minibatches from every sample; the reported training MSE on the decimated rows
         res = adam_nfir(u_s, y_s, theta0, delays, h, hidden, rest_u, problem, int(rows.size),
                         max_epochs=int(max_epochs), seed=int(seed),
                         callback=callback, mse_scale=sc.out_half_range**2, weights=weights,
-                        val_weighted=val_weighted, probes=probes, passivity=float(passivity))
+                        val_weighted=val_weighted, probes=probes, passivity=float(passivity),
+                        cycles=cycles, cycle_energy=float(cycle_energy),
+                        val_cycle_error=val_cycle_error)
     else:
         res = levenberg_marquardt(problem, theta0, max_epochs=int(max_epochs),
                                   callback=callback, mse_scale=sc.out_half_range**2)
