@@ -108,3 +108,15 @@ def test_beam_structure_follows_the_configuration():
     # a shorter beam is stiffer: every mode is higher than the paper's beam
     _, paper = beam_structure(settings.defaults()["beam"], tank)
     assert np.all(modal.frequencies > paper.frequencies)
+
+
+def test_recipe_text_names_the_terms_in_use():
+    from sloshrom.pipeline.rom import recipe_text
+
+    default = recipe_text({"amplitude_weighting": 0.0, "passivity": 1.0, "cycle_energy": 0.1},
+                          "NFIR(70, 35)")
+    assert "harmonic probes" in default and "weight 0.1" in default
+    assert "1/(a² + ε²)" not in default  # amplitude weighting is off
+    paper = recipe_text({"amplitude_weighting": 0.0, "passivity": 0.0, "cycle_energy": 0.0},
+                        "NFIR(70, 35)")
+    assert "plain MSE" in paper and "physics" not in paper

@@ -89,21 +89,29 @@ def recipe_text(cfg: dict[str, Any], name: str) -> str:
     """One paragraph for the report: which model the pipeline identified, and why."""
     w, p = cfg.get("amplitude_weighting", 0.0), cfg.get("passivity", 0.0)
     c = cfg.get("cycle_energy", 0.0)
-    if w > 0 or p > 0 or c > 0:
+    terms = []
+    if w > 0:
+        terms.append(f"each sample's squared error weighted by 1/(a² + ε²), a the local velocity "
+                     f"amplitude, ε = {w:g} m/s (Φ_d divides by a², so small cycles count as "
+                     "much as large ones)")
+    if p > 0:
+        terms.append(f"a penalty of weight {p:g} on energy created at harmonic probes inside "
+                     "the training envelope")
+    if c > 0:
+        terms.append(f"a term of weight {c:g} on the error of the energy each cycle of the "
+                     "training record exchanges with the liquid (the part of the error that "
+                     "changes the damping)")
+    paper = ("rom.amplitude_weighting = 0, rom.passivity = 0 and rom.cycle_energy = 0")
+    if terms:
+        listed = terms[0] if len(terms) == 1 else "; ".join(terms[:-1]) + "; and " + terms[-1]
         return (
-            f"The ROM is the paper's {name} identified with physics in its loss: each sample's "
-            f"squared error weighted by 1/(a² + ε²), a the local velocity amplitude, "
-            f"ε = {w:g} m/s (Φ_d divides by a², so small cycles count as much as large ones), "
-            f"a penalty of weight {p:g} on energy created at harmonic probes inside the "
-            f"training envelope, and a term of weight {c:g} on the error of the energy each "
-            "cycle of the training record exchanges with the liquid (the part of the error "
-            "that changes the damping). Why: with the paper's plain MSE the same network gives "
-            "energy back to the tank below about 1 g and makes the beam less damped than with "
-            "frozen liquid (docs/rom.md, \"A passive ROM\"). The paper's configuration: "
-            "rom.amplitude_weighting = 0, rom.passivity = 0 and rom.cycle_energy = 0.")
-    return (f"The ROM is the paper's {name} trained on the plain MSE (rom.amplitude_weighting "
-            "= 0, rom.passivity = 0, rom.cycle_energy = 0): nothing in its identification "
-            "prevents it from creating energy; see the passivity figures of the maps.")
+            f"The ROM is the paper's {name} identified with physics in its loss: {listed}. "
+            "Why: with the paper's plain MSE the same network gives energy back to the tank "
+            "below about 1 g and makes the beam less damped than with frozen liquid "
+            f"(docs/rom.md, \"A passive ROM\"). The paper's configuration: {paper}.")
+    return (f"The ROM is the paper's {name} trained on the plain MSE ({paper}): nothing in its "
+            "identification prevents it from creating energy; see the passivity figures of "
+            "the maps.")
 
 
 def stage_rom(ctx: Context) -> tuple[dict[str, Any], list[str]]:
