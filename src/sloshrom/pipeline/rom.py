@@ -101,7 +101,7 @@ def recipe_text(cfg: dict[str, Any], name: str) -> str:
         terms.append(f"a term of weight {c:g} on the error of the energy each cycle of the "
                      "training record exchanges with the liquid (the part of the error that "
                      "changes the damping)")
-    paper = ("rom.amplitude_weighting = 0, rom.passivity = 0 and rom.cycle_energy = 0")
+    paper = "rom.amplitude_weighting = 0, rom.passivity = 0 and rom.cycle_energy = 0"
     if terms:
         listed = terms[0] if len(terms) == 1 else "; ".join(terms[:-1]) + "; and " + terms[-1]
         return (
