@@ -132,10 +132,18 @@ def test_modal_data_from_toml(tmp_path):
     p.write_bytes(tomli_w.dumps({"modal": d}).encode())
     m = ModalModel.from_toml(p)
     np.testing.assert_allclose(m.frequencies, d["frequencies"])
+    # without participation factors the structure loads for free responses only
     d.pop("participation")
     p.write_bytes(tomli_w.dumps({"modal": d}).encode())
+    m = ModalModel.from_toml(p)
+    assert not m.has_participation and "participation" not in m.to_dict()
+    from sloshrom.beam.coupled import CoupledSimulator
+    from sloshrom.models import FrozenLiquid
+
+    sim = CoupledSimulator(FrozenLiquid(0.002), m)
+    assert np.all(np.isfinite(sim.run(np.zeros(50), q0=np.full(m.n_modes, 1e-3))["q"]))
     with pytest.raises(ModalDataError, match="participation"):
-        ModalModel.from_toml(p)
+        sim.run(np.ones(50))
     with pytest.raises(ConfigError, match="not found"):
         ModalModel.from_toml(tmp_path / "missing.toml")
 

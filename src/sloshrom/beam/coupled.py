@@ -43,6 +43,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass
+from collections.abc import Sequence
 from typing import Any
 
 import jax
@@ -54,9 +55,14 @@ from scipy.signal import resample_poly
 
 from sloshrom._x64 import float64
 from sloshrom.beam.envelope import envelope_coverage
-from sloshrom.beam.structure import ModalModel, frozen_mass_matrix
+from sloshrom.beam.structure import (
+    ModalDataError,
+    ModalModel,
+    frozen_mass_matrix,
+    liquid_masses,
+)
 from sloshrom.config import G, Tank
-from sloshrom.models import CompiledKernel, Enveloped, JaxModel, SloshingModel
+from sloshrom.models import CompiledKernel, Enveloped, FrozenLiquid, JaxModel, SloshingModel
 from sloshrom.signals import random_base_acceleration
 
 __all__ = [
@@ -82,7 +88,7 @@ class StepMismatchError(ValueError):
     """A sloshing model's time step does not match the step the simulation was asked to use."""
 
 
-def damping_matrix(modal: ModalModel, liquid_mass: float) -> np.ndarray:
+def damping_matrix(modal: ModalModel, liquid_mass: Any) -> np.ndarray:
     """Modal damping matrix giving the frozen-liquid modes the ratios ``modal.damping``, N s/m."""
     mf = frozen_mass_matrix(modal, liquid_mass)
     w2, v = eigh(np.diag(modal.stiffness), mf)  # v^T mf v = I
@@ -94,49 +100,57 @@ def damping_matrix(modal: ModalModel, liquid_mass: float) -> np.ndarray:
 @jax.tree_util.register_dataclass
 @dataclass
 class Discretisation:
-    """Exact ZOH discretisation of the structure: z = [q, q'], u = [df, a_s].
+    """Exact ZOH discretisation of the structure: z = [q, q'], u = [dF_1 .. dF_T, a_s].
 
     A JAX pytree (every field a leaf): passed into the jitted scan as data, so beams of the
-    same number of modes share one compilation.
+    same numbers of modes and tanks share one compilation.
     """
 
     dt: float  # s
     Phi: np.ndarray  # (2N, 2N)
-    Gam: np.ndarray  # (2N, 2)
+    Gam: np.ndarray  # (2N, T + 1)
     A2: np.ndarray  # (N, 2N): q'' = A2 z + B2 u
-    B2: np.ndarray  # (N, 2)
-    mass: np.ndarray  # M + m_l psi psi^T, kg
+    B2: np.ndarray  # (N, T + 1)
+    mass: np.ndarray  # M + sum_j m_j psi_j psi_j^T, kg
     stiffness: np.ndarray  # N/m
     damping: np.ndarray  # N s/m
-    psi: np.ndarray  # (N,) modes at the tank
-    m_total: float  # m_struct + m_l at the interface, kg
+    psi: np.ndarray  # (T, N) modes at the tanks
+    m_total: np.ndarray  # (T,) m_struct + m_l of each tank, kg
 
 
-def discretise(modal: ModalModel, liquid_mass: float, dt: float) -> Discretisation:
-    """Zero-order-hold discretisation of the coupled linear structure at step ``dt`` (s)."""
+def discretise(modal: ModalModel, liquid_mass: Any, dt: float) -> Discretisation:
+    """Zero-order-hold discretisation of the coupled linear structure at step ``dt`` (s).
+
+    ``liquid_mass`` (kg) is one value for every tank or one per tank. Unknown participation
+    factors (``modal.has_participation`` False) give a zero base-input column:
+    :class:`CoupledSimulator` then refuses a non-zero base acceleration.
+    """
     if not (math.isfinite(dt) and dt > 0):
         raise ValueError(f"dt must be a finite positive step in s, got {dt!r}")
     n = modal.n_modes
-    psi = modal.psi_tank
-    mass = frozen_mass_matrix(modal, liquid_mass)
+    psi = modal.psi_tanks
+    ml = liquid_masses(modal, liquid_mass)
+    nt = psi.shape[0]
+    mass = frozen_mass_matrix(modal, ml)
     k = np.diag(modal.stiffness)
-    c = damping_matrix(modal, liquid_mass)
+    c = damping_matrix(modal, ml)
     mi = np.linalg.inv(mass)
     a = np.zeros((2 * n, 2 * n))
     a[:n, n:] = np.eye(n)
     a[n:, :n] = -mi @ k
     a[n:, n:] = -mi @ c
-    b = np.zeros((2 * n, 2))
-    b[n:, 0] = mi @ psi
-    b[n:, 1] = -mi @ (modal.participation + liquid_mass * psi)
-    aug = np.zeros((2 * n + 2, 2 * n + 2))
+    b = np.zeros((2 * n, nt + 1))
+    b[n:, :nt] = mi @ psi.T
+    gamma = np.nan_to_num(modal.participation, nan=0.0)
+    b[n:, nt] = -mi @ (gamma + psi.T @ ml)
+    aug = np.zeros((2 * n + nt + 1, 2 * n + nt + 1))
     aug[: 2 * n, : 2 * n] = a
     aug[: 2 * n, 2 * n :] = b
     e = expm(aug * dt)
     return Discretisation(
         dt=float(dt), Phi=e[: 2 * n, : 2 * n], Gam=e[: 2 * n, 2 * n :], A2=a[n:], B2=b[n:],
         mass=mass, stiffness=k, damping=c, psi=psi.copy(),
-        m_total=modal.structure_mass + liquid_mass,
+        m_total=modal.structure_masses + ml,
     )
 
 
@@ -151,19 +165,20 @@ def _outputs(q: Any, qdd: Any, acc: Any, df: Any, vel: Any, m_total: Any) -> dic
             "interface_force": -m_total * acc + df, "tank_velocity": vel}
 
 
-def simulate_jax(model: JaxModel, disc: Discretisation, base_acceleration: Any,
-                 z0: Any) -> dict[str, Any]:
+def simulate_jax(model: JaxModel | Sequence[JaxModel], disc: Discretisation,
+                 base_acceleration: Any, z0: Any) -> dict[str, Any]:
     """Coupled simulation at the model rate as a pure JAX function (``lax.scan``).
 
-    Traceable in ``model`` and ``disc`` (both pytrees): jit it, ``vmap`` it over base
+    Traceable in the model(s) and ``disc`` (pytrees): jit it, ``vmap`` it over base
     accelerations, or differentiate a function of its outputs with respect to the model's
     parameters (``jax.grad(lambda m: loss(simulate_jax(m, disc, a, z0)))(rom)``). Precision
     follows the caller's JAX configuration (float64 under ``jax.enable_x64(True)``).
 
     Parameters
     ----------
-    model : JaxModel
-        Sloshing model with a traceable ``step`` at the step ``disc.dt``.
+    model : JaxModel or sequence of JaxModel
+        Sloshing model with a traceable ``step`` at the step ``disc.dt``; a sequence gives
+        one model per tank (in the order of ``disc.psi``'s rows).
     disc : Discretisation
         The structure, :func:`discretise` d at ``model.dt``.
     base_acceleration : array_like, shape (n,)
@@ -174,28 +189,46 @@ def simulate_jax(model: JaxModel, disc: Discretisation, base_acceleration: Any,
     Returns
     -------
     dict
-        Arrays of shape (n[, N]): ``q`` (m), ``qdd`` (m/s^2), ``tank_acceleration`` (m/s^2),
-        ``dynamic_force``, ``interface_force`` (N), ``tank_velocity`` (m/s).
+        Arrays of shape (n[, N]): ``q`` (m), ``qdd`` (m/s^2); per tank, shape (n, T) for a
+        sequence of models and (n,) for a single model (one tank): ``tank_acceleration``
+        (m/s^2), ``dynamic_force``, ``interface_force`` (N), ``tank_velocity`` (m/s).
     """
+    single = not isinstance(model, (tuple, list))
+    models = (model,) if single else tuple(model)
     Phi, Gam = jnp.asarray(disc.Phi), jnp.asarray(disc.Gam)
     A2, B2, psi = jnp.asarray(disc.A2), jnp.asarray(disc.B2), jnp.asarray(disc.psi)
-    n = psi.shape[0]
+    n = psi.shape[1]
+    if len(models) != psi.shape[0]:
+        raise ValueError(f"{len(models)} sloshing model(s) for {psi.shape[0]} tank(s)")
     dt = disc.dt
 
     def body(carry, a_s):
-        z, vs, acc_prev, ms = carry
+        z, vs, acc_prev, states = carry
         v_abs = psi @ z[n:] + vs
-        ms, df = model.step(ms, v_abs, acc_prev)
-        df = jnp.asarray(df, jnp.float64)
-        u = jnp.stack([df, a_s])
+        stepped = [m.step(st, v_abs[j], acc_prev[j])
+                   for j, (m, st) in enumerate(zip(models, states, strict=True))]
+        df = jnp.stack([jnp.asarray(f, jnp.float64) for _, f in stepped])
+        u = jnp.concatenate([df, a_s[None]])
         qdd = A2 @ z + B2 @ u
         acc = psi @ qdd + a_s
         z_next = Phi @ z + Gam @ u
-        return (z_next, vs + dt * a_s, acc, ms), (z[:n], qdd, acc, df, v_abs)
+        return ((z_next, vs + dt * a_s, acc, tuple(st for st, _ in stepped)),
+                (z[:n], qdd, acc, df, v_abs))
 
-    carry = (jnp.asarray(z0), jnp.zeros(()), jnp.zeros(()), model.init_state())
+    carry = (jnp.asarray(z0), jnp.zeros(()), jnp.zeros(psi.shape[0]),
+             tuple(m.init_state() for m in models))
     _, (q, qdd, acc, df, v) = jax.lax.scan(body, carry, jnp.asarray(base_acceleration))
-    return _outputs(q, qdd, acc, df, v, disc.m_total)
+    out = _outputs(q, qdd, acc, df, v, jnp.asarray(disc.m_total))
+    return _squeeze_tanks(out) if single else out
+
+
+#: the per-tank outputs (a trailing tank axis)
+TANK_KEYS = ("tank_acceleration", "dynamic_force", "interface_force", "tank_velocity")
+
+
+def _squeeze_tanks(out: dict[str, Any]) -> dict[str, Any]:
+    """One tank: drop the trailing tank axis of the per-tank outputs."""
+    return {k: (v[..., 0] if k in TANK_KEYS else v) for k, v in out.items()}
 
 
 @jax.tree_util.register_pytree_node_class
@@ -213,12 +246,12 @@ class _Constant:
         return cls(model)
 
 
-def _simulate(model: Any, disc: Discretisation, base_acceleration: Any, z0: Any) -> dict:
-    return simulate_jax(model.model if isinstance(model, _Constant) else model, disc,
+def _simulate(models: tuple, disc: Discretisation, base_acceleration: Any, z0: Any) -> dict:
+    return simulate_jax([m.model if isinstance(m, _Constant) else m for m in models], disc,
                         base_acceleration, z0)
 
 
-# module level, the model an argument: the compiled scans are shared by every simulator
+# module level, the models an argument: the compiled scans are shared by every simulator
 _simulate_one = jax.jit(_simulate)
 _simulate_batch = jax.jit(jax.vmap(_simulate, in_axes=(None, None, 0, None)))
 
@@ -231,62 +264,78 @@ def _jax_argument(model: JaxModel) -> Any:
 
 
 @nb.njit(cache=True)
-def _numba_loop(step_fn, mstate, mparams, Phi, Gam, A2, B2, psi, a_s, z0, dt, m_total):
+def _numba_loop(step_fn, mstate, mparams, active, Phi, Gam, A2, B2, psi, a_s, z0, dt, m_total):
+    # mstate, mparams: one row per active tank (same kernel); active: their tank indices
     nt = a_s.size
-    n = psi.size
+    ntank, n = psi.shape
     q = np.empty((nt, n))
     qdd = np.empty((nt, n))
-    acc = np.empty(nt)
-    dfo = np.empty(nt)
-    vel = np.empty(nt)
+    acc = np.empty((nt, ntank))
+    dfo = np.zeros((nt, ntank))
+    vel = np.empty((nt, ntank))
     z = z0.copy()
     zn = np.empty_like(z)
     vs = 0.0
-    acc_prev = 0.0
+    acc_prev = np.zeros(ntank)
+    df = np.zeros(ntank)
     for k in range(nt):
-        v_abs = vs
-        for i in range(n):
-            v_abs += psi[i] * z[n + i]
-        df = step_fn(mstate, mparams, v_abs, acc_prev)
-        vel[k] = v_abs
+        for t in range(ntank):
+            v_abs = vs
+            for i in range(n):
+                v_abs += psi[t, i] * z[n + i]
+            vel[k, t] = v_abs
+        for j in range(active.size):
+            t = active[j]
+            df[t] = step_fn(mstate[j], mparams[j], vel[k, t], acc_prev[t])
         a = a_s[k]
-        tacc = a
         for i in range(n):
-            s = B2[i, 0] * df + B2[i, 1] * a
+            s = 0.0
+            for t in range(ntank):
+                s += B2[i, t] * df[t]
+            s += B2[i, ntank] * a
             for j in range(2 * n):
                 s += A2[i, j] * z[j]
             qdd[k, i] = s
             q[k, i] = z[i]
-            tacc += psi[i] * s
+        for t in range(ntank):
+            tacc = a
+            for i in range(n):
+                tacc += psi[t, i] * qdd[k, i]
+            acc[k, t] = tacc
+            acc_prev[t] = tacc
+            dfo[k, t] = df[t]
         for i in range(2 * n):
-            s = Gam[i, 0] * df + Gam[i, 1] * a
+            s = 0.0
+            for t in range(ntank):
+                s += Gam[i, t] * df[t]
+            s += Gam[i, ntank] * a
             for j in range(2 * n):
                 s += Phi[i, j] * z[j]
             zn[i] = s
         z[:] = zn
-        acc[k] = tacc
-        dfo[k] = df
         vs += dt * a
-        acc_prev = tacc
     return q, qdd, acc, dfo, vel
 
 
-def _python_loop(model: SloshingModel, d: Discretisation, a_s: np.ndarray,
+def _python_loop(models: Sequence[SloshingModel], d: Discretisation, a_s: np.ndarray,
                  z0: np.ndarray) -> dict:
-    n = d.psi.size
+    ntank, n = d.psi.shape
     nt = a_s.size
     q, qdd = np.empty((nt, n)), np.empty((nt, n))
-    acc, dfo, vel = np.empty(nt), np.empty(nt), np.empty(nt)
-    z, vs, acc_prev, ms = z0.copy(), 0.0, 0.0, model.init_state()
+    acc, dfo, vel = np.empty((nt, ntank)), np.empty((nt, ntank)), np.empty((nt, ntank))
+    z, vs, acc_prev = z0.copy(), 0.0, np.zeros(ntank)
+    states = [m.init_state() for m in models]
+    u = np.empty(ntank + 1)
     for k in range(nt):
         vel[k] = d.psi @ z[n:] + vs
-        ms, df = model.step(ms, vel[k], acc_prev)
-        df = float(df)
-        u = np.array([df, a_s[k]])
+        for j, m in enumerate(models):
+            states[j], f = m.step(states[j], vel[k, j], acc_prev[j])
+            u[j] = float(f)
+        u[ntank] = a_s[k]
         qdd[k] = d.A2 @ z + d.B2 @ u
         q[k] = z[:n]
         acc[k] = d.psi @ qdd[k] + a_s[k]
-        dfo[k] = df
+        dfo[k] = u[:ntank]
         z = d.Phi @ z + d.Gam @ u
         vs += d.dt * a_s[k]
         acc_prev = acc[k]
@@ -298,10 +347,16 @@ def _is_jax(model: Any) -> bool:
     return isinstance(model, JaxModel) and getattr(model, "jax_traceable", False) is True
 
 
-def _default_backend(model: Any) -> str:
-    if isinstance(model, CompiledKernel):
+def _is_passive(model: Any) -> bool:
+    """Frozen liquid: no dynamic force, so any backend can skip it (its step is not needed)."""
+    return isinstance(model, FrozenLiquid)
+
+
+def _default_backend(models: Sequence[Any]) -> str:
+    active = [m for m in models if not _is_passive(m)]
+    if active and all(isinstance(m, CompiledKernel) for m in active):
         return "numba"
-    return "jax" if _is_jax(model) else "python"
+    return "jax" if all(_is_jax(m) for m in models) else "python"
 
 
 # ------------------------------------------------------------------------------------------
@@ -310,20 +365,26 @@ def _default_backend(model: Any) -> str:
 
 
 class CoupledSimulator:
-    """Sloshing beam: a modal structure carrying a tank whose liquid is any sloshing model.
+    """Sloshing structure: modal structure carrying one or more tanks, each with its liquid
+    modelled by any sloshing model.
 
     Parameters
     ----------
-    model : SloshingModel
+    model : SloshingModel or sequence of SloshingModel
         Implements the contract of :mod:`sloshrom.models` (``dt``, ``init_state``, ``step``);
-        ``"auto"`` picks the numba backend for a :class:`~sloshrom.models.CompiledKernel`
-        (virtual rig), JAX for a :class:`~sloshrom.models.JaxModel`, else the Python loop.
+        one model for every tank, or one per tank (in the order of ``modal.psi_tanks``). Every
+        model that is not a :class:`~sloshrom.models.FrozenLiquid` must run at the same step
+        (the rig's 1e-4 s and a ROM's 1/fs do not mix: :class:`StepMismatchError`). ``"auto"``
+        picks the numba backend when the sloshing tanks are all
+        :class:`~sloshrom.models.CompiledKernel` s (virtual rigs), JAX when every model is a
+        :class:`~sloshrom.models.JaxModel`, else the Python loop.
     modal : ModalModel
-        Dry-structure modes (beam + tank structure).
-    tank : Tank
-        Gives the liquid mass m_l (default: paper tank).
+        Dry-structure modes (structure + tank structures); its ``psi_tank`` places the tanks.
+    tank : Tank or sequence of Tank
+        Gives each tank's liquid mass m_l (default: paper tank, for every tank).
     dt : float, optional
-        Requested step, s; must equal ``model.dt`` (a :class:`StepMismatchError` otherwise).
+        Requested step, s; must equal the models' step (a :class:`StepMismatchError`
+        otherwise).
     output_fs : float, optional
         Output sample rate, Hz (default 1/dt; must divide 1/dt). Outputs are decimated with a
         zero-phase anti-alias FIR (``scipy.signal.resample_poly``).
@@ -332,17 +393,20 @@ class CoupledSimulator:
 
     def __init__(
         self,
-        model: SloshingModel,
+        model: SloshingModel | Sequence[SloshingModel],
         modal: ModalModel,
-        tank: Tank | None = None,
+        tank: Tank | Sequence[Tank] | None = None,
         dt: float | None = None,
         output_fs: float | None = None,
         backend: str = "auto",
     ) -> None:
+        nt = modal.n_tanks
         self.model = model
+        self.models = _per_tank(model, nt, "sloshing model")
         self.modal = modal
-        self.tank = tank if tank is not None else Tank()
-        mdt = float(model.dt)
+        self.tanks = _per_tank(tank if tank is not None else Tank(), nt, "tank")
+        self.tank = self.tanks[0]
+        mdt = _common_step(self.models)
         if dt is not None and not math.isclose(float(dt), mdt, rel_tol=1e-9):
             raise StepMismatchError(
                 f"the sloshing model runs at dt = {mdt} s but a step of {dt} s was requested; "
@@ -358,16 +422,22 @@ class CoupledSimulator:
             )
         self.decimation = int(round(ratio))
         if backend == "auto":
-            backend = _default_backend(model)
+            backend = _default_backend(self.models)
         if backend not in ("jax", "numba", "python"):
             raise ValueError(f"unknown backend {backend!r} (jax, numba, python)")
-        if backend == "numba" and not isinstance(model, CompiledKernel):
-            raise ValueError("the numba backend needs a model with kernel()")
-        if backend == "jax" and not _is_jax(model):
+        self.active = tuple(j for j, m in enumerate(self.models) if not _is_passive(m))
+        if backend == "numba":
+            kernels = [self.models[j] for j in self.active]
+            if not kernels or not all(isinstance(m, CompiledKernel) for m in kernels):
+                raise ValueError("the numba backend needs a model with kernel()")
+            if len({id(m.kernel()[0]) for m in kernels}) > 1:
+                raise ValueError("the numba backend needs one kernel for every sloshing tank; "
+                                 "use backend='python' for different kernels")
+        if backend == "jax" and not all(_is_jax(m) for m in self.models):
             raise ValueError("the jax backend needs a jax-traceable model (sloshrom.models."
                              "JaxModel)")
         self.backend = backend
-        self.disc = discretise(modal, self.tank.liquid_mass, mdt)
+        self.disc = discretise(modal, [t.liquid_mass for t in self.tanks], mdt)
 
     # -- core -------------------------------------------------------------------------------
     def _z0(self, q0: Any, qd0: Any) -> np.ndarray:
@@ -379,74 +449,111 @@ class CoupledSimulator:
             z0[n:] = np.broadcast_to(np.asarray(qd0, dtype=float), (n,))
         return z0
 
+    def _numba(self, row: np.ndarray, z0: np.ndarray) -> dict:
+        kernels = [self.models[j].kernel() for j in self.active]
+        step_fn = kernels[0][0]
+        try:
+            params = np.stack([np.asarray(k[1], dtype=np.float64) for k in kernels])
+            states = np.stack([np.asarray(k[2], dtype=np.float64) for k in kernels])
+        except ValueError as exc:  # kernels of different sizes cannot share one loop
+            raise ValueError("the numba backend needs sloshing tanks whose kernels have "
+                             "parameter and state arrays of one size") from exc
+        d = self.disc
+        q, qdd, acc, dfo, vel = _numba_loop(
+            step_fn, states, params, np.asarray(self.active, dtype=np.int64), d.Phi, d.Gam,
+            d.A2, d.B2, d.psi, np.ascontiguousarray(row), z0, d.dt, d.m_total,
+        )
+        return _outputs(q, qdd, acc, dfo, vel, d.m_total)
+
     @float64
     def run_raw(self, base_acceleration: Any, q0: Any = None, qd0: Any = None) -> dict:
-        """Simulate at the model rate; arrays of shape (batch..., n[, n_modes]); no decimation."""
+        """Simulate at the model rate; arrays of shape (batch..., n[, n_modes]) and, for the
+        per-tank outputs of a structure with a 2-D ``psi_tank``, (batch..., n, n_tanks); no
+        decimation."""
         a = np.asarray(base_acceleration, dtype=np.float64)
         if a.ndim == 0:
             raise ValueError("base_acceleration must have a time axis")
         if not np.all(np.isfinite(a)):
             raise ValueError("base_acceleration must be finite")
+        if not self.modal.has_participation and np.any(a != 0):
+            raise ModalDataError(
+                "the modal model has no participation factors (kg), which base excitation "
+                "needs; give them (a 'participation' column of the mode table) or run a free "
+                "response")
         z0 = self._z0(q0, qd0)
         lead = a.shape[:-1]
         flat = a.reshape(-1, a.shape[-1])
         if self.backend == "jax":
-            m, d, zj = _jax_argument(self.model), self.disc, jnp.asarray(z0)
+            m, d, zj = tuple(_jax_argument(m) for m in self.models), self.disc, jnp.asarray(z0)
             if flat.shape[0] > 1:
                 res = _simulate_batch(m, d, jnp.asarray(flat), zj)
             else:
                 res = {k: v[None] for k, v in _simulate_one(m, d, jnp.asarray(flat[0]), zj).items()}
             out = {k: np.asarray(v) for k, v in res.items()}
         else:
-            outs = []
-            for row in flat:
-                if self.backend == "numba":
-                    step_fn, params, state = self.model.kernel()
-                    d = self.disc
-                    q, qdd, acc, dfo, vel = _numba_loop(
-                        step_fn, state, params, d.Phi, d.Gam, d.A2, d.B2, d.psi,
-                        np.ascontiguousarray(row), z0, d.dt, d.m_total,
-                    )
-                    outs.append(_outputs(q, qdd, acc, dfo, vel, d.m_total))
-                else:
-                    outs.append(_python_loop(self.model, self.disc, row, z0))
+            outs = [self._numba(row, z0) if self.backend == "numba"
+                    else _python_loop(self.models, self.disc, row, z0) for row in flat]
             out = {k: np.stack([o[k] for o in outs]) for k in outs[0]}
         self._check_divergence(out["q"])
-        return {k: v.reshape(lead + v.shape[1:]) for k, v in out.items()}
+        out = {k: v.reshape(lead + v.shape[1:]) for k, v in out.items()}
+        return _squeeze_tanks(out) if self.modal.psi_tank.ndim == 1 else out
 
     def _check_divergence(self, q: np.ndarray) -> None:
         """Stop with the time of divergence instead of returning NaNs.
 
-        Diverged = a non-finite modal displacement, or one larger than the beam itself (with
-        modes normalised to unit maximum displacement, |q| > L is no longer a beam vibration).
+        Diverged = a non-finite modal displacement, or a displacement of a tank or output
+        point larger than the structure itself (its length; 10 m without one): no longer a
+        vibration.
         """
-        bound = float(getattr(self.modal, "length", 1.0) or 1.0)
-        bad = ~np.isfinite(q) | (np.abs(np.nan_to_num(q, nan=np.inf)) > bound)
+        bound = float(getattr(self.modal, "length", None) or 10.0)
+        finite = np.isfinite(q).all(axis=-1)
+        qf = np.where(finite[..., None], q, 0.0)
+        bad = ~finite
+        for shape in np.vstack([self.modal.psi_tanks, self.modal.psi_stations]):
+            bad |= np.abs(qf @ shape) > bound  # one point at a time: bounded memory
         if not bad.any():
             return
-        k = int(np.argmax(bad.reshape(bad.shape[0], bad.shape[1], -1).any(axis=(0, 2))))
+        k = int(np.argmax(bad.reshape(bad.shape[0], -1).any(axis=0)))
         raise SimulationDivergedError(
             f"the coupled simulation diverged at t = {k * self.disc.dt:.4g} s "
-            f"(modal displacement non-finite or beyond {bound:g} m); the sloshing model "
-            f"({type(self.model).__name__}) is probably outside its valid range"
+            f"(modal displacement non-finite or a point beyond {bound:g} m); the sloshing "
+            f"model ({', '.join(sorted({type(m).__name__ for m in self.models}))}) is "
+            "probably outside its valid range"
         )
+
+    def _per_tank_columns(self, x: np.ndarray) -> list[np.ndarray]:
+        return [x] if self.modal.psi_tank.ndim == 1 else [x[..., j] for j in range(x.shape[-1])]
 
     def _check_envelope(self, v: np.ndarray) -> None:
         # a ROM inside the loop cannot warn from within lax.scan: check its input afterwards
-        if not isinstance(self.model, Enveloped):
-            return
-        env = self.model.envelope_
-        if not isinstance(env, dict) or "input_min" not in env:
-            return
-        lo, hi = float(env["input_min"]), float(env["input_max"])
-        over = max(float(np.max(v)) - hi, lo - float(np.min(v)), 0.0)
-        if over > 0:
-            warnings.warn(
-                f"tank velocity left the ROM's training envelope [{lo:.4g}, {hi:.4g}] m/s by "
-                f"{over:.4g} m/s: the sloshing force is extrapolated",
-                UserWarning,
-                stacklevel=3,
-            )
+        for j, (model, vj) in enumerate(zip(self.models, self._per_tank_columns(v),
+                                            strict=True)):
+            if not isinstance(model, Enveloped):
+                continue
+            env = model.envelope_
+            if not isinstance(env, dict) or "input_min" not in env:
+                continue
+            lo, hi = float(env["input_min"]), float(env["input_max"])
+            over = max(float(np.max(vj)) - hi, lo - float(np.min(vj)), 0.0)
+            if over > 0:
+                where = "" if self.modal.psi_tank.ndim == 1 else f" of tank {j + 1}"
+                warnings.warn(
+                    f"tank velocity{where} left the ROM's training envelope [{lo:.4g}, "
+                    f"{hi:.4g}] m/s by {over:.4g} m/s: the sloshing force is extrapolated",
+                    UserWarning,
+                    stacklevel=3,
+                )
+
+    def _coverage(self, v: np.ndarray, acc: np.ndarray) -> tuple[Any, Any, Any]:
+        covs = [envelope_coverage(getattr(m, "envelope_", None), vj, aj)
+                for m, vj, aj in zip(self.models, self._per_tank_columns(v),
+                                     self._per_tank_columns(acc), strict=True)]
+        if self.modal.psi_tank.ndim == 1:
+            c = covs[0]
+            return c.outside_fraction, c.acceleration_ratio, c.training_peak_acceleration
+        return (np.stack([c.outside_fraction for c in covs], axis=-1),
+                np.stack([c.acceleration_ratio for c in covs], axis=-1),
+                np.array([c.training_peak_acceleration for c in covs]))
 
     def run(self, base_acceleration: Any, q0: Any = None, qd0: Any = None) -> dict:
         """Simulate and return results at ``output_fs``.
@@ -470,13 +577,16 @@ class CoupledSimulator:
             (:func:`sloshrom.beam.envelope.envelope_coverage`, shape (...), NaN for a model
             without an envelope): ``envelope_outside_fraction`` (-),
             ``envelope_acceleration_ratio`` (peak tank acceleration / training peak
-            acceleration, -) and ``training_peak_acceleration`` (m/s^2).
+            acceleration, -) and ``training_peak_acceleration`` (m/s^2). With a 2-D
+            ``psi_tank`` (several tanks) the four per-tank signals have a trailing tank axis,
+            (..., n, n_tanks), the coverage entries shape (..., n_tanks), and
+            ``training_peak_acceleration`` one value per tank.
         """
         a = np.asarray(base_acceleration, dtype=np.float64)
         raw = self.run_raw(a, q0, qd0)
         self._check_envelope(raw["tank_velocity"])
-        cov = envelope_coverage(getattr(self.model, "envelope_", None), raw["tank_velocity"],
-                                raw["tank_acceleration"])
+        outside, ratio, train_peak = self._coverage(raw["tank_velocity"],
+                                                    raw["tank_acceleration"])
         raw["base_acceleration"] = a
         dec = self.decimation
         out: dict[str, Any] = {}
@@ -484,9 +594,8 @@ class CoupledSimulator:
             if dec == 1:
                 out[k] = v
             else:
-                t_axis = a.ndim - 1
-                out[k] = resample_poly(v, 1, dec, axis=t_axis, padtype="line")
-        n_out = out["tank_acceleration"].shape[-1]
+                out[k] = resample_poly(v, 1, dec, axis=a.ndim - 1, padtype="line")
+        n_out = out["base_acceleration"].shape[-1]
         out["time"] = np.arange(n_out) / self.output_fs
         out["fs"] = self.output_fs
         out["modal_acceleration"] = out.pop("qdd")
@@ -495,28 +604,54 @@ class CoupledSimulator:
             + out["base_acceleration"][..., None]
         )
         out["stations"] = self.modal.stations
-        out["envelope_outside_fraction"] = cov.outside_fraction
-        out["envelope_acceleration_ratio"] = cov.acceleration_ratio
-        out["training_peak_acceleration"] = cov.training_peak_acceleration
+        out["envelope_outside_fraction"] = outside
+        out["envelope_acceleration_ratio"] = ratio
+        out["training_peak_acceleration"] = train_peak
         return out
 
 
+def _per_tank(value: Any, n_tanks: int, what: str) -> tuple:
+    """One value per tank: a sequence of ``n_tanks`` or one value for every tank."""
+    if isinstance(value, (list, tuple)):
+        if len(value) != n_tanks:
+            raise ValueError(f"{len(value)} {what}(s) for a structure with {n_tanks} tank(s)")
+        return tuple(value)
+    return (value,) * n_tanks
+
+
+def _common_step(models: Sequence[SloshingModel]) -> float:
+    """The step every sloshing (not frozen) model runs at, s; frozen tanks follow it."""
+    active = [m for m in models if not _is_passive(m)] or list(models)
+    steps = [float(m.dt) for m in active]
+    if any(not math.isclose(x, steps[0], rel_tol=1e-9) for x in steps):
+        raise StepMismatchError(
+            "the tanks' sloshing models run at different steps ("
+            + ", ".join(f"{type(m).__name__} {x:g} s" for m, x in zip(active, steps, strict=True))
+            + "); one coupled simulation needs one step (frozen tanks adapt)")
+    return steps[0]
+
+
 def free_response(
-    model: SloshingModel,
+    model: SloshingModel | Sequence[SloshingModel],
     modal: ModalModel,
     tip_displacement: float = 0.0146,
     duration: float = 10.0,
-    tank: Tank | None = None,
+    tank: Tank | Sequence[Tank] | None = None,
     output_fs: float | None = None,
+    load_tank: int = 0,
 ) -> dict:
     """Free response released at rest from the static tip-load shape (paper Sect. 4.3).
 
     Parameters
     ----------
+    model, tank
+        One for every tank or one per tank (:class:`CoupledSimulator`).
     tip_displacement : float
-        Initial tank displacement, m (paper: 1.46 cm).
+        Initial displacement of the loaded tank, m (paper: 1.46 cm).
     duration : float
         s.
+    load_tank : int
+        With several tanks: the tank (0-based) at which the static force acts.
 
     Returns
     -------
@@ -525,7 +660,7 @@ def free_response(
     """
     sim = CoupledSimulator(model, modal, tank=tank, output_fs=output_fs)
     n = int(round(duration / sim.dt))
-    q0 = modal.static_tip_state(tip_displacement)
+    q0 = modal.static_tip_state(tip_displacement, tank=load_tank)
     out = sim.run(np.zeros(n), q0=q0)
     out["q0"] = q0
     return out
@@ -541,7 +676,7 @@ def upsample_periodic(x: np.ndarray, factor: int) -> np.ndarray:
 
 
 def random_response(
-    model: SloshingModel,
+    model: SloshingModel | Sequence[SloshingModel],
     modal: ModalModel,
     rms_levels: Any = (0.1, 0.2, 0.4),
     duration: float = 90.0,
@@ -549,7 +684,7 @@ def random_response(
     f0: float = 12.0,
     sigma: float = 4.0,
     signal_fs: float = 500.0,
-    tank: Tank | None = None,
+    tank: Tank | Sequence[Tank] | None = None,
     output_fs: float | None = None,
     fade: float = 1.0,
 ) -> dict:

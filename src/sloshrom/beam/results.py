@@ -36,7 +36,7 @@ __all__ = [
     "BANDS", "Mode1Decay", "damping_by_band", "damping_summary", "envelope_table",
     "frozen_modes_table",
     "modal_accelerations", "mode1_damping_table", "mode1_decay", "output_rate",
-    "simulate_cases", "to_dataset", "write_dataset", "write_table",
+    "reference_tank", "simulate_cases", "to_dataset", "write_dataset", "write_table",
 ]
 
 #: Bands of tank-acceleration amplitude (g) in which the instantaneous first-mode damping is
@@ -204,8 +204,8 @@ def frozen_modes_table(tank: Tank, modal: ModalModel,
 
 
 # -- result files --------------------------------------------------------------------------------
-def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank, modal: ModalModel,
-               seed: int = 0) -> xr.Dataset:
+def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank | Sequence[Tank],
+               modal: ModalModel, seed: int = 0) -> xr.Dataset:
     """xarray Dataset of a coupled-simulation result (the standard beam-result names).
 
     Parameters
@@ -217,10 +217,11 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank, modal: 
         The sloshing model's case name (``frozen``, ``rig``, a ROM's name).
     kind : str
         ``"free"`` or ``"random"`` (the ``test`` attribute).
-    tank : Tank
-        The tank (fill level and liquid mass go into the attributes).
+    tank : Tank or sequence of Tank
+        The tank(s) (fill level and liquid mass go into the attributes).
     modal : ModalModel
-        The beam's modal model (stations, modes, frequencies, damping).
+        The structure's modal model (stations, modes, frequencies, damping; tank and output
+        point IDs when it has them).
     seed : int
         Seed of the run (attribute).
 
@@ -232,21 +233,27 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank, modal: 
         <sloshrom.beam.coupled.CoupledSimulator.run>`), when the result holds it:
         variables ``envelope_outside_fraction`` and ``envelope_acceleration_ratio`` (-, one
         value per level; NaN for a model without an envelope) and the attribute
-        ``training_peak_acceleration`` (m/s^2, NaN if unknown).
+        ``training_peak_acceleration`` (m/s^2, NaN if unknown). A structure with several
+        tanks (2-D ``psi_tank``) gives the tank signals and the coverage a trailing ``tank``
+        dimension, its coordinate the tank IDs (or 1, 2, ...), and one attribute value per
+        tank; output point IDs become the coordinate ``station_id``.
     """
-    lead = res["tank_acceleration"].shape[:-1]
+    multi = modal.psi_tank.ndim == 2
+    lead = res["base_acceleration"].shape[:-1]
     ldims = ("level",) if len(lead) == 1 else ()
+    tdims = ldims + (("time", "tank") if multi else ("time",))
+    tanks = list(tank) if isinstance(tank, (list, tuple)) else [tank] * modal.n_tanks
     t = res["time"]
     ds = xr.Dataset(
         {
             "base_acceleration": (ldims + ("time",), res["base_acceleration"],
                                   {"units": "m/s^2"}),
-            "tank_acceleration": (ldims + ("time",), res["tank_acceleration"],
+            "tank_acceleration": (tdims, res["tank_acceleration"],
                                   {"units": "m/s^2", "long_name": "tank absolute acceleration"}),
-            "interface_force": (ldims + ("time",), res["interface_force"],
+            "interface_force": (tdims, res["interface_force"],
                                 {"units": "N", "long_name": "-(m_struct + m_l) acc + dynamic"}),
-            "dynamic_force": (ldims + ("time",), res["dynamic_force"], {"units": "N"}),
-            "tank_velocity": (ldims + ("time",), res["tank_velocity"],
+            "dynamic_force": (tdims, res["dynamic_force"], {"units": "N"}),
+            "tank_velocity": (tdims, res["tank_velocity"],
                               {"units": "m/s", "long_name": "tank absolute velocity"}),
             "station_acceleration": (ldims + ("time", "station"), res["station_acceleration"],
                                      {"units": "m/s^2", "long_name": "absolute"}),
@@ -259,23 +266,57 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank, modal: 
                 "mode": ("mode", np.arange(1, modal.n_modes + 1))},
         attrs={"case": case, "test": kind, "fs": float(res["fs"]),
                "sloshrom_version": __version__, "seed": int(seed),
-               "tank_fill": tank.fill, "liquid_mass": tank.liquid_mass,
-               "structure_mass": modal.structure_mass,
                "modal_frequencies_Hz": modal.frequencies,
                "modal_damping": modal.damping},
     )
+    if multi:
+        ids = modal.tank_ids or tuple(range(1, modal.n_tanks + 1))
+        ds = ds.assign_coords(tank=("tank", np.asarray(ids, dtype=np.int64)))
+        ds.attrs.update(tank_fill=np.array([tk.fill for tk in tanks]),
+                        liquid_mass=np.array([tk.liquid_mass for tk in tanks]),
+                        structure_mass=modal.structure_masses)
+    else:
+        ds.attrs.update(tank_fill=tanks[0].fill, liquid_mass=tanks[0].liquid_mass,
+                        structure_mass=float(modal.structure_mass))
+    if modal.station_ids is not None:
+        ds = ds.assign_coords(station_id=("station", np.asarray(modal.station_ids,
+                                                                dtype=np.int64)))
     if "envelope_outside_fraction" in res:
-        ds["envelope_outside_fraction"] = (ldims, np.asarray(res["envelope_outside_fraction"]), {
+        edims = ldims + (("tank",) if multi else ())
+        ds["envelope_outside_fraction"] = (edims, np.asarray(res["envelope_outside_fraction"]), {
             "units": "1", "long_name": "fraction of samples outside the ROM's training envelope "
                                        "(NaN: the model has none)"})
-        ds["envelope_acceleration_ratio"] = (ldims, np.asarray(
+        ds["envelope_acceleration_ratio"] = (edims, np.asarray(
             res["envelope_acceleration_ratio"]), {
             "units": "1", "long_name": "peak tank acceleration / training peak acceleration "
                                        "(NaN: unknown)"})
-        ds.attrs["training_peak_acceleration"] = float(res["training_peak_acceleration"])
+        peak = np.asarray(res["training_peak_acceleration"], dtype=float)
+        ds.attrs["training_peak_acceleration"] = peak if multi else float(peak)
     if ldims:
         ds = ds.assign_coords(level=("level", res["rms_levels_g"], {"units": "g (RMS)"}))
     return ds
+
+
+def reference_tank(res: Mapping[str, Any], tank: int = 0) -> dict[str, Any]:
+    """A result of several tanks seen through one of them: the per-tank signals (and their
+    envelope coverage) of tank ``tank`` (0-based) only, as a one-tank result.
+
+    The first-mode analyses and figures read ``tank_acceleration`` as the amplitude axis and
+    the response; with several tanks they use the reference tank's. A one-tank result is
+    returned unchanged.
+    """
+    from sloshrom.beam.coupled import TANK_KEYS
+
+    if np.ndim(res["tank_acceleration"]) == np.ndim(res["base_acceleration"]):
+        return dict(res)
+    out = dict(res)
+    for k in TANK_KEYS:
+        out[k] = res[k][..., tank]
+    for k in ("envelope_outside_fraction", "envelope_acceleration_ratio",
+              "training_peak_acceleration"):
+        if k in res:
+            out[k] = np.asarray(res[k])[..., tank]
+    return out
 
 
 def envelope_table(results: Mapping[str, Mapping[str, Mapping[str, Any]]]

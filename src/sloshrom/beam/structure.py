@@ -251,18 +251,26 @@ class ModalModel:
         frozen-liquid system (see :func:`sloshrom.beam.coupled.damping_matrix`).
     modal_masses : array (n_modes,)
         kg, for the mode normalisation used (here unit maximum displacement).
-    psi_tank : array (n_modes,)
-        Mode displacement at the tank centre (-).
-    participation : array (n_modes,)
-        Gamma_n = int mu psi_n dx + m_struct psi_n(x_T), kg.
+    psi_tank : array (n_modes,) or (n_tanks, n_modes)
+        Mode displacement at the tank centre (-); one row per tank for several tanks. The
+        shape decides the shape of the per-tank results: a 1-D ``psi_tank`` (one tank) gives
+        per-tank outputs without a tank axis, a 2-D one gives them a trailing tank axis.
+    participation : array (n_modes,) or None
+        Gamma_n = int mu psi_n dx + m_struct psi_n(x_T), kg: the mass-weighted mode integral
+        in the direction of the base motion. ``None`` (unknown, stored as NaN): the structure
+        can only be released (free responses); base excitation refuses to run.
     stations : array (n_stations,)
-        Accelerometer positions along the beam, m.
+        Accelerometer positions along the beam, m (for a structure read from a modal file:
+        the output points' coordinate along its longest axis, m, or their index).
     psi_stations : array (n_stations, n_modes)
         Mode displacement at the stations (-).
-    structure_mass : float
-        Tank structure mass above the interface, kg (enters the interface force).
+    structure_mass : float or array (n_tanks,)
+        Tank structure mass above the interface, kg (enters the interface force); one per
+        tank for a 2-D ``psi_tank`` (a scalar is used for every tank).
     length : float or None
         Beam length, m (stations must lie in [0, length]); None: not checked.
+    station_ids, tank_ids : tuple of int, optional
+        Labels of the output points and tanks (grid or node IDs of a modal file).
     """
 
     frequencies: np.ndarray
@@ -276,6 +284,8 @@ class ModalModel:
     length: float | None = None
     source: str = "user"
     attrs: dict[str, Any] = field(default_factory=dict)
+    station_ids: tuple[int, ...] | None = None
+    tank_ids: tuple[int, ...] | None = None
 
     def __post_init__(self) -> None:
         f = np.atleast_1d(np.asarray(self.frequencies, dtype=float))
@@ -300,8 +310,20 @@ class ModalModel:
         self.modal_masses = vec("modal_masses", self.modal_masses)
         if np.any(self.modal_masses <= 0):
             raise ModalDataError(f"modal masses must be positive (kg), got {self.modal_masses}")
-        self.psi_tank = vec("psi_tank", self.psi_tank)
-        self.participation = vec("participation", self.participation)
+        pt = np.asarray(self.psi_tank, dtype=float)
+        if pt.ndim == 2:
+            if pt.shape[1] != n or pt.shape[0] < 1:
+                raise ModalDataError(f"psi_tank must have shape (n_tanks, n_modes = {n}), "
+                                     f"got {pt.shape}")
+            if not np.all(np.isfinite(pt)):
+                raise ModalDataError(f"psi_tank must be finite, got {pt}")
+            self.psi_tank = pt
+        else:
+            self.psi_tank = vec("psi_tank", pt)
+        if self.participation is None:
+            self.participation = np.full(n, np.nan)
+        else:
+            self.participation = vec("participation", self.participation)
         self.stations = np.atleast_1d(np.asarray(self.stations, dtype=float))
         ps = np.asarray(self.psi_stations, dtype=float)
         if ps.ndim == 1 and n == 1:
@@ -321,14 +343,49 @@ class ModalModel:
                 raise ModalDataError(
                     f"station(s) {self.stations[off]} m lie off the beam [0, {self.length}] m"
                 )
-        self.structure_mass = float(self.structure_mass)
-        if not (math.isfinite(self.structure_mass) and self.structure_mass >= 0):
+        sm = np.asarray(self.structure_mass, dtype=float)
+        if sm.ndim == 0:
+            self.structure_mass = float(sm)
+        elif self.psi_tank.ndim == 2 and sm.shape == (self.n_tanks,):
+            self.structure_mass = sm
+        else:
+            raise ModalDataError(f"structure_mass must be one value (kg) or one per tank "
+                                 f"({self.n_tanks}), got shape {sm.shape}")
+        if not (np.all(np.isfinite(sm)) and np.all(sm >= 0)):
             raise ModalDataError(f"structure_mass must be >= 0 kg, got {self.structure_mass}")
+        for name, ids, count in (("station_ids", self.station_ids, self.stations.size),
+                                 ("tank_ids", self.tank_ids, self.n_tanks)):
+            if ids is not None:
+                ids = tuple(int(i) for i in ids)
+                if len(ids) != count or len(set(ids)) != count:
+                    raise ModalDataError(f"{name} must be {count} distinct labels, got {ids}")
+                setattr(self, name, ids)
 
     # -- derived ----------------------------------------------------------------------------
     @property
     def n_modes(self) -> int:
         return self.frequencies.size
+
+    @property
+    def n_tanks(self) -> int:
+        """Number of tanks (rows of a 2-D ``psi_tank``; 1 for a 1-D one)."""
+        return 1 if self.psi_tank.ndim == 1 else self.psi_tank.shape[0]
+
+    @property
+    def psi_tanks(self) -> np.ndarray:
+        """Mode displacement at the tanks, always (n_tanks, n_modes) (-)."""
+        return np.atleast_2d(self.psi_tank)
+
+    @property
+    def structure_masses(self) -> np.ndarray:
+        """Tank structure mass of each tank, (n_tanks,) kg."""
+        return np.broadcast_to(np.asarray(self.structure_mass, dtype=float),
+                               (self.n_tanks,)).copy()
+
+    @property
+    def has_participation(self) -> bool:
+        """Whether the participation factors are known (base excitation needs them)."""
+        return bool(np.all(np.isfinite(self.participation)))
 
     @property
     def omegas(self) -> np.ndarray:
@@ -340,15 +397,23 @@ class ModalModel:
         """Modal stiffnesses k_n = omega_n^2 m_n, N/m."""
         return self.omegas**2 * self.modal_masses
 
-    def static_tip_state(self, tip_displacement: float) -> np.ndarray:
+    def static_tip_state(self, tip_displacement: float, tank: int = 0) -> np.ndarray:
         """Modal coordinates of the static tip-load deflection with tank displacement given, m.
 
-        A tip force F gives ``q_n = F psi_n(x_T) / k_n`` (modal expansion of the flexibility,
-        equal to the mass-weighted projection of the exact static shape on the modes); F is
-        scaled so that ``psi_T . q = tip_displacement``.
+        A force F at the tank gives ``q_n = F psi_n(x_T) / k_n`` (modal expansion of the
+        flexibility, equal to the mass-weighted projection of the exact static shape on the
+        modes); F is scaled so that ``psi_T . q = tip_displacement``. With several tanks the
+        force acts at tank number ``tank`` (0-based) and ``tip_displacement`` is its
+        displacement.
         """
-        q = self.psi_tank / self.stiffness
-        return q * (tip_displacement / float(self.psi_tank @ q))
+        if not 0 <= tank < self.n_tanks:
+            raise ModalDataError(f"tank index {tank} outside the {self.n_tanks} tank(s)")
+        psi = self.psi_tanks[tank]
+        q = psi / self.stiffness
+        scale = float(psi @ q)
+        if scale == 0.0:
+            raise ModalDataError(f"no mode moves tank {tank}: it cannot be deflected")
+        return q * (tip_displacement / scale)
 
     # -- constructors -----------------------------------------------------------------------
     @classmethod
@@ -395,19 +460,21 @@ class ModalModel:
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> ModalModel:
         """From a mapping with keys ``frequencies`` (Hz), ``damping``, ``modal_masses`` (kg),
-        ``psi_tank``, ``participation`` (kg), ``stations`` (m), ``psi_stations`` (rows =
-        stations), ``structure_mass`` (kg) and optional ``length`` (m)."""
+        ``psi_tank`` (a list, or a list of lists: one per tank), ``stations`` (m),
+        ``psi_stations`` (rows = stations), ``structure_mass`` (kg, one or one per tank) and
+        optional ``participation`` (kg; without it only free responses run), ``length`` (m),
+        ``station_ids``, ``tank_ids``."""
         required = {
             "frequencies", "damping", "modal_masses", "psi_tank", "participation",
             "stations", "psi_stations", "structure_mass",
         }
-        missing = required - set(data)
+        missing = required - {"participation"} - set(data)
         if missing:
             raise ModalDataError(f"modal data: missing key(s) {', '.join(sorted(missing))}")
-        unknown = set(data) - required - {"length"}
+        unknown = set(data) - required - {"length", "station_ids", "tank_ids"}
         if unknown:
             raise ModalDataError(f"modal data: unknown key(s) {', '.join(sorted(unknown))}")
-        return cls(**{k: data[k] for k in data}, source="user")
+        return cls(**{"participation": None, **data}, source="user")
 
     @classmethod
     def from_toml(cls, path: str | Path, section: str = "modal") -> ModalModel:
@@ -415,31 +482,51 @@ class ModalModel:
         return cls.from_dict(load_toml_table(path, section, ModalDataError))
 
     def to_dict(self) -> dict[str, Any]:
-        d = {
+        d: dict[str, Any] = {
             "frequencies": self.frequencies.tolist(),
             "damping": self.damping.tolist(),
             "modal_masses": self.modal_masses.tolist(),
             "psi_tank": self.psi_tank.tolist(),
-            "participation": self.participation.tolist(),
             "stations": self.stations.tolist(),
             "psi_stations": self.psi_stations.tolist(),
-            "structure_mass": self.structure_mass,
+            "structure_mass": np.asarray(self.structure_mass).tolist(),
         }
+        if self.has_participation:
+            d["participation"] = self.participation.tolist()
         if self.length is not None:
             d["length"] = self.length
+        for name in ("station_ids", "tank_ids"):
+            if getattr(self, name) is not None:
+                d[name] = list(getattr(self, name))
         return d
 
 
-def frozen_mass_matrix(modal: ModalModel, liquid_mass: float) -> np.ndarray:
-    """Mass matrix of the structure with the liquid frozen in the tank, kg.
+def liquid_masses(modal: ModalModel, liquid_mass: Any) -> np.ndarray:
+    """The liquid mass of every tank, (n_tanks,) kg: one value for all or one per tank."""
+    m = np.asarray(liquid_mass, dtype=float)
+    if m.ndim == 0:
+        m = np.full(modal.n_tanks, float(m))
+    if m.shape != (modal.n_tanks,):
+        raise ModalDataError(f"need one liquid mass per tank ({modal.n_tanks}), got {m.shape}")
+    if not (np.all(np.isfinite(m)) and np.all(m >= 0)):
+        raise ModalDataError(f"liquid masses must be finite and >= 0 kg, got {m}")
+    return m
 
-    ``M_f = M + m_l psi psi^T`` on the dry modes: ``M = diag(modal masses)``, the liquid mass
-    ``m_l`` (kg) rigidly attached at the tank, where the modes have the values ``psi``.
+
+def frozen_mass_matrix(modal: ModalModel, liquid_mass: Any) -> np.ndarray:
+    """Mass matrix of the structure with the liquid frozen in the tanks, kg.
+
+    ``M_f = M + sum_j m_j psi_j psi_j^T`` on the dry modes: ``M = diag(modal masses)``, the
+    liquid mass ``m_j`` (kg; one value for every tank, or one per tank) rigidly attached at
+    tank j, where the modes have the values ``psi_j``.
     """
-    return np.diag(modal.modal_masses) + liquid_mass * np.outer(modal.psi_tank, modal.psi_tank)
+    mass = np.diag(modal.modal_masses)
+    for m, psi in zip(liquid_masses(modal, liquid_mass), modal.psi_tanks, strict=True):
+        mass = mass + m * np.outer(psi, psi)
+    return mass
 
 
-def coupled_frozen_modes(modal: ModalModel, liquid_mass: float) -> tuple[np.ndarray, np.ndarray]:
+def coupled_frozen_modes(modal: ModalModel, liquid_mass: Any) -> tuple[np.ndarray, np.ndarray]:
     """Frequencies (Hz) and mode vectors (columns, in q) of ``(M + m_l psi psi^T, K)``.
 
     The vectors are mass-normalised: ``V^T M_f V = I`` (:func:`frozen_mass_matrix`).
