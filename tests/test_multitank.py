@@ -14,7 +14,7 @@ from sloshrom.beam.structure import ModalDataError, ModalModel, frozen_mass_matr
 from sloshrom.config import Tank
 from sloshrom.models import FrozenLiquid
 from sloshrom.rig.virtual import VirtualRig
-from tests.test_coupled import LinearDamper, NumbaDamper, NumpyDamper
+from test_coupled import LinearDamper, NumbaDamper, NumpyDamper
 
 #: mirror of the symmetric structure below: mode 2 is antisymmetric
 MIRROR = np.array([1.0, -1.0, 1.0])

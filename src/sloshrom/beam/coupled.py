@@ -42,8 +42,8 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import jax
@@ -56,6 +56,7 @@ from scipy.signal import resample_poly
 from sloshrom._x64 import float64
 from sloshrom.beam.envelope import envelope_coverage
 from sloshrom.beam.structure import (
+    TANK_KEYS,
     ModalDataError,
     ModalModel,
     frozen_mass_matrix,
@@ -220,10 +221,6 @@ def simulate_jax(model: JaxModel | Sequence[JaxModel], disc: Discretisation,
     _, (q, qdd, acc, df, v) = jax.lax.scan(body, carry, jnp.asarray(base_acceleration))
     out = _outputs(q, qdd, acc, df, v, jnp.asarray(disc.m_total))
     return _squeeze_tanks(out) if single else out
-
-
-#: the per-tank outputs (a trailing tank axis)
-TANK_KEYS = ("tank_acceleration", "dynamic_force", "interface_force", "tank_velocity")
 
 
 def _squeeze_tanks(out: dict[str, Any]) -> dict[str, Any]:

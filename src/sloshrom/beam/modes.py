@@ -381,8 +381,7 @@ class ModeSet:
             the output nodes when coordinates are known, else ``0, 1, 2, ...``;
             ``participation`` is None when the set's participation along ``direction`` is
             unknown (base excitation then refuses); ``attrs`` holds ``modes_source`` and
-            ``direction``; ``station_ids`` / ``tank_ids`` the node IDs (when ModalModel has
-            these fields).
+            ``direction``; ``station_ids`` / ``tank_ids`` the node IDs.
 
         Raises
         ------
@@ -438,8 +437,6 @@ class ModeSet:
             "length": None, "source": f"modes:{self.source}" if self.source else "modes",
             "attrs": {"modes_source": self.source, "direction": key},
         }
-        # labels of the points: fields of the multi-tank ModalModel (passed once it has them)
-        if "station_ids" in ModalModel.__dataclass_fields__:
-            kwargs["station_ids"] = tuple(int(self.nodes[i]) for i in out_idx)
-            kwargs["tank_ids"] = tuple(int(self.nodes[i]) for i in tank_idx)
+        kwargs["station_ids"] = tuple(int(self.nodes[i]) for i in out_idx)
+        kwargs["tank_ids"] = tuple(int(self.nodes[i]) for i in tank_idx)
         return ModalModel(**kwargs)

@@ -23,6 +23,7 @@ from sloshrom.beam.analysis import (
     mode1_damping_random,
 )
 from sloshrom.beam.structure import (
+    TANK_KEYS,
     CantileverBeam,
     ModalModel,
     coupled_frozen_modes,
@@ -44,28 +45,30 @@ __all__ = [
 BANDS = ((0.5, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 5.0))
 
 #: A simulation of one case: ``simulate(model, output_fs)`` returns the result dict of
-#: ``sloshrom.beam.coupled.free_response``/``random_response``.
-Simulate = Callable[[SloshingModel, float | None], dict[str, Any]]
+#: ``sloshrom.beam.coupled.free_response``/``random_response``; ``model`` is one sloshing
+#: model or one per tank.
+Simulate = Callable[[Any, float | None], dict[str, Any]]
 
 
 # -- simulation ----------------------------------------------------------------------------------
-def output_rate(model: SloshingModel, fs: float) -> float | None:
+def output_rate(model: SloshingModel | Sequence[SloshingModel], fs: float) -> float | None:
     """Rate of a case's results, Hz: ``fs``, or ``None`` (the model's own rate) if it is slower.
 
     A fast model (the rig at 10 kHz) is decimated to the sensors' rate ``fs``; a model running at
-    ``fs`` or below keeps its own step.
+    ``fs`` or below keeps its own step. With one model per tank, the fastest decides.
     """
-    return fs if 1.0 / model.dt > fs else None
+    models = model if isinstance(model, (list, tuple)) else [model]
+    return fs if max(1.0 / m.dt for m in models) > fs else None
 
 
-def simulate_cases(models: Mapping[str, SloshingModel], simulate: Simulate, fs: float,
+def simulate_cases(models: Mapping[str, Any], simulate: Simulate, fs: float,
                    on_case: Callable[[str], None] | None = None) -> dict[str, dict[str, Any]]:
     """Run ``simulate`` for every case, in order; results at :func:`output_rate`.
 
     Parameters
     ----------
     models : mapping
-        Case name -> sloshing model.
+        Case name -> sloshing model, or a list of them (one per tank).
     simulate : callable
         ``simulate(model, output_fs)`` -> result dict.
     fs : float
@@ -185,19 +188,21 @@ def mode1_damping_table(random: Mapping[str, Mapping[str, Any]], levels: Sequenc
     return rows
 
 
-def frozen_modes_table(tank: Tank, modal: ModalModel,
+def frozen_modes_table(tank: Tank | Sequence[Tank], modal: ModalModel,
                        beam: CantileverBeam | None = None) -> list[dict[str, float]]:
     """Paper Table 1: the beam's modes with frozen liquid, one row per mode of ``modal``.
 
     With the Euler-Bernoulli ``beam`` that ``modal`` was made from: the full table of
     ``sloshrom.beam.structure.frozen_modal_table`` (dry, frozen and coupled frequencies, Hz;
     damping; modal masses, kg). Without it (the user's own modal data): ``mode``, ``f_dry_Hz``,
-    ``f_coupled_Hz`` (frozen liquid in the coupled model) and ``damping`` only.
+    ``f_coupled_Hz`` (frozen liquid in the coupled model, every tank's) and ``damping`` only.
     """
-    if beam is not None:
-        return frozen_modal_table(tank, beam=beam, n_modes=modal.n_modes,
+    tanks = list(tank) if isinstance(tank, (list, tuple)) else [tank]
+    if beam is not None and len(tanks) == 1:
+        return frozen_modal_table(tanks[0], beam=beam, n_modes=modal.n_modes,
                                   damping=modal.damping.tolist())
-    fc, _ = coupled_frozen_modes(modal, tank.liquid_mass)
+    masses = [t.liquid_mass for t in tanks] if len(tanks) > 1 else tanks[0].liquid_mass
+    fc, _ = coupled_frozen_modes(modal, masses)
     return [{"mode": n + 1, "f_dry_Hz": float(modal.frequencies[n]),
              "f_coupled_Hz": float(fc[n]), "damping": float(modal.damping[n])}
             for n in range(modal.n_modes)]
@@ -305,8 +310,6 @@ def reference_tank(res: Mapping[str, Any], tank: int = 0) -> dict[str, Any]:
     the response; with several tanks they use the reference tank's. A one-tank result is
     returned unchanged.
     """
-    from sloshrom.beam.coupled import TANK_KEYS
-
     if np.ndim(res["tank_acceleration"]) == np.ndim(res["base_acceleration"]):
         return dict(res)
     out = dict(res)

@@ -37,6 +37,10 @@ DEFAULT_DAMPING = (0.010, 0.005, 0.005)
 N_STATIONS = 5
 
 
+#: the signals of a coupled run that belong to a tank (a trailing tank axis with several)
+TANK_KEYS = ("tank_acceleration", "dynamic_force", "interface_force", "tank_velocity")
+
+
 def default_stations(length: float) -> tuple[float, ...]:
     """Accelerometer stations (m) at 1/5, 2/5, ..., 5/5 of a beam of ``length`` m."""
     return tuple(length * k / N_STATIONS for k in range(1, N_STATIONS + 1))
