@@ -17,24 +17,28 @@ The response direction (``+Z``, ``-Z``, ...) is stored in ``attrs["uff_channels"
 are NOT sign-flipped: sloshrom expects the vertical tank acceleration positive up.
 
 :func:`write_uff58` writes a record as ASCII dataset 58 time responses (plus dataset 164, SI),
-atomically; it is what the tests use to produce files "as pyuff writes them".
+atomically; it is what the tests use to produce files "as pyuff writes them". Its building
+blocks are shared with the beam-result export (:mod:`sloshrom.beam.export`): :func:`dataset58`
+(a complete dataset-58 dict: every field pyuff's writer needs, header widths checked, unit
+exponents from the specific data type), :func:`dataset164_si` and :func:`write_uff_sets`
+(atomic, or into an :class:`~sloshrom.fileio.OutputBatch`).
 """
 
 from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from sloshrom.fileio import atomic_write
+from sloshrom.fileio import OutputBatch, atomic_write
 from sloshrom.io.record import Record, RecordError, _show, _unit_text, _why
 from sloshrom.io.units import STANDARD_UNITS, _time_unit, is_known_unit
 
-__all__ = ["read_uff58", "write_uff58"]
+__all__ = ["dataset58", "dataset164_si", "id_line", "read_uff58", "write_uff58", "write_uff_sets"]
 
 # UFF "specific data type" codes -> (standard variable name, SI unit)
 _SPEC_TYPES: dict[int, tuple[str, str]] = {
@@ -373,6 +377,153 @@ def _first_bad_line(p: Path, index: int) -> str | None:
 
 
 
+# -- writing ------------------------------------------------------------------------------------
+# UFF specific data type codes used by the writers.
+SPEC_GENERAL, SPEC_DISPLACEMENT, SPEC_REACTION_FORCE = 1, 8, 9
+SPEC_VELOCITY, SPEC_ACCELERATION, SPEC_EXCITATION_FORCE = 11, 12, 13
+SPEC_TIME, SPEC_FREQUENCY = 17, 18
+#: Response/reference direction code of +Z (sloshrom's vertical, up positive).
+DIR_PLUS_Z = 3
+
+# (length, force) unit exponents of a specific data type: with dataset 164 they tell a reader how
+# to convert the values to another unit system (m/s^2 has length^1, N force^1).
+_UNIT_EXPONENTS = {SPEC_DISPLACEMENT: (1, 0), SPEC_VELOCITY: (1, 0), SPEC_ACCELERATION: (1, 0),
+                   SPEC_REACTION_FORCE: (0, 1), SPEC_EXCITATION_FORCE: (0, 1)}
+
+
+def _field(text: str, width: int, what: str) -> str:
+    """A fixed-width text field of a UFF header: printable ASCII, at most ``width`` characters.
+
+    pyuff pads but never truncates: a longer text (or a newline) would shift every following
+    field of the dataset and make the file unreadable.
+    """
+    if len(text) > width or not all(" " <= c <= "~" for c in text):
+        raise ValueError(f"UFF {what} {text!r}: at most {width} printable ASCII characters")
+    return text
+
+
+def id_line(text: str) -> str:
+    """``text`` as a UFF ID line: non-printable or non-ASCII characters become ``?``, and the
+    text is cut to the 80 characters of the line."""
+    return "".join(c if " " <= c <= "~" else "?" for c in str(text))[:80]
+
+
+def dataset164_si() -> dict[str, Any]:
+    """Dataset 164 (units) declaring SI: every dataset 58 after it is in m, N, s."""
+    import pyuff
+
+    return pyuff.prepare_164(units_code=1, units_description="SI", temp_mode=2, length=1.0,
+                             force=1.0, temp=1.0, temp_offset=273.15, return_full_dict=True)
+
+
+def dataset58(
+    data: Any,
+    start: float,
+    step: float,
+    *,
+    id1: str,
+    id2: str = "",
+    id3: str = "",
+    id4: str = "",
+    id5: str = "",
+    func_type: int = 1,
+    func_id: int = 0,
+    load_case_id: int = 0,
+    rsp: tuple[str, int, int] = ("NONE", 0, 0),
+    ref: tuple[str, int, int] = ("NONE", 0, 0),
+    abscissa: tuple[int, str, str] = (SPEC_TIME, "", "s"),
+    ordinate: tuple[int, str, str] = (0, "", ""),
+    orddenom: tuple[int, str, str] = (0, "", ""),
+    binary: bool = False,
+) -> dict[str, Any]:
+    """A complete, evenly spaced dataset-58 dict for ``pyuff.UFF.write_sets``.
+
+    Every field pyuff's writer needs is set (pyuff's ``prepare_58`` leaves the axis labels and
+    ``func_id`` out, and its writer then fails), header texts are checked against their widths,
+    and the unit exponents follow the specific data types.
+
+    Parameters
+    ----------
+    data : array_like
+        Ordinate values, real (written as type 4, double) or complex (type 6, complex double).
+    start, step : float
+        First abscissa value and increment (s for time, Hz for frequency). UFF stores both with
+        6 significant digits.
+    id1, id2, id3, id4, id5 : str
+        ID lines 1-5 (:func:`id_line` makes any text fit).
+    func_type : int
+        1 time response, 4 FRF, 6 coherence, ...
+    func_id, load_case_id : int
+        Function identification number and load case.
+    rsp, ref : tuple
+        Response and reference ``(entity name, node, direction)``; direction 3 is +Z, node and
+        direction 0 mean "none" (a reference of a time response).
+    abscissa, ordinate, orddenom : tuple
+        ``(specific data type, axis label, units label)`` of the abscissa, the ordinate
+        (numerator) and the ordinate denominator (0 for none).
+    binary : bool
+        Binary (``True``) or ASCII data lines.
+
+    Returns
+    -------
+    dict
+    """
+    import pyuff
+
+    values = np.asarray(data)
+    values = values.astype(complex if np.iscomplexobj(values) else float).ravel()
+    axes: dict[str, Any] = {}
+    for name, (spec, label, unit) in (("abscissa", abscissa), ("ordinate", ordinate),
+                                      ("orddenom", orddenom)):
+        length, force = _UNIT_EXPONENTS.get(int(spec), (0, 0))
+        axes |= {f"{name}_spec_data_type": int(spec), f"{name}_len_unit_exp": length,
+                 f"{name}_force_unit_exp": force, f"{name}_temp_unit_exp": 0,
+                 f"{name}_axis_lab": _field(label, 20, f"{name} axis label"),
+                 f"{name}_axis_units_lab": _field(unit, 20, f"{name} units label")}
+    d = pyuff.prepare_58(
+        binary=int(binary), id1=id_line(id1), id2=id_line(id2), id3=id_line(id3),
+        id4=id_line(id4), id5=id_line(id5), func_type=int(func_type), ver_num=0,
+        load_case_id=int(load_case_id),
+        rsp_ent_name=_field(rsp[0], 10, "entity name"), rsp_node=int(rsp[1]),
+        rsp_dir=int(rsp[2]),
+        ref_ent_name=_field(ref[0], 10, "entity name"), ref_node=int(ref[1]),
+        ref_dir=int(ref[2]),
+        ord_data_type=6 if np.iscomplexobj(values) else 4, num_pts=values.size,
+        abscissa_spacing=1, abscissa_min=float(start), abscissa_inc=float(step),
+        z_axis_value=0.0, z_axis_spec_data_type=0, z_axis_len_unit_exp=0,
+        z_axis_force_unit_exp=0, z_axis_temp_unit_exp=0, z_axis_axis_units_lab="",
+        data=values, x=float(start) + float(step) * np.arange(values.size),
+        return_full_dict=True,
+        **{k: v for k, v in axes.items() if not k.endswith("_axis_lab")},
+    )
+    # pyuff's writer needs every label field and func_id, which prepare_58 does not set
+    d |= {k: v for k, v in axes.items() if k.endswith("_axis_lab")}
+    d |= {"z_axis_axis_lab": "", "func_id": int(func_id)}
+    return d
+
+
+def write_uff_sets(sets: Sequence[Mapping[str, Any]], path: str | Path,
+                   batch: OutputBatch | None = None) -> Path:
+    """Write prepared UFF datasets to ``path``, atomically or into ``batch``.
+
+    The first dataset must not be a binary dataset 58: pyuff writes the first dataset in
+    "overwrite" mode, and for binary data it reopens the file, truncating the header it has just
+    written (start with :func:`dataset164_si`).
+    """
+    import pyuff
+
+    if not sets:
+        raise ValueError("no UFF datasets to write")
+    first = sets[0]
+    if int(first.get("type", 0)) == 58 and first.get("binary"):
+        raise ValueError("the first UFF dataset must not be a binary dataset 58 (pyuff "
+                         "truncates it); write dataset 164 first")
+    p = Path(path)
+    write = batch.write if batch is not None else atomic_write
+    return write(p, lambda tmp: pyuff.UFF(tmp).write_sets(list(sets), mode="overwrite"),
+                 suffix=p.suffix or ".uff")
+
+
 def write_uff58(record: Record, path: str | Path, binary: bool = False) -> Path:
     """Write a record's 1-D variables as dataset-58 time responses (with dataset 164, SI).
 
@@ -389,41 +540,16 @@ def write_uff58(record: Record, path: str | Path, binary: bool = False) -> Path:
     -------
     Path
     """
-    import pyuff
-
     rec = record.to_si()
-    p = Path(path)
     two_d = [n for n, a in rec.variables.items() if a.ndim != 1]
     if two_d:
         raise RecordError(f"UFF58 holds 1-D channels only; {two_d} are 2-D")
-    sets = [pyuff.prepare_164(units_code=1, units_description="SI", temp_mode=2, length=1.0,
-                              force=1.0, temp=1.0, temp_offset=273.15, return_full_dict=True)]
-    x = rec.time
+    sets = [dataset164_si()]
     for k, (name, arr) in enumerate(rec.variables.items()):
-        spec = _SPEC_CODES.get(name, 1)
-        sets.append(pyuff.prepare_58(
-            binary=int(binary), id1=name, id2="sloshrom", id3="", id4="", id5="",
-            func_type=1, ver_num=0, load_case_id=0, rsp_ent_name="tank", rsp_node=k + 1,
-            rsp_dir=3, ref_ent_name="tank", ref_node=0, ref_dir=0,
-            ord_data_type=4, num_pts=arr.size, abscissa_spacing=1,
-            abscissa_min=float(rec.time[0]), abscissa_inc=1.0 / float(rec.fs),
-            z_axis_value=0.0,
-            abscissa_spec_data_type=17, abscissa_len_unit_exp=0, abscissa_force_unit_exp=0,
-            abscissa_temp_unit_exp=0, abscissa_axis_units_lab="s",
-            ordinate_spec_data_type=spec, ordinate_len_unit_exp=0, ordinate_force_unit_exp=0,
-            ordinate_temp_unit_exp=0, ordinate_axis_units_lab=rec.units[name],
-            orddenom_spec_data_type=0, orddenom_len_unit_exp=0, orddenom_force_unit_exp=0,
-            orddenom_temp_unit_exp=0, orddenom_axis_units_lab="",
-            z_axis_spec_data_type=0, z_axis_len_unit_exp=0, z_axis_force_unit_exp=0,
-            z_axis_temp_unit_exp=0, z_axis_axis_units_lab="",
-            data=np.asarray(arr, dtype=float), x=x, return_full_dict=True,
+        sets.append(dataset58(
+            arr, float(rec.time[0]), 1.0 / float(rec.fs), id1=name, id2="sloshrom",
+            rsp=("tank", k + 1, DIR_PLUS_Z), ref=("tank", 0, 0),
+            ordinate=(_SPEC_CODES.get(name, SPEC_GENERAL), "", rec.units[name]),
+            binary=binary,
         ))
-        for key in ("abscissa_axis_lab", "ordinate_axis_lab", "orddenom_axis_lab",
-                    "z_axis_axis_lab"):
-            if sets[-1].get(key) is None:  # pyuff's writer needs every label field
-                sets[-1][key] = ""
-        sets[-1]["func_id"] = 0
-    return atomic_write(
-        p, lambda tmp: pyuff.UFF(tmp).write_sets(sets, mode="overwrite"),
-        suffix=p.suffix or ".uff",
-    )
+    return write_uff_sets(sets, path)
