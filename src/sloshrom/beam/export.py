@@ -16,8 +16,10 @@ Node numbering (every channel +Z = vertical, up positive):
 - the base (clamped root, the shaker table): node :data:`BASE_NODE` (1000; not 0, which UFF uses
   for "no reference");
 - station ``k`` (0-based): its ``station_id`` coordinate if the dataset has one, else ``k + 1``;
-- tank ``k``: its ``tank`` coordinate (integer point ID) in a multi-tank dataset, else
-  :data:`FIRST_TANK_NODE` + ``k`` (1001 for the single tank).
+- tank ``k``: its ``tank`` coordinate (integer point ID) in a multi-tank dataset, the
+  ``tank_id`` attribute of a one-tank dataset, else :data:`FIRST_TANK_NODE` + ``k`` (1001 for
+  the single tank). A tank at an output grid has its acceleration written once, as the
+  station's.
 
 See docs/formats.md, "Beam results as UFF58".
 """
@@ -161,7 +163,7 @@ def write_result_uff(
     random = test == "random"
     fs, t0 = _time_axis(ds)
     levels = _levels(ds, random)
-    channels = list(_channels(ds, random))
+    channels = _without_repeats(list(_channels(ds, random)))
     _check_nodes(channels)
 
     case = str(ds.attrs.get("case", ""))
@@ -276,8 +278,9 @@ def _channels(ds: xr.Dataset, random: bool) -> Iterator[_Channel]:
         if not np.all(np.isfinite(values)):
             raise ValueError(f"variable {name!r} holds NaN or inf values: UFF cannot carry them")
         if extra is None:
+            # one tank: its grid ID when the run knows it (a structure file), else 1001
             entity, node = ("beam", BASE_NODE) if name == "base_acceleration" else \
-                ("tank", FIRST_TANK_NODE)
+                ("tank", int(ds.attrs.get("tank_id", FIRST_TANK_NODE)))
             yield _Channel(name, name, entity, node, spec, axis, unit, values)
         elif extra == "station":
             x = np.asarray(ds["station"].values, dtype=float)
@@ -288,6 +291,20 @@ def _channels(ds: xr.Dataset, random: bool) -> Iterator[_Channel]:
             for k, node in enumerate(_node_ids(ds, "tank", "tank", FIRST_TANK_NODE)):
                 yield _Channel(f"{name} tank {node}", name, "tank", node, spec, axis, unit,
                                values[..., k])
+
+
+def _without_repeats(channels: list[_Channel]) -> list[_Channel]:
+    """Drop a tank's acceleration where an output point at the tank's node already carries
+    it (a tank placed at an output grid): the same signal, once, as the station's."""
+    stations = {ch.node: ch.values for ch in channels if ch.variable == "station_acceleration"}
+    out = []
+    for ch in channels:
+        same = stations.get(ch.node) if ch.variable == "tank_acceleration" else None
+        if same is not None and np.allclose(ch.values, same, rtol=1e-9,
+                                            atol=1e-12 * float(np.max(np.abs(same)))):
+            continue
+        out.append(ch)
+    return out
 
 
 def _check_nodes(channels: list[_Channel]) -> None:

@@ -241,7 +241,8 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank | Sequen
         ``training_peak_acceleration`` (m/s^2, NaN if unknown). A structure with several
         tanks (2-D ``psi_tank``) gives the tank signals and the coverage a trailing ``tank``
         dimension, its coordinate the tank IDs (or 1, 2, ...), and one attribute value per
-        tank; output point IDs become the coordinate ``station_id``.
+        tank (one tank: the attribute ``tank_id``, if known); output point IDs become the
+        coordinate ``station_id``.
     """
     multi = modal.psi_tank.ndim == 2
     lead = res["base_acceleration"].shape[:-1]
@@ -283,6 +284,8 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank | Sequen
     else:
         ds.attrs.update(tank_fill=tanks[0].fill, liquid_mass=tanks[0].liquid_mass,
                         structure_mass=float(modal.structure_mass))
+        if modal.tank_ids is not None:
+            ds.attrs["tank_id"] = modal.tank_ids[0]
     if modal.station_ids is not None:
         ds = ds.assign_coords(station_id=("station", np.asarray(modal.station_ids,
                                                                 dtype=np.int64)))

@@ -65,7 +65,7 @@ class _OneLineErrors(TyperGroup):
                 msg += f" (see '{ctx.command_path} --help')"
             typer.secho(f"error: {msg}", fg=typer.colors.RED, err=True)
             sys.exit(e.exit_code)
-        except exc.Abort:
+        except typer.Abort:  # (the vendored click of recent typers has no Abort of its own)
             typer.secho("error: aborted", fg=typer.colors.RED, err=True)
             sys.exit(1)
         sys.exit(rv if isinstance(rv, int) else 0)

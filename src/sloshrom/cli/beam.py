@@ -12,6 +12,7 @@ inside the commands, so that ``sloshrom --help`` does not load JAX, xarray and m
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -54,8 +55,11 @@ MAX_SEED = 2**32 - 1
 MAX_LEVEL_G = 2.0  # RMS; the rig's calibrated envelope is 6 g peak, about 3 x RMS
 
 
-def _model(name: str, tank: Tank, seed: int) -> tuple[str, SloshingModel]:
-    """``(case name, sloshing model)`` of a ``--sloshing`` value; a user error if unusable."""
+def _model(name: str, tank: Tank, seed: int,
+           roms: dict[Path, SloshingModel] | None = None) -> tuple[str, SloshingModel]:
+    """``(case name, sloshing model)`` of a ``--sloshing`` value; a user error if unusable.
+
+    ``roms`` caches loaded ROM files (several tanks may share one)."""
     if name == "frozen":
         return "frozen", FrozenLiquid(1.0 / BEAM_FS)
     if name == "rig":
@@ -63,6 +67,8 @@ def _model(name: str, tank: Tank, seed: int) -> tuple[str, SloshingModel]:
 
         return "rig", VirtualRig(tank=tank, seed=seed)
     p = Path(name)
+    if roms is not None and p in roms:
+        return p.stem, roms[p]
     if not name.strip() or not p.is_file():
         fail(f"--sloshing must be 'frozen', 'rig' or a ROM model file; {p} does not exist")
     from sloshrom.rom.estimators import load_model
@@ -76,42 +82,174 @@ def _model(name: str, tank: Tank, seed: int) -> tuple[str, SloshingModel]:
     if not (ratio >= 1 - 1e-9 and abs(ratio - round(ratio)) < 1e-6):
         fail(f"--sloshing {p}: the ROM runs at {rom.fs_:g} Hz; the beam needs a multiple of "
              f"{BEAM_FS:g} Hz (the rate of its results and of the random excitation)")
+    if roms is not None:
+        roms[p] = rom
     return p.stem, rom
 
 
-def _models(names: list[str], tank: Tank, seed: int) -> dict[str, SloshingModel]:
-    """Every sloshing model, loaded and checked before any simulation (frozen first)."""
-    models: dict[str, SloshingModel] = {}
+@dataclass
+class _Setup:
+    """What every beam command works on: the tanks, the structure, the first frozen mode."""
+
+    tanks: list[Tank]  # one per tank of ``modal``
+    modal: ModalModel
+    beam: CantileverBeam | None  # the Euler-Bernoulli beam ``modal`` comes from, if any
+    f1: float  # first frozen-liquid mode, Hz
+    own: list[str | None] = field(default_factory=list)  # each tank's own --tank model
+
+    @property
+    def tank(self) -> Tank | list[Tank]:
+        """What the library takes: one tank, or the list for a structure with several."""
+        return self.tanks if self.modal.psi_tank.ndim == 2 else self.tanks[0]
+
+
+def _models(names: list[str] | None, setup: _Setup, seed: int) -> dict[str, Any]:
+    """Every case's sloshing model(s), loaded and checked before any simulation (frozen first).
+
+    On the built-in beam or a ``--modal-toml`` structure a case is one model for every tank.
+    With ``--structure`` a case is one model per tank: a tank with its own model (``--tank
+    GRID:MODEL``) keeps it in every case but ``frozen`` (every tank frozen, the reference);
+    the others take the case's ``--sloshing`` model. When every tank has its own model, the
+    cases are ``frozen`` and ``tanks``.
+    """
+    own = setup.own or [None] * len(setup.tanks)
+    if all(own):
+        if names:
+            fail("--sloshing has no tank to act on: every --tank has its own model")
+        names = ["tanks"]
+    names = names or ["rig"]
+    roms: dict[Path, SloshingModel] = {}
+    models: dict[str, Any] = {}
     for name in ["frozen", *[n for n in names if n != "frozen"]]:
-        case, model = _model(name, tank, seed)
+        if name == "tanks":
+            case = name
+        else:
+            case, _ = _model(name, setup.tanks[0], seed, roms)
         if case in models:
             fail(f"--sloshing {name}: a second case named '{case}' (each case writes "
                  f"<test>_{case}.nc; rename the model file)")
-        models[case] = model
+        per_tank = [_model("frozen" if case == "frozen" else (o or name), t, seed, roms)[1]
+                    for o, t in zip(own, setup.tanks, strict=True)]
+        models[case] = per_tank if setup.modal.psi_tank.ndim == 2 else per_tank[0]
     return models
 
 
-def _setup(tank_toml: Path | None, modal_toml: Path | None, seed: int
-           ) -> tuple[Tank, ModalModel, CantileverBeam | None, float]:
-    """Tank, modal model, the beam it comes from (``None`` for the user's own modal data) and
+def _tank_spec(spec: str, base: Tank) -> tuple[int, str | None, Tank]:
+    """``GRID[:MODEL][:fill=F]`` -> (grid ID, own model or None, the tank at its fill)."""
+    parts = spec.split(":")
+    try:
+        grid = int(parts[0])
+    except ValueError:
+        fail(f"--tank {spec!r}: must start with the integer grid/node ID of the tank "
+             "(GRID[:MODEL][:fill=F])")
+    model, tank = None, base
+    for part in parts[1:]:
+        if part.startswith("fill="):
+            try:
+                fill = float(part[5:])
+            except ValueError:
+                fail(f"--tank {spec!r}: fill must be a number in (0, 1)")
+            try:
+                tank = base.replace(fill=fill)
+            except ConfigError as exc:
+                fail(f"--tank {spec!r}: {exc}")
+        elif part and model is None:
+            model = part
+        else:
+            fail(f"--tank {spec!r}: expected GRID[:MODEL][:fill=F], MODEL one of frozen, rig "
+                 "or a ROM file")
+    return grid, model, tank
+
+
+def _setup(tank_toml: Path | None, modal_toml: Path | None, seed: int,
+           structure: _Structure | None = None) -> _Setup:
+    """Tanks, modal model, the beam it comes from (``None`` for the user's own modal data) and
     the first frozen-liquid mode (Hz), or a user error."""
     from sloshrom.beam.structure import CantileverBeam, ModalModel, coupled_frozen_modes
 
     check_number(seed, "--seed", 0, MAX_SEED)
     check_input(tank_toml, "--tank-toml")
     check_input(modal_toml, "--modal-toml")
+    if structure is not None and modal_toml is not None:
+        fail("--structure and --modal-toml both give the structure: use one")
     try:
         tank = Tank.from_toml(tank_toml) if tank_toml else Tank()
-        if modal_toml:
+        own: list[str | None] = []
+        if structure is not None:
+            modal, tanks, own = structure.load(tank)
+            beam = None
+        elif modal_toml:
             beam, modal = None, ModalModel.from_toml(modal_toml)
+            tanks = [tank] * modal.n_tanks
         else:
             beam = CantileverBeam.with_tank(tank)
             modal = ModalModel.from_beam(beam, tank)
-        f1 = float(coupled_frozen_modes(modal, tank.liquid_mass)[0][0])
+            tanks = [tank]
+        f1 = float(coupled_frozen_modes(modal, [t.liquid_mass for t in tanks])[0][0])
         check_analysis_band(f1)
     except user_errors() as exc:
         fail(str(exc))
-    return tank, modal, beam, f1
+    return _Setup(tanks, modal, beam, f1, own)
+
+
+@dataclass
+class _Structure:
+    """The ``--structure`` options: a modal file and where the tanks and sensors are on it."""
+
+    path: Path
+    tank_specs: list[str]
+    outputs: str | None
+    direction: str
+    mode_table: Path | None
+    modes: int | None
+    mass_unit: str | None
+
+    @classmethod
+    def from_options(cls, path: Path | None, tanks: list[str] | None, outputs: str | None,
+                     direction: str, mode_table: Path | None, modes: int | None,
+                     mass_unit: str | None) -> _Structure | None:
+        """The options checked (before any work); ``None`` without ``--structure``."""
+        if path is None:
+            for given, name in ((tanks, "--tank"), (outputs, "--outputs"),
+                                (mode_table, "--mode-table"), (modes, "--modes"),
+                                (mass_unit, "--mass-unit")):
+                if given:
+                    fail(f"{name} places things on a --structure; give --structure FILE")
+            return None
+        check_input(path, "--structure")
+        check_input(mode_table, "--mode-table")
+        if not tanks:
+            fail("--structure needs at least one --tank GRID (the grid/node ID of a tank)")
+        if modes is not None:
+            check_number(modes, "--modes", 1, 200)
+        return cls(path, tanks, outputs, direction, mode_table, modes, mass_unit)
+
+    def load(self, base: Tank) -> tuple[ModalModel, list[Tank], list[str | None]]:
+        """The modal model at the tanks and outputs, each tank at its fill, each tank's own
+        model (or None)."""
+        from sloshrom.beam.modal_files import read_modes
+
+        specs = [_tank_spec(s, base) for s in self.tank_specs]
+        grids = [g for g, _, _ in specs]
+        if len(set(grids)) != len(grids):
+            fail(f"--tank: grid {next(g for g in grids if grids.count(g) > 1)} is given twice")
+        outputs = None
+        if self.outputs is not None:
+            try:
+                outputs = [int(x) for x in self.outputs.split(",") if x.strip()]
+            except ValueError:
+                fail(f"--outputs must be comma-separated integer grid IDs, got {self.outputs!r}")
+            if not outputs:
+                fail("--outputs is empty")
+        ms = read_modes(self.path, mass_unit=self.mass_unit, mode_table=self.mode_table)
+        if self.modes is not None:
+            ms = ms.select_modes(self.modes)
+        tanks = [t for _, _, t in specs]
+        one = len(grids) == 1  # one tank: results without a tank axis, as on the built-in beam
+        modal = ms.to_modal_model(grids[0] if one else grids, outputs, self.direction,
+                                  structure_mass=tanks[0].structure_mass if one else
+                                  [t.structure_mass for t in tanks])
+        return modal, tanks, [m for _, m, _ in specs]
 
 
 def _check_outputs(out: Path, names: list[str], inputs: tuple[Path | None, ...]) -> None:
@@ -121,12 +259,12 @@ def _check_outputs(out: Path, names: list[str], inputs: tuple[Path | None, ...])
         check_out(out / name, inputs=inputs, what="result file")
 
 
-def _run_cases(models: dict[str, SloshingModel], label: str,
-               simulate: Callable[[SloshingModel, float | None], dict]) -> dict[str, dict]:
+def _run_cases(models: dict[str, Any], label: str,
+               simulate: Callable[[Any, float | None], dict]) -> dict[str, dict]:
     """Simulate every case at the beam's result rate, with a spinner per case."""
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-    from sloshrom.beam.coupled import SimulationDivergedError
+    from sloshrom.beam.coupled import SimulationDivergedError, StepMismatchError
     from sloshrom.beam.results import simulate_cases
 
     current: list[tuple[str, Any]] = []
@@ -142,6 +280,8 @@ def _run_cases(models: dict[str, SloshingModel], label: str,
             return simulate_cases(models, simulate, BEAM_FS, on_case)
         except SimulationDivergedError as exc:  # a ROM far outside its training range
             fail(f"{label} with {current[-1][0]}: {exc}")
+        except StepMismatchError as exc:  # e.g. a rig and a ROM in two tanks
+            fail(f"{label} {current[-1][0]}: {exc}")
 
 
 def _analysed(what: str, fn: Callable[[], Any]) -> Any:
@@ -157,35 +297,85 @@ _TankOpt = Annotated[
 _ModalOpt = Annotated[
     Path | None, typer.Option(help="Own modal data TOML (\\[modal] table, see docs/beam.md).")]
 _SloshOpt = Annotated[
-    list[str], typer.Option("--sloshing", help="frozen | rig | ROM model file (repeatable; "
-                                               "a ROM at a multiple of 500 Hz, m/s -> N).")]
+    list[str] | None, typer.Option("--sloshing", help="frozen | rig | ROM model file "
+                                                      "(repeatable; a ROM at a multiple of 500 "
+                                                      "Hz, m/s -> N); default: rig.")]
+_StructureOpt = Annotated[Path | None, typer.Option(
+    help="Modal model of your structure: UFF 55 (.unv/.uff), Nastran punch (.pch), NetCDF "
+         "(.nc) or CSV (.csv); see docs/formats.md. Needs --tank.")]
+_TankSpecOpt = Annotated[list[str] | None, typer.Option(
+    "--tank", help="A tank on --structure (repeatable): GRID[:MODEL][:fill=F], the grid/node "
+                   "ID, optionally its own model (frozen | rig | ROM file) and fill (0-1). The "
+                   "first is the reference of the damping analysis.")]
+_OutputsOpt = Annotated[str | None, typer.Option(
+    help="Output grid IDs on --structure (virtual accelerometers), comma separated; default: "
+         "every node, up to 64.")]
+_DirectionOpt = Annotated[str, typer.Option(
+    help="The up axis of --structure's coordinates, along which the tanks are shaken: +Z, -Z, "
+         "+Y, -Y, +X, -X.")]
+_ModeTableOpt = Annotated[Path | None, typer.Option(
+    help="Mode table for --structure (CSV or TOML): damping, modal_mass, participation per "
+         "mode.")]
+_ModesOpt = Annotated[int | None, typer.Option(help="Keep the first N modes of --structure.")]
+_MassUnitOpt = Annotated[str | None, typer.Option(
+    help="Mass unit of --structure when the file does not say it (punch): kg, t, g, "
+         "lbf*s^2/in.")]
+_UffOpt = Annotated[bool, typer.Option(
+    "--uff/--no-uff", help="Also write each case as UFF dataset 58 (time histories; random: "
+                           "H1 FRFs and coherences), for modal-analysis tools.")]
+
+
+def _inputs(setup: _Setup, sloshing: list[str] | None, *paths: Path | None
+            ) -> tuple[Path | None, ...]:
+    """Every file the command reads (no output may overwrite one)."""
+    names = [*(sloshing or []), *(o for o in setup.own if o)]
+    return (*paths, *(Path(n) for n in names if n not in ("frozen", "rig")))
+
+
+def _uff_names(enabled: bool, test: str, cases: Any) -> list[str]:
+    return [f"{test}_{c}.uff" for c in cases] if enabled else []
 
 
 @beam_app.command("free")
 def free(
     out: Annotated[Path, typer.Option(help="Output directory.")],
-    sloshing: _SloshOpt = ["rig"],  # noqa: B006 (typer default)
+    sloshing: _SloshOpt = None,
     tip_displacement: Annotated[float, typer.Option(help="Initial tip displacement, m "
-                                                         "(0 < |x| < 0.2).")] = 0.0146,
+                                                         "(0 < |x| < 0.2); on --structure: of "
+                                                         "the first --tank.")] = 0.0146,
     duration: Annotated[float, typer.Option(help="s: from 18 periods of mode 1 (1.8 s for "
                                                  f"the paper beam) to {MAX_BEAM_SECONDS:g} "
                                                  "s.")] = 10.0,
     tank_toml: _TankOpt = None,
     modal_toml: _ModalOpt = None,
     seed: Annotated[int, typer.Option(help="Rig seed (>= 0).")] = 0,
+    structure: _StructureOpt = None,
+    tank: _TankSpecOpt = None,
+    outputs: _OutputsOpt = None,
+    direction: _DirectionOpt = "+Z",
+    mode_table: _ModeTableOpt = None,
+    modes: _ModesOpt = None,
+    mass_unit: _MassUnitOpt = None,
+    uff: _UffOpt = False,
 ) -> None:
     """Free response from a static tip deflection (paper Figs. 14, 16, 20, 21; Table 1).
 
     The duration must leave the instantaneous-damping analysis of mode 1 something to analyse:
     it trims 5 periods at each end and smooths over 4, hence at least 18 periods. All result
-    files appear together at the end, or none if the run fails.
+    files appear together at the end, or none if the run fails. On your own structure
+    (``--structure``) the static force acts at the first ``--tank``, whose acceleration is the
+    amplitude axis of the damping analysis.
 
-    Example: ``sloshrom beam free --sloshing rig --sloshing nfir.npz --out results/beam``
+    Examples: ``sloshrom beam free --sloshing rig --sloshing nfir.npz --out results/beam``;
+    ``sloshrom beam free --structure wing.pch --mode-table modes.csv --tank 2001 --tank
+    3001:frozen --outputs 101,102,103,2001 --sloshing rig --out results/wing``
     """
     from sloshrom.beam.coupled import free_response
+    from sloshrom.beam.export import write_result_uff
     from sloshrom.beam.results import (
         frozen_modes_table,
         mode1_decay,
+        reference_tank,
         to_dataset,
         write_dataset,
         write_table,
@@ -198,26 +388,34 @@ def free(
         fail("--tip-displacement must not be 0 (0 < |tip displacement| < 0.2 m): "
              "a beam at rest has no free response")
     check_number(duration, "--duration", 0.0, MAX_BEAM_SECONDS, lo_open=True, unit="s")
-    tank, modal, beam, f1 = _setup(tank_toml, modal_toml, seed)
+    st = _Structure.from_options(structure, tank, outputs, direction, mode_table, modes,
+                                 mass_unit)
+    setup = _setup(tank_toml, modal_toml, seed, st)
+    modal, f1 = setup.modal, setup.f1
     need = min_free_duration(f1)
     if duration < need:
         fail(f"--duration {duration:g} s is too short for the damping analysis of mode 1 "
              f"({f1:.3g} Hz): need at least {need:g} s ({FREE_DAMPING_PERIODS} periods)")
-    models = _models(sloshing, tank, seed)
-    inputs = (tank_toml, modal_toml, *(Path(n) for n in sloshing if n not in ("frozen", "rig")))
-    files = [*(f"free_{c}.nc" for c in models), "table1_frozen_modes.csv",
-             "table1_frozen_modes.md", *(f"{f}.png" for f in FREE_FIGURES)]
-    _check_outputs(out, files, inputs)
+    models = _models(sloshing, setup, seed)
+    files = [*(f"free_{c}.nc" for c in models), *_uff_names(uff, "free", models),
+             "table1_frozen_modes.csv", "table1_frozen_modes.md",
+             *(f"{f}.png" for f in FREE_FIGURES)]
+    _check_outputs(out, files, _inputs(setup, sloshing, tank_toml, modal_toml, structure,
+                                       mode_table))
     res = _run_cases(models, "free response",
-                     lambda m, fs: free_response(m, modal, tip_displacement, duration, tank, fs))
-    rows = frozen_modes_table(tank, modal, beam)  # user modes (no beam): coupled model only
+                     lambda m, fs: free_response(m, modal, tip_displacement, duration,
+                                                 setup.tank, fs))
+    rows = frozen_modes_table(setup.tank, modal, setup.beam)  # user modes: coupled model only
+    ref = {case: reference_tank(r) for case, r in res.items()}
     decays = _analysed("damping analysis of mode 1",
-                       lambda: {case: mode1_decay(r, modal, f1) for case, r in res.items()})
-    figs = free_figures(res, modal, decays)
+                       lambda: {case: mode1_decay(r, modal, f1) for case, r in ref.items()})
+    figs = free_figures(ref, modal, decays)
     with OutputBatch() as batch:  # all result files or none
         for case, r in res.items():
-            write_dataset(to_dataset(r, case, "free", tank, modal, seed),
-                          out / f"free_{case}.nc", batch)
+            ds = to_dataset(r, case, "free", setup.tank, modal, seed)
+            write_dataset(ds, out / f"free_{case}.nc", batch)
+            if uff:
+                write_result_uff(ds, out / f"free_{case}.uff", batch=batch)
         write_table(rows, out / "table1_frozen_modes", batch)
         for name, fig in figs.items():
             savefig(fig, out / f"{name}.png", batch)
@@ -227,7 +425,7 @@ def free(
 @beam_app.command("random")
 def random(
     out: Annotated[Path, typer.Option(help="Output directory.")],
-    sloshing: _SloshOpt = ["rig"],  # noqa: B006
+    sloshing: _SloshOpt = None,
     levels: Annotated[str, typer.Option(help=f"RMS base accelerations, g, each in (0, "
                                              f"{MAX_LEVEL_G:g}], comma separated.")] = (
         "0.1,0.2,0.4"),
@@ -242,6 +440,14 @@ def random(
                      ] = 4.0,
     tank_toml: _TankOpt = None,
     modal_toml: _ModalOpt = None,
+    structure: _StructureOpt = None,
+    tank: _TankSpecOpt = None,
+    outputs: _OutputsOpt = None,
+    direction: _DirectionOpt = "+Z",
+    mode_table: _ModeTableOpt = None,
+    modes: _ModesOpt = None,
+    mass_unit: _MassUnitOpt = None,
+    uff: _UffOpt = False,
 ) -> None:
     """Random base excitation at several RMS levels (paper Figs. 18, 22, 23; Table 2).
 
@@ -249,12 +455,21 @@ def random(
     (f0 - 3 sigma >= 0, f0 + 4 sigma < 250 Hz). Table 2's estimators use Welch segments of
     16384 samples (32.8 s), hence the shortest duration; duration x number of levels is at most
     1800 s (the rig holds about 2.1 MB per second and level). All result files appear together
-    at the end, or none if the run fails.
+    at the end, or none if the run fails. On your own structure (``--structure``) the base
+    excitation needs the modes' participation factors (a mode-table column), and Table 2 uses
+    the first ``--tank``.
 
     Example: ``sloshrom beam random --sloshing rig --levels 0.1,0.2,0.4 --duration 90 --out res``
     """
     from sloshrom.beam.coupled import random_response
-    from sloshrom.beam.results import mode1_damping_table, to_dataset, write_dataset, write_table
+    from sloshrom.beam.export import write_result_uff
+    from sloshrom.beam.results import (
+        mode1_damping_table,
+        reference_tank,
+        to_dataset,
+        write_dataset,
+        write_table,
+    )
     from sloshrom.plotting.beam import RANDOM_FIGURES, random_figures, random_window
 
     try:
@@ -273,22 +488,32 @@ def random(
         fail(f"--duration {duration:g} s x {len(lv)} level(s) = {duration * len(lv):g} s is "
              f"more than {MAX_LEVEL_SECONDS:g} s (memory: the rig holds about 2.1 MB per second "
              "and level at its 10 kHz step)")
-    tank, modal, _, f1 = _setup(tank_toml, modal_toml, seed)
-    models = _models(sloshing, tank, seed)
-    inputs = (tank_toml, modal_toml, *(Path(n) for n in sloshing if n not in ("frozen", "rig")))
-    files = [*(f"random_{c}.nc" for c in models), "table2_mode1_damping.csv",
-             "table2_mode1_damping.md", *(f"{f}.png" for f in RANDOM_FIGURES)]
-    _check_outputs(out, files, inputs)
+    st = _Structure.from_options(structure, tank, outputs, direction, mode_table, modes,
+                                 mass_unit)
+    setup = _setup(tank_toml, modal_toml, seed, st)
+    modal, f1 = setup.modal, setup.f1
+    if not modal.has_participation:
+        fail("the structure has no participation factors (kg), which base excitation needs: "
+             "add a 'participation' column to --mode-table (see docs/formats.md)")
+    models = _models(sloshing, setup, seed)
+    files = [*(f"random_{c}.nc" for c in models), *_uff_names(uff, "random", models),
+             "table2_mode1_damping.csv", "table2_mode1_damping.md",
+             *(f"{f}.png" for f in RANDOM_FIGURES)]
+    _check_outputs(out, files, _inputs(setup, sloshing, tank_toml, modal_toml, structure,
+                                       mode_table))
     res = _run_cases(models, "random response",
                      lambda m, fs: random_response(m, modal, lv, duration, seed, f0, sigma,
-                                                   tank=tank, output_fs=fs))
+                                                   tank=setup.tank, output_fs=fs))
+    ref = {case: reference_tank(r) for case, r in res.items()}
     rows = _analysed("damping analysis of mode 1",
-                     lambda: mode1_damping_table(res, lv, f1))
+                     lambda: mode1_damping_table(ref, lv, f1))
     with OutputBatch() as batch:  # all result files or none
         for case, r in res.items():
-            write_dataset(to_dataset(r, case, "random", tank, modal, seed),
-                          out / f"random_{case}.nc", batch)
+            ds = to_dataset(r, case, "random", setup.tank, modal, seed)
+            write_dataset(ds, out / f"random_{case}.nc", batch)
+            if uff:
+                write_result_uff(ds, out / f"random_{case}.uff", batch=batch)
         write_table(rows, out / "table2_mode1_damping", batch)
-        for name, fig in random_figures(res, lv, random_window(duration)).items():
+        for name, fig in random_figures(ref, lv, random_window(duration)).items():
             savefig(fig, out / f"{name}.png", batch)
     typer.echo(f"wrote {len(res)} result file(s), Table 2 and figures to {out}")
