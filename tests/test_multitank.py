@@ -159,3 +159,19 @@ def test_tank_and_model_counts_and_steps_are_checked():
         ModalModel.from_dict({**modal.to_dict(), "tank_ids": [7, 7]})
     with pytest.raises(ModalDataError, match="psi_tank"):
         ModalModel.from_dict({**modal.to_dict(), "psi_tank": [[1.0, 0.5]]})
+
+
+def test_batched_random_responses_of_two_tanks_equal_single_runs():
+    """The JAX path vmaps over levels with one model per tank (a damper and a frozen tank)."""
+    modal = symmetric_structure()
+    dt = 1 / 500
+    models, tanks = [LinearDamper(8.0, dt), FrozenLiquid(dt)], [Tank(), Tank(fill=0.3)]
+    both = random_response(models, modal, (0.1, 0.3), duration=6.0, seed=4, f0=8.0,
+                           sigma=2.0, tank=tanks)
+    assert both["tank_acceleration"].shape == (2, 3000, 2)
+    assert both["envelope_outside_fraction"].shape == (2, 2)
+    for i, level in enumerate((0.1, 0.3)):
+        one = random_response(models, modal, (level,), duration=6.0, seed=4, f0=8.0,
+                              sigma=2.0, tank=tanks)
+        np.testing.assert_allclose(both["tank_acceleration"][i], one["tank_acceleration"][0],
+                                   rtol=1e-10, atol=1e-12)
