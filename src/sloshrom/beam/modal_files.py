@@ -34,6 +34,7 @@ from sloshrom.beam.modes import ModeSet, mode_table_arrays
 from sloshrom.beam.structure import ModalDataError
 from sloshrom.config import load_toml_table
 from sloshrom.fileio import atomic_write, atomic_write_text
+from sloshrom.io.uff import open_uff
 from sloshrom.io.units import canonical_unit, is_known_unit
 
 __all__ = [
@@ -548,18 +549,7 @@ _ANALYSIS = {0: "unknown", 1: "static", 2: "normal mode", 3: "complex eigenvalue
 
 
 def _read_uff(p: Path, mass_factor: float | None) -> dict[str, Any]:
-    import pyuff
-
-    with p.open("rb") as fh:  # every UFF dataset ends with a "    -1" line
-        fh.seek(max(p.stat().st_size - 64, 0))
-        tail = fh.read().rstrip()
-    if not tail.endswith(b"-1"):
-        raise ModalDataError(f"{p}: truncated or not a UFF file (does not end with a '-1' line)")
-    try:
-        uff = pyuff.UFF(str(p))
-        types = [int(t) for t in uff.get_set_types()]
-    except Exception as exc:  # pyuff raises bare Exception/ValueError/IndexError on bad files
-        raise ModalDataError(f"{p}: not a readable UFF file ({_reason(exc)})") from exc
+    uff, types = open_uff(p, ModalDataError)
     sets: list[tuple[int, dict[str, Any]]] = []
     for i, typ in enumerate(types):
         if typ not in (55, 2411, 15, 164):

@@ -103,7 +103,6 @@ def read_uff58(
         time, no time-response dataset, complex or mismatched channels (length, start time,
         sample rate), uneven sampling, duplicate names, missing units.
     """
-    import pyuff
 
     p = Path(path)
     names = dict(names or {})
@@ -112,16 +111,7 @@ def read_uff58(
         raise RecordError(f"{p}: no such file")
     if p.stat().st_size == 0:
         raise RecordError(f"{p}: file is empty")
-    with p.open("rb") as fh:  # every UFF dataset ends with a "    -1" line
-        fh.seek(max(p.stat().st_size - 64, 0))
-        tail = fh.read().rstrip()
-    if not tail.endswith(b"-1"):
-        raise RecordError(f"{p}: truncated or not a UFF file (does not end with a '-1' line)")
-    try:
-        uff = pyuff.UFF(str(p))
-        types = [int(t) for t in uff.get_set_types()]
-    except Exception as exc:  # pyuff raises bare Exception/ValueError/IndexError on bad files
-        raise RecordError(f"{p}: not a readable UFF file ({_why(exc)})") from exc
+    uff, types = open_uff(p)
     sets: list[tuple[int, dict[str, Any]]] = []
     for i, typ in enumerate(types):
         try:
@@ -242,6 +232,23 @@ def read_uff58(
         return Record(time_ref, fs, variables, var_units, attrs)
     except RecordError as exc:
         raise RecordError(f"{p}: {exc}") from None
+
+
+def open_uff(p: Path, error: type[Exception] = RecordError) -> tuple[Any, list[int]]:
+    """A ``pyuff.UFF`` of an existing file and its dataset types; ``error`` for a truncated
+    file or one pyuff cannot index."""
+    import pyuff
+
+    with p.open("rb") as fh:  # every UFF dataset ends with a "    -1" line
+        fh.seek(max(p.stat().st_size - 64, 0))
+        tail = fh.read().rstrip()
+    if not tail.endswith(b"-1"):
+        raise error(f"{p}: truncated or not a UFF file (does not end with a '-1' line)")
+    try:
+        uff = pyuff.UFF(str(p))
+        return uff, [int(t) for t in uff.get_set_types()]
+    except Exception as exc:  # pyuff raises bare Exception/ValueError/IndexError on bad files
+        raise error(f"{p}: not a readable UFF file ({_why(exc)})") from exc
 
 
 def _given_unit(p: Path, key: Any, value: Any) -> str:
