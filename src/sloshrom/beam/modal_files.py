@@ -140,6 +140,11 @@ def read_modes(
     """
     p = Path(path)
     fmt = format.lower() if format is not None else _FORMATS.get(p.suffix.lower())
+    if fmt is None and p.suffix.lower() == ".op2":
+        raise ModalDataError(
+            f"{p}: Nastran OP2 is not read (pyNastran, its reader, requires numpy < 2, which "
+            "JAX does not allow): ask Nastran for DISPLACEMENT(PUNCH) and read the .pch file"
+        )
     if fmt not in ("uff", "punch", "netcdf", "csv"):
         raise ModalDataError(
             f"{p}: unknown modal-model format {format or p.suffix or '(no suffix)'!r} "
