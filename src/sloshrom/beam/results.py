@@ -201,8 +201,7 @@ def frozen_modes_table(tank: Tank | Sequence[Tank], modal: ModalModel,
     if beam is not None and len(tanks) == 1:
         return frozen_modal_table(tanks[0], beam=beam, n_modes=modal.n_modes,
                                   damping=modal.damping.tolist())
-    masses = [t.liquid_mass for t in tanks] if len(tanks) > 1 else tanks[0].liquid_mass
-    fc, _ = coupled_frozen_modes(modal, masses)
+    fc, _ = coupled_frozen_modes(modal, [t.liquid_mass for t in tanks])
     return [{"mode": n + 1, "f_dry_Hz": float(modal.frequencies[n]),
              "f_coupled_Hz": float(fc[n]), "damping": float(modal.damping[n])}
             for n in range(modal.n_modes)]

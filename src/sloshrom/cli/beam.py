@@ -12,7 +12,7 @@ inside the commands, so that ``sloshrom --help`` does not load JAX, xarray and m
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -56,19 +56,19 @@ MAX_LEVEL_G = 2.0  # RMS; the rig's calibrated envelope is 6 g peak, about 3 x R
 
 
 def _model(name: str, tank: Tank, seed: int,
-           roms: dict[Path, SloshingModel] | None = None) -> tuple[str, SloshingModel]:
-    """``(case name, sloshing model)`` of a ``--sloshing`` value; a user error if unusable.
+           roms: dict[Path, SloshingModel]) -> SloshingModel:
+    """The sloshing model of a ``--sloshing`` value; a user error if unusable.
 
     ``roms`` caches loaded ROM files (several tanks may share one)."""
     if name == "frozen":
-        return "frozen", FrozenLiquid(1.0 / BEAM_FS)
+        return FrozenLiquid(1.0 / BEAM_FS)
     if name == "rig":
         from sloshrom.rig.virtual import VirtualRig
 
-        return "rig", VirtualRig(tank=tank, seed=seed)
+        return VirtualRig(tank=tank, seed=seed)
     p = Path(name)
-    if roms is not None and p in roms:
-        return p.stem, roms[p]
+    if p in roms:
+        return roms[p]
     if not name.strip() or not p.is_file():
         fail(f"--sloshing must be 'frozen', 'rig' or a ROM model file; {p} does not exist")
     from sloshrom.rom.estimators import load_model
@@ -82,9 +82,8 @@ def _model(name: str, tank: Tank, seed: int,
     if not (ratio >= 1 - 1e-9 and abs(ratio - round(ratio)) < 1e-6):
         fail(f"--sloshing {p}: the ROM runs at {rom.fs_:g} Hz; the beam needs a multiple of "
              f"{BEAM_FS:g} Hz (the rate of its results and of the random excitation)")
-    if roms is not None:
-        roms[p] = rom
-    return p.stem, rom
+    roms[p] = rom
+    return rom
 
 
 @dataclass
@@ -95,7 +94,7 @@ class _Setup:
     modal: ModalModel
     beam: CantileverBeam | None  # the Euler-Bernoulli beam ``modal`` comes from, if any
     f1: float  # first frozen-liquid mode, Hz
-    own: list[str | None] = field(default_factory=list)  # each tank's own --tank model
+    own: list[str | None]  # each tank's own --tank model, or None
 
     @property
     def tank(self) -> Tank | list[Tank]:
@@ -112,7 +111,7 @@ def _models(names: list[str] | None, setup: _Setup, seed: int) -> dict[str, Any]
     the others take the case's ``--sloshing`` model. When every tank has its own model, the
     cases are ``frozen`` and ``tanks``.
     """
-    own = setup.own or [None] * len(setup.tanks)
+    own = setup.own
     if all(own):
         if names:
             fail("--sloshing has no tank to act on: every --tank has its own model")
@@ -121,14 +120,11 @@ def _models(names: list[str] | None, setup: _Setup, seed: int) -> dict[str, Any]
     roms: dict[Path, SloshingModel] = {}
     models: dict[str, Any] = {}
     for name in ["frozen", *[n for n in names if n != "frozen"]]:
-        if name == "tanks":
-            case = name
-        else:
-            case, _ = _model(name, setup.tanks[0], seed, roms)
+        case = name if name in ("frozen", "rig", "tanks") else Path(name).stem
         if case in models:
             fail(f"--sloshing {name}: a second case named '{case}' (each case writes "
                  f"<test>_{case}.nc; rename the model file)")
-        per_tank = [_model("frozen" if case == "frozen" else (o or name), t, seed, roms)[1]
+        per_tank = [_model("frozen" if case == "frozen" else (o or name), t, seed, roms)
                     for o, t in zip(own, setup.tanks, strict=True)]
         models[case] = per_tank if setup.modal.psi_tank.ndim == 2 else per_tank[0]
     return models
@@ -174,7 +170,7 @@ def _setup(tank_toml: Path | None, modal_toml: Path | None, seed: int,
         fail("--structure and --modal-toml both give the structure: use one")
     try:
         tank = Tank.from_toml(tank_toml) if tank_toml else Tank()
-        own: list[str | None] = []
+        own: list[str | None] | None = None
         if structure is not None:
             modal, tanks, own = structure.load(tank)
             beam = None
@@ -189,7 +185,7 @@ def _setup(tank_toml: Path | None, modal_toml: Path | None, seed: int,
         check_analysis_band(f1)
     except user_errors() as exc:
         fail(str(exc))
-    return _Setup(tanks, modal, beam, f1, own)
+    return _Setup(tanks, modal, beam, f1, own or [None] * len(tanks))
 
 
 @dataclass
