@@ -15,6 +15,11 @@ from typing import Any
 
 G = 9.80665  # standard gravity, m/s^2
 
+#: Absolute tolerance on a fill level d/h (-) when two must agree (a model's training fill and
+#: the tank it runs in, two records of one identification): 0.5 % of the tank height, about
+#: what a level gauge resolves.
+FILL_TOLERANCE = 0.005
+
 
 class ConfigError(ValueError):
     """A configuration value is missing, of the wrong type or outside its physical range."""

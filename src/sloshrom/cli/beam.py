@@ -57,9 +57,10 @@ MAX_LEVEL_G = 2.0  # RMS; the rig's calibrated envelope is 6 g peak, about 3 x R
 
 def _model(name: str, tank: Tank, seed: int,
            roms: dict[Path, SloshingModel]) -> SloshingModel:
-    """The sloshing model of a ``--sloshing`` value; a user error if unusable.
+    """The sloshing model of a ``--sloshing`` value at ``tank``'s fill; a user error if unusable.
 
-    ``roms`` caches loaded ROM files (several tanks may share one)."""
+    ``roms`` caches loaded ROM files (several tanks may share one; a fill family gives each
+    tank the blend at its own fill)."""
     if name == "frozen":
         return FrozenLiquid(1.0 / BEAM_FS)
     if name == "rig":
@@ -67,22 +68,25 @@ def _model(name: str, tank: Tank, seed: int,
 
         return VirtualRig(tank=tank, seed=seed)
     p = Path(name)
-    if p in roms:
-        return roms[p]
     if not name.strip() or not p.is_file():
         fail(f"--sloshing must be 'frozen', 'rig' or a ROM model file; {p} does not exist")
     from sloshrom.rom.estimators import load_model
+    from sloshrom.rom.family import at_fill
 
-    try:
-        rom = load_model(p)
+    if p not in roms:
+        try:
+            roms[p] = load_model(p)
+        except user_errors() as exc:
+            fail(str(exc))
+    try:  # a fill family gives the model at this tank's fill; a single ROM checks it
+        rom = at_fill(roms[p], tank.fill, f"{p}")
     except user_errors() as exc:
-        fail(str(exc))
+        fail(f"--sloshing {exc} (the tank's fill: --fill, --tank-toml or --tank GRID:fill=F)")
     check_sloshing_rom(rom, p, "--sloshing", "the beam")
     ratio = rom.fs_ / BEAM_FS
     if not (ratio >= 1 - 1e-9 and abs(ratio - round(ratio)) < 1e-6):
         fail(f"--sloshing {p}: the ROM runs at {rom.fs_:g} Hz; the beam needs a multiple of "
              f"{BEAM_FS:g} Hz (the rate of its results and of the random excitation)")
-    roms[p] = rom
     return rom
 
 
@@ -158,18 +162,22 @@ def _tank_spec(spec: str, base: Tank) -> tuple[int, str | None, Tank]:
 
 
 def _setup(tank_toml: Path | None, modal_toml: Path | None, seed: int,
-           structure: _Structure | None = None) -> _Setup:
+           structure: _Structure | None = None, fill: float | None = None) -> _Setup:
     """Tanks, modal model, the beam it comes from (``None`` for the user's own modal data) and
     the first frozen-liquid mode (Hz), or a user error."""
     from sloshrom.beam.structure import CantileverBeam, ModalModel, coupled_frozen_modes
 
     check_number(seed, "--seed", 0, MAX_SEED)
+    check_number(fill, "--fill", 0.0, 1.0, lo_open=True, hi_open=True,
+                 why="liquid depth / tank height")
     check_input(tank_toml, "--tank-toml")
     check_input(modal_toml, "--modal-toml")
     if structure is not None and modal_toml is not None:
         fail("--structure and --modal-toml both give the structure: use one")
     try:
         tank = Tank.from_toml(tank_toml) if tank_toml else Tank()
+        if fill is not None:
+            tank = tank.replace(fill=fill)
         own: list[str | None] | None = None
         if structure is not None:
             modal, tanks, own = structure.load(tank)
@@ -290,6 +298,10 @@ def _analysed(what: str, fn: Callable[[], Any]) -> Any:
 
 _TankOpt = Annotated[
     Path | None, typer.Option(help="Tank TOML (\\[tank] table); default: paper.")]
+_FillOpt = Annotated[float | None, typer.Option(
+    help="Fill level d/h of the tanks, in (0, 1); overrides --tank-toml's (a --tank "
+         "GRID:fill=F wins). A ROM refuses a fill it was not identified at; a fill family "
+         "(.toml) runs at it.")]
 _ModalOpt = Annotated[
     Path | None, typer.Option(help="Own modal data TOML (\\[modal] table, see docs/beam.md).")]
 _SloshOpt = Annotated[
@@ -343,6 +355,7 @@ def free(
                                                  f"the paper beam) to {MAX_BEAM_SECONDS:g} "
                                                  "s.")] = 10.0,
     tank_toml: _TankOpt = None,
+    fill: _FillOpt = None,
     modal_toml: _ModalOpt = None,
     seed: Annotated[int, typer.Option(help="Rig seed (>= 0).")] = 0,
     structure: _StructureOpt = None,
@@ -386,7 +399,7 @@ def free(
     check_number(duration, "--duration", 0.0, MAX_BEAM_SECONDS, lo_open=True, unit="s")
     st = _Structure.from_options(structure, tank, outputs, direction, mode_table, modes,
                                  mass_unit)
-    setup = _setup(tank_toml, modal_toml, seed, st)
+    setup = _setup(tank_toml, modal_toml, seed, st, fill)
     modal, f1 = setup.modal, setup.f1
     need = min_free_duration(f1)
     if duration < need:
@@ -435,6 +448,7 @@ def random(
                                               "f0 - 3 sigma >= 0 and f0 + 4 sigma < 250 Hz.")
                      ] = 4.0,
     tank_toml: _TankOpt = None,
+    fill: _FillOpt = None,
     modal_toml: _ModalOpt = None,
     structure: _StructureOpt = None,
     tank: _TankSpecOpt = None,
@@ -486,7 +500,7 @@ def random(
              "and level at its 10 kHz step)")
     st = _Structure.from_options(structure, tank, outputs, direction, mode_table, modes,
                                  mass_unit)
-    setup = _setup(tank_toml, modal_toml, seed, st)
+    setup = _setup(tank_toml, modal_toml, seed, st, fill)
     modal, f1 = setup.modal, setup.f1
     if not modal.has_participation:
         fail("the structure has no participation factors (kg), which base excitation needs: "

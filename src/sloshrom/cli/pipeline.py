@@ -9,7 +9,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -66,6 +66,9 @@ def reproduce(
                                         "minutes.")] = False,
     sweep: Annotated[bool, typer.Option(help="Run the full sensitivity sweep (paper "
                                         "Fig. 8).")] = False,
+    beyond: Annotated[bool, typer.Option(help="Also run the sections beyond the paper "
+                                         "([beyond]: fill family, bouncing-ball baseline, "
+                                         "two-mode structure; docs/reproduce.md).")] = False,
 ) -> None:
     """Reproduce the paper on the built-in virtual rig and write OUT/report.html.
 
@@ -82,6 +85,8 @@ def reproduce(
     cfg = _load_config(config, quick)
     if sweep:
         cfg["rom"]["sweep"] = True  # run() validates again: the sweep grid must fit the data too
+    if beyond:
+        cfg["beyond"]["enabled"] = True
     check_out(out, directory=True, inputs=(config,))
     console = Console(stderr=True)
     tasks: dict[str, int] = {}
@@ -126,6 +131,10 @@ def map_cmd(
                                                    "dissipative region, and the passivity)."
                                                    )] = None,
     seed: Annotated[int, typer.Option(help="Rig seed (>= 0).")] = 0,
+    fill: Annotated[float | None, typer.Option(
+        help="Fill level d/h in (0, 1): the rig's tank, or the fill to run --model at (a "
+             "fill family .toml needs it; a single ROM refuses any other fill than its "
+             "training records'). Default: the ROM's training fill, else 0.5.")] = None,
 ) -> None:
     """Dissipated-energy map Phi_d(omega_bar, a_bar) from batched harmonic tests.
 
@@ -145,13 +154,18 @@ def map_cmd(
                      why="each frequency runs the amplitudes as one batch at the rig's 10 kHz "
                          "step; the grid size sets memory and time")
     check_number(seed, "--seed", 0, MAX_SEED)
+    check_number(fill, "--fill", 0.0, 1.0, lo_open=True, hi_open=True,
+                 why="liquid depth / tank height")
     check_input(model, "--model")
     check_input(reference, "--reference")
     check_out(out, suffixes=MAP_SUFFIXES, inputs=(model, reference))
     check_out(out.with_suffix(".png"), inputs=(model, reference), what="--out (its PNG)")
     cfg = settings.defaults()
     cfg["map"].update(n_omega=n_omega, n_a=n_a)
-    tank = Tank()
+    sm = None
+    if not rig:  # the ROM first: its training fill is the default fill of the map
+        sm, fill = _load_rom(model, 8 * cfg["map"]["f_max"], fill)
+    tank = Tank() if fill is None else Tank(fill=fill)
     ref = None
     if reference is not None:  # read it first: a bad reference must not cost a whole map
         ref = _read_reference(reference, cfg, tank)
@@ -161,8 +175,9 @@ def map_cmd(
         sm = VirtualRig(tank=tank, seed=seed)
         title = "virtual rig"
     else:
-        sm = _load_rom(model, 8 * cfg["map"]["f_max"])
         title = f"ROM {model.name}"
+    if fill is not None:
+        title += f", fill {tank.fill:.1%}"
     from rich.progress import Progress
 
     from sloshrom.energy import map_fidelity, map_maximum
@@ -184,19 +199,25 @@ def map_cmd(
         typer.echo("\n".join(fidelity_lines(fid, str(reference))))
 
 
-def _load_rom(path: Path, min_fs: float):
-    """A ROM usable for harmonic tests (m/s -> N, fast enough for the top frequency)."""
+def _load_rom(path: Path, min_fs: float, fill: float | None) -> tuple[Any, float | None]:
+    """A ROM usable for harmonic tests (m/s -> N, fast enough for the top frequency) at
+    ``fill``, and the fill (default: the one its training records had, if it says)."""
     from sloshrom.rom.estimators import load_model
+    from sloshrom.rom.family import at_fill, training_fills
 
     try:
         m = load_model(path)
-    except user_errors() as exc:  # ModelFileError: wrong format/version, tampered arrays
-        fail(str(exc))
+        trained = training_fills(m)
+        if fill is None and trained is not None and trained[0] == trained[1]:
+            fill = trained[0]
+        m = at_fill(m, fill, str(path))
+    except user_errors() as exc:  # ModelFileError, a fill outside the model's
+        fail(f"--model {exc}" if str(exc).startswith(str(path)) else str(exc))
     check_sloshing_rom(m, path, "--model", "the map")
     if m.fs_ < min_fs:
         fail(f"--model {path}: the ROM runs at {m.fs_:g} Hz, too slow for harmonic tests up to "
              f"{min_fs / 8:g} Hz (need at least {min_fs:g} Hz, 8 samples per cycle)")
-    return m
+    return m, fill
 
 
 def _read_reference(path: Path, cfg: dict, tank: Tank):

@@ -17,6 +17,7 @@ import numpy as np
 import typer
 
 from sloshrom.cli._app import app, check_input, check_number, check_out, fail, user_errors
+from sloshrom.config import FILL_TOLERANCE
 from sloshrom.io import STANDARD_UNITS, read_record, same_unit, write_record
 from sloshrom.pipeline.settings import training_samples
 
@@ -70,6 +71,32 @@ def _read_pair(data: Path, validation: Path, names: list[str]) -> tuple[Any, Any
     _same_units(rec, data, val, validation, names)
     _standard_units(rec, data, names)
     return rec, val
+
+
+def _training_fill(fill: float | None, rec: Any, data: Path, val: Any,
+                   validation: Path) -> float | None:
+    """The fill level the model records: ``--fill``, else the records' ``fill`` attribute.
+
+    Fails if the two records, or ``--fill`` and a record, disagree (beyond the gauge tolerance of
+    :data:`sloshrom.config.FILL_TOLERANCE`): one model is identified at one fill."""
+    tol = FILL_TOLERANCE
+    found = {}
+    for r, p in ((rec, data), (val, validation)):
+        f = r.attrs.get("fill")
+        if f is None:
+            continue
+        if isinstance(f, bool) or not isinstance(f, (int, float)) or not 0 < f < 1:
+            fail(f"{p}: attribute fill must be a number in (0, 1), got {f!r}")
+        found[p] = float(f)
+    if len(set(found.values())) > 1 and max(found.values()) - min(found.values()) > tol:
+        fail(f"the records were taken at different fills: {data} at {found[data]:.1%}, "
+             f"{validation} at {found[validation]:.1%}")
+    if fill is not None:
+        for p, f in found.items():
+            if abs(f - fill) > tol:
+                fail(f"--fill {fill:g} but {p} was taken at fill {f:g} (its attribute fill)")
+        return fill
+    return next(iter(found.values()), None)
 
 
 def _same_rate(a: float, b: float, what: str) -> None:
@@ -140,6 +167,10 @@ def train(
         str | None, typer.Option(help="NFIR: adam (default), fast (subsampled LM) or lm (trainlm);"
                                       " NOE: lm.")
     ] = None,
+    fill: Annotated[float | None, typer.Option(
+        help="Fill level d/h of the records' tank, in (0, 1): recorded in the model, which "
+             "then refuses other fills. Default: the records' fill attribute (rig records "
+             "carry it).")] = None,
     seed: Annotated[int, typer.Option(help="Seed of the initialisation (>= 0); an ensemble's "
                                            "members have seeds SEED..SEED+K-1.")] = 0,
     ensemble: Annotated[int, typer.Option(help="Train K networks that differ by their seed and "
@@ -200,10 +231,13 @@ def train(
     trainers = ("adam", "fast", "lm") if arch == "nfir" else ("fast", "lm")
     if trainer is not None and trainer not in trainers:
         fail(f"--trainer for {arch.upper()} must be {', '.join(trainers)}, got {trainer!r}")
+    check_number(fill, "--fill", 0.0, 1.0, lo_open=True, hi_open=True,
+                 why="liquid depth / tank height")
     check_input(data, "--data")
     check_input(validation, "--validation")
     check_out(out, suffixes=(".npz",), inputs=(data, validation))
     rec, val = _read_pair(data, validation, [input_name, output_name])
+    fill = _training_fill(fill, rec, data, val, validation)
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -238,7 +272,7 @@ def train(
     if ensemble > 1:
         _train_ensemble(model, ensemble, rec, val, input_name, output_name, out,
                         scheduler if scheduler is not None or workers > 1 else "sequential",
-                        workers)
+                        workers, fill)
         return
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[info]}"),
                   TimeElapsedColumn()) as progress:
@@ -251,7 +285,7 @@ def train(
 
         try:
             model.fit(rec[input_name], rec[output_name], fs=rec.fs,
-                      validation=(val[input_name], val[output_name]), callback=cb)
+                      validation=(val[input_name], val[output_name]), callback=cb, fill=fill)
         except user_errors() as exc:  # ROMError (a constant record, ...), UnstableModelError
             fail(str(exc))
     try:
@@ -268,7 +302,8 @@ def train(
 
 
 def _train_ensemble(template: Any, k: int, rec: Any, val: Any, input_name: str,
-                    output_name: str, out: Path, scheduler: str | None, workers: int) -> None:
+                    output_name: str, out: Path, scheduler: str | None, workers: int,
+                    fill: float | None) -> None:
     """``train --ensemble K``: K members through Dask, one file, per-member validation MSE."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -286,7 +321,7 @@ def _train_ensemble(template: Any, k: int, rec: Any, val: Any, input_name: str,
         try:
             ens.fit(rec[input_name], rec[output_name], fs=rec.fs,
                     validation=(val[input_name], val[output_name]), scheduler=scheduler,
-                    n_workers=workers, progress=cb)
+                    n_workers=workers, progress=cb, fill=fill)
         except user_errors() as exc:  # ROMError (a constant record, ...), UnstableModelError
             fail(str(exc))
     try:

@@ -9,6 +9,7 @@ upstream stages did not change), one module each:
 ``rom``     NFIR/NOE identification (Fig. 10 validation)
 ``maps``    Phi_d maps of rig and ROM and their difference (Figs. 3, 4, 11)
 ``beam``    sloshing-beam free and random tests with rig, ROM and frozen liquid (Figs. 14–23)
+``fills``   beyond the paper (``[beyond] enabled``): a fill family judged at unseen fills
 ``report``  ``OUT/report.html`` and ``OUT/summary.json``
 
 This module only orders the stages and caches them; the stages do the I/O and the figures, the
@@ -30,12 +31,13 @@ from sloshrom.pipeline.beam import stage_beam
 from sloshrom.pipeline.cache import StageCache, StageResult
 from sloshrom.pipeline.context import Context, Progress, quiet
 from sloshrom.pipeline.data import stage_data
+from sloshrom.pipeline.fills import stage_fills
 from sloshrom.pipeline.maps import stage_maps
 from sloshrom.pipeline.report import write_report
 from sloshrom.pipeline.rom import SWEEP_KEYS, stage_rom, stage_sweep
 from sloshrom.pipeline.settings import validate
 
-__all__ = ["run"]
+__all__ = ["identify", "run"]
 
 
 @contextmanager
@@ -43,6 +45,37 @@ def _timer(ctx: Context, name: str) -> Iterator[None]:
     t0 = time.perf_counter()
     yield
     ctx.timings[name] = time.perf_counter() - t0
+
+
+def identify(ctx: Context, cache: StageCache | None = None) -> dict[str, StageResult]:
+    """The ``data`` (and ``sweep``, if asked) and ``rom`` stages in ``ctx.out``, cached.
+
+    The identification part of :func:`run`, also used to identify ROMs at other fill levels
+    (``beyond``). Returns the stage results by name.
+    """
+    cfg = ctx.cfg
+    cache = cache if cache is not None else StageCache(ctx.out)
+    results: dict[str, StageResult] = {}
+    # a structure-designed training depends on the beam tests it is designed from
+    data_tables = ("tank", "rig", "data") + (("beam",) if cfg["data"]["design"] == "structure"
+                                             else ())
+    with _timer(ctx, "data"):
+        results["data"] = cache.run(
+            "data", {k: cfg[k] for k in data_tables}, [],
+            lambda: stage_data(ctx), __version__,
+        )
+    if cfg["rom"]["sweep"]:
+        with _timer(ctx, "sweep"):
+            results["sweep"] = cache.run(
+                "sweep", {k: cfg["rom"][k] for k in SWEEP_KEYS}, [results["data"]],
+                lambda: stage_sweep(ctx), __version__,
+            )
+    rom_keys = {k: v for k, v in cfg["rom"].items() if not k.startswith("sweep")}
+    with _timer(ctx, "rom"):
+        results["rom"] = cache.run(
+            "rom", rom_keys, [results["data"]], lambda: stage_rom(ctx), __version__
+        )
+    return results
 
 
 def run(out: str | Path, cfg: dict[str, Any], progress: Progress = quiet) -> dict[str, Any]:
@@ -73,27 +106,7 @@ def run(out: str | Path, cfg: dict[str, Any], progress: Progress = quiet) -> dic
     ctx = Context(Path(out), cfg, progress)
     ctx.out.mkdir(parents=True, exist_ok=True)
     cache = StageCache(ctx.out)
-    results: dict[str, StageResult] = {}
-
-    # a structure-designed training depends on the beam tests it is designed from
-    data_tables = ("tank", "rig", "data") + (("beam",) if cfg["data"]["design"] == "structure"
-                                             else ())
-    with _timer(ctx, "data"):
-        results["data"] = cache.run(
-            "data", {k: cfg[k] for k in data_tables}, [],
-            lambda: stage_data(ctx), __version__,
-        )
-    if cfg["rom"]["sweep"]:
-        with _timer(ctx, "sweep"):
-            results["sweep"] = cache.run(
-                "sweep", {k: cfg["rom"][k] for k in SWEEP_KEYS}, [results["data"]],
-                lambda: stage_sweep(ctx), __version__,
-            )
-    rom_keys = {k: v for k, v in cfg["rom"].items() if not k.startswith("sweep")}
-    with _timer(ctx, "rom"):
-        results["rom"] = cache.run(
-            "rom", rom_keys, [results["data"]], lambda: stage_rom(ctx), __version__
-        )
+    results = identify(ctx, cache)
     rom_path = ctx.out / results["rom"].outputs["model"]
     deps = [results["data"], results["rom"]]
     with _timer(ctx, "maps"):
@@ -106,6 +119,16 @@ def run(out: str | Path, cfg: dict[str, Any], progress: Progress = quiet) -> dic
             "beam", {k: cfg[k] for k in ("tank", "rig", "beam")}, deps,
             lambda: stage_beam(ctx, rom_path), __version__,
         )
+
+    bey = cfg["beyond"]
+    if bey["enabled"]:
+        fill_keys = {k: bey[k] for k in ("fills", "unseen_fills", "fill_ensemble", "beam_fills")}
+        with _timer(ctx, "fills"):
+            results["fills"] = cache.run(
+                "fills", {**{k: cfg[k] for k in ("tank", "rig", "data", "rom", "map", "beam")},
+                          "beyond": fill_keys}, deps,
+                lambda: stage_fills(ctx, rom_path, identify), __version__,
+            )
 
     summary = {
         "sloshrom_version": __version__,

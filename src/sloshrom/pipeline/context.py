@@ -54,10 +54,11 @@ class Context:
         changes = {k: rig[k] for k in OPTIONAL_KEYS["rig"] if rig.get(k) is not None}
         return RigParams.default().replace(**changes)
 
-    def rig(self) -> VirtualRig:
+    def rig(self, tank: Tank | None = None) -> VirtualRig:
         """The virtual rig of the configuration (physics :meth:`rig_params`); its sensors record
-        at ``[rig] fs``."""
-        return VirtualRig(tank=self.tank, params=self.rig_params(), seed=self.cfg["rig"]["seed"],
+        at ``[rig] fs``. ``tank`` replaces the configured tank (another fill level)."""
+        return VirtualRig(tank=self.tank if tank is None else tank, params=self.rig_params(),
+                          seed=self.cfg["rig"]["seed"],
                           sensors=SensorParams(output_rate=self.cfg["rig"]["fs"]))
 
     def path(self, *parts: str) -> Path:

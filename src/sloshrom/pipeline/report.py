@@ -16,6 +16,7 @@ from sloshrom.config import Tank
 from sloshrom.pipeline import html as report
 from sloshrom.pipeline import settings
 from sloshrom.pipeline.context import Context
+from sloshrom.pipeline.fills import fills_section
 from sloshrom.pipeline.html import Figure, Section, Table
 from sloshrom.pipeline.maps import HYSTERESIS_FREQUENCY, HYSTERESIS_GAMMA
 
@@ -184,6 +185,8 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
                "white where they agree."),
     ))
     secs.extend(_beam_sections(ctx, st["beam"]))
+    if "fills" in st:
+        secs.append(fills_section(ctx, st["fills"]))
     t = summary.get("timings_s", {})
     secs.append(Section(
         "Run", "<p>" + ", ".join(f"{k}: {v:.1f} s" for k, v in t.items())

@@ -143,6 +143,7 @@ def stage_rom(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     def cb(epoch: int, *args: Any, **kwargs: Any) -> None:
         ctx.progress("rom", epoch, cfg["max_epochs"], f"training {name}, epoch {epoch}")
 
+    fill = train.attrs.get("fill")  # the model refuses other fills (sloshrom.rom.family)
     k_members = int(cfg["ensemble"])
     recipe = recipe_text(cfg, name)
     t0 = time.perf_counter()
@@ -152,10 +153,11 @@ def stage_rom(ctx: Context) -> tuple[dict[str, Any], list[str]]:
         model = Ensemble(model, n_members=k_members).fit(
             u, y, fs=train.fs, validation=(uv, yv),
             scheduler="sequential" if workers == 1 else None, n_workers=workers,
-            progress=lambda k, m: ctx.progress("rom", k + 1, k_members, f"member {k} done"))
+            progress=lambda k, m: ctx.progress("rom", k + 1, k_members, f"member {k} done"),
+            fill=fill)
         name = f"{name} x {k_members}"
     else:
-        model.fit(u, y, fs=train.fs, validation=(uv, yv), callback=cb)
+        model.fit(u, y, fs=train.fs, validation=(uv, yv), callback=cb, fill=fill)
     train_seconds = time.perf_counter() - t0
     ctx.progress("rom", 1, 1, "validation")
     path = ctx.path("models", f"{cfg['arch']}.npz")

@@ -388,6 +388,35 @@ class _BeamTable(_Table):
             raise ConfigError(f"[beam]: {exc}") from None
 
 
+Fill = _number(0.0, 1.0, lo_open=True, hi_open=True, what="a fill level d/h")
+
+
+class _BeyondTable(_Table):
+    """``[beyond]``: the sections beyond the paper (``reproduce --beyond``)."""
+
+    enabled: bool
+    fills: _list(Fill, "fill levels d/h in (0, 1)", distinct=True)
+    unseen_fills: _list(Fill, "fill levels d/h in (0, 1)", distinct=True)
+    fill_ensemble: _number(1, 20, integer=True, what="a number of networks")
+    beam_fills: _list(Fill, "fill levels d/h in (0, 1)", distinct=True)
+    baseline: bool
+    multimode: bool
+
+    @model_validator(mode="after")
+    def _inside(self) -> _BeyondTable:
+        if len(self.fills) < 2:
+            raise ConfigError(f"'beyond.fills' needs two fill levels at least (a family "
+                              f"interpolates between them), got {self.fills}")
+        lo, hi = min(self.fills), max(self.fills)
+        for key in ("unseen_fills", "beam_fills"):
+            out = [f for f in getattr(self, key) if not lo <= f <= hi]
+            if out:
+                raise ConfigError(f"'beyond.{key}' {out} lie outside the trained fills "
+                                  f"[{lo:g}, {hi:g}] ('beyond.fills'): the fill family does "
+                                  "not extrapolate")
+        return self
+
+
 class ReproduceConfig(_Table):
     """The whole configuration of `sloshrom reproduce`, one model per table of ``defaults.toml``.
 
@@ -404,6 +433,7 @@ class ReproduceConfig(_Table):
     rom: _RomTable
     map: _MapTable
     beam: _BeamTable
+    beyond: _BeyondTable
 
     @model_validator(mode="after")
     def _across_tables(self) -> ReproduceConfig:

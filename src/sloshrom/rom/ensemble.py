@@ -32,6 +32,7 @@ import numpy as np
 
 from sloshrom import __version__
 from sloshrom.rom.errors import EnvelopeWarning, NotFittedError, ROMError
+from sloshrom.rom.family import check_training_fill
 from sloshrom.rom.modelfile import (
     ENSEMBLE_FORMAT_VERSION,
     MAX_MEMBERS,
@@ -99,13 +100,14 @@ def _fit_member(
     cls: type,
     params: dict[str, Any],
     fs: float,
+    fill: float | None = None,
 ) -> Any:
     """Train member ``k`` with ``seed`` (``item = (k, seed)``): a task of :func:`run_tasks`."""
     _, seed = item
     model = cls(**params)
     model.set_params(seed=seed)
     validation = (val_u, val_y) if val_u.size else None
-    return model.fit(u, y, fs=fs, validation=validation)
+    return model.fit(u, y, fs=fs, validation=validation, fill=fill)
 
 
 @jax.tree_util.register_pytree_node_class
@@ -223,6 +225,7 @@ class Ensemble:
         scheduler: str | None = None,
         n_workers: int = 2,
         progress: Callable[[int, Any], Any] | None = None,
+        fill: float | None = None,
     ) -> Ensemble:
         """Train the K members on the same record, in parallel.
 
@@ -242,6 +245,9 @@ class Ensemble:
             Processes (LocalCluster) or threads.
         progress : callable, optional
             ``progress(k, member)`` as member k finishes.
+        fill : float, optional
+            Fill level d/h (-) of the training record, recorded in every member's envelope
+            (:meth:`sloshrom.rom.NFIR.fit`).
 
         Returns
         -------
@@ -269,9 +275,10 @@ class Ensemble:
             vy = np.asarray(validation[1], dtype=np.float64)
             if vu.size == 0:
                 raise ROMError("validation record is empty")
+        fill = check_training_fill(fill)
         members = run_tasks(
             _fit_member, list(enumerate(seeds)), shared=(u, y, vu, vy),
-            args=(type(self.template), self.template.get_params(), float(fs)),
+            args=(type(self.template), self.template.get_params(), float(fs), fill),
             scheduler=scheduler, n_workers=n_workers,
             done=None if progress is None else progress,
         )
@@ -344,6 +351,9 @@ class Ensemble:
             acc = [e.get("acceleration_max") for e in envs]
             if all(a is not None for a in acc):
                 self.envelope_["acceleration_max"] = max(acc)
+            if all(e.get("fill_min") is not None for e in envs):
+                self.envelope_["fill_min"] = min(e["fill_min"] for e in envs)
+                self.envelope_["fill_max"] = max(e["fill_max"] for e in envs)
         self.history_ = [getattr(m, "history_", {}) for m in members]
 
     # -- description --------------------------------------------------------------------------

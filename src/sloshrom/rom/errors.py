@@ -7,11 +7,15 @@ catch it and print one line. A plain ``ValueError`` from inside is a programming
 
 from __future__ import annotations
 
-__all__ = ["EnvelopeWarning", "NotFittedError", "ROMError", "UnstableModelError"]
+__all__ = ["EnvelopeWarning", "FillRangeError", "NotFittedError", "ROMError", "UnstableModelError"]
 
 
 class ROMError(ValueError):
     """Bad input to a ROM: hyperparameters, training or prediction data, export options."""
+
+
+class FillRangeError(ROMError):
+    """A model was asked to run at a fill level outside the range it was identified on."""
 
 
 class UnstableModelError(RuntimeError):

@@ -47,7 +47,14 @@ from sloshrom import __version__
 from sloshrom._x64 import float64
 from sloshrom.rom import training
 from sloshrom.rom.ensemble import Ensemble
-from sloshrom.rom.errors import EnvelopeWarning, NotFittedError, ROMError, UnstableModelError
+from sloshrom.rom.errors import (
+    EnvelopeWarning,
+    FillRangeError,
+    NotFittedError,
+    ROMError,
+    UnstableModelError,
+)
+from sloshrom.rom.family import FillFamily, check_training_fill, read_family
 from sloshrom.rom.modelfile import (
     FORMAT_VERSION,
     HIDDEN_KINDS,
@@ -80,6 +87,8 @@ __all__ = [
     "NOE",
     "Ensemble",
     "EnvelopeWarning",
+    "FillFamily",
+    "FillRangeError",
     "MinMaxScaler",
     "ModelFileError",
     "NotFittedError",
@@ -273,6 +282,8 @@ class _TDNN:
         fs: float,
         validation: tuple[Any, Any] | None = None,
         callback: Callable[..., Any] | None = None,
+        *,
+        fill: float | None = None,
     ) -> _TDNN:
         """Identify the network from an input/output record.
 
@@ -291,6 +302,10 @@ class _TDNN:
             ``callback(epoch, info)`` after every epoch; ``info`` is a dict with ``train_mse``,
             ``val_mse`` (N^2), ``mu``, ``grad``, ``seconds``; returning True stops training
             (the best-validation network so far is kept).
+        fill : float, optional
+            Fill level d/h (-) of the tank in the training record (``Record.attrs["fill"]`` of
+            rig records). Stored in ``envelope_`` (``fill_min``/``fill_max``): the model then
+            refuses other fills (:func:`sloshrom.rom.family.check_fill`).
 
         Returns
         -------
@@ -307,6 +322,7 @@ class _TDNN:
         spec = self._check_hyperparameters()
         if not (np.isfinite(fs) and fs > 0):
             raise ROMError(f"fs must be a finite positive sample rate in Hz, got {fs!r}")
+        fill = check_training_fill(fill)
         u = _as_signal("u", u)
         y = _as_signal("y", y)
         if u.shape != y.shape:
@@ -348,6 +364,8 @@ class _TDNN:
             "frequency_band": band,
             "acceleration_max": float(np.max(np.abs(np.gradient(u)))) * float(fs),
         }
+        if fill is not None:
+            self.envelope_.update(fill_min=fill, fill_max=fill)
         self.params_ = {k: np.asarray(v) for k, v in
                         unpack(theta, spec.n_inputs, spec.neurons).items()}
         self.history_ = history
@@ -684,7 +702,7 @@ class NOE(_TDNN):
 # ---------------------------------------------------------------------------------------------
 
 
-def load_model(path: str | Path) -> NFIR | NOE | Ensemble:
+def load_model(path: str | Path) -> NFIR | NOE | Ensemble | FillFamily:
     """Load a model written by ``save``; never runs code (no pickle).
 
     Every metadata field is validated against a schema with bounds and the arrays against the
@@ -695,11 +713,13 @@ def load_model(path: str | Path) -> NFIR | NOE | Ensemble:
     Parameters
     ----------
     path : str or Path
-        A ``.npz`` model file: a single network or an ensemble (:meth:`Ensemble.save`).
+        A ``.npz`` model file: a single network or an ensemble (:meth:`Ensemble.save`); or a
+        ``.toml`` fill-family manifest naming one model file per fill level
+        (:func:`sloshrom.rom.family.read_family`).
 
     Returns
     -------
-    NFIR, NOE or Ensemble
+    NFIR, NOE, Ensemble or FillFamily
 
     Raises
     ------
@@ -708,6 +728,13 @@ def load_model(path: str | Path) -> NFIR | NOE | Ensemble:
         (checksum), a metadata field out of bounds or inconsistent (the message names it),
         parameter arrays that do not match the metadata.
     """
+    if Path(path).suffix == ".toml":
+        try:
+            return read_family(path, load_model)
+        except ModelFileError:
+            raise
+        except ROMError as exc:
+            raise ModelFileError(str(exc)) from None
     mf = read_model_file(path)
     if not mf.is_ensemble:
         return _from_model_file(mf, path)

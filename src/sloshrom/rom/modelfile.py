@@ -59,6 +59,7 @@ from pydantic import (
     StringConstraints,
     ValidationError,
     field_validator,
+    model_validator,
 )
 
 from sloshrom.fileio import atomic_write
@@ -258,9 +259,21 @@ class _Envelope(_Strict):
     ]
     # peak |du/dt| of the training input (files written before it have none)
     acceleration_max: Annotated[float, Field(allow_inf_nan=False, ge=0.0)] | None = None
+    # fill levels d/h of the training records (files written before them have none)
+    fill_min: Annotated[float, Field(allow_inf_nan=False, gt=0.0, lt=1.0)] | None = None
+    fill_max: Annotated[float, Field(allow_inf_nan=False, gt=0.0, lt=1.0)] | None = None
 
     _in = field_validator("input_max")(_above("input_min"))
     _out = field_validator("output_max")(_above("output_min"))
+
+    @model_validator(mode="after")
+    def _fills(self) -> _Envelope:
+        lo, hi = self.fill_min, self.fill_max
+        if (lo is None) != (hi is None):
+            raise ValueError("fill_min and fill_max must be given together")
+        if lo is not None and hi < lo:
+            raise ValueError(f"fill_max ({hi!r}) must be >= fill_min ({lo!r})")
+        return self
 
     @field_validator("frequency_band")
     @classmethod

@@ -1,0 +1,72 @@
+"""`reproduce --beyond` mechanics on a tiny configuration: the fill family is identified, mapped
+at an unseen fill, run in the beam, reported; the numbers are physical, not accurate."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from sloshrom.pipeline import run, settings
+from sloshrom.rom.errors import FillRangeError
+from sloshrom.rom.estimators import load_model
+from sloshrom.rom.family import FillFamily, training_fills
+
+
+def tiny_config() -> dict:
+    cfg = settings.load(quick=True)
+    cfg["data"].update(train_duration=20.0, validation_duration=12.0)
+    cfg["rom"].update(delays=6, neurons=4, max_epochs=2, ensemble=1)
+    cfg["map"].update(n_omega=3, n_a=3)
+    cfg["beam"].update(free_duration=3.0, random_duration=34.0, rms_g=[0.3])
+    cfg["beyond"].update(enabled=True, fills=[0.4, 0.5], unseen_fills=[0.45],
+                         beam_fills=[0.45], baseline=False, multimode=False)
+    return cfg
+
+
+@pytest.fixture(scope="module")
+def beyond_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("beyond")
+    return out, run(out, tiny_config())
+
+
+def test_fill_family_stage(beyond_run):
+    out, summary = beyond_run
+    f = summary["stages"]["fills"]
+    # the member at the [tank] fill is the main ROM; the other was identified at its own fill
+    assert f["members"]["50"]["main_rom"] and not f["members"]["40"]["main_rom"]
+    fam = load_model(out / f["family"])
+    assert isinstance(fam, FillFamily) and fam.fill_range == (0.4, 0.5)
+    assert training_fills(fam.members_[0]) == (0.4, 0.4)
+    assert training_fills(load_model(out / summary["stages"]["rom"]["model"])) == (0.5, 0.5)
+    with pytest.raises(FillRangeError):
+        fam.at(0.6)
+    rows = {r["fill"]: r for r in f["maps"]}
+    assert set(rows) == {0.4, 0.45, 0.5} and rows[0.45]["unseen"] and not rows[0.4]["unseen"]
+    assert all(np.isfinite(r["full_l2"]) for r in rows.values())
+    ds = xr.open_dataset(out / "fills" / "phi_d_maps.nc")
+    np.testing.assert_allclose(ds["fill"], [0.4, 0.45, 0.5])
+    # a heavier liquid dissipates more energy, a lower fill more energy per kg: the rig's maps
+    # differ between fills
+    assert not np.allclose(ds["phi_d_rig"].sel(fill=0.4), ds["phi_d_rig"].sel(fill=0.5),
+                           equal_nan=True)
+    cases = {r["case"] for r in f["damping"]}
+    assert cases == {"rig", "rom", "frozen"}
+    frozen = [r for r in f["damping"] if r["case"] == "frozen"]
+    # frozen liquid: the dry beam's 1 % first-mode damping (LSCF on 34 s: loose bound)
+    assert all(0.004 < r["lscf_h1"] < 0.02 for r in frozen if np.isfinite(r["lscf_h1"]))
+    assert [e["unseen"] for e in f["beam_errors"]] == [True]
+    for name in ("fills_phi_d_maps", "fills_damping"):
+        assert (out / "figures" / f"{name}.png").stat().st_size > 10_000
+    html = (out / "report.html").read_text()
+    assert "one ROM for every fill level" in html
+    assert json.loads((out / "summary.json").read_text())["stages"]["fills"]["unseen_fills"] \
+        == [0.45]
+
+
+def test_rerun_reuses_the_members(beyond_run):
+    out, _ = beyond_run
+    again = run(out, tiny_config())
+    assert again["stages"]["fills"]["reused"]
