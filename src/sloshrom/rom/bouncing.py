@@ -535,8 +535,10 @@ class BouncingBall:
     force_rule: ClassVar[Literal["step"]] = "step"
     #: the numba kernel is the fast path; the step is not a JAX function
     jax_traceable: ClassVar[bool] = False
-    #: sloshing-model inputs and output (the velocity is accepted and ignored)
-    units: ClassVar[tuple[str, str]] = ("m/s^2", "N")
+    #: the record variables and units the ball is identified from (as the networks': the input
+    #: the envelope describes is the velocity; the acceleration driving the ball derives from it)
+    names: ClassVar[tuple[str, str]] = ("velocity", "dynamic_force")
+    units: ClassVar[tuple[str, str]] = ("m/s", "N")
 
     def __init__(
         self,
