@@ -22,7 +22,7 @@ def tiny_config() -> dict:
     cfg["map"].update(n_omega=3, n_a=3)
     cfg["beam"].update(free_duration=3.0, random_duration=34.0, rms_g=[0.3])
     cfg["beyond"].update(enabled=True, fills=[0.4, 0.5], unseen_fills=[0.45],
-                         beam_fills=[0.45], baseline=False, multimode=False)
+                         beam_fills=[0.45], baseline=True, multimode=False)
     return cfg
 
 
@@ -66,7 +66,18 @@ def test_fill_family_stage(beyond_run):
         == [0.45]
 
 
+def test_bouncing_ball_stage(beyond_run):
+    out, summary = beyond_run
+    b = summary["stages"]["baseline"]
+    ball = load_model(out / "models" / "bouncing_ball.toml")
+    assert ball.parameters() == pytest.approx(b["parameters"])
+    assert 0 < b["parameters"]["mass_fraction"] <= 1 and b["fit_seconds"] > 0
+    assert np.isfinite(b["ball_fidelity"]["full_l2"])
+    assert {r["case"] for r in b["table2_all"]} >= {"rig", "rom", "frozen"}
+    assert "bouncing" in (out / "report.html").read_text().lower()
+
+
 def test_rerun_reuses_the_members(beyond_run):
     out, _ = beyond_run
     again = run(out, tiny_config())
-    assert again["stages"]["fills"]["reused"]
+    assert again["stages"]["fills"]["reused"] and again["stages"]["baseline"]["reused"]

@@ -9,6 +9,8 @@ upstream stages did not change), one module each:
 ``rom``     NFIR/NOE identification (Fig. 10 validation)
 ``maps``    Phi_d maps of rig and ROM and their difference (Figs. 3, 4, 11)
 ``beam``    sloshing-beam free and random tests with rig, ROM and frozen liquid (Figs. 14–23)
+``baseline`` beyond the paper (``[beyond] enabled``, ``baseline``): the bouncing-ball model
+            through the same map, beam and Table 2
 ``fills``   beyond the paper (``[beyond] enabled``): a fill family judged at unseen fills
 ``report``  ``OUT/report.html`` and ``OUT/summary.json``
 
@@ -27,6 +29,7 @@ from typing import Any
 
 from sloshrom import __version__
 from sloshrom.fileio import atomic_write_text
+from sloshrom.pipeline.baseline import stage_baseline
 from sloshrom.pipeline.beam import stage_beam
 from sloshrom.pipeline.cache import StageCache, StageResult
 from sloshrom.pipeline.context import Context, Progress, quiet
@@ -121,6 +124,13 @@ def run(out: str | Path, cfg: dict[str, Any], progress: Progress = quiet) -> dic
         )
 
     bey = cfg["beyond"]
+    if bey["enabled"] and bey["baseline"]:
+        with _timer(ctx, "baseline"):
+            results["baseline"] = cache.run(
+                "baseline", {k: cfg[k] for k in ("tank", "rig", "map", "beam")},
+                [*deps, results["maps"], results["beam"]],
+                lambda: stage_baseline(ctx, rom_path, results["beam"].outputs), __version__,
+            )
     if bey["enabled"]:
         fill_keys = {k: bey[k] for k in ("fills", "unseen_fills", "fill_ensemble", "beam_fills")}
         with _timer(ctx, "fills"):

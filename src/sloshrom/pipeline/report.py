@@ -15,6 +15,7 @@ import numpy as np
 from sloshrom.config import Tank
 from sloshrom.pipeline import html as report
 from sloshrom.pipeline import settings
+from sloshrom.pipeline.baseline import baseline_section
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.fills import fills_section
 from sloshrom.pipeline.html import Figure, Section, Table
@@ -185,6 +186,8 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
                "white where they agree."),
     ))
     secs.extend(_beam_sections(ctx, st["beam"]))
+    if "baseline" in st:
+        secs.append(baseline_section(ctx, st["baseline"]))
     if "fills" in st:
         secs.append(fills_section(ctx, st["fills"]))
     t = summary.get("timings_s", {})

@@ -46,6 +46,7 @@ import numpy as np
 from sloshrom import __version__
 from sloshrom._x64 import float64
 from sloshrom.rom import training
+from sloshrom.rom.bouncing import BouncingBall, is_ball_file
 from sloshrom.rom.ensemble import Ensemble
 from sloshrom.rom.errors import (
     EnvelopeWarning,
@@ -85,6 +86,7 @@ __all__ = [
     "FORMAT_VERSION",
     "NFIR",
     "NOE",
+    "BouncingBall",
     "Ensemble",
     "EnvelopeWarning",
     "FillFamily",
@@ -702,7 +704,7 @@ class NOE(_TDNN):
 # ---------------------------------------------------------------------------------------------
 
 
-def load_model(path: str | Path) -> NFIR | NOE | Ensemble | FillFamily:
+def load_model(path: str | Path) -> NFIR | NOE | Ensemble | FillFamily | BouncingBall:
     """Load a model written by ``save``; never runs code (no pickle).
 
     Every metadata field is validated against a schema with bounds and the arrays against the
@@ -715,11 +717,12 @@ def load_model(path: str | Path) -> NFIR | NOE | Ensemble | FillFamily:
     path : str or Path
         A ``.npz`` model file: a single network or an ensemble (:meth:`Ensemble.save`); or a
         ``.toml`` fill-family manifest naming one model file per fill level
-        (:func:`sloshrom.rom.family.read_family`).
+        (:func:`sloshrom.rom.family.read_family`); or a ``.toml`` bouncing-ball model
+        (:meth:`sloshrom.rom.bouncing.BouncingBall.save`).
 
     Returns
     -------
-    NFIR, NOE, Ensemble or FillFamily
+    NFIR, NOE, Ensemble, FillFamily or BouncingBall
 
     Raises
     ------
@@ -728,6 +731,8 @@ def load_model(path: str | Path) -> NFIR | NOE | Ensemble | FillFamily:
         (checksum), a metadata field out of bounds or inconsistent (the message names it),
         parameter arrays that do not match the metadata.
     """
+    if is_ball_file(path):
+        return BouncingBall.load(path)
     if Path(path).suffix == ".toml":
         try:
             return read_family(path, load_model)
