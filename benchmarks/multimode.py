@@ -1,0 +1,132 @@
+"""The ``multimode`` study: do ROMs predict the damping of a structure with two active modes?
+
+Runs :func:`sloshrom.pipeline.multimode.stage_multimode` in ``--out DIR`` with the shipped
+configuration (``sloshrom.pipeline.settings.load()``) and the stage's defaults (or ``--set
+key=value`` overrides, JSON values), then prints every figure: the structure, the data design,
+per mode and level the damping of the rig, the VFA-only ROM, the broadband ROM and frozen
+liquid, the ROMs' errors against the rig with OK/MISS against the tolerance, the tank peak
+accelerations, the training times and the wall time; the stage's outputs go to
+``DIR/multimode_outputs.json``.
+
+Run: ``PYTHONPATH=src .venv/bin/python benchmarks/multimode.py --out /tmp/multimode``
+(about 8 min on two idle cores: two NFIR(70, 35) trainings in parallel dominate).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+from sloshrom.config import G
+from sloshrom.pipeline.context import Context
+from sloshrom.pipeline.multimode import CASES, stage_multimode
+from sloshrom.pipeline.settings import load
+
+
+def _pct(v: float | None) -> str:
+    return "   n/a" if v is None else f"{100 * v:6.3f}"
+
+
+def report(outputs: dict[str, Any], wall: float) -> None:
+    """Print the study's figures."""
+    s, st, te, da, ro = (outputs[k] for k in ("settings", "structure", "test", "data", "roms"))
+    tol = s["tolerance"]
+    print("\n== structure (wing, two assumed modes; dry / frozen liquid) ==")
+    print(f"EI {st['EI_n_m2']:.1f} N m^2, GJ {st['GJ_n_m2_per_rad']:.1f} N m^2/rad, mass "
+          f"coupling {st['mass_coupling']:.3f}, wing {st['wing_mass_kg']:.2f} kg, tank structure "
+          f"{st['tank_structure_mass_kg']:.3f} kg, liquid {st['liquid_mass_kg']:.4f} kg")
+    for k in range(len(st["f_dry_hz"])):
+        print(f"mode {k + 1}: f {st['f_dry_hz'][k]:.3f} / {st['f_frozen_hz'][k]:.3f} Hz, zeta "
+              f"{100 * st['damping'][k]:.2f} %, m {st['modal_mass_kg'][k]:.4f} kg, psi_T "
+              f"{st['psi_tank'][k]:.3f}, Gamma {st['participation_kg'][k]:+.4f} kg, "
+              f"m_l psi^2/m {st['liquid_ratio'][k]:.4f}, psi Gamma/m "
+              f"{st['tank_participation'][k]:+.3f}")
+    print(f"\n== random tests: base {te['rms_g']} g RMS, Gaussian PSD {te['f0_hz']:g} +/- "
+          f"{te['sigma_hz']:g} Hz, {te['duration_s']:g} s, seed {te['seed']} ==")
+    for lv, rms, modes, run in zip(te["rms_g"], te["frozen_tank_rms_g"],
+                                   te["frozen_tank_mode_rms_g"], te["frozen_motion"]["runs"],
+                                   strict=True):
+        print(f"frozen {lv:g} g: tank peak {run['peak_acceleration_g']:.2f} g, RMS {rms:.2f} g "
+              f"(mode 1 {modes[0]:.2f} g, mode 2 {modes[1]:.2f} g), peak velocity "
+              f"{run['peak_velocity_m_s']:.2f} m/s")
+    print("\n== identification records (virtual rig) ==")
+    for name, d in da.items():
+        if name == "broadband_design":
+            continue
+        print(f"{name:21s} {d['duration_s']:6.1f} s  RMS {d['rms_acceleration_g']:5.2f} g  peak "
+              f"{d['max_acceleration_g']:5.2f} g  peak velocity {d['max_velocity_m_s']:.2f} m/s  "
+              f"| {d['what']}")
+    bb = da["broadband_design"]
+    print(f"broadband design: band {bb['band_hz'][0]:.2f}-{bb['band_hz'][1]:.2f} Hz, levels "
+          + ", ".join(f"{v:.2f}" for v in bb["levels_rms_g"])
+          + f" g RMS (top {bb['top_rms_g']:.2f} g = margin {bb['margin']:g} over the frozen "
+          f"tests); covers peak acceleration x{bb['covers_peak_acceleration']:.2f}, peak "
+          f"velocity x{bb['covers_peak_velocity']:.2f} "
+          f"(x{bb['covers_peak_velocity_with_drift']:.2f} with the base drift)")
+    print("\n== ROMs (same recipe) ==")
+    for name, r in ro.items():
+        print(f"{name:14s} {r['name']} on {r['train_seconds_of_data']:.0f} s "
+              f"(+{r['validation_seconds_of_data']:.0f} s validation): fit "
+              f"{r['fit_seconds']:.0f} s, {r['epochs']} epochs ({r['stop_reason']}), "
+              f"validation NRMSE {r['val_nrmse']:.3f}, input range "
+              f"[{r['envelope']['input_min']:.2f}, {r['envelope']['input_max']:.2f}] m/s, "
+              f"training peak acceleration {r['envelope']['acceleration_max'] / G:.1f} g")
+    print("\n== modal damping (%), LSCF on H1, stable-pole cluster median ==")
+    zeta = {(r["case"], r["mode"], r["rms_g"]): r for r in outputs["table"]}
+    err = {(e["case"], e["mode"], e["rms_g"]): e for e in outputs["errors"]}
+    env = {(e["case"], e["rms_g"]): e for e in outputs["envelope"]}
+    print("mode  base g | tank peak g: rig / vfa / bb / frozen | zeta %: "
+          + " ".join(f"{c:>13s}" for c in CASES) + " | error vs rig: vfa_rom, broadband_rom")
+    for k in sorted({r["mode"] for r in outputs["table"]}):
+        for lv in te["rms_g"]:
+            peaks = " / ".join(f"{env[(c, lv)]['tank_peak_g']:5.2f}" for c in CASES)
+            z = " ".join(f"{_pct(zeta[(c, k, lv)]['zeta']):>13s}" for c in CASES)
+            e = "  ".join(
+                "   n/a MISS" if err[(c, k, lv)]["error"] is None else
+                f"{100 * err[(c, k, lv)]['error']:+6.1f} % "
+                f"{'OK' if err[(c, k, lv)]['within'] else 'MISS'}"
+                for c in ("vfa_rom", "broadband_rom"))
+            print(f"{k:4d}  {lv:6g} | {peaks} | {z} | {e}")
+    print(f"\ntolerance {100 * tol:g} %: " + ", ".join(
+        f"{c} {'within on every mode and level' if ok else 'NOT within everywhere'}"
+        for c, ok in outputs["verdict"].items()))
+    print("envelope (peak tank acceleration / the ROM's training peak, fraction outside): "
+          + "; ".join(f"{e['case']} {e['rms_g']:g} g {e['acceleration_ratio']:.2f}, "
+                      f"{e['outside_fraction']:.3f}"
+                      for e in outputs["envelope"] if e["acceleration_ratio"] is not None))
+    print("\n== timings (s) ==")
+    print(", ".join(f"{k} {v:.1f}" for k, v in outputs["timings_s"].items())
+          + f"; wall {wall:.1f} s; load average at the end {os.getloadavg()[0]:.2f} on "
+          f"{os.cpu_count()} CPUs")
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--out", required=True, type=Path, help="output directory")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a stage setting (JSON value), e.g. --set max_epochs=5")
+    a = p.parse_args()
+    settings = {}
+    for item in a.set:
+        key, _, value = item.partition("=")
+        settings[key] = json.loads(value)
+    t0 = time.perf_counter()
+
+    def progress(stage: str, done: float, total: float, text: str) -> None:
+        print(f"[{time.perf_counter() - t0:7.1f} s] {stage} {done:g}/{total:g}: {text}",
+              flush=True)
+
+    print(f"load average at the start {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs")
+    outputs, files = stage_multimode(Context(a.out, load(), progress), settings)
+    wall = time.perf_counter() - t0
+    report(outputs, wall)
+    (a.out / "multimode_outputs.json").write_text(json.dumps(outputs, indent=1, default=float))
+    print("files: " + ", ".join(files) + f"; outputs: {a.out / 'multimode_outputs.json'}")
+
+
+if __name__ == "__main__":  # the ROMs train in Dask worker processes, which re-import this file
+    main()
