@@ -12,6 +12,8 @@ upstream stages did not change), one module each:
 ``baseline`` beyond the paper (``[beyond] enabled``, ``baseline``): the bouncing-ball model
             through the same map, beam and Table 2
 ``fills``   beyond the paper (``[beyond] enabled``): a fill family judged at unseen fills
+``multimode`` beyond the paper (``[beyond] enabled``, ``multimode``): a two-mode wing, VFA-only
+            against broadband-trained ROM
 ``report``  ``OUT/report.html`` and ``OUT/summary.json``
 
 This module only orders the stages and caches them; the stages do the I/O and the figures, the
@@ -36,6 +38,7 @@ from sloshrom.pipeline.context import Context, Progress, quiet
 from sloshrom.pipeline.data import stage_data
 from sloshrom.pipeline.fills import stage_fills
 from sloshrom.pipeline.maps import stage_maps
+from sloshrom.pipeline.multimode import stage_multimode
 from sloshrom.pipeline.report import write_report
 from sloshrom.pipeline.rom import SWEEP_KEYS, stage_rom, stage_sweep
 from sloshrom.pipeline.settings import validate
@@ -138,6 +141,14 @@ def run(out: str | Path, cfg: dict[str, Any], progress: Progress = quiet) -> dic
                 "fills", {**{k: cfg[k] for k in ("tank", "rig", "data", "rom", "map", "beam")},
                           "beyond": fill_keys}, deps,
                 lambda: stage_fills(ctx, rom_path, identify), __version__,
+            )
+
+    if bey["enabled"] and bey["multimode"]:
+        # its own wing, records and ROMs (the tunables: sloshrom.pipeline.multimode.DEFAULTS)
+        with _timer(ctx, "multimode"):
+            results["multimode"] = cache.run(
+                "multimode", {k: cfg[k] for k in ("tank", "rig")}, [],
+                lambda: stage_multimode(ctx), __version__,
             )
 
     summary = {

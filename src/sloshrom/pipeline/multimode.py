@@ -33,7 +33,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from sloshrom import __version__, signals
 from sloshrom.beam.analysis import frf_h1, modal_filter
@@ -62,6 +61,7 @@ from sloshrom.pipeline.rom import error_figures
 from sloshrom.pipeline.settings import defaults as config_defaults
 from sloshrom.pipeline.settings import merge as config_merge
 from sloshrom.plotting import savefig
+from sloshrom.plotting.multimode import modal_damping_figure, modal_frf_figure
 from sloshrom.rig.virtual import SensorParams, VirtualRig
 from sloshrom.rom.errors import EnvelopeWarning
 from sloshrom.rom.estimators import NFIR
@@ -126,10 +126,6 @@ DEFAULTS: dict[str, Any] = {
 
 #: the cases of the random tests, in the order of the table
 CASES = ("rig", "vfa_rom", "broadband_rom", "frozen")
-_LABELS = {"rig": "rig (reference)", "vfa_rom": "VFA-only ROM",
-           "broadband_rom": "broadband ROM", "frozen": "frozen liquid"}
-_COLOURS = {"rig": "k", "vfa_rom": "tab:orange", "broadband_rom": "tab:blue",
-            "frozen": "tab:gray"}
 _WING_KEYS = ("span", "chord", "ea_chord_fraction", "mass_per_span", "cg_offset",
               "gyration_radius", "tank_offset", "f_bending", "f_torsion", "damping", "stations")
 
@@ -226,51 +222,6 @@ def _errors(rows: list[dict[str, Any]], tolerance: float) -> list[dict[str, Any]
                     "error": _nan_to_none(err),
                     "within": bool(np.isfinite(err) and abs(err) <= tolerance)})
     return out
-
-
-# -- figures -----------------------------------------------------------------------------------
-def _frf_figure(h1: Mapping[str, Any], levels: list[float], f_modes: np.ndarray,
-                rel_band: float) -> Figure:
-    """|H1| base -> modal acceleration, rows = levels, columns = modes, one curve per case."""
-    n_l, n_m = len(levels), len(f_modes)
-    fig = Figure(figsize=(4.2 * n_m, 2.4 * n_l + 0.6))
-    axes = fig.subplots(n_l, n_m, squeeze=False)
-    for i, level in enumerate(levels):
-        for k, fk in enumerate(f_modes):
-            ax = axes[i, k]
-            for case, (f, hs) in h1.items():
-                sel = (f >= fk * (1 - rel_band)) & (f <= fk * (1 + rel_band))
-                ax.semilogy(f[sel], np.abs(hs[i][k][sel]), color=_COLOURS[case], lw=1.0,
-                            label=_LABELS[case])
-            ax.set_title(f"mode {k + 1} ({fk:.2f} Hz frozen), base {level:g} g RMS", fontsize=9)
-            ax.set_ylabel("|H1| (-)")
-    for ax in axes[-1]:
-        ax.set_xlabel("frequency (Hz)")
-    axes[0, 0].legend(fontsize=7)
-    fig.tight_layout()
-    return fig
-
-
-def _damping_figure(rows: list[dict[str, Any]], levels: list[float], n_modes: int,
-                    tolerance: float) -> Figure:
-    """Damping ratio against base level, one panel per mode; the rig's +/- tolerance shaded."""
-    fig = Figure(figsize=(4.2 * n_modes, 3.6))
-    axes = fig.subplots(1, n_modes, squeeze=False)[0]
-    for k, ax in enumerate(axes):
-        for case in CASES:
-            z = [next(r["zeta"] for r in rows if r["case"] == case and r["mode"] == k + 1
-                      and r["rms_g"] == lv) for lv in levels]
-            ax.plot(levels, 100 * np.asarray(z), "o-", color=_COLOURS[case], label=_LABELS[case])
-            if case == "rig":
-                zr = 100 * np.asarray(z)
-                ax.fill_between(levels, zr * (1 - tolerance), zr * (1 + tolerance), color="k",
-                                alpha=0.1, label=f"rig ± {100 * tolerance:g} %")
-        ax.set_title(f"mode {k + 1}")
-        ax.set_xlabel("base acceleration (g RMS)")
-        ax.set_ylabel("damping ratio (%)")
-    axes[0].legend(fontsize=7)
-    fig.tight_layout()
-    return fig
 
 
 # -- the stage ---------------------------------------------------------------------------------
@@ -511,8 +462,9 @@ def _run(ctx: Context, s: dict[str, Any]) -> tuple[dict[str, Any], list[str]]:
     # 6. files, all together
     progress(5, "files and figures")
     out = ctx.out / "multimode"
-    figs = {"fig_modal_frf": _frf_figure(h1, levels, f_frozen, s["rel_band"]),
-            "fig_modal_damping": _damping_figure(rows, levels, modal.n_modes, s["tolerance"])}
+    figs = {"fig_modal_frf": modal_frf_figure(h1, levels, f_frozen, s["rel_band"]),
+            "fig_modal_damping": modal_damping_figure(rows, levels, modal.n_modes, CASES,
+                                                      s["tolerance"])}
     with OutputBatch() as batch:
         for name, rec in records.items():
             batch.write(out / "data" / f"{name}.nc", lambda tmp, rec=rec: write_record(rec, tmp))

@@ -20,6 +20,7 @@ from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.fills import fills_section
 from sloshrom.pipeline.html import Figure, Section, Table
 from sloshrom.pipeline.maps import HYSTERESIS_FREQUENCY, HYSTERESIS_GAMMA
+from sloshrom.pipeline.multimode import multimode_section
 
 __all__ = ["build_sections", "write_report"]
 
@@ -190,6 +191,8 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
         secs.append(baseline_section(ctx, st["baseline"]))
     if "fills" in st:
         secs.append(fills_section(ctx, st["fills"]))
+    if "multimode" in st:
+        secs.append(multimode_section(ctx, st["multimode"]))
     t = summary.get("timings_s", {})
     secs.append(Section(
         "Run", "<p>" + ", ".join(f"{k}: {v:.1f} s" for k, v in t.items())
