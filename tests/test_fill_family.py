@@ -15,7 +15,7 @@ from sloshrom.beam.coupled import free_response
 from sloshrom.beam.structure import ModalModel
 from sloshrom.cli import app
 from sloshrom.energy import dissipated_energy
-from sloshrom.io import Record, write_record
+from sloshrom.io import Record, read_record, write_record
 from sloshrom.models import JaxModel, SloshingModel
 from sloshrom.rom.ensemble import Ensemble
 from sloshrom.rom.errors import FillRangeError, ROMError
@@ -271,3 +271,26 @@ def test_cli_map_and_beam_take_the_fill(tmp_path, members):
     res = runner.invoke(app, ["beam", "free", "--sloshing", str(fam), "--fill", "0.8",
                               "--out", str(tmp_path / "beam"), "--duration", "2"])
     assert res.exit_code == 2 and "25.0% to 75.0%; fill 80.0%" in res.output
+
+
+def test_cli_predict_and_export_with_a_family(tmp_path, members):
+    paths = {f: m.save(tmp_path / f"m{int(f * 100)}.npz") for f, m in members.items()}
+    fam = write_family(tmp_path / "family.toml", paths)
+    rec_none, rec_fill = _records(tmp_path, (None, 0.4))
+    runner = CliRunner()
+    res = runner.invoke(app, ["predict", "--model", str(fam), "--data", str(rec_none),
+                              "--out", str(tmp_path / "p.nc")])
+    assert res.exit_code == 2 and "give the fill level" in res.output
+    # the record's fill attribute picks the blend
+    res = runner.invoke(app, ["predict", "--model", str(fam), "--data", str(rec_fill),
+                              "--out", str(tmp_path / "p.nc")])
+    assert res.exit_code == 0, res.output
+    u = read_record(rec_fill)["velocity"]
+    np.testing.assert_allclose(read_record(tmp_path / "p.nc")["dynamic_force_pred"],
+                               FillFamily.from_members(members).at(0.4).simulate(u),
+                               rtol=1e-12, atol=1e-12)
+    res = runner.invoke(app, ["predict", "--model", str(paths[0.25]), "--data", str(rec_fill),
+                              "--out", str(tmp_path / "q.nc")])
+    assert res.exit_code == 2 and "identified at fill 25.0%; fill 40.0%" in res.output
+    res = runner.invoke(app, ["export", "onnx", str(fam), str(tmp_path / "f.onnx")])
+    assert res.exit_code == 2 and "FillFamily cannot be exported" in res.output

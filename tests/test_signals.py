@@ -11,6 +11,7 @@ from sloshrom.config import G, Tank
 from sloshrom.signals import (
     ShakerLimits,
     gaussian_psd,
+    power_band,
     random_base_acceleration,
     vfa,
     vfa_gamma_limit,
@@ -174,3 +175,14 @@ def test_plot_vfa_paths(tmp_path, paths):
     assert ax.get_xlabel() and ax.get_ylabel()
     ax.figure.savefig(tmp_path / "p.png")
     assert (tmp_path / "p.png").stat().st_size > 1000
+
+
+def test_power_band_of_a_tone_and_of_white_noise():
+    fs = 500.0
+    t = np.arange(0, 20.0, 1 / fs)
+    lo, hi = power_band(np.sin(2 * np.pi * 10.0 * t), fs)
+    assert lo == pytest.approx(10.0, abs=0.1) and hi == pytest.approx(10.0, abs=0.1)
+    noise = np.random.default_rng(0).standard_normal(t.size)
+    lo, hi = power_band(noise, fs)  # flat power: the 1 % and 99 % quantiles of 0..250 Hz
+    assert lo == pytest.approx(2.5, abs=1.0) and hi == pytest.approx(247.5, abs=1.0)
+    assert power_band(np.ones(100), fs) == [0.0, 0.0]

@@ -694,3 +694,18 @@ def random_base_acceleration(
         x = x - (x.mean() / r.mean()) * r  # zero mean, ends still at zero
     x = x / np.sqrt(np.mean(x**2))
     return np.multiply.outer(levels, x) if levels.ndim else float(levels) * x
+
+
+def power_band(x: np.ndarray, fs: float, lo: float = 0.01, hi: float = 0.99) -> list[float]:
+    """Band ``[f_lo, f_hi]`` (Hz) between the ``lo`` and ``hi`` quantiles of the power of ``x``.
+
+    ``x`` is a 1-D signal sampled at ``fs`` (Hz), its mean removed first; the default holds the
+    central 98 % of the power (a ROM's training band). ``[0, 0]`` for a constant signal.
+    """
+    p = np.abs(np.fft.rfft(x - x.mean())) ** 2
+    f = np.fft.rfftfreq(x.size, 1.0 / fs)
+    c = np.cumsum(p)
+    if c[-1] <= 0:
+        return [0.0, 0.0]
+    c /= c[-1]
+    return [float(f[np.searchsorted(c, lo)]), float(f[min(np.searchsorted(c, hi), f.size - 1)])]

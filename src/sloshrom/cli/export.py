@@ -57,12 +57,13 @@ def onnx_cmd(
         fail(f"model file not found: {model}")
     check_out(out, suffixes=(".onnx",), inputs=(model,), what="OUT")
     from sloshrom.rom.estimators import load_model
-    from sloshrom.rom.onnx import export_onnx, run_onnx
+    from sloshrom.rom.onnx import check_exportable, export_onnx, run_onnx
 
     limit = 1e-6 if dtype == "float64" else 1e-4
     rel = [float("nan")]
     try:
         rom = load_model(model)
+        check_exportable(rom)
         if check:
             u = _check_input(rom)
             ref = np.asarray(rom.predict(u))

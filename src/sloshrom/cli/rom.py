@@ -351,6 +351,10 @@ def predict(
     data: Annotated[Path, typer.Option("--data", help="Input record.")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Output record (.nc/.csv/.mat); not "
                                                           "the input record.")],
+    fill: Annotated[float | None, typer.Option(
+        help="Fill level d/h to run the model at: a fill family (.toml) needs it, a single "
+             "model refuses a fill it was not identified at. Default: the record's fill "
+             "attribute, if any.")] = None,
 ) -> None:
     """Simulate a ROM on an input record; writes the record plus ``<output>_pred``.
 
@@ -360,17 +364,27 @@ def predict(
 
     Example: sloshrom predict --model nfir.npz --data validation.nc --out prediction.nc
     """
+    check_number(fill, "--fill", 0.0, 1.0, lo_open=True, hi_open=True,
+                 why="liquid depth / tank height")
     check_input(model, "--model")
     check_input(data, "--data")
     check_out(out, suffixes=RECORD_SUFFIXES, inputs=(data, model))
     from sloshrom.rom.estimators import load_model
+    from sloshrom.rom.family import FillFamily, at_fill
 
     try:
         m = load_model(model)
     except user_errors() as exc:
         fail(str(exc))
+    names = m.members_[0].names if isinstance(m, FillFamily) else m.names
+    rec = _read(data, [names[0]], "--data")
+    if fill is None and isinstance(rec.attrs.get("fill"), float):
+        fill = rec.attrs["fill"]
+    try:
+        m = at_fill(m, fill, str(model))
+    except user_errors() as exc:
+        fail(f"--model {exc}")
     in_name, out_name = m.names
-    rec = _read(data, [in_name], "--data")
     _same_rate(rec.fs, m.fs_, f"data {data} vs model {model}")
     if not same_unit(rec.units[in_name], m.units[0]):
         fail(f"{data}: variable '{in_name}' is in '{rec.units[in_name]}', the model {model} "

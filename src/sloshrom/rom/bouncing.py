@@ -89,6 +89,7 @@ from sloshrom.config import ConfigError, G, Tank
 from sloshrom.fileio import atomic_write_text
 from sloshrom.rom.errors import NotFittedError, ROMError
 from sloshrom.rom.modelfile import ModelFileError
+from sloshrom.signals import power_band
 
 __all__ = [
     "BALL_FORMAT",
@@ -381,17 +382,6 @@ def _bounds(name: str, v: Any) -> tuple[float, float]:
     return lo, hi
 
 
-def _frequency_band(u: np.ndarray, fs: float, lo: float = 0.01, hi: float = 0.99) -> list[float]:
-    """Band (Hz) holding the central 98 % of the input's power (mean removed)."""
-    p = np.abs(np.fft.rfft(u - u.mean())) ** 2
-    f = np.fft.rfftfreq(u.size, 1.0 / fs)
-    c = np.cumsum(p)
-    if c[-1] <= 0:
-        return [0.0, 0.0]
-    c /= c[-1]
-    return [float(f[np.searchsorted(c, lo)]), float(f[min(np.searchsorted(c, hi), f.size - 1)])]
-
-
 def _step_average(y: np.ndarray) -> np.ndarray:
     """Samples at t_k -> averages over [t_k, t_k+1] (trapezoid), n - 1 values."""
     return 0.5 * (y[..., 1:] + y[..., :-1])
@@ -619,7 +609,7 @@ class BouncingBall:
         if self.lowpass is None:
             return None
         if self.lowpass == "input":
-            cutoff = _frequency_band(u, fs, 0.001, 0.999)[1]
+            cutoff = power_band(u, fs, 0.001, 0.999)[1]
             if not cutoff > 0:
                 raise ROMError("the input has no power at any frequency above 0 Hz: cannot "
                                "set the low-pass of the objective from it")
@@ -833,7 +823,7 @@ class BouncingBall:
             "input_max": float(np.max(u_)),
             "output_min": float(np.min(y_)),
             "output_max": float(np.max(y_)),
-            "frequency_band": _frequency_band(u_, fs_),
+            "frequency_band": power_band(u_, fs_),
             "acceleration_max": float(np.max(np.abs(a_))),
         }
         if val is not None:

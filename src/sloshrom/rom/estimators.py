@@ -81,6 +81,7 @@ from sloshrom.rom.network import (
     rbf_apply,
     unpack,
 )
+from sloshrom.signals import power_band
 
 __all__ = [
     "FORMAT_VERSION",
@@ -116,17 +117,6 @@ def _as_signal(name: str, x: Any, allow_batch: bool = False) -> np.ndarray:
     if not np.all(np.isfinite(a)):
         raise ROMError(f"{name} contains NaN or inf (first at index {np.argmin(np.isfinite(a))})")
     return a
-
-
-def _frequency_band(u: np.ndarray, fs: float, lo: float = 0.01, hi: float = 0.99) -> list[float]:
-    """Band (Hz) holding the central 98 % of the input's power (mean removed)."""
-    p = np.abs(np.fft.rfft(u - u.mean())) ** 2
-    f = np.fft.rfftfreq(u.size, 1.0 / fs)
-    c = np.cumsum(p)
-    if c[-1] <= 0:
-        return [0.0, 0.0]
-    c /= c[-1]
-    return [float(f[np.searchsorted(c, lo)]), float(f[min(np.searchsorted(c, hi), f.size - 1)])]
 
 
 def _plain(v: Any) -> Any:
@@ -344,10 +334,10 @@ class _TDNN:
                 raise ROMError(f"validation record too short for {spec.max_delay} delays")
             validation = (uv, yv)
         scaler = MinMaxScaler.fit(u, y)
-        band = _frequency_band(u, fs)
+        band = power_band(u, fs)
         # passivity probes and energy cycles span the band holding all but 0.2 % of the
         # input's power: the edges of a VFA sweep are where its central-98 % band stops short
-        probe_band = _frequency_band(u, fs, 0.001, 0.999)
+        probe_band = power_band(u, fs, 0.001, 0.999)
         theta, history = training.train(
             spec, u, y, scaler, validation, trainer=self.trainer,
             max_epochs=int(self.max_epochs), seed=int(self.seed),

@@ -209,6 +209,11 @@ class FillBlend:
         """Units of the input and the output (the first member's; members agree)."""
         return tuple(self.members[0].units)  # type: ignore[return-value]
 
+    @property
+    def names(self) -> tuple[str, str]:
+        """Variable names of the input and the output (the first member's)."""
+        return tuple(self.members[0].names)  # type: ignore[return-value]
+
     def init_state(self) -> tuple[Any, ...]:
         """The members' states at rest."""
         return tuple(m.init_state() for m in self.members)

@@ -44,7 +44,8 @@ if TYPE_CHECKING:
 
     ROM = NFIR | NOE
 
-__all__ = ["ONNX_FORMAT_VERSION", "SIGN_CONVENTION", "export_onnx", "onnx_model", "run_onnx"]
+__all__ = ["ONNX_FORMAT_VERSION", "SIGN_CONVENTION", "check_exportable", "export_onnx",
+           "onnx_model", "run_onnx"]
 
 #: version of the ONNX graph layout and metadata (not the ``.npz`` model-file format version)
 ONNX_FORMAT_VERSION = 1
@@ -191,6 +192,19 @@ def _metadata(model: ROM, form: str, dtype: np.dtype) -> dict[str, str]:
     return meta
 
 
+def check_exportable(model: Any) -> None:
+    """ROMError unless ``model`` is one NFIR or NOE network (what an ONNX graph holds)."""
+    if isinstance(model, Ensemble):
+        raise ROMError(
+            f"an ensemble ({len(getattr(model, 'members_', []))} {model.member_class} members) "
+            "cannot be exported to ONNX: a graph holds one network; export a single model "
+            "(`sloshrom train` without --ensemble) or one member (Ensemble.members_[k].save)"
+        )
+    if not hasattr(model, "spec"):  # a fill family, a bouncing ball: not a network
+        raise ROMError(f"a {type(model).__name__} cannot be exported to ONNX: a graph holds "
+                       "one NFIR or NOE network (export a fill family's members one by one)")
+
+
 def onnx_model(model: ROM, form: str = "step", dtype: str = "float64") -> Any:
     """Build the ONNX ``ModelProto`` of a fitted NFIR/NOE (see module docstring).
 
@@ -217,12 +231,7 @@ def onnx_model(model: ROM, form: str = "step", dtype: str = "float64") -> Any:
     import onnx
     from onnx import TensorProto, helper
 
-    if isinstance(model, Ensemble):
-        raise ROMError(
-            f"an ensemble ({len(getattr(model, 'members_', []))} {model.member_class} members) "
-            "cannot be exported to ONNX: a graph holds one network; export a single model "
-            "(`sloshrom train` without --ensemble) or one member (Ensemble.members_[k].save)"
-        )
+    check_exportable(model)
     if not hasattr(model, "params_"):
         raise ROMError("the model is not fitted: nothing to export")
     if form not in ("step", "sequence"):
