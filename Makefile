@@ -11,7 +11,7 @@ UV_VERSION := 0.13.9
 TOOLS      := .venv-tools
 LATEST     := .venv-latest
 
-.PHONY: reproduce test test-slow test-all test-latest lint bench fidelity lock clean
+.PHONY: reproduce test test-slow test-all test-latest lint bench beyond fidelity lock clean
 
 $(STAMP): $(LOCK) pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -36,8 +36,15 @@ lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks tools
 
 bench: $(STAMP)
-	for f in benchmarks/*.py; do case $$f in */compare_checkouts.py|*/fidelity.py) continue;; esac; \
+	for f in benchmarks/*.py; do case $$f in */compare_checkouts.py|*/fidelity.py|\
+		*/fill_levels.py|*/multimode.py|*/bouncing_ball.py) continue;; esac; \
 		$(BIN)/python $$f || exit 1; done
+
+# Beyond the paper: one `reproduce --beyond` run, then the figures of its three studies.
+beyond: $(STAMP)
+	$(BIN)/python benchmarks/fill_levels.py --out bench_beyond
+	$(BIN)/python benchmarks/multimode.py --summary bench_beyond/summary.json
+	$(BIN)/python benchmarks/bouncing_ball.py --run bench_beyond --no-pipeline
 
 # The ROM's fidelity targets: three full `reproduce` runs (default, rig B, the paper's recipe).
 fidelity: $(STAMP)

@@ -106,10 +106,21 @@ def report(outputs: dict[str, Any], wall: float) -> None:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--out", required=True, type=Path, help="output directory")
+    p.add_argument("--out", type=Path, help="output directory (runs the stage there)")
+    p.add_argument("--summary", type=Path,
+                   help="print the figures of a finished `sloshrom reproduce --beyond` run "
+                        "(its summary.json) instead")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a stage setting (JSON value), e.g. --set max_epochs=5")
     a = p.parse_args()
+    if a.summary is not None:
+        s = json.loads(a.summary.read_text())
+        if "multimode" not in s["stages"]:
+            p.error(f"{a.summary}: no multimode stage (run reproduce with --beyond)")
+        report(s["stages"]["multimode"], s["timings_s"].get("multimode", float("nan")))
+        return
+    if a.out is None:
+        p.error("give --out DIR (run the stage) or --summary FILE (read a finished run)")
     settings = {}
     for item in a.set:
         key, _, value = item.partition("=")
