@@ -185,8 +185,7 @@ def _beam_errors(rows: list[dict[str, Any]], unseen: list[float]) -> list[dict[s
     """Per fill (unseen fills flagged) and level: family and frozen damping relative to rig."""
     out = []
     by = {(r["case"], r["fill"], r["rms_g"]): r["lscf_h1"] for r in rows}
-    for (case, f, level), rig in sorted((k, v) for k, v in by.items() if k[0] == "rig"):
-        del case
+    for (_, f, level), rig in sorted(kv for kv in by.items() if kv[0][0] == "rig"):
         rom, frozen = by.get(("rom", f, level)), by.get(("frozen", f, level))
         rel = (rom / rig - 1.0) if rom is not None and np.isfinite(rom) and rig else float("nan")
         out.append({"fill": f, "unseen": any(abs(f - u) < 1e-9 for u in unseen),
