@@ -98,6 +98,17 @@ def report(outputs: dict[str, Any], wall: float) -> None:
           + "; ".join(f"{e['case']} {e['rms_g']:g} g {e['acceleration_ratio']:.2f}, "
                       f"{e['outside_fraction']:.3f}"
                       for e in outputs["envelope"] if e["acceleration_ratio"] is not None))
+    if outputs.get("open_loop"):
+        print("\n== open loop: each ROM fed the rig's own tank velocity; power taken from each "
+              "mode's band, ROM / rig ==")
+        ol = {(o["case"], o["mode"], o["rms_g"]): o for o in outputs["open_loop"]}
+        for k in sorted({o["mode"] for o in outputs["open_loop"]}):
+            for lv in te["rms_g"]:
+                r = {c: ol[(c, k, lv)]["ratio"] for c in ("vfa_rom", "broadband_rom")}
+                ratios = "  ".join(f"{c} {'n/a' if v is None else format(v, '.2f')}"
+                                   for c, v in r.items())
+                p_rig = 1e3 * ol[("vfa_rom", k, lv)]["power_rig_w"]
+                print(f"mode {k}  {lv:g} g: rig {p_rig:7.2f} mW | {ratios}")
     print("\n== timings (s) ==")
     print(", ".join(f"{k} {v:.1f}" for k, v in outputs["timings_s"].items())
           + f"; wall {wall:.1f} s; load average at the end {os.getloadavg()[0]:.2f} on "

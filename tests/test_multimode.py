@@ -13,6 +13,7 @@ from sloshrom.beam.analysis import modal_filter
 from sloshrom.beam.coupled import random_response
 from sloshrom.beam.multimode import (
     WingDesign,
+    band_power,
     broadband_acceleration,
     frozen_station_shapes,
     modal_damping_table,
@@ -182,6 +183,32 @@ def test_broadband_record_starts_and_ends_at_rest_with_its_rms_and_band():
         broadband_acceleration(fs, 20.0, rms, 30.0, 20.0)
 
 
+def test_band_power_is_the_exact_partition_of_the_mean_power():
+    fs, n = 500.0, 5000  # 10 s: 0.1 Hz bins
+    t = np.arange(n) / fs
+    # a linear damper F = -c v driven at two bin frequencies near the modes: c A^2 / 2 per band
+    c, a1, a2 = 3.0, 0.4, 0.1
+    v = a1 * np.sin(2 * np.pi * 8.5 * t) + a2 * np.cos(2 * np.pi * 16.2 * t)
+    p = band_power(v, -c * v, fs, [8.5, 16.2], rel_band=0.3)
+    np.testing.assert_allclose(p, [c * a1**2 / 2, c * a2**2 / 2], rtol=1e-12)
+    # a mass-like force (90 degrees from the velocity) takes nothing
+    w1, w2 = 2 * np.pi * 8.5, 2 * np.pi * 16.2
+    f_mass = 0.2 * (a1 * w1 * np.cos(w1 * t) - a2 * w2 * np.sin(w2 * t))
+    assert np.max(np.abs(band_power(v, f_mass, fs, [8.5, 16.2]))) < 1e-12 * p.min()
+    # a band covering 0+ .. fs/2 holds -mean(F v) of any zero-mean signals (Parseval);
+    # leading axes broadcast
+    rng = np.random.default_rng(0)
+    v2, f2 = rng.standard_normal((2, 3, n))
+    v2 -= v2.mean(axis=-1, keepdims=True)
+    f2 -= f2.mean(axis=-1, keepdims=True)
+    whole = band_power(v2, f2, fs, [125.001], rel_band=0.999999)[..., 0]
+    np.testing.assert_allclose(whole, -np.mean(f2 * v2, axis=-1), rtol=1e-9)
+    with pytest.raises(ValueError, match="same shape"):
+        band_power(v, v[:-1], fs, [8.5])
+    with pytest.raises(ValueError, match="rel_band"):
+        band_power(v, v, fs, [8.5], rel_band=1.5)
+
+
 def test_settings_override_key_by_key():
     s = resolve_settings({"rms_g": [0.05], "max_epochs": 3})
     assert s["rms_g"] == [0.05] and s["max_epochs"] == 3 and s["f0"] == DEFAULTS["f0"]
@@ -216,7 +243,13 @@ def test_stage_runs_end_to_end_on_tiny_settings(tmp_path):
     roms = outputs["roms"]
     assert roms["broadband_rom"]["train_seconds_of_data"] == pytest.approx(
         roms["vfa_rom"]["train_seconds_of_data"] + 2 * 10.0, abs=0.01)
+    ol = outputs["open_loop"]
+    assert len(ol) == 2 * 1 * 2  # ROMs x levels x modes
+    rig = {(o["mode"], o["rms_g"]): o["power_rig_w"] for o in ol if o["case"] == "vfa_rom"}
+    assert all(o["power_rig_w"] == rig[(o["mode"], o["rms_g"])] for o in ol)
+    assert all(o["ratio"] is None or o["ratio"] == pytest.approx(o["power_w"] / o["power_rig_w"])
+               for o in ol)
     design = outputs["data"]["broadband_design"]
     assert design["covers_peak_acceleration"] > 1.0
     section = multimode_section(ctx, outputs)
-    assert len(section.tables) == 3 and len(section.figures) == 2
+    assert len(section.tables) == 4 and len(section.figures) == 2

@@ -74,6 +74,7 @@ from sloshrom.config import G, Tank
 
 __all__ = [
     "WingDesign",
+    "band_power",
     "broadband_acceleration",
     "frozen_station_shapes",
     "modal_damping_table",
@@ -593,6 +594,62 @@ def modal_damping_table(
                              "half_power": r["half_power"], "tank_peak_g": peak,
                              "tank_mode_rms_g": float(shares[i, r["mode"] - 1]) / G})
     return rows
+
+
+def band_power(
+    velocity: Any,
+    force: Any,
+    fs: float,
+    frequencies: Sequence[float],
+    rel_band: float = 0.3,
+) -> np.ndarray:
+    """Mean power the liquid takes from the tank in each mode's frequency band, W.
+
+    The exact partition of ``-mean(F v)`` by frequency (Parseval on the real FFT): the band
+    ``f_k (1 -/+ rel_band)`` holds the share carried by the motion near mode k. Positive: the
+    liquid dissipates (takes energy from the structure). Fed the same velocity, two sloshing
+    models' powers compare their damping of each mode in open loop, free of the feedback of
+    the coupled run.
+
+    Parameters
+    ----------
+    velocity : array (..., n)
+        Tank vertical velocity, m/s.
+    force : array (..., n)
+        Dynamic sloshing force on the tank (the records' ``dynamic_force``), N.
+    fs : float
+        Sample rate, Hz.
+    frequencies : sequence of float
+        Mode frequencies, Hz.
+    rel_band : float
+        Half-width of each band, relative (-), in (0, 1).
+
+    Returns
+    -------
+    ndarray (..., n_modes)
+        W.
+    """
+    v = np.asarray(velocity, dtype=float)
+    f = np.asarray(force, dtype=float)
+    if v.shape != f.shape or v.shape[-1] < 2:
+        raise ValueError(f"velocity and force must have the same shape (..., n >= 2), got "
+                         f"{v.shape} and {f.shape}")
+    if not (np.isfinite(fs) and fs > 0):
+        raise ValueError(f"fs must be a finite positive rate in Hz, got {fs!r}")
+    if not 0 < rel_band < 1:
+        raise ValueError(f"rel_band must be in (0, 1), got {rel_band!r}")
+    n = v.shape[-1]
+    cross = np.real(np.fft.rfft(f, axis=-1) * np.conj(np.fft.rfft(v, axis=-1))) / n**2
+    # one-sided: every bin but DC (and Nyquist for even n) stands for two
+    weight = np.full(cross.shape[-1], 2.0)
+    weight[0] = 1.0
+    if n % 2 == 0:
+        weight[-1] = 1.0
+    freq = np.fft.rfftfreq(n, 1.0 / fs)
+    out = [-np.sum((cross * weight)[..., (freq >= fk * (1 - rel_band))
+                                     & (freq <= fk * (1 + rel_band))], axis=-1)
+           for fk in np.atleast_1d(np.asarray(frequencies, dtype=float))]
+    return np.stack(out, axis=-1)
 
 
 # -- broadband rig records ---------------------------------------------------------------------

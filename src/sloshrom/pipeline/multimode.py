@@ -18,7 +18,10 @@ Judge: random base excitation at several RMS levels with the rig (reference), bo
 frozen liquid; modal filtering of the accelerometers with the frozen-liquid shapes, H1 of base
 -> modal acceleration and LSCF stable-pole-cluster damping of each mode
 (:func:`sloshrom.beam.multimode.modal_damping_table`); a ROM passes on a mode and level when its
-damping is within ``tolerance`` of the rig's.
+damping is within ``tolerance`` of the rig's. Open loop, each ROM is also fed the rig's own tank
+velocity of the coupled tests: the power it takes from each mode's band against the rig's
+(:func:`sloshrom.beam.multimode.band_power`) locates a damping error in the ROM itself rather
+than in the feedback of the coupled run.
 
 Every file of the stage (records, models, table, figures) is written together at the end.
 """
@@ -40,6 +43,7 @@ from sloshrom.beam.coupled import random_response
 from sloshrom.beam.envelope import tank_motion
 from sloshrom.beam.multimode import (
     WingDesign,
+    band_power,
     broadband_acceleration,
     frozen_station_shapes,
     modal_damping_table,
@@ -224,6 +228,25 @@ def _errors(rows: list[dict[str, Any]], tolerance: float) -> list[dict[str, Any]
     return out
 
 
+def _open_loop(rig: Mapping[str, Any], roms: Mapping[str, Any], f_modes: np.ndarray,
+               levels: list[float], rel_band: float) -> list[dict[str, Any]]:
+    """Each ROM fed the rig's own tank velocity of the coupled tests: the power it takes from
+    each mode's band against the rig's (:func:`~sloshrom.beam.multimode.band_power`)."""
+    v, fs = np.asarray(rig["tank_velocity"]), float(rig["fs"])
+    p_rig = band_power(v, rig["dynamic_force"], fs, f_modes, rel_band)
+    out = []
+    for case, model in roms.items():
+        if abs(float(model.fs_) - fs) > 1e-9 * fs:
+            raise ValueError(f"{case} runs at {model.fs_} Hz, the rig's records at {fs} Hz")
+        force = np.stack([np.asarray(model.predict(v[i])) for i in range(len(levels))])
+        p = band_power(v, force, fs, f_modes, rel_band)
+        out += [{"case": case, "rms_g": lv, "mode": k + 1, "power_rig_w": float(p_rig[i, k]),
+                 "power_w": float(p[i, k]),
+                 "ratio": _nan_to_none(p[i, k] / p_rig[i, k]) if p_rig[i, k] > 0 else None}
+                for i, lv in enumerate(levels) for k in range(len(f_modes))]
+    return out
+
+
 # -- the stage ---------------------------------------------------------------------------------
 def stage_multimode(ctx: Context, settings: Mapping[str, Any] | None = None
                     ) -> tuple[dict[str, Any], list[str]]:
@@ -249,6 +272,9 @@ def stage_multimode(ctx: Context, settings: Mapping[str, Any] | None = None
         :func:`~sloshrom.beam.multimode.modal_damping_table`); ``errors`` (per ROM, mode and
         level: damping / rig damping - 1, ``within`` the tolerance); ``envelope`` (per case and
         level: peak tank acceleration / the ROM's training peak, fraction outside);
+        ``open_loop`` (per ROM, level and mode: the power the ROM takes from the mode's band
+        when fed the rig's own tank velocity of that test, against the rig's power, W, and
+        their ratio: the ROM's error without the feedback of the coupled run);
         ``verdict`` (per ROM: every mode and level within); ``timings_s``.
     files : list of str
         ``multimode/data/*.nc``, ``multimode/models/*.npz``,
@@ -457,6 +483,7 @@ def _run(ctx: Context, s: dict[str, Any]) -> tuple[dict[str, Any], list[str]]:
                      float(np.asarray(results[c]["envelope_outside_fraction"])[i]))}
                 for c in CASES for i, lv in enumerate(levels)]
     h1 = _modal_h1(results, st_shapes, int(s["nperseg"]))
+    open_loop = _open_loop(results["rig"], roms, f_frozen, levels, s["rel_band"])
     timings["analysis"] = time.perf_counter() - t0
 
     # 6. files, all together
@@ -500,6 +527,7 @@ def _run(ctx: Context, s: dict[str, Any]) -> tuple[dict[str, Any], list[str]]:
         "table": rows,
         "errors": errors,
         "envelope": envelope,
+        "open_loop": open_loop,
         "verdict": {c: all(e["within"] for e in errors if e["case"] == c)
                     for c in ("vfa_rom", "broadband_rom")},
         "timings_s": timings,
@@ -508,6 +536,10 @@ def _run(ctx: Context, s: dict[str, Any]) -> tuple[dict[str, Any], list[str]]:
 
 
 # -- report ------------------------------------------------------------------------------------
+def _ratio(v: float | None) -> str:
+    return "n/a" if v is None or not np.isfinite(v) else f"{v:.2f}"
+
+
 def _pct(v: float | None, fmt: str = "{:.2f}") -> str:
     return "n/a" if v is None or not np.isfinite(v) else fmt.format(100 * v)
 
@@ -585,6 +617,17 @@ def multimode_section(ctx: Context, outputs: Mapping[str, Any]) -> Section:
         "between base-signal seeds, and the estimator reads the frozen case 3–5 % above its "
         "exact 1.0 / 0.5 % (Hann window): errors of a few per cent are not significant.</p>"
     )
+    ol = {(o["case"], o["mode"], o["rms_g"]): o["ratio"] for o in outputs.get("open_loop", [])}
+    if ol:
+        ratios = "; ".join(
+            f"mode {k + 1}: " + " / ".join(_ratio(ol.get(("broadband_rom", k + 1, lv)))
+                                           for lv in levels)
+            for k in range(n_modes))
+        text += ("<p><b>Open loop</b> (last table): fed the rig's own tank velocity of each "
+                 "test, the broadband ROM takes from each mode's band this many times the "
+                 f"rig's power at {' / '.join(f'{lv:g}' for lv in levels)} g: {ratios}. A "
+                 "ratio far from 1 is an error of the ROM itself, before any feedback of the "
+                 "coupled run.</p>")
     tables = [
         Table(["mode", "f dry (Hz)", "f frozen (Hz)", "ζ (%)", "modal mass (kg)", "ψ tank",
                "m_l ψ²/m", "ψ Γ / m", "tank RMS per g base (g)"], struct_rows,
@@ -598,6 +641,17 @@ def multimode_section(ctx: Context, outputs: Mapping[str, Any]) -> Section:
               f"Modal damping (LSCF on H1, stable-pole cluster median) and error against the "
               f"rig; ✓ within {100 * tol:g} %."),
     ]
+    if outputs.get("open_loop"):
+        ol = {(o["case"], o["mode"], o["rms_g"]): o for o in outputs["open_loop"]}
+        ol_rows = [[k + 1, f"{lv:g}", f"{1e3 * ol[('vfa_rom', k + 1, lv)]['power_rig_w']:.2f}"]
+                   + [_ratio(ol[(c, k + 1, lv)]["ratio"]) for c in ("vfa_rom", "broadband_rom")]
+                   for k in range(n_modes) for lv in levels]
+        tables.append(Table(
+            ["mode", "base (g RMS)", "rig power (mW)", "VFA-only ROM / rig",
+             "broadband ROM / rig"], ol_rows,
+            "Open loop: each ROM fed the rig's own tank velocity of the coupled test; mean power "
+            "the liquid takes from the mode's band (f ± 30 %), ROM against rig. A ratio above 1 "
+            "is a ROM that damps that mode too much on the very motion the rig saw."))
     figs = []
     for name, cap in (("fig_modal_damping.png", "Damping of each mode against the base level; "
                        f"shaded: the rig ± {100 * tol:g} %."),
