@@ -617,10 +617,11 @@ def multimode_section(ctx: Context, outputs: Mapping[str, Any]) -> Section:
         "between base-signal seeds, and the estimator reads the frozen case 3–5 % above its "
         "exact 1.0 / 0.5 % (Hann window): errors of a few per cent are not significant.</p>"
     )
-    ol = {(o["case"], o["mode"], o["rms_g"]): o["ratio"] for o in outputs.get("open_loop", [])}
+    # open loop: absent from the outputs of runs made before it existed
+    ol = {(o["case"], o["mode"], o["rms_g"]): o for o in outputs.get("open_loop", [])}
     if ol:
         ratios = "; ".join(
-            f"mode {k + 1}: " + " / ".join(_ratio(ol.get(("broadband_rom", k + 1, lv)))
+            f"mode {k + 1}: " + " / ".join(_ratio(ol[("broadband_rom", k + 1, lv)]["ratio"])
                                            for lv in levels)
             for k in range(n_modes))
         text += ("<p><b>Open loop</b> (last table): fed the rig's own tank velocity of each "
@@ -641,8 +642,7 @@ def multimode_section(ctx: Context, outputs: Mapping[str, Any]) -> Section:
               f"Modal damping (LSCF on H1, stable-pole cluster median) and error against the "
               f"rig; ✓ within {100 * tol:g} %."),
     ]
-    if outputs.get("open_loop"):
-        ol = {(o["case"], o["mode"], o["rms_g"]): o for o in outputs["open_loop"]}
+    if ol:
         ol_rows = [[k + 1, f"{lv:g}", f"{1e3 * ol[('vfa_rom', k + 1, lv)]['power_rig_w']:.2f}"]
                    + [_ratio(ol[(c, k + 1, lv)]["ratio"]) for c in ("vfa_rom", "broadband_rom")]
                    for k in range(n_modes) for lv in levels]
@@ -650,8 +650,9 @@ def multimode_section(ctx: Context, outputs: Mapping[str, Any]) -> Section:
             ["mode", "base (g RMS)", "rig power (mW)", "VFA-only ROM / rig",
              "broadband ROM / rig"], ol_rows,
             "Open loop: each ROM fed the rig's own tank velocity of the coupled test; mean power "
-            "the liquid takes from the mode's band (f ± 30 %), ROM against rig. A ratio above 1 "
-            "is a ROM that damps that mode too much on the very motion the rig saw."))
+            f"the liquid takes from the mode's band (f ± {100 * outputs['settings']['rel_band']:g} "
+            "%), ROM against rig. A ratio above 1 is a ROM that damps that mode too much on the "
+            "very motion the rig saw; below 0, one that feeds energy into it."))
     figs = []
     for name, cap in (("fig_modal_damping.png", "Damping of each mode against the base level; "
                        f"shaded: the rig ± {100 * tol:g} %."),
