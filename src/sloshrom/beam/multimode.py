@@ -639,15 +639,15 @@ def band_power(
     if not 0 < rel_band < 1:
         raise ValueError(f"rel_band must be in (0, 1), got {rel_band!r}")
     n = v.shape[-1]
-    cross = np.real(np.fft.rfft(f, axis=-1) * np.conj(np.fft.rfft(v, axis=-1))) / n**2
     # one-sided: every bin but DC (and Nyquist for even n) stands for two
-    weight = np.full(cross.shape[-1], 2.0)
+    weight = np.full(n // 2 + 1, 2.0)
     weight[0] = 1.0
     if n % 2 == 0:
         weight[-1] = 1.0
+    power = -weight * np.real(np.fft.rfft(f, axis=-1) * np.conj(np.fft.rfft(v, axis=-1))) / n**2
     freq = np.fft.rfftfreq(n, 1.0 / fs)
-    out = [-np.sum((cross * weight)[..., (freq >= fk * (1 - rel_band))
-                                     & (freq <= fk * (1 + rel_band))], axis=-1)
+    out = [np.sum(power[..., (freq >= fk * (1 - rel_band)) & (freq <= fk * (1 + rel_band))],
+                  axis=-1)
            for fk in np.atleast_1d(np.asarray(frequencies, dtype=float))]
     return np.stack(out, axis=-1)
 
