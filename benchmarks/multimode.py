@@ -67,44 +67,51 @@ def report(outputs: dict[str, Any], wall: float) -> None:
           f"tests); covers peak acceleration x{bb['covers_peak_acceleration']:.2f}, peak "
           f"velocity x{bb['covers_peak_velocity']:.2f} "
           f"(x{bb['covers_peak_velocity_with_drift']:.2f} with the base drift)")
-    print("\n== ROMs (same recipe) ==")
+    print("\n== ROMs ==")
     for name, r in ro.items():
-        print(f"{name:14s} {r['name']} on {r['train_seconds_of_data']:.0f} s "
-              f"(+{r['validation_seconds_of_data']:.0f} s validation): fit "
-              f"{r['fit_seconds']:.0f} s, {r['epochs']} epochs ({r['stop_reason']}), "
-              f"validation NRMSE {r['val_nrmse']:.3f}, input range "
-              f"[{r['envelope']['input_min']:.2f}, {r['envelope']['input_max']:.2f}] m/s, "
+        var = r.get("input", "velocity")
+        lo, hi = r["envelope"]["input_min"], r["envelope"]["input_max"]
+        span = (f"[{lo:.2f}, {hi:.2f}] m/s" if var == "velocity"
+                else f"[{lo / G:.1f}, {hi / G:.1f}] g")
+        print(f"{name:17s} {r['name']} on the {var} ({r.get('loss', 'default')}), "
+              f"{r['train_seconds_of_data']:.0f} s (+{r['validation_seconds_of_data']:.0f} s "
+              f"validation): fit {r['fit_seconds']:.0f} s, {r['epochs']} epochs "
+              f"({r['stop_reason']}), validation NRMSE {r['val_nrmse']:.3f}, input range {span}, "
               f"training peak acceleration {r['envelope']['acceleration_max'] / G:.1f} g")
     print("\n== modal damping (%), LSCF on H1, stable-pole cluster median ==")
     zeta = {(r["case"], r["mode"], r["rms_g"]): r for r in outputs["table"]}
     err = {(e["case"], e["mode"], e["rms_g"]): e for e in outputs["errors"]}
     env = {(e["case"], e["rms_g"]): e for e in outputs["envelope"]}
-    print("mode  base g | tank peak g: rig / vfa / bb / frozen | zeta %: "
-          + " ".join(f"{c:>13s}" for c in CASES) + " | error vs rig: vfa_rom, broadband_rom")
+    cases = [c for c in CASES if c in ro or c in ("rig", "frozen")]
+    roms = [c for c in cases if c in ro]
+    print("tank peak g, then zeta % of: " + ", ".join(cases)
+          + "; then error vs rig of: " + ", ".join(roms))
     for k in sorted({r["mode"] for r in outputs["table"]}):
         for lv in te["rms_g"]:
-            peaks = " / ".join(f"{env[(c, lv)]['tank_peak_g']:5.2f}" for c in CASES)
-            z = " ".join(f"{_pct(zeta[(c, k, lv)]['zeta']):>13s}" for c in CASES)
+            peaks = " / ".join(f"{env[(c, lv)]['tank_peak_g']:5.2f}" for c in cases)
+            z = " ".join(f"{_pct(zeta[(c, k, lv)]['zeta'])}" for c in cases)
             e = "  ".join(
                 "   n/a MISS" if err[(c, k, lv)]["error"] is None else
                 f"{100 * err[(c, k, lv)]['error']:+6.1f} % "
                 f"{'OK' if err[(c, k, lv)]['within'] else 'MISS'}"
-                for c in ("vfa_rom", "broadband_rom"))
-            print(f"{k:4d}  {lv:6g} | {peaks} | {z} | {e}")
+                for c in roms)
+            print(f"mode {k} {lv:4g} g | {peaks} | {z} | {e}")
     print(f"\ntolerance {100 * tol:g} %: " + ", ".join(
         f"{c} {'within on every mode and level' if ok else 'NOT within everywhere'}"
-        for c, ok in outputs["verdict"].items()))
+        for c, ok in outputs["verdict"].items())
+        + (f"; the target is judged on {outputs['judged_rom']}" if "judged_rom" in outputs
+           else ""))
     print("envelope (peak tank acceleration / the ROM's training peak, fraction outside): "
           + "; ".join(f"{e['case']} {e['rms_g']:g} g {e['acceleration_ratio']:.2f}, "
                       f"{e['outside_fraction']:.3f}"
                       for e in outputs["envelope"] if e["acceleration_ratio"] is not None))
     if outputs.get("open_loop"):
-        print("\n== open loop: each ROM fed the rig's own tank velocity; power taken from each "
+        print("\n== open loop: each ROM fed the rig's own tank motion; power taken from each "
               "mode's band, ROM / rig ==")
         ol = {(o["case"], o["mode"], o["rms_g"]): o for o in outputs["open_loop"]}
         for k in sorted({o["mode"] for o in outputs["open_loop"]}):
             for lv in te["rms_g"]:
-                r = {c: ol[(c, k, lv)]["ratio"] for c in ("vfa_rom", "broadband_rom")}
+                r = {c: ol[(c, k, lv)]["ratio"] for c in roms}
                 ratios = "  ".join(f"{c} {'n/a' if v is None else format(v, '.2f')}"
                                    for c, v in r.items())
                 p_rig = 1e3 * ol[("vfa_rom", k, lv)]["power_rig_w"]
@@ -145,8 +152,8 @@ def main() -> None:
     print(f"load average at the start {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs")
     outputs, files = stage_multimode(Context(a.out, load(), progress), settings)
     wall = time.perf_counter() - t0
-    report(outputs, wall)
     (a.out / "multimode_outputs.json").write_text(json.dumps(outputs, indent=1, default=float))
+    report(outputs, wall)
     print("files: " + ", ".join(files) + f"; outputs: {a.out / 'multimode_outputs.json'}")
 
 

@@ -25,6 +25,7 @@ from sloshrom.beam.multimode import (
 )
 from sloshrom.beam.structure import ModalDataError, coupled_frozen_modes, tank_rotary_inertia
 from sloshrom.config import ConfigError, G, Tank
+from sloshrom.io import read_record
 from sloshrom.models import FrozenLiquid
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.multimode import (
@@ -34,6 +35,7 @@ from sloshrom.pipeline.multimode import (
     stage_multimode,
 )
 from sloshrom.pipeline.settings import load
+from sloshrom.rom import load_model
 
 TANK = Tank()
 BETA_L = 1.8751040687119611  # first root of cos(x) cosh(x) = -1
@@ -235,16 +237,28 @@ def test_stage_runs_end_to_end_on_tiny_settings(tmp_path):
         "multimode/data/vfa_train.nc", "multimode/data/vfa_validation.nc",
         "multimode/data/broadband_train.nc", "multimode/data/broadband_validation.nc",
         "multimode/models/nfir_vfa.npz", "multimode/models/nfir_broadband.npz",
+        "multimode/models/nfir_broadband_acc.npz",
         "multimode/table_modal_damping.csv", "multimode/table_modal_damping.md",
         "multimode/fig_modal_frf.png", "multimode/fig_modal_damping.png"])
     assert all((tmp_path / f).is_file() for f in files)
-    assert len(outputs["table"]) == 4 * 1 * 2  # cases x levels x modes
-    assert {e["case"] for e in outputs["errors"]} == {"vfa_rom", "broadband_rom", "frozen"}
+    assert len(outputs["table"]) == 5 * 1 * 2  # cases x levels x modes
+    assert {e["case"] for e in outputs["errors"]} == {"vfa_rom", "broadband_rom",
+                                                      "broadband_acc_rom", "frozen"}
     roms = outputs["roms"]
     assert roms["broadband_rom"]["train_seconds_of_data"] == pytest.approx(
         roms["vfa_rom"]["train_seconds_of_data"] + 2 * 10.0, abs=0.01)
+    # the third ROM: same records, the acceleration in, the velocity loss terms off
+    acc = load_model(tmp_path / "multimode/models/nfir_broadband_acc.npz")
+    assert acc.input_variable == "acceleration" and roms["broadband_acc_rom"]["input"] == \
+        "acceleration" and roms["broadband_acc_rom"]["loss"] == "plain MSE"
+    assert roms["broadband_acc_rom"]["train_seconds_of_data"] == \
+        roms["broadband_rom"]["train_seconds_of_data"]
+    peak = max(np.max(np.abs(read_record(tmp_path / f"multimode/data/{n}_train.nc")
+                             ["acceleration"])) for n in ("vfa", "broadband"))
+    assert acc.envelope_["acceleration_max"] == pytest.approx(peak)
+    assert outputs["judged_rom"] == "broadband_acc_rom"
     ol = outputs["open_loop"]
-    assert len(ol) == 2 * 1 * 2  # ROMs x levels x modes
+    assert len(ol) == 3 * 1 * 2  # ROMs x levels x modes
     rig = {(o["mode"], o["rms_g"]): o["power_rig_w"] for o in ol if o["case"] == "vfa_rom"}
     assert all(o["power_rig_w"] == rig[(o["mode"], o["rms_g"])] for o in ol)
     assert all(o["ratio"] is None or o["ratio"] == pytest.approx(o["power_w"] / o["power_rig_w"])

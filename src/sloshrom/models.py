@@ -14,12 +14,17 @@ simulation and the energy maps do not care which they get:
 ``init_state()``
     The state at rest (an array or a pytree of arrays).
 ``step(state, velocity, acceleration) -> (state, dynamic_force)``
-    One pure step: tank vertical velocity (m/s) and acceleration (m/s^2) at the current sample in,
-    the new state and the dynamic force (N) at the current sample out. Models that need only one of
-    the inputs ignore the other.
+    One pure step: tank vertical velocity (m/s) at the current sample k and acceleration
+    (m/s^2) in, the new state and the dynamic force (N) at sample k out. The coupled beam passes
+    the acceleration of sample k - 1: the one of sample k depends on the force being computed.
+    Models that need only one of the inputs ignore the other.
 ``simulate(velocity, acceleration) -> dynamic_force``
     The same over whole records sampled at ``1/dt``; arrays of shape ``(..., n)``: time on the
     last axis, leading axes are independent runs (batched).
+``input_variable`` (optional, default ``"velocity"``)
+    The signal an identified model reads: ``"velocity"`` or ``"acceleration"`` (a network
+    trained on the tank acceleration). Its training envelope (:class:`Enveloped`) is a range
+    of that signal; :func:`model_input` picks it.
 
 Optional capabilities, each a protocol checked with ``isinstance``:
 
@@ -45,6 +50,7 @@ __all__ = [
     "FrozenLiquid",
     "JaxModel",
     "SloshingModel",
+    "model_input",
 ]
 
 ForceRule = Literal["trapezoid", "step"]
@@ -86,6 +92,23 @@ class Enveloped(Protocol):
     """A model identified on a bounded input range (``envelope_["input_min"/"input_max"]``)."""
 
     envelope_: dict[str, Any]
+
+
+def model_input(model: Any, velocity: Any, acceleration: Any) -> Any:
+    """The signal ``model`` reads as its input: ``acceleration`` if its ``input_variable`` is
+    ``"acceleration"``, else ``velocity`` (the default of the contract).
+
+    Raises
+    ------
+    ValueError
+        The model reads the acceleration and ``acceleration`` is None.
+    """
+    if getattr(model, "input_variable", "velocity") != "acceleration":
+        return velocity
+    if acceleration is None:
+        raise ValueError(f"this {type(model).__name__} reads the tank acceleration (m/s^2): "
+                         "pass acceleration")
+    return acceleration
 
 
 class FrozenLiquid:

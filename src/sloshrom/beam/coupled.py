@@ -63,7 +63,14 @@ from sloshrom.beam.structure import (
     liquid_masses,
 )
 from sloshrom.config import G, Tank
-from sloshrom.models import CompiledKernel, Enveloped, FrozenLiquid, JaxModel, SloshingModel
+from sloshrom.models import (
+    CompiledKernel,
+    Enveloped,
+    FrozenLiquid,
+    JaxModel,
+    SloshingModel,
+    model_input,
+)
 from sloshrom.signals import random_base_acceleration
 
 __all__ = [
@@ -521,28 +528,30 @@ class CoupledSimulator:
     def _per_tank_columns(self, x: np.ndarray) -> list[np.ndarray]:
         return [x] if self.modal.psi_tank.ndim == 1 else [x[..., j] for j in range(x.shape[-1])]
 
-    def _check_envelope(self, v: np.ndarray) -> None:
+    def _check_envelope(self, v: np.ndarray, acc: np.ndarray) -> None:
         # a ROM inside the loop cannot warn from within lax.scan: check its input afterwards
-        for j, (model, vj) in enumerate(zip(self.models, self._per_tank_columns(v),
-                                            strict=True)):
+        for j, (model, vj, aj) in enumerate(zip(self.models, self._per_tank_columns(v),
+                                                self._per_tank_columns(acc), strict=True)):
             if not isinstance(model, Enveloped):
                 continue
             env = model.envelope_
             if not isinstance(env, dict) or "input_min" not in env:
                 continue
+            u = model_input(model, vj, aj)
+            name, unit = (("velocity", "m/s") if u is vj else ("acceleration", "m/s^2"))
             lo, hi = float(env["input_min"]), float(env["input_max"])
-            over = max(float(np.max(vj)) - hi, lo - float(np.min(vj)), 0.0)
+            over = max(float(np.max(u)) - hi, lo - float(np.min(u)), 0.0)
             if over > 0:
                 where = "" if self.modal.psi_tank.ndim == 1 else f" of tank {j + 1}"
                 warnings.warn(
-                    f"tank velocity{where} left the ROM's training envelope [{lo:.4g}, "
-                    f"{hi:.4g}] m/s by {over:.4g} m/s: the sloshing force is extrapolated",
+                    f"tank {name}{where} left the ROM's training envelope [{lo:.4g}, "
+                    f"{hi:.4g}] {unit} by {over:.4g} {unit}: the sloshing force is extrapolated",
                     UserWarning,
                     stacklevel=3,
                 )
 
     def _coverage(self, v: np.ndarray, acc: np.ndarray) -> tuple[Any, Any, Any]:
-        covs = [envelope_coverage(getattr(m, "envelope_", None), vj, aj)
+        covs = [envelope_coverage(getattr(m, "envelope_", None), model_input(m, vj, aj), aj)
                 for m, vj, aj in zip(self.models, self._per_tank_columns(v),
                                      self._per_tank_columns(acc), strict=True)]
         if self.modal.psi_tank.ndim == 1:
@@ -581,7 +590,7 @@ class CoupledSimulator:
         """
         a = np.asarray(base_acceleration, dtype=np.float64)
         raw = self.run_raw(a, q0, qd0)
-        self._check_envelope(raw["tank_velocity"])
+        self._check_envelope(raw["tank_velocity"], raw["tank_acceleration"])
         outside, ratio, train_peak = self._coverage(raw["tank_velocity"],
                                                     raw["tank_acceleration"])
         raw["base_acceleration"] = a

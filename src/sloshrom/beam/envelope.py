@@ -10,9 +10,10 @@ Two questions about the sloshing model inside the coupled loop:
   14.5 g frozen, 3.1/5.9/12.4 g rig). The frozen peaks therefore bound what a training record
   must cover.
 * *Coverage* (:func:`envelope_coverage`): which fraction of a run lies outside the training
-  envelope of the model (``envelope_`` of :class:`sloshrom.models.Enveloped`): velocity outside
-  ``[input_min, input_max]`` or, when the envelope records it, ``|acceleration|`` above the
-  training input's peak acceleration ``acceleration_max``.
+  envelope of the model (``envelope_`` of :class:`sloshrom.models.Enveloped`): its input (the
+  velocity, or the acceleration for a network on it) outside ``[input_min, input_max]`` or,
+  when the envelope records it, ``|acceleration|`` above the training record's peak
+  acceleration ``acceleration_max``.
 
 Pure functions on arrays and result dicts (no files).
 """
@@ -211,7 +212,7 @@ class Coverage:
     Attributes
     ----------
     outside_fraction : ndarray
-        Fraction of samples outside the envelope (velocity outside ``[input_min, input_max]``,
+        Fraction of samples outside the envelope (input outside ``[input_min, input_max]``,
         or ``|acceleration| > acceleration_max`` when known), -.
     peak_acceleration : ndarray
         max |tank acceleration| of the run, m/s^2.
@@ -234,12 +235,13 @@ def envelope_coverage(envelope: Mapping[str, Any] | None, velocity: Any,
     Parameters
     ----------
     envelope : mapping or None
-        A model's ``envelope_``: ``input_min``, ``input_max`` (m/s) and optionally
-        ``acceleration_max`` (m/s^2, the training input's max |du/dt|). An old envelope without
-        ``acceleration_max`` is judged on the velocity only; ``None`` (or no ``input_min``):
-        everything NaN.
+        A model's ``envelope_``: ``input_min``, ``input_max`` (the input's units) and optionally
+        ``acceleration_max`` (m/s^2, the training record's peak tank acceleration). An old
+        envelope without ``acceleration_max`` is judged on the input only; ``None`` (or no
+        ``input_min``): everything NaN.
     velocity : array_like, shape (..., n)
-        The model's input, the tank's absolute velocity, m/s.
+        The model's input (:func:`sloshrom.models.model_input`): the tank's absolute velocity,
+        m/s, or its acceleration, m/s^2, for a network on the acceleration.
     acceleration : array_like, shape (..., n)
         The tank's absolute acceleration, m/s^2.
 

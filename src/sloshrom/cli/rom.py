@@ -203,6 +203,8 @@ def train(
     An NFIR trained by Adam (the default) uses the passive recipe: amplitude-weighted loss, a
     passivity penalty and a cycle-energy term (docs/rom.md, "A passive ROM");
     --amplitude-weighting 0 --passivity 0 --cycle-energy 0 trains the paper's plain MSE.
+    --input acceleration (records' tank acceleration, m/s^2) trains a network on the
+    acceleration, always on the plain MSE; it runs in `beam` and `map` like any other.
 
     The two records must have the same sample rate and the same units of the input and of the
     output; the model file may not be one of the records. With --ensemble K, K networks with
@@ -216,6 +218,8 @@ def train(
     if arch not in ("nfir", "noe"):
         fail(f"--arch must be nfir or noe, got {arch!r}")
     _check_names(input_name, output_name)
+    if arch == "noe" and input_name == "acceleration":
+        fail("--input acceleration needs --arch nfir: an NOE takes the tank velocity")
     check_number(delays, "--delays", 1, MAX_DELAYS)
     check_number(neurons, "--neurons", 1, MAX_NEURONS)
     _check_common(max_epochs, seed, hidden)
@@ -263,8 +267,12 @@ def train(
         if value and not adam:
             fail(f"{flag} needs an NFIR trained by adam (got --arch {arch}"
                  f"{'' if trainer is None else f' --trainer {trainer}'})")
+        if value and input_name == "acceleration":
+            fail(f"{flag} needs a velocity input: the term is written for the power F v "
+                 "(a network on the acceleration trains on the plain MSE)")
         if adam:
-            kw[opt] = default if value is None else value
+            kw[opt] = (0.0 if input_name == "acceleration" else default) if value is None \
+                else value
     model = cls(**kw)  # every hyperparameter is checked above
     _check_length(rec, data, arch, model.max_delay, int(model.neurons), "training")
     if len(val) <= model.max_delay:

@@ -8,12 +8,14 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-__all__ = ["modal_damping_figure", "modal_frf_figure"]
+__all__ = ["CASE_LABELS", "modal_damping_figure", "modal_frf_figure"]
 
-_LABELS = {"rig": "rig (reference)", "vfa_rom": "VFA-only ROM",
-           "broadband_rom": "broadband ROM", "frozen": "frozen liquid"}
+#: legend (and report) label of each case of the study
+CASE_LABELS = {"rig": "rig (reference)", "vfa_rom": "VFA-only ROM",
+               "broadband_rom": "broadband ROM (velocity)",
+               "broadband_acc_rom": "broadband ROM (acceleration)", "frozen": "frozen liquid"}
 _COLOURS = {"rig": "k", "vfa_rom": "tab:orange", "broadband_rom": "tab:blue",
-            "frozen": "tab:gray"}
+            "broadband_acc_rom": "tab:green", "frozen": "tab:gray"}
 
 
 def modal_frf_figure(h1: Mapping[str, Any], levels: list[float], f_modes: np.ndarray,
@@ -28,7 +30,7 @@ def modal_frf_figure(h1: Mapping[str, Any], levels: list[float], f_modes: np.nda
             for case, (f, hs) in h1.items():
                 sel = (f >= fk * (1 - rel_band)) & (f <= fk * (1 + rel_band))
                 ax.semilogy(f[sel], np.abs(hs[i][k][sel]), color=_COLOURS[case], lw=1.0,
-                            label=_LABELS[case])
+                            label=CASE_LABELS[case])
             ax.set_title(f"mode {k + 1} ({fk:.2f} Hz frozen), base {level:g} g RMS", fontsize=9)
             ax.set_ylabel("|H1| (-)")
     for ax in axes[-1]:
@@ -47,7 +49,8 @@ def modal_damping_figure(rows: list[dict[str, Any]], levels: list[float], n_mode
         for case in cases:
             z = [next(r["zeta"] for r in rows if r["case"] == case and r["mode"] == k + 1
                       and r["rms_g"] == lv) for lv in levels]
-            ax.plot(levels, 100 * np.asarray(z), "o-", color=_COLOURS[case], label=_LABELS[case])
+            ax.plot(levels, 100 * np.asarray(z), "o-", color=_COLOURS[case],
+                    label=CASE_LABELS[case])
             if case == "rig":
                 zr = 100 * np.asarray(z)
                 ax.fill_between(levels, zr * (1 - tolerance), zr * (1 + tolerance), color="k",

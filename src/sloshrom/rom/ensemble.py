@@ -31,6 +31,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from sloshrom import __version__
+from sloshrom.models import model_input
 from sloshrom.rom.errors import EnvelopeWarning, NotFittedError, ROMError
 from sloshrom.rom.family import check_training_fill
 from sloshrom.rom.modelfile import (
@@ -377,6 +378,11 @@ class Ensemble:
         return tuple(self.template.names)  # type: ignore[return-value]
 
     @property
+    def input_variable(self) -> str:
+        """The signal the members read (:func:`sloshrom.models.model_input`)."""
+        return self.template.input_variable
+
+    @property
     def max_delay(self) -> int:
         """Longest input delay of the members, samples."""
         return int(self.template.max_delay)
@@ -483,8 +489,9 @@ class Ensemble:
         return np.mean(self._outputs(u, stacklevel=3), axis=0)
 
     def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
-        """Sloshing-model contract: dynamic force (N) from velocity (m/s); acceleration ignored."""
-        return self.predict(velocity)
+        """Sloshing-model contract: dynamic force (N) from the signal the members read
+        (:attr:`input_variable`)."""
+        return self.predict(model_input(self, velocity, acceleration))
 
     def init_state(self) -> tuple[Any, ...]:
         """The members' states at rest, a tuple (a pytree of arrays)."""

@@ -45,6 +45,7 @@ import numpy as np
 
 from sloshrom import __version__
 from sloshrom._x64 import float64
+from sloshrom.models import model_input
 from sloshrom.rom import training
 from sloshrom.rom.bouncing import BouncingBall, is_ball_file
 from sloshrom.rom.ensemble import Ensemble
@@ -220,7 +221,22 @@ class _TDNN:
                 raise ROMError(f"{name} must be a finite number >= 0, got {v!r}")
             if v > 0 and self.trainer != "adam":
                 raise ROMError(f"{name} > 0 needs trainer='adam', got trainer={self.trainer!r}")
+            if v > 0 and self.input_variable == "acceleration":
+                # the weights, probes and cycle energies are written for the power F v of a
+                # velocity input
+                raise ROMError(f"{name} > 0 needs a velocity input; set it to 0 for a network "
+                               "on the tank acceleration")
+        if self.input_variable == "acceleration" and \
+                str(self.units[0]).replace(" ", "").replace("^", "") != "m/s2":
+            raise ROMError(f"the input 'acceleration' is in m/s^2, got units {self.units[0]!r}")
         return NetworkSpec(self.arch, delays, neurons, self.hidden, out_delays)
+
+    @property
+    def input_variable(self) -> str:
+        """``"acceleration"`` for a network on the tank acceleration (``names[0]``), else
+        ``"velocity"``: the signal of the sloshing-model contract it reads
+        (:func:`sloshrom.models.model_input`)."""
+        return "acceleration" if str(self.names[0]) == "acceleration" else "velocity"
 
     @property
     def spec(self) -> NetworkSpec:
@@ -354,7 +370,9 @@ class _TDNN:
             "output_min": scaler.out_min,
             "output_max": scaler.out_max,
             "frequency_band": band,
-            "acceleration_max": float(np.max(np.abs(np.gradient(u)))) * float(fs),
+            # the peak tank acceleration of the training record
+            "acceleration_max": float(np.max(np.abs(u))) if self.input_variable == "acceleration"
+            else float(np.max(np.abs(np.gradient(u)))) * float(fs),
         }
         if fill is not None:
             self.envelope_.update(fill_min=fill, fill_max=fill)
@@ -431,8 +449,9 @@ class _TDNN:
         pass
 
     def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
-        """Sloshing-model contract: dynamic force (N) from velocity (m/s); acceleration ignored."""
-        return self.predict(velocity)
+        """Sloshing-model contract: dynamic force (N) from the tank velocity (m/s) or, for a
+        network on the acceleration (:attr:`input_variable`), the acceleration (m/s^2)."""
+        return self.predict(model_input(self, velocity, acceleration))
 
     def init_state(self) -> Any:
         """Delay line(s) at rest (scaled units), a pytree of arrays."""
@@ -506,7 +525,11 @@ class NFIR(_TDNN):
     units : (str, str)
         Units of the input and the output.
     names : (str, str)
-        Variable names of the input and the output.
+        Variable names of the input and the output. ``"acceleration"`` as the input (units
+        ``m/s^2``) makes a network on the tank acceleration: it runs in the coupled beam
+        (:meth:`step`) and the energy maps like a velocity network, its envelope is an
+        acceleration range, and the three loss terms below, written for the power of a velocity
+        input, must be 0.
     amplitude_weighting : float
         ``eps`` (input units, e.g. m/s) of the loss weights ``1 / (a^2 + eps^2)``, ``a`` the
         local input amplitude (:func:`sloshrom.rom.training.amplitude_weights`): small-amplitude
@@ -570,17 +593,29 @@ class NFIR(_TDNN):
         return jnp.full(self.max_delay, self.scaler_.u(0.0), dtype=jnp.float64)
 
     def step(self, state: Any, velocity: Any, acceleration: Any = None) -> tuple[Any, Any]:
-        """One pure, jax-traceable step: ``(state, dynamic_force)`` at the current sample.
+        """One pure, jax-traceable step: ``(state, dynamic_force)`` at the current sample k.
+
+        A velocity network takes ``velocity`` v_k: the force from the delay line, then v_k is
+        pushed into it. A network on the acceleration (:attr:`input_variable`) takes
+        ``acceleration`` a_{k-1}, as the coupled beam passes it: a_{k-1} is pushed, then the
+        force is evaluated. Both give :meth:`predict` sample by sample.
 
         Reads the weights and the scaler from the model's pytree leaves, so a model passed as an
         argument into ``jit`` is traced, not compiled in.
         """
         s = self.scaler_
         d = np.asarray(self.spec.delays)
+
+        def push(state: Any, u: Any) -> Any:
+            u_s = s.u(jnp.asarray(u, jnp.float64))
+            return jnp.concatenate([jnp.reshape(u_s, (1,)), state[:-1]])
+
+        if self.input_variable == "acceleration":
+            state = push(state, model_input(self, velocity, acceleration))
         # single: W x, fast in a scan whose weights are traced (the coupled simulation)
         y_s = rbf_apply(self.params_, state[d - 1], self.hidden, single=True)
-        u_s = s.u(jnp.asarray(velocity, jnp.float64))
-        state = jnp.concatenate([jnp.reshape(u_s, (1,)), state[:-1]])
+        if self.input_variable != "acceleration":
+            state = push(state, velocity)
         return state, s.y_inverse(y_s)
 
 
@@ -641,6 +676,9 @@ class NOE(_TDNN):
             raise ROMError(f"NOE needs out_delays >= 1, got {self.out_delays}")
         if self.trainer == "adam":
             raise ROMError("trainer 'adam' is available for NFIR only")
+        if self.input_variable == "acceleration":
+            raise ROMError("an NOE takes the tank velocity; a network on the acceleration is an "
+                           "NFIR")
         try:
             bound = float(self.unstable_bound)
         except (TypeError, ValueError):

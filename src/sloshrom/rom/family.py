@@ -133,6 +133,16 @@ def at_fill(model: Any, fill: float | None, what: str = "the model") -> Any:
     return model
 
 
+def _input_variable(model: Any) -> str:
+    return getattr(model, "input_variable", "velocity")
+
+
+def _same_input(models: Sequence[Any]) -> None:
+    kinds = {_input_variable(m) for m in models}
+    if len(kinds) != 1:
+        raise ROMError(f"members read different inputs {sorted(kinds)}")
+
+
 @jax.tree_util.register_pytree_node_class
 class FillBlend:
     """Convex blend of sloshing models identified at neighbouring fill levels.
@@ -166,6 +176,7 @@ class FillBlend:
         rules = {m.force_rule for m in self.members}
         if len(rules) != 1:
             raise ROMError(f"members use different force rules {sorted(rules)}")
+        _same_input(self.members)
         self.dt = float(self.members[0].dt)
         self.force_rule = rules.pop()
         # traceable (JAX backend of the coupled simulation) when every member is
@@ -213,6 +224,11 @@ class FillBlend:
     def names(self) -> tuple[str, str]:
         """Variable names of the input and the output (the first member's)."""
         return tuple(self.members[0].names)  # type: ignore[return-value]
+
+    @property
+    def input_variable(self) -> str:
+        """The signal the members read (:func:`sloshrom.models.model_input`)."""
+        return _input_variable(self.members[0])
 
     def init_state(self) -> tuple[Any, ...]:
         """The members' states at rest."""
@@ -326,6 +342,7 @@ class FillFamily:
         models = list(members.values())
         for f, m in zip(fills, models, strict=True):
             check_fill(m, f, f"the member at fill {f:.1%}")
+        _same_input(models)
         dts = {float(m.dt) for m in models}
         if max(dts) - min(dts) > 1e-12 * max(dts):
             raise ROMError(f"the members run at different steps {sorted(dts)} s (resample the "

@@ -257,7 +257,8 @@ class _Envelope(_Strict):
         list[Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=MAX_FS)]],
         Field(min_length=2, max_length=2),
     ]
-    # peak |du/dt| of the training input (files written before it have none)
+    # peak tank acceleration of the training record: max |du/dt| of a velocity input, max |u| of
+    # an acceleration input (files written before it have none)
     acceleration_max: Annotated[float, Field(allow_inf_nan=False, ge=0.0)] | None = None
     # fill levels d/h of the training records (files written before them have none)
     fill_min: Annotated[float, Field(allow_inf_nan=False, gt=0.0, lt=1.0)] | None = None

@@ -203,6 +203,10 @@ def check_exportable(model: Any) -> None:
     if not hasattr(model, "spec"):  # a fill family, a bouncing ball: not a network
         raise ROMError(f"a {type(model).__name__} cannot be exported to ONNX: a graph holds "
                        "one NFIR or NOE network (export a fill family's members one by one)")
+    if getattr(model, "input_variable", "velocity") == "acceleration":
+        # the step graph's contract is the velocity's (evaluate, then push the current input)
+        raise ROMError("a network on the tank acceleration cannot be exported to ONNX: the "
+                       "graphs take the tank velocity")
 
 
 def onnx_model(model: ROM, form: str = "step", dtype: str = "float64") -> Any:
