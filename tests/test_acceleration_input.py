@@ -180,6 +180,13 @@ def test_cli_trains_a_network_on_the_acceleration(tmp_path):
     m = load_model(out)
     assert m.input_variable == "acceleration"
     assert (m.amplitude_weighting, m.passivity, m.cycle_energy) == (0.0, 0.0, 0.0)
+    # the beam and the map take it (they feed it the tank acceleration in m/s^2)
+    res = CliRunner().invoke(app, ["beam", "free", "--sloshing", str(out),
+                                   "--out", str(tmp_path / "res")])
+    assert res.exit_code == 0, res.output
+    res = CliRunner().invoke(app, ["map", "--model", str(out), "--n-omega", "2", "--n-a", "2",
+                                   "--out", str(tmp_path / "map.nc")])
+    assert res.exit_code == 0, res.output
     bad = tmp_path / "bad.npz"
     res = CliRunner().invoke(app, [*common, "--out", str(bad), "--passivity", "1"])
     assert res.exit_code == 2 and "--passivity needs a velocity input" in res.output, res.output

@@ -31,8 +31,9 @@ def model_files(tmp_path_factory):
     rng = np.random.default_rng(1)
     u = np.convolve(rng.standard_normal(600), np.ones(8) / 8, mode="same") * 0.05
     y = np.tanh(20 * np.roll(u, 2)) * 0.5
+    # a velocity-contract ROM (its input is not named "acceleration") in m/s^2
     NFIR(delays=4, neurons=3, max_epochs=2, units=("m/s^2", "N"),
-         names=("acceleration", "dynamic_force")).fit(u, y, fs=500.0).save(d / "acc.npz")
+         names=("tank_accel", "dynamic_force")).fit(u, y, fs=500.0).save(d / "ms2.npz")
     NFIR(delays=4, neurons=3, max_epochs=2).fit(u, y, fs=250.0).save(d / "r250.npz")
     NFIR(delays=4, neurons=3, max_epochs=2).fit(u, y, fs=100.0).save(d / "slow100.npz")
     return d
@@ -359,9 +360,9 @@ HOSTILE_CASES = [
      r"its omega_bar grid differs from this map's"),
     ("map-reference-is-a-directory", None, [*M, "--reference", "{tmp}/adir"],
      r"--reference .*adir: is a directory"),
-    ("map-model-in-acceleration", None,
-     ["map", "--model", "{models}/acc.npz", "--out", "{tmp}/m.nc"],
-     r"the ROM maps 'm/s\^2' to 'N'"),
+    ("map-model-in-acceleration-units", None,
+     ["map", "--model", "{models}/ms2.npz", "--out", "{tmp}/m.nc"],
+     r"the ROM maps 'm/s\^2' to 'N'; the map feeds it the tank velocity in m/s"),
     ("map-model-too-slow", None, ["map", "--model", "{models}/slow100.npz", "--out", "{tmp}/m.nc"],
      r"the ROM runs at 100 Hz, too slow for harmonic tests up to 25 Hz"),
     # -- config show / reproduce ----------------------------------------------------------------
@@ -471,8 +472,8 @@ HOSTILE_CASES = [
     ("beam-free-rom-named-rig", _copy("{models}/good.npz", "rig.npz"),
      [*BFO, "--sloshing", "rig", "--sloshing", "{tmp}/rig.npz"],
      r"rig\.npz: a second case named 'rig'"),
-    ("beam-free-rom-in-acceleration", None, [*BFO, "--sloshing", "{models}/acc.npz"],
-     r"acc\.npz: the ROM maps 'm/s\^2' to 'N'; the beam feeds it the tank velocity in m/s"),
+    ("beam-free-rom-in-acceleration-units", None, [*BFO, "--sloshing", "{models}/ms2.npz"],
+     r"ms2\.npz: the ROM maps 'm/s\^2' to 'N'; the beam feeds it the tank velocity in m/s"),
     ("beam-free-rom-at-250-hz", None, [*BFO, "--sloshing", "{models}/r250.npz"],
      r"r250\.npz: the ROM runs at 250 Hz; the beam needs a multiple of 500 Hz"),
     ("beam-free-sloshing-empty", None, [*BFO, "--sloshing", ""], r"does not exist"),

@@ -238,10 +238,13 @@ def route_warnings() -> Iterator[None]:
 
 
 def check_sloshing_rom(rom: Any, path: Path, what: str, user: str) -> None:
-    """A ROM used as a sloshing model must map the tank velocity (m/s) to a force (N).
+    """A ROM used as a sloshing model must map the tank velocity (m/s), or for a network on it
+    the tank acceleration (m/s^2), to a force (N).
 
     ``user`` says who feeds it, as the subject of "feeds it the tank velocity ...".
     """
-    if not (same_unit(rom.units[0], "m/s") and same_unit(rom.units[1], "N")):
+    var = getattr(rom, "input_variable", "velocity")
+    unit = "m/s^2" if var == "acceleration" else "m/s"
+    if not (same_unit(rom.units[0], unit) and same_unit(rom.units[1], "N")):
         fail(f"{what} {path}: the ROM maps '{rom.units[0]}' to '{rom.units[1]}'; {user} feeds "
-             "it the tank velocity in m/s and reads the dynamic force in N")
+             f"it the tank {var} in {unit} and reads the dynamic force in N")

@@ -307,7 +307,7 @@ _ModalOpt = Annotated[
 _SloshOpt = Annotated[
     list[str] | None, typer.Option("--sloshing", help="frozen | rig | ROM model file "
                                                       "(repeatable; a ROM at a multiple of 500 "
-                                                      "Hz, m/s -> N); default: rig.")]
+                                                      "Hz, m/s or m/s^2 -> N); default: rig.")]
 _StructureOpt = Annotated[Path | None, typer.Option(
     help="Modal model of your structure: UFF 55 (.unv/.uff), Nastran punch (.pch), NetCDF "
          "(.nc) or CSV (.csv); see docs/formats.md. Needs --tank.")]

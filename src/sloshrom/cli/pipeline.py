@@ -200,7 +200,7 @@ def map_cmd(
 
 
 def _load_rom(path: Path, min_fs: float, fill: float | None) -> tuple[Any, float | None]:
-    """A ROM usable for harmonic tests (m/s -> N, fast enough for the top frequency) at
+    """A ROM usable for harmonic tests (m/s or m/s^2 -> N, fast enough for the top frequency) at
     ``fill``, and the fill (default: the one its training records had, if it says)."""
     from sloshrom.rom.estimators import load_model
     from sloshrom.rom.family import at_fill, training_fills
