@@ -20,6 +20,7 @@ from sloshrom.rom import load_model
 from sloshrom.rom.ensemble import Ensemble
 from sloshrom.rom.errors import ROMError
 from sloshrom.rom.estimators import NFIR, NOE, MinMaxScaler
+from sloshrom.rom.family import FillBlend
 from sloshrom.rom.onnx import check_exportable
 
 ACC = {"units": ("m/s^2", "N"), "names": ("acceleration", "dynamic_force")}
@@ -144,6 +145,14 @@ def test_model_file_ensemble_and_onnx(tmp_path):
                                rtol=1e-12, atol=1e-14)
     with pytest.raises(ROMError, match="cannot be exported to ONNX"):
         check_exportable(m)
+    # a fill blend's members must read the same signal
+    v = NFIR(delays=5, neurons=4, seed=1)
+    v.params_, v.scaler_, v.fs_, v.history_ = m.params_, m.scaler_, FS, {}
+    with pytest.raises(ROMError, match=r"members read different inputs \['acceleration', "
+                                       r"'velocity'\]"):
+        FillBlend([m, v], [0.5, 0.5], 0.5, (0.25, 0.75))
+    assert FillBlend([m, _random(seed=6)], [0.5, 0.5], 0.5, (0.25, 0.75)).input_variable == \
+        "acceleration"
 
 
 def test_energy_map_drives_the_network_with_the_acceleration():

@@ -538,7 +538,8 @@ class CoupledSimulator:
             if not isinstance(env, dict) or "input_min" not in env:
                 continue
             u = model_input(model, vj, aj)
-            name, unit = (("velocity", "m/s") if u is vj else ("acceleration", "m/s^2"))
+            name = getattr(model, "input_variable", "velocity")
+            unit = "m/s^2" if name == "acceleration" else "m/s"
             lo, hi = float(env["input_min"]), float(env["input_max"])
             over = max(float(np.max(u)) - hi, lo - float(np.min(u)), 0.0)
             if over > 0:
