@@ -50,6 +50,7 @@ __all__ = [
     "FrozenLiquid",
     "JaxModel",
     "SloshingModel",
+    "input_variable",
     "model_input",
 ]
 
@@ -94,16 +95,21 @@ class Enveloped(Protocol):
     envelope_: dict[str, Any]
 
 
+def input_variable(model: Any) -> str:
+    """``model.input_variable`` if it has one, else ``"velocity"`` (the default of the contract)."""
+    return getattr(model, "input_variable", "velocity")
+
+
 def model_input(model: Any, velocity: Any, acceleration: Any) -> Any:
-    """The signal ``model`` reads as its input: ``acceleration`` if its ``input_variable`` is
-    ``"acceleration"``, else ``velocity`` (the default of the contract).
+    """The signal ``model`` reads as its input: ``acceleration`` if its :func:`input_variable`
+    is ``"acceleration"``, else ``velocity``.
 
     Raises
     ------
     ValueError
         The model reads the acceleration and ``acceleration`` is None.
     """
-    if getattr(model, "input_variable", "velocity") != "acceleration":
+    if input_variable(model) != "acceleration":
         return velocity
     if acceleration is None:
         raise ValueError(f"this {type(model).__name__} reads the tank acceleration (m/s^2): "

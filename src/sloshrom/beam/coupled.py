@@ -69,6 +69,7 @@ from sloshrom.models import (
     FrozenLiquid,
     JaxModel,
     SloshingModel,
+    input_variable,
     model_input,
 )
 from sloshrom.signals import random_base_acceleration
@@ -538,7 +539,7 @@ class CoupledSimulator:
             if not isinstance(env, dict) or "input_min" not in env:
                 continue
             u = model_input(model, vj, aj)
-            name = getattr(model, "input_variable", "velocity")
+            name = input_variable(model)
             unit = "m/s^2" if name == "acceleration" else "m/s"
             lo, hi = float(env["input_min"]), float(env["input_max"])
             over = max(float(np.max(u)) - hi, lo - float(np.min(u)), 0.0)

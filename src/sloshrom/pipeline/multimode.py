@@ -73,7 +73,7 @@ from sloshrom.plotting import savefig
 from sloshrom.plotting.multimode import CASE_LABELS, modal_damping_figure, modal_frf_figure
 from sloshrom.rig.virtual import SensorParams, VirtualRig
 from sloshrom.rom.errors import EnvelopeWarning
-from sloshrom.rom.estimators import NFIR
+from sloshrom.rom.estimators import LOSS_TERMS, NFIR
 from sloshrom.rom.parallel import run_tasks
 
 __all__ = ["CASES", "DATA_SETS", "DEFAULTS", "JUDGED_ROM", "RECIPE_KEYS", "ROM_INPUTS",
@@ -252,7 +252,7 @@ def _open_loop(rig: Mapping[str, Any], roms: Mapping[str, Any], f_modes: np.ndar
     for case, model in roms.items():
         if abs(float(model.fs_) - fs) > 1e-9 * fs:
             raise ValueError(f"{case} runs at {model.fs_} Hz, the rig's records at {fs} Hz")
-        force = np.stack([np.asarray(model.simulate(v[i], a[i])) for i in range(len(levels))])
+        force = np.asarray(model.simulate(v, a))  # (levels, n): one batched free run
         p = band_power(v, force, fs, f_modes, rel_band)
         out += [{"case": case, "rms_g": lv, "mode": k + 1, "power_rig_w": float(p_rig[i, k]),
                  "power_w": float(p[i, k]),
@@ -368,16 +368,12 @@ DATA_SETS = {
     "broadband_acc_rom": (("vfa_train", "broadband_train"),
                           ("vfa_validation", "broadband_validation")),
 }
-#: the recipe's loss terms, written for a velocity input (off for the acceleration)
-_VELOCITY_LOSS = ("amplitude_weighting", "passivity", "cycle_energy")
-
-
 def _rom_params(s: Mapping[str, Any], var: str) -> dict[str, Any]:
     """NFIR parameters of a ROM reading ``var``: the recipe, its loss terms off for the
     acceleration."""
     params = {**{k: s[k] for k in RECIPE_KEYS}, "seed": int(s["rom_seed"])}
     if var == "acceleration":
-        params.update({k: 0.0 for k in _VELOCITY_LOSS},
+        params.update({k: 0.0 for k in LOSS_TERMS},
                       names=("acceleration", "dynamic_force"), units=("m/s^2", "N"))
     return params
 
@@ -407,7 +403,7 @@ def _train_roms(ctx: Context, s: Mapping[str, Any], records: Mapping[str, Record
         out[name] = {
             "name": f"NFIR({params['delays']}, {params['neurons']})",
             "input": ROM_INPUTS[name],
-            "loss": "plain MSE" if not any(params[k] for k in _VELOCITY_LOSS)
+            "loss": "plain MSE" if not any(params[k] for k in LOSS_TERMS)
             else "default (amplitude weighting, passivity, cycle energy)",
             "train_records": list(DATA_SETS[name][0]),
             "validation_records": list(DATA_SETS[name][1]),

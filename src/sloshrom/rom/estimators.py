@@ -108,6 +108,8 @@ __all__ = [
 ]
 
 TRAINERS = ("fast", "lm", "adam")
+#: the Adam trainer's loss terms, written for the power F v of a velocity input
+LOSS_TERMS = ("amplitude_weighting", "passivity", "cycle_energy")
 
 
 def _as_signal(name: str, x: Any, allow_batch: bool = False) -> np.ndarray:
@@ -214,7 +216,7 @@ class _TDNN:
         out_delays = _integer("out_delays", self.out_delays, 0)
         if self.trainer not in TRAINERS:
             raise ROMError(f"trainer must be 'fast', 'lm' or 'adam', got {self.trainer!r}")
-        for name in ("amplitude_weighting", "passivity", "cycle_energy"):
+        for name in LOSS_TERMS:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | float | np.floating | np.integer) \
                     or not (np.isfinite(v) and v >= 0):
@@ -226,6 +228,7 @@ class _TDNN:
                 # velocity input
                 raise ROMError(f"{name} > 0 needs a velocity input; set it to 0 for a network "
                                "on the tank acceleration")
+        # spelled out rather than io.same_unit: importing io would pull xarray into the ROMs
         if self.input_variable == "acceleration" and \
                 str(self.units[0]).replace(" ", "").replace("^", "") != "m/s2":
             raise ROMError(f"the input 'acceleration' is in m/s^2, got units {self.units[0]!r}")

@@ -45,6 +45,7 @@ import numpy as np
 
 from sloshrom.config import FILL_TOLERANCE
 from sloshrom.fileio import atomic_write_text
+from sloshrom.models import input_variable
 from sloshrom.rom.errors import FillRangeError, ROMError
 
 __all__ = [
@@ -133,12 +134,8 @@ def at_fill(model: Any, fill: float | None, what: str = "the model") -> Any:
     return model
 
 
-def _input_variable(model: Any) -> str:
-    return getattr(model, "input_variable", "velocity")
-
-
 def _same_input(models: Sequence[Any]) -> None:
-    kinds = {_input_variable(m) for m in models}
+    kinds = {input_variable(m) for m in models}
     if len(kinds) != 1:
         raise ROMError(f"members read different inputs {sorted(kinds)}")
 
@@ -228,7 +225,7 @@ class FillBlend:
     @property
     def input_variable(self) -> str:
         """The signal the members read (:func:`sloshrom.models.model_input`)."""
-        return _input_variable(self.members[0])
+        return input_variable(self.members[0])
 
     def init_state(self) -> tuple[Any, ...]:
         """The members' states at rest."""

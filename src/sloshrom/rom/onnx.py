@@ -36,6 +36,7 @@ import numpy as np
 
 from sloshrom import __version__
 from sloshrom.fileio import atomic_write
+from sloshrom.models import input_variable
 from sloshrom.rom.ensemble import Ensemble
 from sloshrom.rom.errors import ROMError
 
@@ -203,7 +204,7 @@ def check_exportable(model: Any) -> None:
     if not hasattr(model, "spec"):  # a fill family, a bouncing ball: not a network
         raise ROMError(f"a {type(model).__name__} cannot be exported to ONNX: a graph holds "
                        "one NFIR or NOE network (export a fill family's members one by one)")
-    if getattr(model, "input_variable", "velocity") == "acceleration":
+    if input_variable(model) == "acceleration":
         # the step graph's contract is the velocity's (evaluate, then push the current input)
         raise ROMError("a network on the tank acceleration cannot be exported to ONNX: the "
                        "graphs take the tank velocity")
