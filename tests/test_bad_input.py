@@ -8,28 +8,19 @@ quoted in docs/interchange.md (``pytest --collect-only -q tests/test_bad_input.p
 
 from __future__ import annotations
 
-import json
 import re
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pytest
-from typer.testing import CliRunner
 
-from sloshrom.cli import app
+from helpers import check_cli, good_record, make_model_files
 from sloshrom.config import ConfigError
 from sloshrom.io import Record, RecordError, preprocess, read_record, write_record
 
 FS = 100.0
 N = 200
-
-
-def _good() -> Record:
-    t = np.arange(N) / FS
-    return Record(t, FS, {"acceleration": np.sin(2 * np.pi * 5 * t),
-                          "force": 0.1 * np.cos(2 * np.pi * 5 * t)},
-                  {"acceleration": "m/s^2", "force": "N"}, {"fill": 0.5})
 
 
 def _csv(tmp: Path, header: str, rows: list[str], name: str = "r.csv") -> Path:
@@ -46,8 +37,8 @@ def _written(tmp: Path, suffix: str) -> Path:
     if suffix in (".uff", ".unv"):
         from sloshrom.io.uff import write_uff58
 
-        return write_uff58(_good(), tmp / f"good{suffix}")
-    return write_record(_good(), tmp / f"good{suffix}")
+        return write_uff58(good_record(), tmp / f"good{suffix}")
+    return write_record(good_record(), tmp / f"good{suffix}")
 
 
 def _truncated(suffix: str, keep: float = 0.5) -> Callable[[Path], Path]:
@@ -83,7 +74,7 @@ def _mat73(tmp: Path) -> Path:
 
 
 def _nc_with(tmp: Path, edit: Callable) -> Path:
-    ds = _good().to_dataset()
+    ds = good_record().to_dataset()
     ds = edit(ds)
     p = tmp / "edited.nc"
     ds.to_netcdf(p, engine="h5netcdf")
@@ -94,7 +85,7 @@ def _mat_with(tmp: Path, **items) -> Path:
     import scipy.io
 
     p = tmp / "edited.mat"
-    rec = _good()
+    rec = good_record()
     out = {"time": rec.time, "acceleration": rec["acceleration"], "force": rec["force"],
            "units": {"acceleration": "m/s^2", "force": "N"}, **items}
     scipy.io.savemat(p, out)
@@ -106,7 +97,7 @@ def _uff_rates(tmp: Path) -> Path:
 
     from sloshrom.io.uff import write_uff58
 
-    a = write_uff58(_good(), tmp / "a.uff")
+    a = write_uff58(good_record(), tmp / "a.uff")
     t = np.arange(N) / (2 * FS)
     b = write_uff58(Record(t, 2 * FS, {"force": np.ones(N)}, {"force": "N"}), tmp / "b.uff")
     sets = [s for s in pyuff.UFF(str(a)).read_sets() if s["type"] == 58][:1]
@@ -206,38 +197,17 @@ def test_reader_rejects(tmp_path, build, kwargs, match):
     ids=["preprocess-wrong-acc-unit", "preprocess-wrong-force-unit"],
 )
 def test_preprocess_rejects_wrong_units(units, match):
-    rec = _good()
+    rec = good_record()
     rec = Record(rec.time, rec.fs, rec.variables, units)
     with pytest.raises(RecordError, match=match):
         preprocess(rec)
 
 
 # -- CLI --------------------------------------------------------------------------------------
-runner = CliRunner()
-
-
 @pytest.fixture(scope="module")
 def model_files(tmp_path_factory):
     """A tiny fitted NFIR saved, plus a newer-version copy and a tampered copy."""
     return make_model_files(tmp_path_factory.mktemp("models"))
-
-
-def make_model_files(d: Path) -> Path:
-    """Write good.npz (NFIR, 500 Hz, m/s -> N), newer.npz, tampered.npz and text.npz into d."""
-    from sloshrom.rom.estimators import NFIR
-
-    rng = np.random.default_rng(0)
-    u = np.convolve(rng.standard_normal(600), np.ones(8) / 8, mode="same") * 0.05
-    y = np.tanh(20 * np.roll(u, 2)) * 0.5
-    good = NFIR(delays=4, neurons=3, max_epochs=3).fit(u, y, fs=500.0).save(d / "good.npz")
-    with np.load(good, allow_pickle=False) as z:
-        files = dict(z.items())
-    meta = json.loads(str(files["metadata"]))
-    newer = {**files, "metadata": np.array(json.dumps({**meta, "format_version": 99}))}
-    np.savez(d / "newer.npz", **newer)
-    np.savez(d / "tampered.npz", **{**files, "W": files["W"][:, :-1]})
-    (d / "text.npz").write_text("not a model\n")
-    return d
 
 
 def _write_text(name: str, text: str) -> Callable[[Path], None]:
@@ -344,7 +314,7 @@ CLI_CASES = [
     ("map-reference-not-netcdf", _write_text("ref.nc", "hello"),
      ["map", "--rig", "--reference", "{tmp}/ref.nc", "--out", "{tmp}/m.nc"],
      r"ref\.nc: not a readable NetCDF map"),
-    ("map-reference-not-a-map", lambda tmp: write_record(_good(), tmp / "ref.nc"),
+    ("map-reference-not-a-map", lambda tmp: write_record(good_record(), tmp / "ref.nc"),
      ["map", "--rig", "--reference", "{tmp}/ref.nc", "--out", "{tmp}/m.nc"],
      r"ref\.nc: not a map file \(no 'phi_d' variable\)"),
 ]
@@ -391,7 +361,7 @@ ROM_CLI_CASES = [
                          ids=[c[0] for c in ROM_CLI_CASES])
 def test_rom_cli_rejects(tmp_path, model_files, argv, match):
     _rom_files(tmp_path)
-    _check_cli(tmp_path, model_files, None, argv, match)
+    check_cli(tmp_path, model_files, None, argv, match)
 
 
 def _beam_files(tmp: Path) -> None:
@@ -440,72 +410,22 @@ _BEAM_XFAIL: dict[str, str] = {}  # known gaps, each with its reason
 )
 def test_beam_cli_rejects(tmp_path, model_files, argv, match):
     _beam_files(tmp_path)
-    _check_cli(tmp_path, model_files, None, argv, match)
-
-
-def _snapshot(*roots: Path) -> dict[str, tuple[int, int, str]]:
-    """Every file under ``roots``: (size, mtime in ns, SHA-256) by path."""
-    import hashlib
-
-    out = {}
-    for root in roots:
-        for p in root.rglob("*"):
-            if p.is_file():
-                st = p.stat()
-                out[str(p)] = (st.st_size, st.st_mtime_ns,
-                               hashlib.sha256(p.read_bytes()).hexdigest())
-    return out
+    check_cli(tmp_path, model_files, None, argv, match)
 
 
 @pytest.mark.parametrize(("setup", "argv", "match"), [c[1:] for c in CLI_CASES],
                          ids=[c[0] for c in CLI_CASES])
 def test_cli_rejects(tmp_path, model_files, setup, argv, match):
-    _check_cli(tmp_path, model_files, setup, argv, match)
-
-
-def _check_cli(tmp_path, model_files, setup, argv, match):
-    """Run ``sloshrom ARGV`` and check the bad-input contract.
-
-    Exit code exactly 2, no exception but the clean exit, no traceback, exactly one
-    ``error:`` line matching ``match``, and no file created, removed or modified (names, sizes,
-    modification times and contents of every file under the test's directories).
-    """
-    if setup is not None:
-        setup(tmp_path)
-    before = _snapshot(tmp_path, model_files)
-    args = [a.format(tmp=tmp_path, models=model_files) for a in argv]
-    res = runner.invoke(app, args)
-    out = res.output
-    assert res.exit_code == 2, out
-    # a clean exit (typer.Exit -> SystemExit), not an exception escaping the command
-    assert res.exception is None or isinstance(res.exception, SystemExit), repr(res.exception)
-    assert "Traceback" not in out
-    errors = [ln for ln in out.splitlines() if ln.startswith("error:")]
-    assert len(errors) == 1, out
-    assert re.search(match, errors[0]), errors[0]
-    after = _snapshot(tmp_path, model_files)
-    new = sorted(set(after) - set(before))
-    assert not new, f"files left behind: {new}"
-    gone = sorted(set(before) - set(after))
-    assert not gone, f"files removed: {gone}"
-    changed = sorted(k for k in before if before[k] != after[k])
-    assert not changed, f"files modified: {changed}"
-
-
-def n_cases() -> int:
-    """Cases of this suite and of tests/test_hostile_cli.py (quoted in docs/interchange.md)."""
-    from test_hostile_cli import HOSTILE_CASES
-
-    return (len(READER_CASES) + 2 + len(CLI_CASES) + len(ROM_CLI_CASES) + len(BEAM_CLI_CASES)
-            + len(HOSTILE_CASES))
+    check_cli(tmp_path, model_files, setup, argv, match)
 
 
 def test_case_count():
-    """The docs quote this count; keep them in step (a missing page fails too)."""
-    n = n_cases()
+    """docs/interchange.md quotes this suite's case count; keep them in step."""
+    n = len(READER_CASES) + 2 + len(CLI_CASES) + len(ROM_CLI_CASES) + len(BEAM_CLI_CASES)
     doc = Path(__file__).resolve().parents[1] / "docs" / "interchange.md"
     assert doc.is_file(), f"{doc} is missing: it must quote the bad-input case count"
-    assert f"**{n} cases**" in doc.read_text(), f"docs/interchange.md must say '**{n} cases**'"
+    want = f"**{n} cases** in `tests/test_bad_input.py`"
+    assert want in doc.read_text(), f"docs/interchange.md must say '{want}'"
 
 
 def test_config_error_is_value_error():

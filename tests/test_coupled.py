@@ -1,10 +1,9 @@
 """Coupled sloshing-beam simulation: discretisation, backends, free and random responses."""
 
-import jax.numpy as jnp
-import numba as nb
 import numpy as np
 import pytest
 
+from helpers import LinearDamper, NumbaDamper, NumpyDamper
 from sloshrom.beam.analysis import instantaneous_damping, modal_filter
 from sloshrom.beam.coupled import (
     CoupledSimulator,
@@ -17,53 +16,6 @@ from sloshrom.beam.coupled import (
 from sloshrom.beam.structure import ModalModel
 from sloshrom.config import G, Tank
 from sloshrom.models import FrozenLiquid
-
-
-class LinearDamper:
-    """Stand-in sloshing model: a viscous damper df = -c v (a JaxModel, not a pytree)."""
-
-    jax_traceable = True
-    force_rule = "trapezoid"
-
-    def __init__(self, c: float, dt: float) -> None:
-        self.c, self.dt = c, dt
-
-    def init_state(self):
-        return jnp.zeros(0)
-
-    def step(self, state, velocity, acceleration):
-        return state, -self.c * velocity
-
-    def simulate(self, velocity, acceleration):
-        return -self.c * np.asarray(velocity)
-
-
-class NumpyDamper(LinearDamper):
-    """The same, declared not jax-traceable: the Python loop."""
-
-    jax_traceable = False
-
-
-@nb.njit
-def _damper_kernel_step(state, params, velocity, acceleration):
-    state[0] += 1.0  # counts steps: the state is advanced in place
-    return -params[0] * velocity
-
-
-class NumbaDamper:
-    """Stand-in with the rig's kernel() contract (numba step function advancing state)."""
-
-    def __init__(self, c: float, dt: float) -> None:
-        self.c, self.dt = c, dt
-
-    def init_state(self):
-        return np.zeros(1)
-
-    def step(self, state, velocity, acceleration):
-        return state + 1.0, -self.c * velocity
-
-    def kernel(self):
-        return _damper_kernel_step, np.array([self.c]), self.init_state()
 
 
 @pytest.fixture(scope="module")

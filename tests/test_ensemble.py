@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from helpers import model_parts, smooth_io, write_model_parts
 from sloshrom.cli import app
 from sloshrom.io import Record, write_record
 from sloshrom.models import Enveloped, JaxModel, SloshingModel
@@ -26,19 +27,11 @@ from sloshrom.rom.parallel import run_tasks
 FS = 500.0
 
 
-def _data(n=2000, seed=1):
-    rng = np.random.default_rng(seed)
-    u = np.convolve(rng.standard_normal(n), np.ones(8) / 8, mode="same") * 0.3
-    u[:10] = 0.0
-    y = 40.0 * np.tanh(5 * np.concatenate([[0.0, 0.0], u[:-2]]))
-    return u, y
-
-
 @pytest.fixture(scope="module")
 def fitted():
-    u, y = _data()
+    u, y = smooth_io()
     template = NFIR(delays=3, neurons=4, max_epochs=3, seed=7)
-    return Ensemble(template, n_members=3).fit(u, y, FS, validation=_data(600, 2),
+    return Ensemble(template, n_members=3).fit(u, y, FS, validation=smooth_io(600, 2),
                                                 scheduler="sequential")
 
 
@@ -58,10 +51,10 @@ def test_fit_returns_self_members_differ_by_seed(fitted):
 
 
 def test_threads_give_the_same_members_as_sequential(fitted):
-    u, y = _data()
+    u, y = smooth_io()
     ens = Ensemble(NFIR(delays=3, neurons=4, max_epochs=3), n_members=2, seeds=[8, 7])
     seen = []
-    out = ens.fit(u, y, FS, validation=_data(600, 2), scheduler="threads", n_workers=2,
+    out = ens.fit(u, y, FS, validation=smooth_io(600, 2), scheduler="threads", n_workers=2,
                   progress=lambda k, m: seen.append((k, m.seed)))
     assert out is ens and sorted(seen) == [(0, 8), (1, 7)]
     for k, s in enumerate([8, 7]):
@@ -70,7 +63,7 @@ def test_threads_give_the_same_members_as_sequential(fitted):
 
 
 def test_predict_is_the_mean_of_the_members(fitted):
-    u = _data(400, 3)[0]
+    u = smooth_io(400, 3)[0]
     each = fitted.member_predictions(u)
     assert each.shape == (3, 400)
     for k, m in enumerate(fitted.members_):
@@ -83,7 +76,7 @@ def test_predict_is_the_mean_of_the_members(fitted):
 
 
 def test_step_reproduces_predict_and_is_the_mean_of_member_steps(fitted):
-    u = _data(300, 4)[0]
+    u = smooth_io(300, 4)[0]
     with jax.enable_x64(True):
         state = fitted.init_state()
         assert isinstance(state, tuple) and len(state) == 3
@@ -109,7 +102,7 @@ def test_pytree_members_are_children(fitted):
     assert len(leaves) == 3 * 8  # W, b, c, c0 and four scaler bounds per member
     back = jax.tree_util.tree_unflatten(treedef, leaves)
     assert type(back) is Ensemble and back.seeds_ == fitted.seeds_ and back.fs_ == FS
-    u = _data(100, 5)[0]
+    u = smooth_io(100, 5)[0]
     np.testing.assert_array_equal(back.predict(u), fitted.predict(u))
 
 
@@ -137,7 +130,7 @@ def test_envelope_warning_once_for_the_union(fitted):
 def test_one_member_ensemble_equals_the_member(fitted):
     m = fitted.members_[0]
     one = Ensemble.from_members([m])
-    u = 0.5 * _data(300, 6)[0]
+    u = 0.5 * smooth_io(300, 6)[0]
     np.testing.assert_array_equal(one.predict(u), m.predict(u))
     with jax.enable_x64(True):
         s, f = one.step(one.init_state(), 0.2, 0.0)
@@ -154,7 +147,7 @@ def test_save_load_round_trip_bit_identical(fitted, tmp_path):
     assert back.template.get_params() == fitted.template.get_params()
     assert back.envelope_ == fitted.envelope_
     assert json.dumps(back.history_) == json.dumps(fitted.history_)  # NaN != NaN
-    u = _data(500, 7)[0]
+    u = smooth_io(500, 7)[0]
     np.testing.assert_array_equal(back.predict(u), fitted.predict(u))
     np.testing.assert_array_equal(back.member_predictions(u), fitted.member_predictions(u))
     with np.load(p, allow_pickle=False) as z:
@@ -162,19 +155,6 @@ def test_save_load_round_trip_bit_identical(fitted, tmp_path):
         assert z["W"].shape == (3, 4, 3) and z["c0"].shape == (3,)
     assert meta["class"] == "Ensemble" and meta["format_version"] == 2
     assert meta["n_members"] == 3 and [m["seed"] for m in meta["members"]] == [7, 8, 9]
-
-
-def _parts(path):
-    with np.load(path, allow_pickle=False) as z:
-        files = dict(z.items())
-    return json.loads(str(files.pop("metadata"))), files
-
-
-def _write(path, meta, arrays, recompute=True):
-    if recompute:
-        meta["checksum"] = modelfile.checksum(meta, arrays)
-    np.savez(path, metadata=np.array(json.dumps(meta)), **arrays)
-    return path
 
 
 def _edit(key, value):
@@ -203,18 +183,18 @@ def _edit(key, value):
     (lambda m, a: m["members"].append(m["members"][0]), r"'members'"),
 ])
 def test_hostile_ensemble_file_is_rejected_naming_the_problem(fitted, tmp_path, edit, match):
-    meta, arrays = _parts(fitted.save(tmp_path / "ens.npz"))
+    meta, arrays = model_parts(fitted.save(tmp_path / "ens.npz"))
     arrays = {k: np.array(v) for k, v in arrays.items()}
     edit(meta, arrays)
-    p = _write(tmp_path / "bad.npz", meta, arrays)
+    p = write_model_parts(tmp_path / "bad.npz", meta, arrays)
     with pytest.raises(ModelFileError, match=match):
         rom.load_model(p)
 
 
 def test_corrupt_ensemble_file_fails_the_checksum(fitted, tmp_path):
-    meta, arrays = _parts(fitted.save(tmp_path / "ens.npz"))
+    meta, arrays = model_parts(fitted.save(tmp_path / "ens.npz"))
     arrays["W"] = arrays["W"] + 1e-12
-    p = _write(tmp_path / "bad.npz", meta, arrays, recompute=False)
+    p = write_model_parts(tmp_path / "bad.npz", meta, arrays, recompute=False)
     with pytest.raises(ModelFileError, match="checksum mismatch"):
         rom.load_model(p)
     p.write_bytes(p.read_bytes()[:-200])
@@ -224,16 +204,16 @@ def test_corrupt_ensemble_file_fails_the_checksum(fitted, tmp_path):
 
 def test_single_model_files_stay_version_1_and_cannot_claim_2(fitted, tmp_path):
     p = fitted.members_[0].save(tmp_path / "one.npz")
-    meta, arrays = _parts(p)
+    meta, arrays = model_parts(p)
     assert meta["format_version"] == modelfile.FORMAT_VERSION == 1
     assert type(rom.load_model(p)) is NFIR
     meta["format_version"] = 2
     with pytest.raises(ModelFileError, match="a single NFIR model file has format version 1"):
-        rom.load_model(_write(tmp_path / "two.npz", meta, arrays))
+        rom.load_model(write_model_parts(tmp_path / "two.npz", meta, arrays))
 
 
 def test_bad_ensemble_arguments():
-    u, y = _data(300)
+    u, y = smooth_io(300)
     t = NFIR(delays=3, neurons=4, max_epochs=1)
     for ens, match in [
         (Ensemble(t, n_members=0), "n_members must be an integer in 1..64"),
@@ -294,7 +274,7 @@ def test_cli_max_members_matches_the_format():
 def test_cli_train_ensemble_writes_a_loadable_ensemble(tmp_path):
     paths = []
     for name, seed, n in (("train", 1, 2000), ("validation", 2, 600)):
-        u, y = _data(n, seed)
+        u, y = smooth_io(n, seed)
         rec = Record(np.arange(n) / FS, FS, {"velocity": u, "dynamic_force": y},
                      {"velocity": "m/s", "dynamic_force": "N"}, {})
         paths.append(write_record(rec, tmp_path / f"{name}.nc"))
@@ -324,8 +304,8 @@ def test_cli_train_ensemble_writes_a_loadable_ensemble(tmp_path):
 
 @pytest.mark.slow
 def test_fit_through_a_dask_local_cluster(fitted):
-    u, y = _data()
+    u, y = smooth_io()
     ens = Ensemble(NFIR(delays=3, neurons=4, max_epochs=3, seed=7), n_members=2)
-    ens.fit(u, y, FS, validation=_data(600, 2), n_workers=2)  # a new LocalCluster
+    ens.fit(u, y, FS, validation=smooth_io(600, 2), n_workers=2)  # a new LocalCluster
     for a, b in zip(ens.members_, fitted.members_, strict=False):
         np.testing.assert_array_equal(a.params_["W"], b.params_["W"])

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from helpers import model_parts, smooth_io, write_model_parts
 from sloshrom.beam.coupled import free_response
 from sloshrom.beam.structure import ModalModel
 from sloshrom.cli import app
@@ -31,14 +32,14 @@ from sloshrom.rom.family import (
     write_family,
 )
 from sloshrom.signals import harmonic
-from test_ensemble import FS, _data
-from test_model_files import _parts, _write
+
+FS = 500.0
 
 
 def _fit(fill, seed=0, scale=1.0):
-    u, y = _data()
+    u, y = smooth_io()
     return NFIR(delays=3, neurons=4, max_epochs=3, seed=seed).fit(
-        u, scale * y, FS, validation=_data(600, 2), fill=fill)
+        u, scale * y, FS, validation=smooth_io(600, 2), fill=fill)
 
 
 @pytest.fixture(scope="module")
@@ -60,7 +61,7 @@ def test_fit_records_the_fill_and_the_file_keeps_it(tmp_path, members):
     with pytest.raises(FillRangeError, match=r"identified at fill 50.0%; fill 37.5% is outside"):
         check_fill(back, 0.375, "m.npz")
     # a model that does not say its fill (older files, fit without fill=) is not refused
-    u, y = _data()
+    u, y = smooth_io()
     plain = NFIR(delays=3, neurons=4, max_epochs=2).fit(u, y, FS)
     assert training_fills(plain) is None
     check_fill(plain, 0.2)
@@ -75,15 +76,15 @@ def test_fit_records_the_fill_and_the_file_keeps_it(tmp_path, members):
 ])
 def test_model_file_rejects_a_bad_fill_range(tmp_path, members, edit, match):
     """A hostile edit (checksum recomputed, as anyone can) is caught by the schema."""
-    meta, arrays = _parts(members[0.5].save(tmp_path / "m.npz"))
+    meta, arrays = model_parts(members[0.5].save(tmp_path / "m.npz"))
     meta["envelope"].update(edit)
     meta["envelope"] = {k: v for k, v in meta["envelope"].items() if v is not None}
     with pytest.raises(ModelFileError, match=match):
-        load_model(_write(tmp_path / "bad.npz", meta, arrays))
+        load_model(write_model_parts(tmp_path / "bad.npz", meta, arrays))
 
 
 def test_ensemble_envelope_is_the_union_of_fills():
-    u, y = _data()
+    u, y = smooth_io()
     ens = Ensemble(NFIR(delays=3, neurons=4, max_epochs=2), n_members=2).fit(
         u, y, FS, scheduler="sequential", fill=0.4)
     assert training_fills(ens) == (0.4, 0.4)
@@ -104,7 +105,7 @@ def test_blend_weights_are_linear_in_fill_and_convex(family):
 
 
 def test_blend_predicts_the_weighted_forces_and_steps_agree(family, members):
-    u, _ = _data(800, 5)
+    u, _ = smooth_io(800, 5)
     blend = family.at(0.375)
     assert isinstance(blend, SloshingModel) and isinstance(blend, JaxModel)
     expect = 0.5 * members[0.25].predict(u) + 0.5 * members[0.5].predict(u)
@@ -170,7 +171,7 @@ def test_manifest_round_trip_and_errors(tmp_path, members):
     fam = load_model(man)
     assert isinstance(fam, FillFamily)
     np.testing.assert_array_equal(fam.fills_, [0.25, 0.5, 0.75])
-    u, _ = _data(300, 4)
+    u, _ = smooth_io(300, 4)
     np.testing.assert_array_equal(fam.at(0.4).simulate(u),
                                   FillFamily.from_members(members).at(0.4).simulate(u))
 
@@ -207,7 +208,7 @@ def _records(tmp_path, fills):
     paths = []
     for (name, seed, n), fill in zip((("train", 1, 2000), ("validation", 2, 600)), fills,
                                      strict=True):
-        u, y = _data(n, seed)
+        u, y = smooth_io(n, seed)
         attrs = {} if fill is None else {"fill": fill}
         rec = Record(np.arange(n) / FS, FS, {"velocity": u, "dynamic_force": y},
                      {"velocity": "m/s", "dynamic_force": "N"}, attrs)

@@ -1,7 +1,7 @@
 """Hostile CLI cases: every option of every command fed 0, -1, nan, inf, huge values, empty
 strings, directories, paths under a file, output = input, wrong units and wrong types.
 
-Same contract as tests/test_bad_input.py (its ``_check_cli``): exit code 2, exactly one
+Same contract as tests/test_bad_input.py (``helpers.check_cli``): exit code 2, exactly one
 ``error:`` line naming the option/file/key and the problem, no traceback, and no file created,
 removed or modified. Every case fails *before* any work (no rig run, no training, no beam
 simulation), so the whole suite runs in seconds. The count is quoted in docs/interchange.md.
@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from helpers import check_cli, good_record, make_model_files, runner
 from sloshrom.cli import app
 from sloshrom.io import Record, write_record
 from sloshrom.io.uff import write_uff58
-from test_bad_input import _check_cli, _good, make_model_files, runner
 
 
 @pytest.fixture(scope="module")
@@ -65,7 +65,7 @@ def _world(tmp: Path) -> None:
     (tmp / "t.toml").write_text("[tank]\nfill = 0.5\n")
     (tmp / "tank.nc").write_text("[tank]\nfill = 0.5\n")  # TOML content, record suffix
     (tmp / "raw.nc").write_text("not read: the output check comes first\n")
-    write_uff58(_good(), tmp / "good.uff")  # 100 Hz, acceleration + force
+    write_uff58(good_record(), tmp / "good.uff")  # 100 Hz, acceleration + force
     (tmp / "modal300.toml").write_text(
         "[modal]\nfrequencies = [300.0]\ndamping = [0.01]\nmodal_masses = [1.0]\n"
         "psi_tank = [1.0]\nparticipation = [1.0]\nstations = [0.5]\npsi_stations = [[1.0]]\n"
@@ -549,12 +549,19 @@ def test_hostile_cli_rejects(tmp_path, model_files, setup, argv, match):
         elif setup is not None:
             setup(tmp)
 
-    _check_cli(tmp_path, model_files, both, argv, match)
+    check_cli(tmp_path, model_files, both, argv, match)
 
 
 def test_case_ids_are_unique():
     ids = [c[0] for c in HOSTILE_CASES]
     assert len(ids) == len(set(ids))
+
+
+def test_case_count():
+    """docs/interchange.md quotes this suite's case count; keep them in step."""
+    want = f"**{len(HOSTILE_CASES)} cases** in `tests/test_hostile_cli.py`"
+    doc = Path(__file__).resolve().parents[1] / "docs" / "interchange.md"
+    assert want in doc.read_text(), f"docs/interchange.md must say '{want}'"
 
 
 # -- beyond single cases ---------------------------------------------------------------------------

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from helpers import model_parts, write_model_parts
 from sloshrom.rom import estimators as rom
 from sloshrom.rom import modelfile
 from sloshrom.rom.estimators import NFIR, NOE, MinMaxScaler, ModelFileError
@@ -49,26 +50,13 @@ def saved(tmp_path_factory):
             "NOE": _model(NOE, delays=2, neurons=3).save(d / "noe.npz")}
 
 
-def _parts(path):
-    with np.load(path, allow_pickle=False) as z:
-        files = dict(z.items())
-    return json.loads(str(files.pop("metadata"))), files
-
-
-def _write(path, meta, arrays, recompute=True):
-    if recompute:
-        meta["checksum"] = modelfile.checksum(meta, arrays)
-    np.savez(path, metadata=np.array(json.dumps(meta)), **arrays)
-    return path
-
-
 def _hostile(src, dst, edit_meta=None, edit_arrays=None):
-    meta, arrays = _parts(src)
+    meta, arrays = model_parts(src)
     if edit_meta is not None:
         edit_meta(meta)
     if edit_arrays is not None:
         edit_arrays(arrays)
-    return _write(dst, meta, arrays)
+    return write_model_parts(dst, meta, arrays)
 
 
 def _set(*path_and_value):
@@ -230,11 +218,11 @@ def test_the_message_format(tmp_path, saved):
     ("checksum", "md5:0", "checksum mismatch"),
 ])
 def test_identity_fields(tmp_path, saved, field, value, match):
-    meta, arrays = _parts(saved["NFIR"])
+    meta, arrays = model_parts(saved["NFIR"])
     meta[field] = value
     if field != "checksum":
         meta["checksum"] = modelfile.checksum(meta, arrays)
-    _write(tmp_path / "m.npz", meta, arrays, recompute=False)
+    write_model_parts(tmp_path / "m.npz", meta, arrays, recompute=False)
     with pytest.raises(ModelFileError, match=match):
         rom.load_model(tmp_path / "m.npz")
 
@@ -249,7 +237,7 @@ def test_identity_fields(tmp_path, saved, field, value, match):
     ("b", lambda a: a.pop("b"), r"parameter b tampered: .*got None"),
 ])
 def test_hostile_arrays_with_recomputed_checksum(tmp_path, saved, name, edit, match):
-    meta, arrays = _parts(saved["NFIR"])
+    meta, arrays = model_parts(saved["NFIR"])
     arrays = {k: np.array(v) for k, v in arrays.items()}
     edit(arrays)
     if all(k in arrays and arrays[k].dtype.kind == "f" for k in rom.PARAM_NAMES):
@@ -295,7 +283,7 @@ def test_npy_header_claiming_a_huge_array_is_rejected_before_allocation(tmp_path
 
 
 def test_deeply_nested_metadata_is_rejected_cleanly(tmp_path, saved):
-    meta, arrays = _parts(saved["NFIR"])
+    meta, arrays = model_parts(saved["NFIR"])
     meta["history"]["deep"] = 0
     meta["checksum"] = modelfile.checksum(meta, arrays)
     text = json.dumps(meta).replace('"deep": 0', '"deep": ' + "[" * 10_000 + "]" * 10_000)
@@ -319,16 +307,16 @@ def test_json_depth_scan_ignores_brackets_in_strings():
 
 def test_brackets_in_a_name_do_not_count_as_nesting(tmp_path, saved):
     # a legitimate string full of brackets still loads
-    meta, arrays = _parts(saved["NFIR"])
+    meta, arrays = model_parts(saved["NFIR"])
     meta["units"]["input"] = meta[HP]["units"][0] = "[" * 30
-    _write(tmp_path / "m.npz", meta, arrays)
+    write_model_parts(tmp_path / "m.npz", meta, arrays)
     assert rom.load_model(tmp_path / "m.npz").units[0] == "[" * 30
 
 
 def test_oversize_metadata_is_rejected(tmp_path, saved):
-    meta, arrays = _parts(saved["NFIR"])
+    meta, arrays = model_parts(saved["NFIR"])
     meta["history"]["stop_reason"] = "x" * modelfile.MAX_METADATA_CHARS
-    _write(tmp_path / "m.npz", meta, arrays)
+    write_model_parts(tmp_path / "m.npz", meta, arrays)
     with pytest.raises(ModelFileError, match=r"metadata of \d+ characters is more than 4194304"):
         rom.load_model(tmp_path / "m.npz")
 
@@ -342,7 +330,7 @@ def test_oversize_file_is_rejected_before_reading(tmp_path):
 
 
 def test_unknown_member_is_rejected(tmp_path, saved):
-    meta, arrays = _parts(saved["NFIR"])
+    meta, arrays = model_parts(saved["NFIR"])
     np.savez(tmp_path / "m.npz", metadata=np.array(json.dumps(meta)), extra=np.ones(3), **arrays)
     with pytest.raises(ModelFileError, match="unexpected member 'extra.npy'"):
         rom.load_model(tmp_path / "m.npz")
@@ -444,7 +432,7 @@ def _load_or_refuse(p, what: str):
 
 @pytest.mark.filterwarnings("ignore::sloshrom.rom.EnvelopeWarning")
 def test_fuzz_metadata_text_with_recomputed_checksum(tmp_path, saved):
-    meta, arrays = _parts(saved["NOE"])
+    meta, arrays = model_parts(saved["NOE"])
     text = json.dumps(meta)
     rng = np.random.default_rng(7)
     alphabet = list('0123456789.-+eE[]{}",:nultrfaNIy x')

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from helpers import LinearDamper, NumbaDamper, NumpyDamper
 from sloshrom.beam.coupled import (
     CoupledSimulator,
     StepMismatchError,
@@ -14,7 +15,6 @@ from sloshrom.beam.structure import ModalDataError, ModalModel, frozen_mass_matr
 from sloshrom.config import Tank
 from sloshrom.models import FrozenLiquid
 from sloshrom.rig.virtual import VirtualRig
-from test_coupled import LinearDamper, NumbaDamper, NumpyDamper
 
 #: mirror of the symmetric structure below: mode 2 is antisymmetric
 MIRROR = np.array([1.0, -1.0, 1.0])

@@ -1,0 +1,168 @@
+"""Helpers shared by several test modules (test modules never import each other).
+
+- ``check_cli``: the bad-input contract of a command (exit code 2, one ``error:`` line, nothing
+  written, removed or changed);
+- ``good_record``, ``make_model_files``: a small shaker record and tiny saved ROMs;
+- ``model_parts``/``write_model_parts``: a model file's JSON metadata and arrays, and a
+  re-signed file written from edited parts;
+- ``LinearDamper``, ``NumpyDamper``, ``NumbaDamper``: stand-in sloshing models for the three
+  backends of the coupled simulation;
+- ``smooth_io``: a smooth random input and a delayed tanh of it (a small identification case).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import jax.numpy as jnp
+import numba as nb
+import numpy as np
+from typer.testing import CliRunner
+
+from sloshrom.cli import app
+from sloshrom.io import Record
+from sloshrom.rom import modelfile
+
+FS_RECORD = 100.0
+N_RECORD = 200
+runner = CliRunner()
+
+
+def good_record() -> Record:
+    """2 s of 5 Hz acceleration and force at 100 Hz (m/s^2, N), fill 0.5."""
+    t = np.arange(N_RECORD) / FS_RECORD
+    return Record(t, FS_RECORD, {"acceleration": np.sin(2 * np.pi * 5 * t),
+                          "force": 0.1 * np.cos(2 * np.pi * 5 * t)},
+                  {"acceleration": "m/s^2", "force": "N"}, {"fill": 0.5})
+
+
+def make_model_files(d: Path) -> Path:
+    """Write good.npz (NFIR, 500 Hz, m/s -> N), newer.npz, tampered.npz and text.npz into d."""
+    from sloshrom.rom.estimators import NFIR
+
+    rng = np.random.default_rng(0)
+    u = np.convolve(rng.standard_normal(600), np.ones(8) / 8, mode="same") * 0.05
+    y = np.tanh(20 * np.roll(u, 2)) * 0.5
+    good = NFIR(delays=4, neurons=3, max_epochs=3).fit(u, y, fs=500.0).save(d / "good.npz")
+    with np.load(good, allow_pickle=False) as z:
+        files = dict(z.items())
+    meta = json.loads(str(files["metadata"]))
+    newer = {**files, "metadata": np.array(json.dumps({**meta, "format_version": 99}))}
+    np.savez(d / "newer.npz", **newer)
+    np.savez(d / "tampered.npz", **{**files, "W": files["W"][:, :-1]})
+    (d / "text.npz").write_text("not a model\n")
+    return d
+
+
+def snapshot(*roots: Path) -> dict[str, tuple[int, int, str]]:
+    """Every file under ``roots``: (size, mtime in ns, SHA-256) by path."""
+    import hashlib
+
+    out = {}
+    for root in roots:
+        for p in root.rglob("*"):
+            if p.is_file():
+                st = p.stat()
+                out[str(p)] = (st.st_size, st.st_mtime_ns,
+                               hashlib.sha256(p.read_bytes()).hexdigest())
+    return out
+
+
+def check_cli(tmp_path, model_files, setup, argv, match):
+    """Run ``sloshrom ARGV`` and check the bad-input contract.
+
+    Exit code exactly 2, no exception but the clean exit, no traceback, exactly one
+    ``error:`` line matching ``match``, and no file created, removed or modified (names, sizes,
+    modification times and contents of every file under the test's directories).
+    """
+    if setup is not None:
+        setup(tmp_path)
+    before = snapshot(tmp_path, model_files)
+    args = [a.format(tmp=tmp_path, models=model_files) for a in argv]
+    res = runner.invoke(app, args)
+    out = res.output
+    assert res.exit_code == 2, out
+    # a clean exit (typer.Exit -> SystemExit), not an exception escaping the command
+    assert res.exception is None or isinstance(res.exception, SystemExit), repr(res.exception)
+    assert "Traceback" not in out
+    errors = [ln for ln in out.splitlines() if ln.startswith("error:")]
+    assert len(errors) == 1, out
+    assert re.search(match, errors[0]), errors[0]
+    after = snapshot(tmp_path, model_files)
+    new = sorted(set(after) - set(before))
+    assert not new, f"files left behind: {new}"
+    gone = sorted(set(before) - set(after))
+    assert not gone, f"files removed: {gone}"
+    changed = sorted(k for k in before if before[k] != after[k])
+    assert not changed, f"files modified: {changed}"
+
+
+def model_parts(path):
+    with np.load(path, allow_pickle=False) as z:
+        files = dict(z.items())
+    return json.loads(str(files.pop("metadata"))), files
+
+
+def write_model_parts(path, meta, arrays, recompute=True):
+    if recompute:
+        meta["checksum"] = modelfile.checksum(meta, arrays)
+    np.savez(path, metadata=np.array(json.dumps(meta)), **arrays)
+    return path
+
+
+class LinearDamper:
+    """Stand-in sloshing model: a viscous damper df = -c v (a JaxModel, not a pytree)."""
+
+    jax_traceable = True
+    force_rule = "trapezoid"
+
+    def __init__(self, c: float, dt: float) -> None:
+        self.c, self.dt = c, dt
+
+    def init_state(self):
+        return jnp.zeros(0)
+
+    def step(self, state, velocity, acceleration):
+        return state, -self.c * velocity
+
+    def simulate(self, velocity, acceleration):
+        return -self.c * np.asarray(velocity)
+
+
+class NumpyDamper(LinearDamper):
+    """The same, declared not jax-traceable: the Python loop."""
+
+    jax_traceable = False
+
+
+@nb.njit
+def _damper_kernel_step(state, params, velocity, acceleration):
+    state[0] += 1.0  # counts steps: the state is advanced in place
+    return -params[0] * velocity
+
+
+class NumbaDamper:
+    """Stand-in with the rig's kernel() contract (numba step function advancing state)."""
+
+    def __init__(self, c: float, dt: float) -> None:
+        self.c, self.dt = c, dt
+
+    def init_state(self):
+        return np.zeros(1)
+
+    def step(self, state, velocity, acceleration):
+        return state + 1.0, -self.c * velocity
+
+    def kernel(self):
+        return _damper_kernel_step, np.array([self.c]), self.init_state()
+
+
+def smooth_io(n=2000, seed=1):
+    """Smooth random velocity (m/s) and a delayed saturating force (N) of it."""
+    rng = np.random.default_rng(seed)
+    u = np.convolve(rng.standard_normal(n), np.ones(8) / 8, mode="same") * 0.3
+    u[:10] = 0.0
+    y = 40.0 * np.tanh(5 * np.concatenate([[0.0, 0.0], u[:-2]]))
+    return u, y
