@@ -11,7 +11,8 @@ UV_VERSION := 0.13.9
 TOOLS      := .venv-tools
 LATEST     := .venv-latest
 
-.PHONY: reproduce test test-slow test-all test-latest lint bench beyond fidelity lock clean
+.PHONY: reproduce test test-other-isa test-slow test-all test-latest lint bench beyond fidelity \
+	lock clean
 
 $(STAMP): $(LOCK) pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -26,6 +27,12 @@ reproduce: $(STAMP)
 test: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks tools
 	$(BIN)/python -m pytest -m "not slow" -q
+
+# The tests against stored references, as if on another CPU: NumPy, glibc, XLA, OpenBLAS and numba
+# limited to an older instruction set (tools/other_isa.py checks that each one took notice).
+test-other-isa: $(STAMP)
+	$(BIN)/python tools/other_isa.py check
+	$(BIN)/python tools/other_isa.py run -- $(BIN)/python -m pytest -m "reference and not slow" -q
 
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -m slow -q

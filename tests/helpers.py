@@ -7,7 +7,9 @@
   re-signed file written from edited parts;
 - ``LinearDamper``, ``NumpyDamper``, ``NumbaDamper``: stand-in sloshing models for the three
   backends of the coupled simulation;
-- ``smooth_io``: a smooth random input and a delayed tanh of it (a small identification case).
+- ``smooth_io``: a smooth random input and a delayed tanh of it (a small identification case);
+- ``relative_change``, ``perturbation_tolerance``: compare with a stored reference written on
+  another CPU, within the change that a relative 1e-13 perturbation of the input makes.
 """
 
 from __future__ import annotations
@@ -166,3 +168,29 @@ def smooth_io(n=2000, seed=1):
     u[:10] = 0.0
     y = 40.0 * np.tanh(5 * np.concatenate([[0.0, 0.0], u[:-2]]))
     return u, y
+
+
+#: smallest tolerance against a stored reference: 8 roundings of a float64, relative
+FLOOR = 8 * 2.0**-53
+
+
+def relative_change(a, b) -> float:
+    """``max|a - b| / max|b|`` over the entries where both are finite."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    scale = max(float(np.nanmax(np.abs(b))), np.finfo(float).tiny)
+    d = np.abs(a - b)
+    d = d[np.isfinite(d)]
+    return float(d.max()) / scale if d.size else 0.0
+
+
+def perturbation_tolerance(fn, x, eps: float = 1e-13, draws: int = 3, seed: int = 0) -> float:
+    """Largest relative change of ``fn(x)`` when ``x`` moves by a relative ``eps`` per sample.
+
+    A tolerance for comparing ``fn(x)`` with a value stored on another CPU: ``eps`` = 1e-13 is
+    above the relative differences that other instruction sets make in our inputs (8e-14).
+    """
+    rng = np.random.default_rng(seed)
+    x = np.asarray(x, dtype=float)
+    base = fn(x)
+    moved = (fn(x * (1.0 + eps * rng.uniform(-1.0, 1.0, x.shape))) for _ in range(draws))
+    return max(FLOOR, *(relative_change(m, base) for m in moved))

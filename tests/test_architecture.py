@@ -3,7 +3,7 @@
 Every module under ``src/sloshrom`` is parsed (nothing is imported) and put in a *room*:
 
 ========== =======================================================================
-base       ``sloshrom`` (root), ``config``, ``fileio``, ``models``, ``signals``, ``_x64``
+base       ``sloshrom`` (root), ``config``, ``fileio``, ``models``, ``signals``, ``_x64``, ``_jit``
 domain     ``io``, ``rig``, ``rom``, ``energy``, ``beam`` (each one room)
 plotting   ``plotting``: figures only
 pipeline   ``pipeline``: the reproduce chain
@@ -25,7 +25,7 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src"
 PACKAGE = "sloshrom"
 
-BASE = {"_x64", "config", "fileio", "models", "signals"}
+BASE = {"_jit", "_x64", "config", "fileio", "models", "signals"}
 DOMAIN = ("io", "rig", "rom", "energy", "beam")
 
 #: The rooms each room may import (its own room is always allowed). Domain rooms see the base

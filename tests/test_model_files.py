@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from helpers import model_parts, write_model_parts
+from helpers import model_parts, perturbation_tolerance, relative_change, write_model_parts
 from sloshrom.rom import estimators as rom
 from sloshrom.rom import modelfile
 from sloshrom.rom.estimators import NFIR, NOE, MinMaxScaler, ModelFileError
@@ -357,6 +357,7 @@ def test_valid_files_load_and_predict_identically(tmp_path, cls, kw):
     assert json.dumps(m2.history_) == json.dumps(m.history_)  # NaN and null kept as saved
 
 
+@pytest.mark.reference
 def test_files_written_before_the_schema_still_load():
     # written by the previous save (format version 1, trained: history with NaN entries)
     exp = np.load(DATA / "model_v1_expected.npz", allow_pickle=False)
@@ -365,7 +366,9 @@ def test_files_written_before_the_schema_still_load():
         assert type(m) is cls
         assert any(isinstance(v, float) and math.isnan(v) for v in m.history_["mu"]
                    + m.history_["val_mse"])
-        np.testing.assert_array_equal(m.predict(exp["u"]), exp[name])
+        # written on another CPU: equal within the change a 1e-13 input perturbation makes
+        got = m.predict(exp["u"])
+        assert relative_change(got, exp[name]) <= perturbation_tolerance(m.predict, exp["u"])
 
 
 # -- save refuses what load would refuse ---------------------------------------------------------

@@ -1,4 +1,9 @@
-"""End to end: `sloshrom reproduce --quick`, interrupted mid-way and restarted."""
+"""End to end: `sloshrom reproduce`, interrupted mid-way and restarted, then rerun.
+
+The fast tier runs a tiny configuration (networks of a few parameters, a 3 x 3 map, one RMS
+level) through every stage, the sweep included; the slow tier runs `--quick`, whose ROM is good
+enough to hold a map-error bound.
+"""
 
 import json
 
@@ -21,9 +26,34 @@ class Interrupt(Exception):
     pass
 
 
-def test_reproduce_quick_interrupted_then_resumed(tmp_path):
-    out = tmp_path / "results"
-    cfg = settings.load(quick=True)
+#: every stage at the smallest sizes the configuration allows (random tests: one Welch segment)
+TINY = """
+[data]
+train_duration = 20.0
+validation_duration = 12.0
+design = "shaker"
+[rom]
+delays = 6
+neurons = 3
+max_epochs = 3
+ensemble = 1
+sweep_nfir_delays = [4, 6]
+sweep_nfir_neurons = [2]
+sweep_noe_delays = [2]
+sweep_noe_neurons = [2]
+sweep_workers = 1
+[map]
+n_omega = 3
+n_a = 3
+[beam]
+free_duration = 3.0
+random_duration = 34.0
+rms_g = [0.2]
+"""
+
+
+def _interrupted_then_resumed(out, cfg, argv):
+    """Run until the maps stage starts, then ``sloshrom reproduce ARGV``; the summary."""
 
     def stop_at_maps(stage, done, total, text):
         if stage == "maps":
@@ -33,17 +63,19 @@ def test_reproduce_quick_interrupted_then_resumed(tmp_path):
         run(out, cfg, progress=stop_at_maps)
     assert (out / "models" / "nfir.npz").is_file()
     assert not (out / "report.html").exists()
-
-    res = CliRunner().invoke(app, ["reproduce", "--out", str(out), "--quick"])
+    res = CliRunner().invoke(app, ["reproduce", *argv, "--out", str(out)])
     assert res.exit_code == 0, res.output
-    s = json.loads((out / "summary.json").read_text())
+    return json.loads((out / "summary.json").read_text())
+
+
+def _check_resumed(out, s, html, cfg, map_error_max):
+    """The resumed run: stages reused or redone, files, figures and headline figures."""
     st = s["stages"]
     # finished stages are not redone, the interrupted one and those after it are
     assert st["data"]["reused"] and st["rom"]["reused"]
     assert not st["maps"]["reused"] and not st["beam"]["reused"]
     assert set(s) == {"sloshrom_version", "config", "stages", "timings_s"}
 
-    html = (out / "report.html").read_text()
     assert html.count("data:image/png;base64,") >= len(FIGURES) + 3  # + the three maps
     for name in FIGURES:
         assert (out / "figures" / f"{name}.png").stat().st_size > 10_000, name
@@ -58,8 +90,7 @@ def test_reproduce_quick_interrupted_then_resumed(tmp_path):
     assert 1.0 < m["rig_maximum"]["gamma"] <= 6.0 + 1e-9  # dissipation only above 1 g
     assert 0 < m["rig_maximum"]["phi_d"] < 10
     # the summary's map error, recomputed here from the written maps (dissipative region:
-    # rig Phi_d > 10 % of its maximum); the quick ROM (NFIR(40, 15), 120 s of data) measured
-    # 14.7 %: 35 % still fails a broken chain (a zero ROM gives 100 %, a sign error > 100 %)
+    # rig Phi_d > 10 % of its maximum)
     import xarray as xr
 
     with xr.open_dataset(out / "maps" / "phi_d_rig.nc", engine="h5netcdf") as ds:
@@ -71,7 +102,7 @@ def test_reproduce_quick_interrupted_then_resumed(tmp_path):
     sel &= np.where(sel, rig_map, -np.inf) > 0.1 * np.nanmax(rig_map)
     err = np.linalg.norm(rom_map[sel] - rig_map[sel]) / np.linalg.norm(rig_map[sel])
     assert m["rom_relative_l2_error"] == pytest.approx(err, rel=1e-12)
-    assert m["rom_relative_l2_error"] < 0.35
+    assert m["rom_relative_l2_error"] < map_error_max
     # the whole picture: full map, dissipative region (the figure above), passivity
     fid = m["rom_fidelity"]
     assert fid["dissipative_l2"] == m["rom_relative_l2_error"]
@@ -115,6 +146,54 @@ def test_reproduce_quick_interrupted_then_resumed(tmp_path):
         assert attrs["sloshrom_version"] == __version__, f
         assert "seed" in attrs or "model_seed" in attrs, f
 
+
+
+@pytest.fixture(scope="module")
+def tiny_runs(tmp_path_factory):
+    """The tiny configuration: interrupted, resumed with the sweep, then rerun without it."""
+    d = tmp_path_factory.mktemp("tiny")
+    (d / "tiny.toml").write_text(TINY)
+    cfg = settings.load(d / "tiny.toml")
+    out = d / "results"
+    resumed = _interrupted_then_resumed(out, cfg, ["--config", str(d / "tiny.toml"), "--sweep"])
+    html = (out / "report.html").read_text()
+    res = CliRunner().invoke(app, ["reproduce", "--config", str(d / "tiny.toml"), "--out",
+                                   str(out)])
+    assert res.exit_code == 0, res.output
+    rerun = json.loads((out / "summary.json").read_text())
+    return out, cfg, resumed, html, rerun
+
+
+def test_tiny_reproduce_interrupted_then_resumed(tiny_runs):
+    out, cfg, resumed, html, _ = tiny_runs
+    # a zero ROM gives 100 %, a sign error more: a tiny network still does better
+    _check_resumed(out, resumed, html, cfg, map_error_max=1.0)
+    assert "Fig. 8" in html and "Sensitivity analysis over 3 networks" in html
+
+
+def test_tiny_sweep_writes_fig8_and_its_own_stage(tiny_runs):
+    out, _, resumed, _, rerun = tiny_runs
+    sw = resumed["stages"]["sweep"]
+    assert {(r[0], r[1], r[2]) for r in sw["sweep_rows"]} == {("NFIR", 4, 2), ("NFIR", 6, 2),
+                                                             ("NOE", 2, 2)}
+    table = json.loads((out / "sweep" / "sweep.json").read_text())
+    assert sorted(t["name"] for t in table) == ["nfir_d4_n2", "nfir_d6_n2", "noe_d2_n2"]
+    assert (out / "figures" / "fig08_sensitivity.png").stat().st_size > 10_000
+    # the sweep is its own stage: adding it did not retrain the ROM, and the rerun without it
+    # reuses every stage and says that the sweep was not run
+    assert resumed["stages"]["rom"]["reused"]
+    assert "sweep" not in rerun["stages"] and all(v["reused"] for v in rerun["stages"].values())
+    assert "The sensitivity sweep was not run" in (out / "report.html").read_text()
+
+
+@pytest.mark.slow
+def test_reproduce_quick_interrupted_then_resumed(tmp_path):
+    out = tmp_path / "results"
+    cfg = settings.load(quick=True)
+    s = _interrupted_then_resumed(out, cfg, ["--quick"])
+    # the quick ROM (NFIR(40, 15), 120 s of data) measured 14.7 %: 35 % still fails a broken
+    # chain (a zero ROM gives 100 %, a sign error > 100 %)
+    _check_resumed(out, s, (out / "report.html").read_text(), cfg, map_error_max=0.35)
     # a third run reuses everything
     res = CliRunner().invoke(app, ["reproduce", "--out", str(out), "--quick"])
     assert res.exit_code == 0, res.output

@@ -35,8 +35,10 @@ random_duration = 70.0
 """
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore::UserWarning")
 def test_reproduce_sweep_writes_fig8_and_is_cached(tmp_path):
+    """Sweep first, then without it (the fast tier: tests/test_pipeline.py, the other order)."""
     cfg_file = tmp_path / "tiny.toml"
     cfg_file.write_text(TINY)
     out = tmp_path / "res"

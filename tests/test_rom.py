@@ -233,7 +233,7 @@ def test_get_params_complete_and_set_params(cls):
 
 def test_constructor_stores_validation_in_fit():
     u = _sig(500, 0)
-    m = NFIR(delays=0, neurons=3)  # stored as given, no check yet
+    m = NFIR(delays=0, neurons=3, max_epochs=2)  # stored as given, no check yet
     assert m.delays == 0
     with pytest.raises(rom.ROMError, match="delays"):
         m.fit(u, u**2, fs=500.0)

@@ -48,11 +48,11 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
-import numba as nb
 import numpy as np
 from scipy.linalg import eigh, expm
 from scipy.signal import resample_poly
 
+from sloshrom._jit import njit
 from sloshrom._x64 import float64
 from sloshrom.beam.envelope import envelope_coverage
 from sloshrom.beam.structure import (
@@ -268,7 +268,7 @@ def _jax_argument(model: JaxModel) -> Any:
     return model
 
 
-@nb.njit(cache=True)
+@njit
 def _numba_loop(step_fn, mstate, mparams, active, Phi, Gam, A2, B2, psi, a_s, z0, dt, m_total):
     # mstate, mparams: one row per active tank (same kernel); active: their tank indices
     nt = a_s.size

@@ -43,6 +43,7 @@ import math
 import numba as nb
 import numpy as np
 
+from sloshrom._jit import njit
 from sloshrom.config import ConfigError, G, Tank
 from sloshrom.rig.params import RigParams
 
@@ -163,7 +164,7 @@ def _state_size(n_layers: int, n_modes: int) -> int:
 # --------------------------------------------------------------------------------------------
 
 
-@nb.njit(cache=True, inline="always")
+@njit(inline="always")
 def _wall_contact(z, u, alpha, tau, K, C):
     """Layer in contact with a wall at z = 0 (penetration z < 0), unit mass, over at most tau.
 
@@ -222,7 +223,7 @@ def _wall_contact(z, u, alpha, tau, K, C):
     return z1, u1, t, loss
 
 
-@nb.njit(cache=True, inline="always")
+@njit(inline="always")
 def _flight_time(z, u, alpha, tau, gap):
     """Time of first arrival at z = 0 (moving down) or z = gap (moving up) within tau, or -1."""
     t_hit = -1.0
@@ -248,7 +249,7 @@ def _flight_time(z, u, alpha, tau, gap):
     return t_hit
 
 
-@nb.njit(cache=True, inline="always")
+@njit(inline="always")
 def _advance_layer(z, u, alpha, dt, gap, K, C):
     """Advance a released layer by dt; returns (z, u, contact_loss) per unit mass."""
     rem = dt
@@ -284,7 +285,7 @@ def _advance_layer(z, u, alpha, dt, gap, K, C):
     return z, u, loss
 
 
-@nb.njit(cache=True)
+@njit
 def rig_step(state, params, velocity, acceleration, dt):
     """Advance the rig ``state`` in place by one step ``dt`` (s); return the dynamic force (N).
 
@@ -425,7 +426,7 @@ def rig_step(state, params, velocity, acceleration, dt):
     return force
 
 
-@nb.njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _simulate_batch(states0, params, velocity, acceleration, dt):
     n_runs, n = velocity.shape
     out = np.empty((n_runs, n))
@@ -436,7 +437,7 @@ def _simulate_batch(states0, params, velocity, acceleration, dt):
     return out
 
 
-@nb.njit(cache=True)
+@njit
 def _simulate_audit(state, params, velocity, acceleration, dt):
     """Single run returning the force and the loss accumulators after each step."""
     n = velocity.shape[0]
@@ -451,7 +452,7 @@ def _simulate_audit(state, params, velocity, acceleration, dt):
     return out, acc
 
 
-@nb.njit(cache=True)
+@njit
 def rig_kernel_step(state, params, velocity, acceleration):
     """:func:`rig_step` with the step ``dt`` read from the parameter array (kernel contract)."""
     return rig_step(state, params, velocity, acceleration, params[_P_DT])

@@ -78,13 +78,13 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, ClassVar, Literal
 
-import numba as nb
 import numpy as np
 import tomli_w
 from scipy.fft import rfft
 from scipy.optimize import differential_evolution
 
 from sloshrom import __version__
+from sloshrom._jit import njit
 from sloshrom.config import ConfigError, G, Tank
 from sloshrom.fileio import atomic_write_text
 from sloshrom.rom.errors import NotFittedError, ROMError
@@ -144,7 +144,7 @@ _MAX_EVENTS = 100_000
 # --------------------------------------------------------------------------------------------
 
 
-@nb.njit(cache=True)
+@njit
 def _first_exit(h: float, b: float, c: float, tau: float) -> float:
     """First ``t`` in ``[0, tau]`` at which ``p(t) = h t^2 + b t + c`` (``c >= 0``) turns negative.
 
@@ -178,7 +178,7 @@ def _first_exit(h: float, b: float, c: float, tau: float) -> float:
     return best
 
 
-@nb.njit(cache=True)
+@njit
 def ball_kernel_step(state: np.ndarray, params: np.ndarray, velocity: float,
                      acceleration: float) -> float:
     """Advance the ball by one step ``dt`` in place; return the step-average dynamic force, N.
@@ -270,14 +270,14 @@ def ball_kernel_step(state: np.ndarray, params: np.ndarray, velocity: float,
     return -m * (v - v0) / dt
 
 
-@nb.njit(cache=True, inline="always")
+@njit(inline="always")
 def _rest(state: np.ndarray) -> None:
     for i in range(state.size):
         state[i] = 0.0
     state[_S_CONTACT] = _FLOOR
 
 
-@nb.njit(cache=True)
+@njit
 def _simulate_rows(params: np.ndarray, acc: np.ndarray) -> np.ndarray:
     """Dynamic force (N) of independent runs from rest: ``acc`` of shape (runs, n)."""
     out = np.empty_like(acc)
@@ -289,7 +289,7 @@ def _simulate_rows(params: np.ndarray, acc: np.ndarray) -> np.ndarray:
     return out
 
 
-@nb.njit(cache=True)
+@njit
 def _mse_rows(param_rows: np.ndarray, acc: np.ndarray, target: np.ndarray) -> np.ndarray:
     """Mean squared error (N^2) of the force of each parameter row against ``target``."""
     n = target.size
