@@ -8,6 +8,8 @@
 - ``LinearDamper``, ``NumpyDamper``, ``NumbaDamper``: stand-in sloshing models for the three
   backends of the coupled simulation;
 - ``smooth_io``: a smooth random input and a delayed tanh of it (a small identification case);
+- ``TINY_REPRODUCE``, ``reproduce_interrupted_then_resumed``: `sloshrom reproduce` end to end
+  at the smallest sizes, stopped before its maps and resumed;
 - ``relative_change``, ``perturbation_tolerance``: compare with a stored reference written on
   another CPU, within the change that a relative 1e-13 perturbation of the input makes.
 """
@@ -21,6 +23,7 @@ from pathlib import Path
 import jax.numpy as jnp
 import numba as nb
 import numpy as np
+import pytest
 from typer.testing import CliRunner
 
 from sloshrom.cli import app
@@ -194,3 +197,52 @@ def perturbation_tolerance(fn, x, eps: float = 1e-13, draws: int = 3, seed: int 
     base = fn(x)
     moved = (fn(x * (1.0 + eps * rng.uniform(-1.0, 1.0, x.shape))) for _ in range(draws))
     return max(FLOOR, *(relative_change(m, base) for m in moved))
+
+
+class Interrupt(Exception):
+    """Raised by a progress callback to stop a reproduce run."""
+
+
+#: every stage of `reproduce` at the smallest sizes its configuration allows (random tests: one
+#: Welch segment), with a sweep of three networks
+TINY_REPRODUCE = """
+[data]
+train_duration = 20.0
+validation_duration = 12.0
+design = "shaker"
+[rom]
+delays = 6
+neurons = 3
+max_epochs = 3
+ensemble = 1
+sweep_nfir_delays = [4, 6]
+sweep_nfir_neurons = [2]
+sweep_noe_delays = [2]
+sweep_noe_neurons = [2]
+sweep_workers = 1
+[map]
+n_omega = 3
+n_a = 3
+[beam]
+free_duration = 3.0
+random_duration = 34.0
+rms_g = [0.2]
+"""
+
+
+def reproduce_interrupted_then_resumed(out, cfg, argv):
+    """Run until the maps stage starts, then ``sloshrom reproduce ARGV``; the summary."""
+
+    def stop_at_maps(stage, done, total, text):
+        if stage == "maps":
+            raise Interrupt
+
+    from sloshrom.pipeline import run
+
+    with pytest.raises(Interrupt):
+        run(out, cfg, progress=stop_at_maps)
+    assert (out / "models" / "nfir.npz").is_file()
+    assert not (out / "report.html").exists()
+    res = CliRunner().invoke(app, ["reproduce", *argv, "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    return json.loads((out / "summary.json").read_text())

@@ -11,7 +11,6 @@ import pytest
 from typer.testing import CliRunner
 
 from sloshrom.beam.coupled import CoupledSimulator
-from sloshrom.beam.structure import ModalModel
 from sloshrom.cli import app
 from sloshrom.energy import default_grid, phi_d_map
 from sloshrom.io import Record, write_record
@@ -55,8 +54,8 @@ def _force(a: np.ndarray) -> np.ndarray:
 
 
 @pytest.fixture(scope="module")
-def modal():
-    return ModalModel.from_beam()
+def modal(builtin_modal):
+    return builtin_modal
 
 
 def test_step_fed_the_previous_acceleration_reproduces_predict():

@@ -4,6 +4,7 @@ at an unseen fill, run in the beam, reported; the numbers are physical, not accu
 from __future__ import annotations
 
 import json
+import shutil
 
 import numpy as np
 import pytest
@@ -15,21 +16,26 @@ from sloshrom.rom.estimators import load_model
 from sloshrom.rom.family import FillFamily, training_fills
 
 
-def tiny_config() -> dict:
-    cfg = settings.load(quick=True)
-    cfg["data"].update(train_duration=20.0, validation_duration=12.0)
-    cfg["rom"].update(delays=6, neurons=4, max_epochs=2, ensemble=1)
-    cfg["map"].update(n_omega=3, n_a=3)
-    cfg["beam"].update(free_duration=3.0, random_duration=34.0, rms_g=[0.3])
+def tiny_config(config) -> dict:
+    """The session's tiny configuration with the studies beyond the paper switched on."""
+    cfg = settings.load(config)
     cfg["beyond"].update(enabled=True, fills=[0.4, 0.5], unseen_fills=[0.45],
                          beam_fills=[0.45], baseline=True, multimode=False)
     return cfg
 
 
 @pytest.fixture(scope="module")
-def beyond_run(tmp_path_factory):
-    out = tmp_path_factory.mktemp("beyond")
-    return out, run(out, tiny_config())
+def beyond_run(tmp_path_factory, tiny_reproduce):
+    """``--beyond`` in a copy of the tiny run: the paper's stages are reused, not redone."""
+    out = tmp_path_factory.mktemp("beyond") / "results"
+    shutil.copytree(tiny_reproduce["out"], out)
+    summary = run(out, tiny_config(tiny_reproduce["config"]))
+    return out, summary
+
+
+def test_paper_stages_are_reused_by_the_beyond_run(beyond_run):
+    _, summary = beyond_run
+    assert all(summary["stages"][k]["reused"] for k in ("data", "rom", "maps", "beam"))
 
 
 def test_fill_family_stage(beyond_run):
@@ -77,7 +83,7 @@ def test_bouncing_ball_stage(beyond_run):
     assert "bouncing" in (out / "report.html").read_text().lower()
 
 
-def test_rerun_reuses_the_members(beyond_run):
+def test_rerun_reuses_the_members(beyond_run, tiny_reproduce):
     out, _ = beyond_run
-    again = run(out, tiny_config())
+    again = run(out, tiny_config(tiny_reproduce["config"]))
     assert again["stages"]["fills"]["reused"] and again["stages"]["baseline"]["reused"]

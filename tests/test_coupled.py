@@ -19,8 +19,8 @@ from sloshrom.models import FrozenLiquid
 
 
 @pytest.fixture(scope="module")
-def modal():
-    return ModalModel.from_beam()
+def modal(builtin_modal):
+    return builtin_modal
 
 
 def test_energy_conserved_without_damping(modal):

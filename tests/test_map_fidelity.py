@@ -196,6 +196,9 @@ def test_map_figure_paints_negative_values_apart_from_zero():
 def test_map_figure_of_a_zero_map_draws():
     ax = plot_phi_d_map(_da(np.zeros((2, 3))))
     FigureCanvasAgg(ax.figure).draw()
+    # a colour scale of zero width would divide by zero: it is widened to a finite one
+    lo, hi = ax.collections[0].get_clim()
+    assert np.isfinite([lo, hi]).all() and lo < hi
 
 
 def test_cli_map_reference_prints_the_whole_picture(tmp_path):

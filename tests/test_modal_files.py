@@ -32,8 +32,8 @@ def cantilever() -> ModeSet:
 
 
 @pytest.fixture(scope="module")
-def beam_model() -> ModalModel:
-    return ModalModel.from_beam()
+def beam_model(builtin_modal) -> ModalModel:
+    return builtin_modal
 
 
 def _round6(a):

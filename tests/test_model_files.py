@@ -10,7 +10,6 @@ import io
 import json
 import math
 import re
-import time
 import tracemalloc
 import zipfile
 from pathlib import Path
@@ -250,7 +249,6 @@ def test_hostile_arrays_with_recomputed_checksum(tmp_path, saved, name, edit, ma
 def test_huge_delay_is_rejected_without_allocating(tmp_path, saved):
     p = _hostile(saved["NFIR"], tmp_path / "m.npz", _set(HP, "delays", 10**12))
     tracemalloc.start()
-    t0 = time.perf_counter()
     try:
         with pytest.raises(ModelFileError, match="must be <= 10000"):
             rom.load_model(p)
@@ -258,7 +256,6 @@ def test_huge_delay_is_rejected_without_allocating(tmp_path, saved):
     finally:
         tracemalloc.stop()
     assert peak < 5e6, peak  # far below one float per delay
-    assert time.perf_counter() - t0 < 5
 
 
 def test_npy_header_claiming_a_huge_array_is_rejected_before_allocation(tmp_path, saved):

@@ -50,8 +50,8 @@ def _responses(modal: ModalModel) -> dict[str, np.ndarray]:
 
 
 @pytest.fixture(scope="module")
-def builtin():
-    return ModalModel.from_beam()
+def builtin(builtin_modal):
+    return builtin_modal
 
 
 @pytest.fixture(scope="module")

@@ -1,8 +1,8 @@
 """End to end: `sloshrom reproduce`, interrupted mid-way and restarted, then rerun.
 
-The fast tier runs a tiny configuration (networks of a few parameters, a 3 x 3 map, one RMS
-level) through every stage, the sweep included; the slow tier runs `--quick`, whose ROM is good
-enough to hold a map-error bound.
+The fast tier checks the session's tiny run (``tiny_reproduce`` in conftest.py: networks of a
+few parameters, a 3 x 3 map, one RMS level, the sweep); the slow tier runs `--quick`, whose ROM
+is good enough to hold a map-error bound.
 """
 
 import json
@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from helpers import reproduce_interrupted_then_resumed
 from sloshrom.cli import app
-from sloshrom.pipeline import run, settings
+from sloshrom.pipeline import settings
 
 FIGURES = [
     "fig03_hysteresis", "fig05_vfa_paths", "fig06_train_io", "fig07_validation_io",
@@ -20,52 +21,6 @@ FIGURES = [
     "fig17_base_excitation", "fig18_tank_acceleration", "fig20_tank_interface_dynamic",
     "fig21_instantaneous_damping", "fig22_tank_acceleration_window", "fig23_psd",
 ]
-
-
-class Interrupt(Exception):
-    pass
-
-
-#: every stage at the smallest sizes the configuration allows (random tests: one Welch segment)
-TINY = """
-[data]
-train_duration = 20.0
-validation_duration = 12.0
-design = "shaker"
-[rom]
-delays = 6
-neurons = 3
-max_epochs = 3
-ensemble = 1
-sweep_nfir_delays = [4, 6]
-sweep_nfir_neurons = [2]
-sweep_noe_delays = [2]
-sweep_noe_neurons = [2]
-sweep_workers = 1
-[map]
-n_omega = 3
-n_a = 3
-[beam]
-free_duration = 3.0
-random_duration = 34.0
-rms_g = [0.2]
-"""
-
-
-def _interrupted_then_resumed(out, cfg, argv):
-    """Run until the maps stage starts, then ``sloshrom reproduce ARGV``; the summary."""
-
-    def stop_at_maps(stage, done, total, text):
-        if stage == "maps":
-            raise Interrupt
-
-    with pytest.raises(Interrupt):
-        run(out, cfg, progress=stop_at_maps)
-    assert (out / "models" / "nfir.npz").is_file()
-    assert not (out / "report.html").exists()
-    res = CliRunner().invoke(app, ["reproduce", *argv, "--out", str(out)])
-    assert res.exit_code == 0, res.output
-    return json.loads((out / "summary.json").read_text())
 
 
 def _check_resumed(out, s, html, cfg, map_error_max):
@@ -148,31 +103,15 @@ def _check_resumed(out, s, html, cfg, map_error_max):
 
 
 
-@pytest.fixture(scope="module")
-def tiny_runs(tmp_path_factory):
-    """The tiny configuration: interrupted, resumed with the sweep, then rerun without it."""
-    d = tmp_path_factory.mktemp("tiny")
-    (d / "tiny.toml").write_text(TINY)
-    cfg = settings.load(d / "tiny.toml")
-    out = d / "results"
-    resumed = _interrupted_then_resumed(out, cfg, ["--config", str(d / "tiny.toml"), "--sweep"])
-    html = (out / "report.html").read_text()
-    res = CliRunner().invoke(app, ["reproduce", "--config", str(d / "tiny.toml"), "--out",
-                                   str(out)])
-    assert res.exit_code == 0, res.output
-    rerun = json.loads((out / "summary.json").read_text())
-    return out, cfg, resumed, html, rerun
-
-
-def test_tiny_reproduce_interrupted_then_resumed(tiny_runs):
-    out, cfg, resumed, html, _ = tiny_runs
+def test_tiny_reproduce_interrupted_then_resumed(tiny_reproduce):
+    out, cfg, resumed, html = (tiny_reproduce[k] for k in ("out", "cfg", "resumed", "html"))
     # a zero ROM gives 100 %, a sign error more: a tiny network still does better
     _check_resumed(out, resumed, html, cfg, map_error_max=1.0)
     assert "Fig. 8" in html and "Sensitivity analysis over 3 networks" in html
 
 
-def test_tiny_sweep_writes_fig8_and_its_own_stage(tiny_runs):
-    out, _, resumed, _, rerun = tiny_runs
+def test_tiny_sweep_writes_fig8_and_its_own_stage(tiny_reproduce):
+    out, resumed, rerun = (tiny_reproduce[k] for k in ("out", "resumed", "rerun"))
     sw = resumed["stages"]["sweep"]
     assert {(r[0], r[1], r[2]) for r in sw["sweep_rows"]} == {("NFIR", 4, 2), ("NFIR", 6, 2),
                                                              ("NOE", 2, 2)}
@@ -190,7 +129,7 @@ def test_tiny_sweep_writes_fig8_and_its_own_stage(tiny_runs):
 def test_reproduce_quick_interrupted_then_resumed(tmp_path):
     out = tmp_path / "results"
     cfg = settings.load(quick=True)
-    s = _interrupted_then_resumed(out, cfg, ["--quick"])
+    s = reproduce_interrupted_then_resumed(out, cfg, ["--quick"])
     # the quick ROM (NFIR(40, 15), 120 s of data) measured 14.7 %: 35 % still fails a broken
     # chain (a zero ROM gives 100 %, a sign error > 100 %)
     _check_resumed(out, s, (out / "report.html").read_text(), cfg, map_error_max=0.35)

@@ -13,7 +13,9 @@ from sloshrom.config import Tank
 from sloshrom.pipeline import Context, settings
 from sloshrom.pipeline.data import stage_data
 
-TINY = """
+# the default data design (the VFA extended to the beam tests' motion), three RMS levels and a
+# two-member ensemble: what tests/test_pipeline.py's tiny configuration leaves out
+SMALL = """
 [data]
 train_duration = 30.0
 validation_duration = 15.0
@@ -40,7 +42,7 @@ random_duration = 70.0
 def test_reproduce_sweep_writes_fig8_and_is_cached(tmp_path):
     """Sweep first, then without it (the fast tier: tests/test_pipeline.py, the other order)."""
     cfg_file = tmp_path / "tiny.toml"
-    cfg_file.write_text(TINY)
+    cfg_file.write_text(SMALL)
     out = tmp_path / "res"
     res = CliRunner().invoke(app, ["reproduce", "--sweep", "--config", str(cfg_file),
                                    "--out", str(out)])

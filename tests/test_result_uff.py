@@ -11,7 +11,7 @@ from sloshrom.beam.analysis import frf_h1
 from sloshrom.beam.coupled import free_response, random_response
 from sloshrom.beam.export import BASE_NODE, FIRST_TANK_NODE, write_result_uff
 from sloshrom.beam.results import to_dataset
-from sloshrom.beam.structure import ModalModel, coupled_frozen_modes
+from sloshrom.beam.structure import coupled_frozen_modes
 from sloshrom.config import Tank
 from sloshrom.fileio import OutputBatch
 from sloshrom.io.uff import read_uff58
@@ -29,8 +29,8 @@ UNIT = {12: "m/s^2", 11: "m/s", 9: "N", 13: "N"}
 
 
 @pytest.fixture(scope="module")
-def modal():
-    return ModalModel.from_beam()
+def modal(builtin_modal):
+    return builtin_modal
 
 
 @pytest.fixture(scope="module")

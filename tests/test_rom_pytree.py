@@ -15,7 +15,6 @@ import pytest
 
 from sloshrom.beam import coupled
 from sloshrom.beam.coupled import CoupledSimulator, discretise, simulate_jax
-from sloshrom.beam.structure import ModalModel
 from sloshrom.config import Tank
 from sloshrom.models import CompiledKernel, JaxModel
 from sloshrom.rom.estimators import NFIR, NOE, MinMaxScaler
@@ -38,8 +37,8 @@ def _model(cls=NFIR, seed=0, scale=1.0, **kw):
 
 
 @pytest.fixture(scope="module")
-def modal():
-    return ModalModel.from_beam()
+def modal(builtin_modal):
+    return builtin_modal
 
 
 @pytest.mark.parametrize("cls", [NFIR, NOE])

@@ -1,3 +1,5 @@
+import copy
+
 import pytest
 
 from sloshrom import ConfigError, Tank
@@ -47,8 +49,10 @@ def test_every_default_key_has_a_check():
     # the optional keys are exactly the schema's keys that are not required
     assert optional == {f"{t}.{k}" for t, f in tables.items()
                         for k, fi in f.annotation.model_fields.items() if not fi.is_required()}
-    assert settings.validate(settings.defaults()) is not None
-    assert settings.validate(settings.merge(settings.defaults(), settings.QUICK))
+    # both are valid, and validation returns them unchanged
+    for cfg in (settings.defaults(), settings.merge(settings.defaults(), settings.QUICK)):
+        before = copy.deepcopy(cfg)
+        assert settings.validate(cfg) == before
 
 
 @pytest.mark.parametrize(
