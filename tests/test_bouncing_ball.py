@@ -441,3 +441,16 @@ def test_frequency_band_errors_and_the_report_section(tmp_path):
     assert "worse model in 2 of the 3 bands" in sec.text
     html = render_table(sec.tables[1])
     assert "ball" in html and "-1 %" in html
+
+
+def test_a_ball_is_refused_at_another_fill_like_a_rom():
+    """The ball's mass and gap belong to its tank's fill: another fill is refused, as a ROM's."""
+    from sloshrom.rom.errors import FillRangeError
+    from sloshrom.rom.family import at_fill, training_fills
+
+    model = BouncingBall.from_parameters(0.5, 0.3, 0.01, 500.0, tank=Tank(fill=0.25))
+    assert model.fill_range == (0.25, 0.25) and training_fills(model) == (0.25, 0.25)
+    assert at_fill(model, 0.252, "ball.toml") is model  # within the gauge tolerance
+    with pytest.raises(FillRangeError, match=r"ball\.toml was identified at fill 25\.0%; fill "
+                                             r"50\.0% is outside"):
+        at_fill(model, 0.5, "ball.toml")

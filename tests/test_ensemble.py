@@ -309,3 +309,38 @@ def test_fit_through_a_dask_local_cluster(fitted):
     ens.fit(u, y, FS, validation=smooth_io(600, 2), n_workers=2)  # a new LocalCluster
     for a, b in zip(ens.members_, fitted.members_, strict=False):
         np.testing.assert_array_equal(a.params_["W"], b.params_["W"])
+
+
+def test_weight_limits_are_checked_before_any_training(monkeypatch):
+    """A network or an ensemble that no model file holds is refused by fit, not by save."""
+    import sloshrom.rom.ensemble as ens_mod
+    from sloshrom.pipeline.settings import MAX_MODEL_WEIGHTS
+
+    assert MAX_MODEL_WEIGHTS == modelfile.MAX_WEIGHTS  # the configuration's copy of the limit
+
+    def no_training(*args, **kwargs):
+        raise AssertionError("trained before the limit was checked")
+
+    monkeypatch.setattr(ens_mod, "run_tasks", no_training)
+    u, y = smooth_io(2000)
+    ens = Ensemble(NFIR(delays=70, neurons=950), n_members=64)
+    with pytest.raises(ROMError, match=r"64 members x 950 neurons x 70 regressor entries = "
+                                       r"4256000 weights, more than 4194304"):
+        ens.fit(u, y, fs=500.0, scheduler="sequential")
+    monkeypatch.setattr(rom.training, "train", no_training)
+    with pytest.raises(ROMError, match=r"4096 neurons x 2000 regressor entries = 8192000 "
+                                       r"weights, more than 4194304"):
+        NFIR(delays=2000, neurons=4096).fit(u, y, fs=500.0)
+    with pytest.raises(ROMError, match=r"the largest delay 20000 is more than 10000"):
+        NFIR(delays=[20000], neurons=3).fit(u, y, fs=500.0)
+
+
+def test_an_input_that_does_not_oscillate_is_named_as_such(monkeypatch):
+    """The passive recipe needs motion about rest: say so, not "passivity probes need ..."."""
+    monkeypatch.setattr(rom.training, "train", lambda *a, **k: pytest.fail("trained"))
+    u, y = smooth_io(2000)
+    with pytest.raises(ROMError, match=r"the input 'velocity' does not oscillate about rest "
+                                       r"\(it stays between 0\.01 and [\d.]+ m/s, never "
+                                       r"changing sign\): passivity and cycle_energy"):
+        NFIR(delays=4, neurons=3, passivity=1.0, cycle_energy=0.1, trainer="adam").fit(
+            np.abs(u) + 0.01, y, fs=500.0)

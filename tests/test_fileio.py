@@ -142,3 +142,50 @@ def test_check_output_rejects_before_any_work(tmp_path):
         with pytest.raises(OutputPathError, match=match):
             check_output(path, what="--out", **kw)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["adir", "afile", "in.nc"]
+
+
+def test_failed_write_leaves_no_directory_it_created(tmp_path):
+    def bad(tmp: str) -> None:
+        raise OSError("disk full")
+
+    with pytest.raises(OSError):
+        atomic_write(tmp_path / "a" / "b" / "out.txt", bad)
+    assert not (tmp_path / "a").exists()
+
+
+def test_check_output_protects_inputs_from_everything_a_directory_gets(tmp_path):
+    from sloshrom.fileio import OutputPathError, check_output
+
+    out = tmp_path / "res"
+    (out / "data").mkdir(parents=True)
+    for name in ("report.html", "data/c.toml", "keep.toml"):
+        (out / name).write_text("[rom]\n")
+    contents = ("report.html", "data/")
+    for name in ("report.html", "data/c.toml"):
+        with pytest.raises(OutputPathError, match=r"--out .*res: the command writes .*, and "
+                                                  rf".*{name.split('/')[-1]} is also an input"):
+            check_output(out, directory=True, inputs=(out / name,), what="--out",
+                         contents=contents)
+    # an input beside the results, and the same names for a file output: allowed
+    check_output(out, directory=True, inputs=(out / "keep.toml",), contents=contents)
+    # another spelling of the same path (a symbolic link to the directory) is no way round
+    (tmp_path / "link").symlink_to(out)
+    with pytest.raises(OutputPathError, match=r"also an input"):
+        check_output(tmp_path / "link", directory=True, inputs=(out / "data" / "c.toml",),
+                     contents=contents)
+
+
+def test_not_a_regular_file_says_what_it_is(tmp_path):
+    import os
+
+    from sloshrom.fileio import not_a_regular_file
+
+    (tmp_path / "f").write_text("x")
+    os.mkfifo(tmp_path / "pipe")
+    (tmp_path / "dangling").symlink_to(tmp_path / "nowhere")
+    assert not_a_regular_file(tmp_path / "f") is None
+    assert not_a_regular_file(tmp_path / "missing") is None  # the caller says "no such file"
+    assert not_a_regular_file(tmp_path) == "is a directory, expected a file"
+    assert not_a_regular_file(tmp_path / "pipe").startswith("is a named pipe (FIFO)")
+    assert not_a_regular_file(tmp_path / "dangling") == "a broken symbolic link"
+    assert not_a_regular_file("/dev/null").startswith("is a device")

@@ -9,6 +9,7 @@ simulation), so the whole suite runs in seconds. The count is quoted in docs/int
 
 from __future__ import annotations
 
+import os
 import shutil
 import warnings
 from pathlib import Path
@@ -36,7 +37,18 @@ def model_files(tmp_path_factory):
          names=("tank_accel", "dynamic_force")).fit(u, y, fs=500.0).save(d / "ms2.npz")
     NFIR(delays=4, neurons=3, max_epochs=2).fit(u, y, fs=250.0).save(d / "r250.npz")
     NFIR(delays=4, neurons=3, max_epochs=2).fit(u, y, fs=100.0).save(d / "slow100.npz")
+    _ball_file(d / "ball.toml")
     return d
+
+
+def _ball_file(path: Path) -> None:
+    """A bouncing-ball model of the paper tank at fill 0.5 (parameters given, not fitted)."""
+    from sloshrom.rom.bouncing import BouncingBall
+
+    ball = BouncingBall.from_parameters(0.5, 0.3, 0.01, fs=500.0)
+    ball.envelope_ = {"input_min": -0.1, "input_max": 0.1, "output_min": -1.0,
+                      "output_max": 1.0, "frequency_band": [5.0, 25.0], "acceleration_max": 60.0}
+    ball.save(path)
 
 
 def _map_file(path: Path, ob: np.ndarray, ab: np.ndarray) -> None:
@@ -94,6 +106,7 @@ def _copy(src: str, dst: str):
 
 def _text(name: str, text: str):
     def make(tmp: Path) -> None:
+        (tmp / name).parent.mkdir(parents=True, exist_ok=True)
         (tmp / name).write_text(text)
 
     return make
@@ -124,6 +137,123 @@ SEED_MAX = r"\[0, 4294967295\]"
 
 def _cfg(text: str):
     return _text("c.toml", text)
+
+
+def _all(*setups):
+    """Several setups of one case, in order."""
+
+    def make(tmp: Path) -> None:
+        for setup in setups:
+            setup(tmp)
+
+    return make
+
+
+def _modal(name: str, writer: str = "csv", **change):
+    """The cantilever's modes (nodes 1..5, 3 modes, the tank at node 5) with ``change``d
+    fields, written by the ``writer`` ("csv", "punch", "uff") of sloshrom."""
+
+    def make(tmp: Path) -> None:
+        import dataclasses
+
+        from sloshrom.beam import modal_files
+        from sloshrom.beam.modes import ModeSet
+
+        ms = dataclasses.replace(ModeSet.from_cantilever(), **change)
+        getattr(modal_files, f"write_modes_{writer}")(ms, tmp / name)
+
+    return make
+
+
+def _scaled_shapes(name: str, factor: float):
+    """The cantilever's modal CSV with its shapes times ``factor`` (masses unchanged)."""
+
+    def make(tmp: Path) -> None:
+        import dataclasses
+
+        from sloshrom.beam.modal_files import write_modes_csv
+        from sloshrom.beam.modes import ModeSet
+
+        ms = ModeSet.from_cantilever()
+        write_modes_csv(dataclasses.replace(ms, shapes=ms.shapes * factor), tmp / name)
+
+    return make
+
+
+def _many_modes(tmp: Path) -> None:
+    """A modal CSV of 300 modes (the eigen-solve of more than 200 is what hung)."""
+    from sloshrom.beam.modal_files import write_modes_csv
+    from sloshrom.beam.modes import ModeSet
+
+    n = 300
+    write_modes_csv(ModeSet(10.0 * np.arange(1, n + 1), np.ones(n), np.arange(1, 6),
+                            np.ones((5, 3, n)), damping=np.full(n, 0.01),
+                            participation=np.ones((3, n))), tmp / "many.csv")
+
+
+def _huge_shapes(tmp: Path) -> None:
+    """The cantilever's modal CSV with its shape columns times 1e200."""
+    _modal("huge.csv")(tmp)
+    p = tmp / "huge.csv"
+    lines = p.read_text().splitlines()
+    rows = [",".join([*r.split(",")[:-3], *(repr(float(v) * 1e200) for v in r.split(",")[-3:])])
+            for r in lines[2:]]
+    p.write_text("\n".join([*lines[:2], *rows]) + "\n")
+
+
+def _uff_modes(name: str, **fields):
+    """The cantilever's modes as UFF 55 with ``fields`` of every dataset 55 replaced."""
+
+    def make(tmp: Path) -> None:
+        import pyuff
+
+        _modal(name, "uff")(tmp)
+        sets = pyuff.UFF(str(tmp / name)).read_sets()
+        for st in sets:
+            if st["type"] == 55:
+                st.update(fields)
+        pyuff.UFF(str(tmp / name)).write_sets(sets, mode="overwrite")
+
+    return make
+
+
+def _punch_cut(tmp: Path) -> None:
+    """A punch file cut inside the last number of its last grid line."""
+    _modal("cut.pch", "punch")(tmp)
+    lines = (tmp / "cut.pch").read_text().splitlines()
+    (tmp / "cut.pch").write_text("\n".join(lines[:-1])[:-12])  # -CONT- gone, T3 cut
+
+
+def _nc_attrs(name: str, **attrs):
+    """good.nc with ``attrs`` set (as another program would write them)."""
+
+    def make(tmp: Path) -> None:
+        import xarray as xr
+
+        with xr.open_dataset(tmp / "good.nc", engine="h5netcdf") as ds:
+            ds = ds.load()
+        ds.attrs.update(attrs)
+        ds.to_netcdf(tmp / name, engine="h5netcdf")
+
+    return make
+
+
+def _one_sided(tmp: Path) -> None:
+    """A record whose velocity never changes sign (not an oscillation about rest)."""
+    t = np.arange(1500) / 500.0
+    u = 0.02 + 0.01 * np.sin(2 * np.pi * 7 * t)
+    write_record(Record(t, 500.0, {"velocity": u, "dynamic_force": np.tanh(20 * u)},
+                        {"velocity": "m/s", "dynamic_force": "N"}), tmp / "onesided.nc")
+
+
+def _fifo(name: str):
+    def make(tmp: Path) -> None:
+        os.mkfifo(tmp / name)
+
+    return make
+
+
+ST = [*BFO, "--structure"]  # beam free on a modal file
 
 
 # (id, extra setup(tmp) or None, argv, regex of the one error line)
@@ -536,6 +666,127 @@ HOSTILE_CASES = [
      r"--tank .*none\.toml: no such file"),
     ("uff-name-without-key", None, [*U, "{tmp}/good.uff", "{tmp}/o.nc", "--name", "=force"],
      r"--name must look like KEY=VALUE, got '=force'"),
+    # == the kinds of the hostile review (each kind, several commands where it occurs) ========
+    # -- modal files must not change the physics without a word --------------------------------
+    ("beam-uff-negative-damping", _uff_modes("neg.unv", modal_damp_vis=-0.01),
+     [*ST, "{tmp}/neg.unv", "--tank", "5"],
+     r"neg\.unv: mode 1 \(dataset \d+\) has viscous damping ratio -0\.01; it must be in \[0, 1\)"),
+    ("beam-uff-nan-damping", _uff_modes("nan.unv", modal_damp_vis=float("nan")),
+     [*ST, "{tmp}/nan.unv", "--tank", "5"], r"nan\.unv: mode 1 .*viscous damping ratio nan"),
+    ("beam-uff-negative-loss-factor", _uff_modes("his.unv", modal_damp_vis=0.0,
+                                                 modal_damp_his=-0.02),
+     [*ST, "{tmp}/his.unv", "--tank", "5"], r"hysteretic damping \(loss factor\) -0\.02"),
+    ("beam-punch-cut-in-its-last-number", _punch_cut, [*ST, "{tmp}/cut.pch", "--tank", "5"],
+     r"cut\.pch: line \d+: the file ends inside this record .*truncated file"),
+    ("beam-mode-table-without-a-mode", _all(_modal("w.pch", "punch"),
+                                           _text("t.csv", "mode,damping\n1,0.01\n3,0.02\n")),
+     [*ST, "{tmp}/w.pch", "--tank", "5", "--mode-table", "{tmp}/t.csv"],
+     r"no row for mode\(s\) 2 of the mode set \(a table is matched to the modes by mode "
+     r"number; it lists modes 1, 3\)"),
+    # -- no output may overwrite an input, not only --out ---------------------------------------
+    ("reproduce-config-is-the-report", _text("res/report.html", "[rom]\nseed = 1\n"),
+     ["reproduce", "--config", "{tmp}/res/report.html", "--out", "{tmp}/res"],
+     r"the command writes .*report\.html, and .*report\.html is also an input"),
+    ("reproduce-config-is-the-summary", _text("res/summary.json", "[rom]\nseed = 1\n"),
+     ["reproduce", "--config", "{tmp}/res/summary.json", "--out", "{tmp}/res"],
+     r"the command writes .*summary\.json, and .*summary\.json is also an input"),
+    ("reproduce-config-in-a-stage-directory", _all(lambda tmp: (tmp / "res/data").mkdir(
+        parents=True), _text("res/data/c.toml", "[rom]\nseed = 1\n")),
+     ["reproduce", "--config", "{tmp}/res/data/c.toml", "--out", "{tmp}/res"],
+     r"the command writes .*res/data/, and .*c\.toml is also an input"),
+    ("sweep-data-is-the-sweep-table", _copy("{tmp}/good.csv", "res/sweep.csv"),
+     ["sweep", "--data", "{tmp}/res/sweep.csv", "--validation", "{tmp}/good.nc", "--out",
+      "{tmp}/res", "--max-epochs", "2"],
+     r"the command writes .*sweep\.csv, and .*sweep\.csv is also an input"),
+    # -- contracts without gaps -----------------------------------------------------------------
+    ("beam-ball-at-another-fill", None,
+     [*BFO, "--sloshing", "{models}/ball.toml", "--fill", "0.3"],
+     r"--sloshing .*ball\.toml was identified at fill 50\.0%; fill 30\.0% is outside"),
+    ("config-unseen-fill-is-a-member", _cfg("[beyond]\nunseen_fills = [0.5, 0.625]\n"), CS,
+     r"'beyond\.unseen_fills' \[0\.5\] is also in 'beyond\.fills'"),
+    ("beam-tank-fill-twice", _modal("m.csv"),
+     [*ST, "{tmp}/m.csv", "--tank", "5:fill=0.3:fill=0.4"],
+     r"--tank '5:fill=0\.3:fill=0\.4': the key 'fill' is given twice"),
+    ("beam-tank-two-models", _modal("m.csv"), [*ST, "{tmp}/m.csv", "--tank", "5:frozen:rig"],
+     r"--tank '5:frozen:rig': two models \('frozen' and 'rig'\)"),
+    ("beam-tank-unknown-key", _modal("m.csv"), [*ST, "{tmp}/m.csv", "--tank", "5:density=3"],
+     r"--tank '5:density=3': unknown key 'density'"),
+    ("uff-unit-twice", None,
+     [*U, "{tmp}/good.uff", "{tmp}/o.nc", "--unit", "force=N", "--unit", "force=kN"],
+     r"--unit: the key 'force' is given twice \('N' and 'kN'\)"),
+    ("uff-name-twice", None,
+     [*U, "{tmp}/good.uff", "{tmp}/o.nc", "--name", "0=force", "--name", "0=acceleration"],
+     r"--name: the key '0' is given twice"),
+    # -- validated at the door, not a traceback after the work ----------------------------------
+    ("predict-record-tank-fill-text", _nc_attrs("half.nc", tank_fill="half"),
+     [*P, "--data", "{tmp}/half.nc", "--out", "{tmp}/o.nc"],
+     r"half\.nc: attribute 'tank': fill must be a number in \(0, 1\), got 'half'"),
+    ("predict-record-negative-density", _nc_attrs("rho.nc", tank_density=-1000.0),
+     [*P, "--data", "{tmp}/rho.nc", "--out", "{tmp}/o.csv"],
+     r"rho\.nc: attribute 'tank': density must be a finite positive number, got -1000\.0"),
+    ("predict-record-fill-text", _nc_attrs("fill.nc", fill="half"),
+     [*P, "--data", "{tmp}/fill.nc", "--out", "{tmp}/o.nc"],
+     r"fill\.nc: attribute 'fill' must be a fill level d/h in \(0, 1\), got 'half'"),
+    ("train-record-fills-disagree", _nc_attrs("two.nc", fill=0.5, tank_fill=0.3),
+     [*TR, "--data", "{tmp}/two.nc", "--validation", "{tmp}/good.nc", "--out", "{tmp}/m.npz"],
+     r"two\.nc: attribute 'fill' = 0\.5 but the tank attributes say fill 0\.3"),
+    ("beam-shapes-1e200", _huge_shapes, [*ST, "{tmp}/huge.csv", "--tank", "5"],
+     r"huge\.csv: mode 1 is [\d.]+e\+198 at node 1; shape values must be below 1e\+100"),
+    ("beam-shapes-in-other-units-than-masses", _scaled_shapes("big.csv", 1e50),
+     [*ST, "{tmp}/big.csv", "--tank", "5"],
+     r"the liquid at the tank\(s\) weighs [\d.]+e\+99 times the modal masses .*more than "
+     r"1e\+12"),
+    ("beam-uff-grid-is-the-base-node", _modal("n1000.csv", nodes=np.array([1, 2, 3, 4, 1000])),
+     [*ST, "{tmp}/n1000.csv", "--tank", "4", "--uff"],
+     r"--uff: output point 1000 is the node the UFF results give the base"),
+    ("rig-harmonic-fill-1e-9", None, [*H12, "--accel-g", "1", "--fill", "1e-9"],
+     r"the virtual rig cannot model fill 1e-09 \(liquid depth 2\.72e-11 m\): only 0 of the 6 "
+     r"tank surface modes"),
+    ("rig-vfa-fill-1e-9", None, [*VO, "--fill", "1e-9"],
+     r"the virtual rig cannot model fill 1e-09"),
+    ("beam-rig-fill-1e-9", None, [*BFO, "--sloshing", "rig", "--fill", "1e-9"],
+     r"--sloshing rig: the virtual rig cannot model fill 1e-09"),
+    ("map-rig-fill-1e-9", None, [*M, "--fill", "1e-9"],
+     r"--rig: the virtual rig cannot model fill 1e-09"),
+    ("config-tank-fill-1e-9", _cfg("[tank]\nfill = 1e-9\n"), CS,
+     r"'tank\.fill' = 1e-09: the virtual rig cannot model fill 1e-09"),
+    ("reproduce-beyond-fill-1e-9", _cfg("[beyond]\nenabled = true\nfills = [1e-9, 0.5]\n"
+                                       "unseen_fills = [0.25]\nbeam_fills = [0.5]\n"), RP,
+     r"'beyond\.fills' = 1e-09: the virtual rig cannot model fill 1e-09"),
+    # -- limits checked before the work they limit -----------------------------------------------
+    ("beam-structure-300-modes", _many_modes, [*ST, "{tmp}/many.csv", "--tank", "5"],
+     r"many\.csv holds 300 modes; a modal model takes at most 200 .*--modes N"),
+    ("config-ensemble-weights", _cfg("[rom]\nensemble = 64\ndelays = 100\nneurons = 700\n"),
+     CS, r"'rom\.ensemble' x 'rom\.neurons' x regressor entries \('rom\.delays'\) = 64 x 700 x "
+         r"100 = 4480000 weights, more than 4194304"),
+    ("reproduce-beyond-fill-ensemble-weights",
+     _cfg("[rom]\ndelays = 300\nneurons = 1000\n[beyond]\nfill_ensemble = 20\n"),
+     [*RP, "--beyond"], r"'beyond\.fill_ensemble' x 'rom\.neurons' .* = 6000000 weights"),
+    ("train-ensemble-weights", None,
+     ["train", "--max-epochs", "1", "--data", "{tmp}/good.nc", "--validation", "{tmp}/good.nc",
+      "--out",
+      "{tmp}/e.npz", "--ensemble", "64", "--delays", "70", "--neurons", "950",
+      "--scheduler", "sequential"],
+     r"64 members x 950 neurons x 70 regressor entries = 4256000 weights, more than 4194304"),
+    # -- clear messages -------------------------------------------------------------------------
+    ("config-show-fifo", _fifo("fifo.toml"), ["config", "show", "--config", "{tmp}/fifo.toml"],
+     r"--config .*fifo\.toml: is a named pipe \(FIFO\), not a regular file"),
+    ("train-data-fifo", _fifo("fifo.nc"),
+     [*TR, "--data", "{tmp}/fifo.nc", "--validation", "{tmp}/good.nc", "--out", "{tmp}/m.npz"],
+     r"--data .*fifo\.nc: is a named pipe \(FIFO\)"),
+    ("beam-sloshing-fifo", _fifo("fifo.npz"), [*BFO, "--sloshing", "{tmp}/fifo.npz"],
+     r"--sloshing .*fifo\.npz: is a named pipe \(FIFO\)"),
+    ("onnx-model-fifo", _fifo("fifo.npz"), [*E, "{tmp}/fifo.npz", "{tmp}/o.onnx"],
+     r"MODEL .*fifo\.npz: is a named pipe \(FIFO\)"),
+    ("beam-uff-negative-modal-mass", _uff_modes("negm.unv", modal_m=-2.0),
+     [*ST, "{tmp}/negm.unv", "--tank", "5"],
+     r"negm\.unv: the modal mass of mode 1 is -2\.0 in the file; a modal mass .* must be "
+     r"positive"),
+    ("train-input-does-not-oscillate", _one_sided,
+     [*TR, "--data", "{tmp}/onesided.nc", "--validation", "{tmp}/onesided.nc", "--out",
+      "{tmp}/m.npz"],
+     r"the input 'velocity' does not oscillate about rest \(it stays between 0\.01 and 0\.03 "
+     r"m/s, never changing sign\)"),
 ]
 
 
@@ -565,6 +816,39 @@ def test_case_count():
 
 
 # -- beyond single cases ---------------------------------------------------------------------------
+def test_reproduce_protects_everything_its_stages_write():
+    """RESULT_ENTRIES (what `reproduce` refuses an input in) names every top-level file or
+    directory the pipeline's sources write under the output directory."""
+    import re
+
+    import sloshrom.pipeline as pipeline
+    from sloshrom.pipeline.chain import RESULT_ENTRIES
+
+    names = set()
+    for src in Path(pipeline.__file__).parent.glob("*.py"):
+        text = src.read_text()
+        names |= set(re.findall(r'(?:ctx\.path\(|ctx\.out\) / |ctx\.out / )"([^"/]+)', text))
+        names |= {v.split("/")[0] for v in re.findall(r'^[A-Z_]+ = "([\w.]+/[\w./]+)"', text,
+                                                      flags=re.M)}
+    names |= {".stages"}  # sloshrom.pipeline.cache.StageCache
+    assert names, "no output paths found in the pipeline's sources"
+    listed = {e.rstrip("/") for e in RESULT_ENTRIES}
+    assert names <= listed, sorted(names - listed)
+
+
+def test_failed_batch_leaves_no_directory(tmp_path):
+    """A batch that fails removes the directories it created (no empty result folder)."""
+    from sloshrom.fileio import OutputBatch
+
+    with pytest.raises(OSError), OutputBatch() as batch:
+        batch.write_text(tmp_path / "res" / "sub" / "a.txt", "a")
+        raise OSError("disk full")
+    assert not (tmp_path / "res").exists()
+    (tmp_path / "keep").mkdir()
+    with pytest.raises(OSError), OutputBatch() as batch:
+        batch.write_text(tmp_path / "keep" / "a.txt", "a")
+        raise OSError("disk full")
+    assert (tmp_path / "keep").is_dir()  # it was there before the batch: left alone
 def test_late_failure_leaves_no_partial_results(tmp_path, monkeypatch):
     """A failure after the simulations (here: the third figure) leaves no result file at all."""
     import sloshrom.cli.beam as beam
@@ -584,6 +868,7 @@ def test_late_failure_leaves_no_partial_results(tmp_path, monkeypatch):
                               "--out", str(out)])
     assert res.exit_code != 0 and len(calls) == 3
     assert not [p for p in tmp_path.rglob("*") if p.is_file()], "partial results left behind"
+    assert not out.exists(), "an empty result folder left behind"
 
 
 def test_warnings_are_one_line_each(capsys):

@@ -923,3 +923,48 @@ def test_uff_round_trip_of_imperial_record(tmp_path):
     np.testing.assert_allclose(back["force"], FORCE * 4448.2216152605, rtol=1e-11)
     assert read_uff58(tmp_path / "imp.uff").units == {"time": "s", "velocity": "m/s",
                                                       "force": "N"}
+
+
+# -- the tank a record carries: checked when it is read, not when it is written ---------------
+@pytest.mark.parametrize(("attrs", "match"), [
+    ({"tank_fill": "half"}, r"r\.nc: attribute 'tank': fill must be a number in \(0, 1\), got "
+                            r"'half' \(the tank_\* attributes\)"),
+    ({"tank_density": -1000.0}, r"r\.nc: attribute 'tank': density must be a finite positive "
+                                r"number, got -1000\.0"),
+    ({"tank_height": 27.2}, r"r\.nc: attribute 'tank': tank dimensions look like millimetres"),
+    ({"fill": "half"}, r"r\.nc: attribute 'fill' must be a fill level d/h in \(0, 1\), got "
+                       r"'half'"),
+    ({"fill": 1.5}, r"r\.nc: attribute 'fill' must be a fill level d/h in \(0, 1\), got 1\.5"),
+    ({"fill": 0.5, "tank_fill": 0.25}, r"r\.nc: attribute 'fill' = 0\.5 but the tank attributes "
+                                       r"say fill 0\.25"),
+], ids=["tank-fill-text", "tank-density-negative", "tank-height-mm", "fill-text", "fill-1.5",
+        "fill-disagrees-with-tank"])
+def test_record_tank_attributes_are_checked_when_read(tmp_path, attrs, match):
+    p = _nc(lambda ds: ds.assign_attrs(**attrs))(tmp_path)
+    with pytest.raises(RecordError, match=match):
+        read_record(p)
+
+
+def test_record_tank_attributes_that_read_are_written_back(tmp_path):
+    p = _nc(lambda ds: ds.assign_attrs(tank_fill=np.float32(0.25), fill=0.25, tank_id=2001,
+                                       tank_note="lab 3"))(tmp_path)
+    rec = read_record(p)
+    assert rec.attrs["tank"] == {"fill": 0.25} and rec.attrs["fill"] == 0.25
+    assert rec.attrs["tank_id"] == 2001 and rec.attrs["tank_note"] == "lab 3"  # not the tank's
+    back = read_record(write_record(rec, tmp_path / "back.nc"))
+    assert back.tank.fill == 0.25 and back.attrs["tank_note"] == "lab 3"
+    with pytest.raises(RecordError, match=r"attribute 'tank': unknown tank parameter\(s\): "
+                                          r"colour"):
+        Record(T, FS, {"force": FORCE}, {"force": "N"}, {"tank": {"colour": 1.0}})
+
+
+def test_a_named_pipe_is_not_a_missing_file(tmp_path):
+    import os
+
+    os.mkfifo(tmp_path / "pipe.nc")
+    with pytest.raises(RecordError, match=r"pipe\.nc: is a named pipe \(FIFO\), not a regular "
+                                          r"file"):
+        read_record(tmp_path / "pipe.nc")  # and it must not block waiting for a writer
+    os.mkfifo(tmp_path / "pipe.uff")
+    with pytest.raises(RecordError, match=r"pipe\.uff: is a named pipe"):
+        read_uff58(tmp_path / "pipe.uff")

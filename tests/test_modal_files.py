@@ -508,7 +508,9 @@ def test_mode_tables(tmp_path):
     assert t["damping"].tolist() == [0.01, 0.02]
     np.testing.assert_allclose(t["modal_mass"], [1.5, 2.5], rtol=1e-15)
     for text, message in [
-        ("mode,damping\n1,0.01\n3,0.02\n", r"must number the modes 1\.\.2"),
+        ("mode,damping\n1,0.01\n1,0.02\n", r"each row's mode number, an integer >= 1, each "
+                                             r"once .*got \[1, 1\]"),
+        ("mode,damping\n0,0.01\n2.5,0.02\n", r"an integer >= 1, each once"),
         ("mode,zeta\n1,0.01\n", r"unknown column 'zeta'"),
         ("mode,damping\n1,1.5\n", r"damping ratios must be in \[0, 1\)"),
         ("mode,modal_mass_lbs\n1,2\n", r"has unit 'lbs'; expected a mass"),
@@ -520,3 +522,182 @@ def test_mode_tables(tmp_path):
     toml.write_text("[damping]\nx = 1\n")
     with pytest.raises(ModalDataError, match=r"no \[modes\] table"):
         read_mode_table(toml)
+
+
+# -- hostile modal files: nothing may change the physics without a word -----------------------
+def _reversed_punch(tmp_path, ms):
+    """The punch of ``ms`` with its mode blocks in reverse order (as a concatenation gives)."""
+    lines = write_modes_punch(ms, tmp_path / "fwd.pch").read_text().splitlines()
+    per = len(lines) // ms.n_modes
+    blocks = [lines[k * per:(k + 1) * per] for k in range(ms.n_modes)]
+    p = tmp_path / "rev.pch"
+    p.write_text("\n".join(ln for b in blocks[::-1] for ln in b) + "\n")
+    return p
+
+
+def test_mode_table_is_matched_by_mode_number_not_position(tmp_path, cantilever):
+    table = write_mode_table(cantilever, tmp_path / "t.csv")
+    fwd = read_modes(write_modes_punch(cantilever, tmp_path / "fwd.pch"), mode_table=table)
+    rev = read_modes(_reversed_punch(tmp_path, cantilever), mode_table=table)
+    assert rev.mode_numbers.tolist() == [1, 2, 3]
+    for name in ("frequencies", "damping", "modal_masses", "shapes", "participation"):
+        np.testing.assert_array_equal(getattr(rev, name), getattr(fwd, name), err_msg=name)
+    np.testing.assert_allclose(rev.damping, cantilever.damping)
+    # a file without its rigid-body modes: numbered 7..9, and a table of those numbers
+    ms7 = dataclasses.replace(cantilever, mode_numbers=[7, 8, 9])
+    pch7 = write_modes_punch(ms7, tmp_path / "m7.pch")
+    t7 = tmp_path / "t7.csv"
+    t7.write_text("mode,damping\n9,0.03\n7,0.01\n8,0.02\n")
+    assert read_modes(pch7, mode_table=t7).damping.tolist() == [0.01, 0.02, 0.03]
+    with pytest.raises(ModalDataError, match=r"damping lists 3 mode\(s\); the mode set holds 3, "
+                                             r"numbered up to 9 \(a table is matched to the "
+                                             r"modes by mode number"):
+        read_modes(pch7, mode_table={"damping": [0.01, 0.02, 0.03]})
+    toml = tmp_path / "t7.toml"
+    toml.write_text("[modes]\nmode = [8, 7, 9]\ndamping = [0.02, 0.01, 0.03]\n")
+    assert read_modes(pch7, mode_table=toml).damping.tolist() == [0.01, 0.02, 0.03]
+    with pytest.raises(ModalDataError, match=r"no row for mode\(s\) 9 of the mode set"):
+        read_modes(pch7, mode_table={"mode": [7, 8], "damping": [0.01, 0.02]})
+    # every format keeps the numbers; select_modes keeps the lowest
+    for writer, name in ((write_modes_csv, "m7.csv"), (write_modes_netcdf, "m7.nc"),
+                         (write_modes_uff, "m7.unv")):
+        back = read_modes(writer(ms7, tmp_path / name))
+        assert back.mode_numbers.tolist() == [7, 8, 9], name
+        assert back.select_modes(2).mode_numbers.tolist() == [7, 8]
+    assert read_mode_table(write_mode_table(ms7, tmp_path / "w7.csv"))["mode"].tolist() == [7, 8, 9]
+
+
+def test_netcdf_and_csv_modes_in_another_order_read_sorted(tmp_path, cantilever):
+    import xarray as xr
+
+    with xr.open_dataset(write_modes_netcdf(cantilever, tmp_path / "m.nc"),
+                         engine="h5netcdf") as ds:
+        ds = ds.load()
+    ds.isel(mode=[2, 0, 1]).to_netcdf(tmp_path / "shuffled.nc", engine="h5netcdf")
+    back = read_modes(tmp_path / "shuffled.nc")
+    _assert_sets(back, cantilever, rtol=1e-12)
+    ds.assign_coords(mode=[1, 1, 2]).to_netcdf(tmp_path / "twice.nc", engine="h5netcdf")
+    with pytest.raises(ModalDataError, match=r"coordinate mode must hold distinct integer mode "
+                                             r"numbers"):
+        read_modes(tmp_path / "twice.nc")
+    lines = write_modes_csv(cantilever, tmp_path / "m.csv").read_text().splitlines()
+    (tmp_path / "r.csv").write_text("\n".join([*lines[:2], *lines[2:][::-1]]) + "\n")
+    back = read_modes(tmp_path / "r.csv")
+    np.testing.assert_array_equal(back.frequencies, cantilever.frequencies)
+    np.testing.assert_array_equal(back.shapes[::-1], cantilever.shapes)  # nodes as listed
+
+
+@pytest.mark.parametrize(("fields", "message"), [
+    ({"modal_damp_vis": -0.01}, r"mode 1 \(dataset \d+\) has viscous damping ratio -0\.01"),
+    ({"modal_damp_vis": float("nan")}, r"mode 1 .* viscous damping ratio nan"),
+    ({"modal_damp_vis": 1.5}, r"viscous damping ratio 1\.5; it must be in \[0, 1\)"),
+    ({"modal_damp_vis": 0.0, "modal_damp_his": -0.02},
+     r"hysteretic damping \(loss factor\) -0\.02; it must be in \[0, 2\)"),
+    ({"modal_m": -2.0}, r"the modal mass of mode 1 is -2\.0 in the file; a modal mass .* must "
+                        r"be positive and finite"),
+    ({"modal_m": float("nan")}, r"the modal mass of mode 1 is nan in the file"),
+])
+def test_uff_unphysical_damping_and_mass_are_refused(tmp_path, cantilever, fields, message):
+    sets = _uff_sets(cantilever)
+    for st in sets:
+        if st["type"] == 55:
+            st.update(fields)
+    unv = _write_uff(tmp_path / "bad.unv", sets)
+    with pytest.raises(ModalDataError, match=message):
+        read_modes(unv)
+    # a mode table never hides a wrong value of the file
+    with pytest.raises(ModalDataError, match=message):
+        read_modes(unv, mode_table={"damping": [0.01] * 3, "participation": [1.0] * 3})
+
+
+def test_punch_cut_inside_a_number_is_refused(tmp_path, cantilever):
+    text = write_modes_punch(cantilever, tmp_path / "w.pch").read_text()
+    lines = text.splitlines()
+    grid = len(lines) - 2  # the last grid line, then its -CONT-
+    for cut in (lines[:grid] + [lines[grid][:60]],  # inside T3, no line break
+                lines[:-1] + [lines[-1][:30]]):  # inside the last -CONT-
+        p = tmp_path / "cut.pch"
+        p.write_text("\n".join(cut))
+        with pytest.raises(ModalDataError, match=r"the file ends inside this record .*truncated "
+                                                 r"file\? \(if it is complete"):
+            read_modes(p)
+    # a record without its sequence number among records that have one: cut short
+    short = lines[:]
+    short[grid] = short[grid][:60]
+    p = tmp_path / "short.pch"
+    p.write_text("\n".join(short) + "\n")
+    with pytest.raises(ModalDataError, match=rf"line {grid + 1} is cut short \(60 columns, no "
+                                             r"sequence number"):
+        read_modes(p)
+    # the hand-written punch (no final cut) and the whitespace form still read
+    (tmp_path / "hand.pch").write_text(NASTRAN_PUNCH)
+    assert read_modes(tmp_path / "hand.pch").n_modes == 2
+
+
+def test_values_that_would_overflow_are_refused(tmp_path, cantilever, beam_model):
+    from sloshrom.beam.structure import coupled_frozen_modes
+
+    with pytest.raises(ModalDataError, match=r"mode 1 is [\d.]+e\+198 at node 1; shape values "
+                                             r"must be below 1e\+100"):
+        dataclasses.replace(cantilever, shapes=cantilever.shapes * 1e200)
+    with pytest.raises(ModalDataError, match=r"modal_masses holds 1e\+150"):
+        dataclasses.replace(cantilever, modal_masses=[1e150, 1.0, 1.0])
+    # shapes and masses in inconsistent units: refused before scipy, naming the mode
+    big = dataclasses.replace(cantilever, shapes=cantilever.shapes * 1e50).to_modal_model(5)
+    with pytest.raises(ModalDataError, match=r"weighs [\d.]+e\+99 times the modal masses "
+                                             r"\(largest: mode 1 at tank 1"):
+        coupled_frozen_modes(big, 0.124)
+    with pytest.raises(ModalDataError, match=r"psi_tank holds 1e\+200"):
+        ModalModel(**{**{k: getattr(beam_model, k) for k in FIELDS}, "psi_tank": [1e200, 1, 1],
+                      "structure_mass": 0.45})
+    # the largest values allowed still give a finite stiffness and eigenproblem
+    edge = dataclasses.replace(beam_model, frequencies=[9.9e99, 9.8e99, 9.99e99],
+                               modal_masses=[9.9e99] * 3)
+    assert np.all(np.isfinite(edge.stiffness))
+
+
+def test_too_many_modes_are_refused_before_the_eigen_solve(tmp_path):
+    from sloshrom.beam.structure import MAX_MODES
+
+    n = MAX_MODES + 1
+    many = ModeSet(10.0 * np.arange(1, n + 1), np.ones(n), [1, 2], np.ones((2, 3, n)),
+                   damping=np.full(n, 0.01), source="csv:many.csv")
+    with pytest.raises(ModalDataError, match=rf"many\.csv holds {n} modes; a modal model takes "
+                                             rf"at most {MAX_MODES} .*select_modes"):
+        many.to_modal_model(tanks=1)
+    assert many.select_modes(3).to_modal_model(tanks=1).n_modes == 3
+    with pytest.raises(ModalDataError, match=rf"{n} modes: a modal model holds at most "):
+        ModalModel(frequencies=many.frequencies, damping=many.damping,
+                   modal_masses=many.modal_masses, psi_tank=np.ones(n), participation=None,
+                   stations=[0.0], psi_stations=np.ones((1, n)), structure_mass=0.45)
+
+
+def test_uff_result_nodes_are_checked_before_the_run(cantilever):
+    from sloshrom.beam.export import check_result_nodes
+
+    check_result_nodes(cantilever.to_modal_model(tanks=5))  # tank at an output point: fine
+    base = dataclasses.replace(cantilever, nodes=np.array([1, 2, 3, 4, 1000]))
+    with pytest.raises(ModalDataError, match=r"output point 1000 is the node the UFF results "
+                                             r"give the base"):
+        check_result_nodes(base.to_modal_model(tanks=4))
+    with pytest.raises(ModalDataError, match=r"tank 1000 is the node"):
+        check_result_nodes(base.to_modal_model(tanks=1000, outputs=[1, 2]))
+    # two tanks without IDs (a modal TOML) get nodes 1, 2: the output points 1, 2 too
+    two = ModalModel(frequencies=[10.0], damping=[0.01], modal_masses=[1.0],
+                     psi_tank=[[1.0], [0.5]], participation=None, stations=[0.1, 0.2],
+                     psi_stations=[[0.2], [0.4]], structure_mass=0.45)
+    with pytest.raises(ModalDataError, match=r"tank 1 and output point 1 would both be UFF "
+                                             r"node 1"):
+        check_result_nodes(two)
+
+
+def test_special_files_are_named_as_such(tmp_path):
+    import os
+
+    os.mkfifo(tmp_path / "pipe.pch")
+    with pytest.raises(ModalDataError, match=r"pipe\.pch: is a named pipe \(FIFO\), not a "
+                                             r"regular file"):
+        read_modes(tmp_path / "pipe.pch")  # not "no such file"; and it must not block
+    os.mkfifo(tmp_path / "pipe.csv")
+    with pytest.raises(ModalDataError, match=r"is a named pipe"):
+        read_mode_table(tmp_path / "pipe.csv")

@@ -93,6 +93,17 @@ def test_every_default_key_has_a_check():
          r"'rom\.cycle_energy' train the NFIR"),
         (lambda c: c["beam"].update(n_modes=5, damping=[0.01] * 5),
          r"'beam\.n_modes' = 5: mode 5 of the beam \(676 Hz\) lies above the Nyquist"),
+        (lambda c: c["beyond"].update(unseen_fills=[0.502, 0.625]),
+         r"'beyond\.unseen_fills' \[0\.502\] is also in 'beyond\.fills' \(within 0\.005\)"),
+        (lambda c: c["rom"].update(ensemble=64, delays=100, neurons=700),
+         r"'rom\.ensemble' x 'rom\.neurons' x regressor entries \('rom\.delays'\) = 64 x 700 x "
+         r"100 = 4480000 weights, more than 4194304"),
+        (lambda c: (c["rom"].update(delays=300, neurons=1000),
+                    c["beyond"].update(enabled=True, fill_ensemble=20)),
+         r"'beyond\.fill_ensemble' x 'rom\.neurons' .* = 6000000 weights"),
+        (lambda c: c["rom"].update(arch="noe", delays=200, neurons=1000, ensemble=21,
+                                   amplitude_weighting=0.0, passivity=0.0, cycle_energy=0.0),
+         r"21 x 1000 x 202 = 4242000 weights"),  # an NOE's regressor: delays + 2 outputs
     ],
 )
 def test_validate_names_the_key(edit, match):
@@ -171,3 +182,20 @@ def test_psd_band(f0, sigma, ok):
     else:
         with pytest.raises(ConfigError):
             settings.check_psd_band(f0, sigma)
+
+
+def test_every_tank_the_rig_runs_at_is_checked_before_any_stage():
+    from sloshrom.pipeline.context import check_rig_tanks
+
+    cfg = settings.defaults()
+    check_rig_tanks(cfg)
+    cfg["tank"]["fill"] = 1e-9
+    with pytest.raises(ConfigError, match=r"'tank\.fill' = 1e-09: the virtual rig cannot model "
+                                          r"fill 1e-09"):
+        check_rig_tanks(cfg)
+    cfg = settings.defaults()
+    cfg["beyond"].update(fills=[1e-9, 0.5], unseen_fills=[0.25], beam_fills=[0.5])
+    check_rig_tanks(cfg)  # [beyond] off: its fills are not run
+    cfg["beyond"]["enabled"] = True
+    with pytest.raises(ConfigError, match=r"'beyond\.fills' = 1e-09"):
+        check_rig_tanks(cfg)

@@ -13,6 +13,8 @@ from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
+from sloshrom.fileio import not_a_regular_file
+
 G = 9.80665  # standard gravity, m/s^2
 
 #: Absolute tolerance on a fill level d/h (-) when two must agree (a model's training fill and
@@ -131,6 +133,9 @@ class Tank:
 def load_toml(path: str | Path) -> dict[str, Any]:
     """Read a TOML file with a clear error for a missing or malformed file."""
     p = Path(path)
+    why = not_a_regular_file(p)
+    if why is not None:
+        raise ConfigError(f"{p}: {why}")
     if not p.is_file():
         raise ConfigError(f"config file not found: {p}")
     try:

@@ -2,20 +2,23 @@
 
 A reader never sees a half-written file (a temporary file in the target's directory, then
 ``os.replace``), an interrupted or failed write leaves the previous file (if any) untouched and no
-temporary behind, and :class:`OutputBatch` makes several files appear together or not at all.
-:func:`check_output` tells, before any work starts, whether a path can be written at all.
+temporary behind, and :class:`OutputBatch` makes several files appear together or not at all (a
+failed batch also removes the directories it created). :func:`check_output` tells, before any
+work starts, whether a path can be written at all and that no input of the command is among what
+it writes; :func:`not_a_regular_file` tells why an input path cannot be read as a file.
 """
 
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 __all__ = [
     "OutputBatch", "OutputPathError", "atomic_write", "atomic_write_text", "check_output",
-    "same_file",
+    "not_a_regular_file", "same_file",
 ]
 
 # Bytes of a temporary name beyond the (possibly shortened) target name: "." + name + "." +
@@ -42,8 +45,9 @@ def atomic_write(
     The parent directory is created if needed. A temporary file named ``.{name}.<random>{suffix}``
     is created beside the target (so the final ``os.replace`` stays on one file system), its
     descriptor is closed and ``write`` is called with its path; the temporary then replaces the
-    target. On any exception (including ``KeyboardInterrupt``) the temporary is removed and the
-    exception re-raised, leaving a previous version of the target intact.
+    target. On any exception (including ``KeyboardInterrupt``) the temporary (and any directory
+    the call created) is removed and the exception re-raised, leaving a previous version of the
+    target intact.
 
     Parameters
     ----------
@@ -62,11 +66,20 @@ def atomic_write(
         ``path`` as a :class:`~pathlib.Path`.
     """
     p = Path(path)
-    tmp = _write_temporary(p, write, suffix)
+    made = _missing_dirs(p.parent)
     try:
-        os.replace(tmp, p)
+        tmp = _write_temporary(p, write, suffix)
+        try:
+            os.replace(tmp, p)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        for d in reversed(made):  # a failed write leaves no empty directory behind
+            try:
+                d.rmdir()
+            except OSError:
+                pass
         raise
     return p
 
@@ -111,12 +124,14 @@ class OutputBatch:
 
     def __init__(self) -> None:
         self._pending: list[tuple[str, Path]] = []
+        self._made: list[Path] = []  # directories this batch created, outermost first
 
     def write(
         self, path: str | Path, write: Callable[[str], None], suffix: str | None = None
     ) -> Path:
         """Write ``path``'s content now (to a temporary); it appears when the batch commits."""
         p = Path(path)
+        self._made += _missing_dirs(p.parent)
         self._pending.append((_write_temporary(p, write, suffix), p))
         return p
 
@@ -133,9 +148,17 @@ class OutputBatch:
         return [p for _, p in self._pending]
 
     def discard(self) -> None:
+        """Remove every temporary not yet committed, and the directories the batch created
+        (when nothing else was put in them): a failed batch leaves no empty result folder."""
         for tmp, _ in self._pending:
             Path(tmp).unlink(missing_ok=True)
         self._pending.clear()
+        for d in reversed(self._made):
+            try:
+                d.rmdir()  # only if empty: never a file that someone else wrote there
+            except OSError:
+                pass
+        self._made.clear()
 
     def commit(self) -> None:
         try:
@@ -143,6 +166,7 @@ class OutputBatch:
                 tmp, p = self._pending[0]
                 os.replace(tmp, p)
                 self._pending.pop(0)
+            self._made.clear()  # committed: the directories hold results now
         finally:
             self.discard()
 
@@ -154,6 +178,44 @@ class OutputBatch:
             self.commit()
         else:
             self.discard()
+
+
+def _missing_dirs(d: Path) -> list[Path]:
+    """The ancestors of ``d`` (``d`` included) that do not exist yet, outermost first."""
+    out: list[Path] = []
+    while not d.exists() and d != d.parent:
+        out.append(d)
+        d = d.parent
+    return out[::-1]
+
+
+def not_a_regular_file(path: str | Path) -> str | None:
+    """Why an existing ``path`` cannot be read as an input file, or ``None``.
+
+    ``None`` for a regular file (or a link to one) and for a path that does not exist (the
+    caller says "no such file" in its own words); otherwise the reason: a directory, a named
+    pipe (reading it blocks until another program writes to it), a socket or a device.
+    """
+    p = Path(path)
+    try:
+        mode = p.stat().st_mode
+    except FileNotFoundError:
+        return "a broken symbolic link" if p.is_symlink() else None
+    except OSError as exc:
+        return f"cannot be read ({exc.strerror or type(exc).__name__})"
+    if stat.S_ISREG(mode):
+        return None
+    if stat.S_ISDIR(mode):
+        return "is a directory, expected a file"
+    kind = ("a named pipe (FIFO)" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode)
+            else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "a special file")
+    return f"is {kind}, not a regular file (give a file on disk)"
+
+
+def _inside(path: str | Path, root: str | Path) -> bool:
+    """True if ``path`` is ``root`` or lies under it (real paths: links resolved)."""
+    rp, rr = os.path.realpath(path), os.path.realpath(root)
+    return rp == rr or rp.startswith(rr.rstrip(os.sep) + os.sep)
 
 
 def same_file(a: str | Path, b: str | Path) -> bool:
@@ -174,6 +236,7 @@ def check_output(
     inputs: tuple[str | Path, ...] = (),
     directory: bool = False,
     what: str = "output",
+    contents: Sequence[str] = (),
 ) -> Path:
     """Check that ``path`` can be written, before any work is done.
 
@@ -189,6 +252,10 @@ def check_output(
         ``path`` is a results directory (created if missing) rather than a file.
     what : str
         How to name the path in messages (e.g. ``"--out"``).
+    contents : sequence of str
+        With ``directory``: what the command writes in it, relative names; a name ending in
+        ``/`` is a directory whose whole tree the command owns. No input may be one of these
+        files or lie in one of these directories.
 
     Returns
     -------
@@ -198,7 +265,8 @@ def check_output(
     ------
     OutputPathError
         Unknown suffix, a name too long for the file system, a directory where a file is
-        expected (or the reverse), a parent that is a file or not writable, or an input file.
+        expected (or the reverse), a parent that is a file or not writable, or an input file
+        (the output itself or, for a directory, anything the command writes in it).
     """
     p = Path(path)
     if not str(path).strip():
@@ -219,6 +287,16 @@ def check_output(
                 f"{what} {p} is also an input of this command: refusing to overwrite it "
                 "(choose another output name)"
             )
+        for entry in contents if directory and src is not None else ():
+            target = p / entry.rstrip("/")
+            hit = _inside(src, target) if entry.endswith("/") else same_file(target, src)
+            if hit:
+                where = f"{target}{os.sep}" if entry.endswith("/") else str(target)
+                raise OutputPathError(
+                    f"{what} {p}: the command writes {where}, and {src} is also an input of "
+                    "this command: refusing to overwrite it (choose another output directory "
+                    "or move the input)"
+                )
     if directory and p.exists() and not p.is_dir():
         raise OutputPathError(f"{what} {p}: exists and is not a directory")
     # the nearest existing ancestor must be a directory we can create entries in

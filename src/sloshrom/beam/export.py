@@ -21,7 +21,9 @@ Node numbering (every channel +Z = vertical, up positive):
   the single tank). A tank at an output grid has its acceleration written once, as the
   station's.
 
-See docs/formats.md, "Beam results as UFF58".
+:func:`check_result_nodes` applies these rules to a modal model before a run, so that a
+structure whose numbering UFF cannot hold is refused before the work, not when the results are
+written. See docs/formats.md, "Beam results as UFF58".
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ import numpy as np
 import xarray as xr
 
 from sloshrom.beam.analysis import frf_h1
+from sloshrom.beam.structure import ModalDataError, ModalModel
 from sloshrom.fileio import OutputBatch
 from sloshrom.io.uff import (
     DIR_PLUS_Z,
@@ -51,7 +54,7 @@ from sloshrom.io.uff import (
 )
 from sloshrom.io.units import canonical_unit
 
-__all__ = ["BASE_NODE", "FIRST_TANK_NODE", "write_result_uff"]
+__all__ = ["BASE_NODE", "FIRST_TANK_NODE", "check_result_nodes", "write_result_uff"]
 
 #: Node of the base (beam root on the shaker): the response node of the base acceleration and
 #: the reference node of every FRF.
@@ -319,6 +322,43 @@ def _check_nodes(channels: list[_Channel]) -> None:
                              "tanks distinct IDs (and not the base node "
                              f"{BASE_NODE})")
         seen[key] = ch.label
+
+
+def check_result_nodes(modal: ModalModel) -> None:
+    """Refuse, before a run, a structure whose results :func:`write_result_uff` cannot number.
+
+    The results of ``modal`` (:func:`sloshrom.beam.results.to_dataset`) give each output point
+    its ``station_ids`` entry (else ``1, 2, ...``) and each tank its ``tank_ids`` entry (else
+    :data:`FIRST_TANK_NODE` for one tank, ``1, 2, ...`` for several); every acceleration must
+    be a degree of freedom of its own: no point at the base node :data:`BASE_NODE`, no tank at
+    an output point unless it is the same point (the same mode shape row), node IDs in 1 to
+    2^31 - 1.
+
+    Raises
+    ------
+    ModalDataError
+        The first clash, naming the node and what would share it.
+    """
+    stations = list(modal.station_ids or range(1, modal.stations.size + 1))
+    tanks = list(modal.tank_ids or ([FIRST_TANK_NODE] if modal.n_tanks == 1
+                                    else range(1, modal.n_tanks + 1)))
+    for what, ids in (("output point", stations), ("tank", tanks)):
+        for node in ids:
+            if not 1 <= node <= _MAX_NODE:
+                raise ModalDataError(f"{what} {node}: UFF node IDs must be in 1..{_MAX_NODE}")
+            if node == BASE_NODE:
+                raise ModalDataError(
+                    f"{what} {node} is the node the UFF results give the base (the shaker "
+                    f"table, node {BASE_NODE}): renumber it in the modal file, or leave out "
+                    "--uff")
+    row = {node: i for i, node in enumerate(stations)}
+    for j, node in enumerate(tanks):
+        i = row.get(node)
+        if i is not None and not np.array_equal(modal.psi_stations[i], modal.psi_tanks[j]):
+            raise ModalDataError(
+                f"tank {j + 1} and output point {i + 1} would both be UFF node {node} with "
+                "different accelerations: give the tanks and output points distinct IDs "
+                "(tank_ids, station_ids)")
 
 
 def _frf_sets(channels: list[_Channel], i: int, fs: float, nperseg: int, lvl: str,

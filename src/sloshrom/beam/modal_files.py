@@ -33,7 +33,7 @@ import numpy as np
 from sloshrom.beam.modes import ModeSet, mode_table_arrays
 from sloshrom.beam.structure import ModalDataError
 from sloshrom.config import load_toml_table
-from sloshrom.fileio import atomic_write, atomic_write_text
+from sloshrom.fileio import atomic_write, atomic_write_text, not_a_regular_file
 from sloshrom.io.uff import open_uff
 from sloshrom.io.units import canonical_unit, is_known_unit
 
@@ -62,6 +62,9 @@ def _reason(exc: BaseException, limit: int = 160) -> str:
 
 
 def _check_file(p: Path) -> None:
+    why = not_a_regular_file(p)
+    if why is not None:
+        raise ModalDataError(f"{p}: {why}")
     if not p.is_file():
         raise ModalDataError(f"{p}: no such file")
     if p.stat().st_size == 0:
@@ -125,18 +128,21 @@ def read_modes(
     mode_table : path or mapping, optional
         Per-mode damping (-), modal masses (kg) and participation (kg), see
         :func:`read_mode_table`; its columns replace the file's values (in kg, never scaled by
-        ``mass_unit``).
+        ``mass_unit``). A table is matched to the file's modes **by mode number** (its row for
+        mode k goes to the mode the file numbers k), whatever order the file lists them in.
 
     Returns
     -------
     ModeSet
-        SI units; ``source`` is ``"<format>:<file name>"``.
+        SI units, modes in the order of their mode numbers (:attr:`ModeSet.mode_numbers`);
+        ``source`` is ``"<format>:<file name>"``.
 
     Raises
     ------
     ModalDataError
-        Missing, empty, truncated or malformed file; unknown format; the problems each reader
-        lists.
+        Missing, empty, truncated or malformed file; unknown format; a damping ratio outside
+        [0, 1) or a modal mass that is not positive (never silently replaced); the problems
+        each reader lists.
     """
     p = Path(path)
     fmt = format.lower() if format is not None else _FORMATS.get(p.suffix.lower())
@@ -163,17 +169,26 @@ def read_modes(
     parts = reader(p, factor if mass_unit is not None else None)
     parts.setdefault("source", f"{'uff55' if fmt == 'uff' else fmt}:{p.name}")
     n = np.asarray(parts["frequencies"]).size
+    numbers = parts.get("mode_numbers")
+    label = (np.arange(1, n + 1) if numbers is None else np.asarray(numbers)).tolist()
     if table is not None:
-        cols = mode_table_arrays(table, n, f"mode table for {p.name}")
+        cols = mode_table_arrays(table, n, f"mode table for {p.name}", numbers)
         if "modal_mass" in cols:  # the file may hold none: the table's fill the gap
             parts["modal_masses"] = cols["modal_mass"]
     masses = parts.get("modal_masses")
-    if masses is None or not np.all(np.asarray(masses) > 0):
-        bad = (np.arange(n) if masses is None
-               else np.flatnonzero(~(np.asarray(masses) > 0)))
+    m = np.full(n, 0.0) if masses is None else np.asarray(masses, dtype=float)
+    wrong = np.flatnonzero(~np.isfinite(m) | (m < 0))
+    if wrong.size:  # a value the file gives is wrong, not missing: say so
+        k = int(wrong[0])
         raise ModalDataError(
-            f"{p}: no modal mass for mode(s) {', '.join(str(k + 1) for k in bad[:10])} in the "
-            "file: give a mode table with a modal_mass column (kg)"
+            f"{p}: the modal mass of mode {label[k]} is {float(m[k])!r} in the file; a modal "
+            "mass (phi^T M phi) must be positive and finite (a sign or unit error?)"
+        )
+    if np.any(m == 0):
+        bad = np.flatnonzero(m == 0)
+        raise ModalDataError(
+            f"{p}: no modal mass for mode(s) {', '.join(str(label[k]) for k in bad[:10])} in "
+            "the file: give a mode table with a modal_mass column (kg)"
         )
     ms = ModeSet(**parts)
     return ms.with_table(table) if table is not None else ms
@@ -185,16 +200,20 @@ def read_mode_table(path: str | Path) -> dict[str, np.ndarray]:
     """Read per-mode damping, modal masses and participation (CSV or TOML).
 
     CSV: a header ``mode,damping[,modal_mass_kg][,participation_kg]`` (columns in any order,
-    ``#`` comment lines allowed); ``mode`` numbers 1..n, each once. Columns: ``damping`` (ratio,
-    -), ``modal_mass`` and ``participation`` / ``participation_x`` / ``_y`` / ``_z`` with an
-    optional mass-unit suffix (``modal_mass_kg``, ``modal_mass_t``; none means kg).
-    ``participation`` is along +Z. TOML: a ``[modes]`` table of arrays ``damping``,
-    ``modal_mass`` (kg), ``participation`` (kg), ..., entry k for mode k + 1.
+    ``#`` comment lines allowed); ``mode`` gives each row's mode number (integers >= 1, each
+    once, any order: ``7,8,9`` for a file whose rigid-body modes 1-6 were removed). Columns:
+    ``damping`` (ratio, -), ``modal_mass`` and ``participation`` / ``participation_x`` / ``_y``
+    / ``_z`` with an optional mass-unit suffix (``modal_mass_kg``, ``modal_mass_t``; none means
+    kg). ``participation`` is along +Z. TOML: a ``[modes]`` table of arrays ``damping``,
+    ``modal_mass`` (kg), ``participation`` (kg), ..., entry k for mode k + 1, or for the mode
+    numbers of an optional ``mode`` array. The table is applied to a modal file **by mode
+    number** (:func:`~sloshrom.beam.modes.mode_table_arrays`), never by position.
 
     Returns
     -------
     dict
-        Column name (without unit) -> float array in SI, entry k for mode k + 1.
+        Column name (without unit) -> float array in SI, sorted by mode number, and ``mode``
+        (the mode numbers, int).
     """
     p = Path(path)
     _check_file(p)
@@ -210,11 +229,20 @@ def read_mode_table(path: str | Path) -> dict[str, np.ndarray]:
         out: dict[str, np.ndarray] = {}
         for k, v in data.items():
             try:
-                out[k] = np.asarray(v, dtype=float)
+                out[k] = np.atleast_1d(np.asarray(v, dtype=float))
             except (TypeError, ValueError) as exc:
                 raise ModalDataError(f"{p}: [modes] {k} must be an array of numbers") from exc
-        # names and values checked now; the mode count when the table is applied
-        mode_table_arrays(out, min(a.size for a in out.values()), str(p))
+        if "mode" in out:
+            out["mode"] = _table_modes(p, out["mode"])
+            for k, v in out.items():
+                if v.shape != out["mode"].shape:
+                    raise ModalDataError(f"{p}: [modes] {k} has {v.size} entries, mode "
+                                         f"{out['mode'].size}: one per listed mode")
+            order = np.argsort(out["mode"])
+            out = {k: v[order] for k, v in out.items()}
+        # names and values checked now; the modes a file needs when the table is applied
+        n = out["mode"].size if "mode" in out else min(a.size for a in out.values())
+        mode_table_arrays(out, n, str(p), out.get("mode", np.arange(1, n + 1)))
         return out
     header, rows = _csv_rows(p)
     cols = _csv_columns(p, header, _TABLE_KINDS)
@@ -223,24 +251,32 @@ def read_mode_table(path: str | Path) -> dict[str, np.ndarray]:
     if not rows:
         raise ModalDataError(f"{p}: a header but no rows")
     values = _csv_values(p, rows, len(header))
-    modes = values[:, cols["mode"][0]]
+    modes = _table_modes(p, values[:, cols["mode"][0]])
     order = np.argsort(modes)
-    if not np.array_equal(modes[order], np.arange(1, modes.size + 1)):
-        raise ModalDataError(
-            f"{p}: the mode column must number the modes 1..{modes.size}, each once; got "
-            f"{sorted(int(m) if m == int(m) else m for m in modes.tolist())}"
-        )
     out = {name: values[order, j] * f for name, (j, f) in cols.items() if name != "mode"}
     if not out:
         raise ModalDataError(f"{p}: only a mode column; give damping, modal_mass, ...")
-    mode_table_arrays(out, modes.size, str(p))
+    out["mode"] = modes[order]
+    mode_table_arrays(out, modes.size, str(p), out["mode"])
     return out
+
+
+def _table_modes(p: Path, modes: np.ndarray) -> np.ndarray:
+    """A table's mode numbers: integers >= 1, each once."""
+    ok = np.isfinite(modes) & (modes == np.round(modes)) & (modes >= 1)
+    if not np.all(ok) or np.unique(modes).size != modes.size:
+        shown = sorted(int(m) if np.isfinite(m) and m == int(m) else m for m in modes.tolist())
+        raise ModalDataError(
+            f"{p}: the mode column must give each row's mode number, an integer >= 1, each "
+            f"once (tables are matched to the modes by number); got {shown[:20]}"
+        )
+    return modes.astype(np.int64)
 
 
 def write_mode_table(ms: ModeSet, path: str | Path) -> Path:
     """Write a mode set's damping, modal masses and participation as a mode-table CSV."""
     header = ["mode", "modal_mass_kg"]
-    cols = [np.arange(1, ms.n_modes + 1), ms.modal_masses]
+    cols = [ms.mode_numbers, ms.modal_masses]
     if ms.damping is not None:
         header.append("damping")
         cols.append(ms.damping)
@@ -252,7 +288,7 @@ def write_mode_table(ms: ModeSet, path: str | Path) -> Path:
                 cols.append(ms.participation[c])
     lines = [",".join(header)]
     for k in range(ms.n_modes):
-        lines.append(",".join(_num(c[k]) if j else str(k + 1) for j, c in enumerate(cols)))
+        lines.append(",".join(_num(c[k]) if j else str(int(c[k])) for j, c in enumerate(cols)))
     return atomic_write_text(path, "\n".join(lines) + "\n")
 
 
@@ -374,22 +410,23 @@ def _read_csv(p: Path, mass_factor: float | None) -> dict[str, Any]:
             i = int(np.flatnonzero(c != np.round(c))[0])
             raise ModalDataError(f"{p}: line {lines[i]}: {name} {c[i]!r} is not an integer")
     mode, node = col("mode").astype(np.int64), col("node").astype(np.int64)
-    mode_ids = list(dict.fromkeys(mode.tolist()))
-    if mode_ids != list(range(1, len(mode_ids) + 1)):
-        raise ModalDataError(f"{p}: modes must be numbered 1, 2, ... in order; got {mode_ids}")
-    first = mode == 1
+    # the file's mode numbers (>= 1, in any order); the modes sorted by number
+    mode_ids = sorted(dict.fromkeys(mode.tolist()))
+    if mode_ids[0] < 1:
+        raise ModalDataError(f"{p}: mode numbers must be integers >= 1, got {mode_ids[0]}")
+    first = mode == mode_ids[0]
     nodes = node[first]
     n, s = len(mode_ids), nodes.size
     per_mode: dict[str, list[float]] = {"frequency": [], "modal_mass": [], "damping": [],
                                         "participation_x": [], "participation_y": [],
                                         "participation_z": []}
     shapes = np.zeros((s, 3, n))
-    for k in range(n):
-        sel = np.flatnonzero(mode == k + 1)
+    for k, number in enumerate(mode_ids):
+        sel = np.flatnonzero(mode == number)
         if not np.array_equal(node[sel], nodes):
             raise ModalDataError(
-                f"{p}: mode {k + 1} lists {sel.size} node rows, mode 1 lists {s} (the nodes and "
-                "their order must be the same for every mode; truncated file?)"
+                f"{p}: mode {number} lists {sel.size} node rows, mode {mode_ids[0]} lists {s} "
+                "(the nodes and their order must be the same for every mode; truncated file?)"
             )
         for name in per_mode:
             if name not in cols:
@@ -397,7 +434,7 @@ def _read_csv(p: Path, mass_factor: float | None) -> dict[str, Any]:
             vals = col(name)[sel]
             if not np.all((vals == vals[0]) | (np.isnan(vals) & np.isnan(vals[0]))):
                 raise ModalDataError(
-                    f"{p}: {name} of mode {k + 1} differs between its rows (lines "
+                    f"{p}: {name} of mode {number} differs between its rows (lines "
                     f"{lines[sel[0]]}..{lines[sel[-1]]})"
                 )
             per_mode[name].append(float(vals[0]))
@@ -406,6 +443,7 @@ def _read_csv(p: Path, mass_factor: float | None) -> dict[str, Any]:
     parts: dict[str, Any] = {
         "frequencies": np.array(per_mode["frequency"]),
         "modal_masses": np.array(per_mode["modal_mass"]), "nodes": nodes, "shapes": shapes,
+        "mode_numbers": np.array(mode_ids, dtype=np.int64),
     }
     if "damping" in cols:
         parts["damping"] = np.array(per_mode["damping"])
@@ -444,7 +482,7 @@ def write_modes_csv(ms: ModeSet, path: str | Path) -> Path:
         if ms.participation is not None:
             head += [_num(v) for v in ms.participation[:, k]]
         for i, node in enumerate(ms.nodes.tolist()):
-            row = [str(k + 1), str(node), *head]
+            row = [str(int(ms.mode_numbers[k])), str(node), *head]
             if ms.coordinates is not None:
                 row += [_num(v) for v in ms.coordinates[i]]
             row += [_num(v) for v in ms.shapes[i, :, k]]
@@ -516,6 +554,19 @@ def _read_netcdf(p: Path, mass_factor: float | None) -> dict[str, Any]:
         "shapes": get("shape"), "damping": get("damping"),
         "participation": get("participation"), "coordinates": get("coordinates"),
     }
+    if "mode" in ds.variables:  # the mode numbers tables are matched by
+        numbers = np.asarray(ds["mode"].values)
+        if numbers.shape != np.shape(parts["frequencies"]) or \
+                not np.issubdtype(numbers.dtype, np.integer) or np.any(numbers < 1) or \
+                np.unique(numbers).size != numbers.size:
+            raise ModalDataError(f"{p}: coordinate mode must hold distinct integer mode numbers "
+                                 f">= 1, one per mode, got {numbers.tolist()[:10]}")
+        order = np.argsort(numbers, kind="stable")
+        parts["mode_numbers"] = numbers[order].astype(np.int64)
+        for key, axis in (("frequencies", 0), ("modal_masses", 0), ("damping", 0),
+                          ("participation", 1), ("shapes", 2)):
+            if parts[key] is not None:
+                parts[key] = np.take(parts[key], order, axis=axis)
     if ds.attrs.get("source"):
         parts["attrs"] = {"written_from": str(ds.attrs["source"])}
     return parts
@@ -539,7 +590,7 @@ def write_modes_netcdf(ms: ModeSet, path: str | Path) -> Path:
     ds = xr.Dataset(
         data,
         coords={"node": ("node", ms.nodes.astype(np.int64)), "direction": ["x", "y", "z"],
-                "mode": ("mode", np.arange(1, ms.n_modes + 1))},
+                "mode": ("mode", ms.mode_numbers.astype(np.int64))},
         attrs={"format": NETCDF_FORMAT, "format_version": NETCDF_VERSION,
                "source": ms.source},
     )
@@ -602,6 +653,9 @@ def _read_uff(p: Path, mass_factor: float | None) -> dict[str, Any]:
     numbers = [int(s.get("mode_n", 0)) for _, s in d55]
     if len(set(numbers)) != len(numbers):
         raise ModalDataError(f"{p}: mode numbers repeat in the dataset-55 sets: {numbers}")
+    if min(numbers) < 1:
+        raise ModalDataError(f"{p}: dataset-55 mode numbers must be >= 1, got {numbers[:10]} "
+                             "(mode tables are matched to the modes by these numbers)")
     nodes = np.asarray(d55[0][1]["node_nums"]).astype(np.int64)
     n, s_ = len(d55), nodes.size
     shapes = np.zeros((s_, 3, n))
@@ -620,6 +674,15 @@ def _read_uff(p: Path, mass_factor: float | None) -> dict[str, Any]:
         mass[k] = float(s.get("modal_m", 0.0) or 0.0) * to_kg
         vis[k] = float(s.get("modal_damp_vis", 0.0) or 0.0)
         his[k] = float(s.get("modal_damp_his", 0.0) or 0.0)
+        # damping is what the tool predicts: a wrong value in the file is an error, never 0
+        # (a loss factor eta gives the ratio eta / 2, so it may reach 2)
+        for name, v, top in (("viscous damping ratio", vis[k], 1),
+                             ("hysteretic damping (loss factor)", his[k], 2)):
+            if not (math.isfinite(v) and 0.0 <= v < top):
+                raise ModalDataError(
+                    f"{p}: mode {numbers[k]} (dataset {i + 1}) has {name} {float(v)!r}; it "
+                    f"must be in [0, {top}) (0: not given)"
+                )
     # viscous ratio if given, else half the hysteretic (loss factor) ratio; all zero: none
     zeta = np.where(vis > 0, vis, 0.5 * his)
     coords = None
@@ -635,6 +698,7 @@ def _read_uff(p: Path, mass_factor: float | None) -> dict[str, Any]:
     return {
         "frequencies": freq, "modal_masses": mass, "nodes": nodes, "shapes": shapes,
         "damping": zeta if np.any(zeta > 0) else None, "coordinates": coords, "attrs": attrs,
+        "mode_numbers": np.asarray(numbers, dtype=np.int64),
     }
 
 
@@ -663,7 +727,7 @@ def write_modes_uff(ms: ModeSet, path: str | Path) -> Path:
             id5=f"mode {k + 1}", model_type=1, analysis_type=2, data_ch=2, spec_data_type=8,
             data_type=2, n_data_per_node=3,
             r1=ms.shapes[:, 0, k], r2=ms.shapes[:, 1, k], r3=ms.shapes[:, 2, k],
-            node_nums=ms.nodes.astype(int), load_case=1, mode_n=k + 1,
+            node_nums=ms.nodes.astype(int), load_case=1, mode_n=int(ms.mode_numbers[k]),
             freq=float(ms.frequencies[k]), modal_m=float(ms.modal_masses[k]),
             modal_damp_vis=float(ms.damping[k]) if ms.damping is not None else 0.0,
             modal_damp_his=0.0, return_full_dict=True))
@@ -723,7 +787,11 @@ def _read_punch(p: Path, mass_factor: float | None) -> dict[str, Any]:
     scalars: set[int] = set()
     after_point = False  # a -CONT- line belongs to the preceding point line
     other_kinds: set[str] = set()
-    for lineno, raw in enumerate(text.splitlines(), 1):
+    lines = text.splitlines()
+    # a file cut inside its last line: the rest of a number would read as another number
+    cut_line = len(lines) if text and not text.endswith(("\n", "\r")) else 0
+    numbered: bool | None = None  # do the data records carry sequence numbers (cols 73-80)?
+    for lineno, raw in enumerate(lines, 1):
         line = raw.rstrip("\r\n")
         s = line.strip()
         if not s:
@@ -764,6 +832,19 @@ def _read_punch(p: Path, mass_factor: float | None) -> dict[str, Any]:
             continue
         if kind != "eigen":
             continue
+        if lineno == cut_line:
+            raise ModalDataError(
+                f"{p}: line {lineno}: the file ends inside this record (no line break after "
+                f"{s[-20:]!r}): truncated file? (if it is complete, end it with a line break)"
+            )
+        has_seq = line[72:].strip().isdigit()
+        if numbered is None:
+            numbered = has_seq
+        elif numbered and not has_seq:
+            raise ModalDataError(
+                f"{p}: line {lineno} is cut short ({len(line)} columns, no sequence number in "
+                "columns 73-80 as the other records have): truncated or edited file?"
+            )
         if s.startswith("-CONT-"):
             if not after_point:
                 raise ModalDataError(f"{p}: line {lineno}: a -CONT- line without a point line "
@@ -792,6 +873,7 @@ def _read_punch(p: Path, mass_factor: float | None) -> dict[str, Any]:
         raise ModalDataError(
             f"{p}: holds no eigenvectors{found} (is it a SOL 103 DISPLACEMENT(PUNCH)?)"
         )
+    modes.sort(key=lambda m: m["mode"])  # by mode number: the order tables are matched in
     subcases = sorted({str(m["subcase"]) for m in modes})
     if len(subcases) > 1:
         raise ModalDataError(f"{p}: eigenvectors of several subcases ({', '.join(subcases)}); "
@@ -799,6 +881,9 @@ def _read_punch(p: Path, mass_factor: float | None) -> dict[str, Any]:
     numbers = [m["mode"] for m in modes]
     if len(set(numbers)) != len(numbers):
         raise ModalDataError(f"{p}: mode numbers repeat: {numbers}")
+    if modes[0]["mode"] < 1:
+        raise ModalDataError(f"{p}: mode numbers must be >= 1, got {numbers[:10]} (mode "
+                             "tables are matched to the modes by these numbers)")
     for m in modes:
         if not m["lam"] > 0:
             raise ModalDataError(
@@ -838,6 +923,7 @@ def _read_punch(p: Path, mass_factor: float | None) -> dict[str, Any]:
     return {
         "frequencies": np.sqrt(lam) / (2 * math.pi), "modal_masses": np.full(lam.size, to_kg),
         "nodes": nodes, "shapes": shapes, "attrs": attrs,
+        "mode_numbers": np.array([m["mode"] for m in modes], dtype=np.int64),
     }
 
 
@@ -863,7 +949,7 @@ def write_modes_punch(ms: ModeSet, path: str | Path) -> Path:
         rec("$EIGENVECTOR")
         rec("$REAL OUTPUT")
         rec(f"$SUBCASE ID = {1:11d}")
-        rec(f"$EIGENVALUE = {lam:17.10E}  MODE = {k + 1:5d}")
+        rec(f"$EIGENVALUE = {lam:17.10E}  MODE = {int(ms.mode_numbers[k]):5d}")
         for i, node in enumerate(ms.nodes.tolist()):
             t = ms.shapes[i, :, k]
             rec(f"{node:10d}{'G':>8}{t[0]:18.10E}{t[1]:18.10E}{t[2]:18.10E}")

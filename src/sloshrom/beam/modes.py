@@ -20,10 +20,10 @@ from typing import Any
 
 import numpy as np
 
-from sloshrom.beam.structure import CantileverBeam, ModalDataError, ModalModel
+from sloshrom.beam.structure import MAX_MODES, MAX_VALUE, CantileverBeam, ModalDataError, ModalModel
 from sloshrom.config import Tank
 
-__all__ = ["DIRECTIONS", "MAX_DEFAULT_OUTPUTS", "ModeSet", "mode_table_arrays"]
+__all__ = ["DIRECTIONS", "MAX_DEFAULT_OUTPUTS", "MAX_MODES", "ModeSet", "mode_table_arrays"]
 
 #: the structure's "up" axes :meth:`ModeSet.to_modal_model` accepts -> (component, sign)
 DIRECTIONS: dict[str, tuple[int, float]] = {
@@ -35,6 +35,8 @@ MAX_DEFAULT_OUTPUTS = 64
 #: columns of a mode table (see :func:`mode_table_arrays`): name -> ModeSet field it sets
 TABLE_COLUMNS = ("damping", "modal_mass", "participation", "participation_x",
                  "participation_y", "participation_z")
+#: the optional column of a table that numbers its rows (default: row k is mode k + 1)
+MODE_COLUMN = "mode"
 
 
 def _vector(name: str, value: Any, n: int, where: str, allow_nan: bool = False) -> np.ndarray:
@@ -47,7 +49,37 @@ def _vector(name: str, value: Any, n: int, where: str, allow_nan: bool = False) 
         raise ModalDataError(
             f"{where}: {name} of mode {k + 1} is {float(a[k])!r}; it must be finite"
         )
+    _bounded(name, a, where)
     return a
+
+
+def _bounded(name: str, a: np.ndarray, where: str) -> None:
+    """Refuse a value of magnitude :data:`~sloshrom.beam.structure.MAX_VALUE` or more: squares
+    and products of modal values (stiffness, frozen mass matrix) must not overflow."""
+    with np.errstate(invalid="ignore"):
+        big = np.abs(a) >= MAX_VALUE
+    if np.any(big):
+        v = float(np.asarray(a)[big].flat[0])
+        raise ModalDataError(f"{where}: {name} holds {v:g}; modal values must be below "
+                             f"{MAX_VALUE:g} in magnitude (a unit or format error?)")
+
+
+def _mode_numbers(value: Any, n: int, where: str) -> np.ndarray:
+    """The file's numbers of the ``n`` modes: positive, distinct integers (default 1..n)."""
+    if value is None:
+        return np.arange(1, n + 1, dtype=np.int64)
+    a = np.atleast_1d(np.asarray(value))
+    if a.shape != (n,):
+        raise ModalDataError(f"{where}: mode_numbers must have one number per mode ({n}), got "
+                             f"{a.shape}")
+    f = np.asarray(a, dtype=float)
+    if not np.all(np.isfinite(f)) or np.any(f != np.round(f)) or np.any(f < 1):
+        raise ModalDataError(f"{where}: mode numbers must be integers >= 1, got "
+                             f"{a.tolist()[:10]}")
+    out = f.astype(np.int64)
+    if np.unique(out).size != n:
+        raise ModalDataError(f"{where}: mode numbers repeat: {out.tolist()[:20]}")
+    return out
 
 
 def _show_nodes(nodes: np.ndarray) -> str:
@@ -59,34 +91,70 @@ def _show_nodes(nodes: np.ndarray) -> str:
     return f"nodes {head}{', ...' if s.size > 6 else ''} ({s.size} nodes)"
 
 
-def mode_table_arrays(table: Mapping[str, Any], n_modes: int, where: str = "mode table"
-                      ) -> dict[str, np.ndarray]:
-    """Check a per-mode table and return its columns for the first ``n_modes`` modes.
+def _show_numbers(a: np.ndarray) -> str:
+    """``1..12`` for a contiguous range, else the first few numbers."""
+    v = np.sort(np.asarray(a, dtype=np.int64))
+    if v.size > 1 and v[-1] - v[0] + 1 == v.size:
+        return f"{v[0]}..{v[-1]}"
+    return ", ".join(str(int(x)) for x in v[:8]) + (", ..." if v.size > 8 else "")
+
+
+def mode_table_arrays(table: Mapping[str, Any], n_modes: int, where: str = "mode table",
+                      modes: Sequence[int] | np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """Check a per-mode table and return its columns for the modes of a set, by mode number.
+
+    A table is matched to the modes by **mode number**, never by position: entry ``k`` of a
+    column is mode number ``k + 1`` of the file (the ``mode`` column of a CSV table, the
+    ``MODE =`` of a punch file, ``mode_n`` of UFF 55), whatever order the file lists its modes
+    in.
 
     Parameters
     ----------
     table : mapping
-        Column name -> sequence, entry ``k`` for mode ``k + 1``. Columns: ``damping`` (ratio, -),
-        ``modal_mass`` (kg), ``participation`` (kg, along +Z; the same as ``participation_z``),
-        ``participation_x`` / ``_y`` / ``_z`` (kg). Rows beyond ``n_modes`` are ignored (a table
-        of 20 modes serves a set reduced to 3); fewer rows are an error.
+        Column name -> sequence, entry ``k`` for mode number ``k + 1``, or for the mode number
+        in entry ``k`` of an optional ``mode`` column (integers >= 1, each once; what
+        :func:`~sloshrom.beam.modal_files.read_mode_table` returns). Columns: ``damping``
+        (ratio, -), ``modal_mass`` (kg), ``participation`` (kg, along +Z; the same as
+        ``participation_z``), ``participation_x`` / ``_y`` / ``_z`` (kg). Rows of modes the set
+        does not hold are ignored (a table of 20 modes serves a set reduced to 3); a mode of
+        the set without a row is an error.
     n_modes : int
         Modes of the set the table is applied to.
     where : str
         Names the table in messages.
+    modes : sequence of int, optional
+        The set's mode numbers, one per mode (:attr:`ModeSet.mode_numbers`); default
+        ``1..n_modes``.
 
     Returns
     -------
     dict
-        The given columns as float arrays of length ``n_modes`` (``participation`` renamed to
-        ``participation_z``).
+        The given columns as float arrays of length ``n_modes``, entry ``i`` for the set's
+        mode ``i`` (``participation`` renamed to ``participation_z``).
 
     Raises
     ------
     ModalDataError
-        Unknown column, too few rows, a non-finite value, damping outside [0, 1), a non-positive
-        modal mass, ``participation`` together with ``participation_z``.
+        Unknown column, a mode of the set without a row, a non-finite value, damping outside
+        [0, 1), a non-positive modal mass, ``participation`` together with
+        ``participation_z``.
     """
+    numbers = _mode_numbers(modes, n_modes, where)
+    top = int(numbers.max()) if numbers.size else 0
+    rows = None  # row of each of the set's modes in a table with a mode column
+    if MODE_COLUMN in table:
+        listed = _mode_numbers(table[MODE_COLUMN], np.size(table[MODE_COLUMN]),
+                               f"{where} (its mode column)")
+        lookup = {int(m): i for i, m in enumerate(listed)}
+        absent = [int(m) for m in numbers if int(m) not in lookup]
+        if absent:
+            raise ModalDataError(
+                f"{where}: no row for mode(s) {', '.join(map(str, absent[:10]))} of the mode "
+                f"set (a table is matched to the modes by mode number; it lists modes "
+                f"{_show_numbers(listed)})"
+            )
+        rows = np.array([lookup[int(m)] for m in numbers], dtype=int)
+        table = {k: v for k, v in table.items() if k != MODE_COLUMN}
     unknown = sorted(set(table) - set(TABLE_COLUMNS))
     if unknown:
         raise ModalDataError(
@@ -99,18 +167,32 @@ def mode_table_arrays(table: Mapping[str, Any], n_modes: int, where: str = "mode
         a = np.atleast_1d(np.asarray(value, dtype=float))
         if a.ndim != 1:
             raise ModalDataError(f"{where}: {name} must be one value per mode, got {a.shape}")
-        if a.size < n_modes:
+        if rows is not None:
+            if a.size != np.size(listed):
+                raise ModalDataError(f"{where}: {name} has {a.size} entries for "
+                                     f"{np.size(listed)} listed modes")
+            out["participation_z" if name == "participation" else name] = _table_values(
+                name, a[rows], n_modes, where)
+            continue
+        if a.size < top:
+            numbered = "" if top == n_modes else f", numbered up to {top}"
             raise ModalDataError(
-                f"{where}: {name} lists {a.size} mode(s); the mode set holds {n_modes} (list "
-                f"every mode, or select_modes({a.size}) first)"
+                f"{where}: {name} lists {a.size} mode(s); the mode set holds {n_modes}"
+                f"{numbered} (a table is matched to the modes by mode number, its row k to "
+                f"mode k: list every mode, or select_modes({a.size}) first)"
             )
-        a = _vector(name, a[:n_modes], n_modes, where)
-        if name == "damping" and (np.any(a < 0) or np.any(a >= 1)):
-            raise ModalDataError(f"{where}: damping ratios must be in [0, 1), got {a}")
-        if name == "modal_mass" and np.any(a <= 0):
-            raise ModalDataError(f"{where}: modal masses must be positive (kg), got {a}")
-        out["participation_z" if name == "participation" else name] = a
+        out["participation_z" if name == "participation" else name] = _table_values(
+            name, a[numbers - 1], n_modes, where)
     return out
+
+
+def _table_values(name: str, a: np.ndarray, n_modes: int, where: str) -> np.ndarray:
+    a = _vector(name, a, n_modes, where)
+    if name == "damping" and (np.any(a < 0) or np.any(a >= 1)):
+        raise ModalDataError(f"{where}: damping ratios must be in [0, 1), got {a}")
+    if name == "modal_mass" and np.any(a <= 0):
+        raise ModalDataError(f"{where}: modal masses must be positive (kg), got {a}")
+    return a
 
 
 @dataclass(frozen=True)
@@ -138,12 +220,17 @@ class ModeSet:
         Where the modes come from, e.g. ``"uff55:wing.unv"``.
     attrs : dict
         Notes of the reader (e.g. the scalar points a punch file held).
+    mode_numbers : int array (n_modes,) or None
+        The file's number of each mode (``MODE =`` of a punch file, ``mode_n`` of UFF 55),
+        positive and distinct; mode tables are matched to the modes by these numbers. None:
+        ``1..n_modes``.
 
     Raises
     ------
     ModalDataError
         No modes, non-positive or non-finite frequencies or masses, wrong shapes, duplicate
-        nodes, damping outside [0, 1), non-finite shapes or coordinates.
+        nodes or mode numbers, damping outside [0, 1), non-finite shapes or coordinates, a
+        value of magnitude :data:`~sloshrom.beam.structure.MAX_VALUE` or more.
     """
 
     frequencies: np.ndarray
@@ -155,6 +242,7 @@ class ModeSet:
     coordinates: np.ndarray | None = None
     source: str = ""
     attrs: dict[str, Any] = field(default_factory=dict)
+    mode_numbers: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         where = self.source or "mode set"
@@ -197,6 +285,13 @@ class ModeSet:
         if not np.all(np.isfinite(shapes)):
             i, _, k = np.argwhere(~np.isfinite(shapes))[0]
             raise ModalDataError(f"{where}: mode {k + 1} is not finite at node {nodes[i]}")
+        if np.any(np.abs(shapes) >= MAX_VALUE):
+            i, _, k = np.argwhere(np.abs(shapes) >= MAX_VALUE)[0]
+            raise ModalDataError(
+                f"{where}: mode {k + 1} is {float(np.max(np.abs(shapes[i, :, k]))):g} at node "
+                f"{nodes[i]}; shape values must be below {MAX_VALUE:g} in magnitude (a unit or "
+                "format error?)")
+        numbers = _mode_numbers(self.mode_numbers, n, where)
         damping = None
         if self.damping is not None:
             damping = _vector("damping", self.damping, n, where)
@@ -212,6 +307,7 @@ class ModeSet:
                 )
             if np.any(np.isinf(part)):
                 raise ModalDataError(f"{where}: participation must be finite (NaN: unknown)")
+            _bounded("participation", part, where)
         coords = None
         if self.coordinates is not None:
             coords = np.asarray(self.coordinates, dtype=float)
@@ -222,9 +318,11 @@ class ModeSet:
                 )
             if not np.all(np.isfinite(coords)):
                 raise ModalDataError(f"{where}: coordinates must be finite")
+            _bounded("coordinates", coords, where)
         for name, value in (("frequencies", f), ("modal_masses", m), ("nodes", nodes),
                             ("shapes", shapes), ("damping", damping),
-                            ("participation", part), ("coordinates", coords)):
+                            ("participation", part), ("coordinates", coords),
+                            ("mode_numbers", numbers)):
             if value is not None:
                 value = np.array(value)  # own copy: never freeze the caller's array
                 value.setflags(write=False)  # frozen means frozen, arrays included
@@ -265,7 +363,7 @@ class ModeSet:
 
     # -- derived sets -----------------------------------------------------------------------
     def select_modes(self, n: int) -> ModeSet:
-        """The first ``n`` modes (lowest first, as the file orders them)."""
+        """The first ``n`` modes (in the order of :attr:`mode_numbers`; readers sort by it)."""
         if isinstance(n, bool) or int(n) != n or n < 1:
             raise ModalDataError(f"select_modes: n must be a positive integer, got {n!r}")
         n = int(n)
@@ -279,6 +377,7 @@ class ModeSet:
             shapes=self.shapes[:, :, :n],
             damping=None if self.damping is None else self.damping[:n],
             participation=None if self.participation is None else self.participation[:, :n],
+            mode_numbers=self.mode_numbers[:n],
         )
 
     def with_table(self, table: Mapping[str, Any]) -> ModeSet:
@@ -294,10 +393,11 @@ class ModeSet:
         Returns
         -------
         ModeSet
-            Given columns replace the set's values; a participation component not given keeps
-            the set's value (NaN, unknown, if the set has none).
+            Given columns replace the set's values, matched by mode number
+            (:attr:`mode_numbers`: row k of a column is mode k); a participation component not
+            given keeps the set's value (NaN, unknown, if the set has none).
         """
-        cols = mode_table_arrays(table, self.n_modes, "mode table")
+        cols = mode_table_arrays(table, self.n_modes, "mode table", self.mode_numbers)
         kw: dict[str, Any] = {}
         if "damping" in cols:
             kw["damping"] = cols["damping"]
@@ -387,8 +487,14 @@ class ModeSet:
         ------
         ModalDataError
             Unknown direction, a node not in the set, too many nodes for default outputs, no
-            damping anywhere.
+            damping anywhere, more than :data:`MAX_MODES` modes (checked first: before any
+            work on them).
         """
+        if self.n_modes > MAX_MODES:
+            raise ModalDataError(
+                f"{self.file_name} holds {self.n_modes} modes; a modal model takes at most "
+                f"{MAX_MODES} (the coupled simulation solves an n x n eigenproblem): keep the "
+                f"lowest with select_modes(n) (sloshrom beam --modes N)")
         key = str(direction).strip().upper()
         if key not in DIRECTIONS:
             raise ModalDataError(

@@ -35,6 +35,19 @@ DEFAULT_DAMPING = (0.010, 0.005, 0.005)
 #: default number of accelerometer stations, evenly spaced to the tip (estimates; the tip
 #: station is the tank): 1/5, 2/5, ..., 5/5 of the length
 N_STATIONS = 5
+#: Most modes of a modal model: the coupled simulation solves the n x n frozen-liquid
+#: eigenproblem and steps 2n states at every sample (the cap ``sloshrom beam --modes`` has
+#: always had); a modal file with more modes needs ``ModeSet.select_modes`` first.
+MAX_MODES = 200
+#: Largest magnitude of a modal value (frequency, mass, shape, position, participation): the
+#: bound sloshrom puts on every value it reads (``sloshrom.io.MAX_ABS_VALUE``), so that products
+#: and squares of them cannot overflow.
+MAX_VALUE = 1e100
+#: Largest ratio of the frozen liquid's mass at the tanks to the modal masses,
+#: ``1 + sum_j m_j sum_n psi_jn^2 / m_n`` (the condition number of the frozen mass matrix in
+#: mass-normalised modes): beyond it float64 keeps fewer than 4 digits of the modal masses and
+#: the frozen-liquid eigenproblem is meaningless (at 1e16 it fails outright).
+MAX_MASS_RATIO = 1e12
 
 
 #: the signals of a coupled run that belong to a tank (a trailing tank axis with several)
@@ -275,6 +288,13 @@ class ModalModel:
         Beam length, m (stations must lie in [0, length]); None: not checked.
     station_ids, tank_ids : tuple of int, optional
         Labels of the output points and tanks (grid or node IDs of a modal file).
+
+    Raises
+    ------
+    ModalDataError
+        More than :data:`MAX_MODES` modes, a value that is not finite or of magnitude
+        :data:`MAX_VALUE` or more (then no modal stiffness or mass product can overflow), and
+        the shape, sign and label rules above.
     """
 
     frequencies: np.ndarray
@@ -297,12 +317,19 @@ class ModalModel:
         if n == 0:
             raise ModalDataError("need at least one mode")
 
+        if n > MAX_MODES:
+            raise ModalDataError(
+                f"{n} modes: a modal model holds at most {MAX_MODES} (the coupled simulation "
+                "solves an n x n eigenproblem and steps 2n states per sample); keep the lowest "
+                "modes")
+
         def vec(name: str, v: Any) -> np.ndarray:
             a = np.atleast_1d(np.asarray(v, dtype=float))
             if a.shape != (n,):
                 raise ModalDataError(f"{name} must have one value per mode ({n}), got {a.shape}")
             if not np.all(np.isfinite(a)):
                 raise ModalDataError(f"{name} must be finite, got {a}")
+            _bounded(name, a)
             return a
 
         self.frequencies = vec("frequencies", f)
@@ -321,6 +348,7 @@ class ModalModel:
                                      f"got {pt.shape}")
             if not np.all(np.isfinite(pt)):
                 raise ModalDataError(f"psi_tank must be finite, got {pt}")
+            _bounded("psi_tank", pt)
             self.psi_tank = pt
         else:
             self.psi_tank = vec("psi_tank", pt)
@@ -339,6 +367,8 @@ class ModalModel:
             )
         if not np.all(np.isfinite(ps)) or not np.all(np.isfinite(self.stations)):
             raise ModalDataError("stations and psi_stations must be finite")
+        _bounded("stations", self.stations)
+        _bounded("psi_stations", ps)
         self.psi_stations = ps
         if self.length is not None:
             self.length = float(self.length)
@@ -505,6 +535,15 @@ class ModalModel:
         return d
 
 
+def _bounded(name: str, a: np.ndarray) -> None:
+    """Refuse a modal value of magnitude :data:`MAX_VALUE` or more (squares must not overflow)."""
+    big = np.abs(a) >= MAX_VALUE
+    if np.any(big):
+        v = float(np.asarray(a)[big].flat[0])
+        raise ModalDataError(f"{name} holds {v:g}: modal values must be below {MAX_VALUE:g} in "
+                             "magnitude (a unit or format error?)")
+
+
 def liquid_masses(modal: ModalModel, liquid_mass: Any) -> np.ndarray:
     """The liquid mass of every tank, (n_tanks,) kg: one value for all or one per tank."""
     m = np.asarray(liquid_mass, dtype=float)
@@ -524,8 +563,22 @@ def frozen_mass_matrix(modal: ModalModel, liquid_mass: Any) -> np.ndarray:
     liquid mass ``m_j`` (kg; one value for every tank, or one per tank) rigidly attached at
     tank j, where the modes have the values ``psi_j``.
     """
+    ml = liquid_masses(modal, liquid_mass)
+    # condition number of M_f in mass-normalised modes: refuse shapes and modal masses that
+    # are not in consistent units before the eigenproblem silently loses the modal masses
+    with np.errstate(over="ignore", divide="ignore"):
+        ratio = 1.0 + float(np.sum(ml[:, None] * modal.psi_tanks**2 / modal.modal_masses))
+    if not ratio <= MAX_MASS_RATIO:
+        j, k = np.unravel_index(np.argmax(ml[:, None] * modal.psi_tanks**2
+                                          / modal.modal_masses), modal.psi_tanks.shape)
+        raise ModalDataError(
+            f"the liquid at the tank(s) weighs {ratio:.3g} times the modal masses (largest: "
+            f"mode {k + 1} at tank {j + 1}, shape {modal.psi_tanks[j, k]:.3g}, modal mass "
+            f"{modal.modal_masses[k]:.3g} kg); more than {MAX_MASS_RATIO:g}, beyond which "
+            "float64 loses the modal masses: are the shapes and modal masses in consistent "
+            "units (m_n = phi_n^T M phi_n of the shapes as given)?")
     mass = np.diag(modal.modal_masses)
-    for m, psi in zip(liquid_masses(modal, liquid_mass), modal.psi_tanks, strict=True):
+    for m, psi in zip(ml, modal.psi_tanks, strict=True):
         mass = mass + m * np.outer(psi, psi)
     return mass
 

@@ -25,7 +25,7 @@ from typer.core import TyperGroup
 
 from sloshrom import __version__
 from sloshrom.config import ConfigError
-from sloshrom.fileio import OutputPathError, check_output
+from sloshrom.fileio import OutputPathError, check_output, not_a_regular_file
 from sloshrom.io import RecordError, same_unit
 from sloshrom.models import input_variable
 
@@ -136,11 +136,15 @@ def check_out(
     inputs: tuple[Path | None, ...] = (),
     directory: bool = False,
     what: str = "--out",
+    contents: tuple[str, ...] = (),
 ) -> Path:
-    """:func:`sloshrom.fileio.check_output` before any work; a user error if it fails."""
+    """:func:`sloshrom.fileio.check_output` before any work; a user error if it fails.
+
+    ``contents``: what a command writes inside the directory ``path`` (names; ``dir/`` for a
+    whole tree): no input may be among it."""
     try:
         return check_output(path, suffixes=suffixes, inputs=tuple(i for i in inputs if i),
-                            directory=directory, what=what)
+                            directory=directory, what=what, contents=contents)
     except OutputPathError as exc:
         fail(str(exc))
 
@@ -184,13 +188,15 @@ def check_number(
 
 
 def check_input(path: Path | None, what: str) -> None:
-    """Fail unless ``path`` (if given) is an existing regular file."""
+    """Fail unless ``path`` (if given) is an existing regular file (not a directory, a named
+    pipe, a socket or a device: each said as such)."""
     if path is None:
         return
     if not str(path).strip():
         fail(f"{what}: empty path")
-    if path.is_dir():
-        fail(f"{what} {path}: is a directory, expected a file")
+    why = not_a_regular_file(path)
+    if why is not None:
+        fail(f"{what} {path}: {why}")
     if not path.is_file():
         fail(f"{what} {path}: no such file")
 

@@ -11,6 +11,7 @@ inside the commands, so that ``sloshrom --help`` does not load JAX, xarray and m
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,6 +19,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
+from sloshrom.beam.structure import MAX_MODES
 from sloshrom.cli._app import (
     app,
     check_input,
@@ -28,7 +30,7 @@ from sloshrom.cli._app import (
     user_errors,
 )
 from sloshrom.config import ConfigError, Tank
-from sloshrom.fileio import OutputBatch
+from sloshrom.fileio import OutputBatch, not_a_regular_file
 from sloshrom.models import FrozenLiquid, SloshingModel
 from sloshrom.pipeline.settings import (
     BEAM_FS,
@@ -66,8 +68,14 @@ def _model(name: str, tank: Tank, seed: int,
     if name == "rig":
         from sloshrom.rig.virtual import VirtualRig
 
-        return VirtualRig(tank=tank, seed=seed)
+        try:  # a tank the rig cannot model (an extreme fill) is refused here, before any run
+            return VirtualRig(tank=tank, seed=seed)
+        except user_errors() as exc:
+            fail(f"--sloshing rig: {exc}")
     p = Path(name)
+    why = not_a_regular_file(p) if name.strip() else None
+    if why is not None:
+        fail(f"--sloshing {p}: {why}")
     if not name.strip() or not p.is_file():
         fail(f"--sloshing must be 'frozen', 'rig' or a ROM model file; {p} does not exist")
     from sloshrom.rom.estimators import load_model
@@ -134,19 +142,32 @@ def _models(names: list[str] | None, setup: _Setup, seed: int) -> dict[str, Any]
     return models
 
 
+_SPEC_KEY = re.compile(r"^([A-Za-z_]+)\s*=")
+
+
 def _tank_spec(spec: str, base: Tank) -> tuple[int, str | None, Tank]:
-    """``GRID[:MODEL][:fill=F]`` -> (grid ID, own model or None, the tank at its fill)."""
+    """``GRID[:MODEL][:fill=F]`` -> (grid ID, own model or None, the tank at its fill).
+
+    Each part at most once: a second ``fill=`` (or model) is an error naming it, never a
+    silent "the last one wins"."""
     parts = spec.split(":")
     try:
         grid = int(parts[0])
     except ValueError:
         fail(f"--tank {spec!r}: must start with the integer grid/node ID of the tank "
              "(GRID[:MODEL][:fill=F])")
-    model, tank = None, base
+    model, tank, fill_given = None, base, False
     for part in parts[1:]:
-        if part.startswith("fill="):
+        key = _SPEC_KEY.match(part)
+        if key is not None and key.group(1) != "fill":
+            fail(f"--tank {spec!r}: unknown key {key.group(1)!r} (GRID[:MODEL][:fill=F]: "
+                 "the only key is fill)")
+        if key is not None:
+            if fill_given:
+                fail(f"--tank {spec!r}: the key 'fill' is given twice; give it once")
+            fill_given = True
             try:
-                fill = float(part[5:])
+                fill = float(part[key.end():])
             except ValueError:
                 fail(f"--tank {spec!r}: fill must be a number in (0, 1)")
             try:
@@ -155,9 +176,12 @@ def _tank_spec(spec: str, base: Tank) -> tuple[int, str | None, Tank]:
                 fail(f"--tank {spec!r}: {exc}")
         elif part and model is None:
             model = part
+        elif part:
+            fail(f"--tank {spec!r}: two models ({model!r} and {part!r}): expected "
+                 "GRID[:MODEL][:fill=F], one MODEL (frozen, rig or a ROM file) per tank")
         else:
-            fail(f"--tank {spec!r}: expected GRID[:MODEL][:fill=F], MODEL one of frozen, rig "
-                 "or a ROM file")
+            fail(f"--tank {spec!r}: an empty part; expected GRID[:MODEL][:fill=F], MODEL one "
+                 "of frozen, rig or a ROM file")
     return grid, model, tank
 
 
@@ -225,7 +249,8 @@ class _Structure:
         if not tanks:
             fail("--structure needs at least one --tank GRID (the grid/node ID of a tank)")
         if modes is not None:
-            check_number(modes, "--modes", 1, 200)
+            check_number(modes, "--modes", 1, MAX_MODES,
+                         why="the coupled simulation solves an n x n eigenproblem")
         return cls(path, tanks, outputs, direction, mode_table, modes, mass_unit)
 
     def load(self, base: Tank) -> tuple[ModalModel, list[Tank], list[str | None]]:
@@ -324,7 +349,9 @@ _DirectionOpt = Annotated[str, typer.Option(
 _ModeTableOpt = Annotated[Path | None, typer.Option(
     help="Mode table for --structure (CSV or TOML): damping, modal_mass, participation per "
          "mode.")]
-_ModesOpt = Annotated[int | None, typer.Option(help="Keep the first N modes of --structure.")]
+_ModesOpt = Annotated[int | None, typer.Option(
+    help=f"Keep the first N modes of --structure (1-{MAX_MODES}; a file with more modes needs "
+         "it).")]
 _MassUnitOpt = Annotated[str | None, typer.Option(
     help="Mass unit of --structure when the file does not say it (punch): kg, t, g, "
          "lbf*s^2/in.")]
@@ -342,6 +369,18 @@ def _inputs(setup: _Setup, sloshing: list[str] | None, *paths: Path | None
 
 def _uff_names(enabled: bool, test: str, cases: Any) -> list[str]:
     return [f"{test}_{c}.uff" for c in cases] if enabled else []
+
+
+def _check_uff_nodes(enabled: bool, modal: ModalModel) -> None:
+    """With ``--uff``: the structure's node numbering must fit the UFF results (before work)."""
+    if not enabled:
+        return
+    from sloshrom.beam.export import check_result_nodes
+
+    try:
+        check_result_nodes(modal)
+    except user_errors() as exc:
+        fail(f"--uff: {exc}")
 
 
 @beam_app.command("free")
@@ -401,6 +440,7 @@ def free(
                                  mass_unit)
     setup = _setup(tank_toml, modal_toml, seed, st, fill)
     modal, f1 = setup.modal, setup.f1
+    _check_uff_nodes(uff, modal)
     need = min_free_duration(f1)
     if duration < need:
         fail(f"--duration {duration:g} s is too short for the damping analysis of mode 1 "
@@ -502,6 +542,7 @@ def random(
                                  mass_unit)
     setup = _setup(tank_toml, modal_toml, seed, st, fill)
     modal, f1 = setup.modal, setup.f1
+    _check_uff_nodes(uff, modal)
     if not modal.has_participation:
         fail("the structure has no participation factors (kg), which base excitation needs: "
              "add a 'participation' column to --mode-table (see docs/formats.md)")

@@ -10,6 +10,7 @@ import typer
 
 from sloshrom.cli._app import app, check_input, check_number, check_out, fail, user_errors
 from sloshrom.config import Tank
+from sloshrom.fileio import not_a_regular_file
 from sloshrom.io import preprocess as _preprocess
 from sloshrom.io import write_record
 from sloshrom.io.uff import read_uff58
@@ -53,6 +54,9 @@ def onnx_cmd(
         fail(f"--dtype must be 'float64' or 'float32', got {dtype!r}")
     if out.suffix.lower() != ".onnx":
         fail(f"output must be a .onnx file, got {out} (MODEL comes first, then OUT)")
+    why = not_a_regular_file(model)
+    if why is not None:
+        fail(f"MODEL {model}: {why}")
     if not model.is_file():
         fail(f"model file not found: {model}")
     check_out(out, suffixes=(".onnx",), inputs=(model,), what="OUT")
@@ -111,11 +115,16 @@ app.add_typer(import_app, name="import")
 
 
 def _pairs(items: list[str], what: str) -> dict[str, str]:
-    out = {}
+    """``KEY=VALUE`` options as a mapping; a key given twice is an error naming it (never a
+    silent "the last one wins")."""
+    out: dict[str, str] = {}
     for item in items:
         key, sep, value = item.partition("=")
         if not sep or not key.strip() or not value.strip():
             fail(f"{what} must look like KEY=VALUE, got {item!r}")
+        if key.strip() in out:
+            fail(f"{what}: the key {key.strip()!r} is given twice ({out[key.strip()]!r} and "
+                 f"{value.strip()!r}); give it once")
         out[key.strip()] = value.strip()
     return out
 

@@ -33,10 +33,17 @@ app.add_typer(config_app, name="config")
 
 
 def _load_config(config: Path | None, quick: bool) -> dict:
-    """The merged configuration, validated by :func:`sloshrom.pipeline.settings.validate`."""
+    """The merged configuration, validated by :func:`sloshrom.pipeline.settings.validate`, its
+    tanks checked against the virtual rig (what ``reproduce`` would fail on, ``config show``
+    refuses too)."""
     check_input(config, "--config")
     try:
-        return settings.load(config, quick=quick)
+        cfg = settings.load(config, quick=quick)
+        if config is not None:  # the defaults' tanks are the rig's own
+            from sloshrom.pipeline.context import check_rig_tanks
+
+            check_rig_tanks(cfg)
+        return cfg
     except user_errors() as exc:
         fail(str(exc))
 
@@ -81,13 +88,15 @@ def reproduce(
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from sloshrom.pipeline import run
+    from sloshrom.pipeline.chain import RESULT_ENTRIES
 
     cfg = _load_config(config, quick)
     if sweep:
         cfg["rom"]["sweep"] = True  # run() validates again: the sweep grid must fit the data too
     if beyond:
         cfg["beyond"]["enabled"] = True
-    check_out(out, directory=True, inputs=(config,))
+    # the configuration is protected from every file the run writes, not only from --out
+    check_out(out, directory=True, inputs=(config,), contents=RESULT_ENTRIES)
     console = Console(stderr=True)
     tasks: dict[str, int] = {}
     with Progress(TextColumn("[bold]{task.fields[stage]:<7}"), BarColumn(),
@@ -172,7 +181,10 @@ def map_cmd(
     if rig:
         from sloshrom.rig.virtual import VirtualRig
 
-        sm = VirtualRig(tank=tank, seed=seed)
+        try:  # a tank the rig cannot model (an extreme fill) is refused before the map
+            sm = VirtualRig(tank=tank, seed=seed)
+        except user_errors() as exc:
+            fail(f"--rig: {exc}")
         title = "virtual rig"
     else:
         title = f"ROM {model.name}"

@@ -77,7 +77,10 @@ def _make_rig(tank: Tank, seed: int) -> VirtualRig:
     """The virtual rig of the command (imported here: it loads numba, slow for ``--help``)."""
     from sloshrom.rig.virtual import VirtualRig
 
-    return VirtualRig(tank=tank, seed=seed)
+    try:  # a tank the rig cannot model (an extreme fill) is refused before the run
+        return VirtualRig(tank=tank, seed=seed)
+    except user_errors() as exc:
+        fail(str(exc))
 
 
 def _provenance(kind: str, signal: dict[str, Any], rig: VirtualRig) -> dict[str, Any]:

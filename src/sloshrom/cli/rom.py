@@ -490,7 +490,19 @@ def sweep(
         check_scheduler(scheduler)
     check_input(data, "--data")
     check_input(validation, "--validation")
-    check_out(out, directory=True, inputs=(data, validation))
+    from sloshrom.rom.sweep import SWEEP_FIGURE, SWEEP_TABLES, point_name, sweep_grid
+
+    pts = sweep_grid(arch)
+    if dl or nl:
+        archs = sorted({p[0] for p in pts})
+        pts = [(a, d, n) for a in archs
+               for d in (dl or sorted({p[1] for p in pts if p[0] == a}))
+               for n in (nl or sorted({p[2] for p in pts if p[0] == a}))]
+    # every file the sweep writes in --out (each point's model and result, the tables, the
+    # figure) must not be one of the records
+    written = (*SWEEP_TABLES, SWEEP_FIGURE,
+               *(f"{point_name(*p)}{sfx}" for p in pts for sfx in (".npz", ".json")))
+    check_out(out, directory=True, inputs=(data, validation), contents=written)
     rec, val = _read_pair(data, validation, [input_name, output_name])
 
     from rich.progress import (
@@ -502,14 +514,8 @@ def sweep(
     )
 
     from sloshrom.plotting.rom import plot_sweep
-    from sloshrom.rom.sweep import run_sweep, sweep_grid
+    from sloshrom.rom.sweep import run_sweep
 
-    pts = sweep_grid(arch)
-    if dl or nl:
-        archs = sorted({p[0] for p in pts})
-        pts = [(a, d, n) for a in archs
-               for d in (dl or sorted({p[1] for p in pts if p[0] == a}))
-               for n in (nl or sorted({p[2] for p in pts if p[0] == a}))]
     for a in sorted({p[0] for p in pts}):
         big = [p for p in pts if p[0] == a]
         _check_length(rec, data, a, max(p[1] for p in big), max(p[2] for p in big),
@@ -525,7 +531,7 @@ def sweep(
                          rec.fs, out, pts, scheduler=scheduler, n_workers=workers,
                          options={"max_epochs": max_epochs, "hidden": hidden, "seed": seed},
                          progress=cb)
-    fig = plot_sweep(rows, out / "fig8_sweep.png")
+    fig = plot_sweep(rows, out / SWEEP_FIGURE)
     best = rows[0]
     n_bad = sum(r["unstable"] for r in rows)
     typer.echo(f"wrote {out}/sweep.csv, sweep.json, {fig.name}: best {best['name']} score "

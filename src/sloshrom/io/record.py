@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from sloshrom.config import Tank
+from sloshrom.config import FILL_TOLERANCE, ConfigError, Tank
 from sloshrom.io.units import (
     STANDARD_UNITS,
     _time_unit,
@@ -152,6 +152,39 @@ def _as_float_array(name: str, value: Any) -> np.ndarray:
     except (TypeError, ValueError) as exc:
         raise RecordError(f"variable {name!r}: not numeric ({_why(exc)})") from exc
     return arr
+
+
+def _check_tank_attrs(attrs: dict[str, Any]) -> None:
+    """Validate the ``tank`` and ``fill`` attributes in place, when the record is made.
+
+    A file's ``tank_*`` attributes become ``attrs["tank"]``: text for a number (a fill of
+    "half") or an unphysical value (a negative density) is refused here, naming the attribute,
+    not when the tank is used or the record written. Valid values become floats.
+    """
+    tank = attrs.get("tank")
+    checked = None
+    if isinstance(tank, Tank):
+        checked = tank
+        attrs["tank"] = tank.to_dict()
+    elif isinstance(tank, Mapping):
+        try:
+            checked = Tank.from_dict(dict(tank))
+        except (ConfigError, TypeError) as exc:
+            raise RecordError(f"attribute 'tank': {exc} (the tank_* attributes)") from None
+        attrs["tank"] = {k: float(getattr(checked, k)) for k in tank}
+    fill = attrs.get("fill")
+    if fill is None:
+        return
+    if isinstance(fill, np.ndarray) and fill.size == 1:
+        fill = fill.item()
+    if isinstance(fill, bool) or not isinstance(fill, int | float | np.integer | np.floating) \
+            or not 0.0 < float(fill) < 1.0:
+        raise RecordError(f"attribute 'fill' must be a fill level d/h in (0, 1), got "
+                          f"{_show(fill)}")
+    attrs["fill"] = float(fill)
+    if checked is not None and abs(float(fill) - checked.fill) > FILL_TOLERANCE:
+        raise RecordError(f"attribute 'fill' = {float(fill):g} but the tank attributes say fill "
+                          f"{checked.fill:g}: one record has one fill level")
 
 
 def _check_magnitude(name: str, arr: np.ndarray, t: np.ndarray | None) -> None:
@@ -313,8 +346,7 @@ class Record:
         self.variables = variables
         self.units = units
         self.attrs = dict(self.attrs)
-        if isinstance(self.attrs.get("tank"), Tank):
-            self.attrs["tank"] = self.attrs["tank"].to_dict()
+        _check_tank_attrs(self.attrs)
         dims = {}
         for name, arr in variables.items():
             if arr.ndim == 2:
@@ -649,6 +681,11 @@ def _json_default(obj: Any) -> Any:
     return str(obj)
 
 
+#: the ``tank_<field>`` attributes that make a record's tank (others, e.g. the ``tank_id`` of a
+#: beam result, stay attributes of their own)
+_TANK_FIELDS = frozenset(Tank.__dataclass_fields__)
+
+
 def _unflatten_attrs(raw: Mapping[str, Any], source: str = "dataset") -> dict[str, Any]:
     out: dict[str, Any] = {}
     tank: dict[str, float] = {}
@@ -657,7 +694,7 @@ def _unflatten_attrs(raw: Mapping[str, Any], source: str = "dataset") -> dict[st
             value = value.item()
         if isinstance(value, np.generic):
             value = value.item()
-        if key.startswith("tank_"):
+        if key.startswith("tank_") and key[5:] in _TANK_FIELDS:
             tank[key[5:]] = value
         elif isinstance(value, str) and value.startswith(_JSON_PREFIX):
             try:

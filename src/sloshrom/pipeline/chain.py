@@ -34,7 +34,7 @@ from sloshrom.fileio import atomic_write_text
 from sloshrom.pipeline.baseline import stage_baseline
 from sloshrom.pipeline.beam import stage_beam
 from sloshrom.pipeline.cache import StageCache, StageResult
-from sloshrom.pipeline.context import Context, Progress, quiet
+from sloshrom.pipeline.context import Context, Progress, check_rig_tanks, quiet
 from sloshrom.pipeline.data import stage_data
 from sloshrom.pipeline.fills import stage_fills
 from sloshrom.pipeline.maps import stage_maps
@@ -45,7 +45,13 @@ from sloshrom.pipeline.report import write_report
 from sloshrom.pipeline.rom import SWEEP_KEYS, stage_rom, stage_sweep
 from sloshrom.pipeline.settings import validate
 
-__all__ = ["identify", "run"]
+__all__ = ["RESULT_ENTRIES", "identify", "run"]
+
+#: What :func:`run` writes in its output directory: two files and the directories whose whole
+#: tree the stages own (a trailing ``/``). The command line refuses an input (``--config``)
+#: that is one of them or lies inside one, before any work.
+RESULT_ENTRIES = ("report.html", "summary.json", ".stages/", "data/", "sweep/", "models/",
+                  "maps/", "beam/", "figures/", "fills/", "multimode/")
 
 
 @contextmanager
@@ -107,10 +113,12 @@ def run(out: str | Path, cfg: dict[str, Any], progress: Progress = quiet) -> dic
     Raises
     ------
     ConfigError
-        The configuration is invalid (:func:`sloshrom.pipeline.settings.validate`): one error
-        naming the key, before any work and before anything is written.
+        The configuration is invalid (:func:`sloshrom.pipeline.settings.validate`) or names a
+        tank the virtual rig cannot model (:func:`~sloshrom.pipeline.context.check_rig_tanks`):
+        one error naming the key, before any work and before anything is written.
     """
     validate(cfg)
+    check_rig_tanks(cfg)  # the tanks the rig runs at, before any stage or file
     ctx = Context(Path(out), cfg, progress)
     ctx.out.mkdir(parents=True, exist_ok=True)
     cache = StageCache(ctx.out)

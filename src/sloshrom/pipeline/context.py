@@ -8,11 +8,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from sloshrom.config import Tank
+from sloshrom.config import ConfigError, Tank
 from sloshrom.pipeline.settings import OPTIONAL_KEYS
 from sloshrom.rig.virtual import RigParams, SensorParams, VirtualRig
 
-__all__ = ["Context", "Progress", "quiet"]
+__all__ = ["Context", "Progress", "check_rig_tanks", "quiet"]
 
 #: Called as ``progress(stage, done, total, text)``; the CLI turns it into progress bars.
 Progress = Callable[[str, float, float, str], None]
@@ -70,3 +70,28 @@ class Context:
     def rel(self, p: Path) -> str:
         """``p`` relative to the output directory, as listed in the stage's files."""
         return str(Path(p).relative_to(self.out))
+
+
+def check_rig_tanks(cfg: dict[str, Any]) -> None:
+    """Build the virtual rig at every tank the configuration runs it at, before any stage.
+
+    The ``[tank]`` fill and, with ``[beyond] enabled``, every fill of ``[beyond]``: a tank the
+    rig cannot model (an extreme fill leaves none of its surface modes in its band) is refused
+    here, naming the key, rather than when its stage starts after hours of others.
+
+    Raises
+    ------
+    ConfigError
+        The first key whose tank the rig refuses.
+    """
+    ctx = Context(Path("."), cfg)
+    fills = [("tank.fill", float(cfg["tank"]["fill"]))]
+    bey = cfg["beyond"]
+    if bey["enabled"]:
+        fills += [(f"beyond.{key}", float(f)) for key in ("fills", "unseen_fills", "beam_fills")
+                  for f in bey[key]]
+    for key, fill in fills:
+        try:
+            ctx.rig(ctx.tank.replace(fill=fill))
+        except ConfigError as exc:
+            raise ConfigError(f"'{key}' = {fill:g}: {exc}") from None

@@ -32,7 +32,7 @@ from sloshrom.beam.structure import (
     ModalModel,
     coupled_frozen_modes,
 )
-from sloshrom.config import ConfigError, Tank, load_toml
+from sloshrom.config import FILL_TOLERANCE, ConfigError, Tank, load_toml
 
 __all__ = [
     "BEAM_FS",
@@ -40,6 +40,7 @@ __all__ = [
     "MAX_BEAM_SECONDS",
     "MAX_FINE_SECONDS",
     "MAX_LEVEL_SECONDS",
+    "MAX_MODEL_WEIGHTS",
     "MIN_RANDOM_DURATION",
     "MIN_VFA_DURATION",
     "OPTIONAL_KEYS",
@@ -100,6 +101,11 @@ MAX_BEAM_SECONDS = 600.0
 MAX_LEVEL_SECONDS = 1800.0
 #: Accelerometer stations of the beam: the modal filter separates at most this many modes.
 MAX_MODES = N_STATIONS
+#: Most network weights one model file holds, members x neurons x regressor entries (32 MiB of
+#: float64): ``sloshrom.rom.modelfile.MAX_WEIGHTS``, repeated here because importing the ROM
+#: room loads JAX (tests/test_settings.py checks that the two agree). An ensemble that cannot
+#: be saved is refused here, before the rig data and the training.
+MAX_MODEL_WEIGHTS = 2**22
 
 
 def default_text() -> str:
@@ -408,6 +414,13 @@ class _BeyondTable(_Table):
             raise ConfigError(f"'beyond.fills' needs two fill levels at least (a family "
                               f"interpolates between them), got {self.fills}")
         lo, hi = min(self.fills), max(self.fills)
+        seen = [u for u in self.unseen_fills
+                if any(abs(u - f) <= FILL_TOLERANCE for f in self.fills)]
+        if seen:
+            raise ConfigError(
+                f"'beyond.unseen_fills' {seen} {'is' if len(seen) == 1 else 'are'} also in "
+                f"'beyond.fills' (within {FILL_TOLERANCE:g}): a member is identified there, so "
+                "the report would call a trained fill unseen; give fills no member has")
         for key in ("unseen_fills", "beam_fills"):
             out = [f for f in getattr(self, key) if not lo <= f <= hi]
             if out:
@@ -439,6 +452,19 @@ class ReproduceConfig(_Table):
     def _across_tables(self) -> ReproduceConfig:
         fs, b = self.rig.fs, self.beam
         n_train = self.data.train_duration * fs
+        r = self.rom
+        entries = r.delays + (NOE_OUT_DELAYS if r.arch == "noe" else 0)
+        members = [("'rom.ensemble'", r.ensemble)]
+        if self.beyond.enabled:
+            members.append(("'beyond.fill_ensemble'", self.beyond.fill_ensemble))
+        for key, k in members:
+            weights = k * r.neurons * entries
+            if weights > MAX_MODEL_WEIGHTS:
+                raise ConfigError(
+                    f"{key} x 'rom.neurons' x regressor entries ('rom.delays') = {k} x "
+                    f"{r.neurons} x {entries} = {weights} weights, more than "
+                    f"{MAX_MODEL_WEIGHTS} (32 MiB), the most a model file holds: fewer members "
+                    "or a smaller network")
         for arch, delays, neurons, names in self.rom.networks():
             need = training_samples(arch, delays, neurons)
             if need > n_train:

@@ -90,7 +90,9 @@ def faraday_modes(
                 cand.append((f, om, kap, 0.5 if (m == 0 or n == 0) else 0.25))
     if len(cand) < n_modes:
         raise ConfigError(
-            f"only {len(cand)} tank modes in [{f_min}, {f_max}] Hz, {n_modes} requested"
+            f"the virtual rig cannot model fill {tank.fill:g} (liquid depth {d:.3g} m): only "
+            f"{len(cand)} of the {n_modes} tank surface modes it needs lie in [{f_min:g}, "
+            f"{f_max:g}] Hz (the Faraday band its calibration covers)"
         )
     cand.sort()
     freqs = np.array([c[0] for c in cand])

@@ -86,7 +86,7 @@ from scipy.optimize import differential_evolution
 from sloshrom import __version__
 from sloshrom._jit import njit
 from sloshrom.config import ConfigError, G, Tank
-from sloshrom.fileio import atomic_write_text
+from sloshrom.fileio import atomic_write_text, not_a_regular_file
 from sloshrom.rom.errors import NotFittedError, ROMError
 from sloshrom.rom.modelfile import ModelFileError
 from sloshrom.signals import power_band
@@ -587,6 +587,17 @@ class BouncingBall:
             raise ROMError(f"tank must be a sloshrom.config.Tank, got {type(self.tank).__name__}")
         return self.tank
 
+    @property
+    def fill_range(self) -> tuple[float, float]:
+        """``(fill, fill)`` of :attr:`tank_`, the one fill level the model stands for (-).
+
+        The ball's mass and gap are fractions of its tank's liquid mass and ullage: like a ROM
+        identified at one fill (:func:`sloshrom.rom.family.check_fill`), a ball is refused at
+        another fill, never run there silently.
+        """
+        f = float(self.tank_.fill)
+        return f, f
+
     def _check_hyperparameters(self) -> dict[str, tuple[float, float]]:
         bounds = {name: _bounds(name, getattr(self, name))
                   for name in ("mass_fraction", "restitution", "gap_factor")}
@@ -996,6 +1007,9 @@ class BouncingBall:
             derived values that contradict the parameters.
         """
         p = Path(path)
+        why = not_a_regular_file(p)
+        if why is not None:
+            raise ModelFileError(f"{p}: {why}")
         if not p.is_file():
             raise ModelFileError(f"{p}: no such model file")
         try:

@@ -38,6 +38,7 @@ from sloshrom.rom.modelfile import (
     ENSEMBLE_FORMAT_VERSION,
     MAX_MEMBERS,
     PARAM_NAMES,
+    check_file_limits,
     model_file_path,
     write_model_file,
 )
@@ -257,14 +258,18 @@ class Ensemble:
         Raises
         ------
         ROMError
-            A bad template, K or seeds; any error of the members' ``fit`` (bad record, ...).
+            A bad template, K or seeds; more weights than a model file holds (K x the
+            network's, checked before training); any error of the members' ``fit`` (bad
+            record, ...).
         UnstableModelError
             An NOE member unstable at its initial parameters.
         """
         seeds = self._member_seeds()
         first = self._clone(seeds[0])
-        if hasattr(first, "spec"):
-            _ = first.spec  # the template's hyperparameters, checked before any work
+        if hasattr(first, "spec"):  # the template's hyperparameters, checked before any work
+            spec = first.spec
+            # K members in one file: its weight limit before K trainings, not at save time
+            check_file_limits(spec.max_delay, spec.neurons, spec.n_inputs, len(seeds))
         if not (np.isfinite(fs) and fs > 0):
             raise ROMError(f"fs must be a finite positive sample rate in Hz, got {fs!r}")
         u = np.asarray(u, dtype=np.float64)

@@ -63,6 +63,7 @@ from sloshrom.rom.modelfile import (
     PARAM_NAMES,
     ModelFile,
     ModelFileError,
+    check_file_limits,
     model_file_path,
     read_model_file,
     write_model_file,
@@ -232,7 +233,10 @@ class _TDNN:
         if self.input_variable == "acceleration" and \
                 str(self.units[0]).replace(" ", "").replace("^", "") != "m/s2":
             raise ROMError(f"the input 'acceleration' is in m/s^2, got units {self.units[0]!r}")
-        return NetworkSpec(self.arch, delays, neurons, self.hidden, out_delays)
+        spec = NetworkSpec(self.arch, delays, neurons, self.hidden, out_delays)
+        # a network no model file can hold is refused before training, not when saved
+        check_file_limits(spec.max_delay, spec.neurons, spec.n_inputs)
+        return spec
 
     @property
     def input_variable(self) -> str:
@@ -352,6 +356,15 @@ class _TDNN:
             if uv.size <= spec.max_delay:
                 raise ROMError(f"validation record too short for {spec.max_delay} delays")
             validation = (uv, yv)
+        if (self.passivity > 0 or self.cycle_energy > 0) and not (u.min() < 0.0 < u.max()):
+            # say what is wrong with the input, not which loss term tripped over it
+            on = " and ".join(n for n in ("passivity", "cycle_energy") if getattr(self, n) > 0)
+            raise ROMError(
+                f"the input {self.names[0]!r} does not oscillate about rest (it stays between "
+                f"{u.min():.4g} and {u.max():.4g} {self.units[0]}, never changing sign): "
+                f"{on} judge the energy of a motion about rest; give the tank's oscillating "
+                "signal (velocity, zero mean), or train with passivity=0 and cycle_energy=0"
+            )
         scaler = MinMaxScaler.fit(u, y)
         band = power_band(u, fs)
         # passivity probes and energy cycles span the band holding all but 0.2 % of the

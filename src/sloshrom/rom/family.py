@@ -44,7 +44,7 @@ import jax
 import numpy as np
 
 from sloshrom.config import FILL_TOLERANCE
-from sloshrom.fileio import atomic_write_text
+from sloshrom.fileio import atomic_write_text, not_a_regular_file
 from sloshrom.models import input_variable
 from sloshrom.rom.errors import FillRangeError, ROMError
 
@@ -78,13 +78,20 @@ def check_training_fill(fill: Any) -> float | None:
 
 
 def training_fills(model: Any) -> tuple[float, float] | None:
-    """``(fill_min, fill_max)`` (-) a model was identified on, or ``None`` if it does not say."""
+    """``(fill_min, fill_max)`` (-) a model was identified on, or ``None`` if it does not say.
+
+    A network says it in its envelope (``fill_min``/``fill_max``); a family, a blend and a
+    physics model tied to one tank (the bouncing ball: its tank's fill) by ``fill_range``.
+    """
     if isinstance(model, (FillFamily, FillBlend)):
         return model.fill_range
     env = getattr(model, "envelope_", None)
-    if not isinstance(env, Mapping) or env.get("fill_min") is None:
-        return None
-    return float(env["fill_min"]), float(env["fill_max"])
+    if isinstance(env, Mapping) and env.get("fill_min") is not None:
+        return float(env["fill_min"]), float(env["fill_max"])
+    rng = getattr(model, "fill_range", None)
+    if isinstance(rng, tuple) and len(rng) == 2:
+        return float(rng[0]), float(rng[1])
+    return None
 
 
 def check_fill(model: Any, fill: float, what: str = "the model") -> None:
@@ -427,6 +434,9 @@ def read_family(path: str | Path, load: Callable[[Path], Any]) -> FillFamily:
         file and the member.
     """
     p = Path(path)
+    why = not_a_regular_file(p)
+    if why is not None:  # a named pipe would block the open below
+        raise ROMError(f"{p}: {why}")
     try:
         with p.open("rb") as fh:
             data = tomllib.load(fh)
@@ -460,6 +470,9 @@ def read_family(path: str | Path, load: Callable[[Path], Any]) -> FillFamily:
         mp = mp if mp.is_absolute() else p.parent / mp
         if mp.suffix == ".toml":
             raise ROMError(f"{where}: {mp.name} is a family file; members must be model files")
+        why = not_a_regular_file(mp)
+        if why is not None:
+            raise ROMError(f"{where}: model file {mp} {why}")
         if not mp.is_file():
             raise ROMError(f"{where}: model file {mp} not found")
         if fill in members:

@@ -62,13 +62,14 @@ from pydantic import (
     model_validator,
 )
 
-from sloshrom.fileio import atomic_write
+from sloshrom.fileio import atomic_write, not_a_regular_file
 from sloshrom.rom.errors import ROMError
 
 __all__ = [
     "ENSEMBLE_FORMAT_VERSION", "FORMAT_VERSION", "HIDDEN_KINDS", "MAX_DELAY", "MAX_DEPTH",
     "MAX_FILE_BYTES", "MAX_MEMBERS", "MAX_METADATA_CHARS", "MAX_NEURONS", "MAX_REGRESSOR",
     "MAX_WEIGHTS", "NEWEST_FORMAT_VERSION", "PARAM_NAMES", "ModelFile", "ModelFileError",
+    "check_file_limits",
     "checksum", "model_file_path", "read_model_file", "validate_for_save", "write_model_file",
 ]
 
@@ -116,6 +117,47 @@ MAX_PARAM = 1e50
 MAX_EPOCHS = 10_000_000
 #: Longest name, unit, version or stop-reason string, characters.
 MAX_TEXT = 64
+
+
+
+def check_file_limits(max_delay: int, neurons: int, n_inputs: int, members: int = 1) -> None:
+    """Refuse, before any training, a network (or ``members`` of them) no model file holds.
+
+    Saving checks the same limits, but only after the training: an estimator and an ensemble
+    call this first (``fit``).
+
+    Parameters
+    ----------
+    max_delay, neurons, n_inputs : int
+        Largest input delay (samples), hidden neurons, regressor entries (delays + output
+        delays) of one network.
+    members : int
+        Networks of an ensemble (1: a single network).
+
+    Raises
+    ------
+    ROMError
+        A value beyond :data:`MAX_DELAY`, :data:`MAX_NEURONS`, :data:`MAX_REGRESSOR`, or more
+        than :data:`MAX_WEIGHTS` weights (members x neurons x regressor entries); the message
+        names the limit.
+    """
+    if max_delay > MAX_DELAY:
+        raise ROMError(f"the largest delay {max_delay} is more than {MAX_DELAY}, the most a "
+                       "model file holds")
+    if neurons > MAX_NEURONS:
+        raise ROMError(f"neurons = {neurons} is more than {MAX_NEURONS}, the most a model file "
+                       "holds")
+    if n_inputs > MAX_REGRESSOR:
+        raise ROMError(f"the regressor would have {n_inputs} entries (delays + output delays), "
+                       f"more than {MAX_REGRESSOR}, the most a model file holds")
+    weights = members * neurons * n_inputs
+    if weights > MAX_WEIGHTS:
+        of = f"{members} members x " if members > 1 else ""
+        raise ROMError(
+            f"{of}{neurons} neurons x {n_inputs} regressor entries = {weights} weights, more "
+            f"than {MAX_WEIGHTS} (32 MiB), the most a model file holds: "
+            f"{'fewer members or ' if members > 1 else ''}a smaller network")
+
 
 _MEMBERS = ("metadata", *PARAM_NAMES)
 _MAX_MEMBERS = 64
@@ -786,6 +828,9 @@ def read_model_file(path: str | Path) -> ModelFile:
     """
     p = Path(path)
     where = str(p)
+    why = not_a_regular_file(p)
+    if why is not None:
+        raise ModelFileError(f"{where}: {why}")
     if not p.is_file():
         raise ModelFileError(f"{where}: no such model file")
     try:

@@ -28,7 +28,13 @@ from sloshrom.rom.errors import ROMError
 from sloshrom.rom.estimators import NFIR, NOE, UnstableModelError
 from sloshrom.rom.parallel import run_tasks
 
-__all__ = ["fit_point", "point_name", "run_sweep", "sweep_grid", "write_table"]
+__all__ = ["SWEEP_FIGURE", "SWEEP_TABLES", "fit_point", "point_name", "run_sweep",
+           "sweep_grid", "write_table"]
+
+#: The result tables :func:`run_sweep` writes in its directory (and the figure ``sloshrom
+#: sweep`` adds), besides ``<point>.npz`` and ``<point>.json`` per grid point.
+SWEEP_TABLES = ("sweep.csv", "sweep.json")
+SWEEP_FIGURE = "fig8_sweep.png"
 
 NFIR_DELAYS = (50, 60, 70)
 NFIR_NEURONS = (5, 10, 15, 20, 25, 30, 35, 40)
@@ -152,7 +158,7 @@ def write_table(rows: list[dict[str, Any]], out_dir: Path) -> tuple[Path, Path]:
     w = csv.DictWriter(buf, fieldnames=COLUMNS, extrasaction="ignore")
     w.writeheader()
     w.writerows(rows)
-    csv_path, json_path = out_dir / "sweep.csv", out_dir / "sweep.json"
+    csv_path, json_path = (out_dir / name for name in SWEEP_TABLES)
     atomic_write_text(csv_path, buf.getvalue())
     safe = [{k: (None if isinstance(v, float) and not math.isfinite(v) else v)
              for k, v in r.items()} for r in rows]
