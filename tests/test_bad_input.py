@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from helpers import check_cli, good_record, make_model_files
+from helpers import check_cli, good_record
 from sloshrom.config import ConfigError
 from sloshrom.io import Record, RecordError, preprocess, read_record, write_record
 
@@ -203,13 +203,7 @@ def test_preprocess_rejects_wrong_units(units, match):
         preprocess(rec)
 
 
-# -- CLI --------------------------------------------------------------------------------------
-@pytest.fixture(scope="module")
-def model_files(tmp_path_factory):
-    """A tiny fitted NFIR saved, plus a newer-version copy and a tampered copy."""
-    return make_model_files(tmp_path_factory.mktemp("models"))
-
-
+# -- CLI (model_files: the session's, conftest.py) ----------------------------------------------
 def _write_text(name: str, text: str) -> Callable[[Path], None]:
     def make(tmp: Path) -> None:
         (tmp / name).write_text(text)

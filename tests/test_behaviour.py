@@ -71,6 +71,7 @@ def _bits(x: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(x, dtype=np.float64).view(np.uint64)
 
 
+@pytest.mark.slow
 def test_deterministic_within_one_process(now):
     again = cases()
     for k in now:

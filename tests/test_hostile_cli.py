@@ -25,7 +25,7 @@ from sloshrom.io.uff import write_uff58
 
 @pytest.fixture(scope="module")
 def model_files(tmp_path_factory):
-    """The models of test_bad_input plus ROMs the beam and the map cannot use."""
+    """The session's model files (conftest.py) plus ROMs the beam and the map cannot use."""
     from sloshrom.rom.estimators import NFIR
 
     d = make_model_files(tmp_path_factory.mktemp("models"))

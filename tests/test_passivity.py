@@ -114,6 +114,7 @@ def passive_and_plain(rig_records):
                  for name, m in (("plain", plain), ("passive", passive))}
 
 
+@pytest.mark.slow  # the recipe's code paths run in the fast tier (history test, tiny reproduce)
 def test_passive_recipe_gives_a_passive_map_on_a_small_case(passive_and_plain):
     ref, maps = passive_and_plain
     fid = map_fidelity(ref, maps["passive"])
@@ -126,7 +127,7 @@ def test_passive_recipe_gives_a_passive_map_on_a_small_case(passive_and_plain):
 def test_passive_recipe_history_reports_the_objective(rig_records):
     _, _, (u, y), (uv, yv) = rig_records
     m = NFIR(delays=5, neurons=4, max_epochs=2, amplitude_weighting=0.05,
-             passivity=1.0).fit(u, y, fs=FS, validation=(uv, yv))
+             passivity=1.0, cycle_energy=0.1).fit(u, y, fs=FS, validation=(uv, yv))
     h = m.history_
     assert len(h["val_objective"]) == len(h["val_mse"]) >= 2
     assert m.envelope_["acceleration_max"] == pytest.approx(
@@ -165,6 +166,7 @@ def _cycle_error(m: NFIR, u: np.ndarray, y: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.sum(e[rows] * w, axis=1) ** 2)))
 
 
+@pytest.mark.slow  # two trainings of 12 epochs; the term's code path: the history test below
 def test_cycle_energy_term_fits_the_energy_of_unseen_cycles(rig_records):
     # the term is there to get the exchanged energy right: on the validation record the
     # cycle-energy error must fall against the same recipe without it

@@ -67,8 +67,10 @@ def test_reproduce_sweep_writes_fig8_and_is_cached(tmp_path):
 
 
 def test_rig_fs_is_the_record_rate(tmp_path):
+    # the paper's VFA only: the structure's extension (4 min of rig time) changes no rate
     cfg = settings.merge(settings.defaults(), {
-        "rig": {"fs": 1000.0}, "data": {"train_duration": 12.0, "validation_duration": 12.0}})
+        "rig": {"fs": 1000.0},
+        "data": {"train_duration": 12.0, "validation_duration": 12.0, "design": "shaker"}})
     ctx = Context(tmp_path, cfg)
     assert ctx.rig().sensors.output_rate == 1000.0
     outputs, files = stage_data(ctx)
