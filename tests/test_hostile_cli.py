@@ -790,11 +790,19 @@ HOSTILE_CASES = [
 ]
 
 
+@pytest.fixture(scope="module")
+def world(tmp_path_factory) -> Path:
+    """What every case reads (``_world``), written once; each case gets its own copy."""
+    d = tmp_path_factory.mktemp("world")
+    _world(d)
+    return d
+
+
 @pytest.mark.parametrize(("setup", "argv", "match"), [c[1:] for c in HOSTILE_CASES],
                          ids=[c[0] for c in HOSTILE_CASES])
-def test_hostile_cli_rejects(tmp_path, model_files, setup, argv, match):
+def test_hostile_cli_rejects(tmp_path, world, model_files, setup, argv, match):
     def both(tmp: Path) -> None:
-        _world(tmp)
+        shutil.copytree(world, tmp, dirs_exist_ok=True)
         if getattr(setup, "wants_models", False):
             setup(tmp, model_files)
         elif setup is not None:
