@@ -10,6 +10,7 @@
 - ``smooth_io``: a smooth random input and a delayed tanh of it (a small identification case);
 - ``TINY_REPRODUCE``, ``reproduce_interrupted_then_resumed``: `sloshrom reproduce` end to end
   at the smallest sizes, stopped before its maps and resumed;
+- ``assert_bit_identical``: two results of one machine, to the last bit;
 - ``relative_change``, ``perturbation_tolerance``: compare with a stored reference written on
   another CPU, within the change that a relative 1e-13 perturbation of the input makes.
 """
@@ -171,6 +172,12 @@ def smooth_io(n=2000, seed=1):
     u[:10] = 0.0
     y = 40.0 * np.tanh(5 * np.concatenate([[0.0, 0.0], u[:-2]]))
     return u, y
+
+
+def assert_bit_identical(a, b, what: str = "") -> None:
+    """Equal to the last bit (float64 bit patterns): a property of one machine, never of two."""
+    bits = [np.ascontiguousarray(x, dtype=np.float64).view(np.uint64) for x in (a, b)]
+    np.testing.assert_array_equal(bits[0], bits[1], err_msg=what)
 
 
 #: smallest tolerance against a stored reference: 8 roundings of a float64, relative

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from behaviour_cases import EPS, cases, tolerances
-from helpers import relative_change
+from helpers import assert_bit_identical, relative_change
 
 DATA = Path(__file__).parent / "data"
 FIXTURE = DATA / "behaviour.npz"
@@ -67,15 +67,11 @@ def test_a_change_of_one_part_in_a_million_fails(now, before):
     assert relative_change(bad, before[name]) > TOLERANCE[name]
 
 
-def _bits(x: np.ndarray) -> np.ndarray:
-    return np.ascontiguousarray(x, dtype=np.float64).view(np.uint64)
-
-
 @pytest.mark.slow
 def test_deterministic_within_one_process(now):
     again = cases()
     for k in now:
-        np.testing.assert_array_equal(_bits(again[k]), _bits(now[k]), err_msg=k)
+        assert_bit_identical(again[k], now[k], k)
 
 
 @pytest.mark.slow
@@ -87,7 +83,7 @@ def test_deterministic_across_processes(now, tmp_path):
                    check=True, capture_output=True)
     with np.load(out, allow_pickle=False) as f:
         for k in now:
-            np.testing.assert_array_equal(_bits(f[k]), _bits(now[k]), err_msg=k)
+            assert_bit_identical(f[k], now[k], k)
 
 
 @pytest.mark.slow

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from helpers import assert_bit_identical
 from sloshrom import __version__
 from sloshrom.cli import app
 from sloshrom.config import Tank
@@ -23,10 +24,6 @@ def _run(args: list[str]) -> None:
     assert res.exit_code == 0, res.output
 
 
-def _bits(a: np.ndarray) -> bytes:
-    return np.ascontiguousarray(a, dtype=np.float64).tobytes()
-
-
 @pytest.fixture(scope="module")
 def harmonic_files(tmp_path_factory):
     d = tmp_path_factory.mktemp("rep")
@@ -38,9 +35,9 @@ def harmonic_files(tmp_path_factory):
 def test_same_seed_bit_identical_records(harmonic_files):
     a, b = harmonic_files["a"], harmonic_files["b"]
     assert a.names == b.names and a.units == b.units
-    assert _bits(a.time) == _bits(b.time)
+    assert_bit_identical(a.time, b.time, "time")
     for name in a.names:
-        assert _bits(a[name]) == _bits(b[name]), f"{name} differs between two runs of seed 5"
+        assert_bit_identical(a[name], b[name], f"{name} differs between two runs of seed 5")
     # the attributes match too, except the creation time stamp
     pa, pb = dict(a.attrs["provenance"]), dict(b.attrs["provenance"])
     pa.pop("created_utc"), pb.pop("created_utc")
@@ -79,7 +76,7 @@ def test_vfa_same_seed_identical_other_seed_different(tmp_path):
               "--out", str(tmp_path / f"{name}.nc")])
     a, b, c = (read_record(tmp_path / f"{k}.nc", si=False) for k in "abc")
     for name in a.names:
-        assert _bits(a[name]) == _bits(b[name]), name
+        assert_bit_identical(a[name], b[name], name)
     # another seed: another VFA path phase and other noise
     assert not np.allclose(a["acceleration"], c["acceleration"])
     assert a.attrs["seed"] == 3 and a.attrs["provenance"]["signal"]["seed"] == 3
@@ -100,7 +97,7 @@ def test_model_same_seed_bit_identical(tmp_path):
     p1, p2 = m1.save(tmp_path / "m1.npz"), m2.save(tmp_path / "m2.npz")
     with np.load(p1, allow_pickle=False) as z1, np.load(p2, allow_pickle=False) as z2:
         for k in ("W", "b", "c", "c0"):
-            assert z1[k].tobytes() == z2[k].tobytes(), k
+            assert_bit_identical(z1[k], z2[k], k)
         meta1, meta2 = json.loads(str(z1["metadata"])), json.loads(str(z2["metadata"]))
     assert meta1["hyperparameters"]["seed"] == 0
     for meta in (meta1, meta2):  # wall-clock timings are allowed to differ
@@ -143,7 +140,7 @@ def pipeline_records(tmp_path_factory):
 def test_pipeline_data_stage_bit_identical(pipeline_records):
     a, b = pipeline_records
     for name in a.names:
-        assert _bits(a[name]) == _bits(b[name]), name
+        assert_bit_identical(a[name], b[name], name)
     assert __version__ in json.dumps(a.attrs["provenance"])
     assert a.attrs["seed"] == 1 and a.attrs["tank"] == Tank().to_dict()
 
