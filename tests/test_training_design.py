@@ -5,11 +5,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import jax.numpy as jnp
 import numpy as np
 import pytest
 import xarray as xr
 
+from helpers import LinearDamper
 from sloshrom import ConfigError, signals
 from sloshrom.beam.coupled import CoupledSimulator, free_response, random_response
 from sloshrom.beam.envelope import envelope_coverage, frozen_tank_motion, run_motion
@@ -28,23 +28,12 @@ def modal():
     return ModalModel.from_beam(n_modes=2, damping=[0.01, 0.005])
 
 
-class EnvelopedDamper:
+class EnvelopedDamper(LinearDamper):
     """A jax-traceable viscous damper with a training envelope (stand-in for a ROM)."""
 
-    jax_traceable = True
-    force_rule = "trapezoid"
-
     def __init__(self, envelope, dt=1.0 / FS, c=0.5):
-        self.envelope_, self.dt, self.c = envelope, dt, c
-
-    def init_state(self):
-        return jnp.zeros(0)
-
-    def step(self, state, velocity, acceleration):
-        return state, -self.c * velocity
-
-    def simulate(self, velocity, acceleration):
-        return -self.c * np.asarray(velocity)
+        super().__init__(c, dt)
+        self.envelope_ = envelope
 
 
 # -- design ----------------------------------------------------------------------------------------
