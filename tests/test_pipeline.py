@@ -102,7 +102,6 @@ def _check_resumed(out, s, html, cfg, map_error_max):
         assert "seed" in attrs or "model_seed" in attrs, f
 
 
-
 def test_tiny_reproduce_interrupted_then_resumed(tiny_reproduce):
     out, cfg, resumed, html = (tiny_reproduce[k] for k in ("out", "cfg", "resumed", "html"))
     # a zero ROM gives 100 %, a sign error more: a tiny network still does better

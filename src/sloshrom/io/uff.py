@@ -386,7 +386,6 @@ def _first_bad_line(p: Path, index: int) -> str | None:
     return None
 
 
-
 # -- writing ------------------------------------------------------------------------------------
 # UFF specific data type codes used by the writers.
 SPEC_GENERAL, SPEC_DISPLACEMENT, SPEC_REACTION_FORCE = 1, 8, 9

@@ -119,7 +119,6 @@ MAX_EPOCHS = 10_000_000
 MAX_TEXT = 64
 
 
-
 def check_file_limits(max_delay: int, neurons: int, n_inputs: int, members: int = 1) -> None:
     """Refuse, before any training, a network (or ``members`` of them) no model file holds.
 
