@@ -27,7 +27,7 @@ from sloshrom.beam.structure import ModalDataError, coupled_frozen_modes, tank_r
 from sloshrom.config import ConfigError, G, Tank
 from sloshrom.io import read_record
 from sloshrom.models import FrozenLiquid
-from sloshrom.pipeline.context import Context
+from sloshrom.pipeline.context import Context, DictContext
 from sloshrom.pipeline.multimode import (
     DEFAULTS,
     multimode_section,
@@ -230,7 +230,7 @@ TINY = {"random_duration": 12.0, "rms_g": [0.2], "nperseg": 2048,
 
 
 def test_stage_runs_end_to_end_on_tiny_settings(tmp_path):
-    ctx = Context(tmp_path, load())
+    ctx = DictContext(Context(tmp_path, load()))  # the stage still takes the dict form
     outputs, files = stage_multimode(ctx, TINY)
     json.dumps(outputs)  # JSON-able
     assert sorted(files) == sorted([

@@ -34,7 +34,7 @@ from sloshrom.fileio import atomic_write_text
 from sloshrom.pipeline.baseline import stage_baseline
 from sloshrom.pipeline.beam import stage_beam
 from sloshrom.pipeline.cache import StageCache, StageResult
-from sloshrom.pipeline.context import Context, Progress, check_rig_tanks, quiet
+from sloshrom.pipeline.context import Context, DictContext, Progress, check_rig_tanks, quiet
 from sloshrom.pipeline.data import stage_data
 from sloshrom.pipeline.fills import stage_fills
 from sloshrom.pipeline.maps import stage_maps
@@ -43,7 +43,7 @@ from sloshrom.pipeline.multimode import DEFAULTS as MULTIMODE_DEFAULTS
 from sloshrom.pipeline.multimode import stage_multimode
 from sloshrom.pipeline.report import write_report
 from sloshrom.pipeline.rom import SWEEP_KEYS, stage_rom, stage_sweep
-from sloshrom.pipeline.settings import validate
+from sloshrom.pipeline.settings import ReproduceConfig, validate
 
 __all__ = ["RESULT_ENTRIES", "identify", "run"]
 
@@ -71,20 +71,21 @@ def identify(ctx: Context, cache: StageCache | None = None) -> dict[str, StageRe
     cache = cache if cache is not None else StageCache(ctx.out)
     results: dict[str, StageResult] = {}
     # a structure-designed training depends on the beam tests it is designed from
-    data_tables = ("tank", "rig", "data") + (("beam",) if cfg["data"]["design"] == "structure"
+    data_tables = ("tank", "rig", "data") + (("beam",) if cfg.data.design == "structure"
                                              else ())
     with _timer(ctx, "data"):
         results["data"] = cache.run(
-            "data", {k: cfg[k] for k in data_tables}, [],
+            "data", cfg.tables(*data_tables), [],
             lambda: stage_data(ctx), __version__,
         )
-    if cfg["rom"]["sweep"]:
+    rom = cfg.tables("rom")["rom"]
+    if cfg.rom.sweep:
         with _timer(ctx, "sweep"):
             results["sweep"] = cache.run(
-                "sweep", {k: cfg["rom"][k] for k in SWEEP_KEYS}, [results["data"]],
+                "sweep", {k: rom[k] for k in SWEEP_KEYS}, [results["data"]],
                 lambda: stage_sweep(ctx), __version__,
             )
-    rom_keys = {k: v for k, v in cfg["rom"].items() if not k.startswith("sweep")}
+    rom_keys = {k: v for k, v in rom.items() if not k.startswith("sweep")}
     with _timer(ctx, "rom"):
         results["rom"] = cache.run(
             "rom", rom_keys, [results["data"]], lambda: stage_rom(ctx), __version__
@@ -92,22 +93,25 @@ def identify(ctx: Context, cache: StageCache | None = None) -> dict[str, StageRe
     return results
 
 
-def run(out: str | Path, cfg: dict[str, Any], progress: Progress = quiet) -> dict[str, Any]:
+def run(out: str | Path, cfg: ReproduceConfig | dict[str, Any],
+        progress: Progress = quiet) -> dict[str, Any]:
     """Run every stage, reuse cached ones, write the report and the summary; return it.
 
     Parameters
     ----------
     out : str or Path
         Output directory (created).
-    cfg : dict
-        The configuration (``sloshrom.pipeline.settings.load``, or built in code).
+    cfg : ReproduceConfig or dict
+        The configuration (``sloshrom.pipeline.settings.load``), or a dict of tables built in
+        code (validated here).
     progress : callable
         ``progress(stage, done, total, text)``, called as the stages advance.
 
     Returns
     -------
     dict
-        The summary written to ``OUT/summary.json``: ``sloshrom_version``, ``config``,
+        The summary written to ``OUT/summary.json``: ``sloshrom_version``, ``config`` (the
+        dict form, :meth:`~sloshrom.pipeline.settings.ReproduceConfig.as_dict`),
         ``stages`` (per stage: ``reused`` and its outputs) and ``timings_s`` (s).
 
     Raises
@@ -117,7 +121,7 @@ def run(out: str | Path, cfg: dict[str, Any], progress: Progress = quiet) -> dic
         tank the virtual rig cannot model (:func:`~sloshrom.pipeline.context.check_rig_tanks`):
         one error naming the key, before any work and before anything is written.
     """
-    validate(cfg)
+    cfg = validate(cfg)
     check_rig_tanks(cfg)  # the tanks the rig runs at, before any stage or file
     ctx = Context(Path(out), cfg, progress)
     ctx.out.mkdir(parents=True, exist_ok=True)
@@ -127,47 +131,51 @@ def run(out: str | Path, cfg: dict[str, Any], progress: Progress = quiet) -> dic
     deps = [results["data"], results["rom"]]
     with _timer(ctx, "maps"):
         results["maps"] = cache.run(
-            "maps", {k: cfg[k] for k in ("tank", "rig", "map")}, deps,
+            "maps", cfg.tables("tank", "rig", "map"), deps,
             lambda: stage_maps(ctx, rom_path), __version__,
         )
     with _timer(ctx, "beam"):
         results["beam"] = cache.run(
-            "beam", {k: cfg[k] for k in ("tank", "rig", "beam")}, deps,
+            "beam", cfg.tables("tank", "rig", "beam"), deps,
             lambda: stage_beam(ctx, rom_path), __version__,
         )
 
-    bey = cfg["beyond"]
-    if bey["enabled"] and bey["baseline"]:
+    # the study stages beyond the paper still take the dict form of the configuration
+    study = DictContext(ctx)
+    bey = cfg.beyond
+    if bey.enabled and bey.baseline:
         with _timer(ctx, "baseline"):
             results["baseline"] = cache.run(
-                "baseline", {k: cfg[k] for k in ("tank", "rig", "map", "beam")},
+                "baseline", cfg.tables("tank", "rig", "map", "beam"),
                 [*deps, results["maps"], results["beam"]],
-                lambda: stage_baseline(ctx, rom_path, results["beam"].outputs), __version__,
+                lambda: stage_baseline(study, rom_path, results["beam"].outputs), __version__,
             )
-    if bey["enabled"]:
-        fill_keys = {k: bey[k] for k in ("fills", "unseen_fills", "fill_ensemble", "beam_fills")}
+    if bey.enabled:
+        beyond = cfg.tables("beyond")["beyond"]
+        fill_keys = {k: beyond[k]
+                     for k in ("fills", "unseen_fills", "fill_ensemble", "beam_fills")}
         with _timer(ctx, "fills"):
             results["fills"] = cache.run(
-                "fills", {**{k: cfg[k] for k in ("tank", "rig", "data", "rom", "map", "beam")},
+                "fills", {**cfg.tables("tank", "rig", "data", "rom", "map", "beam"),
                           "beyond": fill_keys}, deps,
-                lambda: stage_fills(ctx, rom_path, identify), __version__,
+                lambda: stage_fills(study, rom_path, identify), __version__,
             )
 
-    if bey["enabled"] and bey["multimode"]:
+    if bey.enabled and bey.multimode:
         # its own wing, records and ROMs (the tunables: sloshrom.pipeline.multimode.DEFAULTS)
         with _timer(ctx, "multimode"):
             # its defaults and cases are code, not configuration: in the key, so that a run
             # made before they changed is redone
             results["multimode"] = cache.run(
-                "multimode", {**{k: cfg[k] for k in ("tank", "rig")},
+                "multimode", {**cfg.tables("tank", "rig"),
                               "multimode": {"defaults": MULTIMODE_DEFAULTS,
                                             "cases": list(MULTIMODE_CASES)}}, [],
-                lambda: stage_multimode(ctx), __version__,
+                lambda: stage_multimode(study), __version__,
             )
 
     summary = {
         "sloshrom_version": __version__,
-        "config": cfg,
+        "config": cfg.as_dict(),
         "stages": {k: {"reused": r.reused, **r.outputs} for k, r in results.items()},
         "timings_s": ctx.timings,
     }
