@@ -51,7 +51,7 @@ from sloshrom.pipeline.baseline import (
 )
 from sloshrom.pipeline.beam import beam_structure
 from sloshrom.pipeline.maps import compute_map
-from sloshrom.pipeline.settings import load
+from sloshrom.pipeline.settings import ReproduceConfig, load
 from sloshrom.rom.bouncing import BouncingBall
 from sloshrom.rom.estimators import load_model
 
@@ -68,7 +68,7 @@ def _progress(stage: str, done: float, total: float, text: str) -> None:
     print(f"  [{stage}] {done:g}/{total:g} {text}", file=sys.stderr, flush=True)
 
 
-def config_for(out: Path, path: Path | None) -> dict[str, Any]:
+def config_for(out: Path, path: Path | None) -> ReproduceConfig | dict[str, Any]:
     if path is not None:
         return load(path)
     summary = out / "summary.json"
@@ -139,8 +139,8 @@ def print_beam(o: dict[str, Any]) -> None:
 
 
 def print_speed(ctx: Context, rom_path: Path | None) -> None:
-    _, modal = beam_structure(ctx.cfg["beam"], ctx.tank)
-    fs = float(ctx.cfg["rig"]["fs"])
+    _, modal = beam_structure(ctx.cfg.beam, ctx.tank)
+    fs = float(ctx.cfg.rig.fs)
     ball = BouncingBall.load(ctx.out / "models" / "bouncing_ball.toml")
     models = {"ball": ball,
               "ball at the record rate": BouncingBall.from_parameters(

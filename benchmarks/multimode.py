@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from sloshrom.config import G
-from sloshrom.pipeline.context import Context
+from sloshrom.pipeline.context import Context, DictContext
 from sloshrom.pipeline.multimode import CASES, stage_multimode
 from sloshrom.pipeline.settings import load
 
@@ -150,7 +150,8 @@ def main() -> None:
               flush=True)
 
     print(f"load average at the start {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs")
-    outputs, files = stage_multimode(Context(a.out, load(), progress), settings)
+    # the stage still takes the dict form of the configuration
+    outputs, files = stage_multimode(DictContext(Context(a.out, load(), progress)), settings)
     wall = time.perf_counter() - t0
     (a.out / "multimode_outputs.json").write_text(json.dumps(outputs, indent=1, default=float))
     report(outputs, wall)
