@@ -7,6 +7,9 @@ catch it and print one line. A plain ``ValueError`` from inside is a programming
 
 from __future__ import annotations
 
+# defined once, beside the model contract, for every sloshing model; re-exported here
+from sloshrom.models import EnvelopeWarning
+
 __all__ = ["EnvelopeWarning", "FillRangeError", "NotFittedError", "ROMError", "UnstableModelError"]
 
 
@@ -29,6 +32,3 @@ class NotFittedError(RuntimeError, AttributeError):
     the model protocols answer False for an unfitted model instead of raising.
     """
 
-
-class EnvelopeWarning(UserWarning):
-    """The input passed to a ROM lies outside the range it was trained on."""
