@@ -223,13 +223,19 @@ class Envelope:
         return max(float(np.max(a)) - self.input_max, self.input_min - float(np.min(a)), 0.0)
 
 
+def _envelope_mapping(model: Any) -> Any:
+    """The raw ``envelope_`` mapping of ``model`` (None without one): what
+    :func:`envelope_of` and :func:`envelope_union` read."""
+    return getattr(model, "envelope_", None)
+
+
 def envelope_of(model: Any) -> Envelope | None:
     """``model``'s training envelope, or None (no ``envelope_``, an empty one, or a model
     rebuilt from pytree leaves, which carries no training record)."""
-    return Envelope.from_mapping(getattr(model, "envelope_", None), input_of(model))
+    return Envelope.from_mapping(_envelope_mapping(model), input_of(model))
 
 
-def envelope_union(envelopes: list[Any]) -> dict[str, Any] | None:
+def envelope_union(models: Any) -> dict[str, Any] | None:
     """The envelope of a combination of models (an ensemble, a fill blend): the union of the
     members' ranges, as an ``envelope_`` mapping; None unless every member has one.
 
@@ -237,6 +243,7 @@ def envelope_union(envelopes: list[Any]) -> dict[str, Any] | None:
     and ``acceleration_max`` (m/s^2) and ``fill_min``/``fill_max`` (-) when every member has
     them.
     """
+    envelopes = [_envelope_mapping(m) for m in models]
     if not envelopes or not all(isinstance(e, Mapping) and "input_min" in e for e in envelopes):
         return None
     out: dict[str, Any] = {

@@ -250,7 +250,8 @@ def check_sloshing_rom(rom: Any, path: Path, what: str, user: str) -> None:
 
     ``user`` says who feeds it, as the subject of "feeds it the tank velocity ...".
     """
-    var = input_of(rom)
+    # the records it was identified from: their input is the tank velocity or acceleration
+    var = str(rom.names[0]) if str(rom.names[0]) in INPUT_UNITS else input_of(rom)
     unit = INPUT_UNITS[var]
     if not (same_unit(rom.units[0], unit) and same_unit(rom.units[1], "N")):
         fail(f"{what} {path}: the ROM maps '{rom.units[0]}' to '{rom.units[1]}'; {user} feeds "

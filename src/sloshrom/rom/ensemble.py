@@ -42,7 +42,7 @@ from sloshrom.rom.modelfile import (
     model_file_path,
     write_model_file,
 )
-from sloshrom.rom.network import MinMaxScaler
+from sloshrom.rom.network import MinMaxScaler, network_of
 from sloshrom.rom.parallel import run_tasks
 
 __all__ = ["Ensemble", "is_ensemble", "spread"]
@@ -332,7 +332,7 @@ class Ensemble:
             if type(m) is not type(t):
                 raise ROMError(f"member {k} is a {type(m).__name__}, the template a "
                                f"{type(t).__name__}")
-            if not hasattr(m, "model_"):
+            if network_of(m) is None:
                 raise ROMError(f"member {k} is not fitted")
             if _without_seed(m.get_params()) != ref:
                 diff = sorted(n for n, v in _without_seed(m.get_params()).items()
@@ -349,7 +349,7 @@ class Ensemble:
                                     max(float(s.in_max) for s in sc),
                                     min(float(s.out_min) for s in sc),
                                     max(float(s.out_max) for s in sc))
-        env = envelope_union([m.envelope_ for m in members])
+        env = envelope_union(members)
         if env is not None:
             self.envelope_ = env
         self.history_ = [m.history_ for m in members]
@@ -531,7 +531,7 @@ class Ensemble:
             "units": {"input": hyper["units"][0], "output": hyper["units"][1]},
             "names": {"input": hyper["names"][0], "output": hyper["names"][1]},
             "members": [{"seed": s, "scaler": m.scaler_.to_dict(), "envelope": m.envelope_,
-                         "history": getattr(m, "history_", {})}
+                         "history": m.history_}
                         for s, m in zip(self.seeds_, self.members_, strict=True)],
         }
         arrays = {k: np.stack([np.asarray(m.params_[k], dtype=np.float64)

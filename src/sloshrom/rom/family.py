@@ -185,7 +185,7 @@ class FillBlend:
         self.jax_traceable = all(is_jax_model(m) for m in self.members)
         self.fill = float(fill)
         self.fill_range = (float(fill_range[0]), float(fill_range[1]))
-        env = envelope_union([getattr(m, "envelope_", None) for m in self.members])
+        env = envelope_union(self.members)
         if env is not None:
             env["fill_min"], env["fill_max"] = self.fill_range
             self.envelope_ = env
