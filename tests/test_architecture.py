@@ -291,6 +291,7 @@ MODEL_CLASSES = {
     "NOE": "sloshrom.rom.estimators", "_TDNN": "sloshrom.rom.estimators",
     "Ensemble": "sloshrom.rom.ensemble", "FillFamily": "sloshrom.rom.family",
     "FillBlend": "sloshrom.rom.family", "BouncingBall": "sloshrom.rom.bouncing",
+    "CompiledKernel": "sloshrom.models",  # a protocol: isinstance asks for kernel()
 }
 #: Members by which a model says what kind of model it is.
 KIND_MEMBERS = {"input", "input_variable", "jax_traceable", "envelope_", "tank", "fill_range",
@@ -314,7 +315,7 @@ def _dispatch_sites() -> list[tuple[str, str, int, str]]:
     for mod, path in MODULES.items():
         tree = ast.parse(path.read_text(encoding="utf-8"))
 
-        def visit(node: ast.AST, func: str) -> None:
+        def visit(node: ast.AST, func: str, mod: str = mod) -> None:
             for child in ast.iter_child_nodes(node):
                 name = child.name if isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef) \
                     else func
