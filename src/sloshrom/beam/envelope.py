@@ -10,10 +10,10 @@ Two questions about the sloshing model inside the coupled loop:
   14.5 g frozen, 3.1/5.9/12.4 g rig). The frozen peaks therefore bound what a training record
   must cover.
 * *Coverage* (:func:`envelope_coverage`): which fraction of a run lies outside the training
-  envelope of the model (``envelope_`` of :class:`sloshrom.models.Enveloped`): its input (the
-  velocity, or the acceleration for a network on it) outside ``[input_min, input_max]`` or,
-  when the envelope records it, ``|acceleration|`` above the training record's peak
-  acceleration ``acceleration_max``.
+  envelope of the model (:func:`sloshrom.models.envelope_of`): its input (the velocity, or
+  the acceleration for a network on it) outside ``[input_min, input_max]`` or, when the envelope
+  records it, ``|acceleration|`` above the training record's peak acceleration
+  ``acceleration_max``.
 
 Pure functions on arrays and result dicts (no files).
 """
@@ -28,7 +28,7 @@ import numpy as np
 
 from sloshrom.beam.errors import BeamError
 from sloshrom.config import G
-from sloshrom.models import FrozenLiquid, SloshingModel
+from sloshrom.models import Envelope, FrozenLiquid, SloshingModel
 
 __all__ = [
     "Coverage",
@@ -229,14 +229,15 @@ class Coverage:
     acceleration_ratio: np.ndarray
 
 
-def envelope_coverage(envelope: Mapping[str, Any] | None, velocity: Any,
+def envelope_coverage(envelope: Envelope | Mapping[str, Any] | None, velocity: Any,
                       acceleration: Any) -> Coverage:
     """Fraction of a run outside a training envelope and its peak-acceleration ratio.
 
     Parameters
     ----------
-    envelope : mapping or None
-        A model's ``envelope_``: ``input_min``, ``input_max`` (the input's units) and optionally
+    envelope : Envelope, mapping or None
+        A model's envelope (:func:`sloshrom.models.envelope_of`) or its ``envelope_``:
+        ``input_min``, ``input_max`` (the input's units) and optionally
         ``acceleration_max`` (m/s^2, the training record's peak tank acceleration). An old
         envelope without ``acceleration_max`` is judged on the input only; ``None`` (or no
         ``input_min``): everything NaN.
@@ -257,13 +258,12 @@ def envelope_coverage(envelope: Mapping[str, Any] | None, velocity: Any,
                         f"got {v.shape} and {a.shape}")
     peak = np.max(np.abs(a), axis=-1)
     nan = np.full(peak.shape, np.nan)
-    if not isinstance(envelope, Mapping) or "input_min" not in envelope:
+    env = envelope if isinstance(envelope, Envelope) else Envelope.from_mapping(envelope)
+    if env is None:
         return Coverage(nan, peak, float("nan"), nan.copy())
-    lo, hi = float(envelope["input_min"]), float(envelope["input_max"])
-    outside = (v < lo) | (v > hi)
-    acc_max = envelope.get("acceleration_max")
+    outside = (v < env.input_min) | (v > env.input_max)
+    acc_max = env.acceleration_max
     if acc_max is None:
         return Coverage(np.mean(outside, axis=-1), peak, float("nan"), nan)
-    acc_max = float(acc_max)
     outside |= np.abs(a) > acc_max
     return Coverage(np.mean(outside, axis=-1), peak, acc_max, peak / acc_max)

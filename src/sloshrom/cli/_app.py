@@ -30,7 +30,7 @@ from sloshrom import __version__
 from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputPathError, check_output, not_a_regular_file
 from sloshrom.io import same_unit
-from sloshrom.models import input_variable
+from sloshrom.models import INPUT_UNITS, input_of
 
 __all__ = [
     "app", "check_input", "check_number", "check_out", "check_sloshing_rom", "fail",
@@ -240,8 +240,8 @@ def check_sloshing_rom(rom: Any, path: Path, what: str, user: str) -> None:
 
     ``user`` says who feeds it, as the subject of "feeds it the tank velocity ...".
     """
-    var = input_variable(rom)
-    unit = "m/s^2" if var == "acceleration" else "m/s"
+    var = input_of(rom)
+    unit = INPUT_UNITS[var]
     if not (same_unit(rom.units[0], unit) and same_unit(rom.units[1], "N")):
         fail(f"{what} {path}: the ROM maps '{rom.units[0]}' to '{rom.units[1]}'; {user} feeds "
              f"it the tank {var} in {unit} and reads the dynamic force in N")

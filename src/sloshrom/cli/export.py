@@ -99,7 +99,7 @@ def _check_input(rom: NFIR | NOE) -> np.ndarray:
     fs = float(rom.fs_)
     n = int(2 * fs)
     t = np.arange(n) / fs
-    env = getattr(rom, "envelope_", {}) or {}
+    env = rom.envelope_ or {}
     lo, hi = env.get("frequency_band", [1.0, 0.1 * fs]) or [1.0, 0.1 * fs]
     lo, hi = max(float(lo), 0.5), max(min(float(hi), 0.4 * fs), 1.0)
     rng = np.random.default_rng(0)

@@ -379,13 +379,13 @@ def predict(
     check_input(data, "--data")
     check_out(out, suffixes=RECORD_SUFFIXES, inputs=(data, model))
     from sloshrom.rom.estimators import load_model
-    from sloshrom.rom.family import FillFamily, at_fill
+    from sloshrom.rom.family import at_fill
 
     try:
         m = load_model(model)
     except SloshromError as exc:
         fail(str(exc))
-    names = m.members_[0].names if isinstance(m, FillFamily) else m.names
+    names = m.names  # a fill family describes its members' records
     rec = _read(data, [names[0]], "--data")
     if fill is None and isinstance(rec.attrs.get("fill"), float):
         fill = rec.attrs["fill"]

@@ -10,6 +10,9 @@ from __future__ import annotations
 
 from sloshrom.errors import SloshromError
 
+# defined once, beside the model contract, for every sloshing model; re-exported here
+from sloshrom.models import EnvelopeWarning
+
 __all__ = ["EnvelopeWarning", "FillRangeError", "NotFittedError", "ROMError", "UnstableModelError"]
 
 
@@ -37,6 +40,3 @@ class NotFittedError(ROMError, AttributeError):
     raising.
     """
 
-
-class EnvelopeWarning(UserWarning):
-    """The input passed to a ROM lies outside the range it was trained on."""
