@@ -359,3 +359,46 @@ def test_the_capability_checks_are_few_and_documented():
     # the finder finds what it should: each check dispatches at least once
     sites = {(m, f) for m, f, _, _ in _dispatch_sites()}
     assert {(m, f) for m, names in CAPABILITIES.items() for f in names} <= sites
+
+
+# ---------------------------------------------------------------------------------------------
+# Errors: one base. Every user error of the package is a SloshromError (also a ValueError) of
+# its room; a plain ValueError raised by the package would escape the command line's one-line
+# errors as a traceback, as a bug does.
+
+def test_no_plain_value_error_is_raised():
+    """``raise ValueError(...)`` (or ``raise ValueError``) nowhere: each room raises its type."""
+    bad = []
+    for path in MODULES.values():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+            if not isinstance(node, ast.Raise) or node.exc is None:
+                continue
+            exc = node.exc.func if isinstance(node.exc, ast.Call) else node.exc
+            if isinstance(exc, ast.Name) and exc.id == "ValueError":
+                bad.append(f"{path.relative_to(SRC)}:{node.lineno}")
+    assert not bad, "plain ValueError raised (use the room's error type):\n" + "\n".join(bad)
+
+
+def test_every_error_class_is_a_sloshrom_error():
+    """Every exception class the package defines derives from SloshromError (or is a warning).
+
+    The one check here that imports the package (every module, JAX and numba included): a
+    class's bases are only known once its module ran."""
+    import importlib
+    import inspect
+
+    from sloshrom.errors import SloshromError
+
+    bad, seen = [], 0
+    for module, path in MODULES.items():
+        mod = importlib.import_module(module)
+        for name, obj in vars(mod).items():
+            if not (inspect.isclass(obj) and issubclass(obj, BaseException)
+                    and obj.__module__ == module):
+                continue
+            seen += 1
+            if not issubclass(obj, SloshromError | Warning):
+                bases = ", ".join(b.__name__ for b in obj.__mro__[1:-1])
+                bad.append(f"{path.relative_to(SRC)}: {name} ({bases})")
+    assert seen >= 10, seen  # the walk found the package's error classes
+    assert not bad, "error classes that are not a SloshromError:\n" + "\n".join(bad)

@@ -55,6 +55,7 @@ from scipy.signal import resample_poly
 from sloshrom._jit import njit
 from sloshrom._x64 import float64
 from sloshrom.beam.envelope import envelope_coverage
+from sloshrom.beam.errors import BeamError
 from sloshrom.beam.structure import (
     TANK_KEYS,
     ModalDataError,
@@ -90,11 +91,12 @@ __all__ = [
 ]
 
 
-class SimulationDivergedError(RuntimeError):
-    """The coupled simulation blew up (reported with the time at which it did)."""
+class SimulationDivergedError(BeamError, RuntimeError):
+    """The coupled simulation blew up (reported with the time at which it did): a sloshing
+    model far outside its valid range on the user's structure, not a bug."""
 
 
-class StepMismatchError(ValueError):
+class StepMismatchError(BeamError):
     """A sloshing model's time step does not match the step the simulation was asked to use."""
 
 
@@ -136,7 +138,7 @@ def discretise(modal: ModalModel, liquid_mass: Any, dt: float) -> Discretisation
     :class:`CoupledSimulator` then refuses a non-zero base acceleration.
     """
     if not (math.isfinite(dt) and dt > 0):
-        raise ValueError(f"dt must be a finite positive step in s, got {dt!r}")
+        raise BeamError(f"dt must be a finite positive step in s, got {dt!r}")
     n = modal.n_modes
     psi = modal.psi_tanks
     ml = liquid_masses(modal, liquid_mass)
@@ -209,7 +211,7 @@ def simulate_jax(model: SloshingModel | Sequence[SloshingModel], disc: Discretis
     A2, B2, psi = jnp.asarray(disc.A2), jnp.asarray(disc.B2), jnp.asarray(disc.psi)
     n = psi.shape[1]
     if len(models) != psi.shape[0]:
-        raise ValueError(f"{len(models)} sloshing model(s) for {psi.shape[0]} tank(s)")
+        raise BeamError(f"{len(models)} sloshing model(s) for {psi.shape[0]} tank(s)")
     dt = disc.dt
 
     def body(carry, a_s):
@@ -414,24 +416,24 @@ class CoupledSimulator:
         self.output_fs = fs if output_fs is None else float(output_fs)
         ratio = fs / self.output_fs
         if not (self.output_fs > 0 and abs(ratio - round(ratio)) < 1e-6 and round(ratio) >= 1):
-            raise ValueError(
+            raise BeamError(
                 f"output_fs = {output_fs} Hz must divide the model rate {fs} Hz by an integer"
             )
         self.decimation = int(round(ratio))
         if backend == "auto":
             backend = _default_backend(self.models)
         if backend not in ("jax", "numba", "python"):
-            raise ValueError(f"unknown backend {backend!r} (jax, numba, python)")
+            raise BeamError(f"unknown backend {backend!r} (jax, numba, python)")
         self.active = tuple(j for j, m in enumerate(self.models) if not has_no_force(m))
         if backend == "numba":
             kernels = [self.models[j] for j in self.active]
             if not kernels or not all(has_kernel(m) for m in kernels):
-                raise ValueError("the numba backend needs a model with kernel()")
+                raise BeamError("the numba backend needs a model with kernel()")
             if len({id(m.kernel()[0]) for m in kernels}) > 1:
-                raise ValueError("the numba backend needs one kernel for every sloshing tank; "
+                raise BeamError("the numba backend needs one kernel for every sloshing tank; "
                                  "use backend='python' for different kernels")
         if backend == "jax" and not all(is_jax_model(m) for m in self.models):
-            raise ValueError("the jax backend needs a jax-traceable model (sloshrom.models."
+            raise BeamError("the jax backend needs a jax-traceable model (sloshrom.models."
                              "JaxModel)")
         self.backend = backend
         self.disc = discretise(modal, [t.liquid_mass for t in self.tanks], mdt)
@@ -453,7 +455,7 @@ class CoupledSimulator:
             params = np.stack([np.asarray(k[1], dtype=np.float64) for k in kernels])
             states = np.stack([np.asarray(k[2], dtype=np.float64) for k in kernels])
         except ValueError as exc:  # kernels of different sizes cannot share one loop
-            raise ValueError("the numba backend needs sloshing tanks whose kernels have "
+            raise BeamError("the numba backend needs sloshing tanks whose kernels have "
                              "parameter and state arrays of one size") from exc
         d = self.disc
         q, qdd, acc, dfo, vel = _numba_loop(
@@ -469,9 +471,9 @@ class CoupledSimulator:
         decimation."""
         a = np.asarray(base_acceleration, dtype=np.float64)
         if a.ndim == 0:
-            raise ValueError("base_acceleration must have a time axis")
+            raise BeamError("base_acceleration must have a time axis")
         if not np.all(np.isfinite(a)):
-            raise ValueError("base_acceleration must be finite")
+            raise BeamError("base_acceleration must be finite")
         if not self.modal.has_participation and np.any(a != 0):
             raise ModalDataError(
                 "the modal model has no participation factors (kg), which base excitation "
@@ -599,7 +601,7 @@ def _per_tank(value: Any, n_tanks: int, what: str) -> tuple:
     """One value per tank: a sequence of ``n_tanks`` or one value for every tank."""
     if isinstance(value, (list, tuple)):
         if len(value) != n_tanks:
-            raise ValueError(f"{len(value)} {what}(s) for a structure with {n_tanks} tank(s)")
+            raise BeamError(f"{len(value)} {what}(s) for a structure with {n_tanks} tank(s)")
         return tuple(value)
     return (value,) * n_tanks
 
@@ -698,7 +700,7 @@ def random_response(
     fs_model = 1.0 / sim.dt
     factor = fs_model / signal_fs
     if abs(factor - round(factor)) > 1e-6 or round(factor) < 1:
-        raise ValueError(f"model rate {fs_model} Hz must be an integer multiple of {signal_fs} Hz")
+        raise BeamError(f"model rate {fs_model} Hz must be an integer multiple of {signal_fs} Hz")
     levels = np.asarray(rms_levels, dtype=float) * G
     seeds = np.atleast_1d(seed)
     a = np.stack([

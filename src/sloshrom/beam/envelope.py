@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from sloshrom.beam.errors import BeamError
 from sloshrom.config import G
 from sloshrom.models import Envelope, FrozenLiquid, SloshingModel
 
@@ -122,9 +123,9 @@ def run_motion(run: str, acceleration: np.ndarray, velocity: np.ndarray,
     a = np.asarray(acceleration, dtype=float)
     v = np.asarray(velocity, dtype=float)
     if a.ndim != 1 or v.shape != a.shape or a.size < 2:
-        raise ValueError("acceleration and velocity must be 1-D arrays of the same length >= 2")
+        raise BeamError("acceleration and velocity must be 1-D arrays of the same length >= 2")
     if not (np.isfinite(fs) and fs > 0):
-        raise ValueError(f"fs must be a finite positive rate in Hz, got {fs!r}")
+        raise BeamError(f"fs must be a finite positive rate in Hz, got {fs!r}")
     spec = np.abs(np.fft.rfft(v - np.mean(v)))
     f = np.fft.rfftfreq(v.size, 1.0 / fs)
     spec[f < _MIN_DOMINANT_HZ] = 0.0
@@ -166,7 +167,7 @@ def tank_motion(results: Mapping[str, Mapping[str, Any]]) -> TankMotion:
         for i, level in enumerate(levels):
             runs.append(run_motion(f"{test} {level:g} g", acc[i], vel[i], float(res["fs"])))
     if not runs:
-        raise ValueError("no runs given")
+        raise BeamError("no runs given")
     fastest = max(runs, key=lambda r: r.peak_velocity)
     return TankMotion(
         peak_acceleration=max(r.peak_acceleration for r in runs),
@@ -253,8 +254,8 @@ def envelope_coverage(envelope: Envelope | Mapping[str, Any] | None, velocity: A
     v = np.asarray(velocity, dtype=float)
     a = np.asarray(acceleration, dtype=float)
     if v.shape != a.shape or v.ndim == 0:
-        raise ValueError(f"velocity and acceleration must have the same shape with a time axis, "
-                         f"got {v.shape} and {a.shape}")
+        raise BeamError(f"velocity and acceleration must have the same shape with a time axis, "
+                        f"got {v.shape} and {a.shape}")
     peak = np.max(np.abs(a), axis=-1)
     nan = np.full(peak.shape, np.nan)
     env = envelope if isinstance(envelope, Envelope) else Envelope.from_mapping(envelope)

@@ -20,9 +20,9 @@ from sloshrom.cli._app import (
     check_out,
     check_sloshing_rom,
     fail,
-    user_errors,
 )
 from sloshrom.config import Tank
+from sloshrom.errors import SloshromError
 from sloshrom.pipeline import settings
 from sloshrom.signals import DEFAULT_A_BAR_MIN
 from sloshrom.signals import SHAKER_ENVELOPE as _ENV
@@ -44,7 +44,7 @@ def _load_config(config: Path | None, quick: bool) -> dict:
 
             check_rig_tanks(cfg)
         return cfg
-    except user_errors() as exc:
+    except SloshromError as exc:
         fail(str(exc))
 
 
@@ -110,7 +110,7 @@ def reproduce(
 
         try:
             summary = run(out, cfg, progress=report)
-        except (*user_errors(), OSError) as exc:  # user input or disk, not a bug: one line
+        except (SloshromError, OSError) as exc:  # user input or disk, not a bug: one line
             prog.stop()
             fail(str(exc))
     for name, st in summary["stages"].items():
@@ -183,7 +183,7 @@ def map_cmd(
 
         try:  # a tank the rig cannot model (an extreme fill) is refused before the map
             sm = VirtualRig(tank=tank, seed=seed)
-        except user_errors() as exc:
+        except SloshromError as exc:
             fail(f"--rig: {exc}")
         title = "virtual rig"
     else:
@@ -223,7 +223,7 @@ def _load_rom(path: Path, min_fs: float, fill: float | None) -> tuple[Any, float
         if fill is None and trained is not None and trained[0] == trained[1]:
             fill = trained[0]
         m = at_fill(m, fill, str(path))
-    except user_errors() as exc:  # ModelFileError, a fill outside the model's
+    except SloshromError as exc:  # ModelFileError, a fill outside the model's
         fail(f"--model {exc}" if str(exc).startswith(str(path)) else str(exc))
     check_sloshing_rom(m, path, "--model", "the map")
     if m.fs_ < min_fs:
