@@ -62,6 +62,7 @@ from sloshrom.beam.analysis import (
     lscf_cluster_damping,
     modal_filter,
 )
+from sloshrom.beam.errors import BeamError
 from sloshrom.beam.modes import ModeSet
 from sloshrom.beam.structure import (
     CantileverBeam,
@@ -523,9 +524,9 @@ def mode_damping_random(
     q = np.asarray(modal_acceleration, dtype=float)
     freqs = np.atleast_1d(np.asarray(frequencies, dtype=float))
     if q.ndim != 2 or q.shape[1] != freqs.size:
-        raise ValueError(f"modal_acceleration must be (n, {freqs.size}), got {q.shape}")
+        raise BeamError(f"modal_acceleration must be (n, {freqs.size}), got {q.shape}")
     if not 0 < rel_band < 1:
-        raise ValueError(f"rel_band must be in (0, 1), got {rel_band!r}")
+        raise BeamError(f"rel_band must be in (0, 1), got {rel_band!r}")
     rows = []
     for k, fk in enumerate(freqs):
         band = (fk * (1 - rel_band), fk * (1 + rel_band))
@@ -632,12 +633,12 @@ def band_power(
     v = np.asarray(velocity, dtype=float)
     f = np.asarray(force, dtype=float)
     if v.shape != f.shape or v.shape[-1] < 2:
-        raise ValueError(f"velocity and force must have the same shape (..., n >= 2), got "
-                         f"{v.shape} and {f.shape}")
+        raise BeamError(f"velocity and force must have the same shape (..., n >= 2), got "
+                        f"{v.shape} and {f.shape}")
     if not (np.isfinite(fs) and fs > 0):
-        raise ValueError(f"fs must be a finite positive rate in Hz, got {fs!r}")
+        raise BeamError(f"fs must be a finite positive rate in Hz, got {fs!r}")
     if not 0 < rel_band < 1:
-        raise ValueError(f"rel_band must be in (0, 1), got {rel_band!r}")
+        raise BeamError(f"rel_band must be in (0, 1), got {rel_band!r}")
     n = v.shape[-1]
     # one-sided: every bin but DC (and Nyquist for even n) stands for two
     weight = np.full(n // 2 + 1, 2.0)
@@ -708,15 +709,15 @@ def broadband_acceleration(
         moment (the end velocity and displacement are zero to round-off).
     """
     if not (np.isfinite(fs) and fs > 0):
-        raise ValueError(f"fs must be a finite positive rate in Hz, got {fs!r}")
+        raise BeamError(f"fs must be a finite positive rate in Hz, got {fs!r}")
     if not (0 < f_lo < f_hi < fs / 2):
-        raise ValueError(f"need 0 < f_lo < f_hi < fs/2, got f_lo={f_lo!r}, f_hi={f_hi!r}")
+        raise BeamError(f"need 0 < f_lo < f_hi < fs/2, got f_lo={f_lo!r}, f_hi={f_hi!r}")
     if not (np.isfinite(rms) and rms >= 0):
-        raise ValueError(f"rms must be >= 0 (m/s^2), got {rms!r}")
+        raise BeamError(f"rms must be >= 0 (m/s^2), got {rms!r}")
     if not (np.isfinite(fade) and fade > 0 and np.isfinite(duration) and duration > 2 * fade):
-        raise ValueError(f"need fade > 0 and duration > 2 fade, got {fade!r}, {duration!r}")
+        raise BeamError(f"need fade > 0 and duration > 2 fade, got {fade!r}, {duration!r}")
     if not 0 <= edge < 0.5:
-        raise ValueError(f"edge must be in [0, 0.5), got {edge!r}")
+        raise BeamError(f"edge must be in [0, 0.5), got {edge!r}")
     n = int(round(duration * fs)) + 1
     freqs = np.fft.rfftfreq(n, 1.0 / fs)
     width = edge * (f_hi - f_lo)

@@ -251,7 +251,7 @@ def _open_loop(rig: Mapping[str, Any], roms: Mapping[str, Any], f_modes: np.ndar
     out = []
     for case, model in roms.items():
         if abs(float(model.fs_) - fs) > 1e-9 * fs:
-            raise ValueError(f"{case} runs at {model.fs_} Hz, the rig's records at {fs} Hz")
+            raise ConfigError(f"{case} runs at {model.fs_} Hz, the rig's records at {fs} Hz")
         force = np.asarray(model.simulate(v, a))  # (levels, n): one batched free run
         p = band_power(v, force, fs, f_modes, rel_band)
         out += [{"case": case, "rms_g": lv, "mode": k + 1, "power_rig_w": float(p_rig[i, k]),
