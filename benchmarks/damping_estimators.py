@@ -143,7 +143,7 @@ def run_random(case: str, duration: float, seeds: list[int]) -> None:
         modal = ModalModel.from_beam()
         f1, zeta = float(coupled_frozen_modes(modal, Tank().liquid_mass)[0][0]), modal.damping[0]
         for chunk in range(0, len(seeds), 10):  # 10 records at a time: bounded memory
-            out = random_response(FrozenLiquid(1 / FS), modal, rms_levels=(0.1,),
+            out = random_response(FrozenLiquid(1 / FS), modal, rms_levels_g=(0.1,),
                                   duration=duration, seed=seeds[chunk:chunk + 10])
             for i in range(out["tank_acceleration"].shape[0]):
                 collect(random_estimates(out["base_acceleration"][i, 0],

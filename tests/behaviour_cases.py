@@ -95,7 +95,7 @@ def cases(eps: float = 0.0, draw: int = 0) -> dict[str, np.ndarray]:
                             ("rig", VirtualRig(tank, seed=5))):
             res = free_response(model, modal, duration=1.5, tank=tank, output_fs=1000.0)
             out[f"free_{name}_tank_acceleration"] = np.asarray(res["tank_acceleration"])
-        res = random_response(roms["nfir_lm"], modal, rms_levels=tuple(p([0.1, 0.3])),
+        res = random_response(roms["nfir_lm"], modal, rms_levels_g=tuple(p([0.1, 0.3])),
                               duration=4.0, tank=tank, output_fs=1000.0, seed=2)
         out["random_nfir_tank_acceleration"] = np.asarray(res["tank_acceleration"])
         wbar, abar = p([3.0, 4.5]), p([0.1, 0.3])

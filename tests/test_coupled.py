@@ -188,7 +188,7 @@ def test_random_frozen_mode1_damping_estimators(modal):
     from sloshrom.beam.analysis import mode1_damping_random
     from sloshrom.beam.structure import coupled_frozen_modes
 
-    out = random_response(FrozenLiquid(1 / 500), modal, rms_levels=(0.1,), duration=90.0)
+    out = random_response(FrozenLiquid(1 / 500), modal, rms_levels_g=(0.1,), duration=90.0)
     f1 = coupled_frozen_modes(modal, Tank().liquid_mass)[0][0]
     d = mode1_damping_random(out["base_acceleration"][0], out["tank_acceleration"][0], 500, f1)
     # The frozen first mode has exactly modal.damping[0] = 1 %. Bounds |bias| + 3 std of one

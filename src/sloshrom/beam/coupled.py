@@ -665,7 +665,7 @@ def upsample_periodic(x: np.ndarray, factor: int) -> np.ndarray:
 def random_response(
     model: SloshingModel | Sequence[SloshingModel],
     modal: ModalModel,
-    rms_levels: Any = (0.1, 0.2, 0.4),
+    rms_levels_g: Any = (0.1, 0.2, 0.4),
     duration: float = 90.0,
     seed: int = 0,
     f0: float = 12.0,
@@ -682,7 +682,7 @@ def random_response(
 
     Parameters
     ----------
-    rms_levels : sequence of float
+    rms_levels_g : sequence of float
         RMS of the base acceleration **in g** (paper: 0.1, 0.2, 0.4).
     duration : float
         s (paper: 90).
@@ -701,7 +701,7 @@ def random_response(
     factor = fs_model / signal_fs
     if abs(factor - round(factor)) > 1e-6 or round(factor) < 1:
         raise BeamError(f"model rate {fs_model} Hz must be an integer multiple of {signal_fs} Hz")
-    levels = np.asarray(rms_levels, dtype=float) * G
+    levels = np.asarray(rms_levels_g, dtype=float) * G
     seeds = np.atleast_1d(seed)
     a = np.stack([
         random_base_acceleration(signal_fs, duration, levels, f0=f0, sigma=sigma, seed=int(s),
@@ -712,7 +712,7 @@ def random_response(
     if np.ndim(seed) == 0:
         a = a[0]
     out = sim.run(a)
-    out["rms_levels_g"] = np.asarray(rms_levels, dtype=float)
+    out["rms_levels_g"] = np.asarray(rms_levels_g, dtype=float)
     return out
 
 
