@@ -141,7 +141,7 @@ class WingDesign:
       mode: the sloshing damping is of the same order, measurable on both modes. The modes'
       shares of the tank's quasi-static motion ``psi_T Gamma_n / m_n`` are 1.45 and -0.47
       (the paper beam's modes 1 and 2: 1.30 and -0.40, its mode 2 at 75 Hz though); under
-      the random tests of :mod:`sloshrom.pipeline.multimode` (13 +/- 4 Hz) the torsion mode
+      the random tests of the two-mode study (``[multimode]``, 13 +/- 4 Hz) the torsion mode
       gives the tank 0.7 times the RMS acceleration of the bending mode.
     * damping 1.0 % (bending) and 0.5 % (torsion): the paper beam's estimates for its modes 1
       and 2.
