@@ -27,7 +27,7 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src"
 PACKAGE = "sloshrom"
 
-BASE = {"_jit", "_x64", "config", "errors", "fileio", "models", "signals"}
+BASE = {"_jit", "_x64", "config", "errors", "fileio", "limits", "models", "signals"}
 DOMAIN = ("io", "rig", "rom", "energy", "beam")
 
 #: The rooms each room may import (its own room is always allowed). Domain rooms see the base

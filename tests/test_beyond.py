@@ -16,12 +16,11 @@ from sloshrom.rom.estimators import load_model
 from sloshrom.rom.family import FillFamily, training_fills
 
 
-def tiny_config(config) -> dict:
+def tiny_config(config) -> settings.ReproduceConfig:
     """The session's tiny configuration with the studies beyond the paper switched on."""
-    cfg = settings.load(config)
-    cfg["beyond"].update(enabled=True, fills=[0.4, 0.5], unseen_fills=[0.45],
-                         beam_fills=[0.45], baseline=True, multimode=False)
-    return cfg
+    return settings.load(config).replace(beyond={
+        "enabled": True, "fills": [0.4, 0.5], "unseen_fills": [0.45], "beam_fills": [0.45],
+        "baseline": True, "multimode": False})
 
 
 @pytest.fixture(scope="module")

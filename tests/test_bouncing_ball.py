@@ -15,6 +15,7 @@ from sloshrom.config import G, Tank
 from sloshrom.models import CompiledKernel, Enveloped, FrozenLiquid, SloshingModel
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.html import render_table
+from sloshrom.pipeline.settings import load
 from sloshrom.rom.bouncing import (
     STATE_NAMES,
     BouncingBall,
@@ -436,7 +437,7 @@ def test_frequency_band_errors_and_the_report_section(tmp_path):
     outputs["comparison"] = comparison_rows(outputs)
     assert [r["model"] for r in outputs["comparison"]] == ["ball", "rom", "rig", "frozen"]
     assert outputs["comparison"][0]["table2_vs_rig"]["0.1"] == pytest.approx(0.013 / 0.0131 - 1)
-    sec = baseline_section(Context(tmp_path, {}), outputs)
+    sec = baseline_section(Context(tmp_path, load()), outputs)
     assert "closer to the rig at 1 of 1 levels" in sec.text
     assert "worse model in 2 of the 3 bands" in sec.text
     html = render_table(sec.tables[1])

@@ -86,8 +86,7 @@ def _world(tmp: Path) -> None:
     from sloshrom.pipeline import settings
     from sloshrom.pipeline.maps import map_grid
 
-    cfg = settings.defaults()
-    cfg["map"].update(n_omega=2, n_a=2)
+    cfg = settings.load().replace(map={"n_omega": 2, "n_a": 2})
     ob, ab = map_grid(cfg, Tank())
     _map_file(tmp / "ref22.nc", ob, ab)
     _map_file(tmp / "ref22_other.nc", ob * 1.1, ab)
@@ -353,13 +352,14 @@ HOSTILE_CASES = [
      r"d\.npz: is a directory"),
     ("train-out-under-a-file", None, [*TRG, "--out", "{tmp}/afile/m.npz"],
      r"afile is not a directory"),
-    ("train-delays--1", None, [*TRO, "--delays", "-1"], r"--delays must be in \[1, 1000\], got -1"),
+    ("train-delays--1", None, [*TRO, "--delays", "-1"],
+     r"--delays must be in \[1, 10000\], got -1"),
     ("train-delays-huge", None, [*TRO, "--delays", "1000000"],
-     r"--delays must be in \[1, 1000\], got 1000000"),
-    ("train-neurons-0", None, [*TRO, "--neurons", "0"], r"--neurons must be in \[1, 1000\], got 0"),
+     r"--delays must be in \[1, 10000\], got 1000000"),
+    ("train-neurons-0", None, [*TRO, "--neurons", "0"], r"--neurons must be in \[1, 4096\], got 0"),
     ("train-neurons-text", None, [*TRO, "--neurons", "many"], r"Invalid value for '--neurons'"),
     ("train-max-epochs--1", None, [*TRO, "--max-epochs", "-1"],
-     r"--max-epochs must be in \[0, 100000\], got -1"),
+     r"--max-epochs must be in \[0, 10000000\], got -1"),
     ("train-seed--1", None, [*TRO, "--seed", "-1"], rf"--seed must be in {SEED_MAX}, got -1"),
     ("train-seed-2**40", None, [*TRO, "--seed", str(2**40)], rf"--seed must be in {SEED_MAX}"),
     ("train-arch-lstm", None, [*TRO, "--arch", "lstm"], r"--arch must be nfir or noe, got 'lstm'"),
@@ -448,12 +448,12 @@ HOSTILE_CASES = [
     ("sweep-delays-text", None, [*SO, "--delays", "a,b"],
      r"--delays must be a comma-separated list of integers"),
     ("sweep-delays-zero", None, [*SO, "--delays", "0,5"],
-     r"--delays must list integers in \[1, 1000\], got '0,5'"),
+     r"--delays must list integers in \[1, 10000\], got '0,5'"),
     ("sweep-delays-repeated", None, [*SO, "--delays", "5,5"], r"--delays must not repeat"),
     ("sweep-neurons-huge", None, [*SO, "--neurons", "100000"],
-     r"--neurons must list integers in \[1, 1000\]"),
+     r"--neurons must list integers in \[1, 4096\]"),
     ("sweep-neurons-empty", None, [*SO, "--neurons", ""],
-     r"--neurons must list integers in \[1, 1000\], got ''"),
+     r"--neurons must list integers in \[1, 4096\], got ''"),
     ("sweep-out-is-a-file", None, [*S, "--out", "{tmp}/afile"],
      r"afile: exists and is not a directory"),
     ("sweep-out-is-the-data", None, [*S, "--out", "{tmp}/good.nc"],
@@ -537,13 +537,13 @@ HOSTILE_CASES = [
     ("config-sweep-grid-empty", _cfg("[rom]\nsweep_nfir_delays = []\n"), CS,
      r"'rom\.sweep_nfir_delays' must be a non-empty list of delays"),
     ("config-sweep-grid-strings", _cfg("[rom]\nsweep_noe_neurons = [\"ten\"]\n"), CS,
-     r"'rom\.sweep_noe_neurons\[0\]' must be an integer in \[1, 1000\], got 'ten'"),
+     r"'rom\.sweep_noe_neurons\[0\]' must be an integer in \[1, 4096\], got 'ten'"),
     ("config-sweep-workers-0", _cfg("[rom]\nsweep_workers = 0\n"), CS,
      r"'rom\.sweep_workers' must be a number of parallel trainings in \[1, 64\], got 0"),
     ("config-neurons-float", _cfg("[rom]\nneurons = 3.5\n"), CS,
-     r"'rom\.neurons' must be an integer in \[1, 1000\], got 3\.5"),
+     r"'rom\.neurons' must be an integer in \[1, 4096\], got 3\.5"),
     ("config-max-epochs-negative", _cfg("[rom]\nmax_epochs = -1\n"), CS,
-     r"'rom\.max_epochs' must be an integer in \[0, 100000\], got -1"),
+     r"'rom\.max_epochs' must be an integer in \[0, 10000000\], got -1"),
     ("config-rig-seed-negative", _cfg("[rig]\nseed = -1\n"), CS,
      r"'rig\.seed' must be a non-negative integer seed in \[0, 4294967295\], got -1"),
     ("config-hidden-gauss", _cfg("[rom]\nhidden = \"gauss\"\n"), CS,

@@ -212,8 +212,7 @@ def test_cli_map_reference_prints_the_whole_picture(tmp_path):
     u = np.convolve(rng.standard_normal(600), np.ones(8) / 8, mode="same") * 0.05
     y = np.tanh(20 * np.roll(u, 2)) * 0.5
     NFIR(delays=4, neurons=3, max_epochs=3).fit(u, y, fs=500.0).save(tmp_path / "rom.npz")
-    cfg = settings.defaults()
-    cfg["map"].update(n_omega=3, n_a=2)
+    cfg = settings.load().replace(map={"n_omega": 3, "n_a": 2})
     ob, ab = map_grid(cfg, Tank())
     ref = np.array([[0.1, 0.4], [0.2, 0.3], [0.0, 0.05]])
     _da(ref, ob, ab).to_dataset().to_netcdf(tmp_path / "ref.nc", engine="h5netcdf")

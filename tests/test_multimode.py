@@ -27,11 +27,11 @@ from sloshrom.config import ConfigError, G, Tank
 from sloshrom.io import read_record
 from sloshrom.models import FrozenLiquid
 from sloshrom.pipeline.context import Context
-from sloshrom.pipeline.settings import defaults, merge, validate
+from sloshrom.pipeline.settings import ReproduceConfig, defaults, load
 from sloshrom.rom import load_model
 from sloshrom.signals import broadband_acceleration
 from sloshrom.studies.multimode import multimode_section, stage_multimode
-from sloshrom.studies.multimode.config import table, wing_design
+from sloshrom.studies.multimode.config import wing_design
 
 TANK = Tank()
 BETA_L = 1.8751040687119611  # first root of cos(x) cosh(x) = -1
@@ -207,13 +207,13 @@ def test_band_power_is_the_exact_partition_of_the_mean_power():
         band_power(v, v, fs, [8.5], rel_band=1.5)
 
 
-def configured(settings: dict) -> dict:
+def configured(settings: dict) -> ReproduceConfig:
     """The shipped configuration with ``settings`` in its ``[multimode]`` table, validated."""
-    return validate(merge(defaults(), {"multimode": settings}))
+    return load().replace(multimode=settings)
 
 
 def test_settings_override_key_by_key():
-    s = table(configured({"rms_g": [0.05], "max_epochs": 3}))
+    s = configured({"rms_g": [0.05], "max_epochs": 3}).multimode
     assert s.rms_g == [0.05] and s.max_epochs == 3 and s.f0 == defaults()["multimode"]["f0"]
     with pytest.raises(ConfigError, match="unknown configuration key 'multimode.nope'"):
         configured({"nope": 1})
@@ -223,7 +223,7 @@ def test_settings_override_key_by_key():
         configured({"broadband_piece_duration": 8.0})
     # the wing's own checks, naming the table
     with pytest.raises(ConfigError, match=r"\[multimode\]: f_torsion must exceed f_bending"):
-        wing_design(table(configured({"f_torsion": 8.0})))
+        wing_design(configured({"f_torsion": 8.0}).multimode)
 
 
 #: Tiny settings: the shortest records, one level, a small network trained for one epoch on the

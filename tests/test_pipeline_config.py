@@ -84,9 +84,9 @@ def test_rig_fs_is_the_record_rate(tmp_path):
 def test_report_setup_follows_the_configuration():
     from sloshrom.pipeline.report import _setup_section
 
-    cfg = settings.merge(settings.defaults(), {
-        "tank": {"length": 0.2, "width": 0.1}, "beam": {"length": 0.5, "thickness": 0.008},
-        "rig": {"fs": 1000.0}})
+    cfg = settings.load().replace(
+        tank={"length": 0.2, "width": 0.1}, beam={"length": 0.5, "thickness": 0.008},
+        rig={"fs": 1000.0})
     rows = {r[0]: r[1:] for r in _setup_section(cfg).tables[0].rows}
     assert rows["tank inner base l1 × l2"] == ["200.0 × 100.0 mm", "configuration"]
     assert rows["beam length × width × thickness"] == ["0.5 × 0.1 × 0.008 m, clamped",
@@ -94,7 +94,7 @@ def test_report_setup_follows_the_configuration():
     assert rows["record rate (rig sensors and beam accelerometers)"] == ["1000 Hz",
                                                                          "configuration"]
     assert rows["tank height h"] == ["27.2 mm", "paper"]
-    default_rows = {r[0]: r[1:] for r in _setup_section(settings.defaults()).tables[0].rows}
+    default_rows = {r[0]: r[1:] for r in _setup_section(settings.load()).tables[0].rows}
     assert default_rows["tank inner base l1 × l2"] == ["117.2 × 78.0 mm", "paper"]
     assert default_rows["beam length × width × thickness"] == ["0.74 × 0.1 × 0.01 m, clamped",
                                                                "paper"]
@@ -104,15 +104,17 @@ def test_beam_structure_follows_the_configuration():
     from sloshrom.beam.structure import CantileverBeam
     from sloshrom.pipeline.beam import beam_structure
 
-    cfg = settings.merge(settings.defaults(), {"beam": {"length": 0.5, "density": 2800.0}})
+    # the [beam] table alone: with 'rig.fs' = 500 Hz its mode 3 would lie above Nyquist
+    table = settings.BeamTable.model_validate({**settings.defaults()["beam"], "length": 0.5,
+                                               "density": 2800.0})
     tank = Tank()
-    beam, modal = beam_structure(cfg["beam"], tank)
+    beam, modal = beam_structure(table, tank)
     ref = CantileverBeam(length=0.5, density=2800.0, tip_mass=tank.structure_mass,
                          tip_inertia=beam.tip_inertia)
     np.testing.assert_allclose(modal.frequencies, ref.frequencies(3), rtol=1e-12)
     np.testing.assert_allclose(modal.stations, [0.1, 0.2, 0.3, 0.4, 0.5])
     # a shorter beam is stiffer: every mode is higher than the paper's beam
-    _, paper = beam_structure(settings.defaults()["beam"], tank)
+    _, paper = beam_structure(settings.load().beam, tank)
     assert np.all(modal.frequencies > paper.frequencies)
 
 

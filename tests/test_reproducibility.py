@@ -125,9 +125,9 @@ def pipeline_records(tmp_path_factory):
     from sloshrom.pipeline import Context, settings
     from sloshrom.pipeline.data import stage_data
 
-    cfg = settings.load(None, quick=True)
-    cfg["data"].update(train_duration=10.0, validation_duration=10.0)
-    cfg["rig"]["seed"] = 7  # distinct from the path seeds (1, 2) to see whether it is recorded
+    cfg = settings.load(None, quick=True).replace(
+        data={"train_duration": 10.0, "validation_duration": 10.0},
+        rig={"seed": 7})  # distinct from the path seeds (1, 2) to see whether it is recorded
     recs = []
     for run in ("a", "b"):
         out = tmp_path_factory.mktemp(f"pipe_{run}")

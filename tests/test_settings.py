@@ -1,4 +1,5 @@
 import copy
+import json
 
 import pytest
 
@@ -16,9 +17,9 @@ def test_user_file_overrides_quick_and_defaults(tmp_path):
     p = tmp_path / "my.toml"
     p.write_text("[rom]\nneurons = 20\n[tank]\nfill = 0.25\n")
     cfg = settings.load(p, quick=True)
-    assert cfg["rom"]["neurons"] == 20
-    assert cfg["rom"]["delays"] == settings.QUICK["rom"]["delays"]
-    assert cfg["tank"]["fill"] == 0.25
+    assert cfg.rom.neurons == 20
+    assert cfg.rom.delays == settings.QUICK["rom"]["delays"]
+    assert cfg.tank.fill == 0.25
 
 
 @pytest.mark.parametrize(
@@ -49,10 +50,10 @@ def test_every_default_key_has_a_check():
     # the optional keys are exactly the schema's keys that are not required
     assert optional == {f"{t}.{k}" for t, f in tables.items()
                         for k, fi in f.annotation.model_fields.items() if not fi.is_required()}
-    # both are valid, and validation returns them unchanged
+    # both are valid, and the dict form of the typed configuration is them, keys in order
     for cfg in (settings.defaults(), settings.merge(settings.defaults(), settings.QUICK)):
         before = copy.deepcopy(cfg)
-        assert settings.validate(cfg) == before
+        assert json.dumps(settings.validate(cfg).as_dict()) == json.dumps(before)
 
 
 @pytest.mark.parametrize(
@@ -75,7 +76,7 @@ def test_every_default_key_has_a_check():
         (lambda c: c["tank"].update(fill="half"), r"'tank\.fill' must be a number, got 'half'"),
         (lambda c: c.update(rom=3), r"^'rom' must be a table$"),
         (lambda c: c["rom"].update(neurons=3.0),
-         r"^'rom\.neurons' must be an integer in \[1, 1000\], got 3\.0$"),
+         r"^'rom\.neurons' must be an integer in \[1, 4096\], got 3\.0$"),
         (lambda c: c["rom"].update(sweep_noe_neurons=[3, 3]),
          r"^'rom\.sweep_noe_neurons' must not repeat a value, got \[3, 3\]$"),
         (lambda c: c["map"].update(a_bar_min=float("nan")),
@@ -157,11 +158,41 @@ def test_relations_wait_for_valid_values():
         settings.validate(cfg)
 
 
-def test_validate_returns_the_dict_unchanged():
+def test_validate_returns_the_typed_configuration():
+    """The stages read attributes of a frozen object; the dict given is left as it was."""
+    import pydantic
+
     cfg = settings.defaults()
     cfg["rig"]["seed"] = 7
     snapshot = repr(cfg)
-    assert settings.validate(cfg) is cfg and repr(cfg) == snapshot
+    typed = settings.validate(cfg)
+    assert isinstance(typed, settings.ReproduceConfig) and repr(cfg) == snapshot
+    assert typed.rig.seed == 7 and typed.beam.rms_g == [0.1, 0.2, 0.4]
+    assert settings.validate(typed) is typed  # valid already
+    with pytest.raises(pydantic.ValidationError):
+        typed.rig.seed = 8  # frozen: a stage cannot change what the others read
+    # the optional keys given, and only those, are in the dict form (the cache keys)
+    assert "restitution" not in typed.as_dict()["rig"]
+    rig_b = settings.validate(settings.merge(cfg, {"rig": {"beta": 0.7}}))
+    assert rig_b.as_dict()["rig"] == {"seed": 7, "fs": 500.0, "beta": 0.7}
+    assert rig_b.rig.overrides() == {"beta": 0.7}
+    assert typed.tables("map", "rig") == {"map": cfg["map"], "rig": cfg["rig"]}
+
+
+def test_replace_validates_the_changes():
+    cfg = settings.load()
+    assert cfg.replace(rom={"sweep": True}).rom.sweep and not cfg.rom.sweep
+    with pytest.raises(ConfigError, match=r"'map\.n_a' must be an integer in \[2, 200\]"):
+        cfg.replace(map={"n_a": 1})
+    with pytest.raises(ConfigError, match="unknown configuration key 'rom.epochs'"):
+        cfg.replace(rom={"epochs": 3})
+
+
+def test_the_passive_recipe_has_one_set_of_defaults():
+    """defaults.toml (the configuration's source) holds the recipe of ``sloshrom.limits``."""
+    from sloshrom import limits
+
+    assert settings.load().rom.loss_terms() == limits.RECIPE
 
 
 def test_schema_is_the_single_source_of_bounds():

@@ -181,17 +181,17 @@ def test_rig_overrides_reach_the_rig(tmp_path):
     from sloshrom.rig.params import RigParams
 
     cfg = settings.load(EXAMPLES / "rig_b.toml")
-    assert (cfg["rig"]["restitution"], cfg["rig"]["beta"]) == (0.05, 0.7)
+    assert (cfg.rig.restitution, cfg.rig.beta) == (0.05, 0.7)
     rig = Context(tmp_path, cfg).rig()
     calibrated = RigParams.default()
     assert rig.params == calibrated.replace(restitution=0.05, beta=0.7)
     assert rig.params != calibrated
     # absent keys: the calibrated physics
-    assert Context(tmp_path, settings.defaults()).rig().params == calibrated
+    assert Context(tmp_path, settings.load()).rig().params == calibrated
     # every other key of the example is the default
     defaults = settings.defaults()
     assert {t: {k: v for k, v in sec.items() if k not in ("restitution", "beta")}
-            for t, sec in cfg.items()} == defaults
+            for t, sec in cfg.as_dict().items()} == defaults
 
 
 # -- the data stage --------------------------------------------------------------------------------
@@ -213,7 +213,7 @@ def test_data_stage_designs_from_the_structure(tmp_path):
     # the frozen peaks are those of the configured tests, and the records cover them
     _, motion = training_design(cfg, Tank())
     assert fz["peak_acceleration_g"] == pytest.approx(motion.peak_acceleration / G)
-    assert des["gamma_max_g"] >= cfg["data"]["margin"] * fz["peak_acceleration_g"]
+    assert des["gamma_max_g"] >= cfg.data.margin * fz["peak_acceleration_g"]
     assert des["exceeds_shaker"] and "acceleration" in des["exceeds_shaker"]
     for split in ("train", "validation"):
         rec = read_record(tmp_path / "data" / f"{split}.nc")
@@ -235,7 +235,7 @@ def test_data_stage_designs_from_the_structure(tmp_path):
 def test_shaker_design_is_the_paper_vfa():
     from sloshrom.pipeline.data import design_outputs, training_design
 
-    cfg = settings.merge(settings.defaults(), {"data": {"design": "shaker"}})
+    cfg = settings.load().replace(data={"design": "shaker"})
     design, motion = training_design(cfg, Tank())
     assert design == signals.SHAKER_DESIGN and motion is None
     out = design_outputs(design, motion)

@@ -6,11 +6,16 @@ stderr naming the option, file or key, with exit code 2, no traceback, and befor
 output (:func:`fail`, :func:`check_out`, :func:`check_number`). Warnings are routed too
 (:func:`route_warnings`): one yellow ``warning: ...`` line each, third-party deprecation noise
 silenced.
+
+Command help is the command's docstring read as paragraphs (:func:`help_paragraphs`): typer's
+rich help keeps every line break of a docstring, so the breaks of the source would cut sentences
+in the middle of a terminal line.
 """
 
 from __future__ import annotations
 
 import importlib
+import inspect
 import math
 import re
 import sys
@@ -41,16 +46,46 @@ def _click_exceptions() -> Any:
     return importlib.import_module(f"{base}.exceptions")
 
 
+_LIST_ITEM = re.compile(r"^\s*([-*•]|\d+[.)])\s")
+
+
+def help_paragraphs(text: str | None) -> str | None:
+    """A docstring as help text: the lines of each paragraph joined into one line.
+
+    typer's rich help prints a docstring's line breaks as they are; joined, each paragraph is
+    wrapped to the terminal instead. A paragraph that is a list (a line after the first starts
+    with ``-``, ``*``, ``•`` or ``1.``) or that starts with click's ``\\b`` marker keeps its lines.
+    """
+    if not text:
+        return text
+    out = []
+    for para in inspect.cleandoc(text).split("\n\n"):
+        lines = para.split("\n")
+        keep = para.startswith("\b") or any(_LIST_ITEM.match(line) for line in lines[1:])
+        out.append(para.removeprefix("\b\n") if keep else " ".join(ln.strip() for ln in lines))
+    return "\n\n".join(out)
+
+
+def _paragraph_help(group: Any) -> None:
+    """:func:`help_paragraphs` on the help of every command and group under ``group``."""
+    for cmd in getattr(group, "commands", {}).values():
+        cmd.help = help_paragraphs(cmd.help)
+        _paragraph_help(cmd)
+
+
 class _OneLineErrors(TyperGroup):
     """Root group whose usage errors (missing option, not a number, ...) are one line too.
 
     typer prints them in a framed panel over several lines; users (and scripts grepping
-    ``error:``) get the same one-line form as the commands' own errors, exit code 2.
+    ``error:``) get the same one-line form as the commands' own errors, exit code 2. The help of
+    every command reads as paragraphs (:func:`help_paragraphs`).
     """
 
     def main(self, args: Any = None, prog_name: str | None = None,
              complete_var: str | None = None, standalone_mode: bool = True,
              **extra: Any) -> Any:
+        self.help = help_paragraphs(self.help)
+        _paragraph_help(self)
         if not standalone_mode:
             return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         exc = _click_exceptions()

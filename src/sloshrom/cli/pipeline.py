@@ -32,7 +32,7 @@ config_app = typer.Typer(help="Show the configuration of `sloshrom reproduce`.",
 app.add_typer(config_app, name="config")
 
 
-def _load_config(config: Path | None, quick: bool) -> dict:
+def _load_config(config: Path | None, quick: bool) -> settings.ReproduceConfig:
     """The merged configuration, validated by :func:`sloshrom.pipeline.settings.validate`, its
     tanks checked against the virtual rig (what ``reproduce`` would fail on, ``config show``
     refuses too)."""
@@ -61,7 +61,7 @@ def config_show(
     if config is None and not quick:
         typer.echo(settings.default_text())
         return
-    typer.echo(json.dumps(_load_config(config, quick), indent=1))
+    typer.echo(json.dumps(_load_config(config, quick).as_dict(), indent=1))
 
 
 @app.command()
@@ -91,10 +91,13 @@ def reproduce(
     from sloshrom.pipeline.chain import RESULT_ENTRIES
 
     cfg = _load_config(config, quick)
-    if sweep:
-        cfg["rom"]["sweep"] = True  # run() validates again: the sweep grid must fit the data too
-    if beyond:
-        cfg["beyond"]["enabled"] = True
+    changes = {**({"rom": {"sweep": True}} if sweep else {}),
+               **({"beyond": {"enabled": True}} if beyond else {})}
+    if changes:
+        try:  # validated again: the sweep grid must fit the data too
+            cfg = cfg.replace(**changes)
+        except user_errors() as exc:
+            fail(str(exc))
     # the configuration is protected from every file the run writes, not only from --out
     check_out(out, directory=True, inputs=(config,), contents=RESULT_ENTRIES)
     console = Console(stderr=True)
@@ -169,11 +172,10 @@ def map_cmd(
     check_input(reference, "--reference")
     check_out(out, suffixes=MAP_SUFFIXES, inputs=(model, reference))
     check_out(out.with_suffix(".png"), inputs=(model, reference), what="--out (its PNG)")
-    cfg = settings.defaults()
-    cfg["map"].update(n_omega=n_omega, n_a=n_a)
+    cfg = settings.load().replace(map={"n_omega": n_omega, "n_a": n_a})
     sm = None
     if not rig:  # the ROM first: its training fill is the default fill of the map
-        sm, fill = _load_rom(model, 8 * cfg["map"]["f_max"], fill)
+        sm, fill = _load_rom(model, 8 * cfg.map.f_max, fill)
     tank = Tank() if fill is None else Tank(fill=fill)
     ref = None
     if reference is not None:  # read it first: a bad reference must not cost a whole map
@@ -232,7 +234,7 @@ def _load_rom(path: Path, min_fs: float, fill: float | None) -> tuple[Any, float
     return m, fill
 
 
-def _read_reference(path: Path, cfg: dict, tank: Tank):
+def _read_reference(path: Path, cfg: settings.ReproduceConfig, tank: Tank):
     """``phi_d`` of a map file written by ``sloshrom map`` on this grid, or a clear error."""
     import numpy as np
     import xarray as xr

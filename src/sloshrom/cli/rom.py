@@ -19,16 +19,21 @@ import typer
 from sloshrom.cli._app import app, check_input, check_number, check_out, fail, user_errors
 from sloshrom.config import FILL_TOLERANCE
 from sloshrom.io import STANDARD_UNITS, read_record, same_unit, write_record
+from sloshrom.limits import (
+    ARCH_TRAINERS,
+    MAX_DELAY,
+    MAX_EPOCHS,
+    MAX_MEMBERS,
+    MAX_NEURONS,
+    MAX_SEED,
+    RECIPE,
+    loss_recipe,
+)
 from sloshrom.pipeline.settings import training_samples
 
 __all__ = ["predict", "sweep", "train"]
 
 RECORD_SUFFIXES = (".nc", ".csv", ".mat")
-MAX_DELAYS = 1000
-MAX_NEURONS = 1000
-MAX_EPOCHS = 100_000
-MAX_SEED = 2**32 - 1  # JAX PRNG keys take 32-bit seeds
-MAX_MEMBERS = 64  # sloshrom.rom.modelfile.MAX_MEMBERS (not imported: it loads the ROM room)
 
 
 def _read(path: Path, names: list[str], what: str):
@@ -156,7 +161,7 @@ def train(
     output_name: OutputOpt = "dynamic_force",
     arch: Annotated[str, typer.Option("--arch", help="nfir or noe.")] = "nfir",
     delays: Annotated[
-        int | None, typer.Option(help=f"Input delays (NFIR 70, NOE 2), 1-{MAX_DELAYS}.")
+        int | None, typer.Option(help=f"Input delays (NFIR 70, NOE 2), 1-{MAX_DELAY}.")
     ] = None,
     neurons: Annotated[
         int | None, typer.Option(help=f"Hidden neurons (NFIR 35, NOE 10), 1-{MAX_NEURONS}.")
@@ -186,22 +191,28 @@ def train(
                                               "number of CPUs.")] = 2,
     amplitude_weighting: Annotated[
         float | None, typer.Option(help="NFIR/Adam: loss weights 1/(a^2 + eps^2), eps in input "
-                                        "units (default 0.05; 0 = plain MSE, as the paper).")
+                                        f"units (default {RECIPE['amplitude_weighting']:g} for "
+                                        "m/s in and N out, else 0 = plain MSE, as the paper).")
     ] = None,
     passivity: Annotated[
         float | None, typer.Option(help="NFIR/Adam: weight of the penalty on energy created at "
-                                        "harmonic probes (default 1; 0 = off, as the paper).")
+                                        f"harmonic probes (default {RECIPE['passivity']:g} for "
+                                        "m/s in and N out, else 0 = off, as the paper).")
     ] = None,
     cycle_energy: Annotated[
         float | None, typer.Option(help="NFIR/Adam: weight of the error of the energy each "
-                                        "input cycle exchanges (default 0.1; 0 = off, as the "
-                                        "paper).")
+                                        "input cycle exchanges (default "
+                                        f"{RECIPE['cycle_energy']:g} for m/s in and N out, else "
+                                        "0 = off, as the paper).")
     ] = None,
 ) -> None:
     """Identify an NFIR or NOE ROM (or an ensemble of them) from an input/output record.
 
-    An NFIR trained by Adam (the default) uses the passive recipe: amplitude-weighted loss, a
-    passivity penalty and a cycle-energy term (docs/rom.md, "A passive ROM");
+    An NFIR trained by Adam (the default) on a velocity in m/s and a force in N uses the
+    passive recipe: amplitude-weighted loss, a passivity penalty and a cycle-energy term
+    (docs/rom.md, "A passive ROM"); its terms are written for the power F v, so records in
+    other units (a force in, a displacement out, an acceleration in, ...) train on the plain
+    MSE. One line says which loss was chosen and why; the options below override it, and
     --amplitude-weighting 0 --passivity 0 --cycle-energy 0 trains the paper's plain MSE.
     --input acceleration (records' tank acceleration, m/s^2) trains a network on the
     acceleration, always on the plain MSE; it runs in `beam` and `map` like any other.
@@ -220,7 +231,7 @@ def train(
     _check_names(input_name, output_name)
     if arch == "noe" and input_name == "acceleration":
         fail("--input acceleration needs --arch nfir: an NOE takes the tank velocity")
-    check_number(delays, "--delays", 1, MAX_DELAYS)
+    check_number(delays, "--delays", 1, MAX_DELAY)
     check_number(neurons, "--neurons", 1, MAX_NEURONS)
     _check_common(max_epochs, seed, hidden)
     check_number(ensemble, "--ensemble", 1, MAX_MEMBERS)
@@ -232,7 +243,7 @@ def train(
         check_number(workers, "--workers", 1, n_cpu, why=f"this machine has {n_cpu} CPU(s)")
         if scheduler not in (None, "threads", "sequential"):
             check_scheduler(scheduler)
-    trainers = ("adam", "fast", "lm") if arch == "nfir" else ("fast", "lm")
+    trainers = ARCH_TRAINERS[arch]
     if trainer is not None and trainer not in trainers:
         fail(f"--trainer for {arch.upper()} must be {', '.join(trainers)}, got {trainer!r}")
     check_number(fill, "--fill", 0.0, 1.0, lo_open=True, hi_open=True,
@@ -258,9 +269,11 @@ def train(
     if trainer is not None:
         kw["trainer"] = trainer
     adam = arch == "nfir" and trainer in (None, "adam")
-    for opt, value, default in (("amplitude_weighting", amplitude_weighting, 0.05),
-                                ("passivity", passivity, 1.0),
-                                ("cycle_energy", cycle_energy, 0.1)):
+    # the recipe by the records' units: its terms hold for m/s in and N out only
+    choice = loss_recipe(*kw["units"], same=same_unit)
+    given = {"amplitude_weighting": amplitude_weighting, "passivity": passivity,
+             "cycle_energy": cycle_energy}
+    for opt, value in given.items():
         flag = "--" + opt.replace("_", "-")
         if value is not None and not (math.isfinite(value) and value >= 0):
             fail(f"{flag} must be a finite number >= 0, got {value!r}")
@@ -271,9 +284,17 @@ def train(
             fail(f"{flag} needs a velocity input: the term is written for the power F v "
                  "(a network on the acceleration trains on the plain MSE)")
         if adam:
-            kw[opt] = (0.0 if input_name == "acceleration" else default) if value is None \
-                else value
-    model = cls(**kw)  # every hyperparameter is checked above
+            kw[opt] = choice.terms[opt] if value is None else value
+    if adam:
+        set_by = [k for k, v in given.items() if v is not None]
+        typer.echo(str(choice) if not set_by else
+                   f"loss: {', '.join(f'{k} {kw[k]:g}' for k in given)}: "
+                   f"{', '.join(set_by)} set by the options (by the records' units: "
+                   f"{choice.name})")
+    try:
+        model = cls(**kw)  # the hyperparameters are checked above, the file limits here
+    except user_errors() as exc:  # ROMError: a network no model file holds
+        fail(str(exc))
     _check_length(rec, data, arch, model.max_delay, int(model.neurons), "training")
     if len(val) <= model.max_delay:
         fail(f"{validation}: {len(val)} samples are too few for {model.max_delay} delays")
@@ -482,7 +503,7 @@ def sweep(
         fail(f"--arch must be nfir, noe or both, got {arch!r}")
     _check_names(input_name, output_name)
     _check_common(max_epochs, seed, hidden)
-    dl = _parse_ints(delays, "--delays", MAX_DELAYS)
+    dl = _parse_ints(delays, "--delays", MAX_DELAY)
     nl = _parse_ints(neurons, "--neurons", MAX_NEURONS)
     n_cpu = os.cpu_count() or 1
     check_number(workers, "--workers", 1, n_cpu, why=f"this machine has {n_cpu} CPU(s)")

@@ -24,6 +24,7 @@ from sloshrom.config import Tank
 from sloshrom.fileio import OutputBatch
 from sloshrom.models import FrozenLiquid, SloshingModel
 from sloshrom.pipeline.context import Context
+from sloshrom.pipeline.settings import BeamTable
 from sloshrom.plotting import savefig
 from sloshrom.plotting.beam import free_figures, random_figures, random_window
 from sloshrom.plotting.signals import base_excitation_figure
@@ -36,19 +37,25 @@ __all__ = ["BEAM_KEYS", "beam_structure", "beam_tests", "member_spread", "stage_
 BEAM_KEYS = ("length", "width", "thickness", "youngs_modulus", "density")
 
 
-def beam_structure(cfg: dict[str, Any], tank: Tank) -> tuple[CantileverBeam, ModalModel]:
+def beam_structure(cfg: BeamTable, tank: Tank) -> tuple[CantileverBeam, ModalModel]:
     """The dry beam of the ``[beam]`` configuration and its modal model.
 
     Virtual accelerometers at the default stations, 1/5, 2/5, ..., 5/5 of the length (the last
     at the tank).
     """
-    beam = CantileverBeam.with_tank(tank, **{k: cfg[k] for k in BEAM_KEYS})
-    damping = cfg["damping"][: cfg["n_modes"]]  # one ratio per kept mode (extra ones unused)
-    modal = ModalModel.from_beam(beam, tank, n_modes=cfg["n_modes"], damping=damping)
+    cfg = _typed(cfg)
+    beam = CantileverBeam.with_tank(tank, **{k: getattr(cfg, k) for k in BEAM_KEYS})
+    damping = cfg.damping[: cfg.n_modes]  # one ratio per kept mode (extra ones unused)
+    modal = ModalModel.from_beam(beam, tank, n_modes=cfg.n_modes, damping=damping)
     return beam, modal
 
 
-def beam_tests(cfg: dict[str, Any], modal: ModalModel, tank: Tank,
+def _typed(cfg: BeamTable | dict[str, Any]) -> BeamTable:
+    # the study stages still pass the dict form of [beam]
+    return BeamTable.model_validate(cfg) if isinstance(cfg, dict) else cfg
+
+
+def beam_tests(cfg: BeamTable, modal: ModalModel, tank: Tank,
                fs: float) -> dict[str, Simulate]:
     """The beam tests of the ``[beam]`` configuration, as ``simulate(model, output_fs)``.
 
@@ -58,12 +65,13 @@ def beam_tests(cfg: dict[str, Any], modal: ModalModel, tank: Tank,
     with every model, the ``data`` stage with frozen liquid to design the training
     (:func:`sloshrom.pipeline.data.training_design`): one definition, the same signals.
     """
+    cfg = _typed(cfg)
     return {
-        "free": lambda m, out_fs: free_response(m, modal, cfg["tip_displacement"],
-                                                cfg["free_duration"], tank, out_fs),
-        "random": lambda m, out_fs: random_response(m, modal, cfg["rms_g"],
-                                                    cfg["random_duration"], cfg["seed"],
-                                                    cfg["f0"], cfg["sigma"], signal_fs=fs,
+        "free": lambda m, out_fs: free_response(m, modal, cfg.tip_displacement,
+                                                cfg.free_duration, tank, out_fs),
+        "random": lambda m, out_fs: random_response(m, modal, cfg.rms_g,
+                                                    cfg.random_duration, cfg.seed,
+                                                    cfg.f0, cfg.sigma, signal_fs=fs,
                                                     tank=tank, output_fs=out_fs),
     }
 
@@ -84,8 +92,8 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
         ``sloshrom.beam.results.to_dataset``), the tables and the figures, relative to ``ctx.out``;
         they appear together once everything has succeeded.
     """
-    cfg = ctx.cfg["beam"]
-    fs = float(ctx.cfg["rig"]["fs"])  # the beam's sensors record at the rig's record rate
+    cfg = ctx.cfg.beam
+    fs = float(ctx.cfg.rig.fs)  # the beam's sensors record at the rig's record rate
     tank = ctx.tank
     out = ctx.out / "beam"
     out.mkdir(parents=True, exist_ok=True)
@@ -115,23 +123,23 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
 
     decays = {case: mode1_decay(r, modal, f1) for case, r in free_res.items()}
     outputs["instantaneous_damping"] = damping_summary(free_res, decays)
-    table2 = mode1_damping_table(rand_res, cfg["rms_g"], f1, max_tank_acceleration=True)
+    table2 = mode1_damping_table(rand_res, cfg.rms_g, f1, max_tank_acceleration=True)
     outputs["table2"] = table2
     outputs["envelope"] = envelope_table({"free": free_res, "random": rand_res})
 
     if isinstance(models.get("rom"), Ensemble):
-        outputs["rom_members"] = member_spread(models["rom"], tests, modal, cfg["rms_g"], fs,
+        outputs["rom_members"] = member_spread(models["rom"], tests, modal, cfg.rms_g, fs,
                                                f1, ctx)
 
     figs = {**free_figures(free_res, modal, decays),
-            **random_figures(rand_res, cfg["rms_g"], random_window(cfg["random_duration"]))}
-    figs["fig17_base_excitation"] = base_excitation_figure(rand_res["frozen"], cfg["rms_g"],
-                                                           cfg["f0"], cfg["sigma"], fs)
+            **random_figures(rand_res, cfg.rms_g, random_window(cfg.random_duration))}
+    figs["fig17_base_excitation"] = base_excitation_figure(rand_res["frozen"], cfg.rms_g,
+                                                           cfg.f0, cfg.sigma, fs)
     # every result file of the stage appears together, once everything above has succeeded
     with OutputBatch() as batch:
         for case in models:
             for kind, res in (("free", free_res), ("random", rand_res)):
-                write_dataset(to_dataset(res[case], case, kind, tank, modal, cfg["seed"]),
+                write_dataset(to_dataset(res[case], case, kind, tank, modal, cfg.seed),
                               out / f"{kind}_{case}.nc", batch)
         write_table(rows, out / "table1_frozen_modes", batch)
         write_table(table2, out / "table2_mode1_damping", batch)

@@ -41,7 +41,7 @@ from sloshrom.pipeline.data import stage_data
 from sloshrom.pipeline.maps import stage_maps
 from sloshrom.pipeline.report import write_report
 from sloshrom.pipeline.rom import SWEEP_KEYS, stage_rom, stage_sweep
-from sloshrom.pipeline.settings import validate
+from sloshrom.pipeline.settings import ReproduceConfig, validate
 from sloshrom.studies.baseline import config as baseline_config
 from sloshrom.studies.baseline.stage import stage_baseline
 from sloshrom.studies.fills import config as fills_config
@@ -75,20 +75,21 @@ def identify(ctx: Context, cache: StageCache | None = None) -> dict[str, StageRe
     cache = cache if cache is not None else StageCache(ctx.out)
     results: dict[str, StageResult] = {}
     # a structure-designed training depends on the beam tests it is designed from
-    data_tables = ("tank", "rig", "data") + (("beam",) if cfg["data"]["design"] == "structure"
+    data_tables = ("tank", "rig", "data") + (("beam",) if cfg.data.design == "structure"
                                              else ())
     with _timer(ctx, "data"):
         results["data"] = cache.run(
-            "data", {k: cfg[k] for k in data_tables}, [],
+            "data", cfg.tables(*data_tables), [],
             lambda: stage_data(ctx), __version__,
         )
-    if cfg["rom"]["sweep"]:
+    rom = cfg.tables("rom")["rom"]
+    if cfg.rom.sweep:
         with _timer(ctx, "sweep"):
             results["sweep"] = cache.run(
-                "sweep", {k: cfg["rom"][k] for k in SWEEP_KEYS}, [results["data"]],
+                "sweep", {k: rom[k] for k in SWEEP_KEYS}, [results["data"]],
                 lambda: stage_sweep(ctx), __version__,
             )
-    rom_keys = {k: v for k, v in cfg["rom"].items() if not k.startswith("sweep")}
+    rom_keys = {k: v for k, v in rom.items() if not k.startswith("sweep")}
     with _timer(ctx, "rom"):
         results["rom"] = cache.run(
             "rom", rom_keys, [results["data"]], lambda: stage_rom(ctx), __version__
@@ -96,22 +97,25 @@ def identify(ctx: Context, cache: StageCache | None = None) -> dict[str, StageRe
     return results
 
 
-def run(out: str | Path, cfg: dict[str, Any], progress: Progress = quiet) -> dict[str, Any]:
+def run(out: str | Path, cfg: ReproduceConfig | dict[str, Any],
+        progress: Progress = quiet) -> dict[str, Any]:
     """Run every stage, reuse cached ones, write the report and the summary; return it.
 
     Parameters
     ----------
     out : str or Path
         Output directory (created).
-    cfg : dict
-        The configuration (``sloshrom.pipeline.settings.load``, or built in code).
+    cfg : ReproduceConfig or dict
+        The configuration (``sloshrom.pipeline.settings.load``), or a dict of tables built in
+        code (validated here).
     progress : callable
         ``progress(stage, done, total, text)``, called as the stages advance.
 
     Returns
     -------
     dict
-        The summary written to ``OUT/summary.json``: ``sloshrom_version``, ``config``,
+        The summary written to ``OUT/summary.json``: ``sloshrom_version``, ``config`` (the
+        dict form, :meth:`~sloshrom.pipeline.settings.ReproduceConfig.as_dict`),
         ``stages`` (per stage: ``reused`` and its outputs) and ``timings_s`` (s).
 
     Raises
@@ -121,11 +125,11 @@ def run(out: str | Path, cfg: dict[str, Any], progress: Progress = quiet) -> dic
         tank the virtual rig cannot model (:func:`~sloshrom.pipeline.context.check_rig_tanks`):
         one error naming the key, before any work and before anything is written.
     """
-    validate(cfg)
+    cfg = validate(cfg)
     check_rig_tanks(cfg)  # the tanks the rig runs at, before any stage or file
-    bey = cfg["beyond"]
-    if bey["enabled"] and bey["multimode"]:  # the wing's own checks, before any stage
-        multimode_config.wing_design(multimode_config.table(cfg))
+    bey = cfg.beyond
+    if bey.enabled and bey.multimode:  # the wing's own checks, before any stage
+        multimode_config.wing_design(cfg.multimode)
     ctx = Context(Path(out), cfg, progress)
     ctx.out.mkdir(parents=True, exist_ok=True)
     cache = StageCache(ctx.out)
@@ -135,16 +139,16 @@ def run(out: str | Path, cfg: dict[str, Any], progress: Progress = quiet) -> dic
     deps = [results["data"], results["rom"]]
     with _timer(ctx, "maps"):
         results["maps"] = cache.run(
-            "maps", {k: cfg[k] for k in ("tank", "rig", "map")}, deps,
+            "maps", cfg.tables("tank", "rig", "map"), deps,
             lambda: stage_maps(ctx, rom_path), __version__,
         )
     with _timer(ctx, "beam"):
         results["beam"] = cache.run(
-            "beam", {k: cfg[k] for k in ("tank", "rig", "beam")}, deps,
+            "beam", cfg.tables("tank", "rig", "beam"), deps,
             lambda: stage_beam(ctx, rom_path), __version__,
         )
 
-    if bey["enabled"] and bey["baseline"]:
+    if bey.enabled and bey.baseline:
         with _timer(ctx, "baseline"):
             results["baseline"] = cache.run(
                 "baseline", baseline_config.cache_config(cfg),
@@ -152,14 +156,14 @@ def run(out: str | Path, cfg: dict[str, Any], progress: Progress = quiet) -> dic
                 lambda: stage_baseline(ctx, results["data"], results["rom"], results["maps"],
                                        results["beam"]), __version__,
             )
-    if bey["enabled"]:
+    if bey.enabled:
         with _timer(ctx, "fills"):
             results["fills"] = cache.run(
                 "fills", fills_config.cache_config(cfg), deps,
                 lambda: stage_fills(ctx, results["rom"], identify), __version__,
             )
 
-    if bey["enabled"] and bey["multimode"]:
+    if bey.enabled and bey.multimode:
         # its own wing, records and ROMs ([multimode]): no other stage's files
         with _timer(ctx, "multimode"):
             results["multimode"] = cache.run(
@@ -169,7 +173,7 @@ def run(out: str | Path, cfg: dict[str, Any], progress: Progress = quiet) -> dic
 
     summary = {
         "sloshrom_version": __version__,
-        "config": cfg,
+        "config": cfg.as_dict(),
         "stages": {k: {"reused": r.reused, **r.outputs} for k, r in results.items()},
         "timings_s": ctx.timings,
     }

@@ -6,10 +6,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 from sloshrom.config import ConfigError, Tank
-from sloshrom.pipeline.settings import OPTIONAL_KEYS
+from sloshrom.pipeline.settings import ReproduceConfig, validate
 from sloshrom.rig.virtual import RigParams, SensorParams, VirtualRig
 
 __all__ = ["Context", "Progress", "check_rig_tanks", "quiet"]
@@ -30,8 +29,9 @@ class Context:
     ----------
     out : Path
         The output directory.
-    cfg : dict
-        The validated configuration (``sloshrom.pipeline.settings``).
+    cfg : ReproduceConfig
+        The validated configuration (:func:`sloshrom.pipeline.settings.validate`; a dict of
+        tables given here is validated into one).
     progress : Progress
         Progress callback.
     timings : dict
@@ -39,27 +39,30 @@ class Context:
     """
 
     out: Path
-    cfg: dict[str, Any]
+    cfg: ReproduceConfig
     progress: Progress = quiet
     timings: dict[str, float] = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        if isinstance(self.cfg, dict):  # built in code: typed here
+            self.cfg = validate(self.cfg)
+
     @property
     def tank(self) -> Tank:
-        return Tank.from_dict(self.cfg["tank"])
+        return self.cfg.tank.tank()
 
     def rig_params(self) -> RigParams:
         """The rig's physics: the calibrated ``rig_params.toml`` with the ``[rig]`` overrides
         (``restitution``, ``beta``: ``sloshrom.pipeline.settings.OPTIONAL_KEYS``) applied."""
-        rig = self.cfg["rig"]
-        changes = {k: rig[k] for k in OPTIONAL_KEYS["rig"] if rig.get(k) is not None}
+        changes = self.cfg.rig.overrides()
         return RigParams.default().replace(**changes)
 
     def rig(self, tank: Tank | None = None) -> VirtualRig:
         """The virtual rig of the configuration (physics :meth:`rig_params`); its sensors record
         at ``[rig] fs``. ``tank`` replaces the configured tank (another fill level)."""
         return VirtualRig(tank=self.tank if tank is None else tank, params=self.rig_params(),
-                          seed=self.cfg["rig"]["seed"],
-                          sensors=SensorParams(output_rate=self.cfg["rig"]["fs"]))
+                          seed=self.cfg.rig.seed,
+                          sensors=SensorParams(output_rate=self.cfg.rig.fs))
 
     def path(self, *parts: str) -> Path:
         """``out/parts...``, its directory created."""
@@ -72,7 +75,7 @@ class Context:
         return str(Path(p).relative_to(self.out))
 
 
-def check_rig_tanks(cfg: dict[str, Any]) -> None:
+def check_rig_tanks(cfg: ReproduceConfig) -> None:
     """Build the virtual rig at every tank the configuration runs it at, before any stage.
 
     The ``[tank]`` fill and, with ``[beyond] enabled``, every fill of ``[beyond]``: a tank the
@@ -85,11 +88,11 @@ def check_rig_tanks(cfg: dict[str, Any]) -> None:
         The first key whose tank the rig refuses.
     """
     ctx = Context(Path("."), cfg)
-    fills = [("tank.fill", float(cfg["tank"]["fill"]))]
-    bey = cfg["beyond"]
-    if bey["enabled"]:
+    fills = [("tank.fill", float(ctx.cfg.tank.fill))]
+    bey = ctx.cfg.beyond
+    if bey.enabled:
         fills += [(f"beyond.{key}", float(f)) for key in ("fills", "unseen_fills", "beam_fills")
-                  for f in bey[key]]
+                  for f in getattr(bey, key)]
     for key, fill in fills:
         try:
             ctx.rig(ctx.tank.replace(fill=fill))

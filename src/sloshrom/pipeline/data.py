@@ -13,13 +13,14 @@ from sloshrom.config import G, Tank
 from sloshrom.io import record_from_measurement, write_record
 from sloshrom.pipeline.beam import beam_structure, beam_tests
 from sloshrom.pipeline.context import Context
+from sloshrom.pipeline.settings import DataTable, ReproduceConfig
 from sloshrom.plotting import savefig
 from sloshrom.plotting.signals import record_io_figure, vfa_paths_figure
 
 __all__ = ["design_outputs", "stage_data", "training_design", "vfa_pieces"]
 
 
-def training_design(cfg: dict[str, Any], tank: Tank
+def training_design(cfg: ReproduceConfig, tank: Tank
                     ) -> tuple[signals.VFADesign, TankMotion | None]:
     """The amplitude limits of the VFA records (``[data] design``).
 
@@ -33,7 +34,7 @@ def training_design(cfg: dict[str, Any], tank: Tank
 
     Parameters
     ----------
-    cfg : dict
+    cfg : ReproduceConfig
         The validated configuration.
     tank : Tank
 
@@ -43,14 +44,14 @@ def training_design(cfg: dict[str, Any], tank: Tank
     motion : TankMotion or None
         The frozen beam tests' tank motion (``None`` for ``"shaker"``).
     """
-    if cfg["data"]["design"] == "shaker":
+    if cfg.data.design == "shaker":
         return signals.SHAKER_DESIGN, None
-    fs = float(cfg["rig"]["fs"])  # the beam stage's record rate, hence its signals
-    _, modal = beam_structure(cfg["beam"], tank)
-    motion = frozen_tank_motion(beam_tests(cfg["beam"], modal, tank, fs), fs)
+    fs = float(cfg.rig.fs)  # the beam stage's record rate, hence its signals
+    _, modal = beam_structure(cfg.beam, tank)
+    motion = frozen_tank_motion(beam_tests(cfg.beam, modal, tank, fs), fs)
     design = signals.vfa_design(motion.peak_acceleration, motion.peak_velocity,
                                 motion.peak_displacement, motion.frequency, tank,
-                                margin=float(cfg["data"]["margin"]))
+                                margin=float(cfg.data.margin))
     return design, motion
 
 
@@ -73,7 +74,7 @@ def design_outputs(design: signals.VFADesign, motion: TankMotion | None) -> dict
     }
 
 
-def vfa_pieces(data: dict[str, Any], split: str, duration: float, seed: int,
+def vfa_pieces(data: DataTable | None, split: str, duration: float, seed: int,
                design: signals.VFADesign, motion: TankMotion | None, fs: float,
                tank: Tank) -> list[signals.VFA]:
     """The VFA tank motions of one record, played one after the other (each starts and ends at
@@ -86,13 +87,13 @@ def vfa_pieces(data: dict[str, Any], split: str, duration: float, seed: int,
     sweeps ``f1 / extension_band .. f1 * extension_band`` (within the shaker's 5-25 Hz band),
     f1 the frozen beam tests' frequency: the structure's own range, without thinning the data
     of the map's domain (a single path over 0-20 g left the network less detail below 6 g:
-    docs/rom.md).
+    docs/rom.md). ``data`` (the ``[data]`` table) is read only for the extension.
     """
     pieces = [signals.vfa(fs, split=split, duration=duration, tank=tank, seed=seed,
                           **signals.SHAKER_DESIGN.kwargs())]
     if motion is not None:
-        ext = float(data["extension_duration"]) * (1.0 if split == "train" else 0.5)
-        band = float(data["extension_band"])
+        ext = float(data.extension_duration) * (1.0 if split == "train" else 0.5)
+        band = float(data.extension_band)
         f_lo = max(signals.SHAKER_ENVELOPE.f_min, motion.frequency / band)
         f_hi = min(signals.SHAKER_ENVELOPE.f_max, motion.frequency * band)
         pieces.append(signals.vfa(fs, split=split, duration=ext,
@@ -123,21 +124,20 @@ def stage_data(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     design, motion = training_design(cfg, tank)
     files, paths, records = [], [], {}
     outputs: dict[str, Any] = {"design": design_outputs(design, motion),
-                               "rig": {k: v for k, v in cfg["rig"].items()
-                                       if k not in ("seed", "fs") and v is not None}}
+                               "rig": cfg.rig.overrides()}
     splits = [
-        ("train", cfg["data"]["train_duration"], cfg["data"]["train_seed"]),
-        ("validation", cfg["data"]["validation_duration"], cfg["data"]["validation_seed"]),
+        ("train", cfg.data.train_duration, cfg.data.train_seed),
+        ("validation", cfg.data.validation_duration, cfg.data.validation_seed),
     ]
     fs_rig = 1.0 / rig.dt
     for k, (split, duration, seed) in enumerate(splits):
         ctx.progress("data", k + 1, len(splits) + 1, f"rig VFA {split} ({duration:.0f} s)")
-        pieces = vfa_pieces(cfg["data"], split, duration, seed, design, motion, fs_rig, tank)
+        pieces = vfa_pieces(cfg.data, split, duration, seed, design, motion, fs_rig, tank)
         meas = rig.measure(np.concatenate([p.acceleration for p in pieces]))
         sig = pieces[0]
         rec = record_from_measurement(
             meas, tank, truth=True, split=split, seed=int(seed),
-            rig_seed=int(cfg["rig"]["seed"]),
+            rig_seed=int(cfg.rig.seed),
             provenance=f"sloshrom {__version__} reproduce: virtual rig VFA {split} "
                        f"({design.rule} design, {design.gamma_max:.3g} g)",
         )

@@ -27,6 +27,7 @@ from sloshrom.energy import (
 from sloshrom.fileio import OutputBatch
 from sloshrom.models import SloshingModel
 from sloshrom.pipeline.context import Context
+from sloshrom.pipeline.settings import ReproduceConfig, validate
 from sloshrom.plotting import savefig
 from sloshrom.plotting.maps import Loop, hysteresis_figure, phi_d_map_figure
 from sloshrom.rom.ensemble import Ensemble, spread
@@ -48,26 +49,26 @@ MEMBER_FIGURES = ("full_l2", "dissipative_l2", "n_nonpassive", "nonpassive_fract
                   "min_phi_d")
 
 
-def map_grid(cfg: dict[str, Any], tank: Tank) -> tuple[np.ndarray, np.ndarray]:
+def map_grid(cfg: ReproduceConfig, tank: Tank) -> tuple[np.ndarray, np.ndarray]:
     """The (omega_bar, a_bar) grid (both -) of the ``[map]`` configuration for ``tank``."""
-    m = cfg["map"]
+    m = validate(cfg).map  # the study stages still pass the dict form
     w0 = tank.reference_frequency
-    ob = np.linspace(2 * math.pi * m["f_min"] / w0, 2 * math.pi * m["f_max"] / w0, m["n_omega"])
-    ab = np.linspace(m["a_bar_min"], m["a_bar_max"], m["n_a"])
+    ob = np.linspace(2 * math.pi * m.f_min / w0, 2 * math.pi * m.f_max / w0, m.n_omega)
+    ab = np.linspace(m.a_bar_min, m.a_bar_max, m.n_a)
     return ob, ab
 
 
-def compute_map(model: SloshingModel, cfg: dict[str, Any], tank: Tank,
+def compute_map(model: SloshingModel, cfg: ReproduceConfig, tank: Tank,
                 progress: Callable[[int, int], None] | None = None) -> xr.DataArray:
     """Phi_d map of ``model`` on the grid and shaker envelope of the ``[map]`` configuration.
 
     ``progress(done, total)`` is called as frequencies finish.
     """
+    m = validate(cfg).map  # the study stages still pass the dict form
     ob, ab = map_grid(cfg, tank)
-    m = cfg["map"]
     return phi_d_map(
-        model, ob, ab, tank=tank, f_min=m["f_min"], f_max=m["f_max"],
-        gamma_max=m["gamma_max"], a_bar_max=m["a_bar_max"], progress=progress,
+        model, ob, ab, tank=tank, f_min=m.f_min, f_max=m.f_max,
+        gamma_max=m.gamma_max, a_bar_max=m.a_bar_max, progress=progress,
     )
 
 

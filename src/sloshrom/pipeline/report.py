@@ -12,7 +12,6 @@ from typing import Any
 
 import numpy as np
 
-from sloshrom.config import Tank
 from sloshrom.pipeline import html as report
 from sloshrom.pipeline import settings
 from sloshrom.pipeline.context import Context
@@ -58,47 +57,47 @@ def _num(d: dict[str, Any], *keys: str, fmt: str = "{:.3g}", default: str = "n/a
         return html.escape(str(cur))
 
 
-def _setup_section(cfg: dict[str, Any]) -> Section:
-    defaults = settings.defaults()
+def _setup_section(cfg: settings.ReproduceConfig) -> Section:
+    defaults = settings.load()
 
     def source(table: str, *keys: str, paper: str = "paper", other: str = "estimate") -> str:
         # a value the user changed is theirs, whatever the default's source
-        if any(cfg[table][k] != defaults[table][k] for k in keys):
+        mine, default = getattr(cfg, table), getattr(defaults, table)
+        if any(getattr(mine, k) != getattr(default, k) for k in keys):
             return "configuration"
         return paper if paper else other
 
-    tank = Tank.from_dict(cfg["tank"])
-    b = cfg["beam"]
-    paper_rom = defaults["rom"]
+    tank = cfg.tank.tank()
+    b = cfg.beam
+    paper_rom = defaults.rom
     rows = [
         ["tank inner base l1 × l2", f"{tank.length * 1e3:.1f} × {tank.width * 1e3:.1f} mm",
          source("tank", "length", "width")],
         ["tank height h", f"{tank.height * 1e3:.1f} mm", source("tank", "height")],
         ["fill level α", f"{tank.fill:.2f}",
-         source("tank", "fill", paper=f"paper ({defaults['tank']['fill'] * 100:g} %)")],
+         source("tank", "fill", paper=f"paper ({defaults.tank.fill * 100:g} %)")],
         ["liquid mass m_l", f"{tank.liquid_mass * 1e3:.1f} g",
          f"derived (ρ = {tank.density:g} kg/m³)"],
         ["structure mass above load cells", f"{tank.structure_mass:.3f} kg",
          source("tank", "structure_mass", paper="")],
-        ["record rate (rig sensors and beam accelerometers)", f"{cfg['rig']['fs']:g} Hz",
+        ["record rate (rig sensors and beam accelerometers)", f"{cfg.rig.fs:g} Hz",
          source("rig", "fs", paper="")],
-        ["VFA train / validation", f"{cfg['data']['train_duration']:.0f} / "
-         f"{cfg['data']['validation_duration']:.0f} s",
+        ["VFA train / validation", f"{cfg.data.train_duration:.0f} / "
+         f"{cfg.data.validation_duration:.0f} s",
          source("data", "train_duration", "validation_duration")],
-        ["ROM", f"{cfg['rom']['arch'].upper()}({cfg['rom']['delays']}, "
-         f"{cfg['rom']['neurons']})",
+        ["ROM", f"{cfg.rom.arch.upper()}({cfg.rom.delays}, {cfg.rom.neurons})",
          source("rom", "arch", "delays", "neurons",
-                paper=f"paper: {paper_rom['arch'].upper()}({paper_rom['delays']}, "
-                      f"{paper_rom['neurons']})")],
-        ["beam length × width × thickness", f"{b['length']:g} × {b['width']:g} × "
-         f"{b['thickness']:g} m, clamped", source("beam", "length", "width", "thickness")],
-        ["beam E, ρ", f"{b['youngs_modulus'] / 1e9:g} GPa, {b['density']:g} kg/m³",
+                paper=f"paper: {paper_rom.arch.upper()}({paper_rom.delays}, "
+                      f"{paper_rom.neurons})")],
+        ["beam length × width × thickness", f"{b.length:g} × {b.width:g} × "
+         f"{b.thickness:g} m, clamped", source("beam", "length", "width", "thickness")],
+        ["beam E, ρ", f"{b.youngs_modulus / 1e9:g} GPa, {b.density:g} kg/m³",
          source("beam", "youngs_modulus", "density", paper="", other="estimate (aluminium)")],
-        ["dry modal damping", ", ".join(f"{z * 100:.2f} %" for z in b["damping"]),
+        ["dry modal damping", ", ".join(f"{z * 100:.2f} %" for z in b.damping),
          source("beam", "damping", paper="")],
-        ["random PSD centre / σ", f"{b['f0']:g} / {b['sigma']:g} Hz",
+        ["random PSD centre / σ", f"{b.f0:g} / {b.sigma:g} Hz",
          source("beam", "f0", "sigma", paper="")],
-        ["random RMS levels", ", ".join(f"{g:g} g" for g in b["rms_g"]), source("beam", "rms_g")],
+        ["random RMS levels", ", ".join(f"{g:g} g" for g in b.rms_g), source("beam", "rms_g")],
         ["virtual-rig physics", "impacting column + RT release gate + Faraday modes",
          "model (docs/rig.md): calibrated estimates"],
     ]
@@ -369,7 +368,7 @@ def _beam_sections(ctx: Context, b: dict[str, Any]) -> list[Section]:
             t_inst.rows.append([f"{band}, ROM members (mean ± std)"]
                                + [pm if c == "rom" else "" for c in cases])
     free_text = (
-        f"<p>Free response from a {ctx.cfg['beam']['tip_displacement'] * 100:.2f} cm static tip "
+        f"<p>Free response from a {ctx.cfg.beam.tip_displacement * 100:.2f} cm static tip "
         f"deflection (initial tank acceleration "
         f"{inst.get('frozen', {}).get('initial_tank_acceleration_g', float('nan')):.1f} g). "
         "The rig plays the experiment; the ROM runs in the same coupled model; the frozen case "
@@ -393,8 +392,8 @@ def _beam_sections(ctx: Context, b: dict[str, Any]) -> list[Section]:
         Section(
             "8. Random base excitation (paper Figs. 18, 22, 23, Table 2)",
             "<p>Gaussian-PSD base acceleration (Eq. 8), "
-            + html.escape(", ".join(f"{g:g}" for g in ctx.cfg["beam"]["rms_g"]))
-            + f" g RMS, {ctx.cfg['beam']['random_duration']:.0f} s, the same phases for every "
+            + html.escape(", ".join(f"{g:g}" for g in ctx.cfg.beam.rms_g))
+            + f" g RMS, {ctx.cfg.beam.random_duration:.0f} s, the same phases for every "
             "level and every case.</p>",
             fig("fig17_base_excitation", "Fig. 17 — the base accelerations imposed at the "
                 "beam root (the same signal for every case): a 2 s window and their Welch PSDs "

@@ -4,12 +4,14 @@ then identify the configured ROM and validate it (Fig. 10)."""
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
 from sloshrom.io import read_record
 from sloshrom.pipeline.context import Context
+from sloshrom.pipeline.settings import RomTable
 from sloshrom.plotting import savefig
 from sloshrom.plotting.rom import plot_sweep, validation_figure
 from sloshrom.rom.ensemble import Ensemble, spread
@@ -29,10 +31,10 @@ def error_figures(y: np.ndarray, y_hat: np.ndarray) -> dict[str, float]:
     return {"mse": mse, "nrmse": nrmse, "fit": fit}
 
 
-def sweep_points(cfg: dict[str, Any]) -> list[tuple[str, int, int]]:
+def sweep_points(rom: RomTable) -> list[tuple[str, int, int]]:
     """The sensitivity-analysis grid of the ``[rom]`` configuration as (arch, delays, neurons)."""
-    return ([("nfir", d, n) for d in cfg["sweep_nfir_delays"] for n in cfg["sweep_nfir_neurons"]]
-            + [("noe", d, n) for d in cfg["sweep_noe_delays"] for n in cfg["sweep_noe_neurons"]])
+    return ([("nfir", d, n) for d in rom.sweep_nfir_delays for n in rom.sweep_nfir_neurons]
+            + [("noe", d, n) for d in rom.sweep_noe_delays for n in rom.sweep_noe_neurons])
 
 
 SWEEP_KEYS = ("sweep_nfir_delays", "sweep_nfir_neurons", "sweep_noe_delays", "sweep_noe_neurons",
@@ -45,7 +47,7 @@ def stage_sweep(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     Points run in parallel (Dask LocalCluster, ``sweep_workers`` processes; 1 = in this
     process). Each finished point is kept in ``OUT/sweep/``, so an interrupted sweep resumes.
     """
-    cfg = ctx.cfg["rom"]
+    cfg = ctx.cfg.rom
     pts = sweep_points(cfg)
     train = read_record(ctx.out / "data" / "train.nc")
     val = read_record(ctx.out / "data" / "validation.nc")
@@ -58,12 +60,12 @@ def stage_sweep(ctx: Context) -> tuple[dict[str, Any], list[str]]:
 
     ctx.progress("sweep", 0, len(pts), f"{len(pts)} networks")
     t0 = time.perf_counter()
-    workers = int(cfg["sweep_workers"])
+    workers = int(cfg.sweep_workers)
     rows = run_sweep((train["velocity"], train["dynamic_force"]),
                      (val["velocity"], val["dynamic_force"]), train.fs, out_dir, pts,
                      scheduler="sequential" if workers == 1 else None, n_workers=workers,
-                     options={"max_epochs": cfg["max_epochs"], "hidden": cfg["hidden"],
-                              "seed": cfg["seed"]},
+                     options={"max_epochs": cfg.max_epochs, "hidden": cfg.hidden,
+                              "seed": cfg.seed},
                      progress=prog)
     seconds = time.perf_counter() - t0
     fig = plot_sweep(rows, ctx.path("figures", "fig08_sensitivity.png"))
@@ -76,7 +78,7 @@ def stage_sweep(ctx: Context) -> tuple[dict[str, Any], list[str]]:
             + (f"lowest score {best['name']} ({best['score']:.4g} N²)" if best else
                "no stable network")
             + f"; {n_bad} unstable NOE network(s). The ROM of the next sections is the "
-            f"configured {cfg['arch'].upper()}({cfg['delays']}, {cfg['neurons']}), as the "
+            f"configured {cfg.arch.upper()}({cfg.delays}, {cfg.neurons}), as the "
             "paper's selection, not necessarily the lowest score.")
     table = [[r["arch"].upper(), r["delays"], r["neurons"],
               r["score"] if not r["unstable"] else "unstable", "no" if r["unstable"] else "yes"]
@@ -85,10 +87,14 @@ def stage_sweep(ctx: Context) -> tuple[dict[str, Any], list[str]]:
             "sweep_text": text, "sweep_rows": table}, files
 
 
-def recipe_text(cfg: dict[str, Any], name: str) -> str:
-    """One paragraph for the report: which model the pipeline identified, and why."""
-    w, p = cfg.get("amplitude_weighting", 0.0), cfg.get("passivity", 0.0)
-    c = cfg.get("cycle_energy", 0.0)
+def recipe_text(terms: Mapping[str, float], name: str) -> str:
+    """One paragraph for the report: which model the pipeline identified, and why.
+
+    ``terms``: the loss weights ``amplitude_weighting`` (m/s), ``passivity`` and
+    ``cycle_energy`` (absent: 0), e.g. :meth:`sloshrom.pipeline.settings.RomTable.loss_terms`.
+    """
+    w, p = terms.get("amplitude_weighting", 0.0), terms.get("passivity", 0.0)
+    c = terms.get("cycle_energy", 0.0)
     terms = []
     if w > 0:
         terms.append(f"each sample's squared error weighted by 1/(a² + ε²), a the local velocity "
@@ -126,29 +132,28 @@ def stage_rom(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     files : list of str
         The model file and Fig. 10, relative to ``ctx.out``.
     """
-    cfg = ctx.cfg["rom"]
+    cfg = ctx.cfg.rom
     train = read_record(ctx.out / "data" / "train.nc")
     val = read_record(ctx.out / "data" / "validation.nc")
     u, y = train["velocity"], train["dynamic_force"]
     uv, yv = val["velocity"], val["dynamic_force"]
     files: list[str] = []
     outputs: dict[str, Any] = {}
-    cls = {"nfir": NFIR, "noe": NOE}[cfg["arch"]]
-    loss = ({k: cfg[k] for k in ("amplitude_weighting", "passivity", "cycle_energy")}
-            if cfg["arch"] == "nfir" else {})
-    model = cls(delays=cfg["delays"], neurons=cfg["neurons"], hidden=cfg["hidden"],
-                max_epochs=cfg["max_epochs"], seed=cfg["seed"], **loss)
-    name = f"{cfg['arch'].upper()}({cfg['delays']}, {cfg['neurons']})"
+    cls = {"nfir": NFIR, "noe": NOE}[cfg.arch]
+    loss = cfg.loss_terms() if cfg.arch == "nfir" else {}
+    model = cls(delays=cfg.delays, neurons=cfg.neurons, hidden=cfg.hidden,
+                max_epochs=cfg.max_epochs, seed=cfg.seed, **loss)
+    name = f"{cfg.arch.upper()}({cfg.delays}, {cfg.neurons})"
 
     def cb(epoch: int, *args: Any, **kwargs: Any) -> None:
-        ctx.progress("rom", epoch, cfg["max_epochs"], f"training {name}, epoch {epoch}")
+        ctx.progress("rom", epoch, cfg.max_epochs, f"training {name}, epoch {epoch}")
 
     fill = train.attrs.get("fill")  # the model refuses other fills (sloshrom.rom.family)
-    k_members = int(cfg["ensemble"])
-    recipe = recipe_text(cfg, name)
+    k_members = int(cfg.ensemble)
+    recipe = recipe_text(cfg.loss_terms(), name)
     t0 = time.perf_counter()
     if k_members > 1:
-        workers = int(cfg["ensemble_workers"])
+        workers = int(cfg.ensemble_workers)
         ctx.progress("rom", 0, k_members, f"training {k_members} x {name}")
         model = Ensemble(model, n_members=k_members).fit(
             u, y, fs=train.fs, validation=(uv, yv),
@@ -160,7 +165,7 @@ def stage_rom(ctx: Context) -> tuple[dict[str, Any], list[str]]:
         model.fit(u, y, fs=train.fs, validation=(uv, yv), callback=cb, fill=fill)
     train_seconds = time.perf_counter() - t0
     ctx.progress("rom", 1, 1, "validation")
-    path = ctx.path("models", f"{cfg['arch']}.npz")
+    path = ctx.path("models", f"{cfg.arch}.npz")
     model.save(path)
     files.append(ctx.rel(path))
     yv_hat = np.asarray(model.predict(uv))

@@ -4,6 +4,12 @@
 schema with one model per TOML table: every key of ``defaults.toml`` is checked (type, bounds,
 list contents and the relations between keys) *before* any stage runs, so that a bad value costs
 one error line naming the key, not a traceback after minutes of work. Unknown keys are refused.
+
+The stages receive the validated, frozen :class:`ReproduceConfig` and read its attributes
+(``cfg.rom.delays``, ``cfg.beam.rms_g``); :meth:`ReproduceConfig.as_dict` gives the dict form,
+keys in the order of ``defaults.toml``, that is written beside the results and hashed into the
+stage cache keys. The limits shared with the command line and the model files (delays,
+neurons, epochs, members, weights, seeds) are those of :mod:`sloshrom.limits`.
 """
 
 from __future__ import annotations
@@ -33,6 +39,15 @@ from sloshrom.beam.structure import (
     coupled_frozen_modes,
 )
 from sloshrom.config import FILL_TOLERANCE, ConfigError, Tank, load_toml
+from sloshrom.limits import (
+    MAX_DELAY,
+    MAX_EPOCHS,
+    MAX_MEMBERS,
+    MAX_NEURONS,
+    MAX_SEED,
+    MAX_WEIGHTS,
+    RECIPE,
+)
 
 __all__ = [
     "BEAM_FS",
@@ -49,7 +64,14 @@ __all__ = [
     "QUICK",
     "RIG_RATE",
     "WELCH_NPERSEG",
+    "BeamTable",
+    "BeyondTable",
+    "DataTable",
+    "MapTable",
     "ReproduceConfig",
+    "RigTable",
+    "RomTable",
+    "TankTable",
     "check_analysis_band",
     "check_psd_band",
     "default_text",
@@ -103,11 +125,9 @@ MAX_BEAM_SECONDS = 600.0
 MAX_LEVEL_SECONDS = 1800.0
 #: Accelerometer stations of the beam: the modal filter separates at most this many modes.
 MAX_MODES = N_STATIONS
-#: Most network weights one model file holds, members x neurons x regressor entries (32 MiB of
-#: float64): ``sloshrom.rom.modelfile.MAX_WEIGHTS``, repeated here because importing the ROM
-#: room loads JAX (tests/test_settings.py checks that the two agree). An ensemble that cannot
-#: be saved is refused here, before the rig data and the training.
-MAX_MODEL_WEIGHTS = 2**22
+#: Most network weights one model file holds (:data:`sloshrom.limits.MAX_WEIGHTS`): an ensemble
+#: that cannot be saved is refused here, before the rig data and the training.
+MAX_MODEL_WEIGHTS = MAX_WEIGHTS
 
 
 def default_text() -> str:
@@ -157,8 +177,13 @@ def merge(base: dict[str, Any], override: dict[str, Any], where: str = "") -> di
     return out
 
 
-def load(path: str | Path | None = None, quick: bool = False) -> dict[str, Any]:
+def load(path: str | Path | None = None, quick: bool = False) -> ReproduceConfig:
     """Defaults, then ``QUICK`` if asked, then the user's file (which wins); validated.
+
+    Returns
+    -------
+    ReproduceConfig
+        The typed configuration (:func:`validate`).
 
     Raises
     ------
@@ -217,18 +242,19 @@ def _list(item: Any, what: str, distinct: bool = False) -> Any:
     return Annotated[list[item], Field(min_length=1), says, *checks]
 
 
-Seed = _number(0, 2**32 - 1, integer=True, what="a non-negative integer seed")
+Seed = _number(0, MAX_SEED, integer=True, what="a non-negative integer seed")
 VfaSeconds = _number(MIN_VFA_DURATION, MAX_FINE_SECONDS, what="a VFA duration in s",
                      why="the shortest VFA path is 10 s; 1 h at the rig's 10 kHz step needs "
                          "about 6 GB of memory")
-Size = _number(1, 1000, integer=True, what="an integer")
+Delays = _number(1, MAX_DELAY, integer=True, what="an integer")
+Neurons = _number(1, MAX_NEURONS, integer=True, what="an integer")
 GridSize = _number(2, 200, integer=True, what="an integer")
 MapFrequency = _number(1.0, 200.0, what="a frequency in Hz")
 ABar = _number(0.0, 1.0, lo_open=True, what="a displacement amplitude / tank height")
 PositiveHz = _number(0.0, lo_open=True, what="a frequency in Hz")
 BeamSeconds = _number(0.0, MAX_BEAM_SECONDS, lo_open=True, what="a duration in s")
-Grid = _list(Size, "delays (integers in [1, 1000])", distinct=True)
-NeuronGrid = _list(Size, "neuron counts (integers in [1, 1000])", distinct=True)
+Grid = _list(Delays, f"delays (integers in [1, {MAX_DELAY}])", distinct=True)
+NeuronGrid = _list(Neurons, f"neuron counts (integers in [1, {MAX_NEURONS}])", distinct=True)
 
 
 class _Table(BaseModel):
@@ -236,7 +262,7 @@ class _Table(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
 
 
-class _TankTable(_Table):
+class TankTable(_Table):
     """``[tank]``: numbers here, values checked by :class:`sloshrom.config.Tank` itself."""
 
     length: int | float
@@ -254,12 +280,14 @@ class _TankTable(_Table):
             raise ConfigError(f"[tank]: {exc}") from None
 
     @model_validator(mode="after")
-    def _physical(self) -> _TankTable:
+    def _physical(self) -> TankTable:
         self.tank()
         return self
 
 
-class _RigTable(_Table):
+class RigTable(_Table):
+    """``[rig]``: the virtual rig's seed, record rate and optional physics overrides."""
+
     seed: Seed
     # the record rate of the rig's sensors: decimated from the 5 kHz acquisition, and the VFA
     # band (up to 25 Hz) must lie well inside the anti-alias passband 0.8 fs/2
@@ -272,8 +300,12 @@ class _RigTable(_Table):
     beta: _number(0.0, 1.0, lo_open=True, what="a fraction of the liquid mass",
                   why="the fraction of the liquid in the impacting column") = None
 
+    def overrides(self) -> dict[str, float]:
+        """The physics overrides given (:data:`OPTIONAL_KEYS`), by name; empty: calibrated."""
+        return {k: getattr(self, k) for k in OPTIONAL_KEYS["rig"] if getattr(self, k) is not None}
+
     @model_validator(mode="after")
-    def _divides_rig_rate(self) -> _RigTable:
+    def _divides_rig_rate(self) -> RigTable:
         if abs(RIG_RATE / self.fs - round(RIG_RATE / self.fs)) > 1e-9:
             raise ConfigError(
                 f"'rig.fs' = {self.fs:g} Hz must divide the rig's {RIG_RATE:g} Hz integration "
@@ -282,7 +314,9 @@ class _RigTable(_Table):
         return self
 
 
-class _DataTable(_Table):
+class DataTable(_Table):
+    """``[data]``: the VFA training and validation records and their design."""
+
     train_duration: VfaSeconds
     validation_duration: VfaSeconds
     train_seed: Seed
@@ -293,33 +327,40 @@ class _DataTable(_Table):
     extension_band: _number(1.0, 5.0, lo_open=True, what="a frequency factor")
 
 
-class _RomTable(_Table):
+class RomTable(_Table):
+    """``[rom]``: the network, its training and the sensitivity sweep."""
+
+    # the order of defaults.toml (as_dict() writes the keys in field order)
     arch: Literal["nfir", "noe"]
-    delays: Size
-    neurons: Size
+    delays: Delays
+    neurons: Neurons
     hidden: Literal["matlab", "distance"]
-    max_epochs: _number(0, 100_000, integer=True, what="an integer")
+    max_epochs: _number(0, MAX_EPOCHS, integer=True, what="an integer")
     seed: Seed
+    amplitude_weighting: _number(0.0, 100.0, what="an amplitude floor in m/s (0 = off)")
+    passivity: _number(0.0, 1e6, what="a penalty weight (0 = off)")
+    cycle_energy: _number(0.0, 1e6, what="a loss weight (0 = off)")
+    ensemble: _number(1, MAX_MEMBERS, integer=True, what="a number of ensemble members")
+    ensemble_workers: _number(1, 64, integer=True, what="a number of parallel trainings")
     sweep: bool
     sweep_nfir_delays: Grid
     sweep_nfir_neurons: NeuronGrid
     sweep_noe_delays: Grid
     sweep_noe_neurons: NeuronGrid
     sweep_workers: _number(1, 64, integer=True, what="a number of parallel trainings")
-    amplitude_weighting: _number(0.0, 100.0, what="an amplitude floor in m/s (0 = off)")
-    passivity: _number(0.0, 1e6, what="a penalty weight (0 = off)")
-    cycle_energy: _number(0.0, 1e6, what="a loss weight (0 = off)")
-    ensemble: _number(1, 64, integer=True, what="a number of ensemble members")
-    ensemble_workers: _number(1, 64, integer=True, what="a number of parallel trainings")
 
     @model_validator(mode="after")
-    def _loss_options(self) -> _RomTable:
+    def _loss_options(self) -> RomTable:
         if self.arch == "noe" and (self.amplitude_weighting > 0 or self.passivity > 0
                                    or self.cycle_energy > 0):
             raise ConfigError("'rom.amplitude_weighting', 'rom.passivity' and "
                               "'rom.cycle_energy' train the NFIR (Adam); set them to 0 for "
                               "arch = 'noe'")
         return self
+
+    def loss_terms(self) -> dict[str, float]:
+        """The NFIR's loss weights by name (:data:`sloshrom.limits.RECIPE`'s keys; 0 = off)."""
+        return {k: getattr(self, k) for k in RECIPE}
 
     def networks(self) -> list[tuple[str, int, int, str]]:
         """(arch, delays, neurons, keys) of the largest network of each kind to be trained."""
@@ -332,7 +373,9 @@ class _RomTable(_Table):
         return out
 
 
-class _MapTable(_Table):
+class MapTable(_Table):
+    """``[map]``: the harmonic-test grid of the Phi_d maps and the shaker envelope."""
+
     # each frequency runs n_a harmonic tests as one batch at the rig's 10 kHz step
     n_omega: GridSize
     n_a: GridSize
@@ -343,7 +386,7 @@ class _MapTable(_Table):
     gamma_max: _number(0.0, 60.0, lo_open=True, what="an acceleration amplitude in g")
 
     @model_validator(mode="after")
-    def _ordered(self) -> _MapTable:
+    def _ordered(self) -> MapTable:
         if not self.f_min < self.f_max:
             raise ConfigError(f"'map.f_min' ({self.f_min:g} Hz) must be below 'map.f_max' "
                               f"({self.f_max:g} Hz)")
@@ -353,7 +396,9 @@ class _MapTable(_Table):
         return self
 
 
-class _BeamTable(_Table):
+class BeamTable(_Table):
+    """``[beam]``: the cantilever, its free and random tests and its modal damping."""
+
     # geometry and material (SI): a laboratory or wing-like beam, not a typo in mm or GPa
     length: _number(0.01, 100.0, what="a length in m")
     width: _number(1e-4, 10.0, what="a width in m")
@@ -375,7 +420,7 @@ class _BeamTable(_Table):
                          "accelerometer stations")
 
     @model_validator(mode="after")
-    def _consistent(self) -> _BeamTable:
+    def _consistent(self) -> BeamTable:
         if len(self.damping) < self.n_modes:
             raise ConfigError(f"'beam.damping' has {len(self.damping)} ratio(s) but "
                               f"'beam.n_modes' is {self.n_modes}: give one damping ratio per mode")
@@ -399,7 +444,7 @@ class _BeamTable(_Table):
 Fill = _number(0.0, 1.0, lo_open=True, hi_open=True, what="a fill level d/h")
 
 
-class _BeyondTable(_Table):
+class BeyondTable(_Table):
     """``[beyond]``: the sections beyond the paper (``reproduce --beyond``)."""
 
     enabled: bool
@@ -411,7 +456,7 @@ class _BeyondTable(_Table):
     multimode: bool
 
     @model_validator(mode="after")
-    def _inside(self) -> _BeyondTable:
+    def _inside(self) -> BeyondTable:
         if len(self.fills) < 2:
             raise ConfigError(f"'beyond.fills' needs two fill levels at least (a family "
                               f"interpolates between them), got {self.fills}")
@@ -524,13 +569,13 @@ class MultimodeTable(_Table):
     margin: _number(1.0, what="a factor over the frozen tests' tank motion")
     rig_seed: Seed
     # the ROM recipe
-    delays: Size
-    neurons: Size
+    delays: Delays
+    neurons: Neurons
     hidden: Literal["matlab", "distance"]
     amplitude_weighting: _number(0.0, 100.0, what="an amplitude floor in m/s (0 = off)")
     passivity: _number(0.0, 1e6, what="a penalty weight (0 = off)")
     cycle_energy: _number(0.0, 1e6, what="a loss weight (0 = off)")
-    max_epochs: PositiveInt
+    max_epochs: _number(1, MAX_EPOCHS, integer=True, what="an integer")
     rom_seed: Seed
     rom_workers: _number(1, 64, integer=True, what="a number of parallel trainings")
 
@@ -553,15 +598,38 @@ class ReproduceConfig(_Table):
     rate, the free response against the first mode) run once every table is valid on its own.
     """
 
-    tank: _TankTable
-    rig: _RigTable
-    data: _DataTable
-    rom: _RomTable
-    map: _MapTable
-    beam: _BeamTable
-    beyond: _BeyondTable
+    tank: TankTable
+    rig: RigTable
+    data: DataTable
+    rom: RomTable
+    map: MapTable
+    beam: BeamTable
+    beyond: BeyondTable
     baseline: BaselineTable
     multimode: MultimodeTable
+
+    def as_dict(self) -> dict[str, Any]:
+        """The configuration as a dict of tables, keys in the order of ``defaults.toml``.
+
+        The form written beside the results (``summary.json``, ``config show``) and hashed
+        into the stage cache keys: the optional keys left out are left out here too.
+        """
+        return self.model_dump(exclude_unset=True)
+
+    def tables(self, *names: str) -> dict[str, Any]:
+        """The tables ``names`` of :meth:`as_dict` (a stage's part of the configuration)."""
+        whole = self.as_dict()
+        return {k: whole[k] for k in names}
+
+    def replace(self, **changes: dict[str, Any]) -> ReproduceConfig:
+        """A copy with some keys changed, e.g. ``cfg.replace(rom={"sweep": True})``, validated.
+
+        Raises
+        ------
+        ConfigError
+            An unknown key or a value :func:`validate` rejects.
+        """
+        return validate(merge(self.as_dict(), changes))
 
     @model_validator(mode="after")
     def _across_tables(self) -> ReproduceConfig:
@@ -618,7 +686,7 @@ class ReproduceConfig(_Table):
 _STRUCTURE = {"missing", "extra_forbidden", "model_type", "model_attributes_type", "dict_type"}
 
 
-def validate(cfg: dict[str, Any]) -> dict[str, Any]:
+def validate(cfg: dict[str, Any] | ReproduceConfig) -> ReproduceConfig:
     """Check a whole configuration of `sloshrom reproduce` before any stage runs.
 
     Every table and key of ``defaults.toml`` must be present (and no other), of the right type
@@ -629,14 +697,15 @@ def validate(cfg: dict[str, Any]) -> dict[str, Any]:
 
     Parameters
     ----------
-    cfg : dict
-        A merged configuration (:func:`load` returns validated ones; :func:`sloshrom.pipeline.run`
-        should call this on configurations built in code).
+    cfg : dict or ReproduceConfig
+        A merged configuration as a dict of tables (:func:`load` returns validated ones;
+        :func:`sloshrom.pipeline.run` calls this on configurations built in code). A
+        :class:`ReproduceConfig` is valid already and returned as it is.
 
     Returns
     -------
-    dict
-        ``cfg`` itself, unchanged.
+    ReproduceConfig
+        The typed configuration the stages read (``cfg.rom.delays``, ``cfg.beam.rms_g``, ...).
 
     Raises
     ------
@@ -644,10 +713,12 @@ def validate(cfg: dict[str, Any]) -> dict[str, Any]:
         The first problem found, naming the key, e.g.
         ``'beam.rms_g' must be a non-empty list of RMS levels in g, each in (0, 2], got []``.
     """
+    if isinstance(cfg, ReproduceConfig):
+        return cfg
     if not isinstance(cfg, dict):
         raise ConfigError(f"configuration must be a dict of tables, got {type(cfg).__name__}")
     try:
-        ReproduceConfig.model_validate(cfg)
+        return ReproduceConfig.model_validate(cfg)
     except ValidationError as exc:
         # missing and unknown keys first, then values, then relations between keys
         errors = exc.errors(include_url=False)
@@ -655,7 +726,6 @@ def validate(cfg: dict[str, Any]) -> dict[str, Any]:
         if isinstance(_raised(first), ConfigError):  # a relation: the validator wrote the message
             raise _raised(first) from None
         raise ConfigError(_message(first)) from None
-    return cfg
 
 
 def _raised(error: ErrorDetails) -> Exception | None:

@@ -45,6 +45,7 @@ import numpy as np
 
 from sloshrom import __version__
 from sloshrom._x64 import float64
+from sloshrom.limits import TRAINERS
 from sloshrom.models import model_input
 from sloshrom.rom import training
 from sloshrom.rom.bouncing import BouncingBall, is_ball_file
@@ -108,7 +109,6 @@ __all__ = [
     "unpack",
 ]
 
-TRAINERS = ("fast", "lm", "adam")
 #: the Adam trainer's loss terms, written for the power F v of a velocity input
 LOSS_TERMS = ("amplitude_weighting", "passivity", "cycle_energy")
 

@@ -63,6 +63,14 @@ from pydantic import (
 )
 
 from sloshrom.fileio import atomic_write, not_a_regular_file
+from sloshrom.limits import (  # the limits the command line and the settings share
+    MAX_DELAY,
+    MAX_EPOCHS,
+    MAX_MEMBERS,
+    MAX_NEURONS,
+    MAX_OUT_DELAYS,
+    MAX_WEIGHTS,
+)
 from sloshrom.rom.errors import ROMError
 
 __all__ = [
@@ -91,20 +99,9 @@ MAX_FILE_BYTES = 64 * 2**20
 MAX_METADATA_CHARS = 4 * 2**20
 #: Deepest bracket nesting of the metadata JSON (a valid file has 3, an ensemble file 4).
 MAX_DEPTH = 16
-#: Largest input delay, samples (length of the input delay line).
-MAX_DELAY = 10_000
 #: Most regressor entries, ``len(delays) + out_delays``: a free run builds chunks of 8192
 #: regressor rows, so this bounds its memory to well under 1 GB.
 MAX_REGRESSOR = 4096
-#: Most fed-back outputs of an NOE.
-MAX_OUT_DELAYS = 1000
-#: Most hidden neurons.
-MAX_NEURONS = 4096
-#: Most entries of ``W`` (neurons x regressor entries, x members of an ensemble): 32 MiB of
-#: float64.
-MAX_WEIGHTS = 2**22
-#: Most members of an ensemble.
-MAX_MEMBERS = 64
 #: Largest sample rate, Hz.
 MAX_FS = 1e6
 #: Largest magnitude of a scaler or envelope bound (physical units).
@@ -113,8 +110,6 @@ MAX_ABS = 1e15
 MIN_SPAN = 1e-100
 #: Largest magnitude of a network parameter: squares and sums of them cannot overflow.
 MAX_PARAM = 1e50
-#: Most training epochs (and so entries of each history list).
-MAX_EPOCHS = 10_000_000
 #: Longest name, unit, version or stop-reason string, characters.
 MAX_TEXT = 64
 

@@ -57,6 +57,7 @@ import optax
 import scipy.linalg
 
 from sloshrom._x64 import float64
+from sloshrom.limits import TRAINERS
 from sloshrom.rom.errors import ROMError, UnstableModelError
 from sloshrom.rom.network import (
     MinMaxScaler,
@@ -99,7 +100,6 @@ FAST_MAX_ROWS = 16384
 #: longest input cycle of the cycle-energy term, samples (the cycles are padded to the longest)
 MAX_CYCLE = 2048
 CHUNK = 4096
-TRAINERS = ("fast", "lm", "adam")
 
 
 @dataclass

@@ -11,10 +11,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from sloshrom.pipeline.settings import BaselineTable
+from sloshrom.pipeline.settings import ReproduceConfig
 
-__all__ = ["BALL_KEYS", "BALL_MODEL", "CASE", "FREQUENCY_BANDS", "ball_options", "cache_config",
-           "table"]
+__all__ = ["BALL_KEYS", "BALL_MODEL", "CASE", "FREQUENCY_BANDS", "ball_options", "cache_config"]
 
 #: The keys of ``[baseline]``: the arguments of :class:`~sloshrom.rom.bouncing.BouncingBall`.
 BALL_KEYS = ("mass_fraction", "restitution", "gap_factor", "seed", "lowpass", "n_substeps",
@@ -27,16 +26,10 @@ CASE = "ball"
 FREQUENCY_BANDS = ("low", "mid", "high")
 
 
-def table(cfg: Any) -> BaselineTable:
-    """The ``[baseline]`` table of a validated configuration, typed."""
-    t = cfg["baseline"]
-    return t if isinstance(t, BaselineTable) else BaselineTable.model_validate(t)
-
-
-def ball_options(cfg: Any) -> dict[str, Any]:
+def ball_options(cfg: ReproduceConfig) -> dict[str, Any]:
     """The arguments of :class:`~sloshrom.rom.bouncing.BouncingBall` from ``[baseline]``:
     search bounds as pairs, ``"none"`` and ``"auto"`` as ``None``."""
-    t = table(cfg)
+    t = cfg.baseline
     out: dict[str, Any] = {k: getattr(t, k) for k in BALL_KEYS}
     for key in ("mass_fraction", "restitution", "gap_factor"):
         out[key] = tuple(out[key])
@@ -45,6 +38,6 @@ def ball_options(cfg: Any) -> dict[str, Any]:
     return out
 
 
-def cache_config(cfg: Any) -> dict[str, Any]:
+def cache_config(cfg: ReproduceConfig) -> dict[str, Any]:
     """What the stage's cache key depends on: the tables its fit, map and beam tests read."""
-    return {k: cfg[k] for k in ("tank", "rig", "map", "beam", "baseline")}
+    return cfg.tables("tank", "rig", "map", "beam", "baseline")

@@ -229,8 +229,8 @@ def stage_baseline(ctx: Context, data: StageResult, rom: StageResult | None = No
         The ``data`` stage recorded no training or validation record.
     """
     tank = ctx.tank
-    cfg = ctx.cfg["beam"]
-    fs = float(ctx.cfg["rig"]["fs"])
+    cfg = ctx.cfg.beam
+    fs = float(ctx.cfg.rig.fs)
     outputs: dict[str, Any] = {}
     steps = 6
     ctx.progress("baseline", 0, steps, "fitting the bouncing ball")
@@ -285,7 +285,7 @@ def stage_baseline(ctx: Context, data: StageResult, rom: StageResult | None = No
     rand = simulate_cases({CASE: ball}, tests["random"], fs)
     decays = {CASE: mode1_decay(free[CASE], modal, f1)}
     outputs["instantaneous_damping"] = damping_summary(free, decays)
-    table2 = mode1_damping_table(rand, cfg["rms_g"], f1, max_tank_acceleration=True)
+    table2 = mode1_damping_table(rand, cfg.rms_g, f1, max_tank_acceleration=True)
     outputs["table2"] = table2
     outputs["envelope"] = envelope_table({"free": free, "random": rand})
 
@@ -315,7 +315,7 @@ def stage_baseline(ctx: Context, data: StageResult, rom: StageResult | None = No
     else:
         others_free = {c: r for c, r in free_all.items() if c != CASE}
         others_rand = {c: r for c, r in rand_all.items() if c != CASE}
-        outputs["table2_all"] = [*mode1_damping_table(others_rand, cfg["rms_g"], f1,
+        outputs["table2_all"] = [*mode1_damping_table(others_rand, cfg.rms_g, f1,
                                                       max_tank_acceleration=True), *table2]
         outputs["instantaneous_damping_all"] = {
             **damping_summary(others_free, {c: decays_all[c] for c in others_free}),
@@ -328,7 +328,7 @@ def stage_baseline(ctx: Context, data: StageResult, rom: StageResult | None = No
     fig21 = free_figures(free_all, modal, decays_all)["fig21_instantaneous_damping"]
     fig21.suptitle("First-mode instantaneous damping: bouncing ball beside rig, ROM, frozen")
     figs["baseline_instantaneous_damping"] = fig21
-    rfigs = random_figures(rand_all, cfg["rms_g"], random_window(cfg["random_duration"]))
+    rfigs = random_figures(rand_all, cfg.rms_g, random_window(cfg.random_duration))
     figs["baseline_tank_acceleration_window"] = rfigs["fig22_tank_acceleration_window"]
     figs["baseline_psd"] = rfigs["fig23_psd"]
     figs["baseline_frequency_bands"] = frequency_band_figure(
@@ -336,7 +336,7 @@ def stage_baseline(ctx: Context, data: StageResult, rom: StageResult | None = No
     out = ctx.out / "beam"
     with OutputBatch() as batch:
         for kind, res in (("free", free), ("random", rand)):
-            write_dataset(to_dataset(res[CASE], CASE, kind, tank, modal, cfg["seed"]),
+            write_dataset(to_dataset(res[CASE], CASE, kind, tank, modal, cfg.seed),
                           out / f"{kind}_{CASE}.nc", batch)
         write_table(table2, out / "table2_mode1_damping_ball", batch)
         for name, fig in figs.items():

@@ -9,8 +9,9 @@ settings.
 
 from __future__ import annotations
 
-import copy
 from typing import Any
+
+from sloshrom.pipeline.settings import ReproduceConfig
 
 __all__ = ["FILL_KEYS", "FILL_TARGETS", "cache_config", "label", "member_config"]
 
@@ -26,19 +27,16 @@ def label(fill: float) -> str:
     return f"{100 * fill:g}"
 
 
-def cache_config(cfg: Any) -> dict[str, Any]:
+def cache_config(cfg: ReproduceConfig) -> dict[str, Any]:
     """What the stage's cache key depends on: every table a member's identification, the maps
     and the beam tests read, and the study's keys of ``[beyond]``."""
-    bey = cfg["beyond"]
-    return {**{k: cfg[k] for k in ("tank", "rig", "data", "rom", "map", "beam")},
+    bey = cfg.tables("beyond")["beyond"]
+    return {**cfg.tables("tank", "rig", "data", "rom", "map", "beam"),
             "beyond": {k: bey[k] for k in FILL_KEYS}}
 
 
-def member_config(cfg: dict[str, Any], fill: float) -> dict[str, Any]:
+def member_config(cfg: ReproduceConfig, fill: float) -> ReproduceConfig:
     """The configuration of the member identified at ``fill``: the main one with only the fill
     (and the member's ensemble size, ``[beyond] fill_ensemble``) changed, no sweep."""
-    sub = copy.deepcopy(cfg)
-    sub["tank"]["fill"] = float(fill)
-    sub["rom"]["ensemble"] = int(cfg["beyond"]["fill_ensemble"])
-    sub["rom"]["sweep"] = False
-    return sub
+    return cfg.replace(tank={"fill": float(fill)},
+                       rom={"ensemble": int(cfg.beyond.fill_ensemble), "sweep": False})

@@ -76,10 +76,10 @@ def stage_fills(ctx: Context, rom: StageResult, identify: Identify
     files : list of str
         Relative to ``ctx.out``.
     """
-    cfg, bey = ctx.cfg, ctx.cfg["beyond"]
+    cfg, bey = ctx.cfg, ctx.cfg.beyond
     tank0 = ctx.tank
-    fills = sorted(float(f) for f in bey["fills"])
-    unseen = sorted(float(f) for f in bey["unseen_fills"])
+    fills = sorted(float(f) for f in bey.fills)
+    unseen = sorted(float(f) for f in bey.unseen_fills)
     rom_path = model_file(rom)
     out: dict[str, Any] = {"fills": fills, "unseen_fills": unseen, "targets": FILL_TARGETS}
     timings: dict[str, float] = {}
@@ -124,11 +124,11 @@ def stage_fills(ctx: Context, rom: StageResult, identify: Identify
 
     # -- the beam across fills ---------------------------------------------------------------
     t0 = time.perf_counter()
-    bcfg = cfg["beam"]
-    fs = float(cfg["rig"]["fs"])
-    levels = list(bcfg["rms_g"])
+    bcfg = cfg.beam
+    fs = float(cfg.rig.fs)
+    levels = list(bcfg.rms_g)
     damping: list[dict[str, Any]] = []
-    beam_fills = sorted(float(f) for f in bey["beam_fills"])
+    beam_fills = sorted(float(f) for f in bey.beam_fills)
     for k, f in enumerate(beam_fills):
         ctx.progress("fills", k, len(beam_fills), f"beam random tests at fill {_pct(f)} %")
         tank = tank0.replace(fill=f)

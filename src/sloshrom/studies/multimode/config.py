@@ -14,11 +14,11 @@ from typing import Any
 from sloshrom.beam.multimode import WingDesign
 from sloshrom.beam.structure import ModalDataError
 from sloshrom.config import ConfigError
-from sloshrom.pipeline.settings import MultimodeTable
+from sloshrom.pipeline.settings import MultimodeTable, ReproduceConfig
 from sloshrom.rom.estimators import LOSS_TERMS
 
 __all__ = ["CASES", "DATA_SETS", "JUDGED_ROM", "RECIPE_KEYS", "ROM_INPUTS", "WING_KEYS",
-           "cache_config", "rom_params", "table", "wing_design"]
+           "cache_config", "rom_params", "wing_design"]
 
 #: the NFIR recipe keys of the table (the defaults are those of ``[rom]``); the ROM on the
 #: acceleration trains with its loss terms off
@@ -44,12 +44,6 @@ DATA_SETS = {
 }
 
 
-def table(cfg: Any) -> MultimodeTable:
-    """The ``[multimode]`` table of a validated configuration, typed."""
-    t = cfg["multimode"]
-    return t if isinstance(t, MultimodeTable) else MultimodeTable.model_validate(t)
-
-
 def wing_design(s: MultimodeTable) -> WingDesign:
     """The wing of the table.
 
@@ -68,12 +62,13 @@ def wing_design(s: MultimodeTable) -> WingDesign:
         raise ConfigError(f"[multimode]: {exc}") from None
 
 
-def cache_config(cfg: Any) -> dict[str, Any]:
+def cache_config(cfg: ReproduceConfig) -> dict[str, Any]:
     """What the stage's cache key depends on: the tank, the rig and the table, with the cases
     (code, not configuration: a run made before they changed is redone). The table sits under
     ``"defaults"``, its name when it was code: records of those runs stay valid."""
-    return {**{k: cfg[k] for k in ("tank", "rig")},
-            "multimode": {"defaults": table(cfg).model_dump(), "cases": list(CASES)}}
+    return {**cfg.tables("tank", "rig"),
+            "multimode": {"defaults": cfg.tables("multimode")["multimode"],
+                          "cases": list(CASES)}}
 
 
 def rom_params(s: MultimodeTable, var: str) -> dict[str, Any]:

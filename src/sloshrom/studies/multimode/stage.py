@@ -76,7 +76,6 @@ from sloshrom.studies.multimode.config import (
     JUDGED_ROM,
     ROM_INPUTS,
     rom_params,
-    table,
     wing_design,
 )
 from sloshrom.studies.multimode.figures import modal_damping_figure, modal_frf_figure
@@ -88,7 +87,7 @@ __all__ = ["stage_multimode"]
 def _rig(ctx: Context, seed: int) -> VirtualRig:
     """The configuration's rig physics with its own seed (sensor noise, Faraday seeding)."""
     return VirtualRig(tank=ctx.tank, params=ctx.rig_params(), seed=int(seed),
-                      sensors=SensorParams(output_rate=ctx.cfg["rig"]["fs"]))
+                      sensors=SensorParams(output_rate=ctx.cfg.rig.fs))
 
 
 def _fit_rom(item: tuple[str, dict[str, Any], np.ndarray, np.ndarray, np.ndarray, np.ndarray],
@@ -193,7 +192,7 @@ def stage_multimode(ctx: Context) -> tuple[dict[str, Any], list[str]]:
         ``multimode/data/*.nc``, ``multimode/models/*.npz``,
         ``multimode/table_modal_damping.{csv,md}`` and the two figures, relative to ``ctx.out``.
     """
-    s = table(ctx.cfg)
+    s = ctx.cfg.multimode
     with warnings.catch_warnings():
         # a ROM leaving its training envelope (the VFA-only ROM in the wing's tests, the
         # validation records' peaks) is measured and reported (``envelope``, ``roms``), not
@@ -237,7 +236,7 @@ def _make_records(ctx: Context, s: MultimodeTable, design: Mapping[str, Any],
     for split, dur, seed in (("train", s.vfa_train_duration, s.vfa_train_seed),
                              ("validation", s.vfa_validation_duration,
                               s.vfa_validation_seed)):
-        pieces = vfa_pieces({}, split, dur, seed, signals.SHAKER_DESIGN, None, fine, tank)
+        pieces = vfa_pieces(None, split, dur, seed, signals.SHAKER_DESIGN, None, fine, tank)
         specs.append((f"vfa_{split}", split, int(seed),
                       np.concatenate([p.acceleration for p in pieces]),
                       f"paper VFA {split} (shaker design, {signals.SHAKER_DESIGN.gamma_max:g} g)"))
@@ -320,7 +319,7 @@ def _run(ctx: Context, s: MultimodeTable) -> tuple[MultimodeOutputs, list[str]]:
     timings: dict[str, float] = {}
     t_start = time.perf_counter()
     tank: Tank = ctx.tank
-    fs = float(ctx.cfg["rig"]["fs"])  # the records' and the accelerometers' rate
+    fs = float(ctx.cfg.rig.fs)  # the records' and the accelerometers' rate
     fine = 1.0 / _rig(ctx, 0).dt  # the rig's integration rate: the records are made at it
     wing = wing_design(s)
     modal = wing_modal_model(wing, tank)
