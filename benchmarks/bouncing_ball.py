@@ -46,7 +46,7 @@ from sloshrom.pipeline import Context, run
 from sloshrom.pipeline.beam import beam_structure
 from sloshrom.pipeline.cache import StageCache
 from sloshrom.pipeline.maps import compute_map
-from sloshrom.pipeline.settings import defaults, load, merge, validate
+from sloshrom.pipeline.settings import ReproduceConfig, defaults, load, merge, validate
 from sloshrom.rom.bouncing import BouncingBall
 from sloshrom.rom.estimators import load_model
 from sloshrom.studies.baseline import CASE, FREQUENCY_BANDS, frequency_band_errors
@@ -65,13 +65,19 @@ def _progress(stage: str, done: float, total: float, text: str) -> None:
     print(f"  [{stage}] {done:g}/{total:g} {text}", file=sys.stderr, flush=True)
 
 
-def config_for(out: Path, path: Path | None) -> dict[str, Any]:
+def config_for(out: Path, path: Path | None) -> ReproduceConfig:
     if path is not None:
         return load(path)
     summary = out / "summary.json"
     if summary.is_file():
-        return validate(merge(defaults(), json.loads(summary.read_text())["config"]))
+        return recorded_config(summary)
     return load()
+
+
+def recorded_config(summary: Path) -> ReproduceConfig:
+    """The configuration a run's ``summary.json`` records; tables it lacks take their
+    defaults."""
+    return validate(merge(defaults(), json.loads(summary.read_text())["config"]))
 
 
 def print_fit(o: dict[str, Any]) -> None:
@@ -136,8 +142,8 @@ def print_beam(o: dict[str, Any]) -> None:
 
 
 def print_speed(ctx: Context, rom_path: Path | None) -> None:
-    _, modal = beam_structure(ctx.cfg["beam"], ctx.tank)
-    fs = float(ctx.cfg["rig"]["fs"])
+    _, modal = beam_structure(ctx.cfg.beam, ctx.tank)
+    fs = float(ctx.cfg.rig.fs)
     ball = BouncingBall.load(ctx.out / "models" / "bouncing_ball.toml")
     models = {"ball": ball,
               "ball at the record rate": BouncingBall.from_parameters(
@@ -202,7 +208,7 @@ def main(argv: list[str] | None = None) -> int:
     cfg = config_for(out, args.config)
     t0 = time.perf_counter()
     if args.no_pipeline:
-        cfg = validate(merge(defaults(), json.loads((out / "summary.json").read_text())["config"]))
+        cfg = recorded_config(out / "summary.json")
     else:
         run(out, cfg, _progress)
     print(f"reproduce: {time.perf_counter() - t0:.0f} s "

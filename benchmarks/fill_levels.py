@@ -115,8 +115,7 @@ def main(argv: list[str] | None = None) -> int:
     if a.summary is not None:
         report(json.loads(a.summary.read_text()), None)
         return 0
-    cfg = load()
-    cfg["beyond"]["enabled"] = True
+    cfg = load().replace(beyond={"enabled": True})
     t0 = time.perf_counter()
     s = run(a.out, cfg)
     report(s, time.perf_counter() - t0)

@@ -23,7 +23,7 @@ from typing import Any
 
 from sloshrom.config import G
 from sloshrom.pipeline.context import Context
-from sloshrom.pipeline.settings import load, merge, validate
+from sloshrom.pipeline.settings import load
 from sloshrom.studies.multimode import CASES, stage_multimode
 
 
@@ -150,7 +150,7 @@ def main() -> None:
               flush=True)
 
     print(f"load average at the start {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs")
-    cfg = validate(merge(load(), {"multimode": settings}))
+    cfg = load().replace(multimode=settings)
     outputs, files = stage_multimode(Context(a.out, cfg, progress))
     wall = time.perf_counter() - t0
     (a.out / "multimode_outputs.json").write_text(json.dumps(outputs, indent=1, default=float))

@@ -31,6 +31,7 @@ from sloshrom.cli._app import (
 )
 from sloshrom.config import ConfigError, Tank
 from sloshrom.fileio import OutputBatch, not_a_regular_file
+from sloshrom.limits import MAX_SEED
 from sloshrom.models import FrozenLiquid, SloshingModel
 from sloshrom.pipeline.settings import (
     BEAM_FS,
@@ -53,7 +54,6 @@ beam_app = typer.Typer(
 )
 app.add_typer(beam_app, name="beam")
 
-MAX_SEED = 2**32 - 1
 MAX_LEVEL_G = 2.0  # RMS; the rig's calibrated envelope is 6 g peak, about 3 x RMS
 
 

@@ -23,6 +23,7 @@ from sloshrom.cli._app import (
     user_errors,
 )
 from sloshrom.config import Tank
+from sloshrom.limits import MAX_SEED
 from sloshrom.pipeline import settings
 from sloshrom.signals import DEFAULT_A_BAR_MIN
 from sloshrom.signals import SHAKER_ENVELOPE as _ENV
@@ -127,7 +128,6 @@ MAX_GRID = 200  # points per axis: each frequency runs n_a harmonic tests as one
 _N_OMEGA_HELP = f"Frequency points ({_ENV.f_min:g}-{_ENV.f_max:g} Hz), 2-{MAX_GRID}."
 _N_A_HELP = (f"Amplitude points (a/h in {DEFAULT_A_BAR_MIN:g}-{_ENV.a_bar_max:g}), "
              f"2-{MAX_GRID}.")
-MAX_SEED = 2**32 - 1
 
 
 @app.command("map")

@@ -22,6 +22,7 @@ from sloshrom import __version__
 from sloshrom.cli._app import app, check_input, check_number, check_out, fail, user_errors, warn
 from sloshrom.config import G, Tank
 from sloshrom.io import Record, record_from_measurement, write_record
+from sloshrom.limits import MAX_SEED
 from sloshrom.pipeline.settings import MAX_FINE_SECONDS, MIN_VFA_DURATION
 from sloshrom.signals import SHAKER_ENVELOPE, harmonic, vfa
 from sloshrom.signals import SHAKER_LIMITS as _LIMITS
@@ -37,7 +38,6 @@ app.add_typer(rig_app, name="rig")
 
 
 RECORD_SUFFIXES = (".nc", ".csv", ".mat")
-MAX_SEED = 2**32 - 1
 #: Passband of the rig's sensors (SensorParams: anti-alias at 0.8 x the Nyquist frequency of the
 #: 500 Hz output rate); a sine above it is attenuated (300 Hz: 0.5 % of its amplitude is left).
 SENSOR_PASSBAND = 0.8 * 500.0 / 2
