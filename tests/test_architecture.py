@@ -302,3 +302,124 @@ def test_no_function_local_imports_of_the_package():
            and not (room(m) == "cli" and room(i.target) in HEAVY_FOR_CLI
                     and i.target != "sloshrom.pipeline.settings")]
     assert not bad, "function-local imports of sloshrom modules:\n" + "\n".join(bad)
+
+
+# -- the model contract: one place asks a model what it is -------------------------------------
+#: The concrete sloshing-model classes (and their estimators' base) and the module of each.
+MODEL_CLASSES = {
+    "FrozenLiquid": "sloshrom.models", "VirtualRig": "sloshrom.rig.virtual",
+    "Network": "sloshrom.rom.network", "NFIR": "sloshrom.rom.estimators",
+    "NOE": "sloshrom.rom.estimators", "_TDNN": "sloshrom.rom.estimators",
+    "Ensemble": "sloshrom.rom.ensemble", "FillFamily": "sloshrom.rom.family",
+    "FillBlend": "sloshrom.rom.family", "BouncingBall": "sloshrom.rom.bouncing",
+    "CompiledKernel": "sloshrom.models",  # a protocol: isinstance asks for kernel()
+}
+#: Members by which a model says what kind of model it is.
+KIND_MEMBERS = {"input", "input_variable", "jax_traceable", "envelope_", "tank", "fill_range",
+                "members_", "model_", "kernel"}
+#: The capability checks: the only functions that dispatch on the kind of model (by
+#: ``isinstance`` on a model class or by asking for one of :data:`KIND_MEMBERS`). Each is
+#: documented where it is defined; docs/architecture.md lists them.
+CAPABILITIES = {
+    "sloshrom.models": {"input_of", "is_jax_model", "has_kernel", "has_no_force", "tank_of",
+                        "_envelope_mapping"},
+    "sloshrom.rom.network": {"network_of"},
+    "sloshrom.rom.ensemble": {"is_ensemble"},
+    "sloshrom.rom.family": {"training_fills", "at_fill"},
+}
+
+
+def _dispatch_sites() -> list[tuple[str, str, int, str]]:
+    """``(module, enclosing function, line, what)`` of every isinstance on a model class and
+    every getattr/hasattr of a kind member on something other than ``self``/``cls``."""
+    out = []
+    for mod, path in MODULES.items():
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+
+        def visit(node: ast.AST, func: str, mod: str = mod) -> None:
+            for child in ast.iter_child_nodes(node):
+                name = child.name if isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef) \
+                    else func
+                if isinstance(child, ast.Call) and isinstance(child.func, ast.Name):
+                    args = child.args
+                    if child.func.id == "isinstance" and len(args) == 2:
+                        kinds = args[1].elts if isinstance(args[1], ast.Tuple) else [args[1]]
+                        hit = [k.id for k in kinds if isinstance(k, ast.Name)
+                               and k.id in MODEL_CLASSES]
+                        if hit:
+                            out.append((mod, func, child.lineno, f"isinstance {hit}"))
+                    if child.func.id in ("getattr", "hasattr") and len(args) >= 2 \
+                            and isinstance(args[1], ast.Constant) \
+                            and args[1].value in KIND_MEMBERS \
+                            and not (isinstance(args[0], ast.Name)
+                                     and args[0].id in ("self", "cls")):
+                        out.append((mod, func, child.lineno,
+                                    f"{child.func.id} {args[1].value!r}"))
+                visit(child, name)
+
+        visit(tree, "<module>")
+    return out
+
+
+def test_only_the_capability_checks_dispatch_on_the_kind_of_model():
+    bad = [f"{MODULES[m].relative_to(SRC)}:{line} in {f}: {what}"
+           for m, f, line, what in _dispatch_sites() if f not in CAPABILITIES.get(m, set())]
+    assert not bad, ("dispatch on the kind of model outside the capability checks (use "
+                     "sloshrom.models' functions or add a documented one):\n" + "\n".join(bad))
+
+
+def test_the_capability_checks_are_few_and_documented():
+    n = sum(len(v) for v in CAPABILITIES.values())
+    assert n <= 10, f"{n} capability checks: the contract is splitting again"
+    for mod, names in CAPABILITIES.items():
+        tree = ast.parse(MODULES[mod].read_text(encoding="utf-8"))
+        defs = {f.name: f for f in tree.body if isinstance(f, ast.FunctionDef)}
+        for name in names:
+            assert name in defs, f"{mod}.{name} is not a module-level function"
+            assert ast.get_docstring(defs[name]), f"{mod}.{name} has no docstring"
+    # the finder finds what it should: each check dispatches at least once
+    sites = {(m, f) for m, f, _, _ in _dispatch_sites()}
+    assert {(m, f) for m, names in CAPABILITIES.items() for f in names} <= sites
+
+
+# ---------------------------------------------------------------------------------------------
+# Errors: one base. Every user error of the package is a SloshromError (also a ValueError) of
+# its room; a plain ValueError raised by the package would escape the command line's one-line
+# errors as a traceback, as a bug does.
+
+def test_no_plain_value_error_is_raised():
+    """``raise ValueError(...)`` (or ``raise ValueError``) nowhere: each room raises its type."""
+    bad = []
+    for path in MODULES.values():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+            if not isinstance(node, ast.Raise) or node.exc is None:
+                continue
+            exc = node.exc.func if isinstance(node.exc, ast.Call) else node.exc
+            if isinstance(exc, ast.Name) and exc.id == "ValueError":
+                bad.append(f"{path.relative_to(SRC)}:{node.lineno}")
+    assert not bad, "plain ValueError raised (use the room's error type):\n" + "\n".join(bad)
+
+
+def test_every_error_class_is_a_sloshrom_error():
+    """Every exception class the package defines derives from SloshromError (or is a warning).
+
+    The one check here that imports the package (every module, JAX and numba included): a
+    class's bases are only known once its module ran."""
+    import importlib
+    import inspect
+
+    from sloshrom.errors import SloshromError
+
+    bad, seen = [], 0
+    for module, path in MODULES.items():
+        mod = importlib.import_module(module)
+        for name, obj in vars(mod).items():
+            if not (inspect.isclass(obj) and issubclass(obj, BaseException)
+                    and obj.__module__ == module):
+                continue
+            seen += 1
+            if not issubclass(obj, SloshromError | Warning):
+                bases = ", ".join(b.__name__ for b in obj.__mro__[1:-1])
+                bad.append(f"{path.relative_to(SRC)}: {name} ({bases})")
+    assert seen >= 10, seen  # the walk found the package's error classes
+    assert not bad, "error classes that are not a SloshromError:\n" + "\n".join(bad)

@@ -12,7 +12,7 @@ import xarray as xr
 from sloshrom.beam.coupled import CoupledSimulator, free_response
 from sloshrom.beam.structure import ModalModel
 from sloshrom.config import G, Tank
-from sloshrom.models import CompiledKernel, Enveloped, FrozenLiquid, SloshingModel
+from sloshrom.models import FrozenLiquid, SloshingModel, has_kernel
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.html import render_table
 from sloshrom.pipeline.settings import load
@@ -232,8 +232,8 @@ def test_protocols_params_and_not_fitted():
     with pytest.raises(ROMError, match="no parameter 'beta'"):
         est.set_params(beta=0.3)
     model = ball()
-    assert isinstance(model, SloshingModel) and isinstance(model, CompiledKernel)
-    assert isinstance(model, Enveloped) and model.force_rule == "step"
+    assert isinstance(model, SloshingModel) and has_kernel(model)
+    assert isinstance(model.envelope_, dict) and model.force_rule == "step"
     fn, params, state = model.kernel()
     assert fn is ball_kernel_step and params.shape == (5,) and state.shape == (6,)
 
@@ -276,7 +276,10 @@ def test_identification_recovers_the_parameters_of_a_ball(fitted):
     assert h["nrmse"] < 0.2 and h["evaluations"] > 100 and h["seconds"] > 0
     assert set(est.envelope_) == {"input_min", "input_max", "output_min", "output_max",
                                   "frequency_band", "acceleration_max"}
-    assert est.envelope_["input_max"] == pytest.approx(np.max(u))
+    # the ball reads the acceleration: its envelope is an acceleration range
+    assert est.input == "acceleration"
+    assert est.envelope_["input_max"] == pytest.approx(np.max(forward_acceleration(u, 500.0)))
+    assert est.envelope_["acceleration_max"] >= est.envelope_["input_max"]
     assert est.dt == pytest.approx(1e-4)  # default sub-steps: the rig's step
     assert "validation_nrmse" in h
 
@@ -322,6 +325,19 @@ def test_save_load_round_trip_is_exact(fitted, tmp_path):
     assert "[bouncing_ball]" in text and "gap_m" in text
 
 
+def test_a_version_1_file_reads_its_velocity_range_as_the_peak_acceleration(fitted, tmp_path):
+    # version 1 stored the velocity's range as the input range; the ball reads the acceleration
+    est, _, _ = fitted
+    text = est.save(tmp_path / "ball.toml").read_text()
+    assert "format_version = 2" in text
+    old = tmp_path / "v1.toml"
+    old.write_text(text.replace("format_version = 2", "format_version = 1"))
+    env = BouncingBall.load(old).envelope_
+    peak = est.envelope_["acceleration_max"]
+    assert (env["input_min"], env["input_max"]) == (-peak, peak)
+    assert BouncingBall.load(tmp_path / "ball.toml").envelope_ == est.envelope_
+
+
 def _good_text(tmp_path) -> str:
     return ball().save(tmp_path / "good.toml").read_text()
 
@@ -335,7 +351,7 @@ def _good_text(tmp_path) -> str:
     (lambda s: s.replace("gap_m = 0.012\n", "gap_m = -0.012\n"), "gap"),
     (lambda s: s.replace("gap_m = 0.012\n", "gap_m = 0.011\n"), "contradicts"),
     (lambda s: s.replace("fs_hz = 1000.0\n", "fs_hz = nan\n"), "finite"),
-    (lambda s: s.replace("format_version = 1", "format_version = 2"), "version 2"),
+    (lambda s: s.replace("format_version = 2", "format_version = 3"), "version 3"),
     (lambda s: s.replace("sloshrom-bouncing-ball", "other"), "format 'other'"),
     (lambda s: s.replace("fill = 0.5", "fill = 1.5"), "fill"),
     (lambda s: s + "\n[[oops", "not a valid TOML"),

@@ -9,6 +9,7 @@ import pytest
 
 from sloshrom.config import Tank
 from sloshrom.energy import (
+    EnergyError,
     default_grid,
     dissipated_energy,
     hysteresis_loop,
@@ -16,8 +17,9 @@ from sloshrom.energy import (
     phi_d,
     phi_d_map,
 )
-from sloshrom.models import FrozenLiquid
+from sloshrom.models import FrozenLiquid, tank_of
 from sloshrom.plotting.maps import plot_hysteresis, plot_phi_d_map
+from sloshrom.rig import VirtualRig
 from sloshrom.signals import harmonic
 
 TANK = Tank()
@@ -96,7 +98,7 @@ def test_phi_d_map_of_linear_damper_is_analytic():
     c = 1.5
     model = LinearDamper(c, dt=2e-4)
     ob, ab = default_grid(6)
-    da = phi_d_map(model, ob, ab, n_cycles=3, settle_time=0.0)
+    da = phi_d_map(model, ob, ab, TANK, n_cycles=3, settle_time=0.0)
     assert da.dims == ("omega_bar", "a_bar")
     assert da.name == "phi_d" and da.attrs["units"] == "1"
     assert da.attrs["model"] == "LinearDamper"
@@ -115,10 +117,10 @@ def test_phi_d_map_of_linear_damper_is_analytic():
 
 def test_phi_d_map_frozen_is_zero_and_plots(tmp_path):
     ob, ab = default_grid(4)
-    da = phi_d_map(FrozenLiquid(1e-3), ob, ab, n_cycles=2, settle_time=0.0)
+    da = phi_d_map(FrozenLiquid(1e-3), ob, ab, TANK, n_cycles=2, settle_time=0.0)
     vals = da.values[np.isfinite(da.values)]
     assert vals.size > 0 and np.all(vals == 0.0)
-    da2 = phi_d_map(LinearDamper(1.0), ob, ab, n_cycles=2, settle_time=0.0)
+    da2 = phi_d_map(LinearDamper(1.0), ob, ab, TANK, n_cycles=2, settle_time=0.0)
     ax = plot_phi_d_map(da2)
     ax.figure.savefig(tmp_path / "map.png")
     h = harmonic(1000.0, 10.0, 2e-3)
@@ -130,5 +132,14 @@ def test_phi_d_map_frozen_is_zero_and_plots(tmp_path):
 
 
 def test_phi_d_map_rejects_bad_grid():
-    with pytest.raises(ValueError):
-        phi_d_map(LinearDamper(1.0), [-1.0, 2.0], [0.1])
+    with pytest.raises(EnergyError, match="1-D grids of positive numbers"):
+        phi_d_map(LinearDamper(1.0), [-1.0, 2.0], [0.1], TANK)
+
+
+def test_phi_d_map_asks_for_the_tank_of_a_model_without_one():
+    # a network (or the frozen liquid) does not know its tank: the paper's is not guessed
+    with pytest.raises(EnergyError, match="does not say which tank it simulates: pass tank="):
+        phi_d_map(FrozenLiquid(1e-3), [1.0], [0.1])
+    rig = VirtualRig(Tank(fill=0.4))
+    assert tank_of(rig) is rig.tank and tank_of(FrozenLiquid(1e-3)) is None
+    assert tank_of(LinearDamper(1.0)) is TANK

@@ -903,23 +903,56 @@ def test_warnings_are_one_line_each(capsys):
                    "warning: overflow encountered in exp (RuntimeWarning from numpy)"], err
 
 
-def test_user_errors_are_value_errors_and_no_bare_value_error_is_caught():
-    """The CLI catches the package's own error types only: a bug keeps its traceback."""
+def test_the_cli_catches_the_one_base_and_no_bare_value_error():
+    """The CLI catches SloshromError, the base of every room's errors, never a bare ValueError
+    (a bug keeps its traceback), and no longer assembles a tuple of types."""
     import inspect
 
+    import sloshrom.cli._app
     import sloshrom.cli.beam
     import sloshrom.cli.export
     import sloshrom.cli.pipeline
     import sloshrom.cli.rig
     import sloshrom.cli.rom  # noqa: F401
-    from sloshrom.cli._app import user_errors
-    from sloshrom.rom.estimators import UnstableModelError
+    from sloshrom.errors import SloshromError
+    from sloshrom.rom.errors import ROMError, UnstableModelError
 
-    # all ValueErrors, but for an unstable NOE on the user's input (a RuntimeError by nature)
-    assert all(issubclass(t, ValueError) for t in user_errors() if t is not UnstableModelError)
-    for mod in ("beam", "export", "pipeline", "rig", "rom"):
+    # an unstable NOE on the user's input is a property of their model: a user error too
+    assert issubclass(UnstableModelError, ROMError) and issubclass(ROMError, SloshromError)
+    for mod in ("_app", "beam", "export", "pipeline", "rig", "rom"):
         src = inspect.getsource(__import__(f"sloshrom.cli.{mod}", fromlist=["x"]))
         assert "except ValueError as" not in src and "(ValueError," not in src, mod
+        assert "user_errors" not in src and "sys.modules" not in src, mod
+
+
+def test_a_sloshrom_error_from_deep_inside_is_one_line():
+    """A SloshromError no command caught (here: from a room, two calls down) ends as one
+    ``error:`` line with exit code 2; a plain ValueError (a bug) keeps its traceback."""
+    import typer
+
+    from sloshrom.cli._app import _OneLineErrors
+    from sloshrom.rig.errors import RigError
+
+    assert app.info.cls is _OneLineErrors  # the real root group is the one tested here
+    t = typer.Typer(cls=_OneLineErrors)
+
+    def deep(exc: Exception) -> None:
+        raise exc
+
+    @t.command()
+    def user() -> None:
+        deep(RigError("dt must be a positive step in s,\n  got -1"))
+
+    @t.command()
+    def bug() -> None:
+        deep(ValueError("an internal invariant broke"))
+
+    res = runner.invoke(t, ["user"])
+    assert res.exit_code == 2, res.output
+    assert res.exception is None or isinstance(res.exception, SystemExit), repr(res.exception)
+    assert res.output.splitlines() == ["error: dt must be a positive step in s, got -1"]
+    res = runner.invoke(t, ["bug"])
+    assert type(res.exception) is ValueError and res.exit_code == 1
 
 
 def test_bad_config_fails_in_the_library():

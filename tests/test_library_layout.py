@@ -13,6 +13,7 @@ import pytest
 from matplotlib.figure import Figure
 
 from sloshrom.beam.analysis import AnalysisError, half_power_damping, modal_filter
+from sloshrom.beam.errors import BeamError
 from sloshrom.beam.results import (
     damping_by_band,
     mode1_damping_table,
@@ -94,8 +95,8 @@ def test_analysis_errors_are_package_errors():
         modal_filter(np.zeros((10, 3)), psi)
     with pytest.raises(AnalysisError, match="too few"):
         half_power_damping(np.arange(3.0), np.ones(3), (0.0, 2.0))
-    # a malformed argument stays a plain ValueError (a programming error)
-    with pytest.raises(ValueError, match="n_stations") as info:
+    # a malformed argument is the room's BeamError (a ValueError), not an AnalysisError
+    with pytest.raises(BeamError, match="n_stations") as info:
         modal_filter(np.zeros((10, 2)), psi)
     assert not isinstance(info.value, AnalysisError)
 

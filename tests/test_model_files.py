@@ -6,6 +6,7 @@ checksum only detects accidental damage, the schema has to reject the content.
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import json
 import math
@@ -30,16 +31,15 @@ def _model(cls, seed=0, **kw):
     m = cls(**kw)
     rng = np.random.default_rng(seed)
     h, d = m.neurons, m.n_inputs
-    m.params_ = {"W": rng.standard_normal((h, d)), "b": rng.standard_normal(h),
-                 "c": rng.standard_normal(h), "c0": np.float64(rng.standard_normal())}
-    m.scaler_ = MinMaxScaler(-0.5, 0.7, -3.0, 2.0)
-    m.fs_ = 500.0
-    m.envelope_ = {"input_min": -0.5, "input_max": 0.7, "output_min": -3.0, "output_max": 2.0,
-                   "frequency_band": [5.0, 25.0]}
-    m.history_ = {"train_mse": [1.0, 0.5], "val_mse": [1.0, float("nan")], "mu": [0.1, None],
-                  "stop_reason": "test", "best_epoch": 0, "trainer": "lm", "n_rows": 10,
-                  "train_seconds": 0.5}
-    return m
+    params = {"W": rng.standard_normal((h, d)), "b": rng.standard_normal(h),
+              "c": rng.standard_normal(h), "c0": np.float64(rng.standard_normal())}
+    envelope = {"input_min": -0.5, "input_max": 0.7, "output_min": -3.0, "output_max": 2.0,
+                "frequency_band": [5.0, 25.0]}
+    history = {"train_mse": [1.0, 0.5], "val_mse": [1.0, float("nan")], "mu": [0.1, None],
+               "stop_reason": "test", "best_epoch": 0, "trainer": "lm", "n_rows": 10,
+               "train_seconds": 0.5}
+    return cls.fitted(params, MinMaxScaler(-0.5, 0.7, -3.0, 2.0), 500.0, envelope, history,
+                      **m.get_params())
 
 
 @pytest.fixture(scope="module")
@@ -373,10 +373,10 @@ def test_save_refuses_out_of_bounds_and_writes_nothing(tmp_path):
     m = _model(NFIR, delays=4, neurons=3)
     p = m.save(tmp_path / "m.npz")
     before = p.read_bytes()
-    m.fs_ = 2e6
+    m.model_ = dataclasses.replace(m.model_, fs=2e6)
     with pytest.raises(ValueError, match=r"cannot save the model: .*'fs': must be <= 1000000"):
         m.save(p)
-    m.fs_ = 500.0
+    m.model_ = dataclasses.replace(m.model_, fs=500.0)
     m.history_ = {"train_mse": [0.1] * (modelfile.MAX_METADATA_CHARS // 4)}
     with pytest.raises(ValueError, match=r"shorten the training history"):
         m.save(p)

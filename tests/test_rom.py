@@ -20,18 +20,17 @@ def _random_model(cls, seed=0, **kw):
     m = cls(**kw)
     rng = np.random.default_rng(seed)
     h, d = m.neurons, m.n_inputs
-    m.params_ = {
+    params = {
         "W": rng.standard_normal((h, d)),
         "b": rng.standard_normal(h),
         "c": rng.standard_normal(h),
         "c0": np.float64(rng.standard_normal()),
     }
-    m.scaler_ = MinMaxScaler(-0.5, 0.7, -3.0, 2.0)
-    m.fs_ = 500.0
-    m.envelope_ = {"input_min": -0.5, "input_max": 0.7, "output_min": -3.0, "output_max": 2.0,
-                   "frequency_band": [5.0, 25.0]}
-    m.history_ = {"train_mse": [1.0], "val_mse": [1.0], "stop_reason": "test"}
-    return m
+    envelope = {"input_min": -0.5, "input_max": 0.7, "output_min": -3.0, "output_max": 2.0,
+                "frequency_band": [5.0, 25.0]}
+    history = {"train_mse": [1.0], "val_mse": [1.0], "stop_reason": "test"}
+    return cls.fitted(params, MinMaxScaler(-0.5, 0.7, -3.0, 2.0), 500.0, envelope, history,
+                      **m.get_params())
 
 
 def test_nfir_70_35_has_2521_parameters():

@@ -4,6 +4,7 @@ coupled simulation with respect to the ROM parameters, float64 without a global 
 from __future__ import annotations
 
 import copy
+import dataclasses
 import subprocess
 import sys
 import textwrap
@@ -16,7 +17,7 @@ import pytest
 from sloshrom.beam import coupled
 from sloshrom.beam.coupled import CoupledSimulator, discretise, simulate_jax
 from sloshrom.config import Tank
-from sloshrom.models import CompiledKernel, JaxModel
+from sloshrom.models import SloshingModel, has_kernel, is_jax_model
 from sloshrom.rom.estimators import NFIR, NOE, MinMaxScaler
 
 
@@ -26,14 +27,12 @@ def _model(cls=NFIR, seed=0, scale=1.0, **kw):
     m = cls(**kw)
     rng = np.random.default_rng(seed)
     h, d = m.neurons, m.n_inputs
-    m.params_ = {"W": rng.standard_normal((h, d)), "b": rng.standard_normal(h),
-                 "c": scale * rng.standard_normal(h), "c0": np.float64(rng.standard_normal())}
-    m.scaler_ = MinMaxScaler(-0.5, 0.7, -3.0 * scale, 2.0 * scale)
-    m.fs_ = 500.0
-    m.envelope_ = {"input_min": -0.5, "input_max": 0.7, "output_min": -3.0, "output_max": 2.0,
-                   "frequency_band": [5.0, 25.0]}
-    m.history_ = {}
-    return m
+    params = {"W": rng.standard_normal((h, d)), "b": rng.standard_normal(h),
+              "c": scale * rng.standard_normal(h), "c0": np.float64(rng.standard_normal())}
+    envelope = {"input_min": -0.5, "input_max": 0.7, "output_min": -3.0, "output_max": 2.0,
+                "frequency_band": [5.0, 25.0]}
+    return cls.fitted(params, MinMaxScaler(-0.5, 0.7, -3.0 * scale, 2.0 * scale), 500.0,
+                      envelope, **m.get_params())
 
 
 @pytest.fixture(scope="module")
@@ -46,7 +45,7 @@ def test_parameters_are_leaves_hyperparameters_static(cls):
     m = _model(cls)
     leaves, treedef = jax.tree_util.tree_flatten(m)
     assert len(leaves) == 4 + 4  # W, b, c, c0 and the scaler's four bounds
-    assert isinstance(m, JaxModel) and m.jax_traceable is True and m.force_rule == "trapezoid"
+    assert is_jax_model(m) and isinstance(m, SloshingModel) and m.force_rule == "trapezoid"
     # same hyperparameters, other weights: the same tree structure (the jit cache key)
     assert jax.tree_util.tree_structure(_model(cls, seed=1)) == treedef
     assert jax.tree_util.tree_structure(_model(cls, neurons=5)) != treedef
@@ -54,8 +53,8 @@ def test_parameters_are_leaves_hyperparameters_static(cls):
     assert type(back) is cls and back.get_params() == m.get_params() and back.fs_ == m.fs_
     u = np.linspace(-0.4, 0.6, 40)
     np.testing.assert_array_equal(back.predict(u), m.predict(u))
-    # an unfitted model is not a JaxModel (dt raises NotFittedError, an AttributeError)
-    assert not isinstance(cls(), JaxModel)
+    # an unfitted model is not a sloshing model (dt raises NotFittedError, an AttributeError)
+    assert not isinstance(cls(), SloshingModel)
 
 
 def test_step_reads_the_leaves_under_jit():
@@ -100,9 +99,10 @@ def test_grad_of_coupled_response_matches_finite_differences(modal):
         return jnp.sum(out["tank_acceleration"] ** 2)
 
     def perturbed(name, index, h):
+        params = {k: np.array(v, dtype=np.float64) for k, v in m.params_.items()}
+        params[name][index] += h
         p = copy.copy(m)
-        p.params_ = {k: np.array(v, dtype=np.float64) for k, v in m.params_.items()}
-        p.params_[name][index] += h
+        p.model_ = dataclasses.replace(m.model_, params=params)
         return p
 
     with jax.enable_x64(True):
@@ -160,7 +160,7 @@ def test_backend_by_protocol(modal):
         CoupledSimulator(Plain(), modal, backend="jax")
     with pytest.raises(ValueError, match="numba backend"):
         CoupledSimulator(_model(), modal, backend="numba")
-    assert not isinstance(_model(), CompiledKernel)
+    assert not has_kernel(_model())
 
 
 def test_no_global_x64_switch_and_float64_results():

@@ -1,14 +1,15 @@
 """sloshrom: neural-network reduced-order models of vertical sloshing and the sloshing beam.
 
 The top level holds what every part of the package shares: the tank (:class:`Tank`, ``G``,
-:class:`ConfigError`) and the sloshing-model contract (:class:`SloshingModel`,
-:class:`FrozenLiquid`). The ROMs (``NFIR``, ``NOE``, ``Ensemble``, ``load_model``) are
-re-exported lazily.
+:class:`ConfigError`), the base of every user error (:class:`SloshromError`) and the
+sloshing-model contract (:class:`SloshingModel`, :class:`FrozenLiquid`). The ROMs (``NFIR``,
+``NOE``, ``Ensemble``, ``load_model``) are re-exported lazily.
 """
 
 from importlib.metadata import PackageNotFoundError, version
 
 from sloshrom.config import ConfigError, G, Tank
+from sloshrom.errors import SloshromError
 from sloshrom.models import FrozenLiquid, SloshingModel
 
 try:
@@ -17,8 +18,8 @@ except PackageNotFoundError:  # pragma: no cover - running from a source tree
     __version__ = "0.0.0+unknown"
 
 __all__ = [
-    "G", "NFIR", "NOE", "ConfigError", "Ensemble", "FrozenLiquid", "SloshingModel", "Tank",
-    "__version__", "load_model",
+    "G", "NFIR", "NOE", "ConfigError", "Ensemble", "FrozenLiquid", "SloshingModel",
+    "SloshromError", "Tank", "__version__", "load_model",
 ]
 
 # Lazy on purpose: sloshrom.rom imports JAX (about 0.5 s warm, seconds from a cold disk cache,

@@ -13,6 +13,7 @@ from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
+from sloshrom.errors import SloshromError
 from sloshrom.fileio import not_a_regular_file
 
 G = 9.80665  # standard gravity, m/s^2
@@ -23,7 +24,7 @@ G = 9.80665  # standard gravity, m/s^2
 FILL_TOLERANCE = 0.005
 
 
-class ConfigError(ValueError):
+class ConfigError(SloshromError):
     """A configuration value is missing, of the wrong type or outside its physical range."""
 
 

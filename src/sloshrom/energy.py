@@ -24,12 +24,14 @@ import xarray as xr
 
 from sloshrom import __version__
 from sloshrom.config import Tank
-from sloshrom.models import SloshingModel
+from sloshrom.errors import SloshromError
+from sloshrom.models import SloshingModel, tank_of
 from sloshrom.signals import DEFAULT_A_BAR_MIN, SHAKER_ENVELOPE, harmonic
 
 __all__ = [
     "DISSIPATIVE_THRESHOLD",
     "PASSIVITY_TOLERANCE",
+    "EnergyError",
     "default_grid",
     "dissipated_energy",
     "hysteresis_loop",
@@ -39,6 +41,11 @@ __all__ = [
     "phi_d_map",
     "shaker_envelope",
 ]
+
+
+class EnergyError(SloshromError):
+    """A harmonic test or a map that cannot be made: a bad grid, record or missing tank."""
+
 
 #: Dissipative region of a map: where Phi_d exceeds this fraction of the map's maximum (-).
 DISSIPATIVE_THRESHOLD = 0.1
@@ -72,16 +79,16 @@ def dissipated_energy(
     w = np.asarray(w, dtype=np.float64)
     f = np.asarray(dynamic_force, dtype=np.float64)
     if w.shape != f.shape or w.ndim == 0 or w.shape[-1] < 2:
-        raise ValueError("w and dynamic_force must have the same shape with >= 2 samples")
+        raise EnergyError("w and dynamic_force must have the same shape with >= 2 samples")
     if n_cycles < 1:
-        raise ValueError(f"n_cycles must be >= 1, got {n_cycles}")
+        raise EnergyError(f"n_cycles must be >= 1, got {n_cycles}")
     dw = np.diff(w, axis=-1)
     if rule == "trapezoid":
         fm = 0.5 * (f[..., 1:] + f[..., :-1])
     elif rule == "step":
         fm = f[..., :-1]
     else:
-        raise ValueError(f"rule must be 'trapezoid' or 'step', got {rule!r}")
+        raise EnergyError(f"rule must be 'trapezoid' or 'step', got {rule!r}")
     return -np.sum(fm * dw, axis=-1) / n_cycles
 
 
@@ -131,7 +138,7 @@ def hysteresis_loop(
         ``f_S / (m_l a Omega^2)`` with ``f_S = dF - m_l w''``.
     """
     if not (amplitude > 0 and omega > 0 and liquid_mass > 0):
-        raise ValueError("amplitude, omega and liquid_mass must be positive")
+        raise EnergyError("amplitude, omega and liquid_mass must be positive")
     w = np.asarray(w, dtype=np.float64)
     f_s = np.asarray(dynamic_force, dtype=np.float64) - liquid_mass * np.asarray(
         acceleration, dtype=np.float64
@@ -228,8 +235,8 @@ def phi_d_map(
     omega_bar, a_bar : array_like
         1-D grids of Omega / sqrt(g/h) and a / h.
     tank : Tank, optional
-        Sets h, m_l. Pass it for models identified on another tank than the paper's; default:
-        the model's own tank if it carries one (the virtual rig's ``tank``), else the paper tank.
+        Sets h, m_l. Default: the model's own tank (:func:`sloshrom.models.tank_of`: the virtual
+        rig's); required for a model that does not carry one (a network, the frozen liquid).
     n_cycles : int
         Steady cycles evaluated per point.
     n_ramp : int
@@ -247,13 +254,16 @@ def phi_d_map(
         ``phi_d`` with dims ``(omega_bar, a_bar)``, coordinate ``frequency`` (Hz) on omega_bar,
         attrs with units and provenance.
     """
+    tank = tank if tank is not None else tank_of(model)
     if tank is None:
-        # not part of the model contract: the rig carries its tank, ROMs and FrozenLiquid do not
-        tank = getattr(model, "tank", None) or Tank()
+        # a network does not know the tank it was identified on: guessing the paper's would
+        # scale the map silently wrong for any other tank
+        raise EnergyError(f"the {type(model).__name__} does not say which tank it simulates: "
+                          "pass tank= (sloshrom.Tank(...); the paper's tank is Tank())")
     ob = np.atleast_1d(np.asarray(omega_bar, dtype=np.float64))
     ab = np.atleast_1d(np.asarray(a_bar, dtype=np.float64))
     if ob.ndim != 1 or ab.ndim != 1 or np.any(ob <= 0) or np.any(~np.isfinite(ab)):
-        raise ValueError("omega_bar and a_bar must be 1-D grids of positive numbers")
+        raise EnergyError("omega_bar and a_bar must be 1-D grids of positive numbers")
     fs = 1.0 / float(model.dt)
     rule = model.force_rule
     mask = shaker_envelope(ob, ab, tank, f_min, f_max, gamma_max, a_bar_max)
@@ -266,7 +276,7 @@ def phi_d_map(
         if cols.size:
             freq = obi * w0 / (2 * math.pi)
             if fs < 8 * freq:
-                raise ValueError(f"model rate {fs} Hz too low for {freq:.1f} Hz")
+                raise EnergyError(f"model rate {fs} Hz too low for {freq:.1f} Hz")
             n_settle = max(2, int(math.ceil(settle_time * freq)))
             sigs = [
                 harmonic(fs, freq, ab[j] * h_ref, n_cycles=n_cycles, n_ramp=n_ramp,
@@ -320,7 +330,7 @@ def map_maximum(da: xr.DataArray) -> dict[str, float]:
     """Location and value of the maximum of a Phi_d map (omega_bar, a_bar, Gamma, Hz)."""
     vals = np.asarray(da.values)
     if np.all(np.isnan(vals)):
-        raise ValueError("the map is all NaN")
+        raise EnergyError("the map is all NaN")
     i, j = np.unravel_index(np.nanargmax(vals), vals.shape)
     ob = float(da.omega_bar[i])
     ab = float(da.a_bar[j])
@@ -411,7 +421,7 @@ def map_fidelity(
     for name, value in (("dissipative_threshold", dissipative_threshold),
                         ("passivity_tolerance", passivity_tolerance)):
         if not (math.isfinite(value) and value >= 0):
-            raise ValueError(f"{name} must be a finite number >= 0, got {value}")
+            raise EnergyError(f"{name} must be a finite number >= 0, got {value}")
     if isinstance(reference, xr.DataArray) and isinstance(other, xr.DataArray):
         if set(reference.dims) == set(other.dims):
             other = other.transpose(*reference.dims)
@@ -419,11 +429,11 @@ def map_fidelity(
             if dim in reference.coords and dim in other.coords and not np.allclose(
                 reference[dim].values, other[dim].values, rtol=1e-9, equal_nan=True
             ):
-                raise ValueError(f"the maps have different {dim} grids")
+                raise EnergyError(f"the maps have different {dim} grids")
     r = np.asarray(reference, dtype=np.float64)
     o = np.asarray(other, dtype=np.float64)
     if r.shape != o.shape:
-        raise ValueError(f"the maps differ in shape: reference {r.shape}, other {o.shape}")
+        raise EnergyError(f"the maps differ in shape: reference {r.shape}, other {o.shape}")
     finite = np.isfinite(r) & np.isfinite(o)
     r_max = float(np.max(r[np.isfinite(r)])) if np.isfinite(r).any() else float("nan")
     level = dissipative_threshold * r_max

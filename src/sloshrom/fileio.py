@@ -16,6 +16,8 @@ import tempfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from sloshrom.errors import SloshromError
+
 __all__ = [
     "OutputBatch", "OutputPathError", "atomic_write", "atomic_write_text", "check_output",
     "not_a_regular_file", "same_file",
@@ -27,7 +29,7 @@ _TMP_EXTRA = 2 + 8
 _NAME_MAX = 255
 
 
-class OutputPathError(ValueError):
+class OutputPathError(SloshromError):
     """An output path cannot be written (the message names the path and the reason)."""
 
 

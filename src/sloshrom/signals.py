@@ -2,7 +2,9 @@
 band-limited broadband tank acceleration (rig records that start and end at rest).
 
 Functions take the sample rate ``fs`` (Hz) and return plain arrays, in the style of
-``scipy.signal``. Displacement w is positive up; all quantities SI.
+``scipy.signal``. Displacement w is positive up; all quantities SI. A signal that cannot be made
+as asked (a rate too low for its frequencies, a negative amplitude, ...) raises
+:class:`SignalError`.
 """
 
 from __future__ import annotations
@@ -12,6 +14,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from sloshrom.config import G, Tank
+from sloshrom.errors import SloshromError
+
+
+class SignalError(SloshromError):
+    """A signal cannot be made as asked: a rate, frequency, amplitude, duration or shaker limit
+    out of range (the message names the argument and its value)."""
 
 
 @dataclass(frozen=True)
@@ -88,13 +96,13 @@ def harmonic(
     Harmonic
     """
     if not (fs > 0 and frequency > 0 and np.isfinite(fs) and np.isfinite(frequency)):
-        raise ValueError(f"fs and frequency must be positive, got fs={fs!r}, f={frequency!r}")
+        raise SignalError(f"fs and frequency must be positive, got fs={fs!r}, f={frequency!r}")
     if not (amplitude >= 0 and np.isfinite(amplitude)):
-        raise ValueError(f"amplitude must be a finite non-negative length in m, got {amplitude!r}")
+        raise SignalError(f"amplitude must be a finite non-negative length in m, got {amplitude!r}")
     if fs < 8 * frequency:
-        raise ValueError(f"fs={fs} Hz is too low for f={frequency} Hz (need >= 8 samples/cycle)")
+        raise SignalError(f"fs={fs} Hz is too low for f={frequency} Hz (need >= 8 samples/cycle)")
     if n_cycles < 1 or n_ramp < 0 or n_settle < 0:
-        raise ValueError("n_cycles must be >= 1 and n_ramp, n_settle >= 0")
+        raise SignalError("n_cycles must be >= 1 and n_ramp, n_settle >= 0")
     period = 1.0 / frequency
     t_up = n_ramp * period
     t_total = (2 * n_ramp + n_settle + n_cycles) * period
@@ -163,9 +171,9 @@ class ShakerEnvelope:
         for name in ("f_min", "f_max", "gamma_max", "a_bar_max"):
             v = getattr(self, name)
             if not (np.isfinite(v) and v > 0):
-                raise ValueError(f"ShakerEnvelope.{name} must be finite and positive, got {v!r}")
+                raise SignalError(f"ShakerEnvelope.{name} must be finite and positive, got {v!r}")
         if not self.f_min < self.f_max:
-            raise ValueError(f"ShakerEnvelope: need f_min < f_max, got {self.f_min}, {self.f_max}")
+            raise SignalError(f"ShakerEnvelope: need f_min < f_max, got {self.f_min}, {self.f_max}")
 
 
 #: The shaker-test domain of the paper (5-25 Hz, Gamma <= 6 g, a_bar <= 0.45): the defaults.
@@ -202,7 +210,7 @@ class ShakerLimits:
         for name in ("max_displacement", "max_velocity", "max_acceleration"):
             v = getattr(self, name)
             if not (np.isfinite(v) and v > 0):
-                raise ValueError(f"ShakerLimits.{name} must be finite and positive, got {v!r}")
+                raise SignalError(f"ShakerLimits.{name} must be finite and positive, got {v!r}")
 
 
 #: The (estimated) limits of the paper's shaker: 12.5 mm, 1 m/s, 6 g.
@@ -318,13 +326,13 @@ def vfa_design(
     for name, v in (("peak_acceleration", peak_acceleration), ("peak_velocity", peak_velocity),
                     ("displacement", displacement), ("frequency", frequency)):
         if not (np.isfinite(v) and v >= 0):
-            raise ValueError(f"{name} must be finite and >= 0, got {v!r}")
+            raise SignalError(f"{name} must be finite and >= 0, got {v!r}")
     if not (np.isfinite(margin) and margin >= 1.0):
-        raise ValueError(f"margin must be >= 1, got {margin!r}")
+        raise SignalError(f"margin must be >= 1, got {margin!r}")
     if not (np.isfinite(spread) and spread > 1.0):
-        raise ValueError(f"spread must be > 1, got {spread!r}")
+        raise SignalError(f"spread must be > 1, got {spread!r}")
     if not 0 < f_min < f_max:
-        raise ValueError(f"need 0 < f_min < f_max, got {f_min!r}, {f_max!r}")
+        raise SignalError(f"need 0 < f_min < f_max, got {f_min!r}, {f_max!r}")
     paper = SHAKER_DESIGN
     f_dom = float(np.clip(frequency, f_min, f_max)) if frequency > 0 else f_min
     om = 2.0 * np.pi * f_dom
@@ -523,17 +531,17 @@ def vfa(
     tank = Tank() if tank is None else tank
     limits = SHAKER_LIMITS if limits is None else limits
     if split not in _VFA_FAMILIES:
-        raise ValueError(f"split must be 'train' or 'validation', got {split!r}")
+        raise SignalError(f"split must be 'train' or 'validation', got {split!r}")
     fam = _VFA_FAMILIES[split]
     duration = fam["duration"] if duration is None else float(duration)
     if not (np.isfinite(fs) and fs > 0):
-        raise ValueError(f"fs must be a finite positive rate in Hz, got {fs!r}")
+        raise SignalError(f"fs must be a finite positive rate in Hz, got {fs!r}")
     if not (0 < f_min < f_max and np.isfinite(f_max)):
-        raise ValueError(f"need 0 < f_min < f_max, got f_min={f_min!r}, f_max={f_max!r}")
+        raise SignalError(f"need 0 < f_min < f_max, got f_min={f_min!r}, f_max={f_max!r}")
     if fs < 8 * f_max:
-        raise ValueError(f"fs={fs} Hz is too low for f_max={f_max} Hz (need >= 8 samples/cycle)")
+        raise SignalError(f"fs={fs} Hz is too low for f_max={f_max} Hz (need >= 8 samples/cycle)")
     if not (np.isfinite(duration) and duration > 2 * ramp and duration >= 10.0):
-        raise ValueError(f"duration must be >= 10 s and > 2*ramp, got {duration!r}")
+        raise SignalError(f"duration must be >= 10 s and > 2*ramp, got {duration!r}")
     rng = np.random.default_rng(seed)
     phase = fam["phase"] + rng.uniform(-0.25, 0.25) * np.pi
     p, q = fam["p"], fam["q"]
@@ -621,7 +629,7 @@ def gaussian_psd(f, f0: float, sigma: float, A: float) -> np.ndarray:
         PSD in units of A per Hz.
     """
     if not (np.isfinite(sigma) and sigma > 0):
-        raise ValueError(f"sigma must be a positive frequency in Hz, got {sigma!r}")
+        raise SignalError(f"sigma must be a positive frequency in Hz, got {sigma!r}")
     f = np.asarray(f, dtype=float)
     k = A / (sigma * np.sqrt(2.0 * np.pi))
     return k * (
@@ -667,19 +675,19 @@ def random_base_acceleration(
         Shape (n,) for a scalar ``rms``, (n_levels, n) for a sequence; zero mean.
     """
     if not (np.isfinite(fs) and fs > 0):
-        raise ValueError(f"fs must be a finite positive rate in Hz, got {fs!r}")
+        raise SignalError(f"fs must be a finite positive rate in Hz, got {fs!r}")
     if not (np.isfinite(f0) and f0 >= 0 and np.isfinite(sigma) and sigma > 0):
-        raise ValueError(f"need f0 >= 0 and sigma > 0 in Hz, got f0={f0!r}, sigma={sigma!r}")
+        raise SignalError(f"need f0 >= 0 and sigma > 0 in Hz, got f0={f0!r}, sigma={sigma!r}")
     if fs <= 2 * (f0 + 4 * sigma):
-        raise ValueError(f"fs={fs} Hz is too low for the PSD (need fs > 2 (f0 + 4 sigma))")
+        raise SignalError(f"fs={fs} Hz is too low for the PSD (need fs > 2 (f0 + 4 sigma))")
     n = int(round(duration * fs))
     if n < 16:
-        raise ValueError(f"duration={duration!r} s gives fewer than 16 samples at fs={fs} Hz")
+        raise SignalError(f"duration={duration!r} s gives fewer than 16 samples at fs={fs} Hz")
     if not (np.isfinite(fade) and 0 <= 2 * fade < duration):
-        raise ValueError(f"fade must be in [0, duration/2), got {fade!r}")
+        raise SignalError(f"fade must be in [0, duration/2), got {fade!r}")
     levels = np.asarray(rms, dtype=float)
     if levels.ndim > 1 or not np.all(np.isfinite(levels)) or np.any(levels < 0):
-        raise ValueError(f"rms must be a non-negative number or 1-D sequence (m/s^2), got {rms!r}")
+        raise SignalError(f"rms must be a non-negative number or 1-D sequence (m/s^2), got {rms!r}")
     rng = np.random.default_rng(seed)
     freqs = np.fft.rfftfreq(n, 1.0 / fs)
     mag = np.sqrt(gaussian_psd(freqs, f0, sigma, 1.0))
@@ -752,15 +760,15 @@ def broadband_acceleration(
         moment (the end velocity and displacement are zero to round-off).
     """
     if not (np.isfinite(fs) and fs > 0):
-        raise ValueError(f"fs must be a finite positive rate in Hz, got {fs!r}")
+        raise SignalError(f"fs must be a finite positive rate in Hz, got {fs!r}")
     if not (0 < f_lo < f_hi < fs / 2):
-        raise ValueError(f"need 0 < f_lo < f_hi < fs/2, got f_lo={f_lo!r}, f_hi={f_hi!r}")
+        raise SignalError(f"need 0 < f_lo < f_hi < fs/2, got f_lo={f_lo!r}, f_hi={f_hi!r}")
     if not (np.isfinite(rms) and rms >= 0):
-        raise ValueError(f"rms must be >= 0 (m/s^2), got {rms!r}")
+        raise SignalError(f"rms must be >= 0 (m/s^2), got {rms!r}")
     if not (np.isfinite(fade) and fade > 0 and np.isfinite(duration) and duration > 2 * fade):
-        raise ValueError(f"need fade > 0 and duration > 2 fade, got {fade!r}, {duration!r}")
+        raise SignalError(f"need fade > 0 and duration > 2 fade, got {fade!r}, {duration!r}")
     if not 0 <= edge < 0.5:
-        raise ValueError(f"edge must be in [0, 0.5), got {edge!r}")
+        raise SignalError(f"edge must be in [0, 0.5), got {edge!r}")
     n = int(round(duration * fs)) + 1
     freqs = np.fft.rfftfreq(n, 1.0 / fs)
     width = edge * (f_hi - f_lo)

@@ -20,7 +20,8 @@
 Pure numerical functions: arrays in, arrays/dicts out; signal functions take ``fs`` (Hz). A
 response that cannot be analysed (too short, no peak in the band, modes that the stations cannot
 separate) raises :class:`AnalysisError`, a property of the data; a malformed argument (wrong
-dimension, unknown option) raises a plain ``ValueError``, a programming error.
+dimension, unknown option) raises the room's base :class:`~sloshrom.beam.errors.BeamError`, not
+an ``AnalysisError``.
 """
 
 from __future__ import annotations
@@ -35,8 +36,10 @@ import numpy as np
 from scipy import signal
 from scipy.ndimage import minimum_filter1d
 
+from sloshrom.beam.errors import BeamError
 
-class AnalysisError(ValueError):
+
+class AnalysisError(BeamError):
     """A response cannot be analysed as asked (too short, no resonance peak in the band, modes
     the stations cannot separate): a property of the data or of the user's modal model."""
 
@@ -59,7 +62,7 @@ def modal_filter(station_acceleration: Any, psi_stations: Any) -> np.ndarray:
     a = np.asarray(station_acceleration, dtype=float)
     psi = np.asarray(psi_stations, dtype=float)
     if psi.ndim != 2 or a.shape[-1] != psi.shape[0]:
-        raise ValueError(
+        raise BeamError(
             f"psi_stations must be (n_stations, n_modes) with n_stations = {a.shape[-1]}, "
             f"got {psi.shape}"
         )
@@ -121,7 +124,7 @@ def instantaneous_damping(
     """
     x = np.asarray(x, dtype=float)
     if x.ndim != 1:
-        raise ValueError("x must be 1-D")
+        raise BeamError("x must be 1-D")
     n_win = int(round(smooth_periods * fs / f1)) | 1
     n_trim = int(round(trim_periods * fs / f1))
     if x.size <= 2 * n_trim + n_win:
@@ -299,7 +302,7 @@ def lscf_poles(
         order = np.concatenate([np.full(lam.size, lam.size) for lam in lams])
         pole = np.concatenate(lams)
     else:
-        raise ValueError(f"solver must be 'qr' or 'sdypy', got {solver!r}")
+        raise BeamError(f"solver must be 'qr' or 'sdypy', got {solver!r}")
     return _pole_table(order, pole)
 
 
@@ -476,7 +479,7 @@ def correlation(x: Any, fs: float, max_lag: float) -> tuple[np.ndarray, np.ndarr
 
     x = np.asarray(x, dtype=float)
     if x.ndim != 1:
-        raise ValueError("x must be 1-D")
+        raise BeamError("x must be 1-D")
     n_lag = int(round(max_lag * fs)) + 1
     if not 2 <= n_lag <= x.size // 2:
         raise AnalysisError(
@@ -529,9 +532,9 @@ def half_spectrum(
 
     r = np.asarray(r, dtype=float)
     if r.ndim != 1 or r.size < 2:
-        raise ValueError("r must be 1-D with at least two lags")
+        raise BeamError("r must be 1-D with at least two lags")
     if not 0 < window_end < 1:
-        raise ValueError("window_end must be in (0, 1)")
+        raise BeamError("window_end must be in (0, 1)")
     lag = np.arange(r.size) / fs
     beta = -math.log(window_end) / lag[-1]
     rw = r * np.exp(-beta * lag)

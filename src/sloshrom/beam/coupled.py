@@ -24,10 +24,11 @@ of the frozen system ``(M_f = M + m_l psi psi^T, K)``; so the modal damping rati
 :class:`~sloshrom.beam.structure.ModalModel` are those of the frozen-liquid modes (paper Table 1).
 
 Backends, chosen by the model's capabilities (:mod:`sloshrom.models`): a JAX ``lax.scan`` (jit;
-``vmap`` over batches of base accelerations) for a :class:`~sloshrom.models.JaxModel` (ROMs,
-:class:`~sloshrom.models.FrozenLiquid`); a numba loop for a
-:class:`~sloshrom.models.CompiledKernel` (the virtual rig, at its fine step, output decimated to
-a sensor rate); a plain Python loop for any other sloshing model.
+``vmap`` over batches of base accelerations) for a JAX model
+(:func:`~sloshrom.models.is_jax_model`: ROMs, :class:`~sloshrom.models.FrozenLiquid`); a numba
+loop for a model with a kernel (:func:`~sloshrom.models.has_kernel`: the virtual rig, the
+bouncing ball, at their fine step, output decimated to a sensor rate); a plain Python loop
+for any other sloshing model.
 
 The JAX backend is the pure function :func:`simulate_jax` of the model and the discretisation,
 both pytrees: a model whose parameters are pytree leaves (the ROMs) is an *argument* of the
@@ -41,7 +42,6 @@ changing the process's JAX configuration.
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -55,6 +55,7 @@ from scipy.signal import resample_poly
 from sloshrom._jit import njit
 from sloshrom._x64 import float64
 from sloshrom.beam.envelope import envelope_coverage
+from sloshrom.beam.errors import BeamError
 from sloshrom.beam.structure import (
     TANK_KEYS,
     ModalDataError,
@@ -64,12 +65,13 @@ from sloshrom.beam.structure import (
 )
 from sloshrom.config import G, Tank
 from sloshrom.models import (
-    CompiledKernel,
-    Enveloped,
-    FrozenLiquid,
-    JaxModel,
     SloshingModel,
-    input_variable,
+    check_envelope,
+    envelope_of,
+    has_kernel,
+    has_no_force,
+    input_of,
+    is_jax_model,
     model_input,
 )
 from sloshrom.signals import random_base_acceleration
@@ -89,11 +91,12 @@ __all__ = [
 ]
 
 
-class SimulationDivergedError(RuntimeError):
-    """The coupled simulation blew up (reported with the time at which it did)."""
+class SimulationDivergedError(BeamError, RuntimeError):
+    """The coupled simulation blew up (reported with the time at which it did): a sloshing
+    model far outside its valid range on the user's structure, not a bug."""
 
 
-class StepMismatchError(ValueError):
+class StepMismatchError(BeamError):
     """A sloshing model's time step does not match the step the simulation was asked to use."""
 
 
@@ -135,7 +138,7 @@ def discretise(modal: ModalModel, liquid_mass: Any, dt: float) -> Discretisation
     :class:`CoupledSimulator` then refuses a non-zero base acceleration.
     """
     if not (math.isfinite(dt) and dt > 0):
-        raise ValueError(f"dt must be a finite positive step in s, got {dt!r}")
+        raise BeamError(f"dt must be a finite positive step in s, got {dt!r}")
     n = modal.n_modes
     psi = modal.psi_tanks
     ml = liquid_masses(modal, liquid_mass)
@@ -174,7 +177,7 @@ def _outputs(q: Any, qdd: Any, acc: Any, df: Any, vel: Any, m_total: Any) -> dic
             "interface_force": -m_total * acc + df, "tank_velocity": vel}
 
 
-def simulate_jax(model: JaxModel | Sequence[JaxModel], disc: Discretisation,
+def simulate_jax(model: SloshingModel | Sequence[SloshingModel], disc: Discretisation,
                  base_acceleration: Any, z0: Any) -> dict[str, Any]:
     """Coupled simulation at the model rate as a pure JAX function (``lax.scan``).
 
@@ -185,9 +188,9 @@ def simulate_jax(model: JaxModel | Sequence[JaxModel], disc: Discretisation,
 
     Parameters
     ----------
-    model : JaxModel or sequence of JaxModel
-        Sloshing model with a traceable ``step`` at the step ``disc.dt``; a sequence gives
-        one model per tank (in the order of ``disc.psi``'s rows).
+    model : sloshing model or sequence of sloshing models
+        JAX-traceable (:func:`~sloshrom.models.is_jax_model`), stepping at ``disc.dt``; a
+        sequence gives one model per tank (in the order of ``disc.psi``'s rows).
     disc : Discretisation
         The structure, :func:`discretise` d at ``model.dt``.
     base_acceleration : array_like, shape (n,)
@@ -208,7 +211,7 @@ def simulate_jax(model: JaxModel | Sequence[JaxModel], disc: Discretisation,
     A2, B2, psi = jnp.asarray(disc.A2), jnp.asarray(disc.B2), jnp.asarray(disc.psi)
     n = psi.shape[1]
     if len(models) != psi.shape[0]:
-        raise ValueError(f"{len(models)} sloshing model(s) for {psi.shape[0]} tank(s)")
+        raise BeamError(f"{len(models)} sloshing model(s) for {psi.shape[0]} tank(s)")
     dt = disc.dt
 
     def body(carry, a_s):
@@ -240,14 +243,14 @@ def _squeeze_tanks(out: dict[str, Any]) -> dict[str, Any]:
 class _Constant:
     """A jax-traceable model that is not a pytree, carried as static data (compiled in)."""
 
-    def __init__(self, model: JaxModel) -> None:
+    def __init__(self, model: SloshingModel) -> None:
         self.model = model
 
-    def tree_flatten(self) -> tuple[tuple[()], JaxModel]:
+    def tree_flatten(self) -> tuple[tuple[()], SloshingModel]:
         return (), self.model  # hashed by identity: one compilation per such model
 
     @classmethod
-    def tree_unflatten(cls, model: JaxModel, children: tuple[()]) -> _Constant:
+    def tree_unflatten(cls, model: SloshingModel, children: tuple[()]) -> _Constant:
         return cls(model)
 
 
@@ -261,7 +264,7 @@ _simulate_one = jax.jit(_simulate)
 _simulate_batch = jax.jit(jax.vmap(_simulate, in_axes=(None, None, 0, None)))
 
 
-def _jax_argument(model: JaxModel) -> Any:
+def _jax_argument(model: SloshingModel) -> Any:
     """The model as a jit argument: itself if it is a pytree, else wrapped as a constant."""
     if jax.tree_util.treedef_is_leaf(jax.tree_util.tree_structure(model)):
         return _Constant(model)
@@ -347,21 +350,12 @@ def _python_loop(models: Sequence[SloshingModel], d: Discretisation, a_s: np.nda
     return _outputs(q, qdd, acc, dfo, vel, d.m_total)
 
 
-def _is_jax(model: Any) -> bool:
-    # the protocol checks that the attribute exists; a model may declare it False
-    return isinstance(model, JaxModel) and getattr(model, "jax_traceable", False) is True
-
-
-def _is_passive(model: Any) -> bool:
-    """Frozen liquid: no dynamic force, so any backend can skip it (its step is not needed)."""
-    return isinstance(model, FrozenLiquid)
-
-
 def _default_backend(models: Sequence[Any]) -> str:
-    active = [m for m in models if not _is_passive(m)]
-    if active and all(isinstance(m, CompiledKernel) for m in active):
+    # frozen liquid has no force: any backend skips it
+    active = [m for m in models if not has_no_force(m)]
+    if active and all(has_kernel(m) for m in active):
         return "numba"
-    return "jax" if all(_is_jax(m) for m in models) else "python"
+    return "jax" if all(is_jax_model(m) for m in models) else "python"
 
 
 # ------------------------------------------------------------------------------------------
@@ -382,7 +376,7 @@ class CoupledSimulator:
         (the rig's 1e-4 s and a ROM's 1/fs do not mix: :class:`StepMismatchError`). ``"auto"``
         picks the numba backend when the sloshing tanks are all
         :class:`~sloshrom.models.CompiledKernel` s (virtual rigs), JAX when every model is a
-        :class:`~sloshrom.models.JaxModel`, else the Python loop.
+        JAX model (:func:`~sloshrom.models.is_jax_model`), else the Python loop.
     modal : ModalModel
         Dry-structure modes (structure + tank structures); its ``psi_tank`` places the tanks.
     tank : Tank or sequence of Tank
@@ -422,24 +416,24 @@ class CoupledSimulator:
         self.output_fs = fs if output_fs is None else float(output_fs)
         ratio = fs / self.output_fs
         if not (self.output_fs > 0 and abs(ratio - round(ratio)) < 1e-6 and round(ratio) >= 1):
-            raise ValueError(
+            raise BeamError(
                 f"output_fs = {output_fs} Hz must divide the model rate {fs} Hz by an integer"
             )
         self.decimation = int(round(ratio))
         if backend == "auto":
             backend = _default_backend(self.models)
         if backend not in ("jax", "numba", "python"):
-            raise ValueError(f"unknown backend {backend!r} (jax, numba, python)")
-        self.active = tuple(j for j, m in enumerate(self.models) if not _is_passive(m))
+            raise BeamError(f"unknown backend {backend!r} (jax, numba, python)")
+        self.active = tuple(j for j, m in enumerate(self.models) if not has_no_force(m))
         if backend == "numba":
             kernels = [self.models[j] for j in self.active]
-            if not kernels or not all(isinstance(m, CompiledKernel) for m in kernels):
-                raise ValueError("the numba backend needs a model with kernel()")
+            if not kernels or not all(has_kernel(m) for m in kernels):
+                raise BeamError("the numba backend needs a model with kernel()")
             if len({id(m.kernel()[0]) for m in kernels}) > 1:
-                raise ValueError("the numba backend needs one kernel for every sloshing tank; "
+                raise BeamError("the numba backend needs one kernel for every sloshing tank; "
                                  "use backend='python' for different kernels")
-        if backend == "jax" and not all(_is_jax(m) for m in self.models):
-            raise ValueError("the jax backend needs a jax-traceable model (sloshrom.models."
+        if backend == "jax" and not all(is_jax_model(m) for m in self.models):
+            raise BeamError("the jax backend needs a jax-traceable model (sloshrom.models."
                              "JaxModel)")
         self.backend = backend
         self.disc = discretise(modal, [t.liquid_mass for t in self.tanks], mdt)
@@ -461,7 +455,7 @@ class CoupledSimulator:
             params = np.stack([np.asarray(k[1], dtype=np.float64) for k in kernels])
             states = np.stack([np.asarray(k[2], dtype=np.float64) for k in kernels])
         except ValueError as exc:  # kernels of different sizes cannot share one loop
-            raise ValueError("the numba backend needs sloshing tanks whose kernels have "
+            raise BeamError("the numba backend needs sloshing tanks whose kernels have "
                              "parameter and state arrays of one size") from exc
         d = self.disc
         q, qdd, acc, dfo, vel = _numba_loop(
@@ -477,9 +471,9 @@ class CoupledSimulator:
         decimation."""
         a = np.asarray(base_acceleration, dtype=np.float64)
         if a.ndim == 0:
-            raise ValueError("base_acceleration must have a time axis")
+            raise BeamError("base_acceleration must have a time axis")
         if not np.all(np.isfinite(a)):
-            raise ValueError("base_acceleration must be finite")
+            raise BeamError("base_acceleration must be finite")
         if not self.modal.has_participation and np.any(a != 0):
             raise ModalDataError(
                 "the modal model has no participation factors (kg), which base excitation "
@@ -533,27 +527,12 @@ class CoupledSimulator:
         # a ROM inside the loop cannot warn from within lax.scan: check its input afterwards
         for j, (model, vj, aj) in enumerate(zip(self.models, self._per_tank_columns(v),
                                                 self._per_tank_columns(acc), strict=True)):
-            if not isinstance(model, Enveloped):
-                continue
-            env = model.envelope_
-            if not isinstance(env, dict) or "input_min" not in env:
-                continue
-            u = model_input(model, vj, aj)
-            name = input_variable(model)
-            unit = "m/s^2" if name == "acceleration" else "m/s"
-            lo, hi = float(env["input_min"]), float(env["input_max"])
-            over = max(float(np.max(u)) - hi, lo - float(np.min(u)), 0.0)
-            if over > 0:
-                where = "" if self.modal.psi_tank.ndim == 1 else f" of tank {j + 1}"
-                warnings.warn(
-                    f"tank {name}{where} left the ROM's training envelope [{lo:.4g}, "
-                    f"{hi:.4g}] {unit} by {over:.4g} {unit}: the sloshing force is extrapolated",
-                    UserWarning,
-                    stacklevel=3,
-                )
+            where = "" if self.modal.psi_tank.ndim == 1 else f" of tank {j + 1}"
+            check_envelope(model, model_input(model, vj, aj),
+                           what=f"tank {input_of(model)}{where}", stacklevel=3)
 
     def _coverage(self, v: np.ndarray, acc: np.ndarray) -> tuple[Any, Any, Any]:
-        covs = [envelope_coverage(getattr(m, "envelope_", None), model_input(m, vj, aj), aj)
+        covs = [envelope_coverage(envelope_of(m), model_input(m, vj, aj), aj)
                 for m, vj, aj in zip(self.models, self._per_tank_columns(v),
                                      self._per_tank_columns(acc), strict=True)]
         if self.modal.psi_tank.ndim == 1:
@@ -622,14 +601,14 @@ def _per_tank(value: Any, n_tanks: int, what: str) -> tuple:
     """One value per tank: a sequence of ``n_tanks`` or one value for every tank."""
     if isinstance(value, (list, tuple)):
         if len(value) != n_tanks:
-            raise ValueError(f"{len(value)} {what}(s) for a structure with {n_tanks} tank(s)")
+            raise BeamError(f"{len(value)} {what}(s) for a structure with {n_tanks} tank(s)")
         return tuple(value)
     return (value,) * n_tanks
 
 
 def _common_step(models: Sequence[SloshingModel]) -> float:
     """The step every sloshing (not frozen) model runs at, s; frozen tanks follow it."""
-    active = [m for m in models if not _is_passive(m)] or list(models)
+    active = [m for m in models if not has_no_force(m)] or list(models)
     steps = [float(m.dt) for m in active]
     if any(not math.isclose(x, steps[0], rel_tol=1e-9) for x in steps):
         raise StepMismatchError(
@@ -721,7 +700,7 @@ def random_response(
     fs_model = 1.0 / sim.dt
     factor = fs_model / signal_fs
     if abs(factor - round(factor)) > 1e-6 or round(factor) < 1:
-        raise ValueError(f"model rate {fs_model} Hz must be an integer multiple of {signal_fs} Hz")
+        raise BeamError(f"model rate {fs_model} Hz must be an integer multiple of {signal_fs} Hz")
     levels = np.asarray(rms_levels, dtype=float) * G
     seeds = np.atleast_1d(seed)
     a = np.stack([

@@ -10,10 +10,10 @@ Two questions about the sloshing model inside the coupled loop:
   14.5 g frozen, 3.1/5.9/12.4 g rig). The frozen peaks therefore bound what a training record
   must cover.
 * *Coverage* (:func:`envelope_coverage`): which fraction of a run lies outside the training
-  envelope of the model (``envelope_`` of :class:`sloshrom.models.Enveloped`): its input (the
-  velocity, or the acceleration for a network on it) outside ``[input_min, input_max]`` or,
-  when the envelope records it, ``|acceleration|`` above the training record's peak
-  acceleration ``acceleration_max``.
+  envelope of the model (:func:`sloshrom.models.envelope_of`): its input (the velocity, or
+  the acceleration for a network on it) outside ``[input_min, input_max]`` or, when the envelope
+  records it, ``|acceleration|`` above the training record's peak acceleration
+  ``acceleration_max``.
 
 Pure functions on arrays and result dicts (no files).
 """
@@ -26,8 +26,9 @@ from typing import Any
 
 import numpy as np
 
+from sloshrom.beam.errors import BeamError
 from sloshrom.config import G
-from sloshrom.models import FrozenLiquid, SloshingModel
+from sloshrom.models import Envelope, FrozenLiquid, SloshingModel
 
 __all__ = [
     "Coverage",
@@ -122,9 +123,9 @@ def run_motion(run: str, acceleration: np.ndarray, velocity: np.ndarray,
     a = np.asarray(acceleration, dtype=float)
     v = np.asarray(velocity, dtype=float)
     if a.ndim != 1 or v.shape != a.shape or a.size < 2:
-        raise ValueError("acceleration and velocity must be 1-D arrays of the same length >= 2")
+        raise BeamError("acceleration and velocity must be 1-D arrays of the same length >= 2")
     if not (np.isfinite(fs) and fs > 0):
-        raise ValueError(f"fs must be a finite positive rate in Hz, got {fs!r}")
+        raise BeamError(f"fs must be a finite positive rate in Hz, got {fs!r}")
     spec = np.abs(np.fft.rfft(v - np.mean(v)))
     f = np.fft.rfftfreq(v.size, 1.0 / fs)
     spec[f < _MIN_DOMINANT_HZ] = 0.0
@@ -166,7 +167,7 @@ def tank_motion(results: Mapping[str, Mapping[str, Any]]) -> TankMotion:
         for i, level in enumerate(levels):
             runs.append(run_motion(f"{test} {level:g} g", acc[i], vel[i], float(res["fs"])))
     if not runs:
-        raise ValueError("no runs given")
+        raise BeamError("no runs given")
     fastest = max(runs, key=lambda r: r.peak_velocity)
     return TankMotion(
         peak_acceleration=max(r.peak_acceleration for r in runs),
@@ -228,14 +229,15 @@ class Coverage:
     acceleration_ratio: np.ndarray
 
 
-def envelope_coverage(envelope: Mapping[str, Any] | None, velocity: Any,
+def envelope_coverage(envelope: Envelope | Mapping[str, Any] | None, velocity: Any,
                       acceleration: Any) -> Coverage:
     """Fraction of a run outside a training envelope and its peak-acceleration ratio.
 
     Parameters
     ----------
-    envelope : mapping or None
-        A model's ``envelope_``: ``input_min``, ``input_max`` (the input's units) and optionally
+    envelope : Envelope, mapping or None
+        A model's envelope (:func:`sloshrom.models.envelope_of`) or its ``envelope_``:
+        ``input_min``, ``input_max`` (the input's units) and optionally
         ``acceleration_max`` (m/s^2, the training record's peak tank acceleration). An old
         envelope without ``acceleration_max`` is judged on the input only; ``None`` (or no
         ``input_min``): everything NaN.
@@ -252,17 +254,16 @@ def envelope_coverage(envelope: Mapping[str, Any] | None, velocity: Any,
     v = np.asarray(velocity, dtype=float)
     a = np.asarray(acceleration, dtype=float)
     if v.shape != a.shape or v.ndim == 0:
-        raise ValueError(f"velocity and acceleration must have the same shape with a time axis, "
-                         f"got {v.shape} and {a.shape}")
+        raise BeamError(f"velocity and acceleration must have the same shape with a time axis, "
+                        f"got {v.shape} and {a.shape}")
     peak = np.max(np.abs(a), axis=-1)
     nan = np.full(peak.shape, np.nan)
-    if not isinstance(envelope, Mapping) or "input_min" not in envelope:
+    env = envelope if isinstance(envelope, Envelope) else Envelope.from_mapping(envelope)
+    if env is None:
         return Coverage(nan, peak, float("nan"), nan.copy())
-    lo, hi = float(envelope["input_min"]), float(envelope["input_max"])
-    outside = (v < lo) | (v > hi)
-    acc_max = envelope.get("acceleration_max")
+    outside = (v < env.input_min) | (v > env.input_max)
+    acc_max = env.acceleration_max
     if acc_max is None:
         return Coverage(np.mean(outside, axis=-1), peak, float("nan"), nan)
-    acc_max = float(acc_max)
     outside |= np.abs(a) > acc_max
     return Coverage(np.mean(outside, axis=-1), peak, acc_max, peak / acc_max)

@@ -37,6 +37,7 @@ import numpy as np
 import xarray as xr
 
 from sloshrom.beam.analysis import frf_h1
+from sloshrom.beam.errors import BeamError
 from sloshrom.beam.structure import ModalDataError, ModalModel
 from sloshrom.fileio import OutputBatch
 from sloshrom.io.uff import (
@@ -136,7 +137,7 @@ def write_result_uff(
 
     Raises
     ------
-    ValueError
+    BeamError
         ``test`` is neither ``"free"`` nor ``"random"``; a required variable is missing;
         dimensions that do not fit the test (a ``level`` dimension in a free run, none in a
         random one, unknown dimensions); a missing or wrong unit; node IDs that are not positive
@@ -153,16 +154,16 @@ def write_result_uff(
     """
     test = ds.attrs.get("test")
     if test not in ("free", "random"):
-        raise ValueError(
+        raise BeamError(
             f"dataset attribute test={test!r}: expected 'free' or 'random' (a beam result of "
             "sloshrom.beam.results.to_dataset); cannot tell whether it has an input for FRFs"
         )
     for name in ("base_acceleration", "station_acceleration"):
         if name not in ds:
-            raise ValueError(f"the dataset has no {name!r} variable (a beam result needs it)")
+            raise BeamError(f"the dataset has no {name!r} variable (a beam result needs it)")
     nperseg = int(nperseg)
     if nperseg < 8:
-        raise ValueError(f"nperseg={nperseg}: the Welch segments need at least 8 samples")
+        raise BeamError(f"nperseg={nperseg}: the Welch segments need at least 8 samples")
     random = test == "random"
     fs, t0 = _time_axis(ds)
     levels = _levels(ds, random)
@@ -201,20 +202,20 @@ def write_result_uff(
 def _time_axis(ds: xr.Dataset) -> tuple[float, float]:
     """Sample rate (Hz) and first time (s) of a result, the time axis checked against ``fs``."""
     if "time" not in ds.coords:
-        raise ValueError("the dataset has no 'time' coordinate")
+        raise BeamError("the dataset has no 'time' coordinate")
     t = np.asarray(ds["time"].values, dtype=float)
     try:
         fs = float(ds.attrs["fs"])
     except (KeyError, TypeError, ValueError):
-        raise ValueError(f"dataset attribute fs={ds.attrs.get('fs')!r}: expected the sample "
-                         "rate in Hz") from None
+        raise BeamError(f"dataset attribute fs={ds.attrs.get('fs')!r}: expected the sample "
+                        "rate in Hz") from None
     if not (np.isfinite(fs) and fs > 0) or t.size < 2 or not np.all(np.isfinite(t)):
-        raise ValueError(f"fs = {fs} Hz and a time axis of {t.size} finite samples: need a "
-                         "positive rate and at least 2 samples")
+        raise BeamError(f"fs = {fs} Hz and a time axis of {t.size} finite samples: need a "
+                        "positive rate and at least 2 samples")
     # UFF stores start and step only: the samples must sit on that grid
     expected = t[0] + np.arange(t.size) / fs
     if np.max(np.abs(t - expected)) > 1e-6 / fs + 1e-9 * np.max(np.abs(t)):
-        raise ValueError(f"the time axis is not uniform at fs = {fs:g} Hz (attribute fs)")
+        raise BeamError(f"the time axis is not uniform at fs = {fs:g} Hz (attribute fs)")
     return fs, float(t[0])
 
 
@@ -223,12 +224,12 @@ def _levels(ds: xr.Dataset, random: bool) -> list[float | None]:
     has = "level" in ds["base_acceleration"].dims if "base_acceleration" in ds else False
     if not random:
         if "level" in ds.dims:
-            raise ValueError("test='free' but the dataset has a 'level' dimension (a random "
-                             "run?)")
+            raise BeamError("test='free' but the dataset has a 'level' dimension (a random "
+                            "run?)")
         return [None]
     if not has or "level" not in ds.coords:
-        raise ValueError("test='random' but base_acceleration has no 'level' dimension with a "
-                         "coordinate (RMS level, g)")
+        raise BeamError("test='random' but base_acceleration has no 'level' dimension with a "
+                        "coordinate (RMS level, g)")
     return [float(v) for v in np.asarray(ds["level"].values, dtype=float)]
 
 
@@ -240,14 +241,14 @@ def _node_ids(ds: xr.Dataset, coord: str, dim: str, default: int) -> list[int]:
         return [default + k for k in range(n)]
     da = ds[coord]
     if da.dims != (dim,):
-        raise ValueError(f"coordinate {coord!r} has dimensions {da.dims}, expected ({dim!r},)")
+        raise BeamError(f"coordinate {coord!r} has dimensions {da.dims}, expected ({dim!r},)")
     raw = np.asarray(da.values)
     ok = raw.dtype.kind in "iu" or (raw.dtype.kind == "f" and np.all(np.isfinite(raw))
                                     and np.all(raw == np.round(raw)))
     ids = raw.astype(np.int64) if ok else raw
     if not ok or np.any(ids < 1) or np.any(ids > _MAX_NODE):
-        raise ValueError(f"coordinate {coord!r} = {raw.tolist()}: UFF node IDs must be integers "
-                         f"in 1..{_MAX_NODE}")
+        raise BeamError(f"coordinate {coord!r} = {raw.tolist()}: UFF node IDs must be integers "
+                        f"in 1..{_MAX_NODE}")
     return [int(v) for v in ids]
 
 
@@ -256,10 +257,10 @@ def _si(ds: xr.Dataset, name: str, unit: str) -> tuple[xr.DataArray, str]:
     da = ds[name]
     given = da.attrs.get("units")
     if not isinstance(given, str) or not given.strip():
-        raise ValueError(f"variable {name!r} has no units attribute (expected {unit!r})")
+        raise BeamError(f"variable {name!r} has no units attribute (expected {unit!r})")
     si, factor = canonical_unit(given)
     if si != unit:
-        raise ValueError(f"variable {name!r} is in {given!r}, expected a unit of {unit!r}")
+        raise BeamError(f"variable {name!r} is in {given!r}, expected a unit of {unit!r}")
     return da * factor if factor != 1.0 else da, unit
 
 
@@ -275,11 +276,11 @@ def _channels(ds: xr.Dataset, random: bool) -> Iterator[_Channel]:
             extra = "tank"
         want = (*lead, "time", *((extra,) if extra else ()))
         if set(da.dims) != set(want):
-            raise ValueError(f"variable {name!r} has dimensions {da.dims}, expected {want} for "
-                             f"a {'random' if random else 'free'} run")
+            raise BeamError(f"variable {name!r} has dimensions {da.dims}, expected {want} for "
+                            f"a {'random' if random else 'free'} run")
         values = np.asarray(da.transpose(*want).values, dtype=float)
         if not np.all(np.isfinite(values)):
-            raise ValueError(f"variable {name!r} holds NaN or inf values: UFF cannot carry them")
+            raise BeamError(f"variable {name!r} holds NaN or inf values: UFF cannot carry them")
         if extra is None:
             # one tank: its grid ID when the run knows it (a structure file), else 1001
             entity, node = ("beam", BASE_NODE) if name == "base_acceleration" else \
@@ -317,10 +318,10 @@ def _check_nodes(channels: list[_Channel]) -> None:
     for ch in channels:
         key = (ch.node, ch.spec)
         if key in seen:
-            raise ValueError(f"channels {seen[key]!r} and {ch.label!r} are both at node "
-                             f"{ch.node} +Z with data type {ch.spec}: give the stations and "
-                             "tanks distinct IDs (and not the base node "
-                             f"{BASE_NODE})")
+            raise BeamError(f"channels {seen[key]!r} and {ch.label!r} are both at node "
+                            f"{ch.node} +Z with data type {ch.spec}: give the stations and "
+                            "tanks distinct IDs (and not the base node "
+                            f"{BASE_NODE})")
         seen[key] = ch.label
 
 
@@ -374,7 +375,7 @@ def _frf_sets(channels: list[_Channel], i: int, fs: float, nperseg: int, lvl: st
         h, coh = (np.stack(a) for a in zip(*(frf_h1(base, c.values[i], fs, nperseg)[1:]
                                              for c in stations), strict=True))
     if not (np.all(np.isfinite(h)) and np.all(np.isfinite(coh))):
-        raise ValueError(
+        raise BeamError(
             f"level{lvl or ' (free)'}: the base acceleration has no power at some frequency "
             "(zero or constant input?); the H1 FRF is not defined"
         )

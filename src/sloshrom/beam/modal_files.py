@@ -761,7 +761,7 @@ def _punch_data_line(line: str) -> tuple[int, str, list[float]]:
             fields = [line[18:36], line[36:54], line[54:72]]
             vals = [_float(f) for f in fields if f.strip()]
             if typ == "G" and len(vals) != 3:
-                raise ValueError
+                raise ModalDataError  # not by columns: try by whitespace
             return gid, typ, vals
     except ValueError:
         pass
@@ -769,9 +769,9 @@ def _punch_data_line(line: str) -> tuple[int, str, list[float]]:
     if len(tok) >= 3 and tok[1] in ("G", "S", "E", "H"):
         vals = [_float(t) for t in tok[2:5]]  # ValueError: caller names the line
         if tok[1] == "G" and len(vals) != 3:
-            raise ValueError("a grid needs T1, T2, T3")
+            raise ModalDataError("a grid needs T1, T2, T3")
         return int(tok[0]), tok[1], vals
-    raise ValueError("not 'ID TYPE T1 T2 T3'")
+    raise ModalDataError("not 'ID TYPE T1 T2 T3'")
 
 
 def _read_punch(p: Path, mass_factor: float | None) -> dict[str, Any]:

@@ -60,6 +60,7 @@ from sloshrom.beam.analysis import (
     lscf_cluster_damping,
     modal_filter,
 )
+from sloshrom.beam.errors import BeamError
 from sloshrom.beam.modes import ModeSet
 from sloshrom.beam.structure import (
     CantileverBeam,
@@ -520,9 +521,9 @@ def mode_damping_random(
     q = np.asarray(modal_acceleration, dtype=float)
     freqs = np.atleast_1d(np.asarray(frequencies, dtype=float))
     if q.ndim != 2 or q.shape[1] != freqs.size:
-        raise ValueError(f"modal_acceleration must be (n, {freqs.size}), got {q.shape}")
+        raise BeamError(f"modal_acceleration must be (n, {freqs.size}), got {q.shape}")
     if not 0 < rel_band < 1:
-        raise ValueError(f"rel_band must be in (0, 1), got {rel_band!r}")
+        raise BeamError(f"rel_band must be in (0, 1), got {rel_band!r}")
     rows = []
     for k, fk in enumerate(freqs):
         band = (fk * (1 - rel_band), fk * (1 + rel_band))
@@ -629,12 +630,12 @@ def band_power(
     v = np.asarray(velocity, dtype=float)
     f = np.asarray(force, dtype=float)
     if v.shape != f.shape or v.shape[-1] < 2:
-        raise ValueError(f"velocity and force must have the same shape (..., n >= 2), got "
-                         f"{v.shape} and {f.shape}")
+        raise BeamError(f"velocity and force must have the same shape (..., n >= 2), got "
+                        f"{v.shape} and {f.shape}")
     if not (np.isfinite(fs) and fs > 0):
-        raise ValueError(f"fs must be a finite positive rate in Hz, got {fs!r}")
+        raise BeamError(f"fs must be a finite positive rate in Hz, got {fs!r}")
     if not 0 < rel_band < 1:
-        raise ValueError(f"rel_band must be in (0, 1), got {rel_band!r}")
+        raise BeamError(f"rel_band must be in (0, 1), got {rel_band!r}")
     n = v.shape[-1]
     # one-sided: every bin but DC (and Nyquist for even n) stands for two
     weight = np.full(n // 2 + 1, 2.0)

@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from sloshrom.beam.errors import BeamError
 from sloshrom.config import ConfigError, Tank, load_toml_table
 
 #: default damping ratios of modes 1, 2, 3 (estimates; the paper's Table 1 values are not given)
@@ -59,8 +60,12 @@ def default_stations(length: float) -> tuple[float, ...]:
     return tuple(length * k / N_STATIONS for k in range(1, N_STATIONS + 1))
 
 
-class ModalDataError(ConfigError):
-    """User-given modal data are inconsistent or unphysical."""
+class ModalDataError(ConfigError, BeamError):
+    """User-given modal data are inconsistent or unphysical.
+
+    A :class:`~sloshrom.config.ConfigError` like the rest of the structure's configuration, and a
+    :class:`~sloshrom.beam.errors.BeamError` like every user error of the beam.
+    """
 
 
 def tank_rotary_inertia(tank: Tank, include_liquid: bool = False) -> float:
@@ -162,7 +167,7 @@ class CantileverBeam:
     def beta_l(self, n_modes: int = 3) -> np.ndarray:
         """The first ``n_modes`` roots beta_n L of the frequency equation (dimensionless)."""
         if n_modes < 1:
-            raise ValueError(f"n_modes must be >= 1, got {n_modes}")
+            raise BeamError(f"n_modes must be >= 1, got {n_modes}")
         from scipy import optimize  # heavy (0.5 s): loaded when a beam is solved, not at import
 
         roots: list[float] = []
@@ -213,7 +218,7 @@ class CantileverBeam:
         """
         x = np.atleast_1d(np.asarray(x, dtype=float))
         if np.any(x < -1e-12) or np.any(x > self.length * (1 + 1e-12)):
-            raise ValueError(f"positions must lie on the beam [0, {self.length}] m, got {x}")
+            raise BeamError(f"positions must lie on the beam [0, {self.length}] m, got {x}")
         grid = np.linspace(0.0, self.length, 2001)
         out = np.empty((x.size, n_modes))
         for n, bl in enumerate(self.beta_l(n_modes)):

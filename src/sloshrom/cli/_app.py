@@ -3,7 +3,10 @@ helpers that keep every user error to one line.
 
 A user error (bad option, bad file, bad configuration) ends in ONE red ``error: ...`` line on
 stderr naming the option, file or key, with exit code 2, no traceback, and before any work or any
-output (:func:`fail`, :func:`check_out`, :func:`check_number`). Warnings are routed too
+output (:func:`fail`, :func:`check_out`, :func:`check_number`). The package's errors all derive
+from :class:`~sloshrom.errors.SloshromError`: commands catch that one base where they can add the
+option at fault, and the root group turns one that escapes a command into the same line; anything
+else (a plain ``ValueError`` from inside) is a bug and keeps its traceback. Warnings are routed too
 (:func:`route_warnings`): one yellow ``warning: ...`` line each, third-party deprecation noise
 silenced.
 
@@ -29,14 +32,14 @@ import typer
 from typer.core import TyperGroup
 
 from sloshrom import __version__
-from sloshrom.config import ConfigError
+from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputPathError, check_output, not_a_regular_file
-from sloshrom.io import RecordError, same_unit
-from sloshrom.models import input_variable
+from sloshrom.io import same_unit
+from sloshrom.models import INPUT_UNITS, input_of
 
 __all__ = [
     "app", "check_input", "check_number", "check_out", "check_sloshing_rom", "fail",
-    "route_warnings", "user_errors", "warn",
+    "route_warnings", "warn",
 ]
 
 
@@ -77,7 +80,8 @@ class _OneLineErrors(TyperGroup):
     """Root group whose usage errors (missing option, not a number, ...) are one line too.
 
     typer prints them in a framed panel over several lines; users (and scripts grepping
-    ``error:``) get the same one-line form as the commands' own errors, exit code 2. The help of
+    ``error:``) get the same one-line form as the commands' own errors, exit code 2. So does a
+    :class:`~sloshrom.errors.SloshromError` that a command did not catch itself. The help of
     every command reads as paragraphs (:func:`help_paragraphs`).
     """
 
@@ -101,6 +105,9 @@ class _OneLineErrors(TyperGroup):
                 msg += f" (see '{ctx.command_path} --help')"
             typer.secho(f"error: {msg}", fg=typer.colors.RED, err=True)
             sys.exit(e.exit_code)
+        except SloshromError as e:  # bad user input met deep inside: one line, not a traceback
+            _error_line(str(e))
+            sys.exit(2)
         except typer.Abort:  # (the vendored click of recent typers has no Abort of its own)
             typer.secho("error: aborted", fg=typer.colors.RED, err=True)
             sys.exit(1)
@@ -132,36 +139,19 @@ def version() -> None:
     typer.echo(__version__)
 
 
+def _error_line(msg: str) -> None:
+    typer.secho(f"error: {' '.join(str(msg).split())}", fg=typer.colors.RED, err=True)
+
+
 def fail(msg: str) -> NoReturn:
     """Report a user error in one red line on stderr and exit with code 2 (no traceback)."""
-    typer.secho(f"error: {' '.join(str(msg).split())}", fg=typer.colors.RED, err=True)
+    _error_line(msg)
     raise typer.Exit(code=2)
 
 
 def warn(msg: str) -> None:
     """One yellow ``warning: ...`` line on stderr (the command goes on)."""
     typer.secho(f"warning: {' '.join(str(msg).split())}", fg=typer.colors.YELLOW, err=True)
-
-
-def user_errors() -> tuple[type[BaseException], ...]:
-    """The package's own error types for bad user input.
-
-    Commands catch these, never a bare ``ValueError``: a plain ``ValueError`` from deep inside is
-    a programming error and must keep its traceback. ``ROMError`` (bad model files included) and
-    ``UnstableModelError`` are included only once ``sloshrom.rom`` is imported (importing it
-    loads JAX; they cannot be raised before), ``AnalysisError`` (a response the damping analysis
-    cannot handle, e.g. modes the user's stations cannot separate) once
-    ``sloshrom.beam.analysis`` is.
-    """
-    types: list[type[BaseException]] = [ConfigError, RecordError, OutputPathError]
-    rom = sys.modules.get("sloshrom.rom.errors")
-    if rom is not None:
-        # an unstable NOE on the user's input is a property of their model, not a bug
-        types += [rom.ROMError, rom.UnstableModelError]
-    analysis = sys.modules.get("sloshrom.beam.analysis")
-    if analysis is not None:
-        types.append(analysis.AnalysisError)
-    return tuple(types)
 
 
 def check_out(
@@ -285,8 +275,9 @@ def check_sloshing_rom(rom: Any, path: Path, what: str, user: str) -> None:
 
     ``user`` says who feeds it, as the subject of "feeds it the tank velocity ...".
     """
-    var = input_variable(rom)
-    unit = "m/s^2" if var == "acceleration" else "m/s"
+    # the records it was identified from: their input is the tank velocity or acceleration
+    var = str(rom.names[0]) if str(rom.names[0]) in INPUT_UNITS else input_of(rom)
+    unit = INPUT_UNITS[var]
     if not (same_unit(rom.units[0], unit) and same_unit(rom.units[1], "N")):
         fail(f"{what} {path}: the ROM maps '{rom.units[0]}' to '{rom.units[1]}'; {user} feeds "
              f"it the tank {var} in {unit} and reads the dynamic force in N")

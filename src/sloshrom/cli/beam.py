@@ -27,9 +27,9 @@ from sloshrom.cli._app import (
     check_out,
     check_sloshing_rom,
     fail,
-    user_errors,
 )
 from sloshrom.config import ConfigError, Tank
+from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputBatch, not_a_regular_file
 from sloshrom.limits import MAX_SEED
 from sloshrom.models import FrozenLiquid, SloshingModel
@@ -70,7 +70,7 @@ def _model(name: str, tank: Tank, seed: int,
 
         try:  # a tank the rig cannot model (an extreme fill) is refused here, before any run
             return VirtualRig(tank=tank, seed=seed)
-        except user_errors() as exc:
+        except SloshromError as exc:
             fail(f"--sloshing rig: {exc}")
     p = Path(name)
     why = not_a_regular_file(p) if name.strip() else None
@@ -84,11 +84,11 @@ def _model(name: str, tank: Tank, seed: int,
     if p not in roms:
         try:
             roms[p] = load_model(p)
-        except user_errors() as exc:
+        except SloshromError as exc:
             fail(str(exc))
     try:  # a fill family gives the model at this tank's fill; a single ROM checks it
         rom = at_fill(roms[p], tank.fill, f"{p}")
-    except user_errors() as exc:
+    except SloshromError as exc:
         fail(f"--sloshing {exc} (the tank's fill: --fill, --tank-toml or --tank GRID:fill=F)")
     check_sloshing_rom(rom, p, "--sloshing", "the beam")
     ratio = rom.fs_ / BEAM_FS
@@ -215,7 +215,7 @@ def _setup(tank_toml: Path | None, modal_toml: Path | None, seed: int,
             tanks = [tank]
         f1 = float(coupled_frozen_modes(modal, [t.liquid_mass for t in tanks])[0][0])
         check_analysis_band(f1)
-    except user_errors() as exc:
+    except SloshromError as exc:
         fail(str(exc))
     return _Setup(tanks, modal, beam, f1, own or [None] * len(tanks))
 
@@ -317,7 +317,7 @@ def _analysed(what: str, fn: Callable[[], Any]) -> Any:
     """``fn()``; a response the analysis cannot handle (``AnalysisError``) is a user error."""
     try:
         return fn()
-    except user_errors() as exc:
+    except SloshromError as exc:
         fail(f"{what}: {exc}")
 
 
@@ -379,7 +379,7 @@ def _check_uff_nodes(enabled: bool, modal: ModalModel) -> None:
 
     try:
         check_result_nodes(modal)
-    except user_errors() as exc:
+    except SloshromError as exc:
         fail(f"--uff: {exc}")
 
 

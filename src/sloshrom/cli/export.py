@@ -8,8 +8,9 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from sloshrom.cli._app import app, check_input, check_number, check_out, fail, user_errors
+from sloshrom.cli._app import app, check_input, check_number, check_out, fail
 from sloshrom.config import Tank
+from sloshrom.errors import SloshromError
 from sloshrom.fileio import not_a_regular_file
 from sloshrom.io import preprocess as _preprocess
 from sloshrom.io import write_record
@@ -82,7 +83,7 @@ def onnx_cmd(
                          f"{out} not written")
 
         export_onnx(rom, out, form=form, dtype=dtype, verify=verify if check else None)
-    except user_errors() as exc:
+    except SloshromError as exc:
         fail(str(exc))
     msg = (f"wrote {out}: {type(rom).__name__} {form} form, {dtype}, {rom.fs_:g} Hz, "
            f"{rom.max_delay} input delays")
@@ -98,7 +99,7 @@ def _check_input(rom: NFIR | NOE) -> np.ndarray:
     fs = float(rom.fs_)
     n = int(2 * fs)
     t = np.arange(n) / fs
-    env = getattr(rom, "envelope_", {}) or {}
+    env = rom.envelope_ or {}
     lo, hi = env.get("frequency_band", [1.0, 0.1 * fs]) or [1.0, 0.1 * fs]
     lo, hi = max(float(lo), 0.5), max(min(float(hi), 0.4 * fs), 1.0)
     rng = np.random.default_rng(0)
@@ -167,7 +168,7 @@ def import_uff_cmd(
                          why=f"below the Nyquist frequency of the {rec.fs:g} Hz record")
             rec = _preprocess(rec, tank, f_highpass=f_highpass)
         write_record(rec, out)
-    except user_errors() as exc:  # RecordError, ConfigError
+    except SloshromError as exc:  # RecordError, ConfigError
         fail(str(exc))
     typer.echo(f"wrote {out}: {', '.join(rec.names)}; {len(rec)} samples at {rec.fs:g} Hz "
                f"({rec.duration:.1f} s)")

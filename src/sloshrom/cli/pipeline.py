@@ -20,9 +20,9 @@ from sloshrom.cli._app import (
     check_out,
     check_sloshing_rom,
     fail,
-    user_errors,
 )
 from sloshrom.config import Tank
+from sloshrom.errors import SloshromError
 from sloshrom.limits import MAX_SEED
 from sloshrom.pipeline import settings
 from sloshrom.signals import DEFAULT_A_BAR_MIN
@@ -45,7 +45,7 @@ def _load_config(config: Path | None, quick: bool) -> settings.ReproduceConfig:
 
             check_rig_tanks(cfg)
         return cfg
-    except user_errors() as exc:
+    except SloshromError as exc:
         fail(str(exc))
 
 
@@ -97,7 +97,7 @@ def reproduce(
     if changes:
         try:  # validated again: the sweep grid must fit the data too
             cfg = cfg.replace(**changes)
-        except user_errors() as exc:
+        except SloshromError as exc:
             fail(str(exc))
     # the configuration is protected from every file the run writes, not only from --out
     check_out(out, directory=True, inputs=(config,), contents=RESULT_ENTRIES)
@@ -114,7 +114,7 @@ def reproduce(
 
         try:
             summary = run(out, cfg, progress=report)
-        except (*user_errors(), OSError) as exc:  # user input or disk, not a bug: one line
+        except (SloshromError, OSError) as exc:  # user input or disk, not a bug: one line
             prog.stop()
             fail(str(exc))
     for name, st in summary["stages"].items():
@@ -185,7 +185,7 @@ def map_cmd(
 
         try:  # a tank the rig cannot model (an extreme fill) is refused before the map
             sm = VirtualRig(tank=tank, seed=seed)
-        except user_errors() as exc:
+        except SloshromError as exc:
             fail(f"--rig: {exc}")
         title = "virtual rig"
     else:
@@ -225,7 +225,7 @@ def _load_rom(path: Path, min_fs: float, fill: float | None) -> tuple[Any, float
         if fill is None and trained is not None and trained[0] == trained[1]:
             fill = trained[0]
         m = at_fill(m, fill, str(path))
-    except user_errors() as exc:  # ModelFileError, a fill outside the model's
+    except SloshromError as exc:  # ModelFileError, a fill outside the model's
         fail(f"--model {exc}" if str(exc).startswith(str(path)) else str(exc))
     check_sloshing_rom(m, path, "--model", "the map")
     if m.fs_ < min_fs:

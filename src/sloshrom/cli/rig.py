@@ -19,8 +19,9 @@ import numpy as np
 import typer
 
 from sloshrom import __version__
-from sloshrom.cli._app import app, check_input, check_number, check_out, fail, user_errors, warn
+from sloshrom.cli._app import app, check_input, check_number, check_out, fail, warn
 from sloshrom.config import G, Tank
+from sloshrom.errors import SloshromError
 from sloshrom.io import Record, record_from_measurement, write_record
 from sloshrom.limits import MAX_SEED
 from sloshrom.pipeline.settings import MAX_FINE_SECONDS, MIN_VFA_DURATION
@@ -59,7 +60,7 @@ def _tank(tank_toml: Path | None, fill: float | None) -> Tank:
     try:
         tank = Tank.from_toml(tank_toml) if tank_toml is not None else Tank()
         return tank.replace(fill=fill) if fill is not None else tank
-    except user_errors() as exc:
+    except SloshromError as exc:
         msg = str(exc)
         fail(msg if tank_toml is None or str(tank_toml) in msg else f"--tank {tank_toml}: {msg}")
 
@@ -79,7 +80,7 @@ def _make_rig(tank: Tank, seed: int) -> VirtualRig:
 
     try:  # a tank the rig cannot model (an extreme fill) is refused before the run
         return VirtualRig(tank=tank, seed=seed)
-    except user_errors() as exc:
+    except SloshromError as exc:
         fail(str(exc))
 
 

@@ -16,8 +16,9 @@ from typing import Annotated, Any
 import numpy as np
 import typer
 
-from sloshrom.cli._app import app, check_input, check_number, check_out, fail, user_errors
+from sloshrom.cli._app import app, check_input, check_number, check_out, fail
 from sloshrom.config import FILL_TOLERANCE
+from sloshrom.errors import SloshromError
 from sloshrom.io import STANDARD_UNITS, read_record, same_unit, write_record
 from sloshrom.limits import (
     ARCH_TRAINERS,
@@ -40,7 +41,7 @@ def _read(path: Path, names: list[str], what: str):
     check_input(path, what)
     try:
         rec = read_record(path)
-    except user_errors() as exc:
+    except SloshromError as exc:
         fail(str(exc))
     missing = [n for n in names if n not in rec]
     if missing:
@@ -293,7 +294,7 @@ def train(
                    f"{choice.name})")
     try:
         model = cls(**kw)  # the hyperparameters are checked above, the file limits here
-    except user_errors() as exc:  # ROMError: a network no model file holds
+    except SloshromError as exc:  # ROMError: a network no model file holds
         fail(str(exc))
     _check_length(rec, data, arch, model.max_delay, int(model.neurons), "training")
     if len(val) <= model.max_delay:
@@ -315,11 +316,11 @@ def train(
         try:
             model.fit(rec[input_name], rec[output_name], fs=rec.fs,
                       validation=(val[input_name], val[output_name]), callback=cb, fill=fill)
-        except user_errors() as exc:  # ROMError (a constant record, ...), UnstableModelError
+        except SloshromError as exc:  # ROMError (a constant record, ...), UnstableModelError
             fail(str(exc))
     try:
         path = model.save(out)
-    except user_errors() as exc:  # ROMError: a value beyond the model-file format's bounds
+    except SloshromError as exc:  # ROMError: a value beyond the model-file format's bounds
         fail(str(exc))
     h = model.history_
     typer.echo(
@@ -351,13 +352,13 @@ def _train_ensemble(template: Any, k: int, rec: Any, val: Any, input_name: str,
             ens.fit(rec[input_name], rec[output_name], fs=rec.fs,
                     validation=(val[input_name], val[output_name]), scheduler=scheduler,
                     n_workers=workers, progress=cb, fill=fill)
-        except user_errors() as exc:  # ROMError (a constant record, ...), UnstableModelError
+        except SloshromError as exc:  # ROMError (a constant record, ...), UnstableModelError
             fail(str(exc))
     try:
         path = ens.save(out)
         uv, yv = val[input_name], val[output_name]
         preds = ens.member_predictions(uv)
-    except user_errors() as exc:
+    except SloshromError as exc:
         fail(str(exc))
     unit = f"{rec.units[output_name]}^2"
     mse = [float(np.mean((p - yv) ** 2)) for p in preds]
@@ -399,19 +400,19 @@ def predict(
     check_input(data, "--data")
     check_out(out, suffixes=RECORD_SUFFIXES, inputs=(data, model))
     from sloshrom.rom.estimators import load_model
-    from sloshrom.rom.family import FillFamily, at_fill
+    from sloshrom.rom.family import at_fill
 
     try:
         m = load_model(model)
-    except user_errors() as exc:
+    except SloshromError as exc:
         fail(str(exc))
-    names = m.members_[0].names if isinstance(m, FillFamily) else m.names
+    names = m.names  # a fill family describes its members' records
     rec = _read(data, [names[0]], "--data")
     if fill is None and isinstance(rec.attrs.get("fill"), float):
         fill = rec.attrs["fill"]
     try:
         m = at_fill(m, fill, str(model))
-    except user_errors() as exc:
+    except SloshromError as exc:
         fail(f"--model {exc}")
     in_name, out_name = m.names
     _same_rate(rec.fs, m.fs_, f"data {data} vs model {model}")
@@ -425,7 +426,7 @@ def predict(
                  "(use .nc)")
     try:
         y = m.predict(rec[in_name])
-    except user_errors() as exc:  # UnstableModelError, ROMError (NaN in the record)
+    except SloshromError as exc:  # UnstableModelError, ROMError (NaN in the record)
         fail(str(exc))
     new = rec.with_variables({f"{out_name}_pred": y}, {f"{out_name}_pred": m.units[1]},
                              prediction_model=str(model))

@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from sloshrom.config import FILL_TOLERANCE, ConfigError, Tank
+from sloshrom.errors import SloshromError
 from sloshrom.io.units import (
     STANDARD_UNITS,
     _time_unit,
@@ -45,7 +46,7 @@ __all__ = [
     "require_unit",
 ]
 
-class RecordError(ValueError):
+class RecordError(SloshromError):
     """A record or a record file is invalid (the message names the file, variable and problem).
 
     The message is always one line: line breaks of embedded text (exception messages, file

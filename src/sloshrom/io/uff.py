@@ -407,7 +407,7 @@ def _field(text: str, width: int, what: str) -> str:
     field of the dataset and make the file unreadable.
     """
     if len(text) > width or not all(" " <= c <= "~" for c in text):
-        raise ValueError(f"UFF {what} {text!r}: at most {width} printable ASCII characters")
+        raise RecordError(f"UFF {what} {text!r}: at most {width} printable ASCII characters")
     return text
 
 
@@ -522,11 +522,11 @@ def write_uff_sets(sets: Sequence[Mapping[str, Any]], path: str | Path,
     import pyuff
 
     if not sets:
-        raise ValueError("no UFF datasets to write")
+        raise RecordError("no UFF datasets to write")
     first = sets[0]
     if int(first.get("type", 0)) == 58 and first.get("binary"):
-        raise ValueError("the first UFF dataset must not be a binary dataset 58 (pyuff "
-                         "truncates it); write dataset 164 first")
+        raise RecordError("the first UFF dataset must not be a binary dataset 58 (pyuff "
+                          "truncates it); write dataset 164 first")
     p = Path(path)
     write = batch.write if batch is not None else atomic_write
     return write(p, lambda tmp: pyuff.UFF(tmp).write_sets(list(sets), mode="overwrite"),

@@ -28,7 +28,7 @@ from sloshrom.pipeline.settings import BeamTable
 from sloshrom.plotting import savefig
 from sloshrom.plotting.beam import free_figures, random_figures, random_window
 from sloshrom.plotting.signals import base_excitation_figure
-from sloshrom.rom.ensemble import Ensemble, spread
+from sloshrom.rom.ensemble import Ensemble, is_ensemble, spread
 from sloshrom.rom.estimators import load_model
 
 __all__ = ["BEAM_KEYS", "beam_structure", "beam_tests", "member_spread", "stage_beam"]
@@ -120,7 +120,7 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     outputs["table2"] = table2
     outputs["envelope"] = envelope_table({"free": free_res, "random": rand_res})
 
-    if isinstance(models.get("rom"), Ensemble):
+    if is_ensemble(models.get("rom")):
         outputs["rom_members"] = member_spread(models["rom"], tests, modal, cfg.rms_g, fs,
                                                f1, ctx)
 

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 from typing import Any
 
+from sloshrom.fileio import OutputPathError
 from sloshrom.fileio import atomic_write_text as atomic_write_text  # re-exported
 
 #: Layout of the records under ``.stages/``; records of another (e.g. the old, hash-less) layout
@@ -171,7 +172,8 @@ class StageCache:
         for f in sorted(set(files)):
             p = self._inside(f)
             if p is None:
-                raise ValueError(f"stage {name}: output {f!r} is not a path inside {self.root}")
+                raise OutputPathError(f"stage {name}: output {f!r} is not a path inside "
+                                      f"{self.root}")
             entries[f] = {"size": p.stat().st_size, "sha256": file_sha256(p)}
         # JSON round trip: the digest of a reused stage is computed from the record, so it must
         # see the outputs exactly as they will be read back

@@ -30,7 +30,7 @@ from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.settings import ReproduceConfig
 from sloshrom.plotting import savefig
 from sloshrom.plotting.maps import Loop, hysteresis_figure, phi_d_map_figure
-from sloshrom.rom.ensemble import Ensemble, spread
+from sloshrom.rom.ensemble import is_ensemble, spread
 from sloshrom.rom.estimators import load_model
 from sloshrom.signals import harmonic
 
@@ -181,7 +181,7 @@ def stage_maps(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
         fid = map_fidelity(rig_map, rom_map)
         outputs["rom_fidelity"] = fid
         outputs["rom_relative_l2_error"] = fid["dissipative_l2"]
-        if isinstance(rom, Ensemble):
+        if is_ensemble(rom):
             # one map per member: the spread a single network's map carries
             fids = []
             for k, member in enumerate(rom.members_):

@@ -14,7 +14,7 @@ from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.settings import RomTable
 from sloshrom.plotting import savefig
 from sloshrom.plotting.rom import plot_sweep, validation_figure
-from sloshrom.rom.ensemble import Ensemble, spread
+from sloshrom.rom.ensemble import Ensemble, is_ensemble, spread
 from sloshrom.rom.estimators import NFIR, NOE
 from sloshrom.rom.sweep import run_sweep
 
@@ -171,7 +171,7 @@ def stage_rom(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     yv_hat = np.asarray(model.predict(uv))
     y_hat = np.asarray(model.predict(u))
     ev, et = error_figures(yv, yv_hat), error_figures(y, y_hat)
-    hists = model.history_ if isinstance(model, Ensemble) else [model.history_]
+    hists = model.history_ if is_ensemble(model) else [model.history_]
     outputs.update(
         model=ctx.rel(path), name=name, train_seconds=train_seconds,
         recipe_text=recipe, n_members=k_members,
@@ -180,7 +180,7 @@ def stage_rom(ctx: Context) -> tuple[dict[str, Any], list[str]]:
         epochs=[len(h.get("train_mse", [])) for h in hists],
         stop_reason=[h.get("stop_reason") for h in hists],
     )
-    if isinstance(model, Ensemble):
+    if is_ensemble(model):
         outputs["seeds"] = [int(s) for s in model.seeds_]
         outputs["val_mse_members"] = spread(
             error_figures(yv, yh)["mse"] for yh in np.asarray(model.member_predictions(uv)))

@@ -14,6 +14,7 @@ from matplotlib.colors import TwoSlopeNorm
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
+from sloshrom.config import ConfigError
 from sloshrom.energy import PASSIVITY_TOLERANCE
 
 __all__ = [
@@ -57,9 +58,9 @@ def plot_phi_d_map(da: xr.DataArray, ax: Axes | None = None, levels: int = 15,
     matplotlib.axes.Axes
     """
     if kind not in MAP_KINDS:
-        raise ValueError(f"kind must be one of {MAP_KINDS}, got {kind!r}")
+        raise ConfigError(f"kind must be one of {MAP_KINDS}, got {kind!r}")
     if negative_below is not None and not negative_below <= 0:
-        raise ValueError(f"negative_below must be <= 0, got {negative_below}")
+        raise ConfigError(f"negative_below must be <= 0, got {negative_below}")
     if ax is None:
         ax = Figure(figsize=(6, 4.5)).subplots()
     ob = np.asarray(da.omega_bar)

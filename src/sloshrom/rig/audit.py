@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from sloshrom.rig.errors import RigError
 from sloshrom.rig.physics import _P_HEAD, _S_HEAD, _simulate_audit
 from sloshrom.rig.virtual import VirtualRig
 
@@ -36,7 +37,7 @@ def energy_audit(rig: VirtualRig, velocity: Any, acceleration: Any) -> dict[str,
     v = np.ascontiguousarray(np.asarray(velocity, dtype=np.float64))
     a = np.ascontiguousarray(np.asarray(acceleration, dtype=np.float64))
     if v.ndim != 1 or v.shape != a.shape:
-        raise ValueError("velocity and acceleration must be 1-D arrays of equal length")
+        raise RigError("velocity and acceleration must be 1-D arrays of equal length")
     st = rig.init_state()
     st0 = st.copy()
     f, acc = _simulate_audit(st, rig._params, v, a, rig.dt)

@@ -14,6 +14,7 @@ from scipy import signal as sps
 
 from sloshrom.config import Tank
 from sloshrom.models import ForceRule
+from sloshrom.rig.errors import RigError
 from sloshrom.rig.params import RigParams, SensorParams
 from sloshrom.rig.physics import (
     _P_HEAD,
@@ -65,7 +66,7 @@ class VirtualRig:
         dt: float = 1e-4,
     ) -> None:
         if not (np.isfinite(dt) and 0 < dt <= 2e-3):
-            raise ValueError(f"dt must be a positive step in s, at most 2e-3, got {dt!r}")
+            raise RigError(f"dt must be a positive step in s, at most 2e-3, got {dt!r}")
         self.tank = tank if tank is not None else Tank()
         self.params = params if params is not None else RigParams.default()
         self.sensors = sensors if sensors is not None else SensorParams()
@@ -94,7 +95,7 @@ class VirtualRig:
         st = np.array(state, dtype=np.float64, copy=True)
         n_state = _state_size(self.params.n_layers, self.params.n_modes)
         if st.shape != (n_state,):
-            raise ValueError(f"state must be a 1-D array of {n_state} values (init_state())")
+            raise RigError(f"state must be a 1-D array of {n_state} values (init_state())")
         f = rig_step(st, self._params, float(velocity), float(acceleration), self.dt)
         return st, f
 
@@ -108,9 +109,9 @@ class VirtualRig:
         a = np.asarray(acceleration, dtype=np.float64)
         shape = np.broadcast_shapes(v.shape, a.shape)
         if len(shape) == 0:
-            raise ValueError("velocity and acceleration must have a time axis")
+            raise RigError("velocity and acceleration must have a time axis")
         if not (np.all(np.isfinite(v)) and np.all(np.isfinite(a))):
-            raise ValueError("velocity and acceleration must be finite")
+            raise RigError("velocity and acceleration must be finite")
         v = np.ascontiguousarray(np.broadcast_to(v, shape).reshape(-1, shape[-1]))
         a = np.ascontiguousarray(np.broadcast_to(a, shape).reshape(-1, shape[-1]))
         st0 = np.tile(self.init_state(), (v.shape[0], 1))
@@ -145,17 +146,17 @@ class VirtualRig:
         """
         acc = np.asarray(acceleration, dtype=np.float64)
         if acc.ndim != 1 or acc.size < 16:
-            raise ValueError("acceleration must be a 1-D array of at least 16 samples")
+            raise RigError("acceleration must be a 1-D array of at least 16 samples")
         if not np.all(np.isfinite(acc)):
-            raise ValueError("acceleration must be finite")
+            raise RigError("acceleration must be finite")
         sp = self.sensors
         fs_fine = 1.0 / self.dt
         if sp.acquisition_rate > fs_fine * (1 + 1e-9):
-            raise ValueError(
+            raise RigError(
                 f"acquisition rate {sp.acquisition_rate} Hz exceeds the rig rate {fs_fine} Hz"
             )
         if (acc.size - 1) * self.dt * sp.output_rate < 40:
-            raise ValueError(
+            raise RigError(
                 f"record too short for the sensor filters: need at least {40 / sp.output_rate} s"
             )
         # velocity by exact trapezoidal integration (motion starts at rest)

@@ -107,7 +107,8 @@ __all__ = [
 
 #: Format tag and version of the TOML model file (table ``[bouncing_ball]``).
 BALL_FORMAT = "sloshrom-bouncing-ball"
-BALL_FORMAT_VERSION = 1
+#: 2: the envelope's input range is the acceleration (version 1: the velocity)
+BALL_FORMAT_VERSION = 2
 
 #: Largest model step (s) of :class:`BouncingBall` with ``n_substeps=None``: the virtual rig's.
 MAX_MODEL_STEP = 1e-4
@@ -503,7 +504,8 @@ class BouncingBall:
     n_substeps_ : int
         Model steps per record sample: the model's step is ``dt = 1 / (fs_ * n_substeps_)``.
     envelope_ : dict
-        ``input_min``, ``input_max`` (training velocity, m/s), ``output_min``, ``output_max``
+        ``input_min``, ``input_max`` (training acceleration, m/s^2: the ball's
+        :attr:`input`), ``output_min``, ``output_max``
         (training force, N), ``frequency_band`` (Hz, central 98 % of the input power),
         ``acceleration_max`` (peak |acceleration| of the training record, m/s^2): the keys of
         the networks' envelopes, so the beam's envelope checks apply.
@@ -525,8 +527,11 @@ class BouncingBall:
     force_rule: ClassVar[Literal["step"]] = "step"
     #: the numba kernel is the fast path; the step is not a JAX function
     jax_traceable: ClassVar[bool] = False
-    #: the record variables and units the ball is identified from (as the networks': the input
-    #: the envelope describes is the velocity; the acceleration driving the ball derives from it)
+    #: the signal the ball reads (its step is driven by the tank acceleration alone), and the
+    #: one its envelope's input range describes
+    input: ClassVar[Literal["acceleration"]] = "acceleration"
+    #: the record variables and units the ball is identified from (as the networks'; the
+    #: acceleration driving the ball is given beside them or derived from the velocity)
     names: ClassVar[tuple[str, str]] = ("velocity", "dynamic_force")
     units: ClassVar[tuple[str, str]] = ("m/s", "N")
 
@@ -830,8 +835,8 @@ class BouncingBall:
         self._set_fitted(best["mass_fraction"], best["restitution"],
                          best["gap_factor"] * ullage, fs_)
         self.envelope_ = {
-            "input_min": float(np.min(u_)),
-            "input_max": float(np.max(u_)),
+            "input_min": float(np.min(a_)),
+            "input_max": float(np.max(a_)),
             "output_min": float(np.min(y_)),
             "output_max": float(np.max(y_)),
             "frequency_band": power_band(u_, fs_),
@@ -1088,6 +1093,11 @@ class BouncingBall:
             raise ModelFileError(f"{p}: [bouncing_ball.envelope] frequency_band must be two "
                                  f"finite numbers, got {band!r}")
         envelope["frequency_band"] = [float(x) for x in band]
+        if version == 1:
+            # its input range was the velocity's: the ball reads the acceleration, whose range
+            # the peak training acceleration bounds
+            peak = envelope["acceleration_max"]
+            envelope["input_min"], envelope["input_max"] = -peak, peak
         if envelope["input_min"] > envelope["input_max"] or \
                 envelope["output_min"] > envelope["output_max"] or \
                 envelope["acceleration_max"] < 0:

@@ -8,7 +8,7 @@ one template estimator (:class:`~sloshrom.rom.NFIR` or :class:`~sloshrom.rom.NOE
 the spread of the members (:meth:`Ensemble.member_predictions`, :func:`spread`) shows how much of
 a result is the network and how much the draw.
 
-The ensemble is itself a sloshing model (:class:`sloshrom.models.JaxModel`): its state is the
+The ensemble is itself a sloshing model (:func:`sloshrom.models.is_jax_model`): its state is the
 tuple of the members' states, its :meth:`~Ensemble.step` the mean of the members' steps, pure
 JAX; it is a JAX pytree whose children are the members, so the coupled beam simulation runs it
 in one ``lax.scan`` like a single network. Note that the coupled response of the ensemble (the
@@ -31,8 +31,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from sloshrom import __version__
-from sloshrom.models import model_input
-from sloshrom.rom.errors import EnvelopeWarning, NotFittedError, ROMError
+from sloshrom.models import EnvelopeWarning, check_envelope, envelope_union, model_input
+from sloshrom.rom.errors import NotFittedError, ROMError
 from sloshrom.rom.family import check_training_fill
 from sloshrom.rom.modelfile import (
     ENSEMBLE_FORMAT_VERSION,
@@ -42,10 +42,10 @@ from sloshrom.rom.modelfile import (
     model_file_path,
     write_model_file,
 )
-from sloshrom.rom.network import MinMaxScaler
+from sloshrom.rom.network import MinMaxScaler, network_of
 from sloshrom.rom.parallel import run_tasks
 
-__all__ = ["Ensemble", "spread"]
+__all__ = ["Ensemble", "is_ensemble", "spread"]
 
 
 def spread(values: Iterable[float]) -> dict[str, Any]:
@@ -69,6 +69,11 @@ def spread(values: Iterable[float]) -> dict[str, Any]:
     mean = float(np.mean(ok)) if n else math.nan
     std = float(np.std(ok, ddof=1)) if n > 1 else (0.0 if n == 1 else math.nan)
     return {"mean": mean, "std": std, "n": n, "values": vals}
+
+
+def is_ensemble(model: Any) -> bool:
+    """True for an :class:`Ensemble`: a model with members whose spread can be reported."""
+    return isinstance(model, Ensemble)
 
 
 def _frozen(v: Any) -> Any:
@@ -149,7 +154,7 @@ class Ensemble:
 
     #: the force at sample k is the force at t_k (energy integrals: trapezoid rule)
     force_rule: ClassVar[Literal["trapezoid"]] = "trapezoid"
-    #: step is a pure JAX function and a fitted ensemble is a pytree (sloshrom.models.JaxModel)
+    #: step is a pure JAX function and a fitted ensemble is a pytree (sloshrom.models.is_jax_model)
     jax_traceable: ClassVar[Literal[True]] = True
 
     def __init__(self, template: Any, n_members: int = 5, seeds: Sequence[int] | None = None
@@ -327,7 +332,7 @@ class Ensemble:
             if type(m) is not type(t):
                 raise ROMError(f"member {k} is a {type(m).__name__}, the template a "
                                f"{type(t).__name__}")
-            if not hasattr(m, "params_"):
+            if network_of(m) is None:
                 raise ROMError(f"member {k} is not fitted")
             if _without_seed(m.get_params()) != ref:
                 diff = sorted(n for n, v in _without_seed(m.get_params()).items()
@@ -344,23 +349,10 @@ class Ensemble:
                                     max(float(s.in_max) for s in sc),
                                     min(float(s.out_min) for s in sc),
                                     max(float(s.out_max) for s in sc))
-        envs = [getattr(m, "envelope_", None) for m in members]
-        if all(e is not None for e in envs):
-            self.envelope_ = {
-                "input_min": min(e["input_min"] for e in envs),
-                "input_max": max(e["input_max"] for e in envs),
-                "output_min": min(e["output_min"] for e in envs),
-                "output_max": max(e["output_max"] for e in envs),
-                "frequency_band": [min(e["frequency_band"][0] for e in envs),
-                                   max(e["frequency_band"][1] for e in envs)],
-            }
-            acc = [e.get("acceleration_max") for e in envs]
-            if all(a is not None for a in acc):
-                self.envelope_["acceleration_max"] = max(acc)
-            if all(e.get("fill_min") is not None for e in envs):
-                self.envelope_["fill_min"] = min(e["fill_min"] for e in envs)
-                self.envelope_["fill_max"] = max(e["fill_max"] for e in envs)
-        self.history_ = [getattr(m, "history_", {}) for m in members]
+        env = envelope_union(members)
+        if env is not None:
+            self.envelope_ = env
+        self.history_ = [m.history_ for m in members]
 
     # -- description --------------------------------------------------------------------------
     def _check_fitted(self) -> None:
@@ -383,9 +375,9 @@ class Ensemble:
         return tuple(self.template.names)  # type: ignore[return-value]
 
     @property
-    def input_variable(self) -> str:
-        """The signal the members read (:func:`sloshrom.models.model_input`)."""
-        return self.template.input_variable
+    def input(self) -> str:
+        """The signal the members read (:func:`sloshrom.models.input_of`)."""
+        return self.template.input
 
     @property
     def max_delay(self) -> int:
@@ -428,26 +420,10 @@ class Ensemble:
         return obj
 
     # -- prediction ---------------------------------------------------------------------------
-    def _check_envelope(self, u: np.ndarray, stacklevel: int) -> None:
-        env = getattr(self, "envelope_", None)
-        if env is None:
-            return
-        lo, hi = env["input_min"], env["input_max"]
-        over = max(float(np.max(u)) - hi, lo - float(np.min(u)), 0.0)
-        if over > 0:
-            unit = self.units[0]
-            warnings.warn(
-                f"input outside the training envelope [{lo:.4g}, {hi:.4g}] {unit} by "
-                f"{over:.4g} {unit} ({100 * over / (hi - lo):.1f} % of the range): the ROM "
-                "extrapolates",
-                EnvelopeWarning,
-                stacklevel=stacklevel,
-            )
-
     def _outputs(self, u: Any, stacklevel: int) -> np.ndarray:
         self._check_fitted()
         u = _signal("u", u)
-        self._check_envelope(u, stacklevel + 1)
+        check_envelope(self, u, unit=str(self.units[0]), stacklevel=stacklevel)
         with warnings.catch_warnings():  # warned once above, for the union of the envelopes
             warnings.simplefilter("ignore", EnvelopeWarning)
             return np.stack([np.asarray(m.predict(u)) for m in self.members_])
@@ -495,7 +471,7 @@ class Ensemble:
 
     def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
         """Sloshing-model contract: dynamic force (N) from the signal the members read
-        (:attr:`input_variable`)."""
+        (:attr:`input`)."""
         return self.predict(model_input(self, velocity, acceleration))
 
     def init_state(self) -> tuple[Any, ...]:
@@ -555,7 +531,7 @@ class Ensemble:
             "units": {"input": hyper["units"][0], "output": hyper["units"][1]},
             "names": {"input": hyper["names"][0], "output": hyper["names"][1]},
             "members": [{"seed": s, "scaler": m.scaler_.to_dict(), "envelope": m.envelope_,
-                         "history": getattr(m, "history_", {})}
+                         "history": m.history_}
                         for s, m in zip(self.seeds_, self.members_, strict=True)],
         }
         arrays = {k: np.stack([np.asarray(m.params_[k], dtype=np.float64)

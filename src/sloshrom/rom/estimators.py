@@ -10,7 +10,7 @@ The estimators follow the scikit-learn conventions: the constructor only stores 
 every constructor argument, and :meth:`~_TDNN.predict` does not change the model. Fitted
 attributes end in ``_`` (``params_``, ``scaler_``, ``fs_``, ``envelope_``, ``history_``).
 
-A fitted model is also a JAX pytree (:class:`sloshrom.models.JaxModel`): its parameters
+A fitted model is also a JAX pytree (:func:`sloshrom.models.is_jax_model`): its parameters
 (``params_``) and scaler bounds (``scaler_``) are the leaves, its hyperparameters and sample rate
 the static part. Passed as an argument into a jitted function, its :meth:`step` is traced with
 the weights as data: one compilation serves every model of the same hyperparameters and shapes,
@@ -34,7 +34,6 @@ from __future__ import annotations
 import functools
 import inspect
 import operator
-import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, ClassVar, Literal
@@ -46,7 +45,7 @@ import numpy as np
 from sloshrom import __version__
 from sloshrom._x64 import float64
 from sloshrom.limits import TRAINERS
-from sloshrom.models import model_input
+from sloshrom.models import check_envelope, model_input
 from sloshrom.rom import training
 from sloshrom.rom.bouncing import BouncingBall, is_ball_file
 from sloshrom.rom.ensemble import Ensemble
@@ -71,15 +70,12 @@ from sloshrom.rom.modelfile import (
 )
 from sloshrom.rom.network import (
     MinMaxScaler,
+    Network,
     NetworkSpec,
     check_delays,
     hidden_activations,
     n_params,
-    nfir_free_run,
-    noe_free_run,
-    noe_rest_state,
     noe_simulate,
-    noe_step,
     pack,
     rbf_apply,
     unpack,
@@ -97,6 +93,7 @@ __all__ = [
     "FillRangeError",
     "MinMaxScaler",
     "ModelFileError",
+    "Network",
     "NotFittedError",
     "ROMError",
     "UnstableModelError",
@@ -159,12 +156,14 @@ class _TDNN:
     arch: ClassVar[str] = ""
     #: the force at sample k is the force at t_k (energy integrals: trapezoid rule)
     force_rule: ClassVar[Literal["trapezoid"]] = "trapezoid"
-    #: step is a pure JAX function and a fitted model is a pytree (sloshrom.models.JaxModel)
+    #: step is a pure JAX function and a fitted model is a pytree (sloshrom.models.is_jax_model)
     jax_traceable: ClassVar[Literal[True]] = True
     #: fed-back past outputs: none for the NFIR (an NOE constructor parameter)
     out_delays: int = 0
     #: stability bound of the scaled output (an NOE constructor parameter)
     unstable_bound: float = 10.0
+    #: the training ranges (set by fit and load; None for a model rebuilt from pytree leaves)
+    envelope_: dict[str, Any] | None = None
     #: loss options of the Adam trainer (NFIR constructor parameters; off for the NOE)
     amplitude_weighting: float = 0.0
     passivity: float = 0.0
@@ -224,13 +223,13 @@ class _TDNN:
                 raise ROMError(f"{name} must be a finite number >= 0, got {v!r}")
             if v > 0 and self.trainer != "adam":
                 raise ROMError(f"{name} > 0 needs trainer='adam', got trainer={self.trainer!r}")
-            if v > 0 and self.input_variable == "acceleration":
+            if v > 0 and self.input == "acceleration":
                 # the weights, probes and cycle energies are written for the power F v of a
                 # velocity input
                 raise ROMError(f"{name} > 0 needs a velocity input; set it to 0 for a network "
                                "on the tank acceleration")
         # spelled out rather than io.same_unit: importing io would pull xarray into the ROMs
-        if self.input_variable == "acceleration" and \
+        if self.input == "acceleration" and \
                 str(self.units[0]).replace(" ", "").replace("^", "") != "m/s2":
             raise ROMError(f"the input 'acceleration' is in m/s^2, got units {self.units[0]!r}")
         spec = NetworkSpec(self.arch, delays, neurons, self.hidden, out_delays)
@@ -239,15 +238,20 @@ class _TDNN:
         return spec
 
     @property
-    def input_variable(self) -> str:
-        """``"acceleration"`` for a network on the tank acceleration (``names[0]``), else
-        ``"velocity"``: the signal of the sloshing-model contract it reads
-        (:func:`sloshrom.models.model_input`)."""
+    def input(self) -> str:
+        """The tank signal the network reads (:func:`sloshrom.models.input_of`): the record's
+        input variable ``names[0]`` says it, ``"acceleration"`` or else ``"velocity"``; fixed
+        in the fitted :class:`~sloshrom.rom.network.Network` when it is fitted or loaded."""
+        if hasattr(self, "model_"):
+            return self.model_.input
         return "acceleration" if str(self.names[0]) == "acceleration" else "velocity"
 
     @property
     def spec(self) -> NetworkSpec:
-        """The network architecture (validated hyperparameters)."""
+        """The network architecture: the fitted network's, else the validated
+        hyperparameters'."""
+        if hasattr(self, "model_"):
+            return self.model_.spec
         return self._check_hyperparameters()
 
     @property
@@ -264,8 +268,58 @@ class _TDNN:
         return self.spec.max_delay
 
     def _check_fitted(self) -> None:
-        if not hasattr(self, "params_"):
+        if not hasattr(self, "model_"):
             raise NotFittedError(f"this {type(self).__name__} is not fitted: call fit() first")
+
+    @property
+    def params_(self) -> dict[str, Any]:
+        """The fitted parameters ``{"W", "b", "c", "c0"}`` (the network's)."""
+        self._check_fitted()
+        return self.model_.params
+
+    @property
+    def scaler_(self) -> MinMaxScaler:
+        """Bounds of the training input and output."""
+        self._check_fitted()
+        return self.model_.scaler
+
+    @property
+    def fs_(self) -> float:
+        """Sample rate of the training record, Hz."""
+        self._check_fitted()
+        return self.model_.fs
+
+    @classmethod
+    def fitted(cls, params: dict[str, Any], scaler: MinMaxScaler, fs: float,
+               envelope: dict[str, Any] | None = None, history: dict[str, Any] | None = None,
+               **hyperparameters: Any) -> _TDNN:
+        """A fitted estimator from known parts (no training): the loader's and the tests' way
+        to build one.
+
+        Parameters
+        ----------
+        params : dict
+            ``{"W": (H, D), "b": (H,), "c": (H,), "c0": ()}`` for the hyperparameters' D, H.
+        scaler : MinMaxScaler
+        fs : float
+            Sample rate, Hz.
+        envelope, history : dict, optional
+            ``envelope_`` and ``history_`` (default: none, empty).
+        **hyperparameters
+            Constructor arguments.
+
+        Raises
+        ------
+        ROMError
+            A hyperparameter out of its domain.
+        """
+        obj = cls(**hyperparameters)
+        spec = obj._check_hyperparameters()
+        obj.model_ = Network({k: np.asarray(params[k]) for k in PARAM_NAMES}, scaler, spec,
+                             obj.input, float(fs), float(obj.unstable_bound))
+        obj.envelope_ = envelope
+        obj.history_ = {} if history is None else history
+        return obj
 
     @property
     def theta_(self) -> jnp.ndarray:
@@ -275,17 +329,15 @@ class _TDNN:
 
     # -- pytree (parameters are leaves, hyperparameters static) -------------------------------
     def tree_flatten(self) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
-        children = (self.params_, self.scaler_) if hasattr(self, "params_") else ()
+        children = (self.model_,) if hasattr(self, "model_") else ()
         hyper = tuple((k, _frozen(v)) for k, v in self.get_params().items())
-        return children, (hyper, getattr(self, "fs_", None))
+        return children, hyper
 
     @classmethod
     def tree_unflatten(cls, aux: tuple[Any, ...], children: tuple[Any, ...]) -> _TDNN:
-        hyper, fs = aux
-        obj = cls(**{k: _thawed(v) for k, v in hyper})
+        obj = cls(**{k: _thawed(v) for k, v in aux})
         if children:
-            obj.params_, obj.scaler_ = children
-            obj.fs_ = fs
+            obj.model_ = children[0]
         return obj
 
     # -- training -----------------------------------------------------------------------------
@@ -378,8 +430,9 @@ class _TDNN:
             passivity=float(self.passivity), frequency_band=(probe_band[0], probe_band[1]),
             cycle_energy=float(self.cycle_energy),
         )
-        self.scaler_ = scaler
-        self.fs_ = float(fs)
+        self.model_ = Network({k: np.asarray(v) for k, v in
+                               unpack(theta, spec.n_inputs, spec.neurons).items()},
+                              scaler, spec, self.input, float(fs), float(self.unstable_bound))
         self.envelope_ = {
             "input_min": scaler.in_min,
             "input_max": scaler.in_max,
@@ -387,13 +440,11 @@ class _TDNN:
             "output_max": scaler.out_max,
             "frequency_band": band,
             # the peak tank acceleration of the training record
-            "acceleration_max": float(np.max(np.abs(u))) if self.input_variable == "acceleration"
+            "acceleration_max": float(np.max(np.abs(u))) if self.input == "acceleration"
             else float(np.max(np.abs(np.gradient(u)))) * float(fs),
         }
         if fill is not None:
             self.envelope_.update(fill_min=fill, fill_max=fill)
-        self.params_ = {k: np.asarray(v) for k, v in
-                        unpack(theta, spec.n_inputs, spec.neurons).items()}
         self.history_ = history
         return self
 
@@ -402,25 +453,7 @@ class _TDNN:
     def dt(self) -> float:
         """Model time step = 1/fs_, s."""
         self._check_fitted()
-        return 1.0 / self.fs_
-
-    def _check_envelope(self, u: np.ndarray) -> None:
-        env = getattr(self, "envelope_", None)
-        if env is None:  # rebuilt from pytree leaves: no training record to compare with
-            return
-        lo, hi = env["input_min"], env["input_max"]
-        span = hi - lo
-        over = max(float(np.max(u)) - hi, lo - float(np.min(u)), 0.0)
-        if over > 0:
-            # every call warns; the warnings filters decide what is shown (once per place by
-            # default): no once-flag on the model, so predict leaves the model as it was
-            warnings.warn(
-                f"input outside the training envelope [{lo:.4g}, {hi:.4g}] "
-                f"{self.units[0]} by {over:.4g} {self.units[0]} ({100 * over / span:.1f} % of "
-                "the range): the ROM extrapolates",
-                EnvelopeWarning,
-                stacklevel=4,  # _check_envelope < predict < float64 wrapper < the caller
-            )
+        return self.model_.dt
 
     @float64
     def predict(self, u: Any) -> np.ndarray:
@@ -452,32 +485,30 @@ class _TDNN:
         """
         self._check_fitted()
         u = _as_signal("u", u, allow_batch=True)
-        self._check_envelope(u)
-        s = self.scaler_
-        u_s = jnp.asarray(s.u(u))
-        fn = self._free_run_fn()
-        y_s = jax.vmap(fn)(u_s) if u_s.ndim == 2 else fn(u_s)
-        y_s = np.asarray(y_s)
-        self._check_stable(y_s)
-        return np.asarray(s.y_inverse(y_s))
-
-    def _check_stable(self, y_s: np.ndarray) -> None:
-        pass
+        # predict < float64 wrapper < the caller
+        check_envelope(self, u, unit=str(self.units[0]), stacklevel=3)
+        return self.model_.free_run(u)
 
     def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
         """Sloshing-model contract: dynamic force (N) from the tank velocity (m/s) or, for a
-        network on the acceleration (:attr:`input_variable`), the acceleration (m/s^2)."""
+        network on the acceleration (:attr:`input`), the acceleration (m/s^2)."""
         return self.predict(model_input(self, velocity, acceleration))
 
     def init_state(self) -> Any:
-        """Delay line(s) at rest (scaled units), a pytree of arrays."""
-        raise NotImplementedError
+        """Delay line(s) at rest (scaled units), a pytree of arrays
+        (:meth:`sloshrom.rom.network.Network.init_state`)."""
+        self._check_fitted()
+        return self.model_.init_state()
 
     def step(self, state: Any, velocity: Any, acceleration: Any = None) -> tuple[Any, Any]:
-        raise NotImplementedError
+        """One pure, jax-traceable step: ``(state, dynamic_force)`` at the current sample k
+        (:meth:`sloshrom.rom.network.Network.step`: a velocity network pushes v_k after the
+        force, a network on the acceleration pushes a_{k-1} before it, an NOE closes its loop).
 
-    def _free_run_fn(self) -> Callable[[Any], Any]:
-        raise NotImplementedError
+        Reads the weights and the scaler from the model's pytree leaves, so a model passed as an
+        argument into ``jit`` is traced, not compiled in.
+        """
+        return self.model_.step(state, velocity, acceleration)
 
     # -- persistence --------------------------------------------------------------------------
     @float64
@@ -596,44 +627,6 @@ class NFIR(_TDNN):
         self.passivity = passivity
         self.cycle_energy = cycle_energy
 
-    def _free_run_fn(self) -> Callable[[Any], Any]:
-        spec = self.spec
-        theta = pack(self.params_)
-        rest_u = float(self.scaler_.u(0.0))
-        return lambda u_s: nfir_free_run(theta, u_s, rest_u, spec.delays, spec.neurons,
-                                         spec.hidden)
-
-    def init_state(self) -> jnp.ndarray:
-        """Input delay line at rest, scaled, most recent first: shape (max_delay,)."""
-        self._check_fitted()
-        return jnp.full(self.max_delay, self.scaler_.u(0.0), dtype=jnp.float64)
-
-    def step(self, state: Any, velocity: Any, acceleration: Any = None) -> tuple[Any, Any]:
-        """One pure, jax-traceable step: ``(state, dynamic_force)`` at the current sample k.
-
-        A velocity network takes ``velocity`` v_k: the force from the delay line, then v_k is
-        pushed into it. A network on the acceleration (:attr:`input_variable`) takes
-        ``acceleration`` a_{k-1}, as the coupled beam passes it: a_{k-1} is pushed, then the
-        force is evaluated. Both give :meth:`predict` sample by sample.
-
-        Reads the weights and the scaler from the model's pytree leaves, so a model passed as an
-        argument into ``jit`` is traced, not compiled in.
-        """
-        s = self.scaler_
-        d = np.asarray(self.spec.delays)
-
-        def push(state: Any, u: Any) -> Any:
-            u_s = s.u(jnp.asarray(u, jnp.float64))
-            return jnp.concatenate([jnp.reshape(u_s, (1,)), state[:-1]])
-
-        if self.input_variable == "acceleration":
-            state = push(state, model_input(self, velocity, acceleration))
-        # single: W x, fast in a scan whose weights are traced (the coupled simulation)
-        y_s = rbf_apply(self.params_, state[d - 1], self.hidden, single=True)
-        if self.input_variable != "acceleration":
-            state = push(state, velocity)
-        return state, s.y_inverse(y_s)
-
 
 @jax.tree_util.register_pytree_node_class
 class NOE(_TDNN):
@@ -692,7 +685,7 @@ class NOE(_TDNN):
             raise ROMError(f"NOE needs out_delays >= 1, got {self.out_delays}")
         if self.trainer == "adam":
             raise ROMError("trainer 'adam' is available for NFIR only")
-        if self.input_variable == "acceleration":
+        if self.input == "acceleration":
             raise ROMError("an NOE takes the tank velocity; a network on the acceleration is an "
                            "NFIR")
         try:
@@ -703,44 +696,6 @@ class NOE(_TDNN):
             raise ROMError(f"unstable_bound must be a finite number > 0, got "
                            f"{self.unstable_bound!r}")
         return spec
-
-    def _rest(self) -> tuple[Any, Any]:
-        return self.scaler_.u(0.0), self.scaler_.y(0.0)
-
-    def _free_run_fn(self) -> Callable[[Any], Any]:
-        spec = self.spec
-        theta = pack(self.params_)
-        ru, ry = (float(r) for r in self._rest())
-        return lambda u_s: noe_free_run(theta, u_s, ru, ry, spec.delays, spec.out_delays,
-                                        spec.neurons, spec.hidden)
-
-    def _check_stable(self, y_s: np.ndarray) -> None:
-        bad = ~np.isfinite(y_s) | (np.abs(y_s) > self.unstable_bound)
-        if np.any(bad):
-            k = int(np.argmax(bad.reshape(-1)) % y_s.shape[-1])
-            raise UnstableModelError(
-                f"NOE simulation unstable: output non-finite or beyond {self.unstable_bound} "
-                f"half-ranges of the training output at sample {k} (t = {k / self.fs_:.3f} s)"
-            )
-
-    def init_state(self) -> tuple[jnp.ndarray, jnp.ndarray]:
-        """``(input delay line, output delay line)`` at rest, scaled, most recent first."""
-        self._check_fitted()
-        spec = self.spec
-        ru, ry = self._rest()
-        return noe_rest_state(ru, ry, spec.delays, spec.out_delays)
-
-    def step(self, state: Any, velocity: Any, acceleration: Any = None) -> tuple[Any, Any]:
-        """One pure, jax-traceable closed-loop step: ``(state, dynamic_force)``.
-
-        Reads the weights and the scaler from the model's pytree leaves (see :meth:`NFIR.step`).
-        """
-        s = self.scaler_
-        spec = self.spec
-        u_s = s.u(jnp.asarray(velocity, jnp.float64))
-        state, y_s = noe_step(pack(self.params_), state, u_s, spec.delays, spec.out_delays,
-                              spec.neurons, spec.hidden, single=True)
-        return state, s.y_inverse(y_s)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -801,16 +756,10 @@ def _from_model_file(mf: ModelFile, path: str | Path) -> NFIR | NOE:
     """The network of a validated single-model file (or of one member of an ensemble file)."""
     meta = mf.meta
     cls = NFIR if meta["class"] == "NFIR" else NOE
+    sc = meta["scaler"]
+    scaler = MinMaxScaler(**{k: float(sc[k]) for k in ("in_min", "in_max", "out_min", "out_max")})
     try:
-        model = cls(**meta["hyperparameters"])
-        model._check_hyperparameters()
+        return cls.fitted(mf.arrays, scaler, float(meta["fs"]), meta["envelope"],
+                          meta.get("history", {}), **meta["hyperparameters"])
     except (TypeError, ROMError) as exc:  # unreachable after the schema; kept as a net
         raise ModelFileError(f"{path}: corrupt metadata ({exc})") from None
-    sc = meta["scaler"]
-    model.scaler_ = MinMaxScaler(**{k: float(sc[k]) for k in
-                                    ("in_min", "in_max", "out_min", "out_max")})
-    model.fs_ = float(meta["fs"])
-    model.envelope_ = meta["envelope"]
-    model.history_ = meta.get("history", {})
-    model.params_ = mf.arrays
-    return model

@@ -45,7 +45,7 @@ import numpy as np
 
 from sloshrom.config import FILL_TOLERANCE
 from sloshrom.fileio import atomic_write_text, not_a_regular_file
-from sloshrom.models import input_variable
+from sloshrom.models import envelope_of, envelope_union, input_of, is_jax_model
 from sloshrom.rom.errors import FillRangeError, ROMError
 
 __all__ = [
@@ -80,17 +80,15 @@ def check_training_fill(fill: Any) -> float | None:
 def training_fills(model: Any) -> tuple[float, float] | None:
     """``(fill_min, fill_max)`` (-) a model was identified on, or ``None`` if it does not say.
 
-    A network says it in its envelope (``fill_min``/``fill_max``); a family, a blend and a
-    physics model tied to one tank (the bouncing ball: its tank's fill) by ``fill_range``.
+    A family, a blend and a physics model tied to one tank (the bouncing ball: its tank's fill)
+    say it by ``fill_range``; a network in its envelope (``fill_min``/``fill_max``).
     """
-    if isinstance(model, (FillFamily, FillBlend)):
-        return model.fill_range
-    env = getattr(model, "envelope_", None)
-    if isinstance(env, Mapping) and env.get("fill_min") is not None:
-        return float(env["fill_min"]), float(env["fill_max"])
-    rng = getattr(model, "fill_range", None)
+    rng = getattr(model, "fill_range", None)  # capability: models that span fills say so
     if isinstance(rng, tuple) and len(rng) == 2:
         return float(rng[0]), float(rng[1])
+    env = envelope_of(model)
+    if env is not None and env.fill_min is not None and env.fill_max is not None:
+        return env.fill_min, env.fill_max
     return None
 
 
@@ -142,7 +140,7 @@ def at_fill(model: Any, fill: float | None, what: str = "the model") -> Any:
 
 
 def _same_input(models: Sequence[Any]) -> None:
-    kinds = {input_variable(m) for m in models}
+    kinds = {input_of(m) for m in models}
     if len(kinds) != 1:
         raise ROMError(f"members read different inputs {sorted(kinds)}")
 
@@ -184,20 +182,11 @@ class FillBlend:
         self.dt = float(self.members[0].dt)
         self.force_rule = rules.pop()
         # traceable (JAX backend of the coupled simulation) when every member is
-        self.jax_traceable = all(getattr(m, "jax_traceable", False) is True
-                                 for m in self.members)
+        self.jax_traceable = all(is_jax_model(m) for m in self.members)
         self.fill = float(fill)
         self.fill_range = (float(fill_range[0]), float(fill_range[1]))
-        envs = [getattr(m, "envelope_", None) for m in self.members]
-        if all(isinstance(e, Mapping) for e in envs):
-            keys = ("input_min", "output_min")
-            env: dict[str, Any] = {k: min(e[k] for e in envs) for k in keys}
-            env.update({k: max(e[k] for e in envs) for k in ("input_max", "output_max")})
-            env["frequency_band"] = [min(e["frequency_band"][0] for e in envs),
-                                     max(e["frequency_band"][1] for e in envs)]
-            acc = [e.get("acceleration_max") for e in envs]
-            if all(a is not None for a in acc):
-                env["acceleration_max"] = max(acc)
+        env = envelope_union(self.members)
+        if env is not None:
             env["fill_min"], env["fill_max"] = self.fill_range
             self.envelope_ = env
 
@@ -230,9 +219,9 @@ class FillBlend:
         return tuple(self.members[0].names)  # type: ignore[return-value]
 
     @property
-    def input_variable(self) -> str:
-        """The signal the members read (:func:`sloshrom.models.model_input`)."""
-        return input_variable(self.members[0])
+    def input(self) -> str:
+        """The signal the members read (:func:`sloshrom.models.input_of`)."""
+        return input_of(self.members[0])
 
     def init_state(self) -> tuple[Any, ...]:
         """The members' states at rest."""
@@ -365,6 +354,22 @@ class FillFamily:
     def dt(self) -> float:
         """The members' step, s."""
         return float(self.members_[0].dt)
+
+    # the members' description, so that metadata is read alike from a family and a model
+    @property
+    def units(self) -> tuple[str, str]:
+        """Units of the input and the output (the members')."""
+        return tuple(self.members_[0].units)  # type: ignore[return-value]
+
+    @property
+    def names(self) -> tuple[str, str]:
+        """Variable names of the input and the output (the members')."""
+        return tuple(self.members_[0].names)  # type: ignore[return-value]
+
+    @property
+    def input(self) -> str:
+        """The signal the members read (:func:`sloshrom.models.input_of`)."""
+        return input_of(self.members_[0])
 
     def describe(self) -> str:
         return "fills " + ", ".join(f"{f:.1%}" for f in self.fills_)

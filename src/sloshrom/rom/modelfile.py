@@ -214,7 +214,7 @@ def _checksum_matches(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> bo
 
 def _printable(s: str) -> str:
     if not s.isprintable():
-        raise ValueError("must be printable text (no control characters)")
+        raise ModelFileError("must be printable text (no control characters)")
     return s
 
 
@@ -224,7 +224,7 @@ def _number_or_null(v: Any) -> float | None:
     if v is None:
         return None
     if type(v) not in (int, float):  # bool is an int subclass: refused by the exact type check
-        raise ValueError("must be a number or null")
+        raise ModelFileError("must be a number or null")
     return float(v)
 
 
@@ -232,19 +232,19 @@ def _delays_value(v: Any) -> int | list[int]:
     """``n`` (delays 1..n) or a list of distinct delays, each in 1..MAX_DELAY."""
     if type(v) is int:
         if v < 1:
-            raise ValueError("must be >= 1")
+            raise ModelFileError("must be >= 1")
         if v > MAX_DELAY:
-            raise ValueError(f"must be <= {MAX_DELAY}")
+            raise ModelFileError(f"must be <= {MAX_DELAY}")
         return v
     if type(v) is not list:
-        raise ValueError("must be an integer or a list of integers")
+        raise ModelFileError("must be an integer or a list of integers")
     if not 1 <= len(v) <= MAX_REGRESSOR:
-        raise ValueError(f"must list 1 to {MAX_REGRESSOR} delays")
+        raise ModelFileError(f"must list 1 to {MAX_REGRESSOR} delays")
     for i, d in enumerate(v):
         if type(d) is not int or not 1 <= d <= MAX_DELAY:
-            raise ValueError(f"entry [{i}] must be an integer in 1..{MAX_DELAY}")
+            raise ModelFileError(f"entry [{i}] must be an integer in 1..{MAX_DELAY}")
     if len(set(v)) != len(v):
-        raise ValueError("must be distinct")
+        raise ModelFileError("must be distinct")
     return v
 
 
@@ -268,7 +268,7 @@ def _above(lower: str):
     def check(v: float, info: Any) -> float:
         lo = info.data.get(lower)
         if lo is not None and not v - lo >= MIN_SPAN:
-            raise ValueError(f"must be greater than {lower} ({lo!r}) by at least {MIN_SPAN:g}")
+            raise ModelFileError(f"must be greater than {lower} ({lo!r}) by at least {MIN_SPAN:g}")
         return v
 
     return check
@@ -307,16 +307,16 @@ class _Envelope(_Strict):
     def _fills(self) -> _Envelope:
         lo, hi = self.fill_min, self.fill_max
         if (lo is None) != (hi is None):
-            raise ValueError("fill_min and fill_max must be given together")
+            raise ModelFileError("fill_min and fill_max must be given together")
         if lo is not None and hi < lo:
-            raise ValueError(f"fill_max ({hi!r}) must be >= fill_min ({lo!r})")
+            raise ModelFileError(f"fill_max ({hi!r}) must be >= fill_min ({lo!r})")
         return self
 
     @field_validator("frequency_band")
     @classmethod
     def _ordered(cls, v: list[float]) -> list[float]:
         if not v[0] <= v[1]:
-            raise ValueError("must be ordered (low <= high)")
+            raise ModelFileError("must be ordered (low <= high)")
         return v
 
 

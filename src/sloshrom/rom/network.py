@@ -34,11 +34,14 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
-from sloshrom.rom.errors import ROMError
+from sloshrom._x64 import float64
+from sloshrom.models import model_input
+from sloshrom.rom.errors import ROMError, UnstableModelError
 from sloshrom.rom.modelfile import HIDDEN_KINDS, PARAM_NAMES
 
 __all__ = [
     "MinMaxScaler",
+    "Network",
     "NetworkSpec",
     "check_delays",
     "hidden_activations",
@@ -49,6 +52,7 @@ __all__ = [
     "noe_rest_state",
     "noe_simulate",
     "noe_step",
+    "network_of",
     "pack",
     "rbf_apply",
     "row_index",
@@ -310,3 +314,151 @@ def noe_free_run(theta: Any, u_s: Any, rest_u: Any, rest_y: Any, delays: tuple[i
     """NOE free run (closed loop) of a scaled input from rest; returns the scaled output."""
     state0 = noe_rest_state(rest_u, rest_y, np.asarray(delays), out_delays)
     return noe_simulate(theta, u_s, state0, delays, out_delays, neurons, hidden)[1]
+
+
+# ---------------------------------------------------------------------------------------------
+# The fitted network as a sloshing model
+# ---------------------------------------------------------------------------------------------
+
+
+@partial(jax.tree_util.register_dataclass, data_fields=["params", "scaler"],
+         meta_fields=["spec", "input", "fs", "unstable_bound"])
+@dataclass(frozen=True, eq=False)
+class Network:
+    """A fitted NFIR or NOE network: an immutable sloshing model and a JAX pytree.
+
+    The model the estimators (:class:`~sloshrom.rom.NFIR`, :class:`~sloshrom.rom.NOE`) fit and
+    delegate to. Its parameters and scaler bounds are the pytree's leaves, the rest is static: a
+    network passed as an argument into a jitted function is traced with the weights as data (one
+    compilation per architecture), and ``jax.grad`` with respect to it gives a network-shaped
+    gradient.
+
+    Parameters
+    ----------
+    params : dict
+        ``{"W": (H, D), "b": (H,), "c": (H,), "c0": ()}`` (:func:`unpack`).
+    scaler : MinMaxScaler
+        Bounds of the training input and output (physical units).
+    spec : NetworkSpec
+        The architecture.
+    input : {"velocity", "acceleration"}
+        The tank signal the network reads (:func:`sloshrom.models.input_of`).
+    fs : float
+        Sample rate of the training record, Hz; the model's step is ``dt = 1 / fs``.
+    unstable_bound : float
+        An NOE whose scaled output exceeds this magnitude (or is not finite) is unstable.
+    """
+
+    params: dict[str, Any]
+    scaler: MinMaxScaler
+    spec: NetworkSpec
+    input: str = "velocity"
+    fs: float = 1.0
+    unstable_bound: float = 10.0
+
+    #: the force at sample k is the force at t_k (energy integrals: trapezoid rule)
+    force_rule = "trapezoid"
+    #: step is a pure JAX function and the network a pytree
+    jax_traceable = True
+
+    @property
+    def dt(self) -> float:
+        """Model time step = 1/fs, s."""
+        return 1.0 / self.fs
+
+    def _rest(self) -> tuple[Any, Any]:
+        return self.scaler.u(0.0), self.scaler.y(0.0)
+
+    def init_state(self) -> Any:
+        """Delay lines at rest (scaled units, most recent first): the input line, shape
+        (max_delay,), for an NFIR; ``(input line, output line)`` for an NOE."""
+        ru, ry = self._rest()
+        if self.spec.arch == "noe":
+            return noe_rest_state(ru, ry, self.spec.delays, self.spec.out_delays)
+        return jnp.full(self.spec.max_delay, ru, dtype=jnp.float64)
+
+    def step(self, state: Any, velocity: Any, acceleration: Any = None) -> tuple[Any, Any]:
+        """One pure, jax-traceable step: ``(state, dynamic_force)`` at the current sample k.
+
+        A velocity network takes ``velocity`` v_k: the force from the delay line, then v_k is
+        pushed into it. A network on the acceleration takes ``acceleration`` a_{k-1}, as the
+        coupled beam passes it: a_{k-1} is pushed, then the force is evaluated. Both give
+        :meth:`free_run` sample by sample. An NOE (velocity only) runs its closed loop.
+        """
+        s, spec = self.scaler, self.spec
+        if spec.arch == "noe":
+            u_s = s.u(jnp.asarray(velocity, jnp.float64))
+            state, y_s = noe_step(pack(self.params), state, u_s, spec.delays, spec.out_delays,
+                                  spec.neurons, spec.hidden, single=True)
+            return state, s.y_inverse(y_s)
+        d = np.asarray(spec.delays)
+
+        def push(state: Any, u: Any) -> Any:
+            u_s = s.u(jnp.asarray(u, jnp.float64))
+            return jnp.concatenate([jnp.reshape(u_s, (1,)), state[:-1]])
+
+        if self.input == "acceleration":
+            state = push(state, model_input(self, velocity, acceleration))
+        # single: W x, fast in a scan whose weights are traced (the coupled simulation)
+        y_s = rbf_apply(self.params, state[d - 1], spec.hidden, single=True)
+        if self.input != "acceleration":
+            state = push(state, velocity)
+        return state, s.y_inverse(y_s)
+
+    @float64
+    def free_run(self, u: Any) -> np.ndarray:
+        """Free-run output from rest for an input record at ``fs`` (physical units).
+
+        Parameters
+        ----------
+        u : array_like, shape (n,) or (batch, n)
+            The network's input, finite (checked by the caller).
+
+        Returns
+        -------
+        ndarray, same shape as ``u``
+            Output (physical units, e.g. N), float64.
+
+        Raises
+        ------
+        UnstableModelError
+            An NOE whose simulation left its stability bound.
+        """
+        s, spec = self.scaler, self.spec
+        u_s = jnp.asarray(s.u(u))
+        theta = pack(self.params)
+        ru, ry = (float(r) for r in self._rest())
+        if spec.arch == "noe":
+            def fn(x: Any) -> Any:
+                return noe_free_run(theta, x, ru, ry, spec.delays, spec.out_delays,
+                                    spec.neurons, spec.hidden)
+        else:
+            def fn(x: Any) -> Any:
+                return nfir_free_run(theta, x, ru, spec.delays, spec.neurons, spec.hidden)
+        y_s = np.asarray(jax.vmap(fn)(u_s) if u_s.ndim == 2 else fn(u_s))
+        if spec.arch == "noe":
+            self._check_stable(y_s)
+        return np.asarray(s.y_inverse(y_s))
+
+    def _check_stable(self, y_s: np.ndarray) -> None:
+        bad = ~np.isfinite(y_s) | (np.abs(y_s) > self.unstable_bound)
+        if np.any(bad):
+            k = int(np.argmax(bad.reshape(-1)) % y_s.shape[-1])
+            raise UnstableModelError(
+                f"NOE simulation unstable: output non-finite or beyond {self.unstable_bound} "
+                f"half-ranges of the training output at sample {k} (t = {k / self.fs:.3f} s)"
+            )
+
+    def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
+        """Sloshing-model contract: dynamic force (N) from the signal the network reads."""
+        return self.free_run(np.asarray(model_input(self, velocity, acceleration),
+                                        dtype=np.float64))
+
+
+def network_of(model: Any) -> Network | None:
+    """The one fitted network ``model`` is or delegates to (an NFIR/NOE estimator's
+    ``model_``); None for anything else (an ensemble, a fill blend, a physics model)."""
+    if isinstance(model, Network):
+        return model
+    net = getattr(model, "model_", None)
+    return net if isinstance(net, Network) else None

@@ -36,9 +36,10 @@ import numpy as np
 
 from sloshrom import __version__
 from sloshrom.fileio import atomic_write
-from sloshrom.models import input_variable
-from sloshrom.rom.ensemble import Ensemble
+from sloshrom.models import input_of
+from sloshrom.rom.ensemble import is_ensemble
 from sloshrom.rom.errors import ROMError
+from sloshrom.rom.network import network_of
 
 if TYPE_CHECKING:
     from sloshrom.rom.estimators import NFIR, NOE
@@ -187,7 +188,7 @@ def _metadata(model: ROM, form: str, dtype: np.dtype) -> dict[str, str]:
         "sign_convention": SIGN_CONVENTION,
         "state": state if form == "step" else "none (sequence from rest)",
         "scaler": json.dumps(model.scaler_.to_dict()),
-        "envelope": json.dumps(getattr(model, "envelope_", {})),
+        "envelope": json.dumps(model.envelope_ or {}),
         "sloshrom_version": __version__,
     }
     return meta
@@ -195,16 +196,16 @@ def _metadata(model: ROM, form: str, dtype: np.dtype) -> dict[str, str]:
 
 def check_exportable(model: Any) -> None:
     """ROMError unless ``model`` is one NFIR or NOE network (what an ONNX graph holds)."""
-    if isinstance(model, Ensemble):
+    if is_ensemble(model):
         raise ROMError(
-            f"an ensemble ({len(getattr(model, 'members_', []))} {model.member_class} members) "
-            "cannot be exported to ONNX: a graph holds one network; export a single model "
+            f"an ensemble ({len(model.members_)} {model.member_class} members) cannot be "
+            "exported to ONNX: a graph holds one network; export a single model "
             "(`sloshrom train` without --ensemble) or one member (Ensemble.members_[k].save)"
         )
-    if not hasattr(model, "spec"):  # a fill family, a bouncing ball: not a network
+    if network_of(model) is None and not hasattr(model, "spec"):  # a family, a ball
         raise ROMError(f"a {type(model).__name__} cannot be exported to ONNX: a graph holds "
                        "one NFIR or NOE network (export a fill family's members one by one)")
-    if input_variable(model) == "acceleration":
+    if input_of(model) == "acceleration":
         # the step graph's contract is the velocity's (evaluate, then push the current input)
         raise ROMError("a network on the tank acceleration cannot be exported to ONNX: the "
                        "graphs take the tank velocity")
@@ -237,7 +238,7 @@ def onnx_model(model: ROM, form: str = "step", dtype: str = "float64") -> Any:
     from onnx import TensorProto, helper
 
     check_exportable(model)
-    if not hasattr(model, "params_"):
+    if network_of(model) is None:
         raise ROMError("the model is not fitted: nothing to export")
     if form not in ("step", "sequence"):
         raise ROMError(f"form must be 'step' or 'sequence', got {form!r}")

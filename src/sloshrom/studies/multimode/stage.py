@@ -56,7 +56,7 @@ from sloshrom.beam.multimode import (
     wing_modal_model,
 )
 from sloshrom.beam.results import simulate_cases, write_table
-from sloshrom.config import G, Tank
+from sloshrom.config import ConfigError, G, Tank
 from sloshrom.fileio import OutputBatch
 from sloshrom.io import Record, record_from_measurement, velocity_from_acceleration, write_record
 from sloshrom.models import FrozenLiquid
@@ -150,7 +150,7 @@ def _open_loop(rig: Mapping[str, Any], roms: Mapping[str, Any], f_modes: np.ndar
     out = []
     for case, model in roms.items():
         if abs(float(model.fs_) - fs) > 1e-9 * fs:
-            raise ValueError(f"{case} runs at {model.fs_} Hz, the rig's records at {fs} Hz")
+            raise ConfigError(f"{case} runs at {model.fs_} Hz, the rig's records at {fs} Hz")
         force = np.asarray(model.simulate(v, a))  # (levels, n): one batched free run
         p = band_power(v, force, fs, f_modes, rel_band)
         out += [{"case": case, "rms_g": lv, "mode": k + 1, "power_rig_w": float(p_rig[i, k]),
