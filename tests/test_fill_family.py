@@ -295,3 +295,22 @@ def test_cli_predict_and_export_with_a_family(tmp_path, members):
     assert res.exit_code == 2 and "identified at fill 25.0%; fill 40.0%" in res.output
     res = runner.invoke(app, ["export", "onnx", str(fam), str(tmp_path / "f.onnx")])
     assert res.exit_code == 2 and "FillFamily cannot be exported" in res.output
+
+
+def test_load_model_at_a_fill_gives_a_sloshing_model(tmp_path, members):
+    paths = {f: m.save(tmp_path / f"m{int(f * 100)}.npz") for f, m in members.items()}
+    fam = write_family(tmp_path / "family.toml", paths)
+    family = load_model(fam)
+    # a family describes its records as its members do, without being a sloshing model
+    assert isinstance(family, FillFamily) and not isinstance(family, SloshingModel)
+    assert (family.names, family.units, family.input) == \
+        (tuple(members[0.25].names), tuple(members[0.25].units), "velocity")
+    blend = load_model(fam, fill=0.4)
+    assert isinstance(blend, SloshingModel) and blend.fill == 0.4
+    u = np.linspace(-0.1, 0.1, 50)
+    np.testing.assert_array_equal(blend.simulate(u, None),
+                                  FillFamily.from_members(members).at(0.4).simulate(u, None))
+    single = load_model(paths[0.25], fill=0.25)
+    assert type(single) is type(members[0.25])
+    with pytest.raises(FillRangeError, match="identified at fill 25.0%; fill 40.0%"):
+        load_model(paths[0.25], fill=0.4)

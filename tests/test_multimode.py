@@ -255,7 +255,7 @@ def test_stage_runs_end_to_end_on_tiny_settings(tmp_path):
         roms["vfa_rom"]["train_seconds_of_data"] + 2 * 10.0, abs=0.01)
     # the third ROM: same records, the acceleration in, the velocity loss terms off
     acc = load_model(tmp_path / "multimode/models/nfir_broadband_acc.npz")
-    assert acc.input_variable == "acceleration" and roms["broadband_acc_rom"]["input"] == \
+    assert acc.input == "acceleration" and roms["broadband_acc_rom"]["input"] == \
         "acceleration" and roms["broadband_acc_rom"]["loss"] == "plain MSE"
     assert roms["broadband_acc_rom"]["train_seconds_of_data"] == \
         roms["broadband_rom"]["train_seconds_of_data"]

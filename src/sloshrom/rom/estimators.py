@@ -56,7 +56,7 @@ from sloshrom.rom.errors import (
     ROMError,
     UnstableModelError,
 )
-from sloshrom.rom.family import FillFamily, check_training_fill, read_family
+from sloshrom.rom.family import FillFamily, at_fill, check_training_fill, read_family
 from sloshrom.rom.modelfile import (
     FORMAT_VERSION,
     HIDDEN_KINDS,
@@ -703,7 +703,7 @@ class NOE(_TDNN):
 # ---------------------------------------------------------------------------------------------
 
 
-def load_model(path: str | Path) -> NFIR | NOE | Ensemble | FillFamily | BouncingBall:
+def load_model(path: str | Path, fill: float | None = None) -> Any:
     """Load a model written by ``save``; never runs code (no pickle).
 
     Every metadata field is validated against a schema with bounds and the arrays against the
@@ -718,10 +718,17 @@ def load_model(path: str | Path) -> NFIR | NOE | Ensemble | FillFamily | Bouncin
         ``.toml`` fill-family manifest naming one model file per fill level
         (:func:`sloshrom.rom.family.read_family`); or a ``.toml`` bouncing-ball model
         (:meth:`sloshrom.rom.bouncing.BouncingBall.save`).
+    fill : float, optional
+        Fill level d/h (-) to run the model at. Given, the result is a sloshing model at that
+        fill whatever the file holds (:func:`sloshrom.rom.family.at_fill`: a family's blend of
+        its neighbouring members, any other model checked against the fills it was identified
+        on). Without it a fill family comes back as a family, which is a sloshing model only
+        at a fill.
 
     Returns
     -------
-    NFIR, NOE, Ensemble, FillFamily or BouncingBall
+    NFIR, NOE, Ensemble, FillFamily, BouncingBall or (with ``fill``) FillBlend
+        Every one describes its records alike (``names``, ``units``, ``input``).
 
     Raises
     ------
@@ -729,7 +736,11 @@ def load_model(path: str | Path) -> NFIR | NOE | Ensemble | FillFamily | Bouncin
         Missing file, not a sloshrom model, other/newer format version, corrupt or truncated file
         (checksum), a metadata field out of bounds or inconsistent (the message names it),
         parameter arrays that do not match the metadata.
+    FillRangeError
+        ``fill`` outside the fills the model was identified on.
     """
+    if fill is not None:
+        return at_fill(load_model(path), fill, str(path))
     if is_ball_file(path):
         return BouncingBall.load(path)
     if Path(path).suffix == ".toml":
