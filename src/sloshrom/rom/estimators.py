@@ -5,14 +5,18 @@ m/s) to a scalar output (dynamic sloshing force, N), but work for any single-inp
 record. The network equations and the pure functions that evaluate them are in
 :mod:`sloshrom.rom.network`; the trainers in :mod:`sloshrom.rom.training`.
 
-The estimators follow the scikit-learn conventions: the constructor only stores its arguments,
-:meth:`~_TDNN.fit` validates them, :meth:`~_TDNN.get_params`/:meth:`~_TDNN.set_params` cover
-every constructor argument, and :meth:`~_TDNN.predict` does not change the model. Fitted
-attributes end in ``_`` (``params_``, ``scaler_``, ``fs_``, ``envelope_``, ``history_``).
+Model and estimator are apart. The fitted *model* is a :class:`~sloshrom.rom.network.Network`:
+an immutable JAX pytree with the parameters, the scaler, the architecture, the input signal and
+the time step, whose pure ``step``/``free_run`` implement the sloshing-model contract. The
+*estimators* here are thin shells in the scikit-learn style: the constructor only stores its
+arguments, :meth:`~_TDNN.fit` validates them once, trains and keeps the network as ``model_``,
+:meth:`~_TDNN.get_params`/:meth:`~_TDNN.set_params` cover every constructor argument, and
+:meth:`~_TDNN.predict` does not change the model. Fitted attributes end in ``_`` (``model_``,
+``envelope_``, ``history_``; ``params_``, ``scaler_``, ``fs_`` read the network).
 
-A fitted model is also a JAX pytree (:func:`sloshrom.models.is_jax_model`): its parameters
-(``params_``) and scaler bounds (``scaler_``) are the leaves, its hyperparameters and sample rate
-the static part. Passed as an argument into a jitted function, its :meth:`step` is traced with
+A fitted estimator is also a JAX pytree (:func:`sloshrom.models.is_jax_model`) whose child is
+its network: the parameters and scaler bounds are the leaves, the hyperparameters and sample
+rate the static part. Passed as an argument into a jitted function, its :meth:`step` is traced with
 the weights as data: one compilation serves every model of the same hyperparameters and shapes,
 and ``jax.grad`` with respect to the model gives the gradient of each parameter (a model-shaped
 pytree). The training record (``envelope_``, ``history_``) is not part of the pytree: a model
