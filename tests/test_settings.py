@@ -176,6 +176,9 @@ def test_validate_returns_the_typed_configuration():
     rig_b = settings.validate(settings.merge(cfg, {"rig": {"beta": 0.7}}))
     assert rig_b.as_dict()["rig"] == {"seed": 7, "fs": 500.0, "beta": 0.7}
     assert rig_b.rig.overrides() == {"beta": 0.7}
+    # in the order the user wrote them, as the merged dict had them (summary.json, config show)
+    both = settings.merge(cfg, {"rig": {"beta": 0.7, "restitution": 0.05}})
+    assert json.dumps(settings.validate(both).as_dict()) == json.dumps(both)
     assert typed.tables("map", "rig") == {"map": cfg["map"], "rig": cfg["rig"]}
 
 

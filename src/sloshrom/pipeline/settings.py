@@ -27,6 +27,7 @@ from pydantic import (
     BaseModel,
     ConfigDict,
     Field,
+    PrivateAttr,
     ValidationError,
     model_validator,
 )
@@ -260,6 +261,26 @@ NeuronGrid = _list(Neurons, f"neuron counts (integers in [1, {MAX_NEURONS}])", d
 class _Table(BaseModel):
     # strict: TOML types only (no "3" -> 3, no true -> 1, no 3.0 -> 3); unknown keys are refused
     model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
+    # the keys in the order given (defaults.toml's, then the optional keys as the user wrote
+    # them): the dict form keeps it, so summary.json reads as the merged configuration did
+    _order: tuple[str, ...] = PrivateAttr(default=())
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _remember_order(cls, data: Any, handler: Any) -> Any:
+        table = handler(data)
+        if isinstance(data, dict):
+            table._order = tuple(data)
+        return table
+
+    def _given(self) -> dict[str, Any]:
+        """:meth:`ReproduceConfig.as_dict` of this table: the keys given, in their order."""
+        out = {}
+        for key in sorted(self.model_fields_set, key=lambda k: (
+                k not in self._order, self._order.index(k) if k in self._order else 0)):
+            value = getattr(self, key)
+            out[key] = value._given() if isinstance(value, _Table) else copy.deepcopy(value)
+        return out
 
 
 class TankTable(_Table):
@@ -301,8 +322,10 @@ class RigTable(_Table):
                   why="the fraction of the liquid in the impacting column") = None
 
     def overrides(self) -> dict[str, float]:
-        """The physics overrides given (:data:`OPTIONAL_KEYS`), by name; empty: calibrated."""
-        return {k: getattr(self, k) for k in OPTIONAL_KEYS["rig"] if getattr(self, k) is not None}
+        """The physics overrides given (:data:`OPTIONAL_KEYS`), by name in the order given;
+        empty: calibrated."""
+        return {k: v for k, v in self._given().items()
+                if k in OPTIONAL_KEYS["rig"] and v is not None}
 
     @model_validator(mode="after")
     def _divides_rig_rate(self) -> RigTable:
@@ -614,7 +637,7 @@ class ReproduceConfig(_Table):
         The form written beside the results (``summary.json``, ``config show``) and hashed
         into the stage cache keys: the optional keys left out are left out here too.
         """
-        return self.model_dump(exclude_unset=True)
+        return self._given()
 
     def tables(self, *names: str) -> dict[str, Any]:
         """The tables ``names`` of :meth:`as_dict` (a stage's part of the configuration)."""
