@@ -1,7 +1,7 @@
 """The bouncing-ball baseline against the ROM and the virtual rig: every figure of the comparison.
 
 Runs (or reuses, through the stage cache) ``sloshrom reproduce`` in ``DIR``, then the bouncing-ball
-stage (:func:`sloshrom.pipeline.baseline.stage_baseline`, which writes its model, map, beam
+stage (:func:`sloshrom.studies.baseline.stage_baseline`, which writes its model, map, beam
 results and figures into ``DIR``) and prints:
 
 - the fit: seconds, simulations, identified parameters, training and validation NRMSE of the
@@ -21,9 +21,10 @@ Usage::
     python benchmarks/bouncing_ball.py --run DIR                # reproduce (cached) + the ball
     python benchmarks/bouncing_ball.py --run DIR --no-pipeline  # DIR is finished: ball only
 
-The configuration is the one DIR's ``summary.json`` records (so the cache reuses every stage),
-else the defaults (``sloshrom.pipeline.settings.load()``), else ``--config``. The stage writes into
-DIR: copy a run you want to keep unchanged. Exit status 0 always: the figures are the result.
+The configuration is the one DIR's ``summary.json`` records (so the cache reuses every stage; tables
+it lacks, e.g. ``[baseline]`` in a run made before that table existed, take their defaults), else
+the defaults (``sloshrom.pipeline.settings.load()``), else ``--config``. The stage writes into DIR:
+copy a run you want to keep unchanged. Exit status 0 always: the figures are the result.
 """
 
 from __future__ import annotations
@@ -42,18 +43,14 @@ from sloshrom.beam.coupled import free_response
 from sloshrom.energy import map_fidelity
 from sloshrom.io import read_record
 from sloshrom.pipeline import Context, run
-from sloshrom.pipeline.baseline import (
-    CASE,
-    FREQUENCY_BANDS,
-    frequency_band_errors,
-    lowpassed_nrmse,
-    stage_baseline,
-)
 from sloshrom.pipeline.beam import beam_structure
+from sloshrom.pipeline.cache import StageCache
 from sloshrom.pipeline.maps import compute_map
-from sloshrom.pipeline.settings import ReproduceConfig, load
+from sloshrom.pipeline.settings import ReproduceConfig, defaults, load, merge, validate
 from sloshrom.rom.bouncing import BouncingBall
 from sloshrom.rom.estimators import load_model
+from sloshrom.studies.baseline import CASE, FREQUENCY_BANDS, frequency_band_errors
+from sloshrom.studies.baseline.stage import lowpassed_nrmse, stage_baseline
 
 
 def _pct(v: Any, digits: int = 1) -> str:
@@ -68,13 +65,19 @@ def _progress(stage: str, done: float, total: float, text: str) -> None:
     print(f"  [{stage}] {done:g}/{total:g} {text}", file=sys.stderr, flush=True)
 
 
-def config_for(out: Path, path: Path | None) -> ReproduceConfig | dict[str, Any]:
+def config_for(out: Path, path: Path | None) -> ReproduceConfig:
     if path is not None:
         return load(path)
     summary = out / "summary.json"
     if summary.is_file():
-        return json.loads(summary.read_text())["config"]
+        return recorded_config(summary)
     return load()
+
+
+def recorded_config(summary: Path) -> ReproduceConfig:
+    """The configuration a run's ``summary.json`` records; tables it lacks take their
+    defaults."""
+    return validate(merge(defaults(), json.loads(summary.read_text())["config"]))
 
 
 def print_fit(o: dict[str, Any]) -> None:
@@ -205,16 +208,20 @@ def main(argv: list[str] | None = None) -> int:
     cfg = config_for(out, args.config)
     t0 = time.perf_counter()
     if args.no_pipeline:
-        summary = json.loads((out / "summary.json").read_text())
+        cfg = recorded_config(out / "summary.json")
     else:
-        summary = run(out, cfg, _progress)
+        run(out, cfg, _progress)
     print(f"reproduce: {time.perf_counter() - t0:.0f} s "
           f"({'read' if args.no_pipeline else 'run, cached stages reused'})")
-    st = summary["stages"]
-    rom_path = out / st["rom"]["model"] if "rom" in st else None
-    ctx = Context(out, summary["config"], _progress)
+    # the stages' results as their records hold them: the baseline finds its inputs there
+    cache = StageCache(out)
+    data, rom, maps, beam = (cache.recorded(n) for n in ("data", "rom", "maps", "beam"))
+    if data is None:
+        raise SystemExit(f"{out}: no intact data stage recorded (run without --no-pipeline)")
+    rom_path = rom.output(rom.outputs["model"]) if rom is not None else None
+    ctx = Context(out, cfg, _progress)
     t0 = time.perf_counter()
-    o, files = stage_baseline(ctx, rom_path, st.get("beam"))
+    o, files = stage_baseline(ctx, data, rom, maps, beam)
     print(f"bouncing-ball stage: {time.perf_counter() - t0:.1f} s, {len(files)} files")
     print_fit(o)
     print_maps(o)

@@ -1,9 +1,9 @@
 """The ``multimode`` study: do ROMs predict the damping of a structure with two active modes?
 
-Runs :func:`sloshrom.pipeline.multimode.stage_multimode` in ``--out DIR`` with the shipped
-configuration (``sloshrom.pipeline.settings.load()``) and the stage's defaults (or ``--set
-key=value`` overrides, JSON values), then prints every figure: the structure, the data design,
-per mode and level the damping of the rig, the VFA-only ROM, the broadband ROM and frozen
+Runs :func:`sloshrom.studies.multimode.stage_multimode` in ``--out DIR`` with the shipped
+configuration (``sloshrom.pipeline.settings.load()``: its ``[multimode]`` table, or ``--set
+key=value`` overrides of that table, JSON values), then prints every figure: the structure, the data
+design, per mode and level the damping of the rig, the VFA-only ROM, the broadband ROM and frozen
 liquid, the ROMs' errors against the rig with OK/MISS against the tolerance, the tank peak
 accelerations, the training times and the wall time; the stage's outputs go to
 ``DIR/multimode_outputs.json``.
@@ -22,9 +22,9 @@ from pathlib import Path
 from typing import Any
 
 from sloshrom.config import G
-from sloshrom.pipeline.context import Context, DictContext
-from sloshrom.pipeline.multimode import CASES, stage_multimode
+from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.settings import load
+from sloshrom.studies.multimode import CASES, stage_multimode
 
 
 def _pct(v: float | None) -> str:
@@ -129,7 +129,7 @@ def main() -> None:
                    help="print the figures of a finished `sloshrom reproduce --beyond` run "
                         "(its summary.json) instead")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                   help="override a stage setting (JSON value), e.g. --set max_epochs=5")
+                   help="override a key of [multimode] (JSON value), e.g. --set max_epochs=5")
     a = p.parse_args()
     if a.summary is not None:
         s = json.loads(a.summary.read_text())
@@ -150,8 +150,8 @@ def main() -> None:
               flush=True)
 
     print(f"load average at the start {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs")
-    # the stage still takes the dict form of the configuration
-    outputs, files = stage_multimode(DictContext(Context(a.out, load(), progress)), settings)
+    cfg = load().replace(multimode=settings)
+    outputs, files = stage_multimode(Context(a.out, cfg, progress))
     wall = time.perf_counter() - t0
     (a.out / "multimode_outputs.json").write_text(json.dumps(outputs, indent=1, default=float))
     report(outputs, wall)

@@ -7,11 +7,13 @@ base       ``sloshrom`` (root), ``config``, ``fileio``, ``models``, ``signals``,
 domain     ``io``, ``rig``, ``rom``, ``energy``, ``beam`` (each one room)
 plotting   ``plotting``: figures only
 pipeline   ``pipeline``: the reproduce chain
+studies    ``studies``: one package per study beyond the paper
 cli        ``cli``: the command line
 ========== =======================================================================
 
 Imports point one way, ``cli -> pipeline -> plotting / domain rooms -> base``; :data:`ALLOWED`
-is the table of the rooms each room may import. See ``docs/architecture.md``.
+is the table of the rooms each room may import. ``pipeline`` and ``studies`` import each other
+at two seams only (:data:`RUNS_STUDIES`, :data:`FOR_STUDIES`). See ``docs/architecture.md``.
 """
 
 from __future__ import annotations
@@ -40,9 +42,18 @@ ALLOWED: dict[str, set[str]] = {
     "energy": {"base", "io"},
     "beam": {"base", "io"},
     "plotting": {"base", *DOMAIN},
-    "pipeline": {"base", *DOMAIN, "plotting"},
+    "pipeline": {"base", *DOMAIN, "plotting", "studies"},
+    "studies": {"base", *DOMAIN, "plotting", "pipeline"},
     "cli": {"base", *DOMAIN, "plotting", "pipeline"},
 }
+
+#: The pipeline modules that import the studies: the chain runs them, the report shows them.
+RUNS_STUDIES = {"sloshrom.pipeline.chain", "sloshrom.pipeline.report"}
+#: The pipeline modules a study may import: the infrastructure (settings, cache, run context,
+#: HTML) and the paper's stage modules whose helpers a study reuses (records, ROM errors, beam
+#: tests, maps); never the chain or the report, which import the studies.
+FOR_STUDIES = {f"sloshrom.pipeline.{m}" for m in
+               ("settings", "cache", "context", "html", "data", "rom", "beam", "maps")}
 
 #: Calls that change process-wide state of a library the user's process shares with us.
 FORBIDDEN_CALLS = {
@@ -80,7 +91,7 @@ def room(module: str) -> str:
     parts = module.split(".")
     if len(parts) == 1 or parts[1] in BASE:
         return "base"
-    if parts[1] in (*DOMAIN, "plotting", "pipeline", "cli"):
+    if parts[1] in (*DOMAIN, "plotting", "pipeline", "studies", "cli"):
         return parts[1]
     raise AssertionError(f"{module}: in no room; add it to the table of tests/test_architecture")
 
@@ -196,6 +207,16 @@ def test_imports_point_one_way():
     assert not bad, "imports against the direction of the rooms:\n" + "\n".join(bad)
 
 
+def test_pipeline_and_studies_meet_at_two_seams():
+    """Only the chain and the report import a study; a study imports only the pipeline's
+    infrastructure and the paper's stage helpers (so no study depends on the chain)."""
+    bad = [_where(m, i) for m, v in PARSED.items() for i in v.imports
+           if (room(m) == "pipeline" and room(i.target) == "studies" and m not in RUNS_STUDIES)
+           or (room(m) == "studies" and room(i.target) == "pipeline"
+               and i.target not in FOR_STUDIES)]
+    assert not bad, "imports across the pipeline/studies seam:\n" + "\n".join(bad)
+
+
 def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
     """Strongly connected components with more than one module, or a module importing itself
     (Tarjan's algorithm, iterative)."""
@@ -272,7 +293,7 @@ def test_no_process_wide_switches(call):
 #: Rooms whose import loads JAX, numba, xarray or matplotlib (seconds): the command line imports
 #: them inside the command that needs them, so that ``sloshrom --help`` and argument errors stay
 #: instant. Nothing else imports a module of the package inside a function.
-HEAVY_FOR_CLI = {"rom", "rig", "beam", "energy", "plotting", "pipeline"}
+HEAVY_FOR_CLI = {"rom", "rig", "beam", "energy", "plotting", "pipeline", "studies"}
 
 
 def test_no_function_local_imports_of_the_package():

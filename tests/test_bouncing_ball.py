@@ -13,12 +13,6 @@ from sloshrom.beam.coupled import CoupledSimulator, free_response
 from sloshrom.beam.structure import ModalModel
 from sloshrom.config import G, Tank
 from sloshrom.models import FrozenLiquid, SloshingModel, has_kernel
-from sloshrom.pipeline.baseline import (
-    FREQUENCY_BANDS,
-    baseline_section,
-    comparison_rows,
-    frequency_band_errors,
-)
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.html import render_table
 from sloshrom.pipeline.settings import load
@@ -31,6 +25,12 @@ from sloshrom.rom.bouncing import (
 )
 from sloshrom.rom.errors import NotFittedError, ROMError
 from sloshrom.rom.modelfile import ModelFileError
+from sloshrom.studies.baseline import (
+    FREQUENCY_BANDS,
+    baseline_section,
+    comparison_rows,
+    frequency_band_errors,
+)
 
 TANK = Tank()
 M_L = TANK.liquid_mass

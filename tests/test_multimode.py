@@ -1,5 +1,5 @@
-"""The two-mode wing, the modal damping of each of its modes, the broadband rig records and the
-``multimode`` stage on tiny settings."""
+"""The two-mode wing, the modal damping of each of its modes, the broadband rig records, the
+``[multimode]`` table and the ``multimode`` study's stage on tiny settings."""
 
 from __future__ import annotations
 
@@ -14,7 +14,6 @@ from sloshrom.beam.coupled import random_response
 from sloshrom.beam.multimode import (
     WingDesign,
     band_power,
-    broadband_acceleration,
     frozen_station_shapes,
     modal_damping_table,
     mode_damping_random,
@@ -27,15 +26,12 @@ from sloshrom.beam.structure import ModalDataError, coupled_frozen_modes, tank_r
 from sloshrom.config import ConfigError, G, Tank
 from sloshrom.io import read_record
 from sloshrom.models import FrozenLiquid
-from sloshrom.pipeline.context import Context, DictContext
-from sloshrom.pipeline.multimode import (
-    DEFAULTS,
-    multimode_section,
-    resolve_settings,
-    stage_multimode,
-)
-from sloshrom.pipeline.settings import load
+from sloshrom.pipeline.context import Context
+from sloshrom.pipeline.settings import ReproduceConfig, defaults, load
 from sloshrom.rom import load_model
+from sloshrom.signals import broadband_acceleration
+from sloshrom.studies.multimode import multimode_section, stage_multimode
+from sloshrom.studies.multimode.config import wing_design
 
 TANK = Tank()
 BETA_L = 1.8751040687119611  # first root of cos(x) cosh(x) = -1
@@ -211,13 +207,23 @@ def test_band_power_is_the_exact_partition_of_the_mean_power():
         band_power(v, v, fs, [8.5], rel_band=1.5)
 
 
+def configured(settings: dict) -> ReproduceConfig:
+    """The shipped configuration with ``settings`` in its ``[multimode]`` table, validated."""
+    return load().replace(multimode=settings)
+
+
 def test_settings_override_key_by_key():
-    s = resolve_settings({"rms_g": [0.05], "max_epochs": 3})
-    assert s["rms_g"] == [0.05] and s["max_epochs"] == 3 and s["f0"] == DEFAULTS["f0"]
-    with pytest.raises(ConfigError, match="beyond.nope"):
-        resolve_settings({"nope": 1})
-    with pytest.raises(ConfigError, match="margin"):
-        resolve_settings({"margin": 0.5})
+    s = configured({"rms_g": [0.05], "max_epochs": 3}).multimode
+    assert s.rms_g == [0.05] and s.max_epochs == 3 and s.f0 == defaults()["multimode"]["f0"]
+    with pytest.raises(ConfigError, match="unknown configuration key 'multimode.nope'"):
+        configured({"nope": 1})
+    with pytest.raises(ConfigError, match="'multimode.margin' must be"):
+        configured({"margin": 0.5})
+    with pytest.raises(ConfigError, match="'multimode.broadband_piece_duration' must exceed"):
+        configured({"broadband_piece_duration": 8.0})
+    # the wing's own checks, naming the table
+    with pytest.raises(ConfigError, match=r"\[multimode\]: f_torsion must exceed f_bending"):
+        wing_design(configured({"f_torsion": 8.0}).multimode)
 
 
 #: Tiny settings: the shortest records, one level, a small network trained for one epoch on the
@@ -230,8 +236,8 @@ TINY = {"random_duration": 12.0, "rms_g": [0.2], "nperseg": 2048,
 
 
 def test_stage_runs_end_to_end_on_tiny_settings(tmp_path):
-    ctx = DictContext(Context(tmp_path, load()))  # the stage still takes the dict form
-    outputs, files = stage_multimode(ctx, TINY)
+    ctx = Context(tmp_path, configured(TINY))
+    outputs, files = stage_multimode(ctx)
     json.dumps(outputs)  # JSON-able
     assert sorted(files) == sorted([
         "multimode/data/vfa_train.nc", "multimode/data/vfa_validation.nc",

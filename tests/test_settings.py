@@ -105,6 +105,32 @@ def test_every_default_key_has_a_check():
         (lambda c: c["rom"].update(arch="noe", delays=200, neurons=1000, ensemble=21,
                                    amplitude_weighting=0.0, passivity=0.0, cycle_energy=0.0),
          r"21 x 1000 x 202 = 4242000 weights"),  # an NOE's regressor: delays + 2 outputs
+        # the studies' tables
+        (lambda c: c["baseline"].update(restitution=[0.9, 0.1]),
+         r"^'baseline\.restitution' bounds out of order: low 0\.9 > high 0\.1$"),
+        (lambda c: c["baseline"].update(mass_fraction=[0.0, 0.5]),
+         r"^'baseline\.mass_fraction' must be a \[low, high\] pair of mass fractions in "
+         r"\(0, 1\]: 'baseline\.mass_fraction\[0\]' must be a mass fraction in \(0, 1\]"),
+        (lambda c: c["baseline"].update(gap_factor=[0.5]), r"'baseline\.gap_factor' must be a "
+                                                          r"\[low, high\] pair"),
+        (lambda c: c["baseline"].update(lowpass="auto"),
+         r"'baseline\.lowpass' must be \"input\", \"none\" or a cutoff in Hz"),
+        (lambda c: c["baseline"].update(lowpass=-3.0),
+         r"'baseline\.lowpass' must be \"input\", \"none\" or a cutoff in Hz .*got -3\.0"),
+        (lambda c: c["baseline"].update(n_substeps=0),
+         r"'baseline\.n_substeps' must be \"auto\" or an integer >= 1, got 0"),
+        (lambda c: c["baseline"].update(maxiter=0), r"'baseline\.maxiter' must be an integer"),
+        (lambda c: c["baseline"].update(colour=1), r"unknown configuration key 'baseline\.colour'"),
+        (lambda c: c["multimode"].update(rms_g=[]), r"'multimode\.rms_g' must be a non-empty"),
+        (lambda c: c["multimode"].update(margin=0.9), r"'multimode\.margin' must be a factor"),
+        (lambda c: c["multimode"].update(rel_band=0.5), r"'multimode\.rel_band' must be a "
+                                                        r"relative band in \(0, 0\.5\)"),
+        (lambda c: c["multimode"].update(nperseg=2048.0), r"'multimode\.nperseg' must be a "
+                                                          r"positive integer"),
+        (lambda c: c["multimode"].update(hidden="relu"), r"'multimode\.hidden' must be"),
+        (lambda c: c["multimode"].update(broadband_fade=20.0),
+         r"'multimode\.broadband_piece_duration' must exceed four 'multimode\.broadband_fade'"),
+        (lambda c: c["multimode"].pop("span"), r"configuration key 'multimode\.span' is missing"),
     ],
 )
 def test_validate_names_the_key(edit, match):

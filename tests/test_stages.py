@@ -28,6 +28,27 @@ def test_stage_reused_only_when_key_and_files_match(tmp_path):
     assert not b1.reused and not b2.reused and b1.key != b2.key
 
 
+def test_a_stage_finds_its_inputs_in_the_records(tmp_path):
+    """A result lists the files its stage recorded; a later stage takes them from there."""
+    cache = StageCache(tmp_path)
+
+    def work():
+        atomic_write_text(tmp_path / "data" / "train.nc", "x")
+        return {"n": 1}, ["data/train.nc", "data/train.nc"]
+
+    first = cache.run("data", {}, [], work)
+    again = cache.run("data", {}, [], work)
+    for res in (first, again, cache.recorded("data")):
+        assert res.files == ("data/train.nc",)
+        assert res.output("data/train.nc") == tmp_path / "data" / "train.nc"
+        assert res.optional_output("data/validation.nc") is None
+        with pytest.raises(KeyError, match="stage 'data' recorded no file 'data/other.nc'"):
+            res.output("data/other.nc")
+    assert cache.recorded("rom") is None
+    (tmp_path / "data" / "train.nc").write_text("changed")  # not the recorded content
+    assert cache.recorded("data") is None
+
+
 def test_interrupted_stage_is_not_recorded(tmp_path):
     cache = StageCache(tmp_path)
 

@@ -17,8 +17,6 @@ base excitation.
 * :func:`frozen_station_shapes`, :func:`mode_damping_random`, :func:`modal_damping_table`:
   modal filtering of the stations with the frozen-liquid mode shapes, then per mode the H1 of
   base -> modal acceleration and the LSCF stable-pole-cluster damping in a band around it.
-* :func:`broadband_acceleration`: band-limited Gaussian tank acceleration for the rig records
-  that teach a sloshing model several frequencies at once, starting and ending at rest.
 
 Pure numerics: arrays and dataclasses in, arrays and dicts out; no files.
 
@@ -76,7 +74,6 @@ from sloshrom.config import G, Tank
 __all__ = [
     "WingDesign",
     "band_power",
-    "broadband_acceleration",
     "frozen_station_shapes",
     "modal_damping_table",
     "mode_damping_random",
@@ -145,7 +142,7 @@ class WingDesign:
       mode: the sloshing damping is of the same order, measurable on both modes. The modes'
       shares of the tank's quasi-static motion ``psi_T Gamma_n / m_n`` are 1.45 and -0.47
       (the paper beam's modes 1 and 2: 1.30 and -0.40, its mode 2 at 75 Hz though); under
-      the random tests of :mod:`sloshrom.pipeline.multimode` (13 +/- 4 Hz) the torsion mode
+      the random tests of the two-mode study (``[multimode]``, 13 +/- 4 Hz) the torsion mode
       gives the tank 0.7 times the RMS acceleration of the bending mode.
     * damping 1.0 % (bending) and 0.5 % (torsion): the paper beam's estimates for its modes 1
       and 2.
@@ -651,90 +648,3 @@ def band_power(
                   axis=-1)
            for fk in np.atleast_1d(np.asarray(frequencies, dtype=float))]
     return np.stack(out, axis=-1)
-
-
-# -- broadband rig records ---------------------------------------------------------------------
-def _fade(n: int, fs: float, fade: float) -> np.ndarray:
-    """Raised-cosine fade in and out over ``fade`` s at each end (ones in between)."""
-    t = np.arange(n) / fs
-    r = np.ones(n)
-    if fade > 0:
-        rise = t < fade
-        fall = t > t[-1] - fade
-        r[rise] = 0.5 * (1 - np.cos(np.pi * t[rise] / fade))
-        r[fall] = 0.5 * (1 - np.cos(np.pi * (t[-1] - t[fall]) / fade))
-    return r
-
-
-def broadband_acceleration(
-    fs: float,
-    duration: float,
-    rms: float,
-    f_lo: float,
-    f_hi: float,
-    seed: int = 0,
-    fade: float = 2.0,
-    edge: float = 0.1,
-) -> np.ndarray:
-    """Band-limited Gaussian tank acceleration that starts and ends at rest.
-
-    Random-phase inverse FFT of a flat amplitude spectrum on ``[f_lo, f_hi]`` (raised-cosine
-    edges over ``edge`` of the band's width on each side): a stationary Gaussian signal whose
-    periodogram is the band exactly. Then a raised-cosine fade of ``fade`` s at both ends and two
-    smooth corrections (the fade window and the fade window times ``t - T/2``, least squares)
-    that zero the mean and the first moment: velocity and displacement return to zero at the
-    end (rest: a shaker could play it). Finally scaled to the exact ``rms`` over the record.
-
-    Parameters
-    ----------
-    fs : float
-        Sample rate, Hz (the rig's fine rate, 10 kHz).
-    duration : float
-        s (> 2 ``fade``).
-    rms : float
-        RMS acceleration, m/s^2.
-    f_lo, f_hi : float
-        Band, Hz (0 < f_lo < f_hi < fs / 2).
-    seed : int
-        Seed of the phases.
-    fade : float
-        Fade in/out, s.
-    edge : float
-        Width of each spectral taper, fraction of ``f_hi - f_lo`` (-).
-
-    Returns
-    -------
-    ndarray (n,)
-        m/s^2, ``n = round(duration fs) + 1``; zero at both ends, zero mean and zero first
-        moment (the end velocity and displacement are zero to round-off).
-    """
-    if not (np.isfinite(fs) and fs > 0):
-        raise BeamError(f"fs must be a finite positive rate in Hz, got {fs!r}")
-    if not (0 < f_lo < f_hi < fs / 2):
-        raise BeamError(f"need 0 < f_lo < f_hi < fs/2, got f_lo={f_lo!r}, f_hi={f_hi!r}")
-    if not (np.isfinite(rms) and rms >= 0):
-        raise BeamError(f"rms must be >= 0 (m/s^2), got {rms!r}")
-    if not (np.isfinite(fade) and fade > 0 and np.isfinite(duration) and duration > 2 * fade):
-        raise BeamError(f"need fade > 0 and duration > 2 fade, got {fade!r}, {duration!r}")
-    if not 0 <= edge < 0.5:
-        raise BeamError(f"edge must be in [0, 0.5), got {edge!r}")
-    n = int(round(duration * fs)) + 1
-    freqs = np.fft.rfftfreq(n, 1.0 / fs)
-    width = edge * (f_hi - f_lo)
-    mag = ((freqs >= f_lo) & (freqs <= f_hi)).astype(float)
-    if width > 0:
-        for lo, hi, rising in ((f_lo, f_lo + width, True), (f_hi - width, f_hi, False)):
-            sel = (freqs >= lo) & (freqs <= hi)
-            s = (freqs[sel] - lo) / width
-            mag[sel] = 0.5 * (1 - np.cos(np.pi * (s if rising else 1 - s)))
-    rng = np.random.default_rng(seed)
-    x = np.fft.irfft(mag * np.exp(1j * rng.uniform(0, 2 * np.pi, freqs.size)), n)
-    r = _fade(n, fs, fade)
-    t = np.arange(n) / fs
-    x = x * r
-    # zero mean (end velocity) and first moment (end displacement) with smooth corrections
-    basis = np.stack([r, r * (t - t[-1] / 2)])
-    moments = np.stack([np.ones(n), t])
-    coef = np.linalg.solve(moments @ basis.T, moments @ x)
-    x = x - coef @ basis
-    return x * (rms / np.sqrt(np.mean(x**2))) if rms > 0 else np.zeros(n)

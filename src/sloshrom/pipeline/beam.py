@@ -43,16 +43,10 @@ def beam_structure(cfg: BeamTable, tank: Tank) -> tuple[CantileverBeam, ModalMod
     Virtual accelerometers at the default stations, 1/5, 2/5, ..., 5/5 of the length (the last
     at the tank).
     """
-    cfg = _typed(cfg)
     beam = CantileverBeam.with_tank(tank, **{k: getattr(cfg, k) for k in BEAM_KEYS})
     damping = cfg.damping[: cfg.n_modes]  # one ratio per kept mode (extra ones unused)
     modal = ModalModel.from_beam(beam, tank, n_modes=cfg.n_modes, damping=damping)
     return beam, modal
-
-
-def _typed(cfg: BeamTable | dict[str, Any]) -> BeamTable:
-    # the study stages still pass the dict form of [beam]
-    return BeamTable.model_validate(cfg) if isinstance(cfg, dict) else cfg
 
 
 def beam_tests(cfg: BeamTable, modal: ModalModel, tank: Tank,
@@ -65,7 +59,6 @@ def beam_tests(cfg: BeamTable, modal: ModalModel, tank: Tank,
     with every model, the ``data`` stage with frozen liquid to design the training
     (:func:`sloshrom.pipeline.data.training_design`): one definition, the same signals.
     """
-    cfg = _typed(cfg)
     return {
         "free": lambda m, out_fs: free_response(m, modal, cfg.tip_displacement,
                                                 cfg.free_duration, tank, out_fs),

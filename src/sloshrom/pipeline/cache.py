@@ -48,13 +48,36 @@ def file_sha256(path: str | Path) -> str:
 @dataclass
 class StageResult:
     """A finished stage: its key, JSON-able outputs, whether it was reused, and ``digest``, a hash
-    of its outputs and output-file contents (what downstream keys depend on)."""
+    of its outputs and output-file contents (what downstream keys depend on).
+
+    ``files`` are the paths (relative to ``root``, the cache root) of the files the stage wrote,
+    as its record lists them: a later stage finds its inputs there (:meth:`output`) instead of
+    assuming where an upstream stage wrote them.
+    """
 
     name: str
     key: str
     outputs: dict[str, Any]
     reused: bool
     digest: str = ""
+    files: tuple[str, ...] = ()
+    root: Path | None = None
+
+    def output(self, rel: str) -> Path:
+        """The recorded file ``rel`` (relative to the cache root, e.g. ``"data/train.nc"``).
+
+        Raises
+        ------
+        KeyError
+            The stage recorded no such file (it did not write it).
+        """
+        if rel not in self.files or self.root is None:
+            raise KeyError(f"stage {self.name!r} recorded no file {rel!r}")
+        return self.root / rel
+
+    def optional_output(self, rel: str) -> Path | None:
+        """:meth:`output`, or None when the stage recorded no such file."""
+        return self.root / rel if rel in self.files and self.root is not None else None
 
 
 def _digest(outputs: dict[str, Any], files: dict[str, dict[str, Any]]) -> str:
@@ -96,6 +119,14 @@ class StageCache:
 
     def lookup_result(self, name: str, key: str) -> StageResult | None:
         """The recorded result of stage ``name`` if its key matches and its files are intact."""
+        return self._read(name, key)
+
+    def recorded(self, name: str) -> StageResult | None:
+        """The last recorded result of stage ``name`` whatever its key, if its files are intact
+        (a finished run's stage, read back by a tool that does not rebuild the stage's key)."""
+        return self._read(name, None)
+
+    def _read(self, name: str, key: str | None) -> StageResult | None:
         p = self._record(name)
         if not p.is_file():
             return None
@@ -105,14 +136,15 @@ class StageCache:
             return None
         if not isinstance(rec, dict) or rec.get("record_version") != RECORD_VERSION:
             return None  # e.g. the old layout with file names but no hashes: not trusted
-        if rec.get("key") != key:
+        if key is not None and rec.get("key") != key:
             return None
         files, outputs = rec.get("files"), rec.get("outputs", {})
         if not isinstance(files, dict) or not isinstance(outputs, dict):
             return None
         if not all(self._unchanged(f, entry) for f, entry in files.items()):
             return None
-        return StageResult(name, key, outputs, reused=True, digest=_digest(outputs, files))
+        return StageResult(name, rec.get("key", ""), outputs, reused=True,
+                           digest=_digest(outputs, files), files=tuple(files), root=self.root)
 
     def lookup(self, name: str, key: str) -> dict[str, Any] | None:
         """Recorded outputs of stage ``name`` if it can be reused (see :meth:`lookup_result`)."""
@@ -170,5 +202,7 @@ class StageCache:
         if cached is not None:
             return cached
         outputs, files = func()
+        files = sorted(set(files))
         digest = self.store(name, key, outputs, files)
-        return StageResult(name, key, outputs, reused=False, digest=digest)
+        return StageResult(name, key, outputs, reused=False, digest=digest, files=tuple(files),
+                           root=self.root)

@@ -10,14 +10,17 @@ upstream stages did not change), one module each:
 ``maps``    Phi_d maps of rig and ROM and their difference (Figs. 3, 4, 11)
 ``beam``    sloshing-beam free and random tests with rig, ROM and frozen liquid (Figs. 14–23)
 ``baseline`` beyond the paper (``[beyond] enabled``, ``baseline``): the bouncing-ball model
-            through the same map, beam and Table 2
+            through the same map, beam and Table 2 (``sloshrom.studies.baseline``)
 ``fills``   beyond the paper (``[beyond] enabled``): a fill family judged at unseen fills
+            (``sloshrom.studies.fills``)
 ``multimode`` beyond the paper (``[beyond] enabled``, ``multimode``): a two-mode wing, VFA-only
-            against broadband-trained ROMs (on the tank velocity and on its acceleration)
+            against broadband-trained ROMs (on the tank velocity and on its acceleration;
+            ``sloshrom.studies.multimode``)
 ``report``  ``OUT/report.html`` and ``OUT/summary.json``
 
 This module only orders the stages and caches them; the stages do the I/O and the figures, the
-numerical work stays in the library modules they call.
+numerical work stays in the library modules they call. A stage gets the results of the stages
+before it (:class:`~sloshrom.pipeline.cache.StageResult`) and finds their files in their records.
 """
 
 from __future__ import annotations
@@ -31,19 +34,20 @@ from typing import Any
 
 from sloshrom import __version__
 from sloshrom.fileio import atomic_write_text
-from sloshrom.pipeline.baseline import stage_baseline
 from sloshrom.pipeline.beam import stage_beam
 from sloshrom.pipeline.cache import StageCache, StageResult
-from sloshrom.pipeline.context import Context, DictContext, Progress, check_rig_tanks, quiet
+from sloshrom.pipeline.context import Context, Progress, check_rig_tanks, quiet
 from sloshrom.pipeline.data import stage_data
-from sloshrom.pipeline.fills import stage_fills
 from sloshrom.pipeline.maps import stage_maps
-from sloshrom.pipeline.multimode import CASES as MULTIMODE_CASES
-from sloshrom.pipeline.multimode import DEFAULTS as MULTIMODE_DEFAULTS
-from sloshrom.pipeline.multimode import stage_multimode
 from sloshrom.pipeline.report import write_report
 from sloshrom.pipeline.rom import SWEEP_KEYS, stage_rom, stage_sweep
 from sloshrom.pipeline.settings import ReproduceConfig, validate
+from sloshrom.studies.baseline import config as baseline_config
+from sloshrom.studies.baseline.stage import stage_baseline
+from sloshrom.studies.fills import config as fills_config
+from sloshrom.studies.fills.stage import stage_fills
+from sloshrom.studies.multimode import config as multimode_config
+from sloshrom.studies.multimode.stage import stage_multimode
 
 __all__ = ["RESULT_ENTRIES", "identify", "run"]
 
@@ -123,11 +127,15 @@ def run(out: str | Path, cfg: ReproduceConfig | dict[str, Any],
     """
     cfg = validate(cfg)
     check_rig_tanks(cfg)  # the tanks the rig runs at, before any stage or file
+    bey = cfg.beyond
+    if bey.enabled and bey.multimode:  # the wing's own checks, before any stage
+        multimode_config.wing_design(cfg.multimode)
     ctx = Context(Path(out), cfg, progress)
     ctx.out.mkdir(parents=True, exist_ok=True)
     cache = StageCache(ctx.out)
     results = identify(ctx, cache)
-    rom_path = ctx.out / results["rom"].outputs["model"]
+    rom = results["rom"]
+    rom_path = rom.output(rom.outputs["model"])  # the model file, as the rom stage recorded it
     deps = [results["data"], results["rom"]]
     with _timer(ctx, "maps"):
         results["maps"] = cache.run(
@@ -140,37 +148,27 @@ def run(out: str | Path, cfg: ReproduceConfig | dict[str, Any],
             lambda: stage_beam(ctx, rom_path), __version__,
         )
 
-    # the study stages beyond the paper still take the dict form of the configuration
-    study = DictContext(ctx)
-    bey = cfg.beyond
     if bey.enabled and bey.baseline:
         with _timer(ctx, "baseline"):
             results["baseline"] = cache.run(
-                "baseline", cfg.tables("tank", "rig", "map", "beam"),
+                "baseline", baseline_config.cache_config(cfg),
                 [*deps, results["maps"], results["beam"]],
-                lambda: stage_baseline(study, rom_path, results["beam"].outputs), __version__,
+                lambda: stage_baseline(ctx, results["data"], results["rom"], results["maps"],
+                                       results["beam"]), __version__,
             )
     if bey.enabled:
-        beyond = cfg.tables("beyond")["beyond"]
-        fill_keys = {k: beyond[k]
-                     for k in ("fills", "unseen_fills", "fill_ensemble", "beam_fills")}
         with _timer(ctx, "fills"):
             results["fills"] = cache.run(
-                "fills", {**cfg.tables("tank", "rig", "data", "rom", "map", "beam"),
-                          "beyond": fill_keys}, deps,
-                lambda: stage_fills(study, rom_path, identify), __version__,
+                "fills", fills_config.cache_config(cfg), deps,
+                lambda: stage_fills(ctx, results["rom"], identify), __version__,
             )
 
     if bey.enabled and bey.multimode:
-        # its own wing, records and ROMs (the tunables: sloshrom.pipeline.multimode.DEFAULTS)
+        # its own wing, records and ROMs ([multimode]): no other stage's files
         with _timer(ctx, "multimode"):
-            # its defaults and cases are code, not configuration: in the key, so that a run
-            # made before they changed is redone
             results["multimode"] = cache.run(
-                "multimode", {**cfg.tables("tank", "rig"),
-                              "multimode": {"defaults": MULTIMODE_DEFAULTS,
-                                            "cases": list(MULTIMODE_CASES)}}, [],
-                lambda: stage_multimode(study), __version__,
+                "multimode", multimode_config.cache_config(cfg), [],
+                lambda: stage_multimode(ctx), __version__,
             )
 
     summary = {

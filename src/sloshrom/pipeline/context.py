@@ -6,13 +6,12 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 from sloshrom.config import ConfigError, Tank
 from sloshrom.pipeline.settings import ReproduceConfig, validate
 from sloshrom.rig.virtual import RigParams, SensorParams, VirtualRig
 
-__all__ = ["Context", "DictContext", "Progress", "check_rig_tanks", "quiet"]
+__all__ = ["Context", "Progress", "check_rig_tanks", "quiet"]
 
 #: Called as ``progress(stage, done, total, text)``; the CLI turns it into progress bars.
 Progress = Callable[[str, float, float, str], None]
@@ -45,7 +44,7 @@ class Context:
     timings: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if isinstance(self.cfg, dict):  # built in code (or a study's dict): typed here
+        if isinstance(self.cfg, dict):  # built in code: typed here
             self.cfg = validate(self.cfg)
 
     @property
@@ -99,19 +98,3 @@ def check_rig_tanks(cfg: ReproduceConfig) -> None:
             ctx.rig(ctx.tank.replace(fill=fill))
         except ConfigError as exc:
             raise ConfigError(f"'{key}' = {fill:g}: {exc}") from None
-
-
-class DictContext:
-    """A :class:`Context` whose ``cfg`` is the dict form (:meth:`ReproduceConfig.as_dict`).
-
-    The study stages beyond the paper (``baseline``, ``fills``, ``multimode``) still take the
-    dict form; everything else (``tank``, ``rig()``, ``path()``, ``progress``, ``timings``) is
-    the wrapped context's.
-    """
-
-    def __init__(self, ctx: Context) -> None:
-        self._ctx = ctx
-        self.cfg: dict[str, Any] = ctx.cfg.as_dict()
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._ctx, name)

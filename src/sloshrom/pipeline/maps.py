@@ -27,7 +27,7 @@ from sloshrom.energy import (
 from sloshrom.fileio import OutputBatch
 from sloshrom.models import SloshingModel
 from sloshrom.pipeline.context import Context
-from sloshrom.pipeline.settings import ReproduceConfig, validate
+from sloshrom.pipeline.settings import ReproduceConfig
 from sloshrom.plotting import savefig
 from sloshrom.plotting.maps import Loop, hysteresis_figure, phi_d_map_figure
 from sloshrom.rom.ensemble import is_ensemble, spread
@@ -51,7 +51,7 @@ MEMBER_FIGURES = ("full_l2", "dissipative_l2", "n_nonpassive", "nonpassive_fract
 
 def map_grid(cfg: ReproduceConfig, tank: Tank) -> tuple[np.ndarray, np.ndarray]:
     """The (omega_bar, a_bar) grid (both -) of the ``[map]`` configuration for ``tank``."""
-    m = validate(cfg).map  # the study stages still pass the dict form
+    m = cfg.map
     w0 = tank.reference_frequency
     ob = np.linspace(2 * math.pi * m.f_min / w0, 2 * math.pi * m.f_max / w0, m.n_omega)
     ab = np.linspace(m.a_bar_min, m.a_bar_max, m.n_a)
@@ -64,7 +64,7 @@ def compute_map(model: SloshingModel, cfg: ReproduceConfig, tank: Tank,
 
     ``progress(done, total)`` is called as frequencies finish.
     """
-    m = validate(cfg).map  # the study stages still pass the dict form
+    m = cfg.map
     ob, ab = map_grid(cfg, tank)
     return phi_d_map(
         model, ob, ab, tank=tank, f_min=m.f_min, f_max=m.f_max,

@@ -14,12 +14,12 @@ import numpy as np
 
 from sloshrom.pipeline import html as report
 from sloshrom.pipeline import settings
-from sloshrom.pipeline.baseline import baseline_section
 from sloshrom.pipeline.context import Context
-from sloshrom.pipeline.fills import fills_section
 from sloshrom.pipeline.html import Figure, Section, Table
 from sloshrom.pipeline.maps import HYSTERESIS_FREQUENCY, HYSTERESIS_GAMMA
-from sloshrom.pipeline.multimode import multimode_section
+from sloshrom.studies.baseline.section import baseline_section
+from sloshrom.studies.fills.section import fills_section
+from sloshrom.studies.multimode.section import multimode_section
 
 __all__ = ["build_sections", "write_report"]
 

@@ -52,6 +52,7 @@ from sloshrom.limits import (
 
 __all__ = [
     "BEAM_FS",
+    "BaselineTable",
     "FREE_DAMPING_PERIODS",
     "MAX_BEAM_SECONDS",
     "MAX_FINE_SECONDS",
@@ -59,6 +60,7 @@ __all__ = [
     "MAX_MODEL_WEIGHTS",
     "MIN_RANDOM_DURATION",
     "MIN_VFA_DURATION",
+    "MultimodeTable",
     "OPTIONAL_KEYS",
     "QUICK",
     "RIG_RATE",
@@ -498,6 +500,117 @@ class BeyondTable(_Table):
         return self
 
 
+Positive = _number(0.0, lo_open=True, what="a positive number")
+PositiveInt = _number(1, integer=True, what="a positive integer")
+BallFraction = _number(0.0, 1.0, lo_open=True, what="a mass fraction")
+BallRestitution = _number(0.0, 1.0, what="a coefficient of restitution")
+BallGap = _number(0.0, 10.0, lo_open=True, what="a gap / ullage factor")
+
+
+def _pair(item: Any, what: str) -> Any:
+    """A ``[low, high]`` search bound of the bouncing ball, each end an ``item``."""
+    says = _Says(f"a [low, high] pair of {what}", item=next(
+        m for m in get_args(item) if isinstance(m, _Says)))
+    return Annotated[list[item], Field(min_length=2, max_length=2), says]
+
+
+class BaselineTable(_Table):
+    """``[baseline]``: the bouncing ball's identification (``sloshrom.rom.bouncing``)."""
+
+    mass_fraction: _pair(BallFraction, "mass fractions in (0, 1]")
+    restitution: _pair(BallRestitution, "restitutions in [0, 1]")
+    gap_factor: _pair(BallGap, "gap factors in (0, 10]")
+    seed: Seed
+    lowpass: Annotated[str | int | float,
+                       _Says('"input", "none" or a cutoff in Hz (a number > 0)')]
+    n_substeps: Annotated[str | int, _Says('"auto" or an integer >= 1')]
+    maxiter: _number(1, 100_000, integer=True, what="an integer")
+    popsize: _number(2, 10_000, integer=True, what="an integer")
+    tol: _number(0.0, what="a relative tolerance")
+
+    @model_validator(mode="after")
+    def _choices(self) -> BaselineTable:
+        for key in ("mass_fraction", "restitution", "gap_factor"):
+            lo, hi = getattr(self, key)
+            if lo > hi:
+                raise ConfigError(f"'baseline.{key}' bounds out of order: low {lo:g} > "
+                                  f"high {hi:g}")
+        if isinstance(self.lowpass, str) and self.lowpass not in ("input", "none") or (
+                not isinstance(self.lowpass, str)
+                and not (math.isfinite(self.lowpass) and self.lowpass > 0)):
+            raise ConfigError(f"'baseline.lowpass' must be \"input\", \"none\" or a cutoff in "
+                              f"Hz (a number > 0), got {self.lowpass!r}")
+        if isinstance(self.n_substeps, str) and self.n_substeps != "auto" or (
+                not isinstance(self.n_substeps, str) and self.n_substeps < 1):
+            raise ConfigError(f"'baseline.n_substeps' must be \"auto\" or an integer >= 1, "
+                              f"got {self.n_substeps!r}")
+        return self
+
+
+RmsLevels = _list(_number(0.0, lo_open=True, what="a positive number"), "positive numbers")
+
+
+class MultimodeTable(_Table):
+    """``[multimode]``: the two-mode wing study (``sloshrom.studies.multimode``).
+
+    The wing's own checks (``sloshrom.beam.multimode.WingDesign``) run before any stage, in
+    ``sloshrom.studies.multimode.config.wing_design``.
+    """
+
+    # the wing (sloshrom.beam.multimode.WingDesign)
+    span: float
+    chord: float
+    ea_chord_fraction: float
+    mass_per_span: float
+    cg_offset: float
+    gyration_radius: float
+    tank_offset: float
+    f_bending: float
+    f_torsion: float
+    damping: list[float]
+    stations: list[float]
+    # random base excitation (the judge)
+    rms_g: RmsLevels
+    random_duration: Positive
+    f0: Positive
+    sigma: Positive
+    random_seed: Seed
+    rel_band: _number(0.0, 0.5, lo_open=True, hi_open=True, what="a relative band")
+    nperseg: PositiveInt
+    lscf_tol_zeta: _number(0.0, 1.0, lo_open=True, hi_open=True, what="a damping tolerance")
+    tolerance: Positive
+    # identification records (virtual rig)
+    vfa_train_duration: Positive
+    vfa_validation_duration: Positive
+    vfa_train_seed: Seed
+    vfa_validation_seed: Seed
+    broadband_levels: RmsLevels
+    broadband_piece_duration: Positive
+    broadband_band: _number(1.0, lo_open=True, what="a frequency factor")
+    broadband_fade: Positive
+    broadband_seed: Seed
+    margin: _number(1.0, what="a factor over the frozen tests' tank motion")
+    rig_seed: Seed
+    # the ROM recipe
+    delays: Delays
+    neurons: Neurons
+    hidden: Literal["matlab", "distance"]
+    amplitude_weighting: _number(0.0, 100.0, what="an amplitude floor in m/s (0 = off)")
+    passivity: _number(0.0, 1e6, what="a penalty weight (0 = off)")
+    cycle_energy: _number(0.0, 1e6, what="a loss weight (0 = off)")
+    max_epochs: _number(1, MAX_EPOCHS, integer=True, what="an integer")
+    rom_seed: Seed
+    rom_workers: _number(1, 64, integer=True, what="a number of parallel trainings")
+
+    @model_validator(mode="after")
+    def _pieces(self) -> MultimodeTable:
+        if self.broadband_piece_duration <= 4 * self.broadband_fade:
+            raise ConfigError("'multimode.broadband_piece_duration' must exceed four "
+                              "'multimode.broadband_fade' (the validation pieces are half as "
+                              "long)")
+        return self
+
+
 class ReproduceConfig(_Table):
     """The whole configuration of `sloshrom reproduce`, one model per table of ``defaults.toml``.
 
@@ -515,6 +628,8 @@ class ReproduceConfig(_Table):
     map: MapTable
     beam: BeamTable
     beyond: BeyondTable
+    baseline: BaselineTable
+    multimode: MultimodeTable
 
     def as_dict(self) -> dict[str, Any]:
         """The configuration as a dict of tables, keys in the order of ``defaults.toml``.

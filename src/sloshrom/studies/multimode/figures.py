@@ -1,4 +1,9 @@
-"""Figures of the two-mode structure study: |H1| per mode and damping against base level."""
+"""Figures of the two-mode structure study: |H1| per mode and damping against base level.
+
+Object-oriented matplotlib (a :class:`~matplotlib.figure.Figure` made directly, as
+:mod:`sloshrom.plotting` does): no backend is selected; the stage saves them with
+:func:`sloshrom.plotting.savefig`.
+"""
 
 from __future__ import annotations
 

@@ -1,4 +1,8 @@
-"""Figures of the fill-level study: Phi_d maps across fills, damping against fill level."""
+"""Figures of the fill-level study: Phi_d maps across fills, damping against fill level.
+
+Object-oriented matplotlib (a :class:`~matplotlib.figure.Figure` made directly, as
+:mod:`sloshrom.plotting` does): no backend is selected.
+"""
 
 from __future__ import annotations
 
@@ -11,7 +15,7 @@ from matplotlib.figure import Figure
 
 from sloshrom.plotting.maps import plot_phi_d_map
 
-__all__ = ["damping_fill_figure", "fill_maps_figure"]
+__all__ = ["CASE_STYLE", "damping_fill_figure", "fill_maps_figure"]
 
 #: Line styles of the cases of the damping-against-fill figure.
 CASE_STYLE = {"rig": dict(color="k", marker="o"), "rom": dict(color="C3", marker="s"),
