@@ -60,7 +60,7 @@ def cases(eps: float = 0.0, draw: int = 0) -> dict[str, np.ndarray]:
     ref = Tank()
     tank = Tank(length=float(p(ref.length)), width=float(p(ref.width)),
                 height=float(p(ref.height)), density=float(p(ref.density)))
-    rig = VirtualRig(tank, seed=3, sensors=SensorParams(output_rate=1000.0))
+    rig = VirtualRig(tank, seed=3, sensors=SensorParams(output_fs=1000.0))
     path = vfa(1.0 / rig.dt, duration=20.0, tank=tank, seed=3, f_min=float(p(SHAKER.f_min)),
                f_max=float(p(SHAKER.f_max)))
     out["vfa_acceleration"] = np.asarray(path.acceleration)

@@ -15,9 +15,9 @@ from matplotlib.figure import Figure
 from sloshrom.beam.analysis import AnalysisError, half_power_damping, modal_filter
 from sloshrom.beam.errors import BeamError
 from sloshrom.beam.results import (
+    case_output_fs,
     damping_by_band,
     mode1_damping_table,
-    output_rate,
     write_table,
 )
 from sloshrom.config import ConfigError
@@ -124,9 +124,9 @@ def test_table2_columns_and_banded_damping(tmp_path):
     assert bands["0.5-1 g"] == pytest.approx(0.01) and np.isnan(bands["1-2 g"])
 
 
-def test_output_rate():
-    assert output_rate(FrozenLiquid(1e-4), 500.0) == 500.0  # the rig's step: decimated
-    assert output_rate(FrozenLiquid(1 / 500.0), 500.0) is None  # already at the rate
+def test_case_output_fs():
+    assert case_output_fs(FrozenLiquid(1e-4), 500.0) == 500.0  # the rig's step: decimated
+    assert case_output_fs(FrozenLiquid(1 / 500.0), 500.0) is None  # already at the rate
 
 
 def test_run_validates_before_writing_anything(tmp_path):

@@ -40,7 +40,7 @@ def test_amplitude_weights_follow_one_over_amplitude_squared():
 def rig_records():
     """A short VFA on the virtual rig (training) and another path (validation), 500 Hz."""
     tank = Tank()
-    rig = VirtualRig(tank=tank, seed=0, sensors=SensorParams(output_rate=FS))
+    rig = VirtualRig(tank=tank, seed=0, sensors=SensorParams(output_fs=FS))
     out = []
     for split, seed in (("train", 1), ("validation", 2)):
         sig = signals.vfa(1.0 / rig.dt, split=split, duration=60.0, tank=tank, seed=seed)

@@ -72,7 +72,7 @@ def test_rig_fs_is_the_record_rate(tmp_path):
         "rig": {"fs": 1000.0},
         "data": {"train_duration": 12.0, "validation_duration": 12.0, "design": "shaker"}})
     ctx = Context(tmp_path, cfg)
-    assert ctx.rig().sensors.output_rate == 1000.0
+    assert ctx.rig().sensors.output_fs == 1000.0
     outputs, files = stage_data(ctx)
     from sloshrom.io import read_record
 

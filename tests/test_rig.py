@@ -202,7 +202,7 @@ def test_params_toml_round_trip_and_validation(tmp_path):
     with pytest.raises(ConfigError):
         RigParams.from_toml(tmp_path / "missing.toml")
     with pytest.raises(ConfigError):
-        SensorParams(output_rate=10000.0)
+        SensorParams(output_fs=10000.0)
     with pytest.raises(ValueError):
         VirtualRig(dt=-1.0)
     # restitution -> dashpot damping ratio: e = exp(-pi z / sqrt(1 - z^2))

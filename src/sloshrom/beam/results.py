@@ -36,7 +36,7 @@ from sloshrom.models import SloshingModel
 __all__ = [
     "BANDS", "Mode1Decay", "damping_by_band", "damping_summary", "envelope_table",
     "frozen_modes_table",
-    "modal_accelerations", "mode1_damping_table", "mode1_decay", "output_rate",
+    "modal_accelerations", "mode1_damping_table", "mode1_decay", "case_output_fs",
     "reference_tank", "simulate_cases", "to_dataset", "write_dataset", "write_table",
 ]
 
@@ -51,7 +51,7 @@ Simulate = Callable[[Any, float | None], dict[str, Any]]
 
 
 # -- simulation ----------------------------------------------------------------------------------
-def output_rate(model: SloshingModel | Sequence[SloshingModel], fs: float) -> float | None:
+def case_output_fs(model: SloshingModel | Sequence[SloshingModel], fs: float) -> float | None:
     """Rate of a case's results, Hz: ``fs``, or ``None`` (the model's own rate) if it is slower.
 
     A fast model (the rig at 10 kHz) is decimated to the sensors' rate ``fs``; a model running at
@@ -63,7 +63,7 @@ def output_rate(model: SloshingModel | Sequence[SloshingModel], fs: float) -> fl
 
 def simulate_cases(models: Mapping[str, Any], simulate: Simulate, fs: float,
                    on_case: Callable[[str], None] | None = None) -> dict[str, dict[str, Any]]:
-    """Run ``simulate`` for every case, in order; results at :func:`output_rate`.
+    """Run ``simulate`` for every case, in order; results at :func:`case_output_fs`.
 
     Parameters
     ----------
@@ -85,7 +85,7 @@ def simulate_cases(models: Mapping[str, Any], simulate: Simulate, fs: float,
     for case, model in models.items():
         if on_case is not None:
             on_case(case)
-        results[case] = simulate(model, output_rate(model, fs))
+        results[case] = simulate(model, case_output_fs(model, fs))
     return results
 
 

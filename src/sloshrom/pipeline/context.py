@@ -62,7 +62,7 @@ class Context:
         at ``[rig] fs``. ``tank`` replaces the configured tank (another fill level)."""
         return VirtualRig(tank=self.tank if tank is None else tank, params=self.rig_params(),
                           seed=self.cfg.rig.seed,
-                          sensors=SensorParams(output_rate=self.cfg.rig.fs))
+                          sensors=SensorParams(output_fs=self.cfg.rig.fs))
 
     def path(self, *parts: str) -> Path:
         """``out/parts...``, its directory created."""

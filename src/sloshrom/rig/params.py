@@ -171,9 +171,9 @@ class SensorParams:
 
     Parameters
     ----------
-    acquisition_rate : float
+    acquisition_fs : float
         Sample rate of the acquisition system, Hz.
-    output_rate : float
+    output_fs : float
         Rate of the returned record after digital decimation, Hz.
     anti_alias_fraction : float
         Cut-off of the anti-alias filters as a fraction of the Nyquist frequency of the rate
@@ -186,22 +186,22 @@ class SensorParams:
         Standard deviation of the accelerometer noise at the acquisition rate, m/s^2.
     """
 
-    acquisition_rate: float = 5000.0
-    output_rate: float = 500.0
+    acquisition_fs: float = 5000.0
+    output_fs: float = 500.0
     anti_alias_fraction: float = 0.8
     filter_order: int = 8
     force_noise: float = 0.02
     acceleration_noise: float = 0.05
 
     def __post_init__(self) -> None:
-        for name in ("acquisition_rate", "output_rate", "anti_alias_fraction"):
+        for name in ("acquisition_fs", "output_fs", "anti_alias_fraction"):
             v = getattr(self, name)
             if not (np.isfinite(v) and v > 0):
                 raise ConfigError(f"SensorParams.{name} must be positive, got {v!r}")
         if self.anti_alias_fraction >= 1.0:
             raise ConfigError("SensorParams.anti_alias_fraction must be < 1")
-        if self.output_rate > self.acquisition_rate:
-            raise ConfigError("SensorParams.output_rate must not exceed acquisition_rate")
+        if self.output_fs > self.acquisition_fs:
+            raise ConfigError("SensorParams.output_fs must not exceed acquisition_fs")
         for name in ("force_noise", "acceleration_noise"):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):

@@ -141,7 +141,7 @@ class VirtualRig:
         dict
             ``fs`` (Hz), ``time`` (s), ``acceleration`` (accelerometer, m/s^2), ``force``
             (load cells, N: ``-(m_l + m_struct) w'' + dF``), ``true_velocity`` (m/s) and
-            ``true_dynamic_force`` (N), all at ``sensors.output_rate``. The true signals pass
+            ``true_dynamic_force`` (N), all at ``sensors.output_fs``. The true signals pass
             through the same (zero-phase) filters as the measured ones, without noise.
         """
         acc = np.asarray(acceleration, dtype=np.float64)
@@ -151,13 +151,13 @@ class VirtualRig:
             raise RigError("acceleration must be finite")
         sp = self.sensors
         fs_fine = 1.0 / self.dt
-        if sp.acquisition_rate > fs_fine * (1 + 1e-9):
+        if sp.acquisition_fs > fs_fine * (1 + 1e-9):
             raise RigError(
-                f"acquisition rate {sp.acquisition_rate} Hz exceeds the rig rate {fs_fine} Hz"
+                f"acquisition rate {sp.acquisition_fs} Hz exceeds the rig rate {fs_fine} Hz"
             )
-        if (acc.size - 1) * self.dt * sp.output_rate < 40:
+        if (acc.size - 1) * self.dt * sp.output_fs < 40:
             raise RigError(
-                f"record too short for the sensor filters: need at least {40 / sp.output_rate} s"
+                f"record too short for the sensor filters: need at least {40 / sp.output_fs} s"
             )
         # velocity by exact trapezoidal integration (motion starts at rest)
         vel = np.concatenate([[0.0], np.cumsum(0.5 * (acc[1:] + acc[:-1]) * self.dt)])
@@ -167,18 +167,18 @@ class VirtualRig:
         t_fine = np.arange(acc.size) * self.dt
         # analogue anti-alias filter, then sampling at the acquisition rate
         sig = np.stack([acc, force, vel, df])
-        sig = _lowpass(sig, fs_fine, sp.acquisition_rate, sp)
-        t_acq = np.arange(0.0, t_fine[-1] + 1e-12, 1.0 / sp.acquisition_rate)
-        sig = _resample(sig, t_fine, t_acq, fs_fine, sp.acquisition_rate)
+        sig = _lowpass(sig, fs_fine, sp.acquisition_fs, sp)
+        t_acq = np.arange(0.0, t_fine[-1] + 1e-12, 1.0 / sp.acquisition_fs)
+        sig = _resample(sig, t_fine, t_acq, fs_fine, sp.acquisition_fs)
         rng = np.random.default_rng([self.seed, 29])
         sig[0] += sp.acceleration_noise * rng.standard_normal(t_acq.size)
         sig[1] += sp.force_noise * rng.standard_normal(t_acq.size)
         # digital decimation to the output rate
-        sig = _lowpass(sig, sp.acquisition_rate, sp.output_rate, sp)
-        t_out = np.arange(0.0, t_acq[-1] + 1e-12, 1.0 / sp.output_rate)
-        sig = _resample(sig, t_acq, t_out, sp.acquisition_rate, sp.output_rate)
+        sig = _lowpass(sig, sp.acquisition_fs, sp.output_fs, sp)
+        t_out = np.arange(0.0, t_acq[-1] + 1e-12, 1.0 / sp.output_fs)
+        sig = _resample(sig, t_acq, t_out, sp.acquisition_fs, sp.output_fs)
         return {
-            "fs": float(sp.output_rate),
+            "fs": float(sp.output_fs),
             "time": t_out,
             "acceleration": sig[0],
             "force": sig[1],

@@ -87,7 +87,7 @@ __all__ = ["stage_multimode"]
 def _rig(ctx: Context, seed: int) -> VirtualRig:
     """The configuration's rig physics with its own seed (sensor noise, Faraday seeding)."""
     return VirtualRig(tank=ctx.tank, params=ctx.rig_params(), seed=int(seed),
-                      sensors=SensorParams(output_rate=ctx.cfg.rig.fs))
+                      sensors=SensorParams(output_fs=ctx.cfg.rig.fs))
 
 
 def _fit_rom(item: tuple[str, dict[str, Any], np.ndarray, np.ndarray, np.ndarray, np.ndarray],
