@@ -87,12 +87,13 @@ def identify(ctx: Context, cache: StageCache | None = None) -> dict[str, StageRe
         with _timer(ctx, "sweep"):
             results["sweep"] = cache.run(
                 "sweep", {k: rom[k] for k in SWEEP_KEYS}, [results["data"]],
-                lambda: stage_sweep(ctx), __version__,
+                lambda: stage_sweep(ctx, results["data"]), __version__,
             )
     rom_keys = {k: v for k, v in rom.items() if not k.startswith("sweep")}
     with _timer(ctx, "rom"):
         results["rom"] = cache.run(
-            "rom", rom_keys, [results["data"]], lambda: stage_rom(ctx), __version__
+            "rom", rom_keys, [results["data"]], lambda: stage_rom(ctx, results["data"]),
+            __version__
         )
     return results
 

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from sloshrom.io import read_record
+from sloshrom.pipeline.cache import StageResult
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.settings import RomTable
 from sloshrom.plotting import savefig
@@ -41,16 +42,18 @@ SWEEP_KEYS = ("sweep_nfir_delays", "sweep_nfir_neurons", "sweep_noe_delays", "sw
               "max_epochs", "hidden", "seed")
 
 
-def stage_sweep(ctx: Context) -> tuple[dict[str, Any], list[str]]:
+def stage_sweep(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str]]:
     """Paper Fig. 8: train every grid point, score = mean of train and validation MSE.
+
+    ``data`` is the data stage's result: the records it recorded are the ones trained on.
 
     Points run in parallel (Dask LocalCluster, ``sweep_workers`` processes; 1 = in this
     process). Each finished point is kept in ``OUT/sweep/``, so an interrupted sweep resumes.
     """
     cfg = ctx.cfg.rom
     pts = sweep_points(cfg)
-    train = read_record(ctx.out / "data" / "train.nc")
-    val = read_record(ctx.out / "data" / "validation.nc")
+    train = read_record(data.output("data/train.nc"))
+    val = read_record(data.output("data/validation.nc"))
     out_dir = ctx.out / "sweep"
     done = [0]
 
@@ -120,8 +123,10 @@ def recipe_text(terms: Mapping[str, float], name: str) -> str:
             "the maps.")
 
 
-def stage_rom(ctx: Context) -> tuple[dict[str, Any], list[str]]:
+def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str]]:
     """Train the configured NFIR/NOE on the training record, validate it (paper Fig. 10).
+
+    ``data`` is the data stage's result: the records it recorded are the ones trained on.
 
     Returns
     -------
@@ -133,8 +138,8 @@ def stage_rom(ctx: Context) -> tuple[dict[str, Any], list[str]]:
         The model file and Fig. 10, relative to ``ctx.out``.
     """
     cfg = ctx.cfg.rom
-    train = read_record(ctx.out / "data" / "train.nc")
-    val = read_record(ctx.out / "data" / "validation.nc")
+    train = read_record(data.output("data/train.nc"))
+    val = read_record(data.output("data/validation.nc"))
     u, y = train["velocity"], train["dynamic_force"]
     uv, yv = val["velocity"], val["dynamic_force"]
     files: list[str] = []
