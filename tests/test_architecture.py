@@ -3,7 +3,8 @@
 Every module under ``src/sloshrom`` is parsed (nothing is imported) and put in a *room*:
 
 ========== =======================================================================
-base       ``sloshrom`` (root), ``config``, ``fileio``, ``models``, ``signals``, ``_x64``, ``_jit``
+base       ``sloshrom`` (root), ``config``, ``errors``, ``fileio``, ``limits``, ``models``,
+           ``signals``, ``_x64``, ``_jit``
 domain     ``io``, ``rig``, ``rom``, ``energy``, ``beam`` (each one room)
 plotting   ``plotting``: figures only
 pipeline   ``pipeline``: the reproduce chain
@@ -13,7 +14,9 @@ cli        ``cli``: the command line
 
 Imports point one way, ``cli -> pipeline -> plotting / domain rooms -> base``; :data:`ALLOWED`
 is the table of the rooms each room may import. ``pipeline`` and ``studies`` import each other
-at two seams only (:data:`RUNS_STUDIES`, :data:`FOR_STUDIES`). See ``docs/architecture.md``.
+at two seams only (:data:`RUNS_STUDIES`, :data:`FOR_STUDIES`). Below the rooms, only the
+capability checks (:data:`CAPABILITIES`) ask a model what kind of model it is, and no module
+raises a plain ``ValueError``. See ``docs/architecture.md``.
 """
 
 from __future__ import annotations
