@@ -315,6 +315,7 @@ MODEL_CLASSES = {
     "NOE": "sloshrom.rom.estimators", "_TDNN": "sloshrom.rom.estimators",
     "Ensemble": "sloshrom.rom.ensemble", "FillFamily": "sloshrom.rom.family",
     "FillBlend": "sloshrom.rom.family", "BouncingBall": "sloshrom.rom.bouncing",
+    "Ball": "sloshrom.rom.bouncing",
     "CompiledKernel": "sloshrom.models",  # a protocol: isinstance asks for kernel()
 }
 #: Members by which a model says what kind of model it is.

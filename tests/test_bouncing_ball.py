@@ -3,6 +3,7 @@ exact energy and momentum bookkeeping, identification, the sloshing-model contra
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -18,6 +19,7 @@ from sloshrom.pipeline.html import render_table
 from sloshrom.pipeline.settings import load
 from sloshrom.rom.bouncing import (
     STATE_NAMES,
+    Ball,
     BouncingBall,
     ball_kernel_step,
     forward_acceleration,
@@ -282,6 +284,24 @@ def test_identification_recovers_the_parameters_of_a_ball(fitted):
     assert est.envelope_["acceleration_max"] >= est.envelope_["input_max"]
     assert est.dt == pytest.approx(1e-4)  # default sub-steps: the rig's step
     assert "validation_nrmse" in h
+
+
+def test_the_fitted_ball_is_an_immutable_model_the_estimator_delegates_to(fitted):
+    est, u, _ = fitted
+    m = est.model_
+    assert isinstance(m, Ball) and isinstance(m, SloshingModel) and has_kernel(m)
+    assert (m.mass_fraction, m.restitution, m.gap, m.dt) == \
+        (est.mass_fraction_, est.restitution_, est.gap_, est.dt)
+    assert m.input == est.input == "acceleration" and m.fill_range == est.fill_range
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        m.gap = 0.0
+    a = forward_acceleration(u[:400], 1.0 / est.dt)
+    np.testing.assert_array_equal(m.simulate(None, a), est.simulate(None, a))
+    state, forces = m.init_state(), []
+    for ak in a[:50]:
+        state, f = m.step(state, 0.0, ak)
+        forces.append(f)
+    np.testing.assert_allclose(forces, m.simulate(None, a[:50]), rtol=1e-12, atol=1e-12)
 
 
 def test_fit_is_deterministic(fitted):

@@ -75,6 +75,7 @@ import operator
 import time
 import tomllib
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar, Literal
 
@@ -98,6 +99,7 @@ __all__ = [
     "MAX_MODEL_STEP",
     "REST_SPEED",
     "STATE_NAMES",
+    "Ball",
     "BouncingBall",
     "ball_kernel_step",
     "forward_acceleration",
@@ -446,6 +448,115 @@ class _ForceError:
 # --------------------------------------------------------------------------------------------
 
 
+def _rest_state() -> np.ndarray:
+    st = np.zeros(_N_STATE)
+    st[_S_CONTACT] = _FLOOR
+    return st
+
+
+@dataclass(frozen=True)
+class Ball:
+    """A fitted bouncing ball: an immutable sloshing model with a numba kernel.
+
+    The model :class:`BouncingBall` fits and delegates to (the networks' split of model and
+    estimator). Its step is exact for the acceleration held over the step.
+
+    Parameters
+    ----------
+    mass_fraction : float
+        ``beta = m_b / m_l``, in (0, 1].
+    restitution : float
+        Coefficient of restitution ``e``, in [0, 1].
+    gap : float
+        Free travel of the ball, m.
+    dt : float
+        The model step, s.
+    tank : Tank
+        The tank and liquid (``m_l``; its fill is the one the ball stands for).
+    """
+
+    mass_fraction: float
+    restitution: float
+    gap: float
+    dt: float
+    tank: Tank
+
+    #: output k is the average force over [t_k, t_k+1] (for energy integrals)
+    force_rule: ClassVar[Literal["step"]] = "step"
+    #: the numba kernel is the fast path; the step is not a JAX function
+    jax_traceable: ClassVar[bool] = False
+    #: the signal the ball reads: its step is driven by the tank acceleration alone
+    input: ClassVar[Literal["acceleration"]] = "acceleration"
+
+    @property
+    def ball_mass(self) -> float:
+        """``m_b = beta m_l``, kg."""
+        return self.mass_fraction * self.tank.liquid_mass
+
+    @property
+    def fill_range(self) -> tuple[float, float]:
+        """``(fill, fill)`` of the tank: the one fill level the ball stands for (-)."""
+        f = float(self.tank.fill)
+        return f, f
+
+    def params(self, dt: float | None = None) -> np.ndarray:
+        """Kernel parameters at the model step (or at ``dt``, s: the kernel is exact for any
+        step with the acceleration held over it)."""
+        p = np.empty(_N_PARAMS)
+        p[_P_GAP] = self.gap
+        p[_P_MASS] = self.ball_mass
+        p[_P_E] = self.restitution
+        p[_P_G] = G
+        p[_P_DT] = self.dt if dt is None else dt
+        return p
+
+    def init_state(self) -> np.ndarray:
+        """At rest on the floor: :data:`STATE_NAMES` ``(0, 0, 1, 0, 0, 0)``."""
+        return _rest_state()
+
+    def step(self, state: Any, velocity: Any, acceleration: Any) -> tuple[np.ndarray, float]:
+        """Pure step: ``(new_state, dynamic_force)`` (N); ``state`` is not modified.
+
+        ``acceleration`` (m/s^2) is held over the step; ``velocity`` is ignored.
+        """
+        st = np.array(state, dtype=np.float64, copy=True)
+        if st.shape != (_N_STATE,):
+            raise ROMError(f"state must be a 1-D array of {_N_STATE} values (init_state())")
+        f = ball_kernel_step(st, self.params(), 0.0, float(acceleration))
+        return st, f
+
+    def simulate_acceleration(self, acceleration: Any, dt: float | None = None) -> np.ndarray:
+        """Force (N) from rest for accelerations (m/s^2, (..., n)) held over steps of ``dt``
+        (s, default the model step)."""
+        a = np.asarray(acceleration, dtype=np.float64)
+        flat = np.ascontiguousarray(a.reshape(-1, a.shape[-1]))
+        return _simulate_rows(self.params(dt), flat).reshape(a.shape)
+
+    def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
+        """Dynamic force (N) for tank acceleration (m/s^2) sampled at ``1 / dt``.
+
+        Arrays of shape ``(..., n)`` (broadcast together); leading axes are independent runs,
+        each from :meth:`init_state`. ``velocity`` (m/s) is ignored unless ``acceleration`` is
+        ``None``, when the acceleration is its forward difference
+        (:func:`forward_acceleration`).
+        """
+        if acceleration is None:
+            v = _signal("velocity", velocity, allow_batch=True)
+            return self.simulate_acceleration(forward_acceleration(v, 1.0 / self.dt))
+        a = _signal("acceleration", acceleration, allow_batch=True)
+        shape = np.broadcast_shapes(np.shape(velocity), a.shape)
+        return self.simulate_acceleration(np.broadcast_to(a, shape))
+
+    def kernel(self) -> tuple[Any, np.ndarray, np.ndarray]:
+        """``(step_fn, params, state)`` for numba loops (:func:`sloshrom.models.has_kernel`).
+
+        ``step_fn(state, params, velocity, acceleration) -> dynamic_force`` is
+        :func:`ball_kernel_step`; it advances ``state`` (float64, :data:`STATE_NAMES`) in place
+        by one step ``dt``.
+        """
+        return ball_kernel_step, self.params(), self.init_state()
+
+
 class BouncingBall:
     """Bouncing-ball equivalent mechanical model, identified from force data.
 
@@ -523,13 +634,10 @@ class BouncingBall:
     >>> df = ball.simulate(velocity, acceleration)                        # doctest: +SKIP
     """
 
-    #: output k is the average force over [t_k, t_k+1] (for energy integrals)
-    force_rule: ClassVar[Literal["step"]] = "step"
-    #: the numba kernel is the fast path; the step is not a JAX function
-    jax_traceable: ClassVar[bool] = False
-    #: the signal the ball reads (its step is driven by the tank acceleration alone), and the
-    #: one its envelope's input range describes
-    input: ClassVar[Literal["acceleration"]] = "acceleration"
+    force_rule = Ball.force_rule
+    jax_traceable = Ball.jax_traceable
+    #: the signal the ball reads, and the one its envelope's input range describes
+    input = Ball.input
     #: the record variables and units the ball is identified from (as the networks'; the
     #: acceleration driving the ball is given beside them or derived from the velocity)
     names: ClassVar[tuple[str, str]] = ("velocity", "dynamic_force")
@@ -638,38 +746,44 @@ class BouncingBall:
 
     # -- fitted parameters --------------------------------------------------------------------
     def _check_fitted(self) -> None:
-        if not hasattr(self, "gap_"):
+        if not hasattr(self, "model_"):
             raise NotFittedError("this BouncingBall is not fitted: call fit() first")
+
+    @property
+    def mass_fraction_(self) -> float:
+        """Identified ``beta = m_b / m_l``, -."""
+        self._check_fitted()
+        return self.model_.mass_fraction
+
+    @property
+    def restitution_(self) -> float:
+        """Identified restitution ``e``, -."""
+        self._check_fitted()
+        return self.model_.restitution
+
+    @property
+    def gap_(self) -> float:
+        """Identified gap, m."""
+        self._check_fitted()
+        return self.model_.gap
 
     @property
     def dt(self) -> float:
         """Model time step ``1 / (fs_ * n_substeps_)``, s."""
         self._check_fitted()
-        return 1.0 / (self.fs_ * self.n_substeps_)
+        return self.model_.dt
 
     @property
     def ball_mass_(self) -> float:
         """``m_b = beta m_l``, kg."""
         self._check_fitted()
-        return self.mass_fraction_ * self.tank_.liquid_mass
+        return self.model_.ball_mass
 
     @property
     def gap_factor_(self) -> float:
         """``gamma = Gap / ullage``, -."""
         self._check_fitted()
         return self.gap_ / self.tank_.ullage
-
-    def _param_array(self, dt: float | None = None) -> np.ndarray:
-        """Kernel parameters at the model step (or at ``dt``, s: the kernel is exact for any
-        step with the acceleration held over it)."""
-        self._check_fitted()
-        p = np.empty(_N_PARAMS)
-        p[_P_GAP] = self.gap_
-        p[_P_MASS] = self.ball_mass_
-        p[_P_E] = self.restitution_
-        p[_P_G] = G
-        p[_P_DT] = self.dt if dt is None else dt
-        return p
 
     def parameters(self) -> dict[str, float]:
         """The identified parameters, JSON-able: ``mass_fraction`` (-), ``ball_mass_kg``,
@@ -716,9 +830,10 @@ class BouncingBall:
                            "(10 ullages)")
         if not fs > 0:
             raise ROMError(f"fs must be a finite positive sample rate in Hz, got {fs!r}")
-        self.mass_fraction_, self.restitution_, self.gap_, self.fs_ = beta, e, gap, fs
+        self.fs_ = fs
         self.n_substeps_ = (int(self.n_substeps) if self.n_substeps is not None
                             else max(1, math.ceil(1.0 / (fs * MAX_MODEL_STEP) - 1e-9)))
+        self.model_ = Ball(beta, e, gap, 1.0 / (fs * self.n_substeps_), self.tank_)
 
     # -- identification -----------------------------------------------------------------------
     def fit(
@@ -844,7 +959,7 @@ class BouncingBall:
         }
         if val is not None:
             uv, yv, av = val
-            pred = self._simulate_acc(av, 1.0 / fs_)[:-1]
+            pred = self.model_.simulate_acceleration(av, 1.0 / fs_)[:-1]
             verr = _ForceError(_step_average(yv), fs_, cutoff)
             mse = float(verr.of_force(pred))
             history["validation_mse"] = mse
@@ -876,47 +991,21 @@ class BouncingBall:
                                f"{a_.size} and {u_.size}")
         return u_, y_, np.ascontiguousarray(a_)
 
-    # -- sloshing-model contract --------------------------------------------------------------
+    # -- sloshing-model contract: the fitted Ball's ---------------------------------------------
     def init_state(self) -> np.ndarray:
-        """At rest on the floor: :data:`STATE_NAMES` ``(0, 0, 1, 0, 0, 0)``."""
-        st = np.zeros(_N_STATE)
-        st[_S_CONTACT] = _FLOOR
-        return st
+        """At rest on the floor (:meth:`Ball.init_state`)."""
+        return _rest_state()
 
     def step(self, state: Any, velocity: Any, acceleration: Any) -> tuple[np.ndarray, float]:
-        """Pure step: ``(new_state, dynamic_force)`` (N); ``state`` is not modified.
-
-        ``acceleration`` (m/s^2) is held over the step; ``velocity`` is ignored.
-        """
-        params = self._param_array()
-        st = np.array(state, dtype=np.float64, copy=True)
-        if st.shape != (_N_STATE,):
-            raise ROMError(f"state must be a 1-D array of {_N_STATE} values (init_state())")
-        f = ball_kernel_step(st, params, 0.0, float(acceleration))
-        return st, f
-
-    def _simulate_acc(self, acceleration: np.ndarray, dt: float | None = None) -> np.ndarray:
-        """Force (N) from rest for accelerations (m/s^2, (..., n)) held over steps of ``dt``
-        (s, default the model step)."""
-        a = np.asarray(acceleration, dtype=np.float64)
-        flat = np.ascontiguousarray(a.reshape(-1, a.shape[-1]))
-        return _simulate_rows(self._param_array(dt), flat).reshape(a.shape)
+        """Pure step (:meth:`Ball.step`): ``(new_state, dynamic_force)`` (N)."""
+        self._check_fitted()
+        return self.model_.step(state, velocity, acceleration)
 
     def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
-        """Dynamic force (N) for tank acceleration (m/s^2) sampled at ``1 / dt``.
-
-        Arrays of shape ``(..., n)`` (broadcast together); leading axes are independent runs,
-        each from :meth:`init_state`. ``velocity`` (m/s) is ignored unless ``acceleration`` is
-        ``None``, when the acceleration is its forward difference
-        (:func:`forward_acceleration`).
-        """
+        """Dynamic force (N) for tank acceleration (m/s^2) sampled at ``1 / dt``
+        (:meth:`Ball.simulate`)."""
         self._check_fitted()
-        if acceleration is None:
-            v = _signal("velocity", velocity, allow_batch=True)
-            return self._simulate_acc(forward_acceleration(v, 1.0 / self.dt))
-        a = _signal("acceleration", acceleration, allow_batch=True)
-        shape = np.broadcast_shapes(np.shape(velocity), a.shape)
-        return self._simulate_acc(np.broadcast_to(a, shape))
+        return self.model_.simulate(velocity, acceleration)
 
     def predict(self, u: Any, acceleration: Any = None) -> np.ndarray:
         """Dynamic force (N) from rest at the record rate ``fs_`` (not the model step).
@@ -937,21 +1026,18 @@ class BouncingBall:
         self._check_fitted()
         u_ = _signal("u", u, allow_batch=True)
         if acceleration is None:
-            return self._simulate_acc(forward_acceleration(u_, self.fs_), 1.0 / self.fs_)
+            return self.model_.simulate_acceleration(forward_acceleration(u_, self.fs_),
+                                                     1.0 / self.fs_)
         a = _signal("acceleration", acceleration, allow_batch=True)
         if a.shape != u_.shape:
             raise ROMError(f"acceleration must have the shape of u, got {a.shape} and "
                            f"{u_.shape}")
-        return self._simulate_acc(a, 1.0 / self.fs_)
+        return self.model_.simulate_acceleration(a, 1.0 / self.fs_)
 
     def kernel(self) -> tuple[Any, np.ndarray, np.ndarray]:
-        """``(step_fn, params, state)`` for numba loops (:class:`sloshrom.models.CompiledKernel`).
-
-        ``step_fn(state, params, velocity, acceleration) -> dynamic_force`` is
-        :func:`ball_kernel_step`; it advances ``state`` (float64, :data:`STATE_NAMES`) in place
-        by one step ``dt``.
-        """
-        return ball_kernel_step, self._param_array(), self.init_state()
+        """``(step_fn, params, state)`` for numba loops (:meth:`Ball.kernel`)."""
+        self._check_fitted()
+        return self.model_.kernel()
 
     # -- persistence --------------------------------------------------------------------------
     def save(self, path: str | Path) -> Path:
