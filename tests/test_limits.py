@@ -130,3 +130,15 @@ def test_train_options_override_the_choice(tmp_path):
     output, terms = _train(tmp_path, ("force", "displacement"), ("N", "m"), "--passivity", "0.5")
     assert terms == (0.0, 0.5, 0.0)
     assert "passivity set by the options (by the records' units: the plain MSE)" in output
+
+
+def test_the_hidden_layer_kinds_are_written_once():
+    from typing import get_args
+
+    from sloshrom import limits
+    from sloshrom.pipeline.settings import RomTable
+    from sloshrom.rom import modelfile
+
+    assert get_args(limits.Hidden) == limits.HIDDEN_KINDS
+    assert modelfile.HIDDEN_KINDS is limits.HIDDEN_KINDS
+    assert get_args(RomTable.model_fields["hidden"].annotation) == limits.HIDDEN_KINDS

@@ -14,9 +14,11 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Literal
 
 __all__ = [
     "ARCH_TRAINERS",
+    "HIDDEN_KINDS",
     "MAX_DELAY",
     "MAX_EPOCHS",
     "MAX_MEMBERS",
@@ -27,6 +29,7 @@ __all__ = [
     "RECIPE",
     "RECIPE_UNITS",
     "TRAINERS",
+    "Hidden",
     "LossChoice",
     "loss_recipe",
 ]
@@ -34,6 +37,10 @@ __all__ = [
 #: Training algorithms of the estimators: subsampled Levenberg–Marquardt, full LM (MATLAB's
 #: ``trainlm``) and optax Adam (the NFIR's default, the only one with the recipe's loss terms).
 TRAINERS = ("fast", "lm", "adam")
+#: The normalized-RBF variants of the hidden layer: MATLAB's ``radbasn`` (``W x + b``) and the
+#: distance form (``b ||x - C||``); :mod:`sloshrom.rom.network`.
+Hidden = Literal["matlab", "distance"]
+HIDDEN_KINDS: tuple[str, ...] = ("matlab", "distance")
 #: The trainers each architecture accepts, its default first (an NOE trains by LM only).
 ARCH_TRAINERS: dict[str, tuple[str, ...]] = {"nfir": ("adam", "fast", "lm"),
                                              "noe": ("fast", "lm")}

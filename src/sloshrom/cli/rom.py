@@ -22,6 +22,7 @@ from sloshrom.errors import SloshromError
 from sloshrom.io import STANDARD_UNITS, read_record, same_unit, write_record
 from sloshrom.limits import (
     ARCH_TRAINERS,
+    HIDDEN_KINDS,
     MAX_DELAY,
     MAX_EPOCHS,
     MAX_MEMBERS,
@@ -135,7 +136,7 @@ def _check_names(input_name: str, output_name: str) -> None:
 def _check_common(max_epochs: int, seed: int, hidden: str) -> None:
     check_number(max_epochs, "--max-epochs", 0, MAX_EPOCHS)
     check_number(seed, "--seed", 0, MAX_SEED)
-    if hidden not in ("matlab", "distance"):
+    if hidden not in HIDDEN_KINDS:
         fail(f"--hidden must be matlab or distance, got {hidden!r}")
 
 

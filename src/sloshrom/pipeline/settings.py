@@ -48,6 +48,7 @@ from sloshrom.limits import (
     MAX_SEED,
     MAX_WEIGHTS,
     RECIPE,
+    Hidden,
 )
 
 __all__ = [
@@ -357,7 +358,7 @@ class RomTable(_Table):
     arch: Literal["nfir", "noe"]
     delays: Delays
     neurons: Neurons
-    hidden: Literal["matlab", "distance"]
+    hidden: Hidden
     max_epochs: _number(0, MAX_EPOCHS, integer=True, what="an integer")
     seed: Seed
     amplitude_weighting: _number(0.0, 100.0, what="an amplitude floor in m/s (0 = off)")
@@ -594,7 +595,7 @@ class MultimodeTable(_Table):
     # the ROM recipe
     delays: Delays
     neurons: Neurons
-    hidden: Literal["matlab", "distance"]
+    hidden: Hidden
     amplitude_weighting: _number(0.0, 100.0, what="an amplitude floor in m/s (0 = off)")
     passivity: _number(0.0, 1e6, what="a penalty weight (0 = off)")
     cycle_energy: _number(0.0, 1e6, what="a loss weight (0 = off)")

@@ -64,12 +64,14 @@ from pydantic import (
 
 from sloshrom.fileio import atomic_write, not_a_regular_file
 from sloshrom.limits import (  # the limits the command line and the settings share
+    HIDDEN_KINDS,
     MAX_DELAY,
     MAX_EPOCHS,
     MAX_MEMBERS,
     MAX_NEURONS,
     MAX_OUT_DELAYS,
     MAX_WEIGHTS,
+    Hidden,
 )
 from sloshrom.rom.errors import ROMError
 
@@ -89,7 +91,6 @@ FORMAT_VERSION = 1
 ENSEMBLE_FORMAT_VERSION = 2
 #: The newest version this sloshrom reads (it reads every version from 1).
 NEWEST_FORMAT_VERSION = 2
-HIDDEN_KINDS = ("matlab", "distance")
 PARAM_NAMES = ("W", "b", "c", "c0")
 
 # -- limits (all checked before the corresponding memory is allocated) --------------------------
@@ -351,7 +352,7 @@ TwoNames = Annotated[list[Text], Field(min_length=2, max_length=2)]
 class _Hyper(_Strict):
     delays: Annotated[int | list[int], PlainValidator(_delays_value)]
     neurons: Annotated[int, Field(ge=1, le=MAX_NEURONS)]
-    hidden: Literal["matlab", "distance"]
+    hidden: Hidden
     max_epochs: Annotated[int, Field(ge=0, le=MAX_EPOCHS)]
     seed: Annotated[int, Field(ge=0, le=2**63 - 1)]
     units: TwoUnits
