@@ -312,7 +312,7 @@ def test_no_function_local_imports_of_the_package():
 MODEL_CLASSES = {
     "FrozenLiquid": "sloshrom.models", "VirtualRig": "sloshrom.rig.virtual",
     "Network": "sloshrom.rom.network", "NFIR": "sloshrom.rom.estimators",
-    "NOE": "sloshrom.rom.estimators", "_TDNN": "sloshrom.rom.estimators",
+    "NOE": "sloshrom.rom.estimators", "_Estimator": "sloshrom.rom.estimators",
     "Ensemble": "sloshrom.rom.ensemble", "FillFamily": "sloshrom.rom.family",
     "FillBlend": "sloshrom.rom.family", "BouncingBall": "sloshrom.rom.bouncing",
     "Ball": "sloshrom.rom.bouncing",
