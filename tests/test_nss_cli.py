@@ -78,6 +78,14 @@ def test_map_with_an_nss_file(trained, tmp_path):
     assert (tmp_path / "m.nc").is_file() and (tmp_path / "m.png").is_file()
 
 
+@pytest.mark.filterwarnings("ignore::UserWarning")  # the beam leaves the tiny envelope
+def test_beam_with_an_nss_file(trained, tmp_path):
+    res = runner.invoke(app, ["beam", "free", "--sloshing", str(trained["model"]),
+                              "--duration", "2", "--out", str(tmp_path / "beam")])
+    assert res.exit_code == 0, res.output
+    assert list((tmp_path / "beam").glob("*.nc"))
+
+
 def test_loss_options_set_the_nss_terms(tmp_path):
     train, val = _records(tmp_path, 100.0)
     res = runner.invoke(app, ["train", "--data", str(train), "--validation", str(val),

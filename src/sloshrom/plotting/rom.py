@@ -67,7 +67,9 @@ def validation_figure(time: np.ndarray, y: np.ndarray, y_hat: np.ndarray, name: 
         axs[0].plot(time, other, color="C0", lw=0.25, alpha=0.7, label=other_label)
     axs[0].set_ylabel(r"$\Delta f$ [N]")
     axs[0].legend(loc="upper right")
-    axs[0].set_title(f"validation: fit {fit:.1f} %, NRMSE {nrmse:.3f}")
+    # beside another model, the title says whose fit it gives
+    axs[0].set_title(f"validation{'' if compare is None else f' of {name}'}: fit {fit:.1f} %, "
+                     f"NRMSE {nrmse:.3f}")
     i0 = int(np.argmax(np.abs(y)))
     sl = slice(max(0, i0 - int(0.5 * fs)), i0 + int(0.5 * fs))
     axs[1].plot(time[sl], y[sl], "k", lw=1, label="rig")
