@@ -221,8 +221,9 @@ class StateSpaceNetwork(FittedNetwork):
         return self.scaler.u(0.0), self.scaler.y(0.0)
 
     def init_state(self) -> Any:
-        """The rest state: zeros, shape (n_states,)."""
-        return jnp.zeros(self.spec.n_states, dtype=jnp.float64)
+        """The rest state: zeros, shape (n_states,) (NumPy float64: the precision of the
+        caller's JAX configuration once traced)."""
+        return np.zeros(self.spec.n_states)
 
     def step(self, state: Any, velocity: Any, acceleration: Any = None) -> tuple[Any, Any]:
         """One pure, jax-traceable step: ``(x_{k+1}, dynamic_force_k)`` from the velocity v_k
@@ -372,6 +373,16 @@ def _cycles_per_window(v: np.ndarray, offset: int, horizon: int) -> np.ndarray:
     return np.maximum(c[hi] - c[lo], 1.0)
 
 
+#: Training precision: the Adam steps run in float32, measured 1.7x faster than float64 on this
+#: machine's CPU (small matrix products through a 300-step scan); the validation free runs and
+#: the fitted model are float64.
+TRAIN_DTYPE = jnp.float32
+
+
+def _as64(p: dict[str, Any]) -> dict[str, Any]:
+    return {k: jnp.asarray(v, jnp.float64) for k, v in p.items()}
+
+
 @float64
 def fit_statespace(
     spec: StateSpaceSpec,
@@ -448,18 +459,19 @@ def fit_statespace(
                        f"of {T} samples (need at least {w + T + 1})")
     sc = scaler
     ru, ry = float(sc.u(0.0)), float(sc.y(0.0))
-    u_s, y_s = jnp.asarray(sc.u(u)), jnp.asarray(sc.y(y))
+    f32 = TRAIN_DTYPE
+    u_s, y_s = jnp.asarray(sc.u(u), f32), jnp.asarray(sc.y(y), f32)
     wts = jnp.asarray(amplitude_weights(u, fs, amplitude_weighting) if amplitude_weighting > 0
-                      else np.ones(n))
+                      else np.ones(n), f32)
     a_max = float(np.max(np.abs(np.gradient(u)))) * fs
     v_floor = float(np.max(np.abs(u))) / 100.0
-    vj = jnp.asarray(u)
+    vj = jnp.asarray(u, f32)
     # the input cycles in each window: its energy error per cycle is the NFIR's cycle term
-    ncyc = jnp.asarray(_cycles_per_window(u, w, T))
+    ncyc = jnp.asarray(_cycles_per_window(u, w, T), f32)
     probes = _probes(u, fs, sc, T, frequency_band) if passivity > 0 else None
     n_probe = 0 if probes is None else min(probes_per_step, probes.u.shape[0])
-    pu = jnp.asarray(probes.u) if probes is not None else jnp.zeros((1, T))
-    pw = jnp.asarray(probes.weight) if probes is not None else jnp.zeros((1, T))
+    pu = jnp.asarray(probes.u if probes is not None else np.zeros((1, T)), f32)
+    pw = jnp.asarray(probes.weight if probes is not None else np.zeros((1, T)), f32)
 
     def losses(p: dict[str, Any], starts: Any, pidx: Any) -> Any:
         past = starts[:, None] + jnp.arange(w)[None, :]
@@ -467,7 +479,7 @@ def fit_statespace(
         fut = starts[:, None] + w + jnp.arange(T)[None, :]
         uf = u_s[fut]
         if n_probe:
-            x0 = jnp.concatenate([x0, jnp.zeros((n_probe, x0.shape[1]))])
+            x0 = jnp.concatenate([x0, jnp.zeros((n_probe, x0.shape[1]), f32)])
             uf = jnp.concatenate([uf, pu[pidx]])
         yh = ss_simulate(p, x0, uf.T, ru, ry)[1].T
         e = yh[: starts.size] - y_s[fut]
@@ -513,7 +525,7 @@ def fit_statespace(
             ew /= _cycles_per_window(uv, 0, T)[vstarts][:, None]
 
         def val(p: Any) -> tuple[float, float]:
-            yh = np.asarray(ss_free_run(p, uvs, ru, ry))[:, 0]
+            yh = np.asarray(ss_free_run(_as64(p), uvs, ru, ry))[:, 0]
             if not np.all(np.isfinite(yh)) or np.max(np.abs(yh)) > 10.0:
                 return math.inf, math.inf
             e = yh - yvs
@@ -526,12 +538,12 @@ def fit_statespace(
 
     @jax.jit
     def penalty_all(p: Any) -> Any:
-        yh = ss_simulate(p, jnp.zeros((pu.shape[0], spec.n_states)), pu.T, ru, ry)[1].T
+        yh = ss_simulate(p, jnp.zeros((pu.shape[0], spec.n_states), f32), pu.T, ru, ry)[1].T
         phi = jnp.sum(yh * pw, axis=1)
         return jnp.mean(jnp.minimum(phi, 0.0) ** 2)
 
     rng = np.random.default_rng(seed)
-    params = {k: jnp.asarray(v) for k, v in init_params(spec, seed).items()}
+    params = {k: jnp.asarray(v, f32) for k, v in init_params(spec, seed).items()}
     state = opt.init(params)
     hist: dict[str, list] = {k: [] for k in ("train_mse", "val_mse", "val_objective", "seconds")}
     best, best_obj, best_epoch, fail, reason = params, math.inf, 0, 0, "max_epochs"
@@ -571,4 +583,4 @@ def fit_statespace(
     history: dict[str, Any] = dict(hist)
     history.update(stop_reason=reason, best_epoch=best_epoch, trainer="shooting",
                    n_rows=int(n), train_seconds=time.perf_counter() - t0)
-    return {k: np.asarray(v) for k, v in best.items()}, history
+    return {k: np.asarray(v, dtype=np.float64) for k, v in best.items()}, history
