@@ -277,11 +277,11 @@ def train(
     ] = None,
     cycle_energy: Annotated[
         float | None, typer.Option(help="NFIR/Adam or NSS: weight of the error of the energy "
-                                        "each input cycle (NSS: each training sub-sequence) "
-                                        "exchanges (default for m/s in and N out: NFIR "
-                                        f"{RECIPE['cycle_energy']:g}, NSS "
+                                        "each input cycle exchanges (NSS: per cycle of each "
+                                        "training sub-sequence); default for m/s in and N out: "
+                                        f"NFIR {RECIPE['cycle_energy']:g}, NSS "
                                         f"{NSS_RECIPE['cycle_energy']:g}; else 0 = off, as the "
-                                        "paper).")
+                                        "paper.")
     ] = None,
 ) -> None:
     """Identify an NFIR, NOE or NSS ROM (or an ensemble of them) from an input/output record.

@@ -133,10 +133,10 @@ def recipe_text(terms: Mapping[str, float], name: str, arch: str = "nfir") -> st
                      "the training envelope")
     if c > 0:
         terms.append(f"a term of weight {c:g} on the error of the energy "
-                     + ("each training sub-sequence" if nss else "each cycle of the training "
-                        "record")
-                     + " exchanges with the liquid (the part of the error that changes the "
-                     "damping)")
+                     + ("each training sub-sequence exchanges with the liquid, per input "
+                        "cycle in it" if nss else "each cycle of the training record exchanges "
+                        "with the liquid")
+                     + " (the part of the error that changes the damping)")
     paper = "rom.amplitude_weighting = 0, rom.passivity = 0 and rom.cycle_energy = 0"
     model = name if nss else f"the paper's {name}"
     if terms:
