@@ -48,8 +48,9 @@ def trained(tmp_path_factory):
 def test_train_nss_writes_a_model_that_loads_as_an_nss(trained):
     out = trained["output"]
     assert "wrote" in out and "NSS(2 states, 4 neurons, window 5)" in out
-    # the recipe by units is the NSS's (all 0 for now: the plain MSE), said on one line
-    assert "loss: the plain MSE: the NSS recipe" in out
+    # the recipe by units is the NSS's (no amplitude weighting), said on one line
+    assert ("loss: the passive recipe (amplitude weighting 0 m/s, passivity 1, cycle energy "
+            "0.1)") in out
     assert " mu " not in out
     m = load_model(trained["model"])
     assert type(m).__name__ == "NSS"
@@ -93,7 +94,7 @@ def test_loss_options_set_the_nss_terms(tmp_path):
                               "--ensemble", "2", "--workers", "1",
                               "--out", str(tmp_path / "ens.npz")])
     assert res.exit_code == 0, res.output
-    assert "amplitude_weighting 0.05, passivity 0, cycle_energy 0" in res.output
+    assert "amplitude_weighting 0.05, passivity 1, cycle_energy 0.1" in res.output
     assert "ensemble of 2 NSS(2 states, 4 neurons, window 5)" in res.output
     ens = load_model(tmp_path / "ens.npz")
     assert [m.amplitude_weighting for m in ens.members_] == [0.05, 0.05]
@@ -105,8 +106,11 @@ def test_the_nss_recipe_applies_to_a_velocity_in_and_a_force_out(monkeypatch):
 
     passive = limits.loss_recipe("m/s", "N")
     other = limits.loss_recipe("N", "m")
-    assert not cli_rom._nss_recipe(passive).passive  # NSS_RECIPE: all 0 for now
+    nss = cli_rom._nss_recipe(passive)
+    assert nss.passive and nss.terms == limits.NSS_RECIPE
     assert cli_rom._nss_recipe(other) == other
+    monkeypatch.setattr(cli_rom, "NSS_RECIPE", dict.fromkeys(limits.RECIPE, 0.0))
+    assert not cli_rom._nss_recipe(passive).passive
     weights = {"amplitude_weighting": 0.1, "passivity": 2.0, "cycle_energy": 0.0}
     monkeypatch.setattr(cli_rom, "NSS_RECIPE", weights)
     chosen = cli_rom._nss_recipe(passive)
@@ -136,8 +140,8 @@ TR = ["train", "--data", "{tmp}/train.nc", "--validation", "{tmp}/validation.nc"
                              r"--arch nfir"),
     ([*TR, "--arch", "noe", "--window", "3"], r"--window applies to --arch nss"),
     ([*TR, "--arch", "nss", "--window", "1000"],
-     r"train\.nc: 1200 samples are too few for NSS\(window 1000, horizon 300\) \(training "
-     r"needs at least 1301\)"),
+     r"train\.nc: 1200 samples are too few for NSS\(window 1000, horizon 200\) \(training "
+     r"needs at least 1201\)"),
     ([*TR, "--arch", "nss", "--window", "500", "--horizon", "20"],
      r"validation\.nc: 400 samples are too few for an encoder window of 500"),
     ([*TR, "--arch", "nss", "--neurons", "4096", "--window", "4096"],
@@ -154,5 +158,5 @@ def test_export_onnx_refuses_an_nss(trained, tmp_path):
     shutil.copy(trained["model"], tmp_path / "nss.npz")
     check_cli(tmp_path, tmp_path, None, ["export", "onnx", "{tmp}/nss.npz", "{tmp}/nss.onnx"],
               r"an NSS \(state-space ROM\) cannot be exported to ONNX: a state-space ROM's "
-              r"graph would need its state as input and output; not implemented; the FMU "
-              r"export is the way")
+              r"step graph would need its state as input and output, which is not "
+              r"implemented; run it through sloshrom")

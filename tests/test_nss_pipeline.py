@@ -31,7 +31,7 @@ def test_the_new_keys_follow_cycle_energy_in_order():
     rom = settings.load().rom
     assert (rom.nss_states, rom.nss_neurons, rom.nss_window, rom.nss_horizon, rom.nss_batch,
             rom.nss_max_epochs, rom.nss_steps_per_epoch, rom.nss_learning_rate,
-            rom.compare_nfir) == (8, 64, 50, 300, 128, 40, 200, 0.003, True)
+            rom.compare_nfir) == (8, 64, 50, 200, 128, 60, 200, 0.003, True)
     # compare_nfir is ignored for an NFIR or NOE
     assert rom.compares_nfir == (rom.arch == "nss")
     assert not settings.load().replace(rom={"arch": "nfir"}).rom.compares_nfir

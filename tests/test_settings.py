@@ -192,10 +192,19 @@ def test_replace_validates_the_changes():
 
 
 def test_the_passive_recipe_has_one_set_of_defaults():
-    """defaults.toml (the configuration's source) holds the recipe of ``sloshrom.limits``."""
+    """defaults.toml (the configuration's source) holds the recipe of ``sloshrom.limits`` for
+    its default class (the NSS's), and docs/examples/nfir_rom.toml the NFIR's."""
+    import tomllib
+    from pathlib import Path
+
     from sloshrom import limits
 
-    assert settings.load().rom.loss_terms() == limits.RECIPE
+    cfg = settings.load()
+    assert cfg.rom.arch == "nss"
+    assert cfg.rom.loss_terms() == limits.NSS_RECIPE
+    nfir = Path(__file__).parents[1] / "docs" / "examples" / "nfir_rom.toml"
+    rom = tomllib.loads(nfir.read_text())["rom"]
+    assert rom.pop("arch") == "nfir" and rom == limits.RECIPE
 
 
 def test_schema_is_the_single_source_of_bounds():

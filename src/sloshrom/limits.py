@@ -82,8 +82,8 @@ RECIPE: dict[str, float] = {"amplitude_weighting": 0.05, "passivity": 1.0, "cycl
 #: The loss recipe of a state-space ROM (NSS) trained on a velocity in m/s and a force in N:
 #: the same terms as :data:`RECIPE` (the energy term judges each training sub-sequence's
 #: exchanged energy); all 0 (plain MSE) until its weights are measured.
-NSS_RECIPE: dict[str, float] = {"amplitude_weighting": 0.0, "passivity": 0.0,
-                                "cycle_energy": 0.0}
+NSS_RECIPE: dict[str, float] = {"amplitude_weighting": 0.0, "passivity": 1.0,
+                                "cycle_energy": 0.1}
 #: The units the recipe is written for: a velocity in, a force out (F v is a power).
 RECIPE_UNITS = ("m/s", "N")
 

@@ -45,8 +45,8 @@ RECORD_SUFFIXES = (".nc", ".csv", ".mat")
 ARCHS = ("nfir", "noe", "nss")
 #: Defaults of the options a state-space ROM (``--arch nss``) takes: those of ``NSS()``.
 NSS_DEFAULTS: dict[str, int | float] = {"states": 8, "neurons": 64, "window": 50,
-                                        "horizon": 300, "batch": 128, "learning_rate": 0.003,
-                                        "steps_per_epoch": 200, "max_epochs": 40}
+                                        "horizon": 200, "batch": 128, "learning_rate": 0.003,
+                                        "steps_per_epoch": 200, "max_epochs": 60}
 #: Why each option of an NFIR/NOE does not apply to an NSS.
 NOT_FOR_NSS = {"--delays": "it has no delay line; its encoder reads --window samples",
                "--hidden": "its layers are tanh, not RBF",
@@ -225,7 +225,7 @@ def train(
     hidden: Annotated[str | None, typer.Option(
         help="NFIR/NOE: RBF variant, matlab (default) or distance.")] = None,
     max_epochs: Annotated[int | None, typer.Option(
-        help="Training epochs at most (NFIR/NOE 1000, NSS 40 epochs of --steps-per-epoch "
+        help="Training epochs at most (NFIR/NOE 1000, NSS 60 epochs of --steps-per-epoch "
              "Adam steps).")] = None,
     trainer: Annotated[
         str | None, typer.Option(help="NFIR: adam (default), fast (subsampled LM) or lm (trainlm);"
@@ -236,7 +236,7 @@ def train(
     window: Annotated[int | None, typer.Option(
         help="NSS: samples of past input and output its encoder reads (default 50).")] = None,
     horizon: Annotated[int | None, typer.Option(
-        help="NSS: samples simulated from each encoded start in training (default 300, "
+        help="NSS: samples simulated from each encoded start in training (default 200, "
              ">= 8).")] = None,
     batch: Annotated[int | None, typer.Option(
         help="NSS: sub-sequences per Adam step (default 128).")] = None,

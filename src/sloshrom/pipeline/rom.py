@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from sloshrom.io import read_record
+from sloshrom.limits import RECIPE
 from sloshrom.pipeline.cache import StageResult
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.settings import RomTable
@@ -107,8 +108,8 @@ def model_class_text(arch: str, name: str, compared: str | None = None) -> str:
             "NFIR class. Why: a state-space model carries the liquid's state (where it is, how "
             "it moves), which a finite-memory NFIR cannot.")
     if compared:
-        text += (f" The paper's class, {compared}, identified on the same records with the "
-                 "same loss, is set beside it in Fig. 10.")
+        text += (f" The paper's class, {compared}, identified on the same records with its "
+                 "own passive recipe, is set beside it in Fig. 10.")
     return text
 
 
@@ -157,7 +158,8 @@ def recipe_text(terms: Mapping[str, float], name: str, arch: str = "nfir") -> st
 
 def estimator(cfg: RomTable, arch: str | None = None) -> NFIR | NOE | NSS:
     """The unfitted estimator of the ``[rom]`` table: its ``arch`` (default: the configured
-    one; ``"nfir"`` for the compared NFIR), seed ``seed``, the loss weights for an NFIR or NSS.
+    one; ``"nfir"`` for the compared NFIR), seed ``seed``, the loss weights for an NFIR or NSS
+    (the compared NFIR: :data:`sloshrom.limits.RECIPE`, the NFIR's passive recipe).
     """
     arch = cfg.arch if arch is None else arch
     if arch == "nss":
@@ -167,6 +169,10 @@ def estimator(cfg: RomTable, arch: str | None = None) -> NFIR | NOE | NSS:
                    learning_rate=cfg.nss_learning_rate, seed=cfg.seed, **cfg.loss_terms())
     cls = {"nfir": NFIR, "noe": NOE}[arch]
     loss = cfg.loss_terms() if arch == "nfir" else {}
+    if arch == "nfir" and cfg.arch == "nss":
+        # the compared NFIR is the paper's class with its own passive recipe: the [rom] loss
+        # weights are the NSS's
+        loss = dict(RECIPE)
     return cls(delays=cfg.delays, neurons=cfg.neurons, hidden=cfg.hidden,
                max_epochs=cfg.max_epochs, seed=cfg.seed, **loss)
 

@@ -197,7 +197,7 @@ def _metadata(model: ROM, form: str, dtype: np.dtype) -> dict[str, str]:
 
 def check_exportable(model: Any) -> None:
     """ROMError unless ``model`` is one NFIR or NOE network (what an ONNX graph holds); a
-    state-space network (NSS) is refused with the reason and the way out (the FMU export)."""
+    state-space network (NSS) is refused with the reason."""
     if is_ensemble(model):
         raise ROMError(
             f"an ensemble ({len(model.members_)} {model.member_class} members) cannot be "
@@ -207,8 +207,9 @@ def check_exportable(model: Any) -> None:
     net = network_of(model)
     if net is not None and isinstance(net.spec, StateSpaceSpec):
         raise ROMError("an NSS (state-space ROM) cannot be exported to ONNX: a state-space "
-                       "ROM's graph would need its state as input and output; not "
-                       "implemented; the FMU export is the way to take it to another tool")
+                       "ROM's step graph would need its state as input and output, which is "
+                       "not implemented; run it through sloshrom (Python API: step/simulate; "
+                       "command line: predict, map, beam)")
     if net is None and not hasattr(model, "spec"):  # a family, a ball
         raise ROMError(f"a {type(model).__name__} cannot be exported to ONNX: a graph holds "
                        "one NFIR or NOE network (export a fill family's members one by one)")
