@@ -88,9 +88,10 @@ def test_a_too_short_record_for_the_nss_names_its_keys():
 
 
 def test_the_report_texts_describe_an_nss():
-    text = model_class_text("nss", "NSS(8 states, 64 neurons)", "NFIR(70, 35)")
-    assert "state-space" in text and "finite-memory NFIR cannot" in text
+    text = model_class_text("nss", "NSS(8 states, 64 neurons)", "NFIR(70, 35)", (43.7, 6.9))
+    assert "state-space" in text and "finite-memory NFIR" in text and "cannot" in text
     assert "NFIR(70, 35)" in text and "Fig. 10" in text
+    assert "validation fit 43.7 % against 6.9 %" in text
     assert "the paper's class: NFIR(70, 35)" in model_class_text("nfir", "NFIR(70, 35)")
     recipe = recipe_text(limits.RECIPE, "NSS(8 states, 64 neurons)", "nss")
     assert "the paper's NSS" not in recipe and "sub-sequence" in recipe
