@@ -315,10 +315,11 @@ def train_subnet(u: np.ndarray, y: np.ndarray, uv: np.ndarray, yv: np.ndarray, f
     -------
     model : deepSI.SUBNET
     info : dict
-        ``train_seconds``, the plan (``seconds_per_iteration``, ``seconds_per_validation``,
-        ``val_freq``, ``n_its_planned``), ``iterations`` done, ``stopped_by_time``, the
-        validation history ``val_nrms`` (SUBNET's NRMS, normalised by the training output's
-        std) at ``val_iterations``, ``best_iteration`` and ``samples_per_second``.
+        ``train_seconds``, ``torch_threads``, the plan (``seconds_per_iteration``,
+        ``seconds_per_validation``, ``val_freq``, ``n_its_planned``), the training steps done
+        (``iterations``), ``stopped_by_time``, the validation history ``val_nrms`` (SUBNET's
+        NRMS, normalised by the training output's std) at ``val_iterations`` (the last:
+        ``last_validation``), ``best_iteration`` and ``samples_per_second``.
     """
     dsi, torch = _import_deepsi(threads)
     t_start = time.perf_counter()
@@ -338,9 +339,12 @@ def train_subnet(u: np.ndarray, y: np.ndarray, uv: np.ndarray, yv: np.ndarray, f
           f"({threads} torch threads): {n_its} iterations, validation every {val_freq}",
           flush=True)
 
+    steps = [0]  # training steps begun (Adam evaluates the loss once per step)
+
     def loss_fun(*args: Any) -> Any:
         if time.perf_counter() > deadline:
             raise _OutOfTime
+        steps[0] += 1
         return dsi.fitting.compute_NMSE(*args)
 
     res = dsi.fit(model, train, val, n_its=n_its, T=t, batch_size=batch, val_freq=val_freq,
@@ -357,7 +361,8 @@ def train_subnet(u: np.ndarray, y: np.ndarray, uv: np.ndarray, yv: np.ndarray, f
         "seconds_per_validation": t_val,
         "val_freq": int(val_freq),
         "n_its_planned": int(n_its),
-        "iterations": int(its[-1]) if its.size else 0,
+        "iterations": steps[0],
+        "last_validation": int(its[-1]) if its.size else 0,
         "stopped_by_time": bool(stopped),
         "val_iterations": [int(i) for i in its],
         "val_nrms": [float(v) for v in nrms_val],
@@ -449,8 +454,8 @@ def main(argv: list[str] | None = None) -> int:
     print(format_table([row, *ours]))
     print(f"\nSUBNET: {info['iterations']} of {info['n_its_planned']} iterations planned "
           f"({'stopped by the wall-time budget' if info['stopped_by_time'] else 'as planned'}),"
-          f" best validation at iteration {info['best_iteration']}; validation NRMS "
-          + ", ".join(f"{v:.3f}" for v in info["val_nrms"]))
+          f" best validation at iteration {info['best_iteration']}; validation NRMS every "
+          f"{info['val_freq']}: " + ", ".join(f"{v:.3f}" for v in info["val_nrms"]))
     if info["val_nrms"] and info["best_iteration"] == info["val_iterations"][-1]:
         print("SUBNET: the last validation was the best: still improving when the budget ended")
     print(f"SUBNET fit and NRMSE after the encoder window of {val['encoder_window']} samples; "
