@@ -311,8 +311,10 @@ def test_no_function_local_imports_of_the_package():
 #: The concrete sloshing-model classes (and their estimators' base) and the module of each.
 MODEL_CLASSES = {
     "FrozenLiquid": "sloshrom.models", "VirtualRig": "sloshrom.rig.virtual",
-    "Network": "sloshrom.rom.network", "NFIR": "sloshrom.rom.estimators",
-    "NOE": "sloshrom.rom.estimators", "_TDNN": "sloshrom.rom.estimators",
+    "Network": "sloshrom.rom.network", "FittedNetwork": "sloshrom.rom.network",
+    "StateSpaceNetwork": "sloshrom.rom.statespace", "NSS": "sloshrom.rom.estimators",
+    "NFIR": "sloshrom.rom.estimators",
+    "NOE": "sloshrom.rom.estimators", "_Estimator": "sloshrom.rom.estimators",
     "Ensemble": "sloshrom.rom.ensemble", "FillFamily": "sloshrom.rom.family",
     "FillBlend": "sloshrom.rom.family", "BouncingBall": "sloshrom.rom.bouncing",
     "Ball": "sloshrom.rom.bouncing",

@@ -19,12 +19,14 @@ from typing import Literal
 __all__ = [
     "ARCH_TRAINERS",
     "HIDDEN_KINDS",
+    "MAX_BATCH",
     "MAX_DELAY",
     "MAX_EPOCHS",
     "MAX_MEMBERS",
     "MAX_NEURONS",
     "MAX_OUT_DELAYS",
     "MAX_SEED",
+    "MAX_STATES",
     "MAX_WEIGHTS",
     "RECIPE",
     "RECIPE_UNITS",
@@ -63,6 +65,10 @@ MAX_MEMBERS = 64
 #: Most network weights one model file holds, members x neurons x regressor entries (32 MiB
 #: of float64).
 MAX_WEIGHTS = 2**22
+#: Largest state of a neural state-space ROM (NSS).
+MAX_STATES = 1024
+#: Most sub-sequences per Adam step of an NSS.
+MAX_BATCH = 65536
 #: Largest seed: JAX PRNG keys take 32-bit seeds.
 MAX_SEED = 2**32 - 1
 

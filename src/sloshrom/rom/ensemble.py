@@ -2,11 +2,12 @@
 
 A trained network is one draw of a random initialisation: another seed gives another network,
 with another validation error and another prediction. An :class:`Ensemble` trains K members of
-one template estimator (:class:`~sloshrom.rom.NFIR` or :class:`~sloshrom.rom.NOE`) with seeds
-``template.seed + k`` (or given seeds), in parallel through the Dask machinery of the sweep
-(:func:`sloshrom.rom.parallel.run_tasks`). Its prediction is the mean of the members' outputs;
-the spread of the members (:meth:`Ensemble.member_predictions`, :func:`spread`) shows how much of
-a result is the network and how much the draw.
+one template estimator (:class:`~sloshrom.rom.NFIR`, :class:`~sloshrom.rom.NOE` or
+:class:`~sloshrom.rom.NSS`) with seeds ``template.seed + k`` (or given seeds), in parallel
+through the Dask machinery of the sweep (:func:`sloshrom.rom.parallel.run_tasks`). Its
+prediction is the mean of the members' outputs; the spread of the members
+(:meth:`Ensemble.member_predictions`, :func:`spread`) shows how much of a result is the network
+and how much the draw.
 
 The ensemble is itself a sloshing model (:func:`sloshrom.models.is_jax_model`): its state is the
 tuple of the members' states, its :meth:`~Ensemble.step` the mean of the members' steps, pure
@@ -37,6 +38,8 @@ from sloshrom.rom.family import check_training_fill
 from sloshrom.rom.modelfile import (
     ENSEMBLE_FORMAT_VERSION,
     MAX_MEMBERS,
+    NSS_FORMAT_VERSION,
+    NSS_PARAM_NAMES,
     PARAM_NAMES,
     check_file_limits,
     model_file_path,
@@ -123,7 +126,7 @@ class Ensemble:
 
     Parameters
     ----------
-    template : NFIR or NOE
+    template : NFIR, NOE or NSS
         The estimator every member is cloned from (``type(template)(**template.get_params())``
         with ``seed`` set), so every hyperparameter of the template, present or future, is the
         members'. Not fitted itself.
@@ -135,7 +138,7 @@ class Ensemble:
 
     Attributes
     ----------
-    members_ : list of NFIR or NOE
+    members_ : list of NFIR, NOE or NSS
         The fitted members, in the order of the seeds.
     seeds_ : list of int
         The members' seeds.
@@ -195,7 +198,7 @@ class Ensemble:
         t = self.template
         if not all(hasattr(t, a) for a in ("get_params", "set_params", "fit", "step")) or \
                 "seed" not in t.get_params():
-            raise ROMError(f"template must be an unfitted NFIR or NOE estimator, got "
+            raise ROMError(f"template must be an unfitted NFIR, NOE or NSS estimator, got "
                            f"{type(t).__name__}")
         k = self.n_members
         if isinstance(k, bool) or not isinstance(k, int | np.integer) or not \
@@ -302,9 +305,9 @@ class Ensemble:
 
         Parameters
         ----------
-        members : sequence of NFIR or NOE
+        members : sequence of NFIR, NOE or NSS
             Fitted, distinct seeds, same sample rate.
-        template : NFIR or NOE, optional
+        template : NFIR, NOE or NSS, optional
             Default: an unfitted clone of the first member.
 
         Raises
@@ -519,9 +522,10 @@ class Ensemble:
         p = model_file_path(path)
         t = self.template
         hyper = t.get_params()
+        nss = self.member_class == "NSS"
         meta = {
             "format": "sloshrom-rom",
-            "format_version": ENSEMBLE_FORMAT_VERSION,
+            "format_version": NSS_FORMAT_VERSION if nss else ENSEMBLE_FORMAT_VERSION,
             "class": "Ensemble",
             "sloshrom_version": __version__,
             "member_class": self.member_class,
@@ -534,6 +538,7 @@ class Ensemble:
                          "history": m.history_}
                         for s, m in zip(self.seeds_, self.members_, strict=True)],
         }
+        names = NSS_PARAM_NAMES if nss else PARAM_NAMES
         arrays = {k: np.stack([np.asarray(m.params_[k], dtype=np.float64)
-                               for m in self.members_]) for k in PARAM_NAMES}
+                               for m in self.members_]) for k in names}
         return write_model_file(p, meta, arrays, "ensemble")

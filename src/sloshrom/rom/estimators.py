@@ -9,9 +9,9 @@ Model and estimator are apart. The fitted *model* is a :class:`~sloshrom.rom.net
 an immutable JAX pytree with the parameters, the scaler, the architecture, the input signal and
 the time step, whose pure ``step``/``free_run`` implement the sloshing-model contract. The
 *estimators* here are thin shells in the scikit-learn style: the constructor only stores its
-arguments, :meth:`~_TDNN.fit` validates them once, trains and keeps the network as ``model_``,
-:meth:`~_TDNN.get_params`/:meth:`~_TDNN.set_params` cover every constructor argument, and
-:meth:`~_TDNN.predict` does not change the model. Fitted attributes end in ``_`` (``model_``,
+arguments, :meth:`~_Estimator.fit` validates them once, trains and keeps the network as ``model_``,
+:meth:`~_Estimator.get_params`/:meth:`~_Estimator.set_params` cover every constructor argument, and
+:meth:`~_Estimator.predict` does not change the model. Fitted attributes end in ``_`` (``model_``,
 ``envelope_``, ``history_``; ``params_``, ``scaler_``, ``fs_`` read the network).
 
 A fitted estimator is also a JAX pytree (:func:`sloshrom.models.is_jax_model`) whose child is
@@ -48,7 +48,7 @@ import numpy as np
 
 from sloshrom import __version__
 from sloshrom._x64 import float64
-from sloshrom.limits import TRAINERS
+from sloshrom.limits import MAX_BATCH, MAX_DELAY, MAX_NEURONS, MAX_STATES, TRAINERS
 from sloshrom.models import check_envelope, model_input
 from sloshrom.rom import training
 from sloshrom.rom.bouncing import BouncingBall, is_ball_file
@@ -64,6 +64,7 @@ from sloshrom.rom.family import FillFamily, at_fill, check_training_fill, read_f
 from sloshrom.rom.modelfile import (
     FORMAT_VERSION,
     HIDDEN_KINDS,
+    NSS_FORMAT_VERSION,
     PARAM_NAMES,
     ModelFile,
     ModelFileError,
@@ -84,12 +85,20 @@ from sloshrom.rom.network import (
     rbf_apply,
     unpack,
 )
+from sloshrom.rom.statespace import (
+    NSS_PARAM_NAMES,
+    StateSpaceNetwork,
+    StateSpaceSpec,
+    fit_statespace,
+    param_shapes,
+)
 from sloshrom.signals import power_band
 
 __all__ = [
     "FORMAT_VERSION",
     "NFIR",
     "NOE",
+    "NSS",
     "BouncingBall",
     "Ensemble",
     "EnvelopeWarning",
@@ -154,8 +163,57 @@ def _integer(name: str, v: Any, lo: int) -> int:
     return i
 
 
-class _TDNN:
-    """Shared code of NFIR and NOE (scikit-learn estimator + sloshing-model contract)."""
+def _checked_records(u: Any, y: Any, fs: float, validation: tuple[Any, Any] | None,
+                     fill: float | None, need: int, history: int
+                     ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray] | None,
+                                float | None]:
+    """The training and validation records and the fill, checked for any estimator's fit.
+
+    ``need``: fewest training samples; ``history``: samples of input history the model reads
+    (the validation record must be longer).
+    """
+    if not (np.isfinite(fs) and fs > 0):
+        raise ROMError(f"fs must be a finite positive sample rate in Hz, got {fs!r}")
+    fill = check_training_fill(fill)
+    u = _as_signal("u", u)
+    y = _as_signal("y", y)
+    if u.shape != y.shape:
+        raise ROMError(f"u and y must have the same length, got {u.size} and {y.size}")
+    if u.size < need:
+        raise ROMError(f"{u.size} samples are too few for {history} samples of history "
+                       f"(need at least {need})")
+    if validation is not None:
+        uv = _as_signal("validation input", validation[0])
+        yv = _as_signal("validation output", validation[1])
+        if uv.shape != yv.shape:
+            raise ROMError("validation input and output must have the same length")
+        if uv.size <= history:
+            raise ROMError(f"validation record too short for {history} samples of history")
+        validation = (uv, yv)
+    return u, y, validation, fill
+
+
+def _envelope(u: np.ndarray, fs: float, scaler: MinMaxScaler, band: Any, input: str,
+              fill: float | None) -> dict[str, Any]:
+    """``envelope_`` of a model trained on the input record ``u``."""
+    env = {
+        "input_min": scaler.in_min,
+        "input_max": scaler.in_max,
+        "output_min": scaler.out_min,
+        "output_max": scaler.out_max,
+        "frequency_band": band,
+        # the peak tank acceleration of the training record
+        "acceleration_max": float(np.max(np.abs(u))) if input == "acceleration"
+        else float(np.max(np.abs(np.gradient(u)))) * float(fs),
+    }
+    if fill is not None:
+        env.update(fill_min=fill, fill_max=fill)
+    return env
+
+
+class _Estimator:
+    """Shared code of the network estimators NFIR, NOE and NSS (scikit-learn estimator +
+    sloshing-model contract)."""
 
     arch: ClassVar[str] = ""
     #: the force at sample k is the force at t_k (energy integrals: trapezoid rule)
@@ -187,7 +245,7 @@ class _TDNN:
         """
         return {k: _plain(getattr(self, k)) for k in self._param_names()}
 
-    def set_params(self, **params: Any) -> _TDNN:
+    def set_params(self, **params: Any) -> _Estimator:
         """Set constructor arguments by name (checked by the next :meth:`fit`); returns self.
 
         Raises
@@ -296,7 +354,7 @@ class _TDNN:
     @classmethod
     def fitted(cls, params: dict[str, Any], scaler: MinMaxScaler, fs: float,
                envelope: dict[str, Any] | None = None, history: dict[str, Any] | None = None,
-               **hyperparameters: Any) -> _TDNN:
+               **hyperparameters: Any) -> _Estimator:
         """A fitted estimator from known parts (no training): the loader's and the tests' way
         to build one.
 
@@ -338,7 +396,7 @@ class _TDNN:
         return children, hyper
 
     @classmethod
-    def tree_unflatten(cls, aux: tuple[Any, ...], children: tuple[Any, ...]) -> _TDNN:
+    def tree_unflatten(cls, aux: tuple[Any, ...], children: tuple[Any, ...]) -> _Estimator:
         obj = cls(**{k: _thawed(v) for k, v in aux})
         if children:
             obj.model_ = children[0]
@@ -355,7 +413,7 @@ class _TDNN:
         callback: Callable[..., Any] | None = None,
         *,
         fill: float | None = None,
-    ) -> _TDNN:
+    ) -> _Estimator:
         """Identify the network from an input/output record.
 
         Parameters
@@ -391,27 +449,9 @@ class _TDNN:
             An NOE unstable at its initial parameters.
         """
         spec = self._check_hyperparameters()
-        if not (np.isfinite(fs) and fs > 0):
-            raise ROMError(f"fs must be a finite positive sample rate in Hz, got {fs!r}")
-        fill = check_training_fill(fill)
-        u = _as_signal("u", u)
-        y = _as_signal("y", y)
-        if u.shape != y.shape:
-            raise ROMError(f"u and y must have the same length, got {u.size} and {y.size}")
         need = spec.max_delay + spec.out_delays + 2 * spec.n_params // 100 + 10
-        if u.size < need:
-            raise ROMError(
-                f"{u.size} samples are too few for {spec.max_delay} delays "
-                f"(need at least {need})"
-            )
-        if validation is not None:
-            uv = _as_signal("validation input", validation[0])
-            yv = _as_signal("validation output", validation[1])
-            if uv.shape != yv.shape:
-                raise ROMError("validation input and output must have the same length")
-            if uv.size <= spec.max_delay:
-                raise ROMError(f"validation record too short for {spec.max_delay} delays")
-            validation = (uv, yv)
+        u, y, validation, fill = _checked_records(u, y, fs, validation, fill, need,
+                                                  spec.max_delay)
         if (self.passivity > 0 or self.cycle_energy > 0) and not (u.min() < 0.0 < u.max()):
             # say what is wrong with the input, not which loss term tripped over it
             on = " and ".join(n for n in ("passivity", "cycle_energy") if getattr(self, n) > 0)
@@ -437,18 +477,7 @@ class _TDNN:
         self.model_ = Network({k: np.asarray(v) for k, v in
                                unpack(theta, spec.n_inputs, spec.neurons).items()},
                               scaler, spec, self.input, float(fs), float(self.unstable_bound))
-        self.envelope_ = {
-            "input_min": scaler.in_min,
-            "input_max": scaler.in_max,
-            "output_min": scaler.out_min,
-            "output_max": scaler.out_max,
-            "frequency_band": band,
-            # the peak tank acceleration of the training record
-            "acceleration_max": float(np.max(np.abs(u))) if self.input == "acceleration"
-            else float(np.max(np.abs(np.gradient(u)))) * float(fs),
-        }
-        if fill is not None:
-            self.envelope_.update(fill_min=fill, fill_max=fill)
+        self.envelope_ = _envelope(u, fs, scaler, band, self.input, fill)
         self.history_ = history
         return self
 
@@ -533,10 +562,15 @@ class _TDNN:
             the field and nothing is written.
         """
         self._check_fitted()
-        p = model_file_path(path)
-        meta = {
+        arrays = {k: np.asarray(self.params_[k], dtype=np.float64) for k in PARAM_NAMES}
+        return write_model_file(model_file_path(path), self._metadata(FORMAT_VERSION), arrays,
+                                "model")
+
+    def _metadata(self, version: int) -> dict[str, Any]:
+        """The metadata of a single-model file (without its checksum)."""
+        return {
             "format": "sloshrom-rom",
-            "format_version": FORMAT_VERSION,
+            "format_version": version,
             "class": type(self).__name__,
             "sloshrom_version": __version__,
             "hyperparameters": self.get_params(),
@@ -547,12 +581,10 @@ class _TDNN:
             "envelope": self.envelope_,
             "history": self.history_,
         }
-        arrays = {k: np.asarray(self.params_[k], dtype=np.float64) for k in PARAM_NAMES}
-        return write_model_file(p, meta, arrays, "model")
 
 
 @jax.tree_util.register_pytree_node_class
-class NFIR(_TDNN):
+class NFIR(_Estimator):
     """Nonlinear finite-impulse-response network: ``y_k = f(u_{k-1}, ..., u_{k-n})``.
 
     Parameters
@@ -633,7 +665,7 @@ class NFIR(_TDNN):
 
 
 @jax.tree_util.register_pytree_node_class
-class NOE(_TDNN):
+class NOE(_Estimator):
     """Nonlinear output-error network: ``y^_k = f(u_{k-1..k-n}, y^_{k-1..k-m})`` (recurrent).
 
     Parameters
@@ -702,6 +734,229 @@ class NOE(_TDNN):
         return spec
 
 
+@jax.tree_util.register_pytree_node_class
+class NSS(_Estimator):
+    """Neural state-space ROM: ``x_{k+1} = f(x_k, u_k)``, ``y_k = h(x_k, u_k)``, identified by
+    multiple shooting (:mod:`sloshrom.rom.statespace`).
+
+    Unlike the NFIR, whose force is a function of the last ``delays`` inputs only, the model
+    carries a state (where the liquid is, how fast it moves), so it can remember an impact or a
+    flight phase for as long as it lasts. It starts from rest in every run (the coupled beam,
+    the maps, :meth:`predict`); its encoder, which estimates the state from measured history,
+    starts the training's sub-sequences and is available as
+    :meth:`sloshrom.rom.statespace.StateSpaceNetwork.encode`.
+
+    Parameters
+    ----------
+    n_states : int
+        Dimension of the state.
+    neurons : int
+        Hidden tanh units of each of the state map, the output map and the encoder.
+    window : int
+        Past samples of input and output the encoder reads.
+    horizon : int
+        Samples simulated from each encoded start in training (and the length of the passivity
+        probes, which must hold a ramp and two periods of the band's lowest frequency).
+    batch : int
+        Sub-sequences per Adam step.
+    max_epochs : int
+        Epochs of ``steps_per_epoch`` Adam steps at most (early stopping on the validation
+        free run, patience 6 epochs).
+    steps_per_epoch : int
+        Adam steps between validations.
+    learning_rate : float
+        Initial Adam step (cosine decay to 5 % of it over ``max_epochs``).
+    seed : int
+        Seeds the initialisation and the draws of sub-sequences (>= 0).
+    units, names
+        As :class:`NFIR`; the input must be the tank velocity.
+    amplitude_weighting, passivity, cycle_energy : float
+        The passive recipe's loss terms, as :class:`NFIR` (the energy term is the error of the
+        energy each sub-sequence exchanges with the liquid). 0 = off.
+
+    Parameters are checked by :meth:`fit` (and by :func:`load_model`), not by the constructor.
+    """
+
+    arch = "nss"
+
+    def __init__(
+        self,
+        n_states: int = 8,
+        neurons: int = 64,
+        window: int = 50,
+        horizon: int = 300,
+        batch: int = 128,
+        max_epochs: int = 40,
+        steps_per_epoch: int = 200,
+        learning_rate: float = 3e-3,
+        seed: int = 0,
+        units: Sequence[str] = ("m/s", "N"),
+        names: Sequence[str] = ("velocity", "dynamic_force"),
+        amplitude_weighting: float = 0.0,
+        passivity: float = 0.0,
+        cycle_energy: float = 0.0,
+    ) -> None:
+        self.n_states = n_states
+        self.neurons = neurons
+        self.window = window
+        self.horizon = horizon
+        self.batch = batch
+        self.max_epochs = max_epochs
+        self.steps_per_epoch = steps_per_epoch
+        self.learning_rate = learning_rate
+        self.seed = seed
+        self.units = units
+        self.names = names
+        self.amplitude_weighting = amplitude_weighting
+        self.passivity = passivity
+        self.cycle_energy = cycle_energy
+
+    def _check_hyperparameters(self) -> StateSpaceSpec:  # type: ignore[override]
+        n_states = _integer("n_states", self.n_states, 1)
+        neurons = _integer("neurons", self.neurons, 1)
+        window = _integer("window", self.window, 1)
+        _integer("horizon", self.horizon, 8)
+        _integer("batch", self.batch, 1)
+        _integer("max_epochs", self.max_epochs, 0)
+        _integer("steps_per_epoch", self.steps_per_epoch, 1)
+        _integer("seed", self.seed, 0)
+        for name, top in (("n_states", MAX_STATES), ("window", MAX_DELAY),
+                          ("horizon", MAX_DELAY), ("neurons", MAX_NEURONS),
+                          ("batch", MAX_BATCH)):
+            if getattr(self, name) > top:
+                raise ROMError(f"{name} = {getattr(self, name)} is more than {top}, the most a "
+                               "model file holds")
+        lr = self.learning_rate
+        if isinstance(lr, bool) or not isinstance(lr, int | float | np.floating | np.integer) \
+                or not (np.isfinite(lr) and 0 < lr <= 1):
+            raise ROMError(f"learning_rate must be a number in (0, 1], got {lr!r}")
+        for name in LOSS_TERMS:
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int | float | np.floating | np.integer) \
+                    or not (np.isfinite(v) and v >= 0):
+                raise ROMError(f"{name} must be a finite number >= 0, got {v!r}")
+        if self.input != "velocity":
+            # the coupled beam hands a model the acceleration of the previous step: a state
+            # driven by it would run one sample behind its training
+            raise ROMError("an NSS takes the tank velocity (names[0] = 'velocity'); a network "
+                           "on the acceleration is an NFIR")
+        return StateSpaceSpec(n_states, neurons, window)
+
+    @property
+    def n_inputs(self) -> int:
+        """Inputs of the state and output maps: the state and the input."""
+        return self.spec.n_inputs
+
+    @property
+    def theta_(self) -> jnp.ndarray:
+        """The parameters packed into one vector (:data:`NSS_PARAM_NAMES` order)."""
+        self._check_fitted()
+        return jnp.concatenate([jnp.ravel(jnp.asarray(self.params_[k]))
+                                for k in NSS_PARAM_NAMES])
+
+    @classmethod
+    def fitted(cls, params: dict[str, Any], scaler: MinMaxScaler, fs: float,
+               envelope: dict[str, Any] | None = None, history: dict[str, Any] | None = None,
+               **hyperparameters: Any) -> NSS:
+        """A fitted estimator from known parts (no training), as :meth:`NFIR.fitted`.
+
+        Raises
+        ------
+        ROMError
+            A hyperparameter out of its domain, or arrays of other shapes than it gives.
+        """
+        obj = cls(**hyperparameters)
+        spec = obj._check_hyperparameters()
+        shapes = param_shapes(spec)
+        arrays = {k: np.asarray(params[k], dtype=np.float64) for k in NSS_PARAM_NAMES}
+        for k, shp in shapes.items():
+            if arrays[k].shape != shp:
+                raise ROMError(f"parameter {k} has shape {arrays[k].shape}, the "
+                               f"hyperparameters give {shp}")
+        obj.model_ = StateSpaceNetwork(arrays, scaler, spec, obj.input, float(fs))
+        obj.envelope_ = envelope
+        obj.history_ = {} if history is None else history
+        return obj
+
+    @float64
+    def fit(
+        self,
+        u: Any,
+        y: Any,
+        fs: float,
+        validation: tuple[Any, Any] | None = None,
+        callback: Callable[..., Any] | None = None,
+        *,
+        fill: float | None = None,
+    ) -> NSS:
+        """Identify the state-space ROM from an input/output record.
+
+        Parameters
+        ----------
+        u : array_like, shape (n,)
+            Tank vertical velocity (m/s), sampled at ``fs``.
+        y : array_like, shape (n,)
+            Dynamic sloshing force (N).
+        fs : float
+            Sample rate, Hz.
+        validation : (u_val, y_val), optional
+            Validation record at the same rate, starting at rest: its free run from rest
+            decides the early stopping and the parameters returned.
+        callback : callable, optional
+            ``callback(epoch, info)`` after every epoch (``train_mse``, ``val_mse`` in N^2,
+            ``val_objective``, ``seconds``); returning True stops training.
+        fill : float, optional
+            Fill level d/h (-) of the training record, as :meth:`NFIR.fit`.
+
+        Returns
+        -------
+        self
+
+        Raises
+        ------
+        ROMError
+            A hyperparameter out of its domain, a bad record (shape, NaN, constant, too short)
+            or sample rate.
+        """
+        spec = self._check_hyperparameters()
+        u, y, validation, fill = _checked_records(
+            u, y, fs, validation, fill, spec.window + int(self.horizon) + 1, spec.window)
+        if (self.passivity > 0 or self.cycle_energy > 0) and not (u.min() < 0.0 < u.max()):
+            raise ROMError(f"the input {self.names[0]!r} does not oscillate about rest: "
+                           "passivity and cycle_energy judge the energy of a motion about rest")
+        scaler = MinMaxScaler.fit(u, y)
+        band = power_band(u, fs)
+        probe_band = power_band(u, fs, 0.001, 0.999)
+        params, history = fit_statespace(
+            spec, u, y, float(fs), scaler, validation, horizon=int(self.horizon),
+            batch=int(self.batch), max_epochs=int(self.max_epochs),
+            steps_per_epoch=int(self.steps_per_epoch),
+            learning_rate=float(self.learning_rate), seed=int(self.seed),
+            amplitude_weighting=float(self.amplitude_weighting),
+            passivity=float(self.passivity), cycle_energy=float(self.cycle_energy),
+            frequency_band=(probe_band[0], probe_band[1]), callback=callback)
+        self.model_ = StateSpaceNetwork(params, scaler, spec, self.input, float(fs))
+        self.envelope_ = _envelope(u, fs, scaler, band, self.input, fill)
+        self.history_ = history
+        return self
+
+    @float64
+    def save(self, path: str | Path) -> Path:
+        """Write the fitted model to a ``.npz`` file atomically (no pickle): the arrays of
+        :data:`~sloshrom.rom.statespace.NSS_PARAM_NAMES` and the JSON ``metadata`` of
+        :meth:`NFIR.save` (format version 3; docs/formats.md, "Model files").
+
+        Raises
+        ------
+        ROMError
+            A value outside the bounds of the model-file format; nothing is written.
+        """
+        self._check_fitted()
+        meta = self._metadata(NSS_FORMAT_VERSION)
+        arrays = {k: np.asarray(self.params_[k], dtype=np.float64) for k in NSS_PARAM_NAMES}
+        return write_model_file(model_file_path(path), meta, arrays, "model")
+
+
 # ---------------------------------------------------------------------------------------------
 # Loading
 # ---------------------------------------------------------------------------------------------
@@ -712,13 +967,14 @@ def load_model(path: str | Path, fill: float | None = None) -> Any:
 
     Every metadata field is validated against a schema with bounds and the arrays against the
     metadata before the model is built (:mod:`sloshrom.rom.modelfile`; docs/formats.md, "Model
-    files"), then the hyperparameters as :meth:`~_TDNN.fit` checks them, so a loaded model can be
-    simulated, coupled and exported.
+    files"), then the hyperparameters as :meth:`~_Estimator.fit` checks them, so a loaded model
+    can be simulated, coupled and exported.
 
     Parameters
     ----------
     path : str or Path
-        A ``.npz`` model file: a single network or an ensemble (:meth:`Ensemble.save`); or a
+        A ``.npz`` model file: a single network (NFIR, NOE, NSS) or an ensemble
+        (:meth:`Ensemble.save`); or a
         ``.toml`` fill-family manifest naming one model file per fill level
         (:func:`sloshrom.rom.family.read_family`); or a ``.toml`` bouncing-ball model
         (:meth:`sloshrom.rom.bouncing.BouncingBall.save`).
@@ -731,7 +987,7 @@ def load_model(path: str | Path, fill: float | None = None) -> Any:
 
     Returns
     -------
-    NFIR, NOE, Ensemble, FillFamily, BouncingBall or (with ``fill``) FillBlend
+    NFIR, NOE, NSS, Ensemble, FillFamily, BouncingBall or (with ``fill``) FillBlend
         Every one describes its records alike (``names``, ``units``, ``input``).
 
     Raises
@@ -757,7 +1013,7 @@ def load_model(path: str | Path, fill: float | None = None) -> Any:
     mf = read_model_file(path)
     if not mf.is_ensemble:
         return _from_model_file(mf, path)
-    cls = NFIR if mf.meta["member_class"] == "NFIR" else NOE
+    cls = _CLASSES[mf.meta["member_class"]]
     try:
         return Ensemble.from_members([_from_model_file(m, path) for m in mf.members()],
                                      template=cls(**mf.meta["hyperparameters"]))
@@ -767,10 +1023,14 @@ def load_model(path: str | Path, fill: float | None = None) -> Any:
         raise ModelFileError(f"{path}: corrupt metadata ({exc})") from None
 
 
-def _from_model_file(mf: ModelFile, path: str | Path) -> NFIR | NOE:
+#: the estimator of each class name a model file may hold
+_CLASSES: dict[str, type[_Estimator]] = {"NFIR": NFIR, "NOE": NOE, "NSS": NSS}
+
+
+def _from_model_file(mf: ModelFile, path: str | Path) -> NFIR | NOE | NSS:
     """The network of a validated single-model file (or of one member of an ensemble file)."""
     meta = mf.meta
-    cls = NFIR if meta["class"] == "NFIR" else NOE
+    cls = _CLASSES[meta["class"]]
     sc = meta["scaler"]
     scaler = MinMaxScaler(**{k: float(sc[k]) for k in ("in_min", "in_max", "out_min", "out_max")})
     try:

@@ -6,6 +6,9 @@ parameter arrays ``W``, ``b``, ``c``, ``c0`` (see :meth:`sloshrom.rom.NFIR.save`
 
 single model (format version 1, class ``"NFIR"``/``"NOE"``)
     One network: ``W`` (H, D), ``b`` (H,), ``c`` (H,), ``c0`` ().
+state-space model (format version 3, class ``"NSS"``, :class:`sloshrom.rom.NSS`)
+    The arrays of :data:`NSS_PARAM_NAMES` (:func:`nss_param_shapes`); an ensemble of them is
+    an ensemble file of version 3 with member class ``"NSS"``.
 ensemble (format version 2, class ``"Ensemble"``, :class:`sloshrom.rom.ensemble.Ensemble`)
     K networks of one class and the same hyperparameters but their seeds: the same four arrays
     with a leading member axis, ``W`` (K, H, D), ``b`` (K, H), ``c`` (K, H), ``c0`` (K,); the
@@ -65,11 +68,13 @@ from pydantic import (
 from sloshrom.fileio import atomic_write, not_a_regular_file
 from sloshrom.limits import (  # the limits the command line and the settings share
     HIDDEN_KINDS,
+    MAX_BATCH,
     MAX_DELAY,
     MAX_EPOCHS,
     MAX_MEMBERS,
     MAX_NEURONS,
     MAX_OUT_DELAYS,
+    MAX_STATES,
     MAX_WEIGHTS,
     Hidden,
 )
@@ -78,8 +83,8 @@ from sloshrom.rom.errors import ROMError
 __all__ = [
     "ENSEMBLE_FORMAT_VERSION", "FORMAT_VERSION", "HIDDEN_KINDS", "MAX_DELAY", "MAX_DEPTH",
     "MAX_FILE_BYTES", "MAX_MEMBERS", "MAX_METADATA_CHARS", "MAX_NEURONS", "MAX_REGRESSOR",
-    "MAX_WEIGHTS", "NEWEST_FORMAT_VERSION", "PARAM_NAMES", "ModelFile", "ModelFileError",
-    "check_file_limits",
+    "MAX_WEIGHTS", "NEWEST_FORMAT_VERSION", "NSS_FORMAT_VERSION", "NSS_PARAM_NAMES",
+    "PARAM_NAMES", "ModelFile", "ModelFileError", "check_file_limits", "nss_param_shapes",
     "checksum", "model_file_path", "read_model_file", "validate_for_save", "write_model_file",
 ]
 
@@ -89,9 +94,31 @@ FORMAT = "sloshrom-rom"
 FORMAT_VERSION = 1
 #: Version of ensemble files (version 1 plus the ensemble variant).
 ENSEMBLE_FORMAT_VERSION = 2
+#: Version of state-space (NSS) files, single and ensemble: older readers refuse them by
+#: version, with a message to upgrade, rather than by an unknown class.
+NSS_FORMAT_VERSION = 3
 #: The newest version this sloshrom reads (it reads every version from 1).
-NEWEST_FORMAT_VERSION = 2
+NEWEST_FORMAT_VERSION = 3
 PARAM_NAMES = ("W", "b", "c", "c0")
+#: The arrays of a neural state-space network (:mod:`sloshrom.rom.statespace`), in file order.
+NSS_PARAM_NAMES = ("A", "W1", "b1", "W2", "C", "V1", "d1", "V2", "E1", "e1", "E2")
+
+
+def nss_param_shapes(n_states: int, neurons: int, window: int) -> dict[str, tuple[int, ...]]:
+    """Shape of every array of a state-space network: state map ``A``, ``W1``, ``b1``, ``W2``,
+    output map ``C``, ``V1``, ``d1``, ``V2``, encoder ``E1``, ``e1``, ``E2``."""
+    nz, h, nx, w = n_states + 1, neurons, n_states, window
+    return {"A": (nz, nx), "W1": (nz, h), "b1": (h,), "W2": (h, nx),
+            "C": (nz,), "V1": (nz, h), "d1": (h,), "V2": (h,),
+            "E1": (2 * w, h), "e1": (h,), "E2": (h, nx)}
+
+
+def _is_nss(meta: Mapping[str, Any]) -> bool:
+    return "NSS" in (meta.get("class"), meta.get("member_class"))
+
+
+def _param_names(meta: Mapping[str, Any]) -> tuple[str, ...]:
+    return NSS_PARAM_NAMES if _is_nss(meta) else PARAM_NAMES
 
 # -- limits (all checked before the corresponding memory is allocated) --------------------------
 #: Largest model file, bytes (metadata <= 16 MiB as UCS-4 text + W <= 32 MiB + headers).
@@ -154,11 +181,12 @@ def check_file_limits(max_delay: int, neurons: int, n_inputs: int, members: int 
             f"{'fewer members or ' if members > 1 else ''}a smaller network")
 
 
-_MEMBERS = ("metadata", *PARAM_NAMES)
+_MEMBERS = ("metadata", *PARAM_NAMES, *NSS_PARAM_NAMES)
 _MAX_MEMBERS = 64
 _MAX_NPY_HEADER = 10_000
 # a member may hold its header and at most this many bytes of data
-_MAX_DATA = {"metadata": 4 * MAX_METADATA_CHARS, **dict.fromkeys(PARAM_NAMES, 8 * MAX_WEIGHTS)}
+_MAX_DATA = {"metadata": 4 * MAX_METADATA_CHARS,
+             **dict.fromkeys((*PARAM_NAMES, *NSS_PARAM_NAMES), 8 * MAX_WEIGHTS)}
 
 
 class ModelFileError(ROMError):
@@ -182,8 +210,9 @@ def checksum(meta: Mapping[str, Any], arrays: Mapping[str, np.ndarray]) -> str:
     meta : mapping
         The metadata (JSON-serialisable).
     arrays : mapping of str to ndarray
-        ``W``, ``b``, ``c``, ``c0`` (any float dtype; hashed as little-endian float64, with
-        their shapes: an ensemble's stacked arrays hash as they are stored).
+        ``W``, ``b``, ``c``, ``c0`` (the :data:`NSS_PARAM_NAMES` of a state-space model; any
+        float dtype; hashed as little-endian float64, with their shapes: an ensemble's
+        stacked arrays hash as they are stored).
 
     Returns
     -------
@@ -193,7 +222,7 @@ def checksum(meta: Mapping[str, Any], arrays: Mapping[str, np.ndarray]) -> str:
     h = hashlib.sha256()
     body = {k: v for k, v in meta.items() if k != "checksum"}
     h.update(json.dumps(body, sort_keys=True).encode())
-    for k in PARAM_NAMES:
+    for k in _param_names(meta):
         a = np.ascontiguousarray(arrays[k], dtype="<f8")
         h.update(k.encode() + repr(a.shape).encode() + a.tobytes())
     return "sha256:" + h.hexdigest()
@@ -203,7 +232,7 @@ def _checksum_matches(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> bo
     stored = meta.get("checksum")
     if not isinstance(stored, str):
         return False
-    if any(k not in arrays or arrays[k].dtype.kind != "f" for k in PARAM_NAMES):
+    if any(k not in arrays or arrays[k].dtype.kind != "f" for k in _param_names(meta)):
         return False  # not hashable as float64: cannot be what save wrote
     return hmac.compare_digest(stored, checksum(meta, arrays))
 
@@ -340,7 +369,7 @@ class _History(_Strict):
     seconds: HistoryList | None = None
     stop_reason: Unit | None = None
     best_epoch: Annotated[int, Field(ge=0, le=MAX_EPOCHS)] | None = None
-    trainer: Literal["fast", "lm", "adam"] | None = None
+    trainer: Literal["fast", "lm", "adam", "shooting"] | None = None
     n_rows: Annotated[int, Field(ge=0, le=10**12)] | None = None
     train_seconds: Annotated[float, Field(allow_inf_nan=False, ge=0.0)] | None = None
 
@@ -373,6 +402,26 @@ class _NOEHyper(_Hyper):
     unstable_bound: Annotated[float, Field(allow_inf_nan=False, gt=0.0, le=1e12)]
 
 
+Weight = Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=1e12)]
+
+
+class _NSSHyper(_Strict):
+    n_states: Annotated[int, Field(ge=1, le=MAX_STATES)]
+    neurons: Annotated[int, Field(ge=1, le=MAX_NEURONS)]
+    window: Annotated[int, Field(ge=1, le=MAX_DELAY)]
+    horizon: Annotated[int, Field(ge=8, le=MAX_DELAY)]
+    batch: Annotated[int, Field(ge=1, le=MAX_BATCH)]
+    max_epochs: Annotated[int, Field(ge=0, le=MAX_EPOCHS)]
+    steps_per_epoch: Annotated[int, Field(ge=1, le=MAX_EPOCHS)]
+    learning_rate: Annotated[float, Field(allow_inf_nan=False, gt=0.0, le=1.0)]
+    seed: Annotated[int, Field(ge=0, le=2**63 - 1)]
+    units: TwoUnits
+    names: TwoNames
+    amplitude_weighting: Weight = 0.0
+    passivity: Weight = 0.0
+    cycle_energy: Weight = 0.0
+
+
 class _Meta(_Strict):
     format: Literal["sloshrom-rom"]
     format_version: Literal[1]
@@ -395,6 +444,12 @@ class _NFIRMeta(_Meta):
 class _NOEMeta(_Meta):
     class_: Literal["NOE"] = Field(alias="class")
     hyperparameters: _NOEHyper
+
+
+class _NSSMeta(_Meta):
+    format_version: Literal[3]
+    class_: Literal["NSS"] = Field(alias="class")
+    hyperparameters: _NSSHyper
 
 
 class _Member(_Strict):
@@ -424,6 +479,12 @@ class _EnsembleMeta(_Strict):
 class _NOEEnsembleMeta(_EnsembleMeta):
     member_class: Literal["NOE"]
     hyperparameters: _NOEHyper
+
+
+class _NSSEnsembleMeta(_EnsembleMeta):
+    format_version: Literal[3]
+    member_class: Literal["NSS"]
+    hyperparameters: _NSSHyper
 
 
 _MESSAGES = {
@@ -509,7 +570,8 @@ class ModelFile:
         out = []
         for k, e in enumerate(m["members"]):
             meta = {
-                "format": FORMAT, "format_version": FORMAT_VERSION, "class": m["member_class"],
+                "format": FORMAT, "class": m["member_class"],
+                "format_version": NSS_FORMAT_VERSION if _is_nss(m) else FORMAT_VERSION,
                 "sloshrom_version": m["sloshrom_version"],
                 "hyperparameters": {**m["hyperparameters"], "seed": e["seed"]},
                 "fs": m["fs"], "units": m["units"], "names": m["names"],
@@ -524,14 +586,25 @@ def _fail_field(where: str, field: str, msg: str, value: Any) -> ModelFileError:
 
 
 def _regressor_size(hyper: Mapping[str, Any]) -> int:
+    if "n_states" in hyper:  # a state-space network: its state and input
+        return int(hyper["n_states"]) + 1
     d = hyper["delays"]
     return (d if isinstance(d, int) else len(d)) + int(hyper.get("out_delays", 0))
 
 
 def _schema(meta: dict[str, Any]) -> type[_Strict]:
     if meta.get("class") == "Ensemble":
-        return _NOEEnsembleMeta if meta.get("member_class") == "NOE" else _EnsembleMeta
-    return _NOEMeta if meta.get("class") == "NOE" else _NFIRMeta
+        return {"NOE": _NOEEnsembleMeta, "NSS": _NSSEnsembleMeta}.get(
+            meta.get("member_class"), _EnsembleMeta)
+    return {"NOE": _NOEMeta, "NSS": _NSSMeta}.get(meta.get("class"), _NFIRMeta)
+
+
+def _n_weights(hyper: Mapping[str, Any]) -> int:
+    """Parameters of one network of the (validated) hyperparameters."""
+    if "n_states" in hyper:
+        return sum(math.prod(s) for s in nss_param_shapes(
+            hyper["n_states"], hyper["neurons"], hyper["window"]).values())
+    return hyper["neurons"] * _regressor_size(hyper)
 
 
 def _check_trained(part: dict[str, Any], fs: float, where: str, prefix: str) -> None:
@@ -565,11 +638,11 @@ def _validate_meta(meta: dict[str, Any], where: str) -> None:
         raise _fail_field(where, "hyperparameters.delays",
                           f"the regressor would have {d} entries (delays + output delays), more "
                           f"than {MAX_REGRESSOR}", hyper["delays"])
-    if k * hyper["neurons"] * d > MAX_WEIGHTS:
+    if k * _n_weights(hyper) > MAX_WEIGHTS:
         of = f"{k} members x " if ensemble else ""
         raise _fail_field(where, "hyperparameters.neurons",
-                          f"{of}{hyper['neurons']} neurons x {d} regressor entries is more than "
-                          f"{MAX_WEIGHTS} weights", hyper["neurons"])
+                          f"{of}{_n_weights(hyper)} weights ({hyper['neurons']} neurons, {d} "
+                          f"inputs) is more than {MAX_WEIGHTS} weights", hyper["neurons"])
     for key in ("units", "names"):
         pair = [meta[key]["input"], meta[key]["output"]]
         if pair != hyper[key]:
@@ -601,16 +674,24 @@ def _check_arrays(meta: dict[str, Any], arrays: dict[str, np.ndarray], where: st
     if meta["class"] == "Ensemble":
         lead = (meta["n_members"],)
         of, fields = f"{lead[0]} members, ", "'n_members', "
-    shapes = {"W": (*lead, h, d), "b": (*lead, h), "c": (*lead, h), "c0": lead}
+    if _is_nss(meta):
+        shapes = {k: (*lead, *v) for k, v in nss_param_shapes(
+            hyper["n_states"], h, hyper["window"]).items()}
+        sizes = f"{h} neurons, {hyper['n_states']} states and a window of {hyper['window']}"
+        fields += ("'hyperparameters.neurons', 'hyperparameters.n_states', "
+                   "'hyperparameters.window'")
+    else:
+        shapes = {"W": (*lead, h, d), "b": (*lead, h), "c": (*lead, h), "c0": lead}
+        sizes = f"{h} neurons and {d} regressor entries"
+        fields += "'hyperparameters.neurons', 'hyperparameters.delays'"
     out = {}
     for k, shp in shapes.items():
         a = arrays.get(k)
         if a is None or a.shape != shp or a.dtype.kind != "f":
             got = None if a is None else (a.shape, str(a.dtype))
             raise ModelFileError(
-                f"{where}: parameter {k} tampered: expected float {shp} for {of}{h} neurons and "
-                f"{d} regressor entries (metadata fields {fields}'hyperparameters.neurons', "
-                f"'hyperparameters.delays'), got {got}"
+                f"{where}: parameter {k} tampered: expected float {shp} for {of}{sizes} "
+                f"(metadata fields {fields}), got {got}"
             )
         a = a.astype(np.float64)
         if not np.all(np.isfinite(a)):
@@ -851,9 +932,10 @@ def read_model_file(path: str | Path) -> ModelFile:
         raise ModelFileError(f"{where}: unsupported format version {ver} (reads "
                              f"{FORMAT_VERSION} to {NEWEST_FORMAT_VERSION})")
     cls = meta.get("class")
-    if cls not in ("NFIR", "NOE", "Ensemble"):
+    if cls not in ("NFIR", "NOE", "NSS", "Ensemble"):
         raise ModelFileError(f"{where}: unknown model class {_repr.repr(cls)}")
-    expected = ENSEMBLE_FORMAT_VERSION if cls == "Ensemble" else FORMAT_VERSION
+    expected = NSS_FORMAT_VERSION if _is_nss(meta) else (
+        ENSEMBLE_FORMAT_VERSION if cls == "Ensemble" else FORMAT_VERSION)
     if ver != expected:
         what = "an ensemble" if cls == "Ensemble" else f"a single {cls} model"
         raise ModelFileError(f"{where}: {what} file has format version {expected}, this one "

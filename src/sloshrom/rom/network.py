@@ -40,6 +40,7 @@ from sloshrom.rom.errors import ROMError, UnstableModelError
 from sloshrom.rom.modelfile import HIDDEN_KINDS, PARAM_NAMES
 
 __all__ = [
+    "FittedNetwork",
     "MinMaxScaler",
     "Network",
     "NetworkSpec",
@@ -321,10 +322,17 @@ def noe_free_run(theta: Any, u_s: Any, rest_u: Any, rest_y: Any, delays: tuple[i
 # ---------------------------------------------------------------------------------------------
 
 
+class FittedNetwork:
+    """Base of the fitted network models that an estimator delegates to: :class:`Network`
+    (NFIR, NOE) and :class:`sloshrom.rom.statespace.StateSpaceNetwork` (NSS). Each holds
+    ``params`` (dict of arrays) and ``scaler`` as pytree leaves, ``spec``, ``input``, ``fs``
+    static, and implements ``init_state``/``step``/``free_run``/``simulate``."""
+
+
 @partial(jax.tree_util.register_dataclass, data_fields=["params", "scaler"],
          meta_fields=["spec", "input", "fs", "unstable_bound"])
 @dataclass(frozen=True, eq=False)
-class Network:
+class Network(FittedNetwork):
     """A fitted NFIR or NOE network: an immutable sloshing model and a JAX pytree.
 
     The model the estimators (:class:`~sloshrom.rom.NFIR`, :class:`~sloshrom.rom.NOE`) fit and
@@ -455,10 +463,10 @@ class Network:
                                         dtype=np.float64))
 
 
-def network_of(model: Any) -> Network | None:
-    """The one fitted network ``model`` is or delegates to (an NFIR/NOE estimator's
+def network_of(model: Any) -> FittedNetwork | None:
+    """The one fitted network ``model`` is or delegates to (an NFIR/NOE/NSS estimator's
     ``model_``); None for anything else (an ensemble, a fill blend, a physics model)."""
-    if isinstance(model, Network):
+    if isinstance(model, FittedNetwork):
         return model
     net = getattr(model, "model_", None)
-    return net if isinstance(net, Network) else None
+    return net if isinstance(net, FittedNetwork) else None
