@@ -268,17 +268,22 @@ def _seconds_per_iteration(dsi: Any, torch: Any, model: Any, data: Any, t: int,
     return float(np.median(times[1:]))
 
 
-def _seconds_per_validation(torch: Any, model: Any, data: Any, part: int = 10) -> float:
-    """Wall time (s) of one validation simulation, from 1/``part`` of the record."""
+def _seconds_per_validation(torch: Any, model: Any, data: Any, part: int = 30,
+                            repeats: int = 3) -> float:
+    """Wall time (s) of one validation simulation, from 1/``part`` of the record (the median
+    of ``repeats``: one timing on a shared machine can be several times too long)."""
     import deepSI as dsi
 
     n = max(len(data) // part, max(model.na, model.nb) + 10)
     short = dsi.Input_output_data(u=data.u[:n], y=data.y[:n], sampling_time=data.sampling_time)
     arrays, idx = model.create_arrays(short, T="sim")
-    t0 = time.perf_counter()
-    with torch.no_grad():
-        model(*[a[idx] for a in arrays])
-    return (time.perf_counter() - t0) * len(data) / n
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        with torch.no_grad():
+            model(*[a[idx] for a in arrays])
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times)) * len(data) / n
 
 
 def train_subnet(u: np.ndarray, y: np.ndarray, uv: np.ndarray, yv: np.ndarray, fs: float,
