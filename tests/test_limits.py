@@ -68,8 +68,10 @@ def test_model_file_schema_takes_the_largest_values():
 
 
 def test_recipe_defaults_are_those_of_the_configuration():
-    assert settings.load().rom.loss_terms() == limits.RECIPE
-    assert settings.defaults()["rom"]["amplitude_weighting"] == 0.05
+    # the configuration's default class is the NSS: its recipe, without amplitude weighting
+    assert settings.load().rom.loss_terms() == limits.NSS_RECIPE
+    assert settings.defaults()["rom"]["amplitude_weighting"] == 0.0
+    assert limits.RECIPE["amplitude_weighting"] == 0.05
 
 
 @pytest.mark.parametrize(("units", "passive"), [(("m/s", "N"), True), (("N", "m"), False),

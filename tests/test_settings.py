@@ -96,10 +96,10 @@ def test_every_default_key_has_a_check():
          r"'beam\.n_modes' = 5: mode 5 of the beam \(676 Hz\) lies above the Nyquist"),
         (lambda c: c["beyond"].update(unseen_fills=[0.502, 0.625]),
          r"'beyond\.unseen_fills' \[0\.502\] is also in 'beyond\.fills' \(within 0\.005\)"),
-        (lambda c: c["rom"].update(ensemble=64, delays=100, neurons=700),
+        (lambda c: c["rom"].update(arch="nfir", ensemble=64, delays=100, neurons=700),
          r"'rom\.ensemble' x 'rom\.neurons' x regressor entries \('rom\.delays'\) = 64 x 700 x "
          r"100 = 4480000 weights, more than 4194304"),
-        (lambda c: (c["rom"].update(delays=300, neurons=1000),
+        (lambda c: (c["rom"].update(arch="nfir", delays=300, neurons=1000),
                     c["beyond"].update(enabled=True, fill_ensemble=20)),
          r"'beyond\.fill_ensemble' x 'rom\.neurons' .* = 6000000 weights"),
         (lambda c: c["rom"].update(arch="noe", delays=200, neurons=1000, ensemble=21,
@@ -192,10 +192,19 @@ def test_replace_validates_the_changes():
 
 
 def test_the_passive_recipe_has_one_set_of_defaults():
-    """defaults.toml (the configuration's source) holds the recipe of ``sloshrom.limits``."""
+    """defaults.toml (the configuration's source) holds the recipe of ``sloshrom.limits`` for
+    its default class (the NSS's), and docs/examples/nfir_rom.toml the NFIR's."""
+    import tomllib
+    from pathlib import Path
+
     from sloshrom import limits
 
-    assert settings.load().rom.loss_terms() == limits.RECIPE
+    cfg = settings.load()
+    assert cfg.rom.arch == "nss"
+    assert cfg.rom.loss_terms() == limits.NSS_RECIPE
+    nfir = Path(__file__).parents[1] / "docs" / "examples" / "nfir_rom.toml"
+    rom = tomllib.loads(nfir.read_text())["rom"]
+    assert rom.pop("arch") == "nfir" and rom == limits.RECIPE
 
 
 def test_schema_is_the_single_source_of_bounds():

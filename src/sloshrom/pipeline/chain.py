@@ -6,7 +6,7 @@ upstream stages did not change), one module each:
 ``data``    VFA training/validation records from the virtual rig (paper Figs. 5–7), designed
             from the ``[beam]`` tests (``[data] design = "structure"``)
 ``sweep``   sensitivity analysis over delays x neurons (Fig. 8), on request (``[rom] sweep``)
-``rom``     NFIR/NOE identification (Fig. 10 validation)
+``rom``     ROM identification (Fig. 10 validation)
 ``maps``    Phi_d maps of rig and ROM and their difference (Figs. 3, 4, 11)
 ``beam``    sloshing-beam free and random tests with rig, ROM and frozen liquid (Figs. 14–23)
 ``baseline`` beyond the paper (``[beyond] enabled``, ``baseline``): the bouncing-ball model
@@ -65,6 +65,22 @@ def _timer(ctx: Context, name: str) -> Iterator[None]:
     ctx.timings[name] = time.perf_counter() - t0
 
 
+def rom_stage_keys(rom: dict[str, Any]) -> dict[str, Any]:
+    """The ``[rom]`` keys the rom stage's result depends on (its cache key): not the sweep's,
+    not the NSS's for an NFIR/NOE (whose key is then what it was before the NSS existed, so
+    older runs reuse their stage), not the NFIR's for an NSS trained alone."""
+    nss = rom["arch"] == "nss"
+    nfir_keys = ("delays", "neurons", "hidden", "max_epochs")
+    out = {}
+    for k, v in rom.items():
+        if k.startswith("sweep") or (not nss and (k.startswith("nss_") or k == "compare_nfir")):
+            continue
+        if nss and not rom["compare_nfir"] and k in nfir_keys:
+            continue
+        out[k] = v
+    return out
+
+
 def identify(ctx: Context, cache: StageCache | None = None) -> dict[str, StageResult]:
     """The ``data`` (and ``sweep``, if asked) and ``rom`` stages in ``ctx.out``, cached.
 
@@ -89,7 +105,7 @@ def identify(ctx: Context, cache: StageCache | None = None) -> dict[str, StageRe
                 "sweep", {k: rom[k] for k in SWEEP_KEYS}, [results["data"]],
                 lambda: stage_sweep(ctx, results["data"]), __version__,
             )
-    rom_keys = {k: v for k, v in rom.items() if not k.startswith("sweep")}
+    rom_keys = rom_stage_keys(rom)
     with _timer(ctx, "rom"):
         results["rom"] = cache.run(
             "rom", rom_keys, [results["data"]], lambda: stage_rom(ctx, results["data"]),

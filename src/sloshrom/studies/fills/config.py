@@ -39,4 +39,5 @@ def member_config(cfg: ReproduceConfig, fill: float) -> ReproduceConfig:
     """The configuration of the member identified at ``fill``: the main one with only the fill
     (and the member's ensemble size, ``[beyond] fill_ensemble``) changed, no sweep."""
     return cfg.replace(tank={"fill": float(fill)},
-                       rom={"ensemble": int(cfg.beyond.fill_ensemble), "sweep": False})
+                       rom={"ensemble": int(cfg.beyond.fill_ensemble), "sweep": False,
+                            "compare_nfir": False})
