@@ -10,9 +10,11 @@ LOCK       := requirements.lock
 UV_VERSION := 0.13.9
 TOOLS      := .venv-tools
 LATEST     := .venv-latest
+PEERS      := .venv-peers
+PEERS_LOCK := benchmarks/peers-requirements.txt
 
 .PHONY: reproduce test test-other-isa test-slow test-all test-latest lint bench beyond fidelity \
-	lock clean
+	peers lock clean
 
 $(STAMP): $(LOCK) pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -44,7 +46,7 @@ lint: $(STAMP)
 
 bench: $(STAMP)
 	for f in benchmarks/*.py; do case $$f in */compare_checkouts.py|*/fidelity.py|\
-		*/fill_levels.py|*/multimode.py|*/bouncing_ball.py) continue;; esac; \
+		*/fill_levels.py|*/multimode.py|*/bouncing_ball.py|*/peer_subnet.py) continue;; esac; \
 		$(BIN)/python $$f || exit 1; done
 
 # Beyond the paper: one `reproduce --beyond` run, then the figures of its three studies.
@@ -56,6 +58,28 @@ beyond: $(STAMP)
 # The ROM's fidelity targets: three full `reproduce` runs (default, rig B, the paper's recipe).
 fidelity: $(STAMP)
 	$(BIN)/python benchmarks/fidelity.py --out bench_fidelity
+
+# A peer in the same run: deepSI's SUBNET trained on the records of `make reproduce` (results/),
+# scored like our ROM (validation fit, Phi_d map against the rig's), 10 min of training. Its own
+# venv, not a dependency of the package: torch first and alone (==2.13.0 takes the machine's
+# CPU build; another request would pull CUDA wheels), then deepSI pinned with hashes, then our
+# lock exactly as in .venv.
+$(PEERS)/.installed: $(PEERS_LOCK) $(LOCK) pyproject.toml
+	test -x $(PEERS)/bin/python || $(PYTHON) -m venv $(PEERS)
+	$(PEERS)/bin/python -m pip install --quiet --no-deps torch==2.13.0
+	$(PEERS)/bin/python -m pip install --quiet --require-hashes -r $(PEERS_LOCK)
+	$(PEERS)/bin/python -m pip install --quiet --require-hashes --no-deps -r $(LOCK)
+	$(PEERS)/bin/python -m pip install --quiet --no-deps --no-build-isolation -e .
+	$(PEERS)/bin/python -m pip check
+	touch $@
+
+# (checked before the venv is built: the peer needs a finished `make reproduce`)
+peers:
+	@test -f results/summary.json || { echo "make peers: no results/summary.json: run \
+	'make reproduce' first (the peer trains on its records and is scored beside its ROM)"; \
+	exit 1; }
+	$(MAKE) --no-print-directory $(PEERS)/.installed
+	$(PEERS)/bin/python benchmarks/peer_subnet.py --run results --out results/peer_subnet.json
 
 # Refresh the lock (pinned uv in its own venv; one version set for CPython 3.11+ on every OS).
 lock:
