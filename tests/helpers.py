@@ -218,6 +218,7 @@ train_duration = 20.0
 validation_duration = 12.0
 design = "shaker"
 [rom]
+arch = "nfir"
 delays = 6
 neurons = 3
 max_epochs = 3

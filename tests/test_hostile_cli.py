@@ -119,6 +119,8 @@ H12 = [*H, "--frequency", "12"]
 TR = ["train", "--max-epochs", "2", "--delays", "4", "--neurons", "3"]
 TRG = [*TR, "--data", "{tmp}/good.nc", "--validation", "{tmp}/good.nc"]
 TRO = [*TRG, "--out", "{tmp}/m.npz"]
+NSO = ["train", "--arch", "nss", "--data", "{tmp}/good.nc", "--validation", "{tmp}/good.nc",
+       "--out", "{tmp}/m.npz"]
 P = ["predict", "--model", "{models}/good.npz"]
 S = ["sweep", "--data", "{tmp}/good.nc", "--validation", "{tmp}/good.nc", "--max-epochs", "2"]
 SO = [*S, "--out", "{tmp}/sw"]
@@ -362,7 +364,19 @@ HOSTILE_CASES = [
      r"--max-epochs must be in \[0, 10000000\], got -1"),
     ("train-seed--1", None, [*TRO, "--seed", "-1"], rf"--seed must be in {SEED_MAX}, got -1"),
     ("train-seed-2**40", None, [*TRO, "--seed", str(2**40)], rf"--seed must be in {SEED_MAX}"),
-    ("train-arch-lstm", None, [*TRO, "--arch", "lstm"], r"--arch must be nfir or noe, got 'lstm'"),
+    ("train-arch-lstm", None, [*TRO, "--arch", "lstm"],
+     r"--arch must be nfir, noe or nss, got 'lstm'"),
+    ("train-nss-delays", None, [*TRO, "--arch", "nss"],
+     r"--delays does not apply to --arch nss: it has no delay line"),
+    ("train-nss-states-0", None, [*NSO, "--states", "0"],
+     r"--states must be in \[1, 1024\], got 0"),
+    ("train-nss-learning-rate-nan", None, [*NSO, "--learning-rate", "nan"],
+     r"--learning-rate must be in \(0, 1\], got nan"),
+    ("train-nss-horizon-7", None, [*NSO, "--horizon", "7"], r"--horizon must be in \[8, 10000\]"),
+    ("train-nss-input-acceleration", None, [*NSO, "--input", "acceleration"],
+     r"--arch nss reads the tank velocity: --input must be velocity, got 'acceleration'"),
+    ("train-window-for-nfir", None, [*TRO, "--window", "5"],
+     r"--window applies to --arch nss \(a state-space ROM\), not to --arch nfir"),
     ("train-hidden-gauss", None, [*TRO, "--hidden", "gauss"],
      r"--hidden must be matlab or distance, got 'gauss'"),
     ("train-trainer-sgd", None, [*TRO, "--trainer", "sgd"],
@@ -372,7 +386,7 @@ HOSTILE_CASES = [
     ("train-cycle-energy--1", None, [*TRO, "--cycle-energy", "-1"],
      r"--cycle-energy must be a finite number >= 0, got -1"),
     ("train-cycle-energy-with-lm", None, [*TRO, "--trainer", "lm", "--cycle-energy", "0.1"],
-     r"--cycle-energy needs an NFIR trained by adam \(got --arch nfir --trainer lm\)"),
+     r"--cycle-energy needs an NFIR trained by adam or an NSS \(got --arch nfir --trainer lm\)"),
     ("train-input-empty", None, [*TRO, "--input", ""], r"--input must name a variable"),
     ("train-input-is-output", None, [*TRO, "--input", "velocity", "--output", "velocity"],
      r"--input and --output must be different variables"),

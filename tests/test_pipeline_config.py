@@ -20,6 +20,7 @@ SMALL = """
 train_duration = 30.0
 validation_duration = 15.0
 [rom]
+arch = "nfir"
 delays = 6
 neurons = 3
 max_epochs = 4

@@ -96,10 +96,10 @@ def test_every_default_key_has_a_check():
          r"'beam\.n_modes' = 5: mode 5 of the beam \(676 Hz\) lies above the Nyquist"),
         (lambda c: c["beyond"].update(unseen_fills=[0.502, 0.625]),
          r"'beyond\.unseen_fills' \[0\.502\] is also in 'beyond\.fills' \(within 0\.005\)"),
-        (lambda c: c["rom"].update(ensemble=64, delays=100, neurons=700),
+        (lambda c: c["rom"].update(arch="nfir", ensemble=64, delays=100, neurons=700),
          r"'rom\.ensemble' x 'rom\.neurons' x regressor entries \('rom\.delays'\) = 64 x 700 x "
          r"100 = 4480000 weights, more than 4194304"),
-        (lambda c: (c["rom"].update(delays=300, neurons=1000),
+        (lambda c: (c["rom"].update(arch="nfir", delays=300, neurons=1000),
                     c["beyond"].update(enabled=True, fill_ensemble=20)),
          r"'beyond\.fill_ensemble' x 'rom\.neurons' .* = 6000000 weights"),
         (lambda c: c["rom"].update(arch="noe", delays=200, neurons=1000, ensemble=21,

@@ -28,6 +28,7 @@ __all__ = [
     "MAX_SEED",
     "MAX_STATES",
     "MAX_WEIGHTS",
+    "NSS_RECIPE",
     "RECIPE",
     "RECIPE_UNITS",
     "TRAINERS",
@@ -78,6 +79,11 @@ MAX_SEED = 2**32 - 1
 #: exchanged energy. ``sloshrom.pipeline``'s ``defaults.toml`` holds the same values (a test
 #: checks that they agree).
 RECIPE: dict[str, float] = {"amplitude_weighting": 0.05, "passivity": 1.0, "cycle_energy": 0.1}
+#: The loss recipe of a state-space ROM (NSS) trained on a velocity in m/s and a force in N:
+#: the same terms as :data:`RECIPE` (the energy term judges each training sub-sequence's
+#: exchanged energy); all 0 (plain MSE) until its weights are measured.
+NSS_RECIPE: dict[str, float] = {"amplitude_weighting": 0.0, "passivity": 0.0,
+                                "cycle_energy": 0.0}
 #: The units the recipe is written for: a velocity in, a force out (F v is a power).
 RECIPE_UNITS = ("m/s", "N")
 

@@ -45,6 +45,9 @@ def onnx_cmd(
 
     out dynamic_force (batch,1) N, u_state_out [+ y_state_out] to feed back (docs/interchange.md).
 
+    A state-space ROM (NSS, ``train --arch nss``) is refused: its graph would need its state as
+    input and output, which is not implemented.
+
     Example: ``sloshrom export onnx results/models/nfir.npz nfir_step.onnx``
     """
     import numpy as np

@@ -1,4 +1,4 @@
-"""``sloshrom train | predict | sweep``: identify NFIR/NOE ROMs from records and use them.
+"""``sloshrom train | predict | sweep``: identify NFIR, NOE and NSS ROMs from records and use them.
 
 Records are read with :func:`sloshrom.io.read_record` (NetCDF, CSV, MATLAB) and written with
 :func:`sloshrom.io.write_record`; models are ``.npz`` files (:func:`sloshrom.rom.load_model`).
@@ -23,12 +23,17 @@ from sloshrom.io import STANDARD_UNITS, read_record, same_unit, write_record
 from sloshrom.limits import (
     ARCH_TRAINERS,
     HIDDEN_KINDS,
+    MAX_BATCH,
     MAX_DELAY,
     MAX_EPOCHS,
     MAX_MEMBERS,
     MAX_NEURONS,
     MAX_SEED,
+    MAX_STATES,
+    MAX_WEIGHTS,
+    NSS_RECIPE,
     RECIPE,
+    LossChoice,
     loss_recipe,
 )
 from sloshrom.pipeline.settings import training_samples
@@ -36,6 +41,16 @@ from sloshrom.pipeline.settings import training_samples
 __all__ = ["predict", "sweep", "train"]
 
 RECORD_SUFFIXES = (".nc", ".csv", ".mat")
+#: The architectures of ``train --arch``.
+ARCHS = ("nfir", "noe", "nss")
+#: Defaults of the options a state-space ROM (``--arch nss``) takes: those of ``NSS()``.
+NSS_DEFAULTS: dict[str, int | float] = {"states": 8, "neurons": 64, "window": 50,
+                                        "horizon": 300, "batch": 128, "learning_rate": 0.003,
+                                        "steps_per_epoch": 200, "max_epochs": 40}
+#: Why each option of an NFIR/NOE does not apply to an NSS.
+NOT_FOR_NSS = {"--delays": "it has no delay line; its encoder reads --window samples",
+               "--hidden": "its layers are tanh, not RBF",
+               "--trainer": "it trains by Adam on sub-sequences (multiple shooting)"}
 
 
 def _read(path: Path, names: list[str], what: str):
@@ -140,12 +155,49 @@ def _check_common(max_epochs: int, seed: int, hidden: str) -> None:
         fail(f"--hidden must be matlab or distance, got {hidden!r}")
 
 
-def _check_length(rec: Any, path: Path, arch: str, delays: int, neurons: int, what: str) -> None:
-    """The record must hold enough samples for the network (the check of ``fit``, before it)."""
-    need = training_samples(arch, delays, neurons)
+def _check_length(rec: Any, path: Path, arch: str, delays: int, neurons: int, what: str,
+                  horizon: int = 0) -> None:
+    """The record must hold enough samples for the network (the check of ``fit``, before it);
+    an NSS's ``delays`` is its encoder window, ``horizon`` its training sub-sequence."""
+    need = training_samples(arch, delays, neurons, horizon)
     if len(rec) < need:
-        fail(f"{path}: {len(rec)} samples are too few for {arch.upper()}({delays}, {neurons}) "
-             f"({what} needs at least {need})")
+        name = (f"NSS(window {delays}, horizon {horizon})" if arch == "nss"
+                else f"{arch.upper()}({delays}, {neurons})")
+        fail(f"{path}: {len(rec)} samples are too few for {name} ({what} needs at least {need})")
+
+
+def _label(arch: str, model: Any) -> str:
+    """``NFIR(70, 35)`` or ``NSS(8 states, 64 neurons, window 50)``: a ROM in a message."""
+    if arch == "nss":
+        return f"NSS({model.n_states} states, {model.neurons} neurons, window {model.window})"
+    return f"{arch.upper()}({model.delays}, {model.neurons})"
+
+
+def _nss_options(given: dict[str, Any], arch: str) -> None:
+    """Check the options of a state-space ROM; for an NFIR/NOE, refuse them."""
+    if arch != "nss":
+        for opt, value in given.items():
+            if value is not None:
+                fail(f"{opt} applies to --arch nss (a state-space ROM), not to --arch {arch}")
+        return
+    check_number(given["--states"], "--states", 1, MAX_STATES)
+    check_number(given["--window"], "--window", 1, MAX_DELAY)
+    check_number(given["--horizon"], "--horizon", 8, MAX_DELAY)
+    check_number(given["--batch"], "--batch", 1, MAX_BATCH)
+    check_number(given["--steps-per-epoch"], "--steps-per-epoch", 1, MAX_EPOCHS)
+    check_number(given["--learning-rate"], "--learning-rate", 0.0, 1.0, lo_open=True,
+                 why="the initial Adam step")
+
+
+def _nss_recipe(choice: LossChoice) -> LossChoice:
+    """The loss of an NSS for the records' units: :data:`sloshrom.limits.NSS_RECIPE` where the
+    NFIR's recipe applies (a velocity in m/s, a force in N), else the plain MSE."""
+    if not choice.passive:
+        return choice
+    if any(NSS_RECIPE.values()):
+        return LossChoice(True, dict(NSS_RECIPE), choice.why)
+    return LossChoice(False, dict(NSS_RECIPE), "the NSS recipe (sloshrom.limits.NSS_RECIPE) "
+                      "sets no loss term for a velocity in m/s and a force in N")
 
 
 InputOpt = Annotated[str, typer.Option("--input", help="Input variable of the records.")]
@@ -161,19 +213,37 @@ def train(
     out: Annotated[Path, typer.Option("--out", "-o", help="Model file to write (.npz).")],
     input_name: InputOpt = "velocity",
     output_name: OutputOpt = "dynamic_force",
-    arch: Annotated[str, typer.Option("--arch", help="nfir or noe.")] = "nfir",
+    arch: Annotated[str, typer.Option("--arch", help="nfir, noe or nss (a neural "
+                                                     "state-space ROM).")] = "nfir",
     delays: Annotated[
         int | None, typer.Option(help=f"Input delays (NFIR 70, NOE 2), 1-{MAX_DELAY}.")
     ] = None,
     neurons: Annotated[
-        int | None, typer.Option(help=f"Hidden neurons (NFIR 35, NOE 10), 1-{MAX_NEURONS}.")
+        int | None, typer.Option(help=f"Hidden neurons (NFIR 35, NOE 10, NSS 64), "
+                                      f"1-{MAX_NEURONS}.")
     ] = None,
-    hidden: Annotated[str, typer.Option(help="RBF variant: matlab or distance.")] = "matlab",
-    max_epochs: Annotated[int, typer.Option(help="Training epochs at most.")] = 1000,
+    hidden: Annotated[str | None, typer.Option(
+        help="NFIR/NOE: RBF variant, matlab (default) or distance.")] = None,
+    max_epochs: Annotated[int | None, typer.Option(
+        help="Training epochs at most (NFIR/NOE 1000, NSS 40 epochs of --steps-per-epoch "
+             "Adam steps).")] = None,
     trainer: Annotated[
         str | None, typer.Option(help="NFIR: adam (default), fast (subsampled LM) or lm (trainlm);"
                                       " NOE: lm.")
     ] = None,
+    states: Annotated[int | None, typer.Option(
+        help=f"NSS: dimension of the state (default 8), 1-{MAX_STATES}.")] = None,
+    window: Annotated[int | None, typer.Option(
+        help="NSS: samples of past input and output its encoder reads (default 50).")] = None,
+    horizon: Annotated[int | None, typer.Option(
+        help="NSS: samples simulated from each encoded start in training (default 300, "
+             ">= 8).")] = None,
+    batch: Annotated[int | None, typer.Option(
+        help="NSS: sub-sequences per Adam step (default 128).")] = None,
+    learning_rate: Annotated[float | None, typer.Option(
+        help="NSS: initial Adam step, in (0, 1] (default 0.003).")] = None,
+    steps_per_epoch: Annotated[int | None, typer.Option(
+        help="NSS: Adam steps between validations (default 200).")] = None,
     fill: Annotated[float | None, typer.Option(
         help="Fill level d/h of the records' tank, in (0, 1): recorded in the model, which "
              "then refuses other fills. Default: the records' fill attribute (rig records "
@@ -192,23 +262,29 @@ def train(
     workers: Annotated[int, typer.Option(help="Ensemble: members trained at once, 1 to the "
                                               "number of CPUs.")] = 2,
     amplitude_weighting: Annotated[
-        float | None, typer.Option(help="NFIR/Adam: loss weights 1/(a^2 + eps^2), eps in input "
-                                        f"units (default {RECIPE['amplitude_weighting']:g} for "
-                                        "m/s in and N out, else 0 = plain MSE, as the paper).")
+        float | None, typer.Option(help="NFIR/Adam or NSS: loss weights 1/(a^2 + eps^2), eps "
+                                        "in input units (default for m/s in and N out: NFIR "
+                                        f"{RECIPE['amplitude_weighting']:g}, NSS "
+                                        f"{NSS_RECIPE['amplitude_weighting']:g}; else 0 = plain "
+                                        "MSE, as the paper).")
     ] = None,
     passivity: Annotated[
-        float | None, typer.Option(help="NFIR/Adam: weight of the penalty on energy created at "
-                                        f"harmonic probes (default {RECIPE['passivity']:g} for "
-                                        "m/s in and N out, else 0 = off, as the paper).")
+        float | None, typer.Option(help="NFIR/Adam or NSS: weight of the penalty on energy "
+                                        "created at harmonic probes (default for m/s in and N "
+                                        f"out: NFIR {RECIPE['passivity']:g}, NSS "
+                                        f"{NSS_RECIPE['passivity']:g}; else 0 = off, as the "
+                                        "paper).")
     ] = None,
     cycle_energy: Annotated[
-        float | None, typer.Option(help="NFIR/Adam: weight of the error of the energy each "
-                                        "input cycle exchanges (default "
-                                        f"{RECIPE['cycle_energy']:g} for m/s in and N out, else "
-                                        "0 = off, as the paper).")
+        float | None, typer.Option(help="NFIR/Adam or NSS: weight of the error of the energy "
+                                        "each input cycle exchanges (NSS: per cycle of each "
+                                        "training sub-sequence); default for m/s in and N out: "
+                                        f"NFIR {RECIPE['cycle_energy']:g}, NSS "
+                                        f"{NSS_RECIPE['cycle_energy']:g}; else 0 = off, as the "
+                                        "paper.")
     ] = None,
 ) -> None:
-    """Identify an NFIR or NOE ROM (or an ensemble of them) from an input/output record.
+    """Identify an NFIR, NOE or NSS ROM (or an ensemble of them) from an input/output record.
 
     An NFIR trained by Adam (the default) on a velocity in m/s and a force in N uses the
     passive recipe: amplitude-weighted loss, a passivity penalty and a cycle-energy term
@@ -219,6 +295,14 @@ def train(
     --input acceleration (records' tank acceleration, m/s^2) trains a network on the
     acceleration, always on the plain MSE; it runs in `beam` and `map` like any other.
 
+    --arch nss trains a neural state-space ROM (sloshrom.rom.NSS: a state that carries where
+    the liquid is and how it moves) on the tank velocity, by Adam on sub-sequences of
+    --horizon samples, each started by an encoder of the --window samples before it. Its
+    options are --states, --neurons, --window, --horizon, --batch, --learning-rate,
+    --steps-per-epoch and --max-epochs (--delays, --hidden and --trainer are the networks'
+    and refused); its loss by units is the NSS recipe (sloshrom.limits.NSS_RECIPE), and the
+    three loss options set its terms as for an NFIR.
+
     The two records must have the same sample rate and the same units of the input and of the
     output; the model file may not be one of the records. With --ensemble K, K networks with
     seeds SEED..SEED+K-1 are trained in parallel (Dask) and written as one model file whose
@@ -228,11 +312,25 @@ def train(
     Example: sloshrom train --data train.nc --validation validation.nc --arch nfir --delays 70
     --neurons 35 --out nfir.npz [--ensemble 5 --workers 2]
     """
-    if arch not in ("nfir", "noe"):
-        fail(f"--arch must be nfir or noe, got {arch!r}")
+    if arch not in ARCHS:
+        fail(f"--arch must be nfir, noe or nss, got {arch!r}")
+    nss = arch == "nss"
+    if nss:
+        for opt, value in (("--delays", delays), ("--hidden", hidden), ("--trainer", trainer)):
+            if value is not None:
+                fail(f"{opt} does not apply to --arch nss: {NOT_FOR_NSS[opt]}")
+    _nss_options({"--states": states, "--window": window, "--horizon": horizon,
+                  "--batch": batch, "--learning-rate": learning_rate,
+                  "--steps-per-epoch": steps_per_epoch}, arch)
     _check_names(input_name, output_name)
     if arch == "noe" and input_name == "acceleration":
         fail("--input acceleration needs --arch nfir: an NOE takes the tank velocity")
+    if nss and input_name != "velocity":
+        fail(f"--arch nss reads the tank velocity: --input must be velocity, got "
+             f"{input_name!r} (a network on another input is an NFIR)")
+    if max_epochs is None:
+        max_epochs = int(NSS_DEFAULTS["max_epochs"]) if nss else 1000
+    hidden = "matlab" if hidden is None else hidden
     check_number(delays, "--delays", 1, MAX_DELAY)
     check_number(neurons, "--neurons", 1, MAX_NEURONS)
     _check_common(max_epochs, seed, hidden)
@@ -245,7 +343,7 @@ def train(
         check_number(workers, "--workers", 1, n_cpu, why=f"this machine has {n_cpu} CPU(s)")
         if scheduler not in (None, "threads", "sequential"):
             check_scheduler(scheduler)
-    trainers = ARCH_TRAINERS[arch]
+    trainers = ARCH_TRAINERS.get(arch, ())
     if trainer is not None and trainer not in trainers:
         fail(f"--trainer for {arch.upper()} must be {', '.join(trainers)}, got {trainer!r}")
     check_number(fill, "--fill", 0.0, 1.0, lo_open=True, hi_open=True,
@@ -258,21 +356,30 @@ def train(
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from sloshrom.rom.estimators import NFIR, NOE
+    from sloshrom.rom.estimators import NFIR, NOE, NSS
 
-    cls = NFIR if arch == "nfir" else NOE
-    kw: dict[str, Any] = {"hidden": hidden, "max_epochs": max_epochs, "seed": seed,
+    kw: dict[str, Any] = {"max_epochs": max_epochs, "seed": seed,
                           "units": (rec.units[input_name], rec.units[output_name]),
                           "names": (input_name, output_name)}
-    if delays is not None:
-        kw["delays"] = delays
-    if neurons is not None:
-        kw["neurons"] = neurons
-    if trainer is not None:
-        kw["trainer"] = trainer
-    adam = arch == "nfir" and trainer in (None, "adam")
+    if nss:
+        sizes = {"n_states": states, "neurons": neurons, "window": window, "horizon": horizon,
+                 "batch": batch, "learning_rate": learning_rate,
+                 "steps_per_epoch": steps_per_epoch}
+        kw.update({k: v for k, v in sizes.items() if v is not None})
+    else:
+        kw["hidden"] = hidden
+        if delays is not None:
+            kw["delays"] = delays
+        if neurons is not None:
+            kw["neurons"] = neurons
+        if trainer is not None:
+            kw["trainer"] = trainer
+    # the loss terms train an NFIR by Adam and an NSS (Adam too); an NOE trains by LM
+    adam = (arch == "nfir" and trainer in (None, "adam")) or nss
     # the recipe by the records' units: its terms hold for m/s in and N out only
     choice = loss_recipe(*kw["units"], same=same_unit)
+    if nss:
+        choice = _nss_recipe(choice)
     given = {"amplitude_weighting": amplitude_weighting, "passivity": passivity,
              "cycle_energy": cycle_energy}
     for opt, value in given.items():
@@ -280,7 +387,7 @@ def train(
         if value is not None and not (math.isfinite(value) and value >= 0):
             fail(f"{flag} must be a finite number >= 0, got {value!r}")
         if value and not adam:
-            fail(f"{flag} needs an NFIR trained by adam (got --arch {arch}"
+            fail(f"{flag} needs an NFIR trained by adam or an NSS (got --arch {arch}"
                  f"{'' if trainer is None else f' --trainer {trainer}'})")
         if value and input_name == "acceleration":
             fail(f"{flag} needs a velocity input: the term is written for the power F v "
@@ -293,26 +400,39 @@ def train(
                    f"loss: {', '.join(f'{k} {kw[k]:g}' for k in given)}: "
                    f"{', '.join(set_by)} set by the options (by the records' units: "
                    f"{choice.name})")
+    cls = {"nfir": NFIR, "noe": NOE, "nss": NSS}[arch]
     try:
         model = cls(**kw)  # the hyperparameters are checked above, the file limits here
+        n_params = model.n_params if nss else 0  # an NSS checks its file limits here
     except SloshromError as exc:  # ROMError: a network no model file holds
         fail(str(exc))
-    _check_length(rec, data, arch, model.max_delay, int(model.neurons), "training")
+    if ensemble * n_params > MAX_WEIGHTS:  # the model file's limit, before the training
+        fail(f"{_label(arch, model)}{f' x {ensemble} members' if ensemble > 1 else ''} has "
+             f"{ensemble * n_params} weights, more than {MAX_WEIGHTS}, the most a model file "
+             "holds")
+    if nss:
+        _check_length(rec, data, arch, model.window, model.neurons, "training",
+                      horizon=model.horizon)
+    else:
+        _check_length(rec, data, arch, model.max_delay, int(model.neurons), "training")
     if len(val) <= model.max_delay:
-        fail(f"{validation}: {len(val)} samples are too few for {model.max_delay} delays")
+        what = f"an encoder window of {model.window}" if nss else f"{model.max_delay} delays"
+        fail(f"{validation}: {len(val)} samples are too few for {what}")
     if ensemble > 1:
         _train_ensemble(model, ensemble, rec, val, input_name, output_name, out,
                         scheduler if scheduler is not None or workers > 1 else "sequential",
-                        workers, fill)
+                        workers, fill, _label(arch, model))
         return
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[info]}"),
                   TimeElapsedColumn()) as progress:
         task = progress.add_task(f"training {arch.upper()}", total=max_epochs, info="")
 
         def cb(epoch: int, info: dict[str, float]) -> None:
+            # Levenberg–Marquardt reports its damping mu; Adam (an NSS) has none
+            mu = f" mu {info['mu']:.1e}" if "mu" in info else ""
             progress.update(task, completed=epoch,
                             info=f"epoch {epoch} train {info['train_mse']:.4g} "
-                                 f"val {info['val_mse']:.4g} mu {info['mu']:.1e}")
+                                 f"val {info['val_mse']:.4g}{mu}")
 
         try:
             model.fit(rec[input_name], rec[output_name], fs=rec.fs,
@@ -325,7 +445,7 @@ def train(
         fail(str(exc))
     h = model.history_
     typer.echo(
-        f"wrote {path}: {arch.upper()}({model.delays}, {model.neurons}), {model.n_params} "
+        f"wrote {path}: {_label(arch, model)}, {model.n_params} "
         f"parameters, {len(h['train_mse']) - 1} epochs ({h['stop_reason']}), best epoch "
         f"{h['best_epoch']}, validation MSE {h['val_mse'][h['best_epoch']]:.4g} "
         f"{rec.units[output_name]}^2, {h['train_seconds']:.1f} s"
@@ -334,14 +454,15 @@ def train(
 
 def _train_ensemble(template: Any, k: int, rec: Any, val: Any, input_name: str,
                     output_name: str, out: Path, scheduler: str | None, workers: int,
-                    fill: float | None) -> None:
-    """``train --ensemble K``: K members through Dask, one file, per-member validation MSE."""
+                    fill: float | None, label: str) -> None:
+    """``train --ensemble K``: K members through Dask, one file, per-member validation MSE;
+    ``label`` names the members' architecture (``NFIR(70, 35)``)."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     from sloshrom.rom.ensemble import Ensemble, spread
 
     ens = Ensemble(template, n_members=k)
-    arch = type(template).__name__
+    arch = label.split("(")[0]
     with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
                   TextColumn("{task.fields[info]}"), TimeElapsedColumn()) as progress:
         task = progress.add_task(f"training {k} x {arch}", total=k, info="")
@@ -370,7 +491,7 @@ def _train_ensemble(template: Any, k: int, rec: Any, val: Any, input_name: str,
     s = spread(mse)
     mean_mse = float(np.mean((np.mean(preds, axis=0) - yv) ** 2))
     typer.echo(
-        f"wrote {path}: ensemble of {k} {arch}({template.delays}, {template.neurons}), "
+        f"wrote {path}: ensemble of {k} {label}, "
         f"{ens.n_params} parameters; validation MSE over members {s['mean']:.4g} +- "
         f"{s['std']:.4g} {unit}, of the ensemble mean {mean_mse:.4g} {unit}"
     )

@@ -57,6 +57,11 @@ def _num(d: dict[str, Any], *keys: str, fmt: str = "{:.3g}", default: str = "n/a
         return html.escape(str(cur))
 
 
+#: The ``[rom]`` keys that size each class of ROM (the setup table's "ROM" row).
+_SIZE_KEYS = {"nfir": ("delays", "neurons"), "noe": ("delays", "neurons"),
+              "nss": ("nss_states", "nss_neurons")}
+
+
 def _setup_section(cfg: settings.ReproduceConfig) -> Section:
     defaults = settings.load()
 
@@ -85,10 +90,11 @@ def _setup_section(cfg: settings.ReproduceConfig) -> Section:
         ["VFA train / validation", f"{cfg.data.train_duration:.0f} / "
          f"{cfg.data.validation_duration:.0f} s",
          source("data", "train_duration", "validation_duration")],
-        ["ROM", f"{cfg.rom.arch.upper()}({cfg.rom.delays}, {cfg.rom.neurons})",
-         source("rom", "arch", "delays", "neurons",
-                paper=f"paper: {paper_rom.arch.upper()}({paper_rom.delays}, "
-                      f"{paper_rom.neurons})")],
+        ["ROM", cfg.rom.name(),
+         source("rom", "arch", *_SIZE_KEYS[cfg.rom.arch],
+                # an NSS is never the paper's class, even as the default
+                paper=(f"paper: {paper_rom.name('nfir')}" if cfg.rom.arch != "nss" else
+                       f"default, not the paper's {paper_rom.name('nfir')}"))],
         ["beam length × width × thickness", f"{b.length:g} × {b.width:g} × "
          f"{b.thickness:g} m, clamped", source("beam", "length", "width", "thickness")],
         ["beam E, ρ", f"{b.youngs_modulus / 1e9:g} GPa, {b.density:g} kg/m³",
@@ -109,6 +115,17 @@ def _setup_section(cfg: settings.ReproduceConfig) -> Section:
     )
     return Section("1. Setup and assumptions", text,
                    tables=[Table(["quantity", "value", "source"], rows)])
+
+
+def _compare_text(c: dict[str, Any] | None) -> str:
+    """The NFIR trained beside an NSS (``stages.rom.compare``), as a paragraph; "" without."""
+    if not c:
+        return ""
+    return (f"<p>Beside it, the paper's class {html.escape(c.get('name', 'NFIR'))} (one "
+            f"network, same records and loss): validation MSE {_num(c, 'val_mse')} N², NRMSE "
+            f"{_num(c, 'val_nrmse', fmt='{:.3f}')}, fit {_num(c, 'val_fit', fmt='{:.1f}')} %; "
+            f"training took {_num(c, 'train_seconds', fmt='{:.1f}')} s. The maps and beam "
+            "sections use the ROM above, not this network.</p>")
 
 
 def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
@@ -137,7 +154,7 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
     secs.append(Section(
         "3. Model selection (paper Fig. 8)",
         "<p>" + (html.escape(sw["sweep_text"]) if sw else "The sensitivity sweep was not "
-                 "run (use <code>--sweep</code>); the paper's selection is trained "
+                 "run (use <code>--sweep</code>); the configured ROM is trained "
                  "directly.") + "</p>",
         _fig(ctx, "fig08_sensitivity.png", "Fig. 8 — mean of train and validation MSE "
              "against neurons for each delay line.") if sw else [],
@@ -146,7 +163,8 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
     ))
     secs.append(Section(
         "4. Validation (paper Fig. 10)",
-        f"<p>{html.escape(r.get('name', 'ROM'))}: validation MSE {_num(r, 'val_mse')} N², "
+        (f"<p>{html.escape(r['model_class_text'])}</p>" if r.get("model_class_text") else "")
+        + f"<p>{html.escape(r.get('name', 'ROM'))}: validation MSE {_num(r, 'val_mse')} N², "
         f"NRMSE {_num(r, 'val_nrmse', fmt='{:.3f}')}, fit {_num(r, 'val_fit', fmt='{:.1f}')} "
         f"%; training took {_num(r, 'train_seconds', fmt='{:.1f}')} s "
         f"({_listed(r.get('epochs'))} epochs, stop: "
@@ -155,9 +173,11 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
            "ROM's force is their mean. Validation MSE of the members: "
            f"{_pm(r.get('val_mse_members'))} N² (mean ± std); of their mean: "
            f"{_num(r, 'val_mse')} N².</p>" if r.get("n_members", 1) > 1 else "")
+        + _compare_text(r.get("compare"))
         + (f"<p>{html.escape(r['recipe_text'])}</p>" if r.get("recipe_text") else ""),
         _fig(ctx, "fig10_validation.png", "Fig. 10 — ROM free-run prediction against the "
-             "rig's dynamic force on the validation record."),
+             "rig's dynamic force on the validation record"
+             + (", and the paper's NFIR (thin line)." if r.get("compare") else ".")),
     ))
     m = st.get("maps", {})
     text = (

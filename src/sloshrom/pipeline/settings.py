@@ -20,7 +20,7 @@ import tomllib
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Annotated, Any, Literal, get_args
+from typing import Annotated, Any, Literal, NamedTuple, get_args
 
 from pydantic import (
     AfterValidator,
@@ -41,12 +41,15 @@ from sloshrom.beam.structure import (
 )
 from sloshrom.config import FILL_TOLERANCE, ConfigError, Tank, load_toml
 from sloshrom.limits import (
+    MAX_BATCH,
     MAX_DELAY,
     MAX_EPOCHS,
     MAX_MEMBERS,
     MAX_NEURONS,
     MAX_SEED,
+    MAX_STATES,
     MAX_WEIGHTS,
+    NSS_RECIPE,
     RECIPE,
     Hidden,
 )
@@ -72,6 +75,7 @@ __all__ = [
     "MapTable",
     "ReproduceConfig",
     "RigTable",
+    "RomNetwork",
     "RomTable",
     "TankTable",
     "check_analysis_band",
@@ -82,6 +86,7 @@ __all__ = [
     "load",
     "merge",
     "min_free_duration",
+    "network_weights",
     "training_samples",
     "validate",
 ]
@@ -89,9 +94,11 @@ __all__ = [
 # Reduced sizes for `--quick` (a smoke run of the whole chain in a few minutes). The quick ROM
 # (NFIR(40, 15), 60 epochs, 120 s) cannot represent the ~20 g structure-designed training: its
 # 6 g map error measured 88 % (14.7 % on the paper's shaker VFA), so --quick keeps the shaker.
+# An NSS (arch = "nss") keeps its sizes and trains 4 epochs: about 20 s each here (measured at
+# the default sizes, 2026-11-25).
 QUICK: dict[str, dict[str, Any]] = {
     "data": {"train_duration": 120.0, "validation_duration": 60.0, "design": "shaker"},
-    "rom": {"delays": 40, "neurons": 15, "max_epochs": 60, "ensemble": 2},
+    "rom": {"delays": 40, "neurons": 15, "max_epochs": 60, "ensemble": 2, "nss_max_epochs": 4},
     "map": {"n_omega": 10, "n_a": 8},
     "beam": {"free_duration": 6.0, "random_duration": 70.0},
 }
@@ -351,11 +358,25 @@ class DataTable(_Table):
     extension_band: _number(1.0, 5.0, lo_open=True, what="a frequency factor")
 
 
+class RomNetwork(NamedTuple):
+    """A network the ``rom`` stage (or the sweep) trains, for the checks against the record and
+    the model-file limits: ``arch`` (``"nfir"``, ``"noe"``, ``"nss"``), ``delays`` (an NSS:
+    its encoder window, samples), ``neurons``, ``keys`` (the keys named in a message),
+    ``horizon`` (an NSS's training sub-sequences, samples; 0 otherwise) and ``n_states``."""
+
+    arch: str
+    delays: int
+    neurons: int
+    keys: str
+    horizon: int = 0
+    n_states: int = 0
+
+
 class RomTable(_Table):
-    """``[rom]``: the network, its training and the sensitivity sweep."""
+    """``[rom]``: the ROM (an NFIR, NOE or NSS), its training and the sensitivity sweep."""
 
     # the order of defaults.toml (as_dict() writes the keys in field order)
-    arch: Literal["nfir", "noe"]
+    arch: Literal["nfir", "noe", "nss"]
     delays: Delays
     neurons: Neurons
     hidden: Hidden
@@ -364,6 +385,16 @@ class RomTable(_Table):
     amplitude_weighting: _number(0.0, 100.0, what="an amplitude floor in m/s (0 = off)")
     passivity: _number(0.0, 1e6, what="a penalty weight (0 = off)")
     cycle_energy: _number(0.0, 1e6, what="a loss weight (0 = off)")
+    # the state-space ROM of arch = "nss" (sloshrom.rom.NSS); the bounds of the model files
+    nss_states: _number(1, MAX_STATES, integer=True, what="a state dimension")
+    nss_neurons: Neurons
+    nss_window: _number(1, MAX_DELAY, integer=True, what="a number of samples")
+    nss_horizon: _number(8, MAX_DELAY, integer=True, what="a number of samples")
+    nss_batch: _number(1, MAX_BATCH, integer=True, what="a number of sub-sequences")
+    nss_max_epochs: _number(0, MAX_EPOCHS, integer=True, what="an integer")
+    nss_steps_per_epoch: _number(1, MAX_EPOCHS, integer=True, what="a number of Adam steps")
+    nss_learning_rate: _number(0.0, 1.0, lo_open=True, what="an Adam step")
+    compare_nfir: bool
     ensemble: _number(1, MAX_MEMBERS, integer=True, what="a number of ensemble members")
     ensemble_workers: _number(1, 64, integer=True, what="a number of parallel trainings")
     sweep: bool
@@ -378,21 +409,55 @@ class RomTable(_Table):
         if self.arch == "noe" and (self.amplitude_weighting > 0 or self.passivity > 0
                                    or self.cycle_energy > 0):
             raise ConfigError("'rom.amplitude_weighting', 'rom.passivity' and "
-                              "'rom.cycle_energy' train the NFIR (Adam); set them to 0 for "
-                              "arch = 'noe'")
+                              "'rom.cycle_energy' train the NFIR and the NSS (Adam); set them "
+                              "to 0 for arch = 'noe'")
         return self
 
+    @property
+    def compares_nfir(self) -> bool:
+        """Whether the ``rom`` stage also trains the NFIR of ``delays``/``neurons`` beside the
+        chosen ROM (``compare_nfir`` with ``arch = "nss"``; ignored for an NFIR or NOE)."""
+        return self.arch == "nss" and self.compare_nfir
+
     def loss_terms(self) -> dict[str, float]:
-        """The NFIR's loss weights by name (:data:`sloshrom.limits.RECIPE`'s keys; 0 = off)."""
+        """The loss weights by name (:data:`sloshrom.limits.RECIPE`'s keys; 0 = off): of the
+        NFIR or NSS the stage trains, and of the compared NFIR."""
         return {k: getattr(self, k) for k in RECIPE}
 
-    def networks(self) -> list[tuple[str, int, int, str]]:
-        """(arch, delays, neurons, keys) of the largest network of each kind to be trained."""
-        out = [(self.arch, self.delays, self.neurons, "'rom.delays'/'rom.neurons'")]
+    def recipe(self) -> dict[str, float]:
+        """The loss recipe of the configured class on a velocity in m/s and a force in N:
+        :data:`sloshrom.limits.RECIPE` (NFIR), :data:`~sloshrom.limits.NSS_RECIPE` (NSS), all
+        0 for an NOE (trained by Levenberg–Marquardt, on the plain MSE)."""
+        if self.arch == "noe":
+            return dict.fromkeys(RECIPE, 0.0)
+        return dict(NSS_RECIPE if self.arch == "nss" else RECIPE)
+
+    def name(self, arch: str | None = None) -> str:
+        """The ROM's name in the report, e.g. ``"NFIR(70, 35)"`` or ``"NSS(8 states, 64
+        neurons)"``; ``arch`` (default: the configured one) names another of the table's
+        networks (``"nfir"``: the compared NFIR)."""
+        arch = self.arch if arch is None else arch
+        if arch == "nss":
+            return f"NSS({self.nss_states} states, {self.nss_neurons} neurons)"
+        return f"{arch.upper()}({self.delays}, {self.neurons})"
+
+    def networks(self) -> list[RomNetwork]:
+        """The largest network of each kind to be trained: the ROM, the compared NFIR, the
+        sweep's largest NFIR and NOE."""
+        if self.arch == "nss":
+            out = [RomNetwork("nss", self.nss_window, self.nss_neurons,
+                              "'rom.nss_window'/'rom.nss_horizon'", self.nss_horizon,
+                              self.nss_states)]
+        else:
+            out = [RomNetwork(self.arch, self.delays, self.neurons,
+                              "'rom.delays'/'rom.neurons'")]
+        if self.compares_nfir:
+            out.append(RomNetwork("nfir", self.delays, self.neurons,
+                                  "'rom.delays'/'rom.neurons' (compare_nfir)"))
         if self.sweep:
-            out += [(a, max(getattr(self, f"sweep_{a}_delays")),
-                     max(getattr(self, f"sweep_{a}_neurons")),
-                     f"the largest of 'rom.sweep_{a}_delays'/'rom.sweep_{a}_neurons'")
+            out += [RomNetwork(a, max(getattr(self, f"sweep_{a}_delays")),
+                               max(getattr(self, f"sweep_{a}_neurons")),
+                               f"the largest of 'rom.sweep_{a}_delays'/'rom.sweep_{a}_neurons'")
                     for a in ("nfir", "noe")]
         return out
 
@@ -660,23 +725,31 @@ class ReproduceConfig(_Table):
         fs, b = self.rig.fs, self.beam
         n_train = self.data.train_duration * fs
         r = self.rom
-        entries = r.delays + (NOE_OUT_DELAYS if r.arch == "noe" else 0)
+        rom = r.networks()[0]
         members = [("'rom.ensemble'", r.ensemble)]
         if self.beyond.enabled:
             members.append(("'beyond.fill_ensemble'", self.beyond.fill_ensemble))
         for key, k in members:
-            weights = k * r.neurons * entries
-            if weights > MAX_MODEL_WEIGHTS:
-                raise ConfigError(
-                    f"{key} x 'rom.neurons' x regressor entries ('rom.delays') = {k} x "
-                    f"{r.neurons} x {entries} = {weights} weights, more than "
-                    f"{MAX_MODEL_WEIGHTS} (32 MiB), the most a model file holds: fewer members "
-                    "or a smaller network")
-        for arch, delays, neurons, names in self.rom.networks():
-            need = training_samples(arch, delays, neurons)
+            weights = k * network_weights(rom)
+            if weights <= MAX_MODEL_WEIGHTS:
+                continue
+            if rom.arch == "nss":
+                size = (f"the weights of an NSS ('rom.nss_states', 'rom.nss_neurons', "
+                        f"'rom.nss_window') = {k} x {network_weights(rom)}")
+            else:
+                entries = rom.delays + (NOE_OUT_DELAYS if rom.arch == "noe" else 0)
+                size = (f"'rom.neurons' x regressor entries ('rom.delays') = {k} x "
+                        f"{r.neurons} x {entries}")
+            raise ConfigError(
+                f"{key} x {size} = {weights} weights, more than {MAX_MODEL_WEIGHTS} (32 MiB), "
+                "the most a model file holds: fewer members or a smaller network")
+        for net in r.networks():
+            need = training_samples(net.arch, net.delays, net.neurons, net.horizon)
             if need > n_train:
+                sizes = (f"{net.delays}/{net.horizon}" if net.arch == "nss"
+                         else f"{net.delays}/{net.neurons}")
                 raise ConfigError(
-                    f"{names} = {delays}/{neurons} ({arch.upper()}) need at least {need} "
+                    f"{net.keys} = {sizes} ({net.arch.upper()}) need at least {need} "
                     f"training samples, but 'data.train_duration' gives {n_train:.0f} at "
                     f"{fs:g} Hz")
         check_psd_band(b.f0, b.sigma, names=("'beam.f0'", "'beam.sigma'"), error=ConfigError,
@@ -786,11 +859,30 @@ def _message(error: ErrorDetails) -> str:
     return says.value(key, v)
 
 
-def training_samples(arch: str, delays: int, neurons: int) -> int:
-    """Samples a training record needs for a ROM (the check of ``NFIR.fit``)."""
+def training_samples(arch: str, delays: int, neurons: int, horizon: int = 0) -> int:
+    """Samples a training record needs for a ROM (the check of its ``fit``).
+
+    An NSS (``arch = "nss"``; ``delays`` its encoder window, ``horizon`` its sub-sequences,
+    samples) needs one window and one horizon; an NFIR or NOE of ``delays`` and ``neurons``
+    needs its delay line and two samples per hundred parameters.
+    """
+    if arch == "nss":
+        return delays + horizon + 1
     out_delays = NOE_OUT_DELAYS if arch == "noe" else 0
     n_params = neurons * (delays + out_delays + 2) + 1  # RBF network: H (D + 2) + 1
     return delays + out_delays + 2 * n_params // 100 + 10
+
+
+def network_weights(net: RomNetwork) -> int:
+    """Weights of one network of ``net`` in its model file: the sizes of an NSS's arrays
+    (:func:`sloshrom.rom.modelfile.nss_param_shapes`), an NFIR's or NOE's neurons x regressor
+    entries."""
+    if net.arch == "nss":
+        # the arrays of nss_param_shapes, counted here: importing sloshrom.rom would load JAX
+        # when the command line starts (a test checks the two agree)
+        nz, h, nx, w = net.n_states + 1, net.neurons, net.n_states, net.delays
+        return nz * nx + 2 * nz * h + 2 * h * nx + nz + 4 * h + 2 * w * h
+    return net.neurons * (net.delays + (NOE_OUT_DELAYS if net.arch == "noe" else 0))
 
 
 def first_frozen_frequency(tank: Tank, n_modes: int = 3, damping: Any = None,

@@ -40,6 +40,7 @@ from sloshrom.models import input_of
 from sloshrom.rom.ensemble import is_ensemble
 from sloshrom.rom.errors import ROMError
 from sloshrom.rom.network import network_of
+from sloshrom.rom.statespace import StateSpaceSpec
 
 if TYPE_CHECKING:
     from sloshrom.rom.estimators import NFIR, NOE
@@ -195,14 +196,20 @@ def _metadata(model: ROM, form: str, dtype: np.dtype) -> dict[str, str]:
 
 
 def check_exportable(model: Any) -> None:
-    """ROMError unless ``model`` is one NFIR or NOE network (what an ONNX graph holds)."""
+    """ROMError unless ``model`` is one NFIR or NOE network (what an ONNX graph holds); a
+    state-space network (NSS) is refused with the reason and the way out (the FMU export)."""
     if is_ensemble(model):
         raise ROMError(
             f"an ensemble ({len(model.members_)} {model.member_class} members) cannot be "
             "exported to ONNX: a graph holds one network; export a single model "
             "(`sloshrom train` without --ensemble) or one member (Ensemble.members_[k].save)"
         )
-    if network_of(model) is None and not hasattr(model, "spec"):  # a family, a ball
+    net = network_of(model)
+    if net is not None and isinstance(net.spec, StateSpaceSpec):
+        raise ROMError("an NSS (state-space ROM) cannot be exported to ONNX: a state-space "
+                       "ROM's graph would need its state as input and output; not "
+                       "implemented; the FMU export is the way to take it to another tool")
+    if net is None and not hasattr(model, "spec"):  # a family, a ball
         raise ROMError(f"a {type(model).__name__} cannot be exported to ONNX: a graph holds "
                        "one NFIR or NOE network (export a fill family's members one by one)")
     if input_of(model) == "acceleration":
