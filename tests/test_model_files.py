@@ -111,7 +111,7 @@ HOSTILE = {
     "seed-huge": ("NFIR", _set(HP, "seed", 2**80), "hyperparameters.seed"),
     "seed-string": ("NFIR", _set(HP, "seed", "0"), "hyperparameters.seed"),
     "trainer-unknown": ("NFIR", _set(HP, "trainer", "sgd"), "hyperparameters.trainer"),
-    "trainer-adam-noe": ("NOE", _set(HP, "trainer", "adam"), "hyperparameters.trainer"),
+    "trainer-unknown-noe": ("NOE", _set(HP, "trainer", "sgd"), "hyperparameters.trainer"),
     "units-one": ("NFIR", _set(HP, "units", ["m/s"]), "hyperparameters.units"),
     "units-number": ("NFIR", _set(HP, "units", ["m/s", 5]), "hyperparameters.units[1]"),
     "units-mismatch": ("NFIR", _set(HP, "units", ["mm/s", "N"]), "hyperparameters.units"),

@@ -44,9 +44,9 @@ TRAINERS = ("fast", "lm", "adam")
 #: distance form (``b ||x - C||``); :mod:`sloshrom.rom.network`.
 Hidden = Literal["matlab", "distance"]
 HIDDEN_KINDS: tuple[str, ...] = ("matlab", "distance")
-#: The trainers each architecture accepts, its default first (an NOE trains by LM only).
+#: The trainers each architecture accepts (an NOE by LM or by multiple shooting with Adam).
 ARCH_TRAINERS: dict[str, tuple[str, ...]] = {"nfir": ("adam", "fast", "lm"),
-                                             "noe": ("fast", "lm")}
+                                             "noe": ("fast", "lm", "adam")}
 
 #: Largest input delay, samples. The model-file schema's 10 000 is kept (the command line and
 #: the settings said 1000): a file with a sparse delay line reaching it loads today. The memory

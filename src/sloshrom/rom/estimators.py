@@ -48,7 +48,7 @@ import numpy as np
 
 from sloshrom import __version__
 from sloshrom._x64 import float64
-from sloshrom.limits import MAX_BATCH, MAX_DELAY, MAX_NEURONS, MAX_STATES, TRAINERS
+from sloshrom.limits import MAX_BATCH, MAX_DELAY, MAX_EPOCHS, MAX_NEURONS, MAX_STATES, TRAINERS
 from sloshrom.models import check_envelope, model_input
 from sloshrom.rom import training
 from sloshrom.rom.bouncing import BouncingBall, is_ball_file
@@ -676,9 +676,13 @@ class NOE(_Estimator):
         Hidden normalized RBF neurons.
     hidden, max_epochs, seed
         As :class:`NFIR`.
-    trainer : {"lm", "fast"}
-        Levenberg-Marquardt on the simulation (output) error with forward-mode derivatives
-        through the recurrence (``"fast"`` is the same for the NOE).
+    trainer : {"lm", "fast", "adam"}
+        ``"lm"`` (default): Levenberg-Marquardt on the simulation (output) error of the whole
+        record with forward-mode derivatives through the recurrence (``"fast"`` is the same for
+        the NOE). ``"adam"``: multiple shooting (:func:`sloshrom.rom.training.adam_noe`):
+        minibatch Adam on the simulation error of ``batch`` sub-sequences of ``horizon``
+        samples, each started from the delay lines filled with the measured past, with the
+        loss terms below; early stopping on the free run of the validation record from rest.
     out_delays : int
         Number of fed-back past outputs m (default 2).
     unstable_bound : float
@@ -686,7 +690,22 @@ class NOE(_Estimator):
         training output) or is non-finite is unstable: :meth:`predict` raises
         :class:`UnstableModelError`.
     units, names
-        As :class:`NFIR`.
+        As :class:`NFIR`; the input must be the tank velocity.
+    amplitude_weighting, passivity, cycle_energy : float
+        The passive recipe's loss terms, as :class:`NFIR` (the energy term is the error of the
+        energy each simulated sub-sequence exchanges with the liquid, per input cycle). 0
+        (default) = off. Adam only.
+    horizon : int
+        Adam: samples simulated from each start (and the length of the passivity probes,
+        which must hold a ramp and two periods of the band's lowest frequency), >= 8.
+    batch : int
+        Adam: sub-sequences per step.
+    steps_per_epoch : int
+        Adam: steps between validations (early stopping after 6 epochs without a new best).
+    learning_rate : float
+        Adam: initial step (cosine decay to 5 % of it over ``max_epochs``), in (0, 1].
+
+    Parameters are checked by :meth:`fit` (and by :func:`load_model`), not by the constructor.
     """
 
     arch = "noe"
@@ -703,6 +722,13 @@ class NOE(_Estimator):
         unstable_bound: float = 10.0,
         units: Sequence[str] = ("m/s", "N"),
         names: Sequence[str] = ("velocity", "dynamic_force"),
+        amplitude_weighting: float = 0.0,
+        passivity: float = 0.0,
+        cycle_energy: float = 0.0,
+        horizon: int = 300,
+        batch: int = 128,
+        steps_per_epoch: int = 200,
+        learning_rate: float = 3e-3,
     ) -> None:
         self.delays = delays
         self.neurons = neurons
@@ -714,13 +740,30 @@ class NOE(_Estimator):
         self.unstable_bound = unstable_bound
         self.units = units
         self.names = names
+        self.amplitude_weighting = amplitude_weighting
+        self.passivity = passivity
+        self.cycle_energy = cycle_energy
+        self.horizon = horizon
+        self.batch = batch
+        self.steps_per_epoch = steps_per_epoch
+        self.learning_rate = learning_rate
 
     def _check_hyperparameters(self) -> NetworkSpec:
         spec = super()._check_hyperparameters()
         if spec.out_delays < 1:
             raise ROMError(f"NOE needs out_delays >= 1, got {self.out_delays}")
-        if self.trainer == "adam":
-            raise ROMError("trainer 'adam' is available for NFIR only")
+        _integer("horizon", self.horizon, 8)
+        _integer("batch", self.batch, 1)
+        _integer("steps_per_epoch", self.steps_per_epoch, 1)
+        for name, top in (("horizon", MAX_DELAY), ("batch", MAX_BATCH),
+                          ("steps_per_epoch", MAX_EPOCHS)):
+            if getattr(self, name) > top:
+                raise ROMError(f"{name} = {getattr(self, name)} is more than {top}, the most a "
+                               "model file holds")
+        lr = self.learning_rate
+        if isinstance(lr, bool) or not isinstance(lr, int | float | np.floating | np.integer) \
+                or not (np.isfinite(lr) and 0 < lr <= 1):
+            raise ROMError(f"learning_rate must be a number in (0, 1], got {lr!r}")
         if self.input == "acceleration":
             raise ROMError("an NOE takes the tank velocity; a network on the acceleration is an "
                            "NFIR")
@@ -732,6 +775,65 @@ class NOE(_Estimator):
             raise ROMError(f"unstable_bound must be a finite number > 0, got "
                            f"{self.unstable_bound!r}")
         return spec
+
+    @float64
+    def fit(
+        self,
+        u: Any,
+        y: Any,
+        fs: float,
+        validation: tuple[Any, Any] | None = None,
+        callback: Callable[..., Any] | None = None,
+        *,
+        fill: float | None = None,
+    ) -> NOE:
+        """Identify the NOE from an input/output record (:meth:`NFIR.fit`).
+
+        With ``trainer="adam"`` the record must hold at least ``horizon + 1`` samples, and the
+        history's ``train_mse`` is the unweighted MSE of each epoch's simulated
+        sub-sequences (``mu`` and ``grad`` NaN).
+
+        Raises
+        ------
+        ROMError
+            As :meth:`NFIR.fit`.
+        UnstableModelError
+            An NOE unstable at its initial parameters.
+        """
+        if self.trainer != "adam":
+            return super().fit(u, y, fs, validation, callback, fill=fill)
+        # as _Estimator.fit, with the shooting options passed on to the trainer
+        spec = self._check_hyperparameters()
+        need = max(spec.max_delay + spec.out_delays + 2 * spec.n_params // 100 + 10,
+                   int(self.horizon) + 1)
+        u, y, validation, fill = _checked_records(u, y, fs, validation, fill, need,
+                                                  spec.max_delay)
+        if (self.passivity > 0 or self.cycle_energy > 0) and not (u.min() < 0.0 < u.max()):
+            on = " and ".join(n for n in ("passivity", "cycle_energy") if getattr(self, n) > 0)
+            raise ROMError(
+                f"the input {self.names[0]!r} does not oscillate about rest (it stays between "
+                f"{u.min():.4g} and {u.max():.4g} {self.units[0]}, never changing sign): "
+                f"{on} judge the energy of a motion about rest; give the tank's oscillating "
+                "signal (velocity, zero mean), or train with passivity=0 and cycle_energy=0"
+            )
+        scaler = MinMaxScaler.fit(u, y)
+        band = power_band(u, fs)
+        probe_band = power_band(u, fs, 0.001, 0.999)
+        theta, history = training.train(
+            spec, u, y, scaler, validation, trainer="adam", max_epochs=int(self.max_epochs),
+            seed=int(self.seed), unstable_bound=float(self.unstable_bound), callback=callback,
+            fs=float(fs), amplitude_weighting=float(self.amplitude_weighting),
+            passivity=float(self.passivity), frequency_band=(probe_band[0], probe_band[1]),
+            cycle_energy=float(self.cycle_energy), horizon=int(self.horizon),
+            batch=int(self.batch), steps_per_epoch=int(self.steps_per_epoch),
+            learning_rate=float(self.learning_rate),
+        )
+        self.model_ = Network({k: np.asarray(v) for k, v in
+                               unpack(theta, spec.n_inputs, spec.neurons).items()},
+                              scaler, spec, self.input, float(fs), float(self.unstable_bound))
+        self.envelope_ = _envelope(u, fs, scaler, band, self.input, fill)
+        self.history_ = history
+        return self
 
 
 @jax.tree_util.register_pytree_node_class

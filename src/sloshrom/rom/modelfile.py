@@ -397,9 +397,18 @@ class _NFIRHyper(_Hyper):
 
 
 class _NOEHyper(_Hyper):
-    trainer: Literal["fast", "lm"]  # Adam trains NFIRs only
+    trainer: Literal["fast", "lm", "adam"]
     out_delays: Annotated[int, Field(ge=1, le=MAX_OUT_DELAYS)]
     unstable_bound: Annotated[float, Field(allow_inf_nan=False, gt=0.0, le=1e12)]
+    # the Adam (multiple shooting) options: files written before them trained by LM, so the
+    # defaults, which LM ignores, describe them
+    amplitude_weighting: Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=1e12)] = 0.0
+    passivity: Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=1e12)] = 0.0
+    cycle_energy: Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=1e12)] = 0.0
+    horizon: Annotated[int, Field(ge=8, le=MAX_DELAY)] = 300
+    batch: Annotated[int, Field(ge=1, le=MAX_BATCH)] = 128
+    steps_per_epoch: Annotated[int, Field(ge=1, le=MAX_EPOCHS)] = 200
+    learning_rate: Annotated[float, Field(allow_inf_nan=False, gt=0.0, le=1.0)] = 3e-3
 
 
 Weight = Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=1e12)]
