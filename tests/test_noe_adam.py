@@ -188,20 +188,11 @@ def test_the_schema_bounds_the_adam_options(records, tmp_path, field, value):
         rom.load_model(bad)
 
 
-def test_the_shooting_helpers_equal_the_state_space_trainers():
-    # training.py holds copies (statespace imports training, so not the other way round)
+def test_the_state_space_trainer_uses_the_same_shooting_helpers():
+    # one implementation of the probes, window energies and precision for both trainers
     from sloshrom.rom import statespace
 
-    u = _signal(3000, 6)
-    sc = network.MinMaxScaler.fit(u, _system(u))
-    a = training.shooting_probes(u, FS, sc, 120, (1.0, 20.0))
-    b = statespace._probes(u, FS, sc, 120, (1.0, 20.0))
-    np.testing.assert_array_equal(a.u, b.u)
-    np.testing.assert_array_equal(a.weight, b.weight)
-    starts = np.array([0, 17, 900, 2800])
-    np.testing.assert_array_equal(training.window_energy_weights(u, FS, 3.0, starts, 120, 0.01),
-                                  statespace._window_energy_weights(u, FS, 3.0, starts, 120, 0.01))
-    for offset in (0, 7):
-        np.testing.assert_array_equal(training.cycles_per_window(u, offset, 120),
-                                      statespace._cycles_per_window(u, offset, 120))
-    assert training.TRAIN_DTYPE == statespace.TRAIN_DTYPE
+    assert statespace.shooting_probes is training.shooting_probes
+    assert statespace.window_energy_weights is training.window_energy_weights
+    assert statespace.cycles_per_window is training.cycles_per_window
+    assert statespace.TRAIN_DTYPE is training.TRAIN_DTYPE

@@ -38,7 +38,8 @@ __all__ = [
 ]
 
 #: Training algorithms of the estimators: subsampled Levenberg–Marquardt, full LM (MATLAB's
-#: ``trainlm``) and optax Adam (the NFIR's default, the only one with the recipe's loss terms).
+#: ``trainlm``) and optax Adam (the NFIR's default; for an NOE multiple shooting), the one with the
+#: recipe's loss terms.
 TRAINERS = ("fast", "lm", "adam")
 #: The normalized-RBF variants of the hidden layer: MATLAB's ``radbasn`` (``W x + b``) and the
 #: distance form (``b ||x - C||``); :mod:`sloshrom.rom.network`.

@@ -226,7 +226,7 @@ class _Estimator:
     unstable_bound: float = 10.0
     #: the training ranges (set by fit and load; None for a model rebuilt from pytree leaves)
     envelope_: dict[str, Any] | None = None
-    #: loss options of the Adam trainer (NFIR constructor parameters; off for the NOE)
+    #: loss options of the Adam and shooting trainers (constructor parameters of NFIR, NOE, NSS)
     amplitude_weighting: float = 0.0
     passivity: float = 0.0
     cycle_energy: float = 0.0

@@ -53,7 +53,13 @@ from sloshrom.models import model_input
 from sloshrom.rom.errors import ROMError, UnstableModelError
 from sloshrom.rom.modelfile import NSS_PARAM_NAMES, nss_param_shapes
 from sloshrom.rom.network import FittedNetwork, MinMaxScaler
-from sloshrom.rom.training import amplitude_weights
+from sloshrom.rom.training import (
+    TRAIN_DTYPE,
+    amplitude_weights,
+    cycles_per_window,
+    shooting_probes,
+    window_energy_weights,
+)
 
 __all__ = [
     "NSS_PARAM_NAMES",
@@ -309,76 +315,6 @@ class StateSpaceNetwork(FittedNetwork):
 # ---------------------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
-class _Probes:
-    """Harmonic probes run from rest: scaled inputs (p, T) and the weights (p, T) whose sum with
-    the scaled output is the dissipated energy per cycle over ``m_ref V^2`` (counted over the
-    last whole period; 0 elsewhere)."""
-
-    u: np.ndarray
-    weight: np.ndarray
-
-
-def _probes(u: np.ndarray, fs: float, scaler: MinMaxScaler, horizon: int,
-            band: tuple[float, float], n_freq: int = 14, n_amp: int = 16,
-            amp_ratio: float = 100.0) -> _Probes:
-    """Probes inside the training envelope of ``u`` (m/s), each ``horizon`` samples long: a
-    raised-cosine ramp over the first quarter, then the harmonic; the last whole period counts.
-    Frequencies ``fs / P`` (integer periods) log-spaced over ``band`` (Hz) with at least half
-    the horizon left to settle before the counted period."""
-    v_max = min(-scaler.in_min, scaler.in_max)
-    a_max = float(np.max(np.abs(np.gradient(u)))) * fs
-    if not (v_max > 0 and a_max > 0):
-        raise ROMError("passivity probes need an input that swings both ways around rest")
-    m_ref = scaler.out_half_range / a_max
-    p_max = horizon // 2
-    f_lo = max(band[0], fs / p_max)
-    f_hi = min(band[1], fs / 8.0)
-    if not f_hi > f_lo:
-        f_lo, f_hi = fs / p_max, fs / 8.0
-    periods = np.unique(np.round(np.geomspace(fs / f_hi, fs / f_lo, n_freq)).astype(int))
-    k = np.arange(horizon)
-    ramp_n = horizon // 4
-    ramp = np.where(k < ramp_n, 0.5 - 0.5 * np.cos(np.pi * k / ramp_n), 1.0)
-    us, ws = [], []
-    for P in periods:
-        om = 2.0 * np.pi * fs / P
-        v_top = min(v_max, a_max / om)
-        counted = (k >= horizon - P)
-        for V in np.geomspace(v_top / amp_ratio, v_top, n_amp):
-            v = V * np.sin(2.0 * np.pi * (k - (horizon - P)) / P) * ramp
-            us.append(scaler.u(v))
-            ws.append(np.where(counted, -v, 0.0) * scaler.out_half_range / (fs * m_ref * V * V))
-    return _Probes(np.array(us), np.array(ws))
-
-
-def _window_energy_weights(v: np.ndarray, fs: float, a_max: float, starts: np.ndarray,
-                           horizon: int, v_floor: float) -> np.ndarray:
-    """Per-window weights (w, horizon): ``v_k a_max / (fs V^2)``, V the window's peak |v|
-    (floored), so that ``sum(e_scaled * weight)`` is the window's energy error over m_ref V^2."""
-    idx = starts[:, None] + np.arange(horizon)[None, :]
-    vw = v[idx]
-    peak = np.maximum(np.max(np.abs(vw), axis=1), v_floor)
-    return vw * a_max / (fs * peak[:, None] ** 2)
-
-
-def _cycles_per_window(v: np.ndarray, offset: int, horizon: int) -> np.ndarray:
-    """Upward zero crossings of ``v`` in ``v[s + offset : s + offset + horizon]`` for every
-    start ``s`` (at least 1), shape ``(v.size,)`` (0-padded at the end)."""
-    up = np.concatenate([[0], (v[:-1] < 0) & (v[1:] >= 0)]).astype(np.float64)
-    c = np.concatenate([[0.0], np.cumsum(up)])
-    s = np.arange(v.size)
-    lo = np.minimum(s + offset, v.size)
-    hi = np.minimum(s + offset + horizon, v.size)
-    return np.maximum(c[hi] - c[lo], 1.0)
-
-
-#: Training precision: the Adam steps run in float32, measured 1.7x faster than float64 on this
-#: machine's CPU (small matrix products through a 300-step scan); the validation free runs and
-#: the fitted model are float64.
-TRAIN_DTYPE = jnp.float32
-
-
 def _as64(p: dict[str, Any]) -> dict[str, Any]:
     return {k: jnp.asarray(v, jnp.float64) for k, v in p.items()}
 
@@ -467,8 +403,8 @@ def fit_statespace(
     v_floor = float(np.max(np.abs(u))) / 100.0
     vj = jnp.asarray(u, f32)
     # the input cycles in each window: its energy error per cycle is the NFIR's cycle term
-    ncyc = jnp.asarray(_cycles_per_window(u, w, T), f32)
-    probes = _probes(u, fs, sc, T, frequency_band) if passivity > 0 else None
+    ncyc = jnp.asarray(cycles_per_window(u, w, T), f32)
+    probes = shooting_probes(u, fs, sc, T, frequency_band) if passivity > 0 else None
     n_probe = 0 if probes is None else min(probes_per_step, probes.u.shape[0])
     pu = jnp.asarray(probes.u if probes is not None else np.zeros((1, T)), f32)
     pw = jnp.asarray(probes.weight if probes is not None else np.zeros((1, T)), f32)
@@ -520,9 +456,9 @@ def fit_statespace(
               else np.ones(uv.size))
         nwin = uv.size // T
         vstarts = np.arange(nwin) * T
-        ew = _window_energy_weights(uv, fs, a_max, vstarts, T, v_floor) if nwin else None
+        ew = window_energy_weights(uv, fs, a_max, vstarts, T, v_floor) if nwin else None
         if nwin:
-            ew /= _cycles_per_window(uv, 0, T)[vstarts][:, None]
+            ew /= cycles_per_window(uv, 0, T)[vstarts][:, None]
 
         def val(p: Any) -> tuple[float, float]:
             yh = np.asarray(ss_free_run(_as64(p), uvs, ru, ry))[:, 0]

@@ -787,8 +787,8 @@ def adam_nfir(
 # ---------------------------------------------------------------------------------------------
 # Multiple shooting: probes and energy weights of simulated sub-sequences
 # ---------------------------------------------------------------------------------------------
-# The same as the state-space trainer's (sloshrom.rom.statespace, which imports this module, so
-# this module cannot import them from there); a test keeps the two equal.
+# The pieces of the multiple-shooting trainers, the NOE's (here) and the state-space ROM's
+# (sloshrom.rom.statespace, which imports them from here).
 
 #: Training precision of the shooting trainers: float32 Adam steps (measured 1.7x faster than
 #: float64 through a 300-step scan on this machine's CPU); validation runs are float64.
