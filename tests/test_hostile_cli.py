@@ -567,7 +567,7 @@ HOSTILE_CASES = [
      r".*memory"),
     ("config-tip-0", _cfg("[beam]\ntip_displacement = 0.0\n"), CS,
      r"'beam\.tip_displacement' must be an initial tip displacement in m in \(0, 0\.2\]"),
-    ("config-network-too-big", _cfg("[rom]\ndelays = 1000\nneurons = 1000\n"
+    ("config-network-too-big", _cfg("[rom]\narch = \"nfir\"\ndelays = 1000\nneurons = 1000\n"
                                     "[data]\ntrain_duration = 10.0\n"), CS,
      r"'rom\.delays'/'rom\.neurons' = 1000/1000 \(NFIR\) need at least 21050 training samples"),
     ("reproduce-sweep-grid-too-big", _cfg("[rom]\nsweep_nfir_delays = [1000]\n"
@@ -770,11 +770,13 @@ HOSTILE_CASES = [
     # -- limits checked before the work they limit -----------------------------------------------
     ("beam-structure-300-modes", _many_modes, [*ST, "{tmp}/many.csv", "--tank", "5"],
      r"many\.csv holds 300 modes; a modal model takes at most 200 .*--modes N"),
-    ("config-ensemble-weights", _cfg("[rom]\nensemble = 64\ndelays = 100\nneurons = 700\n"),
+    ("config-ensemble-weights", _cfg("[rom]\narch = \"nfir\"\nensemble = 64\ndelays = 100\n"
+                                     "neurons = 700\n"),
      CS, r"'rom\.ensemble' x 'rom\.neurons' x regressor entries \('rom\.delays'\) = 64 x 700 x "
          r"100 = 4480000 weights, more than 4194304"),
     ("reproduce-beyond-fill-ensemble-weights",
-     _cfg("[rom]\ndelays = 300\nneurons = 1000\n[beyond]\nfill_ensemble = 20\n"),
+     _cfg("[rom]\narch = \"nfir\"\ndelays = 300\nneurons = 1000\n[beyond]\n"
+          "fill_ensemble = 20\n"),
      [*RP, "--beyond"], r"'beyond\.fill_ensemble' x 'rom\.neurons' .* = 6000000 weights"),
     ("train-ensemble-weights", None,
      ["train", "--max-epochs", "1", "--data", "{tmp}/good.nc", "--validation", "{tmp}/good.nc",
