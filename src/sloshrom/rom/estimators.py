@@ -449,9 +449,8 @@ class _Estimator:
             An NOE unstable at its initial parameters.
         """
         spec = self._check_hyperparameters()
-        need = spec.max_delay + spec.out_delays + 2 * spec.n_params // 100 + 10
-        u, y, validation, fill = _checked_records(u, y, fs, validation, fill, need,
-                                                  spec.max_delay)
+        u, y, validation, fill = _checked_records(u, y, fs, validation, fill,
+                                                  self._fewest_samples(spec), spec.max_delay)
         if (self.passivity > 0 or self.cycle_energy > 0) and not (u.min() < 0.0 < u.max()):
             # say what is wrong with the input, not which loss term tripped over it
             on = " and ".join(n for n in ("passivity", "cycle_energy") if getattr(self, n) > 0)
@@ -472,7 +471,7 @@ class _Estimator:
             unstable_bound=float(self.unstable_bound), callback=callback, fs=float(fs),
             amplitude_weighting=float(self.amplitude_weighting),
             passivity=float(self.passivity), frequency_band=(probe_band[0], probe_band[1]),
-            cycle_energy=float(self.cycle_energy),
+            cycle_energy=float(self.cycle_energy), **self._trainer_options(),
         )
         self.model_ = Network({k: np.asarray(v) for k, v in
                                unpack(theta, spec.n_inputs, spec.neurons).items()},
@@ -480,6 +479,15 @@ class _Estimator:
         self.envelope_ = _envelope(u, fs, scaler, band, self.input, fill)
         self.history_ = history
         return self
+
+    def _fewest_samples(self, spec: NetworkSpec) -> int:
+        """Fewest training samples: the delay line and two samples per hundred parameters."""
+        return spec.max_delay + spec.out_delays + 2 * spec.n_params // 100 + 10
+
+    def _trainer_options(self) -> dict[str, Any]:
+        """Options of :func:`sloshrom.rom.training.train` beyond the common ones (the NOE's
+        multiple shooting); none by default."""
+        return {}
 
     # -- prediction ---------------------------------------------------------------------------
     @property
@@ -776,64 +784,17 @@ class NOE(_Estimator):
                            f"{self.unstable_bound!r}")
         return spec
 
-    @float64
-    def fit(
-        self,
-        u: Any,
-        y: Any,
-        fs: float,
-        validation: tuple[Any, Any] | None = None,
-        callback: Callable[..., Any] | None = None,
-        *,
-        fill: float | None = None,
-    ) -> NOE:
-        """Identify the NOE from an input/output record (:meth:`NFIR.fit`).
+    def _fewest_samples(self, spec: NetworkSpec) -> int:
+        # multiple shooting also needs one sub-sequence of `horizon` samples
+        n = super()._fewest_samples(spec)
+        return max(n, int(self.horizon) + 1) if self.trainer == "adam" else n
 
-        With ``trainer="adam"`` the record must hold at least ``horizon + 1`` samples, and the
-        history's ``train_mse`` is the unweighted MSE of each epoch's simulated
-        sub-sequences (``mu`` and ``grad`` NaN).
-
-        Raises
-        ------
-        ROMError
-            As :meth:`NFIR.fit`.
-        UnstableModelError
-            An NOE unstable at its initial parameters.
-        """
+    def _trainer_options(self) -> dict[str, Any]:
         if self.trainer != "adam":
-            return super().fit(u, y, fs, validation, callback, fill=fill)
-        # as _Estimator.fit, with the shooting options passed on to the trainer
-        spec = self._check_hyperparameters()
-        need = max(spec.max_delay + spec.out_delays + 2 * spec.n_params // 100 + 10,
-                   int(self.horizon) + 1)
-        u, y, validation, fill = _checked_records(u, y, fs, validation, fill, need,
-                                                  spec.max_delay)
-        if (self.passivity > 0 or self.cycle_energy > 0) and not (u.min() < 0.0 < u.max()):
-            on = " and ".join(n for n in ("passivity", "cycle_energy") if getattr(self, n) > 0)
-            raise ROMError(
-                f"the input {self.names[0]!r} does not oscillate about rest (it stays between "
-                f"{u.min():.4g} and {u.max():.4g} {self.units[0]}, never changing sign): "
-                f"{on} judge the energy of a motion about rest; give the tank's oscillating "
-                "signal (velocity, zero mean), or train with passivity=0 and cycle_energy=0"
-            )
-        scaler = MinMaxScaler.fit(u, y)
-        band = power_band(u, fs)
-        probe_band = power_band(u, fs, 0.001, 0.999)
-        theta, history = training.train(
-            spec, u, y, scaler, validation, trainer="adam", max_epochs=int(self.max_epochs),
-            seed=int(self.seed), unstable_bound=float(self.unstable_bound), callback=callback,
-            fs=float(fs), amplitude_weighting=float(self.amplitude_weighting),
-            passivity=float(self.passivity), frequency_band=(probe_band[0], probe_band[1]),
-            cycle_energy=float(self.cycle_energy), horizon=int(self.horizon),
-            batch=int(self.batch), steps_per_epoch=int(self.steps_per_epoch),
-            learning_rate=float(self.learning_rate),
-        )
-        self.model_ = Network({k: np.asarray(v) for k, v in
-                               unpack(theta, spec.n_inputs, spec.neurons).items()},
-                              scaler, spec, self.input, float(fs), float(self.unstable_bound))
-        self.envelope_ = _envelope(u, fs, scaler, band, self.input, fill)
-        self.history_ = history
-        return self
+            return {}
+        return {"horizon": int(self.horizon), "batch": int(self.batch),
+                "steps_per_epoch": int(self.steps_per_epoch),
+                "learning_rate": float(self.learning_rate)}
 
 
 @jax.tree_util.register_pytree_node_class
