@@ -20,8 +20,8 @@ from sloshrom.rom.estimators import LOSS_TERMS
 __all__ = ["CASES", "DATA_SETS", "JUDGED_ROM", "RECIPE_KEYS", "ROM_INPUTS", "WING_KEYS",
            "cache_config", "rom_params", "wing_design"]
 
-#: the NFIR recipe keys of the table (the defaults are those of ``[rom]``); the ROM on the
-#: acceleration trains with its loss terms off
+#: the NFIR recipe keys of the table (the NFIR's passive recipe, as ``limits.RECIPE``); the ROM
+#: on the acceleration trains with its loss terms off
 RECIPE_KEYS = ("delays", "neurons", "hidden", "amplitude_weighting", "passivity", "cycle_energy",
                "max_epochs")
 #: the keys of :class:`~sloshrom.beam.multimode.WingDesign`
