@@ -122,7 +122,8 @@ def _compare_text(c: dict[str, Any] | None) -> str:
     if not c:
         return ""
     return (f"<p>Beside it, the paper's class {html.escape(c.get('name', 'NFIR'))} (one "
-            f"network, same records and loss): validation MSE {_num(c, 'val_mse')} N², NRMSE "
+            f"network, same records, its own passive recipe): validation MSE "
+            f"{_num(c, 'val_mse')} N², NRMSE "
             f"{_num(c, 'val_nrmse', fmt='{:.3f}')}, fit {_num(c, 'val_fit', fmt='{:.1f}')} %; "
             f"training took {_num(c, 'train_seconds', fmt='{:.1f}')} s. The maps and beam "
             "sections use the ROM above, not this network.</p>")

@@ -264,7 +264,7 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
             error_figures(yv, yh)["mse"] for yh in np.asarray(model.member_predictions(uv)))
     compared = None
     if cfg.compares_nfir:
-        # the paper's class on the same records and loss, for the report to set beside the ROM
+        # the paper's class on the same records with its recipe, for the report to set beside it
         other, other_name, seconds = _train(ctx, estimator(cfg, "nfir"), cfg.name("nfir"),
                                             cfg.max_epochs, 1, 1, records, train.fs, fill)
         other_path = ctx.path("models", "nfir.npz")
