@@ -21,7 +21,7 @@ Cases (``--cases``, comma separated):
 
 Usage::
 
-    python benchmarks/noe_passive.py --run /work/run_default --out noe_passive.json
+    python benchmarks/noe_passive.py --run results --out noe_passive.json
     python benchmarks/noe_passive.py --run DIR --cases small,plain --max-epochs 60 --budget 600
 
 ``DIR`` holds ``data/train.nc``, ``data/validation.nc`` and ``maps/phi_d_rig.nc`` (a finished
