@@ -325,8 +325,38 @@ def noe_free_run(theta: Any, u_s: Any, rest_u: Any, rest_y: Any, delays: tuple[i
 class FittedNetwork:
     """Base of the fitted network models that an estimator delegates to: :class:`Network`
     (NFIR, NOE) and :class:`sloshrom.rom.statespace.StateSpaceNetwork` (NSS). Each holds
-    ``params`` (dict of arrays) and ``scaler`` as pytree leaves, ``spec``, ``input``, ``fs``
-    static, and implements ``init_state``/``step``/``free_run``/``simulate``."""
+    ``params`` (dict of arrays) and ``scaler`` as pytree leaves, ``spec``, ``input``, ``fs``,
+    ``unstable_bound`` static, and implements ``init_state``/``step``/``free_run``; the rest of
+    the sloshing-model contract is here."""
+
+    #: the force at sample k is the force at t_k (energy integrals: trapezoid rule)
+    force_rule = "trapezoid"
+    #: step is a pure JAX function and the network a pytree
+    jax_traceable = True
+    #: how an unstable run is named in its error
+    _simulation = "simulation"
+
+    @property
+    def dt(self) -> float:
+        """Model time step = 1/fs, s."""
+        return 1.0 / self.fs
+
+    def _rest(self) -> tuple[Any, Any]:
+        return self.scaler.u(0.0), self.scaler.y(0.0)
+
+    def _check_stable(self, y_s: np.ndarray) -> None:
+        bad = ~np.isfinite(y_s) | (np.abs(y_s) > self.unstable_bound)
+        if np.any(bad):
+            k = int(np.argmax(bad.reshape(-1)) % y_s.shape[-1])
+            raise UnstableModelError(
+                f"{self._simulation} unstable: output non-finite or beyond "
+                f"{self.unstable_bound} half-ranges of the training output at sample {k} "
+                f"(t = {k / self.fs:.3f} s)")
+
+    def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
+        """Sloshing-model contract: dynamic force (N) from the signal the network reads."""
+        return self.free_run(np.asarray(model_input(self, velocity, acceleration),
+                                        dtype=np.float64))
 
 
 @partial(jax.tree_util.register_dataclass, data_fields=["params", "scaler"],
@@ -364,18 +394,7 @@ class Network(FittedNetwork):
     fs: float = 1.0
     unstable_bound: float = 10.0
 
-    #: the force at sample k is the force at t_k (energy integrals: trapezoid rule)
-    force_rule = "trapezoid"
-    #: step is a pure JAX function and the network a pytree
-    jax_traceable = True
-
-    @property
-    def dt(self) -> float:
-        """Model time step = 1/fs, s."""
-        return 1.0 / self.fs
-
-    def _rest(self) -> tuple[Any, Any]:
-        return self.scaler.u(0.0), self.scaler.y(0.0)
+    _simulation = "NOE simulation"
 
     def init_state(self) -> Any:
         """Delay lines at rest (scaled units, most recent first): the input line, shape
@@ -447,20 +466,6 @@ class Network(FittedNetwork):
         if spec.arch == "noe":
             self._check_stable(y_s)
         return np.asarray(s.y_inverse(y_s))
-
-    def _check_stable(self, y_s: np.ndarray) -> None:
-        bad = ~np.isfinite(y_s) | (np.abs(y_s) > self.unstable_bound)
-        if np.any(bad):
-            k = int(np.argmax(bad.reshape(-1)) % y_s.shape[-1])
-            raise UnstableModelError(
-                f"NOE simulation unstable: output non-finite or beyond {self.unstable_bound} "
-                f"half-ranges of the training output at sample {k} (t = {k / self.fs:.3f} s)"
-            )
-
-    def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
-        """Sloshing-model contract: dynamic force (N) from the signal the network reads."""
-        return self.free_run(np.asarray(model_input(self, velocity, acceleration),
-                                        dtype=np.float64))
 
 
 def network_of(model: Any) -> FittedNetwork | None:

@@ -50,7 +50,7 @@ from jax import lax
 
 from sloshrom._x64 import float64
 from sloshrom.models import model_input
-from sloshrom.rom.errors import ROMError, UnstableModelError
+from sloshrom.rom.errors import ROMError
 from sloshrom.rom.modelfile import NSS_PARAM_NAMES, nss_param_shapes
 from sloshrom.rom.network import FittedNetwork, MinMaxScaler
 from sloshrom.rom.training import (
@@ -213,18 +213,7 @@ class StateSpaceNetwork(FittedNetwork):
     fs: float = 1.0
     unstable_bound: float = 10.0
 
-    #: the force at sample k is the force at t_k (energy integrals: trapezoid rule)
-    force_rule = "trapezoid"
-    #: step is a pure JAX function and the model a pytree
-    jax_traceable = True
-
-    @property
-    def dt(self) -> float:
-        """Model time step = 1/fs, s."""
-        return 1.0 / self.fs
-
-    def _rest(self) -> tuple[Any, Any]:
-        return self.scaler.u(0.0), self.scaler.y(0.0)
+    _simulation = "state-space simulation"
 
     def init_state(self) -> Any:
         """The rest state: zeros, shape (n_states,) (NumPy float64: the precision of the
@@ -295,19 +284,6 @@ class StateSpaceNetwork(FittedNetwork):
         return np.asarray(ss_encode(self.params, jnp.asarray(self.scaler.u(up)),
                                     jnp.asarray(self.scaler.y(yp)), ru, ry))
 
-    def _check_stable(self, y_s: np.ndarray) -> None:
-        bad = ~np.isfinite(y_s) | (np.abs(y_s) > self.unstable_bound)
-        if np.any(bad):
-            k = int(np.argmax(bad.reshape(-1)) % y_s.shape[-1])
-            raise UnstableModelError(
-                f"state-space simulation unstable: output non-finite or beyond "
-                f"{self.unstable_bound} half-ranges of the training output at sample {k} "
-                f"(t = {k / self.fs:.3f} s)")
-
-    def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
-        """Sloshing-model contract: dynamic force (N) from the tank velocity (m/s)."""
-        return self.free_run(np.asarray(model_input(self, velocity, acceleration),
-                                        dtype=np.float64))
 
 
 # ---------------------------------------------------------------------------------------------
