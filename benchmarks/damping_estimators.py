@@ -29,10 +29,19 @@ cluster size; for the output-only estimator also the Cramer-Rao-type bound
 (Gaussian white excitation; not applicable to the random-phase excitation of ``beam``, whose
 amplitude spectrum is deterministic).
 
+Coverage (``--coverage``): the intervals of :mod:`sloshrom.beam.uncertainty` on records of known
+damping with white sensor noise (``--noise``, standard deviation as a fraction of each channel's
+RMS): ``random`` - the ``sdof`` records (``--duration``, ``--nperseg``) through
+``random_damping``; ``decay`` - a free decay ``8 exp(-zeta w t) cos(w_d t)`` (10 Hz, 8 s, "g")
+plus noise of ``--decay-noise`` g through ``band_damping`` (bands 0.5-1, 1-2, 2-3, 3-5 g).
+Printed per estimator: coverage of the true damping by the 95 % intervals, their mean width,
+the bias and scatter of the estimate and the mean stated standard deviation (relative to zeta).
+
 Usage::
 
     .venv/bin/python benchmarks/damping_estimators.py              # 50 seeds, all cases (~1 min)
     .venv/bin/python benchmarks/damping_estimators.py --seeds 20 --cases sdof
+    .venv/bin/python benchmarks/damping_estimators.py --coverage --seeds 100 --cases random,decay
 """
 
 from __future__ import annotations
@@ -51,6 +60,7 @@ from sloshrom.beam.analysis import (
     mode1_damping_random,
     welch_psd,
 )
+from sloshrom.beam.uncertainty import band_damping, random_damping
 
 FS, F1, ZETA = 500.0, 10.0, 0.01
 NPERSEG = 16384
@@ -164,13 +174,104 @@ def run_decay(noise: float, seeds: list[int]) -> None:
     _print_rows(f"decay, noise {100 * noise:g} %", 15.0, rows, ZETA)
 
 
+def noisy_sdof(duration: float, seed: int, noise: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`sdof_base_response` plus white sensor noise of ``noise`` times each channel's RMS
+    (its own seed)."""
+    u, y = sdof_base_response(duration, seed)
+    rng = np.random.default_rng(10_000 + seed)
+    return (u + noise * u.std() * rng.standard_normal(u.size),
+            y + noise * y.std() * rng.standard_normal(y.size))
+
+
+def noisy_decay(noise_g: float, seed: int, amplitude_g: float = 8.0,
+                duration: float = 8.0) -> np.ndarray:
+    """Free decay ``amplitude exp(-zeta w t) cos(w_d t)`` (g) plus white noise (g)."""
+    t = np.arange(0, duration, 1 / FS)
+    wd = 2 * np.pi * F1 * math.sqrt(1 - ZETA**2)
+    x = amplitude_g * np.exp(-ZETA * 2 * np.pi * F1 * t) * np.cos(wd * t)
+    return x + noise_g * np.random.default_rng(seed).standard_normal(t.size)
+
+
+def coverage_random(duration: float, seeds: list[int], noise: float, nperseg: int = NPERSEG,
+                    n_resamples: int | None = None) -> dict[str, dict[str, float]]:
+    """Coverage, width, bias and scatter of ``random_damping``'s intervals (relative to zeta)."""
+    kw = {} if n_resamples is None else {"n_resamples": n_resamples}
+    rows = [random_damping(*noisy_sdof(duration, s, noise), FS, F1, nperseg=nperseg, **kw)
+            for s in seeds]
+    out = {k: _coverage([r[k] for r in rows], [r[f"{k}_std"] for r in rows],
+                        [r[f"{k}_low"] for r in rows], [r[f"{k}_high"] for r in rows])
+           for k in ("lscf_h1", "lscf_output", "half_power")}
+    for k in ("lscf_h1_uncorrected", "half_power_uncorrected"):
+        out[k] = _coverage([r[k] for r in rows])
+    return out
+
+
+def coverage_decay(noise_g: float, seeds: list[int]) -> dict[str, dict[str, float]]:
+    """Coverage, width, bias and scatter of ``band_damping``'s intervals, per band and method."""
+    acc: dict[str, list[dict]] = {}
+    for s in seeds:
+        x = noisy_decay(noise_g, s)
+        for r in band_damping(instantaneous_damping(x, FS, F1), log_decrement(x, FS, F1), F1,
+                              amplitude_scale=1.0):
+            acc.setdefault(f"{r['method']} {r['band']} g", []).append(r)
+    return {k: _coverage([r["zeta"] for r in v], [r["std"] for r in v], [r["low"] for r in v],
+                         [r["high"] for r in v]) for k, v in acc.items()}
+
+
+def _coverage(zeta, std=None, low=None, high=None, truth: float = ZETA) -> dict[str, float]:
+    z = np.asarray(zeta, dtype=float)
+    ok = np.isfinite(z)
+    e = z[ok] / truth - 1
+    out = {"n": int(ok.sum()), "bias": float(e.mean()) if e.size else math.nan,
+           "scatter": float(e.std(ddof=1)) if e.size > 1 else math.nan}
+    if low is not None:
+        lo, hi = np.asarray(low, float)[ok], np.asarray(high, float)[ok]
+        out.update(coverage=float(np.mean((lo <= truth) & (truth <= hi))),
+                   width=float(np.mean(hi - lo) / truth),
+                   stated_std=float(np.mean(np.asarray(std, float)[ok]) / truth))
+    return out
+
+
+def print_coverage(title: str, table: dict[str, dict[str, float]]) -> None:
+    print(f"\n{title}\n\n| estimator | n | coverage of 95 % intervals | mean width | bias "
+          "| scatter | mean stated std |\n|---|---|---|---|---|---|---|")
+    for k, c in table.items():
+        cov = f"{100 * c['coverage']:.0f} %" if "coverage" in c else "–"
+        wid = f"{100 * c['width']:.1f} %" if "width" in c else "–"
+        sd = f"{100 * c['stated_std']:.1f} %" if "stated_std" in c else "–"
+        print(f"| {k} | {c['n']} | {cov} | {wid} | {100 * c['bias']:+.1f} % "
+              f"| {100 * c['scatter']:.1f} % | {sd} |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=50, help="seeds 0 .. n-1 per case")
     ap.add_argument("--cases", default="sdof,beam,decay", help="comma-separated subset")
+    ap.add_argument("--coverage", action="store_true",
+                    help="coverage of the intervals instead (cases random, decay)")
+    ap.add_argument("--noise", type=float, default=0.05,
+                    help="coverage, random: sensor noise / channel RMS")
+    ap.add_argument("--decay-noise", type=float, default=0.04,
+                    help="coverage, decay: sensor noise, g")
+    ap.add_argument("--duration", type=float, default=90.0, help="coverage, random: s")
+    ap.add_argument("--nperseg", type=int, default=NPERSEG, help="coverage, random: Welch")
     args = ap.parse_args()
     seeds = list(range(args.seeds))
     cases = {c.strip() for c in args.cases.split(",")}
+    if args.coverage:
+        t0 = time.perf_counter()
+        if "random" in cases:
+            print_coverage(f"random_damping: SDOF 10 Hz, zeta 1 %, {args.duration:g} s, "
+                           f"nperseg {args.nperseg}, sensor noise {100 * args.noise:g} % RMS, "
+                           f"{args.seeds} seeds",
+                           coverage_random(args.duration, seeds, args.noise, args.nperseg))
+            print(f"({(time.perf_counter() - t0) / len(seeds):.2f} s per record)")
+        if "decay" in cases:
+            print_coverage(f"band_damping: decay from 8 g, 10 Hz, zeta 1 %, noise "
+                           f"{args.decay_noise:g} g, {args.seeds} seeds",
+                           coverage_decay(args.decay_noise, seeds))
+        print(f"\n({time.perf_counter() - t0:.0f} s)")
+        return
     t0 = time.perf_counter()
     print(f"true zeta = 1 %, {args.seeds} seeds; relative errors zeta_hat / zeta - 1\n")
     print(HEADER)

@@ -137,8 +137,9 @@ def band_damping(
     * ``log_decrement``: least-squares slope ``-sigma`` of ``ln(peak)`` against time over the
       peaks in the band, ``zeta = sigma / sqrt(omega_d^2 + sigma^2)`` with ``omega_d`` from the
       median peak spacing; standard error of the slope, its variance inflated by ``(1 + rho) /
-      (1 - rho)`` (``rho`` the lag-one correlation of the residuals, clipped to [0, 0.9]:
-      neighbouring peaks share band-passed noise), Student's t with ``n_peaks - 2`` degrees of
+      (1 - rho)`` (``rho`` the lag-one correlation of the residuals, corrected for its small-sample
+      bias ``-(1 + 3 rho) / n`` and clipped to [0, 0.9]: neighbouring peaks share band-passed
+      noise), Student's t with ``n_peaks - 2`` degrees of
       freedom.
 
     A noise-free decay gives very narrow intervals: they hold the record's statistical error
@@ -209,7 +210,9 @@ def band_damping(
             # neighbouring peaks share band-passed noise: inflate the slope's standard error
             # as for AR(1) residuals, (1 + rho) / (1 - rho) on the variance
             res = y - (fit.intercept + fit.slope * t)
-            rho = float(np.clip(np.sum(res[1:] * res[:-1]) / max(np.sum(res**2), 1e-300), 0, 0.9))
+            rho = np.sum(res[1:] * res[:-1]) / max(np.sum(res**2), 1e-300)
+            # the lag-one correlation of a few residuals is biased low by about (1 + 3 rho) / n
+            rho = float(np.clip(rho + (1 + 3 * rho) / t.size, 0, 0.9))
             std = fit.stderr / wd * math.sqrt((1 + rho) / (1 - rho))
             n_cyc_p = (t[-1] - t[0]) * wd / (2 * math.pi)
             half = _t(confidence, t.size - 2) * std
@@ -314,7 +317,7 @@ def random_damping(
     f1: float,
     *,
     confidence: float = CONFIDENCE,
-    n_resamples: int = 30,
+    n_resamples: int = 40,
     seed: int = 0,
     accuracy: float | None = None,
     rel_band: float = 0.5,
@@ -330,9 +333,9 @@ def random_damping(
       Their mean minus the simulated damping is the estimator's bias (the Welch window's
       leakage, and the equation-error bias that noise causes); it is removed, and the
       simulation repeated once around the corrected damping. ``std`` is the standard
-      deviation of the simulated estimates, the interval ``zeta +/- z std`` (normal quantile
-      ``z``). The raw values are kept as ``lscf_h1_uncorrected`` and
-      ``half_power_uncorrected``.
+      deviation of the simulated estimates, the interval ``zeta +/- t std`` (Student's ``t``
+      with ``n_resamples - 1`` degrees of freedom). The raw values are kept as
+      ``lscf_h1_uncorrected`` and ``half_power_uncorrected``.
     * ``lscf_output`` (output-only): ``std = OUTPUT_ONLY_EFFICIENCY * zeta * au_damping_cov(
       zeta, frequency, duration)`` (Au's law times the estimator's measured efficiency),
       interval ``zeta +/- z std``; no bias correction.
@@ -364,8 +367,10 @@ def random_damping(
         Every key of ``sloshrom.beam.analysis.mode1_damping_random``, with ``lscf_h1`` and
         ``half_power`` bias-corrected; ``lscf_h1_uncorrected``, ``half_power_uncorrected``;
         for ``est`` in (``lscf_h1``, ``lscf_output``, ``half_power``): ``{est}_std``,
-        ``{est}_low``, ``{est}_high`` (damping ratio, -); ``duration_s`` (s), ``n_cycles``
-        (record length in periods of the first mode, -).
+        ``{est}_low``, ``{est}_high`` (damping ratio, -); ``noise_input``, ``noise_output``
+        (the noise-to-signal ratios of :func:`noise_ratios`, -; NaN if no bootstrap was
+        possible); ``duration_s`` (s), ``n_cycles`` (record length in periods of the first
+        mode, -). Without a first H1 estimate, the H1 estimators and their spreads are NaN.
     """
     base = np.asarray(base, dtype=float)
     tank = np.asarray(tank, dtype=float)
@@ -391,7 +396,12 @@ def random_damping(
             hp = nan
         return float(lscf_cluster_damping(fr, hr, f1, band)["zeta"]), hp
 
-    z_raw, hp_raw = estimates(base, tank)
+    # the raw values exactly as mode1_damping_random (frf_h1's H1; _h1 agrees to round-off)
+    z_raw = float(r_h1["zeta"])
+    try:
+        hp_raw = half_power_damping(f, h, band)["zeta"]
+    except AnalysisError:
+        hp_raw = nan
     f_mode = r_h1["frequency"] if np.isfinite(r_h1["frequency"]) else f1
     duration = base.size / fs
     out: dict[str, Any] = {
@@ -400,10 +410,11 @@ def random_damping(
         "lscf_h1_iqr": r_h1["zeta_iqr"], "lscf_output_iqr": r_out["zeta_iqr"],
         "lscf_h1_n": r_h1["n_poles"], "lscf_output_n": r_out["n_poles"],
         "lscf_h1_uncorrected": z_raw, "half_power_uncorrected": hp_raw,
+        "noise_input": nan, "noise_output": nan,
     }
     std = {"lscf_h1": nan, "half_power": nan}
     zeta_model = z_raw if np.isfinite(z_raw) and z_raw > 0 else hp_raw
-    if np.isfinite(zeta_model) and 0 < zeta_model < 0.5 and base.size >= 2 * nseg:
+    if np.isfinite(zeta_model) and 0 < zeta_model < 0.5:
         rng = np.random.default_rng(seed)
         raw = np.array([z_raw, hp_raw])
 
@@ -429,9 +440,11 @@ def random_damping(
         out["lscf_h1"], out["half_power"] = float(corrected[0]), float(corrected[1])
         out["noise_input"], out["noise_output"] = noise
         std = {"lscf_h1": float(spread[0]), "half_power": float(spread[1])}
+    # the spread is estimated from n_resamples records: Student's t, not the normal quantile
+    t_boot = _t(confidence, n_resamples - 1)
     for est in ("lscf_h1", "half_power"):
-        out.update({f"{est}_std": std[est], f"{est}_low": out[est] - z * std[est],
-                    f"{est}_high": out[est] + z * std[est]})
+        out.update({f"{est}_std": std[est], f"{est}_low": out[est] - t_boot * std[est],
+                    f"{est}_high": out[est] + t_boot * std[est]})
 
     zo, fo = r_out["zeta"], r_out["frequency"]
     std_out = (OUTPUT_ONLY_EFFICIENCY * zo * au_damping_cov(zo, fo, duration)
