@@ -42,6 +42,8 @@ Usage::
     .venv/bin/python benchmarks/damping_estimators.py              # 50 seeds, all cases (~1 min)
     .venv/bin/python benchmarks/damping_estimators.py --seeds 20 --cases sdof
     .venv/bin/python benchmarks/damping_estimators.py --coverage --seeds 100 --cases random,decay
+    .venv/bin/python benchmarks/damping_estimators.py --coverage --cases random --noise 0 \
+        --duration 600 --nperseg 32768 --seeds 20
 """
 
 from __future__ import annotations
@@ -245,8 +247,9 @@ def print_coverage(title: str, table: dict[str, dict[str, float]]) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=50, help="seeds 0 .. n-1 per case")
+    ap.add_argument("--seeds", type=int, default=50, help="number of seeds per case")
     ap.add_argument("--cases", default="sdof,beam,decay", help="comma-separated subset")
+    ap.add_argument("--first-seed", type=int, default=0, help="seeds first .. first + n - 1")
     ap.add_argument("--coverage", action="store_true",
                     help="coverage of the intervals instead (cases random, decay)")
     ap.add_argument("--noise", type=float, default=0.05,
@@ -256,7 +259,7 @@ def main() -> None:
     ap.add_argument("--duration", type=float, default=90.0, help="coverage, random: s")
     ap.add_argument("--nperseg", type=int, default=NPERSEG, help="coverage, random: Welch")
     args = ap.parse_args()
-    seeds = list(range(args.seeds))
+    seeds = list(range(args.first_seed, args.first_seed + args.seeds))
     cases = {c.strip() for c in args.cases.split(",")}
     if args.coverage:
         t0 = time.perf_counter()

@@ -421,12 +421,15 @@ def random_damping(
         def bootstrap(noise: tuple[float, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             u, y = _simulate(f_mode, zeta_model, fs, base.size, n_resamples, noise, rng)
             sims = np.array([estimates(u[k], y[k]) for k in range(n_resamples)])
-            ok = np.sum(np.isfinite(sims), axis=0) >= n_resamples // 2
+            bias, spread = np.full(2, np.nan), np.full(2, np.nan)
+            for c in range(2):
+                v = sims[np.isfinite(sims[:, c]), c]
+                if v.size >= max(2, n_resamples // 2):  # else the mode is mostly lost: no spread
+                    bias[c], spread[c] = v.mean() - zeta_model, v.std(ddof=1)
             with np.errstate(divide="ignore"):
                 incoherent = np.mean([1 / _h1(u[k], y[k], fs, nseg, window)[2] - 1
                                       for k in range(n_resamples)], axis=0)
-            return (np.where(ok, np.nanmean(sims, axis=0) - zeta_model, np.nan),
-                    np.where(ok, np.nanstd(sims, axis=0, ddof=1), np.nan), incoherent)
+            return bias, spread, incoherent
 
         # round 1, noise-free: the leakage bias and the incoherence the leakage causes; the
         # rest of the record's incoherence is noise, which biases LSCF strongly (1 % RMS on the
@@ -457,13 +460,6 @@ def random_damping(
         _warn_short(accuracy, zo if np.isfinite(zo) and zo > 0 else out["lscf_h1"],
                     fo if np.isfinite(fo) else f_mode, duration)
     return out
-
-
-def _spread(values: list[float]) -> float:
-    v = np.asarray(values, dtype=float)
-    ok = v[np.isfinite(v)]
-    # a resampling that mostly loses the mode has no meaningful spread
-    return float(np.std(ok, ddof=1)) if ok.size >= max(2, v.size // 2) else float("nan")
 
 
 def _warn_short(accuracy: float, zeta: float, frequency: float, duration: float) -> None:
