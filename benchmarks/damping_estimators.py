@@ -215,7 +215,7 @@ def coverage_decay(noise_g: float, seeds: list[int]) -> dict[str, dict[str, floa
         x = noisy_decay(noise_g, s)
         for r in band_damping(instantaneous_damping(x, FS, F1), log_decrement(x, FS, F1), F1,
                               amplitude_scale=1.0):
-            acc.setdefault(f"{r['method']} {r['band']} g", []).append(r)
+            acc.setdefault(f"{r['method']} {r['band']}", []).append(r)
     return {k: _coverage([r["zeta"] for r in v], [r["std"] for r in v], [r["low"] for r in v],
                          [r["high"] for r in v]) for k, v in acc.items()}
 

@@ -154,9 +154,9 @@ def band_damping(
     f1 : float
         First-mode frequency (the band-pass centre), Hz.
     amplitude_scale : float
-        Factor from the amplitude's unit to the unit of ``bands`` (default m/s^2 -> g).
+        Factor from the amplitude's unit to g (default: amplitudes in m/s^2).
     bands : sequence of (float, float)
-        Amplitude bands ``[low, high)``.
+        Amplitude bands ``[low, high)``, g.
     confidence : float
         Two-sided confidence level of the intervals.
     smooth_periods : float
@@ -165,10 +165,10 @@ def band_damping(
     Returns
     -------
     list of dict
-        One row per band and method (Hilbert first): ``band`` (e.g. ``"1-2 g"`` when the
-        bands are in g), ``method`` (``"hilbert"`` or ``"log_decrement"``), ``zeta``, ``std``,
-        ``low``, ``high`` (damping ratio, -) and ``n_cycles`` (cycles of the band, -); NaN where
-        the band has too little data (shorter than one smoothing window, fewer than 3 peaks).
+        One row per band and method (Hilbert first): ``band`` (e.g. ``"1-2 g"``), ``method``
+        (``"hilbert"`` or ``"log_decrement"``), ``zeta``, ``std``, ``low``, ``high`` (damping
+        ratio, -) and ``n_cycles`` (cycles of the band, -); NaN where the band has too little
+        data (shorter than one smoothing window, fewer than 3 peaks).
     """
     missing = [k for k in ("peak_time", "peak", "peak_amplitude") if k not in log_decrement]
     if missing:
@@ -186,7 +186,7 @@ def band_damping(
     ap = np.asarray(log_decrement["peak_amplitude"], dtype=float) * amplitude_scale
     rows = []
     for lo, hi in bands:
-        name = f"{lo:g}-{hi:g} g" if amplitude_scale == 1 / G else f"{lo:g}-{hi:g}"
+        name = f"{lo:g}-{hi:g} g"
         sel = (ah >= lo) & (ah < hi)
         n_cyc = float(np.count_nonzero(sel) * dt * np.median(fh[sel])) if sel.any() else 0.0
         span = n_cyc / smooth_periods  # band length in smoothing windows
