@@ -84,7 +84,9 @@ def _check_resumed(out, s, html, cfg, map_error_max):
     frozen = [r for r in b["table2"] if r["case"] == "frozen"]
     # the frozen beam has the dry damping ratio given to mode 1
     for r in frozen:
-        assert r["lscf_h1"] == pytest.approx(cfg.beam.damping[0], rel=0.15)
+        # the raw estimate: the bias-corrected lscf_h1 is NaN when the record is too short
+        # for the bootstrap to reproduce it (the tiny run's 34 s hold one Welch segment)
+        assert r["lscf_h1_uncorrected"] == pytest.approx(cfg.beam.damping[0], rel=0.15)
     inst = b["instantaneous_damping"]
     assert inst["rig"]["2-3 g"] > 1.2 * inst["frozen"]["2-3 g"]  # sloshing damps mode 1
     assert np.isfinite(inst["rom"]["2-3 g"])

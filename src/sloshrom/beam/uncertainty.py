@@ -370,7 +370,10 @@ def random_damping(
         ``{est}_low``, ``{est}_high`` (damping ratio, -); ``noise_input``, ``noise_output``
         (the noise-to-signal ratios of :func:`noise_ratios`, -; NaN if no bootstrap was
         possible); ``duration_s`` (s), ``n_cycles`` (record length in periods of the first
-        mode, -). Without a first H1 estimate, the H1 estimators and their spreads are NaN.
+        mode, -). Without a first H1 estimate, the H1 estimators and their spreads are NaN;
+        so are the corrected values when fewer than half of the simulated records give an
+        estimate (the record's estimate is not reproducible: e.g. a 34 s record at 500 Hz,
+        one Welch segment of 16384 samples, lost the mode in half or more of them).
     """
     base = np.asarray(base, dtype=float)
     tank = np.asarray(tank, dtype=float)
