@@ -28,7 +28,7 @@ from sloshrom.cli._app import (
     check_sloshing_rom,
     fail,
 )
-from sloshrom.config import ConfigError, Tank
+from sloshrom.config import ConfigError, G, Tank
 from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputBatch, not_a_regular_file
 from sloshrom.limits import MAX_SEED
@@ -321,6 +321,27 @@ def _analysed(what: str, fn: Callable[[], Any]) -> Any:
         fail(f"{what}: {exc}")
 
 
+def damping_band_rows(free: dict[str, dict], decays: dict[str, Any], f1: float
+                      ) -> list[dict[str, Any]]:
+    """The rows of ``damping_bands.csv/.md``: per case and amplitude band of the tank
+    acceleration, the median instantaneous first-mode damping (Hilbert) and the number of
+    samples behind it; one table holds simulated and measured cases alike."""
+    import numpy as np
+
+    from sloshrom.beam.results import BANDS, damping_summary
+
+    rows = []
+    for case, bands in damping_summary(free, decays).items():
+        amp = decays[case].hilbert["amplitude"] / G
+        for lo, hi in BANDS:
+            band = f"{lo:g}-{hi:g} g"
+            rows.append({"case": case, "band": band, "method": "hilbert median",
+                         "zeta": bands[band],
+                         "n_samples": int(np.sum((amp >= lo) & (amp < hi))),
+                         "f1_Hz": float(f1)})
+    return rows
+
+
 _TankOpt = Annotated[
     Path | None, typer.Option(help="Tank TOML (\\[tank] table); default: paper.")]
 _FillOpt = Annotated[float | None, typer.Option(
@@ -448,6 +469,7 @@ def free(
     models = _models(sloshing, setup, seed)
     files = [*(f"free_{c}.nc" for c in models), *_uff_names(uff, "free", models),
              "table1_frozen_modes.csv", "table1_frozen_modes.md",
+             "damping_bands.csv", "damping_bands.md",
              *(f"{f}.png" for f in FREE_FIGURES)]
     _check_outputs(out, files, _inputs(setup, sloshing, tank_toml, modal_toml, structure,
                                        mode_table))
@@ -458,14 +480,16 @@ def free(
     ref = {case: reference_tank(r) for case, r in res.items()}
     decays = _analysed("damping analysis of mode 1",
                        lambda: {case: mode1_decay(r, modal, f1) for case, r in ref.items()})
+    bands = damping_band_rows(ref, decays, f1)
     figs = free_figures(ref, modal, decays)
     with OutputBatch() as batch:  # all result files or none
         for case, r in res.items():
-            ds = to_dataset(r, case, "free", setup.tank, modal, seed)
+            ds = to_dataset(r, case, "free", setup.tank, modal, seed, f1=f1)
             write_dataset(ds, out / f"free_{case}.nc", batch)
             if uff:
                 write_result_uff(ds, out / f"free_{case}.uff", batch=batch)
         write_table(rows, out / "table1_frozen_modes", batch)
+        write_table(bands, out / "damping_bands", batch)
         for name, fig in figs.items():
             savefig(fig, out / f"{name}.png", batch)
     typer.echo(f"wrote {len(res)} result file(s) and figures to {out}")
@@ -560,7 +584,7 @@ def random(
                      lambda: mode1_damping_table(ref, lv, f1))
     with OutputBatch() as batch:  # all result files or none
         for case, r in res.items():
-            ds = to_dataset(r, case, "random", setup.tank, modal, seed)
+            ds = to_dataset(r, case, "random", setup.tank, modal, seed, f1=f1)
             write_dataset(ds, out / f"random_{case}.nc", batch)
             if uff:
                 write_result_uff(ds, out / f"random_{case}.uff", batch=batch)
