@@ -246,7 +246,8 @@ def _list(value: Any, key: str, n: int) -> tuple:
 def _channel_variable(rec: Record, name: str, path: Path) -> str:
     """The record variable of the channel ``name``: a UFF channel by its label (ID line 1),
     else by ``node:dir``; other formats by variable name (the label wins over node:dir)."""
-    uff = rec.attrs.get("uff_channels")
+    # a NetCDF made from a UFF file keeps its uff_channels attribute: only UFF files use it
+    uff = rec.attrs.get("uff_channels") if path.suffix.lower() in (".uff", ".unv") else None
     if uff:
         for ch in uff:
             if ch["label"] == name.strip():
