@@ -18,21 +18,23 @@ import typer
 
 from sloshrom.cli._app import app, check_input, check_number, fail, warn
 from sloshrom.cli.beam import (
-    _check_outputs,
-    _DirectionOpt,
-    _FillOpt,
-    _MassUnitOpt,
-    _ModalOpt,
-    _ModesOpt,
-    _ModeTableOpt,
-    _setup,
-    _Structure,
-    _StructureOpt,
-    _TankOpt,
-    _TankSpecOpt,
+    DirectionOpt,
+    FillOpt,
+    MassUnitOpt,
+    ModalOpt,
+    ModesOpt,
+    ModeTableOpt,
+    StructureOpt,
+    StructureOptions,
+    TankOpt,
+    TankSpecOpt,
+    check_outputs,
     damping_band_rows,
+    setup_structure,
 )
 from sloshrom.errors import SloshromError
+from sloshrom.fileio import OutputBatch
+from sloshrom.pipeline.settings import FREE_DAMPING_PERIODS, WELCH_NPERSEG, check_analysis_band
 from sloshrom.plotting import savefig
 
 analyse_app = typer.Typer(
@@ -110,9 +112,9 @@ def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml:
     elif structure is not None:
         fail(f"--channels {channels}: on --structure the stations are grid IDs: give 'ids', "
              "not 'positions'")
-    st = _Structure.from_options(structure, tank, outputs, direction, mode_table, modes,
+    st = StructureOptions.from_options(structure, tank, outputs, direction, mode_table, modes,
                                  mass_unit)
-    setup = _setup(tank_toml, modal_toml, 0, st, fill)
+    setup = setup_structure(tank_toml, modal_toml, 0, st, fill)
     if any(setup.own):
         fail("--tank GRID:MODEL: a measured test has no sloshing model; give GRID[:fill=F]")
     modal = _checked("--channels", lambda: station_model(setup.modal, cmap, setup.beam))
@@ -121,8 +123,6 @@ def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml:
 
 
 def _band(f1: float, fs: float) -> None:
-    from sloshrom.pipeline.settings import check_analysis_band
-
     _checked("", lambda: check_analysis_band(f1, fs=fs))
 
 
@@ -133,15 +133,15 @@ def free(
     out: _OutOpt,
     name: _NameOpt = "measured",
     f1: _F1Opt = None,
-    tank_toml: _TankOpt = None,
-    fill: _FillOpt = None,
-    modal_toml: _ModalOpt = None,
-    structure: _StructureOpt = None,
-    tank: _TankSpecOpt = None,
-    direction: _DirectionOpt = "+Z",
-    mode_table: _ModeTableOpt = None,
-    modes: _ModesOpt = None,
-    mass_unit: _MassUnitOpt = None,
+    tank_toml: TankOpt = None,
+    fill: FillOpt = None,
+    modal_toml: ModalOpt = None,
+    structure: StructureOpt = None,
+    tank: TankSpecOpt = None,
+    direction: DirectionOpt = "+Z",
+    mode_table: ModeTableOpt = None,
+    modes: ModesOpt = None,
+    mass_unit: MassUnitOpt = None,
 ) -> None:
     """A measured free decay (one file): modal filtering, first-mode damping by amplitude band.
 
@@ -155,15 +155,13 @@ def free(
     """
     from sloshrom.beam.measured import check_free_decay, read_free_test
     from sloshrom.beam.results import mode1_decay, to_dataset, write_dataset, write_table
-    from sloshrom.fileio import OutputBatch
-    from sloshrom.pipeline.settings import FREE_DAMPING_PERIODS
     from sloshrom.plotting.beam import FREE_FIGURES, free_figures
 
     cmap, setup, modal, f1v = _prepare(files, channels, out, name, tank_toml, fill, modal_toml,
                                        structure, tank, direction, mode_table, modes,
                                        mass_unit, f1)
     figures = [f for f in FREE_FIGURES if f != "fig20_tank_interface_dynamic"]
-    _check_outputs(out, [f"free_{name}.nc", "damping_bands.csv", "damping_bands.md",
+    check_outputs(out, [f"free_{name}.nc", "damping_bands.csv", "damping_bands.md",
                          *(f"{f}.png" for f in figures)],
                    (*files, channels, tank_toml, modal_toml, structure, mode_table))
 
@@ -237,15 +235,15 @@ def random(
     accuracy: Annotated[float | None, typer.Option(
         help="Relative 1-sigma target on the damping ratio, e.g. 0.1: a warning for a record "
              "too short to reach it.")] = None,
-    tank_toml: _TankOpt = None,
-    fill: _FillOpt = None,
-    modal_toml: _ModalOpt = None,
-    structure: _StructureOpt = None,
-    tank: _TankSpecOpt = None,
-    direction: _DirectionOpt = "+Z",
-    mode_table: _ModeTableOpt = None,
-    modes: _ModesOpt = None,
-    mass_unit: _MassUnitOpt = None,
+    tank_toml: TankOpt = None,
+    fill: FillOpt = None,
+    modal_toml: ModalOpt = None,
+    structure: StructureOpt = None,
+    tank: TankSpecOpt = None,
+    direction: DirectionOpt = "+Z",
+    mode_table: ModeTableOpt = None,
+    modes: ModesOpt = None,
+    mass_unit: MassUnitOpt = None,
 ) -> None:
     """A measured random base-excitation test (one file per level): Table 2 and its figures.
 
@@ -266,8 +264,6 @@ def random(
         write_dataset,
         write_table,
     )
-    from sloshrom.fileio import OutputBatch
-    from sloshrom.pipeline.settings import WELCH_NPERSEG
     from sloshrom.plotting.beam import RANDOM_FIGURES, random_figures, random_window
 
     lv = _levels(levels)
@@ -281,7 +277,7 @@ def random(
     if cmap.base is None:
         fail(f"--channels {channels}: a random test needs the 'base' channel (the shaker "
              "table acceleration)")
-    _check_outputs(out, [f"random_{name}.nc", "table2_mode1_damping.csv",
+    check_outputs(out, [f"random_{name}.nc", "table2_mode1_damping.csv",
                          "table2_mode1_damping.md", *(f"{f}.png" for f in RANDOM_FIGURES)],
                    (*files, channels, tank_toml, modal_toml, structure, mode_table))
 
