@@ -62,7 +62,7 @@ __all__ = [
 DECAY_RATIO = 0.7
 #: A random base must not be a few spectral lines: the :data:`LINE_BINS` strongest bins of its
 #: Welch PSD (Hann, 4096 samples) may hold at most this fraction of its power. A sine holds
-#: about 100 %, the paper's Gaussian-PSD excitation about 15 %.
+#: about 100 %, the paper's Gaussian-PSD excitation about 14 %.
 LINE_FRACTION = 0.5
 LINE_BINS = 10
 
