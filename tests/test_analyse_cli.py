@@ -14,7 +14,7 @@ import xarray as xr
 from helpers import check_cli, runner
 from sloshrom.beam.coupled import free_response, random_response
 from sloshrom.beam.measured import lab_test_paths, write_lab_test
-from sloshrom.beam.results import damping_summary, mode1_damping_table, mode1_decay
+from sloshrom.beam.results import damping_band_table, mode1_damping_table, mode1_decay
 from sloshrom.beam.structure import CantileverBeam, ModalModel, coupled_frozen_modes
 from sloshrom.cli import app
 from sloshrom.config import Tank
@@ -56,14 +56,16 @@ def test_analyse_free_end_to_end(lab, tmp_path):
                      "fig16_modal_accelerations.png", "fig21_instantaneous_damping.png",
                      "free_lab.nc"]
     # the table holds what the analysis of the simulation in memory gives
-    want = damping_summary({"s": lab["free"]},
-                           {"s": mode1_decay(lab["free"], lab["modal"], lab["f1"])})["s"]
+    decay = mode1_decay(lab["free"], lab["modal"], lab["f1"])
+    want = damping_band_table({"s": lab["free"]}, {"s": decay}, lab["f1"])
     rows = [ln.split(",") for ln in (tmp_path / "damping_bands.csv").read_text().splitlines()]
     assert rows[0][:4] == ["case", "band", "method", "zeta"]
-    got = {row[1]: float(row[3]) for row in rows[1:]}
-    assert all(row[0] == "lab" for row in rows[1:])
-    for band, zeta in got.items():
-        np.testing.assert_allclose(zeta, want[band], rtol=1e-7, equal_nan=True)
+    assert [r[0] for r in rows[1:]] == ["lab"] * len(want)
+    for row, w in zip(rows[1:], want, strict=True):
+        assert row[1:3] == [w["band"], w["method"]]
+        np.testing.assert_allclose(float(row[3]), w["zeta"], rtol=1e-6, atol=1e-10,
+                                   equal_nan=True)
+    got = {(r[1], r[2]): float(r[3]) for r in rows[1:]}
     # the result file can be analysed again on its own (psi_stations, f1_Hz)
     with xr.open_dataset(tmp_path / "free_lab.nc") as ds:
         assert ds.attrs["f1_Hz"] == pytest.approx(lab["f1"], rel=1e-12)
@@ -71,17 +73,21 @@ def test_analyse_free_end_to_end(lab, tmp_path):
         modal = dataclasses.replace(lab["modal"], psi_stations=ds["psi_stations"].values)
         res = {k: ds[k].values for k in ("base_acceleration", "station_acceleration",
                                          "tank_acceleration")} | {"fs": ds.attrs["fs"]}
-        again = damping_summary({"a": res}, {"a": mode1_decay(res, modal, ds.attrs["f1_Hz"])})
-    for band, zeta in got.items():
-        np.testing.assert_allclose(again["a"][band], zeta, rtol=1e-9, equal_nan=True)
+        f1 = ds.attrs["f1_Hz"]
+        again = damping_band_table({"a": res}, {"a": mode1_decay(res, modal, f1)}, f1)
+    for row in again:
+        np.testing.assert_allclose(row["zeta"], got[row["band"], row["method"]], rtol=1e-9,
+                                   equal_nan=True)
 
 
 def test_analyse_random_end_to_end(lab, tmp_path):
     d = lab["dir"]
     files = [str(p) for p in lab_test_paths(d / "random.uff", "random", LEVELS)]
     r = runner.invoke(app, ["analyse", "random", *files, "--channels", str(d / "random.toml"),
-                            "--levels", "0.1,0.2", "--out", str(tmp_path)])
+                            "--levels", "0.1,0.2", "--accuracy", "0.01", "--out",
+                            str(tmp_path)])
     assert r.exit_code == 0, r.output
+    assert "warning: 0.1 g RMS: a 33 s random record" in r.output  # too short for 1 %
     assert {p.name for p in tmp_path.iterdir()} == {
         "random_measured.nc", "table2_mode1_damping.csv", "table2_mode1_damping.md",
         "fig18_tank_acceleration.png", "fig22_tank_acceleration_window.png", "fig23_psd.png"}
@@ -103,7 +109,7 @@ def test_beam_free_writes_the_damping_bands(tmp_path):
                             "--out", str(tmp_path)])
     assert r.exit_code == 0, r.output
     rows = (tmp_path / "damping_bands.csv").read_text().splitlines()
-    assert rows[0].startswith("case,band,method,zeta") and len(rows) == 5
+    assert rows[0].startswith("case,band,method,zeta") and len(rows) == 9  # 4 bands x 2
     with xr.open_dataset(tmp_path / "free_frozen.nc") as ds:
         assert ds.attrs["f1_Hz"] > 0 and "psi_stations" in ds and "q" in ds
 

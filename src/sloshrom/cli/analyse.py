@@ -10,13 +10,14 @@ simulation: the NetCDF result, the damping tables and the figures, all together 
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
-from sloshrom.cli._app import app, check_input, check_number, fail, warn
+from sloshrom.cli._app import app, check_input, check_number, fail
 from sloshrom.cli.beam import (
     DirectionOpt,
     FillOpt,
@@ -29,7 +30,6 @@ from sloshrom.cli.beam import (
     TankOpt,
     TankSpecOpt,
     check_outputs,
-    damping_band_rows,
     setup_structure,
 )
 from sloshrom.errors import SloshromError
@@ -154,7 +154,13 @@ def free(
     Example: ``sloshrom analyse free decay.uff --channels channels.toml --out lab``
     """
     from sloshrom.beam.measured import check_free_decay, read_free_test
-    from sloshrom.beam.results import mode1_decay, to_dataset, write_dataset, write_table
+    from sloshrom.beam.results import (
+        damping_band_table,
+        mode1_decay,
+        to_dataset,
+        write_dataset,
+        write_table,
+    )
     from sloshrom.plotting.beam import FREE_FIGURES, free_figures
 
     cmap, setup, modal, f1v = _prepare(files, channels, out, name, tank_toml, fill, modal_toml,
@@ -180,7 +186,7 @@ def free(
         return res, decay
 
     res, decay = _run("analyse free", work)
-    bands = damping_band_rows({name: res}, {name: decay}, f1v)
+    bands = damping_band_table({name: res}, {name: decay}, f1v)
     figs = free_figures({name: res}, modal, {name: decay})
     with OutputBatch() as batch:  # all result files or none
         ds = to_dataset(res, name, "free", setup.tank, modal, f1=f1v)
@@ -201,25 +207,6 @@ def _levels(text: str | None) -> list[float] | None:
     if not lv or any(not (0 < x < 100) for x in lv):
         fail(f"--levels must be RMS values in (0, 100) g, got {text!r}")
     return lv
-
-
-def _accuracy_check(rows: list[dict[str, Any]], f1: float, duration: float,
-                    accuracy: float) -> None:
-    """Warn where a record is too short for ``accuracy`` (relative 1-sigma) on the damping
-    ratio: the output-only estimate cannot scatter less than about ``1 / sqrt(zeta 2 pi f1 T)``
-    (``sloshrom.beam.analysis.mode1_damping_random``)."""
-    import math
-
-    for r in rows:
-        zeta = r.get("lscf_output")
-        if zeta is None or not math.isfinite(zeta) or zeta <= 0:
-            continue
-        rel = 1.0 / math.sqrt(zeta * 2 * math.pi * f1 * duration)
-        if rel > accuracy:
-            need = 1.0 / (accuracy**2 * zeta * 2 * math.pi * f1)
-            warn(f"{r['rms_g']:g} g: {duration:g} s give the damping ratio ({zeta:.3g}) to "
-                 f"about {100 * rel:.0f} % (1 sigma), more than --accuracy "
-                 f"{100 * accuracy:g} %: record at least {need:.0f} s")
 
 
 @analyse_app.command("random")
@@ -258,12 +245,8 @@ def random(
     --levels 0.1,0.2,0.4 --out lab``
     """
     from sloshrom.beam.measured import check_random_base, read_random_test
-    from sloshrom.beam.results import (
-        mode1_damping_table,
-        to_dataset,
-        write_dataset,
-        write_table,
-    )
+    from sloshrom.beam.results import to_dataset, write_dataset, write_table
+    from sloshrom.beam.uncertainty import ShortRecordWarning, random_damping
     from sloshrom.plotting.beam import RANDOM_FIGURES, random_figures, random_window
 
     lv = _levels(levels)
@@ -292,15 +275,23 @@ def random(
                  f"{res['fs']:g} Hz)")
         for p, b, g in zip(files, res["base_acceleration"], res["rms_levels_g"], strict=True):
             _checked(str(p), lambda b=b, g=g: check_random_base(b, res["fs"], f"({g:g} g)"))
-        step("damping analysis of mode 1 (Table 2)")
-        rows = _checked("damping analysis of mode 1", lambda: mode1_damping_table(
-            {name: res}, list(res["rms_levels_g"]), f1v))
+        # Table 2's rows (results.mode1_damping_table), with the record-length check
+        rows = []
+        for i, g in enumerate(res["rms_levels_g"]):
+            step(f"damping analysis of mode 1 (Table 2), {g:g} g")
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", ShortRecordWarning)
+                d = _checked("damping analysis of mode 1", lambda i=i: random_damping(
+                    res["base_acceleration"][i], res["tank_acceleration"][i], res["fs"], f1v,
+                    accuracy=accuracy))
+            for w in caught:  # say which level each warning is about
+                warnings.warn_explicit(f"{g:g} g RMS: {w.message}", w.category, w.filename,
+                                       w.lineno)
+            rows.append({"case": name, "rms_g": float(g), **d})
         return res, rows
 
     res, rows = _run("analyse random", work)
     duration = res["time"].size / res["fs"]
-    if accuracy is not None:
-        _accuracy_check(rows, f1v, duration, accuracy)
     levels_g = [float(x) for x in res["rms_levels_g"]]
     figs = random_figures({name: res}, levels_g, random_window(duration))
     with OutputBatch() as batch:  # all result files or none

@@ -28,7 +28,7 @@ from sloshrom.cli._app import (
     check_sloshing_rom,
     fail,
 )
-from sloshrom.config import ConfigError, G, Tank
+from sloshrom.config import ConfigError, Tank
 from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputBatch, not_a_regular_file
 from sloshrom.limits import MAX_SEED
@@ -321,27 +321,6 @@ def _analysed(what: str, fn: Callable[[], Any]) -> Any:
         fail(f"{what}: {exc}")
 
 
-def damping_band_rows(free: dict[str, dict], decays: dict[str, Any], f1: float
-                      ) -> list[dict[str, Any]]:
-    """The rows of ``damping_bands.csv/.md``: per case and amplitude band of the tank
-    acceleration, the median instantaneous first-mode damping (Hilbert) and the number of
-    samples behind it; one table holds simulated and measured cases alike."""
-    import numpy as np
-
-    from sloshrom.beam.results import BANDS, damping_summary
-
-    rows = []
-    for case, bands in damping_summary(free, decays).items():
-        amp = decays[case].hilbert["amplitude"] / G
-        for lo, hi in BANDS:
-            band = f"{lo:g}-{hi:g} g"
-            rows.append({"case": case, "band": band, "method": "hilbert median",
-                         "zeta": bands[band],
-                         "n_samples": int(np.sum((amp >= lo) & (amp < hi))),
-                         "f1_Hz": float(f1)})
-    return rows
-
-
 TankOpt = Annotated[
     Path | None, typer.Option(help="Tank TOML (\\[tank] table); default: paper.")]
 FillOpt = Annotated[float | None, typer.Option(
@@ -442,6 +421,7 @@ def free(
     from sloshrom.beam.coupled import free_response
     from sloshrom.beam.export import write_result_uff
     from sloshrom.beam.results import (
+        damping_band_table,
         frozen_modes_table,
         mode1_decay,
         reference_tank,
@@ -480,7 +460,7 @@ def free(
     ref = {case: reference_tank(r) for case, r in res.items()}
     decays = _analysed("damping analysis of mode 1",
                        lambda: {case: mode1_decay(r, modal, f1) for case, r in ref.items()})
-    bands = damping_band_rows(ref, decays, f1)
+    bands = damping_band_table(ref, decays, f1)
     figs = free_figures(ref, modal, decays)
     with OutputBatch() as batch:  # all result files or none
         for case, r in res.items():
