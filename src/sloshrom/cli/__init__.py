@@ -4,7 +4,7 @@ Each sub-module registers its commands on the shared ``app`` of ``sloshrom.cli._
 this package imports them all.
 """
 
-from sloshrom.cli import beam, export, pipeline, rig, rom  # noqa: F401  (register commands)
+from sloshrom.cli import beam, compare, export, pipeline, rig, rom  # noqa: F401 (registers)
 from sloshrom.cli._app import app
 
 __all__ = ["app"]
