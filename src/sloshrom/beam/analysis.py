@@ -155,6 +155,15 @@ def log_decrement(
 
     ``delta = ln(x_i / x_{i+1})``, ``zeta = delta / sqrt(4 pi^2 + delta^2)``; each value is placed
     at the mid time of its pair, with ``amplitude`` the mean peak of ``reference`` (default x).
+
+    Returns
+    -------
+    dict
+        Per pair of successive peaks: ``time`` (s), ``zeta`` (-), ``amplitude`` (units of
+        reference). Per peak (for a regression of ``ln(peak)`` on time, see
+        ``sloshrom.beam.uncertainty.band_damping``): ``peak_time`` (s), ``peak`` (the
+        band-passed ``x`` at the peak, units of x) and ``peak_amplitude`` (``|reference|``
+        band-passed, at the peak).
     """
     x = np.asarray(x, dtype=float)
     xb = _bandpass(x, fs, f1, rel_band)
@@ -163,13 +172,14 @@ def log_decrement(
     peaks = peaks[xb[peaks] > 0]
     edge = int(5 * fs / f1)  # drop peaks spoilt by the zero-phase filter's end effects
     peaks = peaks[(peaks > edge) & (peaks < x.size - edge)]
+    per_peak = {"peak_time": peaks / fs, "peak": xb[peaks], "peak_amplitude": np.abs(ref[peaks])}
     if peaks.size < 2:
-        return {"time": np.zeros(0), "zeta": np.zeros(0), "amplitude": np.zeros(0)}
+        return {"time": np.zeros(0), "zeta": np.zeros(0), "amplitude": np.zeros(0), **per_peak}
     p0, p1 = peaks[:-1], peaks[1:]
     delta = np.log(xb[p0] / xb[p1])
     zeta = delta / np.sqrt(4 * np.pi**2 + delta**2)
     return {"time": 0.5 * (p0 + p1) / fs, "zeta": zeta,
-            "amplitude": 0.5 * (np.abs(ref[p0]) + np.abs(ref[p1]))}
+            "amplitude": 0.5 * (np.abs(ref[p0]) + np.abs(ref[p1])), **per_peak}
 
 
 def welch_psd(x: Any, fs: float, nperseg: int = 4096) -> tuple[np.ndarray, np.ndarray]:

@@ -20,7 +20,6 @@ from sloshrom.beam.analysis import (
     instantaneous_damping,
     log_decrement,
     modal_filter,
-    mode1_damping_random,
 )
 from sloshrom.beam.structure import (
     TANK_KEYS,
@@ -29,20 +28,18 @@ from sloshrom.beam.structure import (
     coupled_frozen_modes,
     frozen_modal_table,
 )
+from sloshrom.beam.uncertainty import BANDS, band_damping, random_damping
 from sloshrom.config import G, Tank
 from sloshrom.fileio import OutputBatch, atomic_write
 from sloshrom.models import SloshingModel
 
 __all__ = [
-    "BANDS", "Mode1Decay", "damping_by_band", "damping_summary", "envelope_table",
+    "BANDS", "Mode1Decay", "damping_band_table", "damping_by_band", "damping_summary",
+    "envelope_table",
     "frozen_modes_table",
     "modal_accelerations", "mode1_damping_table", "mode1_decay", "case_output_fs",
     "reference_tank", "simulate_cases", "to_dataset", "write_dataset", "write_table",
 ]
-
-#: Bands of tank-acceleration amplitude (g) in which the instantaneous first-mode damping is
-#: summarised (median).
-BANDS = ((0.5, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 5.0))
 
 #: A simulation of one case: ``simulate(model, output_fs)`` returns the result dict of
 #: ``sloshrom.beam.coupled.free_response``/``random_response``; ``model`` is one sloshing
@@ -168,18 +165,33 @@ def damping_summary(free: Mapping[str, Mapping[str, Any]],
     return out
 
 
+def damping_band_table(free: Mapping[str, Mapping[str, Any]],
+                       decays: Mapping[str, Mode1Decay], f1: float) -> list[dict[str, Any]]:
+    """First-mode damping per amplitude band of every free response, with intervals.
+
+    One row per case, band of :data:`BANDS` and method (``sloshrom.beam.uncertainty.
+    band_damping``): ``case``, ``band``, ``method`` (``hilbert`` or ``log_decrement``), ``zeta``,
+    ``std``, ``low``, ``high`` (damping ratio, -; interval at 95 %) and ``n_cycles`` (-).
+    """
+    return [{"case": case, **row} for case in free
+            for row in band_damping(decays[case].hilbert, decays[case].log_decrement, f1)]
+
+
 def mode1_damping_table(random: Mapping[str, Mapping[str, Any]], levels: Sequence[float],
                         f1: float, max_tank_acceleration: bool = False) -> list[dict[str, Any]]:
-    """Paper Table 2: first-mode damping of every random response, one row per case and level.
+    """Paper Table 2: first-mode damping of every random response, one row per case and level,
+    each estimate with its standard deviation and interval.
 
     Columns ``case``, ``rms_g`` (g), ``max_tank_acceleration_g`` (g, only if
-    ``max_tank_acceleration``), then those of ``sloshrom.beam.analysis.mode1_damping_random``.
+    ``max_tank_acceleration``), then those of ``sloshrom.beam.uncertainty.random_damping``
+    (the keys of ``sloshrom.beam.analysis.mode1_damping_random`` with ``lscf_h1`` and
+    ``half_power`` corrected for the window's leakage, the uncorrected values, and
+    ``{est}_std``, ``{est}_low``, ``{est}_high`` for every estimator).
     """
     rows = []
     for case, r in random.items():
         for i, level in enumerate(levels):
-            d = mode1_damping_random(r["base_acceleration"][i], r["tank_acceleration"][i],
-                                     r["fs"], f1)
+            d = random_damping(r["base_acceleration"][i], r["tank_acceleration"][i], r["fs"], f1)
             row: dict[str, Any] = {"case": case, "rms_g": level}
             if max_tank_acceleration:
                 row["max_tank_acceleration_g"] = float(np.max(np.abs(r["tank_acceleration"][i]))
