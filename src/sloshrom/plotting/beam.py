@@ -43,7 +43,8 @@ def free_figures(res: Mapping[str, Mapping[str, Any]], modal: ModalModel,
     Returns
     -------
     dict
-        :data:`FREE_FIGURES` stem -> Figure.
+        :data:`FREE_FIGURES` stem -> Figure (without Fig. 20, the forces, when a case has
+        none: a measured test).
     """
     figs = {}
     cases = list(res)
@@ -70,19 +71,20 @@ def free_figures(res: Mapping[str, Mapping[str, Any]], modal: ModalModel,
     fig.suptitle("Modal accelerations (modal filtering of the station accelerations)")
     figs["fig16_modal_accelerations"] = fig
 
-    fig = Figure(figsize=(8, 7))
-    axes = fig.subplots(3, 1, sharex=True)
-    for case in cases:
-        r = res[case]
-        axes[0].plot(r["time"], r["tank_acceleration"] / G, lw=0.6, label=case)
-        axes[1].plot(r["time"], r["interface_force"], lw=0.6, label=case)
-        axes[2].plot(r["time"], r["dynamic_force"], lw=0.6, label=case)
-    for ax, lab in zip(axes, ("tank acc. (g)", "interface force (N)", "dynamic force (N)"),
-                       strict=True):
-        ax.set_ylabel(lab)
-    axes[0].legend(fontsize=8)
-    axes[-1].set_xlabel("time (s)")
-    figs["fig20_tank_interface_dynamic"] = fig
+    if all("interface_force" in res[c] for c in cases):  # a measured test has no forces
+        fig = Figure(figsize=(8, 7))
+        axes = fig.subplots(3, 1, sharex=True)
+        for case in cases:
+            r = res[case]
+            axes[0].plot(r["time"], r["tank_acceleration"] / G, lw=0.6, label=case)
+            axes[1].plot(r["time"], r["interface_force"], lw=0.6, label=case)
+            axes[2].plot(r["time"], r["dynamic_force"], lw=0.6, label=case)
+        for ax, lab in zip(axes, ("tank acc. (g)", "interface force (N)", "dynamic force (N)"),
+                           strict=True):
+            ax.set_ylabel(lab)
+        axes[0].legend(fontsize=8)
+        axes[-1].set_xlabel("time (s)")
+        figs["fig20_tank_interface_dynamic"] = fig
 
     fig = Figure(figsize=(7, 4.5))
     ax = fig.subplots()
