@@ -104,6 +104,25 @@ def test_analyse_random_end_to_end(lab, tmp_path):
         assert ds["psi_stations"].dims == ("station", "mode")
 
 
+def test_analyse_free_on_modal_toml_with_ids(lab, tmp_path):
+    """Stations named by ID on the user's modal data (its ``station_ids``), in the map's order."""
+    import tomli_w
+
+    user = lab["modal"].to_dict() | {"station_ids": [11, 12, 13, 14, 15]}
+    (tmp_path / "modal.toml").write_text(tomli_w.dumps({"modal": user}))
+    (tmp_path / "ids.toml").write_text(
+        '[channels]\nstations = ["Acc 5", "Acc 1", "Acc 2", "Acc 3", "Acc 4"]\n'
+        'ids = [15, 11, 12, 13, 14]\ntank = "Acc 5"\n')
+    r = runner.invoke(app, ["analyse", "free", str(lab["dir"] / "free.uff"), "--channels",
+                            str(tmp_path / "ids.toml"), "--modal-toml",
+                            str(tmp_path / "modal.toml"), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    with xr.open_dataset(tmp_path / "o" / "free_measured.nc") as ds:
+        assert ds["station_id"].values.tolist() == [15, 11, 12, 13, 14]
+        np.testing.assert_array_equal(ds["psi_stations"].values[0],
+                                      lab["modal"].psi_stations[4])
+
+
 def test_beam_free_writes_the_damping_bands(tmp_path):
     r = runner.invoke(app, ["beam", "free", "--sloshing", "frozen", "--duration", "2",
                             "--out", str(tmp_path)])

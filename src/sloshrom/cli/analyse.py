@@ -108,7 +108,8 @@ def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml:
         if structure is None and modal_toml is None:
             fail(f"--channels {channels}: 'ids' name grid IDs of your structure; give "
                  "--structure (or --modal-toml), or 'positions' (m) on the built-in cantilever")
-        outputs = ",".join(str(i) for i in cmap.ids)
+        if structure is not None:  # the map's stations are the structure's output grids
+            outputs = ",".join(str(i) for i in cmap.ids)
     elif structure is not None:
         fail(f"--channels {channels}: on --structure the stations are grid IDs: give 'ids', "
              "not 'positions'")
