@@ -51,7 +51,7 @@ def _dataset(kind: str, zeta1: float, case: str) -> xr.Dataset:
     if kind == "free":
         res = free_response(FrozenLiquid(1 / FS), modal, 0.0146, 6.0, TANK)
     else:
-        res = random_response(FrozenLiquid(1 / FS), modal, (0.1, 0.2), 40.0, 0, tank=TANK)
+        res = random_response(FrozenLiquid(1 / FS), modal, (0.1, 0.2), 70.0, 0, tank=TANK)
     return to_dataset(res, case, kind, TANK, modal, f1=F1)
 
 
@@ -87,10 +87,12 @@ def test_random_verdicts_follow_the_damping(random_sets):
 def test_free_verdicts_follow_the_damping(free_sets):
     tests = {k: analyse_test(ds) for k, ds in free_sets.items()}
     rows = compare_rows(tests["measured"], [tests["frozen"], tests["stiff"]])
-    hil = [r for r in rows if r["method"] == "hilbert" and np.isfinite(r["measured"])]
-    assert hil, "no band with data"
-    assert all(r["verdict"] == "inside" for r in hil if r["case"] == "frozen")
-    assert all(r["verdict"] == "outside" for r in hil if r["case"] == "stiff")
+    for case, verdict in (("frozen", "inside"), ("stiff", "outside")):
+        # bands where both decays hold data (twice the damping leaves the bands sooner)
+        got = [r for r in rows if r["case"] == case and np.isfinite(r["measured"])
+               and np.isfinite(r["predicted"])]
+        assert {r["method"] for r in got} == {"hilbert", "log_decrement"}, case
+        assert all(r["verdict"] == verdict for r in got), (case, got)
 
 
 def _test(kind: str, levels: list[float]) -> AnalysedTest:

@@ -8,7 +8,8 @@ the analyses read, :func:`analyse_test` runs them (free decay: damping per ampli
 intervals; random test: paper Table 2 with intervals), and :func:`compare_rows` sets the
 predictions beside the measurement with a verdict per level (or band) and estimator:
 
-* ``inside`` / ``outside``: the prediction lies inside / outside the measurement's interval;
+* ``inside`` / ``outside``: the prediction lies inside / outside the measurement's interval
+  (``no interval`` when the measurement has none, ``n/a`` when an estimate is missing);
 * ``z``: the difference in units of the standard deviation of the difference of two uncertain
   numbers, ``(zeta_p - zeta_m) / sqrt(std_m^2 + std_p^2)``; ``consistent`` when ``|z| <= z_c``
   (1.96 at 95 %).
@@ -30,7 +31,6 @@ from sloshrom.beam.analysis import instantaneous_damping, log_decrement, modal_f
 from sloshrom.beam.errors import BeamError
 from sloshrom.beam.results import Mode1Decay, damping_band_table, mode1_damping_table
 from sloshrom.beam.uncertainty import CONFIDENCE
-from sloshrom.config import G
 
 __all__ = ["ESTIMATORS", "AnalysedTest", "analyse_test", "analysed_test", "compare_rows",
            "match_levels", "test_from_dataset"]
@@ -202,11 +202,13 @@ def _verdict(zm: float, lo: float, hi: float, sm: float, zp: float, sp: float,
              z_crit: float) -> dict[str, Any]:
     if not (np.isfinite(zm) and np.isfinite(zp)):
         return {"verdict": "n/a", "z": float("nan"), "consistent": "n/a"}
-    inside = bool(np.isfinite(lo) and np.isfinite(hi) and lo <= zp <= hi)
-    s = float(np.hypot(sm if np.isfinite(sm) else 0.0, sp if np.isfinite(sp) else 0.0))
-    z = (zp - zm) / s if s > 0 else (0.0 if zp == zm else float("inf") * np.sign(zp - zm))
-    return {"verdict": "inside" if inside else "outside", "z": float(z),
-            "consistent": "yes" if abs(z) <= z_crit else "no"}
+    verdict = ("no interval" if not (np.isfinite(lo) and np.isfinite(hi))
+               else "inside" if lo <= zp <= hi else "outside")
+    var = sum(s**2 for s in (sm, sp) if np.isfinite(s))
+    if var == 0:  # neither estimate states its uncertainty
+        return {"verdict": verdict, "z": float("nan"), "consistent": "n/a"}
+    z = float((zp - zm) / np.sqrt(var))
+    return {"verdict": verdict, "z": z, "consistent": "yes" if abs(z) <= z_crit else "no"}
 
 
 def compare_rows(measured: AnalysedTest, predicted: Sequence[AnalysedTest],
