@@ -46,9 +46,9 @@ app.add_typer(analyse_app, name="analyse")
 
 _FilesArg = Annotated[list[Path], typer.Argument(
     help="The test's files: UFF 58 (.uff/.unv), CSV, NetCDF (.nc) or MATLAB (.mat).",
-    show_default=False)]
+    metavar="FILE", show_default=False)]
 _ChannelsOpt = Annotated[Path, typer.Option(
-    "--channels", help="Channel map TOML ([channels]: stations, positions or ids, base, tank; "
+    "--channels", help="Channel map TOML (\\[channels]: stations, positions or ids, base, tank; "
                        "see docs/formats.md).", show_default=False)]
 _OutOpt = Annotated[Path, typer.Option(help="Output directory.", show_default=False)]
 _NameOpt = Annotated[str, typer.Option(
