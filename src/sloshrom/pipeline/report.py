@@ -15,6 +15,7 @@ import numpy as np
 from sloshrom.pipeline import html as report
 from sloshrom.pipeline import settings
 from sloshrom.pipeline.context import Context
+from sloshrom.pipeline.experiment import experiment_tables, interval_text, percent
 from sloshrom.pipeline.html import Figure, Section, Table
 from sloshrom.pipeline.maps import HYSTERESIS_FREQUENCY, HYSTERESIS_GAMMA
 from sloshrom.studies.baseline.section import baseline_section
@@ -336,58 +337,6 @@ def _envelope_table(rows: Any) -> list[Table]:
                   "acceleration.")]
 
 
-def _interval(v: Any, lo: Any, hi: Any) -> str:
-    """A damping ratio and its interval in percent: ``1.23 % [1.10, 1.36]``."""
-    try:
-        if not np.isfinite(v):
-            return "–"
-        if not (np.isfinite(lo) and np.isfinite(hi)):
-            return _pct(v)
-        return f"{100 * float(v):.2f} % [{100 * float(lo):.2f}, {100 * float(hi):.2f}]"
-    except TypeError:
-        return "–"
-
-
-def _experiment_tables(exp: Any, kind: str) -> list[Table]:
-    """The rig as the laboratory against the predictions: one row per band (free decay, Hilbert
-    and log decrement) or per level and estimator (random tests), a column per predicted case:
-    its estimate and whether it lies inside the experiment's 95 % interval."""
-    if not isinstance(exp, dict) or not exp.get(kind):
-        return []
-    rows = exp[kind]
-    cases = list(dict.fromkeys(r["case"] for r in rows))
-    if kind == "free":
-        keys = list(dict.fromkeys((r["band"], r["method"]) for r in rows))
-        head, what = ["tank acceleration", "method"], "free decay: instantaneous first-mode"
-    else:
-        keys = list(dict.fromkeys((r["rms_g"], r["estimator"]) for r in rows))
-        head, what = ["RMS [g]", "estimator"], "random tests: first-mode"
-    names = {"lscf_h1": "LSCF on H1", "lscf_output": "output-only LSCF",
-             "half_power": "half power", "hilbert": "Hilbert", "log_decrement": "log decrement"}
-    body = []
-    for k in keys:
-        sel = [r for r in rows if (r.get("band", r.get("rms_g")),
-                                   r.get("method", r.get("estimator"))) == k]
-        m = sel[0]
-        cells = {r["case"]: f"{_pct(r['predicted'])} ({r['verdict']})" for r in sel}
-        body.append([k[0], names.get(k[1], k[1]),
-                     _interval(m["measured"], m["measured_low"], m["measured_high"])]
-                    + [cells.get(c, "–") for c in cases])
-    return [Table(head + ["experiment (95 % interval)"] + cases, body,
-                  f"The rig as the laboratory, {what} damping: its beam runs written as a test "
-                  "lab's UFF 58 files (station and base accelerometers with sensor noise) and "
-                  "analysed as a measurement, its estimates with their 95 % intervals; beside "
-                  "them each prediction and whether it lies inside that interval "
-                  "(`sloshrom compare`).")]
-
-
-def _pct(v: Any) -> str:
-    try:
-        return "–" if not np.isfinite(v) else f"{100 * float(v):.2f} %"
-    except TypeError:
-        return "–"
-
-
 def _beam_sections(ctx: Context, b: dict[str, Any]) -> list[Section]:
     """Sections 6-8: the sloshing beam (outputs ``b`` of the ``beam`` stage)."""
     figdir = Path(ctx.out) / "figures"
@@ -398,19 +347,19 @@ def _beam_sections(ctx: Context, b: dict[str, Any]) -> list[Section]:
 
     t1 = Table(["mode", "f dry [Hz]", "f frozen [Hz]", "f coupled [Hz]", "ζ", "modal mass [kg]"],
                [[r["mode"], r["f_dry_Hz"], r["f_frozen_Hz"], r["f_coupled_Hz"],
-                 _pct(r["damping"]), r["modal_mass_kg"]] for r in b["table1"]],
+                 percent(r["damping"]), r["modal_mass_kg"]] for r in b["table1"]],
                "Table 1 analogue: modes of the beam with frozen liquid (unit maximum "
                "displacement normalisation; damping ratios are estimates).")
     inst = b["instantaneous_damping"]
     cases = list(inst)
     bands = [k for k in next(iter(inst.values())) if k.endswith(" g")]
     t_inst = Table(["tank acceleration"] + cases,
-                   [[band] + [_pct(inst[c][band]) for c in cases] for band in bands],
+                   [[band] + [percent(inst[c][band]) for c in cases] for band in bands],
                    "Median first-mode instantaneous damping (Hilbert) in bands of tank "
                    "acceleration amplitude, free response.")
 
     def ci(r: dict[str, Any], key: str) -> str:
-        return _interval(r[key], r.get(key + "_low", np.nan), r.get(key + "_high", np.nan))
+        return interval_text(r[key], r.get(key + "_low", np.nan), r.get(key + "_high", np.nan))
 
     t2 = Table(["case", "RMS [g]", "max tank acc. [g]", "LSCF on H1", "output-only LSCF",
                 "half power"],
@@ -457,7 +406,7 @@ def _beam_sections(ctx: Context, b: dict[str, Any]) -> list[Section]:
             + fig("fig21_comparison", "Fig. 21, as the paper sets it: the rig as the "
                   "laboratory (black, its 95 % intervals per amplitude band as grey boxes) "
                   "against the predictions."),
-            [t_inst, *_experiment_tables(b.get("experiment"), "free")],
+            [t_inst, *experiment_tables(b.get("experiment"), "free")],
         ),
         Section(
             "8. Random base excitation (paper Figs. 18, 22, 23, Table 2)",
@@ -476,7 +425,7 @@ def _beam_sections(ctx: Context, b: dict[str, Any]) -> list[Section]:
                   "the resonance peak.")
             + fig("table2_comparison", "Table 2 as intervals: the rig as the laboratory "
                   "(squares) and the predictions, each estimate with its 95 % interval."),
-            [*tables2, *_experiment_tables(b.get("experiment"), "random"),
+            [*tables2, *experiment_tables(b.get("experiment"), "random"),
              *_envelope_table(b.get("envelope"))],
         ),
     ]
