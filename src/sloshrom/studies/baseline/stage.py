@@ -52,8 +52,7 @@ from sloshrom.studies.baseline.figures import frequency_band_figure
 from sloshrom.studies.baseline.outputs import BaselineOutputs
 
 __all__ = ["ball_against_experiment", "comparison_rows", "fit_ball", "frequency_band_errors",
-           "lowpassed_nrmse",
-           "stage_baseline"]
+           "lowpassed_nrmse", "stage_baseline"]
 
 #: The ``data`` stage's records the ball is identified on (paths as its record lists them).
 TRAIN_RECORD, VALIDATION_RECORD = "data/train.nc", "data/validation.nc"
