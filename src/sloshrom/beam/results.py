@@ -221,7 +221,7 @@ def frozen_modes_table(tank: Tank | Sequence[Tank], modal: ModalModel,
 
 # -- result files --------------------------------------------------------------------------------
 def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank | Sequence[Tank],
-               modal: ModalModel, seed: int = 0) -> xr.Dataset:
+               modal: ModalModel, seed: int = 0, f1: float | None = None) -> xr.Dataset:
     """xarray Dataset of a coupled-simulation result (the standard beam-result names).
 
     Parameters
@@ -240,6 +240,9 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank | Sequen
         point IDs when it has them).
     seed : int
         Seed of the run (attribute).
+    f1 : float, optional
+        The first-mode frequency the damping analyses band-pass around, Hz (attribute
+        ``f1_Hz``), so that the file can be re-analysed alone.
 
     Returns
     -------
@@ -253,39 +256,56 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank | Sequen
         tanks (2-D ``psi_tank``) gives the tank signals and the coverage a trailing ``tank``
         dimension, its coordinate the tank IDs (or 1, 2, ...), and one attribute value per
         tank (one tank: the attribute ``tank_id``, if known); output point IDs become the
-        coordinate ``station_id``.
+        coordinate ``station_id``. The variable ``psi_stations`` (station, mode; -) holds
+        the mode shapes of the modal filtering.
+
+        A measured test (``sloshrom.beam.measured``: a result with ``source``, the file
+        names) has only the variables it holds (base, station and tank accelerations; no
+        forces, no ``q``), one tank (the reference) and the attribute ``source``. The
+        attribute ``origin`` is ``"measured"`` or ``"simulation"``.
     """
-    multi = modal.psi_tank.ndim == 2
+    measured = "source" in res
+    multi = modal.psi_tank.ndim == 2 and (
+        np.ndim(res["tank_acceleration"]) > np.ndim(res["base_acceleration"]))
     lead = res["base_acceleration"].shape[:-1]
     ldims = ("level",) if len(lead) == 1 else ()
     tdims = ldims + (("time", "tank") if multi else ("time",))
     tanks = list(tank) if isinstance(tank, (list, tuple)) else [tank] * modal.n_tanks
     t = res["time"]
+    # a measured test holds only its accelerations: the other signals where the result has them
+    specs = {
+        "base_acceleration": (ldims + ("time",), {"units": "m/s^2"}),
+        "tank_acceleration": (tdims, {"units": "m/s^2",
+                                      "long_name": "tank absolute acceleration"}),
+        "interface_force": (tdims, {"units": "N",
+                                    "long_name": "-(m_struct + m_l) acc + dynamic"}),
+        "dynamic_force": (tdims, {"units": "N"}),
+        "tank_velocity": (tdims, {"units": "m/s", "long_name": "tank absolute velocity"}),
+        "station_acceleration": (ldims + ("time", "station"),
+                                 {"units": "m/s^2", "long_name": "absolute"}),
+        "modal_acceleration": (ldims + ("time", "mode"), {"units": "m/s^2"}),
+        "q": (ldims + ("time", "mode"), {"units": "m"}),
+    }
+    data = {name: (dims, res[name], attrs) for name, (dims, attrs) in specs.items()
+            if name in res}
+    data["psi_stations"] = (("station", "mode"), modal.psi_stations,
+                            {"units": "1",
+                             "long_name": "mode shapes at the stations (modal filtering)"})
     ds = xr.Dataset(
-        {
-            "base_acceleration": (ldims + ("time",), res["base_acceleration"],
-                                  {"units": "m/s^2"}),
-            "tank_acceleration": (tdims, res["tank_acceleration"],
-                                  {"units": "m/s^2", "long_name": "tank absolute acceleration"}),
-            "interface_force": (tdims, res["interface_force"],
-                                {"units": "N", "long_name": "-(m_struct + m_l) acc + dynamic"}),
-            "dynamic_force": (tdims, res["dynamic_force"], {"units": "N"}),
-            "tank_velocity": (tdims, res["tank_velocity"],
-                              {"units": "m/s", "long_name": "tank absolute velocity"}),
-            "station_acceleration": (ldims + ("time", "station"), res["station_acceleration"],
-                                     {"units": "m/s^2", "long_name": "absolute"}),
-            "modal_acceleration": (ldims + ("time", "mode"), res["modal_acceleration"],
-                                   {"units": "m/s^2"}),
-            "q": (ldims + ("time", "mode"), res["q"], {"units": "m"}),
-        },
+        data,
         coords={"time": ("time", t, {"units": "s"}),
                 "station": ("station", modal.stations, {"units": "m"}),
                 "mode": ("mode", np.arange(1, modal.n_modes + 1))},
         attrs={"case": case, "test": kind, "fs": float(res["fs"]),
                "sloshrom_version": __version__, "seed": int(seed),
                "modal_frequencies_Hz": modal.frequencies,
-               "modal_damping": modal.damping},
+               "modal_damping": modal.damping,
+               "origin": "measured" if measured else "simulation"},
     )
+    if f1 is not None:
+        ds.attrs["f1_Hz"] = float(f1)
+    if measured:
+        ds.attrs["source"] = "; ".join(str(s) for s in res["source"])
     if multi:
         ids = modal.tank_ids or tuple(range(1, modal.n_tanks + 1))
         ds = ds.assign_coords(tank=("tank", np.asarray(ids, dtype=np.int64)))
@@ -294,7 +314,7 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank | Sequen
                         structure_mass=modal.structure_masses)
     else:
         ds.attrs.update(tank_fill=tanks[0].fill, liquid_mass=tanks[0].liquid_mass,
-                        structure_mass=float(modal.structure_mass))
+                        structure_mass=float(modal.structure_masses[0]))
         if modal.tank_ids is not None:
             ds.attrs["tank_id"] = modal.tank_ids[0]
     if modal.station_ids is not None:

@@ -185,8 +185,8 @@ def _tank_spec(spec: str, base: Tank) -> tuple[int, str | None, Tank]:
     return grid, model, tank
 
 
-def _setup(tank_toml: Path | None, modal_toml: Path | None, seed: int,
-           structure: _Structure | None = None, fill: float | None = None) -> _Setup:
+def setup_structure(tank_toml: Path | None, modal_toml: Path | None, seed: int,
+           structure: StructureOptions | None = None, fill: float | None = None) -> _Setup:
     """Tanks, modal model, the beam it comes from (``None`` for the user's own modal data) and
     the first frozen-liquid mode (Hz), or a user error."""
     from sloshrom.beam.structure import CantileverBeam, ModalModel, coupled_frozen_modes
@@ -221,7 +221,7 @@ def _setup(tank_toml: Path | None, modal_toml: Path | None, seed: int,
 
 
 @dataclass
-class _Structure:
+class StructureOptions:
     """The ``--structure`` options: a modal file and where the tanks and sensors are on it."""
 
     path: Path
@@ -235,7 +235,7 @@ class _Structure:
     @classmethod
     def from_options(cls, path: Path | None, tanks: list[str] | None, outputs: str | None,
                      direction: str, mode_table: Path | None, modes: int | None,
-                     mass_unit: str | None) -> _Structure | None:
+                     mass_unit: str | None) -> StructureOptions | None:
         """The options checked (before any work); ``None`` without ``--structure``."""
         if path is None:
             for given, name in ((tanks, "--tank"), (outputs, "--outputs"),
@@ -281,7 +281,7 @@ class _Structure:
         return modal, tanks, [m for _, m, _ in specs]
 
 
-def _check_outputs(out: Path, names: list[str], inputs: tuple[Path | None, ...]) -> None:
+def check_outputs(out: Path, names: list[str], inputs: tuple[Path | None, ...]) -> None:
     """The directory and every file the command will write, before any work."""
     check_out(out, directory=True, inputs=inputs)
     for name in names:
@@ -321,38 +321,38 @@ def _analysed(what: str, fn: Callable[[], Any]) -> Any:
         fail(f"{what}: {exc}")
 
 
-_TankOpt = Annotated[
+TankOpt = Annotated[
     Path | None, typer.Option(help="Tank TOML (\\[tank] table); default: paper.")]
-_FillOpt = Annotated[float | None, typer.Option(
+FillOpt = Annotated[float | None, typer.Option(
     help="Fill level d/h of the tanks, in (0, 1); overrides --tank-toml's (a --tank "
          "GRID:fill=F wins). A ROM refuses a fill it was not identified at; a fill family "
          "(.toml) runs at it.")]
-_ModalOpt = Annotated[
+ModalOpt = Annotated[
     Path | None, typer.Option(help="Own modal data TOML (\\[modal] table, see docs/beam.md).")]
 _SloshOpt = Annotated[
     list[str] | None, typer.Option("--sloshing", help="frozen | rig | ROM model file "
                                                       "(repeatable; a ROM at a multiple of 500 "
                                                       "Hz, m/s or m/s^2 -> N); default: rig.")]
-_StructureOpt = Annotated[Path | None, typer.Option(
+StructureOpt = Annotated[Path | None, typer.Option(
     help="Modal model of your structure: UFF 55 (.unv/.uff), Nastran punch (.pch), NetCDF "
          "(.nc) or CSV (.csv); see docs/formats.md. Needs --tank.")]
-_TankSpecOpt = Annotated[list[str] | None, typer.Option(
+TankSpecOpt = Annotated[list[str] | None, typer.Option(
     "--tank", help="A tank on --structure (repeatable): GRID[:MODEL][:fill=F], the grid/node "
                    "ID, optionally its own model (frozen | rig | ROM file) and fill (0-1). The "
                    "first is the reference of the damping analysis.")]
 _OutputsOpt = Annotated[str | None, typer.Option(
     help="Output grid IDs on --structure (virtual accelerometers), comma separated; default: "
          "every node, up to 64.")]
-_DirectionOpt = Annotated[str, typer.Option(
+DirectionOpt = Annotated[str, typer.Option(
     help="The up axis of --structure's coordinates, along which the tanks are shaken: +Z, -Z, "
          "+Y, -Y, +X, -X.")]
-_ModeTableOpt = Annotated[Path | None, typer.Option(
+ModeTableOpt = Annotated[Path | None, typer.Option(
     help="Mode table for --structure (CSV or TOML): damping, modal_mass, participation per "
          "mode.")]
-_ModesOpt = Annotated[int | None, typer.Option(
+ModesOpt = Annotated[int | None, typer.Option(
     help=f"Keep the first N modes of --structure (1-{MAX_MODES}; a file with more modes needs "
          "it).")]
-_MassUnitOpt = Annotated[str | None, typer.Option(
+MassUnitOpt = Annotated[str | None, typer.Option(
     help="Mass unit of --structure when the file does not say it (punch): kg, t, g, "
          "lbf*s^2/in.")]
 _UffOpt = Annotated[bool, typer.Option(
@@ -393,17 +393,17 @@ def free(
     duration: Annotated[float, typer.Option(help="s: from 18 periods of mode 1 (1.8 s for "
                                                  f"the paper beam) to {MAX_BEAM_SECONDS:g} "
                                                  "s.")] = 10.0,
-    tank_toml: _TankOpt = None,
-    fill: _FillOpt = None,
-    modal_toml: _ModalOpt = None,
+    tank_toml: TankOpt = None,
+    fill: FillOpt = None,
+    modal_toml: ModalOpt = None,
     seed: Annotated[int, typer.Option(help="Rig seed (>= 0).")] = 0,
-    structure: _StructureOpt = None,
-    tank: _TankSpecOpt = None,
+    structure: StructureOpt = None,
+    tank: TankSpecOpt = None,
     outputs: _OutputsOpt = None,
-    direction: _DirectionOpt = "+Z",
-    mode_table: _ModeTableOpt = None,
-    modes: _ModesOpt = None,
-    mass_unit: _MassUnitOpt = None,
+    direction: DirectionOpt = "+Z",
+    mode_table: ModeTableOpt = None,
+    modes: ModesOpt = None,
+    mass_unit: MassUnitOpt = None,
     uff: _UffOpt = False,
 ) -> None:
     """Free response from a static tip deflection (paper Figs. 14, 16, 20, 21; Table 1).
@@ -421,6 +421,7 @@ def free(
     from sloshrom.beam.coupled import free_response
     from sloshrom.beam.export import write_result_uff
     from sloshrom.beam.results import (
+        damping_band_table,
         frozen_modes_table,
         mode1_decay,
         reference_tank,
@@ -436,9 +437,9 @@ def free(
         fail("--tip-displacement must not be 0 (0 < |tip displacement| < 0.2 m): "
              "a beam at rest has no free response")
     check_number(duration, "--duration", 0.0, MAX_BEAM_SECONDS, lo_open=True, unit="s")
-    st = _Structure.from_options(structure, tank, outputs, direction, mode_table, modes,
+    st = StructureOptions.from_options(structure, tank, outputs, direction, mode_table, modes,
                                  mass_unit)
-    setup = _setup(tank_toml, modal_toml, seed, st, fill)
+    setup = setup_structure(tank_toml, modal_toml, seed, st, fill)
     modal, f1 = setup.modal, setup.f1
     _check_uff_nodes(uff, modal)
     need = min_free_duration(f1)
@@ -448,8 +449,9 @@ def free(
     models = _models(sloshing, setup, seed)
     files = [*(f"free_{c}.nc" for c in models), *_uff_names(uff, "free", models),
              "table1_frozen_modes.csv", "table1_frozen_modes.md",
+             "damping_bands.csv", "damping_bands.md",
              *(f"{f}.png" for f in FREE_FIGURES)]
-    _check_outputs(out, files, _inputs(setup, sloshing, tank_toml, modal_toml, structure,
+    check_outputs(out, files, _inputs(setup, sloshing, tank_toml, modal_toml, structure,
                                        mode_table))
     res = _run_cases(models, "free response",
                      lambda m, fs: free_response(m, modal, tip_displacement, duration,
@@ -458,14 +460,16 @@ def free(
     ref = {case: reference_tank(r) for case, r in res.items()}
     decays = _analysed("damping analysis of mode 1",
                        lambda: {case: mode1_decay(r, modal, f1) for case, r in ref.items()})
+    bands = damping_band_table(ref, decays, f1)
     figs = free_figures(ref, modal, decays)
     with OutputBatch() as batch:  # all result files or none
         for case, r in res.items():
-            ds = to_dataset(r, case, "free", setup.tank, modal, seed)
+            ds = to_dataset(r, case, "free", setup.tank, modal, seed, f1=f1)
             write_dataset(ds, out / f"free_{case}.nc", batch)
             if uff:
                 write_result_uff(ds, out / f"free_{case}.uff", batch=batch)
         write_table(rows, out / "table1_frozen_modes", batch)
+        write_table(bands, out / "damping_bands", batch)
         for name, fig in figs.items():
             savefig(fig, out / f"{name}.png", batch)
     typer.echo(f"wrote {len(res)} result file(s) and figures to {out}")
@@ -487,16 +491,16 @@ def random(
     sigma: Annotated[float, typer.Option(help="PSD standard deviation, Hz (estimate); "
                                               "f0 - 3 sigma >= 0 and f0 + 4 sigma < 250 Hz.")
                      ] = 4.0,
-    tank_toml: _TankOpt = None,
-    fill: _FillOpt = None,
-    modal_toml: _ModalOpt = None,
-    structure: _StructureOpt = None,
-    tank: _TankSpecOpt = None,
+    tank_toml: TankOpt = None,
+    fill: FillOpt = None,
+    modal_toml: ModalOpt = None,
+    structure: StructureOpt = None,
+    tank: TankSpecOpt = None,
     outputs: _OutputsOpt = None,
-    direction: _DirectionOpt = "+Z",
-    mode_table: _ModeTableOpt = None,
-    modes: _ModesOpt = None,
-    mass_unit: _MassUnitOpt = None,
+    direction: DirectionOpt = "+Z",
+    mode_table: ModeTableOpt = None,
+    modes: ModesOpt = None,
+    mass_unit: MassUnitOpt = None,
     uff: _UffOpt = False,
 ) -> None:
     """Random base excitation at several RMS levels (paper Figs. 18, 22, 23; Table 2).
@@ -538,9 +542,9 @@ def random(
         fail(f"--duration {duration:g} s x {len(lv)} level(s) = {duration * len(lv):g} s is "
              f"more than {MAX_LEVEL_SECONDS:g} s (memory: the rig holds about 2.1 MB per second "
              "and level at its 10 kHz step)")
-    st = _Structure.from_options(structure, tank, outputs, direction, mode_table, modes,
+    st = StructureOptions.from_options(structure, tank, outputs, direction, mode_table, modes,
                                  mass_unit)
-    setup = _setup(tank_toml, modal_toml, seed, st, fill)
+    setup = setup_structure(tank_toml, modal_toml, seed, st, fill)
     modal, f1 = setup.modal, setup.f1
     _check_uff_nodes(uff, modal)
     if not modal.has_participation:
@@ -550,7 +554,7 @@ def random(
     files = [*(f"random_{c}.nc" for c in models), *_uff_names(uff, "random", models),
              "table2_mode1_damping.csv", "table2_mode1_damping.md",
              *(f"{f}.png" for f in RANDOM_FIGURES)]
-    _check_outputs(out, files, _inputs(setup, sloshing, tank_toml, modal_toml, structure,
+    check_outputs(out, files, _inputs(setup, sloshing, tank_toml, modal_toml, structure,
                                        mode_table))
     res = _run_cases(models, "random response",
                      lambda m, fs: random_response(m, modal, lv, duration, seed, f0, sigma,
@@ -560,7 +564,7 @@ def random(
                      lambda: mode1_damping_table(ref, lv, f1))
     with OutputBatch() as batch:  # all result files or none
         for case, r in res.items():
-            ds = to_dataset(r, case, "random", setup.tank, modal, seed)
+            ds = to_dataset(r, case, "random", setup.tank, modal, seed, f1=f1)
             write_dataset(ds, out / f"random_{case}.nc", batch)
             if uff:
                 write_result_uff(ds, out / f"random_{case}.uff", batch=batch)

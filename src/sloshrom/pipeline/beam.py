@@ -1,14 +1,32 @@
 """The ``beam`` stage of `sloshrom reproduce`: sloshing-beam tests with rig, ROM and frozen liquid
-(paper Sect. 4-5: Table 1, Figs. 14, 16-18, 20-23, Table 2)."""
+(paper Sect. 4-5: Table 1, Figs. 14, 16-18, 20-23, Table 2).
+
+The rig plays the laboratory as well: its beam runs are written as the UFF 58 files a test lab
+hands over (station and base accelerometers, with sensor noise), read back and analysed as a
+measurement (``sloshrom analyse``), and the predictions are compared with it, interval by
+interval (``sloshrom compare``).
+"""
 
 from __future__ import annotations
 
+import tempfile
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from sloshrom.beam.compare import AnalysedTest, analysed_test, compare_rows
 from sloshrom.beam.coupled import free_response, random_response
+from sloshrom.beam.measured import (
+    lab_test_paths,
+    read_free_test,
+    read_random_test,
+    station_model,
+    write_lab_test,
+)
 from sloshrom.beam.results import (
+    Mode1Decay,
     Simulate,
+    damping_band_table,
     damping_summary,
     envelope_table,
     frozen_modes_table,
@@ -26,13 +44,21 @@ from sloshrom.models import FrozenLiquid, SloshingModel
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.settings import BeamTable
 from sloshrom.plotting import savefig
-from sloshrom.plotting.beam import free_figures, random_figures, random_window
+from sloshrom.plotting.beam import (
+    comparison_figures,
+    free_figures,
+    random_figures,
+    random_window,
+)
 from sloshrom.plotting.signals import base_excitation_figure
 from sloshrom.rom.ensemble import Ensemble, is_ensemble, spread
 from sloshrom.rom.estimators import load_model
 
-__all__ = ["BEAM_KEYS", "beam_structure", "beam_tests", "member_spread", "stage_beam"]
+__all__ = ["BEAM_KEYS", "EXPERIMENT", "beam_structure", "beam_tests", "laboratory", "member_spread",
+           "stage_beam"]
 
+#: Case name of the rig playing the laboratory (its runs read back from the lab's files).
+EXPERIMENT = "experiment"
 #: Keys of the ``[beam]`` table that define the Euler-Bernoulli beam.
 BEAM_KEYS = ("length", "width", "thickness", "youngs_modulus", "density")
 
@@ -77,13 +103,20 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     outputs : dict
         ``f1_frozen_hz`` (Hz), ``table1`` (rows of Table 1), ``instantaneous_damping`` (per case:
         banded median first-mode damping, ``sloshrom.beam.results.damping_summary``),
-        ``table2`` (rows of Table 2) and ``envelope`` (per run and case: peak tank acceleration
-        against the model's training envelope, ``sloshrom.beam.results.envelope_table``;
-        ``None`` = n/a for a model without an envelope).
+        ``table2`` (rows of Table 2 with 95 % intervals, the simulated cases and the
+        :data:`EXPERIMENT`), ``damping_bands`` (free decays: damping per amplitude band and
+        method with intervals, ``sloshrom.beam.results.damping_band_table``), ``experiment``
+        (the rig as the laboratory, :func:`laboratory`: ``noise_rms`` (m/s^2), ``files``, and
+        ``free``/``random``: the rows of ``sloshrom.beam.compare.compare_rows``, each
+        prediction against the experiment's intervals) and ``envelope`` (per run and case: peak
+        tank acceleration against the model's training envelope,
+        ``sloshrom.beam.results.envelope_table``; ``None`` = n/a for a model without an
+        envelope).
     files : list of str
         ``beam/{free,random}_<case>.nc`` (with the envelope coverage,
-        ``sloshrom.beam.results.to_dataset``), the tables and the figures, relative to ``ctx.out``;
-        they appear together once everything has succeeded.
+        ``sloshrom.beam.results.to_dataset``; the experiment's too), the lab files
+        ``beam/lab/*.uff`` and their channel maps, the tables and the figures, relative to
+        ``ctx.out``; they appear together once everything has succeeded.
     """
     cfg = ctx.cfg.beam
     fs = float(ctx.cfg.rig.fs)  # the beam's sensors record at the rig's record rate
@@ -117,29 +150,99 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     decays = {case: mode1_decay(r, modal, f1) for case, r in free_res.items()}
     outputs["instantaneous_damping"] = damping_summary(free_res, decays)
     table2 = mode1_damping_table(rand_res, cfg.rms_g, f1, max_tank_acceleration=True)
-    outputs["table2"] = table2
+    bands = damping_band_table(free_res, decays, f1)
     outputs["envelope"] = envelope_table({"free": free_res, "random": rand_res})
+
+    ctx.progress("beam", steps, steps, "the rig as the laboratory: files, analyses, comparison")
+    with tempfile.TemporaryDirectory() as tmp:
+        lab = laboratory(free_res["rig"], rand_res["rig"], modal, beam, cfg, f1, Path(tmp))
+    exp_free, exp_random = lab["free"], lab["random"]
+    table2 += exp_random.rows
+    bands += exp_free.rows
+    outputs["table2"] = table2
+    outputs["damping_bands"] = bands
+    predicted_free = [analysed_test(c, "free", free_res[c], f1,
+                                    [r for r in bands if r["case"] == c], decays[c])
+                      for c in models]
+    predicted_random = [analysed_test(c, "random", rand_res[c], f1,
+                                      [r for r in table2 if r["case"] == c]) for c in models]
+    outputs["experiment"] = {
+        "noise_rms": cfg.lab_noise, "files": [f"lab/{n}" for n in lab["files"]],
+        "free": compare_rows(exp_free, predicted_free),
+        "random": compare_rows(exp_random, predicted_random)}
 
     if is_ensemble(models.get("rom")):
         outputs["rom_members"] = member_spread(models["rom"], tests, modal, cfg.rms_g, fs,
                                                f1, ctx)
 
     figs = {**free_figures(free_res, modal, decays),
-            **random_figures(rand_res, cfg.rms_g, random_window(cfg.random_duration))}
+            **random_figures(rand_res, cfg.rms_g, random_window(cfg.random_duration)),
+            **comparison_figures(exp_free, predicted_free),
+            **comparison_figures(exp_random, predicted_random)}
     figs["fig17_base_excitation"] = base_excitation_figure(rand_res["frozen"], cfg.rms_g,
                                                            cfg.f0, cfg.sigma, fs)
     # every result file of the stage appears together, once everything above has succeeded
     with OutputBatch() as batch:
         for case in models:
             for kind, res in (("free", free_res), ("random", rand_res)):
-                write_dataset(to_dataset(res[case], case, kind, tank, modal, cfg.seed),
+                write_dataset(to_dataset(res[case], case, kind, tank, modal, cfg.seed, f1=f1),
                               out / f"{kind}_{case}.nc", batch)
+        for kind in ("free", "random"):
+            write_dataset(to_dataset(lab[f"{kind}_result"], EXPERIMENT, kind, tank,
+                                     lab["modal"], cfg.seed, f1=f1),
+                          out / f"{kind}_{EXPERIMENT}.nc", batch)
+        for name, data in lab["files"].items():
+            batch.write(out / "lab" / name, lambda tmp, data=data: Path(tmp).write_bytes(data))
         write_table(rows, out / "table1_frozen_modes", batch)
         write_table(table2, out / "table2_mode1_damping", batch)
+        write_table(bands, out / "damping_bands", batch)
+        for kind in ("free", "random"):
+            write_table(outputs["experiment"][kind], out / f"comparison_{kind}", batch)
         for name, fig in figs.items():
             savefig(fig, ctx.path("figures", f"{name}.png"), batch)
         files = [ctx.rel(p) for p in batch.paths]
     return outputs, files
+
+
+def laboratory(free: Mapping[str, Any], random: Mapping[str, Any], modal: ModalModel,
+               beam: CantileverBeam, cfg: BeamTable, f1: float, folder: Path
+               ) -> dict[str, Any]:
+    """The rig plays the laboratory: its beam runs as a test lab's files, analysed as measured.
+
+    The free and random responses are written as UFF 58 files (``sloshrom.beam.measured.
+    write_lab_test``: the station accelerometers, and the base for the random tests, each with
+    white noise of ``cfg.lab_noise`` m/s^2 RMS) into ``folder``, read back with their channel
+    map and analysed exactly as ``sloshrom analyse`` analyses a measurement.
+
+    Returns
+    -------
+    dict
+        ``free``, ``random``: the :class:`~sloshrom.beam.compare.AnalysedTest` of the
+        experiment (case :data:`EXPERIMENT`); ``free_result``, ``random_result``: the result
+        dicts read from the files; ``modal``: the structure seen by the map's stations;
+        ``files``: file name -> content (bytes) of the lab files and their channel map
+        (``channels_free.toml``, ``channels_random.toml``).
+    """
+    free_path, random_path = folder / "free_rig.uff", folder / "random_rig.uff"
+    cmap_free = write_lab_test(free, modal, free_path, kind="free", noise_rms=cfg.lab_noise,
+                               seed=cfg.seed)
+    cmap_random = write_lab_test(random, modal, random_path, kind="random",
+                                 noise_rms=cfg.lab_noise, seed=cfg.seed + 1, levels=cfg.rms_g)
+    cmap_free.write_toml(folder / "channels_free.toml")
+    cmap_random.write_toml(folder / "channels_random.toml")
+    lab_modal = station_model(modal, cmap_free, beam)
+    res_free = read_free_test(free_path, cmap_free, lab_modal)
+    res_random = read_random_test(lab_test_paths(random_path, "random", cfg.rms_g), cmap_random,
+                                  lab_modal, levels=cfg.rms_g)
+    decay: Mode1Decay = mode1_decay(res_free, lab_modal, f1)
+    bands = damping_band_table({EXPERIMENT: res_free}, {EXPERIMENT: decay}, f1)
+    table2 = mode1_damping_table({EXPERIMENT: res_random}, cfg.rms_g, f1,
+                                 max_tank_acceleration=True)
+    exp_free: AnalysedTest = analysed_test(EXPERIMENT, "free", res_free, f1, bands, decay)
+    exp_random = analysed_test(EXPERIMENT, "random", res_random, f1, table2)
+    files = {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
+    return {"free": exp_free, "random": exp_random, "free_result": res_free,
+            "random_result": res_random, "modal": lab_modal, "files": files}
 
 
 def member_spread(ens: Ensemble, tests: dict[str, Simulate], modal: ModalModel,

@@ -15,6 +15,7 @@ import numpy as np
 from sloshrom.pipeline import html as report
 from sloshrom.pipeline import settings
 from sloshrom.pipeline.context import Context
+from sloshrom.pipeline.experiment import experiment_tables, interval_text, percent
 from sloshrom.pipeline.html import Figure, Section, Table
 from sloshrom.pipeline.maps import HYSTERESIS_FREQUENCY, HYSTERESIS_GAMMA
 from sloshrom.studies.baseline.section import baseline_section
@@ -336,13 +337,6 @@ def _envelope_table(rows: Any) -> list[Table]:
                   "acceleration.")]
 
 
-def _pct(v: Any) -> str:
-    try:
-        return "–" if not np.isfinite(v) else f"{100 * float(v):.2f} %"
-    except TypeError:
-        return "–"
-
-
 def _beam_sections(ctx: Context, b: dict[str, Any]) -> list[Section]:
     """Sections 6-8: the sloshing beam (outputs ``b`` of the ``beam`` stage)."""
     figdir = Path(ctx.out) / "figures"
@@ -353,28 +347,29 @@ def _beam_sections(ctx: Context, b: dict[str, Any]) -> list[Section]:
 
     t1 = Table(["mode", "f dry [Hz]", "f frozen [Hz]", "f coupled [Hz]", "ζ", "modal mass [kg]"],
                [[r["mode"], r["f_dry_Hz"], r["f_frozen_Hz"], r["f_coupled_Hz"],
-                 _pct(r["damping"]), r["modal_mass_kg"]] for r in b["table1"]],
+                 percent(r["damping"]), r["modal_mass_kg"]] for r in b["table1"]],
                "Table 1 analogue: modes of the beam with frozen liquid (unit maximum "
                "displacement normalisation; damping ratios are estimates).")
     inst = b["instantaneous_damping"]
     cases = list(inst)
     bands = [k for k in next(iter(inst.values())) if k.endswith(" g")]
     t_inst = Table(["tank acceleration"] + cases,
-                   [[band] + [_pct(inst[c][band]) for c in cases] for band in bands],
+                   [[band] + [percent(inst[c][band]) for c in cases] for band in bands],
                    "Median first-mode instantaneous damping (Hilbert) in bands of tank "
                    "acceleration amplitude, free response.")
 
-    def spread(r: dict[str, Any], key: str) -> str:
-        return f"{_pct(r[key])} ± {_pct(r[key + '_iqr'] / 2)}"
+    def ci(r: dict[str, Any], key: str) -> str:
+        return interval_text(r[key], r.get(key + "_low", np.nan), r.get(key + "_high", np.nan))
 
     t2 = Table(["case", "RMS [g]", "max tank acc. [g]", "LSCF on H1", "output-only LSCF",
                 "half power"],
-               [[r["case"], r["rms_g"], r["max_tank_acceleration_g"], spread(r, "lscf_h1"),
-                 spread(r, "lscf_output"), _pct(r["half_power"])] for r in b["table2"]],
-               "Table 2 analogue: first-mode damping from the random tests. LSCF columns: "
-               "median over the stable poles of model orders 2-40 ± half their interquartile "
-               "range; output-only: half-spectrum of the tank acceleration (no base signal "
-               "needed), corrected for its exponential window.")
+               [[r["case"], r["rms_g"], r["max_tank_acceleration_g"], ci(r, "lscf_h1"),
+                 ci(r, "lscf_output"), ci(r, "half_power")] for r in b["table2"]],
+               "Table 2 analogue: first-mode damping from the random tests, each with its 95 % "
+               "interval (docs/beam.md, \"Uncertainty of the damping estimates\"). LSCF "
+               "columns: median over the stable poles of model orders 2-40; output-only: "
+               "half-spectrum of the tank acceleration (no base signal needed), corrected for "
+               "its exponential window.")
     tables2 = [t2]
     rm = b.get("rom_members")
     if isinstance(rm, dict):
@@ -407,8 +402,11 @@ def _beam_sections(ctx: Context, b: dict[str, Any]) -> list[Section]:
             + fig("fig20_tank_interface_dynamic", "Fig. 20 — tank acceleration, interface force"
                   " and dynamic sloshing force.")
             + fig("fig21_instantaneous_damping", "Fig. 21 — first-mode instantaneous damping "
-                  "against tank acceleration amplitude (Hilbert envelope, log-decrement dots)."),
-            [t_inst],
+                  "against tank acceleration amplitude (Hilbert envelope, log-decrement dots).")
+            + fig("fig21_comparison", "Fig. 21, as the paper sets it: the rig as the "
+                  "laboratory (black, its 95 % intervals per amplitude band as grey boxes) "
+                  "against the predictions."),
+            [t_inst, *experiment_tables(b.get("experiment"), "free")],
         ),
         Section(
             "8. Random base excitation (paper Figs. 18, 22, 23, Table 2)",
@@ -424,8 +422,11 @@ def _beam_sections(ctx: Context, b: dict[str, Any]) -> list[Section]:
             + fig("fig22_tank_acceleration_window", "Fig. 22 — tank acceleration in a 2 s "
                   "window: rig, ROM and frozen.")
             + fig("fig23_psd", "Fig. 23 — Welch PSDs of the tank acceleration: sloshing lowers "
-                  "the resonance peak."),
-            [*tables2, *_envelope_table(b.get("envelope"))],
+                  "the resonance peak.")
+            + fig("table2_comparison", "Table 2 as intervals: the rig as the laboratory "
+                  "(squares) and the predictions, each estimate with its 95 % interval."),
+            [*tables2, *experiment_tables(b.get("experiment"), "random"),
+             *_envelope_table(b.get("envelope"))],
         ),
     ]
 

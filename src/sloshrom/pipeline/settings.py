@@ -507,6 +507,7 @@ class BeamTable(_Table):
     n_modes: _number(1, MAX_MODES, integer=True, what="an integer",
                      why="the modal filter separates at most as many modes as the beam has "
                          "accelerometer stations")
+    lab_noise: _number(0.0, 10.0, what="an accelerometer noise RMS in m/s^2")
 
     @model_validator(mode="after")
     def _consistent(self) -> BeamTable:

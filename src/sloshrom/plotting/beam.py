@@ -1,5 +1,6 @@
 """Figures of the sloshing-beam tests: free response (paper Figs. 14, 16, 20, 21) and random
-response (Figs. 18, 22, 23).
+response (Figs. 18, 22, 23); a measurement against predictions (Figs. 21, 23 and Table 2 with
+their intervals).
 
 Each function returns ``{file stem: Figure}``; the stems are the result files' names.
 """
@@ -9,14 +10,17 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+import numpy as np
 from matplotlib.figure import Figure
 
 from sloshrom.beam.analysis import welch_psd
+from sloshrom.beam.compare import AnalysedTest, match_levels
 from sloshrom.beam.results import Mode1Decay
 from sloshrom.beam.structure import ModalModel
 from sloshrom.config import G
 
-__all__ = ["FREE_FIGURES", "RANDOM_FIGURES", "free_figures", "random_figures", "random_window"]
+__all__ = ["COMPARE_FIGURES", "FREE_FIGURES", "RANDOM_FIGURES", "comparison_figures",
+           "free_figures", "random_figures", "random_window"]
 
 FREE_FIGURES = ("fig14_station_accelerations", "fig16_modal_accelerations",
                 "fig20_tank_interface_dynamic", "fig21_instantaneous_damping")
@@ -39,7 +43,8 @@ def free_figures(res: Mapping[str, Mapping[str, Any]], modal: ModalModel,
     Returns
     -------
     dict
-        :data:`FREE_FIGURES` stem -> Figure.
+        :data:`FREE_FIGURES` stem -> Figure (without Fig. 20, the forces, when a case has
+        none: a measured test).
     """
     figs = {}
     cases = list(res)
@@ -66,19 +71,20 @@ def free_figures(res: Mapping[str, Mapping[str, Any]], modal: ModalModel,
     fig.suptitle("Modal accelerations (modal filtering of the station accelerations)")
     figs["fig16_modal_accelerations"] = fig
 
-    fig = Figure(figsize=(8, 7))
-    axes = fig.subplots(3, 1, sharex=True)
-    for case in cases:
-        r = res[case]
-        axes[0].plot(r["time"], r["tank_acceleration"] / G, lw=0.6, label=case)
-        axes[1].plot(r["time"], r["interface_force"], lw=0.6, label=case)
-        axes[2].plot(r["time"], r["dynamic_force"], lw=0.6, label=case)
-    for ax, lab in zip(axes, ("tank acc. (g)", "interface force (N)", "dynamic force (N)"),
-                       strict=True):
-        ax.set_ylabel(lab)
-    axes[0].legend(fontsize=8)
-    axes[-1].set_xlabel("time (s)")
-    figs["fig20_tank_interface_dynamic"] = fig
+    if all("interface_force" in res[c] for c in cases):  # a measured test has no forces
+        fig = Figure(figsize=(8, 7))
+        axes = fig.subplots(3, 1, sharex=True)
+        for case in cases:
+            r = res[case]
+            axes[0].plot(r["time"], r["tank_acceleration"] / G, lw=0.6, label=case)
+            axes[1].plot(r["time"], r["interface_force"], lw=0.6, label=case)
+            axes[2].plot(r["time"], r["dynamic_force"], lw=0.6, label=case)
+        for ax, lab in zip(axes, ("tank acc. (g)", "interface force (N)", "dynamic force (N)"),
+                           strict=True):
+            ax.set_ylabel(lab)
+        axes[0].legend(fontsize=8)
+        axes[-1].set_xlabel("time (s)")
+        figs["fig20_tank_interface_dynamic"] = fig
 
     fig = Figure(figsize=(7, 4.5))
     ax = fig.subplots()
@@ -162,4 +168,111 @@ def random_figures(res: Mapping[str, Mapping[str, Any]], levels: Sequence[float]
     axes[0, 0].set_ylabel("PSD tank acc. ((m/s²)²/Hz)")
     axes[0, 0].legend(fontsize=8)
     figs["fig23_psd"] = fig
+    return figs
+
+
+#: Figures of ``sloshrom compare``: free decays / random tests.
+COMPARE_FIGURES = {"free": ("fig21_comparison",),
+                   "random": ("fig23_comparison", "table2_comparison")}
+
+
+def comparison_figures(measured: AnalysedTest, predicted: Sequence[AnalysedTest]
+                       ) -> dict[str, Figure]:
+    """The measurement and the predictions in the paper's figures, with the intervals.
+
+    Free decays (Fig. 21): first-mode instantaneous damping against tank acceleration amplitude,
+    the measurement in black with its per-band 95 % intervals (Hilbert: boxes spanning the band;
+    log decrement: error bars), each prediction's curve and band medians in colour. Random tests:
+    the Welch PSDs of the tank acceleration per level (Fig. 23) and Table 2 as error bars
+    (LSCF on H1, output-only LSCF, half power; the measurement first, each case beside it).
+
+    Parameters
+    ----------
+    measured, predicted : AnalysedTest
+        From :func:`sloshrom.beam.compare.analyse_test`.
+
+    Returns
+    -------
+    dict
+        :data:`COMPARE_FIGURES` stem -> Figure.
+    """
+    tests = [measured, *predicted]
+    if measured.kind == "free":
+        fig = Figure(figsize=(7.5, 4.8))
+        ax = fig.subplots()
+        bands = {r["band"]: r for r in measured.rows if r["method"] == "hilbert"}
+        for k, t in enumerate(tests):
+            colour = "k" if k == 0 else f"C{k - 1}"
+            assert t.decay is not None
+            h = t.decay.hilbert
+            ax.plot(h["amplitude"] / G, 100 * h["zeta"], lw=1.2 if k == 0 else 0.9,
+                    color=colour, label=f"{t.case} (Hilbert)")
+            for r in t.rows:
+                lo_g, hi_g = (float(x) for x in r["band"].removesuffix(" g").split("-"))
+                mid = 0.5 * (lo_g + hi_g) * (1 + 0.03 * (k - len(tests) / 2))
+                if r["method"] == "log_decrement":
+                    ax.errorbar(mid, 100 * r["zeta"],
+                                yerr=[[100 * (r["zeta"] - r["low"])],
+                                      [100 * (r["high"] - r["zeta"])]],
+                                fmt="o", ms=3, color=colour, capsize=2)
+        for band, r in bands.items():
+            lo_g, hi_g = (float(x) for x in band.removesuffix(" g").split("-"))
+            if np.isfinite(r["low"]) and np.isfinite(r["high"]):
+                ax.fill_between([lo_g, hi_g], 100 * r["low"], 100 * r["high"], color="k",
+                                alpha=0.12, lw=0)
+        ax.set_xlabel("tank acceleration amplitude (g)")
+        ax.set_ylabel("first-mode damping ratio (%)")
+        ax.set_title(f"{measured.case}: grey boxes = 95 % intervals per band (Hilbert); "
+                     "dots = log decrement", fontsize=9)
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+        return {"fig21_comparison": fig}
+
+    levels = measured.levels
+    fig = Figure(figsize=(4 * len(levels), 3.8))
+    axes = fig.subplots(1, len(levels), squeeze=False)
+    for k, t in enumerate(tests):
+        assert t.psd is not None
+        f, p = t.psd
+        for i, lv in enumerate(levels):
+            j = match_levels([lv], t.levels)[0]
+            if j is not None:
+                axes[0, i].semilogy(f, p[j], lw=1.2 if k == 0 else 0.8,
+                                    color="k" if k == 0 else f"C{k - 1}", label=t.case)
+    for i, lv in enumerate(levels):
+        top = max(ln.get_ydata().max() for ln in axes[0, i].get_lines())
+        axes[0, i].set_ylim(top * 1e-6, top * 3)
+        axes[0, i].set_xlim(0, 40)
+        axes[0, i].set_title(f"{lv:.3g} g RMS")
+        axes[0, i].set_xlabel("frequency (Hz)")
+    axes[0, 0].set_ylabel("PSD tank acc. ((m/s²)²/Hz)")
+    axes[0, 0].legend(fontsize=8)
+    figs = {"fig23_comparison": fig}
+
+    names = {"lscf_h1": "LSCF on H1", "lscf_output": "output-only LSCF",
+             "half_power": "half power"}
+    fig = Figure(figsize=(4 * len(names), 3.8))
+    axes = fig.subplots(1, len(names), squeeze=False, sharey=True)
+    width = 0.6 / max(len(tests), 1)
+    for col, (est, title) in enumerate(names.items()):
+        ax = axes[0, col]
+        for k, t in enumerate(tests):
+            for i, lv in enumerate(levels):
+                j = match_levels([lv], t.levels)[0]
+                if j is None:
+                    continue
+                r = t.rows[j]
+                z, lo, hi = r[est], r.get(f"{est}_low", np.nan), r.get(f"{est}_high", np.nan)
+                err = ([[100 * (z - lo)], [100 * (hi - z)]]
+                       if np.isfinite(lo) and np.isfinite(hi) else None)
+                ax.errorbar(i + (k - (len(tests) - 1) / 2) * width, 100 * z, yerr=err,
+                            fmt="s" if k == 0 else "o", ms=4, capsize=3,
+                            color="k" if k == 0 else f"C{k - 1}",
+                            label=t.case if i == 0 else None)
+        ax.set_xticks(range(len(levels)), [f"{lv:.3g} g" for lv in levels])
+        ax.set_title(title)
+        ax.grid(alpha=0.3)
+    axes[0, 0].set_ylabel("first-mode damping ratio (%), 95 % intervals")
+    axes[0, 0].legend(fontsize=8)
+    figs["table2_comparison"] = fig
     return figs

@@ -51,6 +51,10 @@ class BaselineOutputs:
         The same for every case (ball, ROM, rig, frozen).
     comparison : list of dict
         :func:`~sloshrom.studies.baseline.stage.comparison_rows`.
+    experiment : dict
+        The ball beside the rig playing the laboratory
+        (:func:`~sloshrom.studies.baseline.stage.ball_against_experiment`), when the ``beam``
+        stage had one.
     """
 
     fit_seconds: float | None = None
@@ -70,6 +74,7 @@ class BaselineOutputs:
     table2_all: list[dict[str, Any]]
     instantaneous_damping_all: dict[str, Any]
     comparison: list[dict[str, Any]]
+    experiment: dict[str, Any] | None = None
 
     def as_record(self) -> dict[str, Any]:
         """The JSON-able record, keys in the order of the fields, absent ones left out."""

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from sloshrom.pipeline.context import Context
+from sloshrom.pipeline.experiment import experiment_tables
 from sloshrom.pipeline.html import Figure as ReportFigure
 from sloshrom.pipeline.html import Section, Table
 from sloshrom.studies.baseline.config import CASE, FREQUENCY_BANDS
@@ -187,4 +188,6 @@ def baseline_section(ctx: Context, outputs: BaselineOutputs | Mapping[str, Any])
               "tests.")
     )
     return Section("The bouncing-ball baseline", _honest_paragraph(o), figures,
-                   [params, comp, band_table])
+                   [params, comp, band_table,
+                    *experiment_tables(o.experiment, "random"),
+                    *experiment_tables(o.experiment, "free")])

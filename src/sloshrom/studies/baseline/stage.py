@@ -21,7 +21,10 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from sloshrom.beam.compare import AnalysedTest, analysed_test, compare_rows
 from sloshrom.beam.results import (
+    Mode1Decay,
+    damping_band_table,
     damping_summary,
     envelope_table,
     mode1_damping_table,
@@ -36,7 +39,7 @@ from sloshrom.energy import DISSIPATIVE_THRESHOLD, map_fidelity, map_maximum
 from sloshrom.fileio import OutputBatch
 from sloshrom.io import Record, read_record
 from sloshrom.models import FrozenLiquid, SloshingModel
-from sloshrom.pipeline.beam import beam_structure, beam_tests
+from sloshrom.pipeline.beam import EXPERIMENT, beam_structure, beam_tests
 from sloshrom.pipeline.cache import StageResult
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.maps import compute_map, write_map
@@ -48,8 +51,8 @@ from sloshrom.studies.baseline.config import BALL_MODEL, CASE, FREQUENCY_BANDS, 
 from sloshrom.studies.baseline.figures import frequency_band_figure
 from sloshrom.studies.baseline.outputs import BaselineOutputs
 
-__all__ = ["comparison_rows", "fit_ball", "frequency_band_errors", "lowpassed_nrmse",
-           "stage_baseline"]
+__all__ = ["ball_against_experiment", "comparison_rows", "fit_ball", "frequency_band_errors",
+           "lowpassed_nrmse", "stage_baseline"]
 
 #: The ``data`` stage's records the ball is identified on (paths as its record lists them).
 TRAIN_RECORD, VALIDATION_RECORD = "data/train.nc", "data/validation.nc"
@@ -181,6 +184,26 @@ def comparison_rows(outputs: Mapping[str, Any]) -> list[dict[str, Any]]:
             "instantaneous_damping": {k: v for k, v in inst[case].items() if k.endswith(" g")},
         })
     return rows
+
+
+def ball_against_experiment(beam_outputs: Mapping[str, Any], table2: list[dict[str, Any]],
+                            bands: list[dict[str, Any]], random: Mapping[str, Any],
+                            decay: Mode1Decay, fs: float, f1: float) -> dict[str, Any]:
+    """The ball's damping beside the rig playing the laboratory (the ``beam`` stage's
+    ``experiment``): ``free`` and ``random`` rows of ``sloshrom.beam.compare.compare_rows``."""
+    exp_random = [r for r in beam_outputs["table2"] if r["case"] == EXPERIMENT]
+    exp_free = [r for r in beam_outputs.get("damping_bands", []) if r["case"] == EXPERIMENT]
+    out: dict[str, Any] = {}
+    if exp_random:
+        measured = AnalysedTest(EXPERIMENT, "random", fs, f1, exp_random,
+                                levels=[float(r["rms_g"]) for r in exp_random])
+        out["random"] = compare_rows(measured, [analysed_test(CASE, "random", random, f1,
+                                                              table2)])
+    if exp_free:
+        measured = AnalysedTest(EXPERIMENT, "free", fs, f1, exp_free)
+        out["free"] = compare_rows(measured, [analysed_test(CASE, "free", {"fs": fs}, f1, bands,
+                                                            decay)])
+    return out
 
 
 # -- the stage -----------------------------------------------------------------------------------
@@ -321,6 +344,10 @@ def stage_baseline(ctx: Context, data: StageResult, rom: StageResult | None = No
             **damping_summary(others_free, {c: decays_all[c] for c in others_free}),
             **outputs["instantaneous_damping"]}
     outputs["comparison"] = comparison_rows(outputs)
+    if beam_outputs is not None and "experiment" in beam_outputs:
+        outputs["experiment"] = ball_against_experiment(
+            beam_outputs, table2, damping_band_table(free, decays, f1), rand[CASE], decays[CASE],
+            fs, f1)
 
     # -- files, all together
     ctx.progress("baseline", 4, steps, "figures")

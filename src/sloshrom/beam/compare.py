@@ -1,0 +1,291 @@
+"""Measured against predicted: the first-mode damping of beam tests side by side, with intervals.
+
+A beam result file (the NetCDF of ``sloshrom beam``, ``sloshrom analyse`` or the ``beam`` stage
+of ``sloshrom reproduce``) holds the station, base and tank accelerations, the mode shapes at the
+stations used for modal filtering (``psi_stations``) and the first-mode frequency the analyses
+band-pass around (attribute ``f1_Hz``). :func:`test_from_dataset` turns one into the result dict
+the analyses read, :func:`analyse_test` runs them (free decay: damping per amplitude band with
+intervals; random test: paper Table 2 with intervals), and :func:`compare_rows` sets the
+predictions beside the measurement with a verdict per level (or band) and estimator:
+
+* ``inside`` / ``outside``: the prediction lies inside / outside the measurement's interval
+  (``no interval`` when the measurement has none, ``n/a`` when an estimate is missing);
+* ``z``: the difference in units of the standard deviation of the difference of two uncertain
+  numbers, ``(zeta_p - zeta_m) / sqrt(std_m^2 + std_p^2)``; ``consistent`` when ``|z| <= z_c``
+  (1.96 at 95 %).
+
+Pure functions: datasets and dicts in, rows out; no files are read or written here.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from scipy import stats
+
+from sloshrom.beam.analysis import instantaneous_damping, log_decrement, modal_filter, welch_psd
+from sloshrom.beam.errors import BeamError
+from sloshrom.beam.results import Mode1Decay, damping_band_table, mode1_damping_table
+from sloshrom.beam.uncertainty import CONFIDENCE
+
+__all__ = ["ESTIMATORS", "AnalysedTest", "analyse_test", "analysed_test", "compare_rows",
+           "match_levels", "test_from_dataset"]
+
+#: Table 2 estimators compared (keys of ``results.mode1_damping_table`` rows).
+ESTIMATORS = ("lscf_h1", "lscf_output", "half_power")
+# the relative difference of RMS levels that still counts as the same level (a measured base
+# RMS is never exactly the nominal one)
+LEVEL_TOLERANCE = 0.1
+
+
+@dataclass
+class AnalysedTest:
+    """One beam test (measured or simulated) and its first-mode damping analyses.
+
+    Attributes
+    ----------
+    case : str
+        Its name (``measured``, ``rig``, ``rom``, ``frozen``, ...).
+    kind : str
+        ``"free"`` or ``"random"``.
+    fs, f1 : float
+        Sample rate and first-mode frequency of the analyses, Hz.
+    rows : list of dict
+        Free: ``results.damping_band_table`` rows (band, method, zeta, std, low, high, ...);
+        random: ``results.mode1_damping_table`` rows (rms_g and every estimator with its
+        ``_std``, ``_low``, ``_high``).
+    decay : Mode1Decay or None
+        Free tests: the mode-1 analysis (Fig. 21 curves).
+    psd : tuple or None
+        Random tests: ``(f (Hz), P (level, f) ((m/s^2)^2/Hz))`` Welch PSDs of the tank
+        acceleration (Fig. 23).
+    levels : list of float
+        Random tests: RMS base acceleration per level, g.
+    source : str
+        Where the test came from (the dataset's ``source`` attribute, else its case).
+    """
+
+    case: str
+    kind: str
+    fs: float
+    f1: float
+    rows: list[dict[str, Any]]
+    decay: Mode1Decay | None = None
+    psd: tuple[np.ndarray, np.ndarray] | None = None
+    levels: list[float] = field(default_factory=list)
+    source: str = ""
+
+
+def test_from_dataset(ds: xr.Dataset) -> tuple[dict[str, Any], np.ndarray]:
+    """The result dict of a beam result dataset, and the station mode shapes of its analysis.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A beam result (``sloshrom.beam.results.to_dataset``): attributes ``test``, ``fs``,
+        ``f1_Hz``; variables ``station_acceleration``, ``tank_acceleration``,
+        ``base_acceleration`` (m/s^2) and ``psi_stations`` (station, mode). With several tanks
+        the first is the reference (as in ``sloshrom beam``).
+
+    Returns
+    -------
+    res : dict
+        ``time`` (s), ``fs`` (Hz), ``base_acceleration``, ``station_acceleration``,
+        ``tank_acceleration`` (m/s^2; random tests with a leading level axis) and, for random
+        tests, ``rms_levels_g`` (g).
+    psi : ndarray (n_stations, n_modes)
+
+    Raises
+    ------
+    BeamError
+        The dataset is not a beam result of this version (a name it lacks), or a unit is not
+        m/s^2.
+    """
+    kind = ds.attrs.get("test")
+    if kind not in ("free", "random"):
+        raise BeamError(f"not a beam test result: attribute 'test' is {kind!r}, not 'free' or "
+                        "'random'")
+    need = ("station_acceleration", "tank_acceleration", "base_acceleration", "psi_stations")
+    missing = [v for v in need if v not in ds.variables]
+    if "f1_Hz" not in ds.attrs or "fs" not in ds.attrs:
+        missing += [a for a in ("f1_Hz", "fs") if a not in ds.attrs]
+    if missing:
+        raise BeamError(f"the beam result lacks {', '.join(missing)} (written by an older "
+                        "sloshrom? run the test again with this version)")
+    for v in need[:3]:
+        unit = ds[v].attrs.get("units")
+        if unit != "m/s^2":
+            raise BeamError(f"{v} is in {unit!r}, expected 'm/s^2'")
+    if "tank" in ds.dims:
+        ds = ds.isel(tank=0)
+    res: dict[str, Any] = {
+        "time": np.asarray(ds["time"].values, float), "fs": float(ds.attrs["fs"]),
+        **{v: np.asarray(ds[v].values, float) for v in need[:3]}}
+    if kind == "random":
+        if "level" not in ds.dims:
+            raise BeamError("a random-test result needs a 'level' dimension")
+        res["rms_levels_g"] = [float(x) for x in ds["level"].values]
+    return res, np.asarray(ds["psi_stations"].values, float)
+
+
+def _decay(res: Mapping[str, Any], psi: np.ndarray, f1: float) -> Mode1Decay:
+    q = modal_filter(res["station_acceleration"] - res["base_acceleration"][..., None], psi)
+    ref = res["tank_acceleration"]
+    return Mode1Decay(modal=q,
+                      hilbert=instantaneous_damping(q[:, 0], res["fs"], f1, reference=ref),
+                      log_decrement=log_decrement(q[:, 0], res["fs"], f1, reference=ref))
+
+
+def analyse_test(ds: xr.Dataset, case: str | None = None) -> AnalysedTest:
+    """Run the first-mode damping analyses of a beam result dataset, with intervals.
+
+    Free decays: modal filtering with the dataset's ``psi_stations``, Hilbert and log-decrement
+    damping per amplitude band (``results.damping_band_table``). Random tests: paper Table 2
+    (``results.mode1_damping_table``) and the Welch PSDs of the tank acceleration (8192
+    samples, as Fig. 23).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        See :func:`test_from_dataset`.
+    case : str, optional
+        Name of the test in the tables; default the dataset's ``case`` attribute.
+    """
+    res, psi = test_from_dataset(ds)
+    name = str(case or ds.attrs.get("case", "test"))
+    f1, kind = float(ds.attrs["f1_Hz"]), str(ds.attrs["test"])
+    if kind == "free":
+        decay = _decay(res, psi, f1)
+        rows = damping_band_table({name: res}, {name: decay}, f1)
+    else:
+        decay, rows = None, mode1_damping_table({name: res}, res["rms_levels_g"], f1)
+    return analysed_test(name, kind, res, f1, rows, decay,
+                         source=str(ds.attrs.get("source", name)))
+
+
+def analysed_test(case: str, kind: str, res: Mapping[str, Any], f1: float,
+                  rows: list[dict[str, Any]], decay: Mode1Decay | None = None,
+                  source: str = "") -> AnalysedTest:
+    """An :class:`AnalysedTest` from analyses already made (``rows``: this case's rows of
+    ``results.damping_band_table`` or ``results.mode1_damping_table``; ``decay``: its
+    ``results.mode1_decay`` for a free test); random tests get their Welch PSDs here."""
+    if kind == "free":
+        if decay is None:
+            raise BeamError("a free test needs its mode-1 decay analysis")
+        return AnalysedTest(case, kind, float(res["fs"]), f1, rows, decay=decay,
+                            source=source or case)
+    return AnalysedTest(case, kind, float(res["fs"]), f1, rows,
+                        psd=welch_psd(res["tank_acceleration"], res["fs"], nperseg=8192),
+                        levels=[float(x) for x in res["rms_levels_g"]], source=source or case)
+
+
+def match_levels(measured: Sequence[float], predicted: Sequence[float],
+                 tolerance: float = LEVEL_TOLERANCE) -> list[int | None]:
+    """For each measured RMS level (g), the index of the predicted level within ``tolerance``
+    (relative) of it, the nearest one; ``None`` when there is none."""
+    out: list[int | None] = []
+    p = np.asarray(predicted, float)
+    for lv in measured:
+        if p.size == 0:
+            out.append(None)
+            continue
+        i = int(np.argmin(np.abs(p - lv)))
+        out.append(i if abs(p[i] - lv) <= tolerance * lv else None)
+    return out
+
+
+def _verdict(zm: float, lo: float, hi: float, sm: float, zp: float, sp: float,
+             z_crit: float) -> dict[str, Any]:
+    if not (np.isfinite(zm) and np.isfinite(zp)):
+        return {"verdict": "n/a", "z": float("nan"), "consistent": "n/a"}
+    verdict = ("no interval" if not (np.isfinite(lo) and np.isfinite(hi))
+               else "inside" if lo <= zp <= hi else "outside")
+    var = sum(s**2 for s in (sm, sp) if np.isfinite(s))
+    if var == 0:  # neither estimate states its uncertainty
+        return {"verdict": verdict, "z": float("nan"), "consistent": "n/a"}
+    z = float((zp - zm) / np.sqrt(var))
+    return {"verdict": verdict, "z": z, "consistent": "yes" if abs(z) <= z_crit else "no"}
+
+
+def compare_rows(measured: AnalysedTest, predicted: Sequence[AnalysedTest],
+                 confidence: float = CONFIDENCE) -> list[dict[str, Any]]:
+    """The measurement beside each prediction, one row per level (or band), estimator and case.
+
+    Parameters
+    ----------
+    measured : AnalysedTest
+        The reference (a laboratory test, or the virtual rig playing one).
+    predicted : sequence of AnalysedTest
+        Simulations of the same test (same kind; random tests at the same RMS levels within
+        10 %).
+    confidence : float
+        Level of the intervals (their ``low``/``high`` columns are at this level).
+
+    Returns
+    -------
+    list of dict
+        Random tests: ``rms_g``, ``estimator``, ``measured``, ``measured_low``,
+        ``measured_high``, ``case``, ``predicted``, ``predicted_low``, ``predicted_high``,
+        ``difference`` (relative, -), ``verdict`` (inside/outside the measured interval),
+        ``z`` and ``consistent`` (see the module docstring). Free decays: ``band`` and
+        ``method`` instead of ``rms_g`` and ``estimator``. Damping ratios are in -.
+
+    Raises
+    ------
+    BeamError
+        A prediction of another kind of test, or at levels the measurement does not have.
+    """
+    z_crit = float(stats.norm.ppf(0.5 + confidence / 2))
+    rows: list[dict[str, Any]] = []
+    for p in predicted:
+        if p.kind != measured.kind:
+            raise BeamError(f"{p.case!r} is a {p.kind} test, the measurement "
+                            f"{measured.case!r} a {measured.kind} test")
+    if measured.kind == "random":
+        for p in predicted:
+            idx = match_levels(measured.levels, p.levels)
+            if all(i is None for i in idx):
+                raise BeamError(
+                    f"{p.case!r} has no RMS level within {100 * LEVEL_TOLERANCE:.0f} % of the "
+                    f"measured ones: {', '.join(f'{x:.3g}' for x in p.levels)} g against "
+                    f"{', '.join(f'{x:.3g}' for x in measured.levels)} g")
+        for k, m in enumerate(measured.rows):
+            for est in ESTIMATORS:
+                for p in predicted:
+                    i = match_levels([measured.levels[k]], p.levels)[0]
+                    if i is None:
+                        continue
+                    rows.append(_row({"rms_g": m["rms_g"], "estimator": est}, m, p.case,
+                                     p.rows[i], est, z_crit))
+        return rows
+    for m in measured.rows:
+        for p in predicted:
+            q = next((r for r in p.rows if r["band"] == m["band"]
+                      and r["method"] == m["method"]), None)
+            if q is not None:
+                rows.append(_row({"band": m["band"], "method": m["method"]}, m, p.case, q,
+                                 "zeta", z_crit))
+    return rows
+
+
+def _row(head: dict[str, Any], m: Mapping[str, Any], case: str, p: Mapping[str, Any],
+         key: str, z_crit: float) -> dict[str, Any]:
+    def g(r: Mapping[str, Any], suffix: str) -> float:
+        # band rows name their columns zeta/std/low/high, Table 2 rows <estimator>_std, ...
+        name = (key + suffix if key != "zeta"
+                else {"": "zeta", "_std": "std", "_low": "low", "_high": "high"}[suffix])
+        return float(r.get(name, np.nan))
+
+    zm, zp = g(m, ""), g(p, "")
+    diff = zp / zm - 1 if np.isfinite(zm) and zm != 0 and np.isfinite(zp) else float("nan")
+    return {**head, "measured": zm, "measured_low": g(m, "_low"),
+            "measured_high": g(m, "_high"), "case": case, "predicted": zp,
+            "predicted_low": g(p, "_low"), "predicted_high": g(p, "_high"),
+            "difference": diff,
+            **_verdict(zm, g(m, "_low"), g(m, "_high"), g(m, "_std"), zp, g(p, "_std"),
+                       z_crit)}
+

@@ -1,0 +1,89 @@
+"""``sloshrom compare MEASURED.nc PREDICTED.nc ... --out DIR``: a measured beam test beside its
+predictions (paper Table 2 and Figs. 21, 23), with the intervals and a verdict per level."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from sloshrom.cli._app import app, check_input, check_out, fail
+from sloshrom.errors import SloshromError
+from sloshrom.fileio import OutputBatch
+
+
+@app.command("compare")
+def compare(
+    measured: Annotated[Path, typer.Argument(help="The measured test: a beam result NetCDF of "
+                                                  "'sloshrom analyse' (or any beam result).")],
+    predicted: Annotated[list[Path], typer.Argument(help="Predictions of the same test: beam "
+                                                         "result NetCDF files of 'sloshrom "
+                                                         "beam' (rig, ROM, frozen, ...).")],
+    out: Annotated[Path, typer.Option(help="Output directory.")],
+) -> None:
+    """Measured against predicted: first-mode damping with intervals and a verdict per level.
+
+    Re-runs the damping analyses of every file (free decays: Hilbert and log decrement per band
+    of tank acceleration amplitude; random tests: LSCF on H1, output-only LSCF and half power,
+    paper Table 2), each estimate with its interval, and writes ``comparison.csv/.md``: per
+    level (or band), estimator and predicted case, the measurement and its interval, the
+    prediction and its interval, the relative difference, the verdict (the prediction inside or
+    outside the measured interval) and z, the difference over the standard deviation of the
+    difference (``consistent``: |z| <= 1.96); every interval is at 95 %. Also ``analyses.csv/.md``
+    (every file's estimates) and the figures (free: ``fig21_comparison.png``; random:
+    ``fig23_comparison.png``, ``table2_comparison.png``). Random tests are matched by RMS
+    level (within 10 %).
+
+    Example: ``sloshrom compare lab/random_measured.nc sim/random_rig.nc sim/random_rom.nc
+    --out cmp``
+    """
+    import xarray as xr
+
+    from sloshrom.beam.compare import analyse_test, compare_rows
+    from sloshrom.beam.results import write_table
+    from sloshrom.plotting import savefig
+    from sloshrom.plotting.beam import COMPARE_FIGURES, comparison_figures
+
+    paths = [measured, *predicted]
+    for p in paths:
+        check_input(p, "beam result")
+    if len({p.resolve() for p in paths}) < len(paths):
+        fail("the same file is given twice")
+    tests = []
+    for p in paths:
+        try:
+            with xr.open_dataset(p, engine="h5netcdf") as ds:
+                tests.append(analyse_test(ds.load()))
+        except SloshromError as exc:
+            fail(f"{p}: {exc}")
+        except (OSError, ValueError) as exc:
+            fail(f"{p}: not a readable NetCDF beam result ({type(exc).__name__}: {exc})")
+    names = [t.case for t in tests]
+    dupes = sorted({n for n in names if names.count(n) > 1})
+    if dupes:
+        fail(f"two files have the case name {dupes[0]!r}: rename one (the tables would mix "
+             "them)")
+    kind = tests[0].kind
+    stems = ["comparison.csv", "comparison.md", "analyses.csv", "analyses.md",
+             *(f"{f}.png" for f in COMPARE_FIGURES[kind])]
+    check_out(out, directory=True, inputs=tuple(paths), contents=tuple(stems))
+    try:
+        rows = compare_rows(tests[0], tests[1:])
+    except SloshromError as exc:
+        fail(str(exc))
+    figs = comparison_figures(tests[0], tests[1:])
+    with OutputBatch() as batch:
+        write_table(rows, out / "comparison", batch)
+        write_table([r for t in tests for r in t.rows], out / "analyses", batch)
+        for name, fig in figs.items():
+            savefig(fig, out / f"{name}.png", batch)
+    head = "rms_g" if kind == "random" else "band"
+    what = "estimator" if kind == "random" else "method"
+    for r in rows:
+        typer.echo(f"{r[head]} {r[what]}: {r['case']} {100 * r['predicted']:.3g} % "
+                   f"{r['verdict']} [{100 * r['measured_low']:.3g}, "
+                   f"{100 * r['measured_high']:.3g}] % of {tests[0].case} "
+                   f"(z = {r['z']:.2g})")
+    typer.echo(f"wrote the comparison of {len(tests) - 1} prediction(s) with {tests[0].case} "
+               f"to {out}")

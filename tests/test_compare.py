@@ -1,0 +1,169 @@
+"""Measured against predicted (``sloshrom.beam.compare``, ``sloshrom compare``): the verdicts
+follow the intervals, a prediction with the wrong damping is found outside, and bad inputs get
+one clear error with nothing written."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+from typer.testing import CliRunner
+
+from sloshrom.beam.compare import (
+    AnalysedTest,
+    analyse_test,
+    compare_rows,
+    match_levels,
+)
+from sloshrom.beam.coupled import free_response, random_response
+from sloshrom.beam.errors import BeamError
+from sloshrom.beam.results import to_dataset
+from sloshrom.beam.structure import CantileverBeam, ModalModel, coupled_frozen_modes
+from sloshrom.cli import app
+from sloshrom.config import Tank
+from sloshrom.models import FrozenLiquid
+
+FS = 500.0
+TANK = Tank()
+
+
+def _modal(zeta1: float) -> ModalModel:
+    beam = CantileverBeam.with_tank(TANK)
+    return ModalModel.from_beam(beam, TANK, n_modes=3, damping=(zeta1, 0.005, 0.005))
+
+
+F1 = float(coupled_frozen_modes(_modal(0.01), TANK.liquid_mass)[0][0])
+
+
+def _noisy(ds: xr.Dataset, rms: float, seed: int) -> xr.Dataset:
+    rng = np.random.default_rng(seed)
+    ds = ds.copy(deep=True)
+    for v in ("station_acceleration", "tank_acceleration", "base_acceleration"):
+        ds[v].values = ds[v].values + rms * rng.standard_normal(ds[v].shape)
+    return ds
+
+
+def _dataset(kind: str, zeta1: float, case: str) -> xr.Dataset:
+    modal = _modal(zeta1)
+    if kind == "free":
+        res = free_response(FrozenLiquid(1 / FS), modal, 0.0146, 6.0, TANK)
+    else:
+        res = random_response(FrozenLiquid(1 / FS), modal, (0.1, 0.2), 70.0, 0, tank=TANK)
+    return to_dataset(res, case, kind, TANK, modal, f1=F1)
+
+
+@pytest.fixture(scope="module")
+def random_sets() -> dict[str, xr.Dataset]:
+    return {"measured": _noisy(_dataset("random", 0.01, "measured"), 0.014, 1),
+            "frozen": _dataset("random", 0.01, "frozen"),
+            "stiff": _dataset("random", 0.02, "stiff")}
+
+
+@pytest.fixture(scope="module")
+def free_sets() -> dict[str, xr.Dataset]:
+    return {"measured": _noisy(_dataset("free", 0.01, "measured"), 0.014, 2),
+            "frozen": _dataset("free", 0.01, "frozen"),
+            "stiff": _dataset("free", 0.02, "stiff")}
+
+
+def test_random_verdicts_follow_the_damping(random_sets):
+    tests = {k: analyse_test(ds) for k, ds in random_sets.items()}
+    rows = compare_rows(tests["measured"], [tests["frozen"], tests["stiff"]])
+    assert {r["case"] for r in rows} == {"frozen", "stiff"}
+    assert len(rows) == 2 * 3 * 2  # levels x estimators x cases
+    h1 = [r for r in rows if r["estimator"] == "lscf_h1"]
+    # the same linear beam without sensor noise lies inside the noisy measurement's interval;
+    # twice its first-mode damping lies outside, at every level
+    assert all(r["verdict"] == "inside" for r in h1 if r["case"] == "frozen")
+    assert all(r["verdict"] == "outside" and r["z"] > 1.96 for r in h1 if r["case"] == "stiff")
+    for r in h1:
+        assert r["measured_low"] < r["measured"] < r["measured_high"]
+        assert math.isclose(r["difference"], r["predicted"] / r["measured"] - 1)
+
+
+def test_free_verdicts_follow_the_damping(free_sets):
+    tests = {k: analyse_test(ds) for k, ds in free_sets.items()}
+    rows = compare_rows(tests["measured"], [tests["frozen"], tests["stiff"]])
+    for case, verdict in (("frozen", "inside"), ("stiff", "outside")):
+        # bands where both decays hold data (twice the damping leaves the bands sooner)
+        got = [r for r in rows if r["case"] == case and np.isfinite(r["measured"])
+               and np.isfinite(r["predicted"])]
+        assert {r["method"] for r in got} == {"hilbert", "log_decrement"}, case
+        assert all(r["verdict"] == verdict for r in got), (case, got)
+
+
+def _test(kind: str, levels: list[float]) -> AnalysedTest:
+    rows = [{"case": "x", "rms_g": lv, "lscf_h1": 0.01, "lscf_h1_std": 0.001,
+             "lscf_h1_low": 0.008, "lscf_h1_high": 0.012} for lv in levels]
+    return AnalysedTest("x", kind, FS, 10.0, rows, levels=levels)
+
+
+def test_levels_match_within_ten_percent():
+    assert match_levels([0.1, 0.2, 0.4], [0.098, 0.41]) == [0, None, 1]
+    with pytest.raises(BeamError, match="no RMS level within 10 %"):
+        compare_rows(_test("random", [0.1]), [_test("random", [0.3])])
+    with pytest.raises(BeamError, match="free test"):
+        compare_rows(_test("random", [0.1]),
+                     [AnalysedTest("f", "free", FS, 10.0, [])])
+
+
+def test_missing_estimates_give_na():
+    m, p = _test("random", [0.1]), _test("random", [0.1])
+    p.rows[0]["lscf_h1"] = float("nan")
+    row = compare_rows(m, [p])[0]
+    assert row["verdict"] == "n/a" and row["consistent"] == "n/a"
+
+
+# -- command line --------------------------------------------------------------------------------
+def _write(ds: xr.Dataset, path: Path) -> Path:
+    ds.to_netcdf(path, engine="h5netcdf")
+    return path
+
+
+def test_cli_compare_random(tmp_path, random_sets):
+    files = [_write(ds, tmp_path / f"random_{k}.nc") for k, ds in random_sets.items()]
+    out = tmp_path / "cmp"
+    r = CliRunner().invoke(app, ["compare", *map(str, files), "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    assert "stiff" in r.output and "outside" in r.output
+    for name in ("comparison.csv", "comparison.md", "analyses.csv", "fig23_comparison.png",
+                 "table2_comparison.png"):
+        assert (out / name).is_file(), name
+    head = (out / "comparison.csv").read_text().splitlines()[0].split(",")
+    assert head[:3] == ["rms_g", "estimator", "measured"] and "verdict" in head
+
+
+def test_cli_compare_free(tmp_path, free_sets):
+    files = [_write(ds, tmp_path / f"free_{k}.nc") for k, ds in free_sets.items()]
+    out = tmp_path / "cmp"
+    r = CliRunner().invoke(app, ["compare", *map(str, files), "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    assert (out / "fig21_comparison.png").is_file()
+    assert (out / "comparison.md").read_text().count("hilbert") >= 2
+
+
+@pytest.mark.parametrize("what", ["kinds", "twice", "not_netcdf", "old_file", "same_case"])
+def test_cli_compare_bad_input(tmp_path, random_sets, free_sets, what):
+    a = _write(random_sets["measured"], tmp_path / "a.nc")
+    if what == "kinds":
+        b, match = _write(free_sets["frozen"], tmp_path / "b.nc"), "free test"
+    elif what == "twice":
+        b, match = a, "twice"
+    elif what == "not_netcdf":
+        b = tmp_path / "b.nc"
+        b.write_text("time,x\n0,1\n")
+        match = "not a readable NetCDF"
+    elif what == "old_file":
+        b = _write(random_sets["frozen"].drop_vars("psi_stations"), tmp_path / "b.nc")
+        match = "lacks psi_stations"
+    else:
+        b = _write(random_sets["frozen"].assign_attrs(case="measured"), tmp_path / "b.nc")
+        match = "case name 'measured'"
+    out = tmp_path / "cmp"
+    r = CliRunner().invoke(app, ["compare", str(a), str(b), "--out", str(out)])
+    assert r.exit_code == 2, r.output
+    assert match in " ".join(r.output.split())
+    assert not out.exists()
