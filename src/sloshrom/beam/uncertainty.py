@@ -418,10 +418,12 @@ def random_damping(
     std = {"lscf_h1": nan, "half_power": nan}
     zeta_model = z_raw if np.isfinite(z_raw) and z_raw > 0 else hp_raw
     if np.isfinite(zeta_model) and 0 < zeta_model < 0.5:
-        rng = np.random.default_rng(seed)
         raw = np.array([z_raw, hp_raw])
 
         def bootstrap(noise: tuple[float, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            # both rounds draw the same records (the noise after them): the result is
+            # continuous in the estimated noise, which round-off may move off zero
+            rng = np.random.default_rng(seed)
             u, y = _simulate(f_mode, zeta_model, fs, base.size, n_resamples, noise, rng)
             sims = np.array([estimates(u[k], y[k]) for k in range(n_resamples)])
             bias, spread = np.full(2, np.nan), np.full(2, np.nan)
