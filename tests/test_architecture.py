@@ -53,10 +53,12 @@ ALLOWED: dict[str, set[str]] = {
 #: The pipeline modules that import the studies: the chain runs them, the report shows them.
 RUNS_STUDIES = {"sloshrom.pipeline.chain", "sloshrom.pipeline.report"}
 #: The pipeline modules a study may import: the infrastructure (settings, cache, run context,
-#: HTML) and the paper's stage modules whose helpers a study reuses (records, ROM errors, beam
-#: tests, maps); never the chain or the report, which import the studies.
+#: HTML, the experiment's report tables) and the paper's stage modules whose helpers a study
+#: reuses (records, ROM errors, beam tests, maps); never the chain or the report, which import
+#: the studies.
 FOR_STUDIES = {f"sloshrom.pipeline.{m}" for m in
-               ("settings", "cache", "context", "html", "data", "rom", "beam", "maps")}
+               ("settings", "cache", "context", "html", "experiment", "data", "rom", "beam",
+                "maps")}
 
 #: Calls that change process-wide state of a library the user's process shares with us.
 FORBIDDEN_CALLS = {

@@ -90,6 +90,38 @@ def _world(tmp: Path) -> None:
     ob, ab = map_grid(cfg, Tank())
     _map_file(tmp / "ref22.nc", ob, ab)
     _map_file(tmp / "ref22_other.nc", ob * 1.1, ab)
+    _lab(tmp)
+
+
+def _lab(tmp: Path) -> None:
+    """A laboratory's 2 s free decay (``lab.uff``, frozen liquid) with its channel maps
+    (``ch.toml``; ``chb.toml`` with a base channel, ``ids.toml`` by grid ID), the beam's modal
+    TOML, and two beam results of it for ``compare`` (``free_m.nc``, ``free_p.nc``)."""
+    import dataclasses
+
+    import tomli_w
+
+    from sloshrom.beam.coupled import free_response
+    from sloshrom.beam.measured import write_lab_test
+    from sloshrom.beam.results import to_dataset
+    from sloshrom.beam.structure import CantileverBeam, ModalModel, coupled_frozen_modes
+    from sloshrom.config import Tank
+    from sloshrom.models import FrozenLiquid
+
+    tank = Tank()
+    modal = ModalModel.from_beam(CantileverBeam.with_tank(tank), tank)
+    f1 = float(coupled_frozen_modes(modal, [tank.liquid_mass])[0][0])
+    free = free_response(FrozenLiquid(1 / 500.0), modal, 0.0146, 2.0, tank)
+    cmap = write_lab_test(free, modal, tmp / "lab.uff", kind="free")
+    cmap.write_toml(tmp / "ch.toml")
+    dataclasses.replace(cmap, base="Base Z").write_toml(tmp / "chb.toml")
+    (tmp / "ids.toml").write_text(
+        '[channels]\nstations = ["Acc 1", "Acc 2", "Acc 3", "Acc 4", "Acc 5"]\n'
+        'ids = [1, 2, 3, 4, 5]\n')
+    (tmp / "modal.toml").write_text(tomli_w.dumps({"modal": modal.to_dict()}))
+    ds = to_dataset(free, "measured", "free", tank, modal, f1=f1)
+    ds.to_netcdf(tmp / "free_m.nc", engine="h5netcdf")
+    ds.assign_attrs(case="frozen").to_netcdf(tmp / "free_p.nc", engine="h5netcdf")
 
 
 def _copy(src: str, dst: str):
@@ -255,6 +287,42 @@ def _fifo(name: str):
 
 
 ST = [*BFO, "--structure"]  # beam free on a modal file
+
+
+def _result(name: str, nan: str = "", **attrs):
+    """The beam result free_p.nc with ``attrs`` set (as another program would write them;
+    None: removed) and the variable ``nan`` (if given) holding a NaN."""
+
+    def make(tmp: Path) -> None:
+        import xarray as xr
+
+        with xr.open_dataset(tmp / "free_p.nc", engine="h5netcdf") as ds:
+            ds = ds.load()
+        ds.attrs.update({k: v for k, v in attrs.items() if v is not None})
+        for k in [k for k, v in attrs.items() if v is None]:
+            del ds.attrs[k]
+        if nan:
+            ds[nan].values[5] = np.nan
+        ds.to_netcdf(tmp / name, engine="h5netcdf")
+
+    return make
+
+
+def _png(name: str):
+    """A binary file (a PNG's first bytes) under ``name``: not text, not NetCDF."""
+
+    def make(tmp: Path) -> None:
+        (tmp / name).write_bytes(b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR" + bytes(range(256)))
+
+    return make
+
+
+AF = ["analyse", "free", "{tmp}/lab.uff", "--channels", "{tmp}/ch.toml"]
+AFO = [*AF, "--out", "{tmp}/res"]
+AR = ["analyse", "random", "{tmp}/lab.uff", "--channels", "{tmp}/chb.toml"]
+ARO = [*AR, "--out", "{tmp}/res"]
+CMP = ["compare", "{tmp}/free_m.nc", "{tmp}/free_p.nc"]
+CMPO = [*CMP, "--out", "{tmp}/cmp"]
 
 
 # (id, extra setup(tmp) or None, argv, regex of the one error line)
@@ -803,6 +871,306 @@ HOSTILE_CASES = [
       "{tmp}/m.npz"],
      r"the input 'velocity' does not oscillate about rest \(it stays between 0\.01 and 0\.03 "
      r"m/s, never changing sign\)"),
+    # == measured tests: analyse free / analyse random, compare ===============================
+    # -- analyse free -----------------------------------------------------------------------------
+    ("analyse-free-no-out", None, AF, r"Missing option '--out'"),
+    ("analyse-free-no-channels", None, ["analyse", "free", "{tmp}/lab.uff", "--out", "{tmp}/res"],
+     r"Missing option '--channels'"),
+    ("analyse-free-no-file", None, ["analyse", "free", "--channels", "{tmp}/ch.toml", "--out",
+                                    "{tmp}/res"], r"Missing argument 'FILE'"),
+    ("analyse-no-such-kind", None, ["analyse", "sine", "{tmp}/lab.uff"],
+     r"No such command 'sine'"),
+    ("analyse-free-out-is-a-file", None, [*AF, "--out", "{tmp}/afile"],
+     r"--out .*afile: exists and is not a directory"),
+    ("analyse-free-out-under-a-file", None, [*AF, "--out", "{tmp}/afile/res"],
+     r"afile is not a directory"),
+    ("analyse-free-out-name-too-long", None, [*AF, "--out", "{tmp}/" + "y" * 300],
+     r"--out .*longer than 255 bytes"),
+    ("analyse-free-out-is-the-file", None, [*AF, "--out", "{tmp}/lab.uff"],
+     r"--out .*lab\.uff is also an input of this command"),
+    ("analyse-free-out-is-the-channels-other-spelling", None,
+     [*AF, "--out", "{tmp}/adir/../ch.toml"], r"ch\.toml is also an input of this command"),
+    ("analyse-free-file-is-the-result", _copy("{tmp}/lab.uff", "res/free_lab.nc"),
+     ["analyse", "free", "{tmp}/res/free_lab.nc", "--channels", "{tmp}/ch.toml", "--name", "lab",
+      "--out", "{tmp}/res"], r"result file .*free_lab\.nc is also an input of this command"),
+    ("analyse-free-file-is-the-table-other-spelling",
+     _copy("{tmp}/lab.uff", "res/damping_bands.csv"),
+     ["analyse", "free", "{tmp}/adir/../res/damping_bands.csv", "--channels", "{tmp}/ch.toml",
+      "--out", "{tmp}/res"], r"result file .*damping_bands\.csv is also an input"),
+    ("analyse-free-channels-is-a-figure",
+     _copy("{tmp}/ch.toml", "res/fig14_station_accelerations.png"),
+     [*AF[:3], "--channels", "{tmp}/res/fig14_station_accelerations.png", "--out", "{tmp}/res"],
+     r"fig14_station_accelerations\.png is also an input of this command"),
+    ("analyse-free-modal-is-the-table", _copy("{tmp}/modal.toml", "res/damping_bands.md"),
+     [*AFO, "--modal-toml", "{tmp}/res/damping_bands.md"],
+     r"damping_bands\.md is also an input of this command"),
+    ("analyse-free-tank-is-a-figure", _copy("{tmp}/t.toml", "res/fig16_modal_accelerations.png"),
+     [*AFO, "--tank-toml", "{tmp}/res/fig16_modal_accelerations.png"],
+     r"fig16_modal_accelerations\.png is also an input of this command"),
+    ("analyse-free-result-is-a-directory", lambda tmp: (tmp / "res/free_measured.nc").mkdir(
+        parents=True), AFO, r"free_measured\.nc: is a directory"),
+    ("analyse-free-channels-empty-path", None, [*AF[:3], "--channels", "", "--out", "{tmp}/res"],
+     r"--channels \.: is a directory, expected a file"),
+    ("analyse-free-channels-is-a-directory", None,
+     [*AF[:3], "--channels", "{tmp}/adir", "--out", "{tmp}/res"],
+     r"--channels .*adir: is a directory"),
+    ("analyse-free-channels-missing", None,
+     [*AF[:3], "--channels", "{tmp}/none.toml", "--out", "{tmp}/res"],
+     r"--channels .*none\.toml: no such file"),
+    ("analyse-free-channels-under-a-file", None,
+     [*AF[:3], "--channels", "{tmp}/afile/ch.toml", "--out", "{tmp}/res"],
+     r"--channels .*afile/ch\.toml: cannot be read \(Not a directory\)"),
+    ("analyse-free-channels-name-too-long", None,
+     [*AF[:3], "--channels", "{tmp}/" + "y" * 300 + ".toml", "--out", "{tmp}/res"],
+     r"--channels .*y\.toml: .*(too long|longer than 255)"),
+    ("analyse-free-channels-not-toml", _text("bad.toml", "stations = = [\n"),
+     [*AF[:3], "--channels", "{tmp}/bad.toml", "--out", "{tmp}/res"],
+     r"--channels: .*bad\.toml: not valid TOML"),
+    ("analyse-free-channels-empty-file", _text("empty.toml", ""),
+     [*AF[:3], "--channels", "{tmp}/empty.toml", "--out", "{tmp}/res"],
+     r"--channels: .*empty\.toml: no \[channels\] table"),
+    ("analyse-free-channels-binary", _png("bin.toml"),
+     [*AF[:3], "--channels", "{tmp}/bin.toml", "--out", "{tmp}/res"],
+     r"--channels: .*bin\.toml: not valid TOML \(not UTF-8 text: byte 0x89 at offset 0\)"),
+    ("analyse-free-channels-is-the-record", None,
+     [*AF[:3], "--channels", "{tmp}/lab.uff", "--out", "{tmp}/res"],
+     r"--channels: .*lab\.uff: not valid TOML"),
+    ("analyse-free-channels-fifo", _fifo("fifo.toml"),
+     [*AF[:3], "--channels", "{tmp}/fifo.toml", "--out", "{tmp}/res"],
+     r"--channels .*fifo\.toml: is a named pipe \(FIFO\)"),
+    ("analyse-free-file-empty-path", None,
+     ["analyse", "free", "", "--channels", "{tmp}/ch.toml", "--out", "{tmp}/res"],
+     r"FILE \.: is a directory, expected a file"),
+    ("analyse-free-file-is-a-directory", None,
+     ["analyse", "free", "{tmp}/adir", "--channels", "{tmp}/ch.toml", "--out", "{tmp}/res"],
+     r"FILE .*adir: is a directory"),
+    ("analyse-free-file-under-a-file", None,
+     ["analyse", "free", "{tmp}/afile/lab.uff", "--channels", "{tmp}/ch.toml", "--out",
+      "{tmp}/res"], r"FILE .*afile/lab\.uff: cannot be read \(Not a directory\)"),
+    ("analyse-free-file-name-too-long", None,
+     ["analyse", "free", "{tmp}/" + "y" * 300 + ".uff", "--channels", "{tmp}/ch.toml", "--out",
+      "{tmp}/res"], r"FILE .*y\.uff: .*(too long|longer than 255)"),
+    ("analyse-free-file-twice-other-spelling", None,
+     ["analyse", "free", "{tmp}/lab.uff", "{tmp}/adir/../lab.uff", "--channels", "{tmp}/ch.toml",
+      "--out", "{tmp}/res"], r"FILE .*adir/\.\./lab\.uff is given twice \(also as .*lab\.uff\)"),
+    ("analyse-free-file-binary", _png("bin.uff"),
+     ["analyse", "free", "{tmp}/bin.uff", "--channels", "{tmp}/ch.toml", "--out", "{tmp}/res"],
+     r"bin\.uff: truncated or not a UFF file"),
+    ("analyse-free-file-is-the-channels", None,
+     ["analyse", "free", "{tmp}/ch.toml", "--channels", "{tmp}/ch.toml", "--out", "{tmp}/res"],
+     r"ch\.toml: unknown record format '\.toml'"),
+    ("analyse-free-name-empty", None, [*AFO, "--name", ""], r"--name '': letters, digits"),
+    ("analyse-free-name-a-path", None, [*AFO, "--name", "../up"], r"--name '\.\./up': letters"),
+    ("analyse-free-name-too-long", None, [*AFO, "--name", "n" * 300],
+     r"result file .*free_n+\.nc: .*longer than 255 bytes"),
+    ("analyse-free-f1-0", None, [*AFO, "--f1", "0"], r"--f1 must be > 0 Hz, got 0\.0"),
+    ("analyse-free-f1--1", None, [*AFO, "--f1", "-1"], r"--f1 must be > 0 Hz, got -1\.0"),
+    ("analyse-free-f1-nan", None, [*AFO, "--f1", "nan"], r"--f1 must be > 0 Hz, got nan"),
+    ("analyse-free-f1-inf", None, [*AFO, "--f1", "inf"], r"--f1 must be > 0 Hz, got inf"),
+    ("analyse-free-f1-1e308", None, [*AFO, "--f1", "1e308"],
+     r"the first beam mode \(1e\+308 Hz\) is too high for the 500 Hz results"),
+    ("analyse-free-f1-empty", None, [*AFO, "--f1", ""], r"Invalid value for '--f1'"),
+    ("analyse-free-f1-text", None, [*AFO, "--f1", "ten"], r"Invalid value for '--f1'"),
+    ("analyse-free-fill-nan", None, [*AFO, "--fill", "nan"],
+     r"--fill must be in \(0, 1\), got nan"),
+    ("analyse-free-fill-1e308", None, [*AFO, "--fill", "1e308"],
+     r"--fill must be in \(0, 1\), got 1e\+308"),
+    ("analyse-free-modal-is-a-directory", None, [*AFO, "--modal-toml", "{tmp}/adir"],
+     r"--modal-toml .*adir: is a directory"),
+    ("analyse-free-modal-empty-path", None, [*AFO, "--modal-toml", ""],
+     r"--modal-toml \.: is a directory, expected a file"),
+    ("analyse-free-modal-binary", _png("bin.toml"), [*AFO, "--modal-toml", "{tmp}/bin.toml"],
+     r"bin\.toml: not valid TOML \(not UTF-8 text"),
+    ("analyse-free-tank-toml-missing", None, [*AFO, "--tank-toml", "{tmp}/none.toml"],
+     r"--tank-toml .*none\.toml: no such file"),
+    ("analyse-free-tank-toml-zero-height", _text("z.toml", "[tank]\nheight = 0\n"),
+     [*AFO, "--tank-toml", "{tmp}/z.toml"], r"height must be a finite positive number"),
+    ("analyse-free-structure-with-positions", _modal("m.csv"),
+     [*AFO, "--structure", "{tmp}/m.csv", "--tank", "5"],
+     r"--channels .*ch\.toml: on --structure the stations are grid IDs: give 'ids'"),
+    ("analyse-free-ids-without-structure", None,
+     ["analyse", "free", "{tmp}/lab.uff", "--channels", "{tmp}/ids.toml", "--out", "{tmp}/res"],
+     r"'ids' name grid IDs of your structure; give --structure"),
+    ("analyse-free-structure-is-a-directory", None,
+     ["analyse", "free", "{tmp}/lab.uff", "--channels", "{tmp}/ids.toml", "--structure",
+      "{tmp}/adir", "--tank", "5", "--out", "{tmp}/res"], r"--structure .*adir: is a directory"),
+    ("analyse-free-tank-with-a-sloshing-model", _modal("m.csv"),
+     ["analyse", "free", "{tmp}/lab.uff", "--channels", "{tmp}/ids.toml", "--structure",
+      "{tmp}/m.csv", "--tank", "5:frozen", "--out", "{tmp}/res"],
+     r"--tank GRID:MODEL: a measured test has no sloshing model"),
+    ("analyse-free-modes--1", _modal("m.csv"),
+     ["analyse", "free", "{tmp}/lab.uff", "--channels", "{tmp}/ids.toml", "--structure",
+      "{tmp}/m.csv", "--tank", "5", "--modes", "-1", "--out", "{tmp}/res"], r"--modes must be"),
+    ("analyse-free-modes-without-structure", None, [*AFO, "--modes", "2"],
+     r"--modes places things on a --structure; give --structure FILE"),
+    ("analyse-free-mode-table-without-structure", None, [*AFO, "--mode-table", "{tmp}/adir"],
+     r"--mode-table places things on a --structure"),
+    ("analyse-free-levels", None, [*AFO, "--levels", "0.1"], r"No such option: --levels"),
+    ("analyse-free-accuracy", None, [*AFO, "--accuracy", "0.1"], r"No such option: --accuracy"),
+    # -- analyse random ---------------------------------------------------------------------------
+    ("analyse-random-no-out", None, AR, r"Missing option '--out'"),
+    ("analyse-random-no-base-channel", None,
+     ["analyse", "random", "{tmp}/lab.uff", "--channels", "{tmp}/ch.toml", "--out", "{tmp}/res"],
+     r"--channels .*ch\.toml: a random test needs the 'base' channel"),
+    ("analyse-random-out-is-a-file", None, [*AR, "--out", "{tmp}/afile"],
+     r"afile: exists and is not a directory"),
+    ("analyse-random-out-under-a-file", None, [*AR, "--out", "{tmp}/afile/res"],
+     r"afile is not a directory"),
+    ("analyse-random-out-name-too-long", None, [*AR, "--out", "{tmp}/" + "y" * 300],
+     r"longer than 255 bytes"),
+    ("analyse-random-out-is-the-second-file", _copy("{tmp}/lab.uff", "lab2.uff"),
+     ["analyse", "random", "{tmp}/lab.uff", "{tmp}/lab2.uff", "--channels", "{tmp}/chb.toml",
+      "--out", "{tmp}/lab2.uff"], r"lab2\.uff is also an input of this command"),
+    ("analyse-random-file-is-the-table", _copy("{tmp}/lab.uff", "res/table2_mode1_damping.csv"),
+     ["analyse", "random", "{tmp}/lab.uff", "{tmp}/res/table2_mode1_damping.csv", "--channels",
+      "{tmp}/chb.toml", "--out", "{tmp}/res"],
+     r"result file .*table2_mode1_damping\.csv is also an input"),
+    ("analyse-random-channels-is-a-figure", _copy("{tmp}/chb.toml", "res/fig23_psd.png"),
+     ["analyse", "random", "{tmp}/lab.uff", "--channels", "{tmp}/res/fig23_psd.png", "--out",
+      "{tmp}/res"], r"fig23_psd\.png is also an input of this command"),
+    ("analyse-random-channels-binary", _png("bin.toml"),
+     ["analyse", "random", "{tmp}/lab.uff", "--channels", "{tmp}/bin.toml", "--out",
+      "{tmp}/res"], r"--channels: .*bin\.toml: not valid TOML \(not UTF-8 text"),
+    ("analyse-random-channels-not-toml", _text("bad.toml", "[channels\n"),
+     ["analyse", "random", "{tmp}/lab.uff", "--channels", "{tmp}/bad.toml", "--out",
+      "{tmp}/res"], r"--channels: .*bad\.toml: not valid TOML"),
+    ("analyse-random-channels-empty-file", _text("empty.toml", ""),
+     ["analyse", "random", "{tmp}/lab.uff", "--channels", "{tmp}/empty.toml", "--out",
+      "{tmp}/res"], r"no \[channels\] table"),
+    ("analyse-random-channels-is-a-directory", None,
+     ["analyse", "random", "{tmp}/lab.uff", "--channels", "{tmp}/adir", "--out", "{tmp}/res"],
+     r"--channels .*adir: is a directory"),
+    ("analyse-random-file-twice-other-spelling", _copy("{tmp}/lab.uff", "lab2.uff"),
+     ["analyse", "random", "{tmp}/lab.uff", "{tmp}/lab2.uff", "{tmp}/adir/../lab.uff",
+      "--channels", "{tmp}/chb.toml", "--out", "{tmp}/res"],
+     r"FILE .*adir/\.\./lab\.uff is given twice \(also as .*lab\.uff\)"),
+    ("analyse-random-file-is-a-directory", None,
+     ["analyse", "random", "{tmp}/lab.uff", "{tmp}/adir", "--channels", "{tmp}/chb.toml",
+      "--out", "{tmp}/res"], r"FILE .*adir: is a directory"),
+    ("analyse-random-levels-0", None, [*ARO, "--levels", "0"],
+     r"--levels must be RMS values in \(0, 100\) g, got '0'"),
+    ("analyse-random-levels--1", None, [*ARO, "--levels", "-1"], r"--levels must be RMS values"),
+    ("analyse-random-levels-nan", None, [*ARO, "--levels", "nan"],
+     r"--levels must be RMS values in \(0, 100\) g, got 'nan'"),
+    ("analyse-random-levels-inf", None, [*ARO, "--levels", "inf"], r"--levels must be RMS"),
+    ("analyse-random-levels-1e308", None, [*ARO, "--levels", "1e308"],
+     r"--levels must be RMS values in \(0, 100\) g, got '1e308'"),
+    ("analyse-random-levels-empty", None, [*ARO, "--levels", ""],
+     r"--levels must be RMS values in \(0, 100\) g, got ''"),
+    ("analyse-random-levels-commas", None, [*ARO, "--levels", ","], r"--levels must be RMS"),
+    ("analyse-random-levels-text", None, [*ARO, "--levels", "0.1;0.2"],
+     r"--levels must be comma-separated numbers in g, got '0\.1;0\.2'"),
+    ("analyse-random-levels-one-per-file", None, [*ARO, "--levels", "0.1,0.2"],
+     r"--levels gives 2 level\(s\) for 1 file\(s\): one per file"),
+    ("analyse-random-accuracy-0", None, [*ARO, "--accuracy", "0"],
+     r"--accuracy must be in \(0, 1\], got 0\.0"),
+    ("analyse-random-accuracy--1", None, [*ARO, "--accuracy", "-1"],
+     r"--accuracy must be in \(0, 1\], got -1\.0"),
+    ("analyse-random-accuracy-nan", None, [*ARO, "--accuracy", "nan"],
+     r"--accuracy must be in \(0, 1\], got nan"),
+    ("analyse-random-accuracy-inf", None, [*ARO, "--accuracy", "inf"],
+     r"--accuracy must be in \(0, 1\], got inf"),
+    ("analyse-random-accuracy-1e308", None, [*ARO, "--accuracy", "1e308"],
+     r"--accuracy must be in \(0, 1\], got 1e\+308"),
+    ("analyse-random-accuracy-1.5", None, [*ARO, "--accuracy", "1.5"],
+     r"--accuracy must be in \(0, 1\], got 1\.5 \(a relative 1-sigma target"),
+    ("analyse-random-accuracy-text", None, [*ARO, "--accuracy", "10%"],
+     r"Invalid value for '--accuracy'"),
+    ("analyse-random-accuracy-empty", None, [*ARO, "--accuracy", ""],
+     r"Invalid value for '--accuracy'"),
+    ("analyse-random-f1-nan", None, [*ARO, "--f1", "nan"], r"--f1 must be > 0 Hz, got nan"),
+    ("analyse-random-f1--1", None, [*ARO, "--f1", "-1"], r"--f1 must be > 0 Hz, got -1\.0"),
+    ("analyse-random-name-slash", None, [*ARO, "--name", "a/b"], r"--name 'a/b': letters"),
+    ("analyse-random-fill-0", None, [*ARO, "--fill", "0"],
+     r"--fill must be in \(0, 1\), got 0\.0"),
+    ("analyse-random-tank-without-structure", None, [*ARO, "--tank", "5"],
+     r"--tank places things on a --structure"),
+    # -- compare ----------------------------------------------------------------------------------
+    ("compare-no-out", None, CMP, r"Missing option '--out'"),
+    ("compare-no-prediction", None, ["compare", "{tmp}/free_m.nc", "--out", "{tmp}/cmp"],
+     r"Missing argument 'PREDICTED"),
+    ("compare-no-arguments", None, ["compare", "--out", "{tmp}/cmp"],
+     r"Missing argument 'MEASURED'"),
+    ("compare-out-is-a-file", None, [*CMP, "--out", "{tmp}/afile"],
+     r"--out .*afile: exists and is not a directory"),
+    ("compare-out-under-a-file", None, [*CMP, "--out", "{tmp}/afile/cmp"],
+     r"afile is not a directory"),
+    ("compare-out-name-too-long", None, [*CMP, "--out", "{tmp}/" + "y" * 300],
+     r"--out .*longer than 255 bytes"),
+    ("compare-out-is-the-measured", None, [*CMP, "--out", "{tmp}/free_m.nc"],
+     r"free_m\.nc is also an input of this command"),
+    ("compare-out-is-the-prediction-other-spelling", None,
+     [*CMP, "--out", "{tmp}/adir/../free_p.nc"], r"free_p\.nc is also an input of this command"),
+    ("compare-measured-is-the-table", _copy("{tmp}/free_m.nc", "cmp/comparison.csv"),
+     ["compare", "{tmp}/cmp/comparison.csv", "{tmp}/free_p.nc", "--out", "{tmp}/cmp"],
+     r"--out .*cmp: the command writes .*comparison\.csv, and .*comparison\.csv is also an "
+     r"input"),
+    ("compare-prediction-is-the-figure", _copy("{tmp}/free_p.nc", "cmp/fig21_comparison.png"),
+     ["compare", "{tmp}/free_m.nc", "{tmp}/cmp/fig21_comparison.png", "--out", "{tmp}/cmp"],
+     r"the command writes .*fig21_comparison\.png, and .*fig21_comparison\.png is also an "
+     r"input"),
+    ("compare-result-is-a-directory", lambda tmp: (tmp / "cmp/analyses.md").mkdir(parents=True),
+     CMPO, r"analyses\.md: is a directory"),
+    ("compare-measured-empty-path", None,
+     ["compare", "", "{tmp}/free_p.nc", "--out", "{tmp}/cmp"],
+     r"beam result \.: is a directory, expected a file"),
+    ("compare-measured-is-a-directory", None,
+     ["compare", "{tmp}/adir", "{tmp}/free_p.nc", "--out", "{tmp}/cmp"],
+     r"beam result .*adir: is a directory"),
+    ("compare-measured-missing", None,
+     ["compare", "{tmp}/none.nc", "{tmp}/free_p.nc", "--out", "{tmp}/cmp"],
+     r"beam result .*none\.nc: no such file"),
+    ("compare-prediction-under-a-file", None,
+     ["compare", "{tmp}/free_m.nc", "{tmp}/afile/p.nc", "--out", "{tmp}/cmp"],
+     r"beam result .*afile/p\.nc: cannot be read \(Not a directory\)"),
+    ("compare-prediction-name-too-long", None,
+     ["compare", "{tmp}/free_m.nc", "{tmp}/" + TOO_LONG, "--out", "{tmp}/cmp"],
+     r"beam result .*y\.nc: .*(too long|longer than 255)"),
+    ("compare-prediction-fifo", _fifo("fifo.nc"),
+     ["compare", "{tmp}/free_m.nc", "{tmp}/fifo.nc", "--out", "{tmp}/cmp"],
+     r"beam result .*fifo\.nc: is a named pipe \(FIFO\)"),
+    ("compare-same-file-other-spelling", None,
+     ["compare", "{tmp}/free_m.nc", "{tmp}/adir/../free_m.nc", "--out", "{tmp}/cmp"],
+     r"the same file is given twice"),
+    ("compare-prediction-is-text", None,
+     ["compare", "{tmp}/free_m.nc", "{tmp}/t.toml", "--out", "{tmp}/cmp"],
+     r"t\.toml: not a readable NetCDF beam result"),
+    ("compare-prediction-is-binary", _png("bin.nc"),
+     ["compare", "{tmp}/free_m.nc", "{tmp}/bin.nc", "--out", "{tmp}/cmp"],
+     r"bin\.nc: not a readable NetCDF beam result"),
+    ("compare-prediction-is-a-record", None,
+     ["compare", "{tmp}/free_m.nc", "{tmp}/good.nc", "--out", "{tmp}/cmp"],
+     r"good\.nc: not a beam test result: attribute 'test' is None"),
+    ("compare-prediction-is-the-lab-file", None,
+     ["compare", "{tmp}/free_m.nc", "{tmp}/lab.uff", "--out", "{tmp}/cmp"],
+     r"lab\.uff: not a readable NetCDF beam result"),
+    ("compare-prediction-f1-nan", _result("f1.nc", f1_Hz=float("nan")),
+     ["compare", "{tmp}/free_m.nc", "{tmp}/f1.nc", "--out", "{tmp}/cmp"],
+     r"f1\.nc: attribute 'f1_Hz' must be a finite positive number in Hz, got nan"),
+    ("compare-prediction-f1--1", _result("f1.nc", f1_Hz=-1.0),
+     ["compare", "{tmp}/free_m.nc", "{tmp}/f1.nc", "--out", "{tmp}/cmp"],
+     r"f1\.nc: attribute 'f1_Hz' must be a finite positive number in Hz, got -1\.0"),
+    ("compare-prediction-f1-text", _result("f1.nc", f1_Hz="ten"),
+     ["compare", "{tmp}/free_m.nc", "{tmp}/f1.nc", "--out", "{tmp}/cmp"],
+     r"f1\.nc: attribute 'f1_Hz' must be a finite positive number in Hz, got 'ten'"),
+    ("compare-prediction-f1-1e308", _result("f1.nc", f1_Hz=1e308),
+     ["compare", "{tmp}/free_m.nc", "{tmp}/f1.nc", "--out", "{tmp}/cmp"],
+     r"f1\.nc: the first beam mode \(1e\+308 Hz\) is too high for the 500 Hz results"),
+    ("compare-measured-fs-0", _result("fs.nc", fs=0.0, case="measured"),
+     ["compare", "{tmp}/fs.nc", "{tmp}/free_p.nc", "--out", "{tmp}/cmp"],
+     r"fs\.nc: attribute 'fs' must be a finite positive number in Hz, got 0\.0"),
+    ("compare-measured-fs-inf", _result("fs.nc", fs=float("inf"), case="measured"),
+     ["compare", "{tmp}/fs.nc", "{tmp}/free_p.nc", "--out", "{tmp}/cmp"],
+     r"fs\.nc: attribute 'fs' must be a finite positive number in Hz, got inf"),
+    ("compare-prediction-nan-signal", _result("nan.nc", nan="tank_acceleration"),
+     ["compare", "{tmp}/free_m.nc", "{tmp}/nan.nc", "--out", "{tmp}/cmp"],
+     r"nan\.nc: variable 'tank_acceleration' contains NaN/inf"),
+    ("compare-prediction-without-f1", _result("old.nc", test="free", f1_Hz=None),
+     ["compare", "{tmp}/free_m.nc", "{tmp}/old.nc", "--out", "{tmp}/cmp"],
+     r"old\.nc: .*f1_Hz"),
+    ("compare-prediction-same-case", _result("twin.nc", case="measured"),
+     ["compare", "{tmp}/free_m.nc", "{tmp}/twin.nc", "--out", "{tmp}/cmp"],
+     r"two files have the case name 'measured'"),
 ]
 
 

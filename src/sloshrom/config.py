@@ -144,6 +144,9 @@ def load_toml(path: str | Path) -> dict[str, Any]:
             return tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{p}: not valid TOML ({exc})") from exc
+    except UnicodeDecodeError as exc:  # a binary file (an image, a record) given as TOML
+        raise ConfigError(f"{p}: not valid TOML (not UTF-8 text: byte "
+                          f"{exc.object[exc.start]:#04x} at offset {exc.start})") from None
 
 
 def load_toml_table(

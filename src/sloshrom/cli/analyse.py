@@ -96,8 +96,10 @@ def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml:
         fail("give the test's file(s)")
     for f in files:
         check_input(f, "FILE")
-    if len(set(files)) != len(files):
-        fail(f"FILE {next(f for f in files if files.count(f) > 1)} is given twice")
+    real = [f.resolve() for f in files]  # another spelling of a path is the same file
+    for i, r in enumerate(real):
+        if r in real[:i]:
+            fail(f"FILE {files[i]} is given twice (also as {files[real.index(r)]})")
     check_input(channels, "--channels")
     if not name.strip() or not all(c.isalnum() or c in "-_." for c in name):
         fail(f"--name {name!r}: letters, digits, '-', '_' and '.' only (it names the files)")

@@ -3,23 +3,57 @@ predictions (paper Table 2 and Figs. 21, 23), with the intervals and a verdict p
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
 from sloshrom.cli._app import app, check_input, check_out, fail
 from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputBatch
+from sloshrom.pipeline.settings import check_analysis_band
+
+_SIGNALS = ("station_acceleration", "tank_acceleration", "base_acceleration")
+
+
+def _check_result(path: Path, ds: Any) -> None:
+    """The numbers the analyses take from a beam result dataset ``ds``, checked before they
+    run: ``fs`` and ``f1_Hz`` finite and positive (Hz) with mode 1 well below Nyquist, and
+    finite signals. Missing names are left to ``beam.compare.test_from_dataset``."""
+    import numpy as np
+
+    hz = {}
+    for key in ("fs", "f1_Hz"):
+        if key not in ds.attrs:
+            continue
+        raw = ds.attrs[key]
+        raw = raw.item() if hasattr(raw, "item") and getattr(raw, "size", 1) == 1 else raw
+        try:
+            hz[key] = float(raw)
+        except (TypeError, ValueError):
+            hz[key] = math.nan
+        if not (math.isfinite(hz[key]) and hz[key] > 0):
+            fail(f"{path}: attribute '{key}' must be a finite positive number in Hz, got "
+                 f"{raw!r}")
+    if len(hz) == 2:
+        try:
+            check_analysis_band(hz["f1_Hz"], fs=hz["fs"])
+        except SloshromError as exc:
+            fail(f"{path}: {exc}")
+    for name in _SIGNALS:
+        if name in ds and not np.isfinite(ds[name].values).all():
+            fail(f"{path}: variable '{name}' contains NaN/inf")
 
 
 @app.command("compare")
 def compare(
-    measured: Annotated[Path, typer.Argument(help="The measured test: a beam result NetCDF of "
-                                                  "'sloshrom analyse' (or any beam result).")],
-    predicted: Annotated[list[Path], typer.Argument(help="Predictions of the same test: beam "
-                                                         "result NetCDF files of 'sloshrom "
-                                                         "beam' (rig, ROM, frozen, ...).")],
+    measured: Annotated[Path, typer.Argument(
+        help="The measured test: a beam result NetCDF of 'sloshrom analyse' (or any beam "
+             "result).", metavar="MEASURED", show_default=False)],
+    predicted: Annotated[list[Path], typer.Argument(
+        help="Predictions of the same test: beam result NetCDF files of 'sloshrom beam' (rig, "
+             "ROM, frozen, ...).", metavar="PREDICTED", show_default=False)],
     out: Annotated[Path, typer.Option(help="Output directory.")],
 ) -> None:
     """Measured against predicted: first-mode damping with intervals and a verdict per level.
@@ -50,24 +84,32 @@ def compare(
         check_input(p, "beam result")
     if len({p.resolve() for p in paths}) < len(paths):
         fail("the same file is given twice")
-    tests = []
+    check_out(out, directory=True, inputs=tuple(paths))  # before reading: a typo fails at once
+    datasets = []
     for p in paths:
-        try:
+        try:  # only the reading: an error of the analyses is not the file's
             with xr.open_dataset(p, engine="h5netcdf") as ds:
-                tests.append(analyse_test(ds.load()))
-        except SloshromError as exc:
-            fail(f"{p}: {exc}")
+                datasets.append(ds.load())
         except (OSError, ValueError) as exc:
             fail(f"{p}: not a readable NetCDF beam result ({type(exc).__name__}: {exc})")
+    kind = datasets[0].attrs.get("test")
+    stems = ["comparison.csv", "comparison.md", "analyses.csv", "analyses.md",
+             *(f"{f}.png" for f in COMPARE_FIGURES.get(kind, ()))]
+    check_out(out, directory=True, inputs=tuple(paths), contents=tuple(stems))
+    for stem in stems:  # a directory in a result's place would fail the batch half-way
+        check_out(out / stem, inputs=tuple(paths), what="result file")
+    tests = []
+    for p, ds in zip(paths, datasets, strict=True):
+        _check_result(p, ds)
+        try:
+            tests.append(analyse_test(ds))
+        except SloshromError as exc:
+            fail(f"{p}: {exc}")
     names = [t.case for t in tests]
     dupes = sorted({n for n in names if names.count(n) > 1})
     if dupes:
         fail(f"two files have the case name {dupes[0]!r}: rename one (the tables would mix "
              "them)")
-    kind = tests[0].kind
-    stems = ["comparison.csv", "comparison.md", "analyses.csv", "analyses.md",
-             *(f"{f}.png" for f in COMPARE_FIGURES[kind])]
-    check_out(out, directory=True, inputs=tuple(paths), contents=tuple(stems))
     try:
         rows = compare_rows(tests[0], tests[1:])
     except SloshromError as exc:
