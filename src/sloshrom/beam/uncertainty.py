@@ -167,8 +167,10 @@ def band_damping(
     list of dict
         One row per band and method (Hilbert first): ``band`` (e.g. ``"1-2 g"``), ``method``
         (``"hilbert"`` or ``"log_decrement"``), ``zeta``, ``std``, ``low``, ``high`` (damping
-        ratio, -) and ``n_cycles`` (cycles of the band, -); NaN where the band has too little
-        data (shorter than one smoothing window, fewer than 3 peaks).
+        ratio, -) and ``n_cycles`` (cycles of the band, -). A Hilbert band shorter than one
+        smoothing window keeps its median (as :func:`sloshrom.beam.results.damping_by_band`,
+        more than 10 samples) with NaN ``std``/``low``/``high``: no interval; NaN throughout
+        where the band has too little data (10 samples or fewer, fewer than 3 peaks).
     """
     missing = [k for k in ("peak_time", "peak", "peak_amplitude") if k not in log_decrement]
     if missing:
@@ -198,6 +200,10 @@ def band_damping(
             std = 1.2533 * float(np.std(zh[sel], ddof=1)) / math.sqrt(max(1.0, 6 * span**2))
             half = _t(confidence, span + 1) * std
             rows.append(_row(name, "hilbert", z, std, half, n_cyc))
+        elif np.count_nonzero(sel) > 10:
+            # shorter than one smoothing window: the samples are one estimate, with no
+            # independent values to state its scatter (the median of damping_by_band)
+            rows.append(_row(name, "hilbert", float(np.median(zh[sel])), nan, nan, n_cyc))
         else:
             rows.append(_row(name, "hilbert", nan, nan, nan, n_cyc))
         sp = (ap >= lo) & (ap < hi)
