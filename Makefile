@@ -12,9 +12,11 @@ TOOLS      := .venv-tools
 LATEST     := .venv-latest
 PEERS      := .venv-peers
 PEERS_LOCK := benchmarks/peers-requirements.txt
+PYOMA      := .venv-pyoma
+PYOMA_LOCK := benchmarks/pyoma-requirements.txt
 
 .PHONY: reproduce test test-other-isa test-slow test-all test-latest lint bench beyond fidelity \
-	peers lock clean
+	peers pyoma lock clean
 
 $(STAMP): $(LOCK) pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -82,6 +84,19 @@ peers:
 	$(MAKE) --no-print-directory $(PEERS)/.installed
 	$(PEERS)/bin/python benchmarks/peer_subnet.py --run results --out results/peer_subnet.json
 
+# The damping uncertainty against pyOMA-2's SSI-cov with its own uncertainty (its environment,
+# never .venv: pyOMA-2 is a benchmark peer, not a dependency)
+$(PYOMA)/.installed: $(PYOMA_LOCK) $(LOCK) pyproject.toml
+	test -x $(PYOMA)/bin/python || $(PYTHON) -m venv $(PYOMA)
+	$(PYOMA)/bin/python -m pip install --quiet --require-hashes -r $(PYOMA_LOCK)
+	$(PYOMA)/bin/python -m pip install --quiet --require-hashes --no-deps -r $(LOCK)
+	$(PYOMA)/bin/python -m pip install --quiet --no-deps --no-build-isolation -e .
+	$(PYOMA)/bin/python -m pip check
+	touch $@
+
+pyoma: $(PYOMA)/.installed
+	$(PYOMA)/bin/python benchmarks/pyoma_crosscheck.py
+
 # Refresh the lock (pinned uv in its own venv; one version set for CPython 3.11+ on every OS).
 lock:
 	test -x $(TOOLS)/bin/uv || ($(PYTHON) -m venv $(TOOLS) && \
@@ -103,4 +118,4 @@ test-latest:
 	$(LATEST)/bin/python -m pytest -m "not slow" -q
 
 clean:
-	rm -rf $(VENV) $(TOOLS) $(LATEST) results .pytest_cache
+	rm -rf $(VENV) $(TOOLS) $(LATEST) $(PYOMA) results .pytest_cache

@@ -14,12 +14,12 @@ channel's RMS) this compares, per record and over the seeds:
 Printed: per estimator the bias and scatter of zeta over the seeds, the mean stated std and the
 coverage of the true damping by ``zeta +/- 1.96 std``.
 
-pyOMA-2 (PyPI ``pyOMA-2`` 1.4.3) is not a dependency of sloshrom: install it in a separate
-environment (never in ``.venv``), e.g.::
+pyOMA-2 (PyPI ``pyOMA-2`` 1.4.3) is not a dependency of sloshrom: ``make pyoma`` builds its own
+environment (``.venv-pyoma``: ``benchmarks/pyoma-requirements.txt``, hashed pins, then our lock
+and sloshrom itself) and runs this script with the defaults (20 seeds, about 30 s)::
 
-    python3 -m venv /tmp/venv-pyoma && /tmp/venv-pyoma/bin/pip install pyOMA-2==1.4.3
-    /tmp/venv-pyoma/bin/pip install --no-deps -e .   # sloshrom itself, for the comparison
-    PYTHONPATH=src /tmp/venv-pyoma/bin/python benchmarks/pyoma_crosscheck.py --seeds 20
+    make pyoma
+    .venv-pyoma/bin/python benchmarks/pyoma_crosscheck.py --seeds 50
 
 Without pyoma2 the script says so and exits with status 0 (nothing to compare).
 """
