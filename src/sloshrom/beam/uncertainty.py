@@ -133,7 +133,8 @@ def band_damping(
       between the band's ends, whose variance is ``W^2 / (6 L^2)`` times that of one sample
       (noise on ``ln A`` correlated over less than ``W``). Standard error ``1.2533 s W /
       (sqrt(6) L)`` (``s`` the samples' standard deviation, 1.2533 the median's efficiency),
-      interval from Student's t with ``L / W + 1`` degrees of freedom; NaN for ``L < W``.
+      interval from Student's t with ``L / W + 1`` degrees of freedom; for ``L < W`` the
+      median without an interval.
     * ``log_decrement``: least-squares slope ``-sigma`` of ``ln(peak)`` against time over the
       peaks in the band, ``zeta = sigma / sqrt(omega_d^2 + sigma^2)`` with ``omega_d`` from the
       median peak spacing; standard error of the slope, its variance inflated by ``(1 + rho) /
