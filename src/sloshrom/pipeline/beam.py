@@ -17,6 +17,8 @@ from typing import Any
 from sloshrom.beam.compare import AnalysedTest, analysed_test, compare_rows
 from sloshrom.beam.coupled import free_response, random_response
 from sloshrom.beam.measured import (
+    check_free_decay,
+    check_random_base,
     lab_test_paths,
     read_free_test,
     read_random_test,
@@ -234,6 +236,10 @@ def laboratory(free: Mapping[str, Any], random: Mapping[str, Any], modal: ModalM
     res_free = read_free_test(free_path, cmap_free, lab_modal)
     res_random = read_random_test(lab_test_paths(random_path, "random", cfg.rms_g), cmap_random,
                                   lab_modal, levels=cfg.rms_g)
+    # the checks `sloshrom analyse` makes of a laboratory's data
+    check_free_decay(res_free, f1)
+    for b, g in zip(res_random["base_acceleration"], cfg.rms_g, strict=True):
+        check_random_base(b, res_random["fs"], f"({g:g} g)")
     decay: Mode1Decay = mode1_decay(res_free, lab_modal, f1)
     bands = damping_band_table({EXPERIMENT: res_free}, {EXPERIMENT: decay}, f1)
     table2 = mode1_damping_table({EXPERIMENT: res_random}, cfg.rms_g, f1,
