@@ -90,6 +90,17 @@ def _check_resumed(out, s, html, cfg, map_error_max):
     inst = b["instantaneous_damping"]
     assert inst["rig"]["2-3 g"] > 1.2 * inst["frozen"]["2-3 g"]  # sloshing damps mode 1
     assert np.isfinite(inst["rom"]["2-3 g"])
+    # the rig as the laboratory: its runs as lab files, read back and analysed as measured, and
+    # every prediction beside them; the same runs without the sensor noise lie inside the
+    # intervals of the free decay's bands
+    exp = b["experiment"]
+    assert exp["files"] and all((out / "beam" / f).is_file() for f in exp["files"])
+    assert {r["case"] for r in exp["free"]} == {r["case"] for r in exp["random"]} == {
+        "frozen", "rig", "rom"}
+    assert any(r["case"] == "experiment" for r in b["table2"])
+    judged = [r for r in exp["free"] if r["case"] == "rig" and r["verdict"] != "n/a"
+              and r["verdict"] != "no interval"]
+    assert judged and all(r["verdict"] == "inside" for r in judged), judged
     assert set(s["timings_s"]) >= {"data", "rom", "maps", "beam"}
 
     # every result file records the package version and the seed

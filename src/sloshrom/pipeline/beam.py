@@ -14,7 +14,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from sloshrom.beam.compare import AnalysedTest, analysed_test, compare_rows
+from sloshrom.beam.compare import analysed_test, compare_rows
 from sloshrom.beam.coupled import free_response, random_response
 from sloshrom.beam.measured import (
     check_free_decay,
@@ -26,7 +26,6 @@ from sloshrom.beam.measured import (
     write_lab_test,
 )
 from sloshrom.beam.results import (
-    Mode1Decay,
     Simulate,
     damping_band_table,
     damping_summary,
@@ -240,11 +239,11 @@ def laboratory(free: Mapping[str, Any], random: Mapping[str, Any], modal: ModalM
     check_free_decay(res_free, f1)
     for b, g in zip(res_random["base_acceleration"], cfg.rms_g, strict=True):
         check_random_base(b, res_random["fs"], f"({g:g} g)")
-    decay: Mode1Decay = mode1_decay(res_free, lab_modal, f1)
+    decay = mode1_decay(res_free, lab_modal, f1)
     bands = damping_band_table({EXPERIMENT: res_free}, {EXPERIMENT: decay}, f1)
     table2 = mode1_damping_table({EXPERIMENT: res_random}, cfg.rms_g, f1,
                                  max_tank_acceleration=True)
-    exp_free: AnalysedTest = analysed_test(EXPERIMENT, "free", res_free, f1, bands, decay)
+    exp_free = analysed_test(EXPERIMENT, "free", res_free, f1, bands, decay)
     exp_random = analysed_test(EXPERIMENT, "random", res_random, f1, table2)
     files = {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
     return {"free": exp_free, "random": exp_random, "free_result": res_free,
