@@ -27,9 +27,9 @@ import numpy as np
 import xarray as xr
 from scipy import stats
 
-from sloshrom.beam.analysis import instantaneous_damping, log_decrement, modal_filter, welch_psd
+from sloshrom.beam.analysis import welch_psd
 from sloshrom.beam.errors import BeamError
-from sloshrom.beam.results import Mode1Decay, damping_band_table, mode1_damping_table
+from sloshrom.beam.results import Mode1Decay, damping_band_table, mode1_damping_table, mode1_decay
 from sloshrom.beam.uncertainty import CONFIDENCE
 
 __all__ = ["ESTIMATORS", "AnalysedTest", "analyse_test", "analysed_test", "compare_rows",
@@ -132,14 +132,6 @@ def test_from_dataset(ds: xr.Dataset) -> tuple[dict[str, Any], np.ndarray]:
     return res, np.asarray(ds["psi_stations"].values, float)
 
 
-def _decay(res: Mapping[str, Any], psi: np.ndarray, f1: float) -> Mode1Decay:
-    q = modal_filter(res["station_acceleration"] - res["base_acceleration"][..., None], psi)
-    ref = res["tank_acceleration"]
-    return Mode1Decay(modal=q,
-                      hilbert=instantaneous_damping(q[:, 0], res["fs"], f1, reference=ref),
-                      log_decrement=log_decrement(q[:, 0], res["fs"], f1, reference=ref))
-
-
 def analyse_test(ds: xr.Dataset, case: str | None = None) -> AnalysedTest:
     """Run the first-mode damping analyses of a beam result dataset, with intervals.
 
@@ -159,7 +151,7 @@ def analyse_test(ds: xr.Dataset, case: str | None = None) -> AnalysedTest:
     name = str(case or ds.attrs.get("case", "test"))
     f1, kind = float(ds.attrs["f1_Hz"]), str(ds.attrs["test"])
     if kind == "free":
-        decay = _decay(res, psi, f1)
+        decay = mode1_decay(res, psi, f1)
         rows = damping_band_table({name: res}, {name: decay}, f1)
     else:
         decay, rows = None, mode1_damping_table({name: res}, res["rms_levels_g"], f1)

@@ -87,11 +87,14 @@ def simulate_cases(models: Mapping[str, Any], simulate: Simulate, fs: float,
 
 
 # -- analysis ------------------------------------------------------------------------------------
-def modal_accelerations(res: Mapping[str, Any], modal: ModalModel) -> np.ndarray:
+def modal_accelerations(res: Mapping[str, Any], modal: ModalModel | np.ndarray) -> np.ndarray:
     """Modal accelerations (m/s^2, shape (n, n_modes)) by modal filtering of the virtual
-    accelerometers relative to the base, as for measured data."""
-    return modal_filter(res["station_acceleration"] - res["base_acceleration"][..., None],
-                        modal.psi_stations)
+    accelerometers relative to the base, as for measured data.
+
+    ``modal``: the structure, or only its mode shapes at the stations (n_stations, n_modes),
+    as a beam result file holds them (``psi_stations``)."""
+    psi = modal.psi_stations if isinstance(modal, ModalModel) else modal
+    return modal_filter(res["station_acceleration"] - res["base_acceleration"][..., None], psi)
 
 
 @dataclass
@@ -114,15 +117,16 @@ class Mode1Decay:
     log_decrement: dict[str, np.ndarray]
 
 
-def mode1_decay(res: Mapping[str, Any], modal: ModalModel, f1: float) -> Mode1Decay:
+def mode1_decay(res: Mapping[str, Any], modal: ModalModel | np.ndarray,
+                f1: float) -> Mode1Decay:
     """Modal filtering and first-mode damping (Hilbert and log decrement) of a free response.
 
     Parameters
     ----------
     res : mapping
         A free response (``sloshrom.beam.coupled.free_response``).
-    modal : ModalModel
-        The beam's modal model (stations and their mode shapes).
+    modal : ModalModel or ndarray (n_stations, n_modes)
+        The beam's modal model, or its mode shapes at the stations.
     f1 : float
         First mode with frozen liquid, Hz (the band-pass centre).
 
