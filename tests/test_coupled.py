@@ -164,6 +164,17 @@ def test_rig_numba_backend_runs(modal):
     assert np.max(np.abs(out["dynamic_force"])) > 0.1
 
 
+def test_numba_loop_compiles_once_for_every_kernel(modal):
+    # the kernel's step is a typed function argument, not its dispatcher (typed by identity):
+    # one compiled loop for every kernel, which numba's cache finds again in a new process
+    from sloshrom.beam.coupled import _numba_loop
+    from sloshrom.rig.virtual import VirtualRig
+
+    free_response(VirtualRig(), modal, duration=0.2, output_fs=500)
+    CoupledSimulator(NumbaDamper(20.0, 1 / 1000), modal).run_raw(np.zeros(100))
+    assert len(_numba_loop().signatures) == 1
+
+
 @pytest.mark.slow
 def test_rig_more_damping_than_frozen_at_high_amplitude(modal):
     from sloshrom.rig.virtual import VirtualRig

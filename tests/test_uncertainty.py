@@ -97,6 +97,32 @@ def test_short_record_warning(one_record):
     assert need > 600  # 1 % at 10 Hz: +-5 % needs about 20 minutes with this estimator
 
 
+def test_batched_bootstrap_equals_the_record_by_record_estimates():
+    # the bootstrap analyses its simulated records as a stack: every record must get exactly
+    # (bit for bit) the H1 and the LSCF poles it gets alone
+    from scipy.signal import get_window
+
+    from sloshrom.beam.analysis import lscf_poles, lscf_poles_batch
+    from sloshrom.beam.uncertainty import _h1, _simulate
+
+    u, y = _simulate(F1, ZETA, FS, 20000, 3, (0.002, 0.01), np.random.default_rng(5))
+    window = get_window("hann", 8192)
+    f, h, coh = _h1(u, y, FS, 8192, window)
+    band = (0.5 * F1, 1.5 * F1)
+    stacked = lscf_poles_batch(f, h, band)
+    assert len(stacked) == 3
+    for k in range(3):
+        f1, h1, coh1 = _h1(u[k], y[k], FS, 8192, window)
+        assert np.array_equal(f1, f)
+        assert np.array_equal(h1, h[k]) and np.array_equal(coh1, coh[k])
+        alone = lscf_poles(f, h[k], band)
+        assert stacked[k].keys() == alone.keys()
+        for key in alone:
+            assert np.array_equal(stacked[k][key], alone[key]), key
+    with pytest.raises(BeamError, match="2-D"):
+        lscf_poles_batch(f, h[0], band)
+
+
 def test_random_damping_bad_inputs():
     u, y = noisy_sdof(10.0, 0, 0.0)
     with pytest.raises(BeamError):

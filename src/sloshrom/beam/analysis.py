@@ -297,7 +297,7 @@ def lscf_poles(
     if np.count_nonzero(sel & (f >= band[0])) < 8:
         raise AnalysisError(f"too few frequency points in band {band} Hz")
     if solver == "qr":
-        order, pole = _lscf_qr(f, h, band, int(pol_order_high))
+        order, pole = _lscf_qr(f, h[None, :], band, int(pol_order_high))[0]
     elif solver == "sdypy":
         from sdypy import EMA
 
@@ -316,39 +316,104 @@ def lscf_poles(
     return _pole_table(order, pole)
 
 
+def lscf_poles_batch(
+    f: Any,
+    spectra: Any,
+    band: tuple[float, float],
+    pol_order_high: int = 20,
+) -> list[dict[str, np.ndarray]]:
+    """:func:`lscf_poles` (``solver="qr"``) of several spectra on one frequency axis.
+
+    Each spectrum gets exactly the poles :func:`lscf_poles` gives it alone (the same arithmetic,
+    record by record); the polynomial roots of one model order are found for all spectra in one
+    batched eigenvalue call, which is what makes hundreds of fits (a bootstrap) cheap.
+
+    Parameters
+    ----------
+    f : array (n_f,)
+        Equally spaced frequencies, Hz.
+    spectra : array (n_spectra, n_f)
+        FRFs or half-spectra (complex), one per row.
+    band : (float, float)
+        Fitting band, Hz.
+    pol_order_high : int
+        Models with 2 to ``2 pol_order_high`` poles.
+
+    Returns
+    -------
+    list of dict
+        One pole table per row of ``spectra``, as :func:`lscf_poles` returns.
+    """
+    f = np.asarray(f, dtype=float)
+    h = np.asarray(spectra)
+    if h.ndim != 2 or h.shape[1] != f.size:
+        raise BeamError("spectra must be a 2-D array with one row of f.size values per spectrum")
+    if np.count_nonzero((f <= band[1]) & (f >= band[0])) < 8:
+        raise AnalysisError(f"too few frequency points in band {band} Hz")
+    return [_pole_table(o, p) for o, p in _lscf_qr(f, h, band, int(pol_order_high))]
+
+
 def _lscf_qr(
     f: np.ndarray, h: np.ndarray, band: tuple[float, float], pol_order_high: int
-) -> tuple[np.ndarray, np.ndarray]:
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    # h: (n_spectra, n_f); returns (order, pole) per spectrum
     from scipy import linalg
 
     f_upper = f[f <= band[1]][-1]
     dt = 1.0 / (2.0 * f_upper)
     sel = (f >= band[0]) & (f <= f_upper)
     z = np.exp(-2j * np.pi * f[sel] * dt)
-    hk = h[sel] / np.sqrt(np.mean(np.abs(h[sel]) ** 2))
     n_max = 2 * pol_order_high
+    v = z[:, None] ** np.arange(n_max + 1)
+    k = n_max + 1  # first column of -H z^j
     # every order's equations use columns of M = [z^j, -H z^j], j = 0..n_max (real and imaginary
     # parts stacked): one QR of M, then each order is a small problem in R with the same
-    # conditioning (no squaring as in the normal equations, one large factorisation only)
-    v = z[:, None] ** np.arange(n_max + 1)
-    m = np.hstack([v, -hk[:, None] * v])
-    m = np.vstack([m.real, m.imag])
-    scale = np.linalg.norm(m, axis=0)
-    scale[scale == 0] = 1.0
-    r = linalg.qr(m / scale, mode="r", check_finite=False)[0]
-    k = n_max + 1  # first column of -H z^j
-    order, pole = [], []
+    # conditioning (no squaring as in the normal equations, one large factorisation only). R's
+    # rows below its 2 k columns are zero: dropped, they only cost time in the solves
+    factors = []
+    for hr in h:
+        hk = hr[sel] / np.sqrt(np.mean(np.abs(hr[sel]) ** 2))
+        m = np.hstack([v, -hk[:, None] * v])
+        m = np.vstack([m.real, m.imag])
+        scale = np.linalg.norm(m, axis=0)
+        scale[scale == 0] = 1.0
+        r = linalg.qr(m / scale, mode="r", check_finite=False)[0][: 2 * k]
+        factors.append((r, scale))
+    order: list[list[np.ndarray]] = [[] for _ in factors]
+    pole: list[list[np.ndarray]] = [[] for _ in factors]
     for n in range(2, n_max + 1, 2):
         cols = np.r_[0 : n + 1, k : k + n]  # b_0..b_n, a_0..a_{n-1}; a_n = 1
-        x = linalg.lstsq(r[:, cols], -r[:, k + n], lapack_driver="gelsy",
-                         check_finite=False)[0] / scale[cols]
-        a = np.append(x[n + 1 :], 1.0 / scale[k + n])
-        roots = np.roots(a[::-1]).astype(complex)
+        a = np.empty((len(factors), n + 1))
+        for i, (r, scale) in enumerate(factors):
+            x = linalg.lstsq(r[:, cols], -r[:, k + n], lapack_driver="gelsy",
+                             check_finite=False)[0] / scale[cols]
+            a[i] = np.append(x[n + 1 :], 1.0 / scale[k + n])
+        roots = _roots(a[:, ::-1])
         with np.errstate(divide="ignore", invalid="ignore"):
             lam = -np.log(roots) / dt
-        order.append(np.full(lam.size, n))
-        pole.append(lam)
-    return np.concatenate(order), np.concatenate(pole)
+        for i in range(len(factors)):
+            order[i].append(np.full(lam.shape[1], n))
+            pole[i].append(lam[i])
+    return [(np.concatenate(o), np.concatenate(p)) for o, p in zip(order, pole, strict=True)]
+
+
+def _roots(p: np.ndarray) -> np.ndarray:
+    # np.roots of every row of p (n_rows, N), highest power first: the same companion matrices
+    # and eigenvalue routine, in one batched call; rows np.roots would trim (a zero first or
+    # last coefficient) or reject (not finite) go through np.roots itself
+    n_rows, n = p.shape
+    plain = np.all(np.isfinite(p), axis=1) & (p[:, 0] != 0) & (p[:, -1] != 0)
+    if n < 2 or not plain.all():
+        rows = [np.roots(row).astype(complex) for row in p]
+        if len({r.size for r in rows}) == 1:
+            return np.array(rows).reshape(n_rows, -1)
+        width = max(r.size for r in rows)  # trimmed rows: padded with NaN (dropped later)
+        return np.array([np.pad(r, (0, width - r.size), constant_values=np.nan) for r in rows])
+    a = np.zeros((n_rows, n - 1, n - 1))
+    i = np.arange(n - 2)
+    a[:, i + 1, i] = 1.0
+    a[:, 0, :] = -p[:, 1:] / p[:, :1]
+    return np.linalg.eigvals(a).astype(complex)
 
 
 def _pole_table(order: np.ndarray, pole: np.ndarray) -> dict[str, np.ndarray]:

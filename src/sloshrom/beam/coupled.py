@@ -41,6 +41,7 @@ changing the process's JAX configuration.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -49,6 +50,7 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import numpy as np
+from numba import types as nb_types
 from scipy.linalg import eigh, expm
 from scipy.signal import resample_poly
 
@@ -271,8 +273,7 @@ def _jax_argument(model: SloshingModel) -> Any:
     return model
 
 
-@njit
-def _numba_loop(step_fn, mstate, mparams, active, Phi, Gam, A2, B2, psi, a_s, z0, dt, m_total):
+def _numba_loop_py(step_fn, mstate, mparams, active, Phi, Gam, A2, B2, psi, a_s, z0, dt):
     # mstate, mparams: one row per active tank (same kernel); active: their tank indices
     nt = a_s.size
     ntank, n = psi.shape
@@ -323,6 +324,21 @@ def _numba_loop(step_fn, mstate, mparams, active, Phi, Gam, A2, B2, psi, a_s, z0
         z[:] = zn
         vs += dt * a
     return q, qdd, acc, dfo, vel
+
+
+# the kernel's step (sloshrom.models contract) as a typed function, not as its dispatcher: a
+# dispatcher argument is typed by its identity, which numba's cache cannot find again in another
+# process (the loop was compiled anew, 4 s, by every process that ran the rig in a beam)
+_M, _V = nb_types.float64[:, ::1], nb_types.float64[::1]
+_STEP = nb_types.FunctionType(nb_types.float64(_V, _V, nb_types.float64, nb_types.float64))
+_LOOP_SIGNATURE = nb_types.Tuple((_M,) * 5)(_STEP, _M, _M, nb_types.int64[::1], _M, _M, _M, _M,
+                                             _M, _V, _V, nb_types.float64)
+
+
+@functools.cache
+def _numba_loop() -> Any:
+    """The numba backend's loop, compiled (or loaded from numba's cache) on first use."""
+    return njit(_numba_loop_py, signature_or_function=[_LOOP_SIGNATURE])
 
 
 def _python_loop(models: Sequence[SloshingModel], d: Discretisation, a_s: np.ndarray,
@@ -458,9 +474,10 @@ class CoupledSimulator:
             raise BeamError("the numba backend needs sloshing tanks whose kernels have "
                              "parameter and state arrays of one size") from exc
         d = self.disc
-        q, qdd, acc, dfo, vel = _numba_loop(
-            step_fn, states, params, np.asarray(self.active, dtype=np.int64), d.Phi, d.Gam,
-            d.A2, d.B2, d.psi, np.ascontiguousarray(row), z0, d.dt, d.m_total,
+        c = np.ascontiguousarray
+        q, qdd, acc, dfo, vel = _numba_loop()(
+            step_fn, states, params, np.asarray(self.active, dtype=np.int64), c(d.Phi), c(d.Gam),
+            c(d.A2), c(d.B2), c(d.psi), c(row), c(z0), float(d.dt),
         )
         return _outputs(q, qdd, acc, dfo, vel, d.m_total)
 

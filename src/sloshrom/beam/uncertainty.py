@@ -24,13 +24,16 @@ from typing import Any
 import numpy as np
 from scipy import fft, optimize, signal, stats
 from scipy.signal import get_window
+from threadpoolctl import threadpool_limits
 
 from sloshrom.beam.analysis import (
     AnalysisError,
     frf_h1,
     half_power_damping,
     lscf_cluster_damping,
+    lscf_poles_batch,
     output_only_damping,
+    stable_pole_cluster,
     welch_psd,
 )
 from sloshrom.beam.errors import BeamError
@@ -232,16 +235,18 @@ def band_damping(
 # -- random tests: a parametric bootstrap of the H1 estimators -------------------------------------
 def _h1(base: np.ndarray, tank: np.ndarray, fs: float, nperseg: int,
         window: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    # frf_h1 (Hann, 50 % overlap, constant detrend) on one pass over the segments: the
-    # bootstrap computes hundreds of them
+    # frf_h1 (Hann, 50 % overlap, constant detrend) on one pass over the segments, of one record
+    # (n,) or of a stack of them (n_records, n): the bootstrap computes hundreds of them
     step = nperseg // 2
-    k = 1 + (base.size - nperseg) // step
+    k = 1 + (base.shape[-1] - nperseg) // step
     idx = np.arange(k)[:, None] * step + np.arange(nperseg)
-    u, y = base[idx], tank[idx]
-    uf = fft.rfft((u - u.mean(axis=1, keepdims=True)) * window, axis=1)
-    yf = fft.rfft((y - y.mean(axis=1, keepdims=True)) * window, axis=1)
-    sxx, syy = np.sum(np.abs(uf)**2, 0), np.sum(np.abs(yf)**2, 0)
-    sxy = np.sum(np.conj(uf) * yf, 0)
+    # C order, as base[idx] of one record: the means then sum in the same order, and a stack
+    # gives each record exactly its own H1
+    u, y = np.ascontiguousarray(base[..., idx]), np.ascontiguousarray(tank[..., idx])
+    uf = fft.rfft((u - u.mean(axis=-1, keepdims=True)) * window, axis=-1)
+    yf = fft.rfft((y - y.mean(axis=-1, keepdims=True)) * window, axis=-1)
+    sxx, syy = np.sum(np.abs(uf)**2, -2), np.sum(np.abs(yf)**2, -2)
+    sxy = np.sum(np.conj(uf) * yf, -2)
     with np.errstate(invalid="ignore", divide="ignore"):
         return fft.rfftfreq(nperseg, 1 / fs), sxy / sxx, np.abs(sxy)**2 / (sxx * syy)
 
@@ -317,6 +322,9 @@ def _simulate(frequency: float, zeta: float, fs: float, n: int, n_records: int,
     return u, y
 
 
+# BLAS on one thread: the bootstrap's LSCF fits are small (a QR of ~700 x 82) and many; on a
+# loaded machine a multithreaded BLAS made each one up to ten times slower than on one thread
+@threadpool_limits.wrap(limits=1, user_api="blas")
 def random_damping(
     base: Any,
     tank: Any,
@@ -398,13 +406,19 @@ def random_damping(
 
     window = get_window("hann", nseg)
 
-    def estimates(u: np.ndarray, y: np.ndarray) -> tuple[float, float]:
-        fr, hr, _ = _h1(u, y, fs, nseg, window)
-        try:
-            hp = half_power_damping(fr, hr, band)["zeta"]
-        except AnalysisError:  # no clear peak in this record: the estimate is missing
-            hp = nan
-        return float(lscf_cluster_damping(fr, hr, f1, band)["zeta"]), hp
+    def estimates(u: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        # the estimates of records (n_records, n) as the record's, all at once: (n_records, 2)
+        # (LSCF, half-power) and every record's incoherence 1/coh - 1
+        fr, hr, coh = _h1(u, y, fs, nseg, window)
+        est = np.full((hr.shape[0], 2), nan)
+        for k, poles in enumerate(lscf_poles_batch(fr, hr, band)):
+            est[k, 0] = stable_pole_cluster(poles, f1)["zeta"]
+            try:
+                est[k, 1] = half_power_damping(fr, hr[k], band)["zeta"]
+            except AnalysisError:  # no clear peak in this record: the estimate is missing
+                pass
+        with np.errstate(divide="ignore"):
+            return est, 1 / coh - 1
 
     # the raw values exactly as mode1_damping_random (frf_h1's H1; _h1 agrees to round-off)
     z_raw = float(r_h1["zeta"])
@@ -432,16 +446,13 @@ def random_damping(
             # continuous in the estimated noise, which round-off may move off zero
             rng = np.random.default_rng(seed)
             u, y = _simulate(f_mode, zeta_model, fs, base.size, n_resamples, noise, rng)
-            sims = np.array([estimates(u[k], y[k]) for k in range(n_resamples)])
+            sims, incoherence = estimates(u, y)
             bias, spread = np.full(2, np.nan), np.full(2, np.nan)
             for c in range(2):
                 v = sims[np.isfinite(sims[:, c]), c]
                 if v.size >= max(2, n_resamples // 2):  # else the mode is mostly lost: no spread
                     bias[c], spread[c] = v.mean() - zeta_model, v.std(ddof=1)
-            with np.errstate(divide="ignore"):
-                incoherent = np.mean([1 / _h1(u[k], y[k], fs, nseg, window)[2] - 1
-                                      for k in range(n_resamples)], axis=0)
-            return bias, spread, incoherent
+            return bias, spread, np.mean(incoherence, axis=0)
 
         # round 1, noise-free: the leakage bias and the incoherence the leakage causes; the
         # rest of the record's incoherence is noise, which biases LSCF strongly (1 % RMS on the
