@@ -180,7 +180,7 @@ def _outputs(q: Any, qdd: Any, acc: Any, df: Any, vel: Any, m_total: Any) -> dic
 
 
 def simulate_jax(model: SloshingModel | Sequence[SloshingModel], disc: Discretisation,
-                 base_acceleration: Any, z0: Any) -> dict[str, Any]:
+                 base_acceleration: Any, z0: Any, unroll: int = 1) -> dict[str, Any]:
     """Coupled simulation at the model rate as a pure JAX function (``lax.scan``).
 
     Traceable in the model(s) and ``disc`` (pytrees): jit it, ``vmap`` it over base
@@ -199,6 +199,9 @@ def simulate_jax(model: SloshingModel | Sequence[SloshingModel], disc: Discretis
         Base acceleration a_s, m/s^2.
     z0 : array_like, shape (2 N,)
         Initial modal displacements (m) and velocities (m/s), ``[q0, qd0]``.
+    unroll : int
+        Steps per trip of the scan's loop (``lax.scan``'s ``unroll``): the same results, bit
+        for bit; more steps run faster once compiled but compile longer.
 
     Returns
     -------
@@ -215,8 +218,6 @@ def simulate_jax(model: SloshingModel | Sequence[SloshingModel], disc: Discretis
     if len(models) != psi.shape[0]:
         raise BeamError(f"{len(models)} sloshing model(s) for {psi.shape[0]} tank(s)")
     dt = disc.dt
-    # one product gives q'' and the next state (rows [A2; Phi], [B2; Gam])
-    S1, S2 = jnp.concatenate([A2, Phi]), jnp.concatenate([B2, Gam])
 
     def body(carry, a_s):
         z, vs, acc_prev, states = carry
@@ -225,16 +226,16 @@ def simulate_jax(model: SloshingModel | Sequence[SloshingModel], disc: Discretis
                    for j, (m, st) in enumerate(zip(models, states, strict=True))]
         df = jnp.stack([jnp.asarray(f, jnp.float64) for _, f in stepped])
         u = jnp.concatenate([df, a_s[None]])
-        w = S1 @ z + S2 @ u
-        qdd, z_next = w[:n], w[n:]
+        qdd = A2 @ z + B2 @ u
         acc = psi @ qdd + a_s
+        z_next = Phi @ z + Gam @ u
         return ((z_next, vs + dt * a_s, acc, tuple(st for st, _ in stepped)),
                 (z[:n], qdd, acc, df, v_abs))
 
     carry = (jnp.asarray(z0), jnp.zeros(()), jnp.zeros(psi.shape[0]),
              tuple(m.init_state() for m in models))
     _, (q, qdd, acc, df, v) = jax.lax.scan(body, carry, jnp.asarray(base_acceleration),
-                                           unroll=_UNROLL)
+                                           unroll=unroll)
     out = _outputs(q, qdd, acc, df, v, jnp.asarray(disc.m_total))
     return _squeeze_tanks(out) if single else out
 
@@ -259,18 +260,17 @@ class _Constant:
         return cls(model)
 
 
-def _simulate(models: tuple, disc: Discretisation, base_acceleration: Any, z0: Any) -> dict:
+def _simulate(models: tuple, disc: Discretisation, base_acceleration: Any, z0: Any,
+              unroll: int = 1) -> dict:
     return simulate_jax([m.model if isinstance(m, _Constant) else m for m in models], disc,
-                        base_acceleration, z0)
+                        base_acceleration, z0, unroll)
 
 
-#: Steps per trip of the scan's loop: fewer trips and XLA fuses across the unrolled steps; the
-#: results are bit-identical (10 s of free response with an NFIR(70, 35): 6.5 -> 4.0 ms).
-_UNROLL = 8
-
-# module level, the models an argument: the compiled scans are shared by every simulator
-_simulate_one = jax.jit(_simulate)
-_simulate_batch = jax.jit(jax.vmap(_simulate, in_axes=(None, None, 0, None)))
+@functools.cache
+def _jitted(unroll: int, batch: bool) -> Any:
+    # module level, the models an argument: the compiled scans are shared by every simulator
+    fn = functools.partial(_simulate, unroll=unroll)
+    return jax.jit(jax.vmap(fn, in_axes=(None, None, 0, None)) if batch else fn)
 
 
 def _jax_argument(model: SloshingModel) -> Any:
@@ -411,6 +411,12 @@ class CoupledSimulator:
         Output sample rate, Hz (default 1/dt; must divide 1/dt). Outputs are decimated with a
         zero-phase anti-alias FIR (``scipy.signal.resample_poly``).
     backend : {"auto", "jax", "numba", "python"}
+    unroll : int
+        JAX backend: steps per trip of the scan's loop (bit-identical results). 1 compiles
+        fastest, which suits a few runs of each model (``sloshrom reproduce``); 8 runs a
+        10 s free response with an NFIR(70, 35) about 1.4x faster once compiled but compiles
+        about 3x longer, which pays off over many runs of one model and record length
+        (``benchmarks/beam_speed.py``).
     """
 
     def __init__(
@@ -421,6 +427,7 @@ class CoupledSimulator:
         dt: float | None = None,
         output_fs: float | None = None,
         backend: str = "auto",
+        unroll: int = 1,
     ) -> None:
         nt = modal.n_tanks
         self.model = model
@@ -459,6 +466,9 @@ class CoupledSimulator:
             raise BeamError("the jax backend needs a jax-traceable model (sloshrom.models."
                              "JaxModel)")
         self.backend = backend
+        if not (isinstance(unroll, (int, np.integer)) and unroll >= 1):
+            raise BeamError(f"unroll must be a positive integer, got {unroll!r}")
+        self.unroll = int(unroll)
         self.disc = discretise(modal, [t.liquid_mass for t in self.tanks], mdt)
 
     # -- core -------------------------------------------------------------------------------
@@ -509,9 +519,10 @@ class CoupledSimulator:
         if self.backend == "jax":
             m, d, zj = tuple(_jax_argument(m) for m in self.models), self.disc, jnp.asarray(z0)
             if flat.shape[0] > 1:
-                res = _simulate_batch(m, d, jnp.asarray(flat), zj)
+                res = _jitted(self.unroll, True)(m, d, jnp.asarray(flat), zj)
             else:
-                res = {k: v[None] for k, v in _simulate_one(m, d, jnp.asarray(flat[0]), zj).items()}
+                res = {k: v[None] for k, v in
+                       _jitted(self.unroll, False)(m, d, jnp.asarray(flat[0]), zj).items()}
             out = {k: np.asarray(v) for k, v in res.items()}
         else:
             outs = [self._numba(row, z0) if self.backend == "numba"
