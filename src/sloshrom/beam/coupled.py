@@ -414,8 +414,8 @@ class CoupledSimulator:
     unroll : int
         JAX backend: steps per trip of the scan's loop (bit-identical results). 1 compiles
         fastest, which suits a few runs of each model (``sloshrom reproduce``); 8 runs a
-        10 s free response with an NFIR(70, 35) about 1.4x faster once compiled but compiles
-        about 3x longer, which pays off over many runs of one model and record length
+        10 s free response with an NFIR(70, 35) 1.2-1.3x faster once compiled but compiles
+        2.5-3x longer, which pays off over many runs of one model and record length
         (``benchmarks/beam_speed.py``).
     """
 
