@@ -58,7 +58,10 @@ def test_converges_and_records_every_epoch():
         res = adam_epochs(problem, max_epochs=60, seed=0, mse_scale=4.0)
     np.testing.assert_allclose(np.asarray(res.params), w_true, atol=0.05)
     h = res.history
-    assert set(h) == {"train_mse", "val_mse", "val_objective", "seconds"}
+    assert set(h) == {"train_mse", "val_mse", "val_objective", "seconds", "step_seconds",
+                      "validation_seconds"}
+    assert h["step_seconds"][0] < h["step_seconds"][1]  # epoch 0 runs no step
+    assert np.all(np.diff(h["seconds"]) > 0)
     assert all(len(v) == 61 for v in h.values())
     assert math.isnan(h["train_mse"][0]) and h["val_objective"][0] == math.inf
     # without validation the objective is the epoch's training mse, in scaled units; the

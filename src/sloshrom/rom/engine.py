@@ -82,7 +82,10 @@ class EngineResult:
         ``"max_epochs"``, ``"validation_stop"``, ``"diverged"`` or ``"callback"``.
     history : dict of list
         Per epoch (epoch 0 = the initial parameters): ``train_mse``, ``val_mse`` (times
-        ``mse_scale``), ``val_objective``, ``seconds`` and any ``constant_history`` key.
+        ``mse_scale``), ``val_objective``, any ``constant_history`` key, ``seconds`` (since
+        the start), and the epoch's ``step_seconds`` (its Adam steps, compilation included at
+        epoch 1) and ``validation_seconds`` (the reported training MSE and the validation):
+        where a training spends its time.
     best_epoch : int
     """
 
@@ -155,20 +158,23 @@ def adam_epochs(
     rng = np.random.default_rng(seed)
     params = problem.params0
     state = problem.optimizer.init(params)
-    keys = ("train_mse", "val_mse", "val_objective", *(constant_history or {}), "seconds")
+    keys = ("train_mse", "val_mse", "val_objective", *(constant_history or {}), "seconds",
+            "step_seconds", "validation_seconds")
     hist: dict[str, list] = {k: [] for k in keys}
     best, best_obj, best_epoch, fail, reason = params, math.inf, 0, 0, "max_epochs"
     patient = validate is not None or patience_without_validation
     t0 = time.perf_counter()
     for epoch in range(int(max_epochs) + 1):
         step_mse = math.nan
+        t_steps = time.perf_counter()
         if epoch > 0:
             draws = tuple(jnp.asarray(a) for a in problem.draw(rng))
             params, state, m = epoch_run(params, state, draws)
-            step_mse = float(m)
+            step_mse = float(m)  # waits for the epoch: the time below is the epoch's
             if not math.isfinite(step_mse):
                 reason = "diverged"
                 break
+        t_val = time.perf_counter()
         tr = float(train_mse(params)) if train_mse is not None else step_mse
         if validate is not None:
             vmse, obj = validate(params)
@@ -178,9 +184,10 @@ def adam_epochs(
             best, best_obj, best_epoch, fail = params, obj, epoch, 0
         elif epoch > 0:
             fail += 1
+        t_end = time.perf_counter()
         info = {"train_mse": tr * mse_scale, "val_mse": vmse * mse_scale,
-                "val_objective": obj, **(constant_history or {}),
-                "seconds": time.perf_counter() - t0}
+                "val_objective": obj, **(constant_history or {}), "seconds": t_end - t0,
+                "step_seconds": t_val - t_steps, "validation_seconds": t_end - t_val}
         for k, v in info.items():
             hist[k].append(float(v))
         if callback is not None and callback(epoch, info):
