@@ -25,7 +25,7 @@ import xarray as xr
 from sloshrom import __version__
 from sloshrom.config import Tank
 from sloshrom.errors import SloshromError
-from sloshrom.models import SloshingModel, tank_of
+from sloshrom.models import SloshingModel, is_jax_model, tank_of
 from sloshrom.signals import DEFAULT_A_BAR_MIN, SHAKER_ENVELOPE, harmonic
 
 __all__ = [
@@ -208,6 +208,43 @@ def default_grid(n: int = 30, tank: Tank | None = None) -> tuple[np.ndarray, np.
     return ob, ab
 
 
+#: tests per call of a JAX model's run in a map (memory: a delay-line network holds its
+#: regressors, block x samples x delays)
+JAX_BLOCK = 64
+
+
+def _simulate_batches(model: SloshingModel,
+                      batches: list[tuple[np.ndarray, np.ndarray]]) -> list[np.ndarray]:
+    """``model.simulate`` of each (velocity, acceleration) batch, float64.
+
+    A JAX model compiles its run once per input shape: its tests (whose lengths differ from
+    one frequency to the next) run in blocks of :data:`JAX_BLOCK` tests of one shape, each test
+    padded at the end with rest (the tests end at rest, and a causal model's output before the
+    padding does not see it), the last block with tests at rest. The others (the rig, the
+    frozen liquid) run batch by batch: padding would only add work.
+    """
+    if not batches:
+        return []
+    if not is_jax_model(model):
+        return [np.asarray(model.simulate(v, a), dtype=np.float64) for v, a in batches]
+    n = max(v.shape[1] for v, _ in batches)
+    rows = sum(v.shape[0] for v, _ in batches)
+    m = -(-rows // JAX_BLOCK) * JAX_BLOCK
+    vel, acc = np.zeros((m, n)), np.zeros((m, n))
+    k = 0
+    for v, a in batches:
+        vel[k:k + v.shape[0], : v.shape[1]] = v
+        acc[k:k + a.shape[0], : a.shape[1]] = a
+        k += v.shape[0]
+    df = np.concatenate([np.asarray(model.simulate(vel[b:b + JAX_BLOCK], acc[b:b + JAX_BLOCK]),
+                                    dtype=np.float64) for b in range(0, m, JAX_BLOCK)])
+    out, k = [], 0
+    for v, _ in batches:
+        out.append(df[k:k + v.shape[0], : v.shape[1]])
+        k += v.shape[0]
+    return out
+
+
 def phi_d_map(
     model: SloshingModel,
     omega_bar: Any,
@@ -225,7 +262,8 @@ def phi_d_map(
     """Phi_d(omega_bar, a_bar) from batched ramped harmonic tests through ``model.simulate``.
 
     For each omega_bar all amplitudes inside the shaker envelope run as one batch at the model's
-    step ``model.dt``; points outside the envelope are NaN.
+    step ``model.dt`` (a JAX model runs every frequency's batch in one call, the shorter tests
+    padded with rest: one compilation); points outside the envelope are NaN.
 
     Parameters
     ----------
@@ -271,6 +309,8 @@ def phi_d_map(
     t0 = time.perf_counter()
     h_ref = tank.height
     w0 = tank.reference_frequency
+    # the tests of each frequency: its in-envelope amplitudes, one batch
+    tests = []
     for i, obi in enumerate(ob):
         cols = np.flatnonzero(mask[i])
         if cols.size:
@@ -283,17 +323,24 @@ def phi_d_map(
                          n_settle=n_settle)
                 for j in cols
             ]
-            vel = np.stack([s.velocity for s in sigs])
-            acc = np.stack([s.acceleration for s in sigs])
-            df = np.asarray(model.simulate(vel, acc), dtype=np.float64)
-            sl = sigs[0].steady
-            disp = np.stack([s.displacement for s in sigs])
-            # include the sample that closes the last cycle
-            seg = slice(sl.start, sl.stop + 1)
-            l_d = dissipated_energy(disp[:, seg], df[:, seg], n_cycles=n_cycles, rule=rule)
-            out[i, cols] = phi_d(l_d, ab[cols] * h_ref, 2 * math.pi * freq, tank.liquid_mass)
+            tests.append((i, cols, freq, sigs))
+    forces = _simulate_batches(model, [(np.stack([s.velocity for s in sigs]),
+                                        np.stack([s.acceleration for s in sigs]))
+                                       for _, _, _, sigs in tests])
+    done = 0
+    for (i, cols, freq, sigs), df in zip(tests, forces, strict=True):
+        sl = sigs[0].steady
+        disp = np.stack([s.displacement for s in sigs])
+        # include the sample that closes the last cycle
+        seg = slice(sl.start, sl.stop + 1)
+        l_d = dissipated_energy(disp[:, seg], df[:, seg], n_cycles=n_cycles, rule=rule)
+        out[i, cols] = phi_d(l_d, ab[cols] * h_ref, 2 * math.pi * freq, tank.liquid_mass)
         if progress is not None:
-            progress(i + 1, ob.size)
+            # the frequencies before this one with no point inside the envelope are done too
+            done = i + 1
+            progress(done, ob.size)
+    if progress is not None and done < ob.size:
+        progress(ob.size, ob.size)
     elapsed = time.perf_counter() - t0
     da = xr.DataArray(
         out,

@@ -184,6 +184,13 @@ def estimator(cfg: RomTable, arch: str | None = None) -> NFIR | NOE | NSS:
                max_epochs=cfg.max_epochs, seed=cfg.seed, **loss)
 
 
+def _median_after_compile(history: dict[str, Any], key: str) -> float | None:
+    """Median of a per-epoch timing over the epochs after the first (which compiles), s;
+    None for a trainer that does not record it (Levenberg-Marquardt)."""
+    v = history.get(key) or []
+    return float(np.median(v[2:])) if len(v) > 2 else None
+
+
 def _train(ctx: Context, model: Any, name: str, epochs: int, k_members: int, workers: int,
            records: tuple[np.ndarray, ...], fs: float, fill: float | None
            ) -> tuple[Any, str, float]:
@@ -220,7 +227,9 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
     outputs : dict
         Of the chosen ROM (the ROM of the report): ``model`` (its file), ``arch``, ``name``,
         ``train_seconds`` (s), MSE (N^2), NRMSE (-) and fit (%) on the validation (``val_*``)
-        and training (``train_*``) records, ``epochs``, ``stop_reason``, the report's
+        and training (``train_*``) records, ``epochs``, ``stop_reason``, ``epoch_seconds``
+        and ``validation_seconds`` (each member's median epoch of Adam steps and of
+        validation, s; None for Levenberg-Marquardt), the report's
         paragraphs ``model_class_text`` and ``recipe_text``; with the compared NFIR,
         ``compare``: its ``name``, ``val_mse``, ``val_nrmse``, ``val_fit``, ``train_seconds``
         and ``model`` (its file).
@@ -257,6 +266,9 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
         train_mse=et["mse"], train_nrmse=et["nrmse"], train_fit=et["fit"],
         epochs=[len(h.get("train_mse", [])) for h in hists],
         stop_reason=[h.get("stop_reason") for h in hists],
+        # where each member's training went: its median epoch of Adam steps and of validation
+        epoch_seconds=[_median_after_compile(h, "step_seconds") for h in hists],
+        validation_seconds=[_median_after_compile(h, "validation_seconds") for h in hists],
     )
     if is_ensemble(model):
         outputs["seeds"] = [int(s) for s in model.seeds_]

@@ -367,6 +367,8 @@ class _History(_Strict):
     mu: HistoryList | None = None
     grad: HistoryList | None = None
     seconds: HistoryList | None = None
+    step_seconds: HistoryList | None = None
+    validation_seconds: HistoryList | None = None
     stop_reason: Unit | None = None
     best_epoch: Annotated[int, Field(ge=0, le=MAX_EPOCHS)] | None = None
     trainer: Literal["fast", "lm", "adam", "shooting"] | None = None

@@ -7,7 +7,8 @@ per task. Schedulers:
 
 ``None``
     A new ``dask.distributed.LocalCluster`` of ``n_workers`` single-threaded processes, closed
-    afterwards.
+    afterwards. On Linux, when there are no more workers than cores this process may use,
+    each worker process is pinned to a core of its own (:func:`pin_workers`).
 ``"threads"``
     A thread pool of ``n_workers`` threads in this process (no cluster; tests, small jobs).
 ``"sequential"``
@@ -21,13 +22,55 @@ both use it without importing each other.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Iterable, Sequence
 from typing import Any, TypeVar
 
-__all__ = ["run_tasks"]
+__all__ = ["pin_workers", "run_tasks", "usable_cores"]
 
 T = TypeVar("T")
 R = TypeVar("R")
+
+
+def usable_cores() -> list[int]:
+    """The cores this process may run on (all of them where the OS does not say)."""
+    if hasattr(os, "sched_getaffinity"):
+        return sorted(os.sched_getaffinity(0))
+    return list(range(os.cpu_count() or 1))
+
+
+def _pin_this_process(cores: list[int], dask_worker: Any = None) -> int:
+    """Pin every thread of this Dask worker process to core ``cores[worker index]`` (Dask's
+    ``Client.run`` passes the worker as ``dask_worker``)."""
+    core = cores[int(dask_worker.name) % len(cores)]
+    # every existing thread (the task thread among them); threads made later (XLA's pool,
+    # created when a task first uses JAX) inherit the affinity of the thread that makes them
+    for tid in os.listdir("/proc/self/task"):
+        try:
+            os.sched_setaffinity(int(tid), {core})
+        except OSError:  # a thread that ended meanwhile
+            pass
+    return core
+
+
+def pin_workers(client: Any, n_workers: int) -> dict[str, int] | None:
+    """Pin each worker process of a LocalCluster to a core of its own.
+
+    Two training processes that each let XLA run on every core fight for them: on this
+    2-core machine two unpinned trainings side by side ran at 1.3x the throughput of one,
+    pinned at 1.7x (docs/performance.md). Pinned only on Linux and when there are at least
+    as many usable cores as workers; otherwise the OS schedules them.
+
+    Returns
+    -------
+    dict or None
+        The core of each worker (by address), or None when not pinned.
+    """
+    cores = usable_cores()
+    if not (hasattr(os, "sched_setaffinity") and os.path.isdir("/proc/self/task")
+            and 1 < n_workers <= len(cores)):
+        return None
+    return client.run(_pin_this_process, cores)
 
 
 def run_tasks(
@@ -96,6 +139,7 @@ def run_tasks(
             cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
                                    dashboard_address=None)
             client = Client(cluster)
+            pin_workers(client, n_workers)
         else:
             client = Client(scheduler, timeout=10)  # an unreachable address fails, not hangs
         try:

@@ -65,6 +65,7 @@ import scipy.linalg
 
 from sloshrom._x64 import float64
 from sloshrom.limits import TRAINERS
+from sloshrom.rom.engine import AdamProblem, adam_epochs
 from sloshrom.rom.errors import ROMError, UnstableModelError
 from sloshrom.rom.network import (
     MinMaxScaler,
@@ -90,6 +91,8 @@ __all__ = [
     "LMResult",
     "adam_nfir",
     "adam_noe",
+    "nfir_adam_problem",
+    "noe_shooting_problem",
     "ShootingProbes",
     "TRAIN_DTYPE",
     "cycles_per_window",
@@ -660,6 +663,94 @@ def cycle_energy_error(theta: Any, up: Any, ys: Any, cycles: EnergyCycles, idx: 
 
 
 
+def nfir_adam_problem(
+    u_s: np.ndarray,
+    y_s: np.ndarray,
+    theta0: np.ndarray,
+    delays: tuple[int, ...],
+    neurons: int,
+    hidden: str,
+    rest_u: float,
+    problem: LMProblem,
+    n_rows: int,
+    steps_per_epoch: int = 200,
+    lr: float = 1e-3,
+    batch: int = 4096,
+    b1: float = 0.9,
+    b2: float = 0.999,
+    eps: float = 1e-8,
+    weights: np.ndarray | None = None,
+    validation: tuple[np.ndarray, np.ndarray] | None = None,
+    val_weights: np.ndarray | None = None,
+    probes: HarmonicProbes | None = None,
+    passivity: float = 0.0,
+    probes_per_step: int = 24,
+    cycles: EnergyCycles | None = None,
+    cycle_energy: float = 0.0,
+    cycles_per_step: int = 32,
+    val_cycle_error: Callable[[np.ndarray], float] | None = None,
+) -> AdamProblem:
+    """The minibatch-Adam problem of :func:`adam_nfir` for the training engine; the parameters
+    are :func:`adam_nfir`'s."""
+    d = np.asarray(delays)
+    up = jnp.asarray(np.concatenate([np.full(int(d.max()), rest_u), u_s]))
+    ysj = jnp.asarray(y_s)
+    n = u_s.size
+    wj = jnp.ones(n) if weights is None else jnp.asarray(weights)
+    opt = optax.adam(lr, b1=b1, b2=b2, eps=eps)
+    n_probes = 0 if probes is None or passivity <= 0 else probes.n
+    n_draw = min(probes_per_step, n_probes)
+    n_cycles = 0 if cycles is None or cycle_energy <= 0 else cycles.n
+    c_draw = min(cycles_per_step, n_cycles)
+
+    def loss(th: Any, rows: Any, pidx: Any, cidx: Any) -> tuple[Any, Any]:
+        e = nfir_rows(th, up, rows, d, neurons, hidden) - ysj[rows]
+        value = jnp.mean(wj[rows] * e**2)
+        if n_draw:
+            value += passivity * passivity_penalty(th, probes, pidx, d, neurons, hidden)
+        if c_draw:
+            value += cycle_energy * cycle_energy_error(th, up, ysj, cycles, cidx, d, neurons,
+                                                       hidden)
+        return value, jnp.mean(e**2)
+
+    def draw(rng: np.random.Generator) -> tuple[np.ndarray, ...]:
+        rows = rng.integers(0, n, (steps_per_epoch, batch))
+        pidx = rng.integers(0, max(n_probes, 1), (steps_per_epoch, n_draw))
+        # no draw when the term is off: the minibatch sequence stays that of the paper
+        cidx = (rng.integers(0, n_cycles, (steps_per_epoch, c_draw)) if c_draw
+                else np.zeros((steps_per_epoch, 0), dtype=np.int32))
+        return rows, pidx, cidx
+
+    every_probe = jnp.arange(n_probes)
+
+    @jax.jit
+    def penalty_all(th: Any) -> Any:
+        return passivity_penalty(th, probes, every_probe, d, neurons, hidden)
+
+    def train_mse(th: Any) -> float:
+        return problem.sse(np.asarray(th)) / n_rows
+
+    if validation is not None:
+        uvj, yv = jnp.asarray(validation[0]), np.asarray(validation[1])
+        wv = None if val_weights is None else np.asarray(val_weights)
+
+    def validate(th: Any) -> tuple[float, float]:
+        # early stopping on the loss being minimised: weighted error + physics terms
+        if validation is None:
+            vmse = value = train_mse(th)
+        else:
+            e = np.asarray(nfir_free_run(jnp.asarray(th), uvj, rest_u, delays, neurons,
+                                         hidden)) - yv
+            vmse = float(np.mean(e**2))
+            value = vmse if wv is None else float(np.mean(wv * e**2))
+            vmse, value = (v if math.isfinite(v) else math.inf for v in (vmse, value))
+        if c_draw and val_cycle_error is not None:
+            value += cycle_energy * val_cycle_error(np.asarray(th))
+        return vmse, value + (passivity * float(penalty_all(th)) if n_draw else 0.0)
+
+    return AdamProblem(loss, jnp.asarray(theta0), opt, draw, validate, train_mse)
+
+
 def adam_nfir(
     u_s: np.ndarray,
     y_s: np.ndarray,
@@ -682,7 +773,8 @@ def adam_nfir(
     b2: float = 0.999,
     eps: float = 1e-8,
     weights: np.ndarray | None = None,
-    val_weighted: Callable[[np.ndarray], float] | None = None,
+    validation: tuple[np.ndarray, np.ndarray] | None = None,
+    val_weights: np.ndarray | None = None,
     probes: HarmonicProbes | None = None,
     passivity: float = 0.0,
     probes_per_step: int = 24,
@@ -698,90 +790,26 @@ def adam_nfir(
     times :func:`passivity_penalty` on ``probes_per_step`` probes drawn from ``probes`` at every
     step, plus ``cycle_energy`` times :func:`cycle_energy_error` on ``cycles_per_step`` cycles
     drawn from ``cycles``. Stops at ``max_epochs`` or after ``max_fail`` epochs without a new
-    best validation objective (best parameters returned): the validation MSE, or
-    ``val_weighted(theta)`` if given, plus the passivity term on every probe, plus
-    ``cycle_energy * val_cycle_error(theta)`` (the cycle-energy error of the validation
-    record) if given. ``problem`` supplies the training SSE (on
-    its ``n_rows`` rows) and the validation MSE reported in the history. ``lr``, ``b1``,
-    ``b2``, ``eps`` as :func:`optax.adam` (``eps`` outside the square root).
+    best objective (best parameters returned): the MSE of the free run of the scaled
+    ``validation`` record (input, output), each sample weighted by ``val_weights`` if given
+    (one run scores both), or without validation the training MSE; plus the passivity term
+    on every probe, plus ``cycle_energy * val_cycle_error(theta)`` (the cycle-energy error of
+    the validation record) if given. ``problem`` supplies the training SSE (on its ``n_rows``
+    rows) reported in the history. ``lr``, ``b1``, ``b2``, ``eps`` as :func:`optax.adam`
+    (``eps`` outside the square root). The epochs run in the training engine
+    (:func:`sloshrom.rom.engine.adam_epochs`).
     """
-    d = np.asarray(delays)
-    up = jnp.asarray(np.concatenate([np.full(int(d.max()), rest_u), u_s]))
-    ysj = jnp.asarray(y_s)
-    n = u_s.size
-    wj = jnp.ones(n) if weights is None else jnp.asarray(weights)
-    opt = optax.adam(lr, b1=b1, b2=b2, eps=eps)
-    n_probes = 0 if probes is None or passivity <= 0 else probes.n
-    n_draw = min(probes_per_step, n_probes)
-    n_cycles = 0 if cycles is None or cycle_energy <= 0 else cycles.n
-    c_draw = min(cycles_per_step, n_cycles)
-
-    def loss(th, rows, pidx, cidx):
-        e = nfir_rows(th, up, rows, d, neurons, hidden) - ysj[rows]
-        value = jnp.mean(wj[rows] * e**2)
-        if n_draw:
-            value += passivity * passivity_penalty(th, probes, pidx, d, neurons, hidden)
-        if c_draw:
-            value += cycle_energy * cycle_energy_error(th, up, ysj, cycles, cidx, d, neurons,
-                                                       hidden)
-        return value
-
-    @jax.jit
-    def run(th, state, rows2d, probes2d, cycles2d):
-        def body(carry, xs):
-            th, state = carry
-            updates, state = opt.update(jax.grad(loss)(th, *xs), state, th)
-            return (optax.apply_updates(th, updates), state), None
-
-        return jax.lax.scan(body, (th, state), (rows2d, probes2d, cycles2d))[0]
-
-    every_probe = jnp.arange(n_probes)
-
-    @jax.jit
-    def penalty_all(th):
-        return passivity_penalty(th, probes, every_probe, d, neurons, hidden)
-
-    def objective(th: np.ndarray, val_mse: float) -> float:
-        # early stopping on the loss being minimised: weighted error + physics terms
-        value = val_mse if val_weighted is None else val_weighted(th)
-        if c_draw and val_cycle_error is not None:
-            value += cycle_energy * val_cycle_error(th)
-        return value + (passivity * float(penalty_all(jnp.asarray(th))) if n_draw else 0.0)
-
-    rng = np.random.default_rng(seed)
-    theta = jnp.asarray(theta0)
-    state = opt.init(theta)
-    t0 = time.perf_counter()
-    hist: dict[str, list] = {k: [] for k in ("train_mse", "val_mse", "val_objective", "mu",
-                                             "grad", "seconds")}
-    best_theta, best_v, best_epoch, fail, reason = np.asarray(theta), math.inf, 0, 0, "max_epochs"
-    for epoch in range(max_epochs + 1):
-        if epoch > 0:
-            rows = jnp.asarray(rng.integers(0, n, (steps_per_epoch, batch)))
-            pidx = jnp.asarray(rng.integers(0, max(n_probes, 1), (steps_per_epoch, n_draw)))
-            # no draw when the term is off: the minibatch sequence stays that of the paper
-            cidx = (jnp.asarray(rng.integers(0, n_cycles, (steps_per_epoch, c_draw))) if c_draw
-                    else jnp.zeros((steps_per_epoch, 0), dtype=jnp.int32))
-            theta, state = run(theta, state, rows, pidx, cidx)
-        th = np.asarray(theta)
-        tr = problem.sse(th) / n_rows
-        vv = problem.val_mse(th) if problem.val_mse else tr
-        obj = objective(th, vv)
-        if obj < best_v:
-            best_theta, best_v, best_epoch, fail = th, obj, epoch, 0
-        else:
-            fail += 1
-        info = {"train_mse": tr * mse_scale, "val_mse": vv * mse_scale, "val_objective": obj,
-                "mu": math.nan, "grad": math.nan, "seconds": time.perf_counter() - t0}
-        for k, val in info.items():
-            hist[k].append(float(val))
-        if callback is not None and callback(epoch, info):
-            reason = "callback"
-            break
-        if fail >= max_fail:
-            reason = "validation_stop"
-            break
-    return LMResult(best_theta, reason, hist, best_epoch)
+    problem = nfir_adam_problem(
+        u_s, y_s, theta0, delays, neurons, hidden, rest_u, problem, n_rows,
+        steps_per_epoch=steps_per_epoch, lr=lr, batch=batch, b1=b1, b2=b2, eps=eps,
+        weights=weights, validation=validation, val_weights=val_weights, probes=probes,
+        passivity=passivity, probes_per_step=probes_per_step, cycles=cycles,
+        cycle_energy=cycle_energy, cycles_per_step=cycles_per_step,
+        val_cycle_error=val_cycle_error)
+    res = adam_epochs(problem, max_epochs=int(max_epochs), max_fail=max_fail, seed=seed,
+                      mse_scale=mse_scale, patience_without_validation=True,
+                      constant_history={"mu": math.nan, "grad": math.nan}, callback=callback)
+    return LMResult(np.asarray(res.params), res.stop_reason, res.history, res.best_epoch)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -897,7 +925,7 @@ def noe_shoot(theta: Any, ubuf0: Any, ybuf0: Any, u_s: Any, delays: tuple[int, .
     return jax.vmap(one)(ubuf0, ybuf0, u_s)
 
 
-def adam_noe(
+def noe_shooting_problem(
     u: np.ndarray,
     y: np.ndarray,
     fs: float,
@@ -915,76 +943,15 @@ def adam_noe(
     max_epochs: int = 40,
     steps_per_epoch: int = 200,
     learning_rate: float = 3e-3,
-    max_fail: int = 6,
-    seed: int = 0,
     amplitude_weighting: float = 0.0,
     passivity: float = 0.0,
     cycle_energy: float = 0.0,
     frequency_band: tuple[float, float] = (0.0, math.inf),
     probes_per_step: int = 24,
-    callback: Callable[[int, dict], Any] | None = None,
-) -> LMResult:
-    """Train an NOE by multiple shooting with the passive recipe's loss terms.
-
-    Each Adam step (``optax``, float32, gradients clipped to a global norm of 1, learning rate
-    decaying from ``learning_rate`` to 5 % of it over the run, cosine) draws ``batch`` starts
-    ``s`` in the record, fills the NOE's delay lines with the *measured* inputs and outputs
-    before ``s`` (its exact state there: the record is taken at rest before its first sample)
-    and simulates ``horizon`` samples in closed loop. The loss, as
-    :func:`sloshrom.rom.statespace.fit_statespace`'s:
-
-    - the mean squared simulation error, each sample weighted by :func:`amplitude_weights`
-      when ``amplitude_weighting > 0``;
-    - ``cycle_energy`` times the mean squared error of the energy each sub-sequence exchanges
-      with the liquid, over ``m_ref V^2`` (``V`` its peak velocity) and per input cycle in it;
-    - ``passivity`` times the mean squared negative part of the dissipated energy of
-      ``probes_per_step`` harmonic probes run from rest in the same batch.
-
-    Early stopping: after every epoch of ``steps_per_epoch`` steps, the free run of the whole
-    validation record from rest (float64) is scored with the same terms (every probe); after
-    ``max_fail`` epochs without a new best the training stops, and the best parameters are
-    returned (the last ones without validation).
-
-    Parameters
-    ----------
-    u, y : ndarray, shape (n,)
-        Input (m/s) and output (N) records at ``fs``, physical units, starting at rest.
-    fs : float
-        Sample rate, Hz.
-    scaler : MinMaxScaler
-        Scaling of input and output.
-    theta0 : ndarray
-        Initial packed parameters (:func:`init_theta`).
-    delays, out_delays, neurons, hidden
-        The NOE's architecture.
-    validation : (u_val, y_val), optional
-        Validation record, physical units, starting at rest.
-    bound : float
-        A validation run whose scaled output exceeds this magnitude is unstable (objective inf).
-    horizon : int
-        Samples simulated from each start (and the length of the probes).
-    batch : int
-        Sub-sequences per step.
-    max_epochs, steps_per_epoch, learning_rate, max_fail, seed
-        Epochs at most, Adam steps per epoch, initial step size, patience (epochs), seed of the
-        draws of starts and probes.
-    amplitude_weighting, passivity, cycle_energy : float
-        ``eps`` (m/s) of the amplitude weights and the weights of the two energy terms
-        (0 = off).
-    frequency_band : (float, float)
-        Band of the probes, Hz.
-    probes_per_step : int
-        Probes drawn per step when ``passivity > 0``.
-    callback : callable, optional
-        ``callback(epoch, info)`` after every epoch; True stops the training.
-
-    Returns
-    -------
-    LMResult
-        Parameters, stop reason, history (per epoch ``train_mse``: the unweighted MSE of the
-        epoch's sub-sequences, N^2; ``val_mse`` N^2; ``val_objective``; ``mu``, ``grad``
-        (NaN: no such quantity); ``seconds``) and best epoch.
-    """
+) -> AdamProblem:
+    """The multiple-shooting problem of :func:`adam_noe` for the training engine; the
+    parameters are :func:`adam_noe`'s (``max_epochs`` sets the learning-rate schedule's
+    length; the draws' seed is the engine's)."""
     u = np.asarray(u, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
     d = np.asarray(delays)
@@ -1043,16 +1010,10 @@ def adam_noe(
     sched = optax.cosine_decay_schedule(float(learning_rate), total, 0.05)
     opt = optax.chain(optax.clip_by_global_norm(1.0), optax.adam(sched))
 
-    @jax.jit
-    def epoch_run(th: Any, state: Any, starts2d: Any, pidx2d: Any) -> tuple[Any, Any, Any]:
-        def body(carry: Any, xs: Any) -> tuple[Any, Any]:
-            th, state = carry
-            (_, mse), g = jax.value_and_grad(losses, has_aux=True)(th, *xs)
-            upd, state = opt.update(g, state, th)
-            return (optax.apply_updates(th, upd), state), mse
-
-        (th, state), mses = jax.lax.scan(body, (th, state), (starts2d, pidx2d))
-        return th, state, jnp.mean(mses)
+    def draw(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        starts = rng.integers(0, n - T + 1, (steps_per_epoch, batch))
+        pidx = rng.integers(0, max(1, pu.shape[0]), (steps_per_epoch, n_probe))
+        return starts, pidx
 
     # validation: the free run from rest of the whole record, scored like the training loss
     val = None
@@ -1069,6 +1030,13 @@ def adam_noe(
         if nwin:
             ew /= cycles_per_window(uv, 0, T)[vstarts][:, None]
 
+        @jax.jit
+        def penalty_all(th: Any) -> Any:
+            k = pu.shape[0]
+            yh = shoot(th, jnp.full((k, dmax), ru, f32), jnp.full((k, m), ry, f32), pu)
+            phi = jnp.sum(yh * pw, axis=1)
+            return jnp.mean(jnp.minimum(phi, 0.0) ** 2)
+
         def val(th: Any) -> tuple[float, float]:
             yh = np.asarray(noe_free_run(jnp.asarray(th, jnp.float64), uvs, ru, ry, delays,
                                          m, neurons, hidden))
@@ -1080,58 +1048,114 @@ def adam_noe(
             if cycle_energy > 0 and nwin:
                 de = np.sum(e[: nwin * T].reshape(nwin, T) * ew, axis=1)
                 obj += cycle_energy * float(np.mean(de**2))
+            if passivity > 0 and math.isfinite(obj):
+                obj += passivity * float(penalty_all(th))
             return mse, obj
 
-    @jax.jit
-    def penalty_all(th: Any) -> Any:
-        k = pu.shape[0]
-        yh = shoot(th, jnp.full((k, dmax), ru, f32), jnp.full((k, m), ry, f32), pu)
-        phi = jnp.sum(yh * pw, axis=1)
-        return jnp.mean(jnp.minimum(phi, 0.0) ** 2)
+    return AdamProblem(losses, jnp.asarray(theta0, f32), opt, draw, val)
 
-    rng = np.random.default_rng(seed)
-    theta = jnp.asarray(theta0, f32)
-    state = opt.init(theta)
-    hist: dict[str, list] = {k: [] for k in ("train_mse", "val_mse", "val_objective", "mu",
-                                             "grad", "seconds")}
-    best, best_obj, best_epoch, fail, reason = theta, math.inf, 0, 0, "max_epochs"
-    t0 = time.perf_counter()
-    scale2 = sc.out_half_range**2
-    for epoch in range(int(max_epochs) + 1):
-        train_mse = math.nan
-        if epoch > 0:
-            starts = jnp.asarray(rng.integers(0, n - T + 1, (steps_per_epoch, batch)))
-            pidx = jnp.asarray(rng.integers(0, max(1, pu.shape[0]),
-                                            (steps_per_epoch, n_probe)))
-            theta, state, tl = epoch_run(theta, state, starts, pidx)
-            train_mse = float(tl)
-        if val is not None:
-            vmse, obj = val(theta)
-            if passivity > 0 and math.isfinite(obj):
-                obj += passivity * float(penalty_all(theta))
-        else:
-            vmse, obj = train_mse, (train_mse if epoch > 0 else math.inf)
-        if not math.isfinite(train_mse) and epoch > 0:
-            reason = "diverged"
-            break
-        if val is None:
-            best, best_epoch = theta, epoch  # nothing to choose by: the last parameters
-        elif obj < best_obj:
-            best, best_obj, best_epoch, fail = theta, obj, epoch, 0
-        elif epoch > 0:
-            fail += 1
-        info = {"train_mse": train_mse * scale2, "val_mse": vmse * scale2,
-                "val_objective": obj, "mu": math.nan, "grad": math.nan,
-                "seconds": time.perf_counter() - t0}
-        for k, v in info.items():
-            hist[k].append(float(v))
-        if callback is not None and callback(epoch, info):
-            reason = "callback"
-            break
-        if val is not None and fail >= max_fail:
-            reason = "validation_stop"
-            break
-    return LMResult(np.asarray(best, dtype=np.float64), reason, hist, best_epoch)
+
+def adam_noe(
+    u: np.ndarray,
+    y: np.ndarray,
+    fs: float,
+    scaler: MinMaxScaler,
+    theta0: np.ndarray,
+    delays: tuple[int, ...],
+    out_delays: int,
+    neurons: int,
+    hidden: str,
+    validation: tuple[np.ndarray, np.ndarray] | None = None,
+    *,
+    bound: float = 10.0,
+    horizon: int = 300,
+    batch: int = 128,
+    max_epochs: int = 40,
+    steps_per_epoch: int = 200,
+    learning_rate: float = 3e-3,
+    max_fail: int = 6,
+    seed: int = 0,
+    amplitude_weighting: float = 0.0,
+    passivity: float = 0.0,
+    cycle_energy: float = 0.0,
+    frequency_band: tuple[float, float] = (0.0, math.inf),
+    probes_per_step: int = 24,
+    callback: Callable[[int, dict], Any] | None = None,
+) -> LMResult:
+    """Train an NOE by multiple shooting with the passive recipe's loss terms.
+
+    Each Adam step (``optax``, float32, gradients clipped to a global norm of 1, learning rate
+    decaying from ``learning_rate`` to 5 % of it over the run, cosine) draws ``batch`` starts
+    ``s`` in the record, fills the NOE's delay lines with the *measured* inputs and outputs
+    before ``s`` (its exact state there: the record is taken at rest before its first sample)
+    and simulates ``horizon`` samples in closed loop. The loss, as
+    :func:`sloshrom.rom.statespace.fit_statespace`'s:
+
+    - the mean squared simulation error, each sample weighted by :func:`amplitude_weights`
+      when ``amplitude_weighting > 0``;
+    - ``cycle_energy`` times the mean squared error of the energy each sub-sequence exchanges
+      with the liquid, over ``m_ref V^2`` (``V`` its peak velocity) and per input cycle in it;
+    - ``passivity`` times the mean squared negative part of the dissipated energy of
+      ``probes_per_step`` harmonic probes run from rest in the same batch.
+
+    Early stopping: after every epoch of ``steps_per_epoch`` steps, the free run of the whole
+    validation record from rest (float64) is scored with the same terms (every probe); after
+    ``max_fail`` epochs without a new best the training stops, and the best parameters are
+    returned (without validation, those of the epoch of the lowest training error). The epochs
+    run in the training engine (:func:`sloshrom.rom.engine.adam_epochs`).
+
+    Parameters
+    ----------
+    u, y : ndarray, shape (n,)
+        Input (m/s) and output (N) records at ``fs``, physical units, starting at rest.
+    fs : float
+        Sample rate, Hz.
+    scaler : MinMaxScaler
+        Scaling of input and output.
+    theta0 : ndarray
+        Initial packed parameters (:func:`init_theta`).
+    delays, out_delays, neurons, hidden
+        The NOE's architecture.
+    validation : (u_val, y_val), optional
+        Validation record, physical units, starting at rest.
+    bound : float
+        A validation run whose scaled output exceeds this magnitude is unstable (objective inf).
+    horizon : int
+        Samples simulated from each start (and the length of the probes).
+    batch : int
+        Sub-sequences per step.
+    max_epochs, steps_per_epoch, learning_rate, max_fail, seed
+        Epochs at most, Adam steps per epoch, initial step size, patience (epochs), seed of the
+        draws of starts and probes.
+    amplitude_weighting, passivity, cycle_energy : float
+        ``eps`` (m/s) of the amplitude weights and the weights of the two energy terms
+        (0 = off).
+    frequency_band : (float, float)
+        Band of the probes, Hz.
+    probes_per_step : int
+        Probes drawn per step when ``passivity > 0``.
+    callback : callable, optional
+        ``callback(epoch, info)`` after every epoch; True stops the training.
+
+    Returns
+    -------
+    LMResult
+        Parameters, stop reason, history (per epoch ``train_mse``: the unweighted MSE of the
+        epoch's sub-sequences, N^2; ``val_mse`` N^2; ``val_objective``; ``mu``, ``grad``
+        (NaN: no such quantity); ``seconds``) and best epoch.
+    """
+    problem = noe_shooting_problem(
+        u, y, fs, scaler, theta0, delays, out_delays, neurons, hidden, validation,
+        bound=bound, horizon=horizon, batch=batch, max_epochs=max_epochs,
+        steps_per_epoch=steps_per_epoch, learning_rate=learning_rate,
+        amplitude_weighting=amplitude_weighting, passivity=passivity,
+        cycle_energy=cycle_energy, frequency_band=frequency_band,
+        probes_per_step=probes_per_step)
+    res = adam_epochs(problem, max_epochs=int(max_epochs), max_fail=max_fail, seed=seed,
+                      mse_scale=scaler.out_half_range**2,
+                      constant_history={"mu": math.nan, "grad": math.nan}, callback=callback)
+    return LMResult(np.asarray(res.params, dtype=np.float64), res.stop_reason, res.history,
+                    res.best_epoch)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -1267,18 +1291,11 @@ def train(
                        passivity=float(passivity), cycle_energy=float(cycle_energy),
                        frequency_band=band, callback=callback)
     elif trainer == "adam":
-        weights = val_weighted = probes = None
+        weights = val_weights = probes = None
         if amplitude_weighting > 0:
             weights = amplitude_weights(u, fs, amplitude_weighting)
             if validation is not None:
-                wv = amplitude_weights(validation[0], fs, amplitude_weighting)
-                uvj, yv = jnp.asarray(val[0]), np.asarray(val[1])
-
-                def val_weighted(theta: np.ndarray) -> float:
-                    yh = np.asarray(nfir_free_run(jnp.asarray(theta), uvj, rest_u, delays, h,
-                                                  hidden))
-                    m = float(np.mean(wv * (yh - yv) ** 2))
-                    return m if np.isfinite(m) else math.inf
+                val_weights = amplitude_weights(validation[0], fs, amplitude_weighting)
         band = frequency_band if frequency_band is not None else (0.0, math.inf)
         if passivity > 0:
             probes = harmonic_probes(u, fs, sc, delays, band)
@@ -1306,7 +1323,8 @@ def train(
         res = adam_nfir(u_s, y_s, theta0, delays, h, hidden, rest_u, problem, int(rows.size),
                         max_epochs=int(max_epochs), seed=int(seed),
                         callback=callback, mse_scale=sc.out_half_range**2, weights=weights,
-                        val_weighted=val_weighted, probes=probes, passivity=float(passivity),
+                        validation=val, val_weights=val_weights, probes=probes,
+                        passivity=float(passivity),
                         cycles=cycles, cycle_energy=float(cycle_energy),
                         val_cycle_error=val_cycle_error)
     else:

@@ -1,0 +1,149 @@
+"""The training engine (:mod:`sloshrom.rom.engine`): one compiled epoch, early stopping, history."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+import pytest
+
+from sloshrom.rom.engine import AdamProblem, adam_epochs, epoch_program
+
+STEPS = 5
+
+
+def _linear_problem(validate=None, lr=0.05, noise=0.0):
+    """Least squares y = X w on a fixed record: minibatches of 8 rows per step."""
+    rng = np.random.default_rng(0)
+    X = rng.standard_normal((200, 3))
+    w_true = np.array([1.0, -2.0, 0.5])
+    y = X @ w_true + noise * rng.standard_normal(200)
+    Xj, yj = jnp.asarray(X), jnp.asarray(y)
+
+    def loss(w, rows):
+        e = Xj[rows] @ w - yj[rows]
+        return jnp.mean(e**2), jnp.mean(e**2)
+
+    def draw(g):
+        return (g.integers(0, 200, (STEPS, 8)),)
+
+    return AdamProblem(loss, jnp.zeros(3), optax.adam(lr), draw, validate), X, y, w_true
+
+
+def test_epoch_program_is_the_loop_of_its_steps():
+    with jax.enable_x64(True):
+        problem, *_ = _linear_problem()
+        rows = np.random.default_rng(1).integers(0, 200, (STEPS, 8))
+        opt = problem.optimizer
+        p, s, mse = epoch_program(problem.loss, opt)(problem.params0,
+                                                     opt.init(problem.params0),
+                                                     (jnp.asarray(rows),))
+        q, t, mses = problem.params0, opt.init(problem.params0), []
+        for r in rows:
+            (_, m), g = jax.value_and_grad(problem.loss, has_aux=True)(q, jnp.asarray(r))
+            upd, t = opt.update(g, t, q)
+            q = optax.apply_updates(q, upd)
+            mses.append(float(m))
+        np.testing.assert_allclose(np.asarray(p), np.asarray(q), rtol=1e-12, atol=1e-14)
+        assert float(mse) == pytest.approx(np.mean(mses), rel=1e-12)
+
+
+def test_converges_and_records_every_epoch():
+    with jax.enable_x64(True):
+        problem, X, y, w_true = _linear_problem()
+        res = adam_epochs(problem, max_epochs=60, seed=0, mse_scale=4.0)
+    np.testing.assert_allclose(np.asarray(res.params), w_true, atol=0.05)
+    h = res.history
+    assert set(h) == {"train_mse", "val_mse", "val_objective", "seconds", "step_seconds",
+                      "validation_seconds"}
+    assert h["step_seconds"][0] < h["step_seconds"][1]  # epoch 0 runs no step
+    assert np.all(np.diff(h["seconds"]) > 0)
+    assert all(len(v) == 61 for v in h.values())
+    assert math.isnan(h["train_mse"][0]) and h["val_objective"][0] == math.inf
+    # without validation the objective is the epoch's training mse, in scaled units; the
+    # history's mse is scaled by mse_scale
+    assert h["val_mse"][-1] == pytest.approx(4.0 * h["val_objective"][-1])
+    assert res.stop_reason == "max_epochs"
+    assert res.best_epoch == int(np.nanargmin(h["val_objective"]))
+
+
+def test_early_stopping_returns_the_best_epoch():
+    # a validation objective that is best at epoch 3 and worse after it
+    calls = []
+
+    def validate(w):
+        k = len(calls)
+        calls.append(k)
+        return float(k), float(abs(k - 3)) + 1.0
+
+    with jax.enable_x64(True):
+        problem, *_ = _linear_problem(validate)
+        seen = []
+        res = adam_epochs(problem, max_epochs=50, max_fail=4,
+                          callback=lambda e, info: seen.append(np.asarray(0)) and False)
+    assert res.stop_reason == "validation_stop"
+    assert res.best_epoch == 3
+    assert len(res.history["val_objective"]) == 3 + 4 + 1  # epochs 0..7
+    assert len(seen) == 8
+
+
+def test_the_best_parameters_are_those_of_the_best_epoch():
+    snapshots = []
+
+    def validate(w):
+        snapshots.append(np.asarray(w).copy())
+        return 0.0, [5.0, 4.0, 1.0, 3.0, 2.0, 6.0][len(snapshots) - 1]
+
+    with jax.enable_x64(True):
+        problem, *_ = _linear_problem(validate)
+        res = adam_epochs(problem, max_epochs=5, max_fail=10)
+    assert res.best_epoch == 2 and res.stop_reason == "max_epochs"
+    np.testing.assert_array_equal(np.asarray(res.params), snapshots[2])
+
+
+def test_callback_stops_and_constant_keys_are_recorded():
+    with jax.enable_x64(True):
+        problem, *_ = _linear_problem()
+        res = adam_epochs(problem, max_epochs=20, callback=lambda e, info: e == 2,
+                          constant_history={"mu": math.nan})
+    assert res.stop_reason == "callback"
+    assert len(res.history["mu"]) == 3 and all(math.isnan(v) for v in res.history["mu"])
+
+
+def test_a_diverging_training_stops_and_keeps_its_last_finite_best():
+    def loss(w, rows):
+        # unbounded below: gradient descent drives it to -inf, and the epoch's mse with it
+        e = -jnp.exp(10.0 * jnp.sum(w)) * jnp.ones(rows.shape)
+        return jnp.mean(e), jnp.mean(e)
+
+    problem = AdamProblem(loss, jnp.zeros(2), optax.sgd(1.0),
+                          lambda g: (g.integers(0, 9, (STEPS, 4)),), None)
+    with jax.enable_x64(True):
+        res = adam_epochs(problem, max_epochs=10)
+    assert res.stop_reason == "diverged"
+    assert np.all(np.isfinite(np.asarray(res.params)))
+
+
+def test_patience_without_validation_is_optional():
+    with jax.enable_x64(True):
+        problem, *_ = _linear_problem(lr=0.0)
+        # no learning and the same rows at every step: every epoch's objective is the same
+        problem = dataclasses.replace(problem, draw=lambda g: (np.zeros((STEPS, 8), int),))
+        a = adam_epochs(problem, max_epochs=30, max_fail=3)
+        b = adam_epochs(problem, max_epochs=30, max_fail=3, patience_without_validation=True)
+    assert a.stop_reason == "max_epochs"
+    assert b.stop_reason == "validation_stop"
+
+
+def test_same_seed_same_result_other_seed_other_draws():
+    with jax.enable_x64(True):
+        problem, *_ = _linear_problem(noise=0.5)
+        a = adam_epochs(problem, max_epochs=3, seed=4)
+        b = adam_epochs(problem, max_epochs=3, seed=4)
+        c = adam_epochs(problem, max_epochs=3, seed=5)
+    np.testing.assert_array_equal(np.asarray(a.params), np.asarray(b.params))
+    assert not np.array_equal(np.asarray(a.params), np.asarray(c.params))
