@@ -74,7 +74,7 @@ def test_step_reads_the_leaves_under_jit():
 
 def test_one_compilation_per_architecture_and_shape(modal):
     a = np.sin(2 * np.pi * 9 * np.arange(400) / 500.0)
-    one = coupled._simulate_one
+    one = coupled._jitted(1, False)  # the single-run scan (unroll 1, the default)
     n0 = one._cache_size()
     r1 = CoupledSimulator(_model(seed=1), modal).run_raw(a)
     assert one._cache_size() == n0 + 1
