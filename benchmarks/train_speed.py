@@ -14,7 +14,10 @@ default records (``results/data`` of ``make reproduce``, else the rig's VFA test
 - ``bound``: in the same run, the time of a dense matrix product with those FLOPs, in the
   trainer's precision, of the shape class of the model's widest layer (rows x its inputs by its
   inputs x its outputs); ``ratio`` = epoch / bound: how far from the arithmetic the epoch runs.
-  Ratios hold across machines better than seconds;
+  Ratios hold across machines better than seconds. A skinny product streams its operands from
+  memory, so a trainer whose small products stay in cache can beat this bound (ratio < 1); the
+  time of the same FLOPs at the rate of a large square product (the machine's arithmetic peak
+  for us) is printed beside it;
 - the ensemble's scaling: one NSS member alone, two members on two pinned Dask workers (the
   default), the same unpinned, and two members ``vmap``-ed in one process: throughput relative
   to one member;
@@ -89,6 +92,20 @@ def product_seconds(flops: float, k: int, n: int, dtype: np.dtype, repeat: int =
         f(a, b).block_until_ready()
         best = min(best, time.perf_counter() - t0)
     return best * flops / (2.0 * BLOCK * k * n)
+
+
+def peak_rate(dtype: np.dtype, size: int = 2048, repeat: int = 3) -> float:
+    """FLOP/s of a large square product in ``dtype``: the machine's arithmetic peak for us."""
+    rng = np.random.default_rng(0)
+    a = jnp.asarray(rng.standard_normal((size, size)), dtype)
+    f = jax.jit(jnp.dot)
+    f(a, a).block_until_ready()
+    best = math.inf
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        f(a, a).block_until_ready()
+        best = min(best, time.perf_counter() - t0)
+    return 2.0 * size**3 / best
 
 
 def steady(h: dict, key: str) -> float:
@@ -170,15 +187,18 @@ def epoch_table(data, epochs: int) -> list[dict]:
         h = m.history_
         flops, k, n = count(m, u, fs) if count is nfir_flops else count(m)
         bound = product_seconds(flops, k, n, dtype)
+        peak = flops / peak_rate(dtype)
         ep, val = steady(h, "step_seconds"), steady(h, "validation_seconds")
         rows.append({"name": name, "epoch": ep, "validation": val, "gflop": flops / 1e9,
                      "gflops": flops / 1e9 / ep, "bound": bound, "ratio": ep / bound,
+                     "peak": peak, "peak_ratio": ep / peak,
                      "dtype": np.dtype(dtype).name, "shape": f"rows x {k} @ {k} x {n}",
                      "compile": h["step_seconds"][1] - ep, "wall": wall})
         r = rows[-1]
         print(f"{name:36s} epoch {ep:6.3f} s + validation {val:5.3f} s | {r['gflop']:7.2f} "
               f"GFLOP, {r['gflops']:6.1f} GFLOP/s | bound {bound:6.3f} s ({r['dtype']}, "
-              f"{r['shape']}) | ratio {r['ratio']:5.1f}x", flush=True)
+              f"{r['shape']}) | ratio {r['ratio']:5.1f}x | at the square product's rate "
+              f"{peak:6.3f} s, ratio {r['peak_ratio']:5.1f}x", flush=True)
     return rows
 
 
