@@ -317,11 +317,11 @@ def map_times(run: Path) -> dict:
 
 
 def sweep_time(data) -> float:
-    from sloshrom.pipeline.settings import load_config
+    from sloshrom.pipeline.settings import load
     from sloshrom.rom.sweep import run_sweep
 
     u, y, uv, yv, fs = data
-    cfg = load_config().rom
+    cfg = load().rom
     pts = ([("nfir", d, n) for d in cfg.sweep_nfir_delays for n in cfg.sweep_nfir_neurons]
            + [("noe", d, n) for d in cfg.sweep_noe_delays for n in cfg.sweep_noe_neurons])
     with tempfile.TemporaryDirectory() as tmp:

@@ -9,6 +9,7 @@ import pytest
 
 from sloshrom.config import Tank
 from sloshrom.energy import (
+    JAX_BLOCK,
     EnergyError,
     default_grid,
     dissipated_energy,
@@ -143,3 +144,38 @@ def test_phi_d_map_asks_for_the_tank_of_a_model_without_one():
     rig = VirtualRig(Tank(fill=0.4))
     assert tank_of(rig) is rig.tank and tank_of(FrozenLiquid(1e-3)) is None
     assert tank_of(LinearDamper(1.0)) is TANK
+
+
+class LaggedDamper(LinearDamper):
+    """A causal damper with memory (first-order lag on the damping force), flagged as a JAX
+    model: its map runs in blocks of one shape. Records the shapes it is called with."""
+
+    def __init__(self, c: float, jax_traceable: bool, dt: float = 2e-3) -> None:
+        super().__init__(c, dt=dt)
+        self.jax_traceable = jax_traceable
+        self.shapes: list[tuple[int, int]] = []
+
+    def simulate(self, velocity, acceleration):
+        from scipy.signal import lfilter
+
+        v = np.asarray(velocity)
+        self.shapes.append(v.shape)
+        lag = lfilter([0.3], [1.0, -0.7], -self.c * v, axis=-1)
+        return lag + self.tank.liquid_mass * np.asarray(acceleration)
+
+
+def test_map_of_a_jax_model_runs_in_blocks_of_one_shape_with_the_same_values():
+    ob, ab = default_grid(12)
+    blocks = LaggedDamper(1.5, jax_traceable=True)
+    one_by_one = LaggedDamper(1.5, jax_traceable=False)
+    calls = []
+    a = phi_d_map(blocks, ob, ab, TANK, n_cycles=3, progress=lambda d, n: calls.append(d))
+    b = phi_d_map(one_by_one, ob, ab, TANK, n_cycles=3)
+    # the padding with rest after each test changes nothing before it (a causal model)
+    np.testing.assert_array_equal(np.isnan(a.values), np.isnan(b.values))
+    np.testing.assert_allclose(a.values, b.values, rtol=1e-12, equal_nan=True)
+    assert np.isfinite(a.values).sum() > 40
+    # one shape (one compilation for a JAX model), blocks of JAX_BLOCK tests
+    assert len(set(blocks.shapes)) == 1 and blocks.shapes[0][0] == JAX_BLOCK
+    assert len(set(one_by_one.shapes)) > 1
+    assert calls[-1] == ob.size and calls == sorted(calls)

@@ -30,6 +30,7 @@ from sloshrom.signals import DEFAULT_A_BAR_MIN, SHAKER_ENVELOPE, harmonic
 
 __all__ = [
     "DISSIPATIVE_THRESHOLD",
+    "JAX_BLOCK",
     "PASSIVITY_TOLERANCE",
     "EnergyError",
     "default_grid",
@@ -262,8 +263,9 @@ def phi_d_map(
     """Phi_d(omega_bar, a_bar) from batched ramped harmonic tests through ``model.simulate``.
 
     For each omega_bar all amplitudes inside the shaker envelope run as one batch at the model's
-    step ``model.dt`` (a JAX model runs every frequency's batch in one call, the shorter tests
-    padded with rest: one compilation); points outside the envelope are NaN.
+    step ``model.dt`` (a JAX model runs the tests of every frequency in blocks of one shape, the
+    shorter tests padded with rest: one compilation, not one per frequency); points outside the
+    envelope are NaN.
 
     Parameters
     ----------
