@@ -355,6 +355,10 @@ def test_local_cluster_workers_are_pinned_to_a_core_each():
     # the tasks of run_tasks: the thread that runs each may use one core only
     seen = run_tasks(os.sched_getaffinity, [0, 0, 0], n_workers=2)
     assert all(len(s) == 1 and s <= set(usable_cores()) for s in seen), seen
+    # and the workers keep glibc's allocator as this process has it, not Dask's
+    # MALLOC_TRIM_THRESHOLD_=65536 (training steps re-faulted their buffers)
+    trim = run_tasks(os.environ.get, ["MALLOC_TRIM_THRESHOLD_"], n_workers=2)
+    assert trim == [os.environ.get("MALLOC_TRIM_THRESHOLD_")]
     # and the two workers have a core each
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                       dashboard_address=None) as cluster, Client(cluster) as client:

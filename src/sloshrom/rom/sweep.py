@@ -144,6 +144,9 @@ def run_sweep(
     opts = dict(options or {})
     train = (np.asarray(train[0], float), np.asarray(train[1], float))
     validation = (np.asarray(validation[0], float), np.asarray(validation[1], float))
+    # the longest trainings first (the NOE's Levenberg-Marquardt, then the largest NFIRs): the
+    # workers then finish together instead of one waiting on the last long point
+    pts.sort(key=lambda p: (p[0] != "noe", -p[1] * p[2]))
     rows = run_tasks(fit_point, pts, shared=(train, validation), args=(float(fs), str(out), opts),
                      scheduler=scheduler, n_workers=n_workers,
                      done=None if progress is None else lambda _i, row: progress(row))
