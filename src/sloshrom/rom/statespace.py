@@ -135,33 +135,26 @@ def init_params(spec: StateSpaceSpec, seed: int) -> dict[str, np.ndarray]:
 # ---------------------------------------------------------------------------------------------
 
 
-def _lin(x: Any, u: Any, M: Any) -> Any:
-    """``[x, u] @ M`` without forming ``[x, u]`` (12 % faster training steps, as measured: the
-    state's product keeps a width of ``nx``)."""
-    nx = x.shape[-1]
-    return x @ M[:nx] + (u[..., None] if M.ndim > 1 else u) * M[nx]
+def _f(p: dict[str, Any], z: Any) -> Any:
+    return z @ p["A"] + jnp.tanh(z @ p["W1"] + p["b1"]) @ p["W2"]
 
 
-def _f(p: dict[str, Any], x: Any, u: Any) -> Any:
-    return _lin(x, u, p["A"]) + jnp.tanh(_lin(x, u, p["W1"]) + p["b1"]) @ p["W2"]
-
-
-def _h(p: dict[str, Any], x: Any, u: Any) -> Any:
-    return _lin(x, u, p["C"]) + jnp.tanh(_lin(x, u, p["V1"]) + p["d1"]) @ p["V2"]
+def _h(p: dict[str, Any], z: Any) -> Any:
+    return z @ p["C"] + jnp.tanh(z @ p["V1"] + p["d1"]) @ p["V2"]
 
 
 def _rest_terms(p: dict[str, Any], r_u: Any, n_states: int) -> tuple[Any, Any]:
-    dtype = p["A"].dtype
-    x0 = jnp.zeros(n_states, dtype=dtype)
-    u0 = jnp.asarray(r_u, dtype)
-    return _f(p, x0, u0), _h(p, x0, u0)
+    z0 = jnp.concatenate([jnp.zeros(n_states, dtype=p["A"].dtype),
+                          jnp.reshape(jnp.asarray(r_u, p["A"].dtype), (1,))])
+    return _f(p, z0), _h(p, z0)
 
 
 def ss_step(p: dict[str, Any], x: Any, u_s: Any, r_u: Any, r_y: Any) -> tuple[Any, Any]:
     """One step in scaled units: ``(x_{k+1}, y_k)`` from ``x_k`` (..., nx) and ``u_k`` (...)."""
-    f0, h0 = _rest_terms(p, r_u, p["A"].shape[1])
-    u = jnp.asarray(u_s, x.dtype)
-    return x + _f(p, x, u) - f0, _h(p, x, u) - h0 + r_y
+    nx = p["A"].shape[1]
+    f0, h0 = _rest_terms(p, r_u, nx)
+    z = jnp.concatenate([x, jnp.asarray(u_s, x.dtype)[..., None]], axis=-1)
+    return x + _f(p, z) - f0, _h(p, z) - h0 + r_y
 
 
 def ss_simulate(p: dict[str, Any], x0: Any, u_s: Any, r_u: Any, r_y: Any,
