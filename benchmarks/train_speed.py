@@ -80,18 +80,24 @@ def records(run: Path) -> tuple[tuple[np.ndarray, ...], str]:
 
 
 def product_seconds(flops: float, k: int, n: int, dtype: np.dtype, repeat: int = 5) -> float:
-    """Time of dense products (rows x k) @ (k x n) in ``dtype`` totalling ``flops``."""
+    """Time of dense products (rows x k) @ (k x n) in ``dtype`` totalling ``flops``: the median
+    of ``repeat`` timings of a loop of products long enough (>= 50 ms) for the clock."""
     rng = np.random.default_rng(0)
     a = jnp.asarray(rng.standard_normal((BLOCK, k)), dtype)
     b = jnp.asarray(rng.standard_normal((k, n)), dtype)
     f = jax.jit(jnp.dot)
     f(a, b).block_until_ready()
-    best = math.inf
+    t0 = time.perf_counter()
+    f(a, b).block_until_ready()
+    loops = max(1, int(0.05 / max(time.perf_counter() - t0, 1e-6)))
+    times = []
     for _ in range(repeat):
         t0 = time.perf_counter()
-        f(a, b).block_until_ready()
-        best = min(best, time.perf_counter() - t0)
-    return best * flops / (2.0 * BLOCK * k * n)
+        for _ in range(loops):
+            r = f(a, b)
+        r.block_until_ready()
+        times.append((time.perf_counter() - t0) / loops)
+    return float(np.median(times)) * flops / (2.0 * BLOCK * k * n)
 
 
 def peak_rate(dtype: np.dtype, size: int = 2048, repeat: int = 3) -> float:

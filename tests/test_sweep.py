@@ -82,3 +82,19 @@ def test_sweep_through_dask_local_cluster(tmp_path):
     rows = sweep.run_sweep(tr, va, 100.0, tmp_path, pts, n_workers=2, options={"max_epochs": 2})
     assert len(rows) == 2 and all(math.isfinite(r["score"]) for r in rows)
     assert (tmp_path / "nfir_d3_n2.npz").is_file()
+
+
+def test_sweep_starts_the_longest_trainings_first(tmp_path, monkeypatch):
+    # the workers finish together when the long points (the NOE's LM, then the largest NFIRs)
+    # are not left for the end
+    seen = []
+
+    def record(fn, items, **kwargs):
+        seen.extend(items)
+        return []
+
+    monkeypatch.setattr(sweep, "run_tasks", record)
+    pts = [("nfir", 50, 5), ("nfir", 70, 40), ("noe", 2, 10), ("nfir", 60, 20), ("noe", 2, 20)]
+    sweep.run_sweep(_data(300, 1), _data(300, 2), 100.0, tmp_path, pts)
+    assert seen == [("noe", 2, 20), ("noe", 2, 10), ("nfir", 70, 40), ("nfir", 60, 20),
+                    ("nfir", 50, 5)]

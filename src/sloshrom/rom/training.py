@@ -799,14 +799,14 @@ def adam_nfir(
     (``eps`` outside the square root). The epochs run in the training engine
     (:func:`sloshrom.rom.engine.adam_epochs`).
     """
-    problem = nfir_adam_problem(
+    adam_problem = nfir_adam_problem(
         u_s, y_s, theta0, delays, neurons, hidden, rest_u, problem, n_rows,
         steps_per_epoch=steps_per_epoch, lr=lr, batch=batch, b1=b1, b2=b2, eps=eps,
         weights=weights, validation=validation, val_weights=val_weights, probes=probes,
         passivity=passivity, probes_per_step=probes_per_step, cycles=cycles,
         cycle_energy=cycle_energy, cycles_per_step=cycles_per_step,
         val_cycle_error=val_cycle_error)
-    res = adam_epochs(problem, max_epochs=int(max_epochs), max_fail=max_fail, seed=seed,
+    res = adam_epochs(adam_problem, max_epochs=int(max_epochs), max_fail=max_fail, seed=seed,
                       mse_scale=mse_scale, patience_without_validation=True,
                       constant_history={"mu": math.nan, "grad": math.nan}, callback=callback)
     return LMResult(np.asarray(res.params), res.stop_reason, res.history, res.best_epoch)
