@@ -20,7 +20,8 @@ simulations (multiple shooting) from where the record is, not from rest;
 :meth:`StateSpaceNetwork.encode` gives the state for a user who has measured history. The
 coupled beam and the maps never need it: they start at rest.
 
-Training (:func:`fit_statespace`): minibatch Adam (``optax``) on the simulation error of
+Training (:func:`fit_statespace`, epochs run by :func:`sloshrom.rom.engine.adam_epochs`):
+minibatch Adam (``optax``) on the simulation error of
 ``batch`` sub-sequences of ``horizon`` samples drawn at random from the record, each started by
 the encoder; early stopping on the free run of the whole validation record from rest (the same
 test as the NFIR's). The loss terms of the passive recipe carry over: amplitude weights
@@ -486,7 +487,8 @@ def fit_statespace(
     params : dict of ndarray
         The parameters (scaled units).
     history : dict
-        Per-epoch ``train_mse``, ``val_mse`` (N^2), ``val_objective``, ``seconds``;
+        Per-epoch ``train_mse``, ``val_mse`` (N^2), ``val_objective``, ``seconds``,
+        ``step_seconds``, ``validation_seconds`` (:func:`sloshrom.rom.engine.adam_epochs`);
         ``stop_reason``, ``best_epoch``, ``trainer`` ("shooting"), ``n_rows``,
         ``train_seconds``.
     """
