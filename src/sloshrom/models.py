@@ -189,6 +189,8 @@ class Envelope:
         Peak |tank acceleration| of the training record, m/s^2.
     fill_min, fill_max : float or None
         Fill levels d/h (-) of the training records.
+    frequency_band : tuple of float or None
+        ``(low, high)`` band of the training excitation, Hz.
     """
 
     input: Input
@@ -197,6 +199,7 @@ class Envelope:
     acceleration_max: float | None = None
     fill_min: float | None = None
     fill_max: float | None = None
+    frequency_band: tuple[float, float] | None = None
 
     @classmethod
     def from_mapping(cls, env: Any, input: Input = "velocity") -> Envelope | None:
@@ -209,8 +212,10 @@ class Envelope:
             v = env.get(key)
             return None if v is None else float(v)
 
+        band = env.get("frequency_band")
         return cls(input, float(env["input_min"]), float(env["input_max"]),
-                   opt("acceleration_max"), opt("fill_min"), opt("fill_max"))
+                   opt("acceleration_max"), opt("fill_min"), opt("fill_max"),
+                   None if band is None else (float(band[0]), float(band[1])))
 
     @property
     def unit(self) -> str:

@@ -1,10 +1,11 @@
-"""Interchange commands: ``sloshrom export onnx MODEL OUT.onnx`` (a ROM into other simulators)
-and ``sloshrom import uff IN.uff OUT.nc`` (test-lab UFF58 time histories into a record)."""
+"""Interchange commands: ``sloshrom export onnx MODEL OUT.onnx`` and ``sloshrom export fmu
+MODEL OUT.fmu`` (a ROM into other simulators) and ``sloshrom import uff IN.uff OUT.nc``
+(test-lab UFF58 time histories into a record)."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
@@ -19,9 +20,8 @@ from sloshrom.io.uff import read_uff58
 if TYPE_CHECKING:
     import numpy as np
 
-    from sloshrom.rom.estimators import NFIR, NOE
 
-export_app = typer.Typer(help="Export a trained ROM for other simulators (ONNX).",
+export_app = typer.Typer(help="Export a trained ROM for other simulators (ONNX, FMU).",
                          no_args_is_help=True)
 app.add_typer(export_app, name="export")
 
@@ -95,7 +95,7 @@ def onnx_cmd(
     typer.echo(msg)
 
 
-def _check_input(rom: NFIR | NOE) -> np.ndarray:
+def _check_input(rom: Any) -> np.ndarray:
     """A band-limited input inside the training envelope (2 s), starting and ending at rest."""
     import numpy as np
 
@@ -111,6 +111,92 @@ def _check_input(rom: NFIR | NOE) -> np.ndarray:
     u = u * np.sin(np.pi * t / t[-1]) ** 2  # at rest at both ends
     amp = 0.9 * min(abs(env.get("input_min", -1.0)), abs(env.get("input_max", 1.0)))
     return u / np.max(np.abs(u)) * amp
+
+
+#: the largest relative difference an exported FMU may show against the ROM it came from
+FMU_PARITY = 1e-12
+
+
+@export_app.command("fmu")
+def fmu_cmd(
+    model: Annotated[Path, typer.Argument(help="ROM file written by sloshrom (.npz): NFIR, "
+                                          "NOE, NSS or an ensemble.")],
+    out: Annotated[Path, typer.Argument(help="Output FMU (.fmu).")],
+    step: Annotated[float | None, typer.Option(help="The communication step your simulator "
+                                               "will use, s: checked against the model's "
+                                               "own step, the only one the FMU takes.")
+                    ] = None,
+    source_only: Annotated[bool, typer.Option("--source-only", help="Write the C sources "
+                                              "without compiling a binary (build it on the "
+                                              "machine that runs it).")] = False,
+    check: Annotated[bool, typer.Option("--check/--no-check", help="Validate the FMU with "
+                                        "FMPy and run its binary against the ROM (a relative "
+                                        "difference above 1e-12 writes nothing).")] = True,
+) -> None:
+    """Export a ROM as an FMI 2.0 co-simulation FMU: native C, no Python at run time.
+
+    Inputs velocity (m/s) and acceleration (m/s2) of the tank, output dynamic_force (N); the
+    communication step is the model's own; outside_envelope flags inputs beyond the training
+    range (docs/interchange.md). The C sources are inside, for other platforms.
+
+    Example: ``sloshrom export fmu results/models/nss.npz slosh.fmu``
+    """
+    import numpy as np
+
+    if out.suffix.lower() != ".fmu":
+        fail(f"output must be a .fmu file, got {out} (MODEL comes first, then OUT)")
+    if step is not None:
+        check_number(step, "--step", 0.0, lo_open=True, unit="s")
+    check_input(model, "MODEL")
+    check_out(out, suffixes=(".fmu",), inputs=(model,), what="OUT")
+    from sloshrom.rom.estimators import load_model
+    from sloshrom.rom.fmu import check_fmu_exportable, export_fmu, fmu_platform, load_fmu
+
+    rel = [float("nan")]
+    try:
+        rom = load_model(model)
+        nets = check_fmu_exportable(rom)
+        dt = nets[0].dt
+        if step is not None and not abs(step - dt) <= 1e-6 * dt:
+            fail(f"--step {step:g} s is not the model's step {dt:.10g} s ({1 / dt:g} Hz): the "
+                 "FMU runs at the rate the ROM was identified at, and only there; use that "
+                 "step, with rate transitions around the FMU if the rest of your model runs at "
+                 f"another; {out} not written")
+        u = _check_input(rom)
+
+        def verify(tmp: Path) -> None:
+            # on the complete temporary file: OUT appears only once it is verified
+            from fmpy.validation import validate_fmu
+
+            problems = validate_fmu(str(tmp))
+            if problems:
+                fail(f"FMPy finds the exported FMU invalid ({'; '.join(problems)}); "
+                     f"{out} not written")
+            if source_only:
+                return
+            fmu = load_fmu(tmp)
+            try:
+                y = fmu.predict(u)
+            finally:
+                fmu.close()
+            ref = np.asarray(rom.predict(u))
+            rel[0] = float(np.max(np.abs(y - ref)) / max(np.max(np.abs(ref)), 1e-300))
+            if not rel[0] <= FMU_PARITY:
+                fail(f"the FMU differs from the ROM by {rel[0]:.2e} (> {FMU_PARITY:g}); "
+                     f"{out} not written")
+
+        export_fmu(rom, out, binary=not source_only, verify=verify if check else None)
+    except SloshromError as exc:
+        fail(str(exc))
+    what = (f"{len(nets)} x {rom.member_class}" if len(nets) > 1 else type(rom).__name__)
+    msg = (f"wrote {out}: {what}, {1 / dt:g} Hz (communication step {dt:.10g} s), "
+           + ("sources only" if source_only else f"binary for {fmu_platform()} + sources"))
+    if check:
+        msg += "; FMPy validation: no problems"
+        if not source_only:
+            msg += (f"; FMU vs sloshrom on {u.size} samples: max rel. difference "
+                    f"{rel[0]:.2e}")
+    typer.echo(msg)
 
 
 import_app = typer.Typer(help="Import test-lab files as sloshrom records (UFF dataset 58).",

@@ -1,0 +1,813 @@
+"""Export a fitted ROM as an FMI 2.0 co-simulation FMU: native code, no Python at run time.
+
+The FMU implements the sloshing-model contract of :mod:`sloshrom.models` for any tool that
+imports FMUs (Simulink's FMU Import block, Dymola/OpenModelica, Simcenter Amesim, MSC Adams, FMPy,
+a time-marching code of one's own):
+
+========================  ==========  ==================================================
+variable                  causality   meaning
+========================  ==========  ==================================================
+``velocity``              input       tank vertical velocity at the communication point, m/s
+``acceleration``          input       tank vertical acceleration there, m/s2
+``dynamic_force``         output      dynamic sloshing force, N (``f_S + m_l * acc``, up +)
+``outside_envelope``      output      the signal the model reads lies outside its training
+                                      range at this communication point (Boolean)
+``samples_outside_envelope`` output   communication points so far with that flag (Integer)
+``time_step``             read-only   the model's step ``dt``, s: the only communication step
+``sample_rate``           read-only   ``1/dt``, Hz
+``input_min``/``_max``    read-only   training range of the signal read (m/s or m/s2)
+``acceleration_max``      read-only   peak |tank acceleration| of the training, m/s2
+``frequency_min``/``_max``  read-only band of the training excitation, Hz
+``fill_min``/``fill_max`` read-only   fill levels d/h of the training records (-)
+``reads_acceleration``    read-only   the model reads ``acceleration``, not ``velocity``
+========================  ==========  ==================================================
+
+(Read-only parameters are FMI *calculated parameters*; one the model does not know is left
+out.) At a communication point ``t_k``, the inputs are the tank's signals at ``t_k`` and
+``dynamic_force`` is the model's force at sample k: an NFIR or NOE reads past inputs only
+(no direct feed-through), a state-space ROM (NSS) also the input at ``t_k``.
+``fmi2DoStep(t_k, dt)`` moves the state to ``t_{k+1}``; the state starts at rest. Another step
+size, or a communication point that does not follow the last one, is an ``fmi2Error`` with a
+message that says so. A network on the acceleration reads ``acceleration``, every other model
+``velocity``; the other input is ignored (both are there so that one FMU block fits every ROM).
+
+What is inside (:func:`export_fmu`):
+
+``sources/``
+    ``sloshrom_model.h``, ``sloshrom_kernels.c`` (delay lines, scaler, normalised RBF layer, the
+    NOE's and the NSS's recurrences, an ensemble's mean), ``sloshrom_fmi2.c`` (the FMI 2.0
+    co-simulation functions), the generated ``sloshrom_model_data.c`` (architecture and every
+    parameter, written to 17 significant digits: the doubles exactly) and the FMI 2.0 headers.
+    A user on another platform builds the binary from them (``fmpy`` ``compile``, or any C99
+    compiler: ``cc -shared -fPIC -O2 -I sources sources/*.c -lm``).
+``binaries/<platform>/<modelIdentifier>.so|.dll|.dylib``
+    Compiled here with the machine's C compiler through CMake (FMPy's build project), unless a
+    source-only FMU is asked for.
+
+:func:`load_fmu` reads such an FMU back as a sloshing model (:class:`FMUModel`) that steps the
+native code through FMPy: the coupled beam with it equals the coupled beam with the ROM itself.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+import re
+import shutil
+import subprocess
+import tempfile
+import uuid
+import warnings
+import weakref
+import zipfile
+from collections.abc import Callable, Sequence
+from importlib import resources
+from pathlib import Path
+from typing import Any
+from xml.sax.saxutils import escape, quoteattr
+
+import numpy as np
+
+from sloshrom import __version__
+from sloshrom.fileio import atomic_write
+from sloshrom.io.units import same_unit
+from sloshrom.models import INPUT_UNITS, EnvelopeWarning, ModelError, envelope_of, input_of
+from sloshrom.rom.ensemble import is_ensemble
+from sloshrom.rom.errors import ROMError
+from sloshrom.rom.network import FittedNetwork, NetworkSpec, network_of
+from sloshrom.rom.statespace import StateSpaceSpec
+
+__all__ = ["FMU_SOURCES", "FMUError", "FMUModel", "check_fmu_exportable", "export_fmu",
+           "fmu_platform", "load_fmu", "model_description", "model_data_source"]
+
+#: the static C sources shipped in every FMU (package data of ``sloshrom.rom``)
+FMU_SOURCES = ("sloshrom_model.h", "sloshrom_kernels.c", "sloshrom_fmi2.c")
+_DATA_SOURCE = "sloshrom_model_data.c"
+_FMI_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
+_GENERATOR = "sloshrom"
+#: value references (sloshrom_fmi2.c)
+VR = {"velocity": 0, "acceleration": 1, "dynamic_force": 2, "outside_envelope": 3,
+      "samples_outside_envelope": 4, "time_step": 10, "sample_rate": 11, "input_min": 12,
+      "input_max": 13, "acceleration_max": 14, "frequency_min": 15, "frequency_max": 16,
+      "fill_min": 17, "fill_max": 18, "reads_acceleration": 19}
+#: relative tolerance of the FMU on its communication step (sloshrom_fmi2.c, STEP_RTOL)
+STEP_RTOL = 1e-6
+_NAMESPACE = uuid.UUID("5c1a3b5e-2f0d-4d0e-9a57-6f6d5e0a51f0")
+
+
+class FMUError(ROMError):
+    """An FMU that sloshrom cannot build or read back (the message says why)."""
+
+
+# -- what can be exported ------------------------------------------------------------------------
+def _networks(model: Any) -> list[FittedNetwork]:
+    """The fitted networks whose mean ``model`` is (one for a single ROM)."""
+    if is_ensemble(model):
+        try:
+            members = model.members_
+        except AttributeError:
+            raise ROMError("the ensemble is not fitted: nothing to export") from None
+        nets = [network_of(m) for m in members]
+    else:
+        nets = [network_of(model)]
+    if any(n is None for n in nets):
+        raise ROMError(_refusal(model))
+    return nets  # type: ignore[return-value]
+
+
+def _refusal(model: Any) -> str:
+    name = type(model).__name__
+    if hasattr(model, "spec"):  # an estimator without its fitted network
+        return f"the {name} is not fitted: nothing to export"
+    return (f"a {name} cannot be exported to an FMU: an FMU holds fitted networks (NFIR, NOE, "
+            "NSS) or an ensemble of them. A fill family or blend mixes networks by the fill "
+            "level: export the member identified at your fill (its own model file). The "
+            "bouncing ball is a physics model run by sloshrom's integrator: export a ROM "
+            "identified on its records")
+
+
+def check_fmu_exportable(model: Any) -> list[FittedNetwork]:
+    """The networks of ``model`` if it can be exported, else :class:`ROMError` saying why.
+
+    Exportable: a fitted NFIR, NOE or NSS, or an ensemble of them, mapping the tank velocity
+    (m/s) or, for a network on it, the tank acceleration (m/s^2) to the dynamic force (N).
+
+    Raises
+    ------
+    ROMError
+        An unfitted model, a fill family or blend, the bouncing ball, a model of other units.
+    """
+    nets = _networks(model)
+    kind = input_of(model)
+    units = tuple(str(u) for u in getattr(model, "units", (INPUT_UNITS[kind], "N")))
+    if not (same_unit(units[0], INPUT_UNITS[kind]) and same_unit(units[1], "N")):
+        raise ROMError(f"the model maps '{units[0]}' to '{units[1]}'; an FMU's interface is "
+                       f"SI (the tank {kind} in {INPUT_UNITS[kind]}, the force in N): retrain "
+                       "it on records converted to SI (Record.to_si)")
+    for net in nets:
+        if not isinstance(net.spec, NetworkSpec | StateSpaceSpec):
+            raise ROMError(f"a {type(net).__name__} network cannot be exported to an FMU")
+        if net.input != kind:
+            raise ROMError("the ensemble's members read different signals")
+    return nets
+
+
+# -- the generated C -----------------------------------------------------------------------------
+def _num(v: float) -> str:
+    """A double in C, exactly (17 significant digits)."""
+    v = float(v)
+    if np.isnan(v):
+        return "NAN"
+    if not np.isfinite(v):
+        raise ROMError(f"a parameter of the model is {v}: the model file is damaged")
+    text = format(v, ".17g")
+    return text if any(ch in text for ch in ".eEn") else text + ".0"
+
+
+def _array(name: str, values: Any, ctype: str = "double") -> str:
+    flat = np.asarray(values).ravel()
+    conv = _num if ctype == "double" else (lambda x: str(int(x)))
+    items = [conv(x) for x in flat] or ["0"]
+    lines = [", ".join(items[i : i + 4]) for i in range(0, len(items), 4)]
+    body = ",\n    ".join(lines)
+    return f"static const {ctype} {name}[{max(flat.size, 1)}] = {{\n    {body}\n}};\n"
+
+
+def _member_source(j: int, net: FittedNetwork) -> tuple[str, str]:
+    """Arrays and the SlMember initialiser of member ``j``."""
+    p = {k: np.asarray(v, dtype=np.float64) for k, v in net.params.items()}
+    s = net.scaler
+    out: list[str] = []
+    fields = {"in_min": _num(s.in_min), "in_max": _num(s.in_max), "out_min": _num(s.out_min),
+              "out_max": _num(s.out_max), "unstable_bound": _num(net.unstable_bound)}
+    if isinstance(net.spec, StateSpaceSpec):
+        for k in ("A", "W1", "b1", "W2", "C", "V1", "d1", "V2"):
+            out.append(_array(f"m{j}_{k}", p[k]))
+        fields.update(arch="SL_NSS", hidden="SL_HIDDEN_MATLAB", n_states=str(net.spec.n_states),
+                      neurons=str(net.spec.neurons),
+                      **{k: f"m{j}_{k}" for k in ("A", "W1", "b1", "W2", "C", "V1", "d1", "V2")})
+    else:
+        spec = net.spec
+        out.append(_array(f"m{j}_delays", spec.delays, "int"))
+        for k in ("W", "b", "c"):
+            out.append(_array(f"m{j}_{k}", p[k]))
+        fields.update(arch="SL_NOE" if spec.arch == "noe" else "SL_NFIR",
+                      hidden="SL_HIDDEN_DISTANCE" if spec.hidden == "distance"
+                      else "SL_HIDDEN_MATLAB",
+                      n_delays=str(len(spec.delays)), delays=f"m{j}_delays",
+                      max_delay=str(spec.max_delay), out_delays=str(spec.out_delays),
+                      neurons=str(spec.neurons), W=f"m{j}_W", b=f"m{j}_b", c=f"m{j}_c",
+                      c0=_num(p["c0"]))
+    init = "    {" + ", ".join(f".{k} = {v}" for k, v in fields.items()) + "}"
+    return "".join(out), init
+
+
+def _envelope_values(model: Any) -> dict[str, float]:
+    """The read-only parameters of ``model`` (NaN: unknown)."""
+    env = envelope_of(model)
+    nan = float("nan")
+    band = (nan, nan) if env is None or env.frequency_band is None else env.frequency_band
+
+    def val(v: Any) -> float:
+        return nan if v is None else float(v)
+
+    return {
+        "input_min": nan if env is None else env.input_min,
+        "input_max": nan if env is None else env.input_max,
+        "acceleration_max": nan if env is None else val(env.acceleration_max),
+        "frequency_min": val(band[0]), "frequency_max": val(band[1]),
+        "fill_min": nan if env is None else val(env.fill_min),
+        "fill_max": nan if env is None else val(env.fill_max),
+    }
+
+
+def _description(model: Any, nets: Sequence[FittedNetwork]) -> str:
+    net = nets[0]
+    if isinstance(net.spec, StateSpaceSpec):
+        arch = (f"NSS ({net.spec.n_states} states, {net.spec.neurons} neurons)")
+    else:
+        arch = (f"{net.spec.arch.upper()} ({len(net.spec.delays)} delays up to "
+                f"{net.spec.max_delay}, {net.spec.neurons} neurons"
+                + (f", {net.spec.out_delays} output delays" if net.spec.out_delays else "")
+                + ")")
+    what = f"ensemble of {len(nets)} {arch}" if len(nets) > 1 else arch
+    kind = input_of(model)
+    return (f"sloshrom sloshing ROM, {what}, at {net.fs:.10g} Hz: tank vertical {kind} "
+            f"({INPUT_UNITS[kind].replace('^', '')}, up +) -> dynamic sloshing force (N, up +)")
+
+
+def model_data_source(model: Any, guid: str = "") -> str:
+    """The generated C file of ``model``: its architecture and parameters as constant data.
+
+    Parameters
+    ----------
+    model : NFIR, NOE, NSS or Ensemble
+        Fitted (:func:`check_fmu_exportable`).
+    guid : str
+        The FMU's GUID, compiled in (the binary refuses a modelDescription of another export).
+
+    Returns
+    -------
+    str
+        C99 source defining ``SL_MODEL`` (``sloshrom_model.h``).
+    """
+    nets = check_fmu_exportable(model)
+    arrays, inits = [], []
+    for j, net in enumerate(nets):
+        a, i = _member_source(j, net)
+        arrays.append(a)
+        inits.append(i)
+    env = _envelope_values(model)
+    has_env = not np.isnan(env["input_min"])
+    head = (f"/* Generated by sloshrom {__version__}: {_description(model, nets)}.\n"
+            " * Every parameter is written to 17 significant digits (the doubles exactly). */\n"
+            "#include <math.h>\n#include \"sloshrom_model.h\"\n\n")
+    members = "static const SlMember members[] = {\n" + ",\n".join(inits) + "\n};\n\n"
+    fields = {
+        "guid": f"\"{guid}\"", "description": _c_string(_description(model, nets)),
+        "n_members": str(len(nets)), "members": "members", "dt": _num(nets[0].dt),
+        "reads_acceleration": "1" if input_of(model) == "acceleration" else "0",
+        "has_envelope": "1" if has_env else "0",
+        **{k: _num(env[k] if has_env or k not in ("input_min", "input_max") else 0.0)
+           for k in ("input_min", "input_max", "acceleration_max", "frequency_min",
+                     "frequency_max", "fill_min", "fill_max")},
+    }
+    model_init = ("const SlModel SL_MODEL = {\n"
+                  + ",\n".join(f"    .{k} = {v}" for k, v in fields.items()) + "\n};\n")
+    return head + "\n".join(arrays) + "\n" + members + model_init
+
+
+def _c_string(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+# -- modelDescription.xml ------------------------------------------------------------------------
+_UNITS = {  # name: SI base-unit exponents
+    "m/s": 'm="1" s="-1"', "m/s2": 'm="1" s="-2"', "N": 'kg="1" m="1" s="-2"', "s": 's="1"',
+    "Hz": 's="-1"', "1": "",
+}
+
+
+def model_identifier(path: str | Path) -> str:
+    """The FMU's model identifier (the binary's file name) from its file name: a C identifier."""
+    stem = re.sub(r"[^A-Za-z0-9_]", "_", Path(path).stem)
+    return stem if re.match(r"[A-Za-z_]", stem or "0") else f"sloshrom_{stem}"
+
+
+def model_description(model: Any, identifier: str, guid: str, sources: Sequence[str]) -> str:
+    """The ``modelDescription.xml`` (FMI 2.0, co-simulation) of ``model`` (module docstring).
+
+    Parameters
+    ----------
+    model : NFIR, NOE, NSS or Ensemble
+        Fitted.
+    identifier : str
+        ``modelIdentifier``: the name of the binary.
+    guid : str
+        The GUID compiled into the binary.
+    sources : sequence of str
+        The C files under ``sources/`` that build the binary.
+    """
+    nets = check_fmu_exportable(model)
+    kind = input_of(model)
+    nss = isinstance(nets[0].spec, StateSpaceSpec)
+    dt = nets[0].dt
+    env = _envelope_values(model)
+    in_unit = INPUT_UNITS[kind].replace("^", "")
+    used = {"velocity": kind == "velocity", "acceleration": kind == "acceleration"}
+
+    def note(name: str) -> str:
+        return "" if used[name] else " (not read by this model)"
+
+    variables: list[tuple[str, str]] = [
+        ("velocity", f'<ScalarVariable name="velocity" valueReference="{VR["velocity"]}" '
+         f'causality="input" variability="continuous" description='
+         f'{quoteattr("tank vertical velocity, up positive" + note("velocity"))}>'
+         '<Real unit="m/s" start="0"/></ScalarVariable>'),
+        ("acceleration", f'<ScalarVariable name="acceleration" '
+         f'valueReference="{VR["acceleration"]}" causality="input" variability="continuous" '
+         f'description={quoteattr("tank vertical acceleration, up positive" + note("acceleration"))}>'  # noqa: E501
+         '<Real unit="m/s2" start="0"/></ScalarVariable>'),
+        ("dynamic_force", f'<ScalarVariable name="dynamic_force" '
+         f'valueReference="{VR["dynamic_force"]}" causality="output" variability="continuous" '
+         'initial="calculated" description="dynamic sloshing force f_S + m_l * acceleration, '
+         'up positive">'
+         '<Real unit="N"/></ScalarVariable>'),
+        ("outside_envelope", f'<ScalarVariable name="outside_envelope" '
+         f'valueReference="{VR["outside_envelope"]}" causality="output" '
+         'variability="discrete" initial="calculated" description='
+         f'{quoteattr(f"the tank {kind} is outside the training range [input_min, input_max]")}>'
+         '<Boolean/></ScalarVariable>'),
+        ("samples_outside_envelope", f'<ScalarVariable name="samples_outside_envelope" '
+         f'valueReference="{VR["samples_outside_envelope"]}" causality="output" '
+         'variability="discrete" initial="calculated" description="communication points so '
+         'far with outside_envelope true"><Integer/></ScalarVariable>'),
+    ]
+    params = [("time_step", dt, "s", "the model's time step: the only communication step"),
+              ("sample_rate", 1.0 / dt, "Hz", "the model's sample rate"),
+              ("input_min", env["input_min"], in_unit, f"lowest tank {kind} of the training"),
+              ("input_max", env["input_max"], in_unit, f"highest tank {kind} of the training"),
+              ("acceleration_max", env["acceleration_max"], "m/s2",
+               "peak |tank acceleration| of the training"),
+              ("frequency_min", env["frequency_min"], "Hz", "lowest frequency of the training "
+               "excitation"),
+              ("frequency_max", env["frequency_max"], "Hz", "highest frequency of the training "
+               "excitation"),
+              ("fill_min", env["fill_min"], "1", "lowest fill level d/h of the training"),
+              ("fill_max", env["fill_max"], "1", "highest fill level d/h of the training")]
+    variables.append(("reads_acceleration", '<ScalarVariable name="reads_acceleration" '
+                      f'valueReference="{VR["reads_acceleration"]}" '
+                      'causality="calculatedParameter" variability="fixed" initial="calculated" '
+                      f'description="the model reads the {kind} input">'
+                      '<Boolean/></ScalarVariable>'))
+    for name, value, unit, text in params:
+        if np.isnan(value):
+            continue
+        variables.append((name, f'<ScalarVariable name="{name}" valueReference="{VR[name]}" '
+                          'causality="calculatedParameter" variability="fixed" '
+                          f'initial="calculated" description={quoteattr(f"{text} ({value:.6g} {unit})")}>'  # noqa: E501
+                          f'<Real unit="{unit}"/></ScalarVariable>'))
+    index = {name: i + 1 for i, (name, _) in enumerate(variables)}
+    read = str(index[kind])
+    outputs = [f'<Unknown index="{index["dynamic_force"]}" '
+               + (f'dependencies="{read}" dependenciesKind="dependent"/>' if nss
+                  else 'dependencies=""/>'),
+               f'<Unknown index="{index["outside_envelope"]}" dependencies="{read}" '
+               'dependenciesKind="dependent"/>',
+               f'<Unknown index="{index["samples_outside_envelope"]}" dependencies=""/>']
+    initial = outputs + [f'<Unknown index="{index[n]}" dependencies=""/>'
+                         for n in ("reads_acceleration", *(q[0] for q in params))
+                         if n in index]
+    used_units = sorted({u for *_, u, _ in params} | {"m/s", "m/s2", "N"})
+    units = "\n".join(f'    <Unit name="{u}"><BaseUnit {_UNITS[u]}/></Unit>'
+                      if _UNITS[u] else f'    <Unit name="{u}"/>' for u in used_units)
+    files = "".join(f'<File name="{escape(s)}"/>' for s in sources)
+    n = "\n    "
+    return f"""<?xml version="1.0" encoding="UTF-8"?>
+<fmiModelDescription fmiVersion="2.0" modelName="{escape(identifier)}" guid="{guid}"
+  description={quoteattr(_description(model, nets))}
+  generationTool="{_GENERATOR} {escape(__version__)}" variableNamingConvention="flat"
+  numberOfEventIndicators="0">
+  <CoSimulation modelIdentifier="{escape(identifier)}" needsExecutionTool="false"
+    canHandleVariableCommunicationStepSize="false" canInterpolateInputs="false"
+    maxOutputDerivativeOrder="0" canRunAsynchronuously="false"
+    canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="false"
+    canGetAndSetFMUstate="true" canSerializeFMUstate="true"
+    providesDirectionalDerivative="false">
+    <SourceFiles>{files}</SourceFiles>
+  </CoSimulation>
+  <UnitDefinitions>
+{units}
+  </UnitDefinitions>
+  <LogCategories>
+    <Category name="logStatusError" description="errors: a wrong communication step, a \
+non-finite input, an unstable simulation, a call out of order"/>
+    <Category name="logStatusWarning" description="the input left the training envelope"/>
+  </LogCategories>
+  <DefaultExperiment startTime="0" stepSize="{_num(dt)}"/>
+  <ModelVariables>
+    {n.join(v for _, v in variables)}
+  </ModelVariables>
+  <ModelStructure>
+    <Outputs>
+      {(n + "  ").join(outputs[:3])}
+    </Outputs>
+    <InitialUnknowns>
+      {(n + "  ").join(initial)}
+    </InitialUnknowns>
+  </ModelStructure>
+</fmiModelDescription>
+"""
+
+
+# -- building ------------------------------------------------------------------------------------
+def fmu_platform() -> str:
+    """This machine's FMI 2.0 platform folder (``linux64``, ``win64``, ``darwin64``, ...)."""
+    import fmpy
+
+    return str(fmpy.platform)
+
+
+def _cmake() -> str:
+    try:
+        import cmake  # the pinned CMake that FMPy depends on
+
+        exe = Path(cmake.CMAKE_BIN_DIR) / ("cmake.exe" if os.name == "nt" else "cmake")
+        if exe.is_file():
+            return str(exe)
+    except (ImportError, AttributeError):
+        pass
+    found = shutil.which("cmake")
+    if found is None:
+        raise FMUError("CMake is not installed (the Python package 'cmake', a dependency of "
+                       "FMPy): cannot build the FMU's binary")
+    return found
+
+
+def _has_c_compiler() -> bool:
+    if os.name == "nt":
+        return True  # CMake finds Visual Studio itself and says so when it cannot
+    names = [os.environ["CC"]] if os.environ.get("CC") else ["cc", "gcc", "clang"]
+    return any(shutil.which(n.split()[0]) for n in names)
+
+
+def _build_binary(root: Path) -> None:
+    """Compile ``root/sources`` into ``root/binaries/<platform>`` with FMPy's CMake project."""
+    import fmpy
+    from fmpy.build import create_cmake_settings
+
+    if not _has_c_compiler():
+        raise FMUError("no C compiler found (cc, gcc or clang on PATH, or $CC) to build the "
+                       "FMU's binary: install one (Debian/Ubuntu: apt install gcc), or export "
+                       "a source-only FMU (--source-only) and build it where it runs")
+    with tempfile.TemporaryDirectory(prefix="sloshrom-fmu-build-") as build:
+        options = {} if os.name == "nt" else {"CMAKE_C_STANDARD_LIBRARIES:STRING": "-lm"}
+        create_cmake_settings(root, build, cmake_options=options)
+        source = Path(fmpy.__file__).parent / "c-code"
+        for cmd in ([_cmake(), "-S", source.as_posix(), "-B", build],
+                    [_cmake(), "--build", build, "--target", "install", "--config",
+                     "Release"]):
+            run = subprocess.run(cmd, capture_output=True, text=True, check=False)
+            if run.returncode != 0:
+                tail = "\n".join((run.stdout + run.stderr).strip().splitlines()[-15:])
+                raise FMUError(f"building the FMU's binary failed ({' '.join(cmd[1:3])}):\n"
+                               f"{tail}")
+
+
+def _guid(data_without_guid: str) -> str:
+    digest = hashlib.sha256(data_without_guid.encode()).hexdigest()
+    return "{" + str(uuid.uuid5(_NAMESPACE, digest)) + "}"
+
+
+def _write_zip(root: Path, path: str) -> None:
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+        for f in sorted(root.rglob("*")):
+            if f.is_file():
+                # fixed time stamps: the same model gives the same archive
+                info = zipfile.ZipInfo(f.relative_to(root).as_posix(), (1980, 1, 1, 0, 0, 0))
+                info.compress_type = zipfile.ZIP_DEFLATED
+                info.external_attr = 0o644 << 16
+                zf.writestr(info, f.read_bytes())
+
+
+def export_fmu(model: Any, path: str | Path, *, binary: bool = True,
+               verify: Callable[[Path], None] | None = None) -> Path:
+    """Write ``model`` as an FMI 2.0 co-simulation FMU, atomically.
+
+    The sources are generated and (``binary``) compiled in a temporary folder, zipped to a
+    temporary file beside ``path``, optionally verified there, and only then renamed onto
+    ``path``: a failure at any step leaves a previous ``path``, if any, as it was.
+
+    Parameters
+    ----------
+    model : NFIR, NOE, NSS or Ensemble
+        Fitted, SI units (:func:`check_fmu_exportable`).
+    path : str or Path
+        Output ``.fmu``; its stem, made a C identifier, is the model identifier.
+    binary : bool
+        Compile the binary for this platform (default); False writes a source-only FMU.
+    verify : callable, optional
+        ``verify(tmp_path)`` is called with the complete temporary ``.fmu``; raising rejects
+        the export (e.g. a parity check against the model that fails).
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    ROMError
+        A model that cannot be exported (says why).
+    FMUError
+        No C compiler or CMake, or the build failed (the compiler's last lines).
+    """
+    check_fmu_exportable(model)
+    p = Path(path)
+    if p.suffix.lower() != ".fmu":
+        raise FMUError(f"an FMU file ends in .fmu, got {p.name}")
+    identifier = model_identifier(p)
+    guid = _guid(model_data_source(model))
+    sources = [*FMU_SOURCES[1:], _DATA_SOURCE]
+    here = resources.files("sloshrom.rom") / "fmu_c"
+    with tempfile.TemporaryDirectory(prefix="sloshrom-fmu-") as tmp:
+        root = Path(tmp) / "fmu"
+        src = root / "sources"
+        src.mkdir(parents=True)
+        for name in FMU_SOURCES:
+            (src / name).write_text((here / name).read_text(encoding="utf-8"), encoding="utf-8")
+        (src / _DATA_SOURCE).write_text(model_data_source(model, guid), encoding="utf-8")
+        import fmpy
+
+        headers = Path(fmpy.__file__).parent / "c-code"
+        for name in _FMI_HEADERS:
+            shutil.copyfile(headers / name, src / name)
+        (root / "modelDescription.xml").write_text(
+            model_description(model, identifier, guid, sources), encoding="utf-8")
+        if binary:
+            _build_binary(root)
+
+        def write(tmp_fmu: str) -> None:
+            _write_zip(root, tmp_fmu)
+            if verify is not None:
+                verify(Path(tmp_fmu))
+
+        return atomic_write(p, write, suffix=".fmu")
+
+
+# -- reading an FMU back -------------------------------------------------------------------------
+def _read_checked(path: Path) -> tuple[Any, list[str]]:
+    """modelDescription of a sloshrom FMU and its platforms, or FMUError saying what is wrong."""
+    import fmpy
+
+    if not path.is_file():
+        raise FMUError(f"FMU not found: {path}")
+    if not zipfile.is_zipfile(path):
+        raise FMUError(f"{path} is not an FMU (not a zip archive: truncated or another file)")
+    try:
+        with zipfile.ZipFile(path) as zf:
+            bad = zf.testzip()
+            names = zf.namelist()
+    except (zipfile.BadZipFile, OSError, EOFError) as exc:
+        raise FMUError(f"{path} is a damaged FMU: {exc}") from exc
+    if bad is not None:
+        raise FMUError(f"{path} is a damaged FMU: {bad} fails its checksum")
+    if "modelDescription.xml" not in names:
+        raise FMUError(f"{path} is not an FMU: no modelDescription.xml")
+    try:
+        md = fmpy.read_model_description(str(path), validate=True)
+    except Exception as exc:  # FMPy raises plain Exceptions and its ValidationError
+        raise FMUError(f"{path}: modelDescription.xml is invalid: {exc}") from exc
+    if not str(md.generationTool or "").startswith(_GENERATOR + " ") or md.coSimulation is None:
+        raise FMUError(f"{path} was not written by sloshrom ({md.generationTool!r}): "
+                       "sloshrom reads back its own co-simulation FMUs only")
+    ident = md.coSimulation.modelIdentifier
+    platforms = sorted({n.split("/")[1] for n in names
+                        if n.startswith("binaries/") and n.count("/") == 2
+                        and Path(n).stem == ident})
+    return md, platforms
+
+
+def load_fmu(path: str | Path) -> FMUModel:
+    """Read an FMU written by :func:`export_fmu` back as a sloshing model (:class:`FMUModel`).
+
+    Raises
+    ------
+    FMUError
+        Not a zip archive, a damaged archive (checksum), no or an invalid modelDescription.xml,
+        an FMU of another tool, no binary for this platform (says which platforms it has).
+    """
+    return FMUModel(path)
+
+
+class FMUModel:
+    """A sloshrom FMU run through FMPy, as a sloshing model (:mod:`sloshrom.models` contract).
+
+    It steps the FMU's native code one communication point per :meth:`step`: the coupled beam
+    runs it in its Python loop. The FMU's state lives in the FMU instance, not in the ``state``
+    argument: :meth:`init_state` resets the instance and returns the sample index, and each
+    :meth:`step` takes the index it is at (another index is a :class:`ModelError`: one run at a
+    time per instance).
+
+    Parameters
+    ----------
+    path : str or Path
+        An ``.fmu`` written by :func:`export_fmu` with a binary for this platform.
+
+    Attributes
+    ----------
+    dt : float
+        The model's (and the only communication) step, s.
+    fs_ : float
+        ``1/dt``, Hz.
+    input : {"velocity", "acceleration"}
+        The signal the FMU's model reads.
+    envelope_ : dict or None
+        ``input_min``/``input_max`` and the other read-only parameters it has.
+    names, units : tuple of str
+        ``(input, "dynamic_force")`` and their SI units.
+    """
+
+    force_rule = "trapezoid"
+
+    def __init__(self, path: str | Path) -> None:
+        import fmpy
+        from fmpy.fmi2 import FMU2Slave
+
+        self.path = Path(path)
+        md, platforms = _read_checked(self.path)
+        here = fmpy.platform
+        if here not in platforms:
+            has = ", ".join(platforms) if platforms else "none: a source-only FMU"
+            raise FMUError(f"{self.path} has no binary for this platform ({here}); it has "
+                           f"{has}. Build one from its sources (python -m fmpy compile "
+                           f"{self.path.name}) or export it on this machine")
+        self._md = md
+        self._vr = {v.name: v.valueReference for v in md.modelVariables}
+        needed = ("velocity", "acceleration", "dynamic_force", "time_step", "reads_acceleration")
+        if any(n not in self._vr for n in needed):
+            raise FMUError(f"{self.path}: not a sloshing model (no acceleration input or "
+                           "dynamic_force output)")
+        self._dir = fmpy.extract(str(self.path))
+        self._finalizer = weakref.finalize(self, shutil.rmtree, self._dir, True)
+        self._fmu = FMU2Slave(guid=md.guid, unzipDirectory=self._dir,
+                              modelIdentifier=md.coSimulation.modelIdentifier,
+                              instanceName="sloshrom")
+        self._messages: list[tuple[int, str]] = []
+        self._callbacks = _callbacks(self._messages)
+        try:
+            self._fmu.instantiate(callbacks=self._callbacks)
+        except Exception as exc:  # FMPy raises a plain Exception when instantiation fails
+            raise FMUError(f"{self.path}: the FMU's binary refused to instantiate "
+                           f"({self._last_error() or exc})") from exc
+        self._fmu_free = weakref.finalize(self, _free, self._fmu)
+        self._vel, self._acc, self._force = (self._vr["velocity"], self._vr["acceleration"],
+                                             self._vr["dynamic_force"])
+        self._fmu.setupExperiment(startTime=0.0)
+        self._fmu.enterInitializationMode()
+        self._fmu.exitInitializationMode()
+        values = {n: self._fmu.getReal([vr])[0] for n, vr in self._vr.items()
+                  if n in ("time_step", "input_min", "input_max", "acceleration_max",
+                           "frequency_min", "frequency_max", "fill_min", "fill_max")}
+        self.dt = float(values["time_step"])
+        self.fs_ = 1.0 / self.dt
+        reads_acc = self._fmu.getBoolean([self._vr["reads_acceleration"]])[0]
+        self.input = "acceleration" if reads_acc else "velocity"
+        self.names = (self.input, "dynamic_force")
+        self.units = (INPUT_UNITS[self.input], "N")
+        env: dict[str, Any] | None = None
+        if "input_min" in values:
+            env = {"input_min": values["input_min"], "input_max": values["input_max"]}
+            for k in ("acceleration_max", "fill_min", "fill_max"):
+                if k in values:
+                    env[k] = values[k]
+            if "frequency_min" in values:
+                env["frequency_band"] = [values["frequency_min"], values["frequency_max"]]
+        self.envelope_ = env
+        self._k = 0
+        self._run = 0
+
+    def close(self) -> None:
+        """Free the FMU instance and remove its extracted files (also done when collected)."""
+        self._fmu_free()
+        self._finalizer()
+
+    def init_state(self) -> tuple[int, int]:
+        """Reset the FMU to rest at time 0; the state is ``(run, sample index)``."""
+        f = self._fmu
+        f.reset()
+        f.setupExperiment(startTime=0.0)
+        f.enterInitializationMode()
+        f.exitInitializationMode()
+        self._run += 1
+        self._k = 0
+        return (self._run, 0)
+
+    def _last_error(self) -> str:
+        errors = [m for status, m in self._messages if status >= 3]
+        return errors[-1] if errors else ""
+
+    def _call(self, fn: Callable[..., Any], *args: Any) -> Any:
+        """An FMI call; a failing one raises ModelError with the FMU's own message, the FMU's
+        envelope warnings become :class:`~sloshrom.models.EnvelopeWarning`."""
+        from fmpy.fmi1 import FMICallException
+
+        self._messages.clear()
+        try:
+            out = fn(*args)
+        except FMICallException as exc:
+            raise ModelError(f"FMU {self.path.name}: {self._last_error() or exc}") from exc
+        finally:
+            for status, text in self._messages:
+                if status == 1:
+                    warnings.warn(f"FMU {self.path.name}: {text}", EnvelopeWarning,
+                                  stacklevel=4)
+        return out
+
+    def _advance(self) -> None:
+        self._call(self._fmu.doStep, self._k * self.dt, self.dt)
+        self._k += 1
+
+    def step(self, state: tuple[int, int], velocity: Any,
+             acceleration: Any = None) -> tuple[tuple[int, int], float]:
+        """One sample of the contract: ``(state, dynamic_force)`` at sample k.
+
+        A velocity model gets ``velocity`` v_k at the FMU's communication point t_k, gives the
+        force there and steps; a network on the acceleration gets ``acceleration`` a_{k-1} (as
+        the coupled beam passes it) at t_{k-1}, steps, and gives the force at t_k. Both equal
+        the model's own :meth:`step`.
+        """
+        if state != (self._run, self._k):
+            raise ModelError("this FMU instance has moved on since that state: an FMUModel runs "
+                             "one simulation at a time (call init_state to start another)")
+        f, call = self._fmu, self._call
+        if self.input == "acceleration":
+            call(f.setReal, [self._acc], [float(0.0 if acceleration is None else acceleration)])
+            self._advance()
+            force = call(f.getReal, [self._force])[0]
+        else:
+            call(f.setReal, [self._vel], [float(velocity)])
+            force = call(f.getReal, [self._force])[0]
+            self._advance()
+        return (self._run, self._k), float(force)
+
+    def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
+        """The force (N) for whole records sampled at ``1/dt`` (time on the last axis), from
+        rest: at each communication point t_k the tank's signals at t_k."""
+        u = np.asarray(acceleration if self.input == "acceleration" else velocity,
+                       dtype=np.float64)
+        if u is None or not np.all(np.isfinite(u)):
+            raise ModelError(f"the tank {self.input} must be finite (no NaN or inf)")
+        flat = u.reshape(-1, u.shape[-1]) if u.ndim else u.reshape(1, 1)
+        out = np.empty_like(flat)
+        vr = self._acc if self.input == "acceleration" else self._vel
+        f, call = self._fmu, self._call
+        for r, row in enumerate(flat):
+            self.init_state()
+            for k, x in enumerate(row):
+                call(f.setReal, [vr], [float(x)])
+                out[r, k] = call(f.getReal, [self._force])[0]
+                self._advance()
+        return out.reshape(u.shape)
+
+    def predict(self, u: Any) -> np.ndarray:
+        """The force (N) for a record of the signal the model reads (``input``), from rest."""
+        return self.simulate(u, u)
+
+    def outside_envelope(self) -> tuple[bool, int]:
+        """``(outside_envelope, samples_outside_envelope)`` at the current communication
+        point."""
+        f = self._fmu
+        return (bool(f.getBoolean([self._vr["outside_envelope"]])[0]),
+                int(f.getInteger([self._vr["samples_outside_envelope"]])[0]))
+
+
+def _callbacks(messages: list[tuple[int, str]]) -> Any:
+    """FMI 2.0 callbacks whose logger appends ``(status, message)`` to ``messages``."""
+    from fmpy import calloc, free
+    from fmpy.fmi2 import (
+        fmi2CallbackAllocateMemoryTYPE,
+        fmi2CallbackFreeMemoryTYPE,
+        fmi2CallbackFunctions,
+        fmi2CallbackLoggerTYPE,
+    )
+    from fmpy.logging import addLoggerProxy
+
+    def log(env: Any, name: bytes, status: int, category: bytes, message: bytes) -> None:
+        messages.append((int(status), message.decode("utf-8", "replace")))
+
+    cb = fmi2CallbackFunctions()
+    cb.logger = fmi2CallbackLoggerTYPE(log)
+    cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+    cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    # the proxy formats the variadic message in C (ctypes cannot) and calls `log`
+    addLoggerProxy(ctypes.byref(cb))
+    return cb
+
+
+def _free(fmu: Any) -> None:
+    try:
+        fmu.terminate()
+    except Exception:  # noqa: BLE001 - an FMU in an error state may refuse; free it anyway
+        pass
+    fmu.freeInstance()
