@@ -61,6 +61,7 @@ import uuid
 import warnings
 import weakref
 import zipfile
+import zlib
 from collections.abc import Callable, Sequence
 from importlib import resources
 from pathlib import Path
@@ -568,7 +569,7 @@ def _read_checked(path: Path) -> tuple[Any, list[str]]:
         with zipfile.ZipFile(path) as zf:
             bad = zf.testzip()
             names = zf.namelist()
-    except (zipfile.BadZipFile, OSError, EOFError) as exc:
+    except (zipfile.BadZipFile, OSError, EOFError, zlib.error) as exc:
         raise FMUError(f"{path} is a damaged FMU: {exc}") from exc
     if bad is not None:
         raise FMUError(f"{path} is a damaged FMU: {bad} fails its checksum")
