@@ -164,6 +164,7 @@ BFO = [*BF, "--out", "{tmp}/res"]
 BR = ["beam", "random", "--sloshing", "frozen"]
 BRO = [*BR, "--out", "{tmp}/res"]
 E = ["export", "onnx"]
+EF = ["export", "fmu"]
 U = ["import", "uff"]
 SEED_MAX = r"\[0, 4294967295\]"
 
@@ -730,6 +731,38 @@ HOSTILE_CASES = [
     ("onnx-tampered-model", None, [*E, "{models}/tampered.npz", "{tmp}/o.onnx"],
      r"parameter W tampered"),
     ("onnx-no-arguments", None, E, r"(?i)Missing argument 'MODEL'"),
+    # -- export fmu ------------------------------------------------------------------------------
+    ("fmu-out-is-the-model", _copy("{models}/good.npz", "m.fmu"),
+     [*EF, "{tmp}/m.fmu", "{tmp}/m.fmu"], r"m\.fmu is also an input of this command"),
+    ("fmu-out-is-onnx", None, [*EF, "{models}/good.npz", "{tmp}/o.onnx"],
+     r"output must be a \.fmu file, got .*o\.onnx"),
+    ("fmu-step-not-the-models", None, [*EF, "{models}/good.npz", "{tmp}/o.fmu", "--step",
+                                       "0.001"],
+     r"--step 0\.001 s is not the model's step 0\.002 s \(500 Hz\)"),
+    ("fmu-step-nan", None, [*EF, "{models}/good.npz", "{tmp}/o.fmu", "--step", "nan"],
+     r"--step must be > 0 s, got nan"),
+    ("fmu-step-0", None, [*EF, "{models}/good.npz", "{tmp}/o.fmu", "--step", "0"],
+     r"--step must be > 0 s, got 0\.0"),
+    ("fmu-step--1", None, [*EF, "{models}/good.npz", "{tmp}/o.fmu", "--step", "-1"],
+     r"--step must be > 0 s, got -1\.0"),
+    ("fmu-out-is-a-directory", lambda tmp: (tmp / "o.fmu").mkdir(),
+     [*EF, "{models}/good.npz", "{tmp}/o.fmu"], r"o\.fmu: is a directory"),
+    ("fmu-out-under-a-file", None, [*EF, "{models}/good.npz", "{tmp}/afile/o.fmu"],
+     r"afile is not a directory"),
+    ("fmu-tampered-model", None, [*EF, "{models}/tampered.npz", "{tmp}/o.fmu"],
+     r"parameter W tampered"),
+    ("fmu-model-not-a-model", None, [*EF, "{models}/text.npz", "{tmp}/o.fmu"],
+     r"text\.npz: not a sloshrom model file"),
+    ("fmu-model-missing", None, [*EF, "{tmp}/nothing.npz", "{tmp}/o.fmu"],
+     r"MODEL .*nothing\.npz: no such file"),
+    ("fmu-model-fifo", _fifo("fifo.npz"), [*EF, "{tmp}/fifo.npz", "{tmp}/o.fmu"],
+     r"MODEL .*fifo\.npz: is a named pipe \(FIFO\)"),
+    ("fmu-model-in-ms2-on-the-velocity", None, [*EF, "{models}/ms2.npz", "{tmp}/o.fmu"],
+     r"the model maps 'm/s\^2' to 'N'; an FMU's interface is SI \(the tank velocity in m/s"),
+    ("fmu-model-is-a-ball", None, [*EF, "{models}/ball.toml", "{tmp}/o.fmu"],
+     r"a BouncingBall cannot be exported to an FMU: an FMU holds fitted networks .*The "
+     r"bouncing ball is a physics model"),
+    ("fmu-no-arguments", None, EF, r"(?i)Missing argument 'MODEL'"),
     # -- import uff -----------------------------------------------------------------------------
     ("uff-out-is-the-input", None, [*U, "{tmp}/raw.nc", "{tmp}/raw.nc"],
      r"raw\.nc is also an input of this command"),

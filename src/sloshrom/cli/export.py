@@ -150,14 +150,20 @@ def fmu_cmd(
     check_input(model, "MODEL")
     check_out(out, suffixes=(".fmu",), inputs=(model,), what="OUT")
     from sloshrom.rom.estimators import load_model
-    from sloshrom.rom.fmu import check_fmu_exportable, export_fmu, fmu_platform, load_fmu
+    from sloshrom.rom.fmu import (
+        STEP_RTOL,
+        check_fmu_exportable,
+        export_fmu,
+        fmu_platform,
+        load_fmu,
+    )
 
     rel = [float("nan")]
     try:
         rom = load_model(model)
         nets = check_fmu_exportable(rom)
         dt = nets[0].dt
-        if step is not None and not abs(step - dt) <= 1e-6 * dt:
+        if step is not None and not abs(step - dt) <= STEP_RTOL * dt:
             fail(f"--step {step:g} s is not the model's step {dt:.10g} s ({1 / dt:g} Hz): the "
                  "FMU runs at the rate the ROM was identified at, and only there; use that "
                  "step, with rate transitions around the FMU if the rest of your model runs at "

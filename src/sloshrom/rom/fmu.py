@@ -61,6 +61,7 @@ import uuid
 import warnings
 import weakref
 import zipfile
+import zlib
 from collections.abc import Callable, Sequence
 from importlib import resources
 from pathlib import Path
@@ -72,14 +73,22 @@ import numpy as np
 from sloshrom import __version__
 from sloshrom.fileio import atomic_write
 from sloshrom.io.units import same_unit
-from sloshrom.models import INPUT_UNITS, EnvelopeWarning, ModelError, envelope_of, input_of
+from sloshrom.models import (
+    INPUT_UNITS,
+    EnvelopeWarning,
+    ModelError,
+    envelope_of,
+    input_of,
+    model_input,
+)
 from sloshrom.rom.ensemble import is_ensemble
 from sloshrom.rom.errors import ROMError
 from sloshrom.rom.network import FittedNetwork, NetworkSpec, network_of
 from sloshrom.rom.statespace import StateSpaceSpec
 
-__all__ = ["FMU_SOURCES", "FMUError", "FMUModel", "check_fmu_exportable", "export_fmu",
-           "fmu_platform", "load_fmu", "model_description", "model_data_source"]
+__all__ = ["FMU_SOURCES", "STEP_RTOL", "VR", "FMUError", "FMUModel", "check_fmu_exportable",
+           "export_fmu", "fmu_platform", "load_fmu", "model_data_source", "model_description",
+           "model_identifier"]
 
 #: the static C sources shipped in every FMU (package data of ``sloshrom.rom``)
 FMU_SOURCES = ("sloshrom_model.h", "sloshrom_kernels.c", "sloshrom_fmi2.c")
@@ -522,6 +531,8 @@ def export_fmu(model: Any, path: str | Path, *, binary: bool = True,
     FMUError
         No C compiler or CMake, or the build failed (the compiler's last lines).
     """
+    import fmpy
+
     check_fmu_exportable(model)
     p = Path(path)
     if p.suffix.lower() != ".fmu":
@@ -537,8 +548,6 @@ def export_fmu(model: Any, path: str | Path, *, binary: bool = True,
         for name in FMU_SOURCES:
             (src / name).write_text((here / name).read_text(encoding="utf-8"), encoding="utf-8")
         (src / _DATA_SOURCE).write_text(model_data_source(model, guid), encoding="utf-8")
-        import fmpy
-
         headers = Path(fmpy.__file__).parent / "c-code"
         for name in _FMI_HEADERS:
             shutil.copyfile(headers / name, src / name)
@@ -568,7 +577,7 @@ def _read_checked(path: Path) -> tuple[Any, list[str]]:
         with zipfile.ZipFile(path) as zf:
             bad = zf.testzip()
             names = zf.namelist()
-    except (zipfile.BadZipFile, OSError, EOFError) as exc:
+    except (zipfile.BadZipFile, OSError, EOFError, zlib.error) as exc:
         raise FMUError(f"{path} is a damaged FMU: {exc}") from exc
     if bad is not None:
         raise FMUError(f"{path} is a damaged FMU: {bad} fails its checksum")
@@ -754,9 +763,8 @@ class FMUModel:
     def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
         """The force (N) for whole records sampled at ``1/dt`` (time on the last axis), from
         rest: at each communication point t_k the tank's signals at t_k."""
-        u = np.asarray(acceleration if self.input == "acceleration" else velocity,
-                       dtype=np.float64)
-        if u is None or not np.all(np.isfinite(u)):
+        u = np.asarray(model_input(self, velocity, acceleration), dtype=np.float64)
+        if not np.all(np.isfinite(u)):
             raise ModelError(f"the tank {self.input} must be finite (no NaN or inf)")
         flat = u.reshape(-1, u.shape[-1]) if u.ndim else u.reshape(1, 1)
         out = np.empty_like(flat)
