@@ -44,6 +44,21 @@ def good_record() -> Record:
                   {"acceleration": "m/s^2", "force": "N"}, {"fill": 0.5})
 
 
+def rig_records() -> tuple[Record, Record]:
+    """A short (12 s) virtual-rig VFA training record and a validation-like one (other seed,
+    path and noise), preprocessed: velocity (m/s) and dynamic_force (N) at 500 Hz."""
+    from sloshrom.io import record_from_measurement
+    from sloshrom.rig.virtual import VirtualRig
+    from sloshrom.signals import vfa
+
+    out = []
+    for seed, split in ((1, "train"), (2, "validation")):
+        rig = VirtualRig(seed=seed)
+        path = vfa(1.0 / rig.dt, split, duration=12.0, seed=seed)
+        out.append(record_from_measurement(rig.measure(path.acceleration)))
+    return out[0], out[1]
+
+
 def make_model_files(d: Path) -> Path:
     """Write good.npz (NFIR, 500 Hz, m/s -> N), newer.npz, tampered.npz and text.npz into d."""
     from sloshrom.rom.estimators import NFIR

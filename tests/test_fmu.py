@@ -26,6 +26,7 @@ from fmpy.validation import validate_fmu
 from typer.testing import CliRunner
 
 import sloshrom.cli.export  # noqa: F401  (registers `sloshrom export`)
+from helpers import rig_records
 from sloshrom.beam.coupled import free_response
 from sloshrom.cli import app
 from sloshrom.models import EnvelopeWarning, ModelError
@@ -50,20 +51,10 @@ ACC = {"units": ("m/s^2", "N"), "names": ("acceleration", "dynamic_force")}
 PARITY = 1e-12
 
 
-def _rig_record(seed: int, split: str):
-    from sloshrom.io import record_from_measurement
-    from sloshrom.rig.virtual import VirtualRig
-    from sloshrom.signals import vfa
-
-    rig = VirtualRig(seed=seed)
-    path = vfa(1.0 / rig.dt, split, duration=12.0, seed=seed)
-    return record_from_measurement(rig.measure(path.acceleration))
-
-
 @pytest.fixture(scope="module")
 def records():
     """A short VFA training record and a validation-like record (other path, other noise)."""
-    return _rig_record(1, "train"), _rig_record(2, "validation")
+    return rig_records()
 
 
 def _nss(**kw):

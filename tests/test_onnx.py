@@ -9,6 +9,7 @@ import onnxruntime as ort
 import pytest
 
 import sloshrom.cli.export  # noqa: F401  (registers `sloshrom export`)
+from helpers import rig_records
 from sloshrom.cli import app
 from sloshrom.rom.estimators import NFIR, NOE, ROMError
 from sloshrom.rom.onnx import ONNX_FORMAT_VERSION, SIGN_CONVENTION, export_onnx, run_onnx
@@ -17,20 +18,10 @@ from sloshrom.rom.onnx import ONNX_FORMAT_VERSION, SIGN_CONVENTION, export_onnx,
 pytestmark = pytest.mark.filterwarnings("ignore::sloshrom.rom.EnvelopeWarning")
 
 
-def _rig_record(seed: int, split: str):
-    from sloshrom.io import record_from_measurement
-    from sloshrom.rig.virtual import VirtualRig
-    from sloshrom.signals import vfa
-
-    rig = VirtualRig(seed=seed)
-    path = vfa(1.0 / rig.dt, split, duration=12.0, seed=seed)
-    return record_from_measurement(rig.measure(path.acceleration))
-
-
 @pytest.fixture(scope="module")
 def records():
     """A short VFA training record and a validation-like record (other path, other noise)."""
-    return _rig_record(1, "train"), _rig_record(2, "validation")
+    return rig_records()
 
 
 @pytest.fixture(scope="module")

@@ -31,7 +31,8 @@ size_t sl_rest_size(const SlMember *m) {
 }
 
 size_t sl_scratch_size(const SlMember *m) {
-    if (m->arch == SL_NSS) return 2 * ((size_t)m->n_states + 1) + (size_t)m->neurons;
+    if (m->arch == SL_NSS)
+        return 2 * ((size_t)m->n_states + 1) + 2 * (size_t)m->neurons + (size_t)m->n_states;
     return (size_t)m->n_delays + (size_t)m->out_delays + (size_t)m->neurons;
 }
 
@@ -66,34 +67,35 @@ static double rbf(const SlMember *m, const double *x, double *h) {
     return y + m->c0;
 }
 
-/* NSS maps at z (nz = nx + 1): F(z) into f (nx), returns H(z); t: scratch of H doubles */
+/* NSS maps at z (nz = nx + 1): F(z) into f (nx), returns H(z); t: scratch of 2 H + nx doubles.
+ * The products run row by row of the (row-major) matrices, contiguous in memory; each sum
+ * still adds its terms in the order of the inner index. */
 static double nss_maps(const SlMember *m, const double *z, double *f, double *t) {
     const int nx = m->n_states, nz = nx + 1, H = m->neurons;
-    double h = 0.0, g;
+    double *g = t + H, h = 0.0, out = 0.0;
     int i, j;
-    for (j = 0; j < nx; j++) {
-        double a = 0.0;
-        for (i = 0; i < nz; i++) a += z[i] * m->A[(size_t)i * nx + j];
-        f[j] = a;
+    for (j = 0; j < nx; j++) f[j] = 0.0;
+    for (j = 0; j < H; j++) { t[j] = 0.0; g[j] = 0.0; }
+    for (i = 0; i < nz; i++) {
+        const double zi = z[i], *a = m->A + (size_t)i * nx, *w = m->W1 + (size_t)i * H,
+                     *v = m->V1 + (size_t)i * H;
+        for (j = 0; j < nx; j++) f[j] += zi * a[j];
+        for (j = 0; j < H; j++) t[j] += zi * w[j];
+        for (j = 0; j < H; j++) g[j] += zi * v[j];
+        h += zi * m->C[i];
     }
-    for (j = 0; j < H; j++) {
-        double a = 0.0;
-        for (i = 0; i < nz; i++) a += z[i] * m->W1[(size_t)i * H + j];
-        t[j] = tanh(a + m->b1[j]);
+    for (j = 0; j < H; j++) t[j] = tanh(t[j] + m->b1[j]);
+    for (j = 0; j < H; j++) out += tanh(g[j] + m->d1[j]) * m->V2[j];
+    {
+        double *acc = g + H;  /* tanh(z W1 + b1) W2, summed apart as z A is */
+        for (j = 0; j < nx; j++) acc[j] = 0.0;
+        for (i = 0; i < H; i++) {
+            const double ti = t[i], *w = m->W2 + (size_t)i * nx;
+            for (j = 0; j < nx; j++) acc[j] += ti * w[j];
+        }
+        for (j = 0; j < nx; j++) f[j] += acc[j];
     }
-    for (j = 0; j < nx; j++) {
-        double a = 0.0;
-        for (i = 0; i < H; i++) a += t[i] * m->W2[(size_t)i * nx + j];
-        f[j] += a;
-    }
-    for (i = 0; i < nz; i++) h += z[i] * m->C[i];
-    g = 0.0;
-    for (j = 0; j < H; j++) {
-        double a = 0.0;
-        for (i = 0; i < nz; i++) a += z[i] * m->V1[(size_t)i * H + j];
-        g += tanh(a + m->d1[j]) * m->V2[j];
-    }
-    return h + g;
+    return h + out;
 }
 
 void sl_rest(const SlMember *m, double *state, double *rest, double *scratch) {
