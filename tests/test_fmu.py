@@ -418,3 +418,13 @@ def test_cli_exports_checks_and_reports(models, tmp_path):
     assert r.exit_code == 0 and "sources only" in r.output
     with zipfile.ZipFile(tmp_path / "s.fmu") as zf:
         assert not any(n.startswith("binaries/") for n in zf.namelist())
+
+
+def test_without_a_c_compiler_the_export_says_so_and_sources_still_work(models, tmp_path,
+                                                                       monkeypatch):
+    monkeypatch.setenv("PATH", str(tmp_path / "empty"))
+    monkeypatch.delenv("CC", raising=False)
+    with pytest.raises(FMUError, match=r"no C compiler found .*--source-only"):
+        export_fmu(models["nfir"], tmp_path / "m.fmu")
+    assert not (tmp_path / "m.fmu").exists()
+    assert export_fmu(models["nfir"], tmp_path / "m.fmu", binary=False).is_file()

@@ -493,7 +493,7 @@ def _write_zip(root: Path, path: str) -> None:
     with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as zf:
         for f in sorted(root.rglob("*")):
             if f.is_file():
-                # fixed time stamps: the same model gives the same archive
+                # fixed time stamps: the archive depends on its content only
                 info = zipfile.ZipInfo(f.relative_to(root).as_posix(), (1980, 1, 1, 0, 0, 0))
                 info.compress_type = zipfile.ZIP_DEFLATED
                 info.external_attr = 0o644 << 16
