@@ -134,6 +134,27 @@ def test_fmpy_simulate_fmu_equals_predict(name, models, fmus, records):
     assert _rel(y, models[name].predict(u)) <= PARITY
 
 
+def test_fmpy_simulate_fmu_reads_an_nss_force_before_setting_the_input(models, fmus, records,
+                                                                      tmp_path):
+    """The documented caveat, checked: FMPy's master records the NSS's force at t_k with the
+    input of t_{k-1} still set (exactly), which is far from the model; our loop is not."""
+    _, val = records
+    u = val["velocity"][:2000]
+    y = _fmpy_simulate(fmus["nss"], u, models["nss"].fs_, "velocity")
+    f, _, _cb = _slave(fmus["nss"], tmp_path)
+    stale = np.empty(u.size)
+    for k in range(u.size):
+        if k == 0:
+            f.setReal([VR["velocity"]], [float(u[0])])
+        stale[k] = f.getReal([VR["dynamic_force"]])[0]
+        f.setReal([VR["velocity"]], [float(u[k])])
+        f.doStep(k * 0.002, 0.002)
+    f.freeInstance()
+    ref = models["nss"].predict(u)
+    assert _rel(y, stale) <= PARITY
+    assert _rel(y, ref) > 0.01
+
+
 def fmu_input(name: str) -> str:
     return "acceleration" if name == "nfir_acceleration" else "velocity"
 
