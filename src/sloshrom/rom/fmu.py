@@ -600,6 +600,10 @@ def _read_checked(path: Path) -> tuple[Any, list[str]]:
 def load_fmu(path: str | Path) -> FMUModel:
     """Read an FMU written by :func:`export_fmu` back as a sloshing model (:class:`FMUModel`).
 
+    Unlike a model file, an FMU is code: this loads and runs its native binary. Load FMUs you
+    trust (your own exports); :func:`sloshrom.rom.load_model` reads data only and does not take
+    them.
+
     Raises
     ------
     FMUError
