@@ -539,7 +539,7 @@ def export_fmu(model: Any, path: str | Path, *, binary: bool = True,
         raise FMUError(f"an FMU file ends in .fmu, got {p.name}")
     identifier = model_identifier(p)
     guid = _guid(model_data_source(model))
-    sources = [*FMU_SOURCES[1:], _DATA_SOURCE]
+    sources = [*(n for n in FMU_SOURCES if n.endswith(".c")), _DATA_SOURCE]
     here = resources.files("sloshrom.rom") / "fmu_c"
     with tempfile.TemporaryDirectory(prefix="sloshrom-fmu-") as tmp:
         root = Path(tmp) / "fmu"
