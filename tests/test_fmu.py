@@ -307,7 +307,7 @@ def test_what_cannot_be_exported_is_refused_with_the_reason(models, records, tmp
     cases = [(NFIR(), "the NFIR is not fitted"),
              (Ensemble(NFIR(), n_members=2), "the ensemble is not fitted"),
              (blend, "export the member identified at your fill"),
-             (object(), "an FMU holds fitted networks"),
+             (object(), r"an FMU holds fitted ROMs \(NFIR, NOE, NSS, LSS\)"),
              (mm, "interface is SI")]
     for model, why in cases:
         with pytest.raises(ROMError, match=why):

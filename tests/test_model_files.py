@@ -239,7 +239,7 @@ def test_hostile_arrays_with_recomputed_checksum(tmp_path, saved, name, edit, ma
     meta, arrays = model_parts(saved["NFIR"])
     arrays = {k: np.array(v) for k, v in arrays.items()}
     edit(arrays)
-    if all(k in arrays and arrays[k].dtype.kind == "f" for k in rom.PARAM_NAMES):
+    if all(k in arrays and arrays[k].dtype.kind == "f" for k in modelfile.PARAM_NAMES):
         meta["checksum"] = modelfile.checksum(meta, arrays)
     np.savez(tmp_path / "m.npz", metadata=np.array(json.dumps(meta)), **arrays)
     with pytest.raises(ModelFileError, match=match):

@@ -47,7 +47,7 @@ def trained(tmp_path_factory):
 
 def test_train_nss_writes_a_model_that_loads_as_an_nss(trained):
     out = trained["output"]
-    assert "wrote" in out and "NSS(2 states, 4 neurons, window 5)" in out
+    assert "wrote" in out and "NSS(2 states, 4 neurons)" in out
     # the recipe by units is the NSS's (no amplitude weighting), said on one line
     assert ("loss: the passive recipe (amplitude weighting 0 m/s, passivity 1, cycle energy "
             "0.1)") in out
@@ -95,27 +95,29 @@ def test_loss_options_set_the_nss_terms(tmp_path):
                               "--out", str(tmp_path / "ens.npz")])
     assert res.exit_code == 0, res.output
     assert "amplitude_weighting 0.05, passivity 1, cycle_energy 0.1" in res.output
-    assert "ensemble of 2 NSS(2 states, 4 neurons, window 5)" in res.output
+    assert "ensemble of 2 NSS(2 states, 4 neurons)" in res.output
     ens = load_model(tmp_path / "ens.npz")
     assert [m.amplitude_weighting for m in ens.members_] == [0.05, 0.05]
     assert [m.seed for m in ens.members_] == [0, 1]
 
 
-def test_the_nss_recipe_applies_to_a_velocity_in_and_a_force_out(monkeypatch):
-    from sloshrom.cli import rom as cli_rom
+def test_the_nss_recipe_applies_to_a_velocity_in_and_a_force_out():
+    from dataclasses import replace
 
-    passive = limits.loss_recipe("m/s", "N")
-    other = limits.loss_recipe("N", "m")
-    nss = cli_rom._nss_recipe(passive)
-    assert nss.passive and nss.terms == limits.NSS_RECIPE
-    assert cli_rom._nss_recipe(other) == other
-    monkeypatch.setattr(cli_rom, "NSS_RECIPE", dict.fromkeys(limits.RECIPE, 0.0))
-    assert not cli_rom._nss_recipe(passive).passive
+    from sloshrom.rom.registry import CLASSES, LOSS_TERMS
+
+    nss = CLASSES["nss"]
+    passive = nss.passive_recipe("m/s", "N")
+    assert passive.passive and passive.terms == dict(nss.recipe)
+    assert passive.terms["amplitude_weighting"] == 0.0 and passive.terms["passivity"] == 1.0
+    assert not nss.passive_recipe("N", "m").passive
+    assert nss.passive_recipe("N", "m").terms == dict.fromkeys(LOSS_TERMS, 0.0)
+    # a recipe of zeros is the plain MSE, and says why
+    off = replace(nss, recipe=dict.fromkeys(LOSS_TERMS, 0.0)).passive_recipe("m/s", "N")
+    assert not off.passive and "sets no loss term" in off.why
     weights = {"amplitude_weighting": 0.1, "passivity": 2.0, "cycle_energy": 0.0}
-    monkeypatch.setattr(cli_rom, "NSS_RECIPE", weights)
-    chosen = cli_rom._nss_recipe(passive)
+    chosen = replace(nss, recipe=weights).passive_recipe("m/s", "N")
     assert chosen.passive and chosen.terms == weights
-    assert cli_rom._nss_recipe(other).terms == dict.fromkeys(limits.RECIPE, 0.0)
 
 
 TR = ["train", "--data", "{tmp}/train.nc", "--validation", "{tmp}/validation.nc",
@@ -124,29 +126,31 @@ TR = ["train", "--data", "{tmp}/train.nc", "--validation", "{tmp}/validation.nc"
 
 @pytest.mark.parametrize(("argv", "match"), [
     ([*TR, "--arch", "nss", "--delays", "4"],
-     r"--delays does not apply to --arch nss: it has no delay line"),
-    ([*TR, "--arch", "nss", "--hidden", "matlab"],
-     r"--hidden does not apply to --arch nss: its layers are tanh"),
-    ([*TR, "--arch", "nss", "--trainer", "adam"],
-     r"--trainer does not apply to --arch nss: it trains by Adam"),
-    ([*TR, "--arch", "nss", "--states", "0"], r"--states must be in \[1, 1024\], got 0"),
+     r"--delays does not apply to --arch nss \(NSS: a neural state-space model.*\); its options "
+     r"are --n-states, --neurons, --window, --horizon"),
+    ([*TR, "--arch", "nss", "--hidden", "matlab"], r"--hidden does not apply to --arch nss"),
+    ([*TR, "--arch", "nss", "--trainer", "adam"], r"--trainer does not apply to --arch nss"),
+    # --states: the former name of --n-states, still read
+    ([*TR, "--arch", "nss", "--states", "0"], r"--n-states must be in \[1, 1024\], got 0"),
+    ([*TR, "--arch", "nss", "--n-states", "0"], r"--n-states must be in \[1, 1024\], got 0"),
     ([*TR, "--arch", "nss", "--horizon", "7"], r"--horizon must be in \[8, 10000\], got 7"),
     ([*TR, "--arch", "nss", "--learning-rate", "0"], r"--learning-rate must be in \(0, 1\]"),
     ([*TR, "--arch", "nss", "--batch", "100000"], r"--batch must be in \[1, 65536\]"),
     ([*TR, "--arch", "nss", "--steps-per-epoch", "0"], r"--steps-per-epoch must be in \[1, "),
-    ([*TR, "--arch", "nss", "--input", "dynamic_force", "--output", "velocity"],
-     r"--arch nss reads the tank velocity: --input must be velocity"),
-    ([*TR, "--states", "3"], r"--states applies to --arch nss \(a state-space ROM\), not to "
-                             r"--arch nfir"),
-    ([*TR, "--arch", "noe", "--window", "3"], r"--window applies to --arch nss"),
+    ([*TR, "--arch", "nss", "--input", "acceleration"],
+     r"--input acceleration needs --arch nfir: NSS reads the tank velocity"),
+    ([*TR, "--n-states", "3"], r"--n-states does not apply to --arch nfir \(NFIR: .*\); its "
+                               r"options are --delays, --neurons"),
+    ([*TR, "--arch", "noe", "--window", "3"], r"--window does not apply to --arch noe"),
     ([*TR, "--arch", "nss", "--window", "1000"],
-     r"train\.nc: 1200 samples are too few for NSS\(window 1000, horizon 200\) \(training "
+     r"train\.nc: 1200 samples are too few for NSS\(8 states, 64 neurons\) \(training "
      r"needs at least 1201\)"),
     ([*TR, "--arch", "nss", "--window", "500", "--horizon", "20"],
-     r"validation\.nc: 400 samples are too few for an encoder window of 500"),
+     r"validation\.nc: 400 samples are too few for 500 samples of history \(NSS\(8 states, "
+     r"64 neurons\)\)"),
     ([*TR, "--arch", "nss", "--neurons", "4096", "--window", "4096"],
-     r"NSS\(8 states, 4096 neurons, window 4096\) has \d+ weights, more than 4194304"),
-    ([*TR, "--arch", "nss", "--passivity", "-1"], r"--passivity must be a finite number >= 0"),
+     r"NSS\(8 states, 4096 neurons\) has \d+ weights, more than 4194304"),
+    ([*TR, "--arch", "nss", "--passivity", "-1"], r"--passivity must be in \[0, 1e\+12\], got -1"),
 ])
 def test_bad_nss_options_fail_clearly_and_write_nothing(tmp_path, argv, match):
     check_cli(tmp_path, tmp_path, lambda d: _records(d, 100.0), argv, match)
@@ -157,6 +161,6 @@ def test_export_onnx_refuses_an_nss(trained, tmp_path):
 
     shutil.copy(trained["model"], tmp_path / "nss.npz")
     check_cli(tmp_path, tmp_path, None, ["export", "onnx", "{tmp}/nss.npz", "{tmp}/nss.onnx"],
-              r"an NSS \(state-space ROM\) cannot be exported to ONNX: a state-space ROM's "
-              r"step graph would need its state as input and output, which is not "
-              r"implemented; run it through sloshrom")
+              r"an NSS \(\d+ states, \d+ neurons\) cannot be exported to ONNX: a graph holds "
+              r"one NFIR or NOE network; a state-space ROM's step graph would need its state "
+              r"as input and output, which is not implemented. Export it as an FMU")

@@ -172,7 +172,7 @@ def test_load_errors(tmp_path):
     # same shapes, changed values: caught by the checksum
     good = m.save(tmp_path / "good.npz")
     with np.load(good) as z:
-        arrays = {k: z[k] for k in rom.PARAM_NAMES}
+        arrays = {k: z[k] for k in modelfile.PARAM_NAMES}
     arrays["W"] = arrays["W"] + 1e-9
     _rewrite(good, meta, **arrays)
     with pytest.raises(ModelFileError, match="checksum mismatch"):
@@ -189,7 +189,7 @@ def test_checksum_detects_changed_metadata(tmp_path):
     p = m.save(tmp_path / "m.npz")
     with np.load(p) as z:
         meta = json.loads(str(z["metadata"]))
-        arrays = {k: z[k] for k in rom.PARAM_NAMES}
+        arrays = {k: z[k] for k in modelfile.PARAM_NAMES}
     assert meta["checksum"].startswith("sha256:")
     assert rom.load_model(p).fs_ == m.fs_
     _rewrite(p, {**meta, "fs": meta["fs"] * 2}, **arrays)

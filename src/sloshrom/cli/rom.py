@@ -1,4 +1,5 @@
-"""``sloshrom train | predict | sweep``: identify NFIR, NOE and NSS ROMs from records and use them.
+"""``sloshrom train | predict | sweep``: identify ROMs of any registered class from records and
+use them.
 
 Records are read with :func:`sloshrom.io.read_record` (NetCDF, CSV, MATLAB) and written with
 :func:`sloshrom.io.write_record`; models are ``.npz`` files (:func:`sloshrom.rom.load_model`).
@@ -8,7 +9,8 @@ Every option, file and unit is checked before reading data or training: a bad in
 
 from __future__ import annotations
 
-import math
+import functools
+import inspect
 import os
 from pathlib import Path
 from typing import Annotated, Any
@@ -21,38 +23,19 @@ from sloshrom.config import FILL_TOLERANCE
 from sloshrom.errors import SloshromError
 from sloshrom.io import STANDARD_UNITS, read_record, same_unit, write_record
 from sloshrom.limits import (
-    ARCH_TRAINERS,
     HIDDEN_KINDS,
-    MAX_BATCH,
     MAX_DELAY,
     MAX_EPOCHS,
     MAX_MEMBERS,
     MAX_NEURONS,
     MAX_SEED,
-    MAX_STATES,
     MAX_WEIGHTS,
-    NSS_RECIPE,
-    RECIPE,
-    LossChoice,
-    loss_recipe,
 )
-from sloshrom.pipeline.settings import training_samples
+from sloshrom.rom.registry import CLASSES, Hyper, ModelClass, model_class
 
 __all__ = ["predict", "sweep", "train"]
 
 RECORD_SUFFIXES = (".nc", ".csv", ".mat")
-#: The architectures of ``train --arch``.
-ARCHS = ("nfir", "noe", "nss")
-#: Defaults of the options a state-space ROM (``--arch nss``) takes: those of ``NSS()``.
-NSS_DEFAULTS: dict[str, int | float] = {"states": 8, "neurons": 64, "window": 50,
-                                        "horizon": 200, "batch": 128, "learning_rate": 0.003,
-                                        "steps_per_epoch": 200, "max_epochs": 60}
-#: Why each option of an NFIR/NOE does not apply to an NSS.
-NOT_FOR_NSS = {"--delays": "it has no delay line; its encoder reads --window samples",
-               "--hidden": "its layers are tanh, not RBF",
-               "--trainer": "it trains by Adam on sub-sequences (multiple shooting)"}
-
-
 def _read(path: Path, names: list[str], what: str):
     check_input(path, what)
     try:
@@ -155,156 +138,93 @@ def _check_common(max_epochs: int, seed: int, hidden: str) -> None:
         fail(f"--hidden must be matlab or distance, got {hidden!r}")
 
 
-def _check_length(rec: Any, path: Path, arch: str, delays: int, neurons: int, what: str,
-                  horizon: int = 0) -> None:
-    """The record must hold enough samples for the network (the check of ``fit``, before it);
-    an NSS's ``delays`` is its encoder window, ``horizon`` its training sub-sequence."""
-    need = training_samples(arch, delays, neurons, horizon)
+def _check_length(rec: Any, path: Path, arch: str, delays: int, neurons: int,
+                  what: str) -> None:
+    """The record must hold enough samples for the network (the check of ``fit``, before it)."""
+    mc = model_class(arch)
+    hyper = {**mc.defaults(), "delays": delays, "neurons": neurons}
+    need = mc.min_samples(hyper)
     if len(rec) < need:
-        name = (f"NSS(window {delays}, horizon {horizon})" if arch == "nss"
-                else f"{arch.upper()}({delays}, {neurons})")
-        fail(f"{path}: {len(rec)} samples are too few for {name} ({what} needs at least {need})")
-
-
-def _label(arch: str, model: Any) -> str:
-    """``NFIR(70, 35)`` or ``NSS(8 states, 64 neurons, window 50)``: a ROM in a message."""
-    if arch == "nss":
-        return f"NSS({model.n_states} states, {model.neurons} neurons, window {model.window})"
-    return f"{arch.upper()}({model.delays}, {model.neurons})"
-
-
-def _nss_options(given: dict[str, Any], arch: str) -> None:
-    """Check the options of a state-space ROM; for an NFIR/NOE, refuse them."""
-    if arch != "nss":
-        for opt, value in given.items():
-            if value is not None:
-                fail(f"{opt} applies to --arch nss (a state-space ROM), not to --arch {arch}")
-        return
-    check_number(given["--states"], "--states", 1, MAX_STATES)
-    check_number(given["--window"], "--window", 1, MAX_DELAY)
-    check_number(given["--horizon"], "--horizon", 8, MAX_DELAY)
-    check_number(given["--batch"], "--batch", 1, MAX_BATCH)
-    check_number(given["--steps-per-epoch"], "--steps-per-epoch", 1, MAX_EPOCHS)
-    check_number(given["--learning-rate"], "--learning-rate", 0.0, 1.0, lo_open=True,
-                 why="the initial Adam step")
-
-
-def _nss_recipe(choice: LossChoice) -> LossChoice:
-    """The loss of an NSS for the records' units: :data:`sloshrom.limits.NSS_RECIPE` where the
-    NFIR's recipe applies (a velocity in m/s, a force in N), else the plain MSE."""
-    if not choice.passive:
-        return choice
-    if any(NSS_RECIPE.values()):
-        return LossChoice(True, dict(NSS_RECIPE), choice.why)
-    return LossChoice(False, dict(NSS_RECIPE), "the NSS recipe (sloshrom.limits.NSS_RECIPE) "
-                      "sets no loss term for a velocity in m/s and a force in N")
+        fail(f"{path}: {len(rec)} samples are too few for {mc.label(hyper)} ({what} needs at "
+             f"least {need})")
 
 
 InputOpt = Annotated[str, typer.Option("--input", help="Input variable of the records.")]
 OutputOpt = Annotated[str, typer.Option("--output", help="Output variable of the records.")]
 
 
-@app.command()
-def train(
-    data: Annotated[Path, typer.Option("--data", help="Training record (.nc/.csv/.mat).")],
-    validation: Annotated[
-        Path, typer.Option("--validation", help="Validation record (early stopping).")
-    ],
-    out: Annotated[Path, typer.Option("--out", "-o", help="Model file to write (.npz).")],
-    input_name: InputOpt = "velocity",
-    output_name: OutputOpt = "dynamic_force",
-    arch: Annotated[str, typer.Option("--arch", help="nfir, noe or nss (a neural "
-                                                     "state-space ROM).")] = "nfir",
-    delays: Annotated[
-        int | None, typer.Option(help=f"Input delays (NFIR 70, NOE 2), 1-{MAX_DELAY}.")
-    ] = None,
-    neurons: Annotated[
-        int | None, typer.Option(help=f"Hidden neurons (NFIR 35, NOE 10, NSS 64), "
-                                      f"1-{MAX_NEURONS}.")
-    ] = None,
-    hidden: Annotated[str | None, typer.Option(
-        help="NFIR/NOE: RBF variant, matlab (default) or distance.")] = None,
-    max_epochs: Annotated[int | None, typer.Option(
-        help="Training epochs at most (NFIR/NOE 1000, NSS 60 epochs of --steps-per-epoch "
-             "Adam steps).")] = None,
-    trainer: Annotated[
-        str | None, typer.Option(help="NFIR: adam (default), fast (subsampled LM) or lm (trainlm);"
-                                      " NOE: lm.")
-    ] = None,
-    states: Annotated[int | None, typer.Option(
-        help=f"NSS: dimension of the state (default 8), 1-{MAX_STATES}.")] = None,
-    window: Annotated[int | None, typer.Option(
-        help="NSS: samples of past input and output its encoder reads (default 50).")] = None,
-    horizon: Annotated[int | None, typer.Option(
-        help="NSS: samples simulated from each encoded start in training (default 200, "
-             ">= 8).")] = None,
-    batch: Annotated[int | None, typer.Option(
-        help="NSS: sub-sequences per Adam step (default 128).")] = None,
-    learning_rate: Annotated[float | None, typer.Option(
-        help="NSS: initial Adam step, in (0, 1] (default 0.003).")] = None,
-    steps_per_epoch: Annotated[int | None, typer.Option(
-        help="NSS: Adam steps between validations (default 200).")] = None,
-    fill: Annotated[float | None, typer.Option(
-        help="Fill level d/h of the records' tank, in (0, 1): recorded in the model, which "
-             "then refuses other fills. Default: the records' fill attribute (rig records "
-             "carry it).")] = None,
-    seed: Annotated[int, typer.Option(help="Seed of the initialisation (>= 0); an ensemble's "
-                                           "members have seeds SEED..SEED+K-1.")] = 0,
-    ensemble: Annotated[int, typer.Option(help="Train K networks that differ by their seed and "
-                                               "save them as one ensemble file (mean of the "
-                                               "members); 1 = a single network.")] = 1,
-    scheduler: Annotated[
-        str | None,
-        typer.Option(help="Ensemble: Dask scheduler address tcp://HOST:PORT; 'threads' or "
-                          "'sequential' for no cluster; default: a new LocalCluster of --workers "
-                          "processes (in this process for --workers 1)."),
-    ] = None,
-    workers: Annotated[int, typer.Option(help="Ensemble: members trained at once, 1 to the "
-                                              "number of CPUs.")] = 2,
-    amplitude_weighting: Annotated[
-        float | None, typer.Option(help="NFIR/Adam or NSS: loss weights 1/(a^2 + eps^2), eps "
-                                        "in input units (default for m/s in and N out: NFIR "
-                                        f"{RECIPE['amplitude_weighting']:g}, NSS "
-                                        f"{NSS_RECIPE['amplitude_weighting']:g}; else 0 = plain "
-                                        "MSE, as the paper).")
-    ] = None,
-    passivity: Annotated[
-        float | None, typer.Option(help="NFIR/Adam or NSS: weight of the penalty on energy "
-                                        "created at harmonic probes (default for m/s in and N "
-                                        f"out: NFIR {RECIPE['passivity']:g}, NSS "
-                                        f"{NSS_RECIPE['passivity']:g}; else 0 = off, as the "
-                                        "paper).")
-    ] = None,
-    cycle_energy: Annotated[
-        float | None, typer.Option(help="NFIR/Adam or NSS: weight of the error of the energy "
-                                        "each input cycle exchanges (NSS: per cycle of each "
-                                        "training sub-sequence); default for m/s in and N out: "
-                                        f"NFIR {RECIPE['cycle_energy']:g}, NSS "
-                                        f"{NSS_RECIPE['cycle_energy']:g}; else 0 = off, as the "
-                                        "paper.")
-    ] = None,
-) -> None:
-    """Identify an NFIR, NOE or NSS ROM (or an ensemble of them) from an input/output record.
+def _typed(h: Hyper) -> type:
+    return {"int": int, "float": float, "choice": str, "delays": int}[h.kind]
+
+
+def _hyper_options() -> list[inspect.Parameter]:
+    """One option per hyperparameter name of the registry's classes (``--n-states``, ...),
+    with each class's default in its help; every one defaults to None (not given)."""
+    by_name: dict[str, list[tuple[ModelClass, Hyper]]] = {}
+    for mc in CLASSES.values():
+        for h in mc.hyper:
+            by_name.setdefault(h.name, []).append((mc, h))
+    out = []
+    for name, pairs in by_name.items():
+        h0 = pairs[0][1]
+        which = ", ".join(f"{mc.class_name} {h.default}" for mc, h in pairs)
+        domain = "; ".join(dict.fromkeys(
+            f"an integer in [1, {int(h.hi or 1)}]" if h.kind == "delays" else h.domain()
+            for _, h in pairs))
+        text = f"{h0.help[:1].upper()}{h0.help[1:]} (default: {which}); {domain}."
+        decls = (h0.option, *_ALIASES.get(name, ()))
+        out.append(inspect.Parameter(
+            name, inspect.Parameter.KEYWORD_ONLY, default=None,
+            annotation=Annotated[_typed(h0) | None, typer.Option(*decls, help=text)]))
+    return out
+
+
+#: Former spellings of an option, still read (the name everywhere else is the first).
+_ALIASES = {"n_states": ("--states",)}
+
+
+def _check_hyper(mc: ModelClass, given: dict[str, Any]) -> dict[str, Any]:
+    """The given options of class ``mc`` checked (one ``error:`` line naming the option),
+    refusing those of other classes."""
+    names = [h.name for h in mc.hyper]
+    for name, value in given.items():
+        if name not in names:
+            opts = ", ".join(h.option for h in mc.hyper)
+            fail(f"{'--' + name.replace('_', '-')} does not apply to --arch {mc.name} "
+                 f"({mc.class_name}: {mc.summary}); its options are {opts}")
+        h = mc.hyper_named(name)
+        if h.kind == "choice":
+            if value not in h.choices:
+                of = f" for {mc.class_name}" if name == "trainer" else ""
+                fail(f"{h.option}{of} must be {', '.join(h.choices)}, got {value!r}")
+        elif h.kind == "delays":
+            check_number(value, h.option, 1, h.hi)
+        else:
+            check_number(value, h.option, h.lo, h.hi, lo_open=h.lo_open, hi_open=h.hi_open)
+    return given
+
+
+def _train(**kw: Any) -> None:
+    """Identify a ROM of any class of the registry (or an ensemble of them) from an
+    input/output record.
+
+    --arch names the class: nfir (the paper's NFIR, the default), noe (the paper's NOE), nss
+    (a neural state-space ROM: a state that carries where the liquid is and how it moves) or
+    lss (the best linear model: N4SID refined on its simulation error). Each class takes the
+    options of its own hyperparameters (their defaults are listed with each option); an
+    option of another class is refused with the list of the class's own.
 
     An NFIR trained by Adam (the default) on a velocity in m/s and a force in N uses the
     passive recipe: amplitude-weighted loss, a passivity penalty and a cycle-energy term
-    (docs/rom.md, "A passive ROM"); its terms are written for the power F v, so records in
-    other units (a force in, a displacement out, an acceleration in, ...) train on the plain
-    MSE. One line says which loss was chosen and why; the options below override it, and
-    --amplitude-weighting 0 --passivity 0 --cycle-energy 0 trains the paper's plain MSE.
-    --input acceleration (records' tank acceleration, m/s^2) trains a network on the
+    (docs/rom.md, "A passive ROM"); an NSS its own recipe. The terms are written for the power
+    F v, so records in other units (a force in, a displacement out, an acceleration in, ...)
+    train on the plain MSE. One line says which loss was chosen and why; the options override
+    it, and --amplitude-weighting 0 --passivity 0 --cycle-energy 0 trains the paper's plain
+    MSE. --input acceleration (records' tank acceleration, m/s^2) trains an NFIR on the
     acceleration, always on the plain MSE; it runs in `beam` and `map` like any other.
 
-    --arch nss trains a neural state-space ROM (sloshrom.rom.NSS: a state that carries where
-    the liquid is and how it moves) on the tank velocity, by Adam on sub-sequences of
-    --horizon samples, each started by an encoder of the --window samples before it. Its
-    options are --states, --neurons, --window, --horizon, --batch, --learning-rate,
-    --steps-per-epoch and --max-epochs (--delays, --hidden and --trainer are the networks'
-    and refused); its loss by units is the NSS recipe (sloshrom.limits.NSS_RECIPE), and the
-    three loss options set its terms as for an NFIR.
-
     The two records must have the same sample rate and the same units of the input and of the
-    output; the model file may not be one of the records. With --ensemble K, K networks with
+    output; the model file may not be one of the records. With --ensemble K, K models with
     seeds SEED..SEED+K-1 are trained in parallel (Dask) and written as one model file whose
     prediction is the mean of the members; the validation MSE of every member and their mean
     +- standard deviation are printed.
@@ -312,29 +232,26 @@ def train(
     Example: sloshrom train --data train.nc --validation validation.nc --arch nfir --delays 70
     --neurons 35 --out nfir.npz [--ensemble 5 --workers 2]
     """
-    if arch not in ARCHS:
-        fail(f"--arch must be nfir, noe or nss, got {arch!r}")
-    nss = arch == "nss"
-    if nss:
-        for opt, value in (("--delays", delays), ("--hidden", hidden), ("--trainer", trainer)):
-            if value is not None:
-                fail(f"{opt} does not apply to --arch nss: {NOT_FOR_NSS[opt]}")
-    _nss_options({"--states": states, "--window": window, "--horizon": horizon,
-                  "--batch": batch, "--learning-rate": learning_rate,
-                  "--steps-per-epoch": steps_per_epoch}, arch)
+    data, validation, out = kw.pop("data"), kw.pop("validation"), kw.pop("out")
+    input_name, output_name = kw.pop("input_name"), kw.pop("output_name")
+    arch, fill, ensemble = kw.pop("arch"), kw.pop("fill"), kw.pop("ensemble")
+    scheduler, workers = kw.pop("scheduler"), kw.pop("workers")
+    try:
+        mc = model_class(arch)
+    except SloshromError as exc:
+        fail(str(exc))
+    given = _check_hyper(mc, {k: v for k, v in kw.items() if v is not None})
     _check_names(input_name, output_name)
-    if arch == "noe" and input_name == "acceleration":
-        fail("--input acceleration needs --arch nfir: an NOE takes the tank velocity")
-    if nss and input_name != "velocity":
-        fail(f"--arch nss reads the tank velocity: --input must be velocity, got "
-             f"{input_name!r} (a network on another input is an NFIR)")
-    if max_epochs is None:
-        max_epochs = int(NSS_DEFAULTS["max_epochs"]) if nss else 1000
-    hidden = "matlab" if hidden is None else hidden
-    check_number(delays, "--delays", 1, MAX_DELAY)
-    check_number(neurons, "--neurons", 1, MAX_NEURONS)
-    _check_common(max_epochs, seed, hidden)
+    reads = "acceleration" if input_name == "acceleration" else "velocity"
+    if reads not in mc.inputs:
+        fail(f"--input {input_name} needs --arch "
+             f"{' or '.join(m.name for m in CLASSES.values() if reads in m.inputs)}: "
+             f"{mc.class_name} reads the tank {' or '.join(mc.inputs)}")
     check_number(ensemble, "--ensemble", 1, MAX_MEMBERS)
+    if ensemble > 1 and not mc.ensemble:
+        fail(f"--ensemble {ensemble}: an {mc.class_name} is fitted deterministically, so its "
+             "members would be one model; train it alone")
+    seed = int(given.get("seed", 0))
     if seed + ensemble - 1 > MAX_SEED:
         fail(f"--seed {seed} with --ensemble {ensemble}: the last member's seed "
              f"{seed + ensemble - 1} exceeds {MAX_SEED}")
@@ -343,9 +260,6 @@ def train(
         check_number(workers, "--workers", 1, n_cpu, why=f"this machine has {n_cpu} CPU(s)")
         if scheduler not in (None, "threads", "sequential"):
             check_scheduler(scheduler)
-    trainers = ARCH_TRAINERS.get(arch, ())
-    if trainer is not None and trainer not in trainers:
-        fail(f"--trainer for {arch.upper()} must be {', '.join(trainers)}, got {trainer!r}")
     check_number(fill, "--fill", 0.0, 1.0, lo_open=True, hi_open=True,
                  why="liquid depth / tank height")
     check_input(data, "--data")
@@ -353,82 +267,60 @@ def train(
     check_out(out, suffixes=(".npz",), inputs=(data, validation))
     rec, val = _read_pair(data, validation, [input_name, output_name])
     fill = _training_fill(fill, rec, data, val, validation)
-
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
-    from sloshrom.rom.estimators import NFIR, NOE, NSS
-
-    kw: dict[str, Any] = {"max_epochs": max_epochs, "seed": seed,
-                          "units": (rec.units[input_name], rec.units[output_name]),
-                          "names": (input_name, output_name)}
-    if nss:
-        sizes = {"n_states": states, "neurons": neurons, "window": window, "horizon": horizon,
-                 "batch": batch, "learning_rate": learning_rate,
-                 "steps_per_epoch": steps_per_epoch}
-        kw.update({k: v for k, v in sizes.items() if v is not None})
-    else:
-        kw["hidden"] = hidden
-        if delays is not None:
-            kw["delays"] = delays
-        if neurons is not None:
-            kw["neurons"] = neurons
-        if trainer is not None:
-            kw["trainer"] = trainer
-    # the loss terms train an NFIR by Adam and an NSS (Adam too); an NOE trains by LM
-    adam = (arch == "nfir" and trainer in (None, "adam")) or nss
+    hyper = {**mc.defaults(), **given}
+    units = (rec.units[input_name], rec.units[output_name])
     # the recipe by the records' units: its terms hold for m/s in and N out only
-    choice = loss_recipe(*kw["units"], same=same_unit)
-    if nss:
-        choice = _nss_recipe(choice)
-    given = {"amplitude_weighting": amplitude_weighting, "passivity": passivity,
-             "cycle_energy": cycle_energy}
-    for opt, value in given.items():
-        flag = "--" + opt.replace("_", "-")
-        if value is not None and not (math.isfinite(value) and value >= 0):
-            fail(f"{flag} must be a finite number >= 0, got {value!r}")
-        if value and not adam:
-            fail(f"{flag} needs an NFIR trained by adam or an NSS (got --arch {arch}"
-                 f"{'' if trainer is None else f' --trainer {trainer}'})")
-        if value and input_name == "acceleration":
+    choice = mc.passive_recipe(*units, same=same_unit)
+    set_by = [k for k in mc.loss_terms if k in given]
+    why_not = mc.recipe_needs(hyper)
+    for k in set_by:
+        flag = "--" + k.replace("_", "-")
+        if given[k] and why_not:
+            fail(f"{flag} needs {why_not} (got --arch {arch}"
+                 f"{'' if 'trainer' not in given else ' --trainer ' + given['trainer']})")
+        if given[k] and reads == "acceleration":
             fail(f"{flag} needs a velocity input: the term is written for the power F v "
-                 "(a network on the acceleration trains on the plain MSE)")
-        if adam:
-            kw[opt] = choice.terms[opt] if value is None else value
-    if adam:
-        set_by = [k for k, v in given.items() if v is not None]
+                 "(a model on the acceleration trains on the plain MSE)")
+    if mc.loss_terms and why_not is None:
+        for k in mc.loss_terms:
+            hyper[k] = given.get(k, choice.terms.get(k, 0.0))
         typer.echo(str(choice) if not set_by else
-                   f"loss: {', '.join(f'{k} {kw[k]:g}' for k in given)}: "
+                   f"loss: {', '.join(f'{k} {hyper[k]:g}' for k in mc.loss_terms)}: "
                    f"{', '.join(set_by)} set by the options (by the records' units: "
                    f"{choice.name})")
-    cls = {"nfir": NFIR, "noe": NOE, "nss": NSS}[arch]
+    label = mc.label(hyper)
+    n_params = mc.n_params(hyper)
+    if ensemble * mc.file_weights(hyper) > MAX_WEIGHTS:  # the model file's limit, first
+        fail(f"{label}{f' x {ensemble} members' if ensemble > 1 else ''} has "
+             f"{ensemble * mc.file_weights(hyper)} weights, more than {MAX_WEIGHTS}, the most "
+             "a model file holds")
+    need = mc.min_samples(hyper)
+    if len(rec) < need:
+        fail(f"{data}: {len(rec)} samples are too few for {label} (training needs at least "
+             f"{need})")
+    history = mc.history(hyper)
+    if len(val) <= history:
+        fail(f"{validation}: {len(val)} samples are too few for {history} samples of history "
+             f"({label})")
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
     try:
-        model = cls(**kw)  # the hyperparameters are checked above, the file limits here
-        n_params = model.n_params if nss else 0  # an NSS checks its file limits here
-    except SloshromError as exc:  # ROMError: a network no model file holds
+        model = mc.estimator_class()(**hyper, units=units, names=(input_name, output_name))
+        model.spec  # noqa: B018 - the estimator's own checks (file limits), before training
+    except SloshromError as exc:  # ROMError: a model no model file holds
         fail(str(exc))
-    if ensemble * n_params > MAX_WEIGHTS:  # the model file's limit, before the training
-        fail(f"{_label(arch, model)}{f' x {ensemble} members' if ensemble > 1 else ''} has "
-             f"{ensemble * n_params} weights, more than {MAX_WEIGHTS}, the most a model file "
-             "holds")
-    if nss:
-        _check_length(rec, data, arch, model.window, model.neurons, "training",
-                      horizon=model.horizon)
-    else:
-        _check_length(rec, data, arch, model.max_delay, int(model.neurons), "training")
-    if len(val) <= model.max_delay:
-        what = f"an encoder window of {model.window}" if nss else f"{model.max_delay} delays"
-        fail(f"{validation}: {len(val)} samples are too few for {what}")
     if ensemble > 1:
         _train_ensemble(model, ensemble, rec, val, input_name, output_name, out,
                         scheduler if scheduler is not None or workers > 1 else "sequential",
-                        workers, fill, _label(arch, model))
+                        workers, fill, label)
         return
+    epochs = int(hyper.get("max_epochs", 0))
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[info]}"),
                   TimeElapsedColumn()) as progress:
-        task = progress.add_task(f"training {arch.upper()}", total=max_epochs, info="")
+        task = progress.add_task(f"training {mc.class_name}", total=epochs, info="")
 
         def cb(epoch: int, info: dict[str, float]) -> None:
-            # Levenberg–Marquardt reports its damping mu; Adam (an NSS) has none
+            # Levenberg–Marquardt reports its damping mu; Adam has none
             mu = f" mu {info['mu']:.1e}" if "mu" in info else ""
             progress.update(task, completed=epoch,
                             info=f"epoch {epoch} train {info['train_mse']:.4g} "
@@ -445,11 +337,65 @@ def train(
         fail(str(exc))
     h = model.history_
     typer.echo(
-        f"wrote {path}: {_label(arch, model)}, {model.n_params} "
-        f"parameters, {len(h['train_mse']) - 1} epochs ({h['stop_reason']}), best epoch "
-        f"{h['best_epoch']}, validation MSE {h['val_mse'][h['best_epoch']]:.4g} "
-        f"{rec.units[output_name]}^2, {h['train_seconds']:.1f} s"
+        f"wrote {path}: {label}, {n_params} parameters, {len(h['train_mse']) - 1} epochs "
+        f"({h['stop_reason']}), best epoch {h['best_epoch']}, validation MSE "
+        f"{h['val_mse'][h['best_epoch']]:.4g} {rec.units[output_name]}^2, "
+        f"{h['train_seconds']:.1f} s"
     )
+
+
+_COMMON: list[tuple[str, Any, Any]] = [
+    ("data", Annotated[Path, typer.Option("--data", help="Training record (.nc/.csv/.mat).")],
+     inspect.Parameter.empty),
+    ("validation", Annotated[Path, typer.Option("--validation",
+                                                help="Validation record (early stopping).")],
+     inspect.Parameter.empty),
+    ("out", Annotated[Path, typer.Option("--out", "-o", help="Model file to write (.npz).")],
+     inspect.Parameter.empty),
+    ("input_name", InputOpt, "velocity"),
+    ("output_name", OutputOpt, "dynamic_force"),
+    ("arch", Annotated[str, typer.Option(
+        "--arch", help="The ROM's class: " + "; ".join(
+            f"{mc.name} ({mc.summary})" for mc in CLASSES.values()) + ".")], "nfir"),
+]
+_AFTER: list[tuple[str, Any, Any]] = [
+    ("fill", Annotated[float | None, typer.Option(
+        help="Fill level d/h of the records' tank, in (0, 1): recorded in the model, which "
+             "then refuses other fills. Default: the records' fill attribute (rig records "
+             "carry it).")], None),
+    ("ensemble", Annotated[int, typer.Option(help="Train K models that differ by their seed "
+                                                  "(members have seeds SEED..SEED+K-1) and "
+                                                  "save them as one ensemble file (mean of "
+                                                  "the members); 1 = a single model.")], 1),
+    ("scheduler", Annotated[str | None, typer.Option(
+        help="Ensemble: Dask scheduler address tcp://HOST:PORT; 'threads' or 'sequential' for "
+             "no cluster; default: a new LocalCluster of --workers processes (in this process "
+             "for --workers 1).")], None),
+    ("workers", Annotated[int, typer.Option(help="Ensemble: members trained at once, 1 to the "
+                                                 "number of CPUs.")], 2),
+]
+
+
+def _command(func: Any) -> Any:
+    """``func(**kw)`` with the signature typer reads: the common options, one option per
+    hyperparameter of the registry, then the ensemble's options."""
+    params = [inspect.Parameter(n, inspect.Parameter.KEYWORD_ONLY, default=d, annotation=a)
+              for n, a, d in _COMMON]
+    params += _hyper_options()
+    params += [inspect.Parameter(n, inspect.Parameter.KEYWORD_ONLY, default=d, annotation=a)
+               for n, a, d in _AFTER]
+
+    @functools.wraps(func)
+    def command(**kw: Any) -> None:
+        func(**kw)
+
+    command.__signature__ = inspect.Signature(params)  # type: ignore[attr-defined]
+    command.__annotations__ = {p.name: p.annotation for p in params}
+    command.__name__ = "train"
+    return command
+
+
+train = app.command(name="train")(_command(_train))
 
 
 def _train_ensemble(template: Any, k: int, rec: Any, val: Any, input_name: str,

@@ -35,22 +35,27 @@ Precision: fitting, prediction and saving run in float64 (``jax.enable_x64`` aro
 
 from __future__ import annotations
 
-import functools
-import inspect
 import operator
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any, ClassVar, Literal
+from typing import Any
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from sloshrom import __version__
 from sloshrom._x64 import float64
-from sloshrom.limits import MAX_BATCH, MAX_DELAY, MAX_EPOCHS, MAX_NEURONS, MAX_STATES, TRAINERS
-from sloshrom.models import check_envelope, model_input
+from sloshrom.limits import (
+    HIDDEN_KINDS,
+    MAX_BATCH,
+    MAX_DELAY,
+    MAX_EPOCHS,
+    MAX_NEURONS,
+    MAX_STATES,
+    TRAINERS,
+)
 from sloshrom.rom import training
+from sloshrom.rom.base import Estimator, checked_records, record_envelope
 from sloshrom.rom.bouncing import BouncingBall, is_ball_file
 from sloshrom.rom.ensemble import Ensemble
 from sloshrom.rom.errors import (
@@ -60,18 +65,13 @@ from sloshrom.rom.errors import (
     ROMError,
     UnstableModelError,
 )
-from sloshrom.rom.family import FillFamily, at_fill, check_training_fill, read_family
+from sloshrom.rom.family import FillFamily, at_fill, read_family
 from sloshrom.rom.modelfile import (
     FORMAT_VERSION,
-    HIDDEN_KINDS,
-    NSS_FORMAT_VERSION,
-    PARAM_NAMES,
     ModelFile,
     ModelFileError,
     check_file_limits,
-    model_file_path,
     read_model_file,
-    write_model_file,
 )
 from sloshrom.rom.network import (
     MinMaxScaler,
@@ -85,12 +85,12 @@ from sloshrom.rom.network import (
     rbf_apply,
     unpack,
 )
+from sloshrom.rom.registry import LOSS_TERMS, NFIR_CLASS, NOE_CLASS, NSS_CLASS, model_class
 from sloshrom.rom.statespace import (
     NSS_PARAM_NAMES,
     StateSpaceNetwork,
     StateSpaceSpec,
     fit_statespace,
-    param_shapes,
 )
 from sloshrom.signals import power_band
 
@@ -119,38 +119,6 @@ __all__ = [
     "unpack",
 ]
 
-#: the Adam trainer's loss terms, written for the power F v of a velocity input
-LOSS_TERMS = ("amplitude_weighting", "passivity", "cycle_energy")
-
-
-def _as_signal(name: str, x: Any, allow_batch: bool = False) -> np.ndarray:
-    a = np.asarray(x, dtype=np.float64)
-    if a.ndim != 1 and not (allow_batch and a.ndim == 2):
-        shape = "(n,) or (batch, n)" if allow_batch else "(n,)"
-        raise ROMError(f"{name} must have shape {shape}, got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ROMError(f"{name} contains NaN or inf (first at index {np.argmin(np.isfinite(a))})")
-    return a
-
-
-def _plain(v: Any) -> Any:
-    """NumPy scalars and arrays, tuples -> plain Python numbers and lists (JSON-serialisable)."""
-    if isinstance(v, np.generic):
-        return v.item()
-    if isinstance(v, np.ndarray):
-        return v.tolist()
-    if isinstance(v, tuple | list):
-        return [_plain(x) for x in v]
-    return v
-
-
-def _frozen(v: Any) -> Any:
-    """Lists -> tuples (hashable pytree aux data)."""
-    return tuple(_frozen(x) for x in v) if isinstance(v, list) else v
-
-
-def _thawed(v: Any) -> Any:
-    return [_thawed(x) for x in v] if isinstance(v, tuple) else v
 
 
 def _integer(name: str, v: Any, lo: int) -> int:
@@ -163,103 +131,18 @@ def _integer(name: str, v: Any, lo: int) -> int:
     return i
 
 
-def _checked_records(u: Any, y: Any, fs: float, validation: tuple[Any, Any] | None,
-                     fill: float | None, need: int, history: int
-                     ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray] | None,
-                                float | None]:
-    """The training and validation records and the fill, checked for any estimator's fit.
+class _Estimator(Estimator):
+    """Shared code of the network estimators NFIR, NOE and NSS (the loss terms, the
+    hyperparameters of the time-delay networks)."""
 
-    ``need``: fewest training samples; ``history``: samples of input history the model reads
-    (the validation record must be longer).
-    """
-    if not (np.isfinite(fs) and fs > 0):
-        raise ROMError(f"fs must be a finite positive sample rate in Hz, got {fs!r}")
-    fill = check_training_fill(fill)
-    u = _as_signal("u", u)
-    y = _as_signal("y", y)
-    if u.shape != y.shape:
-        raise ROMError(f"u and y must have the same length, got {u.size} and {y.size}")
-    if u.size < need:
-        raise ROMError(f"{u.size} samples are too few for {history} samples of history "
-                       f"(need at least {need})")
-    if validation is not None:
-        uv = _as_signal("validation input", validation[0])
-        yv = _as_signal("validation output", validation[1])
-        if uv.shape != yv.shape:
-            raise ROMError("validation input and output must have the same length")
-        if uv.size <= history:
-            raise ROMError(f"validation record too short for {history} samples of history")
-        validation = (uv, yv)
-    return u, y, validation, fill
-
-
-def _envelope(u: np.ndarray, fs: float, scaler: MinMaxScaler, band: Any, input: str,
-              fill: float | None) -> dict[str, Any]:
-    """``envelope_`` of a model trained on the input record ``u``."""
-    env = {
-        "input_min": scaler.in_min,
-        "input_max": scaler.in_max,
-        "output_min": scaler.out_min,
-        "output_max": scaler.out_max,
-        "frequency_band": band,
-        # the peak tank acceleration of the training record
-        "acceleration_max": float(np.max(np.abs(u))) if input == "acceleration"
-        else float(np.max(np.abs(np.gradient(u)))) * float(fs),
-    }
-    if fill is not None:
-        env.update(fill_min=fill, fill_max=fill)
-    return env
-
-
-class _Estimator:
-    """Shared code of the network estimators NFIR, NOE and NSS (scikit-learn estimator +
-    sloshing-model contract)."""
-
-    arch: ClassVar[str] = ""
-    #: the force at sample k is the force at t_k (energy integrals: trapezoid rule)
-    force_rule: ClassVar[Literal["trapezoid"]] = "trapezoid"
-    #: step is a pure JAX function and a fitted model is a pytree (sloshrom.models.is_jax_model)
-    jax_traceable: ClassVar[Literal[True]] = True
     #: fed-back past outputs: none for the NFIR (an NOE constructor parameter)
     out_delays: int = 0
     #: stability bound of the scaled output (an NOE constructor parameter)
     unstable_bound: float = 10.0
-    #: the training ranges (set by fit and load; None for a model rebuilt from pytree leaves)
-    envelope_: dict[str, Any] | None = None
     #: loss options of the Adam and shooting trainers (constructor parameters of NFIR, NOE, NSS)
     amplitude_weighting: float = 0.0
     passivity: float = 0.0
     cycle_energy: float = 0.0
-
-    # -- hyperparameters ----------------------------------------------------------------------
-    @classmethod
-    @functools.cache
-    def _param_names(cls) -> tuple[str, ...]:
-        sig = inspect.signature(cls.__init__)
-        return tuple(p.name for p in sig.parameters.values() if p.name != "self")
-
-    def get_params(self, deep: bool = True) -> dict[str, Any]:
-        """Every constructor argument by name, in plain Python types (JSON-serialisable).
-
-        ``deep`` is accepted for scikit-learn compatibility (there are no nested estimators).
-        """
-        return {k: _plain(getattr(self, k)) for k in self._param_names()}
-
-    def set_params(self, **params: Any) -> _Estimator:
-        """Set constructor arguments by name (checked by the next :meth:`fit`); returns self.
-
-        Raises
-        ------
-        ROMError
-            A name that is not a constructor argument.
-        """
-        valid = self._param_names()
-        for k, v in params.items():
-            if k not in valid:
-                raise ROMError(f"{type(self).__name__} has no parameter {k!r} "
-                               f"(valid: {', '.join(valid)})")
-            setattr(self, k, v)
-        return self
 
     def _check_hyperparameters(self) -> NetworkSpec:
         """Validate the constructor arguments; the network architecture they give.
@@ -299,108 +182,14 @@ class _Estimator:
         check_file_limits(spec.max_delay, spec.neurons, spec.n_inputs)
         return spec
 
-    @property
-    def input(self) -> str:
-        """The tank signal the network reads (:func:`sloshrom.models.input_of`): the record's
-        input variable ``names[0]`` says it, ``"acceleration"`` or else ``"velocity"``; fixed
-        in the fitted :class:`~sloshrom.rom.network.Network` when it is fitted or loaded."""
-        if hasattr(self, "model_"):
-            return self.model_.input
-        return "acceleration" if str(self.names[0]) == "acceleration" else "velocity"
-
-    @property
-    def spec(self) -> NetworkSpec:
-        """The network architecture: the fitted network's, else the validated
-        hyperparameters'."""
-        if hasattr(self, "model_"):
-            return self.model_.spec
-        return self._check_hyperparameters()
-
-    @property
-    def n_inputs(self) -> int:
-        """Length D of the regressor."""
-        return self.spec.n_inputs
-
-    @property
-    def n_params(self) -> int:
-        return self.spec.n_params
-
-    @property
-    def max_delay(self) -> int:
-        return self.spec.max_delay
-
-    def _check_fitted(self) -> None:
-        if not hasattr(self, "model_"):
-            raise NotFittedError(f"this {type(self).__name__} is not fitted: call fit() first")
-
-    @property
-    def params_(self) -> dict[str, Any]:
-        """The fitted parameters ``{"W", "b", "c", "c0"}`` (the network's)."""
-        self._check_fitted()
-        return self.model_.params
-
-    @property
-    def scaler_(self) -> MinMaxScaler:
-        """Bounds of the training input and output."""
-        self._check_fitted()
-        return self.model_.scaler
-
-    @property
-    def fs_(self) -> float:
-        """Sample rate of the training record, Hz."""
-        self._check_fitted()
-        return self.model_.fs
-
-    @classmethod
-    def fitted(cls, params: dict[str, Any], scaler: MinMaxScaler, fs: float,
-               envelope: dict[str, Any] | None = None, history: dict[str, Any] | None = None,
-               **hyperparameters: Any) -> _Estimator:
-        """A fitted estimator from known parts (no training): the loader's and the tests' way
-        to build one.
-
-        Parameters
-        ----------
-        params : dict
-            ``{"W": (H, D), "b": (H,), "c": (H,), "c0": ()}`` for the hyperparameters' D, H.
-        scaler : MinMaxScaler
-        fs : float
-            Sample rate, Hz.
-        envelope, history : dict, optional
-            ``envelope_`` and ``history_`` (default: none, empty).
-        **hyperparameters
-            Constructor arguments.
-
-        Raises
-        ------
-        ROMError
-            A hyperparameter out of its domain.
-        """
-        obj = cls(**hyperparameters)
-        spec = obj._check_hyperparameters()
-        obj.model_ = Network({k: np.asarray(params[k]) for k in PARAM_NAMES}, scaler, spec,
-                             obj.input, float(fs), float(obj.unstable_bound))
-        obj.envelope_ = envelope
-        obj.history_ = {} if history is None else history
-        return obj
+    def _model(self, params: Any, scaler: MinMaxScaler, spec: Any, fs: float) -> Network:
+        return Network(dict(params), scaler, spec, self.input, fs, float(self.unstable_bound))
 
     @property
     def theta_(self) -> jnp.ndarray:
         """The parameters packed into one vector (:func:`~sloshrom.rom.network.pack`)."""
         self._check_fitted()
         return pack(self.params_)
-
-    # -- pytree (parameters are leaves, hyperparameters static) -------------------------------
-    def tree_flatten(self) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
-        children = (self.model_,) if hasattr(self, "model_") else ()
-        hyper = tuple((k, _frozen(v)) for k, v in self.get_params().items())
-        return children, hyper
-
-    @classmethod
-    def tree_unflatten(cls, aux: tuple[Any, ...], children: tuple[Any, ...]) -> _Estimator:
-        obj = cls(**{k: _thawed(v) for k, v in aux})
-        if children:
-            obj.model_ = children[0]
-        return obj
 
     # -- training -----------------------------------------------------------------------------
     @float64
@@ -449,7 +238,7 @@ class _Estimator:
             An NOE unstable at its initial parameters.
         """
         spec = self._check_hyperparameters()
-        u, y, validation, fill = _checked_records(u, y, fs, validation, fill,
+        u, y, validation, fill = checked_records(u, y, fs, validation, fill,
                                                   self._fewest_samples(spec), spec.max_delay)
         if (self.passivity > 0 or self.cycle_energy > 0) and not (u.min() < 0.0 < u.max()):
             # say what is wrong with the input, not which loss term tripped over it
@@ -476,7 +265,7 @@ class _Estimator:
         self.model_ = Network({k: np.asarray(v) for k, v in
                                unpack(theta, spec.n_inputs, spec.neurons).items()},
                               scaler, spec, self.input, float(fs), float(self.unstable_bound))
-        self.envelope_ = _envelope(u, fs, scaler, band, self.input, fill)
+        self.envelope_ = record_envelope(u, fs, scaler, band, self.input, fill)
         self.history_ = history
         return self
 
@@ -488,108 +277,6 @@ class _Estimator:
         """Options of :func:`sloshrom.rom.training.train` beyond the common ones (the NOE's
         multiple shooting); none by default."""
         return {}
-
-    # -- prediction ---------------------------------------------------------------------------
-    @property
-    def dt(self) -> float:
-        """Model time step = 1/fs_, s."""
-        self._check_fitted()
-        return self.model_.dt
-
-    @float64
-    def predict(self, u: Any) -> np.ndarray:
-        """Free-run simulation from rest; does not change the model.
-
-        Parameters
-        ----------
-        u : array_like, shape (n,) or (batch, n)
-            Input sampled at ``fs_`` (physical units, e.g. m/s).
-
-        Returns
-        -------
-        ndarray, same shape as ``u``
-            Output (physical units, e.g. N), float64.
-
-        Raises
-        ------
-        NotFittedError
-            The model is not fitted.
-        ROMError
-            ``u`` of another shape, or with NaN or inf.
-        UnstableModelError
-            An NOE whose simulation left its stability bound.
-
-        Warns
-        -----
-        EnvelopeWarning
-            ``u`` leaves the input range of the training record.
-        """
-        self._check_fitted()
-        u = _as_signal("u", u, allow_batch=True)
-        # predict < float64 wrapper < the caller
-        check_envelope(self, u, unit=str(self.units[0]), stacklevel=3)
-        return self.model_.free_run(u)
-
-    def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
-        """Sloshing-model contract: dynamic force (N) from the tank velocity (m/s) or, for a
-        network on the acceleration (:attr:`input`), the acceleration (m/s^2)."""
-        return self.predict(model_input(self, velocity, acceleration))
-
-    def init_state(self) -> Any:
-        """Delay line(s) at rest (scaled units), a pytree of arrays
-        (:meth:`sloshrom.rom.network.Network.init_state`)."""
-        self._check_fitted()
-        return self.model_.init_state()
-
-    def step(self, state: Any, velocity: Any, acceleration: Any = None) -> tuple[Any, Any]:
-        """One pure, jax-traceable step: ``(state, dynamic_force)`` at the current sample k
-        (:meth:`sloshrom.rom.network.Network.step`: a velocity network pushes v_k after the
-        force, a network on the acceleration pushes a_{k-1} before it, an NOE closes its loop).
-
-        Reads the weights and the scaler from the model's pytree leaves, so a model passed as an
-        argument into ``jit`` is traced, not compiled in.
-        """
-        return self.model_.step(state, velocity, acceleration)
-
-    # -- persistence --------------------------------------------------------------------------
-    @float64
-    def save(self, path: str | Path) -> Path:
-        """Write the fitted model to a ``.npz`` file atomically (no pickle).
-
-        The file holds the parameter arrays ``W``, ``b``, ``c``, ``c0`` and a JSON string
-        ``metadata`` (format version, class, sloshrom version, hyperparameters, fs, units,
-        variable names, scaler, envelope, history, checksum); docs/formats.md, "Model files".
-        The metadata is checked against the schema :func:`load_model` applies before anything
-        is written, so a model that could not be loaded back is never saved.
-
-        Raises
-        ------
-        ROMError
-            A hyperparameter, the sample rate, the scaler or the envelope is outside the bounds of
-            the model-file format, or the training history is too long to store; the message names
-            the field and nothing is written.
-        """
-        self._check_fitted()
-        arrays = {k: np.asarray(self.params_[k], dtype=np.float64) for k in PARAM_NAMES}
-        return write_model_file(model_file_path(path), self._metadata(FORMAT_VERSION), arrays,
-                                "model")
-
-    def _metadata(self, version: int) -> dict[str, Any]:
-        """The metadata of a single-model file (without its checksum)."""
-        return {
-            "format": "sloshrom-rom",
-            "format_version": version,
-            "class": type(self).__name__,
-            "sloshrom_version": __version__,
-            "hyperparameters": self.get_params(),
-            "fs": self.fs_,
-            "units": {"input": self.units[0], "output": self.units[1]},
-            "names": {"input": self.names[0], "output": self.names[1]},
-            "scaler": self.scaler_.to_dict(),
-            "envelope": self.envelope_,
-            "history": self.history_,
-        }
-
 
 @jax.tree_util.register_pytree_node_class
 class NFIR(_Estimator):
@@ -643,7 +330,7 @@ class NFIR(_Estimator):
     Parameters are checked by :meth:`fit` (and by :func:`load_model`), not by the constructor.
     """
 
-    arch = "nfir"
+    model_class = NFIR_CLASS
 
     def __init__(
         self,
@@ -716,7 +403,7 @@ class NOE(_Estimator):
     Parameters are checked by :meth:`fit` (and by :func:`load_model`), not by the constructor.
     """
 
-    arch = "noe"
+    model_class = NOE_CLASS
 
     def __init__(
         self,
@@ -840,7 +527,7 @@ class NSS(_Estimator):
     Parameters are checked by :meth:`fit` (and by :func:`load_model`), not by the constructor.
     """
 
-    arch = "nss"
+    model_class = NSS_CLASS
 
     def __init__(
         self,
@@ -906,40 +593,15 @@ class NSS(_Estimator):
         return StateSpaceSpec(n_states, neurons, window)
 
     @property
-    def n_inputs(self) -> int:
-        """Inputs of the state and output maps: the state and the input."""
-        return self.spec.n_inputs
-
-    @property
     def theta_(self) -> jnp.ndarray:
         """The parameters packed into one vector (:data:`NSS_PARAM_NAMES` order)."""
         self._check_fitted()
         return jnp.concatenate([jnp.ravel(jnp.asarray(self.params_[k]))
                                 for k in NSS_PARAM_NAMES])
 
-    @classmethod
-    def fitted(cls, params: dict[str, Any], scaler: MinMaxScaler, fs: float,
-               envelope: dict[str, Any] | None = None, history: dict[str, Any] | None = None,
-               **hyperparameters: Any) -> NSS:
-        """A fitted estimator from known parts (no training), as :meth:`NFIR.fitted`.
-
-        Raises
-        ------
-        ROMError
-            A hyperparameter out of its domain, or arrays of other shapes than it gives.
-        """
-        obj = cls(**hyperparameters)
-        spec = obj._check_hyperparameters()
-        shapes = param_shapes(spec)
-        arrays = {k: np.asarray(params[k], dtype=np.float64) for k in NSS_PARAM_NAMES}
-        for k, shp in shapes.items():
-            if arrays[k].shape != shp:
-                raise ROMError(f"parameter {k} has shape {arrays[k].shape}, the "
-                               f"hyperparameters give {shp}")
-        obj.model_ = StateSpaceNetwork(arrays, scaler, spec, obj.input, float(fs))
-        obj.envelope_ = envelope
-        obj.history_ = {} if history is None else history
-        return obj
+    def _model(self, params: Any, scaler: MinMaxScaler, spec: Any,
+               fs: float) -> StateSpaceNetwork:
+        return StateSpaceNetwork(dict(params), scaler, spec, self.input, fs)
 
     @float64
     def fit(
@@ -982,7 +644,7 @@ class NSS(_Estimator):
             or sample rate.
         """
         spec = self._check_hyperparameters()
-        u, y, validation, fill = _checked_records(
+        u, y, validation, fill = checked_records(
             u, y, fs, validation, fill, spec.window + int(self.horizon) + 1, spec.window)
         if (self.passivity > 0 or self.cycle_energy > 0) and not (u.min() < 0.0 < u.max()):
             raise ROMError(f"the input {self.names[0]!r} does not oscillate about rest: "
@@ -999,25 +661,9 @@ class NSS(_Estimator):
             passivity=float(self.passivity), cycle_energy=float(self.cycle_energy),
             frequency_band=(probe_band[0], probe_band[1]), callback=callback)
         self.model_ = StateSpaceNetwork(params, scaler, spec, self.input, float(fs))
-        self.envelope_ = _envelope(u, fs, scaler, band, self.input, fill)
+        self.envelope_ = record_envelope(u, fs, scaler, band, self.input, fill)
         self.history_ = history
         return self
-
-    @float64
-    def save(self, path: str | Path) -> Path:
-        """Write the fitted model to a ``.npz`` file atomically (no pickle): the arrays of
-        :data:`~sloshrom.rom.statespace.NSS_PARAM_NAMES` and the JSON ``metadata`` of
-        :meth:`NFIR.save` (format version 3; docs/formats.md, "Model files").
-
-        Raises
-        ------
-        ROMError
-            A value outside the bounds of the model-file format; nothing is written.
-        """
-        self._check_fitted()
-        meta = self._metadata(NSS_FORMAT_VERSION)
-        arrays = {k: np.asarray(self.params_[k], dtype=np.float64) for k in NSS_PARAM_NAMES}
-        return write_model_file(model_file_path(path), meta, arrays, "model")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -1076,7 +722,7 @@ def load_model(path: str | Path, fill: float | None = None) -> Any:
     mf = read_model_file(path)
     if not mf.is_ensemble:
         return _from_model_file(mf, path)
-    cls = _CLASSES[mf.meta["member_class"]]
+    cls = model_class(mf.meta["member_class"]).estimator_class()
     try:
         return Ensemble.from_members([_from_model_file(m, path) for m in mf.members()],
                                      template=cls(**mf.meta["hyperparameters"]))
@@ -1086,14 +732,10 @@ def load_model(path: str | Path, fill: float | None = None) -> Any:
         raise ModelFileError(f"{path}: corrupt metadata ({exc})") from None
 
 
-#: the estimator of each class name a model file may hold
-_CLASSES: dict[str, type[_Estimator]] = {"NFIR": NFIR, "NOE": NOE, "NSS": NSS}
-
-
-def _from_model_file(mf: ModelFile, path: str | Path) -> NFIR | NOE | NSS:
+def _from_model_file(mf: ModelFile, path: str | Path) -> Estimator:
     """The network of a validated single-model file (or of one member of an ensemble file)."""
     meta = mf.meta
-    cls = _CLASSES[meta["class"]]
+    cls = model_class(meta["class"]).estimator_class()
     sc = meta["scaler"]
     scaler = MinMaxScaler(**{k: float(sc[k]) for k in ("in_min", "in_max", "out_min", "out_max")})
     try:

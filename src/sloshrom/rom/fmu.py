@@ -83,8 +83,8 @@ from sloshrom.models import (
 )
 from sloshrom.rom.ensemble import is_ensemble
 from sloshrom.rom.errors import ROMError
-from sloshrom.rom.network import FittedNetwork, NetworkSpec, network_of
-from sloshrom.rom.statespace import StateSpaceSpec
+from sloshrom.rom.network import FittedNetwork, network_of
+from sloshrom.rom.registry import CLASSES
 
 __all__ = ["FMU_SOURCES", "STEP_RTOL", "VR", "FMUError", "FMUModel", "check_fmu_exportable",
            "export_fmu", "fmu_platform", "load_fmu", "model_data_source", "model_description",
@@ -129,8 +129,9 @@ def _refusal(model: Any) -> str:
     name = type(model).__name__
     if hasattr(model, "spec"):  # an estimator without its fitted network
         return f"the {name} is not fitted: nothing to export"
-    return (f"a {name} cannot be exported to an FMU: an FMU holds fitted networks (NFIR, NOE, "
-            "NSS) or an ensemble of them. A fill family or blend mixes networks by the fill "
+    held = ", ".join(mc.class_name for mc in CLASSES.values() if "fmu" in mc.exports)
+    return (f"a {name} cannot be exported to an FMU: an FMU holds fitted ROMs ({held}) or an "
+            "ensemble of them. A fill family or blend mixes networks by the fill "
             "level: export the member identified at your fill (its own model file). The "
             "bouncing ball is a physics model run by sloshrom's integrator: export a ROM "
             "identified on its records")
@@ -155,8 +156,8 @@ def check_fmu_exportable(model: Any) -> list[FittedNetwork]:
                        f"SI (the tank {kind} in {INPUT_UNITS[kind]}, the force in N): retrain "
                        "it on records converted to SI (Record.to_si)")
     for net in nets:
-        if not isinstance(net.spec, NetworkSpec | StateSpaceSpec):
-            raise ROMError(f"a {type(net).__name__} network cannot be exported to an FMU")
+        if "fmu" not in net.model_class.exports:
+            raise ROMError(f"an {net.model_class.class_name} cannot be exported to an FMU")
         if net.input != kind:
             raise ROMError("the ensemble's members read different signals")
     return nets
@@ -184,30 +185,21 @@ def _array(name: str, values: Any, ctype: str = "double") -> str:
 
 
 def _member_source(j: int, net: FittedNetwork) -> tuple[str, str]:
-    """Arrays and the SlMember initialiser of member ``j``."""
-    p = {k: np.asarray(v, dtype=np.float64) for k, v in net.params.items()}
+    """Arrays and the SlMember initialiser of member ``j`` (the network's
+    :meth:`~sloshrom.rom.network.FittedNetwork.fmu_member`)."""
+    arch, arrays, scalars = net.fmu_member()
     s = net.scaler
     out: list[str] = []
     fields = {"in_min": _num(s.in_min), "in_max": _num(s.in_max), "out_min": _num(s.out_min),
-              "out_max": _num(s.out_max), "unstable_bound": _num(net.unstable_bound)}
-    if isinstance(net.spec, StateSpaceSpec):
-        for k in ("A", "W1", "b1", "W2", "C", "V1", "d1", "V2"):
-            out.append(_array(f"m{j}_{k}", p[k]))
-        fields.update(arch="SL_NSS", hidden="SL_HIDDEN_MATLAB", n_states=str(net.spec.n_states),
-                      neurons=str(net.spec.neurons),
-                      **{k: f"m{j}_{k}" for k in ("A", "W1", "b1", "W2", "C", "V1", "d1", "V2")})
-    else:
-        spec = net.spec
-        out.append(_array(f"m{j}_delays", spec.delays, "int"))
-        for k in ("W", "b", "c"):
-            out.append(_array(f"m{j}_{k}", p[k]))
-        fields.update(arch="SL_NOE" if spec.arch == "noe" else "SL_NFIR",
-                      hidden="SL_HIDDEN_DISTANCE" if spec.hidden == "distance"
-                      else "SL_HIDDEN_MATLAB",
-                      n_delays=str(len(spec.delays)), delays=f"m{j}_delays",
-                      max_delay=str(spec.max_delay), out_delays=str(spec.out_delays),
-                      neurons=str(spec.neurons), W=f"m{j}_W", b=f"m{j}_b", c=f"m{j}_c",
-                      c0=_num(p["c0"]))
+              "out_max": _num(s.out_max), "unstable_bound": _num(net.unstable_bound),
+              "arch": arch}
+    for k, v in scalars.items():
+        # a C identifier (an enumerator), an int or a double
+        fields[k] = v if isinstance(v, str) else str(v) if isinstance(v, int) else _num(v)
+    for k, a in arrays.items():
+        a = np.asarray(a)
+        out.append(_array(f"m{j}_{k}", a, "int" if a.dtype.kind in "iu" else "double"))
+        fields[k] = f"m{j}_{k}"
     init = "    {" + ", ".join(f".{k} = {v}" for k, v in fields.items()) + "}"
     return "".join(out), init
 
@@ -233,13 +225,7 @@ def _envelope_values(model: Any) -> dict[str, float]:
 
 def _description(model: Any, nets: Sequence[FittedNetwork]) -> str:
     net = nets[0]
-    if isinstance(net.spec, StateSpaceSpec):
-        arch = (f"NSS ({net.spec.n_states} states, {net.spec.neurons} neurons)")
-    else:
-        arch = (f"{net.spec.arch.upper()} ({len(net.spec.delays)} delays up to "
-                f"{net.spec.max_delay}, {net.spec.neurons} neurons"
-                + (f", {net.spec.out_delays} output delays" if net.spec.out_delays else "")
-                + ")")
+    arch = net.describe()
     what = f"ensemble of {len(nets)} {arch}" if len(nets) > 1 else arch
     kind = input_of(model)
     return (f"sloshrom sloshing ROM, {what}, at {net.fs:.10g} Hz: tank vertical {kind} "
@@ -320,7 +306,7 @@ def model_description(model: Any, identifier: str, guid: str, sources: Sequence[
     """
     nets = check_fmu_exportable(model)
     kind = input_of(model)
-    nss = isinstance(nets[0].spec, StateSpaceSpec)
+    feedthrough = nets[0].feedthrough
     dt = nets[0].dt
     env = _envelope_values(model)
     in_unit = INPUT_UNITS[kind].replace("^", "")
@@ -380,7 +366,7 @@ def model_description(model: Any, identifier: str, guid: str, sources: Sequence[
     index = {name: i + 1 for i, (name, _) in enumerate(variables)}
     read = str(index[kind])
     outputs = [f'<Unknown index="{index["dynamic_force"]}" '
-               + (f'dependencies="{read}" dependenciesKind="dependent"/>' if nss
+               + (f'dependencies="{read}" dependenciesKind="dependent"/>' if feedthrough
                   else 'dependencies=""/>'),
                f'<Unknown index="{index["outside_envelope"]}" dependencies="{read}" '
                'dependenciesKind="dependent"/>',

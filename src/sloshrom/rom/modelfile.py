@@ -7,7 +7,7 @@ parameter arrays ``W``, ``b``, ``c``, ``c0`` (see :meth:`sloshrom.rom.NFIR.save`
 single model (format version 1, class ``"NFIR"``/``"NOE"``)
     One network: ``W`` (H, D), ``b`` (H,), ``c`` (H,), ``c0`` ().
 state-space model (format version 3, class ``"NSS"``, :class:`sloshrom.rom.NSS`)
-    The arrays of :data:`NSS_PARAM_NAMES` (:func:`nss_param_shapes`); an ensemble of them is
+    The arrays of :data:`NSS_PARAM_NAMES`; an ensemble of them is
     an ensemble file of version 3 with member class ``"NSS"``.
 ensemble (format version 2, class ``"Ensemble"``, :class:`sloshrom.rom.ensemble.Ensemble`)
     K networks of one class and the same hyperparameters but their seeds: the same four arrays
@@ -40,6 +40,7 @@ pickle anywhere).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import hmac
 import json
@@ -61,6 +62,7 @@ from pydantic import (
     PlainValidator,
     StringConstraints,
     ValidationError,
+    create_model,
     field_validator,
     model_validator,
 )
@@ -68,23 +70,27 @@ from pydantic import (
 from sloshrom.fileio import atomic_write, not_a_regular_file
 from sloshrom.limits import (  # the limits the command line and the settings share
     HIDDEN_KINDS,
-    MAX_BATCH,
     MAX_DELAY,
     MAX_EPOCHS,
     MAX_MEMBERS,
     MAX_NEURONS,
-    MAX_OUT_DELAYS,
-    MAX_STATES,
     MAX_WEIGHTS,
-    Hidden,
 )
 from sloshrom.rom.errors import ROMError
+from sloshrom.rom.registry import (
+    CLASSES,
+    NFIR_CLASS,
+    NSS_CLASS,
+    Hyper,
+    ModelClass,
+    model_class_of_file,
+)
 
 __all__ = [
     "ENSEMBLE_FORMAT_VERSION", "FORMAT_VERSION", "HIDDEN_KINDS", "MAX_DELAY", "MAX_DEPTH",
     "MAX_FILE_BYTES", "MAX_MEMBERS", "MAX_METADATA_CHARS", "MAX_NEURONS", "MAX_REGRESSOR",
     "MAX_WEIGHTS", "NEWEST_FORMAT_VERSION", "NSS_FORMAT_VERSION", "NSS_PARAM_NAMES",
-    "PARAM_NAMES", "ModelFile", "ModelFileError", "check_file_limits", "nss_param_shapes",
+    "PARAM_NAMES", "ModelFile", "ModelFileError", "check_file_limits",
     "checksum", "model_file_path", "read_model_file", "validate_for_save", "write_model_file",
 ]
 
@@ -96,29 +102,33 @@ FORMAT_VERSION = 1
 ENSEMBLE_FORMAT_VERSION = 2
 #: Version of state-space (NSS) files, single and ensemble: older readers refuse them by
 #: version, with a message to upgrade, rather than by an unknown class.
-NSS_FORMAT_VERSION = 3
-#: The newest version this sloshrom reads (it reads every version from 1).
-NEWEST_FORMAT_VERSION = 3
-PARAM_NAMES = ("W", "b", "c", "c0")
+NSS_FORMAT_VERSION = NSS_CLASS.format_version
+#: The newest version this sloshrom reads (it reads every version from 1): each class's
+#: files carry the version of its registry entry (``ModelClass.format_version``).
+NEWEST_FORMAT_VERSION = max(ENSEMBLE_FORMAT_VERSION,
+                            *(mc.format_version for mc in CLASSES.values()))
+PARAM_NAMES = NFIR_CLASS.param_names()
 #: The arrays of a neural state-space network (:mod:`sloshrom.rom.statespace`), in file order.
-NSS_PARAM_NAMES = ("A", "W1", "b1", "W2", "C", "V1", "d1", "V2", "E1", "e1", "E2")
+NSS_PARAM_NAMES = NSS_CLASS.param_names()
+#: Every array name a model file of any class may hold.
+_ARRAY_NAMES = tuple(dict.fromkeys(n for mc in CLASSES.values() for n in mc.param_names()))
 
 
-def nss_param_shapes(n_states: int, neurons: int, window: int) -> dict[str, tuple[int, ...]]:
-    """Shape of every array of a state-space network: state map ``A``, ``W1``, ``b1``, ``W2``,
-    output map ``C``, ``V1``, ``d1``, ``V2``, encoder ``E1``, ``e1``, ``E2``."""
-    nz, h, nx, w = n_states + 1, neurons, n_states, window
-    return {"A": (nz, nx), "W1": (nz, h), "b1": (h,), "W2": (h, nx),
-            "C": (nz,), "V1": (nz, h), "d1": (h,), "V2": (h,),
-            "E1": (2 * w, h), "e1": (h,), "E2": (h, nx)}
-
-
-def _is_nss(meta: Mapping[str, Any]) -> bool:
-    return "NSS" in (meta.get("class"), meta.get("member_class"))
+def _file_class(meta: Mapping[str, Any]) -> ModelClass | None:
+    """The registry class of a file's (or an ensemble's members') ``class``."""
+    name = meta.get("member_class") if meta.get("class") == "Ensemble" else meta.get("class")
+    return model_class_of_file(name) if isinstance(name, str) else None
 
 
 def _param_names(meta: Mapping[str, Any]) -> tuple[str, ...]:
-    return NSS_PARAM_NAMES if _is_nss(meta) else PARAM_NAMES
+    mc = _file_class(meta)
+    return PARAM_NAMES if mc is None else mc.param_names()
+
+
+def _file_version(mc: ModelClass, ensemble: bool) -> int:
+    """The format version of a file of ``mc`` (an ensemble of a version-1 class: 2)."""
+    return ENSEMBLE_FORMAT_VERSION if ensemble and mc.format_version == FORMAT_VERSION \
+        else mc.format_version
 
 # -- limits (all checked before the corresponding memory is allocated) --------------------------
 #: Largest model file, bytes (metadata <= 16 MiB as UCS-4 text + W <= 32 MiB + headers).
@@ -181,12 +191,12 @@ def check_file_limits(max_delay: int, neurons: int, n_inputs: int, members: int 
             f"{'fewer members or ' if members > 1 else ''}a smaller network")
 
 
-_MEMBERS = ("metadata", *PARAM_NAMES, *NSS_PARAM_NAMES)
+_MEMBERS = ("metadata", *_ARRAY_NAMES)
 _MAX_MEMBERS = 64
 _MAX_NPY_HEADER = 10_000
 # a member may hold its header and at most this many bytes of data
 _MAX_DATA = {"metadata": 4 * MAX_METADATA_CHARS,
-             **dict.fromkeys((*PARAM_NAMES, *NSS_PARAM_NAMES), 8 * MAX_WEIGHTS)}
+             **dict.fromkeys(_ARRAY_NAMES, 8 * MAX_WEIGHTS)}
 
 
 class ModelFileError(ROMError):
@@ -380,65 +390,24 @@ TwoUnits = Annotated[list[Unit], Field(min_length=2, max_length=2)]
 TwoNames = Annotated[list[Text], Field(min_length=2, max_length=2)]
 
 
-class _Hyper(_Strict):
-    delays: Annotated[int | list[int], PlainValidator(_delays_value)]
-    neurons: Annotated[int, Field(ge=1, le=MAX_NEURONS)]
-    hidden: Hidden
-    max_epochs: Annotated[int, Field(ge=0, le=MAX_EPOCHS)]
-    seed: Annotated[int, Field(ge=0, le=2**63 - 1)]
-    units: TwoUnits
-    names: TwoNames
-
-
-class _NFIRHyper(_Hyper):
-    trainer: Literal["fast", "lm", "adam"]
-    # loss options (files written before them trained without: 0)
-    amplitude_weighting: Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=1e12)] = 0.0
-    passivity: Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=1e12)] = 0.0
-    cycle_energy: Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=1e12)] = 0.0
-
-
-class _NOEHyper(_Hyper):
-    trainer: Literal["fast", "lm", "adam"]
-    out_delays: Annotated[int, Field(ge=1, le=MAX_OUT_DELAYS)]
-    unstable_bound: Annotated[float, Field(allow_inf_nan=False, gt=0.0, le=1e12)]
-    # the Adam (multiple shooting) options: files written before them trained by LM, so the
-    # defaults, which LM ignores, describe them
-    amplitude_weighting: Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=1e12)] = 0.0
-    passivity: Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=1e12)] = 0.0
-    cycle_energy: Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=1e12)] = 0.0
-    horizon: Annotated[int, Field(ge=8, le=MAX_DELAY)] = 300
-    batch: Annotated[int, Field(ge=1, le=MAX_BATCH)] = 128
-    steps_per_epoch: Annotated[int, Field(ge=1, le=MAX_EPOCHS)] = 200
-    learning_rate: Annotated[float, Field(allow_inf_nan=False, gt=0.0, le=1.0)] = 3e-3
-
-
-Weight = Annotated[float, Field(allow_inf_nan=False, ge=0.0, le=1e12)]
-
-
-class _NSSHyper(_Strict):
-    n_states: Annotated[int, Field(ge=1, le=MAX_STATES)]
-    neurons: Annotated[int, Field(ge=1, le=MAX_NEURONS)]
-    window: Annotated[int, Field(ge=1, le=MAX_DELAY)]
-    horizon: Annotated[int, Field(ge=8, le=MAX_DELAY)]
-    batch: Annotated[int, Field(ge=1, le=MAX_BATCH)]
-    max_epochs: Annotated[int, Field(ge=0, le=MAX_EPOCHS)]
-    steps_per_epoch: Annotated[int, Field(ge=1, le=MAX_EPOCHS)]
-    learning_rate: Annotated[float, Field(allow_inf_nan=False, gt=0.0, le=1.0)]
-    seed: Annotated[int, Field(ge=0, le=2**63 - 1)]
-    units: TwoUnits
-    names: TwoNames
-    amplitude_weighting: Weight = 0.0
-    passivity: Weight = 0.0
-    cycle_energy: Weight = 0.0
+def _file_field(h: Hyper) -> tuple[Any, Any]:
+    """The pydantic field of a hyperparameter in a file: the registry's domain, strict JSON."""
+    if h.kind == "delays":
+        ann: Any = Annotated[int | list[int], PlainValidator(_delays_value)]
+    elif h.kind == "choice":
+        ann = Literal[h.choices]
+    else:
+        bounds = {"gt" if h.lo_open else "ge": h.lo, "lt" if h.hi_open else "le": h.hi}
+        if h.kind == "int":
+            ann = Annotated[int, Field(**bounds)]
+        else:
+            ann = Annotated[float, Field(allow_inf_nan=False, **bounds)]
+    return ann, (... if h.required_in_file else h.file_default)
 
 
 class _Meta(_Strict):
     format: Literal["sloshrom-rom"]
-    format_version: Literal[1]
-    class_: Literal["NFIR", "NOE"] = Field(alias="class")
     sloshrom_version: Text
-    hyperparameters: _NFIRHyper
     fs: Annotated[float, Field(allow_inf_nan=False, gt=0.0, le=MAX_FS)]
     units: _Pair
     names: _Names
@@ -446,21 +415,6 @@ class _Meta(_Strict):
     envelope: _Envelope
     history: _History = _History()
     checksum: Annotated[str, StringConstraints(pattern=r"^sha256:[0-9a-f]{64}$")]
-
-
-class _NFIRMeta(_Meta):
-    class_: Literal["NFIR"] = Field(alias="class")
-
-
-class _NOEMeta(_Meta):
-    class_: Literal["NOE"] = Field(alias="class")
-    hyperparameters: _NOEHyper
-
-
-class _NSSMeta(_Meta):
-    format_version: Literal[3]
-    class_: Literal["NSS"] = Field(alias="class")
-    hyperparameters: _NSSHyper
 
 
 class _Member(_Strict):
@@ -474,11 +428,8 @@ class _Member(_Strict):
 
 class _EnsembleMeta(_Strict):
     format: Literal["sloshrom-rom"]
-    format_version: Literal[2]
     class_: Literal["Ensemble"] = Field(alias="class")
     sloshrom_version: Text
-    member_class: Literal["NFIR"]
-    hyperparameters: _NFIRHyper
     n_members: Annotated[int, Field(ge=1, le=MAX_MEMBERS)]
     fs: Annotated[float, Field(allow_inf_nan=False, gt=0.0, le=MAX_FS)]
     units: _Pair
@@ -487,15 +438,24 @@ class _EnsembleMeta(_Strict):
     checksum: Annotated[str, StringConstraints(pattern=r"^sha256:[0-9a-f]{64}$")]
 
 
-class _NOEEnsembleMeta(_EnsembleMeta):
-    member_class: Literal["NOE"]
-    hyperparameters: _NOEHyper
-
-
-class _NSSEnsembleMeta(_EnsembleMeta):
-    format_version: Literal[3]
-    member_class: Literal["NSS"]
-    hyperparameters: _NSSHyper
+@functools.cache
+def _schema_of(class_name: str, ensemble: bool) -> type[_Strict]:
+    """The metadata schema of a file of the registry class ``class_name`` (its ensemble's)."""
+    mc = model_class_of_file(class_name)
+    assert mc is not None
+    fields: dict[str, Any] = {h.name: _file_field(h) for h in mc.hyper}
+    fields.update(units=(TwoUnits, ...), names=(TwoNames, ...))
+    hyper = create_model(f"_{mc.class_name}Hyper", __base__=_Strict, **fields)
+    version = Literal[_file_version(mc, ensemble)]
+    if ensemble:
+        return create_model(f"_{mc.class_name}EnsembleMeta", __base__=_EnsembleMeta,
+                            format_version=(version, ...),
+                            member_class=(Literal[mc.class_name], ...),
+                            hyperparameters=(hyper, ...))
+    return create_model(f"_{mc.class_name}Meta", __base__=_Meta,
+                        format_version=(version, ...),
+                        class_=(Literal[mc.class_name], Field(alias="class")),
+                        hyperparameters=(hyper, ...))
 
 
 _MESSAGES = {
@@ -582,7 +542,7 @@ class ModelFile:
         for k, e in enumerate(m["members"]):
             meta = {
                 "format": FORMAT, "class": m["member_class"],
-                "format_version": NSS_FORMAT_VERSION if _is_nss(m) else FORMAT_VERSION,
+                "format_version": _file_version(model_class_of_file(m["member_class"]), False),
                 "sloshrom_version": m["sloshrom_version"],
                 "hyperparameters": {**m["hyperparameters"], "seed": e["seed"]},
                 "fs": m["fs"], "units": m["units"], "names": m["names"],
@@ -596,26 +556,15 @@ def _fail_field(where: str, field: str, msg: str, value: Any) -> ModelFileError:
     return ModelFileError(f"{where}: metadata field '{field}': {msg}, got {_repr.repr(value)}")
 
 
-def _regressor_size(hyper: Mapping[str, Any]) -> int:
-    if "n_states" in hyper:  # a state-space network: its state and input
-        return int(hyper["n_states"]) + 1
-    d = hyper["delays"]
-    return (d if isinstance(d, int) else len(d)) + int(hyper.get("out_delays", 0))
-
-
 def _schema(meta: dict[str, Any]) -> type[_Strict]:
-    if meta.get("class") == "Ensemble":
-        return {"NOE": _NOEEnsembleMeta, "NSS": _NSSEnsembleMeta}.get(
-            meta.get("member_class"), _EnsembleMeta)
-    return {"NOE": _NOEMeta, "NSS": _NSSMeta}.get(meta.get("class"), _NFIRMeta)
-
-
-def _n_weights(hyper: Mapping[str, Any]) -> int:
-    """Parameters of one network of the (validated) hyperparameters."""
-    if "n_states" in hyper:
-        return sum(math.prod(s) for s in nss_param_shapes(
-            hyper["n_states"], hyper["neurons"], hyper["window"]).values())
-    return hyper["neurons"] * _regressor_size(hyper)
+    ensemble = meta.get("class") == "Ensemble"
+    mc = _file_class(meta)
+    if mc is None and ensemble and meta.get("member_class") is not None:
+        # an unknown member class: the message lists the ones this sloshrom reads
+        return create_model("_AnyEnsembleMeta", __base__=_EnsembleMeta,
+                            member_class=(Literal[tuple(CLASSES[k].class_name
+                                                        for k in CLASSES)], ...))
+    return _schema_of((mc or NFIR_CLASS).class_name, ensemble)
 
 
 def _check_trained(part: dict[str, Any], fs: float, where: str, prefix: str) -> None:
@@ -643,17 +592,24 @@ def _validate_meta(meta: dict[str, Any], where: str) -> None:
         raise ModelFileError(f"{where}: {_describe(errors[0])}{more}") from None
     hyper = meta["hyperparameters"]
     ensemble = meta["class"] == "Ensemble"
+    mc = _file_class(meta)
+    assert mc is not None  # the schema admits the registry's classes only
     k = meta["n_members"] if ensemble else 1
-    d = _regressor_size(hyper)
+    first = mc.hyper[0].name  # the size that names the class (delays, n_states)
+    d = mc.width(hyper)
     if d > MAX_REGRESSOR:
-        raise _fail_field(where, "hyperparameters.delays",
-                          f"the regressor would have {d} entries (delays + output delays), more "
-                          f"than {MAX_REGRESSOR}", hyper["delays"])
-    if k * _n_weights(hyper) > MAX_WEIGHTS:
+        raise _fail_field(where, f"hyperparameters.{first}",
+                          f"the model would read {d} entries at each step (delays + output "
+                          f"delays, or its state and input), more than {MAX_REGRESSOR}",
+                          hyper[first])
+    n_weights = mc.file_weights(hyper)
+    if k * n_weights > MAX_WEIGHTS:
         of = f"{k} members x " if ensemble else ""
-        raise _fail_field(where, "hyperparameters.neurons",
-                          f"{of}{_n_weights(hyper)} weights ({hyper['neurons']} neurons, {d} "
-                          f"inputs) is more than {MAX_WEIGHTS} weights", hyper["neurons"])
+        size = next((h.name for h in mc.hyper if h.name == "neurons"), first)
+        sizes = f"{hyper['neurons']} neurons, " if "neurons" in hyper else ""
+        raise _fail_field(where, f"hyperparameters.{size}",
+                          f"{of}{n_weights} weights ({sizes}{d} inputs) is more than "
+                          f"{MAX_WEIGHTS} weights", hyper[size])
     for key in ("units", "names"):
         pair = [meta[key]["input"], meta[key]["output"]]
         if pair != hyper[key]:
@@ -679,22 +635,16 @@ def _check_arrays(meta: dict[str, Any], arrays: dict[str, np.ndarray], where: st
                   ) -> dict[str, np.ndarray]:
     """Parameter arrays against validated metadata; returns them as float64."""
     hyper = meta["hyperparameters"]
-    h, d = hyper["neurons"], _regressor_size(hyper)
+    mc = _file_class(meta)
+    assert mc is not None
     lead: tuple[int, ...] = ()
     of, fields = "", ""
     if meta["class"] == "Ensemble":
         lead = (meta["n_members"],)
         of, fields = f"{lead[0]} members, ", "'n_members', "
-    if _is_nss(meta):
-        shapes = {k: (*lead, *v) for k, v in nss_param_shapes(
-            hyper["n_states"], h, hyper["window"]).items()}
-        sizes = f"{h} neurons, {hyper['n_states']} states and a window of {hyper['window']}"
-        fields += ("'hyperparameters.neurons', 'hyperparameters.n_states', "
-                   "'hyperparameters.window'")
-    else:
-        shapes = {"W": (*lead, h, d), "b": (*lead, h), "c": (*lead, h), "c0": lead}
-        sizes = f"{h} neurons and {d} regressor entries"
-        fields += "'hyperparameters.neurons', 'hyperparameters.delays'"
+    shapes = {k: (*lead, *v) for k, v in mc.shapes(hyper).items()}
+    sizes = ", ".join(f"{n} {hyper[n]}" for n in mc.sizes)
+    fields += ", ".join(f"'hyperparameters.{n}'" for n in mc.sizes)
     out = {}
     for k, shp in shapes.items():
         a = arrays.get(k)
@@ -943,10 +893,10 @@ def read_model_file(path: str | Path) -> ModelFile:
         raise ModelFileError(f"{where}: unsupported format version {ver} (reads "
                              f"{FORMAT_VERSION} to {NEWEST_FORMAT_VERSION})")
     cls = meta.get("class")
-    if cls not in ("NFIR", "NOE", "NSS", "Ensemble"):
+    if cls != "Ensemble" and not (isinstance(cls, str) and model_class_of_file(cls)):
         raise ModelFileError(f"{where}: unknown model class {_repr.repr(cls)}")
-    expected = NSS_FORMAT_VERSION if _is_nss(meta) else (
-        ENSEMBLE_FORMAT_VERSION if cls == "Ensemble" else FORMAT_VERSION)
+    mc = _file_class(meta)
+    expected = ENSEMBLE_FORMAT_VERSION if mc is None else _file_version(mc, cls == "Ensemble")
     if ver != expected:
         what = "an ensemble" if cls == "Ensemble" else f"a single {cls} model"
         raise ModelFileError(f"{where}: {what} file has format version {expected}, this one "

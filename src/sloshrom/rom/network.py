@@ -35,9 +35,13 @@ import numpy as np
 from jax import lax
 
 from sloshrom._x64 import float64
+from sloshrom.limits import HIDDEN_KINDS
 from sloshrom.models import model_input
 from sloshrom.rom.errors import ROMError, UnstableModelError
-from sloshrom.rom.modelfile import HIDDEN_KINDS, PARAM_NAMES
+from sloshrom.rom.registry import NFIR_CLASS, NOE_CLASS, ModelClass, check_delays
+
+#: The arrays of a time-delay network, in file order.
+PARAM_NAMES = NFIR_CLASS.param_names()
 
 __all__ = [
     "FittedNetwork",
@@ -122,24 +126,6 @@ class MinMaxScaler:
 # ---------------------------------------------------------------------------------------------
 # Architecture
 # ---------------------------------------------------------------------------------------------
-
-
-def check_delays(delays: int | Sequence[int], name: str = "delays") -> tuple[int, ...]:
-    """Delays (samples) as a tuple: ``n`` means ``1..n`` (MATLAB ``timedelaynet``).
-
-    Raises
-    ------
-    ROMError
-        ``n < 1``, an empty list, a delay < 1 or a repeated delay.
-    """
-    if isinstance(delays, int | np.integer):
-        if delays < 1:
-            raise ROMError(f"{name} must be >= 1, got {delays}")
-        return tuple(range(1, int(delays) + 1))
-    d = tuple(int(x) for x in delays)
-    if not d or min(d) < 1 or len(set(d)) != len(d):
-        raise ROMError(f"{name} must be distinct integers >= 1, got {delays!r}")
-    return d
 
 
 @dataclass(frozen=True)
@@ -340,6 +326,24 @@ class FittedNetwork:
     jax_traceable = True
     #: how an unstable run is named in its error
     _simulation = "simulation"
+    #: the force at sample k reads the input at sample k (a state-space output map), not
+    #: past inputs only (an FMU declares the dependency)
+    feedthrough = False
+
+    @property
+    def model_class(self) -> ModelClass:
+        """The registry entry of the class this network is a fitted model of."""
+        raise NotImplementedError
+
+    def describe(self) -> str:
+        """The architecture in words, e.g. ``"NSS (8 states, 64 neurons)"``."""
+        raise NotImplementedError
+
+    def fmu_member(self) -> tuple[str, dict[str, np.ndarray], dict[str, float | int | str]]:
+        """The network as a member of an FMU's C model (``sloshrom_model.h``, ``SlMember``):
+        its kernel (``"SL_NFIR"``, ``"SL_NOE"``, ``"SL_NSS"``), its arrays by field name (int
+        arrays for delays) and its scalar fields (ints, doubles or C enumerators)."""
+        raise NotImplementedError
 
     @property
     def dt(self) -> float:
@@ -400,6 +404,27 @@ class Network(FittedNetwork):
     unstable_bound: float = 10.0
 
     _simulation = "NOE simulation"
+
+    @property
+    def model_class(self) -> ModelClass:
+        return NOE_CLASS if self.spec.arch == "noe" else NFIR_CLASS
+
+    def describe(self) -> str:
+        spec = self.spec
+        return (f"{spec.arch.upper()} ({len(spec.delays)} delays up to {spec.max_delay}, "
+                f"{spec.neurons} neurons"
+                + (f", {spec.out_delays} output delays" if spec.out_delays else "") + ")")
+
+    def fmu_member(self) -> tuple[str, dict[str, np.ndarray], dict[str, float | int | str]]:
+        spec = self.spec
+        p = {k: np.asarray(v, dtype=np.float64) for k, v in self.params.items()}
+        arrays = {"delays": np.asarray(spec.delays, dtype=np.int64),
+                  **{k: p[k] for k in ("W", "b", "c")}}
+        return ("SL_NOE" if spec.arch == "noe" else "SL_NFIR", arrays,
+                {"hidden": "SL_HIDDEN_DISTANCE" if spec.hidden == "distance"
+                 else "SL_HIDDEN_MATLAB", "n_delays": len(spec.delays),
+                 "max_delay": spec.max_delay, "out_delays": spec.out_delays,
+                 "neurons": spec.neurons, "c0": float(p["c0"])})
 
     def init_state(self) -> Any:
         """Delay lines at rest (scaled units, most recent first): the input line, shape

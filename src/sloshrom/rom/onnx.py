@@ -40,7 +40,7 @@ from sloshrom.models import input_of
 from sloshrom.rom.ensemble import is_ensemble
 from sloshrom.rom.errors import ROMError
 from sloshrom.rom.network import network_of
-from sloshrom.rom.statespace import StateSpaceSpec
+from sloshrom.rom.registry import CLASSES
 
 if TYPE_CHECKING:
     from sloshrom.rom.estimators import NFIR, NOE
@@ -205,11 +205,13 @@ def check_exportable(model: Any) -> None:
             "(`sloshrom train` without --ensemble) or one member (Ensemble.members_[k].save)"
         )
     net = network_of(model)
-    if net is not None and isinstance(net.spec, StateSpaceSpec):
-        raise ROMError("an NSS (state-space ROM) cannot be exported to ONNX: a state-space "
+    if net is not None and "onnx" not in net.model_class.exports:
+        held = " or ".join(mc.class_name for mc in CLASSES.values() if "onnx" in mc.exports)
+        raise ROMError(f"an {net.describe()} cannot be exported to ONNX: a graph holds one {held} network; a state-space "
                        "ROM's step graph would need its state as input and output, which is "
-                       "not implemented; run it through sloshrom (Python API: step/simulate; "
-                       "command line: predict, map, beam)")
+                       "not implemented. Export it as an FMU (`sloshrom export fmu`) or run it "
+                       "through sloshrom (Python API: step/simulate; command line: predict, "
+                       "map, beam)")
     if net is None and not hasattr(model, "spec"):  # a family, a ball
         raise ROMError(f"a {type(model).__name__} cannot be exported to ONNX: a graph holds "
                        "one NFIR or NOE network (export a fill family's members one by one)")

@@ -53,8 +53,8 @@ from sloshrom._x64 import float64
 from sloshrom.models import model_input
 from sloshrom.rom.engine import AdamProblem, adam_epochs
 from sloshrom.rom.errors import ROMError
-from sloshrom.rom.modelfile import NSS_PARAM_NAMES, nss_param_shapes
 from sloshrom.rom.network import FittedNetwork, MinMaxScaler
+from sloshrom.rom.registry import NSS_CLASS, ModelClass, nss_shapes
 from sloshrom.rom.training import (
     TRAIN_DTYPE,
     amplitude_weights,
@@ -62,6 +62,9 @@ from sloshrom.rom.training import (
     shooting_probes,
     window_energy_weights,
 )
+
+#: The arrays of a neural state-space network, in file order.
+NSS_PARAM_NAMES = NSS_CLASS.param_names()
 
 __all__ = [
     "NSS_PARAM_NAMES",
@@ -111,7 +114,8 @@ class StateSpaceSpec:
 
 def param_shapes(spec: StateSpaceSpec) -> dict[str, tuple[int, ...]]:
     """Shape of every parameter array of ``spec`` (:data:`NSS_PARAM_NAMES` order)."""
-    return nss_param_shapes(spec.n_states, spec.neurons, spec.window)
+    return nss_shapes({"n_states": spec.n_states, "neurons": spec.neurons,
+                       "window": spec.window})
 
 
 def init_params(spec: StateSpaceSpec, seed: int) -> dict[str, np.ndarray]:
@@ -224,6 +228,20 @@ class StateSpaceNetwork(FittedNetwork):
     unstable_bound: float = 10.0
 
     _simulation = "state-space simulation"
+    feedthrough = True
+
+    @property
+    def model_class(self) -> ModelClass:
+        return NSS_CLASS
+
+    def describe(self) -> str:
+        return f"NSS ({self.spec.n_states} states, {self.spec.neurons} neurons)"
+
+    def fmu_member(self) -> tuple[str, dict[str, np.ndarray], dict[str, float | int | str]]:
+        p = {k: np.asarray(v, dtype=np.float64) for k, v in self.params.items()}
+        return ("SL_NSS", {k: p[k] for k in ("A", "W1", "b1", "W2", "C", "V1", "d1", "V2")},
+                {"hidden": "SL_HIDDEN_MATLAB", "n_states": self.spec.n_states,
+                 "neurons": self.spec.neurons})
 
     def init_state(self) -> Any:
         """The rest state: zeros, shape (n_states,) (NumPy float64: the precision of the
