@@ -169,8 +169,10 @@ def noe_flops(m) -> tuple[float, int, int]:
 
 
 def epoch_table(data, epochs: int) -> list[dict]:
-    from sloshrom.limits import NSS_RECIPE, RECIPE
     from sloshrom.rom import NFIR, NOE, NSS
+    from sloshrom.rom.registry import CLASSES
+
+    NSS_RECIPE, RECIPE = dict(CLASSES["nss"].recipe), dict(CLASSES["nfir"].recipe)
 
     u, y, uv, yv, fs = data
     plain = {"amplitude_weighting": 0.0, "passivity": 0.0, "cycle_energy": 0.0}
@@ -209,10 +211,11 @@ def epoch_table(data, epochs: int) -> list[dict]:
 
 
 def _fit_nss_member(seed: int, u, y, uv, yv, fs, epochs):
-    from sloshrom.limits import NSS_RECIPE
     from sloshrom.rom import NSS
+    from sloshrom.rom.registry import CLASSES
 
-    return NSS(max_epochs=epochs, seed=seed, **NSS_RECIPE).fit(u, y, fs=fs, validation=(uv, yv))
+    return NSS(max_epochs=epochs, seed=seed, **CLASSES["nss"].recipe).fit(
+        u, y, fs=fs, validation=(uv, yv))
 
 
 def ensemble_scaling(data, epochs: int) -> dict:
@@ -250,14 +253,14 @@ def vmap_scaling(data, t1: float) -> float:
     """Two NSS members as one vmap-ed program in this process."""
     import optax
 
-    from sloshrom.limits import NSS_RECIPE
     from sloshrom.rom import NSS
     from sloshrom.rom.network import MinMaxScaler
+    from sloshrom.rom.registry import CLASSES
     from sloshrom.rom.statespace import shooting_problem
     from sloshrom.signals import power_band
 
     u, y, uv, yv, fs = data
-    m = NSS(**NSS_RECIPE)
+    m = NSS(**CLASSES["nss"].recipe)
     with jax.enable_x64(True):
         band = tuple(power_band(u, fs, 0.001, 0.999))
         probs = [shooting_problem(m._check_hyperparameters(), u, y, fs, MinMaxScaler.fit(u, y),

@@ -234,15 +234,17 @@ validation_duration = 12.0
 design = "shaker"
 [rom]
 arch = "nfir"
-delays = 6
-neurons = 3
-max_epochs = 3
+compare = []
 ensemble = 1
 sweep_nfir_delays = [4, 6]
 sweep_nfir_neurons = [2]
 sweep_noe_delays = [2]
 sweep_noe_neurons = [2]
 sweep_workers = 1
+[rom.nfir]
+delays = 6
+neurons = 3
+max_epochs = 3
 [map]
 n_omega = 3
 n_a = 3

@@ -27,6 +27,8 @@ from pathlib import Path
 
 import pytest
 
+from sloshrom.rom.registry import CLASSES
+
 SRC = Path(__file__).resolve().parents[1] / "src"
 PACKAGE = "sloshrom"
 
@@ -314,7 +316,10 @@ def test_no_function_local_imports_of_the_package():
 MODEL_CLASSES = {
     "FrozenLiquid": "sloshrom.models", "VirtualRig": "sloshrom.rig.virtual",
     "Network": "sloshrom.rom.network", "FittedNetwork": "sloshrom.rom.network",
+    "NFIRNetwork": "sloshrom.rom.network", "NOENetwork": "sloshrom.rom.network",
     "StateSpaceNetwork": "sloshrom.rom.statespace", "NSS": "sloshrom.rom.estimators",
+    "LinearStateSpace": "sloshrom.rom.lss", "LSS": "sloshrom.rom.lss",
+    "Estimator": "sloshrom.rom.base",
     "NFIR": "sloshrom.rom.estimators",
     "NOE": "sloshrom.rom.estimators", "_Estimator": "sloshrom.rom.estimators",
     "Ensemble": "sloshrom.rom.ensemble", "FillFamily": "sloshrom.rom.family",
@@ -388,6 +393,71 @@ def test_the_capability_checks_are_few_and_documented():
     # the finder finds what it should: each check dispatches at least once
     sites = {(m, f) for m, f, _, _ in _dispatch_sites()}
     assert {(m, f) for m, names in CAPABILITIES.items() for f in names} <= sites
+
+
+# -- the registry of ROM classes: the one place that names a class ------------------------------
+#: Spec (architecture) types of the classes: nothing outside their own module asks for one.
+SPEC_TYPES = {"NetworkSpec": "sloshrom.rom.network", "StateSpaceSpec": "sloshrom.rom.statespace",
+              "LinearSpec": "sloshrom.rom.lss"}
+#: Modules that may compare a value with a class's name, and why. Everything else reads the
+#: registry (a class's entry, its estimator, its network's methods).
+NAMES_CLASSES = {
+    "sloshrom.rom.registry": "the registry itself",
+    # the sensitivity analysis is a study of the paper's two classes (Fig. 8): its grid is
+    # NFIR x NOE by definition
+    "sloshrom.rom.sweep": "the NFIR/NOE grid of Fig. 8",
+    "sloshrom.pipeline.rom": "the NFIR/NOE grid of Fig. 8",
+    "sloshrom.plotting.rom": "the NFIR/NOE grid of Fig. 8",
+    "sloshrom.cli.rom": "`sloshrom sweep --arch nfir|noe|both`",
+    # configurations written before the class tables: their keys are mapped to the classes'
+    "sloshrom.pipeline.settings": "former flat keys; the sweep's NFIR/NOE grid",
+    # the NFIR's and NOE's trainers, chosen by the architecture (one shooting trainer for the
+    # recurrent classes is the next step)
+    "sloshrom.rom.training": "the trainers of the time-delay networks",
+}
+
+
+def _class_name_comparisons() -> list[tuple[str, int, str]]:
+    """``(module, line, text)`` of every comparison (``==``, ``!=``, ``in``) with a class's
+    name (``"nss"``), and every ``isinstance`` on a spec type."""
+    names = set(CLASSES) | {mc.class_name for mc in CLASSES.values()}
+    out = []
+    for mod, path in MODULES.items():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Compare):
+                consts = [c for c in (node.left, *node.comparators)
+                          for c in ([c] if not isinstance(c, ast.Tuple | ast.Set | ast.List)
+                                    else c.elts)
+                          if isinstance(c, ast.Constant) and c.value in names]
+                if consts:
+                    out.append((mod, node.lineno, f"compares with {consts[0].value!r}"))
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) \
+                    and node.func.id == "isinstance" and len(node.args) == 2:
+                kinds = node.args[1].elts if isinstance(node.args[1], ast.Tuple) \
+                    else [node.args[1]]
+                for k in kinds:
+                    if isinstance(k, ast.Name) and k.id in SPEC_TYPES \
+                            and SPEC_TYPES[k.id] != mod:
+                        out.append((mod, node.lineno, f"isinstance on {k.id}"))
+    return out
+
+
+def test_only_the_registry_names_a_class():
+    bad = [f"{MODULES[m].relative_to(SRC)}:{line}: {what}"
+           for m, line, what in _class_name_comparisons() if m not in NAMES_CLASSES]
+    assert not bad, ("a branch on a ROM class outside the registry (read its entry in "
+                     "sloshrom.rom.registry instead):\n" + "\n".join(bad))
+    # the finder finds what it should
+    assert any(m == "sloshrom.rom.sweep" for m, _, _ in _class_name_comparisons())
+
+
+def test_every_class_is_one_registry_entry():
+    """Each class's estimator says its entry, and its fitted model says it too."""
+    for mc in CLASSES.values():
+        est = mc.estimator_class()
+        assert est.model_class is mc
+        module = MODULES[est.__module__]
+        assert "registry" not in module.name
 
 
 # ---------------------------------------------------------------------------------------------

@@ -1,105 +1,128 @@
-"""`sloshrom reproduce` with the state-space ROM: ``[rom] arch = "nss"`` and ``compare_nfir``."""
+"""`sloshrom reproduce` with the state-space ROM: ``[rom] arch = "nss"``, each class's table
+``[rom.<class>]`` and the classes compared with the ROM (``compare``)."""
 
 from __future__ import annotations
 
-import math
 import shutil
 
 import pytest
 
-from sloshrom import limits
 from sloshrom.config import ConfigError
 from sloshrom.pipeline import Context, settings
 from sloshrom.pipeline.chain import identify
 from sloshrom.pipeline.report import build_sections
 from sloshrom.pipeline.rom import model_class_text, recipe_text
 from sloshrom.rom.estimators import load_model
-from sloshrom.rom.modelfile import nss_param_shapes
+from sloshrom.rom.registry import CLASSES
 
 #: The smallest NSS and compared NFIR that train in a few seconds on the tiny records.
-TINY_NSS = {"arch": "nss", "nss_states": 2, "nss_neurons": 4, "nss_window": 5,
-            "nss_horizon": 20, "nss_batch": 4, "nss_max_epochs": 1, "nss_steps_per_epoch": 2,
-            "max_epochs": 1}
+TINY_NSS = {"arch": "nss", "compare": ["nfir"],
+            "nss": {"n_states": 2, "neurons": 4, "window": 5, "horizon": 20, "batch": 4,
+                    "max_epochs": 1, "steps_per_epoch": 2},
+            "nfir": {"max_epochs": 1}}
 
 
-def test_the_new_keys_follow_cycle_energy_in_order():
-    keys = list(settings.load().as_dict()["rom"])
-    i = keys.index("cycle_energy")
-    assert keys[i + 1:i + 10] == ["nss_states", "nss_neurons", "nss_window", "nss_horizon",
-                                  "nss_batch", "nss_max_epochs", "nss_steps_per_epoch",
-                                  "nss_learning_rate", "compare_nfir"]
-    rom = settings.load().rom
-    assert (rom.nss_states, rom.nss_neurons, rom.nss_window, rom.nss_horizon, rom.nss_batch,
-            rom.nss_max_epochs, rom.nss_steps_per_epoch, rom.nss_learning_rate,
-            rom.compare_nfir) == (8, 64, 50, 200, 128, 60, 200, 0.003, True)
-    # compare_nfir is ignored for an NFIR or NOE
-    assert rom.compares_nfir == (rom.arch == "nss")
-    assert not settings.load().replace(rom={"arch": "nfir"}).rom.compares_nfir
+def test_each_class_has_its_table_with_the_registry_keys():
+    from sloshrom.rom.registry import CLASSES
+
+    cfg = settings.load()
+    rom = cfg.as_dict()["rom"]
+    for name, mc in CLASSES.items():
+        assert set(rom[name]) == {h.name for h in mc.hyper} - {"seed"}, name
+    nss = cfg.rom.nss
+    assert (nss.n_states, nss.neurons, nss.window, nss.horizon, nss.batch, nss.max_epochs,
+            nss.steps_per_epoch, nss.learning_rate) == (8, 64, 50, 200, 128, 60, 200, 0.003)
+    assert cfg.rom.compare == ["nfir", "lss"] and cfg.rom.compared() == ["nfir", "lss"]
+    # the ROM's own class in compare is not trained beside itself
+    assert settings.load().replace(rom={"arch": "nfir"}).rom.compared() == ["lss"]
     assert settings.load().rom.name("nfir") == "NFIR(70, 35)"
+    assert settings.load().rom.name("lss") == "LSS(8 states)"
 
 
-def test_config_show_lists_the_nss_keys():
+def test_config_show_lists_every_class_key_with_a_comment():
     text = settings.default_text()
-    for key in ("nss_states", "nss_learning_rate", "compare_nfir"):
+    for key in ("n_states", "learning_rate", "block_rows", "compare"):
         line = next(ln for ln in text.splitlines() if ln.startswith(f"{key} "))
         assert "#" in line, f"{key} has no comment"
-    assert '"nss"' in text
+    assert '"nss"' in text and "[rom.lss]" in text
+    assert settings.defaults() == settings.load().as_dict()
 
 
 @pytest.mark.parametrize(("change", "match"), [
-    ({"nss_states": 0}, r"'rom\.nss_states' must be a state dimension in \[1, 1024\], got 0"),
-    ({"nss_horizon": 7}, r"'rom\.nss_horizon' must be a number of samples in \[8, 10000\]"),
-    ({"nss_learning_rate": 0.0}, r"'rom\.nss_learning_rate' must be an Adam step in \(0, 1\]"),
-    ({"nss_learning_rate": 1.5}, r"'rom\.nss_learning_rate' must be an Adam step in \(0, 1\]"),
-    ({"nss_batch": 10**6}, r"'rom\.nss_batch' must be a number of sub-sequences in "
-                           r"\[1, 65536\]"),
-    ({"compare_nfir": 1}, r"'rom\.compare_nfir' must be true or false"),
-    ({"arch": "lstm"}, r"""'rom\.arch' must be "nfir" or "noe" or "nss", got 'lstm'"""),
-    ({"arch": "nss", "nss_window": 400_000}, r"'rom\.nss_window'"),
-    ({"arch": "nss", "nss_neurons": 2000, "nss_window": 2000, "ensemble": 2},
-     r"'rom\.ensemble' x the weights of an NSS .* more than 4194304"),
-    ({"arch": "noe", "passivity": 1.0}, r"set them to 0 for arch = 'noe'"),
+    ({"nss": {"n_states": 0}},
+     r"'rom\.nss\.n_states' must be a state dimension in \[1, 1024\], got 0"),
+    ({"nss": {"horizon": 7}}, r"'rom\.nss\.horizon' must be a number of samples in \[8, 10000\]"),
+    ({"nss": {"learning_rate": 0.0}}, r"'rom\.nss\.learning_rate' must be an Adam step in "
+                                      r"\(0, 1\]"),
+    ({"nss": {"learning_rate": 1.5}}, r"'rom\.nss\.learning_rate' must be an Adam step in "
+                                      r"\(0, 1\]"),
+    ({"nss": {"batch": 10**6}}, r"'rom\.nss\.batch' must be a number of sub-sequences in "
+                                r"\[1, 65536\]"),
+    ({"compare": "nfir"}, r"'rom\.compare' must be a list"),
+    ({"compare": ["nfir", "nfir"]}, r"'rom\.compare' must not repeat a value"),
+    ({"compare": ["rnn"]}, r"'rom\.compare' must be \"nfir\" or \"noe\" or \"nss\" or \"lss\", "
+                           r"got 'rnn'"),
+    ({"arch": "lstm"}, r"'rom\.arch' must be \"nfir\" or \"noe\" or \"nss\" or \"lss\", "
+                       r"got 'lstm'"),
+    ({"arch": "nss", "nss": {"window": 400_000}}, r"'rom\.nss\.window'"),
+    ({"arch": "nss", "nss": {"neurons": 2000, "window": 2000}, "ensemble": 2},
+     r"'rom\.ensemble' x the weights of NSS\(8 states, 2000 neurons\) .* more than 4194304"),
+    ({"arch": "noe", "noe": {"passivity": 1.0}},
+     r"'rom\.noe\.amplitude_weighting', 'rom\.noe\.passivity' and 'rom\.noe\.cycle_energy' "
+     r"need trainer 'adam'"),
+    ({"arch": "lss"}, r"'rom\.ensemble' = 2: an LSS is fitted deterministically"),
+    ({"nss": {"delays": 3}}, r"unknown configuration key 'rom\.nss\.delays'"),
 ])
-def test_bad_nss_keys_are_refused_naming_the_key(change, match):
+def test_bad_class_keys_are_refused_naming_the_key(change, match):
     with pytest.raises(ConfigError, match=match):
         settings.load().replace(rom=change)
 
 
-def test_the_loss_keys_train_an_nss():
-    rom = settings.load().replace(rom={"arch": "nss", "passivity": 0.5}).rom
+def test_an_noe_trained_by_adam_takes_the_loss_terms():
+    """The rule of the estimator, the command line and the settings: one rule."""
+    rom = settings.load().replace(rom={"arch": "noe", "noe": {
+        "trainer": "adam", "passivity": 0.5}}).rom
     assert rom.loss_terms()["passivity"] == 0.5
-    assert rom.recipe() == limits.NSS_RECIPE
-    assert set(limits.NSS_RECIPE) == set(limits.RECIPE)
 
 
-def test_the_nss_weight_count_is_the_model_files():
-    """settings counts an NSS's weights without importing the ROM room: the same count."""
-    for n_states, neurons, window in ((8, 64, 50), (1, 1, 1), (3, 7, 11)):
-        net = settings.RomNetwork("nss", window, neurons, "", 20, n_states)
-        shapes = nss_param_shapes(n_states, neurons, window)
-        assert settings.network_weights(net) == sum(math.prod(s) for s in shapes.values())
+def test_former_flat_keys_are_read_under_their_new_names(tmp_path):
+    p = tmp_path / "old.toml"
+    p.write_text("[rom]\narch = \"nss\"\nnss_states = 4\ndelays = 50\npassivity = 0.5\n"
+                 "compare_nfir = false\n")
+    with pytest.warns(settings.ConfigWarning) as record:
+        cfg = settings.load(p)
+    said = " ".join(str(w.message) for w in record)
+    assert "'rom.nss_states' is now 'rom.nss.n_states'" in said
+    assert "'rom.delays' is now 'rom.nfir.delays'" in said
+    assert "'rom.passivity' is now 'rom.nss.passivity'" in said
+    assert "'rom.compare_nfir' is now 'rom.compare'" in said
+    assert cfg.rom.nss.n_states == 4 and cfg.rom.nfir.delays == 50
+    assert cfg.rom.nss.passivity == 0.5 and cfg.rom.compare == []
 
 
-def test_a_too_short_record_for_the_nss_names_its_keys():
-    with pytest.raises(ConfigError, match=r"'rom\.nss_window'/'rom\.nss_horizon' = 5000/9000 "
-                                          r"\(NSS\) need at least 14001 training samples"):
+def test_a_too_short_record_for_the_nss_names_its_table():
+    with pytest.raises(ConfigError, match=r"'rom\.nss': NSS\(8 states, 64 neurons\) needs at "
+                                          r"least 14001 training samples"):
         settings.load().replace(data={"train_duration": 20.0},
-                                rom={"arch": "nss", "nss_window": 5000, "nss_horizon": 9000})
+                                rom={"arch": "nss", "nss": {"window": 5000, "horizon": 9000}})
 
 
-def test_the_report_texts_describe_an_nss():
-    text = model_class_text("nss", "NSS(8 states, 64 neurons)", "NFIR(70, 35)", (43.7, 6.9))
+def test_the_report_texts_describe_each_class():
+    text = model_class_text("nss", "NSS(8 states, 64 neurons)",
+                            [("NFIR(70, 35)", 6.9), ("LSS(8 states)", 6.5)], 43.7)
     assert "state-space" in text and "finite-memory NFIR" in text and "cannot" in text
-    assert "NFIR(70, 35)" in text and "Fig. 10" in text
-    assert "validation fit 43.7 % against 6.9 %" in text
-    assert "the paper's class: NFIR(70, 35)" in model_class_text("nfir", "NFIR(70, 35)")
-    recipe = recipe_text(limits.RECIPE, "NSS(8 states, 64 neurons)", "nss")
+    assert "NFIR(70, 35), fit 6.9 %; LSS(8 states), fit 6.5 %" in text and "Fig. 10" in text
+    assert "against 43.7 % for NSS(8 states, 64 neurons)" in text
+    assert "the paper's class" in model_class_text("nfir", "NFIR(70, 35)")
+    assert "best linear model" in model_class_text("lss", "LSS(8 states)")
+    nfir_recipe = dict(CLASSES["nfir"].recipe)
+    recipe = recipe_text(nfir_recipe, "NSS(8 states, 64 neurons)", "nss")
     assert "the paper's NSS" not in recipe and "sub-sequence" in recipe
     plain = recipe_text({}, "NSS(8 states, 64 neurons)", "nss")
     assert plain.startswith("The ROM is NSS(8 states, 64 neurons) trained on the plain MSE")
-    # the NFIR's paragraph is unchanged
-    assert recipe_text(limits.RECIPE, "NFIR(70, 35)").startswith(
+    assert recipe_text(nfir_recipe, "NFIR(70, 35)").startswith(
         "The ROM is the paper's NFIR(70, 35) identified with physics in its loss")
+    assert "without loss terms" in recipe_text({}, "LSS(8 states)", "lss")
 
 
 @pytest.mark.filterwarnings("ignore::UserWarning")
@@ -120,7 +143,8 @@ def test_rom_stage_with_an_nss_and_the_compared_nfir(tiny_reproduce, tmp_path):
     for key in ("val_mse", "val_nrmse", "val_fit", "train_seconds", "epochs", "stop_reason"):
         assert key in r, key
     assert r["epochs"] == [2]  # epoch 0 (the initial model) and the one epoch
-    c = r["compare"]
+    assert set(r["compare"]) == {"nfir"}
+    c = r["compare"]["nfir"]
     assert set(c) == {"name", "val_mse", "val_nrmse", "val_fit", "train_seconds", "model"}
     assert c["name"] == "NFIR(6, 3)" and c["model"] == "models/nfir.npz"
     assert type(load_model(out / c["model"])).__name__ == "NFIR"
@@ -134,16 +158,17 @@ def test_rom_stage_with_an_nss_and_the_compared_nfir(tiny_reproduce, tmp_path):
     sections = build_sections(ctx, {"stages": stages})
     validation = next(s for s in sections if s.title.startswith("4. Validation"))
     assert "neural state-space model" in validation.text
-    assert "Beside it, the paper's class NFIR(6, 3)" in validation.text
+    assert "Beside it, on the same records" in validation.text
+    assert "the paper's class NFIR(6, 3)" in validation.text
     setup = sections[0].tables[0].rows
     assert ["ROM", "NSS(2 states, 4 neurons)", "configuration"] in setup
 
 
 @pytest.mark.filterwarnings("ignore::UserWarning")
-def test_without_compare_nfir_only_the_nss_is_trained(tiny_reproduce, tmp_path):
+def test_without_compare_only_the_nss_is_trained(tiny_reproduce, tmp_path):
     out = tmp_path / "results"
     shutil.copytree(tiny_reproduce["out"], out)
-    cfg = tiny_reproduce["cfg"].replace(rom={**TINY_NSS, "compare_nfir": False})
+    cfg = tiny_reproduce["cfg"].replace(rom={**TINY_NSS, "compare": []})
     r = identify(Context(out, cfg))["rom"]
-    assert "compare" not in r.outputs
+    assert r.outputs["compare"] == {}
     assert sorted(r.files) == ["figures/fig10_validation.png", "models/nss.npz"]

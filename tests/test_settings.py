@@ -10,15 +10,15 @@ from sloshrom.pipeline import settings
 def test_defaults_match_objects():
     cfg = settings.defaults()
     assert Tank.from_dict(cfg["tank"]) == Tank()
-    assert cfg["rom"]["delays"] == 70 and cfg["rom"]["neurons"] == 35
+    assert cfg["rom"]["nfir"]["delays"] == 70 and cfg["rom"]["nfir"]["neurons"] == 35
 
 
 def test_user_file_overrides_quick_and_defaults(tmp_path):
     p = tmp_path / "my.toml"
-    p.write_text("[rom]\nneurons = 20\n[tank]\nfill = 0.25\n")
+    p.write_text("[rom.nfir]\nneurons = 20\n[tank]\nfill = 0.25\n")
     cfg = settings.load(p, quick=True)
-    assert cfg.rom.neurons == 20
-    assert cfg.rom.delays == settings.QUICK["rom"]["delays"]
+    assert cfg.rom.nfir.neurons == 20
+    assert cfg.rom.nfir.delays == settings.QUICK["rom"]["nfir"]["delays"]
     assert cfg.tank.fill == 0.25
 
 
@@ -26,7 +26,8 @@ def test_user_file_overrides_quick_and_defaults(tmp_path):
     "text, match",
     [
         ("[rom]\nneuron = 3\n", "unknown configuration key 'rom.neuron'"),
-        ("[rom]\nneurons = 'many'\n", "'rom.neurons' must be a number"),
+        ("[rom.nfir]\nneurons = 'many'\n", "'rom.nfir.neurons' must be a number"),
+        ("[rom.lss]\ndelays = 3\n", "unknown configuration key 'rom.lss.delays'"),
         ("rom = 3\n", "'rom' must be a table"),
         ("[rom]\nsweep = 1\n", "true or false"),
     ],
@@ -65,6 +66,8 @@ def test_every_default_key_has_a_check():
         (lambda c: c["map"].update(f_min=25.0), r"'map\.f_min' \(25 Hz\) must be below"),
         (lambda c: c["rig"].update(fs=float("inf")), r"'rig\.fs' must be a record rate"),
         (lambda c: c["rom"].update(arch="lstm"), r"'rom\.arch' must be \"nfir\" or \"noe\""),
+        (lambda c: c["rom"]["lss"].update(block_rows=1),
+         r"'rom\.lss\.block_rows' must be a number of samples in \[2, 1000\], got 1"),
         (lambda c: c["rom"].update(sweep="yes"), r"'rom\.sweep' must be true or false"),
         (lambda c: c["rom"].update(sweep_nfir_delays=[50, 50]), r"must not repeat a value"),
         (lambda c: c["beam"].pop("seed"), r"configuration key 'beam\.seed' is missing"),
@@ -75,8 +78,8 @@ def test_every_default_key_has_a_check():
         (lambda c: c["tank"].update(spill=1.0), r"unknown configuration key 'tank\.spill'"),
         (lambda c: c["tank"].update(fill="half"), r"'tank\.fill' must be a number, got 'half'"),
         (lambda c: c.update(rom=3), r"^'rom' must be a table$"),
-        (lambda c: c["rom"].update(neurons=3.0),
-         r"^'rom\.neurons' must be an integer in \[1, 4096\], got 3\.0$"),
+        (lambda c: c["rom"]["nfir"].update(neurons=3.0),
+         r"^'rom\.nfir\.neurons' must be a number of neurons in \[1, 4096\], got 3\.0$"),
         (lambda c: c["rom"].update(sweep_noe_neurons=[3, 3]),
          r"^'rom\.sweep_noe_neurons' must not repeat a value, got \[3, 3\]$"),
         (lambda c: c["map"].update(a_bar_min=float("nan")),
@@ -89,22 +92,26 @@ def test_every_default_key_has_a_check():
          r"'data\.design' must be \"structure\" or \"shaker\""),
         (lambda c: c["data"].update(margin=0.5), r"'data\.margin' must be a factor"),
         (lambda c: c["rig"].update(restitution=1.0), r"'rig\.restitution' must be a coeff"),
-        (lambda c: c["rom"].update(cycle_energy=-0.1), r"'rom\.cycle_energy' must be a loss"),
-        (lambda c: c["rom"].update(arch="noe", amplitude_weighting=0.0, passivity=0.0),
-         r"'rom\.cycle_energy' train the NFIR"),
+        (lambda c: c["rom"]["nss"].update(cycle_energy=-0.1),
+         r"'rom\.nss\.cycle_energy' must be a weight \(0 = off\) in \[0, 1e\+12\]"),
+        (lambda c: (c["rom"].update(arch="noe"), c["rom"]["noe"].update(cycle_energy=0.1)),
+         r"'rom\.noe\.cycle_energy' need trainer 'adam'"),
         (lambda c: c["beam"].update(n_modes=5, damping=[0.01] * 5),
          r"'beam\.n_modes' = 5: mode 5 of the beam \(676 Hz\) lies above the Nyquist"),
         (lambda c: c["beyond"].update(unseen_fills=[0.502, 0.625]),
          r"'beyond\.unseen_fills' \[0\.502\] is also in 'beyond\.fills' \(within 0\.005\)"),
-        (lambda c: c["rom"].update(arch="nfir", ensemble=64, delays=100, neurons=700),
-         r"'rom\.ensemble' x 'rom\.neurons' x regressor entries \('rom\.delays'\) = 64 x 700 x "
-         r"100 = 4480000 weights, more than 4194304"),
-        (lambda c: (c["rom"].update(arch="nfir", delays=300, neurons=1000),
+        (lambda c: (c["rom"].update(arch="nfir", ensemble=64),
+                    c["rom"]["nfir"].update(delays=100, neurons=700)),
+         r"'rom\.ensemble' x the weights of NFIR\(100, 700\) \('rom\.nfir'\) = 64 x 70000 = "
+         r"4480000 weights, more than 4194304"),
+        (lambda c: (c["rom"].update(arch="nfir"), c["rom"]["nfir"].update(delays=300,
+                                                                          neurons=1000),
                     c["beyond"].update(enabled=True, fill_ensemble=20)),
-         r"'beyond\.fill_ensemble' x 'rom\.neurons' .* = 6000000 weights"),
-        (lambda c: c["rom"].update(arch="noe", delays=200, neurons=1000, ensemble=21,
-                                   amplitude_weighting=0.0, passivity=0.0, cycle_energy=0.0),
-         r"21 x 1000 x 202 = 4242000 weights"),  # an NOE's regressor: delays + 2 outputs
+         r"'beyond\.fill_ensemble' x the weights of NFIR\(300, 1000\) .* = 6000000 weights"),
+        # an NOE's regressor: delays + 2 outputs
+        (lambda c: (c["rom"].update(arch="noe", ensemble=21),
+                    c["rom"]["noe"].update(delays=200, neurons=1000)),
+         r"21 x 202000 = 4242000 weights"),
         # the studies' tables
         (lambda c: c["baseline"].update(restitution=[0.9, 0.1]),
          r"^'baseline\.restitution' bounds out of order: low 0\.9 > high 0\.1$"),
@@ -192,19 +199,21 @@ def test_replace_validates_the_changes():
 
 
 def test_the_passive_recipe_has_one_set_of_defaults():
-    """defaults.toml (the configuration's source) holds the recipe of ``sloshrom.limits`` for
-    its default class (the NSS's), and docs/examples/nfir_rom.toml the NFIR's."""
+    """Each class's table takes its loss weights from its recipe in the registry (reproduce
+    trains on a velocity in m/s and a force in N); docs/examples/nfir_rom.toml picks the
+    NFIR, whose table holds its recipe."""
     import tomllib
     from pathlib import Path
 
-    from sloshrom import limits
+    from sloshrom.rom.registry import CLASSES
 
     cfg = settings.load()
     assert cfg.rom.arch == "nss"
-    assert cfg.rom.loss_terms() == limits.NSS_RECIPE
+    for name in ("nfir", "nss"):
+        assert cfg.rom.loss_terms(name) == dict(CLASSES[name].recipe)
     nfir = Path(__file__).parents[1] / "docs" / "examples" / "nfir_rom.toml"
-    rom = tomllib.loads(nfir.read_text())["rom"]
-    assert rom.pop("arch") == "nfir" and rom == limits.RECIPE
+    assert tomllib.loads(nfir.read_text()) == {"rom": {"arch": "nfir"}}
+    assert settings.load(nfir).rom.loss_terms() == dict(CLASSES["nfir"].recipe)
 
 
 def test_schema_is_the_single_source_of_bounds():

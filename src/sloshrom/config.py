@@ -28,6 +28,10 @@ class ConfigError(SloshromError):
     """A configuration value is missing, of the wrong type or outside its physical range."""
 
 
+class ConfigWarning(UserWarning):
+    """A configuration read as asked, with a note (e.g. a key under its former name)."""
+
+
 def _positive(name: str, value: float) -> float:
     try:
         v = float(value)

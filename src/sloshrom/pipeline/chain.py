@@ -40,8 +40,9 @@ from sloshrom.pipeline.context import Context, Progress, check_rig_tanks, quiet
 from sloshrom.pipeline.data import stage_data
 from sloshrom.pipeline.maps import stage_maps
 from sloshrom.pipeline.report import write_report
-from sloshrom.pipeline.rom import SWEEP_KEYS, stage_rom, stage_sweep
+from sloshrom.pipeline.rom import stage_rom, stage_sweep, sweep_keys
 from sloshrom.pipeline.settings import ReproduceConfig, validate
+from sloshrom.rom.registry import CLASSES
 from sloshrom.studies.baseline import config as baseline_config
 from sloshrom.studies.baseline.stage import stage_baseline
 from sloshrom.studies.fills import config as fills_config
@@ -67,18 +68,10 @@ def _timer(ctx: Context, name: str) -> Iterator[None]:
 
 def rom_stage_keys(rom: dict[str, Any]) -> dict[str, Any]:
     """The ``[rom]`` keys the rom stage's result depends on (its cache key): not the sweep's,
-    not the NSS's for an NFIR/NOE (whose key is then what it was before the NSS existed, so
-    older runs reuse their stage), not the NFIR's for an NSS trained alone."""
-    nss = rom["arch"] == "nss"
-    nfir_keys = ("delays", "neurons", "hidden", "max_epochs")
-    out = {}
-    for k, v in rom.items():
-        if k.startswith("sweep") or (not nss and (k.startswith("nss_") or k == "compare_nfir")):
-            continue
-        if nss and not rom["compare_nfir"] and k in nfir_keys:
-            continue
-        out[k] = v
-    return out
+    and of the class tables only those of the ROM's class and of the compared ones."""
+    used = {rom["arch"], *rom["compare"]}  # (the ROM's own class in compare is not trained)
+    return {k: v for k, v in rom.items()
+            if not k.startswith("sweep") and (k not in CLASSES or k in used)}
 
 
 def identify(ctx: Context, cache: StageCache | None = None) -> dict[str, StageResult]:
@@ -102,7 +95,7 @@ def identify(ctx: Context, cache: StageCache | None = None) -> dict[str, StageRe
     if cfg.rom.sweep:
         with _timer(ctx, "sweep"):
             results["sweep"] = cache.run(
-                "sweep", {k: rom[k] for k in SWEEP_KEYS}, [results["data"]],
+                "sweep", sweep_keys(rom), [results["data"]],
                 lambda: stage_sweep(ctx, results["data"]), __version__,
             )
     rom_keys = rom_stage_keys(rom)

@@ -18,6 +18,7 @@ from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.experiment import experiment_tables, interval_text, percent
 from sloshrom.pipeline.html import Figure, Section, Table
 from sloshrom.pipeline.maps import HYSTERESIS_FREQUENCY, HYSTERESIS_GAMMA
+from sloshrom.rom.registry import CLASSES
 from sloshrom.studies.baseline.section import baseline_section
 from sloshrom.studies.fills.section import fills_section
 from sloshrom.studies.multimode.section import multimode_section
@@ -58,11 +59,6 @@ def _num(d: dict[str, Any], *keys: str, fmt: str = "{:.3g}", default: str = "n/a
         return html.escape(str(cur))
 
 
-#: The ``[rom]`` keys that size each class of ROM (the setup table's "ROM" row).
-_SIZE_KEYS = {"nfir": ("delays", "neurons"), "noe": ("delays", "neurons"),
-              "nss": ("nss_states", "nss_neurons")}
-
-
 def _setup_section(cfg: settings.ReproduceConfig) -> Section:
     defaults = settings.load()
 
@@ -92,10 +88,11 @@ def _setup_section(cfg: settings.ReproduceConfig) -> Section:
          f"{cfg.data.validation_duration:.0f} s",
          source("data", "train_duration", "validation_duration")],
         ["ROM", cfg.rom.name(),
-         source("rom", "arch", *_SIZE_KEYS[cfg.rom.arch],
-                # an NSS is never the paper's class, even as the default
-                paper=(f"paper: {paper_rom.name('nfir')}" if cfg.rom.arch != "nss" else
-                       f"default, not the paper's {paper_rom.name('nfir')}"))],
+         "configuration" if (cfg.rom.arch, cfg.rom.hyper()) != (paper_rom.arch,
+                                                                paper_rom.hyper())
+         # a class other than the paper's is never the paper's, even as the default
+         else f"paper: {paper_rom.name('nfir')}" if CLASSES[cfg.rom.arch].paper
+         else f"default, not the paper's {paper_rom.name('nfir')}"],
         ["beam length × width × thickness", f"{b.length:g} × {b.width:g} × "
          f"{b.thickness:g} m, clamped", source("beam", "length", "width", "thickness")],
         ["beam E, ρ", f"{b.youngs_modulus / 1e9:g} GPa, {b.density:g} kg/m³",
@@ -118,16 +115,22 @@ def _setup_section(cfg: settings.ReproduceConfig) -> Section:
                    tables=[Table(["quantity", "value", "source"], rows)])
 
 
-def _compare_text(c: dict[str, Any] | None) -> str:
-    """The NFIR trained beside an NSS (``stages.rom.compare``), as a paragraph; "" without."""
-    if not c:
+def _compare_text(compared: dict[str, Any] | None) -> str:
+    """The classes identified beside the ROM (``stages.rom.compare``, by class), as a
+    paragraph; "" without."""
+    rows = []
+    for arch, c in (compared or {}).items():
+        mc = CLASSES.get(arch)
+        what = "the paper's class" if mc is not None and mc.paper else "the class"
+        rows.append(f"{what} {html.escape(c.get('name', arch))}: validation MSE "
+                    f"{_num(c, 'val_mse')} N², NRMSE {_num(c, 'val_nrmse', fmt='{:.3f}')}, fit "
+                    f"{_num(c, 'val_fit', fmt='{:.1f}')} %, trained in "
+                    f"{_num(c, 'train_seconds', fmt='{:.1f}')} s")
+    if not rows:
         return ""
-    return (f"<p>Beside it, the paper's class {html.escape(c.get('name', 'NFIR'))} (one "
-            f"network, same records, its own passive recipe): validation MSE "
-            f"{_num(c, 'val_mse')} N², NRMSE "
-            f"{_num(c, 'val_nrmse', fmt='{:.3f}')}, fit {_num(c, 'val_fit', fmt='{:.1f}')} %; "
-            f"training took {_num(c, 'train_seconds', fmt='{:.1f}')} s. The maps and beam "
-            "sections use the ROM above, not this network.</p>")
+    return ("<p>Beside it, on the same records, each with its own configuration: "
+            + "; ".join(rows) + ". The maps and beam sections use the ROM above, not these "
+            "models.</p>")
 
 
 def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
@@ -179,7 +182,8 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
         + (f"<p>{html.escape(r['recipe_text'])}</p>" if r.get("recipe_text") else ""),
         _fig(ctx, "fig10_validation.png", "Fig. 10 — ROM free-run prediction against the "
              "rig's dynamic force on the validation record"
-             + (", and the paper's NFIR (thin line)." if r.get("compare") else ".")),
+             + (", and the classes compared with it (thin lines)." if r.get("compare")
+                else ".")),
     ))
     m = st.get("maps", {})
     text = (

@@ -1,28 +1,27 @@
 """The ``sweep`` and ``rom`` stages of `sloshrom reproduce`: sensitivity analysis (paper Fig. 8),
-then identify the configured ROM (an NFIR, NOE or NSS; with an NSS, the paper's NFIR beside it
-when asked) and validate it (Fig. 10)."""
+then identify the configured ROM (any class of the registry) and the classes compared with it
+(the paper's NFIR, the best linear model) and validate them (Fig. 10)."""
 
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 from sloshrom.io import read_record
-from sloshrom.limits import RECIPE
 from sloshrom.pipeline.cache import StageResult
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.settings import RomTable
 from sloshrom.plotting import savefig
 from sloshrom.plotting.rom import plot_sweep, validation_figure
 from sloshrom.rom.ensemble import Ensemble, is_ensemble, spread
-from sloshrom.rom.estimators import NFIR, NOE, NSS
+from sloshrom.rom.registry import CLASSES
 from sloshrom.rom.sweep import run_sweep
 
-__all__ = ["SWEEP_KEYS", "error_figures", "estimator", "model_class_text", "recipe_text",
-           "stage_rom", "stage_sweep", "sweep_points"]
+__all__ = ["error_figures", "estimator", "model_class_text", "recipe_text",
+           "stage_rom", "stage_sweep", "sweep_keys", "sweep_points"]
 
 
 def error_figures(y: np.ndarray, y_hat: np.ndarray) -> dict[str, float]:
@@ -40,8 +39,14 @@ def sweep_points(rom: RomTable) -> list[tuple[str, int, int]]:
             + [("noe", d, n) for d in rom.sweep_noe_delays for n in rom.sweep_noe_neurons])
 
 
-SWEEP_KEYS = ("sweep_nfir_delays", "sweep_nfir_neurons", "sweep_noe_delays", "sweep_noe_neurons",
-              "max_epochs", "hidden", "seed")
+def sweep_keys(rom: Mapping[str, Any]) -> dict[str, Any]:
+    """What the sweep's result depends on (its cache key), from the ``[rom]`` dict: its grids,
+    the seed, and the epochs and hidden layer of ``[rom.nfir]``, which every grid point
+    trains with."""
+    keys = ("sweep_nfir_delays", "sweep_nfir_neurons", "sweep_noe_delays",
+            "sweep_noe_neurons", "seed")
+    return {**{k: rom[k] for k in keys}, "max_epochs": rom["nfir"]["max_epochs"],
+            "hidden": rom["nfir"]["hidden"]}
 
 
 def stage_sweep(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str]]:
@@ -69,7 +74,7 @@ def stage_sweep(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[s
     rows = run_sweep((train["velocity"], train["dynamic_force"]),
                      (val["velocity"], val["dynamic_force"]), train.fs, out_dir, pts,
                      scheduler="sequential" if workers == 1 else None, n_workers=workers,
-                     options={"max_epochs": cfg.max_epochs, "hidden": cfg.hidden,
+                     options={"max_epochs": cfg.nfir.max_epochs, "hidden": cfg.nfir.hidden,
                               "seed": cfg.seed},
                      progress=prog)
     seconds = time.perf_counter() - t0
@@ -84,8 +89,10 @@ def stage_sweep(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[s
                "no stable network")
             + f"; {n_bad} unstable NOE network(s). The ROM of the next sections is the "
             f"configured {cfg.name()}, "
-            + ("as the paper's selection, not necessarily the lowest score." if cfg.arch != "nss"
-               else "a state-space model outside this grid of NFIR/NOE networks."))
+            + ("as the paper's selection, not necessarily the lowest score."
+               if cfg.arch in {p[0] for p in pts}
+               else f"an {CLASSES[cfg.arch].class_name} outside this grid of NFIR/NOE "
+                    "networks."))
     table = [[r["arch"].upper(), r["delays"], r["neurons"],
               r["score"] if not r["unstable"] else "unstable", "no" if r["unstable"] else "yes"]
              for r in sorted(rows, key=lambda r: (r["arch"], r["delays"], r["neurons"]))]
@@ -93,30 +100,22 @@ def stage_sweep(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[s
             "sweep_text": text, "sweep_rows": table}, files
 
 
-def model_class_text(arch: str, name: str, compared: str | None = None,
-                     fits: tuple[float, float] | None = None) -> str:
+def model_class_text(arch: str, name: str,
+                     compared: Sequence[tuple[str, float]] = (), fit: float | None = None
+                     ) -> str:
     """One paragraph for the report: which model class the ROM of the report is, and why.
 
-    ``arch``: ``"nfir"``, ``"noe"`` or ``"nss"``; ``name``: the ROM's name
-    (:meth:`sloshrom.pipeline.settings.RomTable.name`); ``compared``: the name of the NFIR
-    trained beside an NSS (``compare_nfir``), if any, and ``fits`` the validation fits (%) of
-    the ROM and of that NFIR.
+    ``arch``: its class (:data:`sloshrom.rom.registry.CLASSES`); ``name``: the ROM's name
+    (:meth:`sloshrom.pipeline.settings.RomTable.name`); ``compared``: the name and the
+    validation fit (%) of each class identified beside it (``rom.compare``), and ``fit`` the
+    ROM's.
     """
-    if arch != "nss":
-        return (f"The ROM of this report is of the paper's class: {name}, a network of the "
-                "last samples of the tank velocity"
-                + (" and of its own last outputs." if arch == "noe" else "."))
-    text = (f"The ROM of this report is a neural state-space model, {name}, not the paper's "
-            "NFIR class. Why: the force depends on where the liquid is, how fast it moves and "
-            "when it lands, a state that a finite-memory NFIR (70 samples, 0.14 s) cannot "
-            "carry; the state-space model does, and with it predicts the impacts the NFIR "
-            "misses while its dissipation map stays at least as close to the rig's "
-            "(docs/rom.md, \"A ROM with state\", with the figures of both classes).")
+    text = f"The ROM of this report is {name}: {CLASSES[arch].report}"
     if compared:
-        text += (f" The paper's class, {compared}, identified on the same records with its "
-                 "own passive recipe, is set beside it in Fig. 10")
-        text += (f": validation fit {fits[0]:.1f} % against {fits[1]:.1f} %." if fits
-                 else ".")
+        others = "; ".join(f"{n}, fit {f:.1f} %" for n, f in compared)
+        text += (" Identified on the same records, each with its own configuration, and set "
+                 f"beside it in Fig. 10 (validation fit): {others}"
+                 + (f"; against {fit:.1f} % for {name}." if fit is not None else "."))
     return text
 
 
@@ -125,63 +124,52 @@ def recipe_text(terms: Mapping[str, float], name: str, arch: str = "nfir") -> st
 
     ``terms``: the loss weights ``amplitude_weighting`` (m/s), ``passivity`` and
     ``cycle_energy`` (absent: 0), e.g. :meth:`sloshrom.pipeline.settings.RomTable.loss_terms`;
-    ``name``: the ROM's name; ``arch``: its class, ``"nfir"``, ``"noe"`` or ``"nss"`` (an NSS
-    is not the paper's model, and its energy term judges training sub-sequences).
+    ``name``: the ROM's name; ``arch``: its class (the paper's, or another one to which the
+    NFIR's recipe is applied).
     """
     w, p = terms.get("amplitude_weighting", 0.0), terms.get("passivity", 0.0)
     c = terms.get("cycle_energy", 0.0)
-    nss = arch == "nss"
-    terms = []
+    paper = CLASSES[arch].paper
+    parts = []
     if w > 0:
-        terms.append(f"each sample's squared error weighted by 1/(a² + ε²), a the local velocity "
+        parts.append(f"each sample's squared error weighted by 1/(a² + ε²), a the local velocity "
                      f"amplitude, ε = {w:g} m/s (Φ_d divides by a², so small cycles count as "
                      "much as large ones)")
     if p > 0:
-        terms.append(f"a penalty of weight {p:g} on energy created at harmonic probes inside "
+        parts.append(f"a penalty of weight {p:g} on energy created at harmonic probes inside "
                      "the training envelope")
     if c > 0:
-        terms.append(f"a term of weight {c:g} on the error of the energy "
-                     + ("each training sub-sequence exchanges with the liquid, per input "
-                        "cycle in it" if nss else "each cycle of the training record exchanges "
-                        "with the liquid")
-                     + " (the part of the error that changes the damping)")
-    paper = "rom.amplitude_weighting = 0, rom.passivity = 0 and rom.cycle_energy = 0"
-    model = name if nss else f"the paper's {name}"
-    if terms:
-        listed = terms[0] if len(terms) == 1 else "; ".join(terms[:-1]) + "; and " + terms[-1]
-        if nss:
+        parts.append(f"a term of weight {c:g} on the error of the energy "
+                     + ("each cycle of the training record exchanges" if paper else
+                        "each training sub-sequence exchanges, per input cycle in it,")
+                     + " with the liquid (the part of the error that changes the damping)")
+    off = (f"rom.{arch}.amplitude_weighting = 0, rom.{arch}.passivity = 0 and "
+           f"rom.{arch}.cycle_energy = 0")
+    model = f"the paper's {name}" if paper else name
+    if not CLASSES[arch].loss_terms:
+        return (f"The ROM is {model}, identified by its own method "
+                f"({CLASSES[arch].summary}), without loss terms.")
+    if parts:
+        listed = parts[0] if len(parts) == 1 else "; ".join(parts[:-1]) + "; and " + parts[-1]
+        if not paper:
             return (f"The ROM is {model} identified with physics in its loss: {listed}: the "
                     "terms of the NFIR's passive recipe (docs/rom.md, \"A passive ROM\"), "
-                    f"applied to the state-space model. The plain MSE: {paper}.")
+                    f"applied to it. The plain MSE: {off}.")
         return (
             f"The ROM is {model} identified with physics in its loss: {listed}. "
             "Why: with the paper's plain MSE the same network gives energy back to the tank "
             "below about 1 g and makes the beam less damped than with frozen liquid "
-            f"(docs/rom.md, \"A passive ROM\"). The paper's configuration: {paper}.")
-    return (f"The ROM is {model} trained on the plain MSE ({paper}): nothing in its "
+            f"(docs/rom.md, \"A passive ROM\"). The paper's configuration: {off}.")
+    return (f"The ROM is {model} trained on the plain MSE ({off}): nothing in its "
             "identification prevents it from creating energy; see the passivity figures of "
             "the maps.")
 
 
-def estimator(cfg: RomTable, arch: str | None = None) -> NFIR | NOE | NSS:
-    """The unfitted estimator of the ``[rom]`` table: its ``arch`` (default: the configured
-    one; ``"nfir"`` for the compared NFIR), seed ``seed``, the loss weights for an NFIR or NSS
-    (the compared NFIR: :data:`sloshrom.limits.RECIPE`, the NFIR's passive recipe).
-    """
+def estimator(cfg: RomTable, arch: str | None = None) -> Any:
+    """The unfitted estimator of class ``arch`` (default: the configured one) as its table
+    ``[rom.<arch>]`` and ``rom.seed`` say (:mod:`sloshrom.rom.registry`)."""
     arch = cfg.arch if arch is None else arch
-    if arch == "nss":
-        return NSS(n_states=cfg.nss_states, neurons=cfg.nss_neurons, window=cfg.nss_window,
-                   horizon=cfg.nss_horizon, batch=cfg.nss_batch,
-                   max_epochs=cfg.nss_max_epochs, steps_per_epoch=cfg.nss_steps_per_epoch,
-                   learning_rate=cfg.nss_learning_rate, seed=cfg.seed, **cfg.loss_terms())
-    cls = {"nfir": NFIR, "noe": NOE}[arch]
-    loss = cfg.loss_terms() if arch == "nfir" else {}
-    if arch == "nfir" and cfg.arch == "nss":
-        # the compared NFIR is the paper's class with its own passive recipe: the [rom] loss
-        # weights are the NSS's
-        loss = dict(RECIPE)
-    return cls(delays=cfg.delays, neurons=cfg.neurons, hidden=cfg.hidden,
-               max_epochs=cfg.max_epochs, seed=cfg.seed, **loss)
+    return CLASSES[arch].estimator_class()(**cfg.hyper(arch))
 
 
 def _median_after_compile(history: dict[str, Any], key: str) -> float | None:
@@ -216,11 +204,11 @@ def _train(ctx: Context, model: Any, name: str, epochs: int, k_members: int, wor
 
 
 def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str]]:
-    """Train the configured NFIR, NOE or NSS on the training record, validate it (paper Fig. 10).
+    """Train the configured ROM on the training record, validate it (paper Fig. 10).
 
-    ``data`` is the data stage's result: the records it recorded are the ones trained on. With
-    ``arch = "nss"`` and ``compare_nfir``, the NFIR of ``delays``/``neurons`` (one network,
-    seed ``seed``) is trained too and validated beside it.
+    ``data`` is the data stage's result: the records it recorded are the ones trained on. Each
+    class of ``rom.compare`` (one model each, as its table says) is trained too and validated
+    beside it.
 
     Returns
     -------
@@ -230,9 +218,9 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
         and training (``train_*``) records, ``epochs``, ``stop_reason``, ``epoch_seconds``
         and ``validation_seconds`` (each member's median epoch of Adam steps and of
         validation, s; None for Levenberg-Marquardt), the report's
-        paragraphs ``model_class_text`` and ``recipe_text``; with the compared NFIR,
-        ``compare``: its ``name``, ``val_mse``, ``val_nrmse``, ``val_fit``, ``train_seconds``
-        and ``model`` (its file).
+        paragraphs ``model_class_text`` and ``recipe_text``; ``compare``: for each compared
+        class by name, its ``name``, ``val_mse``, ``val_nrmse``, ``val_fit``,
+        ``train_seconds`` and ``model`` (its file).
     files : list of str
         The model file(s) and Fig. 10, relative to ``ctx.out``.
     """
@@ -245,7 +233,7 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
     files: list[str] = []
     outputs: dict[str, Any] = {}
     name = cfg.name()
-    epochs = cfg.nss_max_epochs if cfg.arch == "nss" else cfg.max_epochs
+    epochs = int(cfg.hyper().get("max_epochs", 0))
     fill = train.attrs.get("fill")  # the model refuses other fills (sloshrom.rom.family)
     k_members = int(cfg.ensemble)
     recipe = recipe_text(cfg.loss_terms(), name, cfg.arch)
@@ -274,23 +262,26 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
         outputs["seeds"] = [int(s) for s in model.seeds_]
         outputs["val_mse_members"] = spread(
             error_figures(yv, yh)["mse"] for yh in np.asarray(model.member_predictions(uv)))
-    compared = None
-    if cfg.compares_nfir:
-        # the paper's class on the same records with its recipe, for the report to set beside it
-        other, other_name, seconds = _train(ctx, estimator(cfg, "nfir"), cfg.name("nfir"),
-                                            cfg.max_epochs, 1, 1, records, train.fs, fill)
-        other_path = ctx.path("models", "nfir.npz")
+    compared = []
+    outputs["compare"] = {}
+    for arch in cfg.compared():
+        # another class on the same records, as its own table says, for the report to set
+        # beside the ROM (the paper's NFIR, the best linear model)
+        hyper = cfg.hyper(arch)
+        other, other_name, seconds = _train(ctx, estimator(cfg, arch), cfg.name(arch),
+                                            int(hyper.get("max_epochs", 0)), 1, 1, records,
+                                            train.fs, fill)
+        other_path = ctx.path("models", f"{arch}.npz")
         other.save(other_path)
         files.append(ctx.rel(other_path))
         other_hat = np.asarray(other.predict(uv))
         eo = error_figures(yv, other_hat)
-        outputs["compare"] = {"name": other_name, "val_mse": eo["mse"],
-                              "val_nrmse": eo["nrmse"], "val_fit": eo["fit"],
-                              "train_seconds": seconds, "model": ctx.rel(other_path)}
-        compared = (other_hat, other_name, eo["fit"])
+        outputs["compare"][arch] = {"name": other_name, "val_mse": eo["mse"],
+                                    "val_nrmse": eo["nrmse"], "val_fit": eo["fit"],
+                                    "train_seconds": seconds, "model": ctx.rel(other_path)}
+        compared.append((other_hat, other_name, eo["fit"]))
     outputs["model_class_text"] = model_class_text(
-        cfg.arch, name, compared[1] if compared is not None else None,
-        (ev["fit"], compared[2]) if compared is not None else None)
+        cfg.arch, name, [(n, f) for _, n, f in compared], ev["fit"])
     fig = validation_figure(val.time, yv, yv_hat, name, val.fs, ev["fit"], ev["nrmse"],
                             compare=compared)
     files.append(ctx.rel(savefig(fig, ctx.path("figures", "fig10_validation.png"))))

@@ -17,6 +17,7 @@ from __future__ import annotations
 import copy
 import math
 import tomllib
+import warnings
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -29,6 +30,7 @@ from pydantic import (
     Field,
     PrivateAttr,
     ValidationError,
+    create_model,
     model_validator,
 )
 from pydantic_core import ErrorDetails, PydanticCustomError
@@ -39,20 +41,17 @@ from sloshrom.beam.structure import (
     ModalModel,
     coupled_frozen_modes,
 )
-from sloshrom.config import FILL_TOLERANCE, ConfigError, Tank, load_toml
+from sloshrom.config import FILL_TOLERANCE, ConfigError, ConfigWarning, Tank, load_toml
 from sloshrom.limits import (
-    MAX_BATCH,
     MAX_DELAY,
     MAX_EPOCHS,
     MAX_MEMBERS,
     MAX_NEURONS,
     MAX_SEED,
-    MAX_STATES,
     MAX_WEIGHTS,
-    NSS_RECIPE,
-    RECIPE,
     Hidden,
 )
+from sloshrom.rom.registry import CLASSES, LOSS_TERMS, Hyper, ModelClass
 
 __all__ = [
     "BEAM_FS",
@@ -75,6 +74,7 @@ __all__ = [
     "MapTable",
     "ReproduceConfig",
     "RigTable",
+    "CLASS_TABLES",
     "RomNetwork",
     "RomTable",
     "TankTable",
@@ -86,8 +86,6 @@ __all__ = [
     "load",
     "merge",
     "min_free_duration",
-    "network_weights",
-    "training_samples",
     "validate",
 ]
 
@@ -98,7 +96,8 @@ __all__ = [
 # the default sizes, 2026-11-25).
 QUICK: dict[str, dict[str, Any]] = {
     "data": {"train_duration": 120.0, "validation_duration": 60.0, "design": "shaker"},
-    "rom": {"delays": 40, "neurons": 15, "max_epochs": 60, "ensemble": 2, "nss_max_epochs": 4},
+    "rom": {"ensemble": 2, "nfir": {"delays": 40, "neurons": 15, "max_epochs": 60},
+            "nss": {"max_epochs": 4}},
     "map": {"n_omega": 10, "n_a": 8},
     "beam": {"free_duration": 6.0, "random_duration": 70.0},
 }
@@ -139,13 +138,65 @@ MAX_MODES = N_STATIONS
 MAX_MODEL_WEIGHTS = MAX_WEIGHTS
 
 
-def default_text() -> str:
-    """The shipped defaults, as TOML text with comments."""
+def _shipped_text() -> str:
     return (resources.files("sloshrom.pipeline") / "defaults.toml").read_text(encoding="utf-8")
 
 
+def _toml_value(v: Any) -> str:
+    return f'"{v}"' if isinstance(v, str) else repr(v)
+
+
+def _class_keys(name: str) -> list[Hyper]:
+    """The keys of ``[rom.<name>]``: the class's hyperparameters but the seed (``rom.seed``)."""
+    return [h for h in CLASSES[name].hyper if h.name != "seed"]
+
+
+def default_text() -> str:
+    """The shipped defaults, as TOML text with comments.
+
+    ``defaults.toml`` gives each ``[rom.<class>]`` table only what `reproduce` chooses; the
+    other keys take the class's defaults of :mod:`sloshrom.rom.registry` (its loss terms the
+    class's passive recipe: `reproduce` trains on a velocity in m/s and a force in N), written
+    here with their meaning, so that the text lists every key.
+    """
+    lines = _shipped_text().splitlines()
+    given = tomllib.loads("\n".join(lines))["rom"]
+    sections = [i for i, ln in enumerate(lines) if ln.startswith("[")]
+
+    def filled(name: str) -> list[str]:
+        mc = CLASSES[name]
+        out = []
+        for h in _class_keys(name):
+            if h.name in given.get(name, {}):
+                continue
+            # reproduce's records are a velocity in m/s and a force in N: the class's recipe
+            passive = h.name in mc.loss_terms and mc.recipe_needs(mc.defaults()) is None
+            value = mc.recipe.get(h.name, h.default) if passive else h.default
+            why = "its passive recipe" if passive else "the class's default"
+            out.append(f"{h.name} = {_toml_value(value)}".ljust(28) + f"# {h.help} ({why})")
+        return out
+
+    out: list[str] = []
+    last_rom = max(i for i in sections if lines[i].startswith("[rom"))
+    for k, i in enumerate(sections + [len(lines)]):
+        start = sections[k - 1] if k else 0
+        chunk = lines[start:i]
+        head = chunk[0].split("#")[0].strip() if k else ""
+        if head.startswith("[rom.") and head.endswith("]"):
+            # the table's own lines, then the class's defaults, before the blank line
+            while chunk and not chunk[-1].strip():
+                chunk = chunk[:-1]
+            chunk = [*chunk, *filled(head[5:-1]), ""]
+        out += chunk
+        if start == last_rom:  # the classes defaults.toml leaves out, after the last one
+            for name in CLASSES:
+                if name not in given:
+                    out += [f"[rom.{name}]", *filled(name), ""]
+    return "\n".join(out) + "\n"
+
+
 def defaults() -> dict[str, Any]:
-    """The shipped defaults as a dict of tables."""
+    """The shipped defaults as a dict of tables (every ``[rom.<class>]`` key included)."""
     return tomllib.loads(default_text())
 
 
@@ -203,8 +254,54 @@ def load(path: str | Path | None = None, quick: bool = False) -> ReproduceConfig
     if quick:
         cfg = merge(cfg, QUICK)
     if path is not None:
-        cfg = merge(cfg, load_toml(path))
+        cfg = merge(cfg, renamed_keys(load_toml(path), cfg["rom"]["arch"]))
     return validate(cfg)
+
+
+#: The keys of ``[rom]`` before each class had its table: the class-table key each is now.
+_FORMER_NSS = {"nss_states": "n_states", **{f"nss_{k}": k for k in (
+    "neurons", "window", "horizon", "batch", "max_epochs", "steps_per_epoch", "learning_rate")}}
+_FORMER_SIZES = ("delays", "neurons", "hidden", "max_epochs")
+
+
+def renamed_keys(user: dict[str, Any], default_arch: str) -> dict[str, Any]:
+    """A user's configuration with the former flat ``[rom]`` keys under their names now.
+
+    ``nss_states`` is ``rom.nss.n_states`` (each ``nss_<key>`` ``rom.nss.<key>``); the
+    network sizes ``delays``, ``neurons``, ``hidden``, ``max_epochs`` trained the ROM of
+    ``arch`` when it was an NFIR or NOE and the compared NFIR, so they are that class's (else
+    ``rom.nfir``'s); the loss weights trained the ROM of ``arch``; ``compare_nfir = true`` is
+    ``compare = ["nfir"]`` (for an NSS; it was ignored otherwise). Each renamed key is said in
+    a :class:`~sloshrom.config.ConfigWarning` that names the new key.
+    """
+    rom = user.get("rom")
+    if not isinstance(rom, dict):
+        return user
+    arch = rom.get("arch", default_arch)
+    out = {k: v for k, v in rom.items()}
+    for key in list(rom):
+        if key in _FORMER_NSS:
+            new = ("nss", _FORMER_NSS[key])
+        elif key in _FORMER_SIZES:
+            new = (arch if arch in ("nfir", "noe") else "nfir", key)
+        elif key in LOSS_TERMS:
+            new = (arch if isinstance(arch, str) and arch in CLASSES else "nfir", key)
+        elif key == "compare_nfir":
+            value = out.pop(key)
+            out["compare"] = ["nfir"] if value is True and arch == "nss" else []
+            warnings.warn(ConfigWarning(
+                f"'rom.compare_nfir' is now 'rom.compare' (a list of classes): read as "
+                f"compare = {out['compare']}"), stacklevel=2)
+            continue
+        else:
+            continue
+        value = out.pop(key)
+        table = out.setdefault(new[0], {})
+        if isinstance(table, dict):
+            table.setdefault(new[1], value)
+        warnings.warn(ConfigWarning(f"'rom.{key}' is now 'rom.{new[0]}.{new[1]}': read as such"),
+                      stacklevel=2)
+    return {**user, "rom": out}
 
 
 # -- field types: bounds for pydantic, words for the messages -----------------------------------
@@ -359,42 +456,44 @@ class DataTable(_Table):
 
 
 class RomNetwork(NamedTuple):
-    """A network the ``rom`` stage (or the sweep) trains, for the checks against the record and
-    the model-file limits: ``arch`` (``"nfir"``, ``"noe"``, ``"nss"``), ``delays`` (an NSS:
-    its encoder window, samples), ``neurons``, ``keys`` (the keys named in a message),
-    ``horizon`` (an NSS's training sub-sequences, samples; 0 otherwise) and ``n_states``."""
+    """A model the ``rom`` stage (or the sweep) trains, for the checks against the record and
+    the model-file limits: its registry ``class_`` (:class:`sloshrom.rom.registry.ModelClass`),
+    its hyperparameters ``hyper`` and ``keys``, the configuration keys named in a message."""
 
-    arch: str
-    delays: int
-    neurons: int
+    class_: ModelClass
+    hyper: dict[str, Any]
     keys: str
-    horizon: int = 0
-    n_states: int = 0
 
 
-class RomTable(_Table):
-    """``[rom]``: the ROM (an NFIR, NOE or NSS), its training and the sensitivity sweep."""
+def _hyper_field(h: Hyper) -> Any:
+    """The settings' field of a registry hyperparameter: its domain, in the settings' words."""
+    if h.kind == "choice":
+        return Literal[h.choices]
+    if h.kind == "delays":  # a configuration gives n (delays 1..n)
+        return _number(1, h.hi, integer=True, what="an integer")
+    return _number(h.lo, h.hi, lo_open=h.lo_open, hi_open=h.hi_open,
+                   integer=h.kind == "int", what=h.what)
 
+
+def _class_table(mc: ModelClass) -> type[_Table]:
+    """``[rom.<class>]``: the class's hyperparameters (the seed is ``rom.seed``), by the
+    registry."""
+    fields = {h.name: (_hyper_field(h), ...) for h in mc.hyper if h.name != "seed"}
+    return create_model(f"{mc.class_name}Table", __base__=_Table,
+                        __doc__=f"``[rom.{mc.name}]``: {mc.summary}.", **fields)
+
+
+#: The table of each ROM class, ``[rom.<name>]``.
+CLASS_TABLES: dict[str, type[_Table]] = {name: _class_table(mc) for name, mc in CLASSES.items()}
+ClassName = Literal[tuple(CLASSES)]  # type: ignore[valid-type]
+
+
+class _RomTableBase(_Table):
     # the order of defaults.toml (as_dict() writes the keys in field order)
-    arch: Literal["nfir", "noe", "nss"]
-    delays: Delays
-    neurons: Neurons
-    hidden: Hidden
-    max_epochs: _number(0, MAX_EPOCHS, integer=True, what="an integer")
+    arch: ClassName
+    compare: Annotated[list[ClassName], AfterValidator(_distinct),
+                       _Says(f"a list of distinct ROM classes ({', '.join(CLASSES)})")]
     seed: Seed
-    amplitude_weighting: _number(0.0, 100.0, what="an amplitude floor in m/s (0 = off)")
-    passivity: _number(0.0, 1e6, what="a penalty weight (0 = off)")
-    cycle_energy: _number(0.0, 1e6, what="a loss weight (0 = off)")
-    # the state-space ROM of arch = "nss" (sloshrom.rom.NSS); the bounds of the model files
-    nss_states: _number(1, MAX_STATES, integer=True, what="a state dimension")
-    nss_neurons: Neurons
-    nss_window: _number(1, MAX_DELAY, integer=True, what="a number of samples")
-    nss_horizon: _number(8, MAX_DELAY, integer=True, what="a number of samples")
-    nss_batch: _number(1, MAX_BATCH, integer=True, what="a number of sub-sequences")
-    nss_max_epochs: _number(0, MAX_EPOCHS, integer=True, what="an integer")
-    nss_steps_per_epoch: _number(1, MAX_EPOCHS, integer=True, what="a number of Adam steps")
-    nss_learning_rate: _number(0.0, 1.0, lo_open=True, what="an Adam step")
-    compare_nfir: bool
     ensemble: _number(1, MAX_MEMBERS, integer=True, what="a number of ensemble members")
     ensemble_workers: _number(1, 64, integer=True, what="a number of parallel trainings")
     sweep: bool
@@ -404,61 +503,68 @@ class RomTable(_Table):
     sweep_noe_neurons: NeuronGrid
     sweep_workers: _number(1, 64, integer=True, what="a number of parallel trainings")
 
+
+class RomTable(create_model("_RomClasses", __base__=_RomTableBase,  # type: ignore[misc]
+                            **{n: (t, ...) for n, t in CLASS_TABLES.items()})):
+    """``[rom]``: the ROM of the report (``arch``), the classes identified beside it
+    (``compare``), their training, the sensitivity sweep; ``[rom.<class>]`` the
+    hyperparameters of each class of the registry."""
+
     @model_validator(mode="after")
-    def _loss_options(self) -> RomTable:
-        if self.arch == "noe" and (self.amplitude_weighting > 0 or self.passivity > 0
-                                   or self.cycle_energy > 0):
-            raise ConfigError("'rom.amplitude_weighting', 'rom.passivity' and "
-                              "'rom.cycle_energy' train the NFIR and the NSS (Adam); set them "
-                              "to 0 for arch = 'noe'")
+    def _classes(self) -> RomTable:
+        if self.ensemble > 1 and not CLASSES[self.arch].ensemble:
+            raise ConfigError(f"'rom.ensemble' = {self.ensemble}: an "
+                              f"{CLASSES[self.arch].class_name} is fitted deterministically, "
+                              "so its members would be one model; set 'rom.ensemble' = 1")
+        for name in (self.arch, *self.compared()):
+            mc = CLASSES[name]
+            why = mc.recipe_needs(self.hyper(name))
+            if why and any(getattr(self.table(name), k) > 0 for k in mc.loss_terms):
+                raise ConfigError(f"'rom.{name}.amplitude_weighting', 'rom.{name}.passivity' "
+                                  f"and 'rom.{name}.cycle_energy' need {why}: set them to 0 "
+                                  f"or 'rom.{name}.trainer' = \"adam\"")
         return self
 
-    @property
-    def compares_nfir(self) -> bool:
-        """Whether the ``rom`` stage also trains the NFIR of ``delays``/``neurons`` beside the
-        chosen ROM (``compare_nfir`` with ``arch = "nss"``; ignored for an NFIR or NOE)."""
-        return self.arch == "nss" and self.compare_nfir
+    def compared(self) -> list[str]:
+        """The classes identified beside the ROM: ``compare`` but the ROM's own class."""
+        return [c for c in self.compare if c != self.arch]
 
-    def loss_terms(self) -> dict[str, float]:
-        """The loss weights by name (:data:`sloshrom.limits.RECIPE`'s keys; 0 = off): of the
-        NFIR or NSS the stage trains, and of the compared NFIR."""
-        return {k: getattr(self, k) for k in RECIPE}
+    def table(self, name: str | None = None) -> _Table:
+        """``[rom.<name>]`` (default: of ``arch``)."""
+        return getattr(self, self.arch if name is None else name)
 
-    def recipe(self) -> dict[str, float]:
-        """The loss recipe of the configured class on a velocity in m/s and a force in N:
-        :data:`sloshrom.limits.RECIPE` (NFIR), :data:`~sloshrom.limits.NSS_RECIPE` (NSS), all
-        0 for an NOE (trained by Levenberg–Marquardt, on the plain MSE)."""
-        if self.arch == "noe":
-            return dict.fromkeys(RECIPE, 0.0)
-        return dict(NSS_RECIPE if self.arch == "nss" else RECIPE)
+    def hyper(self, name: str | None = None) -> dict[str, Any]:
+        """The estimator arguments of class ``name`` (default: ``arch``): its table and the
+        seed."""
+        name = self.arch if name is None else name
+        out = self.table(name).model_dump()
+        if any(h.name == "seed" for h in CLASSES[name].hyper):
+            out["seed"] = self.seed
+        return out
+
+    def loss_terms(self, name: str | None = None) -> dict[str, float]:
+        """The loss weights by name (:data:`sloshrom.rom.registry.LOSS_TERMS`; 0 = off) of
+        class ``name`` (default: ``arch``); empty for a class without them."""
+        h = self.hyper(name)
+        return {k: h[k] for k in CLASSES[self.arch if name is None else name].loss_terms}
 
     def name(self, arch: str | None = None) -> str:
         """The ROM's name in the report, e.g. ``"NFIR(70, 35)"`` or ``"NSS(8 states, 64
-        neurons)"``; ``arch`` (default: the configured one) names another of the table's
-        networks (``"nfir"``: the compared NFIR)."""
+        neurons)"``; ``arch`` (default: the configured one) names another class."""
         arch = self.arch if arch is None else arch
-        if arch == "nss":
-            return f"NSS({self.nss_states} states, {self.nss_neurons} neurons)"
-        return f"{arch.upper()}({self.delays}, {self.neurons})"
+        return CLASSES[arch].label(self.hyper(arch))
 
     def networks(self) -> list[RomNetwork]:
-        """The largest network of each kind to be trained: the ROM, the compared NFIR, the
+        """The largest model of each kind to be trained: the ROM, the compared classes, the
         sweep's largest NFIR and NOE."""
-        if self.arch == "nss":
-            out = [RomNetwork("nss", self.nss_window, self.nss_neurons,
-                              "'rom.nss_window'/'rom.nss_horizon'", self.nss_horizon,
-                              self.nss_states)]
-        else:
-            out = [RomNetwork(self.arch, self.delays, self.neurons,
-                              "'rom.delays'/'rom.neurons'")]
-        if self.compares_nfir:
-            out.append(RomNetwork("nfir", self.delays, self.neurons,
-                                  "'rom.delays'/'rom.neurons' (compare_nfir)"))
+        out = [RomNetwork(CLASSES[n], self.hyper(n), f"'rom.{n}'")
+               for n in (self.arch, *self.compared())]
         if self.sweep:
-            out += [RomNetwork(a, max(getattr(self, f"sweep_{a}_delays")),
-                               max(getattr(self, f"sweep_{a}_neurons")),
-                               f"the largest of 'rom.sweep_{a}_delays'/'rom.sweep_{a}_neurons'")
-                    for a in ("nfir", "noe")]
+            for a in ("nfir", "noe"):
+                hyper = {**self.hyper(a), "delays": max(getattr(self, f"sweep_{a}_delays")),
+                         "neurons": max(getattr(self, f"sweep_{a}_neurons"))}
+                out.append(RomNetwork(CLASSES[a], hyper, f"the largest of 'rom.sweep_{a}_delays'"
+                                                         f"/'rom.sweep_{a}_neurons'"))
         return out
 
 
@@ -731,28 +837,20 @@ class ReproduceConfig(_Table):
         if self.beyond.enabled:
             members.append(("'beyond.fill_ensemble'", self.beyond.fill_ensemble))
         for key, k in members:
-            weights = k * network_weights(rom)
+            weights = k * rom.class_.file_weights(rom.hyper)
             if weights <= MAX_MODEL_WEIGHTS:
                 continue
-            if rom.arch == "nss":
-                size = (f"the weights of an NSS ('rom.nss_states', 'rom.nss_neurons', "
-                        f"'rom.nss_window') = {k} x {network_weights(rom)}")
-            else:
-                entries = rom.delays + (NOE_OUT_DELAYS if rom.arch == "noe" else 0)
-                size = (f"'rom.neurons' x regressor entries ('rom.delays') = {k} x "
-                        f"{r.neurons} x {entries}")
             raise ConfigError(
-                f"{key} x {size} = {weights} weights, more than {MAX_MODEL_WEIGHTS} (32 MiB), "
-                "the most a model file holds: fewer members or a smaller network")
+                f"{key} x the weights of {rom.class_.label(rom.hyper)} ({rom.keys}) = {k} x "
+                f"{rom.class_.file_weights(rom.hyper)} = {weights} weights, more than "
+                f"{MAX_MODEL_WEIGHTS} (32 MiB), the most a model file holds: fewer members or "
+                "a smaller model")
         for net in r.networks():
-            need = training_samples(net.arch, net.delays, net.neurons, net.horizon)
+            need = net.class_.min_samples(net.hyper)
             if need > n_train:
-                sizes = (f"{net.delays}/{net.horizon}" if net.arch == "nss"
-                         else f"{net.delays}/{net.neurons}")
                 raise ConfigError(
-                    f"{net.keys} = {sizes} ({net.arch.upper()}) need at least {need} "
-                    f"training samples, but 'data.train_duration' gives {n_train:.0f} at "
-                    f"{fs:g} Hz")
+                    f"{net.keys}: {net.class_.label(net.hyper)} needs at least {need} training "
+                    f"samples, but 'data.train_duration' gives {n_train:.0f} at {fs:g} Hz")
         check_psd_band(b.f0, b.sigma, names=("'beam.f0'", "'beam.sigma'"), error=ConfigError,
                        fs=fs)
         if b.random_duration * fs < WELCH_NPERSEG:
@@ -835,18 +933,32 @@ def _message(error: ErrorDetails) -> str:
     loc, kind, v = error["loc"], error["type"], error["input"]
     if _raised(error) is not None:  # another ValueError of a validator
         return str(_raised(error))
-    key = ".".join(str(p) for p in loc[:2])
+    # the key down the nested tables ('rom.nss.n_states'), then a list item's index, if any
+    model: Any = ReproduceConfig
+    keys: list[str] = []
+    field = None
+    for p in loc:
+        if isinstance(p, int) or model is None or p not in model.model_fields:
+            break
+        keys.append(str(p))
+        field = model.model_fields[p]
+        ann = field.annotation
+        model = ann if isinstance(ann, type) and issubclass(ann, _Table) else None
+    key = ".".join(keys) if keys else ".".join(str(p) for p in loc[:2])
+    rest = loc[len(keys):]
     if kind == "extra_forbidden":
-        return f"unknown configuration key '{key}'"
+        return f"unknown configuration key '{'.'.join(str(p) for p in loc)}'"
     if kind == "missing":
-        return (f"configuration table [{key}] is missing" if len(loc) == 1
+        return (f"configuration table [{key}] is missing" if model is not None
                 else f"configuration key '{key}' is missing")
-    if len(loc) == 1:
+    if model is not None or field is None:
         return f"'{key}' must be a table"
-    field = ReproduceConfig.model_fields[loc[0]].annotation.model_fields[loc[1]]
     says = next((m for m in field.metadata if isinstance(m, _Says)), None)
     if kind == "literal_error":
-        options = " or ".join(f'"{o}"' for o in get_args(field.annotation))
+        ann = field.annotation
+        if get_args(ann) and not isinstance(get_args(ann)[0], str):  # a list of choices
+            ann = get_args(ann)[0]
+        options = " or ".join(f'"{o}"' for o in get_args(ann))
         return f"'{key}' must be {options}, got {v!r}"
     if kind == "bool_type":
         return f"'{key}' must be true or false, got {v!r}"
@@ -854,36 +966,10 @@ def _message(error: ErrorDetails) -> str:
         return f"'{key}' must be a number, got {v!r}"
     if kind == "distinct":
         return f"'{key}' {error['msg']}, got {v!r}"
-    if len(loc) == 3 and says.item is not None:
-        item = says.item.value(f"{key}[{loc[2]}]", v)
+    if rest and says.item is not None:
+        item = says.item.value(f"{key}[{rest[0]}]", v)
         return f"'{key}' must be {says.what}: {item}"
     return says.value(key, v)
-
-
-def training_samples(arch: str, delays: int, neurons: int, horizon: int = 0) -> int:
-    """Samples a training record needs for a ROM (the check of its ``fit``).
-
-    An NSS (``arch = "nss"``; ``delays`` its encoder window, ``horizon`` its sub-sequences,
-    samples) needs one window and one horizon; an NFIR or NOE of ``delays`` and ``neurons``
-    needs its delay line and two samples per hundred parameters.
-    """
-    if arch == "nss":
-        return delays + horizon + 1
-    out_delays = NOE_OUT_DELAYS if arch == "noe" else 0
-    n_params = neurons * (delays + out_delays + 2) + 1  # RBF network: H (D + 2) + 1
-    return delays + out_delays + 2 * n_params // 100 + 10
-
-
-def network_weights(net: RomNetwork) -> int:
-    """Weights of one network of ``net`` in its model file: the sizes of an NSS's arrays
-    (:func:`sloshrom.rom.modelfile.nss_param_shapes`), an NFIR's or NOE's neurons x regressor
-    entries."""
-    if net.arch == "nss":
-        # the arrays of nss_param_shapes, counted here: importing sloshrom.rom would load JAX
-        # when the command line starts (a test checks the two agree)
-        nz, h, nx, w = net.n_states + 1, net.neurons, net.n_states, net.delays
-        return nz * nx + 2 * nz * h + 2 * h * nx + nz + 4 * h + 2 * w * h
-    return net.neurons * (net.delays + (NOE_OUT_DELAYS if net.arch == "noe" else 0))
 
 
 def first_frozen_frequency(tank: Tank, n_modes: int = 3, damping: Any = None,

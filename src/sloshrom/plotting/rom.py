@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -49,33 +50,33 @@ def plot_sweep(rows: list[dict[str, Any]], path: str | Path) -> Path:
 
 def validation_figure(time: np.ndarray, y: np.ndarray, y_hat: np.ndarray, name: str,
                       fs: float, fit: float, nrmse: float,
-                      compare: tuple[np.ndarray, str, float] | None = None) -> Figure:
+                      compare: Sequence[tuple[np.ndarray, str, float]] = ()) -> Figure:
     """Paper Fig. 10: free-run prediction against the measured dynamic force (N).
 
     Top: the whole validation record; bottom: one second around its largest force.
     ``fit`` (%) and ``nrmse`` (-) go into the title; ``fs`` (Hz) is the record's rate.
-    ``compare``: another model's prediction (N), its name and its fit (%), drawn as a thin
-    second trace labelled with its fit (the paper's NFIR beside a state-space ROM).
+    ``compare``: other models' predictions (N), each with its name and its fit (%), drawn as
+    thin traces labelled with their fits (the paper's NFIR and the best linear model beside a
+    state-space ROM).
     """
     fig = Figure(figsize=(9, 5.5), layout="constrained")
     axs = fig.subplots(2, 1)
     axs[0].plot(time, y, "k", lw=0.4, label="rig (validation)")
     axs[0].plot(time, y_hat, "r", lw=0.4, alpha=0.8, label=name)
-    if compare is not None:
-        other, other_name, other_fit = compare
-        other_label = f"{other_name} (fit {other_fit:.1f} %)"
-        axs[0].plot(time, other, color="C0", lw=0.25, alpha=0.7, label=other_label)
+    labels = [f"{other_name} (fit {other_fit:.1f} %)" for _, other_name, other_fit in compare]
+    for k, ((other, _, _), label) in enumerate(zip(compare, labels, strict=True)):
+        axs[0].plot(time, other, color=f"C{k}", lw=0.25, alpha=0.7, label=label)
     axs[0].set_ylabel(r"$\Delta f$ [N]")
     axs[0].legend(loc="upper right")
-    # beside another model, the title says whose fit it gives
-    axs[0].set_title(f"validation{'' if compare is None else f' of {name}'}: fit {fit:.1f} %, "
+    # beside other models, the title says whose fit it gives
+    axs[0].set_title(f"validation{f' of {name}' if compare else ''}: fit {fit:.1f} %, "
                      f"NRMSE {nrmse:.3f}")
     i0 = int(np.argmax(np.abs(y)))
     sl = slice(max(0, i0 - int(0.5 * fs)), i0 + int(0.5 * fs))
     axs[1].plot(time[sl], y[sl], "k", lw=1, label="rig")
     axs[1].plot(time[sl], y_hat[sl], "r--", lw=1, label=name)
-    if compare is not None:
-        axs[1].plot(time[sl], other[sl], color="C0", lw=0.6, label=other_label)
+    for k, ((other, _, _), label) in enumerate(zip(compare, labels, strict=True)):
+        axs[1].plot(time[sl], other[sl], color=f"C{k}", lw=0.6, label=label)
     axs[1].set_xlabel("time [s]")
     axs[1].set_ylabel(r"$\Delta f$ [N]")
     return fig

@@ -36,17 +36,15 @@ from sloshrom.models import EnvelopeWarning, check_envelope, envelope_union, mod
 from sloshrom.rom.errors import NotFittedError, ROMError
 from sloshrom.rom.family import check_training_fill
 from sloshrom.rom.modelfile import (
-    ENSEMBLE_FORMAT_VERSION,
     MAX_MEMBERS,
-    NSS_FORMAT_VERSION,
-    NSS_PARAM_NAMES,
-    PARAM_NAMES,
     check_file_limits,
+    file_version,
     model_file_path,
     write_model_file,
 )
 from sloshrom.rom.network import MinMaxScaler, network_of
 from sloshrom.rom.parallel import run_tasks
+from sloshrom.rom.registry import CLASSES
 
 __all__ = ["Ensemble", "is_ensemble", "spread"]
 
@@ -198,8 +196,9 @@ class Ensemble:
         t = self.template
         if not all(hasattr(t, a) for a in ("get_params", "set_params", "fit", "step")) or \
                 "seed" not in t.get_params():
-            raise ROMError(f"template must be an unfitted NFIR, NOE or NSS estimator, got "
-                           f"{type(t).__name__}")
+            seeded = ", ".join(mc.class_name for mc in CLASSES.values() if mc.ensemble)
+            raise ROMError(f"template must be an unfitted estimator whose members differ by "
+                           f"their seed ({seeded}), got {type(t).__name__}")
         k = self.n_members
         if isinstance(k, bool) or not isinstance(k, int | np.integer) or not \
                 1 <= k <= MAX_MEMBERS:
@@ -522,10 +521,10 @@ class Ensemble:
         p = model_file_path(path)
         t = self.template
         hyper = t.get_params()
-        nss = self.member_class == "NSS"
+        mc = t.model_class
         meta = {
             "format": "sloshrom-rom",
-            "format_version": NSS_FORMAT_VERSION if nss else ENSEMBLE_FORMAT_VERSION,
+            "format_version": file_version(mc, ensemble=True),
             "class": "Ensemble",
             "sloshrom_version": __version__,
             "member_class": self.member_class,
@@ -538,7 +537,6 @@ class Ensemble:
                          "history": m.history_}
                         for s, m in zip(self.seeds_, self.members_, strict=True)],
         }
-        names = NSS_PARAM_NAMES if nss else PARAM_NAMES
         arrays = {k: np.stack([np.asarray(m.params_[k], dtype=np.float64)
-                               for m in self.members_]) for k in names}
+                               for m in self.members_]) for k in mc.param_names()}
         return write_model_file(p, meta, arrays, "ensemble")

@@ -38,7 +38,7 @@ from __future__ import annotations
 import operator
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import jax
 import jax.numpy as jnp
@@ -77,6 +77,8 @@ from sloshrom.rom.network import (
     MinMaxScaler,
     Network,
     NetworkSpec,
+    NFIRNetwork,
+    NOENetwork,
     check_delays,
     hidden_activations,
     n_params,
@@ -182,8 +184,12 @@ class _Estimator(Estimator):
         check_file_limits(spec.max_delay, spec.neurons, spec.n_inputs)
         return spec
 
+    #: the fitted network of the class
+    _network: ClassVar[type[Network]] = Network
+
     def _model(self, params: Any, scaler: MinMaxScaler, spec: Any, fs: float) -> Network:
-        return Network(dict(params), scaler, spec, self.input, fs, float(self.unstable_bound))
+        return self._network(dict(params), scaler, spec, self.input, fs,
+                             float(self.unstable_bound))
 
     @property
     def theta_(self) -> jnp.ndarray:
@@ -262,9 +268,9 @@ class _Estimator(Estimator):
             passivity=float(self.passivity), frequency_band=(probe_band[0], probe_band[1]),
             cycle_energy=float(self.cycle_energy), **self._trainer_options(),
         )
-        self.model_ = Network({k: np.asarray(v) for k, v in
-                               unpack(theta, spec.n_inputs, spec.neurons).items()},
-                              scaler, spec, self.input, float(fs), float(self.unstable_bound))
+        self.model_ = self._model({k: np.asarray(v) for k, v in
+                                   unpack(theta, spec.n_inputs, spec.neurons).items()},
+                                  scaler, spec, float(fs))
         self.envelope_ = record_envelope(u, fs, scaler, band, self.input, fill)
         self.history_ = history
         return self
@@ -331,6 +337,7 @@ class NFIR(_Estimator):
     """
 
     model_class = NFIR_CLASS
+    _network = NFIRNetwork
 
     def __init__(
         self,
@@ -404,6 +411,7 @@ class NOE(_Estimator):
     """
 
     model_class = NOE_CLASS
+    _network = NOENetwork
 
     def __init__(
         self,

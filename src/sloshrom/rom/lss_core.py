@@ -41,6 +41,7 @@ from scipy.signal import lfilter, resample_poly, welch
 from threadpoolctl import threadpool_limits
 
 from sloshrom.rom.errors import ROMError
+from sloshrom.rom.registry import LSS_CLASS
 
 __all__ = ["MAX_SPECTRAL_RADIUS", "lss_simulate", "min_samples", "n4sid", "pem_refine"]
 
@@ -52,10 +53,6 @@ MAX_SPECTRAL_RADIUS = 0.9999
 #: Hankel columns per block of the incremental QR factorisation (n4sid): a block is
 #: ``8192 x 4 block_rows`` floats (2.6 MB for block_rows = 10), whatever the record length.
 _QR_BLOCK = 8192
-
-#: Columns of the block Hankel matrix needed per block row (so the least squares inside the
-#: projection have several times more equations than unknowns).
-_COLUMNS_PER_BLOCK_ROW = 8
 
 #: Share of the input power that the decimated rate must keep (n4sid), and the slow Nyquist
 #: frequency's margin above the frequency that bounds it: ``q = floor(0.4 / nu)``.
@@ -133,7 +130,7 @@ def min_samples(block_rows: int) -> int:
     The block Hankel matrices need ``2 block_rows`` samples per column and
     ``8 block_rows`` columns: ``N >= 10 block_rows - 1``.
     """
-    return 2 * block_rows - 1 + _COLUMNS_PER_BLOCK_ROW * block_rows
+    return LSS_CLASS.min_samples({"block_rows": block_rows})
 
 
 # ---------------------------------------------------------------------------------------------

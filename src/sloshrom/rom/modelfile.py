@@ -90,7 +90,7 @@ __all__ = [
     "ENSEMBLE_FORMAT_VERSION", "FORMAT_VERSION", "HIDDEN_KINDS", "MAX_DELAY", "MAX_DEPTH",
     "MAX_FILE_BYTES", "MAX_MEMBERS", "MAX_METADATA_CHARS", "MAX_NEURONS", "MAX_REGRESSOR",
     "MAX_WEIGHTS", "NEWEST_FORMAT_VERSION", "NSS_FORMAT_VERSION", "NSS_PARAM_NAMES",
-    "PARAM_NAMES", "ModelFile", "ModelFileError", "check_file_limits",
+    "PARAM_NAMES", "ModelFile", "ModelFileError", "check_file_limits", "file_version",
     "checksum", "model_file_path", "read_model_file", "validate_for_save", "write_model_file",
 ]
 
@@ -125,7 +125,7 @@ def _param_names(meta: Mapping[str, Any]) -> tuple[str, ...]:
     return PARAM_NAMES if mc is None else mc.param_names()
 
 
-def _file_version(mc: ModelClass, ensemble: bool) -> int:
+def file_version(mc: ModelClass, ensemble: bool) -> int:
     """The format version of a file of ``mc`` (an ensemble of a version-1 class: 2)."""
     return ENSEMBLE_FORMAT_VERSION if ensemble and mc.format_version == FORMAT_VERSION \
         else mc.format_version
@@ -446,7 +446,7 @@ def _schema_of(class_name: str, ensemble: bool) -> type[_Strict]:
     fields: dict[str, Any] = {h.name: _file_field(h) for h in mc.hyper}
     fields.update(units=(TwoUnits, ...), names=(TwoNames, ...))
     hyper = create_model(f"_{mc.class_name}Hyper", __base__=_Strict, **fields)
-    version = Literal[_file_version(mc, ensemble)]
+    version = Literal[file_version(mc, ensemble)]
     if ensemble:
         return create_model(f"_{mc.class_name}EnsembleMeta", __base__=_EnsembleMeta,
                             format_version=(version, ...),
@@ -542,7 +542,7 @@ class ModelFile:
         for k, e in enumerate(m["members"]):
             meta = {
                 "format": FORMAT, "class": m["member_class"],
-                "format_version": _file_version(model_class_of_file(m["member_class"]), False),
+                "format_version": file_version(model_class_of_file(m["member_class"]), False),
                 "sloshrom_version": m["sloshrom_version"],
                 "hyperparameters": {**m["hyperparameters"], "seed": e["seed"]},
                 "fs": m["fs"], "units": m["units"], "names": m["names"],
@@ -896,7 +896,7 @@ def read_model_file(path: str | Path) -> ModelFile:
     if cls != "Ensemble" and not (isinstance(cls, str) and model_class_of_file(cls)):
         raise ModelFileError(f"{where}: unknown model class {_repr.repr(cls)}")
     mc = _file_class(meta)
-    expected = ENSEMBLE_FORMAT_VERSION if mc is None else _file_version(mc, cls == "Ensemble")
+    expected = ENSEMBLE_FORMAT_VERSION if mc is None else file_version(mc, cls == "Ensemble")
     if ver != expected:
         what = "an ensemble" if cls == "Ensemble" else f"a single {cls} model"
         raise ModelFileError(f"{where}: {what} file has format version {expected}, this one "

@@ -46,6 +46,8 @@ PARAM_NAMES = NFIR_CLASS.param_names()
 __all__ = [
     "FittedNetwork",
     "MinMaxScaler",
+    "NFIRNetwork",
+    "NOENetwork",
     "Network",
     "NetworkSpec",
     "check_delays",
@@ -368,11 +370,10 @@ class FittedNetwork:
                                         dtype=np.float64))
 
 
-@partial(jax.tree_util.register_dataclass, data_fields=["params", "scaler"],
-         meta_fields=["spec", "input", "fs", "unstable_bound"])
 @dataclass(frozen=True, eq=False)
 class Network(FittedNetwork):
-    """A fitted NFIR or NOE network: an immutable sloshing model and a JAX pytree.
+    """A fitted time-delay RBF network, NFIR (:class:`NFIRNetwork`) or NOE
+    (:class:`NOENetwork`): an immutable sloshing model and a JAX pytree.
 
     The model the estimators (:class:`~sloshrom.rom.NFIR`, :class:`~sloshrom.rom.NOE`) fit and
     delegate to. Its parameters and scaler bounds are the pytree's leaves, the rest is static: a
@@ -403,16 +404,13 @@ class Network(FittedNetwork):
     fs: float = 1.0
     unstable_bound: float = 10.0
 
-    _simulation = "NOE simulation"
-
-    @property
-    def model_class(self) -> ModelClass:
-        return NOE_CLASS if self.spec.arch == "noe" else NFIR_CLASS
+    #: the kernel of an FMU's C model (sloshrom_model.h)
+    _kernel = ""
 
     def describe(self) -> str:
         spec = self.spec
-        return (f"{spec.arch.upper()} ({len(spec.delays)} delays up to {spec.max_delay}, "
-                f"{spec.neurons} neurons"
+        return (f"{self.model_class.class_name} ({len(spec.delays)} delays up to "
+                f"{spec.max_delay}, {spec.neurons} neurons"
                 + (f", {spec.out_delays} output delays" if spec.out_delays else "") + ")")
 
     def fmu_member(self) -> tuple[str, dict[str, np.ndarray], dict[str, float | int | str]]:
@@ -420,18 +418,34 @@ class Network(FittedNetwork):
         p = {k: np.asarray(v, dtype=np.float64) for k, v in self.params.items()}
         arrays = {"delays": np.asarray(spec.delays, dtype=np.int64),
                   **{k: p[k] for k in ("W", "b", "c")}}
-        return ("SL_NOE" if spec.arch == "noe" else "SL_NFIR", arrays,
+        return (self._kernel, arrays,
                 {"hidden": "SL_HIDDEN_DISTANCE" if spec.hidden == "distance"
                  else "SL_HIDDEN_MATLAB", "n_delays": len(spec.delays),
                  "max_delay": spec.max_delay, "out_delays": spec.out_delays,
                  "neurons": spec.neurons, "c0": float(p["c0"])})
 
+    def _run(self, u: Any, fn: Any) -> np.ndarray:
+        """``fn(u_s)`` on the scaled input (vmapped over a batch), the scaled output."""
+        u_s = jnp.asarray(self.scaler.u(u))
+        return np.asarray(jax.vmap(fn)(u_s) if u_s.ndim == 2 else fn(u_s))
+
+
+@partial(jax.tree_util.register_dataclass, data_fields=["params", "scaler"],
+         meta_fields=["spec", "input", "fs", "unstable_bound"])
+@dataclass(frozen=True, eq=False)
+class NFIRNetwork(Network):
+    """A fitted NFIR: the force from the last inputs' delay line (:class:`Network`)."""
+
+    _kernel = "SL_NFIR"
+
+    @property
+    def model_class(self) -> ModelClass:
+        return NFIR_CLASS
+
     def init_state(self) -> Any:
-        """Delay lines at rest (scaled units, most recent first): the input line, shape
-        (max_delay,), for an NFIR; ``(input line, output line)`` for an NOE."""
-        ru, ry = self._rest()
-        if self.spec.arch == "noe":
-            return noe_rest_state(ru, ry, self.spec.delays, self.spec.out_delays)
+        """The input delay line at rest (scaled units, most recent first), shape
+        (max_delay,)."""
+        ru, _ = self._rest()
         return jnp.full(self.spec.max_delay, ru, dtype=jnp.float64)
 
     def step(self, state: Any, velocity: Any, acceleration: Any = None) -> tuple[Any, Any]:
@@ -440,14 +454,9 @@ class Network(FittedNetwork):
         A velocity network takes ``velocity`` v_k: the force from the delay line, then v_k is
         pushed into it. A network on the acceleration takes ``acceleration`` a_{k-1}, as the
         coupled beam passes it: a_{k-1} is pushed, then the force is evaluated. Both give
-        :meth:`free_run` sample by sample. An NOE (velocity only) runs its closed loop.
+        :meth:`free_run` sample by sample.
         """
         s, spec = self.scaler, self.spec
-        if spec.arch == "noe":
-            u_s = s.u(jnp.asarray(velocity, jnp.float64))
-            state, y_s = noe_step(pack(self.params), state, u_s, spec.delays, spec.out_delays,
-                                  spec.neurons, spec.hidden, single=True)
-            return state, s.y_inverse(y_s)
         d = np.asarray(spec.delays)
 
         def push(state: Any, u: Any) -> Any:
@@ -475,27 +484,67 @@ class Network(FittedNetwork):
         -------
         ndarray, same shape as ``u``
             Output (physical units, e.g. N), float64.
+        """
+        spec, theta = self.spec, pack(self.params)
+        ru, _ = (float(r) for r in self._rest())
+        y_s = self._run(u, lambda x: nfir_free_run(theta, x, ru, spec.delays, spec.neurons,
+                                                   spec.hidden))
+        return np.asarray(self.scaler.y_inverse(y_s))
+
+
+@partial(jax.tree_util.register_dataclass, data_fields=["params", "scaler"],
+         meta_fields=["spec", "input", "fs", "unstable_bound"])
+@dataclass(frozen=True, eq=False)
+class NOENetwork(Network):
+    """A fitted NOE: the force from the last inputs and its own last outputs, a closed loop
+    (:class:`Network`); the tank velocity only."""
+
+    _kernel = "SL_NOE"
+    _simulation = "NOE simulation"
+
+    @property
+    def model_class(self) -> ModelClass:
+        return NOE_CLASS
+
+    def init_state(self) -> Any:
+        """``(input line, output line)`` at rest (scaled units, most recent first)."""
+        ru, ry = self._rest()
+        return noe_rest_state(ru, ry, self.spec.delays, self.spec.out_delays)
+
+    def step(self, state: Any, velocity: Any, acceleration: Any = None) -> tuple[Any, Any]:
+        """One pure, jax-traceable step of the closed loop: ``(state, dynamic_force)`` at the
+        current sample k from v_k (:meth:`free_run` sample by sample)."""
+        s, spec = self.scaler, self.spec
+        u_s = s.u(jnp.asarray(velocity, jnp.float64))
+        state, y_s = noe_step(pack(self.params), state, u_s, spec.delays, spec.out_delays,
+                              spec.neurons, spec.hidden, single=True)
+        return state, s.y_inverse(y_s)
+
+    @float64
+    def free_run(self, u: Any) -> np.ndarray:
+        """Free-run output from rest for an input record at ``fs`` (physical units).
+
+        Parameters
+        ----------
+        u : array_like, shape (n,) or (batch, n)
+            The network's input, finite (checked by the caller).
+
+        Returns
+        -------
+        ndarray, same shape as ``u``
+            Output (physical units, e.g. N), float64.
 
         Raises
         ------
         UnstableModelError
-            An NOE whose simulation left its stability bound.
+            The simulation left its stability bound.
         """
-        s, spec = self.scaler, self.spec
-        u_s = jnp.asarray(s.u(u))
-        theta = pack(self.params)
+        spec, theta = self.spec, pack(self.params)
         ru, ry = (float(r) for r in self._rest())
-        if spec.arch == "noe":
-            def fn(x: Any) -> Any:
-                return noe_free_run(theta, x, ru, ry, spec.delays, spec.out_delays,
-                                    spec.neurons, spec.hidden)
-        else:
-            def fn(x: Any) -> Any:
-                return nfir_free_run(theta, x, ru, spec.delays, spec.neurons, spec.hidden)
-        y_s = np.asarray(jax.vmap(fn)(u_s) if u_s.ndim == 2 else fn(u_s))
-        if spec.arch == "noe":
-            self._check_stable(y_s)
-        return np.asarray(s.y_inverse(y_s))
+        y_s = self._run(u, lambda x: noe_free_run(theta, x, ru, ry, spec.delays,
+                                                  spec.out_delays, spec.neurons, spec.hidden))
+        self._check_stable(y_s)
+        return np.asarray(self.scaler.y_inverse(y_s))
 
 
 def network_of(model: Any) -> FittedNetwork | None:

@@ -165,7 +165,7 @@ def _step_nodes(g: _Graph, model: ROM, velocity: str, u_state: str, y_state: str
 
 
 def _metadata(model: ROM, form: str, dtype: np.dtype) -> dict[str, str]:
-    noe = model.spec.arch == "noe"
+    noe = model.spec.out_delays > 0  # the output feedback makes the graph recurrent
     state = ("u_state (batch, max_delay) m/s, past velocities most recent first, zeros = rest"
              + ("; y_state (batch, out_delays) N, past outputs most recent first, zeros = rest"
                 if noe else ""))
@@ -207,11 +207,11 @@ def check_exportable(model: Any) -> None:
     net = network_of(model)
     if net is not None and "onnx" not in net.model_class.exports:
         held = " or ".join(mc.class_name for mc in CLASSES.values() if "onnx" in mc.exports)
-        raise ROMError(f"an {net.describe()} cannot be exported to ONNX: a graph holds one {held} network; a state-space "
-                       "ROM's step graph would need its state as input and output, which is "
-                       "not implemented. Export it as an FMU (`sloshrom export fmu`) or run it "
-                       "through sloshrom (Python API: step/simulate; command line: predict, "
-                       "map, beam)")
+        raise ROMError(f"an {net.describe()} cannot be exported to ONNX: a graph holds one "
+                       f"{held} network; a state-space ROM's step graph would need its "
+                       "state as input and output, which is not implemented. Export it as "
+                       "an FMU (`sloshrom export fmu`) or run it through sloshrom (Python "
+                       "API: step/simulate; command line: predict, map, beam)")
     if net is None and not hasattr(model, "spec"):  # a family, a ball
         raise ROMError(f"a {type(model).__name__} cannot be exported to ONNX: a graph holds "
                        "one NFIR or NOE network (export a fill family's members one by one)")
@@ -256,7 +256,7 @@ def onnx_model(model: ROM, form: str = "step", dtype: str = "float64") -> Any:
         raise ROMError(f"dtype must be 'float64' or 'float32', got {dtype!r}")
     dt = np.dtype(dtype)
     elem = TensorProto.DOUBLE if dt == np.float64 else TensorProto.FLOAT
-    noe = model.spec.arch == "noe"
+    noe = model.spec.out_delays > 0  # the output feedback makes the graph recurrent
     dmax, m = model.spec.max_delay, model.spec.out_delays
 
     if form == "step":

@@ -267,6 +267,11 @@ class ModelClass:
         every parameter).
     ensemble : bool
         Whether members that differ by their seed make sense (a deterministic fit: no).
+    paper : bool
+        One of the paper's classes (the NFIR and the NOE).
+    report : str
+        What the report says of the class: what it is for sloshing, and why one would choose
+        it (a paragraph's sentences, after "The ROM of this report is <label>: ").
     """
 
     name: str
@@ -288,6 +293,8 @@ class ModelClass:
     sizes: tuple[str, ...] = ()
     weights: Callable[[Mapping[str, Any]], int] | None = None
     ensemble: bool = True
+    paper: bool = False
+    report: str = ""
 
     def hyper_named(self, name: str) -> Hyper:
         """The hyperparameter ``name``; :class:`ROMError` listing the valid ones."""
@@ -492,6 +499,7 @@ NFIR_CLASS = ModelClass(
     recipe={"amplitude_weighting": 0.05, "passivity": 1.0, "cycle_energy": 0.1},
     recipe_needs=_adam_only, format_version=1, exports=frozenset({"fmu", "onnx"}),
     width=_rbf_width, weights=_rbf_weights, sizes=("neurons", "delays"),
+    paper=True, report="the paper's class, a network of the last samples of the tank velocity.",
 )
 
 NOE_CLASS = ModelClass(
@@ -521,6 +529,9 @@ NOE_CLASS = ModelClass(
     loss_terms=LOSS_TERMS, recipe=dict.fromkeys(LOSS_TERMS, 0.0), recipe_needs=_adam_only,
     format_version=1, exports=frozenset({"fmu", "onnx"}), width=_rbf_width,
     weights=_rbf_weights, sizes=("neurons", "delays", "out_delays"),
+    paper=True,
+    report="the paper's recurrent class, a network of the last samples of the tank velocity "
+           "and of its own last outputs.",
 )
 
 NSS_CLASS = ModelClass(
@@ -548,6 +559,12 @@ NSS_CLASS = ModelClass(
     recipe={"amplitude_weighting": 0.0, "passivity": 1.0, "cycle_energy": 0.1},
     format_version=3, exports=frozenset({"fmu"}), width=lambda h: int(h["n_states"]) + 1,
     sizes=("neurons", "n_states", "window"),
+    report="a neural state-space model, not the paper's NFIR class. Why: the force depends "
+           "on where the liquid is, how fast it moves and when it lands, a state that a "
+           "finite-memory NFIR (70 samples, 0.14 s) cannot carry; the state-space model "
+           "does, and with it predicts the impacts the NFIR misses while its dissipation map "
+           "stays at least as close to the rig's (docs/rom.md, \"A ROM with state\", with the "
+           "figures of both classes).",
 )
 
 LSS_CLASS = ModelClass(
@@ -564,9 +581,12 @@ LSS_CLASS = ModelClass(
                  what="an integer")),
     label=lambda h: f"LSS({h['n_states']} states)",
     shapes=_lss_shapes, history=lambda h: 0,
-    min_samples=lambda h: 4 * int(h["block_rows"]) + 10 * (int(h["n_states"]) + 1),
+    # the block Hankel matrices need 2 i samples per column and 8 i columns (i block rows)
+    min_samples=lambda h: 10 * int(h["block_rows"]) - 1,
     format_version=4, exports=frozenset({"fmu"}), width=lambda h: int(h["n_states"]),
     sizes=("n_states",), ensemble=False,
+    report="the best linear model of the records (N4SID refined on its simulation error): "
+           "what any nonlinear ROM buys is measured against it.",
 )
 
 #: Every ROM class by its name, in the order of ``--help`` and the report.

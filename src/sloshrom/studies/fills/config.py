@@ -40,4 +40,4 @@ def member_config(cfg: ReproduceConfig, fill: float) -> ReproduceConfig:
     (and the member's ensemble size, ``[beyond] fill_ensemble``) changed, no sweep."""
     return cfg.replace(tank={"fill": float(fill)},
                        rom={"ensemble": int(cfg.beyond.fill_ensemble), "sweep": False,
-                            "compare_nfir": False})
+                            "compare": []})

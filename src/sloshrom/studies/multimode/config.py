@@ -20,7 +20,7 @@ from sloshrom.rom.estimators import LOSS_TERMS
 __all__ = ["CASES", "DATA_SETS", "JUDGED_ROM", "RECIPE_KEYS", "ROM_INPUTS", "WING_KEYS",
            "cache_config", "rom_params", "wing_design"]
 
-#: the NFIR recipe keys of the table (the NFIR's passive recipe, as ``limits.RECIPE``); the ROM
+#: the NFIR recipe keys of the table (the NFIR's passive recipe, as the registry's); the ROM
 #: on the acceleration trains with its loss terms off
 RECIPE_KEYS = ("delays", "neurons", "hidden", "amplitude_weighting", "passivity", "cycle_energy",
                "max_epochs")
