@@ -37,12 +37,12 @@ from sloshrom.rom.family import FillBlend
 from sloshrom.rom.fmu import (
     VR,
     FMUError,
-    _callbacks,
     check_fmu_exportable,
     export_fmu,
     load_fmu,
     model_data_source,
 )
+from sloshrom.rom.fmu_runtime import _callbacks
 
 # the validation record exceeds the short training record's input range by ~1 %: expected here
 pytestmark = pytest.mark.filterwarnings("ignore::sloshrom.models.EnvelopeWarning")

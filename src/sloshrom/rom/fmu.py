@@ -44,13 +44,13 @@ What is inside (:func:`export_fmu`):
     Compiled here with the machine's C compiler through CMake (FMPy's build project), unless a
     source-only FMU is asked for.
 
-:func:`load_fmu` reads such an FMU back as a sloshing model (:class:`FMUModel`) that steps the
-native code through FMPy: the coupled beam with it equals the coupled beam with the ROM itself.
+:func:`load_fmu` (:mod:`sloshrom.rom.fmu_runtime`, the runtime half; re-exported here) reads
+such an FMU back as a sloshing model (:class:`FMUModel`) that steps the native code through
+FMPy: the coupled beam with it equals the coupled beam with the ROM itself.
 """
 
 from __future__ import annotations
 
-import ctypes
 import hashlib
 import os
 import re
@@ -58,10 +58,7 @@ import shutil
 import subprocess
 import tempfile
 import uuid
-import warnings
-import weakref
 import zipfile
-import zlib
 from collections.abc import Callable, Sequence
 from importlib import resources
 from pathlib import Path
@@ -75,14 +72,12 @@ from sloshrom.fileio import atomic_write
 from sloshrom.io.units import same_unit
 from sloshrom.models import (
     INPUT_UNITS,
-    EnvelopeWarning,
-    ModelError,
     envelope_of,
     input_of,
-    model_input,
 )
 from sloshrom.rom.ensemble import is_ensemble
 from sloshrom.rom.errors import ROMError
+from sloshrom.rom.fmu_runtime import GENERATOR, FMUError, FMUModel, load_fmu
 from sloshrom.rom.network import FittedNetwork, network_of
 from sloshrom.rom.registry import CLASSES
 
@@ -94,7 +89,6 @@ __all__ = ["FMU_SOURCES", "STEP_RTOL", "VR", "FMUError", "FMUModel", "check_fmu_
 FMU_SOURCES = ("sloshrom_model.h", "sloshrom_kernels.c", "sloshrom_fmi2.c")
 _DATA_SOURCE = "sloshrom_model_data.c"
 _FMI_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
-_GENERATOR = "sloshrom"
 #: value references (sloshrom_fmi2.c)
 VR = {"velocity": 0, "acceleration": 1, "dynamic_force": 2, "outside_envelope": 3,
       "samples_outside_envelope": 4, "time_step": 10, "sample_rate": 11, "input_min": 12,
@@ -103,10 +97,6 @@ VR = {"velocity": 0, "acceleration": 1, "dynamic_force": 2, "outside_envelope": 
 #: relative tolerance of the FMU on its communication step (sloshrom_fmi2.c, STEP_RTOL)
 STEP_RTOL = 1e-6
 _NAMESPACE = uuid.UUID("5c1a3b5e-2f0d-4d0e-9a57-6f6d5e0a51f0")
-
-
-class FMUError(ROMError):
-    """An FMU that sloshrom cannot build or read back (the message says why)."""
 
 
 # -- what can be exported ------------------------------------------------------------------------
@@ -382,7 +372,7 @@ def model_description(model: Any, identifier: str, guid: str, sources: Sequence[
     return f"""<?xml version="1.0" encoding="UTF-8"?>
 <fmiModelDescription fmiVersion="2.0" modelName="{escape(identifier)}" guid="{guid}"
   description={quoteattr(_description(model, nets))}
-  generationTool="{_GENERATOR} {escape(__version__)}" variableNamingConvention="flat"
+  generationTool="{GENERATOR} {escape(__version__)}" variableNamingConvention="flat"
   numberOfEventIndicators="0">
   <CoSimulation modelIdentifier="{escape(identifier)}" needsExecutionTool="false"
     canHandleVariableCommunicationStepSize="false" canInterpolateInputs="false"
@@ -548,264 +538,3 @@ def export_fmu(model: Any, path: str | Path, *, binary: bool = True,
                 verify(Path(tmp_fmu))
 
         return atomic_write(p, write, suffix=".fmu")
-
-
-# -- reading an FMU back -------------------------------------------------------------------------
-def _read_checked(path: Path) -> tuple[Any, list[str]]:
-    """modelDescription of a sloshrom FMU and its platforms, or FMUError saying what is wrong."""
-    import fmpy
-
-    if not path.is_file():
-        raise FMUError(f"FMU not found: {path}")
-    if not zipfile.is_zipfile(path):
-        raise FMUError(f"{path} is not an FMU (not a zip archive: truncated or another file)")
-    try:
-        with zipfile.ZipFile(path) as zf:
-            bad = zf.testzip()
-            names = zf.namelist()
-    except (zipfile.BadZipFile, OSError, EOFError, zlib.error) as exc:
-        raise FMUError(f"{path} is a damaged FMU: {exc}") from exc
-    if bad is not None:
-        raise FMUError(f"{path} is a damaged FMU: {bad} fails its checksum")
-    if "modelDescription.xml" not in names:
-        raise FMUError(f"{path} is not an FMU: no modelDescription.xml")
-    try:
-        md = fmpy.read_model_description(str(path), validate=True)
-    except Exception as exc:  # FMPy raises plain Exceptions and its ValidationError
-        raise FMUError(f"{path}: modelDescription.xml is invalid: {exc}") from exc
-    if not str(md.generationTool or "").startswith(_GENERATOR + " ") or md.coSimulation is None:
-        raise FMUError(f"{path} was not written by sloshrom ({md.generationTool!r}): "
-                       "sloshrom reads back its own co-simulation FMUs only")
-    ident = md.coSimulation.modelIdentifier
-    platforms = sorted({n.split("/")[1] for n in names
-                        if n.startswith("binaries/") and n.count("/") == 2
-                        and Path(n).stem == ident})
-    return md, platforms
-
-
-def load_fmu(path: str | Path) -> FMUModel:
-    """Read an FMU written by :func:`export_fmu` back as a sloshing model (:class:`FMUModel`).
-
-    Unlike a model file, an FMU is code: this loads and runs its native binary. Load FMUs you
-    trust (your own exports); :func:`sloshrom.rom.load_model` reads data only and does not take
-    them.
-
-    Raises
-    ------
-    FMUError
-        Not a zip archive, a damaged archive (checksum), no or an invalid modelDescription.xml,
-        an FMU of another tool, no binary for this platform (says which platforms it has).
-    """
-    return FMUModel(path)
-
-
-class FMUModel:
-    """A sloshrom FMU run through FMPy, as a sloshing model (:mod:`sloshrom.models` contract).
-
-    It steps the FMU's native code one communication point per :meth:`step`: the coupled beam
-    runs it in its Python loop. The FMU's state lives in the FMU instance, not in the ``state``
-    argument: :meth:`init_state` resets the instance and returns the sample index, and each
-    :meth:`step` takes the index it is at (another index is a :class:`ModelError`: one run at a
-    time per instance).
-
-    Parameters
-    ----------
-    path : str or Path
-        An ``.fmu`` written by :func:`export_fmu` with a binary for this platform.
-
-    Attributes
-    ----------
-    dt : float
-        The model's (and the only communication) step, s.
-    fs_ : float
-        ``1/dt``, Hz.
-    input : {"velocity", "acceleration"}
-        The signal the FMU's model reads.
-    envelope_ : dict or None
-        ``input_min``/``input_max`` and the other read-only parameters it has.
-    names, units : tuple of str
-        ``(input, "dynamic_force")`` and their SI units.
-    """
-
-    force_rule = "trapezoid"
-
-    def __init__(self, path: str | Path) -> None:
-        import fmpy
-        from fmpy.fmi2 import FMU2Slave
-
-        self.path = Path(path)
-        md, platforms = _read_checked(self.path)
-        here = fmpy.platform
-        if here not in platforms:
-            has = ", ".join(platforms) if platforms else "none: a source-only FMU"
-            raise FMUError(f"{self.path} has no binary for this platform ({here}); it has "
-                           f"{has}. Build one from its sources (python -m fmpy compile "
-                           f"{self.path.name}) or export it on this machine")
-        self._md = md
-        self._vr = {v.name: v.valueReference for v in md.modelVariables}
-        needed = ("velocity", "acceleration", "dynamic_force", "time_step", "reads_acceleration")
-        if any(n not in self._vr for n in needed):
-            raise FMUError(f"{self.path}: not a sloshing model (no acceleration input or "
-                           "dynamic_force output)")
-        self._dir = fmpy.extract(str(self.path))
-        self._finalizer = weakref.finalize(self, shutil.rmtree, self._dir, True)
-        self._fmu = FMU2Slave(guid=md.guid, unzipDirectory=self._dir,
-                              modelIdentifier=md.coSimulation.modelIdentifier,
-                              instanceName="sloshrom")
-        self._messages: list[tuple[int, str]] = []
-        self._callbacks = _callbacks(self._messages)
-        try:
-            self._fmu.instantiate(callbacks=self._callbacks)
-        except Exception as exc:  # FMPy raises a plain Exception when instantiation fails
-            raise FMUError(f"{self.path}: the FMU's binary refused to instantiate "
-                           f"({self._last_error() or exc})") from exc
-        self._fmu_free = weakref.finalize(self, _free, self._fmu)
-        self._vel, self._acc, self._force = (self._vr["velocity"], self._vr["acceleration"],
-                                             self._vr["dynamic_force"])
-        self._fmu.setupExperiment(startTime=0.0)
-        self._fmu.enterInitializationMode()
-        self._fmu.exitInitializationMode()
-        values = {n: self._fmu.getReal([vr])[0] for n, vr in self._vr.items()
-                  if n in ("time_step", "input_min", "input_max", "acceleration_max",
-                           "frequency_min", "frequency_max", "fill_min", "fill_max")}
-        self.dt = float(values["time_step"])
-        self.fs_ = 1.0 / self.dt
-        reads_acc = self._fmu.getBoolean([self._vr["reads_acceleration"]])[0]
-        self.input = "acceleration" if reads_acc else "velocity"
-        self.names = (self.input, "dynamic_force")
-        self.units = (INPUT_UNITS[self.input], "N")
-        env: dict[str, Any] | None = None
-        if "input_min" in values:
-            env = {"input_min": values["input_min"], "input_max": values["input_max"]}
-            for k in ("acceleration_max", "fill_min", "fill_max"):
-                if k in values:
-                    env[k] = values[k]
-            if "frequency_min" in values:
-                env["frequency_band"] = [values["frequency_min"], values["frequency_max"]]
-        self.envelope_ = env
-        self._k = 0
-        self._run = 0
-
-    def close(self) -> None:
-        """Free the FMU instance and remove its extracted files (also done when collected)."""
-        self._fmu_free()
-        self._finalizer()
-
-    def init_state(self) -> tuple[int, int]:
-        """Reset the FMU to rest at time 0; the state is ``(run, sample index)``."""
-        f = self._fmu
-        f.reset()
-        f.setupExperiment(startTime=0.0)
-        f.enterInitializationMode()
-        f.exitInitializationMode()
-        self._run += 1
-        self._k = 0
-        return (self._run, 0)
-
-    def _last_error(self) -> str:
-        errors = [m for status, m in self._messages if status >= 3]
-        return errors[-1] if errors else ""
-
-    def _call(self, fn: Callable[..., Any], *args: Any) -> Any:
-        """An FMI call; a failing one raises ModelError with the FMU's own message, the FMU's
-        envelope warnings become :class:`~sloshrom.models.EnvelopeWarning`."""
-        from fmpy.fmi1 import FMICallException
-
-        self._messages.clear()
-        try:
-            out = fn(*args)
-        except FMICallException as exc:
-            raise ModelError(f"FMU {self.path.name}: {self._last_error() or exc}") from exc
-        finally:
-            for status, text in self._messages:
-                if status == 1:
-                    warnings.warn(f"FMU {self.path.name}: {text}", EnvelopeWarning,
-                                  stacklevel=4)
-        return out
-
-    def _advance(self) -> None:
-        self._call(self._fmu.doStep, self._k * self.dt, self.dt)
-        self._k += 1
-
-    def step(self, state: tuple[int, int], velocity: Any,
-             acceleration: Any = None) -> tuple[tuple[int, int], float]:
-        """One sample of the contract: ``(state, dynamic_force)`` at sample k.
-
-        A velocity model gets ``velocity`` v_k at the FMU's communication point t_k, gives the
-        force there and steps; a network on the acceleration gets ``acceleration`` a_{k-1} (as
-        the coupled beam passes it) at t_{k-1}, steps, and gives the force at t_k. Both equal
-        the model's own :meth:`step`.
-        """
-        if state != (self._run, self._k):
-            raise ModelError("this FMU instance has moved on since that state: an FMUModel runs "
-                             "one simulation at a time (call init_state to start another)")
-        f, call = self._fmu, self._call
-        if self.input == "acceleration":
-            call(f.setReal, [self._acc], [float(0.0 if acceleration is None else acceleration)])
-            self._advance()
-            force = call(f.getReal, [self._force])[0]
-        else:
-            call(f.setReal, [self._vel], [float(velocity)])
-            force = call(f.getReal, [self._force])[0]
-            self._advance()
-        return (self._run, self._k), float(force)
-
-    def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
-        """The force (N) for whole records sampled at ``1/dt`` (time on the last axis), from
-        rest: at each communication point t_k the tank's signals at t_k."""
-        u = np.asarray(model_input(self, velocity, acceleration), dtype=np.float64)
-        if not np.all(np.isfinite(u)):
-            raise ModelError(f"the tank {self.input} must be finite (no NaN or inf)")
-        flat = u.reshape(-1, u.shape[-1]) if u.ndim else u.reshape(1, 1)
-        out = np.empty_like(flat)
-        vr = self._acc if self.input == "acceleration" else self._vel
-        f, call = self._fmu, self._call
-        for r, row in enumerate(flat):
-            self.init_state()
-            for k, x in enumerate(row):
-                call(f.setReal, [vr], [float(x)])
-                out[r, k] = call(f.getReal, [self._force])[0]
-                self._advance()
-        return out.reshape(u.shape)
-
-    def predict(self, u: Any) -> np.ndarray:
-        """The force (N) for a record of the signal the model reads (``input``), from rest."""
-        return self.simulate(u, u)
-
-    def outside_envelope(self) -> tuple[bool, int]:
-        """``(outside_envelope, samples_outside_envelope)`` at the current communication
-        point."""
-        f = self._fmu
-        return (bool(f.getBoolean([self._vr["outside_envelope"]])[0]),
-                int(f.getInteger([self._vr["samples_outside_envelope"]])[0]))
-
-
-def _callbacks(messages: list[tuple[int, str]]) -> Any:
-    """FMI 2.0 callbacks whose logger appends ``(status, message)`` to ``messages``."""
-    from fmpy import calloc, free
-    from fmpy.fmi2 import (
-        fmi2CallbackAllocateMemoryTYPE,
-        fmi2CallbackFreeMemoryTYPE,
-        fmi2CallbackFunctions,
-        fmi2CallbackLoggerTYPE,
-    )
-    from fmpy.logging import addLoggerProxy
-
-    def log(env: Any, name: bytes, status: int, category: bytes, message: bytes) -> None:
-        messages.append((int(status), message.decode("utf-8", "replace")))
-
-    cb = fmi2CallbackFunctions()
-    cb.logger = fmi2CallbackLoggerTYPE(log)
-    cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-    cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-    # the proxy formats the variadic message in C (ctypes cannot) and calls `log`
-    addLoggerProxy(ctypes.byref(cb))
-    return cb
-
-
-def _free(fmu: Any) -> None:
-    try:
-        fmu.terminate()
-    except Exception:  # noqa: BLE001 - an FMU in an error state may refuse; free it anyway
-        pass
-    fmu.freeInstance()
