@@ -206,7 +206,7 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
                "white where they agree."),
     ))
     secs.extend(_beam_sections(ctx, st["beam"]))
-    # the studies that ran, in the registry's order (their sections number themselves)
+    # the studies that ran, in the registry's order, after the beam's sections
     secs.extend(study.section(ctx, st[study.name]) for study in registry.registered()
                 if study.name in st)
     t = summary.get("timings_s", {})
