@@ -13,7 +13,7 @@ import xarray as xr
 
 from helpers import check_cli, runner
 from sloshrom.beam.coupled import free_response, random_response
-from sloshrom.beam.measured import lab_test_paths, write_lab_test
+from sloshrom.beam.labfiles import lab_test_paths, write_lab_test
 from sloshrom.beam.results import damping_band_table, mode1_damping_table, mode1_decay
 from sloshrom.beam.structure import CantileverBeam, ModalModel, coupled_frozen_modes
 from sloshrom.cli import app

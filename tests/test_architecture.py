@@ -14,9 +14,10 @@ cli        ``cli``: the command line
 
 Imports point one way, ``cli -> pipeline -> plotting / domain rooms -> base``; :data:`ALLOWED`
 is the table of the rooms each room may import. ``pipeline`` and ``studies`` import each other
-at two seams only (:data:`RUNS_STUDIES`, :data:`FOR_STUDIES`). Below the rooms, only the
-capability checks (:data:`CAPABILITIES`) ask a model what kind of model it is, and no module
-raises a plain ``ValueError``. See ``docs/architecture.md``.
+at two seams only: the pipeline imports the registry ``sloshrom.studies`` and no study's module
+(:data:`RUNS_STUDIES`), a study imports the pipeline's infrastructure (:data:`FOR_STUDIES`).
+Below the rooms, only the capability checks (:data:`CAPABILITIES`) ask a model what kind of
+model it is, and no module raises a plain ``ValueError``. See ``docs/architecture.md``.
 """
 
 from __future__ import annotations
@@ -52,15 +53,19 @@ ALLOWED: dict[str, set[str]] = {
     "cli": {"base", *DOMAIN, "plotting", "pipeline"},
 }
 
-#: The pipeline modules that import the studies: the chain runs them, the report shows them.
+#: The registry of the studies (``STUDIES``, ``registered()``): the one module of the studies'
+#: room the pipeline imports.
+REGISTRY = "sloshrom.studies"
+#: The pipeline modules that import the registry: the chain runs the studies, the report shows
+#: them. Neither imports a study by name (``sloshrom.studies.<name>``).
 RUNS_STUDIES = {"sloshrom.pipeline.chain", "sloshrom.pipeline.report"}
 #: The pipeline modules a study may import: the infrastructure (settings, cache, run context,
-#: HTML, the experiment's report tables) and the paper's stage modules whose helpers a study
-#: reuses (records, ROM errors, beam tests, maps); never the chain or the report, which import
-#: the studies.
+#: HTML, the experiment's report tables, the study protocol) and the paper's stage modules whose
+#: helpers a study reuses (records, ROM errors, beam tests, maps); never the chain or the
+#: report, which import the registry.
 FOR_STUDIES = {f"sloshrom.pipeline.{m}" for m in
-               ("settings", "cache", "context", "html", "experiment", "data", "rom", "beam",
-                "maps")}
+               ("settings", "cache", "context", "html", "experiment", "study", "data", "rom",
+                "beam", "maps")}
 
 #: Calls that change process-wide state of a library the user's process shares with us.
 FORBIDDEN_CALLS = {
@@ -214,14 +219,68 @@ def test_imports_point_one_way():
     assert not bad, "imports against the direction of the rooms:\n" + "\n".join(bad)
 
 
+def _crosses_seam(module: str, target: str) -> bool:
+    """Whether ``module`` importing ``target`` breaks the pipeline/studies seam: the pipeline
+    imports the registry only, and only from :data:`RUNS_STUDIES`; a study imports only
+    :data:`FOR_STUDIES` of the pipeline."""
+    if room(module) == "pipeline" and room(target) == "studies":
+        return module not in RUNS_STUDIES or target != REGISTRY
+    return room(module) == "studies" and room(target) == "pipeline" \
+        and target not in FOR_STUDIES
+
+
+def test_the_seam_rule_refuses_what_it_should():
+    chain, report = "sloshrom.pipeline.chain", "sloshrom.pipeline.report"
+    assert not _crosses_seam(chain, REGISTRY) and not _crosses_seam(report, REGISTRY)
+    for study in _study_packages():  # a study by name, even from the chain
+        assert _crosses_seam(chain, f"{study}.stage") and _crosses_seam(report, study)
+    assert _crosses_seam("sloshrom.pipeline.maps", REGISTRY)
+    assert _crosses_seam(f"{REGISTRY}.fills.stage", chain)
+    assert not _crosses_seam(f"{REGISTRY}.fills.stage", "sloshrom.pipeline.study")
+
+
 def test_pipeline_and_studies_meet_at_two_seams():
-    """Only the chain and the report import a study; a study imports only the pipeline's
-    infrastructure and the paper's stage helpers (so no study depends on the chain)."""
+    """The pipeline imports the studies' registry (the chain and the report only) and never a
+    ``sloshrom.studies.<name>`` module; a study imports only the pipeline's infrastructure and
+    the paper's stage helpers (so no study depends on the chain)."""
     bad = [_where(m, i) for m, v in PARSED.items() for i in v.imports
-           if (room(m) == "pipeline" and room(i.target) == "studies" and m not in RUNS_STUDIES)
-           or (room(m) == "studies" and room(i.target) == "pipeline"
-               and i.target not in FOR_STUDIES)]
+           if _crosses_seam(m, i.target)]
     assert not bad, "imports across the pipeline/studies seam:\n" + "\n".join(bad)
+    # the chain and the report do reach the studies, through the registry
+    for m in RUNS_STUDIES:
+        assert REGISTRY in {i.target for i in PARSED[m].imports}, m
+
+
+def _study_packages() -> list[str]:
+    """The packages directly under ``sloshrom.studies``: one per study."""
+    return sorted(m for m in MODULES if m.startswith(f"{REGISTRY}.")
+                  and m.count(".") == 2 and MODULES[m].name == "__init__.py")
+
+
+def _registry_entries() -> list[str]:
+    """The module paths of ``STUDIES`` in the registry, read from its source."""
+    tree = ast.parse(MODULES[REGISTRY].read_text(encoding="utf-8"))
+    for node in tree.body:
+        target = node.target if isinstance(node, ast.AnnAssign) else (
+            node.targets[0] if isinstance(node, ast.Assign) else None)
+        if isinstance(target, ast.Name) and target.id == "STUDIES":
+            return list(ast.literal_eval(node.value))
+    raise AssertionError(f"{REGISTRY} has no STUDIES")
+
+
+def test_every_study_is_registered_once_with_its_declaration():
+    """Each study package is one line of the registry, naming its ``study`` module, which
+    assigns ``STUDY`` (a study that is not registered would never run)."""
+    entries = _registry_entries()
+    packages = _study_packages()
+    assert len(packages) >= 3
+    assert sorted(entries) == sorted(f"{p}.study" for p in packages)
+    assert len(set(entries)) == len(entries)
+    for entry in entries:
+        tree = ast.parse(MODULES[entry].read_text(encoding="utf-8"))
+        assigned = {t.id for n in tree.body if isinstance(n, ast.Assign) for t in n.targets
+                    if isinstance(t, ast.Name)}
+        assert "STUDY" in assigned, f"{entry} does not assign STUDY"
 
 
 def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:

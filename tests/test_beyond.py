@@ -10,7 +10,11 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from sloshrom import studies
 from sloshrom.pipeline import run, settings
+from sloshrom.pipeline.chain import RESULT_ENTRIES
+from sloshrom.pipeline.html import Section
+from sloshrom.pipeline.study import Study
 from sloshrom.rom.errors import FillRangeError
 from sloshrom.rom.estimators import load_model
 from sloshrom.rom.family import FillFamily, training_fills
@@ -86,3 +90,54 @@ def test_rerun_reuses_the_members(beyond_run, tiny_reproduce):
     out, _ = beyond_run
     again = run(out, tiny_config(tiny_reproduce["config"]))
     assert again["stages"]["fills"]["reused"] and again["stages"]["baseline"]["reused"]
+
+
+# -- the registry ----------------------------------------------------------------------------------
+def test_the_registry_declares_the_three_studies():
+    reg = studies.registered()
+    assert [s.name for s in reg] == ["baseline", "fills", "multimode"]  # the report's order
+    assert {d for s in reg for d in s.directories} == {"fills/", "multimode/"}
+    assert set(RESULT_ENTRIES) >= {"fills/", "multimode/"}
+    off = settings.load()
+    assert not any(s.enabled(off) for s in reg)  # [beyond] is off by default
+    on = off.replace(beyond={"enabled": True, "baseline": False})
+    assert [s.name for s in reg if s.enabled(on)] == ["fills", "multimode"]
+
+
+@pytest.mark.parametrize("bad", [{"name": "beam"}, {"after": ("sweep",)},
+                                 {"directories": ("toy",)}])
+def test_a_study_declaration_is_checked(bad):
+    kw = {"name": "toy", "enabled": bool, "cache_config": dict, "after": (),
+          "run": lambda ctx, up, identify: ({}, []), "section": lambda ctx, o: None}
+    with pytest.raises(TypeError):
+        Study(**{**kw, **bad})
+
+
+def test_a_fourth_study_runs_from_its_declaration_alone(tmp_path, tiny_reproduce, monkeypatch):
+    """A study the pipeline has never heard of: registered, it runs as a cached stage after the
+    paper's (their results at hand), its section is in the report, a rerun reuses it."""
+    seen = {}
+
+    def toy_run(ctx, upstream, identify):
+        seen["upstream"] = sorted(upstream)
+        path = ctx.path("toy", "note.txt")
+        path.write_text(upstream["rom"].outputs["model"])
+        return {"model": upstream["rom"].outputs["model"]}, [ctx.rel(path)]
+
+    toy = Study(name="toy", enabled=lambda cfg: True, cache_config=lambda cfg: {"n": 1},
+                after=("rom", "beam"), run=toy_run,
+                section=lambda ctx, o: Section("Toy study", f"<p>toy of {o['model']}</p>"),
+                directories=("toy/",))
+    real = studies.registered()
+    monkeypatch.setattr(studies, "registered", lambda: (*real, toy))
+    out = tmp_path / "results"
+    shutil.copytree(tiny_reproduce["out"], out)
+    cfg = settings.load(tiny_reproduce["config"])
+    summary = run(out, cfg)
+    assert seen["upstream"] == ["beam", "rom"]
+    assert summary["stages"]["toy"]["model"] == summary["stages"]["rom"]["model"]
+    assert not summary["stages"]["toy"]["reused"] and "toy" in summary["timings_s"]
+    assert (out / "toy" / "note.txt").read_text() == summary["stages"]["rom"]["model"]
+    assert "Toy study" in (out / "report.html").read_text()
+    again = run(out, cfg)
+    assert again["stages"]["toy"]["reused"]

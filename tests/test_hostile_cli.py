@@ -102,7 +102,7 @@ def _lab(tmp: Path) -> None:
     import tomli_w
 
     from sloshrom.beam.coupled import free_response
-    from sloshrom.beam.measured import write_lab_test
+    from sloshrom.beam.labfiles import write_lab_test
     from sloshrom.beam.results import to_dataset
     from sloshrom.beam.structure import CantileverBeam, ModalModel, coupled_frozen_modes
     from sloshrom.config import Tank

@@ -1,6 +1,6 @@
-"""Measured beam tests (``sloshrom.beam.measured``): the virtual rig plays the laboratory and the
-analyses of its files equal those of the simulation in memory; every bad input is one clear
-error.
+"""Measured beam tests (``sloshrom.beam.measured``, ``channels``, ``labfiles``): the virtual rig
+plays the laboratory and the analyses of its files equal those of the simulation in memory;
+every bad input is one clear error.
 
 Round trips go through UFF 58 written in ASCII (12 significant digits: the signals agree to
 about 1e-12 relative), and from there through CSV (17 digits), NetCDF and MATLAB (doubles). The
@@ -17,21 +17,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from sloshrom.beam import channels, labfiles, measured
 from sloshrom.beam.analysis import AnalysisError
+from sloshrom.beam.channels import ChannelMap, ChannelMapError, station_model
 from sloshrom.beam.coupled import free_response, random_response
+from sloshrom.beam.labfiles import lab_test_paths, write_lab_test
 from sloshrom.beam.measured import (
     DECAY_RATIO,
     LINE_FRACTION,
-    ChannelMap,
-    ChannelMapError,
     TruncatedRecordWarning,
     check_free_decay,
     check_random_base,
-    lab_test_paths,
     read_free_test,
     read_random_test,
-    station_model,
-    write_lab_test,
 )
 from sloshrom.beam.results import (
     BANDS,
@@ -107,6 +105,16 @@ def _same_rows(a, b):
                 continue
             np.testing.assert_allclose(rb[k], v, rtol=1e-6, atol=1e-9, equal_nan=True,
                                        err_msg=k)
+
+
+def test_the_split_names_stay_importable_from_measured():
+    """``sloshrom.beam.measured`` held the map and the writer before they had modules of their
+    own: what users import from there is still there, and the same objects."""
+    moved = {"ChannelMap": channels, "ChannelMapError": channels, "station_model": channels,
+             "lab_test_paths": labfiles, "write_lab_test": labfiles}
+    for name, home in moved.items():
+        assert name in measured.__all__
+        assert getattr(measured, name) is getattr(home, name), name
 
 
 # -- round trips ---------------------------------------------------------------------------------

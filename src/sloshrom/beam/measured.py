@@ -1,18 +1,18 @@
 """Measured beam tests: a laboratory's free decays and random base-excitation runs, read into
-the result dicts the beam analyses take, and the reverse (a simulation written as a lab's files).
+the result dicts the beam analyses take.
 
-* :class:`ChannelMap` - which channel of the files is which accelerometer (a small TOML file,
-  ``[channels]``: ``stations`` with their ``positions`` on the built-in cantilever or ``ids`` on
-  the user's structure, ``base``, ``tank``).
 * :func:`read_free_test`, :func:`read_random_test` - UFF 58, CSV, NetCDF or MATLAB files
   (:func:`sloshrom.io.read_record`) checked (channels present, accelerations, one sample rate,
   finite) and converted to SI, as the dict of ``sloshrom.beam.coupled.free_response`` /
-  ``random_response`` holds the signals the analyses read.
-* :func:`station_model` - the modal model seen by the map's stations (modal filtering).
+  ``random_response`` holds the signals the analyses read; which channel is which
+  accelerometer is a :class:`~sloshrom.beam.channels.ChannelMap`.
 * :func:`check_free_decay`, :func:`check_random_base` - properties of the data the analyses
   need: a free decay that decays, a random test whose base is random.
-* :func:`write_lab_test`, :func:`lab_test_paths` - the virtual rig plays the laboratory: a
-  simulated response as UFF 58 time histories with sensor noise, and the map that reads them.
+
+The channel map (:mod:`sloshrom.beam.channels`: :class:`ChannelMap`, :func:`station_model`) and
+the writer of a simulation as a lab's files (:mod:`sloshrom.beam.labfiles`:
+:func:`write_lab_test`, :func:`lab_test_paths`) are re-exported here, where they were first
+defined.
 
 Pure functions on arrays and files (no command-line concerns); a bad map is a
 :class:`ChannelMapError`, a bad file a :class:`~sloshrom.io.record.RecordError`, data the analyses
@@ -21,12 +21,9 @@ cannot use an :class:`~sloshrom.beam.analysis.AnalysisError`.
 
 from __future__ import annotations
 
-import dataclasses
-import math
 import re
 import warnings
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -34,21 +31,13 @@ import numpy as np
 from scipy import signal
 
 from sloshrom.beam.analysis import AnalysisError
+from sloshrom.beam.channels import ChannelMap, ChannelMapError, station_model
 from sloshrom.beam.errors import BeamError
-from sloshrom.beam.export import BASE_NODE, FIRST_TANK_NODE
-from sloshrom.beam.structure import CantileverBeam, ModalModel
-from sloshrom.config import ConfigError, G, load_toml_table
-from sloshrom.fileio import OutputBatch, atomic_write
+from sloshrom.beam.labfiles import lab_test_paths, write_lab_test
+from sloshrom.beam.structure import ModalModel
+from sloshrom.config import G
 from sloshrom.io.read import read_record
 from sloshrom.io.record import Record, RecordError
-from sloshrom.io.uff import (
-    DIR_PLUS_Z,
-    SPEC_ACCELERATION,
-    SPEC_TIME,
-    dataset58,
-    dataset164_si,
-    write_uff_sets,
-)
 from sloshrom.io.units import canonical_unit
 
 __all__ = [
@@ -66,180 +55,11 @@ DECAY_RATIO = 0.7
 LINE_FRACTION = 0.5
 LINE_BINS = 10
 
-_KEYS = ("stations", "positions", "ids", "base", "tank")
 _NODE_DIR = re.compile(r"^\s*(\d+)\s*:\s*([+-]?)\s*([XYZxyz]|R[XYZxyz])\s*$")
-
-
-class ChannelMapError(ConfigError, BeamError):
-    """A channel map is invalid (unknown or missing keys, duplicates, wrong types)."""
 
 
 class TruncatedRecordWarning(UserWarning):
     """The files of one test had different lengths; all were cut to the shortest."""
-
-
-@dataclass(frozen=True)
-class ChannelMap:
-    """Which channel of a test's files is which accelerometer.
-
-    Parameters
-    ----------
-    stations : tuple of str
-        Channel names of the beam accelerometers, in order (the label the file gives: UFF ID
-        line 1, CSV column, NetCDF/MAT variable; for UFF also ``node:dir``, e.g. ``"101:+Z"``).
-    positions : tuple of float, optional
-        Their positions along the built-in cantilever, m (from the root).
-    ids : tuple of int, optional
-        Their grid/node IDs on the user's structure (``--structure``, ``--modal-toml``).
-        Exactly one of ``positions`` and ``ids``.
-    base : str, optional
-        Channel of the base (shaker table) acceleration: required for random tests; a free
-        decay without it has a base at rest.
-    tank : str, optional
-        Channel of the tank acceleration (the amplitude axis of the damping analyses);
-        default: the station at the tank (position = beam length, or the tank's grid ID).
-    """
-
-    stations: tuple[str, ...]
-    positions: tuple[float, ...] | None = None
-    ids: tuple[int, ...] | None = None
-    base: str | None = None
-    tank: str | None = None
-
-    def __post_init__(self) -> None:
-        st = self.stations
-        if isinstance(st, str) or not isinstance(st, Sequence) or not st:
-            raise ChannelMapError(f"channels.stations must be a non-empty list of channel "
-                                  f"names, got {st!r}")
-        st = tuple(st)
-        for s in st:
-            if not isinstance(s, str) or not s.strip():
-                raise ChannelMapError(f"channels.stations: {s!r} is not a channel name")
-        dup = [s for s in st if st.count(s) > 1]
-        if dup:
-            raise ChannelMapError(f"channels.stations: {dup[0]!r} is given twice")
-        object.__setattr__(self, "stations", st)
-        if (self.positions is None) == (self.ids is None):
-            raise ChannelMapError("channels: give exactly one of 'positions' (m, the built-in "
-                                  "cantilever) and 'ids' (grid IDs on --structure)")
-        if self.positions is not None:
-            pos = _list(self.positions, "positions", len(st))
-            try:
-                x = tuple(float(v) for v in pos)
-            except (TypeError, ValueError):
-                raise ChannelMapError(f"channels.positions must be numbers (m), got "
-                                      f"{list(pos)!r}") from None
-            if any(isinstance(v, bool) for v in pos) or not all(
-                    math.isfinite(v) and v >= 0 for v in x):
-                raise ChannelMapError(f"channels.positions must be finite and >= 0 m, got "
-                                      f"{list(pos)!r}")
-            if len(set(x)) != len(x):
-                raise ChannelMapError(f"channels.positions: {next(v for v in x if x.count(v) > 1)}"
-                                      " m is given twice")
-            object.__setattr__(self, "positions", x)
-        else:
-            ids = _list(self.ids, "ids", len(st))
-            if not all(isinstance(v, int | np.integer) and not isinstance(v, bool) and v > 0
-                       for v in ids):
-                raise ChannelMapError(f"channels.ids must be positive integer grid IDs, got "
-                                      f"{list(ids)!r}")
-            ids = tuple(int(v) for v in ids)
-            if len(set(ids)) != len(ids):
-                raise ChannelMapError(f"channels.ids: {next(v for v in ids if ids.count(v) > 1)}"
-                                      " is given twice")
-            object.__setattr__(self, "ids", ids)
-        for key in ("base", "tank"):
-            v = getattr(self, key)
-            if v is not None and (not isinstance(v, str) or not v.strip()):
-                raise ChannelMapError(f"channels.{key} must be a channel name, got {v!r}")
-        if self.base is not None and self.base in st:
-            raise ChannelMapError(f"channels.base {self.base!r} is also a station: the base "
-                                  "is the shaker table, not a point of the beam")
-        if self.base is not None and self.base == self.tank:
-            raise ChannelMapError(f"channels.base and channels.tank are both {self.base!r}")
-
-    # -- files ------------------------------------------------------------------------------
-    @classmethod
-    def from_dict(cls, data: Mapping[str, Any], where: str = "channels") -> ChannelMap:
-        """From the ``[channels]`` table (keys ``stations``, ``positions`` or ``ids``,
-        ``base``, ``tank``); unknown or missing keys are errors naming them."""
-        if not isinstance(data, Mapping):
-            raise ChannelMapError(f"{where}: [channels] must be a table")
-        unknown = [k for k in data if k not in _KEYS]
-        if unknown:
-            raise ChannelMapError(f"{where}: unknown key(s) {', '.join(map(repr, unknown))} in "
-                                  f"[channels] (known: {', '.join(_KEYS)})")
-        if "stations" not in data:
-            raise ChannelMapError(f"{where}: [channels] has no 'stations' (the channel names "
-                                  "of the beam accelerometers)")
-        try:
-            return cls(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in data.items()})
-        except ChannelMapError as exc:
-            raise ChannelMapError(f"{where}: {exc}") from None
-
-    @classmethod
-    def from_toml(cls, path: str | Path) -> ChannelMap:
-        """Read the ``[channels]`` table of a TOML file (see the module docstring)."""
-        try:
-            table = load_toml_table(path, "channels", ChannelMapError)
-        except ChannelMapError:
-            raise
-        except ConfigError as exc:
-            raise ChannelMapError(str(exc)) from None
-        return cls.from_dict(table, str(path))
-
-    def to_toml(self) -> str:
-        """The map as TOML text (``[channels]`` table) that :meth:`from_toml` reads back."""
-        import tomli_w
-
-        d: dict[str, Any] = {}
-        for key in ("base", "tank"):
-            if getattr(self, key) is not None:
-                d[key] = getattr(self, key)
-        d["stations"] = list(self.stations)
-        if self.positions is not None:
-            d["positions"] = list(self.positions)
-        else:
-            d["ids"] = list(self.ids or ())
-        return tomli_w.dumps({"channels": d})
-
-    def write_toml(self, path: str | Path, batch: OutputBatch | None = None) -> Path:
-        """Write :meth:`to_toml` to ``path``, atomically or into ``batch``."""
-        text = self.to_toml()
-
-        def write(tmp: str) -> None:
-            Path(tmp).write_text(text, encoding="utf-8")
-
-        return (batch.write if batch is not None else atomic_write)(Path(path), write)
-
-    # -- the tank ---------------------------------------------------------------------------
-    def tank_channel(self, modal: ModalModel) -> str:
-        """The channel of the tank acceleration: ``tank``, or the station at the tank (the
-        beam's tip, or the first tank's grid ID); a :class:`ChannelMapError` if neither."""
-        if self.tank is not None:
-            return self.tank
-        if self.positions is not None and modal.length is not None:
-            at = [s for s, x in zip(self.stations, self.positions, strict=True)
-                  if abs(x - modal.length) <= 1e-6 * max(modal.length, 1.0)]
-            if at:
-                return at[0]
-            raise ChannelMapError(f"channels: no station at the tank (x = {modal.length:g} m) "
-                                  "and no 'tank' channel: name the tank's channel")
-        if self.ids is not None and modal.tank_ids is not None:
-            if modal.tank_ids[0] in self.ids:
-                return self.stations[self.ids.index(modal.tank_ids[0])]
-            raise ChannelMapError(f"channels: no station at the tank (grid {modal.tank_ids[0]})"
-                                  " and no 'tank' channel: name the tank's channel")
-        raise ChannelMapError("channels: name the tank's channel ('tank'): the structure does "
-                              "not say where its tank is")
-
-
-def _list(value: Any, key: str, n: int) -> tuple:
-    if isinstance(value, str) or not isinstance(value, Sequence):
-        raise ChannelMapError(f"channels.{key} must be a list, got {value!r}")
-    if len(value) != n:
-        raise ChannelMapError(f"channels.{key} has {len(value)} value(s) for {n} station(s)")
-    return tuple(value)
 
 
 # -- reading -------------------------------------------------------------------------------------
@@ -430,51 +250,6 @@ def read_random_test(paths: str | Path | Sequence[str | Path], channels: Channel
     return out
 
 
-# -- the structure seen by the stations ----------------------------------------------------------
-def station_model(modal: ModalModel, channels: ChannelMap,
-                  beam: CantileverBeam | None = None) -> ModalModel:
-    """``modal`` with the map's stations: mode shapes at its ``positions`` on ``beam`` (the
-    built-in cantilever), or the rows of ``modal``'s output points with its ``ids`` (or, without
-    a beam, its stations at ``positions``), in the map's order.
-
-    Raises
-    ------
-    ChannelMapError
-        Positions without a beam and not among ``modal``'s stations, IDs not among its output
-        points, or positions for a structure that has only IDs (and the reverse).
-    """
-    if channels.positions is not None:
-        x = np.asarray(channels.positions)
-        if beam is not None:
-            off = x[(x < 0) | (x > beam.length)]
-            if off.size:
-                raise ChannelMapError(f"channels.positions {off.tolist()} m lie off the beam "
-                                      f"[0, {beam.length:g}] m")
-            return dataclasses.replace(modal, stations=x,
-                                       psi_stations=beam.mode_shapes(x, modal.n_modes),
-                                       station_ids=None)
-        rows = []
-        for v in x:
-            hit = np.flatnonzero(np.abs(modal.stations - v) <= 1e-6)
-            if hit.size == 0:
-                raise ChannelMapError(f"channels.positions: no station of the structure at "
-                                      f"{v:g} m (its stations: {modal.stations.tolist()} m)")
-            rows.append(int(hit[0]))
-    else:
-        ids = modal.station_ids
-        if ids is None:
-            raise ChannelMapError("channels.ids: the structure has no output point IDs; give "
-                                  "'positions' (m)")
-        missing = [i for i in channels.ids or () if i not in ids]
-        if missing:
-            raise ChannelMapError(f"channels.ids {missing} are not output points of the "
-                                  f"structure (its IDs: {list(ids)[:20]})")
-        rows = [ids.index(i) for i in channels.ids or ()]
-    return dataclasses.replace(
-        modal, stations=modal.stations[rows], psi_stations=modal.psi_stations[rows],
-        station_ids=None if modal.station_ids is None else tuple(modal.station_ids[r]
-                                                                 for r in rows))
-
 
 # -- properties of the data ----------------------------------------------------------------------
 def check_free_decay(res: Mapping[str, Any], f1: float) -> float:
@@ -546,106 +321,3 @@ def check_random_base(base: np.ndarray, fs: float, level: str = "") -> float:
             f"spectral lines (at most {100 * LINE_FRACTION:g} % for a random excitation; a "
             "sine?)")
     return frac
-
-
-# -- the virtual rig plays the laboratory --------------------------------------------------------
-def lab_test_paths(path: str | Path, kind: str, levels: Sequence[float] | None = None
-                   ) -> list[Path]:
-    """The files :func:`write_lab_test` writes: ``path`` for a free decay; for a random test
-    one per level, ``<stem>_<level>g<suffix>`` (``random_0.1g.uff``)."""
-    p = Path(path)
-    if kind == "free":
-        return [p]
-    if kind != "random" or levels is None:
-        raise BeamError(f"kind={kind!r}: 'free', or 'random' with its levels")
-    return [p.with_name(f"{p.stem}_{lv:g}g{p.suffix or '.uff'}") for lv in levels]
-
-
-def write_lab_test(res: Mapping[str, Any], modal: ModalModel, path: str | Path, *, kind: str,
-                   noise_rms: float = 0.0, seed: int = 0,
-                   levels: Sequence[float] | None = None,
-                   batch: OutputBatch | None = None) -> ChannelMap:
-    """Write a simulated free or random response as a test lab hands it over.
-
-    UFF 58 time responses (dataset 164, SI; ASCII, 12 significant digits): the station
-    accelerations, labelled ``Acc 1``, ``Acc 2``, ... at the nodes of
-    :mod:`sloshrom.beam.export` (station ID, else ``k + 1``), the base (``Base Z``, node 1000)
-    for a random test, and the tank (``Tank Z``) when no station is at it; each with white
-    sensor noise. One file per random level (:func:`lab_test_paths`).
-
-    Parameters
-    ----------
-    res : mapping
-        A free or random response (``sloshrom.beam.coupled``), seen through its reference tank
-        (``sloshrom.beam.results.reference_tank``) if it has several.
-    modal : ModalModel
-        The structure it ran on (station positions or IDs).
-    path : str or Path
-        The ``.uff`` file (free), or the name the level files derive from (random).
-    kind : str
-        ``"free"`` or ``"random"``.
-    noise_rms : float
-        RMS of the white sensor noise, m/s^2 (0: none).
-    seed : int
-        Seed of the noise.
-    levels : sequence of float, optional
-        RMS levels (g) of a random response; default: ``res["rms_levels_g"]``.
-    batch : OutputBatch, optional
-        Write into this batch instead of atomically file by file.
-
-    Returns
-    -------
-    ChannelMap
-        The map that reads the files back (:meth:`ChannelMap.write_toml` writes it).
-    """
-    if kind not in ("free", "random"):
-        raise BeamError(f"kind={kind!r}: expected 'free' or 'random'")
-    if not (math.isfinite(noise_rms) and noise_rms >= 0):
-        raise BeamError(f"noise_rms={noise_rms!r}: must be >= 0 m/s^2")
-    random = kind == "random"
-    lv = list(levels if levels is not None else res.get("rms_levels_g", [])) if random else []
-    base = np.asarray(res["base_acceleration"], dtype=float)
-    st = np.asarray(res["station_acceleration"], dtype=float)
-    tank = np.asarray(res["tank_acceleration"], dtype=float)
-    if tank.ndim > base.ndim:  # several tanks: the reference (first) tank
-        tank = tank[..., 0]
-    if random != (base.ndim == 2) or (random and len(lv) != base.shape[0]):
-        raise BeamError(f"a {kind} response needs {'one level per row' if random else 'no '}"
-                        f"level axis: base_acceleration has shape {base.shape}")
-    labels = [f"Acc {k + 1}" for k in range(st.shape[-1])]
-    nodes = list(modal.station_ids or range(1, st.shape[-1] + 1))
-    if modal.station_ids is not None:
-        cmap = ChannelMap(stations=tuple(labels), ids=tuple(modal.station_ids),
-                          base="Base Z" if random else None)
-    else:
-        cmap = ChannelMap(stations=tuple(labels),
-                          positions=tuple(float(f"{x:.12g}") for x in modal.stations),
-                          base="Base Z" if random else None)
-    try:
-        cmap.tank_channel(modal)
-        extra = []
-    except ChannelMapError:  # no station at the tank: the tank has its own channel
-        tid = modal.tank_ids[0] if modal.tank_ids else FIRST_TANK_NODE
-        cmap = dataclasses.replace(cmap, tank="Tank Z")
-        extra = [("Tank Z", "tank", tid, tank)]
-    fs = float(res["fs"])
-    t0 = float(np.asarray(res["time"])[0])
-    rng = np.random.default_rng(seed)
-    paths = lab_test_paths(path, kind, lv)
-    for i, p in enumerate(paths):
-        chans = [(lab, "beam", node, st[i, :, k] if random else st[:, k])
-                 for k, (lab, node) in enumerate(zip(labels, nodes, strict=True))]
-        chans += [(lab, ent, node, v[i] if random else v) for lab, ent, node, v in extra]
-        if random:
-            chans.insert(0, ("Base Z", "beam", BASE_NODE, base[i]))
-        run = f"sloshrom virtual lab: {kind} test" + (f", {lv[i]:g} g RMS" if random else "")
-        sets = [dataset164_si()]
-        for j, (lab, ent, node, v) in enumerate(chans):
-            noisy = v + noise_rms * rng.standard_normal(v.size) if noise_rms > 0 else v
-            sets.append(dataset58(
-                noisy, t0, 1.0 / fs, id1=lab, id2=run, id3=f"noise {noise_rms:g} m/s^2 RMS",
-                id4=f"fs {fs:g} Hz", func_type=1, func_id=j + 1, load_case_id=i + 1 if random
-                else 0, rsp=(ent, int(node), DIR_PLUS_Z), abscissa=(SPEC_TIME, "Time", "s"),
-                ordinate=(SPEC_ACCELERATION, "Acceleration", "m/s^2")))
-        write_uff_sets(sets, p, batch=batch)
-    return cmap

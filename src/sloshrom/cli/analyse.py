@@ -90,7 +90,7 @@ def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml:
              modes: int | None, mass_unit: str | None, f1: float | None) -> tuple:
     """Options, channel map and structure, checked before any file is read: (map, setup,
     station model, f1)."""
-    from sloshrom.beam.measured import ChannelMap, station_model
+    from sloshrom.beam.channels import ChannelMap, station_model
 
     if not files:
         fail("give the test's file(s)")

@@ -14,16 +14,15 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from sloshrom.beam.channels import station_model
 from sloshrom.beam.compare import analysed_test, compare_rows
 from sloshrom.beam.coupled import free_response, random_response
+from sloshrom.beam.labfiles import lab_test_paths, write_lab_test
 from sloshrom.beam.measured import (
     check_free_decay,
     check_random_base,
-    lab_test_paths,
     read_free_test,
     read_random_test,
-    station_model,
-    write_lab_test,
 )
 from sloshrom.beam.results import (
     Simulate,

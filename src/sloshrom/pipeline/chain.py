@@ -9,18 +9,17 @@ upstream stages did not change), one module each:
 ``rom``     ROM identification (Fig. 10 validation)
 ``maps``    Phi_d maps of rig and ROM and their difference (Figs. 3, 4, 11)
 ``beam``    sloshing-beam free and random tests with rig, ROM and frozen liquid (Figs. 14–23)
-``baseline`` beyond the paper (``[beyond] enabled``, ``baseline``): the bouncing-ball model
-            through the same map, beam and Table 2 (``sloshrom.studies.baseline``)
-``fills``   beyond the paper (``[beyond] enabled``): a fill family judged at unseen fills
-            (``sloshrom.studies.fills``)
-``multimode`` beyond the paper (``[beyond] enabled``, ``multimode``): a two-mode wing, VFA-only
-            against broadband-trained ROMs (on the tank velocity and on its acceleration;
-            ``sloshrom.studies.multimode``)
+then each study beyond the paper that the configuration enables (``[beyond]``), in the order of
+the registry (:func:`sloshrom.studies.registered`; today the bouncing-ball ``baseline``, the
+``fills`` family and the two-mode ``multimode`` wing), each a stage as its
+:class:`~sloshrom.pipeline.study.Study` declares it, and
+
 ``report``  ``OUT/report.html`` and ``OUT/summary.json``
 
 This module only orders the stages and caches them; the stages do the I/O and the figures, the
 numerical work stays in the library modules they call. A stage gets the results of the stages
 before it (:class:`~sloshrom.pipeline.cache.StageResult`) and finds their files in their records.
+It imports no study: it runs what the registry declares.
 """
 
 from __future__ import annotations
@@ -33,6 +32,7 @@ from pathlib import Path
 from typing import Any
 
 from sloshrom import __version__
+from sloshrom import studies as registry
 from sloshrom.fileio import atomic_write_text
 from sloshrom.pipeline.beam import stage_beam
 from sloshrom.pipeline.cache import StageCache, StageResult
@@ -43,12 +43,6 @@ from sloshrom.pipeline.report import write_report
 from sloshrom.pipeline.rom import stage_rom, stage_sweep, sweep_keys
 from sloshrom.pipeline.settings import ReproduceConfig, validate
 from sloshrom.rom.registry import CLASSES
-from sloshrom.studies.baseline import config as baseline_config
-from sloshrom.studies.baseline.stage import stage_baseline
-from sloshrom.studies.fills import config as fills_config
-from sloshrom.studies.fills.stage import stage_fills
-from sloshrom.studies.multimode import config as multimode_config
-from sloshrom.studies.multimode.stage import stage_multimode
 
 __all__ = ["RESULT_ENTRIES", "identify", "run"]
 
@@ -56,7 +50,8 @@ __all__ = ["RESULT_ENTRIES", "identify", "run"]
 #: tree the stages own (a trailing ``/``). The command line refuses an input (``--config``)
 #: that is one of them or lies inside one, before any work.
 RESULT_ENTRIES = ("report.html", "summary.json", ".stages/", "data/", "sweep/", "models/",
-                  "maps/", "beam/", "figures/", "fills/", "multimode/")
+                  "maps/", "beam/", "figures/",
+                  *(d for study in registry.registered() for d in study.directories))
 
 
 @contextmanager
@@ -132,14 +127,16 @@ def run(out: str | Path, cfg: ReproduceConfig | dict[str, Any],
     ------
     ConfigError
         The configuration is invalid (:func:`sloshrom.pipeline.settings.validate`) or names a
-        tank the virtual rig cannot model (:func:`~sloshrom.pipeline.context.check_rig_tanks`):
-        one error naming the key, before any work and before anything is written.
+        tank the virtual rig cannot model (:func:`~sloshrom.pipeline.context.check_rig_tanks`)
+        or that an enabled study's own check refuses (:attr:`~sloshrom.pipeline.study.Study.
+        check`, e.g. a wing the two-mode study cannot build): one error naming the key, before
+        any work and before anything is written.
     """
     cfg = validate(cfg)
     check_rig_tanks(cfg)  # the tanks the rig runs at, before any stage or file
-    bey = cfg.beyond
-    if bey.enabled and bey.multimode:  # the wing's own checks, before any stage
-        multimode_config.wing_design(cfg.multimode)
+    studies = [s for s in registry.registered() if s.enabled(cfg)]
+    for study in studies:  # the studies' own checks, before any stage
+        study.check(cfg)
     ctx = Context(Path(out), cfg, progress)
     ctx.out.mkdir(parents=True, exist_ok=True)
     cache = StageCache(ctx.out)
@@ -158,27 +155,14 @@ def run(out: str | Path, cfg: ReproduceConfig | dict[str, Any],
             lambda: stage_beam(ctx, rom_path), __version__,
         )
 
-    if bey.enabled and bey.baseline:
-        with _timer(ctx, "baseline"):
-            results["baseline"] = cache.run(
-                "baseline", baseline_config.cache_config(cfg),
-                [*deps, results["maps"], results["beam"]],
-                lambda: stage_baseline(ctx, results["data"], results["rom"], results["maps"],
-                                       results["beam"]), __version__,
-            )
-    if bey.enabled:
-        with _timer(ctx, "fills"):
-            results["fills"] = cache.run(
-                "fills", fills_config.cache_config(cfg), deps,
-                lambda: stage_fills(ctx, results["rom"], identify), __version__,
-            )
-
-    if bey.enabled and bey.multimode:
-        # its own wing, records and ROMs ([multimode]): no other stage's files
-        with _timer(ctx, "multimode"):
-            results["multimode"] = cache.run(
-                "multimode", multimode_config.cache_config(cfg), [],
-                lambda: stage_multimode(ctx), __version__,
+    for study in studies:
+        # the upstream results in the order the study declares: the order of its cache key
+        upstream = {name: results[name] for name in study.after}
+        with _timer(ctx, study.name):
+            results[study.name] = cache.run(
+                study.name, study.cache_config(cfg), list(upstream.values()),
+                lambda study=study, upstream=upstream: study.run(ctx, upstream, identify),
+                __version__,
             )
 
     summary = {

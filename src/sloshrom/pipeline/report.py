@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from sloshrom import studies as registry
 from sloshrom.pipeline import html as report
 from sloshrom.pipeline import settings
 from sloshrom.pipeline.context import Context
@@ -19,9 +20,6 @@ from sloshrom.pipeline.experiment import experiment_tables, interval_text, perce
 from sloshrom.pipeline.html import Figure, Section, Table
 from sloshrom.pipeline.maps import HYSTERESIS_FREQUENCY, HYSTERESIS_GAMMA
 from sloshrom.rom.registry import CLASSES
-from sloshrom.studies.baseline.section import baseline_section
-from sloshrom.studies.fills.section import fills_section
-from sloshrom.studies.multimode.section import multimode_section
 
 __all__ = ["build_sections", "write_report"]
 
@@ -212,12 +210,9 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
                "white where they agree."),
     ))
     secs.extend(_beam_sections(ctx, st["beam"]))
-    if "baseline" in st:
-        secs.append(baseline_section(ctx, st["baseline"]))
-    if "fills" in st:
-        secs.append(fills_section(ctx, st["fills"]))
-    if "multimode" in st:
-        secs.append(multimode_section(ctx, st["multimode"]))
+    # the studies that ran, in the registry's order, after the beam's sections
+    secs.extend(study.section(ctx, st[study.name]) for study in registry.registered()
+                if study.name in st)
     t = summary.get("timings_s", {})
     secs.append(Section(
         "Run", "<p>" + ", ".join(f"{k}: {v:.1f} s" for k, v in t.items())

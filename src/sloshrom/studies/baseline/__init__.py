@@ -3,7 +3,8 @@
 ``config`` (the ``[baseline]`` table, the study's names), ``stage`` (the fit, the map, the beam
 tests and the comparison: :func:`~sloshrom.studies.baseline.stage.stage_baseline`), ``outputs``
 (:class:`~sloshrom.studies.baseline.outputs.BaselineOutputs`), ``section`` (the report
-section), ``figures``. The model itself is :class:`sloshrom.rom.bouncing.BouncingBall`.
+section), ``figures``, ``study`` (its declaration to the pipeline, ``STUDY``). The model
+itself is :class:`sloshrom.rom.bouncing.BouncingBall`.
 """
 
 from __future__ import annotations

@@ -3,7 +3,8 @@
 ``config`` (the fill keys of ``[beyond]``, a member's configuration, the targets), ``stage``
 (:func:`~sloshrom.studies.fills.stage.stage_fills`), ``outputs``
 (:class:`~sloshrom.studies.fills.outputs.FillsOutputs`), ``section`` (the report section),
-``figures``. The family itself, a model combinator, is :mod:`sloshrom.rom.family`.
+``figures``, ``study`` (its declaration to the pipeline, ``STUDY``). The family itself, a
+model combinator, is :mod:`sloshrom.rom.family`.
 """
 
 from __future__ import annotations

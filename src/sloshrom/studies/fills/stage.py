@@ -12,7 +12,6 @@ records of their ``rom`` stages (:meth:`sloshrom.pipeline.cache.StageResult.outp
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +28,7 @@ from sloshrom.pipeline.beam import beam_structure, beam_tests
 from sloshrom.pipeline.cache import StageResult
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.maps import compute_map
+from sloshrom.pipeline.study import Identify
 from sloshrom.plotting import savefig
 from sloshrom.rom.estimators import load_model
 from sloshrom.rom.family import write_family
@@ -38,11 +38,6 @@ from sloshrom.studies.fills.figures import damping_fill_figure, fill_maps_figure
 from sloshrom.studies.fills.outputs import FillsOutputs
 
 __all__ = ["Identify", "model_file", "stage_fills"]
-
-#: ``identify(ctx) -> stage results by name``: the cached ``data`` and ``rom`` stages of a run
-#: (:func:`sloshrom.pipeline.chain.identify`).
-Identify = Callable[[Context], dict[str, StageResult]]
-
 
 def model_file(rom: StageResult) -> Path:
     """The model file of a ``rom`` stage, as its record lists it."""

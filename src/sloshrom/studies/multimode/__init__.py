@@ -3,8 +3,9 @@
 ``config`` (the ``[multimode]`` table and the study's cases), ``stage`` (the records, the three
 ROMs, the random tests and their modal damping: :func:`~sloshrom.studies.multimode.stage.
 stage_multimode`), ``outputs`` (:class:`~sloshrom.studies.multimode.outputs.MultimodeOutputs`),
-``section`` (the report section), ``figures``. The wing and its damping analysis are domain
-physics, in :mod:`sloshrom.beam.multimode`; the broadband records' signal is
+``section`` (the report section), ``figures``, ``study`` (its declaration to the pipeline,
+``STUDY``). The wing and its damping analysis are domain physics, in
+:mod:`sloshrom.beam.multimode`; the broadband records' signal is
 :func:`sloshrom.signals.broadband_acceleration`.
 """
 

@@ -1,0 +1,96 @@
+"""What a study beyond the paper declares to the pipeline: one :class:`Study`.
+
+A study is a package under ``sloshrom.studies`` whose module ``study`` holds ``STUDY``, a
+:class:`Study`, and whose module path is listed in ``sloshrom.studies.STUDIES`` (the registry);
+:func:`sloshrom.studies.registered` returns them in that order. The chain runs each enabled
+study as a cached stage after the paper's stages, the report adds its section after the beam's,
+and ``reproduce`` protects its directories: the pipeline reads these declarations and imports no
+study by name.
+
+This module is infrastructure both sides share: it names no study.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from sloshrom.pipeline.cache import StageResult
+from sloshrom.pipeline.context import Context
+from sloshrom.pipeline.html import Section
+from sloshrom.pipeline.settings import ReproduceConfig
+
+__all__ = ["PAPER_STAGES", "Identify", "StageRecord", "Study", "no_check"]
+
+#: The paper's stages a study may take the results of (:attr:`Study.after`), in the chain's
+#: order; ``sweep`` runs only on request and is not offered.
+PAPER_STAGES = ("data", "rom", "maps", "beam")
+
+#: ``identify(ctx) -> stage results by name``: the cached ``data`` and ``rom`` stages of a run in
+#: ``ctx.out`` (:func:`sloshrom.pipeline.chain.identify`), for a study that identifies ROMs of
+#: its own (at other fill levels).
+Identify = Callable[[Context], dict[str, StageResult]]
+
+#: What a stage returns: its JSON-able outputs (its part of ``summary.json``) and the files it
+#: wrote, relative to the output directory.
+StageRecord = tuple[dict[str, Any], list[str]]
+
+
+def no_check(cfg: ReproduceConfig) -> None:
+    """A study without checks of its own beyond the settings' validation."""
+
+
+@dataclass(frozen=True)
+class Study:
+    """A study beyond the paper, as the pipeline runs and reports it.
+
+    Attributes
+    ----------
+    name : str
+        Its stage's name: the cache record ``OUT/.stages/<name>``, its key in ``summary.json``
+        (``stages``, ``timings_s``) and in the outputs :attr:`section` receives. Not one of the
+        paper's stages' names.
+    enabled : callable
+        ``enabled(cfg) -> bool``: whether the run includes it (its switches of ``[beyond]``).
+    cache_config : callable
+        ``cache_config(cfg) -> JSON-able``: the part of the configuration its cache key hashes
+        (with :attr:`after`'s keys and the package version). A change here redoes the stage of
+        every earlier run.
+    after : tuple of str
+        The paper's stages (:data:`PAPER_STAGES`) whose results its stage takes, in the order
+        their keys enter its cache key; empty for a study that reads no other stage's files.
+    run : callable
+        ``run(ctx, upstream, identify) -> (outputs, files)`` (:data:`StageRecord`): the stage.
+        ``upstream`` maps each name of :attr:`after` to its
+        :class:`~sloshrom.pipeline.cache.StageResult`; ``identify`` is :data:`Identify`.
+    section : callable
+        ``section(ctx, outputs) -> Section``: its section of the report, from its stage's
+        outputs as ``summary.json`` holds them.
+    check : callable
+        ``check(cfg)``, run before any stage when the study is enabled: the checks the settings'
+        validation cannot make (raises :class:`~sloshrom.config.ConfigError`).
+    directories : tuple of str
+        The directories of the output directory whose whole tree its stage owns, each with a
+        trailing ``/`` (``reproduce`` refuses an input inside one).
+    """
+
+    name: str
+    enabled: Callable[[ReproduceConfig], bool]
+    cache_config: Callable[[ReproduceConfig], Any]
+    after: tuple[str, ...]
+    run: Callable[[Context, Mapping[str, StageResult], Identify], StageRecord]
+    section: Callable[[Context, Mapping[str, Any]], Section]
+    check: Callable[[ReproduceConfig], None] = no_check
+    directories: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        # a declaration error is a programming error of the study, found at registration
+        if self.name in PAPER_STAGES or self.name in ("sweep", "report"):
+            raise TypeError(f"study {self.name!r}: the name of a paper's stage")
+        unknown = [s for s in self.after if s not in PAPER_STAGES]
+        if unknown:
+            raise TypeError(f"study {self.name!r}: after {unknown}, not among {PAPER_STAGES}")
+        bad = [d for d in self.directories if not d.endswith("/")]
+        if bad:
+            raise TypeError(f"study {self.name!r}: directories {bad} need a trailing '/'")
