@@ -35,25 +35,15 @@ Precision: fitting, prediction and saving run in float64 (``jax.enable_x64`` aro
 
 from __future__ import annotations
 
-import operator
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from sloshrom._x64 import float64
-from sloshrom.limits import (
-    HIDDEN_KINDS,
-    MAX_BATCH,
-    MAX_DELAY,
-    MAX_EPOCHS,
-    MAX_NEURONS,
-    MAX_STATES,
-    TRAINERS,
-)
 from sloshrom.rom import training
 from sloshrom.rom.base import Estimator, checked_records, record_envelope
 from sloshrom.rom.bouncing import BouncingBall, is_ball_file
@@ -87,7 +77,14 @@ from sloshrom.rom.network import (
     rbf_apply,
     unpack,
 )
-from sloshrom.rom.registry import LOSS_TERMS, NFIR_CLASS, NOE_CLASS, NSS_CLASS, model_class
+from sloshrom.rom.registry import (
+    LOSS_TERMS,
+    NFIR_CLASS,
+    NOE_CLASS,
+    NSS_CLASS,
+    check_hyperparameters,
+    model_class,
+)
 from sloshrom.rom.statespace import (
     NSS_PARAM_NAMES,
     StateSpaceNetwork,
@@ -123,16 +120,6 @@ __all__ = [
 
 
 
-def _integer(name: str, v: Any, lo: int) -> int:
-    try:
-        i = operator.index(v)  # ints and NumPy integers, not floats or bools' cousins
-    except TypeError:
-        raise ROMError(f"{name} must be an integer, got {v!r}") from None
-    if isinstance(v, bool) or i < lo:
-        raise ROMError(f"{name} must be an integer >= {lo}, got {v!r}")
-    return i
-
-
 class _Estimator(Estimator):
     """Shared code of the network estimators NFIR, NOE and NSS (the loss terms, the
     hyperparameters of the time-delay networks)."""
@@ -147,45 +134,37 @@ class _Estimator(Estimator):
     cycle_energy: float = 0.0
 
     def _check_hyperparameters(self) -> NetworkSpec:
-        """Validate the constructor arguments; the network architecture they give.
+        """Validate the constructor arguments (the domains of the class's registry entry, then
+        the rules between them); the network architecture they give.
 
         Raises
         ------
         ROMError
             The first argument out of its domain, named.
         """
-        delays = check_delays(self.delays)
-        neurons = _integer("neurons", self.neurons, 1)
-        if self.hidden not in HIDDEN_KINDS:
-            raise ROMError(f"hidden must be one of {HIDDEN_KINDS}, got {self.hidden!r}")
-        _integer("max_epochs", self.max_epochs, 0)
-        _integer("seed", self.seed, 0)
-        out_delays = _integer("out_delays", self.out_delays, 0)
-        if self.trainer not in TRAINERS:
-            raise ROMError(f"trainer must be 'fast', 'lm' or 'adam', got {self.trainer!r}")
+        mc = self.model_class
+        h = check_hyperparameters(mc, {x.name: getattr(self, x.name) for x in mc.hyper})
+        why_not = mc.recipe_needs(h)
         for name in LOSS_TERMS:
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | float | np.floating | np.integer) \
-                    or not (np.isfinite(v) and v >= 0):
-                raise ROMError(f"{name} must be a finite number >= 0, got {v!r}")
-            if v > 0 and self.trainer != "adam":
-                raise ROMError(f"{name} > 0 needs trainer='adam', got trainer={self.trainer!r}")
-            if v > 0 and self.input == "acceleration":
+            if h[name] > 0 and why_not:
+                raise ROMError(f"{name} > 0 needs {why_not}, got trainer={h['trainer']!r}")
+            if h[name] > 0 and self.input == "acceleration":
                 # the weights, probes and cycle energies are written for the power F v of a
                 # velocity input
                 raise ROMError(f"{name} > 0 needs a velocity input; set it to 0 for a network "
                                "on the tank acceleration")
+        if self.input not in mc.inputs:
+            raise ROMError(f"an {mc.class_name} takes the tank {' or '.join(mc.inputs)}; a "
+                           "network on the acceleration is an NFIR")
         # spelled out rather than io.same_unit: importing io would pull xarray into the ROMs
         if self.input == "acceleration" and \
                 str(self.units[0]).replace(" ", "").replace("^", "") != "m/s2":
             raise ROMError(f"the input 'acceleration' is in m/s^2, got units {self.units[0]!r}")
-        spec = NetworkSpec(self.arch, delays, neurons, self.hidden, out_delays)
+        spec = NetworkSpec(self.arch, check_delays(h["delays"]), h["neurons"], h["hidden"],
+                           h.get("out_delays", 0))
         # a network no model file can hold is refused before training, not when saved
         check_file_limits(spec.max_delay, spec.neurons, spec.n_inputs)
         return spec
-
-    #: the fitted network of the class
-    _network: ClassVar[type[Network]] = Network
 
     def _model(self, params: Any, scaler: MinMaxScaler, spec: Any, fs: float) -> Network:
         return self._network(dict(params), scaler, spec, self.input, fs,
@@ -451,34 +430,6 @@ class NOE(_Estimator):
         self.steps_per_epoch = steps_per_epoch
         self.learning_rate = learning_rate
 
-    def _check_hyperparameters(self) -> NetworkSpec:
-        spec = super()._check_hyperparameters()
-        if spec.out_delays < 1:
-            raise ROMError(f"NOE needs out_delays >= 1, got {self.out_delays}")
-        _integer("horizon", self.horizon, 8)
-        _integer("batch", self.batch, 1)
-        _integer("steps_per_epoch", self.steps_per_epoch, 1)
-        for name, top in (("horizon", MAX_DELAY), ("batch", MAX_BATCH),
-                          ("steps_per_epoch", MAX_EPOCHS)):
-            if getattr(self, name) > top:
-                raise ROMError(f"{name} = {getattr(self, name)} is more than {top}, the most a "
-                               "model file holds")
-        lr = self.learning_rate
-        if isinstance(lr, bool) or not isinstance(lr, int | float | np.floating | np.integer) \
-                or not (np.isfinite(lr) and 0 < lr <= 1):
-            raise ROMError(f"learning_rate must be a number in (0, 1], got {lr!r}")
-        if self.input == "acceleration":
-            raise ROMError("an NOE takes the tank velocity; a network on the acceleration is an "
-                           "NFIR")
-        try:
-            bound = float(self.unstable_bound)
-        except (TypeError, ValueError):
-            bound = float("nan")
-        if not (np.isfinite(bound) and bound > 0):
-            raise ROMError(f"unstable_bound must be a finite number > 0, got "
-                           f"{self.unstable_bound!r}")
-        return spec
-
     def _fewest_samples(self, spec: NetworkSpec) -> int:
         # multiple shooting also needs one sub-sequence of `horizon` samples
         n = super()._fewest_samples(spec)
@@ -570,35 +521,14 @@ class NSS(_Estimator):
         self.cycle_energy = cycle_energy
 
     def _check_hyperparameters(self) -> StateSpaceSpec:  # type: ignore[override]
-        n_states = _integer("n_states", self.n_states, 1)
-        neurons = _integer("neurons", self.neurons, 1)
-        window = _integer("window", self.window, 1)
-        _integer("horizon", self.horizon, 8)
-        _integer("batch", self.batch, 1)
-        _integer("max_epochs", self.max_epochs, 0)
-        _integer("steps_per_epoch", self.steps_per_epoch, 1)
-        _integer("seed", self.seed, 0)
-        for name, top in (("n_states", MAX_STATES), ("window", MAX_DELAY),
-                          ("horizon", MAX_DELAY), ("neurons", MAX_NEURONS),
-                          ("batch", MAX_BATCH)):
-            if getattr(self, name) > top:
-                raise ROMError(f"{name} = {getattr(self, name)} is more than {top}, the most a "
-                               "model file holds")
-        lr = self.learning_rate
-        if isinstance(lr, bool) or not isinstance(lr, int | float | np.floating | np.integer) \
-                or not (np.isfinite(lr) and 0 < lr <= 1):
-            raise ROMError(f"learning_rate must be a number in (0, 1], got {lr!r}")
-        for name in LOSS_TERMS:
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | float | np.floating | np.integer) \
-                    or not (np.isfinite(v) and v >= 0):
-                raise ROMError(f"{name} must be a finite number >= 0, got {v!r}")
+        mc = self.model_class
+        h = check_hyperparameters(mc, {x.name: getattr(self, x.name) for x in mc.hyper})
         if self.input != "velocity":
             # the coupled beam hands a model the acceleration of the previous step: a state
             # driven by it would run one sample behind its training
             raise ROMError("an NSS takes the tank velocity (names[0] = 'velocity'); a network "
                            "on the acceleration is an NFIR")
-        return StateSpaceSpec(n_states, neurons, window)
+        return StateSpaceSpec(h["n_states"], h["neurons"], h["window"])
 
     @property
     def theta_(self) -> jnp.ndarray:
