@@ -59,10 +59,9 @@ from sloshrom.beam.analysis import (
     instantaneous_damping,
     log_decrement,
     lscf_damping,
-    mode1_damping_random,
     welch_psd,
 )
-from sloshrom.beam.uncertainty import band_damping, random_damping
+from sloshrom.beam.uncertainty import band_damping, mode1_damping_random, random_damping
 
 FS, F1, ZETA = 500.0, 10.0, 0.01
 NPERSEG = 16384
