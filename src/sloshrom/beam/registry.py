@@ -17,6 +17,7 @@ from collections.abc import Iterable
 
 from sloshrom.beam.errors import BeamError
 from sloshrom.beam.estimators import DampingEstimator, HalfPower, LscfH1, LscfOutput
+from sloshrom.beam.ssi import SsiCov
 
 __all__ = ["ESTIMATORS", "FREE_DECAY_METHODS", "REFERENCE", "TABLE2", "estimator_names",
            "get_estimator", "label", "register"]
@@ -75,6 +76,7 @@ def label(name: str) -> str:
 register(LscfH1())
 register(LscfOutput())
 register(HalfPower())
+register(SsiCov())
 
 #: Paper Table 2's estimators, in its column order: the default of every analysis and table.
 TABLE2: tuple[str, ...] = (LscfH1.name, LscfOutput.name, HalfPower.name)
