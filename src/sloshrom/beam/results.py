@@ -21,6 +21,7 @@ from sloshrom.beam.analysis import (
     log_decrement,
     modal_filter,
 )
+from sloshrom.beam.registry import ESTIMATORS, TABLE2, estimator_names, label
 from sloshrom.beam.structure import (
     TANK_KEYS,
     CantileverBeam,
@@ -38,6 +39,7 @@ __all__ = [
     "envelope_table",
     "frozen_modes_table",
     "modal_accelerations", "mode1_damping_table", "mode1_decay", "case_output_fs",
+    "table2_dataset",
     "reference_tank", "simulate_cases", "to_dataset", "write_dataset", "write_table",
 ]
 
@@ -182,26 +184,59 @@ def damping_band_table(free: Mapping[str, Mapping[str, Any]],
 
 
 def mode1_damping_table(random: Mapping[str, Mapping[str, Any]], levels: Sequence[float],
-                        f1: float, max_tank_acceleration: bool = False) -> list[dict[str, Any]]:
+                        f1: float, max_tank_acceleration: bool = False,
+                        estimators: Sequence[str] | None = None) -> list[dict[str, Any]]:
     """Paper Table 2: first-mode damping of every random response, one row per case and level,
     each estimate with its standard deviation and interval.
 
     Columns ``case``, ``rms_g`` (g), ``max_tank_acceleration_g`` (g, only if
     ``max_tank_acceleration``), then those of ``sloshrom.beam.uncertainty.random_damping``
-    (the keys of ``sloshrom.beam.analysis.mode1_damping_random`` with ``lscf_h1`` and
-    ``half_power`` corrected for the window's leakage, the uncorrected values, and
-    ``{est}_std``, ``{est}_low``, ``{est}_high`` for every estimator).
+    (Table 2's flat columns, ``uncertainty.table2_columns``: every estimator's value, with the
+    bootstrapped ones corrected for their bias, the uncorrected values, and ``{est}_std``,
+    ``{est}_low``, ``{est}_high``). ``estimators``: registered names (default
+    ``registry.TABLE2``). :func:`table2_dataset` turns the rows of a case into a Dataset.
     """
+    names = estimator_names(estimators)
     rows = []
     for case, r in random.items():
         for i, level in enumerate(levels):
-            d = random_damping(r["base_acceleration"][i], r["tank_acceleration"][i], r["fs"], f1)
+            d = random_damping(r["base_acceleration"][i], r["tank_acceleration"][i], r["fs"], f1,
+                               estimators=names)
             row: dict[str, Any] = {"case": case, "rms_g": level}
             if max_tank_acceleration:
                 row["max_tank_acceleration_g"] = float(np.max(np.abs(r["tank_acceleration"][i]))
                                                        / G)
             rows.append({**row, **d})
     return rows
+
+
+def table2_dataset(rows: Sequence[Mapping[str, Any]]) -> xr.Dataset:
+    """The Table 2 rows of one case (:func:`mode1_damping_table`, or a table read back) as a
+    Dataset over RMS level and estimator.
+
+    Returns
+    -------
+    xarray.Dataset
+        Dimensions ``level`` (coordinate: ``rms_g``, g) and ``estimator`` (coordinates: the
+        names, ``registry.TABLE2`` first and then every other registered estimator that a row
+        holds, and ``label``); variables ``value``, ``std``, ``low``, ``high`` (damping ratio,
+        -; NaN where a row lacks the column).
+    """
+    keys = set().union(*(r.keys() for r in rows)) if rows else set()
+    names = [*TABLE2, *(n for n in ESTIMATORS if n not in TABLE2 and n in keys)]
+    nan = float("nan")
+
+    def column(suffix: str) -> np.ndarray:
+        return np.array([[float(r.get(n + suffix, nan)) for n in names] for r in rows],
+                        dtype=float).reshape(len(rows), len(names))
+
+    dims = ("level", "estimator")
+    return xr.Dataset(
+        {"value": (dims, column(""), {"units": "1"}), "std": (dims, column("_std"), {"units": "1"}),
+         "low": (dims, column("_low"), {"units": "1"}),
+         "high": (dims, column("_high"), {"units": "1"})},
+        coords={"level": ("level", [float(r["rms_g"]) for r in rows], {"units": "g"}),
+                "estimator": names, "label": ("estimator", [label(n) for n in names])})
 
 
 def frozen_modes_table(tank: Tank | Sequence[Tank], modal: ModalModel,
