@@ -13,7 +13,7 @@ Cases (true damping ratio 1 % in all):
   noise of 0.1 % and 1 % of the initial amplitude: Hilbert (median of the instantaneous
   damping) and log decrement (median).
 
-Random-response estimators, as :func:`sloshrom.beam.analysis.mode1_damping_random` (Welch Hann,
+Random-response estimators, as :func:`sloshrom.beam.uncertainty.mode1_damping_random` (Welch Hann,
 nperseg 16384, 50 % overlap; band f1 -/+ 50 %):
 
 * ``lscf_h1``      LSCF on H1, median of the stable-pole cluster;

@@ -425,7 +425,10 @@ def estimate_random(
             why = r.reason or ("" if ok else f"no positive damping ratio ({value:.3g})")
         out[n] = replace(r, value=value, std=std, low=value - q * std, high=value + q * std,
                          reason=why if not np.isfinite(std) else "")
-    au = next((out[n] for n in names if ests[n].uncertainty == "au"), None)
+    # Au's law speaks of output-only estimates: the first such estimator asked gives the record's
+    # cycles and the length a precision needs
+    au_name = next((n for n in names if ests[n].uncertainty == "au"), None)
+    au = out[au_name] if au_name is not None else None
     f_cyc = au.frequency if au is not None and np.isfinite(au.frequency) else f_mode
     result = RandomDamping(out, noise_input=noise[0], noise_output=noise[1],
                            duration_s=duration, n_cycles=duration * f_cyc,
@@ -434,7 +437,8 @@ def estimate_random(
         zeta = au.value if au is not None and np.isfinite(au.value) and au.value > 0 else (
             out[boot[0]].value if boot else nan)
         _warn_short(accuracy, zeta, au.frequency if au is not None
-                    and np.isfinite(au.frequency) else f_mode, duration)
+                    and np.isfinite(au.frequency) else f_mode, duration,
+                    ests[au_name].efficiency if au is not None else OUTPUT_ONLY_EFFICIENCY)
     return result
 
 
@@ -605,14 +609,15 @@ def mode1_damping_random(
             f"{h1}_n": e[h1].n_poles, f"{out_only}_n": e[out_only].n_poles}
 
 
-def _warn_short(accuracy: float, zeta: float, frequency: float, duration: float) -> None:
+def _warn_short(accuracy: float, zeta: float, frequency: float, duration: float,
+                efficiency: float = OUTPUT_ONLY_EFFICIENCY) -> None:
     if not accuracy > 0:
         raise BeamError(f"accuracy must be positive, got {accuracy}")
     if not (np.isfinite(zeta) and zeta > 0 and np.isfinite(frequency)):
         return
-    cov = OUTPUT_ONLY_EFFICIENCY * au_damping_cov(zeta, frequency, duration)
+    cov = efficiency * au_damping_cov(zeta, frequency, duration)
     if cov > accuracy:
-        need = required_duration(zeta, frequency, accuracy / OUTPUT_ONLY_EFFICIENCY)
+        need = required_duration(zeta, frequency, accuracy / efficiency)
         warnings.warn(
             f"a {duration:.0f} s random record of a {100 * zeta:.2g} % mode at "
             f"{frequency:.3g} Hz gives ±{100 * cov:.0f} % (1 sigma) on the damping ratio; "
