@@ -71,3 +71,24 @@ def test_table2_rows_as_a_dataset():
     assert float(ds["low"].sel(level=0.2, estimator="lscf_h1")) == pytest.approx(0.008)
     assert np.isnan(float(ds["value"].sel(level=0.1, estimator="half_power")))
     assert float(ds["value"].sel(level=0.1, estimator="ssi_cov")) == pytest.approx(0.011)
+
+
+def test_table2_as_a_dataset_over_case_level_estimator():
+    # output-only LSCF alone (Au's law, no bootstrap: fast); the dataset holds what the rows do
+    from sloshrom.beam.results import mode1_damping_dataset, mode1_damping_table
+    from sloshrom.beam.uncertainty import _simulate
+
+    u, y = _simulate(10.0, 0.01, 500.0, 20000, 2, (0.0, 0.0), np.random.default_rng(1))
+    rnd = {"a": {"base_acceleration": u, "tank_acceleration": y, "fs": 500.0},
+           "b": {"base_acceleration": u[::-1], "tank_acceleration": y[::-1], "fs": 500.0}}
+    out_only = TABLE2[1]
+    ds = mode1_damping_dataset(rnd, [0.1, 0.2], 10.0, estimators=[out_only])
+    rows = mode1_damping_table(rnd, [0.1, 0.2], 10.0, estimators=[out_only])
+    assert ds["value"].dims == ("case", "level", "estimator")
+    assert ds["noise_input"].dims == ("case", "level")
+    assert ds.case.values.tolist() == ["a", "b"] and ds.level.values.tolist() == [0.1, 0.2]
+    for r in rows:
+        e = ds.sel(case=r["case"], level=r["rms_g"], estimator=out_only)
+        for v, suffix in (("value", ""), ("std", "_std"), ("low", "_low"), ("high", "_high")):
+            np.testing.assert_equal(float(e[v]), r[out_only + suffix])
+        assert (str(e.reason.values) == "") == bool(np.isfinite(float(e["value"])))

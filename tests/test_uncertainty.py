@@ -224,10 +224,11 @@ def test_band_coverage_100_records():
 def test_a_missing_estimate_carries_its_reason():
     # 34 s with 1 % input and 5 % output noise: LSCF finds no stable cluster (NaN), half power
     # still a value; every NaN says why, and the dataset holds what the flat columns hold
-    from sloshrom.beam.uncertainty import _simulate, damping_dataset
+    from sloshrom.beam.uncertainty import _simulate, estimate_random, table2_columns
 
     u, y = _simulate(F1, ZETA, FS, 17000, 1, (0.01, 0.05), np.random.default_rng(5))
-    ds = damping_dataset(u[0], y[0], FS, F1, n_resamples=12)
+    result = estimate_random(u[0], y[0], FS, F1, n_resamples=12)
+    ds = result.to_dataset()
     assert ds["value"].dims == ("estimator",)
     assert list(ds.estimator.values) == ["lscf_h1", "lscf_output", "half_power"]
     for est in ds.estimator.values:
@@ -235,7 +236,7 @@ def test_a_missing_estimate_carries_its_reason():
         has_all = all(np.isfinite(float(e[v])) for v in ("value", "std", "low", "high"))
         assert (str(e.reason.values) == "") == has_all, est
     assert "stable" in str(ds.reason.sel(estimator="lscf_h1").values)
-    flat = random_damping(u[0], y[0], FS, F1, n_resamples=12)
+    flat = table2_columns(result)  # what random_damping returns and Table 2 files hold
     for est in ds.estimator.values:
         for v, suffix in (("value", ""), ("std", "_std"), ("low", "_low"), ("high", "_high")):
             np.testing.assert_equal(float(ds[v].sel(estimator=est)), flat[f"{est}{suffix}"])

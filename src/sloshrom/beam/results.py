@@ -29,7 +29,13 @@ from sloshrom.beam.structure import (
     coupled_frozen_modes,
     frozen_modal_table,
 )
-from sloshrom.beam.uncertainty import BANDS, band_damping, random_damping
+from sloshrom.beam.uncertainty import (
+    BANDS,
+    RandomDamping,
+    band_damping,
+    estimate_random,
+    table2_columns,
+)
 from sloshrom.config import G, Tank
 from sloshrom.fileio import OutputBatch, atomic_write
 from sloshrom.models import SloshingModel
@@ -38,8 +44,8 @@ __all__ = [
     "BANDS", "Mode1Decay", "damping_band_table", "damping_by_band", "damping_summary",
     "envelope_table",
     "frozen_modes_table",
-    "modal_accelerations", "mode1_damping_table", "mode1_decay", "case_output_fs",
-    "table2_dataset",
+    "modal_accelerations", "mode1_damping_dataset", "mode1_damping_table", "mode1_decay",
+    "case_output_fs", "table2_dataset",
     "reference_tank", "simulate_cases", "to_dataset", "write_dataset", "write_table",
 ]
 
@@ -183,6 +189,15 @@ def damping_band_table(free: Mapping[str, Mapping[str, Any]],
             for row in band_damping(decays[case].hilbert, decays[case].log_decrement, f1)]
 
 
+def _random_damping(random: Mapping[str, Mapping[str, Any]], levels: Sequence[float], f1: float,
+                    estimators: Sequence[str] | None) -> list[tuple[str, int, RandomDamping]]:
+    # every case and level through the registry's estimators, each with its interval
+    names = estimator_names(estimators)
+    return [(case, i, estimate_random(r["base_acceleration"][i], r["tank_acceleration"][i],
+                                      r["fs"], f1, estimators=names))
+            for case, r in random.items() for i in range(len(levels))]
+
+
 def mode1_damping_table(random: Mapping[str, Mapping[str, Any]], levels: Sequence[float],
                         f1: float, max_tank_acceleration: bool = False,
                         estimators: Sequence[str] | None = None) -> list[dict[str, Any]]:
@@ -191,23 +206,43 @@ def mode1_damping_table(random: Mapping[str, Mapping[str, Any]], levels: Sequenc
 
     Columns ``case``, ``rms_g`` (g), ``max_tank_acceleration_g`` (g, only if
     ``max_tank_acceleration``), then those of ``sloshrom.beam.uncertainty.random_damping``
-    (Table 2's flat columns, ``uncertainty.table2_columns``: every estimator's value, with the
-    bootstrapped ones corrected for their bias, the uncorrected values, and ``{est}_std``,
-    ``{est}_low``, ``{est}_high``). ``estimators``: registered names (default
-    ``registry.TABLE2``). :func:`table2_dataset` turns the rows of a case into a Dataset.
+    (Table 2's flat columns, ``uncertainty.table2_columns``, a file contract: every
+    estimator's value, with the bootstrapped ones corrected for their bias, the uncorrected
+    values, and ``{est}_std``, ``{est}_low``, ``{est}_high``). ``estimators``: registered names
+    (default ``registry.TABLE2``). The same as a Dataset: :func:`mode1_damping_dataset`;
+    :func:`table2_dataset` turns the rows of a case into one.
     """
-    names = estimator_names(estimators)
     rows = []
-    for case, r in random.items():
-        for i, level in enumerate(levels):
-            d = random_damping(r["base_acceleration"][i], r["tank_acceleration"][i], r["fs"], f1,
-                               estimators=names)
-            row: dict[str, Any] = {"case": case, "rms_g": level}
-            if max_tank_acceleration:
-                row["max_tank_acceleration_g"] = float(np.max(np.abs(r["tank_acceleration"][i]))
-                                                       / G)
-            rows.append({**row, **d})
+    for case, i, d in _random_damping(random, levels, f1, estimators):
+        r = random[case]
+        row: dict[str, Any] = {"case": case, "rms_g": levels[i]}
+        if max_tank_acceleration:
+            row["max_tank_acceleration_g"] = float(np.max(np.abs(r["tank_acceleration"][i]))
+                                                   / G)
+        rows.append({**row, **table2_columns(d)})
     return rows
+
+
+def mode1_damping_dataset(random: Mapping[str, Mapping[str, Any]], levels: Sequence[float],
+                          f1: float, estimators: Sequence[str] | None = None) -> xr.Dataset:
+    """Paper Table 2 as a Dataset: the estimates of :func:`mode1_damping_table` over ``case``,
+    ``level`` (coordinate: RMS base acceleration, g) and ``estimator``.
+
+    Returns
+    -------
+    xarray.Dataset
+        The variables of ``sloshrom.beam.uncertainty.damping_dataset`` (``value``, ``std``,
+        ``low``, ``high``, ``uncorrected``, ``iqr`` (-), ``frequency`` (Hz), ``n_poles``,
+        ``reason``) with dimensions ``(case, level, estimator)``; ``noise_input``,
+        ``noise_output``, ``n_cycles`` (-) and ``duration_s`` (s) over ``(case, level)``.
+    """
+    per = {(case, i): d.to_dataset()
+           for case, i, d in _random_damping(random, levels, f1, estimators)}
+    cases = list(random)
+    return xr.concat(
+        [xr.concat([per[(c, i)] for i in range(len(levels))], dim="level")
+         for c in cases], dim="case", coords="minimal", compat="override",
+    ).assign_coords(case=cases, level=("level", [float(x) for x in levels], {"units": "g"}))
 
 
 def table2_dataset(rows: Sequence[Mapping[str, Any]]) -> xr.Dataset:

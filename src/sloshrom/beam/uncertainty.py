@@ -424,7 +424,8 @@ def estimate_random(
                    if ok else nan)
             why = r.reason or ("" if ok else f"no positive damping ratio ({value:.3g})")
         out[n] = replace(r, value=value, std=std, low=value - q * std, high=value + q * std,
-                         reason=why if not np.isfinite(std) else "")
+                         reason="" if np.isfinite(value) and np.isfinite(std)
+                         else why or "no estimate")
     # Au's law speaks of output-only estimates: the first such estimator asked gives the record's
     # cycles and the length a precision needs
     au_name = next((n for n in names if ests[n].uncertainty == "au"), None)
