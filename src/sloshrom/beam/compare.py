@@ -288,17 +288,16 @@ def _stats(ds: xr.Dataset, level: int, est: str) -> dict[str, float]:
 
 def _row(head: dict[str, Any], m: Mapping[str, Any], case: str, p: Mapping[str, Any],
          z_crit: float) -> dict[str, Any]:
-    def g(r: Mapping[str, Any], suffix: str) -> float:
-        # band rows (and one estimate of a Table 2 dataset) name them zeta/std/low/high
-        name = {"": "zeta", "_std": "std", "_low": "low", "_high": "high"}[suffix]
-        return float(r.get(name, np.nan))
+    def g(r: Mapping[str, Any], key: str) -> float:
+        # band rows and the estimates of a Table 2 dataset (_stats) name them zeta/std/low/high
+        return float(r.get(key, np.nan))
 
-    zm, zp = g(m, ""), g(p, "")
+    zm, zp = g(m, "zeta"), g(p, "zeta")
     diff = zp / zm - 1 if np.isfinite(zm) and zm != 0 and np.isfinite(zp) else float("nan")
-    return {**head, "measured": zm, "measured_low": g(m, "_low"),
-            "measured_high": g(m, "_high"), "case": case, "predicted": zp,
-            "predicted_low": g(p, "_low"), "predicted_high": g(p, "_high"),
+    return {**head, "measured": zm, "measured_low": g(m, "low"),
+            "measured_high": g(m, "high"), "case": case, "predicted": zp,
+            "predicted_low": g(p, "low"), "predicted_high": g(p, "high"),
             "difference": diff,
-            **_verdict(zm, g(m, "_low"), g(m, "_high"), g(m, "_std"), zp, g(p, "_std"),
+            **_verdict(zm, g(m, "low"), g(m, "high"), g(m, "std"), zp, g(p, "std"),
                        z_crit)}
 
