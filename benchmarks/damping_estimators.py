@@ -13,7 +13,7 @@ Cases (true damping ratio 1 % in all):
   noise of 0.1 % and 1 % of the initial amplitude: Hilbert (median of the instantaneous
   damping) and log decrement (median).
 
-Random-response estimators, as :func:`sloshrom.beam.analysis.mode1_damping_random` (Welch Hann,
+Random-response estimators, as :func:`sloshrom.beam.uncertainty.mode1_damping_random` (Welch Hann,
 nperseg 16384, 50 % overlap; band f1 -/+ 50 %):
 
 * ``lscf_h1``      LSCF on H1, median of the stable-pole cluster;
@@ -59,10 +59,9 @@ from sloshrom.beam.analysis import (
     instantaneous_damping,
     log_decrement,
     lscf_damping,
-    mode1_damping_random,
     welch_psd,
 )
-from sloshrom.beam.uncertainty import band_damping, random_damping
+from sloshrom.beam.uncertainty import band_damping, mode1_damping_random, random_damping
 
 FS, F1, ZETA = 500.0, 10.0, 0.01
 NPERSEG = 16384

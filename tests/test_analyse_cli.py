@@ -223,6 +223,9 @@ CASES = [
                       "--accuracy", "0", *OUT], r"--accuracy must be in \(0, 1\]"),
     ("bad-name", [*FREE, "{tmp}/free.uff", "--channels", "{tmp}/plain.toml", "--name", "a/b",
                   *OUT], r"--name 'a/b'"),
+    ("unknown-estimator", [*RANDOM, "{tmp}/sine.csv", "--channels", "{tmp}/csv.toml",
+                           "--estimator", "prony", *OUT],
+     r"--estimator: unknown damping estimator 'prony'; known: lscf_h1, .*ssi_cov"),
 ]
 
 

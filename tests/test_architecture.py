@@ -560,3 +560,87 @@ def test_every_error_class_is_a_sloshrom_error():
                 bad.append(f"{path.relative_to(SRC)}: {name} ({bases})")
     assert seen >= 10, seen  # the walk found the package's error classes
     assert not bad, "error classes that are not a SloshromError:\n" + "\n".join(bad)
+
+
+# -- damping estimators: one registry, no names spelled elsewhere --------------------------------
+#: Modules that may spell a registered estimator's name as a string, and why. Every other
+#: module reaches an estimator through ``sloshrom.beam.registry`` (``TABLE2``, ``REFERENCE``,
+#: ``get_estimator``, the ``estimator`` coordinate of a result dataset). An estimator's own
+#: class may spell it once, as the value of its ``name`` attribute (that is the definition).
+ESTIMATOR_NAME_ALLOWED = {
+    # the two-mode study's own result column "half_power" (its half-power cross-check of each
+    # mode, a file contract of its tables), not the registry's Table 2 estimator
+    "sloshrom.beam.multimode": "file contract of the two-mode study's tables",
+}
+
+
+def _docstrings(tree: ast.AST) -> set[int]:
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef):
+            body = node.body
+            if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+                out.add(id(body[0].value))
+    return out
+
+
+def _name_definitions(tree: ast.AST) -> set[int]:
+    # ``name: str = "lscf_h1"`` (or ``name = ...``) in a class body: an estimator's definition
+    out = set()
+    for cls in ast.walk(tree):
+        if isinstance(cls, ast.ClassDef):
+            for st in cls.body:
+                target = st.target if isinstance(st, ast.AnnAssign) else (
+                    st.targets[0] if isinstance(st, ast.Assign) and len(st.targets) == 1
+                    else None)
+                if isinstance(target, ast.Name) and target.id == "name" \
+                        and isinstance(st.value, ast.Constant):
+                    out.add(id(st.value))
+    return out
+
+
+def _all_lists(tree: ast.AST) -> set[int]:
+    # the names a module exports (``__all__``) are function names, not estimator names
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "__all__"
+                                                for t in node.targets):
+            out |= {id(c) for c in ast.walk(node.value)}
+    return out
+
+
+def _literals_in(source: str, names: set[str]) -> list[tuple[int, str]]:
+    tree = ast.parse(source)
+    skip = _docstrings(tree) | _name_definitions(tree) | _all_lists(tree)
+    return [(node.lineno, node.value) for node in ast.walk(tree)
+            if isinstance(node, ast.Constant) and isinstance(node.value, str)
+            and id(node) not in skip
+            and any(node.value == n or node.value.startswith(n + "_") for n in names)]
+
+
+def estimator_name_literals(names: set[str]) -> list[str]:
+    """Every string literal (f-string parts included; docstrings, ``__all__`` and estimators'
+    ``name`` definitions excluded) that is a registered estimator's name or starts with one and
+    ``_`` (a composed key such as ``"lscf_h1_std"``), outside :data:`ESTIMATOR_NAME_ALLOWED`."""
+    return [f"{mod}:{line}: {text!r}" for mod, path in MODULES.items()
+            if mod not in ESTIMATOR_NAME_ALLOWED
+            for line, text in _literals_in(path.read_text(encoding="utf-8"), names)]
+
+
+def test_the_estimator_name_finder():
+    src = (
+        '"""lscf_h1 in a docstring is prose."""\n'
+        '__all__ = ["lscf_h1_table"]\n'
+        'class E:\n    name: str = "lscf_h1"\n'
+        'a = r["lscf_h1"]\nb = r["lscf_h1_std"]\nc = f"lscf_h1_{k}"\nd = "lscf_h10"\n')
+    assert [line for line, _ in _literals_in(src, {"lscf_h1"})] == [5, 6, 7]
+
+
+def test_estimator_names_are_spelled_only_in_the_registry():
+    from sloshrom.beam.registry import ESTIMATORS
+
+    names = set(ESTIMATORS)
+    assert {"lscf_h1", "lscf_output", "half_power", "ssi_cov"} <= names
+    bad = estimator_name_literals(names)
+    assert not bad, ("estimator names spelled outside the registry (use "
+                     "sloshrom.beam.registry):\n" + "\n".join(bad))

@@ -214,8 +214,8 @@ def test_rig_more_damping_than_frozen_at_high_amplitude(modal):
 
 
 def test_random_frozen_mode1_damping_estimators(modal):
-    from sloshrom.beam.analysis import mode1_damping_random
     from sloshrom.beam.structure import coupled_frozen_modes
+    from sloshrom.beam.uncertainty import mode1_damping_random
 
     out = random_response(FrozenLiquid(1 / 500), modal, rms_levels_g=(0.1,), duration=90.0)
     f1 = coupled_frozen_modes(modal, Tank().liquid_mass)[0][0]

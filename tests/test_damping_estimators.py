@@ -35,10 +35,10 @@ from sloshrom.beam.analysis import (
     lscf_cluster_damping,
     lscf_damping,
     lscf_poles,
-    mode1_damping_random,
     output_only_damping,
     stable_pole_cluster,
 )
+from sloshrom.beam.uncertainty import mode1_damping_random
 
 FS, F1, ZETA = 500.0, 10.0, 0.01
 BAND = (5.0, 15.0)

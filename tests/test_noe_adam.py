@@ -129,8 +129,8 @@ def test_loss_terms_are_refused_without_adam(records, trainer, term):
 
 
 @pytest.mark.parametrize(("name", "value", "match"), [
-    ("horizon", 4, "horizon must be an integer >= 8"),
-    ("batch", 0, "batch must be an integer >= 1"),
+    ("horizon", 4, r"horizon must be an integer in \[8, 10000\]"),
+    ("batch", 0, r"batch must be an integer in \[1, 65536\]"),
     ("steps_per_epoch", 1.5, "steps_per_epoch must be an integer"),
     ("learning_rate", 0.0, r"learning_rate must be a number in \(0, 1\]"),
     ("learning_rate", 2.0, r"learning_rate must be a number in \(0, 1\]"),

@@ -226,11 +226,11 @@ def test_ensemble_of_nss(tmp_path):
 
 
 @pytest.mark.parametrize(("kw", "match"), [
-    ({"n_states": 0}, "n_states must be an integer >= 1"),
+    ({"n_states": 0}, r"n_states must be an integer in \[1, 1024\], got 0"),
     ({"window": 1.5}, "window must be an integer"),
-    ({"horizon": 4}, "horizon must be an integer >= 8"),
+    ({"horizon": 4}, r"horizon must be an integer in \[8, 10000\]"),
     ({"learning_rate": 0.0}, "learning_rate must be a number in"),
-    ({"passivity": -1.0}, "passivity must be a finite number >= 0"),
+    ({"passivity": -1.0}, r"passivity must be a number in \[0, 1e\+12\]"),
     ({"names": ("acceleration", "dynamic_force"), "units": ("m/s^2", "N")},
      "an NSS takes the tank velocity"),
 ])

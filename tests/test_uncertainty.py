@@ -24,13 +24,14 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from sloshrom.beam.analysis import instantaneous_damping, log_decrement, mode1_damping_random
+from sloshrom.beam.analysis import instantaneous_damping, log_decrement
 from sloshrom.beam.errors import BeamError
 from sloshrom.beam.results import Mode1Decay, damping_band_table, damping_summary
 from sloshrom.beam.uncertainty import (
     ShortRecordWarning,
     au_damping_cov,
     band_damping,
+    mode1_damping_random,
     random_damping,
     required_duration,
 )
@@ -100,19 +101,16 @@ def test_short_record_warning(one_record):
 def test_batched_bootstrap_equals_the_record_by_record_estimates():
     # the bootstrap analyses its simulated records as a stack: every record must get exactly
     # (bit for bit) the H1 and the LSCF poles it gets alone
-    from scipy.signal import get_window
-
-    from sloshrom.beam.analysis import lscf_poles, lscf_poles_batch
-    from sloshrom.beam.uncertainty import _h1, _simulate
+    from sloshrom.beam.analysis import frf_h1, lscf_poles, lscf_poles_batch
+    from sloshrom.beam.uncertainty import _simulate
 
     u, y = _simulate(F1, ZETA, FS, 20000, 3, (0.002, 0.01), np.random.default_rng(5))
-    window = get_window("hann", 8192)
-    f, h, coh = _h1(u, y, FS, 8192, window)
+    f, h, coh = frf_h1(u, y, FS, 8192, one_pass=True)
     band = (0.5 * F1, 1.5 * F1)
     stacked = lscf_poles_batch(f, h, band)
     assert len(stacked) == 3
     for k in range(3):
-        f1, h1, coh1 = _h1(u[k], y[k], FS, 8192, window)
+        f1, h1, coh1 = frf_h1(u[k], y[k], FS, 8192, one_pass=True)
         assert np.array_equal(f1, f)
         assert np.array_equal(h1, h[k]) and np.array_equal(coh1, coh[k])
         alone = lscf_poles(f, h[k], band)
@@ -221,3 +219,24 @@ def test_band_coverage_100_records():
             assert c["coverage"] >= 0.90, (key, c)
         else:
             assert 0.90 <= c["coverage"] <= 0.98, (key, c)
+
+
+def test_a_missing_estimate_carries_its_reason():
+    # 34 s with 1 % input and 5 % output noise: LSCF finds no stable cluster (NaN), half power
+    # still a value; every NaN says why, and the dataset holds what the flat columns hold
+    from sloshrom.beam.uncertainty import _simulate, estimate_random, table2_columns
+
+    u, y = _simulate(F1, ZETA, FS, 17000, 1, (0.01, 0.05), np.random.default_rng(5))
+    result = estimate_random(u[0], y[0], FS, F1, n_resamples=12)
+    ds = result.to_dataset()
+    assert ds["value"].dims == ("estimator",)
+    assert list(ds.estimator.values) == ["lscf_h1", "lscf_output", "half_power"]
+    for est in ds.estimator.values:
+        e = ds.sel(estimator=est)
+        has_all = all(np.isfinite(float(e[v])) for v in ("value", "std", "low", "high"))
+        assert (str(e.reason.values) == "") == has_all, est
+    assert "stable" in str(ds.reason.sel(estimator="lscf_h1").values)
+    flat = table2_columns(result)  # what random_damping returns and Table 2 files hold
+    for est in ds.estimator.values:
+        for v, suffix in (("value", ""), ("std", "_std"), ("low", "_low"), ("high", "_high")):
+            np.testing.assert_equal(float(ds[v].sel(estimator=est)), flat[f"{est}{suffix}"])

@@ -15,7 +15,9 @@
   exponential window), the window's damping removed exactly.
 * :func:`half_power_damping` - half-power bandwidth; :func:`lscf_damping` - the single-pole LSCF
   pick, kept as a baseline.
-* :func:`mode1_damping_random` - the first-mode damping of a random test (paper Table 2).
+The estimators of paper Table 2 built from these functions, behind one protocol, are in
+``sloshrom.beam.estimators`` (registered in ``sloshrom.beam.registry``); their intervals in
+``sloshrom.beam.uncertainty``.
 
 Pure numerical functions: arrays in, arrays/dicts out; signal functions take ``fs`` (Hz). A
 response that cannot be analysed (too short, no peak in the band, modes that the stations cannot
@@ -194,19 +196,65 @@ def welch_psd(x: Any, fs: float, nperseg: int = 4096) -> tuple[np.ndarray, np.nd
 
 
 def frf_h1(
-    base: Any, response: Any, fs: float, nperseg: int = 4096
+    base: Any, response: Any, fs: float, nperseg: int = 4096, *, one_pass: bool = False
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """H1 FRF estimate ``S_xy / S_xx`` (Hann, 50 % overlap) and coherence.
+    """H1 FRF estimate ``S_xy / S_xx`` (Hann, 50 % overlap, constant detrend) and coherence.
 
-    Returns ``(f (Hz), H (complex), coherence)``.
+    Two computations of the same estimate, which agree to round-off (not bit for bit):
+
+    * ``one_pass=False`` (default): scipy's ``welch``, ``csd`` and ``coherence``. Every damping
+      estimate of a record (Table 2 and the tests that check it) uses this path, so its figures
+      stay those already published.
+    * ``one_pass=True``: one pass over the segments, one FFT per channel and segment, for a
+      stack of records ``(n_records, n)`` at once (scipy's coherence recomputes both
+      auto-spectra and the cross-spectrum: five passes instead of two). The bootstrap of
+      ``sloshrom.beam.uncertainty`` analyses hundreds of simulated records this way; each row
+      of a stack gets exactly (bit for bit) what it gets alone. ``nperseg`` must not exceed the
+      record length here.
+
+    Parameters
+    ----------
+    base, response : array (..., n)
+        Input and output records, same unit or not (H1 is in response / base).
+    fs : float
+        Sampling frequency, Hz.
+    nperseg : int
+        Welch segment length, samples.
+    one_pass : bool
+        See above.
+
+    Returns
+    -------
+    (f (Hz), H (complex, response / base), coherence (-))
     """
     x, y = np.asarray(base, dtype=float), np.asarray(response, dtype=float)
     nperseg = min(int(nperseg), x.shape[-1])
+    if one_pass:
+        return _frf_h1_one_pass(x, y, fs, nperseg)
     kw = dict(fs=fs, window="hann", nperseg=nperseg, noverlap=nperseg // 2, axis=-1)
     f, sxx = signal.welch(x, **kw)
     _, sxy = signal.csd(x, y, **kw)
     _, coh = signal.coherence(x, y, **kw)
     return f, sxy / sxx, coh
+
+
+def _frf_h1_one_pass(base: np.ndarray, tank: np.ndarray, fs: float, nperseg: int
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    from scipy import fft
+
+    window = signal.get_window("hann", nperseg)
+    step = nperseg // 2
+    k = 1 + (base.shape[-1] - nperseg) // step
+    idx = np.arange(k)[:, None] * step + np.arange(nperseg)
+    # C order, as base[idx] of one record: the means then sum in the same order, and a stack
+    # gives each record exactly its own H1
+    u, y = np.ascontiguousarray(base[..., idx]), np.ascontiguousarray(tank[..., idx])
+    uf = fft.rfft((u - u.mean(axis=-1, keepdims=True)) * window, axis=-1)
+    yf = fft.rfft((y - y.mean(axis=-1, keepdims=True)) * window, axis=-1)
+    sxx, syy = np.sum(np.abs(uf)**2, -2), np.sum(np.abs(yf)**2, -2)
+    sxy = np.sum(np.conj(uf) * yf, -2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return fft.rfftfreq(nperseg, 1 / fs), sxy / sxx, np.abs(sxy)**2 / (sxx * syy)
 
 
 def half_power_damping(f: Any, spectrum: Any, band: tuple[float, float]) -> dict[str, float]:
@@ -714,51 +762,3 @@ def lscf_damping(
         model.select_closest_poles([f_approx], f_window=fw)
     return {"frequency": float(model.nat_freq[0]), "zeta": float(model.nat_xi[0])}
 
-
-def mode1_damping_random(
-    base: Any,
-    tank: Any,
-    fs: float,
-    f1: float,
-    rel_band: float = 0.5,
-    nperseg: int = 16384,
-    pol_order_high: int = 20,
-) -> dict[str, float]:
-    """First-mode damping of a random response by three estimators (paper Table 2).
-
-    * ``lscf_h1``: LSCF on H1 = base -> tank acceleration (Welch, Hann, ``nperseg`` samples,
-      50 % overlap), median over the stable-pole cluster (:func:`lscf_cluster_damping`);
-    * ``lscf_output``: output-only, LSCF on the half-spectrum of the tank acceleration with the
-      exponential-window correction, cluster median (:func:`output_only_damping`; it replaces
-      the earlier ``lscf_psd``, a single-pole LSCF on the Welch PSD, which is biased);
-    * ``half_power``: half-power bandwidth of |H1|.
-
-    Band ``f1 (1 -/+ rel_band)`` Hz. The default 16384 samples (33 s at 500 Hz, 0.03 Hz
-    resolution) resolves a 1 % mode at 10 Hz (half-power bandwidth 0.2 Hz); the Hann window
-    still biases the H1 estimate upward: +2.9 % at 16384, +4.3 % at 8192, +1.6 % at 32768
-    (1 %, 10 Hz mode, 600 s records). Bias and scatter of the three estimators for 90 s and
-    600 s records: ``benchmarks/damping_estimators.py``; the output-only estimator cannot
-    scatter less than about ``1 / sqrt(zeta omega_n T)`` for white-noise excitation.
-
-    Returns
-    -------
-    dict
-        Damping ratios (-): ``lscf_h1``, ``lscf_output``, ``half_power``; their
-        spreads over the stable-pole cluster ``lscf_h1_iqr``, ``lscf_output_iqr`` (-,
-        interquartile range across model orders) and cluster sizes ``lscf_h1_n``,
-        ``lscf_output_n``; frequencies ``frequency_h1``, ``frequency_output`` (Hz). An estimator
-        that finds no stable cluster gives NaN (and size 0).
-    """
-    band = (f1 * (1 - rel_band), f1 * (1 + rel_band))
-    f, h, _ = frf_h1(base, tank, fs, nperseg)
-    r_h1 = lscf_cluster_damping(f, h, f1, band, pol_order_high)
-    r_out = output_only_damping(tank, fs, f1, band, pol_order_high=pol_order_high)
-    try:
-        hp = half_power_damping(f, h, band)["zeta"]
-    except AnalysisError:  # no clear peak in this record: the estimate is missing, not a bug
-        hp = float("nan")
-    return {"lscf_h1": r_h1["zeta"], "lscf_output": r_out["zeta"], "half_power": hp,
-            "frequency_h1": r_h1["frequency"],
-            "frequency_output": r_out["frequency"], "lscf_h1_iqr": r_h1["zeta_iqr"],
-            "lscf_output_iqr": r_out["zeta_iqr"], "lscf_h1_n": r_h1["n_poles"],
-            "lscf_output_n": r_out["n_poles"]}

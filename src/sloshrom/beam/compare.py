@@ -29,14 +29,17 @@ from scipy import stats
 
 from sloshrom.beam.analysis import welch_psd
 from sloshrom.beam.errors import BeamError
-from sloshrom.beam.results import Mode1Decay, damping_band_table, mode1_damping_table, mode1_decay
+from sloshrom.beam.results import (
+    Mode1Decay,
+    damping_band_table,
+    mode1_damping_table,
+    mode1_decay,
+    table2_dataset,
+)
 from sloshrom.beam.uncertainty import CONFIDENCE
 
-__all__ = ["ESTIMATORS", "AnalysedTest", "analyse_test", "analysed_test", "compare_rows",
+__all__ = ["AnalysedTest", "analyse_test", "analysed_test", "compare_rows",
            "match_levels", "test_from_dataset"]
-
-#: Table 2 estimators compared (keys of ``results.mode1_damping_table`` rows).
-ESTIMATORS = ("lscf_h1", "lscf_output", "half_power")
 # the relative difference of RMS levels that still counts as the same level (a measured base
 # RMS is never exactly the nominal one)
 LEVEL_TOLERANCE = 0.1
@@ -78,6 +81,12 @@ class AnalysedTest:
     psd: tuple[np.ndarray, np.ndarray] | None = None
     levels: list[float] = field(default_factory=list)
     source: str = ""
+
+    @property
+    def damping(self) -> xr.Dataset:
+        """Random tests: the Table 2 estimates of :attr:`rows` over ``level`` and
+        ``estimator`` (``results.table2_dataset``: ``value``, ``std``, ``low``, ``high``)."""
+        return table2_dataset(self.rows)
 
 
 def test_from_dataset(ds: xr.Dataset) -> tuple[dict[str, Any], np.ndarray]:
@@ -245,14 +254,20 @@ def compare_rows(measured: AnalysedTest, predicted: Sequence[AnalysedTest],
                     f"{p.case!r} has no RMS level within {100 * LEVEL_TOLERANCE:.0f} % of the "
                     f"measured ones: {', '.join(f'{x:.3g}' for x in p.levels)} g against "
                     f"{', '.join(f'{x:.3g}' for x in measured.levels)} g")
+        dm = measured.damping
+        dp = {p.case: p.damping for p in predicted}
         for k, m in enumerate(measured.rows):
-            for est in ESTIMATORS:
+            for est in dm.estimator.values:
                 for p in predicted:
                     i = match_levels([measured.levels[k]], p.levels)[0]
                     if i is None:
                         continue
-                    rows.append(_row({"rms_g": m["rms_g"], "estimator": est}, m, p.case,
-                                     p.rows[i], est, z_crit))
+                    pe = dp[p.case]
+                    if est not in pe.estimator:  # a prediction without this estimator
+                        continue
+                    rows.append(_row({"rms_g": m["rms_g"], "estimator": str(est)},
+                                     _stats(dm, k, est), p.case, _stats(pe, i, est),
+                                     z_crit))
         return rows
     for m in measured.rows:
         for p in predicted:
@@ -260,24 +275,29 @@ def compare_rows(measured: AnalysedTest, predicted: Sequence[AnalysedTest],
                       and r["method"] == m["method"]), None)
             if q is not None:
                 rows.append(_row({"band": m["band"], "method": m["method"]}, m, p.case, q,
-                                 "zeta", z_crit))
+                                 z_crit))
     return rows
 
 
-def _row(head: dict[str, Any], m: Mapping[str, Any], case: str, p: Mapping[str, Any],
-         key: str, z_crit: float) -> dict[str, Any]:
-    def g(r: Mapping[str, Any], suffix: str) -> float:
-        # band rows name their columns zeta/std/low/high, Table 2 rows <estimator>_std, ...
-        name = (key + suffix if key != "zeta"
-                else {"": "zeta", "_std": "std", "_low": "low", "_high": "high"}[suffix])
-        return float(r.get(name, np.nan))
+def _stats(ds: xr.Dataset, level: int, est: str) -> dict[str, float]:
+    # one estimate of a Table 2 dataset with the names of a band row
+    e = ds.isel(level=level).sel(estimator=est)
+    return {"zeta": float(e["value"]), "std": float(e["std"]), "low": float(e["low"]),
+            "high": float(e["high"])}
 
-    zm, zp = g(m, ""), g(p, "")
+
+def _row(head: dict[str, Any], m: Mapping[str, Any], case: str, p: Mapping[str, Any],
+         z_crit: float) -> dict[str, Any]:
+    def g(r: Mapping[str, Any], key: str) -> float:
+        # band rows and the estimates of a Table 2 dataset (_stats) name them zeta/std/low/high
+        return float(r.get(key, np.nan))
+
+    zm, zp = g(m, "zeta"), g(p, "zeta")
     diff = zp / zm - 1 if np.isfinite(zm) and zm != 0 and np.isfinite(zp) else float("nan")
-    return {**head, "measured": zm, "measured_low": g(m, "_low"),
-            "measured_high": g(m, "_high"), "case": case, "predicted": zp,
-            "predicted_low": g(p, "_low"), "predicted_high": g(p, "_high"),
+    return {**head, "measured": zm, "measured_low": g(m, "low"),
+            "measured_high": g(m, "high"), "case": case, "predicted": zp,
+            "predicted_low": g(p, "low"), "predicted_high": g(p, "high"),
             "difference": diff,
-            **_verdict(zm, g(m, "_low"), g(m, "_high"), g(m, "_std"), zp, g(p, "_std"),
+            **_verdict(zm, g(m, "low"), g(m, "high"), g(m, "std"), zp, g(p, "std"),
                        z_crit)}
 

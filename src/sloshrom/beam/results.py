@@ -21,6 +21,7 @@ from sloshrom.beam.analysis import (
     log_decrement,
     modal_filter,
 )
+from sloshrom.beam.registry import ESTIMATORS, TABLE2, estimator_names, label
 from sloshrom.beam.structure import (
     TANK_KEYS,
     CantileverBeam,
@@ -28,7 +29,13 @@ from sloshrom.beam.structure import (
     coupled_frozen_modes,
     frozen_modal_table,
 )
-from sloshrom.beam.uncertainty import BANDS, band_damping, random_damping
+from sloshrom.beam.uncertainty import (
+    BANDS,
+    RandomDamping,
+    band_damping,
+    estimate_random,
+    table2_columns,
+)
 from sloshrom.config import G, Tank
 from sloshrom.fileio import OutputBatch, atomic_write
 from sloshrom.models import SloshingModel
@@ -37,7 +44,8 @@ __all__ = [
     "BANDS", "Mode1Decay", "damping_band_table", "damping_by_band", "damping_summary",
     "envelope_table",
     "frozen_modes_table",
-    "modal_accelerations", "mode1_damping_table", "mode1_decay", "case_output_fs",
+    "modal_accelerations", "mode1_damping_dataset", "mode1_damping_table", "mode1_decay",
+    "case_output_fs", "table2_dataset",
     "reference_tank", "simulate_cases", "to_dataset", "write_dataset", "write_table",
 ]
 
@@ -181,27 +189,89 @@ def damping_band_table(free: Mapping[str, Mapping[str, Any]],
             for row in band_damping(decays[case].hilbert, decays[case].log_decrement, f1)]
 
 
+def _random_damping(random: Mapping[str, Mapping[str, Any]], levels: Sequence[float], f1: float,
+                    estimators: Sequence[str] | None) -> list[tuple[str, int, RandomDamping]]:
+    # every case and level through the registry's estimators, each with its interval
+    names = estimator_names(estimators)
+    return [(case, i, estimate_random(r["base_acceleration"][i], r["tank_acceleration"][i],
+                                      r["fs"], f1, estimators=names))
+            for case, r in random.items() for i in range(len(levels))]
+
+
 def mode1_damping_table(random: Mapping[str, Mapping[str, Any]], levels: Sequence[float],
-                        f1: float, max_tank_acceleration: bool = False) -> list[dict[str, Any]]:
+                        f1: float, max_tank_acceleration: bool = False,
+                        estimators: Sequence[str] | None = None) -> list[dict[str, Any]]:
     """Paper Table 2: first-mode damping of every random response, one row per case and level,
     each estimate with its standard deviation and interval.
 
     Columns ``case``, ``rms_g`` (g), ``max_tank_acceleration_g`` (g, only if
     ``max_tank_acceleration``), then those of ``sloshrom.beam.uncertainty.random_damping``
-    (the keys of ``sloshrom.beam.analysis.mode1_damping_random`` with ``lscf_h1`` and
-    ``half_power`` corrected for the window's leakage, the uncorrected values, and
-    ``{est}_std``, ``{est}_low``, ``{est}_high`` for every estimator).
+    (Table 2's flat columns, ``uncertainty.table2_columns``, a file contract: every
+    estimator's value, with the bootstrapped ones corrected for their bias, the uncorrected
+    values, and ``{est}_std``, ``{est}_low``, ``{est}_high``). ``estimators``: registered names
+    (default ``registry.TABLE2``). The same as a Dataset: :func:`mode1_damping_dataset`;
+    :func:`table2_dataset` turns the rows of a case into one.
     """
     rows = []
-    for case, r in random.items():
-        for i, level in enumerate(levels):
-            d = random_damping(r["base_acceleration"][i], r["tank_acceleration"][i], r["fs"], f1)
-            row: dict[str, Any] = {"case": case, "rms_g": level}
-            if max_tank_acceleration:
-                row["max_tank_acceleration_g"] = float(np.max(np.abs(r["tank_acceleration"][i]))
-                                                       / G)
-            rows.append({**row, **d})
+    for case, i, d in _random_damping(random, levels, f1, estimators):
+        r = random[case]
+        row: dict[str, Any] = {"case": case, "rms_g": levels[i]}
+        if max_tank_acceleration:
+            row["max_tank_acceleration_g"] = float(np.max(np.abs(r["tank_acceleration"][i]))
+                                                   / G)
+        rows.append({**row, **table2_columns(d)})
     return rows
+
+
+def mode1_damping_dataset(random: Mapping[str, Mapping[str, Any]], levels: Sequence[float],
+                          f1: float, estimators: Sequence[str] | None = None) -> xr.Dataset:
+    """Paper Table 2 as a Dataset: the estimates of :func:`mode1_damping_table` over ``case``,
+    ``level`` (coordinate: RMS base acceleration, g) and ``estimator``.
+
+    Returns
+    -------
+    xarray.Dataset
+        The variables of ``sloshrom.beam.uncertainty.damping_dataset`` (``value``, ``std``,
+        ``low``, ``high``, ``uncorrected``, ``iqr`` (-), ``frequency`` (Hz), ``n_poles``,
+        ``reason``) with dimensions ``(case, level, estimator)``; ``noise_input``,
+        ``noise_output``, ``n_cycles`` (-) and ``duration_s`` (s) over ``(case, level)``.
+    """
+    per = {(case, i): d.to_dataset()
+           for case, i, d in _random_damping(random, levels, f1, estimators)}
+    cases = list(random)
+    return xr.concat(
+        [xr.concat([per[(c, i)] for i in range(len(levels))], dim="level")
+         for c in cases], dim="case", coords="minimal", compat="override",
+    ).assign_coords(case=cases, level=("level", [float(x) for x in levels], {"units": "g"}))
+
+
+def table2_dataset(rows: Sequence[Mapping[str, Any]]) -> xr.Dataset:
+    """The Table 2 rows of one case (:func:`mode1_damping_table`, or a table read back) as a
+    Dataset over RMS level and estimator.
+
+    Returns
+    -------
+    xarray.Dataset
+        Dimensions ``level`` (coordinate: ``rms_g``, g) and ``estimator`` (coordinates: the
+        names, ``registry.TABLE2`` first and then every other registered estimator that a row
+        holds, and ``label``); variables ``value``, ``std``, ``low``, ``high`` (damping ratio,
+        -; NaN where a row lacks the column).
+    """
+    keys = set().union(*(r.keys() for r in rows)) if rows else set()
+    names = [*TABLE2, *(n for n in ESTIMATORS if n not in TABLE2 and n in keys)]
+    nan = float("nan")
+
+    def column(suffix: str) -> np.ndarray:
+        return np.array([[float(r.get(n + suffix, nan)) for n in names] for r in rows],
+                        dtype=float).reshape(len(rows), len(names))
+
+    dims = ("level", "estimator")
+    return xr.Dataset(
+        {"value": (dims, column(""), {"units": "1"}), "std": (dims, column("_std"), {"units": "1"}),
+         "low": (dims, column("_low"), {"units": "1"}),
+         "high": (dims, column("_high"), {"units": "1"})},
+        coords={"level": ("level", [float(r["rms_g"]) for r in rows], {"units": "g"}),
+                "estimator": names, "label": ("estimator", [label(n) for n in names])})
 
 
 def frozen_modes_table(tank: Tank | Sequence[Tank], modal: ModalModel,

@@ -5,12 +5,15 @@ its standard deviation and confidence interval.
   (ambient) damping identification and its inverse (the record length a precision needs).
 * :func:`band_damping` - free decays: Hilbert and log-decrement damping per amplitude band,
   with intervals.
-* :func:`random_damping` - random tests (paper Table 2): the estimators of
-  :func:`sloshrom.beam.analysis.mode1_damping_random`, the bias of the H1 estimators removed
-  (parametric bootstrap), each with a standard deviation and an interval.
+* :func:`estimate_random` (typed), :func:`damping_dataset` (an xarray Dataset over the
+  estimators), :func:`random_damping` (Table 2's flat columns) - random tests: every asked
+  estimator of ``sloshrom.beam.registry`` through its protocol, the bias of the bootstrapped
+  ones removed (parametric bootstrap), each with a standard deviation and an interval (or the
+  reason why there is none). :func:`mode1_damping_random`: Table 2's raw estimates only.
 * :func:`noise_ratios` - the input and output noise of a random test, from its coherence.
 
-Pure numerical functions: arrays in, dicts out. Intervals are two-sided at ``confidence``
+Pure numerical functions: arrays in, typed results, datasets or Table 2's columns (a file
+contract, :func:`table2_columns`) out. Intervals are two-sided at ``confidence``
 (default :data:`CONFIDENCE`); NaN where an estimate or its spread cannot be formed.
 """
 
@@ -19,29 +22,25 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
-from scipy import fft, optimize, signal, stats
-from scipy.signal import get_window
+import xarray as xr
+from scipy import optimize, signal, stats
 from threadpoolctl import threadpool_limits
 
-from sloshrom.beam.analysis import (
-    AnalysisError,
-    frf_h1,
-    half_power_damping,
-    lscf_cluster_damping,
-    lscf_poles_batch,
-    output_only_damping,
-    stable_pole_cluster,
-    welch_psd,
-)
+from sloshrom.beam.analysis import welch_psd
 from sloshrom.beam.errors import BeamError
+from sloshrom.beam.estimators import OUTPUT_ONLY_EFFICIENCY, DampingEstimate, RandomTest
+from sloshrom.beam.registry import TABLE2, estimator_names, get_estimator, label
 from sloshrom.config import G
 
 __all__ = [
-    "BANDS", "CONFIDENCE", "OUTPUT_ONLY_EFFICIENCY", "ShortRecordWarning", "au_damping_cov",
-    "band_damping", "noise_ratios", "random_damping", "required_duration",
+    "BANDS", "CONFIDENCE", "OUTPUT_ONLY_EFFICIENCY", "RandomDamping", "ShortRecordWarning",
+    "au_damping_cov", "band_damping", "damping_dataset", "estimate_random",
+    "mode1_damping_random", "noise_ratios", "random_damping", "required_duration",
+    "table2_columns",
 ]
 
 #: Two-sided confidence level of every interval.
@@ -50,13 +49,6 @@ CONFIDENCE: float = 0.95
 #: Bands of tank-acceleration amplitude (g) in which the instantaneous first-mode damping is
 #: summarised.
 BANDS: tuple[tuple[float, float], ...] = ((0.5, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 5.0))
-
-#: Scatter of the output-only estimator (``analysis.output_only_damping``) over Au's bound
-#: ``1 / sqrt(zeta omega_n T)``: 17.2 % / 13.3 % = 1.29 at 90 s and 6.8 % / 5.2 % = 1.31 at 600 s
-#: (standard deviation over 50 records of a base-excited 1 %, 10 Hz oscillator under Gaussian
-#: white noise, ``benchmarks/damping_estimators.py``).
-OUTPUT_ONLY_EFFICIENCY: float = 1.3
-
 
 class ShortRecordWarning(UserWarning):
     """A random test is too short for the asked precision of the damping ratio; the message
@@ -232,25 +224,7 @@ def band_damping(
     return rows
 
 
-# -- random tests: a parametric bootstrap of the H1 estimators -------------------------------------
-def _h1(base: np.ndarray, tank: np.ndarray, fs: float, nperseg: int,
-        window: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    # frf_h1 (Hann, 50 % overlap, constant detrend) on one pass over the segments, of one record
-    # (n,) or of a stack of them (n_records, n): the bootstrap computes hundreds of them
-    step = nperseg // 2
-    k = 1 + (base.shape[-1] - nperseg) // step
-    idx = np.arange(k)[:, None] * step + np.arange(nperseg)
-    # C order, as base[idx] of one record: the means then sum in the same order, and a stack
-    # gives each record exactly its own H1
-    u, y = np.ascontiguousarray(base[..., idx]), np.ascontiguousarray(tank[..., idx])
-    uf = fft.rfft((u - u.mean(axis=-1, keepdims=True)) * window, axis=-1)
-    yf = fft.rfft((y - y.mean(axis=-1, keepdims=True)) * window, axis=-1)
-    sxx, syy = np.sum(np.abs(uf)**2, -2), np.sum(np.abs(yf)**2, -2)
-    sxy = np.sum(np.conj(uf) * yf, -2)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return fft.rfftfreq(nperseg, 1 / fs), sxy / sxx, np.abs(sxy)**2 / (sxx * syy)
-
-
+# -- random tests: every estimator through its protocol, with intervals ---------------------
 def noise_ratios(f: np.ndarray, h: np.ndarray, coh: np.ndarray, leakage: np.ndarray,
                  sxx: np.ndarray, frequency: float, zeta: float,
                  band: tuple[float, float]) -> tuple[float, float]:
@@ -325,35 +299,39 @@ def _simulate(frequency: float, zeta: float, fs: float, n: int, n_records: int,
 # BLAS on one thread: the bootstrap's LSCF fits are small (a QR of ~700 x 82) and many; on a
 # loaded machine a multithreaded BLAS made each one up to ten times slower than on one thread
 @threadpool_limits.wrap(limits=1, user_api="blas")
-def random_damping(
+def estimate_random(
     base: Any,
     tank: Any,
     fs: float,
     f1: float,
     *,
+    estimators: Sequence[str] | None = None,
     confidence: float = CONFIDENCE,
     n_resamples: int = 40,
     seed: int = 0,
     accuracy: float | None = None,
     rel_band: float = 0.5,
     nperseg: int = 16384,
-) -> dict[str, Any]:
-    """First-mode damping of a random test (paper Table 2) with standard deviations and
-    intervals.
+) -> RandomDamping:
+    """First-mode damping of a random test by every asked estimator, each with its standard
+    deviation and interval (the estimators of ``sloshrom.beam.registry``, through their
+    protocol).
 
-    * ``lscf_h1`` and ``half_power`` (estimates on the Welch H1): a parametric bootstrap.
-      ``n_resamples`` records of the record's length are simulated from the fitted mode (a
-      base-excited oscillator with the estimated frequency and damping, white input) with the
-      record's input and output noise (:func:`noise_ratios`), and analysed as the record was.
-      Their mean minus the simulated damping is the estimator's bias (the Welch window's
-      leakage, and the equation-error bias that noise causes); it is removed, and the
-      simulation repeated once around the corrected damping. ``std`` is the standard
-      deviation of the simulated estimates, the interval ``zeta +/- t std`` (Student's ``t``
-      with ``n_resamples - 1`` degrees of freedom). The raw values are kept as
-      ``lscf_h1_uncorrected`` and ``half_power_uncorrected``.
-    * ``lscf_output`` (output-only): ``std = OUTPUT_ONLY_EFFICIENCY * zeta * au_damping_cov(
-      zeta, frequency, duration)`` (Au's law times the estimator's measured efficiency),
-      interval ``zeta +/- z std``; no bias correction.
+    * Estimators of ``uncertainty == "bootstrap"`` (``lscf_h1``, ``half_power``): a parametric
+      bootstrap. ``n_resamples`` records of the record's length are simulated from the fitted
+      mode (a base-excited oscillator, white input) with the record's input and output noise
+      (:func:`noise_ratios`), and analysed as the record was
+      (``DampingEstimator.estimate_records``). Their mean minus the simulated damping is the
+      estimator's bias (the Welch window's leakage, and the equation-error bias that noise
+      causes); it is removed, and the simulation repeated once around the corrected damping.
+      ``std`` is the standard deviation of the simulated estimates, the interval
+      ``value +/- t std`` (Student's ``t`` with ``n_resamples - 1`` degrees of freedom). The
+      simulated mode: the damping ratio of the first bootstrapped estimator (in the order
+      asked) that gives one in (0, 0.5), the frequency of the first bootstrapped estimator
+      (``f1`` if it has none).
+    * Estimators of ``uncertainty == "au"`` (``lscf_output``): ``std = efficiency * zeta *
+      au_damping_cov(zeta, frequency, duration)`` (Au's law times the estimator's measured
+      efficiency), interval ``zeta +/- z std``; no bias correction.
 
     Parameters
     ----------
@@ -361,10 +339,12 @@ def random_damping(
         Base and tank accelerations, same unit.
     fs, f1 : float
         Sampling frequency and approximate first-mode frequency, Hz.
+    estimators : sequence of str, optional
+        Registered estimator names (default ``registry.TABLE2``).
     confidence : float
         Two-sided confidence level of the intervals.
     n_resamples : int
-        Simulated records per bootstrap round (two rounds; each record one LSCF fit).
+        Simulated records per bootstrap round (two rounds).
     seed : int
         Seed of the simulations.
     accuracy : float, optional
@@ -378,121 +358,267 @@ def random_damping(
 
     Returns
     -------
-    dict
-        Every key of ``sloshrom.beam.analysis.mode1_damping_random``, with ``lscf_h1`` and
-        ``half_power`` bias-corrected; ``lscf_h1_uncorrected``, ``half_power_uncorrected``;
-        for ``est`` in (``lscf_h1``, ``lscf_output``, ``half_power``): ``{est}_std``,
-        ``{est}_low``, ``{est}_high`` (damping ratio, -); ``noise_input``, ``noise_output``
-        (the noise-to-signal ratios of :func:`noise_ratios`, -; NaN if no bootstrap was
-        possible); ``duration_s`` (s), ``n_cycles`` (record length in periods of the first
-        mode, -). Without a first H1 estimate, the H1 estimators and their spreads are NaN;
-        so are the corrected values when fewer than half of the simulated records give an
-        estimate (the record's estimate is not reproducible: e.g. a 34 s record at 500 Hz,
-        one Welch segment of 16384 samples, lost the mode in half or more of them).
+    RandomDamping
+        Per estimator a :class:`~sloshrom.beam.estimators.DampingEstimate` (NaN values with
+        their reason: no estimate, or fewer than half of the simulated records gave one - the
+        record's estimate is not reproducible), and the record's noise ratios, length and
+        cycles.
     """
-    base = np.asarray(base, dtype=float)
-    tank = np.asarray(tank, dtype=float)
-    if base.ndim != 1 or tank.shape != base.shape:
+    nan = float("nan")
+    names = estimator_names(estimators)
+    test = RandomTest(base, tank, fs, f1, rel_band=rel_band, nperseg=nperseg)
+    if test.base.ndim != 1:
         raise BeamError("base and tank must be 1-D arrays of the same length")
     if n_resamples < 2:
         raise BeamError("n_resamples must be at least 2")
     z = _z(confidence)
-    nan = float("nan")
-    band = (f1 * (1 - rel_band), f1 * (1 + rel_band))
-    nseg = min(int(nperseg), base.size)
-    f, h, coh = frf_h1(base, tank, fs, nseg)
-    r_h1 = lscf_cluster_damping(f, h, f1, band)
-    r_out = output_only_damping(tank, fs, f1, band)
+    ests = {n: get_estimator(n) for n in names}
+    raw = {n: e.estimate(test) for n, e in ests.items()}
+    boot = [n for n in names if ests[n].uncertainty == "bootstrap"]
+    duration = test.duration
+    out: dict[str, DampingEstimate] = {}
 
-    window = get_window("hann", nseg)
+    noise = (nan, nan)
+    zeta_model = next((raw[n].value for n in boot if 0 < raw[n].value < 0.5), nan)
+    f_mode = raw[boot[0]].frequency if boot and np.isfinite(raw[boot[0]].frequency) else f1
+    bias = {n: nan for n in boot}
+    spread = dict(bias)
+    if np.isfinite(zeta_model):
+        f, h, coh = test.h1
 
-    def estimates(u: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        # the estimates of records (n_records, n) as the record's, all at once: (n_records, 2)
-        # (LSCF, half-power) and every record's incoherence 1/coh - 1
-        fr, hr, coh = _h1(u, y, fs, nseg, window)
-        est = np.full((hr.shape[0], 2), nan)
-        for k, poles in enumerate(lscf_poles_batch(fr, hr, band)):
-            est[k, 0] = stable_pole_cluster(poles, f1)["zeta"]
-            try:
-                est[k, 1] = half_power_damping(fr, hr[k], band)["zeta"]
-            except AnalysisError:  # no clear peak in this record: the estimate is missing
-                pass
-        with np.errstate(divide="ignore"):
-            return est, 1 / coh - 1
-
-    # the raw values exactly as mode1_damping_random (frf_h1's H1; _h1 agrees to round-off)
-    z_raw = float(r_h1["zeta"])
-    try:
-        hp_raw = half_power_damping(f, h, band)["zeta"]
-    except AnalysisError:
-        hp_raw = nan
-    f_mode = r_h1["frequency"] if np.isfinite(r_h1["frequency"]) else f1
-    duration = base.size / fs
-    out: dict[str, Any] = {
-        "lscf_h1": nan, "lscf_output": r_out["zeta"], "half_power": nan,
-        "frequency_h1": r_h1["frequency"], "frequency_output": r_out["frequency"],
-        "lscf_h1_iqr": r_h1["zeta_iqr"], "lscf_output_iqr": r_out["zeta_iqr"],
-        "lscf_h1_n": r_h1["n_poles"], "lscf_output_n": r_out["n_poles"],
-        "lscf_h1_uncorrected": z_raw, "half_power_uncorrected": hp_raw,
-        "noise_input": nan, "noise_output": nan,
-    }
-    std = {"lscf_h1": nan, "half_power": nan}
-    zeta_model = z_raw if np.isfinite(z_raw) and z_raw > 0 else hp_raw
-    if np.isfinite(zeta_model) and 0 < zeta_model < 0.5:
-        raw = np.array([z_raw, hp_raw])
-
-        def bootstrap(noise: tuple[float, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        def bootstrap(noise: tuple[float, float]) -> np.ndarray:
             # both rounds draw the same records (the noise after them): the result is
             # continuous in the estimated noise, which round-off may move off zero
             rng = np.random.default_rng(seed)
-            u, y = _simulate(f_mode, zeta_model, fs, base.size, n_resamples, noise, rng)
-            sims, incoherence = estimates(u, y)
-            bias, spread = np.full(2, np.nan), np.full(2, np.nan)
-            for c in range(2):
-                v = sims[np.isfinite(sims[:, c]), c]
-                if v.size >= max(2, n_resamples // 2):  # else the mode is mostly lost: no spread
-                    bias[c], spread[c] = v.mean() - zeta_model, v.std(ddof=1)
-            return bias, spread, np.mean(incoherence, axis=0)
+            u, y = _simulate(f_mode, zeta_model, fs, test.base.size, n_resamples, noise, rng)
+            sims = RandomTest(u, y, fs, f1, rel_band=rel_band, nperseg=test.nperseg)
+            for n in boot:
+                v = ests[n].estimate_records(sims)
+                v = v[np.isfinite(v)]
+                if v.size >= max(2, n_resamples // 2):  # else the mode is mostly lost
+                    bias[n], spread[n] = v.mean() - zeta_model, v.std(ddof=1)
+                else:
+                    bias[n], spread[n] = nan, nan
+            with np.errstate(divide="ignore"):
+                return np.mean(1 / sims.h1[2] - 1, axis=0)
 
         # round 1, noise-free: the leakage bias and the incoherence the leakage causes; the
         # rest of the record's incoherence is noise, which biases LSCF strongly (1 % RMS on the
         # input moved a 90 s estimate by -5 %): round 2 simulates it
-        bias, spread, leak = bootstrap((0.0, 0.0))
-        _, sxx = welch_psd(base, fs, nseg)
-        noise = noise_ratios(f, h, coh, leak, sxx, f_mode, zeta_model, band)
+        leak = bootstrap((0.0, 0.0))
+        _, sxx = welch_psd(test.base, fs, test.nperseg)
+        noise = noise_ratios(f, h, coh, leak, sxx, f_mode, zeta_model, test.band)
         if max(noise) > 0:
-            bias, spread, _ = bootstrap(noise)
-        corrected = raw - bias
-        out["lscf_h1"], out["half_power"] = float(corrected[0]), float(corrected[1])
-        out["noise_input"], out["noise_output"] = noise
-        std = {"lscf_h1": float(spread[0]), "half_power": float(spread[1])}
+            bootstrap(noise)
     # the spread is estimated from n_resamples records: Student's t, not the normal quantile
     t_boot = _t(confidence, n_resamples - 1)
-    for est in ("lscf_h1", "half_power"):
-        out.update({f"{est}_std": std[est], f"{est}_low": out[est] - t_boot * std[est],
-                    f"{est}_high": out[est] + t_boot * std[est]})
-
-    zo, fo = r_out["zeta"], r_out["frequency"]
-    std_out = (OUTPUT_ONLY_EFFICIENCY * zo * au_damping_cov(zo, fo, duration)
-               if np.isfinite(zo) and zo > 0 and np.isfinite(fo) else nan)
-    out.update(lscf_output_std=std_out, lscf_output_low=zo - z * std_out,
-               lscf_output_high=zo + z * std_out, duration_s=duration,
-               n_cycles=duration * (fo if np.isfinite(fo) else f_mode))
-
+    for n in names:
+        r = raw[n]
+        if ests[n].uncertainty == "bootstrap":
+            value, std, q = float(r.value - bias[n]), float(spread[n]), t_boot
+            why = _bootstrap_reason(r, zeta_model, value, std, n_resamples)
+        else:
+            value, q = r.value, z
+            ok = np.isfinite(value) and value > 0 and np.isfinite(r.frequency)
+            std = (ests[n].efficiency * value * au_damping_cov(value, r.frequency, duration)
+                   if ok else nan)
+            why = r.reason or ("" if ok else f"no positive damping ratio ({value:.3g})")
+        out[n] = replace(r, value=value, std=std, low=value - q * std, high=value + q * std,
+                         reason="" if np.isfinite(value) and np.isfinite(std)
+                         else why or "no estimate")
+    # Au's law speaks of output-only estimates: the first such estimator asked gives the record's
+    # cycles and the length a precision needs
+    au_name = next((n for n in names if ests[n].uncertainty == "au"), None)
+    au = out[au_name] if au_name is not None else None
+    f_cyc = au.frequency if au is not None and np.isfinite(au.frequency) else f_mode
+    result = RandomDamping(out, noise_input=noise[0], noise_output=noise[1],
+                           duration_s=duration, n_cycles=duration * f_cyc,
+                           confidence=confidence)
     if accuracy is not None:
-        _warn_short(accuracy, zo if np.isfinite(zo) and zo > 0 else out["lscf_h1"],
-                    fo if np.isfinite(fo) else f_mode, duration)
+        zeta = au.value if au is not None and np.isfinite(au.value) and au.value > 0 else (
+            out[boot[0]].value if boot else nan)
+        _warn_short(accuracy, zeta, au.frequency if au is not None
+                    and np.isfinite(au.frequency) else f_mode, duration,
+                    ests[au_name].efficiency if au is not None else OUTPUT_ONLY_EFFICIENCY)
+    return result
+
+
+def _bootstrap_reason(r: DampingEstimate, zeta_model: float, value: float, std: float,
+                      n_resamples: int) -> str:
+    if r.reason:
+        return r.reason
+    if not np.isfinite(r.value):
+        return "no estimate"
+    if not np.isfinite(zeta_model):
+        return "no damping ratio in (0, 0.5) to simulate: no bias correction, no interval"
+    if not (np.isfinite(value) and np.isfinite(std)):
+        return (f"fewer than half of the {n_resamples} simulated records gave an estimate: "
+                "the record's estimate is not reproducible")
+    return ""
+
+
+@dataclass(frozen=True)
+class RandomDamping:
+    """First-mode damping of one random test by several estimators
+    (:func:`estimate_random`).
+
+    Attributes
+    ----------
+    estimates : dict
+        Estimator name -> :class:`~sloshrom.beam.estimators.DampingEstimate`, in the order
+        asked.
+    noise_input, noise_output : float
+        Noise-to-signal ratios of the record (:func:`noise_ratios`), -; NaN without a
+        bootstrap.
+    duration_s : float
+        Record length, s.
+    n_cycles : float
+        Record length in periods of the first mode, -.
+    confidence : float
+        Two-sided level of the intervals.
+    """
+
+    estimates: dict[str, DampingEstimate]
+    noise_input: float
+    noise_output: float
+    duration_s: float
+    n_cycles: float
+    confidence: float = CONFIDENCE
+
+    def to_dataset(self) -> xr.Dataset:
+        """The result as a Dataset with dimension ``estimator`` (see :func:`damping_dataset`).
+        """
+        names = list(self.estimates)
+        e = [self.estimates[n] for n in names]
+        var = {k: ("estimator", np.array([getattr(x, k) for x in e]), {"units": u})
+               for k, u in _FIELDS.items()}
+        var["reason"] = ("estimator", np.array([x.reason for x in e], dtype=object), {})
+        var.update({k: ((), getattr(self, k), {"units": u}) for k, u in
+                    (("noise_input", "1"), ("noise_output", "1"), ("duration_s", "s"),
+                     ("n_cycles", "1"))})
+        return xr.Dataset(var, coords={"estimator": names,
+                                       "label": ("estimator", [label(n) for n in names])},
+                          attrs={"confidence": self.confidence})
+
+    def columns(self) -> dict[str, Any]:
+        """The flat columns of Table 2 (the file contract of ``table2_mode1_damping.csv``)."""
+        return table2_columns(self)
+
+
+#: The per-estimator variables of a damping dataset and their units.
+_FIELDS: dict[str, str] = {"value": "1", "std": "1", "low": "1", "high": "1", "frequency": "Hz",
+                           "uncorrected": "1", "iqr": "1", "n_poles": "1"}
+
+
+def damping_dataset(base: Any, tank: Any, fs: float, f1: float, **kw: Any) -> xr.Dataset:
+    """:func:`estimate_random` as an xarray Dataset.
+
+    Returns
+    -------
+    xarray.Dataset
+        Dimension ``estimator`` (coordinates: the names, and ``label``); variables ``value``,
+        ``std``, ``low``, ``high``, ``uncorrected``, ``iqr`` (damping ratio, -),
+        ``frequency`` (Hz), ``n_poles`` and ``reason`` (str, ``""`` where the value and its
+        interval exist); scalars ``noise_input``, ``noise_output`` (-), ``duration_s`` (s),
+        ``n_cycles`` (-); attribute ``confidence``.
+    """
+    return estimate_random(base, tank, fs, f1, **kw).to_dataset()
+
+
+# -- the flat columns of Table 2: file contracts ------------------------------------------------
+def table2_columns(result: RandomDamping) -> dict[str, Any]:
+    """The columns of a Table 2 row (``table2_mode1_damping.csv``, the stage records): names
+    and order are a file contract, those of the versions before the estimator registry.
+
+    Paper Table 2's three estimators first, as ever: their values, ``frequency_h1``,
+    ``frequency_output``, ``{est}_iqr`` and ``{est}_n`` of the LSCF ones, the uncorrected
+    bootstrapped values, the noise ratios, ``{est}_std``/``_low``/``_high`` (bootstrapped
+    estimators first), ``duration_s``, ``n_cycles``. Any other estimator asked follows:
+    ``{est}``, ``{est}_std``, ``{est}_low``, ``{est}_high``, ``frequency_{est}``,
+    ``{est}_uncorrected``.
+    """
+    e = result.estimates
+    legacy = [n for n in TABLE2 if n in e]
+    h1, out_only, hp = TABLE2
+    clusters = [n for n in (h1, out_only) if n in e]
+    freq_col = {h1: "frequency_h1", out_only: "frequency_output"}
+    out: dict[str, Any] = {n: e[n].value for n in legacy}
+    out.update({freq_col[n]: e[n].frequency for n in clusters})
+    out.update({f"{n}_iqr": e[n].iqr for n in clusters})
+    out.update({f"{n}_n": e[n].n_poles for n in clusters})
+    out.update({f"{n}_uncorrected": e[n].uncorrected for n in (h1, hp) if n in e})
+    out.update(noise_input=result.noise_input, noise_output=result.noise_output)
+    for n in (h1, hp, out_only):
+        if n in e:
+            out.update({f"{n}_std": e[n].std, f"{n}_low": e[n].low, f"{n}_high": e[n].high})
+    out.update(duration_s=result.duration_s, n_cycles=result.n_cycles)
+    for n, x in e.items():
+        if n not in legacy:
+            out.update({n: x.value, f"{n}_std": x.std, f"{n}_low": x.low, f"{n}_high": x.high,
+                        f"frequency_{n}": x.frequency, f"{n}_uncorrected": x.uncorrected})
     return out
 
 
-def _warn_short(accuracy: float, zeta: float, frequency: float, duration: float) -> None:
+def random_damping(base: Any, tank: Any, fs: float, f1: float, **kw: Any) -> dict[str, Any]:
+    """:func:`estimate_random` as the flat columns of a Table 2 row (:func:`table2_columns`):
+    ``lscf_h1``, ``lscf_output``, ``half_power`` (the bootstrapped ones bias-corrected),
+    ``{est}_std``, ``{est}_low``, ``{est}_high``, the uncorrected values, ``frequency_h1``,
+    ``frequency_output``, ``noise_input``, ``noise_output``, ``duration_s``, ``n_cycles``.
+    Keyword arguments as :func:`estimate_random`."""
+    return table2_columns(estimate_random(base, tank, fs, f1, **kw))
+
+
+def mode1_damping_random(
+    base: Any,
+    tank: Any,
+    fs: float,
+    f1: float,
+    rel_band: float = 0.5,
+    nperseg: int = 16384,
+    pol_order_high: int = 20,
+) -> dict[str, float]:
+    """The raw first-mode damping of a random response by paper Table 2's three estimators, no
+    intervals, as flat columns.
+
+    * ``lscf_h1``: LSCF on H1 = base -> tank acceleration (Welch, Hann, ``nperseg`` samples,
+      50 % overlap), median over the stable-pole cluster (``analysis.lscf_cluster_damping``);
+    * ``lscf_output``: output-only, LSCF on the half-spectrum of the tank acceleration with the
+      exponential-window correction, cluster median (``analysis.output_only_damping``);
+    * ``half_power``: half-power bandwidth of |H1|.
+
+    Band ``f1 (1 -/+ rel_band)`` Hz. The default 16384 samples (33 s at 500 Hz, 0.03 Hz
+    resolution) resolves a 1 % mode at 10 Hz (half-power bandwidth 0.2 Hz); the Hann window
+    still biases the H1 estimate upward: +2.9 % at 16384, +4.3 % at 8192, +1.6 % at 32768
+    (1 %, 10 Hz mode, 600 s records). Bias and scatter: ``benchmarks/damping_estimators.py``.
+
+    Returns
+    -------
+    dict
+        Damping ratios (-): ``lscf_h1``, ``lscf_output``, ``half_power``; their spreads over
+        the stable-pole cluster ``lscf_h1_iqr``, ``lscf_output_iqr`` (-) and cluster sizes
+        ``lscf_h1_n``, ``lscf_output_n``; frequencies ``frequency_h1``, ``frequency_output``
+        (Hz). An estimator that finds no stable cluster gives NaN (and size 0); the reasons are
+        in the estimates of ``registry.get_estimator(name).estimate``.
+    """
+    test = RandomTest(base, tank, fs, f1, rel_band=rel_band, nperseg=nperseg,
+                      pol_order_high=pol_order_high)
+    e = {n: get_estimator(n).estimate(test) for n in TABLE2}
+    h1, out_only, hp = TABLE2
+    return {h1: e[h1].value, out_only: e[out_only].value, hp: e[hp].value,
+            "frequency_h1": e[h1].frequency, "frequency_output": e[out_only].frequency,
+            f"{h1}_iqr": e[h1].iqr, f"{out_only}_iqr": e[out_only].iqr,
+            f"{h1}_n": e[h1].n_poles, f"{out_only}_n": e[out_only].n_poles}
+
+
+def _warn_short(accuracy: float, zeta: float, frequency: float, duration: float,
+                efficiency: float = OUTPUT_ONLY_EFFICIENCY) -> None:
     if not accuracy > 0:
         raise BeamError(f"accuracy must be positive, got {accuracy}")
     if not (np.isfinite(zeta) and zeta > 0 and np.isfinite(frequency)):
         return
-    cov = OUTPUT_ONLY_EFFICIENCY * au_damping_cov(zeta, frequency, duration)
+    cov = efficiency * au_damping_cov(zeta, frequency, duration)
     if cov > accuracy:
-        need = required_duration(zeta, frequency, accuracy / OUTPUT_ONLY_EFFICIENCY)
+        need = required_duration(zeta, frequency, accuracy / efficiency)
         warnings.warn(
             f"a {duration:.0f} s random record of a {100 * zeta:.2g} % mode at "
             f"{frequency:.3g} Hz gives ±{100 * cov:.0f} % (1 sigma) on the damping ratio; "

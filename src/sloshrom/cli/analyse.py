@@ -225,6 +225,11 @@ def random(
     accuracy: Annotated[float | None, typer.Option(
         help="Relative 1-sigma target on the damping ratio, e.g. 0.1: a warning for a record "
              "too short to reach it.")] = None,
+    estimator: Annotated[list[str] | None, typer.Option(
+        "--estimator",
+        help="A damping estimator of the registry (sloshrom.beam.registry), repeatable, e.g. "
+             "--estimator lscf_output --estimator ssi_cov; default the three of paper Table "
+             "2.")] = None,
     tank_toml: TankOpt = None,
     fill: FillOpt = None,
     modal_toml: ModalOpt = None,
@@ -244,14 +249,23 @@ def random(
     ``random_NAME.nc``, ``table2_mode1_damping.csv/.md`` and the figures of ``sloshrom beam
     random``, all together or none.
 
+    ``--estimator`` picks the damping estimators by their registered names (default the three
+    of Table 2; e.g. ``ssi_cov`` adds the columns ``ssi_cov``, ``ssi_cov_std``, ``ssi_cov_low``,
+    ``ssi_cov_high``, ``frequency_ssi_cov``, ``ssi_cov_uncorrected``).
+
     Example: ``sloshrom analyse random r01.uff r02.uff r04.uff --channels channels.toml
     --levels 0.1,0.2,0.4 --out lab``
     """
     from sloshrom.beam.measured import check_random_base, read_random_test
+    from sloshrom.beam.registry import estimator_names
     from sloshrom.beam.results import to_dataset, write_dataset, write_table
     from sloshrom.beam.uncertainty import ShortRecordWarning, random_damping
     from sloshrom.plotting.beam import RANDOM_FIGURES, random_figures, random_window
 
+    try:
+        names = estimator_names(estimator or None)
+    except SloshromError as e:
+        fail(f"--estimator: {e}")
     lv = _levels(levels)
     if lv is not None and len(lv) != len(files):
         fail(f"--levels gives {len(lv)} level(s) for {len(files)} file(s): one per file")
@@ -286,7 +300,7 @@ def random(
                 warnings.simplefilter("always", ShortRecordWarning)
                 d = _checked("damping analysis of mode 1", lambda i=i: random_damping(
                     res["base_acceleration"][i], res["tank_acceleration"][i], res["fs"], f1v,
-                    accuracy=accuracy))
+                    accuracy=accuracy, estimators=names))
             for w in caught:  # say which level each warning is about
                 warnings.warn_explicit(f"{g:g} g RMS: {w.message}", w.category, w.filename,
                                        w.lineno)

@@ -24,6 +24,7 @@ from sloshrom.beam.measured import (
     read_free_test,
     read_random_test,
 )
+from sloshrom.beam.registry import REFERENCE
 from sloshrom.beam.results import (
     Simulate,
     damping_band_table,
@@ -268,7 +269,7 @@ def member_spread(ens: Ensemble, tests: dict[str, Simulate], modal: ModalModel,
     free = simulate_cases(members, tests["free"], fs)
     rand = simulate_cases(members, tests["random"], fs)
     rows = mode1_damping_table(rand, levels, f1)
-    table2 = {f"{lv:g}": spread(r["lscf_h1"] for r in rows if r["rms_g"] == lv)
+    table2 = {f"{lv:g}": spread(r[REFERENCE] for r in rows if r["rms_g"] == lv)
               for lv in levels}
     inst = damping_summary(free, {c: mode1_decay(r, modal, f1) for c, r in free.items()})
     bands = [k for k in next(iter(inst.values())) if k != "initial_tank_acceleration_g"]

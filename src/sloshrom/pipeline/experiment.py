@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from sloshrom.beam.registry import label
 from sloshrom.pipeline.html import Table
 
 __all__ = ["experiment_tables", "interval_text", "percent"]
@@ -46,15 +47,13 @@ def experiment_tables(exp: Any, kind: str) -> list[Table]:
     else:
         keys = list(dict.fromkeys((r["rms_g"], r["estimator"]) for r in rows))
         head, what = ["RMS [g]", "estimator"], "random tests: first-mode"
-    names = {"lscf_h1": "LSCF on H1", "lscf_output": "output-only LSCF",
-             "half_power": "half power", "hilbert": "Hilbert", "log_decrement": "log decrement"}
     body = []
     for k in keys:
         sel = [r for r in rows if (r.get("band", r.get("rms_g")),
                                    r.get("method", r.get("estimator"))) == k]
         m = sel[0]
         cells = {r["case"]: f"{percent(r['predicted'])} ({r['verdict']})" for r in sel}
-        body.append([k[0], names.get(k[1], k[1]),
+        body.append([k[0], label(k[1]),
                      interval_text(m["measured"], m["measured_low"], m["measured_high"])]
                     + [cells.get(c, "–") for c in cases])
     return [Table(head + ["experiment (95 % interval)"] + cases, body,

@@ -13,6 +13,8 @@ from typing import Any
 import numpy as np
 
 from sloshrom import studies as registry
+from sloshrom.beam.registry import TABLE2, label
+from sloshrom.beam.results import table2_dataset
 from sloshrom.pipeline import html as report
 from sloshrom.pipeline import settings
 from sloshrom.pipeline.context import Context
@@ -357,13 +359,23 @@ def _beam_sections(ctx: Context, b: dict[str, Any]) -> list[Section]:
                    "Median first-mode instantaneous damping (Hilbert) in bands of tank "
                    "acceleration amplitude, free response.")
 
-    def ci(r: dict[str, Any], key: str) -> str:
-        return interval_text(r[key], r.get(key + "_low", np.nan), r.get(key + "_high", np.nan))
-
-    t2 = Table(["case", "RMS [g]", "max tank acc. [g]", "LSCF on H1", "output-only LSCF",
-                "half power"],
-               [[r["case"], r["rms_g"], r["max_tank_acceleration_g"], ci(r, "lscf_h1"),
-                 ci(r, "lscf_output"), ci(r, "half_power")] for r in b["table2"]],
+    # Table 2 row by row (the stage's records), its estimates from the (level, estimator)
+    # dataset of the row's case
+    t2_rows = b["table2"]
+    damping = {c: table2_dataset([r for r in t2_rows if r["case"] == c])
+               for c in dict.fromkeys(r["case"] for r in t2_rows)}
+    level_of: dict[str, int] = {}
+    body = []
+    for r in t2_rows:
+        j = level_of[r["case"]] = level_of.get(r["case"], -1) + 1
+        d = damping[r["case"]].isel(level=j)
+        body.append([r["case"], r["rms_g"], r["max_tank_acceleration_g"],
+                     *(interval_text(*(float(d[v].sel(estimator=n))
+                                       for v in ("value", "low", "high")))
+                       for n in d.estimator.values)])
+    names = [str(x) for x in next(iter(damping.values())).label.values] if damping else \
+        [label(n) for n in TABLE2]
+    t2 = Table(["case", "RMS [g]", "max tank acc. [g]", *names], body,
                "Table 2 analogue: first-mode damping from the random tests, each with its 95 % "
                "interval (docs/beam.md, \"Uncertainty of the damping estimates\"). LSCF "
                "columns: median over the stable poles of model orders 2-40; output-only: "

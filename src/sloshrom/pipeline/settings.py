@@ -118,7 +118,7 @@ RIG_RATE = 10_000.0
 NOE_OUT_DELAYS = 2
 #: Default rate of the beam results (``sloshrom beam``); `reproduce` uses ``rig.fs``.
 BEAM_FS = 500.0
-#: Welch segment of the random-response damping estimators (``analysis.mode1_damping_random``).
+#: Welch segment of the random-response damping estimators (``uncertainty.mode1_damping_random``).
 WELCH_NPERSEG = 16384
 #: A random response must hold at least one Welch segment (32.8 s at 500 Hz); 90 s (paper) give
 #: four half-overlapping segments, hence a much smoother estimate.

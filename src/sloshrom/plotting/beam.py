@@ -184,7 +184,8 @@ def comparison_figures(measured: AnalysedTest, predicted: Sequence[AnalysedTest]
     the measurement in black with its per-band 95 % intervals (Hilbert: boxes spanning the band;
     log decrement: error bars), each prediction's curve and band medians in colour. Random tests:
     the Welch PSDs of the tank acceleration per level (Fig. 23) and Table 2 as error bars
-    (LSCF on H1, output-only LSCF, half power; the measurement first, each case beside it).
+    (one panel per estimator of the measurement's Table 2 - by default LSCF on H1, output-only
+    LSCF, half power -; the measurement first, each case beside it).
 
     Parameters
     ----------
@@ -249,20 +250,22 @@ def comparison_figures(measured: AnalysedTest, predicted: Sequence[AnalysedTest]
     axes[0, 0].legend(fontsize=8)
     figs = {"fig23_comparison": fig}
 
-    names = {"lscf_h1": "LSCF on H1", "lscf_output": "output-only LSCF",
-             "half_power": "half power"}
+    damping = [t.damping for t in tests]  # (level, estimator) datasets
+    names = list(damping[0].estimator.values)
     fig = Figure(figsize=(4 * len(names), 3.8))
     axes = fig.subplots(1, len(names), squeeze=False, sharey=True)
     width = 0.6 / max(len(tests), 1)
-    for col, (est, title) in enumerate(names.items()):
+    for col, est in enumerate(names):
         ax = axes[0, col]
         for k, t in enumerate(tests):
+            if est not in damping[k].estimator:
+                continue
+            d = damping[k].sel(estimator=est)
             for i, lv in enumerate(levels):
                 j = match_levels([lv], t.levels)[0]
                 if j is None:
                     continue
-                r = t.rows[j]
-                z, lo, hi = r[est], r.get(f"{est}_low", np.nan), r.get(f"{est}_high", np.nan)
+                z, lo, hi = (float(d[v][j]) for v in ("value", "low", "high"))
                 err = ([[100 * (z - lo)], [100 * (hi - z)]]
                        if np.isfinite(lo) and np.isfinite(hi) else None)
                 ax.errorbar(i + (k - (len(tests) - 1) / 2) * width, 100 * z, yerr=err,
@@ -270,7 +273,7 @@ def comparison_figures(measured: AnalysedTest, predicted: Sequence[AnalysedTest]
                             color="k" if k == 0 else f"C{k - 1}",
                             label=t.case if i == 0 else None)
         ax.set_xticks(range(len(levels)), [f"{lv:.3g} g" for lv in levels])
-        ax.set_title(title)
+        ax.set_title(str(damping[0].label.sel(estimator=est).values))
         ax.grid(alpha=0.3)
     axes[0, 0].set_ylabel("first-mode damping ratio (%), 95 % intervals")
     axes[0, 0].legend(fontsize=8)

@@ -22,6 +22,7 @@ import numpy as np
 import xarray as xr
 
 from sloshrom.beam.compare import AnalysedTest, analysed_test, compare_rows
+from sloshrom.beam.registry import REFERENCE
 from sloshrom.beam.results import (
     Mode1Decay,
     damping_band_table,
@@ -156,7 +157,7 @@ def _result_from_file(path: Path | None) -> dict[str, Any] | None:
 
 
 def _table2_by_level(rows: Sequence[Mapping[str, Any]], case: str) -> dict[str, float]:
-    return {f"{r['rms_g']:g}": float(r["lscf_h1"]) for r in rows if r["case"] == case}
+    return {f"{r['rms_g']:g}": float(r[REFERENCE]) for r in rows if r["case"] == case}
 
 
 def comparison_rows(outputs: Mapping[str, Any]) -> list[dict[str, Any]]:

@@ -13,6 +13,7 @@ import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
 
+from sloshrom.beam.registry import REFERENCE
 from sloshrom.plotting.maps import plot_phi_d_map
 
 __all__ = ["CASE_STYLE", "damping_fill_figure", "fill_maps_figure"]
@@ -56,7 +57,7 @@ def damping_fill_figure(rows: Sequence[Mapping[str, Any]], levels: Sequence[floa
     axes = fig.subplots(1, len(levels), squeeze=False)[0]
     for ax, level in zip(axes, levels, strict=True):
         for case, style in CASE_STYLE.items():
-            pts = sorted((r["fill"], r["lscf_h1"]) for r in rows
+            pts = sorted((r["fill"], r[REFERENCE]) for r in rows
                          if r["case"] == case and abs(r["rms_g"] - level) < 1e-12)
             if not pts:
                 continue

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from sloshrom.beam.registry import REFERENCE
 from sloshrom.beam.results import mode1_damping_table, simulate_cases, write_table
 from sloshrom.beam.structure import coupled_frozen_modes
 from sloshrom.config import FILL_TOLERANCE
@@ -170,7 +171,7 @@ def _relay(ctx: Context, fill: float):
 def _beam_errors(rows: list[dict[str, Any]], unseen: list[float]) -> list[dict[str, Any]]:
     """Per fill (unseen fills flagged) and level: family and frozen damping relative to rig."""
     out = []
-    by = {(r["case"], r["fill"], r["rms_g"]): r["lscf_h1"] for r in rows}
+    by = {(r["case"], r["fill"], r["rms_g"]): r[REFERENCE] for r in rows}
     for (_, f, level), rig in sorted(kv for kv in by.items() if kv[0][0] == "rig"):
         rom, frozen = by.get(("rom", f, level)), by.get(("frozen", f, level))
         rel = (rom / rig - 1.0) if rom is not None and np.isfinite(rom) and rig else float("nan")

@@ -1,0 +1,261 @@
+"""Damping estimators of random beam tests behind one protocol.
+
+A *damping estimator* is an object with a ``name`` (its key in results and files), a human
+``label`` (tables, figures), the kind of ``uncertainty`` its intervals come from, and two
+methods: :meth:`~DampingEstimator.estimate` (the first-mode damping of one record, a
+:class:`DampingEstimate`) and :meth:`~DampingEstimator.estimate_records` (the damping ratio of
+each of a stack of simulated records, for the bootstrap). The estimators of paper Table 2 are
+defined here; ``sloshrom.beam.registry`` holds the one list of estimators that everything else
+loops over, and ``sloshrom.beam.uncertainty`` gives any of them its standard deviation and
+interval through this protocol.
+
+Uncertainty kinds (``DampingEstimator.uncertainty``):
+
+* ``"bootstrap"`` - a parametric bootstrap: records simulated from the fitted mode are analysed
+  as the record was; their mean gives the estimator's bias (removed), their spread the
+  standard deviation (``sloshrom.beam.uncertainty.damping_estimates``).
+* ``"au"`` - output-only estimators of known efficiency: Au's uncertainty law times
+  ``efficiency`` (the estimator's measured scatter over the law), no bias correction.
+
+A missing estimate is NaN *with a reason*: :attr:`DampingEstimate.reason` carries what the
+analysis found (e.g. "largest stable cluster near 10.3 Hz has 9 pole(s), fewer than 10").
+
+Arrays in, typed results out; frequencies in Hz, damping ratios dimensionless (-).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Any, Literal, Protocol, runtime_checkable
+
+import numpy as np
+
+from sloshrom.beam.analysis import (
+    AnalysisError,
+    frf_h1,
+    half_power_damping,
+    lscf_cluster_damping,
+    lscf_poles_batch,
+    output_only_damping,
+    stable_pole_cluster,
+)
+from sloshrom.beam.errors import BeamError
+
+__all__ = [
+    "OUTPUT_ONLY_EFFICIENCY", "DampingEstimate", "DampingEstimator", "HalfPower", "LscfH1",
+    "LscfOutput", "RandomTest", "Uncertainty",
+]
+
+#: Where an estimator's interval comes from (see the module docstring).
+Uncertainty = Literal["bootstrap", "au"]
+
+#: Scatter of the output-only estimator (``analysis.output_only_damping``) over Au's bound
+#: ``1 / sqrt(zeta omega_n T)``: 17.2 % / 13.3 % = 1.29 at 90 s and 6.8 % / 5.2 % = 1.31 at 600 s
+#: (standard deviation over 50 records of a base-excited 1 %, 10 Hz oscillator under Gaussian
+#: white noise, ``benchmarks/damping_estimators.py``).
+OUTPUT_ONLY_EFFICIENCY: float = 1.3
+
+_NAN = float("nan")
+
+
+@dataclass(frozen=True)
+class DampingEstimate:
+    """One estimator's first-mode damping of one record.
+
+    Attributes
+    ----------
+    value : float
+        Damping ratio, - (bias-corrected where the estimator's uncertainty is a bootstrap);
+        NaN when there is none, and then ``reason`` says why.
+    std : float
+        Standard deviation of ``value``, - (NaN: not stated).
+    low, high : float
+        Two-sided interval of ``value`` at the stated confidence, - (NaN: none).
+    reason : str
+        ``""`` when ``value`` and its interval exist; otherwise why they do not.
+    frequency : float
+        The mode's natural frequency, Hz (NaN if the estimator gives none).
+    uncorrected : float
+        The estimate before any bias correction, -.
+    iqr : float
+        Spread of the damping ratio over the stabilisation diagram's cluster (interquartile
+        range across model orders), -; NaN for an estimator without one.
+    n_poles : int
+        Poles in that cluster (0: none found, or no cluster).
+    """
+
+    value: float
+    std: float = _NAN
+    low: float = _NAN
+    high: float = _NAN
+    reason: str = ""
+    frequency: float = _NAN
+    uncorrected: float = _NAN
+    iqr: float = _NAN
+    n_poles: int = 0
+
+
+@dataclass(frozen=True, eq=False)
+class RandomTest:
+    """A random base-excitation test (or a stack of simulated ones) and the analysis options.
+
+    Attributes
+    ----------
+    base, response : ndarray (n,) or (n_records, n)
+        Base and response (tank) accelerations, same unit.
+    fs, f1 : float
+        Sampling frequency and approximate first-mode frequency, Hz.
+    rel_band : float
+        Fitting band ``f1 (1 -/+ rel_band)``, Hz.
+    nperseg : int
+        Welch segment length of H1, samples (at most the record length).
+    pol_order_high : int
+        Highest model order of the LSCF fits (models with 2 to ``2 pol_order_high`` poles).
+    """
+
+    base: np.ndarray
+    response: np.ndarray
+    fs: float
+    f1: float
+    rel_band: float = 0.5
+    nperseg: int = 16384
+    pol_order_high: int = 20
+
+    def __post_init__(self) -> None:
+        base = np.asarray(self.base, dtype=float)
+        resp = np.asarray(self.response, dtype=float)
+        if base.ndim not in (1, 2) or resp.shape != base.shape:
+            raise BeamError("base and tank must be 1-D arrays (or stacks of them) of the same "
+                            "length")
+        object.__setattr__(self, "base", base)
+        object.__setattr__(self, "response", resp)
+        object.__setattr__(self, "nperseg", min(int(self.nperseg), base.shape[-1]))
+
+    @property
+    def band(self) -> tuple[float, float]:
+        """The fitting band, Hz."""
+        return (self.f1 * (1 - self.rel_band), self.f1 * (1 + self.rel_band))
+
+    @property
+    def duration(self) -> float:
+        """Record length, s."""
+        return self.base.shape[-1] / self.fs
+
+    @cached_property
+    def h1(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``analysis.frf_h1`` of the record: ``(f (Hz), H1, coherence)``; a stack in one pass
+        (each record bit for bit as alone), one record by scipy's Welch functions."""
+        return frf_h1(self.base, self.response, self.fs, self.nperseg,
+                      one_pass=self.base.ndim == 2)
+
+
+@runtime_checkable
+class DampingEstimator(Protocol):
+    """What every damping estimator of a random test is.
+
+    Attributes
+    ----------
+    name : str
+        Key in results and result files (``lscf_h1``): letters, digits, ``_``.
+    label : str
+        Human name for tables and figures (``LSCF on H1``).
+    uncertainty : {"bootstrap", "au"}
+        Where its interval comes from (module docstring).
+    efficiency : float
+        For ``"au"``: the estimator's scatter over Au's law (-); unused otherwise.
+    """
+
+    name: str
+    label: str
+    uncertainty: Uncertainty
+    efficiency: float
+
+    def estimate(self, test: RandomTest) -> DampingEstimate:
+        """The first-mode damping of one record (``test.base`` 1-D): ``value`` (raw),
+        ``frequency``, ``reason``; no interval yet."""
+        ...
+
+    def estimate_records(self, records: RandomTest) -> np.ndarray:
+        """Damping ratio (-) of each record of a stack ``(n_records, n)``, NaN where none,
+        exactly as :meth:`estimate` would give each alone."""
+        ...
+
+
+def _cluster_estimate(r: dict[str, Any]) -> DampingEstimate:
+    return DampingEstimate(value=float(r["zeta"]), frequency=float(r["frequency"]),
+                           uncorrected=float(r["zeta"]), reason=str(r["reason"]),
+                           iqr=float(r["zeta_iqr"]), n_poles=int(r["n_poles"]))
+
+
+@dataclass(frozen=True)
+class LscfH1:
+    """LSCF on H1 (base -> tank acceleration), the median of the stable-pole cluster
+    (``analysis.lscf_cluster_damping``); bias-corrected by the bootstrap."""
+
+    name: str = "lscf_h1"
+    label: str = "LSCF on H1"
+    uncertainty: Uncertainty = "bootstrap"
+    efficiency: float = _NAN
+
+    def estimate(self, test: RandomTest) -> DampingEstimate:
+        f, h, _ = test.h1
+        return _cluster_estimate(lscf_cluster_damping(f, h, test.f1, test.band,
+                                                      test.pol_order_high))
+
+    def estimate_records(self, records: RandomTest) -> np.ndarray:
+        f, h, _ = records.h1
+        return np.array([stable_pole_cluster(p, records.f1)["zeta"]
+                         for p in lscf_poles_batch(f, h, records.band, records.pol_order_high)])
+
+
+@dataclass(frozen=True)
+class LscfOutput:
+    """Output-only LSCF on the half-spectrum of the tank acceleration, window corrected
+    (``analysis.output_only_damping``); intervals from Au's law."""
+
+    name: str = "lscf_output"
+    label: str = "output-only LSCF"
+    uncertainty: Uncertainty = "au"
+    efficiency: float = OUTPUT_ONLY_EFFICIENCY
+
+    def estimate(self, test: RandomTest) -> DampingEstimate:
+        return _cluster_estimate(output_only_damping(test.response, test.fs, test.f1,
+                                                     test.band,
+                                                     pol_order_high=test.pol_order_high))
+
+    def estimate_records(self, records: RandomTest) -> np.ndarray:
+        return np.array([output_only_damping(y, records.fs, records.f1, records.band,
+                                             pol_order_high=records.pol_order_high)["zeta"]
+                         for y in records.response])
+
+
+@dataclass(frozen=True)
+class HalfPower:
+    """Half-power bandwidth of |H1| (``analysis.half_power_damping``); bias-corrected by the
+    bootstrap."""
+
+    name: str = "half_power"
+    label: str = "half power"
+    uncertainty: Uncertainty = "bootstrap"
+    efficiency: float = _NAN
+
+    def estimate(self, test: RandomTest) -> DampingEstimate:
+        f, h, _ = test.h1
+        try:
+            r = half_power_damping(f, h, test.band)
+        except AnalysisError as e:  # no clear peak in this record: the estimate is missing
+            return DampingEstimate(value=_NAN, reason=str(e))
+        return DampingEstimate(value=r["zeta"], frequency=r["frequency"],
+                               uncorrected=r["zeta"])
+
+    def estimate_records(self, records: RandomTest) -> np.ndarray:
+        f, h, _ = records.h1
+        out = np.full(h.shape[0], _NAN)
+        for k in range(h.shape[0]):
+            try:
+                out[k] = half_power_damping(f, h[k], records.band)["zeta"]
+            except AnalysisError:  # no clear peak in this record: the estimate is missing
+                pass
+        return out
+
