@@ -1,4 +1,4 @@
-"""The numerical core of the linear state-space baseline (sloshrom.rom.lss_core): subspace
+"""The numerical core of the linear state-space baseline (sloshrom.rom.lss.core): subspace
 identification, simulation from rest, output-error refinement, bad input.
 
 Every floating-point comparison has a tolerance, stated with its reason beside it.
@@ -13,7 +13,7 @@ import pytest
 from scipy import signal
 
 from sloshrom.rom.errors import ROMError
-from sloshrom.rom.lss_core import (
+from sloshrom.rom.lss.core import (
     MAX_SPECTRAL_RADIUS,
     _Modal,
     lss_simulate,

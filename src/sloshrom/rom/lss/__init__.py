@@ -2,7 +2,7 @@
 
 ``x_{k+1} = A x_k + B u_k``, ``y_k = C x_k + D u_k`` from rest, with the tank velocity u (m/s)
 in and the dynamic sloshing force y (N) out, identified by a subspace method (N4SID) and
-refined on its simulation error (output error, :mod:`sloshrom.rom.lss_core`). It answers the
+refined on its simulation error (output error, :mod:`sloshrom.rom.lss.core`). It answers the
 question every report should: how much does the nonlinear ROM buy over the best linear model
 of the same records?
 
@@ -28,7 +28,7 @@ import numpy as np
 from sloshrom.models import model_input
 from sloshrom.rom.base import Estimator, checked_records, record_envelope
 from sloshrom.rom.errors import ROMError
-from sloshrom.rom.lss_core import lss_simulate, n4sid, pem_refine
+from sloshrom.rom.lss.core import lss_simulate, n4sid, pem_refine
 from sloshrom.rom.network import FittedNetwork, MinMaxScaler
 from sloshrom.rom.registry import LSS_CLASS, ModelClass, check_hyperparameters
 from sloshrom.signals import power_band
