@@ -328,7 +328,8 @@ class ModelClass:
     def estimator_class(self) -> type:
         """The estimator (imports its module: JAX for the networks)."""
         module, attr = self.estimator.split(":")
-        return getattr(importlib.import_module(module), attr)
+        cls: type = getattr(importlib.import_module(module), attr)
+        return cls
 
 
 def loss_recipe(input_unit: str, output_unit: str,
