@@ -485,7 +485,7 @@ def _class_table(mc: ModelClass) -> type[_Table]:
 
 #: The table of each ROM class, ``[rom.<name>]``.
 CLASS_TABLES: dict[str, type[_Table]] = {name: _class_table(mc) for name, mc in CLASSES.items()}
-ClassName = Literal[tuple(CLASSES)]  # type: ignore[valid-type]
+ClassName = Literal[tuple(CLASSES)]
 
 
 class _RomTableBase(_Table):
@@ -504,7 +504,7 @@ class _RomTableBase(_Table):
     sweep_workers: _number(1, 64, integer=True, what="a number of parallel trainings")
 
 
-class RomTable(create_model("_RomClasses", __base__=_RomTableBase,  # type: ignore[misc]
+class RomTable(create_model("_RomClasses", __base__=_RomTableBase,
                             **{n: (t, ...) for n, t in CLASS_TABLES.items()})):
     """``[rom]``: the ROM of the report (``arch``), the classes identified beside it
     (``compare``), their training, the sensitivity sweep; ``[rom.<class>]`` the

@@ -369,12 +369,12 @@ class Ensemble:
     @property
     def units(self) -> tuple[str, str]:
         """Units of the input and the output (the template's)."""
-        return tuple(self.template.units)  # type: ignore[return-value]
+        return tuple(self.template.units)
 
     @property
     def names(self) -> tuple[str, str]:
         """Variable names of the input and the output (the template's)."""
-        return tuple(self.template.names)  # type: ignore[return-value]
+        return tuple(self.template.names)
 
     @property
     def input(self) -> str:

@@ -569,7 +569,7 @@ class NSS(_Estimator):
         self.passivity = passivity
         self.cycle_energy = cycle_energy
 
-    def _check_hyperparameters(self) -> StateSpaceSpec:  # type: ignore[override]
+    def _check_hyperparameters(self) -> StateSpaceSpec:
         n_states = _integer("n_states", self.n_states, 1)
         neurons = _integer("neurons", self.neurons, 1)
         window = _integer("window", self.window, 1)

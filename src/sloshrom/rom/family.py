@@ -211,12 +211,12 @@ class FillBlend:
     @property
     def units(self) -> tuple[str, str]:
         """Units of the input and the output (the first member's; members agree)."""
-        return tuple(self.members[0].units)  # type: ignore[return-value]
+        return tuple(self.members[0].units)
 
     @property
     def names(self) -> tuple[str, str]:
         """Variable names of the input and the output (the first member's)."""
-        return tuple(self.members[0].names)  # type: ignore[return-value]
+        return tuple(self.members[0].names)
 
     @property
     def input(self) -> str:
@@ -359,12 +359,12 @@ class FillFamily:
     @property
     def units(self) -> tuple[str, str]:
         """Units of the input and the output (the members')."""
-        return tuple(self.members_[0].units)  # type: ignore[return-value]
+        return tuple(self.members_[0].units)
 
     @property
     def names(self) -> tuple[str, str]:
         """Variable names of the input and the output (the members')."""
-        return tuple(self.members_[0].names)  # type: ignore[return-value]
+        return tuple(self.members_[0].names)
 
     @property
     def input(self) -> str:
