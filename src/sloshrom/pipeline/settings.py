@@ -400,6 +400,7 @@ class TankTable(_Table):
     structure_mass: int | float
 
     def tank(self) -> Tank:
+        """The :class:`Tank` of this table (its physical checks raise :class:`ConfigError`)."""
         try:
             return Tank(**self.model_dump())
         except ConfigError as exc:
@@ -629,6 +630,7 @@ class BeamTable(_Table):
         return self
 
     def structure(self, tank: Tank) -> CantileverBeam:
+        """The cantilever beam of this table carrying ``tank``."""
         try:
             return CantileverBeam.with_tank(
                 tank, length=self.length, width=self.width, thickness=self.thickness,

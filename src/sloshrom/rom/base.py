@@ -208,10 +208,12 @@ class Estimator:
 
     @property
     def n_params(self) -> int:
+        """The number of trained parameters."""
         return cast(int, self.spec.n_params)
 
     @property
     def max_delay(self) -> int:
+        """The longest input delay, samples."""
         return cast(int, self.spec.max_delay)
 
     def _check_fitted(self) -> None:
@@ -276,12 +278,14 @@ class Estimator:
 
     # -- pytree (parameters are leaves, hyperparameters static) -------------------------------
     def tree_flatten(self) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
+        """JAX pytree: the fitted model as the child, the hyperparameters static."""
         children = (self.model_,) if hasattr(self, "model_") else ()
         hyper = tuple((k, _frozen(v)) for k, v in self.get_params().items())
         return children, hyper
 
     @classmethod
     def tree_unflatten(cls, aux: tuple[Any, ...], children: tuple[Any, ...]) -> Estimator:
+        """JAX pytree: the estimator of these hyperparameters and fitted model."""
         obj = cls(**{k: _thawed(v) for k, v in aux})
         if children:
             obj.model_ = children[0]

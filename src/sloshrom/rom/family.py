@@ -191,10 +191,12 @@ class FillBlend:
             self.envelope_ = env
 
     def tree_flatten(self) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
+        """JAX pytree: the members as the children, weights and fills static."""
         return self.members, (self.weights, self.fill, self.fill_range)
 
     @classmethod
     def tree_unflatten(cls, aux: tuple[Any, ...], children: tuple[Any, ...]) -> FillBlend:
+        """JAX pytree: the blend of these members, weights and fills."""
         obj = object.__new__(cls)
         obj.members = tuple(children)
         obj.weights, obj.fill, obj.fill_range = aux
@@ -276,9 +278,11 @@ class FillFamily:
         self.template = template
 
     def get_params(self, deep: bool = True) -> dict[str, Any]:
+        """The constructor arguments by name (scikit-learn style)."""
         return {"template": self.template}
 
     def set_params(self, **params: Any) -> FillFamily:
+        """Set the constructor arguments by name (only ``template``); returns self."""
         for k, v in params.items():
             if k != "template":
                 raise ROMError(f"FillFamily has no parameter {k!r}")
@@ -372,6 +376,7 @@ class FillFamily:
         return input_of(self.members_[0])
 
     def describe(self) -> str:
+        """A one-line description: the fills of the members."""
         return "fills " + ", ".join(f"{f:.1%}" for f in self.fills_)
 
     def weights(self, fill: float) -> np.ndarray:

@@ -98,6 +98,7 @@ class Hyper:
 
     @property
     def required_in_file(self) -> bool:
+        """Whether a model file must store this hyperparameter (no default for old files)."""
         return self.file_default is _REQUIRED
 
     def domain(self) -> str:
