@@ -221,7 +221,8 @@ def test_bad_ensemble_arguments():
         (Ensemble(t, n_members=2, seeds=[1, 1]), "seeds must be distinct"),
         (Ensemble(t, n_members=3, seeds=[1, 2]), "seeds lists 2 seeds for n_members = 3"),
         (Ensemble(t, n_members=2, seeds=[-1, 2]), "seeds must be integers >= 0"),
-        (Ensemble("nfir", n_members=2), "template must be an unfitted estimator whose members differ by their seed \\(NFIR, NOE, NSS\\)"),
+        (Ensemble("nfir", n_members=2), "template must be an unfitted estimator whose members "
+                                         "differ by their seed \\(NFIR, NOE, NSS\\)"),
         (Ensemble(NFIR(delays=0), n_members=2), "delays"),
     ]:
         with pytest.raises(ROMError, match=match):
