@@ -28,9 +28,13 @@ $(STAMP): $(LOCK) pyproject.toml
 reproduce: $(STAMP)
 	$(BIN)/sloshrom reproduce --out results
 
+# ruff, the fast tier, then mypy (gradual for the package, strict for the modules pyproject.toml
+# lists; cache in .mypy_cache/, git-ignored) and the type-debt counts, which may only fall
 test: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks tools
 	$(BIN)/python -m pytest -m "not slow" -q
+	$(BIN)/python -m mypy
+	$(BIN)/python tools/type_debt.py
 
 # The tests against stored references, as if on another CPU: NumPy, glibc, XLA, OpenBLAS and numba
 # limited to an older instruction set (tools/other_isa.py checks that each one took notice).
@@ -45,6 +49,8 @@ test-all: test test-slow
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks tools
+	$(BIN)/python -m mypy
+	$(BIN)/python tools/type_debt.py
 
 bench: $(STAMP)
 	for f in benchmarks/*.py; do case $$f in */compare_checkouts.py|*/fidelity.py|\
@@ -118,4 +124,4 @@ test-latest:
 	$(LATEST)/bin/python -m pytest -m "not slow" -q
 
 clean:
-	rm -rf $(VENV) $(TOOLS) $(LATEST) $(PYOMA) results .pytest_cache
+	rm -rf $(VENV) $(TOOLS) $(LATEST) $(PYOMA) results .pytest_cache .mypy_cache

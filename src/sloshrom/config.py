@@ -117,10 +117,12 @@ class Tank:
         return math.sqrt(G / self.height)
 
     def to_dict(self) -> dict[str, float]:
+        """The tank's parameters by name (SI units)."""
         return asdict(self)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Tank:
+        """The tank of ``data`` (parameters by name); unknown names raise :class:`ConfigError`."""
         unknown = set(data) - {f.name for f in fields(cls)}
         if unknown:
             raise ConfigError(f"unknown tank parameter(s): {', '.join(sorted(unknown))}")
@@ -132,6 +134,7 @@ class Tank:
         return cls.from_dict(load_toml_table(path, section))
 
     def replace(self, **changes: Any) -> Tank:
+        """A copy with the given parameters changed."""
         return replace(self, **changes)
 
 

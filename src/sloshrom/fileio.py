@@ -138,6 +138,7 @@ class OutputBatch:
         return p
 
     def write_text(self, path: str | Path, text: str) -> Path:
+        """Write ``text`` (UTF-8) to a temporary file, renamed to ``path`` on :meth:`commit`."""
         def write(tmp: str) -> None:
             with open(tmp, "w", encoding="utf-8") as fh:
                 fh.write(text)
@@ -163,6 +164,7 @@ class OutputBatch:
         self._made.clear()
 
     def commit(self) -> None:
+        """Rename every pending temporary file onto its path, in the order written."""
         try:
             while self._pending:
                 tmp, p = self._pending[0]

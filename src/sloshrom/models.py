@@ -100,11 +100,14 @@ class SloshingModel(Protocol):
     dt: float
     force_rule: ForceRule
 
-    def init_state(self) -> Any: ...
+    def init_state(self) -> Any:
+        """The state at rest (an array or a pytree of arrays)."""
 
-    def step(self, state: Any, velocity: Any, acceleration: Any) -> tuple[Any, Any]: ...
+    def step(self, state: Any, velocity: Any, acceleration: Any) -> tuple[Any, Any]:
+        """One step at sample k: ``(state, dynamic_force)``, force in N."""
 
-    def simulate(self, velocity: Any, acceleration: Any) -> np.ndarray: ...
+    def simulate(self, velocity: Any, acceleration: Any) -> np.ndarray:
+        """The dynamic force (N) over whole records, arrays ``(..., n)``."""
 
 
 @runtime_checkable
@@ -324,10 +327,13 @@ class FrozenLiquid:
         self.dt = float(dt)
 
     def init_state(self) -> np.ndarray:
+        """No state: an empty array."""
         return np.zeros(0)
 
     def step(self, state: Any, velocity: Any, acceleration: Any) -> tuple[Any, Any]:
+        """No force: ``(state, 0)``, N."""
         return state, 0.0 * velocity
 
     def simulate(self, velocity: Any, acceleration: Any) -> np.ndarray:
+        """No force: zeros of the inputs' broadcast shape, N."""
         return np.zeros(np.broadcast_shapes(np.shape(velocity), np.shape(acceleration)))

@@ -333,10 +333,12 @@ class ModeSet:
     # -- derived ----------------------------------------------------------------------------
     @property
     def n_modes(self) -> int:
+        """The number of modes."""
         return int(self.frequencies.size)
 
     @property
     def n_nodes(self) -> int:
+        """The number of nodes."""
         return int(self.nodes.size)
 
     @property

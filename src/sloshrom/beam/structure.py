@@ -403,6 +403,7 @@ class ModalModel:
     # -- derived ----------------------------------------------------------------------------
     @property
     def n_modes(self) -> int:
+        """The number of modes."""
         return self.frequencies.size
 
     @property
@@ -521,6 +522,7 @@ class ModalModel:
         return cls.from_dict(load_toml_table(path, section, ModalDataError))
 
     def to_dict(self) -> dict[str, Any]:
+        """The modal model as plain Python types (JSON-serialisable), by field name."""
         d: dict[str, Any] = {
             "frequencies": self.frequencies.tolist(),
             "damping": self.damping.tolist(),

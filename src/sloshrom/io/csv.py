@@ -34,6 +34,7 @@ def _is_number(text: str) -> bool:
 
 
 def read_csv(p: Path, fs: float | None, units: Mapping[str, str]) -> Record:
+    """Read a CSV record file (a time column, or ``fs`` in Hz; ``units`` by column)."""
     try:
         text = p.read_text(encoding="utf-8-sig")  # -sig: a byte-order mark is not a name
     except UnicodeDecodeError as exc:
@@ -136,6 +137,7 @@ def _is_numeric_row(fields: list[str], decimal_comma: bool = False) -> bool:
 
 
 def write_csv(record: Record, tmp: str) -> None:
+    """Write ``record``'s 1-D variables as CSV columns to the temporary path ``tmp``."""
     two_d = [n for n, a in record.variables.items() if a.ndim != 1]
     if two_d:
         raise RecordError(f"CSV holds 1-D variables only; {two_d} are 2-D (use .nc)")

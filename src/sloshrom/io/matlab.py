@@ -35,6 +35,7 @@ def _is_text(value: Any) -> bool:
 
 
 def read_mat(p: Path, fs: float | None, units: Mapping[str, str]) -> Record:
+    """Read a MATLAB ``.mat`` record file (v5 or v7.3; ``fs`` in Hz, ``units`` by name)."""
     import h5py
 
     try:
@@ -162,6 +163,7 @@ def _read_mat73(p: Path) -> dict[str, Any]:
 
 
 def write_mat(record: Record, tmp: str) -> None:
+    """Write ``record`` as a MATLAB v5 ``.mat`` file to the temporary path ``tmp``."""
     import scipy.io
 
     out: dict[str, Any] = {"time": record.time, "fs": float(record.fs)}

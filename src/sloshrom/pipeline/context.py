@@ -49,6 +49,7 @@ class Context:
 
     @property
     def tank(self) -> Tank:
+        """The run's tank (``[tank]`` of the configuration)."""
         return self.cfg.tank.tank()
 
     def rig_params(self) -> RigParams:

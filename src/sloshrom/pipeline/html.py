@@ -13,12 +13,14 @@ from sloshrom.pipeline.cache import atomic_write_text
 
 @dataclass
 class Figure:
+    """A figure of the report: a PNG file and its caption."""
     path: Path
     caption: str
 
 
 @dataclass
 class Table:
+    """A table of the report: header, rows and caption."""
     header: Sequence[str]
     rows: Sequence[Sequence[object]]
     caption: str = ""
@@ -26,6 +28,7 @@ class Table:
 
 @dataclass
 class Section:
+    """A section of the report: title, text (HTML), figures and tables."""
     title: str
     text: str = ""
     figures: list[Figure] = field(default_factory=list)
@@ -52,6 +55,7 @@ def _fmt(v: object) -> str:
 
 
 def render_table(t: Table) -> str:
+    """The HTML ``<table>`` of ``t`` (cells escaped)."""
     head = "".join(f"<th>{html.escape(str(h))}</th>" for h in t.header)
     body = "".join("<tr>" + "".join(f"<td>{_fmt(c)}</td>" for c in r) + "</tr>" for r in t.rows)
     cap = f"<caption>{html.escape(t.caption)}</caption>" if t.caption else ""
@@ -80,6 +84,7 @@ def render(title: str, intro: str, sections: Sequence[Section]) -> str:
 
 
 def write(path: str | Path, title: str, intro: str, sections: Sequence[Section]) -> Path:
+    """Write the report page to ``path`` atomically; the path written."""
     p = Path(path)
     atomic_write_text(p, render(title, intro, sections))
     return p

@@ -134,6 +134,7 @@ def _compare_text(compared: dict[str, Any] | None) -> str:
 
 
 def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
+    """The report's sections, from the run's stage summaries."""
     st = summary["stages"]
     secs = [_setup_section(ctx.cfg)]
     d = st.get("data", {})
@@ -443,6 +444,7 @@ def _beam_sections(ctx: Context, b: dict[str, Any]) -> list[Section]:
 
 
 def write_report(ctx: Context, summary: dict[str, Any]) -> Path:
+    """Write ``report.html`` in the run's output folder; its path."""
     intro = (
         "<p>Reproduction of <i>Neural network-based reduced-order model of vertical sloshing "
         "and its experimental validation on a sloshing beam</i> with <b>sloshrom "

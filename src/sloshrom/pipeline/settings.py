@@ -400,6 +400,7 @@ class TankTable(_Table):
     structure_mass: int | float
 
     def tank(self) -> Tank:
+        """The :class:`Tank` of this table (its physical checks raise :class:`ConfigError`)."""
         try:
             return Tank(**self.model_dump())
         except ConfigError as exc:
@@ -485,7 +486,7 @@ def _class_table(mc: ModelClass) -> type[_Table]:
 
 #: The table of each ROM class, ``[rom.<name>]``.
 CLASS_TABLES: dict[str, type[_Table]] = {name: _class_table(mc) for name, mc in CLASSES.items()}
-ClassName = Literal[tuple(CLASSES)]  # type: ignore[valid-type]
+ClassName = Literal[tuple(CLASSES)]
 
 
 class _RomTableBase(_Table):
@@ -504,7 +505,7 @@ class _RomTableBase(_Table):
     sweep_workers: _number(1, 64, integer=True, what="a number of parallel trainings")
 
 
-class RomTable(create_model("_RomClasses", __base__=_RomTableBase,  # type: ignore[misc]
+class RomTable(create_model("_RomClasses", __base__=_RomTableBase,
                             **{n: (t, ...) for n, t in CLASS_TABLES.items()})):
     """``[rom]``: the ROM of the report (``arch``), the classes identified beside it
     (``compare``), their training, the sensitivity sweep; ``[rom.<class>]`` the
@@ -629,6 +630,7 @@ class BeamTable(_Table):
         return self
 
     def structure(self, tank: Tank) -> CantileverBeam:
+        """The cantilever beam of this table carrying ``tank``."""
         try:
             return CantileverBeam.with_tank(
                 tank, length=self.length, width=self.width, thickness=self.thickness,

@@ -130,10 +130,12 @@ class RigParams:
         return -le / math.sqrt(math.pi**2 + le * le)
 
     def to_dict(self) -> dict[str, float | int]:
+        """The rig's parameters by name (SI units)."""
         return asdict(self)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> RigParams:
+        """The parameters of ``data`` (by name); unknown names raise :class:`ConfigError`."""
         unknown = set(data) - {f.name for f in fields(cls)}
         if unknown:
             raise ConfigError(f"unknown rig parameter(s): {', '.join(sorted(unknown))}")
@@ -162,6 +164,7 @@ class RigParams:
         return cls()  # pragma: no cover - source tree without the calibrated file
 
     def replace(self, **changes: Any) -> RigParams:
+        """A copy with the given parameters changed."""
         return replace(self, **changes)
 
 

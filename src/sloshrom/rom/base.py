@@ -21,7 +21,7 @@ import functools
 import inspect
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, ClassVar, Literal
+from typing import Any, ClassVar, Literal, cast
 
 import numpy as np
 
@@ -134,6 +134,10 @@ class Estimator:
     jax_traceable: ClassVar[Literal[True]] = True
     #: the training ranges (set by fit and load; None for a model rebuilt from pytree leaves)
     envelope_: dict[str, Any] | None = None
+    #: the fitted model (set by fit and load; no class attribute: ``hasattr`` says fitted)
+    model_: Any
+    #: the training history (set by fit and load)
+    history_: dict[str, Any]
     units: Any = ("m/s", "N")
     names: Any = ("velocity", "dynamic_force")
 
@@ -187,7 +191,7 @@ class Estimator:
         input variable ``names[0]`` says it, ``"acceleration"`` or else ``"velocity"``; fixed
         in the fitted model when it is fitted or loaded."""
         if hasattr(self, "model_"):
-            return self.model_.input
+            return cast(str, self.model_.input)
         return "acceleration" if str(self.names[0]) == "acceleration" else "velocity"
 
     @property
@@ -200,15 +204,17 @@ class Estimator:
     @property
     def n_inputs(self) -> int:
         """Length D of the regressor (a state-space model: its state and input)."""
-        return self.spec.n_inputs
+        return cast(int, self.spec.n_inputs)
 
     @property
     def n_params(self) -> int:
-        return self.spec.n_params
+        """The number of trained parameters."""
+        return cast(int, self.spec.n_params)
 
     @property
     def max_delay(self) -> int:
-        return self.spec.max_delay
+        """The longest input delay, samples."""
+        return cast(int, self.spec.max_delay)
 
     def _check_fitted(self) -> None:
         if not hasattr(self, "model_"):
@@ -218,19 +224,19 @@ class Estimator:
     def params_(self) -> dict[str, Any]:
         """The fitted parameter arrays by name (the model's)."""
         self._check_fitted()
-        return self.model_.params
+        return cast("dict[str, Any]", self.model_.params)
 
     @property
     def scaler_(self) -> MinMaxScaler:
         """Bounds of the training input and output."""
         self._check_fitted()
-        return self.model_.scaler
+        return cast(MinMaxScaler, self.model_.scaler)
 
     @property
     def fs_(self) -> float:
         """Sample rate of the training record, Hz."""
         self._check_fitted()
-        return self.model_.fs
+        return cast(float, self.model_.fs)
 
     @classmethod
     def fitted(cls, params: dict[str, Any], scaler: MinMaxScaler, fs: float,
@@ -272,12 +278,14 @@ class Estimator:
 
     # -- pytree (parameters are leaves, hyperparameters static) -------------------------------
     def tree_flatten(self) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
+        """JAX pytree: the fitted model as the child, the hyperparameters static."""
         children = (self.model_,) if hasattr(self, "model_") else ()
         hyper = tuple((k, _frozen(v)) for k, v in self.get_params().items())
         return children, hyper
 
     @classmethod
     def tree_unflatten(cls, aux: tuple[Any, ...], children: tuple[Any, ...]) -> Estimator:
+        """JAX pytree: the estimator of these hyperparameters and fitted model."""
         obj = cls(**{k: _thawed(v) for k, v in aux})
         if children:
             obj.model_ = children[0]
@@ -288,7 +296,7 @@ class Estimator:
     def dt(self) -> float:
         """Model time step = 1/fs_, s."""
         self._check_fitted()
-        return self.model_.dt
+        return cast(float, self.model_.dt)
 
     @float64
     def predict(self, u: Any) -> np.ndarray:
@@ -322,7 +330,7 @@ class Estimator:
         u = as_signal("u", u, allow_batch=True)
         # predict < float64 wrapper < the caller
         check_envelope(self, u, unit=str(self.units[0]), stacklevel=3)
-        return self.model_.free_run(u)
+        return cast(np.ndarray, self.model_.free_run(u))
 
     def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
         """Sloshing-model contract: dynamic force (N) from the tank velocity (m/s) or, for a
@@ -341,7 +349,7 @@ class Estimator:
         Reads the parameters and the scaler from the model's pytree leaves, so a model passed
         as an argument into ``jit`` is traced, not compiled in.
         """
-        return self.model_.step(state, velocity, acceleration)
+        return cast("tuple[Any, Any]", self.model_.step(state, velocity, acceleration))
 
     # -- persistence --------------------------------------------------------------------------
     @float64

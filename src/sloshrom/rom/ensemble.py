@@ -369,12 +369,12 @@ class Ensemble:
     @property
     def units(self) -> tuple[str, str]:
         """Units of the input and the output (the template's)."""
-        return tuple(self.template.units)  # type: ignore[return-value]
+        return tuple(self.template.units)
 
     @property
     def names(self) -> tuple[str, str]:
         """Variable names of the input and the output (the template's)."""
-        return tuple(self.template.names)  # type: ignore[return-value]
+        return tuple(self.template.names)
 
     @property
     def input(self) -> str:
@@ -402,6 +402,7 @@ class Ensemble:
 
     # -- pytree (members are the children, the template's hyperparameters static) -------------
     def tree_flatten(self) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
+        """JAX pytree: the members as the children, the template and seeds static."""
         children = tuple(self.members_) if hasattr(self, "members_") else ()
         seeds = getattr(self, "seeds_", self.seeds)
         aux = (type(self.template), _frozen(list(self.template.get_params().items())),
@@ -411,6 +412,7 @@ class Ensemble:
 
     @classmethod
     def tree_unflatten(cls, aux: tuple[Any, ...], children: tuple[Any, ...]) -> Ensemble:
+        """JAX pytree: the ensemble of this template, seeds and members."""
         tcls, hyper, n, seeds, fs = aux
         obj = cls(tcls(**{k: _thawed(v) for k, v in hyper}), n_members=n,
                   seeds=None if seeds is None else list(seeds))

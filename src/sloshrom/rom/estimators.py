@@ -520,7 +520,7 @@ class NSS(_Estimator):
         self.passivity = passivity
         self.cycle_energy = cycle_energy
 
-    def _check_hyperparameters(self) -> StateSpaceSpec:  # type: ignore[override]
+    def _check_hyperparameters(self) -> StateSpaceSpec:
         mc = self.model_class
         h = check_hyperparameters(mc, {x.name: getattr(self, x.name) for x in mc.hyper})
         if self.input != "velocity":

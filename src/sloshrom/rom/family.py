@@ -191,10 +191,12 @@ class FillBlend:
             self.envelope_ = env
 
     def tree_flatten(self) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
+        """JAX pytree: the members as the children, weights and fills static."""
         return self.members, (self.weights, self.fill, self.fill_range)
 
     @classmethod
     def tree_unflatten(cls, aux: tuple[Any, ...], children: tuple[Any, ...]) -> FillBlend:
+        """JAX pytree: the blend of these members, weights and fills."""
         obj = object.__new__(cls)
         obj.members = tuple(children)
         obj.weights, obj.fill, obj.fill_range = aux
@@ -211,12 +213,12 @@ class FillBlend:
     @property
     def units(self) -> tuple[str, str]:
         """Units of the input and the output (the first member's; members agree)."""
-        return tuple(self.members[0].units)  # type: ignore[return-value]
+        return tuple(self.members[0].units)
 
     @property
     def names(self) -> tuple[str, str]:
         """Variable names of the input and the output (the first member's)."""
-        return tuple(self.members[0].names)  # type: ignore[return-value]
+        return tuple(self.members[0].names)
 
     @property
     def input(self) -> str:
@@ -276,9 +278,11 @@ class FillFamily:
         self.template = template
 
     def get_params(self, deep: bool = True) -> dict[str, Any]:
+        """The constructor arguments by name (scikit-learn style)."""
         return {"template": self.template}
 
     def set_params(self, **params: Any) -> FillFamily:
+        """Set the constructor arguments by name (only ``template``); returns self."""
         for k, v in params.items():
             if k != "template":
                 raise ROMError(f"FillFamily has no parameter {k!r}")
@@ -359,12 +363,12 @@ class FillFamily:
     @property
     def units(self) -> tuple[str, str]:
         """Units of the input and the output (the members')."""
-        return tuple(self.members_[0].units)  # type: ignore[return-value]
+        return tuple(self.members_[0].units)
 
     @property
     def names(self) -> tuple[str, str]:
         """Variable names of the input and the output (the members')."""
-        return tuple(self.members_[0].names)  # type: ignore[return-value]
+        return tuple(self.members_[0].names)
 
     @property
     def input(self) -> str:
@@ -372,6 +376,7 @@ class FillFamily:
         return input_of(self.members_[0])
 
     def describe(self) -> str:
+        """A one-line description: the fills of the members."""
         return "fills " + ", ".join(f"{f:.1%}" for f in self.fills_)
 
     def weights(self, fill: float) -> np.ndarray:

@@ -521,6 +521,7 @@ class ModelFile:
 
     @property
     def hyperparameters(self) -> dict[str, Any]:
+        """The hyperparameters stored in the file's metadata."""
         return self.meta["hyperparameters"]
 
     @property

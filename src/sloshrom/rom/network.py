@@ -122,6 +122,7 @@ class MinMaxScaler:
         return 0.5 * (self.out_max - self.out_min)
 
     def to_dict(self) -> dict[str, float]:
+        """The four bounds by name (physical units)."""
         return {k: float(getattr(self, k)) for k in ("in_min", "in_max", "out_min", "out_max")}
 
 
@@ -159,10 +160,12 @@ class NetworkSpec:
 
     @property
     def n_params(self) -> int:
+        """The number of trained parameters."""
         return n_params(self.n_inputs, self.neurons)
 
     @property
     def max_delay(self) -> int:
+        """The longest input delay, samples."""
         return max(self.delays)
 
 
@@ -408,12 +411,14 @@ class Network(FittedNetwork):
     _kernel = ""
 
     def describe(self) -> str:
+        """A one-line description of the network."""
         spec = self.spec
         return (f"{self.model_class.class_name} ({len(spec.delays)} delays up to "
                 f"{spec.max_delay}, {spec.neurons} neurons"
                 + (f", {spec.out_delays} output delays" if spec.out_delays else "") + ")")
 
     def fmu_member(self) -> tuple[str, dict[str, np.ndarray], dict[str, float | int | str]]:
+        """The FMU's C data of this network: member kind, arrays and constants."""
         spec = self.spec
         p = {k: np.asarray(v, dtype=np.float64) for k, v in self.params.items()}
         arrays = {"delays": np.asarray(spec.delays, dtype=np.int64),
@@ -440,6 +445,7 @@ class NFIRNetwork(Network):
 
     @property
     def model_class(self) -> ModelClass:
+        """The class's registry entry."""
         return NFIR_CLASS
 
     def init_state(self) -> Any:
@@ -504,6 +510,7 @@ class NOENetwork(Network):
 
     @property
     def model_class(self) -> ModelClass:
+        """The class's registry entry."""
         return NOE_CLASS
 
     def init_state(self) -> Any:

@@ -98,6 +98,7 @@ class Hyper:
 
     @property
     def required_in_file(self) -> bool:
+        """Whether a model file must store this hyperparameter (no default for old files)."""
         return self.file_default is _REQUIRED
 
     def domain(self) -> str:
@@ -328,7 +329,8 @@ class ModelClass:
     def estimator_class(self) -> type:
         """The estimator (imports its module: JAX for the networks)."""
         module, attr = self.estimator.split(":")
-        return getattr(importlib.import_module(module), attr)
+        cls: type = getattr(importlib.import_module(module), attr)
+        return cls
 
 
 def loss_recipe(input_unit: str, output_unit: str,

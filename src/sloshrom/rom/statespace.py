@@ -99,6 +99,7 @@ class StateSpaceSpec:
 
     @property
     def n_params(self) -> int:
+        """The number of trained parameters."""
         return sum(math.prod(s) for s in param_shapes(self).values())
 
     @property
@@ -232,12 +233,15 @@ class StateSpaceNetwork(FittedNetwork):
 
     @property
     def model_class(self) -> ModelClass:
+        """The class's registry entry."""
         return NSS_CLASS
 
     def describe(self) -> str:
+        """A one-line description of the model."""
         return f"NSS ({self.spec.n_states} states, {self.spec.neurons} neurons)"
 
     def fmu_member(self) -> tuple[str, dict[str, np.ndarray], dict[str, float | int | str]]:
+        """The FMU's C data of this model: member kind, arrays and constants."""
         p = {k: np.asarray(v, dtype=np.float64) for k, v in self.params.items()}
         return ("SL_NSS", {k: p[k] for k in ("A", "W1", "b1", "W2", "C", "V1", "d1", "V2")},
                 {"hidden": "SL_HIDDEN_MATLAB", "n_states": self.spec.n_states,

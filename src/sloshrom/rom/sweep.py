@@ -64,6 +64,7 @@ def sweep_grid(arch: str = "both") -> list[tuple[str, int, int]]:
 
 
 def point_name(arch: str, delays: int, neurons: int) -> str:
+    """The name of one sweep point, e.g. ``nfir_d70_n35``."""
     return f"{arch}_d{delays}_n{neurons}"
 
 

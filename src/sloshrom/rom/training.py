@@ -135,6 +135,7 @@ class LMProblem:
 
 @dataclass
 class LMResult:
+    """The result of a Levenberg-Marquardt fit: parameters, stop reason, history."""
     theta: np.ndarray
     stop_reason: str
     history: dict[str, list] = field(default_factory=dict)
@@ -507,6 +508,7 @@ class HarmonicProbes:
 
     @property
     def n(self) -> int:
+        """The number of probe windows."""
         return int(self.windows.shape[0])
 
 
@@ -592,6 +594,7 @@ class EnergyCycles:
 
     @property
     def n(self) -> int:
+        """The number of cycles."""
         return int(self.rows.shape[0])
 
 

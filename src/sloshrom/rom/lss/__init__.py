@@ -44,6 +44,7 @@ class LinearSpec:
 
     @property
     def n_params(self) -> int:
+        """The number of parameters of the state-space matrices."""
         return self.n_states * (self.n_states + 2) + 1
 
     @property
@@ -89,9 +90,11 @@ class LinearStateSpace(FittedNetwork):
 
     @property
     def model_class(self) -> ModelClass:
+        """The class's registry entry."""
         return LSS_CLASS
 
     def describe(self) -> str:
+        """A one-line description of the model."""
         return f"LSS ({self.spec.n_states} states, linear)"
 
     def init_state(self) -> Any:

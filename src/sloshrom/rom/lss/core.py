@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import scipy.linalg
@@ -137,7 +137,8 @@ def min_samples(block_rows: int) -> int:
 # simulation
 def _first_order(lam: complex | float, v: np.ndarray) -> np.ndarray:
     """``s[k+1] = lam s[k] + v[k]``, ``s[0] = 0`` along the last axis (transfer ``1/(z - lam)``)."""
-    return lfilter(np.array([0.0, 1.0]), np.array([1.0, -lam]), v, axis=-1)
+    s: np.ndarray = lfilter(np.array([0.0, 1.0]), np.array([1.0, -lam]), v, axis=-1)
+    return s
 
 
 def _schur_states(A: np.ndarray, b: np.ndarray, u: np.ndarray
@@ -226,7 +227,7 @@ def lss_simulate(A: Any, B: Any, C: Any, D: Any, u: Any) -> np.ndarray:
     if u.shape[-1] == 0:
         return np.zeros(u.shape)
     Q, xt = _schur_states(A, B, u)
-    y = D[0, 0] * u
+    y: np.ndarray = D[0, 0] * u
     for c, x in zip((C @ Q)[0], xt, strict=True):
         y += c * x
     return y
@@ -356,7 +357,7 @@ def _fit_bd(A: np.ndarray, C: np.ndarray, u: np.ndarray, y: np.ndarray
 
 # BLAS on one thread (n4sid, pem_refine): their QR and SVD are of tall, thin matrices (a few
 # dozen columns); on a loaded 2-core machine a multithreaded BLAS made them 2-10x slower
-@threadpool_limits.wrap(limits=1, user_api="blas")
+@threadpool_limits.wrap(limits=1, user_api="blas")  # type: ignore[untyped-decorator]  # no types
 def n4sid(u: Any, y: Any, n_states: int, block_rows: int, *, decimation: int | None = None
           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Identify a stable SISO linear state-space model from one record that starts at rest.
@@ -602,7 +603,7 @@ def _mse(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.mean((a - b) ** 2))
 
 
-@threadpool_limits.wrap(limits=1, user_api="blas")
+@threadpool_limits.wrap(limits=1, user_api="blas")  # type: ignore[untyped-decorator]  # no types
 def pem_refine(A: Any, B: Any, C: Any, D: Any, u: Any, y: Any, max_iter: int,
                validation: tuple[Any, Any] | None = None
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
@@ -697,7 +698,7 @@ def pem_refine(A: Any, B: Any, C: Any, D: Any, u: Any, y: Any, max_iter: int,
     def residual(p: np.ndarray) -> np.ndarray:
         s_r, s_p = model.filters(p, us, usc)
         cache.update(key=p.tobytes(), s_r=s_r, s_p=s_p)
-        r = (model.output(p, us, s_r, s_p) - ys) / root_n
+        r: np.ndarray = (model.output(p, us, s_r, s_p) - ys) / root_n
         cost = float(r @ r)
         trials["n"] += 1
         # the trust-region method accepts a step exactly when it lowers the cost
@@ -729,7 +730,7 @@ def pem_refine(A: Any, B: Any, C: Any, D: Any, u: Any, y: Any, max_iter: int,
         uv, yv = val
         scored = [(_mse(model.simulate(p, uv / su) * sy, yv), p, mse) for p, mse in candidates]
         val_mse, p_best, mse_best = min(scored, key=lambda t: t[0])
-        if val_mse >= start_val:
+        if val_mse >= cast(float, start_val):  # set whenever val is
             info["stop_reason"] = f"start kept: no step improved the validation fit ({reason})"
             return (*start, info)
         info["validation_mse"] = val_mse
