@@ -131,7 +131,9 @@ class ChannelMap:
             raise ChannelMapError(f"{where}: [channels] has no 'stations' (the channel names "
                                   "of the beam accelerometers)")
         try:
-            return cls(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in data.items()})
+            kwargs: dict[str, Any] = {k: (tuple(v) if isinstance(v, list) else v)
+                                      for k, v in data.items()}
+            return cls(**kwargs)
         except ChannelMapError as exc:
             raise ChannelMapError(f"{where}: {exc}") from None
 

@@ -166,10 +166,26 @@ class DampingEstimator(Protocol):
         For ``"au"``: the estimator's scatter over Au's law (-); unused otherwise.
     """
 
-    name: str
-    label: str
-    uncertainty: Uncertainty
-    efficiency: float
+    # read-only members: an estimator may be a frozen dataclass
+    @property
+    def name(self) -> str:
+        """Key in results and file columns."""
+        ...
+
+    @property
+    def label(self) -> str:
+        """Human name for tables and figures."""
+        ...
+
+    @property
+    def uncertainty(self) -> Uncertainty:
+        """How its interval is found."""
+        ...
+
+    @property
+    def efficiency(self) -> float:
+        """For ``"au"``: its scatter over Au's law (-)."""
+        ...
 
     def estimate(self, test: RandomTest) -> DampingEstimate:
         """The first-mode damping of one record (``test.base`` 1-D): ``value`` (raw),
@@ -199,11 +215,14 @@ class LscfH1:
     efficiency: float = _NAN
 
     def estimate(self, test: RandomTest) -> DampingEstimate:
+        """The raw first-mode damping of one record (the protocol's ``estimate``)."""
         f, h, _ = test.h1
         return _cluster_estimate(lscf_cluster_damping(f, h, test.f1, test.band,
                                                       test.pol_order_high))
 
     def estimate_records(self, records: RandomTest) -> np.ndarray:
+        """Damping ratio (-) of each record of a stack, NaN where none (the protocol's
+        ``estimate_records``)."""
         f, h, _ = records.h1
         return np.array([stable_pole_cluster(p, records.f1)["zeta"]
                          for p in lscf_poles_batch(f, h, records.band, records.pol_order_high)])
@@ -220,11 +239,14 @@ class LscfOutput:
     efficiency: float = OUTPUT_ONLY_EFFICIENCY
 
     def estimate(self, test: RandomTest) -> DampingEstimate:
+        """The raw first-mode damping of one record (the protocol's ``estimate``)."""
         return _cluster_estimate(output_only_damping(test.response, test.fs, test.f1,
                                                      test.band,
                                                      pol_order_high=test.pol_order_high))
 
     def estimate_records(self, records: RandomTest) -> np.ndarray:
+        """Damping ratio (-) of each record of a stack, NaN where none (the protocol's
+        ``estimate_records``)."""
         return np.array([output_only_damping(y, records.fs, records.f1, records.band,
                                              pol_order_high=records.pol_order_high)["zeta"]
                          for y in records.response])
@@ -241,6 +263,7 @@ class HalfPower:
     efficiency: float = _NAN
 
     def estimate(self, test: RandomTest) -> DampingEstimate:
+        """The raw first-mode damping of one record (the protocol's ``estimate``)."""
         f, h, _ = test.h1
         try:
             r = half_power_damping(f, h, test.band)
@@ -250,6 +273,8 @@ class HalfPower:
                                uncorrected=r["zeta"])
 
     def estimate_records(self, records: RandomTest) -> np.ndarray:
+        """Damping ratio (-) of each record of a stack, NaN where none (the protocol's
+        ``estimate_records``)."""
         f, h, _ = records.h1
         out = np.full(h.shape[0], _NAN)
         for k in range(h.shape[0]):

@@ -148,10 +148,13 @@ class SsiCov:
                     "reason": str(e)}
 
     def estimate(self, test: RandomTest) -> DampingEstimate:
+        """The raw first-mode damping of one record (the protocol's ``estimate``)."""
         r = self._one(test.response, test)
         return DampingEstimate(value=float(r["zeta"]), frequency=float(r["frequency"]),
                                uncorrected=float(r["zeta"]), reason=str(r["reason"]),
                                iqr=float(r["zeta_iqr"]), n_poles=int(r["n_poles"]))
 
     def estimate_records(self, records: RandomTest) -> np.ndarray:
+        """Damping ratio (-) of each record of a stack, NaN where none (the protocol's
+        ``estimate_records``)."""
         return np.array([self._one(y, records)["zeta"] for y in records.response])

@@ -439,7 +439,8 @@ def estimate_random(
             out[boot[0]].value if boot else nan)
         _warn_short(accuracy, zeta, au.frequency if au is not None
                     and np.isfinite(au.frequency) else f_mode, duration,
-                    ests[au_name].efficiency if au is not None else OUTPUT_ONLY_EFFICIENCY)
+                    ests[au_name].efficiency if au is not None and au_name is not None
+                    else OUTPUT_ONLY_EFFICIENCY)
     return result
 
 
@@ -490,8 +491,9 @@ class RandomDamping:
         """
         names = list(self.estimates)
         e = [self.estimates[n] for n in names]
-        var = {k: ("estimator", np.array([getattr(x, k) for x in e]), {"units": u})
-               for k, u in _FIELDS.items()}
+        var: dict[str, tuple[Any, Any, dict[str, str]]] = {
+            k: ("estimator", np.array([getattr(x, k) for x in e]), {"units": u})
+            for k, u in _FIELDS.items()}
         var["reason"] = ("estimator", np.array([x.reason for x in e], dtype=object), {})
         var.update({k: ((), getattr(self, k), {"units": u}) for k, u in
                     (("noise_input", "1"), ("noise_output", "1"), ("duration_s", "s"),

@@ -24,6 +24,7 @@ It imports no study: it runs what the registry declares.
 
 from __future__ import annotations
 
+import functools
 import json
 import time
 from collections.abc import Iterator
@@ -161,7 +162,7 @@ def run(out: str | Path, cfg: ReproduceConfig | dict[str, Any],
         with _timer(ctx, study.name):
             results[study.name] = cache.run(
                 study.name, study.cache_config(cfg), list(upstream.values()),
-                lambda study=study, upstream=upstream: study.run(ctx, upstream, identify),
+                functools.partial(study.run, ctx, upstream, identify),
                 __version__,
             )
 
