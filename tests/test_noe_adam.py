@@ -124,7 +124,7 @@ def test_passive_terms_train_and_the_file_round_trips(records, tmp_path):
 @pytest.mark.parametrize("term", ["amplitude_weighting", "passivity", "cycle_energy"])
 def test_loss_terms_are_refused_without_adam(records, trainer, term):
     u, y, _, _ = records
-    with pytest.raises(rom.ROMError, match=f"{term} > 0 needs trainer='adam'"):
+    with pytest.raises(rom.ROMError, match=f"{term} > 0 needs trainer 'adam'"):
         rom.NOE(trainer=trainer, **{term: 0.1}).fit(u, y, FS)
 
 

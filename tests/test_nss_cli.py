@@ -8,10 +8,10 @@ import pytest
 from typer.testing import CliRunner
 
 from helpers import check_cli
-from sloshrom import limits
 from sloshrom.cli import app
 from sloshrom.io import Record, read_record, write_record
 from sloshrom.rom.estimators import load_model
+from sloshrom.rom.registry import CLASSES
 
 runner = CliRunner()
 #: The smallest state-space ROM: a few Adam steps.
@@ -57,7 +57,8 @@ def test_train_nss_writes_a_model_that_loads_as_an_nss(trained):
     assert (m.n_states, m.neurons, m.window, m.horizon, m.batch, m.max_epochs,
             m.steps_per_epoch) == (2, 4, 5, 20, 4, 1, 2)
     assert m.learning_rate == 0.003 and m.fs_ == 500.0
-    assert dict((k, getattr(m, k)) for k in limits.NSS_RECIPE) == limits.NSS_RECIPE
+    recipe = dict(CLASSES["nss"].recipe)
+    assert dict((k, getattr(m, k)) for k in recipe) == recipe
 
 
 def test_predict_with_an_nss_file(trained, tmp_path):
