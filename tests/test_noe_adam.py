@@ -188,11 +188,11 @@ def test_the_schema_bounds_the_adam_options(records, tmp_path, field, value):
         rom.load_model(bad)
 
 
-def test_the_state_space_trainer_uses_the_same_shooting_helpers():
-    # one implementation of the probes, window energies and precision for both trainers
-    from sloshrom.rom import statespace
+def test_the_recurrent_classes_share_one_shooting_problem():
+    # one loss, schedule, draws and validation for the NOE and the state-space ROM: each class
+    # hands its starts, rest states, simulation and free run to the one builder
+    from sloshrom.rom import losses, shooting, statespace
 
-    assert statespace.shooting_probes is training.shooting_probes
-    assert statespace.window_energy_weights is training.window_energy_weights
-    assert statespace.cycles_per_window is training.cycles_per_window
-    assert statespace.TRAIN_DTYPE is training.TRAIN_DTYPE
+    assert statespace.shooting is shooting.shooting_problem
+    assert training.shooting is shooting.shooting_problem
+    assert statespace.TRAIN_DTYPE is training.TRAIN_DTYPE is losses.TRAIN_DTYPE

@@ -46,22 +46,17 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optax
 from jax import lax
 
 from sloshrom._x64 import float64
 from sloshrom.models import model_input
 from sloshrom.rom.engine import AdamProblem, adam_epochs
 from sloshrom.rom.errors import ROMError
+from sloshrom.rom.losses import TRAIN_DTYPE
 from sloshrom.rom.network import FittedNetwork, MinMaxScaler
 from sloshrom.rom.registry import NSS_CLASS, ModelClass, nss_shapes
-from sloshrom.rom.training import (
-    TRAIN_DTYPE,
-    amplitude_weights,
-    cycles_per_window,
-    shooting_probes,
-    window_energy_weights,
-)
+from sloshrom.rom.shooting import PyTree, Recurrence
+from sloshrom.rom.shooting import shooting_problem as shooting
 
 #: The arrays of a neural state-space network, in file order.
 NSS_PARAM_NAMES = NSS_CLASS.param_names()
@@ -353,96 +348,35 @@ def shooting_problem(
     Call it inside ``jax.enable_x64(True)``: the validation runs in float64, the Adam steps in
     :data:`~sloshrom.rom.training.TRAIN_DTYPE`.
     """
-    u = np.asarray(u, dtype=np.float64)
-    y = np.asarray(y, dtype=np.float64)
-    n, w, T = u.size, spec.window, int(horizon)
+    n, w, T = np.size(u), spec.window, int(horizon)
     if n < w + T + 1:
         raise ROMError(f"{n} samples are too few for an encoder window of {w} and a horizon "
                        f"of {T} samples (need at least {w + T + 1})")
-    sc = scaler
-    ru, ry = float(sc.u(0.0)), float(sc.y(0.0))
+    ru, ry = float(scaler.u(0.0)), float(scaler.y(0.0))
     f32 = TRAIN_DTYPE
-    u_s, y_s = jnp.asarray(sc.u(u), f32), jnp.asarray(sc.y(y), f32)
-    wts = jnp.asarray(amplitude_weights(u, fs, amplitude_weighting) if amplitude_weighting > 0
-                      else np.ones(n), f32)
-    a_max = float(np.max(np.abs(np.gradient(u)))) * fs
-    v_floor = float(np.max(np.abs(u))) / 100.0
-    vj = jnp.asarray(u, f32)
-    # the input cycles in each window: its energy error per cycle is the NFIR's cycle term
-    ncyc = jnp.asarray(cycles_per_window(u, w, T), f32)
-    probes = shooting_probes(u, fs, sc, T, frequency_band) if passivity > 0 else None
-    n_probe = 0 if probes is None else min(probes_per_step, probes.u.shape[0])
-    pu = jnp.asarray(probes.u if probes is not None else np.zeros((1, T)), f32)
-    pw = jnp.asarray(probes.weight if probes is not None else np.zeros((1, T)), f32)
+    u_s = jnp.asarray(scaler.u(np.asarray(u, dtype=np.float64)), f32)
+    y_s = jnp.asarray(scaler.y(np.asarray(y, dtype=np.float64)), f32)
 
-    def loss(p: dict[str, Any], starts: Any, pidx: Any) -> Any:
+    def start(p: PyTree, starts: jax.Array) -> jax.Array:
+        # the state encoded from the window of measured input and output before the start
         past = starts[:, None] + jnp.arange(w)[None, :]
-        x0 = ss_encode(p, u_s[past], y_s[past], ru, ry)
-        fut = starts[:, None] + w + jnp.arange(T)[None, :]
-        uf = u_s[fut]
-        if n_probe:
-            x0 = jnp.concatenate([x0, jnp.zeros((n_probe, x0.shape[1]), f32)])
-            uf = jnp.concatenate([uf, pu[pidx]])
-        yh = ss_simulate(p, x0, uf.T, ru, ry)[1].T
-        e = yh[: starts.size] - y_s[fut]
-        mse = jnp.mean(e**2)
-        value = jnp.mean(wts[fut] * e**2)
-        if cycle_energy > 0:
-            vw = vj[fut]
-            peak = jnp.maximum(jnp.max(jnp.abs(vw), axis=1), v_floor)
-            de = jnp.sum(e * vw, axis=1) * a_max / (fs * peak**2) / ncyc[starts]
-            value += cycle_energy * jnp.mean(de**2)
-        if n_probe:
-            phi = jnp.sum(yh[starts.size:] * pw[pidx], axis=1)
-            value += passivity * jnp.mean(jnp.minimum(phi, 0.0) ** 2)
-        return value, mse
+        return ss_encode(p, u_s[past], y_s[past], ru, ry)
 
-    total = max(1, int(max_epochs) * int(steps_per_epoch))
-    sched = optax.cosine_decay_schedule(float(learning_rate), total, 0.05)
-    opt = optax.chain(optax.clip_by_global_norm(1.0), optax.adam(sched))
+    def simulate(p: PyTree, x0: jax.Array, uf: jax.Array) -> jax.Array:
+        return ss_simulate(p, x0, uf.T, ru, ry)[1].T
 
-    def draw(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-        starts = rng.integers(0, n - w - T, (steps_per_epoch, batch))
-        pidx = rng.integers(0, max(1, pu.shape[0]), (steps_per_epoch, n_probe))
-        return starts, pidx
+    def free_run(p: PyTree, uv: np.ndarray) -> np.ndarray:
+        return np.asarray(ss_free_run(_as64(p), jnp.asarray(uv)[:, None], ru, ry))[:, 0]
 
-    # validation: the free run from rest of the whole record, scored like the training loss
-    val = None
-    if validation is not None:
-        uv = np.asarray(validation[0], dtype=np.float64)
-        yv = np.asarray(validation[1], dtype=np.float64)
-        uvs = jnp.asarray(sc.u(uv))[:, None]
-        yvs = np.asarray(sc.y(yv))
-        wv = (amplitude_weights(uv, fs, amplitude_weighting) if amplitude_weighting > 0
-              else np.ones(uv.size))
-        nwin = uv.size // T
-        vstarts = np.arange(nwin) * T
-        ew = window_energy_weights(uv, fs, a_max, vstarts, T, v_floor) if nwin else None
-        if nwin:
-            ew /= cycles_per_window(uv, 0, T)[vstarts][:, None]
-
-        @jax.jit
-        def penalty_all(p: Any) -> Any:
-            yh = ss_simulate(p, jnp.zeros((pu.shape[0], spec.n_states), f32), pu.T, ru, ry)[1].T
-            phi = jnp.sum(yh * pw, axis=1)
-            return jnp.mean(jnp.minimum(phi, 0.0) ** 2)
-
-        def val(p: Any) -> tuple[float, float]:
-            yh = np.asarray(ss_free_run(_as64(p), uvs, ru, ry))[:, 0]
-            if not np.all(np.isfinite(yh)) or np.max(np.abs(yh)) > 10.0:
-                return math.inf, math.inf
-            e = yh - yvs
-            mse = float(np.mean(e**2))
-            obj = float(np.mean(wv * e**2))
-            if cycle_energy > 0 and nwin:
-                de = np.sum(e[: nwin * T].reshape(nwin, T) * ew, axis=1)
-                obj += cycle_energy * float(np.mean(de**2))
-            if passivity > 0 and math.isfinite(obj):
-                obj += passivity * float(penalty_all(p))
-            return mse, obj
-
+    rec = Recurrence(offset=w, n_starts=n - w - T, start=start,
+                     rest=lambda k: jnp.zeros((k, spec.n_states), f32), simulate=simulate,
+                     free_run=free_run)
     params0 = {k: jnp.asarray(v, f32) for k, v in init_params(spec, seed).items()}
-    return AdamProblem(loss, params0, opt, draw, val)
+    return shooting(rec, params0, u, y, fs, scaler, validation, horizon=T, batch=batch,
+                    max_epochs=max_epochs, steps_per_epoch=steps_per_epoch,
+                    learning_rate=learning_rate, amplitude_weighting=amplitude_weighting,
+                    passivity=passivity, cycle_energy=cycle_energy,
+                    frequency_band=frequency_band, probes_per_step=probes_per_step)
 
 
 @float64

@@ -53,7 +53,6 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from functools import partial
 from typing import Any
 
@@ -61,12 +60,25 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import optax
-import scipy.linalg
 
 from sloshrom._x64 import float64
 from sloshrom.limits import TRAINERS
 from sloshrom.rom.engine import AdamProblem, adam_epochs
 from sloshrom.rom.errors import ROMError, UnstableModelError
+from sloshrom.rom.lm import LMProblem, LMResult, levenberg_marquardt
+from sloshrom.rom.losses import (
+    MAX_CYCLE,
+    TRAIN_DTYPE,
+    EnergyCycles,
+    HarmonicProbes,
+    ShootingProbes,
+    amplitude_weights,
+    cycles_per_window,
+    energy_cycles,
+    harmonic_probes,
+    shooting_probes,
+    window_energy_weights,
+)
 from sloshrom.rom.network import (
     MinMaxScaler,
     NetworkSpec,
@@ -81,6 +93,8 @@ from sloshrom.rom.network import (
     row_index,
     unpack,
 )
+from sloshrom.rom.shooting import PyTree, Recurrence
+from sloshrom.rom.shooting import shooting_problem as shooting
 
 __all__ = [
     "FAST_MAX_ROWS",
@@ -114,144 +128,7 @@ __all__ = [
 ]
 
 FAST_MAX_ROWS = 16384
-#: longest input cycle of the cycle-energy term, samples (the cycles are padded to the longest)
-MAX_CYCLE = 2048
 CHUNK = 4096
-
-
-@dataclass
-class LMProblem:
-    """A least-squares problem for :func:`levenberg_marquardt`.
-
-    ``normal_eq(theta) -> (JtJ, Jte, sse, n)`` (NumPy float64); ``sse(theta) -> float`` the
-    training sum of squared errors on the same samples (``inf`` if the model is non-finite or
-    unstable); ``val_mse(theta) -> float`` or None.
-    """
-
-    normal_eq: Callable[[Any], tuple[np.ndarray, np.ndarray, float, int]]
-    sse: Callable[[Any], float]
-    val_mse: Callable[[Any], float] | None = None
-
-
-@dataclass
-class LMResult:
-    """The result of a Levenberg-Marquardt fit: parameters, stop reason, history."""
-    theta: np.ndarray
-    stop_reason: str
-    history: dict[str, list] = field(default_factory=dict)
-    best_epoch: int = 0
-
-
-def levenberg_marquardt(
-    problem: LMProblem,
-    theta0: Any,
-    max_epochs: int = 1000,
-    mu: float = 1e-3,
-    mu_dec: float = 0.1,
-    mu_inc: float = 10.0,
-    mu_max: float = 1e10,
-    min_grad: float = 1e-7,
-    max_fail: int = 6,
-    callback: Callable[[int, dict], Any] | None = None,
-    mse_scale: float = 1.0,
-) -> LMResult:
-    """MATLAB ``trainlm`` Levenberg-Marquardt (see the module docstring).
-
-    Parameters
-    ----------
-    problem : LMProblem
-    theta0 : array_like
-        Initial parameters.
-    max_epochs, mu, mu_dec, mu_inc, mu_max, min_grad, max_fail
-        As ``trainlm`` (``epochs``, ``mu``, ``mu_dec``, ``mu_inc``, ``mu_max``, ``min_grad``,
-        ``max_fail``).
-    callback : callable, optional
-        ``callback(epoch, info)`` after every epoch (and epoch 0 = initial state); returning
-        True stops the training (stop reason ``"callback"``).
-    mse_scale : float
-        Factor from the problem's MSE to the reported MSE (e.g. the output half-range squared).
-
-    Returns
-    -------
-    LMResult
-        Best-validation parameters (last ones without validation), the stop reason and the
-        per-epoch history (``train_mse``, ``val_mse``, ``mu``, ``grad``, ``seconds``).
-    """
-    theta = np.asarray(theta0, dtype=np.float64).copy()
-    p = theta.size
-    t0 = time.perf_counter()
-    jtj, jte, sse, n = problem.normal_eq(theta)
-    vperf = problem.val_mse(theta) if problem.val_mse else math.nan
-    best_theta, best_v, best_epoch, fail = theta.copy(), vperf, 0, 0
-    hist: dict[str, list] = {k: [] for k in ("train_mse", "val_mse", "mu", "grad", "seconds")}
-
-    def record(epoch: int, grad: float) -> bool:
-        info = {
-            "train_mse": sse / n * mse_scale,
-            "val_mse": vperf * mse_scale,
-            "mu": mu,
-            "grad": grad,
-            "seconds": time.perf_counter() - t0,
-        }
-        for k, v in info.items():
-            hist[k].append(float(v))
-        # a callback returning True asks to stop (time caps, user interrupt)
-        return bool(callback(epoch, info)) if callback is not None else False
-
-    epoch = 0
-    grad = 2.0 * float(np.linalg.norm(jte)) / n
-    stop = record(0, grad)
-    eye = np.eye(p)
-    while True:
-        if stop:
-            reason = "callback"
-        elif epoch >= max_epochs:
-            reason = "max_epochs"
-        elif grad < min_grad:
-            reason = "min_grad"
-        elif mu > mu_max:
-            reason = "mu_max"
-        elif problem.val_mse is not None and fail >= max_fail:
-            reason = "validation_stop"
-        else:
-            reason = ""
-        if reason:
-            break
-        epoch += 1
-        accepted = False
-        while mu <= mu_max:
-            try:
-                cf = scipy.linalg.cho_factor(jtj + mu * eye, lower=False, check_finite=False)
-                step = scipy.linalg.cho_solve(cf, jte, check_finite=False)
-                trial = theta - step
-                sse2 = problem.sse(trial) if np.all(np.isfinite(trial)) else math.inf
-            except np.linalg.LinAlgError:  # not positive definite at this mu: like a failure
-                sse2 = math.inf
-            if np.isfinite(sse2) and sse2 < sse:
-                theta = trial
-                mu *= mu_dec
-                accepted = True
-                break
-            mu *= mu_inc
-        if accepted:
-            jtj, jte, sse, n = problem.normal_eq(theta)
-            grad = 2.0 * float(np.linalg.norm(jte)) / n
-            if problem.val_mse is not None:
-                vperf = problem.val_mse(theta)
-        if problem.val_mse is not None:
-            if vperf < best_v or not np.isfinite(best_v):
-                best_theta, best_v, best_epoch, fail = theta.copy(), vperf, epoch, 0
-            elif vperf > best_v:
-                fail += 1
-        stop = record(epoch, grad)
-    if problem.val_mse is None:
-        best_theta, best_epoch = theta, epoch
-    return LMResult(best_theta, reason, hist, best_epoch)
-
-
-# ---------------------------------------------------------------------------------------------
-# Initialisation
-# ---------------------------------------------------------------------------------------------
 
 
 def init_theta(
@@ -461,99 +338,9 @@ def noe_problem(
 
 
 # ---------------------------------------------------------------------------------------------
-# Physics in the loss (NFIR): amplitude weighting and passivity on harmonic probes
+# Physics in the loss (NFIR): passivity on harmonic probes, the energy of each cycle
+# (their data: sloshrom.rom.losses)
 # ---------------------------------------------------------------------------------------------
-
-
-def amplitude_weights(u: np.ndarray, fs: float, eps: float, window: float = 1.0) -> np.ndarray:
-    """Per-sample loss weights ``1 / (a^2 + eps^2)``, normalised to mean 1.
-
-    ``a`` is the local amplitude of the input, sqrt(2) times its RMS over ``window`` seconds
-    (centred). Phi_d divides the dissipated energy by the squared amplitude, so a cycle at
-    small amplitude matters to the map as much as any; with a plain MSE its small forces
-    barely count.
-
-    Parameters
-    ----------
-    u : ndarray, shape (n,)
-        Input record, physical units (m/s).
-    fs : float
-        Sample rate, Hz.
-    eps : float
-        Amplitude floor, units of ``u``; below it every sample weighs the same.
-    window : float
-        RMS window, s.
-    """
-    u = np.asarray(u, dtype=np.float64)
-    k = max(1, min(int(round(window * fs)), u.size))
-    ms = np.convolve(u**2, np.full(k, 1.0 / k), mode="same")
-    w = 1.0 / (2.0 * ms + eps**2)
-    return w / w.mean()
-
-
-@partial(jax.tree_util.register_dataclass, data_fields=["windows", "weight"], meta_fields=[])
-@dataclass(frozen=True)
-class HarmonicProbes:
-    """Steady harmonic inputs on which the NFIR's dissipated energy is evaluated.
-
-    ``windows`` (p, max_delay + P_max): scaled input, the harmonic already running before the
-    first counted sample; ``weight`` (p, P_max): for the counted samples (one whole period,
-    zero after it), ``-v / (fs m_ref V^2) * out_half_range``, so that
-    ``phi = sum(y_scaled * weight)`` is the dissipated energy per cycle over ``m_ref V^2``
-    (a Phi_d with the data's mass scale ``m_ref`` in place of the liquid mass).
-    """
-
-    windows: Any
-    weight: Any
-
-    @property
-    def n(self) -> int:
-        """The number of probe windows."""
-        return int(self.windows.shape[0])
-
-
-def harmonic_probes(
-    u: np.ndarray,
-    fs: float,
-    scaler: MinMaxScaler,
-    delays: tuple[int, ...],
-    band: tuple[float, float],
-    n_freq: int = 14,
-    n_amp: int = 16,
-    amp_ratio: float = 100.0,
-) -> HarmonicProbes:
-    """Harmonic probes inside the training envelope of the input record ``u``.
-
-    Frequencies ``fs / P`` (integer periods P, so a period is summed exactly) spaced
-    logarithmically over ``band``; velocity amplitudes V spaced logarithmically from
-    ``V_top / amp_ratio`` to ``V_top = min(max |u|, max |du/dt| / Omega)`` (inside both the
-    velocity and the acceleration range the network was trained on). The mass scale is
-    ``m_ref = out_half_range / max |du/dt|`` (kg for m/s in, N out).
-    """
-    u = np.asarray(u, dtype=np.float64)
-    d = np.asarray(delays)
-    dmax = int(d.max())
-    v_max = min(-scaler.in_min, scaler.in_max)
-    a_max = float(np.max(np.abs(np.gradient(u)))) * fs
-    if not (v_max > 0 and a_max > 0):
-        raise ROMError("passivity probes need an input that swings both ways around rest")
-    m_ref = scaler.out_half_range / a_max
-    f_lo, f_hi = max(band[0], fs / 1e4), min(band[1], fs / 4.0)
-    if not f_hi > f_lo:
-        f_lo, f_hi = fs / 100.0, fs / 4.0
-    periods = np.unique(np.round(np.geomspace(fs / f_hi, fs / f_lo, n_freq)).astype(int))
-    p_max = int(periods.max())
-    k = np.arange(dmax + p_max) - dmax
-    windows, weight = [], []
-    for P in periods:
-        om = 2.0 * np.pi * fs / P
-        v_top = min(v_max, a_max / om)
-        for V in np.geomspace(v_top / amp_ratio, v_top, n_amp):
-            v = V * np.sin(2.0 * np.pi * k / P)
-            windows.append(scaler.u(v))
-            counted = np.where((k >= 0) & (k < P), v, 0.0)[dmax:]
-            weight.append(-counted * scaler.out_half_range / (fs * m_ref * V * V))
-    return HarmonicProbes(jnp.asarray(np.array(windows)), jnp.asarray(np.array(weight)))
 
 
 def probe_dissipation(theta: Any, probes: HarmonicProbes, idx: Any, delays: Any,
@@ -575,76 +362,6 @@ def passivity_penalty(theta: Any, probes: HarmonicProbes, idx: Any, delays: Any,
     """Mean squared negative part of :func:`probe_dissipation`: zero for a passive network."""
     phi = probe_dissipation(theta, probes, idx, delays, neurons, hidden)
     return jnp.mean(jnp.minimum(phi, 0.0) ** 2)
-
-
-@partial(jax.tree_util.register_dataclass, data_fields=["rows", "weight"], meta_fields=[])
-@dataclass(frozen=True)
-class EnergyCycles:
-    """The cycles of a record over which the exchanged energy is compared.
-
-    ``rows`` (c, L): sample indices of each cycle, padded with 0; ``weight`` (c, L):
-    ``v_k a_max / (fs V^2)`` on the cycle's samples (0 on the padding), ``V`` the cycle's peak
-    velocity and ``a_max`` the record's peak acceleration, so that ``sum(e_scaled * weight)`` is
-    the error of the cycle's energy ``sum(F v) / fs`` over ``m_ref V^2`` (the normalisation of
-    :func:`harmonic_probes`, ``m_ref = out_half_range / a_max``).
-    """
-
-    rows: Any
-    weight: Any
-
-    @property
-    def n(self) -> int:
-        """The number of cycles."""
-        return int(self.rows.shape[0])
-
-
-def energy_cycles(
-    u: np.ndarray,
-    fs: float,
-    band: tuple[float, float],
-    amp_ratio: float = 100.0,
-) -> EnergyCycles:
-    """Cycles of the input record ``u`` (physical units, rest = 0) between upward zero crossings.
-
-    A cycle is kept if its length lies within half the shortest and twice the longest period
-    of ``band`` (Hz), at most ``MAX_CYCLE`` samples (bounded memory), and its peak |u| is at
-    least ``max |u| / amp_ratio`` (below it, crossings of noise are not cycles). Over a cycle
-    from one upward crossing to the next the liquid's inertia exchanges no net energy, so
-    ``sum(F v) / fs`` is the energy the liquid took.
-
-    Raises
-    ------
-    ROMError
-        No cycle in the record.
-    """
-    u = np.asarray(u, dtype=np.float64)
-    if not (fs > 0 and band[1] > band[0] >= 0):
-        raise ROMError(f"energy cycles need fs > 0 and a frequency band, got {fs}, {band}")
-    ups = np.flatnonzero((u[:-1] < 0.0) & (u[1:] >= 0.0)) + 1
-    # an open band edge (0 or inf) leaves that side to the record
-    l_min = max(4, int(fs / (2.0 * band[1])) if math.isfinite(band[1]) else 4)
-    l_max = (max(l_min + 1, int(math.ceil(2.0 * fs / band[0]))) if band[0] > 0
-             else u.size)
-    l_max = min(l_max, MAX_CYCLE)
-    v_min = float(np.max(np.abs(u))) / amp_ratio
-    a_max = float(np.max(np.abs(np.gradient(u)))) * fs
-    starts, ends, peaks = [], [], []
-    for a, b in zip(ups[:-1], ups[1:], strict=True):
-        if l_min <= b - a <= l_max:
-            peak = float(np.max(np.abs(u[a:b])))
-            if peak >= v_min:
-                starts.append(a)
-                ends.append(b)
-                peaks.append(peak)
-    if not starts:
-        raise ROMError("no input cycle for the cycle-energy term: is the record oscillating?")
-    length = max(e - a for a, e in zip(starts, ends, strict=True))
-    rows = np.zeros((len(starts), length), dtype=np.int64)
-    weight = np.zeros((len(starts), length))
-    for i, (a, b, peak) in enumerate(zip(starts, ends, peaks, strict=True)):
-        rows[i, : b - a] = np.arange(a, b)
-        weight[i, : b - a] = u[a:b] * a_max / (fs * peak**2)
-    return EnergyCycles(jnp.asarray(rows), jnp.asarray(weight))
 
 
 def cycle_energy_error(theta: Any, up: Any, ys: Any, cycles: EnergyCycles, idx: Any,
@@ -816,87 +533,6 @@ def adam_nfir(
 
 
 # ---------------------------------------------------------------------------------------------
-# Multiple shooting: probes and energy weights of simulated sub-sequences
-# ---------------------------------------------------------------------------------------------
-# The pieces of the multiple-shooting trainers, the NOE's (here) and the state-space ROM's
-# (sloshrom.rom.statespace, which imports them from here).
-
-#: Training precision of the shooting trainers: float32 Adam steps (measured 1.7x faster than
-#: float64 through a 300-step scan on this machine's CPU); validation runs are float64.
-TRAIN_DTYPE = jnp.float32
-
-
-@dataclass(frozen=True)
-class ShootingProbes:
-    """Harmonic probes run from rest: scaled inputs (p, T) and the weights (p, T) whose sum with
-    the scaled output is the dissipated energy per cycle over ``m_ref V^2`` (counted over the
-    last whole period; 0 elsewhere)."""
-
-    u: np.ndarray
-    weight: np.ndarray
-
-
-def shooting_probes(u: np.ndarray, fs: float, scaler: MinMaxScaler, horizon: int,
-                    band: tuple[float, float], n_freq: int = 14, n_amp: int = 16,
-                    amp_ratio: float = 100.0) -> ShootingProbes:
-    """Probes inside the training envelope of ``u`` (m/s), each ``horizon`` samples long: a
-    raised-cosine ramp over the first quarter, then the harmonic; the last whole period counts.
-    Frequencies ``fs / P`` (integer periods) log-spaced over ``band`` (Hz) with at least half
-    the horizon left to settle before the counted period.
-
-    Raises
-    ------
-    ROMError
-        An input that does not swing both ways around rest.
-    """
-    v_max = min(-scaler.in_min, scaler.in_max)
-    a_max = float(np.max(np.abs(np.gradient(u)))) * fs
-    if not (v_max > 0 and a_max > 0):
-        raise ROMError("passivity probes need an input that swings both ways around rest")
-    m_ref = scaler.out_half_range / a_max
-    p_max = horizon // 2
-    f_lo = max(band[0], fs / p_max)
-    f_hi = min(band[1], fs / 8.0)
-    if not f_hi > f_lo:
-        f_lo, f_hi = fs / p_max, fs / 8.0
-    periods = np.unique(np.round(np.geomspace(fs / f_hi, fs / f_lo, n_freq)).astype(int))
-    k = np.arange(horizon)
-    ramp_n = horizon // 4
-    ramp = np.where(k < ramp_n, 0.5 - 0.5 * np.cos(np.pi * k / ramp_n), 1.0)
-    us, ws = [], []
-    for P in periods:
-        om = 2.0 * np.pi * fs / P
-        v_top = min(v_max, a_max / om)
-        counted = (k >= horizon - P)
-        for V in np.geomspace(v_top / amp_ratio, v_top, n_amp):
-            v = V * np.sin(2.0 * np.pi * (k - (horizon - P)) / P) * ramp
-            us.append(scaler.u(v))
-            ws.append(np.where(counted, -v, 0.0) * scaler.out_half_range / (fs * m_ref * V * V))
-    return ShootingProbes(np.array(us), np.array(ws))
-
-
-def window_energy_weights(v: np.ndarray, fs: float, a_max: float, starts: np.ndarray,
-                          horizon: int, v_floor: float) -> np.ndarray:
-    """Per-window weights (w, horizon): ``v_k a_max / (fs V^2)``, V the window's peak |v|
-    (floored), so that ``sum(e_scaled * weight)`` is the window's energy error over m_ref V^2."""
-    idx = starts[:, None] + np.arange(horizon)[None, :]
-    vw = v[idx]
-    peak = np.maximum(np.max(np.abs(vw), axis=1), v_floor)
-    return vw * a_max / (fs * peak[:, None] ** 2)
-
-
-def cycles_per_window(v: np.ndarray, offset: int, horizon: int) -> np.ndarray:
-    """Upward zero crossings of ``v`` in ``v[s + offset : s + offset + horizon]`` for every
-    start ``s`` (at least 1), shape ``(v.size,)`` (0-padded at the end)."""
-    up = np.concatenate([[0], (v[:-1] < 0) & (v[1:] >= 0)]).astype(np.float64)
-    c = np.concatenate([[0.0], np.cumsum(up)])
-    s = np.arange(v.size)
-    lo = np.minimum(s + offset, v.size)
-    hi = np.minimum(s + offset + horizon, v.size)
-    return np.maximum(c[hi] - c[lo], 1.0)
-
-
-# ---------------------------------------------------------------------------------------------
 # NOE by multiple shooting: minibatch Adam on the simulation error of short sub-sequences
 # ---------------------------------------------------------------------------------------------
 
@@ -955,11 +591,9 @@ def noe_shooting_problem(
     """The multiple-shooting problem of :func:`adam_noe` for the training engine; the
     parameters are :func:`adam_noe`'s (``max_epochs`` sets the learning-rate schedule's
     length; the draws' seed is the engine's)."""
-    u = np.asarray(u, dtype=np.float64)
-    y = np.asarray(y, dtype=np.float64)
     d = np.asarray(delays)
     dmax, m, T = int(d.max()), int(out_delays), int(horizon)
-    n = u.size
+    n = np.size(u)
     if n < T + 1:
         raise ROMError(f"{n} samples are too few for a horizon of {T} samples "
                        f"(need at least {T + 1})")
@@ -968,94 +602,33 @@ def noe_shooting_problem(
     f32 = TRAIN_DTYPE
     lag = max(dmax, m)
     # the record padded in front with rest: every start has its measured (or rest) history
-    up = jnp.asarray(np.concatenate([np.full(lag, ru), sc.u(u)]), f32)
-    yp = jnp.asarray(np.concatenate([np.full(lag, ry), sc.y(y)]), f32)
-    wts = jnp.asarray(amplitude_weights(u, fs, amplitude_weighting) if amplitude_weighting > 0
-                      else np.ones(n), f32)
-    a_max = float(np.max(np.abs(np.gradient(u)))) * fs
-    v_floor = float(np.max(np.abs(u))) / 100.0
-    vj = jnp.asarray(u, f32)
-    ncyc = jnp.asarray(cycles_per_window(u, 0, T), f32)
-    probes = shooting_probes(u, fs, sc, T, frequency_band) if passivity > 0 else None
-    n_probe = 0 if probes is None else min(probes_per_step, probes.u.shape[0])
-    pu = jnp.asarray(probes.u if probes is not None else np.zeros((1, T)), f32)
-    pw = jnp.asarray(probes.weight if probes is not None else np.zeros((1, T)), f32)
+    up = jnp.asarray(np.concatenate([np.full(lag, ru), sc.u(np.asarray(u, np.float64))]), f32)
+    yp = jnp.asarray(np.concatenate([np.full(lag, ry), sc.y(np.asarray(y, np.float64))]), f32)
     u_lags = jnp.arange(1, dmax + 1)
     y_lags = jnp.arange(1, m + 1)
     shoot = partial(noe_shoot, delays=tuple(int(x) for x in d), out_delays=m, neurons=neurons,
                     hidden=hidden)
 
-    def losses(th: Any, starts: Any, pidx: Any) -> tuple[Any, Any]:
+    def start(th: PyTree, starts: jax.Array) -> PyTree:
         # delay lines at start s (padded index s + lag): measured samples s-1, s-2, ...
-        ub = up[starts[:, None] + lag - u_lags[None, :]]
-        yb = yp[starts[:, None] + lag - y_lags[None, :]]
-        fut = starts[:, None] + jnp.arange(T)[None, :]
-        uf = up[fut + lag]
-        if n_probe:
-            ub = jnp.concatenate([ub, jnp.full((n_probe, dmax), ru, f32)])
-            yb = jnp.concatenate([yb, jnp.full((n_probe, m), ry, f32)])
-            uf = jnp.concatenate([uf, pu[pidx]])
-        yh = shoot(th, ub, yb, uf)
-        e = yh[: starts.size] - yp[fut + lag]
-        mse = jnp.mean(e**2)
-        value = jnp.mean(wts[fut] * e**2)
-        if cycle_energy > 0:
-            vw = vj[fut]
-            peak = jnp.maximum(jnp.max(jnp.abs(vw), axis=1), v_floor)
-            de = jnp.sum(e * vw, axis=1) * a_max / (fs * peak**2) / ncyc[starts]
-            value += cycle_energy * jnp.mean(de**2)
-        if n_probe:
-            phi = jnp.sum(yh[starts.size:] * pw[pidx], axis=1)
-            value += passivity * jnp.mean(jnp.minimum(phi, 0.0) ** 2)
-        return value, mse
+        return (up[starts[:, None] + lag - u_lags[None, :]],
+                yp[starts[:, None] + lag - y_lags[None, :]])
 
-    total = max(1, int(max_epochs) * int(steps_per_epoch))
-    sched = optax.cosine_decay_schedule(float(learning_rate), total, 0.05)
-    opt = optax.chain(optax.clip_by_global_norm(1.0), optax.adam(sched))
+    def rest(k: int) -> PyTree:
+        return jnp.full((k, dmax), ru, f32), jnp.full((k, m), ry, f32)
 
-    def draw(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-        starts = rng.integers(0, n - T + 1, (steps_per_epoch, batch))
-        pidx = rng.integers(0, max(1, pu.shape[0]), (steps_per_epoch, n_probe))
-        return starts, pidx
+    def free_run(th: PyTree, uv: np.ndarray) -> np.ndarray:
+        return np.asarray(noe_free_run(jnp.asarray(th, jnp.float64), jnp.asarray(uv), ru, ry,
+                                       delays, m, neurons, hidden))
 
-    # validation: the free run from rest of the whole record, scored like the training loss
-    val = None
-    if validation is not None:
-        uv = np.asarray(validation[0], dtype=np.float64)
-        yv = np.asarray(validation[1], dtype=np.float64)
-        uvs = jnp.asarray(sc.u(uv))
-        yvs = np.asarray(sc.y(yv))
-        wv = (amplitude_weights(uv, fs, amplitude_weighting) if amplitude_weighting > 0
-              else np.ones(uv.size))
-        nwin = uv.size // T
-        vstarts = np.arange(nwin) * T
-        ew = window_energy_weights(uv, fs, a_max, vstarts, T, v_floor) if nwin else None
-        if nwin:
-            ew /= cycles_per_window(uv, 0, T)[vstarts][:, None]
-
-        @jax.jit
-        def penalty_all(th: Any) -> Any:
-            k = pu.shape[0]
-            yh = shoot(th, jnp.full((k, dmax), ru, f32), jnp.full((k, m), ry, f32), pu)
-            phi = jnp.sum(yh * pw, axis=1)
-            return jnp.mean(jnp.minimum(phi, 0.0) ** 2)
-
-        def val(th: Any) -> tuple[float, float]:
-            yh = np.asarray(noe_free_run(jnp.asarray(th, jnp.float64), uvs, ru, ry, delays,
-                                         m, neurons, hidden))
-            if not np.all(np.isfinite(yh)) or np.max(np.abs(yh)) > bound:
-                return math.inf, math.inf
-            e = yh - yvs
-            mse = float(np.mean(e**2))
-            obj = float(np.mean(wv * e**2))
-            if cycle_energy > 0 and nwin:
-                de = np.sum(e[: nwin * T].reshape(nwin, T) * ew, axis=1)
-                obj += cycle_energy * float(np.mean(de**2))
-            if passivity > 0 and math.isfinite(obj):
-                obj += passivity * float(penalty_all(th))
-            return mse, obj
-
-    return AdamProblem(losses, jnp.asarray(theta0, f32), opt, draw, val)
+    rec = Recurrence(offset=0, n_starts=n - T + 1, start=start, rest=rest,
+                     simulate=lambda th, b, uf: shoot(th, b[0], b[1], uf), free_run=free_run,
+                     bound=bound)
+    return shooting(rec, jnp.asarray(theta0, f32), u, y, fs, scaler, validation, horizon=T,
+                    batch=batch, max_epochs=max_epochs, steps_per_epoch=steps_per_epoch,
+                    learning_rate=learning_rate, amplitude_weighting=amplitude_weighting,
+                    passivity=passivity, cycle_energy=cycle_energy,
+                    frequency_band=frequency_band, probes_per_step=probes_per_step)
 
 
 def adam_noe(

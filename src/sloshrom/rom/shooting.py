@@ -1,0 +1,224 @@
+"""Multiple shooting for the recurrent ROM classes: one problem builder for the training engine.
+
+A recurrent model (the NOE's closed loop, the state-space ROM) is trained on sub-sequences of
+``horizon`` samples, each started from the measured past (the NOE's delay lines filled with the
+record, the NSS's state encoded from a window of it) and simulated freely: the loss is the
+simulation error of the sub-sequences, weighted by the amplitude weighting, plus the passive
+recipe's cycle-energy term (the error of the energy each sub-sequence exchanges with the
+liquid, per input cycle in it) and its passivity penalty (harmonic probes run from rest in the
+same batch, no energy created). Early stopping scores the free run from rest of the whole
+validation record the same way.
+
+What differs between classes is how a sub-sequence starts, how the model runs, and its free
+run: a class hands these to :func:`shooting_problem` as a :class:`Recurrence`, as an ODE
+solver takes a vector field. The loss, its schedule, its random draws and its validation are
+written once, here.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+
+from sloshrom.rom.engine import AdamProblem
+from sloshrom.rom.losses import (
+    TRAIN_DTYPE,
+    amplitude_weights,
+    cycles_per_window,
+    shooting_probes,
+    window_energy_weights,
+)
+from sloshrom.rom.network import MinMaxScaler
+
+__all__ = ["PyTree", "Recurrence", "shooting_problem"]
+
+#: A JAX pytree (a model's parameters, a batch of its states): a dict of arrays, a tuple of
+#: arrays or an array.
+PyTree = Any
+
+
+@dataclass(frozen=True)
+class Recurrence:
+    """What the multiple-shooting problem needs of a recurrent class (scaled units, float32
+    training precision).
+
+    Parameters
+    ----------
+    offset : int
+        Samples between a start and the first simulated sample (the encoder's window; 0 when
+        the record is padded in front with rest).
+    n_starts : int
+        The starts drawn are ``0 .. n_starts - 1``.
+    start : callable
+        ``start(params, starts) -> state``: the states of the sub-sequences beginning at
+        ``starts`` (shape ``(B,)``), from the measured past.
+    rest : callable
+        ``rest(k) -> state``: ``k`` states at rest (the passivity probes').
+    simulate : callable
+        ``simulate(params, state, u) -> y``: the scaled outputs ``(B, T)`` of a batch of
+        states driven by scaled inputs ``u`` ``(B, T)``.
+    free_run : callable
+        ``free_run(params, u) -> y``: the scaled free run from rest (float64, NumPy) of a
+        scaled input record ``u`` ``(n,)``.
+    bound : float
+        A validation free run beyond this scaled magnitude (or not finite) is unstable.
+    """
+
+    offset: int
+    n_starts: int
+    start: Callable[[PyTree, jax.Array], PyTree]
+    rest: Callable[[int], PyTree]
+    simulate: Callable[[PyTree, PyTree, jax.Array], jax.Array]
+    free_run: Callable[[PyTree, np.ndarray], np.ndarray]
+    bound: float = 10.0
+
+
+def shooting_problem(
+    rec: Recurrence,
+    params0: PyTree,
+    u: np.ndarray,
+    y: np.ndarray,
+    fs: float,
+    scaler: MinMaxScaler,
+    validation: tuple[np.ndarray, np.ndarray] | None = None,
+    *,
+    horizon: int,
+    batch: int,
+    max_epochs: int,
+    steps_per_epoch: int,
+    learning_rate: float,
+    amplitude_weighting: float = 0.0,
+    passivity: float = 0.0,
+    cycle_energy: float = 0.0,
+    frequency_band: tuple[float, float] = (0.0, math.inf),
+    probes_per_step: int = 24,
+) -> AdamProblem:
+    """The multiple-shooting problem of a recurrent class for the training engine
+    (:func:`sloshrom.rom.engine.adam_epochs`).
+
+    Parameters
+    ----------
+    rec : Recurrence
+        The class's starts, rest states, simulation and free run.
+    params0 : pytree
+        Initial parameters (float32).
+    u, y : ndarray, shape (n,)
+        Training input (m/s) and output (N), physical units.
+    fs : float
+        Sample rate, Hz.
+    scaler : MinMaxScaler
+        The training record's scaling.
+    validation : (uv, yv), optional
+        Validation record: its free run from rest, scored like the training loss, decides the
+        early stopping.
+    horizon, batch, max_epochs, steps_per_epoch, learning_rate
+        Sub-sequence length (samples), sub-sequences per Adam step, the schedule's epochs (a
+        cosine decay to 5 % of ``learning_rate`` over ``max_epochs * steps_per_epoch`` steps),
+        Adam steps per epoch.
+    amplitude_weighting, passivity, cycle_energy : float
+        The passive recipe's loss weights (0 = off): eps (m/s) of the weights
+        ``1 / (a^2 + eps^2)``, the weight of the passivity penalty, of the cycle-energy term.
+    frequency_band : (float, float)
+        Band of the passivity probes, Hz.
+    probes_per_step : int
+        Passivity probes per Adam step.
+
+    Returns
+    -------
+    AdamProblem
+        Call it inside ``jax.enable_x64(True)``: the validation runs in float64, the Adam
+        steps in :data:`~sloshrom.rom.losses.TRAIN_DTYPE`.
+    """
+    u = np.asarray(u, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    n, T, off = u.size, int(horizon), int(rec.offset)
+    sc = scaler
+    f32 = TRAIN_DTYPE
+    u_s, y_s = jnp.asarray(sc.u(u), f32), jnp.asarray(sc.y(y), f32)
+    wts = jnp.asarray(amplitude_weights(u, fs, amplitude_weighting) if amplitude_weighting > 0
+                      else np.ones(n), f32)
+    a_max = float(np.max(np.abs(np.gradient(u)))) * fs
+    v_floor = float(np.max(np.abs(u))) / 100.0
+    vj = jnp.asarray(u, f32)
+    # the input cycles in each sub-sequence: its energy error per cycle is the NFIR's cycle term
+    ncyc = jnp.asarray(cycles_per_window(u, off, T), f32)
+    probes = shooting_probes(u, fs, sc, T, frequency_band) if passivity > 0 else None
+    n_probe = 0 if probes is None else min(probes_per_step, probes.u.shape[0])
+    pu = jnp.asarray(probes.u if probes is not None else np.zeros((1, T)), f32)
+    pw = jnp.asarray(probes.weight if probes is not None else np.zeros((1, T)), f32)
+
+    def loss(p: PyTree, starts: jax.Array, pidx: jax.Array) -> tuple[jax.Array, jax.Array]:
+        state = rec.start(p, starts)
+        fut = starts[:, None] + off + jnp.arange(T)[None, :]
+        uf = u_s[fut]
+        if n_probe:
+            # the probes run from rest in the same batch
+            state = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a, b]), state,
+                                           rec.rest(n_probe))
+            uf = jnp.concatenate([uf, pu[pidx]])
+        yh = rec.simulate(p, state, uf)
+        e = yh[: starts.size] - y_s[fut]
+        mse = jnp.mean(e**2)
+        value = jnp.mean(wts[fut] * e**2)
+        if cycle_energy > 0:
+            vw = vj[fut]
+            peak = jnp.maximum(jnp.max(jnp.abs(vw), axis=1), v_floor)
+            de = jnp.sum(e * vw, axis=1) * a_max / (fs * peak**2) / ncyc[starts]
+            value += cycle_energy * jnp.mean(de**2)
+        if n_probe:
+            phi = jnp.sum(yh[starts.size:] * pw[pidx], axis=1)
+            value += passivity * jnp.mean(jnp.minimum(phi, 0.0) ** 2)
+        return value, mse
+
+    total = max(1, int(max_epochs) * int(steps_per_epoch))
+    sched = optax.cosine_decay_schedule(float(learning_rate), total, 0.05)
+    opt = optax.chain(optax.clip_by_global_norm(1.0), optax.adam(sched))
+
+    def draw(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        starts = rng.integers(0, rec.n_starts, (steps_per_epoch, batch))
+        pidx = rng.integers(0, max(1, pu.shape[0]), (steps_per_epoch, n_probe))
+        return starts, pidx
+
+    # validation: the free run from rest of the whole record, scored like the training loss
+    val = None
+    if validation is not None:
+        uv = np.asarray(validation[0], dtype=np.float64)
+        yv = np.asarray(validation[1], dtype=np.float64)
+        uvs = np.asarray(sc.u(uv))
+        yvs = np.asarray(sc.y(yv))
+        wv = (amplitude_weights(uv, fs, amplitude_weighting) if amplitude_weighting > 0
+              else np.ones(uv.size))
+        nwin = uv.size // T
+        vstarts = np.arange(nwin) * T
+        ew = window_energy_weights(uv, fs, a_max, vstarts, T, v_floor) if nwin else None
+        if nwin:
+            ew /= cycles_per_window(uv, 0, T)[vstarts][:, None]
+
+        @jax.jit
+        def penalty_all(p: PyTree) -> jax.Array:
+            yh = rec.simulate(p, rec.rest(pu.shape[0]), pu)
+            phi = jnp.sum(yh * pw, axis=1)
+            return jnp.mean(jnp.minimum(phi, 0.0) ** 2)
+
+        def val(p: PyTree) -> tuple[float, float]:
+            yh = rec.free_run(p, uvs)
+            if not np.all(np.isfinite(yh)) or np.max(np.abs(yh)) > rec.bound:
+                return math.inf, math.inf
+            e = yh - yvs
+            mse = float(np.mean(e**2))
+            obj = float(np.mean(wv * e**2))
+            if cycle_energy > 0 and nwin:
+                de = np.sum(e[: nwin * T].reshape(nwin, T) * ew, axis=1)
+                obj += cycle_energy * float(np.mean(de**2))
+            if passivity > 0 and math.isfinite(obj):
+                obj += passivity * float(penalty_all(p))
+            return mse, obj
+
+    return AdamProblem(loss, params0, opt, draw, val)
