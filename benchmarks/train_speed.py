@@ -256,6 +256,7 @@ def vmap_scaling(data, t1: float) -> float:
     from sloshrom.rom import NSS
     from sloshrom.rom.network import MinMaxScaler
     from sloshrom.rom.registry import CLASSES
+    from sloshrom.rom.shooting import ShootingOptions
     from sloshrom.rom.statespace import shooting_problem
     from sloshrom.signals import power_band
 
@@ -263,9 +264,10 @@ def vmap_scaling(data, t1: float) -> float:
     m = NSS(**CLASSES["nss"].recipe)
     with jax.enable_x64(True):
         band = tuple(power_band(u, fs, 0.001, 0.999))
+        options = ShootingOptions(frequency_band=band, passivity=m.passivity,
+                                  cycle_energy=m.cycle_energy)
         probs = [shooting_problem(m._check_hyperparameters(), u, y, fs, MinMaxScaler.fit(u, y),
-                                  None, seed=s, frequency_band=band, passivity=m.passivity,
-                                  cycle_energy=m.cycle_energy) for s in (0, 1)]
+                                  None, options, seed=s) for s in (0, 1)]
         opt = probs[0].optimizer
 
         def step(p, s, *xs):

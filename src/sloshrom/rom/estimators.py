@@ -85,6 +85,7 @@ from sloshrom.rom.registry import (
     check_hyperparameters,
     model_class,
 )
+from sloshrom.rom.shooting import ShootingOptions
 from sloshrom.rom.statespace import (
     NSS_PARAM_NAMES,
     StateSpaceNetwork,
@@ -590,14 +591,14 @@ class NSS(_Estimator):
         scaler = MinMaxScaler.fit(u, y)
         band = power_band(u, fs)
         probe_band = power_band(u, fs, 0.001, 0.999)
-        params, history = fit_statespace(
-            spec, u, y, float(fs), scaler, validation, horizon=int(self.horizon),
-            batch=int(self.batch), max_epochs=int(self.max_epochs),
-            steps_per_epoch=int(self.steps_per_epoch),
-            learning_rate=float(self.learning_rate), seed=int(self.seed),
+        options = ShootingOptions(
+            horizon=int(self.horizon), batch=int(self.batch), max_epochs=int(self.max_epochs),
+            steps_per_epoch=int(self.steps_per_epoch), learning_rate=float(self.learning_rate),
             amplitude_weighting=float(self.amplitude_weighting),
             passivity=float(self.passivity), cycle_energy=float(self.cycle_energy),
-            frequency_band=(probe_band[0], probe_band[1]), callback=callback)
+            frequency_band=(probe_band[0], probe_band[1]))
+        params, history = fit_statespace(spec, u, y, float(fs), scaler, validation, options,
+                                         seed=int(self.seed), callback=callback)
         self.model_ = StateSpaceNetwork(params, scaler, spec, self.input, float(fs))
         self.envelope_ = record_envelope(u, fs, scaler, band, self.input, fill)
         self.history_ = history

@@ -37,7 +37,7 @@ from sloshrom.rom.losses import (
 )
 from sloshrom.rom.network import MinMaxScaler
 
-__all__ = ["PyTree", "Recurrence", "shooting_problem"]
+__all__ = ["PyTree", "Recurrence", "ShootingOptions", "shooting_problem"]
 
 #: A JAX pytree (a model's parameters, a batch of its states): a dict of arrays, a tuple of
 #: arrays or an array.
@@ -80,6 +80,42 @@ class Recurrence:
     bound: float = 10.0
 
 
+@dataclass(frozen=True)
+class ShootingOptions:
+    """The multiple-shooting recipe of a recurrent class (its estimator's hyperparameters).
+
+    Parameters
+    ----------
+    horizon : int
+        Samples simulated from each start (and the length of the passivity probes).
+    batch : int
+        Sub-sequences per Adam step.
+    max_epochs, steps_per_epoch : int
+        Epochs of ``steps_per_epoch`` Adam steps; the learning rate decays from
+        ``learning_rate`` to 5 % of it (cosine) over ``max_epochs * steps_per_epoch`` steps.
+    learning_rate : float
+        Initial Adam step.
+    amplitude_weighting, passivity, cycle_energy : float
+        The passive recipe's loss weights (0 = off): eps (m/s) of the weights
+        ``1 / (a^2 + eps^2)``, the weight of the passivity penalty, of the cycle-energy term.
+    frequency_band : (float, float)
+        Band of the passivity probes, Hz.
+    probes_per_step : int
+        Passivity probes per Adam step.
+    """
+
+    horizon: int = 200
+    batch: int = 128
+    max_epochs: int = 60
+    steps_per_epoch: int = 200
+    learning_rate: float = 3e-3
+    amplitude_weighting: float = 0.0
+    passivity: float = 0.0
+    cycle_energy: float = 0.0
+    frequency_band: tuple[float, float] = (0.0, math.inf)
+    probes_per_step: int = 24
+
+
 def shooting_problem(
     rec: Recurrence,
     params0: PyTree,
@@ -88,17 +124,7 @@ def shooting_problem(
     fs: float,
     scaler: MinMaxScaler,
     validation: tuple[np.ndarray, np.ndarray] | None = None,
-    *,
-    horizon: int,
-    batch: int,
-    max_epochs: int,
-    steps_per_epoch: int,
-    learning_rate: float,
-    amplitude_weighting: float = 0.0,
-    passivity: float = 0.0,
-    cycle_energy: float = 0.0,
-    frequency_band: tuple[float, float] = (0.0, math.inf),
-    probes_per_step: int = 24,
+    options: ShootingOptions = ShootingOptions(),
 ) -> AdamProblem:
     """The multiple-shooting problem of a recurrent class for the training engine
     (:func:`sloshrom.rom.engine.adam_epochs`).
@@ -118,17 +144,8 @@ def shooting_problem(
     validation : (uv, yv), optional
         Validation record: its free run from rest, scored like the training loss, decides the
         early stopping.
-    horizon, batch, max_epochs, steps_per_epoch, learning_rate
-        Sub-sequence length (samples), sub-sequences per Adam step, the schedule's epochs (a
-        cosine decay to 5 % of ``learning_rate`` over ``max_epochs * steps_per_epoch`` steps),
-        Adam steps per epoch.
-    amplitude_weighting, passivity, cycle_energy : float
-        The passive recipe's loss weights (0 = off): eps (m/s) of the weights
-        ``1 / (a^2 + eps^2)``, the weight of the passivity penalty, of the cycle-energy term.
-    frequency_band : (float, float)
-        Band of the passivity probes, Hz.
-    probes_per_step : int
-        Passivity probes per Adam step.
+    options : ShootingOptions
+        The recipe: horizon, batch, schedule, loss weights, probes.
 
     Returns
     -------
@@ -136,9 +153,13 @@ def shooting_problem(
         Call it inside ``jax.enable_x64(True)``: the validation runs in float64, the Adam
         steps in :data:`~sloshrom.rom.losses.TRAIN_DTYPE`.
     """
+    o = options
+    amplitude_weighting, passivity, cycle_energy = (o.amplitude_weighting, o.passivity,
+                                                    o.cycle_energy)
+    steps_per_epoch, batch = int(o.steps_per_epoch), int(o.batch)
     u = np.asarray(u, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
-    n, T, off = u.size, int(horizon), int(rec.offset)
+    n, T, off = u.size, int(o.horizon), int(rec.offset)
     sc = scaler
     f32 = TRAIN_DTYPE
     u_s, y_s = jnp.asarray(sc.u(u), f32), jnp.asarray(sc.y(y), f32)
@@ -149,8 +170,8 @@ def shooting_problem(
     vj = jnp.asarray(u, f32)
     # the input cycles in each sub-sequence: its energy error per cycle is the NFIR's cycle term
     ncyc = jnp.asarray(cycles_per_window(u, off, T), f32)
-    probes = shooting_probes(u, fs, sc, T, frequency_band) if passivity > 0 else None
-    n_probe = 0 if probes is None else min(probes_per_step, probes.u.shape[0])
+    probes = shooting_probes(u, fs, sc, T, o.frequency_band) if passivity > 0 else None
+    n_probe = 0 if probes is None else min(o.probes_per_step, probes.u.shape[0])
     pu = jnp.asarray(probes.u if probes is not None else np.zeros((1, T)), f32)
     pw = jnp.asarray(probes.weight if probes is not None else np.zeros((1, T)), f32)
 
@@ -177,8 +198,8 @@ def shooting_problem(
             value += passivity * jnp.mean(jnp.minimum(phi, 0.0) ** 2)
         return value, mse
 
-    total = max(1, int(max_epochs) * int(steps_per_epoch))
-    sched = optax.cosine_decay_schedule(float(learning_rate), total, 0.05)
+    total = max(1, int(o.max_epochs) * steps_per_epoch)
+    sched = optax.cosine_decay_schedule(float(o.learning_rate), total, 0.05)
     opt = optax.chain(optax.clip_by_global_norm(1.0), optax.adam(sched))
 
     def draw(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:

@@ -55,11 +55,13 @@ from sloshrom.rom.errors import ROMError
 from sloshrom.rom.losses import TRAIN_DTYPE
 from sloshrom.rom.network import FittedNetwork, MinMaxScaler
 from sloshrom.rom.registry import NSS_CLASS, ModelClass, nss_shapes
-from sloshrom.rom.shooting import PyTree, Recurrence
+from sloshrom.rom.shooting import PyTree, Recurrence, ShootingOptions
 from sloshrom.rom.shooting import shooting_problem as shooting
 
 #: The arrays of a neural state-space network, in file order.
 NSS_PARAM_NAMES = NSS_CLASS.param_names()
+#: The state-space ROM's multiple-shooting recipe by default (its estimator passes its own)
+NSS_SHOOTING = ShootingOptions()
 
 __all__ = [
     "NSS_PARAM_NAMES",
@@ -329,18 +331,8 @@ def shooting_problem(
     fs: float,
     scaler: MinMaxScaler,
     validation: tuple[np.ndarray, np.ndarray] | None = None,
-    *,
-    horizon: int = 200,
-    batch: int = 128,
-    max_epochs: int = 60,
-    steps_per_epoch: int = 200,
-    learning_rate: float = 3e-3,
+    options: ShootingOptions = NSS_SHOOTING,
     seed: int = 0,
-    amplitude_weighting: float = 0.0,
-    passivity: float = 0.0,
-    cycle_energy: float = 0.0,
-    frequency_band: tuple[float, float] = (0.0, math.inf),
-    probes_per_step: int = 24,
 ) -> AdamProblem:
     """The multiple-shooting problem of :func:`fit_statespace` for the training engine
     (:func:`sloshrom.rom.engine.adam_epochs`); the parameters are :func:`fit_statespace`'s.
@@ -348,7 +340,7 @@ def shooting_problem(
     Call it inside ``jax.enable_x64(True)``: the validation runs in float64, the Adam steps in
     :data:`~sloshrom.rom.training.TRAIN_DTYPE`.
     """
-    n, w, T = np.size(u), spec.window, int(horizon)
+    n, w, T = np.size(u), spec.window, int(options.horizon)
     if n < w + T + 1:
         raise ROMError(f"{n} samples are too few for an encoder window of {w} and a horizon "
                        f"of {T} samples (need at least {w + T + 1})")
@@ -372,11 +364,7 @@ def shooting_problem(
                      rest=lambda k: jnp.zeros((k, spec.n_states), f32), simulate=simulate,
                      free_run=free_run)
     params0 = {k: jnp.asarray(v, f32) for k, v in init_params(spec, seed).items()}
-    return shooting(rec, params0, u, y, fs, scaler, validation, horizon=T, batch=batch,
-                    max_epochs=max_epochs, steps_per_epoch=steps_per_epoch,
-                    learning_rate=learning_rate, amplitude_weighting=amplitude_weighting,
-                    passivity=passivity, cycle_energy=cycle_energy,
-                    frequency_band=frequency_band, probes_per_step=probes_per_step)
+    return shooting(rec, params0, u, y, fs, scaler, validation, options)
 
 
 @float64
@@ -387,19 +375,10 @@ def fit_statespace(
     fs: float,
     scaler: MinMaxScaler,
     validation: tuple[np.ndarray, np.ndarray] | None = None,
+    options: ShootingOptions = NSS_SHOOTING,
     *,
-    horizon: int = 200,
-    batch: int = 128,
-    max_epochs: int = 60,
-    steps_per_epoch: int = 200,
-    learning_rate: float = 3e-3,
     max_fail: int = 6,
     seed: int = 0,
-    amplitude_weighting: float = 0.0,
-    passivity: float = 0.0,
-    cycle_energy: float = 0.0,
-    frequency_band: tuple[float, float] = (0.0, math.inf),
-    probes_per_step: int = 24,
     callback: Callable[[int, dict], Any] | None = None,
 ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """Identify a state-space network by multiple shooting (see the module docstring).
@@ -416,25 +395,14 @@ def fit_statespace(
     validation : (u_val, y_val), optional
         Early stopping: the free run of the whole record from rest; the best parameters are
         returned. Without it, the epoch of the lowest training MSE.
-    horizon : int
-        Samples simulated from each encoded start (and the length of the probes).
-    batch : int
-        Sub-sequences per Adam step.
-    max_epochs, steps_per_epoch : int
-        Epochs of ``steps_per_epoch`` Adam steps at most; the learning rate decays from
-        ``learning_rate`` to 5 % of it (cosine) over them.
+    options : ShootingOptions
+        The recipe (:class:`sloshrom.rom.shooting.ShootingOptions`): horizon (samples simulated
+        from each encoded start), batch, epochs of ``steps_per_epoch`` Adam steps at most, the
+        learning rate, the passive recipe's weights (0 = off), the probes.
     max_fail : int
         Epochs without a new best validation objective before stopping.
     seed : int
         Seeds the initialisation and the draws of sub-sequences and probes.
-    amplitude_weighting, passivity, cycle_energy : float
-        The passive recipe's weights (0 = off), as for the NFIR: ``eps`` (m/s) of the amplitude
-        weights; the weight of the probe passivity penalty; the weight of the sub-sequences'
-        energy error.
-    frequency_band : (float, float)
-        Band of the probes, Hz.
-    probes_per_step : int
-        Probes drawn per step when ``passivity > 0``.
     callback : callable, optional
         ``callback(epoch, info)`` after every epoch; True stops the training.
 
@@ -448,14 +416,9 @@ def fit_statespace(
         ``stop_reason``, ``best_epoch``, ``trainer`` ("shooting"), ``n_rows``,
         ``train_seconds``.
     """
-    problem = shooting_problem(
-        spec, u, y, fs, scaler, validation, horizon=horizon, batch=batch,
-        max_epochs=max_epochs, steps_per_epoch=steps_per_epoch, learning_rate=learning_rate,
-        seed=seed, amplitude_weighting=amplitude_weighting, passivity=passivity,
-        cycle_energy=cycle_energy, frequency_band=frequency_band,
-        probes_per_step=probes_per_step)
+    problem = shooting_problem(spec, u, y, fs, scaler, validation, options, seed)
     t0 = time.perf_counter()
-    res = adam_epochs(problem, max_epochs=int(max_epochs), max_fail=max_fail, seed=seed,
+    res = adam_epochs(problem, max_epochs=int(options.max_epochs), max_fail=max_fail, seed=seed,
                       mse_scale=scaler.out_half_range**2, callback=callback)
     history: dict[str, Any] = dict(res.history)
     history.update(stop_reason=res.stop_reason, best_epoch=res.best_epoch, trainer="shooting",

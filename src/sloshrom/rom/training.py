@@ -93,7 +93,7 @@ from sloshrom.rom.network import (
     row_index,
     unpack,
 )
-from sloshrom.rom.shooting import PyTree, Recurrence
+from sloshrom.rom.shooting import PyTree, Recurrence, ShootingOptions
 from sloshrom.rom.shooting import shooting_problem as shooting
 
 __all__ = [
@@ -128,6 +128,8 @@ __all__ = [
 ]
 
 FAST_MAX_ROWS = 16384
+#: The NOE's multiple-shooting recipe by default (its estimator passes its own)
+NOE_SHOOTING = ShootingOptions(horizon=300, max_epochs=40)
 CHUNK = 4096
 
 
@@ -575,24 +577,15 @@ def noe_shooting_problem(
     neurons: int,
     hidden: str,
     validation: tuple[np.ndarray, np.ndarray] | None = None,
+    options: ShootingOptions = NOE_SHOOTING,
     *,
     bound: float = 10.0,
-    horizon: int = 300,
-    batch: int = 128,
-    max_epochs: int = 40,
-    steps_per_epoch: int = 200,
-    learning_rate: float = 3e-3,
-    amplitude_weighting: float = 0.0,
-    passivity: float = 0.0,
-    cycle_energy: float = 0.0,
-    frequency_band: tuple[float, float] = (0.0, math.inf),
-    probes_per_step: int = 24,
 ) -> AdamProblem:
     """The multiple-shooting problem of :func:`adam_noe` for the training engine; the
     parameters are :func:`adam_noe`'s (``max_epochs`` sets the learning-rate schedule's
     length; the draws' seed is the engine's)."""
     d = np.asarray(delays)
-    dmax, m, T = int(d.max()), int(out_delays), int(horizon)
+    dmax, m, T = int(d.max()), int(out_delays), int(options.horizon)
     n = np.size(u)
     if n < T + 1:
         raise ROMError(f"{n} samples are too few for a horizon of {T} samples "
@@ -624,11 +617,7 @@ def noe_shooting_problem(
     rec = Recurrence(offset=0, n_starts=n - T + 1, start=start, rest=rest,
                      simulate=lambda th, b, uf: shoot(th, b[0], b[1], uf), free_run=free_run,
                      bound=bound)
-    return shooting(rec, jnp.asarray(theta0, f32), u, y, fs, scaler, validation, horizon=T,
-                    batch=batch, max_epochs=max_epochs, steps_per_epoch=steps_per_epoch,
-                    learning_rate=learning_rate, amplitude_weighting=amplitude_weighting,
-                    passivity=passivity, cycle_energy=cycle_energy,
-                    frequency_band=frequency_band, probes_per_step=probes_per_step)
+    return shooting(rec, jnp.asarray(theta0, f32), u, y, fs, scaler, validation, options)
 
 
 def adam_noe(
@@ -642,20 +631,11 @@ def adam_noe(
     neurons: int,
     hidden: str,
     validation: tuple[np.ndarray, np.ndarray] | None = None,
+    options: ShootingOptions = NOE_SHOOTING,
     *,
     bound: float = 10.0,
-    horizon: int = 300,
-    batch: int = 128,
-    max_epochs: int = 40,
-    steps_per_epoch: int = 200,
-    learning_rate: float = 3e-3,
     max_fail: int = 6,
     seed: int = 0,
-    amplitude_weighting: float = 0.0,
-    passivity: float = 0.0,
-    cycle_energy: float = 0.0,
-    frequency_band: tuple[float, float] = (0.0, math.inf),
-    probes_per_step: int = 24,
     callback: Callable[[int, dict], Any] | None = None,
 ) -> LMResult:
     """Train an NOE by multiple shooting with the passive recipe's loss terms.
@@ -694,22 +674,14 @@ def adam_noe(
         The NOE's architecture.
     validation : (u_val, y_val), optional
         Validation record, physical units, starting at rest.
+    options : ShootingOptions
+        The recipe (:class:`sloshrom.rom.shooting.ShootingOptions`): horizon (samples
+        simulated from each start, and the length of the probes), batch, epochs at most, Adam
+        steps per epoch, initial step size, the passive recipe's weights (0 = off), the probes.
     bound : float
         A validation run whose scaled output exceeds this magnitude is unstable (objective inf).
-    horizon : int
-        Samples simulated from each start (and the length of the probes).
-    batch : int
-        Sub-sequences per step.
-    max_epochs, steps_per_epoch, learning_rate, max_fail, seed
-        Epochs at most, Adam steps per epoch, initial step size, patience (epochs), seed of the
-        draws of starts and probes.
-    amplitude_weighting, passivity, cycle_energy : float
-        ``eps`` (m/s) of the amplitude weights and the weights of the two energy terms
-        (0 = off).
-    frequency_band : (float, float)
-        Band of the probes, Hz.
-    probes_per_step : int
-        Probes drawn per step when ``passivity > 0``.
+    max_fail, seed
+        Patience (epochs), seed of the draws of starts and probes.
     callback : callable, optional
         ``callback(epoch, info)`` after every epoch; True stops the training.
 
@@ -720,14 +692,9 @@ def adam_noe(
         epoch's sub-sequences, N^2; ``val_mse`` N^2; ``val_objective``; ``mu``, ``grad``
         (NaN: no such quantity); ``seconds``) and best epoch.
     """
-    problem = noe_shooting_problem(
-        u, y, fs, scaler, theta0, delays, out_delays, neurons, hidden, validation,
-        bound=bound, horizon=horizon, batch=batch, max_epochs=max_epochs,
-        steps_per_epoch=steps_per_epoch, learning_rate=learning_rate,
-        amplitude_weighting=amplitude_weighting, passivity=passivity,
-        cycle_energy=cycle_energy, frequency_band=frequency_band,
-        probes_per_step=probes_per_step)
-    res = adam_epochs(problem, max_epochs=int(max_epochs), max_fail=max_fail, seed=seed,
+    problem = noe_shooting_problem(u, y, fs, scaler, theta0, delays, out_delays, neurons,
+                                   hidden, validation, options, bound=bound)
+    res = adam_epochs(problem, max_epochs=int(options.max_epochs), max_fail=max_fail, seed=seed,
                       mse_scale=scaler.out_half_range**2,
                       constant_history={"mu": math.nan, "grad": math.nan}, callback=callback)
     return LMResult(np.asarray(res.params, dtype=np.float64), res.stop_reason, res.history,
@@ -858,14 +825,14 @@ def train(
     t0 = time.perf_counter()
     if trainer == "adam" and spec.arch == "noe":
         band = frequency_band if frequency_band is not None else (0.0, math.inf)
+        options = ShootingOptions(
+            horizon=int(horizon), batch=int(batch), max_epochs=int(max_epochs),
+            steps_per_epoch=int(steps_per_epoch), learning_rate=float(learning_rate),
+            amplitude_weighting=float(amplitude_weighting), passivity=float(passivity),
+            cycle_energy=float(cycle_energy), frequency_band=band)
         res = adam_noe(u, y, float(fs) if fs is not None else 1.0, sc, theta0, delays,
-                       out_delays, h, hidden, validation, bound=float(unstable_bound),
-                       horizon=int(horizon), batch=int(batch), max_epochs=int(max_epochs),
-                       steps_per_epoch=int(steps_per_epoch),
-                       learning_rate=float(learning_rate), seed=int(seed),
-                       amplitude_weighting=float(amplitude_weighting),
-                       passivity=float(passivity), cycle_energy=float(cycle_energy),
-                       frequency_band=band, callback=callback)
+                       out_delays, h, hidden, validation, options,
+                       bound=float(unstable_bound), seed=int(seed), callback=callback)
     elif trainer == "adam":
         weights = val_weights = probes = None
         if amplitude_weighting > 0:
