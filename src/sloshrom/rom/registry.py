@@ -40,7 +40,7 @@ from sloshrom.limits import (
 from sloshrom.rom.errors import ROMError
 
 __all__ = ["CLASSES", "LOSS_TERMS", "RECIPE_UNITS", "Hyper", "LossChoice", "ModelClass",
-           "check_delays", "check_hyperparameters", "estimator_class", "loss_recipe",
+           "check_delays", "check_hyperparameters", "loss_recipe",
            "model_class", "model_class_of_file"]
 
 #: The passive recipe's loss terms (docs/rom.md, "A passive ROM"): the loss weight floor of
@@ -613,11 +613,6 @@ def model_class(name: str, what: str = "--arch") -> ModelClass:
 def model_class_of_file(class_name: str) -> ModelClass | None:
     """The class a model file's ``"class"`` names, None for another."""
     return next((mc for mc in CLASSES.values() if mc.class_name == class_name), None)
-
-
-def estimator_class(name: str) -> type:
-    """The estimator of the class ``name`` (imports its module)."""
-    return model_class(name).estimator_class()
 
 
 def check_hyperparameters(mc: ModelClass, values: Mapping[str, Any],

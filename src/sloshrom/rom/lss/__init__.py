@@ -235,6 +235,9 @@ class LSS(Estimator):
                                                  self.model_class.min_samples(hyper), 0)
         t0 = time.perf_counter()
         a, b, c, d = n4sid(u, y, spec.n_states, int(self.block_rows))
+        # the subspace estimate's validation error: the history's epoch 0
+        val0 = None if validation is None else float(np.mean(
+            (lss_simulate(a, b, c, d, validation[0]) - validation[1]) ** 2))
         a, b, c, d, info = pem_refine(a, b, c, d, u, y, int(self.max_epochs),
                                       validation=validation)
         seconds = time.perf_counter() - t0
@@ -247,9 +250,11 @@ class LSS(Estimator):
             scaler, spec, self.input, float(fs))
         self.envelope_ = record_envelope(u, fs, scaler, power_band(u, fs), self.input, fill)
         val_mse = info.get("validation_mse")
+        nan = float("nan")
         self.history_ = {
             "train_mse": [float(info["initial_mse"]), float(info["final_mse"])],
-            "val_mse": [float("nan") if val_mse is None else float(val_mse)] * 2,
+            "val_mse": [nan if val0 is None else val0,
+                        nan if val_mse is None else float(val_mse)],
             "best_epoch": 1, "stop_reason": str(info["stop_reason"])[:64],
             "train_seconds": seconds,
         }
