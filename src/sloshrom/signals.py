@@ -717,6 +717,49 @@ def _fade_window(n: int, fs: float, fade: float) -> np.ndarray:
     return r
 
 
+def to_rest(x: np.ndarray, fs: float, fade: float, end_fade: float | None = None
+            ) -> np.ndarray:
+    """An acceleration that starts and ends at rest, as a shaker must play it.
+
+    A raised-cosine fade of ``fade`` s in and ``end_fade`` s out (default ``fade``), then two
+    smooth corrections (the fade window and the fade window times ``t - T/2``, least squares)
+    that zero the mean and the first moment: the velocity and the displacement integrated from
+    rest return to zero at the end.
+
+    Parameters
+    ----------
+    x : ndarray (n,)
+        Acceleration, m/s^2 (any unit: the operation is linear).
+    fs : float
+        Sample rate, Hz.
+    fade, end_fade : float
+        Fade-in and fade-out, s (> 0).
+
+    Returns
+    -------
+    ndarray (n,)
+        Zero at both ends, zero mean and zero first moment (to round-off).
+    """
+    x = np.asarray(x, dtype=float)
+    end = fade if end_fade is None else end_fade
+    if x.ndim != 1 or not (np.isfinite(fade) and fade > 0 and np.isfinite(end) and end > 0):
+        raise SignalError(f"need a 1-D signal and fades > 0 s, got fade={fade!r}, "
+                          f"end_fade={end_fade!r}")
+    n = x.size
+    if (fade + end) * fs >= n - 1:
+        raise SignalError(f"the fades ({fade:g} + {end:g} s) do not fit in {n / fs:g} s")
+    t = np.arange(n) / fs
+    r = _fade_window(n, fs, fade)
+    if end != fade:
+        r = np.where(t <= t[-1] / 2, r, _fade_window(n, fs, end))
+    x = x * r
+    # zero mean (end velocity) and first moment (end displacement) with smooth corrections
+    basis = np.stack([r, r * (t - t[-1] / 2)])
+    moments = np.stack([np.ones(n), t])
+    coef = np.linalg.solve(moments @ basis.T, moments @ x)
+    return x - coef @ basis
+
+
 def broadband_acceleration(
     fs: float,
     duration: float,
@@ -779,15 +822,8 @@ def broadband_acceleration(
             s = (freqs[sel] - lo) / width
             mag[sel] = 0.5 * (1 - np.cos(np.pi * (s if rising else 1 - s)))
     rng = np.random.default_rng(seed)
-    x = np.fft.irfft(mag * np.exp(1j * rng.uniform(0, 2 * np.pi, freqs.size)), n)
-    r = _fade_window(n, fs, fade)
-    t = np.arange(n) / fs
-    x = x * r
-    # zero mean (end velocity) and first moment (end displacement) with smooth corrections
-    basis = np.stack([r, r * (t - t[-1] / 2)])
-    moments = np.stack([np.ones(n), t])
-    coef = np.linalg.solve(moments @ basis.T, moments @ x)
-    x = x - coef @ basis
+    x = to_rest(np.fft.irfft(mag * np.exp(1j * rng.uniform(0, 2 * np.pi, freqs.size)), n), fs,
+                fade)
     return x * (rms / np.sqrt(np.mean(x**2))) if rms > 0 else np.zeros(n)
 
 

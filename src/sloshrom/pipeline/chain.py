@@ -80,7 +80,7 @@ def identify(ctx: Context, cache: StageCache | None = None) -> dict[str, StageRe
     cache = cache if cache is not None else StageCache(ctx.out)
     results: dict[str, StageResult] = {}
     # a structure-designed training depends on the beam tests it is designed from
-    data_tables = ("tank", "rig", "data") + (("beam",) if cfg.data.design == "structure"
+    data_tables = ("tank", "rig", "data") + (("beam",) if cfg.data.design != "shaker"
                                              else ())
     with _timer(ctx, "data"):
         results["data"] = cache.run(

@@ -16,6 +16,7 @@ from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.settings import DataTable, ReproduceConfig
 from sloshrom.plotting import savefig
 from sloshrom.plotting.signals import record_io_figure, vfa_paths_figure
+from sloshrom.programme import Segment, structure_segments
 
 __all__ = ["design_outputs", "stage_data", "training_design", "vfa_pieces"]
 
@@ -102,6 +103,28 @@ def vfa_pieces(data: DataTable | None, split: str, duration: float, seed: int,
     return pieces
 
 
+def use_segments(cfg: ReproduceConfig, tank: Tank, split: str, fs: float) -> list[Segment]:
+    """The structure's own kinds of motion for a ``"use"`` design (:mod:`sloshrom.programme`).
+
+    Narrow-band random segments (the frozen structure's tank motion under the ``[beam]``
+    random test's PSD) at every ``[beam] rms_g`` level times every ``[data] random_factors``,
+    ``random_duration`` s each (half for validation), then decays from ``[data]
+    decay_factors`` times ``[beam] tip_displacement``. The phase seeds, ``1000 x`` the split's
+    ``[data]`` seed plus the segment's index, are apart from the beam tests' (``[beam] seed``)
+    so that no test signal is trained on. ``fs``: the rig's rate, Hz.
+    """
+    data, beam = cfg.data, cfg.beam
+    _, modal = beam_structure(beam, tank)
+    levels = sorted({round(float(g) * float(c), 6) for g in beam.rms_g
+                     for c in data.random_factors})
+    seed = 1000 * int(data.train_seed if split == "train" else data.validation_seed)
+    duration = float(data.random_duration) * (1.0 if split == "train" else 0.5)
+    return structure_segments(modal, tank, fs, float(cfg.rig.fs), levels, duration, seed,
+                              float(beam.f0), float(beam.sigma), float(beam.tip_displacement),
+                              [float(c) for c in data.decay_factors],
+                              float(data.decay_duration))
+
+
 def stage_data(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     """Record the training and validation VFA tests on the rig; write records and figures.
 
@@ -133,7 +156,10 @@ def stage_data(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     for k, (split, duration, seed) in enumerate(splits):
         ctx.progress("data", k + 1, len(splits) + 1, f"rig VFA {split} ({duration:.0f} s)")
         pieces = vfa_pieces(cfg.data, split, duration, seed, design, motion, fs_rig, tank)
-        meas = rig.measure(np.concatenate([p.acceleration for p in pieces]))
+        segments = ([Segment("vfa", "vfa", p.acceleration, design.gamma_max) for p in pieces]
+                    + (use_segments(cfg, tank, split, fs_rig) if cfg.data.design == "use"
+                       else []))
+        meas = rig.measure(np.concatenate([s.acceleration for s in segments]))
         sig = pieces[0]
         rec = record_from_measurement(
             meas, tank, truth=True, split=split, seed=int(seed),

@@ -450,10 +450,16 @@ class DataTable(_Table):
     validation_duration: VfaSeconds
     train_seed: Seed
     validation_seed: Seed
-    design: Literal["structure", "shaker"]
+    design: Literal["use", "structure", "shaker"]
     margin: _number(1.0, 3.0, what="a factor over the beam tests' tank motion")
     extension_duration: _number(20.0, 3600.0, what="a duration in s")
     extension_band: _number(1.0, 5.0, lo_open=True, what="a frequency factor")
+    random_factors: _list(_number(0.01, 3.0, what="a factor on a [beam] rms_g level"),
+                          "factors on the [beam] rms_g levels")
+    random_duration: _number(5.0, 600.0, what="a duration in s")
+    decay_factors: _list(_number(0.01, 3.0, what="a factor on [beam] tip_displacement"),
+                         "factors on [beam] tip_displacement")
+    decay_duration: _number(2.0, 60.0, what="a duration in s")
 
 
 class RomNetwork(NamedTuple):
