@@ -179,3 +179,34 @@ def test_map_of_a_jax_model_runs_in_blocks_of_one_shape_with_the_same_values():
     assert len(set(blocks.shapes)) == 1 and blocks.shapes[0][0] == JAX_BLOCK
     assert len(set(one_by_one.shapes)) > 1
     assert calls[-1] == ob.size and calls == sorted(calls)
+
+
+class _Drag:
+    """A stub sloshing model: quadratic drag in the fixed frame (not Galilean invariant) or a
+    delayed inertia force on the acceleration (invariant), N."""
+
+    def __init__(self, invariant: bool):
+        self.invariant = invariant
+
+    def simulate(self, velocity, acceleration):
+        if self.invariant:
+            return -0.1 * np.roll(acceleration, 3)
+        return -2.0 * velocity * np.abs(velocity)
+
+
+def test_frame_sensitivity_separates_invariant_models():
+    from sloshrom.energy import frame_sensitivity
+
+    fs = 500.0
+    t = np.arange(5000) / fs
+    v = 0.5 * np.sin(2 * np.pi * 10 * t)
+    inv = frame_sensitivity(_Drag(True), v, fs, offsets=(0.1, 0.3))
+    assert inv["offsets_m_s"] == [0.1, 0.3]
+    assert max(inv["energy_change"] + inv["force_change"]) < 1e-12
+    drag = frame_sensitivity(_Drag(False), v, fs, offsets=(0.1, 0.3))
+    # quadratic drag: F(v + c) - F(v) = -2 (2 c |v| + c^2 sign) where |v| > c: of order 4 c
+    # |v| against 2 v^2 (the force RMS 0.25 N): tens of percent, growing with c
+    assert 0.1 < drag["force_change"][0] < drag["force_change"][1]
+    assert drag["energy_change"][1] > drag["energy_change"][0] > 0.01
+    with pytest.raises(EnergyError, match="dissipates no energy"):
+        frame_sensitivity(_Drag(True), np.zeros(100), fs)

@@ -28,6 +28,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import signal as sig
 
 from sloshrom.beam.coupled import free_response, random_response, upsample_periodic
 from sloshrom.beam.structure import ModalModel
@@ -178,6 +179,7 @@ def structure_segments(
     decay_duration: float = 10.0,
     fade: float = 2.0,
     decay_fade: float = 0.3,
+    highpass: float = 2.0,
 ) -> list[Segment]:
     """The segments of the structure's own motion (random and decay), from frozen-liquid runs.
 
@@ -210,6 +212,12 @@ def structure_segments(
         Fade in/out of each random segment, s.
     decay_fade : float
         Fade-in of each decay segment, s (a few cycles: the shaker builds the first peak up).
+    highpass : float
+        Corner of the zero-phase high-pass (4th-order Butterworth) applied to the random
+        segments, Hz (0 = none). The base of a random test drifts (its Gaussian PSD reaches
+        0 Hz): metres of displacement in 25 s that no shaker plays. The force does not depend on
+        the drift's velocity (Galilean invariance), so the drift is left to the training's
+        augmentation (``velocity_offset`` of the NSS) rather than to the shaker.
 
     Returns
     -------
@@ -225,7 +233,11 @@ def structure_segments(
     for k, level in enumerate(levels_g):
         r = random_response(frozen, modal, [float(level)], duration, seed + k, f0, sigma,
                             signal_fs=signal_fs, tank=tank, fade=fade)
-        a = upsample_periodic(np.asarray(r["tank_acceleration"][0]), up)
+        a = np.asarray(r["tank_acceleration"][0])
+        if highpass > 0:
+            sos = sig.butter(4, highpass, "highpass", fs=signal_fs, output="sos")
+            a = sig.sosfiltfilt(sos, a)
+        a = upsample_periodic(a, up)
         segments.append(Segment(f"random {level:g} g", "random", to_rest(a, fs, fade),
                                  float(level)))
     for c in decay_factors:

@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from sloshrom.energy import frame_sensitivity
 from sloshrom.io import read_record
 from sloshrom.pipeline.cache import StageResult
 from sloshrom.pipeline.context import Context
@@ -220,7 +221,10 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
         validation, s; None for Levenberg-Marquardt), the report's
         paragraphs ``model_class_text`` and ``recipe_text``; ``compare``: for each compared
         class by name, its ``name``, ``val_mse``, ``val_nrmse``, ``val_fit``,
-        ``train_seconds`` and ``model`` (its file).
+        ``train_seconds`` and ``model`` (its file); ``frame_sensitivity``: how much the
+        ROM's force and dissipation on the validation record change when its velocity is
+        shifted by a constant (:func:`sloshrom.energy.frame_sensitivity`; 0 = invariant, as
+        the physics).
     files : list of str
         The model file(s) and Fig. 10, relative to ``ctx.out``.
     """
@@ -258,6 +262,9 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
         epoch_seconds=[_median_after_compile(h, "step_seconds") for h in hists],
         validation_seconds=[_median_after_compile(h, "validation_seconds") for h in hists],
     )
+    # the force must not depend on the frame: a drift of the tank's velocity (a beam under
+    # random base excitation has one) must not change the dissipation
+    outputs["frame_sensitivity"] = frame_sensitivity(model, uv, float(val.fs))
     if is_ensemble(model):
         outputs["seeds"] = [int(s) for s in model.seeds_]
         outputs["val_mse_members"] = spread(

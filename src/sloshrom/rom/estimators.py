@@ -483,6 +483,14 @@ class NSS(_Estimator):
     amplitude_weighting, passivity, cycle_energy : float
         The passive recipe's loss terms, as :class:`NFIR` (the energy term is the error of the
         energy each sub-sequence exchanges with the liquid). 0 = off.
+    feedthrough : {"yes", "no"}
+        ``"no"``: strictly proper, the force ``y_k = H(x_k)`` from the state alone (no direct
+        feed-through of the velocity: no algebraic loop when coupled, and a co-simulation
+        master that reads outputs before it sets inputs gets the same force).
+    velocity_offset : float
+        Galilean augmentation, m/s (0 = off): each training sub-sequence's velocity is shifted
+        by a uniform draw in ``[-velocity_offset, velocity_offset]`` and its force kept
+        (:class:`~sloshrom.rom.shooting.ShootingOptions`).
 
     Parameters are checked by :meth:`fit` (and by :func:`load_model`), not by the constructor.
     """
@@ -505,6 +513,8 @@ class NSS(_Estimator):
         amplitude_weighting: float = 0.0,
         passivity: float = 0.0,
         cycle_energy: float = 0.0,
+        feedthrough: str = "yes",
+        velocity_offset: float = 0.0,
     ) -> None:
         self.n_states = n_states
         self.neurons = neurons
@@ -520,6 +530,8 @@ class NSS(_Estimator):
         self.amplitude_weighting = amplitude_weighting
         self.passivity = passivity
         self.cycle_energy = cycle_energy
+        self.feedthrough = feedthrough
+        self.velocity_offset = velocity_offset
 
     def _check_hyperparameters(self) -> StateSpaceSpec:
         mc = self.model_class
@@ -529,7 +541,8 @@ class NSS(_Estimator):
             # driven by it would run one sample behind its training
             raise ROMError("an NSS takes the tank velocity (names[0] = 'velocity'); a network "
                            "on the acceleration is an NFIR")
-        return StateSpaceSpec(h["n_states"], h["neurons"], h["window"])
+        return StateSpaceSpec(h["n_states"], h["neurons"], h["window"],
+                              proper=h["feedthrough"] == "no")
 
     @property
     def theta_(self) -> jnp.ndarray:
@@ -596,7 +609,8 @@ class NSS(_Estimator):
             steps_per_epoch=int(self.steps_per_epoch), learning_rate=float(self.learning_rate),
             amplitude_weighting=float(self.amplitude_weighting),
             passivity=float(self.passivity), cycle_energy=float(self.cycle_energy),
-            frequency_band=(probe_band[0], probe_band[1]))
+            frequency_band=(probe_band[0], probe_band[1]),
+            velocity_offset=float(self.velocity_offset))
         params, history = fit_statespace(spec, u, y, float(fs), scaler, validation, options,
                                          seed=int(self.seed), callback=callback)
         self.model_ = StateSpaceNetwork(params, scaler, spec, self.input, float(fs))

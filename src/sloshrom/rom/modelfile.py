@@ -446,7 +446,7 @@ def _schema_of(class_name: str, ensemble: bool) -> type[_Strict]:
     fields: dict[str, Any] = {h.name: _file_field(h) for h in mc.hyper}
     fields.update(units=(TwoUnits, ...), names=(TwoNames, ...))
     hyper = create_model(f"_{mc.class_name}Hyper", __base__=_Strict, **fields)
-    version = Literal[file_version(mc, ensemble)]
+    version = Literal[(file_version(mc, ensemble), *mc.read_versions)]
     if ensemble:
         return create_model(f"_{mc.class_name}EnsembleMeta", __base__=_EnsembleMeta,
                             format_version=(version, ...),
@@ -898,7 +898,7 @@ def read_model_file(path: str | Path) -> ModelFile:
         raise ModelFileError(f"{where}: unknown model class {_repr.repr(cls)}")
     mc = _file_class(meta)
     expected = ENSEMBLE_FORMAT_VERSION if mc is None else file_version(mc, cls == "Ensemble")
-    if ver != expected:
+    if ver != expected and not (mc is not None and ver in mc.read_versions):
         what = "an ensemble" if cls == "Ensemble" else f"a single {cls} model"
         raise ModelFileError(f"{where}: {what} file has format version {expected}, this one "
                              f"says {ver}")

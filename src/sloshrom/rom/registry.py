@@ -255,6 +255,9 @@ class ModelClass:
         configuration lacks (e.g. ``"trainer 'adam'"``), None when they can train it.
     format_version : int
         The model-file format version its files are written with.
+    read_versions : tuple of int
+        Older format versions of its files that are still read (the hyperparameters they lack
+        take their ``file_default``).
     exports : frozenset of str
         The formats it exports to (``"fmu"``, ``"onnx"``).
     width : callable
@@ -289,6 +292,7 @@ class ModelClass:
     recipe: Mapping[str, float] = field(default_factory=dict)
     recipe_needs: Callable[[Mapping[str, Any]], str | None] = lambda h: None
     format_version: int = 1
+    read_versions: tuple[int, ...] = ()
     exports: frozenset[str] = frozenset()
     width: Callable[[Mapping[str, Any]], int] = lambda h: 1
     sizes: tuple[str, ...] = ()
@@ -553,13 +557,26 @@ NSS_CLASS = ModelClass(
            Hyper("max_epochs", 60, "int", 0, MAX_EPOCHS,
                  help="epochs of steps_per_epoch Adam steps at most", what="an integer"),
            _required(_SHOOTING[1]), _required(_SHOOTING[2]),
-           _SEED, *_LOSS),
-    label=lambda h: f"NSS({h['n_states']} states, {h['neurons']} neurons)",
+           _SEED, *_LOSS,
+           Hyper("feedthrough", "yes", "choice", choices=("yes", "no"),
+                 help="whether the force reads the current velocity directly; 'no': a "
+                      "strictly proper model (the force from the state alone): no algebraic "
+                      "loop in a coupling, and a co-simulation master that reads outputs "
+                      "before setting inputs gets the same force",
+                 what="'yes' or 'no'", file_default="yes"),
+           Hyper("velocity_offset", 0.0, "float", 0.0, 10.0,
+                 help="Galilean augmentation, m/s: each training sub-sequence's velocity "
+                      "shifted by a uniform draw in +-this, its force kept (0 = off)",
+                 what="a velocity in m/s", file_default=0.0)),
+    label=lambda h: (f"NSS({h['n_states']} states, {h['neurons']} neurons"
+                     + (", strictly proper)" if h.get("feedthrough", "yes") == "no" else ")")),
     shapes=nss_shapes, history=lambda h: int(h["window"]),
     min_samples=lambda h: int(h["window"]) + int(h["horizon"]) + 1,
     loss_terms=LOSS_TERMS,
     recipe={"amplitude_weighting": 0.0, "passivity": 1.0, "cycle_energy": 0.1},
-    format_version=3, exports=frozenset({"fmu"}), width=lambda h: int(h["n_states"]) + 1,
+    # version 5 added feedthrough and velocity_offset; version 3 files read with their defaults
+    format_version=5, read_versions=(3,), exports=frozenset({"fmu"}),
+    width=lambda h: int(h["n_states"]) + 1,
     sizes=("neurons", "n_states", "window"),
     report="a neural state-space model, not the paper's NFIR class. Why: the force depends "
            "on where the liquid is, how fast it moves and when it lands, a state that a "

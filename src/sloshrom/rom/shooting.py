@@ -57,8 +57,9 @@ class Recurrence:
     n_starts : int
         The starts drawn are ``0 .. n_starts - 1``.
     start : callable
-        ``start(params, starts) -> state``: the states of the sub-sequences beginning at
-        ``starts`` (shape ``(B,)``), from the measured past.
+        ``start(params, starts, shift) -> state``: the states of the sub-sequences beginning at
+        ``starts`` (shape ``(B,)``), from the measured past whose scaled input is shifted by
+        ``shift`` (shape ``(B,)``: :attr:`ShootingOptions.velocity_offset`).
     rest : callable
         ``rest(k) -> state``: ``k`` states at rest (the passivity probes').
     simulate : callable
@@ -73,7 +74,7 @@ class Recurrence:
 
     offset: int
     n_starts: int
-    start: Callable[[PyTree, jax.Array], PyTree]
+    start: Callable[[PyTree, jax.Array, jax.Array], PyTree]
     rest: Callable[[int], PyTree]
     simulate: Callable[[PyTree, PyTree, jax.Array], jax.Array]
     free_run: Callable[[PyTree, np.ndarray], np.ndarray]
@@ -102,6 +103,13 @@ class ShootingOptions:
         Band of the passivity probes, Hz.
     probes_per_step : int
         Passivity probes per Adam step.
+    velocity_offset : float
+        Galilean augmentation, m/s (0 = off): each sub-sequence's input (its past and future)
+        is shifted by a uniform draw in ``[-velocity_offset, velocity_offset]`` and its output
+        kept. The sloshing force does not depend on the tank's uniform velocity (the rig's
+        force is invariant to it exactly), but a model of the velocity learns that only from
+        data: a beam under random base excitation drifts by a large fraction of its
+        oscillation's velocity, a motion no shaker record holds.
     """
 
     horizon: int = 200
@@ -114,6 +122,7 @@ class ShootingOptions:
     cycle_energy: float = 0.0
     frequency_band: tuple[float, float] = (0.0, math.inf)
     probes_per_step: int = 24
+    velocity_offset: float = 0.0
 
 
 def shooting_problem(
@@ -175,10 +184,14 @@ def shooting_problem(
     pu = jnp.asarray(probes.u if probes is not None else np.zeros((1, T)), f32)
     pw = jnp.asarray(probes.weight if probes is not None else np.zeros((1, T)), f32)
 
-    def loss(p: PyTree, starts: jax.Array, pidx: jax.Array) -> tuple[jax.Array, jax.Array]:
-        state = rec.start(p, starts)
+    # a physical velocity offset in scaled units (the scaling is affine)
+    shift_scale = float(sc.u(1.0) - sc.u(0.0)) * float(o.velocity_offset)
+
+    def loss(p: PyTree, starts: jax.Array, pidx: jax.Array,
+             shift: jax.Array) -> tuple[jax.Array, jax.Array]:
+        state = rec.start(p, starts, shift)
         fut = starts[:, None] + off + jnp.arange(T)[None, :]
-        uf = u_s[fut]
+        uf = u_s[fut] + shift[:, None]
         if n_probe:
             # the probes run from rest in the same batch
             state = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a, b]), state,
@@ -202,10 +215,13 @@ def shooting_problem(
     sched = optax.cosine_decay_schedule(float(o.learning_rate), total, 0.05)
     opt = optax.chain(optax.clip_by_global_norm(1.0), optax.adam(sched))
 
-    def draw(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    def draw(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         starts = rng.integers(0, rec.n_starts, (steps_per_epoch, batch))
         pidx = rng.integers(0, max(1, pu.shape[0]), (steps_per_epoch, n_probe))
-        return starts, pidx
+        # drawn after the others: without augmentation the same draws as before
+        shift = (rng.uniform(-shift_scale, shift_scale, (steps_per_epoch, batch))
+                 if shift_scale > 0 else np.zeros((steps_per_epoch, batch)))
+        return starts, pidx, shift.astype(np.float32)
 
     # validation: the free run from rest of the whole record, scored like the training loss
     val = None

@@ -74,6 +74,7 @@ __all__ = [
     "ss_encode",
     "ss_free_run",
     "ss_step",
+    "strictly_proper",
 ]
 
 @dataclass(frozen=True)
@@ -88,11 +89,15 @@ class StateSpaceSpec:
         Hidden tanh units of each of F, H and the encoder E.
     window : int
         Samples of past input and output the encoder reads.
+    proper : bool
+        Strictly proper: the output map reads the state alone (the input rows of ``C`` and
+        ``V1`` held at zero, :func:`strictly_proper`).
     """
 
     n_states: int
     neurons: int
     window: int
+    proper: bool = False
 
     @property
     def n_params(self) -> int:
@@ -136,6 +141,14 @@ def init_params(spec: StateSpaceSpec, seed: int) -> dict[str, np.ndarray]:
 # ---------------------------------------------------------------------------------------------
 # Pure model functions (scaled units)
 # ---------------------------------------------------------------------------------------------
+
+
+def strictly_proper(p: dict[str, Any]) -> dict[str, Any]:
+    """``p`` with the input rows of the output map (the last rows of ``C`` and ``V1``) at zero:
+    ``y_k = H(x_k)``, no direct feed-through. The rows stay in the arrays, so every reader of
+    the file layout (the FMU, ONNX) runs the strictly proper model unchanged; the gradient
+    through them is zero, so Adam never moves them."""
+    return {**p, "C": p["C"].at[-1].set(0.0), "V1": p["V1"].at[-1].set(0.0)}
 
 
 def _f(p: dict[str, Any], z: Any) -> Any:
@@ -226,7 +239,12 @@ class StateSpaceNetwork(FittedNetwork):
     unstable_bound: float = 10.0
 
     _simulation = "state-space simulation"
-    feedthrough = True
+
+    @property
+    def feedthrough(self) -> bool:  # type: ignore[override]
+        """Whether the force reads the current input directly (False: strictly proper)."""
+        return bool(np.any(np.asarray(self.params["C"])[-1])
+                    or np.any(np.asarray(self.params["V1"])[-1]))
 
     @property
     def model_class(self) -> ModelClass:
@@ -349,21 +367,24 @@ def shooting_problem(
     u_s = jnp.asarray(scaler.u(np.asarray(u, dtype=np.float64)), f32)
     y_s = jnp.asarray(scaler.y(np.asarray(y, dtype=np.float64)), f32)
 
-    def start(p: PyTree, starts: jax.Array) -> jax.Array:
+    def start(p: PyTree, starts: jax.Array, shift: jax.Array) -> jax.Array:
         # the state encoded from the window of measured input and output before the start
         past = starts[:, None] + jnp.arange(w)[None, :]
-        return ss_encode(p, u_s[past], y_s[past], ru, ry)
+        return ss_encode(p, u_s[past] + shift[:, None], y_s[past], ru, ry)
+
+    out_map = strictly_proper if spec.proper else (lambda p: p)
 
     def simulate(p: PyTree, x0: jax.Array, uf: jax.Array) -> jax.Array:
-        return ss_simulate(p, x0, uf.T, ru, ry)[1].T
+        return ss_simulate(out_map(p), x0, uf.T, ru, ry)[1].T
 
     def free_run(p: PyTree, uv: np.ndarray) -> np.ndarray:
-        return np.asarray(ss_free_run(_as64(p), jnp.asarray(uv)[:, None], ru, ry))[:, 0]
+        return np.asarray(ss_free_run(_as64(out_map(p)), jnp.asarray(uv)[:, None], ru,
+                                      ry))[:, 0]
 
     rec = Recurrence(offset=w, n_starts=n - w - T, start=start,
                      rest=lambda k: jnp.zeros((k, spec.n_states), f32), simulate=simulate,
                      free_run=free_run)
-    params0 = {k: jnp.asarray(v, f32) for k, v in init_params(spec, seed).items()}
+    params0 = out_map({k: jnp.asarray(v, f32) for k, v in init_params(spec, seed).items()})
     return shooting(rec, params0, u, y, fs, scaler, validation, options)
 
 
@@ -423,4 +444,5 @@ def fit_statespace(
     history: dict[str, Any] = dict(res.history)
     history.update(stop_reason=res.stop_reason, best_epoch=res.best_epoch, trainer="shooting",
                    n_rows=int(np.asarray(u).size), train_seconds=time.perf_counter() - t0)
-    return {k: np.asarray(v, dtype=np.float64) for k, v in res.params.items()}, history
+    params = strictly_proper(res.params) if spec.proper else res.params
+    return {k: np.asarray(v, dtype=np.float64) for k, v in params.items()}, history

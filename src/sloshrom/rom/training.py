@@ -602,9 +602,9 @@ def noe_shooting_problem(
     shoot = partial(noe_shoot, delays=tuple(int(x) for x in d), out_delays=m, neurons=neurons,
                     hidden=hidden)
 
-    def start(th: PyTree, starts: jax.Array) -> PyTree:
+    def start(th: PyTree, starts: jax.Array, shift: jax.Array) -> PyTree:
         # delay lines at start s (padded index s + lag): measured samples s-1, s-2, ...
-        return (up[starts[:, None] + lag - u_lags[None, :]],
+        return (up[starts[:, None] + lag - u_lags[None, :]] + shift[:, None],
                 yp[starts[:, None] + lag - y_lags[None, :]])
 
     def rest(k: int) -> PyTree:
