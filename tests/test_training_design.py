@@ -216,6 +216,11 @@ def test_data_stage_designs_from_the_structure(tmp_path):
     assert fz["peak_acceleration_g"] == pytest.approx(motion.peak_acceleration / G)
     assert des["gamma_max_g"] >= cfg.data.margin * fz["peak_acceleration_g"]
     assert des["exceeds_shaker"] and "acceleration" in des["exceeds_shaker"]
+    # the programme each record played, checked against the paper's shaker (summary.json)
+    for split, prog in des["programme"].items():
+        assert [g["name"] for g in prog["segments"]] == ["vfa", "vfa extension"], split
+        assert "acceleration" in " ".join(prog["exceeds"])
+        assert prog["verdict"].startswith("needs a bigger shaker")
     for split in ("train", "validation"):
         rec = read_record(tmp_path / "data" / f"{split}.nc")
         assert np.max(np.abs(rec["acceleration"])) / G == pytest.approx(

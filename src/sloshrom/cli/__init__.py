@@ -5,7 +5,7 @@ this package imports them all.
 """
 
 # (each import registers its commands)
-from sloshrom.cli import analyse, beam, compare, export, pipeline, rig, rom  # noqa: F401
+from sloshrom.cli import analyse, beam, compare, design, export, pipeline, rig, rom  # noqa: F401
 from sloshrom.cli._app import app
 
 __all__ = ["app"]

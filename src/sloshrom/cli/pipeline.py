@@ -33,7 +33,7 @@ config_app = typer.Typer(help="Show the configuration of `sloshrom reproduce`.",
 app.add_typer(config_app, name="config")
 
 
-def _load_config(config: Path | None, quick: bool) -> settings.ReproduceConfig:
+def load_config(config: Path | None, quick: bool) -> settings.ReproduceConfig:
     """The merged configuration, validated by :func:`sloshrom.pipeline.settings.validate`, its
     tanks checked against the virtual rig (what ``reproduce`` would fail on, ``config show``
     refuses too)."""
@@ -62,7 +62,7 @@ def config_show(
     if config is None and not quick:
         typer.echo(settings.default_text())
         return
-    typer.echo(json.dumps(_load_config(config, quick).as_dict(), indent=1))
+    typer.echo(json.dumps(load_config(config, quick).as_dict(), indent=1))
 
 
 @app.command()
@@ -91,7 +91,7 @@ def reproduce(
     from sloshrom.pipeline import run
     from sloshrom.pipeline.chain import RESULT_ENTRIES
 
-    cfg = _load_config(config, quick)
+    cfg = load_config(config, quick)
     changes = {**({"rom": {"sweep": True}} if sweep else {}),
                **({"beyond": {"enabled": True}} if beyond else {})}
     if changes:

@@ -23,6 +23,7 @@ from sloshrom.cli._app import app, check_input, check_number, check_out, fail, w
 from sloshrom.config import G, Tank
 from sloshrom.errors import SloshromError
 from sloshrom.io import Record, record_from_measurement, write_record
+from sloshrom.io.programme import read_drive_csv, resample_drive
 from sloshrom.limits import MAX_SEED
 from sloshrom.pipeline.settings import MAX_FINE_SECONDS, MIN_VFA_DURATION
 from sloshrom.signals import SHAKER_ENVELOPE, harmonic, vfa
@@ -277,4 +278,77 @@ def harmonic_cmd(
         amplitude=a,
         provenance=_provenance("harmonic", signal, rig),
     )
+    _write(rec, out)
+
+
+@rig_app.command("play")
+def play_cmd(
+    drive: Annotated[Path, typer.Argument(
+        help="Drive CSV: time_s and acceleration_m_s2 (or acceleration_g) columns, as "
+             "`sloshrom design` writes it.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output record (.nc, .csv or .mat).")],
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the rig noise (>= 0).")] = 0,
+    tank_toml: TankOpt = None,
+    fill: FillOpt = None,
+    truth: TruthOpt = True,
+) -> None:
+    """Play a drive file on the virtual rig, as the laboratory's shaker would.
+
+    The time column must be uniform and the values finite; a drive at another rate than the
+    rig's 10 kHz integration step is resampled to it, band-limited (80 dB anti-alias filter,
+    pass band 80 % of the lower Nyquist frequency). Refused: NaN, a non-uniform time, unknown
+    columns or units, a rate that is not a whole number of Hz or below 50 Hz, drives longer than
+    1 h (memory) and accelerations beyond ten times the shaker's limit (60 g). Recorded with a
+    warning: a drive that does not start and end at rest, or beyond the shaker's limits.
+
+    Example: sloshrom design --out lab --split train; sloshrom rig play lab/train.csv --out
+    train.nc
+    """
+    check_input(drive, "DRIVE")
+    tank = _check_common(out, seed, fill, tank_toml)
+    check_out(out, suffixes=RECORD_SUFFIXES, inputs=(drive, tank_toml))
+    try:
+        d = read_drive_csv(drive)
+    except SloshromError as exc:
+        fail(str(exc))
+    if d.fs < 2 * CALIBRATED_BAND[1]:
+        fail(f"{drive}: a {d.fs:.6g} Hz drive cannot carry the shaker band "
+             f"{CALIBRATED_BAND[0]:g}-{CALIBRATED_BAND[1]:g} Hz (use at least "
+             f"{2 * CALIBRATED_BAND[1]:g} Hz)")
+    if d.duration > MAX_FINE_SECONDS:
+        fail(f"{drive}: {d.duration:.6g} s of drive, more than {MAX_FINE_SECONDS:g} s "
+             f"({_MEMORY})")
+    if d.duration < MIN_SENSOR_SECONDS:
+        fail(f"{drive}: {d.duration:.3g} s of drive; the sensors' filters need at least "
+             f"{MIN_SENSOR_SECONDS:g} s")
+    peak = float(np.max(np.abs(d.acceleration)))
+    hard = HARD_FACTOR * SHAKER_LIMITS["acceleration"]
+    if peak / G > hard:
+        fail(f"{drive}: peak acceleration {peak / G:.4g} g, beyond ten times the shaker's "
+             f"limit ({hard:g} g)")
+    ends = max(abs(d.acceleration[0]), abs(d.acceleration[-1]))
+    if peak and ends > 1e-6 * peak:
+        warn(f"{drive}: the drive does not start and end at rest (first/last sample "
+             f"{d.acceleration[0]:.3g}/{d.acceleration[-1]:.3g} m/s^2): a shaker would jump")
+    rig = _make_rig(tank, seed)
+    fine = 1.0 / rig.dt
+    try:
+        acc = resample_drive(d.acceleration, d.fs, fine) if d.fs != fine else d.acceleration
+    except SloshromError as exc:
+        fail(f"{drive}: {exc}")
+    v = np.concatenate([[0.0], np.cumsum(0.5 * (acc[1:] + acc[:-1]))]) * rig.dt
+    x = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]))]) * rig.dt
+    over = [f"{name} {value:.3g} {unit} > {SHAKER_LIMITS[name]:g} {unit}"
+            for name, value, unit in (("acceleration", float(np.max(np.abs(acc))) / G, "g"),
+                                      ("velocity", float(np.max(np.abs(v))), "m/s"),
+                                      ("displacement", float(np.max(np.abs(x))), "m"))
+            if value > SHAKER_LIMITS[name] * (1 + 1e-9)]
+    if over:
+        warn(f"beyond the shaker's limits ({', '.join(over)}): the rig is not calibrated there")
+    del v, x
+    signal = {"kind": "file", "file": str(drive), "file_fs": float(d.fs),
+              "file_column": d.column, "samples": int(d.acceleration.size),
+              "duration": float(d.duration)}
+    rec = _run(rig, acc, tank, truth, f"{drive.name}: {d.duration:.0f} s on the virtual rig",
+               seed=seed, provenance=_provenance("play", signal, rig))
     _write(rec, out)

@@ -3,7 +3,8 @@ virtual rig (paper Figs. 5-7), their amplitudes designed from the beam tests the
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Mapping
+from typing import Any, NotRequired, TypedDict
 
 import numpy as np
 
@@ -16,9 +17,66 @@ from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.settings import DataTable, ReproduceConfig
 from sloshrom.plotting import savefig
 from sloshrom.plotting.signals import record_io_figure, vfa_paths_figure
-from sloshrom.programme import Segment, structure_segments
+from sloshrom.programme import (
+    Programme,
+    ProgrammeError,
+    Segment,
+    concatenate,
+    structure_segments,
+)
 
-__all__ = ["design_outputs", "stage_data", "training_design", "vfa_pieces"]
+__all__ = ["LAB_SETUP", "Peaks", "ProgrammeOutputs", "SegmentOutputs", "design_outputs",
+           "programme", "programme_outputs", "stage_data", "training_design", "use_segments",
+           "vfa_pieces"]
+
+#: Laboratory set-up per segment, s: loading the drive file and the controller's low-level
+#: pre-test (equalisation) before each run (:meth:`sloshrom.programme.Programme.lab_time`).
+LAB_SETUP = 60.0
+
+
+class Peaks(TypedDict):
+    """Peak amplitudes of a motion from rest: g, m/s, mm."""
+
+    acceleration_g: float
+    velocity_m_s: float
+    stroke_mm: float
+
+
+class SegmentOutputs(TypedDict):
+    """One segment of :class:`ProgrammeOutputs` (``start_s``, ``duration_s`` in s)."""
+
+    index: int
+    name: str
+    kind: str
+    level: float
+    level_unit: str
+    start_s: float
+    duration_s: float
+    peaks: Peaks
+
+
+class ProgrammeOutputs(TypedDict):
+    """A programme as JSON (:func:`programme_outputs`); ``drive`` and ``files`` are added by
+    ``sloshrom design`` (the drive files' rate, samples and names)."""
+
+    segments: list[SegmentOutputs]
+    peaks: Peaks
+    duration_s: float
+    pause_s: float
+    fs_hz: float
+    lab_time_s: float
+    setup_s: float
+    limits: dict[str, float | None]
+    exceeds: list[str]
+    fits: bool
+    verdict: str
+    drive: NotRequired[dict[str, float]]
+    files: NotRequired[dict[str, str]]
+
+
+#: What a segment's ``level`` means, by kind.
+LEVEL_UNITS = {"vfa": "g peak (design)", "random": "g RMS base",
+               "decay": "x tip displacement"}
 
 
 def training_design(cfg: ReproduceConfig, tank: Tank
@@ -56,11 +114,16 @@ def training_design(cfg: ReproduceConfig, tank: Tank
     return design, motion
 
 
-def design_outputs(design: signals.VFADesign, motion: TankMotion | None) -> dict[str, Any]:
+def design_outputs(design: signals.VFADesign, motion: TankMotion | None,
+                   programmes: Mapping[str, ProgrammeOutputs] | None = None
+                   ) -> dict[str, Any]:
     """The designed envelope as JSON-able outputs (g, m/s, m) and how it compares with the
-    paper's shaker (``exceeds_shaker``: the limits a laboratory shaker would have to exceed)."""
+    paper's shaker (``exceeds_shaker``: the limits a laboratory shaker would have to exceed).
+
+    ``programmes``: per split, the shaker programme of the record
+    (:func:`programme_outputs`), stored as ``programme``."""
     lim, paper = design.limits, signals.SHAKER_LIMITS
-    return {
+    out = {
         "rule": design.rule,
         "margin": design.margin,
         "gamma_max_g": design.gamma_max,
@@ -73,6 +136,9 @@ def design_outputs(design: signals.VFADesign, motion: TankMotion | None) -> dict
         "exceeds_shaker": design.exceeds(),
         "frozen_beam_tests": None if motion is None else motion.as_dict(),
     }
+    if programmes is not None:
+        out["programme"] = dict(programmes)
+    return out
 
 
 def vfa_pieces(data: DataTable | None, split: str, duration: float, seed: int,
@@ -125,10 +191,123 @@ def use_segments(cfg: ReproduceConfig, tank: Tank, split: str, fs: float) -> lis
                               float(data.decay_duration))
 
 
+def _split_size(cfg: ReproduceConfig, split: str) -> tuple[float, int]:
+    """The VFA duration (s) and seed of a split."""
+    if split == "train":
+        return float(cfg.data.train_duration), int(cfg.data.train_seed)
+    if split == "validation":
+        return float(cfg.data.validation_duration), int(cfg.data.validation_seed)
+    raise ProgrammeError(f"split must be 'train' or 'validation', got {split!r}")
+
+
+def programme(cfg: ReproduceConfig, tank: Tank, split: str, fs: float, *,
+              training: tuple[signals.VFADesign, TankMotion | None] | None = None
+              ) -> Programme:
+    """The shaker programme of a split's record: what the rig (or a laboratory) plays.
+
+    The VFA pieces (:func:`vfa_pieces`: the paper's path, then with a structure or use design
+    the extension), then with ``[data] design = "use"`` the structure's own motion
+    (:func:`use_segments`); every segment starts and ends at rest, played back to back (no
+    pause). The data stage records exactly this; ``sloshrom design`` writes it as drive files.
+
+    Parameters
+    ----------
+    cfg : ReproduceConfig
+    tank : Tank
+    split : str
+        ``"train"`` or ``"validation"``.
+    fs : float
+        Rate of the programme, Hz (the rig's integration rate, 10 kHz).
+    training : (VFADesign, TankMotion or None), optional
+        :func:`training_design`'s result if already computed (it runs the frozen beam tests).
+
+    Returns
+    -------
+    Programme
+        Segments ``"vfa"`` (level: the paper shaker's 6 g), ``"vfa extension"`` (the design's
+        peak, g), ``"random <level> g"`` and ``"decay <factor>"``.
+    """
+    duration, seed = _split_size(cfg, split)
+    design, motion = training_design(cfg, tank) if training is None else training
+    pieces = vfa_pieces(cfg.data, split, duration, seed, design, motion, fs, tank)
+    names = [("vfa", signals.SHAKER_DESIGN.gamma_max), ("vfa extension", design.gamma_max)]
+    segments = [Segment(name, "vfa", p.acceleration, float(level))
+                for (name, level), p in zip(names, pieces, strict=False)]
+    if cfg.data.design == "use":
+        segments += use_segments(cfg, tank, split, fs)
+    return concatenate(fs, segments)
+
+
+def _peaks(m: Mapping[str, float]) -> Peaks:
+    return {"acceleration_g": m["acceleration"] / G, "velocity_m_s": m["velocity"],
+            "stroke_mm": m["displacement"] * 1e3}
+
+
+def programme_outputs(prog: Programme, limits: signals.ShakerLimits = signals.SHAKER_LIMITS,
+                      setup: float = LAB_SETUP, max_duration: float | None = None
+                      ) -> ProgrammeOutputs:
+    """A programme as JSON-able outputs: its segments, peaks, duration, laboratory time and the
+    shaker limits it exceeds.
+
+    Parameters
+    ----------
+    prog : Programme
+    limits : ShakerLimits
+        The shaker it is checked against (default the paper's: 6 g, 1 m/s, 12.5 mm).
+    setup : float
+        Laboratory set-up per segment, s.
+    max_duration : float, optional
+        Longest run the shaker allows, s.
+
+    Returns
+    -------
+    dict
+        ``segments`` (``index`` from 1, ``name``, ``kind``, ``level`` and ``level_unit``,
+        ``start_s``, ``duration_s``, ``peaks``), ``peaks`` (``acceleration_g``,
+        ``velocity_m_s``, ``stroke_mm``: amplitudes from rest), ``duration_s``, ``pause_s``,
+        ``fs_hz``, ``lab_time_s``, ``setup_s``, ``limits``, ``exceeds`` (one sentence per
+        limit, :meth:`Programme.check`), ``fits`` and ``verdict`` (a sentence: whether the
+        shaker can play it, and what a shaker that can must reach).
+    """
+    segs: list[SegmentOutputs] = []
+    start = 0.0
+    for k, s in enumerate(prog.segments):
+        one = concatenate(prog.fs, [s])
+        segs.append({"index": k + 1, "name": s.name, "kind": s.kind, "level": s.level,
+                     "level_unit": LEVEL_UNITS[s.kind], "start_s": start,
+                     "duration_s": one.duration, "peaks": _peaks(one.motion())})
+        start += one.duration + round(prog.pause * prog.fs) / prog.fs
+    exceeds = prog.check(limits, max_duration)
+    peaks = _peaks(prog.motion())
+    shaker = (f"{limits.max_acceleration / G:.3g} g, {limits.max_velocity:.3g} m/s, "
+              f"{limits.max_displacement * 1e3:.3g} mm")
+    verdict = (f"fits the shaker ({shaker})" if not exceeds else
+               f"needs a bigger shaker than {shaker}: it reaches "
+               f"{peaks['acceleration_g']:.3g} g, {peaks['velocity_m_s']:.3g} m/s and "
+               f"{peaks['stroke_mm']:.4g} mm")
+    return {
+        "segments": segs,
+        "peaks": peaks,
+        "duration_s": prog.duration,
+        "pause_s": prog.pause,
+        "fs_hz": prog.fs,
+        "lab_time_s": prog.lab_time(setup),
+        "setup_s": setup,
+        "limits": {"acceleration_g": limits.max_acceleration / G,
+                   "velocity_m_s": limits.max_velocity,
+                   "stroke_mm": limits.max_displacement * 1e3,
+                   "max_duration_s": max_duration},
+        "exceeds": exceeds,
+        "fits": not exceeds,
+        "verdict": verdict,
+    }
+
+
 def stage_data(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     """Record the training and validation VFA tests on the rig; write records and figures.
 
-    Both records share one amplitude design (:func:`training_design`).
+    Both records share one amplitude design (:func:`training_design`); each plays the split's
+    :func:`programme`.
 
     Returns
     -------
@@ -136,8 +315,9 @@ def stage_data(ctx: Context) -> tuple[dict[str, Any], list[str]]:
         Per split: ``duration_s`` (s), ``fs_hz`` (Hz), ``samples``, ``max_acceleration_g`` (g),
         ``max_velocity_m_s`` (m/s, the ROM's input), ``max_dynamic_force_n`` (N) and, with a
         structure design, ``covers_acceleration``/``covers_velocity`` (record peak / frozen
-        beam tests' peak, -); ``design``: :func:`design_outputs`; ``rig``: the ``[rig]``
-        physics overrides in use (empty: calibrated).
+        beam tests' peak, -); ``design``: :func:`design_outputs`, with ``programme``: per
+        split the shaker programme played (:func:`programme_outputs` against the paper's
+        shaker); ``rig``: the ``[rig]`` physics overrides in use (empty: calibrated).
     files : list of str
         ``data/train.nc``, ``data/validation.nc`` and the figures, relative to ``ctx.out``.
     """
@@ -146,21 +326,17 @@ def stage_data(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     ctx.progress("data", 0, 3, "training design (frozen beam tests)")
     design, motion = training_design(cfg, tank)
     files, paths, records = [], [], {}
-    outputs: dict[str, Any] = {"design": design_outputs(design, motion),
-                               "rig": cfg.rig.overrides()}
-    splits = [
-        ("train", cfg.data.train_duration, cfg.data.train_seed),
-        ("validation", cfg.data.validation_duration, cfg.data.validation_seed),
-    ]
+    outputs: dict[str, Any] = {"rig": cfg.rig.overrides()}
+    programmes: dict[str, ProgrammeOutputs] = {}
+    splits = ("train", "validation")
     fs_rig = 1.0 / rig.dt
-    for k, (split, duration, seed) in enumerate(splits):
+    for k, split in enumerate(splits):
+        duration, seed = _split_size(cfg, split)
         ctx.progress("data", k + 1, len(splits) + 1, f"rig VFA {split} ({duration:.0f} s)")
-        pieces = vfa_pieces(cfg.data, split, duration, seed, design, motion, fs_rig, tank)
-        segments = ([Segment("vfa", "vfa", p.acceleration, design.gamma_max) for p in pieces]
-                    + (use_segments(cfg, tank, split, fs_rig) if cfg.data.design == "use"
-                       else []))
-        meas = rig.measure(np.concatenate([s.acceleration for s in segments]))
-        sig = pieces[0]
+        prog = programme(cfg, tank, split, fs_rig, training=(design, motion))
+        programmes[split] = programme_outputs(prog)
+        meas = rig.measure(prog.acceleration())
+        del prog  # ~80 MB per 1000 s at the rig's 10 kHz
         rec = record_from_measurement(
             meas, tank, truth=True, split=split, seed=int(seed),
             rig_seed=int(cfg.rig.seed),
@@ -170,7 +346,9 @@ def stage_data(ctx: Context) -> tuple[dict[str, Any], list[str]]:
         p = ctx.path("data", f"{split}.nc")
         write_record(rec, p)
         files.append(ctx.rel(p))
-        paths.extend(pieces)
+        # the paths of Fig. 5 at the record rate: the same path, 20 times fewer samples
+        paths.extend(vfa_pieces(cfg.data, split, duration, seed, design, motion,
+                                float(cfg.rig.fs), tank))
         records[split] = rec
         peak_acc = float(np.max(np.abs(rec["acceleration"])))
         peak_vel = float(np.max(np.abs(rec["velocity"])))
@@ -185,7 +363,8 @@ def stage_data(ctx: Context) -> tuple[dict[str, Any], list[str]]:
         if motion is not None:
             outputs[split]["covers_acceleration"] = peak_acc / motion.peak_acceleration
             outputs[split]["covers_velocity"] = peak_vel / motion.peak_velocity
-        del sig, meas
+        del meas
+    outputs = {"design": design_outputs(design, motion, programmes), **outputs}
     ctx.progress("data", len(splits) + 1, len(splits) + 1, "figures")
     p = savefig(vfa_paths_figure(paths), ctx.path("figures", "fig05_vfa_paths.png"))
     files.append(ctx.rel(p))

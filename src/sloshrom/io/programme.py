@@ -1,0 +1,309 @@
+"""Drive files of a shaker programme: the CSV and UFF 58 files a shaker controller plays.
+
+A programme (:class:`sloshrom.programme.Programme`) is the commanded tank acceleration at the
+virtual rig's 10 kHz integration rate. A controller takes a time history at its own rate, so
+the files hold it resampled, band-limited (:func:`resample_drive`):
+
+* **CSV** (:func:`write_drive_csv`, :func:`read_drive_csv`): the whole programme, one row per
+  sample, header ``time_s,acceleration_m_s2`` (optionally ``,segment``: the 1-based segment
+  number, 0 in the pauses); time with 9 decimals (ns), acceleration with 10 significant digits.
+  All columns numeric, one header line, no comments: what a controller's import expects.
+* **UFF 58** (:func:`drive_uff_sets`): one time-response dataset per segment (ASCII, 12
+  significant digits, m/s^2, dataset 164 SI first), each starting at 0 s: each segment is its
+  own run on the shaker (the laboratory time charges a set-up per segment).
+
+These functions work on arrays (segment names and accelerations): :mod:`sloshrom.io` sits
+below the programme's module. A bad file is a :class:`~sloshrom.io.record.RecordError` whose
+one line names the file, the line and the problem.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Sequence
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+
+from sloshrom.config import G
+from sloshrom.fileio import OutputBatch, atomic_write, not_a_regular_file
+from sloshrom.io.record import RecordError
+from sloshrom.io.uff import DIR_PLUS_Z, SPEC_ACCELERATION, SPEC_TIME, dataset58, dataset164_si
+
+__all__ = [
+    "ACCELERATION_COLUMNS", "CSV_HEADER", "DriveFile", "drive_uff_sets", "exact_uff_step",
+    "read_drive_csv", "resample_drive", "write_drive_csv",
+]
+
+#: Header of a drive CSV (the names carry the units: no brackets a controller might refuse).
+CSV_HEADER = ("time_s", "acceleration_m_s2")
+#: Acceleration columns :func:`read_drive_csv` accepts, with their factor to m/s^2.
+ACCELERATION_COLUMNS = {"acceleration_m_s2": 1.0, "acceleration [m/s^2]": 1.0,
+                        "acceleration_g": G, "acceleration [g]": G}
+#: Time columns :func:`read_drive_csv` accepts.
+TIME_COLUMNS = ("time_s", "time [s]")
+#: Stop-band attenuation of the resampling filter, dB: 1e-4 of a component left past the band
+#: edge, below the 10 significant digits' concern but far below any shaker's control accuracy.
+STOPBAND_DB = 80.0
+#: Pass band of the resampling filter, fraction of the lower Nyquist frequency (the rest is
+#: the transition band): 0.8 keeps 200 Hz at a 500 Hz rate, the rig sensors' own band.
+PASS_FRACTION = 0.8
+#: Largest denominator of the ratio of two rates that :func:`resample_drive` takes (a whole
+#: number of Hz against 10 kHz always fits).
+MAX_DENOMINATOR = 10_000
+
+
+def _ratio(fs_in: float, fs_out: float) -> tuple[int, int]:
+    """``fs_out / fs_in`` as ``(up, down)`` integers, or a RecordError."""
+    ratio = Fraction(fs_out / fs_in).limit_denominator(MAX_DENOMINATOR)
+    if ratio <= 0 or abs(float(ratio) * fs_in - fs_out) > 1e-9 * fs_out:
+        raise RecordError(f"a rate of {fs_out:g} Hz from {fs_in:g} Hz is not a simple ratio "
+                          "(use a whole number of Hz)")
+    return ratio.numerator, ratio.denominator
+
+
+def resample_drive(a: np.ndarray, fs_in: float, fs_out: float) -> np.ndarray:
+    """Resample a drive signal that starts and ends at rest, band-limited.
+
+    Polyphase filtering (``scipy.signal.resample_poly``, zeros outside the signal: a drive is
+    at rest before and after) with a Kaiser FIR of :data:`STOPBAND_DB` attenuation whose pass
+    band is :data:`PASS_FRACTION` of the lower of the two Nyquist frequencies. ``io.resample``'s
+    default filter (Kaiser, beta 5) has a pass-band ripple of a few 1e-4, seen as a 5e-4 RMS
+    error on a 10 kHz -> 2 kHz -> 10 kHz round trip; this one leaves about 1e-5.
+
+    Parameters
+    ----------
+    a : ndarray (n,)
+        Acceleration (any unit: the operation is linear) at ``fs_in``.
+    fs_in, fs_out : float
+        Rates, Hz; ``fs_out / fs_in`` a fraction with denominator <= :data:`MAX_DENOMINATOR`.
+
+    Returns
+    -------
+    ndarray (m,)
+        ``m = round((n - 1) fs_out / fs_in) + 1`` samples: the same span of time (a last
+        fraction of a step, at rest, dropped).
+    """
+    from scipy import signal
+
+    a = np.asarray(a, dtype=float)
+    up, down = _ratio(fs_in, fs_out)
+    m = int(round((a.size - 1) * up / down)) + 1
+    if up == down:
+        return a.copy()
+    mid = fs_in * up  # the rate the filter runs at
+    nyq = 0.5 * min(fs_in, fs_out)
+    width = (1.0 - PASS_FRACTION) * nyq
+    numtaps, beta = signal.kaiserord(STOPBAND_DB, width / (0.5 * mid))
+    numtaps |= 1  # odd: a linear-phase filter whose delay resample_poly removes exactly
+    h = signal.firwin(numtaps, 0.5 * (1.0 + PASS_FRACTION) * nyq, window=("kaiser", beta),
+                      fs=mid)
+    out = signal.resample_poly(a, up, down, window=h)  # (it scales h by up itself)
+    if out.size < m:
+        out = np.concatenate([out, np.zeros(m - out.size)])
+    return out[:m]
+
+
+def exact_uff_step(fs: float) -> bool:
+    """True if UFF's 6 significant digits of the time step give ``fs`` back to 1e-9."""
+    step = float(f"{1.0 / fs:.5e}")
+    return abs(1.0 / step - fs) <= 1e-9 * fs
+
+
+def _csv_rows(acceleration: np.ndarray, fs: float, start: int,
+              segment: np.ndarray | None) -> np.ndarray:
+    time = np.arange(start, start + acceleration.size) / fs
+    cols = [time, acceleration] + ([segment.astype(float)] if segment is not None else [])
+    return np.column_stack(cols)
+
+
+def write_drive_csv(path: str | Path, acceleration: np.ndarray, fs: float,
+                    segment: np.ndarray | None = None,
+                    batch: OutputBatch | None = None) -> Path:
+    """Write a drive CSV (``time_s,acceleration_m_s2[,segment]``), atomically or into ``batch``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.csv`` file.
+    acceleration : ndarray (n,)
+        Tank vertical acceleration, m/s^2, at ``fs``; time starts at 0 s.
+    fs : float
+        Sample rate, Hz.
+    segment : ndarray of int (n,), optional
+        Segment number of each sample (1-based; 0 in a pause): the ``segment`` column.
+    batch : OutputBatch, optional
+        Write into this batch instead of atomically on its own.
+
+    Returns
+    -------
+    Path
+    """
+    a = np.asarray(acceleration, dtype=float)
+    if a.ndim != 1 or not np.all(np.isfinite(a)):
+        raise RecordError(f"{path}: a drive must be a finite 1-D acceleration")
+    if segment is not None and np.shape(segment) != a.shape:
+        raise RecordError(f"{path}: one segment number per sample, got {np.shape(segment)}")
+    header = ",".join(CSV_HEADER + (("segment",) if segment is not None else ()))
+    fmt = "%.9f,%.9e" + (",%d" if segment is not None else "")
+
+    def write(tmp: str) -> None:
+        with open(tmp, "w", encoding="ascii", newline="\n") as fh:
+            fh.write(header + "\n")
+            step = 1 << 18  # rows per chunk: a 2 h programme never holds its text in memory
+            for k in range(0, a.size, step):
+                sl = slice(k, k + step)
+                rows = _csv_rows(a[sl], fs, k, None if segment is None else segment[sl])
+                np.savetxt(fh, rows, fmt=fmt)
+
+    return (batch.write if batch is not None else atomic_write)(Path(path), write, ".csv")
+
+
+class DriveFile:
+    """A drive CSV as read by :func:`read_drive_csv`.
+
+    Attributes
+    ----------
+    acceleration : ndarray (n,)
+        m/s^2.
+    fs : float
+        Sample rate, Hz (from the uniform time column).
+    segment : ndarray of int (n,) or None
+        The ``segment`` column, if any.
+    column : str
+        The acceleration column's name (its unit).
+    """
+
+    def __init__(self, acceleration: np.ndarray, fs: float, segment: np.ndarray | None,
+                 column: str) -> None:
+        self.acceleration = acceleration
+        self.fs = fs
+        self.segment = segment
+        self.column = column
+
+    @property
+    def duration(self) -> float:
+        """Span of the time column, s."""
+        return (self.acceleration.size - 1) / self.fs
+
+
+def _header(p: Path) -> list[str]:
+    with open(p, encoding="utf-8-sig", newline="") as fh:
+        for line in fh:
+            if line.strip():
+                return [c.strip() for c in next(csv.reader([line]))]
+    raise RecordError(f"{p}: empty file, expected a header 'time_s,acceleration_m_s2'")
+
+
+def read_drive_csv(path: str | Path) -> DriveFile:
+    """Read a drive CSV: a ``time_s`` column and one acceleration column (``[g]`` allowed).
+
+    Accepted headers: a time column (``time_s`` or ``time [s]``), an acceleration column
+    (:data:`ACCELERATION_COLUMNS`: m/s^2 or g) and optionally ``segment``; comma-separated,
+    one header line. Nothing in the file is evaluated.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    DriveFile
+        Acceleration in m/s^2.
+
+    Raises
+    ------
+    RecordError
+        Naming the file and the problem: not a file, no or unknown columns (the accepted ones
+        listed), a non-numeric field (its line), NaN or infinite values (the first line),
+        fewer than 2 rows, a time column that is not increasing or not uniform (the first
+        line that is off, the step found and the one expected).
+    """
+    p = Path(path)
+    why = not_a_regular_file(p)
+    if why is not None:
+        raise RecordError(f"{p}: {why}")
+    if not p.is_file():
+        raise RecordError(f"{p}: no such file")
+    names = _header(p)
+    accepted = (f"a time column ({' or '.join(TIME_COLUMNS)}) and an acceleration column "
+                f"({', '.join(ACCELERATION_COLUMNS)})")
+    tcol = [i for i, n in enumerate(names) if n in TIME_COLUMNS]
+    acol = [i for i, n in enumerate(names) if n in ACCELERATION_COLUMNS]
+    if len(tcol) != 1 or len(acol) != 1:
+        raise RecordError(f"{p}: columns {names}: expected {accepted}, once each")
+    unknown = [n for n in names if n not in (*TIME_COLUMNS, *ACCELERATION_COLUMNS, "segment")]
+    if unknown:
+        raise RecordError(f"{p}: unknown column(s) {unknown}: expected {accepted} and "
+                          "optionally 'segment'")
+    scol = names.index("segment") if "segment" in names else None
+    try:
+        data = np.loadtxt(p, delimiter=",", skiprows=1, ndmin=2, encoding="utf-8-sig")
+    except ValueError as exc:
+        raise RecordError(f"{p}: not a numeric table after the header ({exc})") from None
+    if data.shape[0] < 2 or data.shape[1] != len(names):
+        raise RecordError(f"{p}: expected at least 2 rows of {len(names)} numbers, got "
+                          f"{data.shape[0]} rows of {data.shape[1]}")
+    bad = ~np.isfinite(data).all(axis=1)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise RecordError(f"{p}: line {k + 2}: NaN or infinite value ({data[k].tolist()}): a "
+                          "drive must be finite everywhere")
+    t = data[:, tcol[0]]
+    dt = np.diff(t)
+    if np.any(dt <= 0):
+        k = int(np.argmax(dt <= 0))
+        raise RecordError(f"{p}: line {k + 3}: time {t[k + 1]!r} s does not increase (after "
+                          f"{t[k]!r} s)")
+    step = (t[-1] - t[0]) / (t.size - 1)
+    # the column is written with 9 decimals: 1 ns of jitter, far below any controller's step
+    off = np.abs(t - (t[0] + step * np.arange(t.size)))
+    tol = max(1e-6 * step, 2e-9)
+    if np.any(off > tol):
+        k = int(np.argmax(off > tol))
+        raise RecordError(f"{p}: line {k + 2}: time {t[k]!r} s is off the uniform grid by "
+                          f"{off[k]:.3g} s (mean step {step:.9g} s; local step "
+                          f"{dt[max(k - 1, 0)]:.9g} s): a drive file needs a uniform time "
+                          "column")
+    fs = 1.0 / step
+    if abs(fs - round(fs)) <= 1e-6 * fs:  # a whole number of Hz, as written
+        fs = float(round(fs))
+    col = names[acol[0]]
+    acc = data[:, acol[0]] * ACCELERATION_COLUMNS[col]
+    seg = data[:, scol].astype(int) if scol is not None else None
+    return DriveFile(acc, fs, seg, col)
+
+
+def drive_uff_sets(segments: Sequence[tuple[str, np.ndarray]], fs: float, run: str
+                   ) -> list[dict[str, object]]:
+    """The UFF datasets of a drive: dataset 164 (SI), then one dataset 58 per segment.
+
+    Parameters
+    ----------
+    segments : sequence of (name, acceleration)
+        Segment name (ID line 1) and its tank acceleration, m/s^2, at ``fs``; each starts at
+        0 s (its own run on the shaker).
+    fs : float
+        Sample rate, Hz (UFF stores the step with 6 significant digits:
+        :func:`exact_uff_step`).
+    run : str
+        ID line 2 (the programme: configuration, split).
+
+    Returns
+    -------
+    list of dict
+        For :func:`sloshrom.io.uff.write_uff_sets`.
+    """
+    if not (math.isfinite(fs) and fs > 0):
+        raise RecordError(f"fs={fs!r}: a drive's rate must be a positive number of Hz")
+    sets: list[dict[str, object]] = [dataset164_si()]
+    for k, (name, a) in enumerate(segments):
+        sets.append(dataset58(
+            np.asarray(a, dtype=float), 0.0, 1.0 / fs, id1=name, id2=run,
+            id3=f"segment {k + 1} of {len(segments)}", id4=f"fs {fs:g} Hz",
+            func_type=1, func_id=k + 1, load_case_id=k + 1, rsp=("tank", 1, DIR_PLUS_Z),
+            abscissa=(SPEC_TIME, "Time", "s"),
+            ordinate=(SPEC_ACCELERATION, "Acceleration", "m/s^2")))
+    return sets
