@@ -6,14 +6,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sloshrom.config import G, Tank
-from sloshrom.programme import (
+from sloshrom.beam.programme import (
     Programme,
     ProgrammeError,
     Segment,
     concatenate,
     structure_segments,
 )
+from sloshrom.config import G, Tank
 from sloshrom.signals import ShakerLimits, SignalError, to_rest
 
 FS_SIGNAL, FS = 500.0, 2000.0
@@ -90,8 +90,8 @@ def test_programme_check_names_the_exceeded_limits(segments):
     small = ShakerLimits(m["displacement"] / 2, 2 * m["velocity"], m["acceleration"] / 2)
     msgs = prog.check(small, max_duration=prog.duration / 2)
     assert len(msgs) == 3
-    assert msgs[0].startswith("peak acceleration") and f"{m['acceleration'] / G:.3g} g" in msgs[0]
-    assert msgs[1].startswith("peak displacement") and "mm" in msgs[1]
+    assert msgs[0].startswith("peak acceleration") and f"{m['acceleration'] / G:.4g} g" in msgs[0]
+    assert msgs[1].startswith("peak stroke") and "mm" in msgs[1]
     assert msgs[2].startswith("duration")
 
 

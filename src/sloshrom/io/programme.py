@@ -1,6 +1,6 @@
 """Drive files of a shaker programme: the CSV and UFF 58 files a shaker controller plays.
 
-A programme (:class:`sloshrom.programme.Programme`) is the commanded tank acceleration at the
+A programme (:class:`sloshrom.beam.programme.Programme`) is the commanded tank acceleration at the
 virtual rig's 10 kHz integration rate. A controller takes a time history at its own rate, so
 the files hold it resampled, band-limited (:func:`resample_drive`):
 

@@ -10,6 +10,13 @@ import numpy as np
 
 from sloshrom import __version__, signals
 from sloshrom.beam.envelope import TankMotion, frozen_tank_motion
+from sloshrom.beam.programme import (
+    Programme,
+    ProgrammeError,
+    Segment,
+    concatenate,
+    structure_segments,
+)
 from sloshrom.config import G, Tank
 from sloshrom.io import record_from_measurement, write_record
 from sloshrom.pipeline.beam import beam_structure, beam_tests
@@ -17,20 +24,13 @@ from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.settings import DataTable, ReproduceConfig
 from sloshrom.plotting import savefig
 from sloshrom.plotting.signals import record_io_figure, vfa_paths_figure
-from sloshrom.programme import (
-    Programme,
-    ProgrammeError,
-    Segment,
-    concatenate,
-    structure_segments,
-)
 
 __all__ = ["LAB_SETUP", "Peaks", "ProgrammeOutputs", "SegmentOutputs", "design_outputs",
            "programme", "programme_outputs", "stage_data", "training_design", "use_segments",
            "vfa_pieces"]
 
 #: Laboratory set-up per segment, s: loading the drive file and the controller's low-level
-#: pre-test (equalisation) before each run (:meth:`sloshrom.programme.Programme.lab_time`).
+#: pre-test (equalisation) before each run (:meth:`sloshrom.beam.programme.Programme.lab_time`).
 LAB_SETUP = 60.0
 
 
@@ -170,7 +170,7 @@ def vfa_pieces(data: DataTable | None, split: str, duration: float, seed: int,
 
 
 def use_segments(cfg: ReproduceConfig, tank: Tank, split: str, fs: float) -> list[Segment]:
-    """The structure's own kinds of motion for a ``"use"`` design (:mod:`sloshrom.programme`).
+    """The structure's own kinds of motion for a ``"use"`` design (:mod:`sloshrom.beam.programme`).
 
     Narrow-band random segments (the frozen structure's tank motion under the ``[beam]``
     random test's PSD) at every ``[beam] rms_g`` level times every ``[data] random_factors``,

@@ -456,7 +456,8 @@ class DataTable(_Table):
     extension_band: _number(1.0, 5.0, lo_open=True, what="a frequency factor")
     random_factors: _list(_number(0.01, 3.0, what="a factor on a [beam] rms_g level"),
                           "factors on the [beam] rms_g levels")
-    random_duration: _number(5.0, 600.0, what="a duration in s")
+    random_duration: _number(10.0, 600.0, what="a duration in s",
+                             why="the validation segment, half of it, needs more than its two 2 s fades")
     decay_factors: _list(_number(0.01, 3.0, what="a factor on [beam] tip_displacement"),
                          "factors on [beam] tip_displacement")
     decay_duration: _number(2.0, 60.0, what="a duration in s")

@@ -19,7 +19,7 @@ displacement: :func:`sloshrom.signals.to_rest`), so a shaker controller can play
 concatenated programme (:meth:`Programme.acceleration`) with a pause between segments.
 
 Pure functions on arrays; the files a controller reads are written by
-:mod:`sloshrom.io.programme`.
+``sloshrom.io.programme`` (by the command line).
 """
 
 from __future__ import annotations
@@ -129,13 +129,13 @@ class Programme:
         """
         m = self.motion()
         out = []
-        for key, lim, unit, scale in (
-                ("acceleration", limits.max_acceleration, "g", 1.0 / G),
-                ("velocity", limits.max_velocity, "m/s", 1.0),
-                ("displacement", limits.max_displacement, "mm", 1e3)):
+        for key, word, lim, unit, scale in (
+                ("acceleration", "acceleration", limits.max_acceleration, "g", 1.0 / G),
+                ("velocity", "velocity", limits.max_velocity, "m/s", 1.0),
+                ("displacement", "stroke", limits.max_displacement, "mm", 1e3)):
             if m[key] > lim * (1 + 1e-9):
-                out.append(f"peak {key} {m[key] * scale:.3g} {unit} exceeds the shaker's "
-                           f"{lim * scale:.3g} {unit}")
+                out.append(f"peak {word} {m[key] * scale:.4g} {unit} exceeds the shaker's "
+                           f"{lim * scale:.4g} {unit}")
         if max_duration is not None and self.duration > max_duration:
             out.append(f"duration {self.duration:.0f} s exceeds the shaker's "
                        f"{max_duration:.0f} s")
