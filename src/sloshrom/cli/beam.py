@@ -319,7 +319,7 @@ def _run_cases(models: dict[str, Any], label: str,
             fail(f"{label}: {exc}")
 
 
-def _echo_missing(rows: Sequence[Mapping[str, float | int | str]], what: str) -> None:
+def echo_missing(rows: Sequence[Mapping[str, float | int | str]], what: str) -> None:
     """Every cell of a damping table without a value, with its reason (never a silent NaN),
     and the values a fallback attempt or part of an ensemble's members gave."""
     from sloshrom.beam.results import missing_cells
@@ -490,7 +490,7 @@ def free(
         write_table(bands, out / "damping_bands", batch)
         for name, fig in figs.items():
             savefig(fig, out / f"{name}.png", batch)
-    _echo_missing(bands, "damping bands")
+    echo_missing(bands, "damping bands")
     typer.echo(f"wrote {len(res)} result file(s) and figures to {out}")
 
 
@@ -590,5 +590,5 @@ def random(
         write_table(rows, out / "table2_mode1_damping", batch)
         for name, fig in random_figures(ref, lv, random_window(duration)).items():
             savefig(fig, out / f"{name}.png", batch)
-    _echo_missing(rows, "Table 2")
+    echo_missing(rows, "Table 2")
     typer.echo(f"wrote {len(res)} result file(s), Table 2 and figures to {out}")
