@@ -192,7 +192,8 @@ def test_damping_band_table_in_g_and_summary_unchanged():
                        log_decrement=log_decrement(x, FS, F1))
     free = {"rig": {"tank_acceleration": x}}
     rows = damping_band_table(free, {"rig": decay}, F1)
-    assert list(rows[0]) == ["case", "band", "method", "zeta", "std", "low", "high", "n_cycles"]
+    assert list(rows[0]) == ["case", "band", "method", "zeta", "std", "low", "high", "n_cycles",
+                            "reason"]
     assert {r["band"] for r in rows} == {"0.5-1 g", "1-2 g", "2-3 g", "3-5 g"}
     summary = damping_summary(free, {"rig": decay})["rig"]
     hilbert = {r["band"]: r["zeta"] for r in rows if r["method"] == "hilbert"}

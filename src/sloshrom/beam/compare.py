@@ -12,13 +12,17 @@ predictions beside the measurement with a verdict per level (or band) and estima
   (``no interval`` when the measurement has none, ``n/a`` when an estimate is missing);
 * ``z``: the difference in units of the standard deviation of the difference of two uncertain
   numbers, ``(zeta_p - zeta_m) / sqrt(std_m^2 + std_p^2)``; ``consistent`` when ``|z| <= z_c``
-  (1.96 at 95 %).
+  (1.96 at 95 %). For an ensemble ROM ``std_p`` is its combined standard deviation (the
+  members' estimation error and their spread, ``sloshrom.beam.members``);
+* ``reason``: why a verdict is ``n/a`` or ``no interval``, or ``z`` is missing (the
+  estimates' own reasons); ``""`` otherwise.
 
 Pure functions: datasets and dicts in, rows out; no files are read or written here.
 """
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -158,6 +162,13 @@ def analyse_test(ds: xr.Dataset, case: str | None = None) -> AnalysedTest:
     """
     res, psi = test_from_dataset(ds)
     name = str(case or ds.attrs.get("case", "test"))
+    if ds.attrs.get("n_members"):
+        # the file holds the members' mean response only: its estimates are not the mean of
+        # the members' estimates (the ROM's values of the run that wrote it)
+        warnings.warn(f"{name}: the result of an ensemble's {int(ds.attrs['n_members'])} "
+                      "members is their mean response; analysed again it gives the estimates "
+                      "of that mean, not the mean of the members' estimates of the run's "
+                      "Table 2 (docs/beam.md)", UserWarning, stacklevel=2)
     f1, kind = float(ds.attrs["f1_Hz"]), str(ds.attrs["test"])
     if kind == "free":
         decay = mode1_decay(res, psi, f1)
@@ -200,16 +211,22 @@ def match_levels(measured: Sequence[float], predicted: Sequence[float],
 
 
 def _verdict(zm: float, lo: float, hi: float, sm: float, zp: float, sp: float,
-             z_crit: float) -> dict[str, Any]:
-    if not (np.isfinite(zm) and np.isfinite(zp)):
-        return {"verdict": "n/a", "z": float("nan"), "consistent": "n/a"}
-    verdict = ("no interval" if not (np.isfinite(lo) and np.isfinite(hi))
-               else "inside" if lo <= zp <= hi else "outside")
+             z_crit: float, why_m: str = "", why_p: str = "") -> dict[str, Any]:
+    missing = [f"{who}: {why or 'no estimate'}" for who, v, why in
+               (("measured", zm, why_m), ("predicted", zp, why_p)) if not np.isfinite(v)]
+    if missing:
+        return {"verdict": "n/a", "z": float("nan"), "consistent": "n/a",
+                "reason": "; ".join(missing)}
+    no_interval = not (np.isfinite(lo) and np.isfinite(hi))
+    verdict = "no interval" if no_interval else "inside" if lo <= zp <= hi else "outside"
+    reason = f"measured: {why_m or 'no interval'}" if no_interval else ""
     var = sum(s**2 for s in (sm, sp) if np.isfinite(s))
     if var == 0:  # neither estimate states its uncertainty
-        return {"verdict": verdict, "z": float("nan"), "consistent": "n/a"}
+        return {"verdict": verdict, "z": float("nan"), "consistent": "n/a",
+                "reason": reason or "neither estimate states its standard deviation"}
     z = float((zp - zm) / np.sqrt(var))
-    return {"verdict": verdict, "z": z, "consistent": "yes" if abs(z) <= z_crit else "no"}
+    return {"verdict": verdict, "z": z, "consistent": "yes" if abs(z) <= z_crit else "no",
+            "reason": reason}
 
 
 def compare_rows(measured: AnalysedTest, predicted: Sequence[AnalysedTest],
@@ -232,7 +249,7 @@ def compare_rows(measured: AnalysedTest, predicted: Sequence[AnalysedTest],
         Random tests: ``rms_g``, ``estimator``, ``measured``, ``measured_low``,
         ``measured_high``, ``case``, ``predicted``, ``predicted_low``, ``predicted_high``,
         ``difference`` (relative, -), ``verdict`` (inside/outside the measured interval),
-        ``z`` and ``consistent`` (see the module docstring). Free decays: ``band`` and
+        ``z``, ``consistent`` and ``reason`` (see the module docstring). Free decays: ``band`` and
         ``method`` instead of ``rms_g`` and ``estimator``. Damping ratios are in -.
 
     Raises
@@ -279,11 +296,14 @@ def compare_rows(measured: AnalysedTest, predicted: Sequence[AnalysedTest],
     return rows
 
 
-def _stats(ds: xr.Dataset, level: int, est: str) -> dict[str, float]:
+def _stats(ds: xr.Dataset, level: int, est: str) -> dict[str, float | str]:
     # one estimate of a Table 2 dataset with the names of a band row
     e = ds.isel(level=level).sel(estimator=est)
-    return {"zeta": float(e["value"]), "std": float(e["std"]), "low": float(e["low"]),
-            "high": float(e["high"])}
+    out: dict[str, float | str] = {"zeta": float(e["value"]), "std": float(e["std"]),
+                           "low": float(e["low"]), "high": float(e["high"])}
+    if "reason" in e:
+        out["reason"] = str(e["reason"].values)
+    return out
 
 
 def _row(head: dict[str, Any], m: Mapping[str, Any], case: str, p: Mapping[str, Any],
@@ -299,5 +319,5 @@ def _row(head: dict[str, Any], m: Mapping[str, Any], case: str, p: Mapping[str, 
             "predicted_low": g(p, "low"), "predicted_high": g(p, "high"),
             "difference": diff,
             **_verdict(zm, g(m, "low"), g(m, "high"), g(m, "std"), zp, g(p, "std"),
-                       z_crit)}
+                       z_crit, str(m.get("reason", "") or ""), str(p.get("reason", "") or ""))}
 

@@ -3,12 +3,19 @@ Table 1/Table 2 rows and the result files (NetCDF datasets, CSV/Markdown tables)
 
 Shared by ``sloshrom beam`` and the ``beam`` stage of ``sloshrom reproduce``, so that both
 analyse and write their results the same way.
+
+A case whose model is a :class:`sloshrom.beam.members.Members` (an ensemble ROM) couples each
+member alone: its result is the member-mean response with the members' results under
+``"members"``, and every damping analysis here (:func:`mode1_decay`, :func:`damping_summary`,
+:func:`damping_band_table`, :func:`mode1_damping_table`, :func:`mode1_damping_dataset`) gives
+the mean of the members' estimates with their combined uncertainty
+(``sloshrom.beam.members``).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +27,15 @@ from sloshrom.beam.analysis import (
     instantaneous_damping,
     log_decrement,
     modal_filter,
+)
+from sloshrom.beam.members import (
+    Cell,
+    Members,
+    Row,
+    combine_band_rows,
+    combine_estimates,
+    combine_table2_rows,
+    mean_result,
 )
 from sloshrom.beam.registry import ESTIMATORS, TABLE2, estimator_names, label
 from sloshrom.beam.structure import (
@@ -45,13 +61,13 @@ __all__ = [
     "envelope_table",
     "frozen_modes_table",
     "modal_accelerations", "mode1_damping_dataset", "mode1_damping_table", "mode1_decay",
-    "case_output_fs", "table2_dataset",
+    "case_output_fs", "member_damping_tables", "missing_cells", "table2_dataset",
     "reference_tank", "simulate_cases", "to_dataset", "write_dataset", "write_table",
 ]
 
 #: A simulation of one case: ``simulate(model, output_fs)`` returns the result dict of
 #: ``sloshrom.beam.coupled.free_response``/``random_response``; ``model`` is one sloshing
-#: model or one per tank.
+#: model or one per tank (a member of a :class:`~sloshrom.beam.members.Members` is either).
 Simulate = Callable[[Any, float | None], dict[str, Any]]
 
 
@@ -62,6 +78,8 @@ def case_output_fs(model: SloshingModel | Sequence[SloshingModel], fs: float) ->
     A fast model (the rig at 10 kHz) is decimated to the sensors' rate ``fs``; a model running at
     ``fs`` or below keeps its own step. With one model per tank, the fastest decides.
     """
+    if isinstance(model, Members):  # the members run at one step (one ROM)
+        return case_output_fs(model.models[0], fs)
     models = model if isinstance(model, (list, tuple)) else [model]
     return fs if max(1.0 / m.dt for m in models) > fs else None
 
@@ -73,7 +91,11 @@ def simulate_cases(models: Mapping[str, Any], simulate: Simulate, fs: float,
     Parameters
     ----------
     models : mapping
-        Case name -> sloshing model, or a list of them (one per tank).
+        Case name -> sloshing model, or a list of them (one per tank), or a
+        :class:`~sloshrom.beam.members.Members`: each member simulated alone (one at a time,
+        each as fast as a single model), the case's result their
+        :func:`~sloshrom.beam.members.mean_result` (the members' results under
+        ``"members"``).
     simulate : callable
         ``simulate(model, output_fs)`` -> result dict.
     fs : float
@@ -90,7 +112,11 @@ def simulate_cases(models: Mapping[str, Any], simulate: Simulate, fs: float,
     for case, model in models.items():
         if on_case is not None:
             on_case(case)
-        results[case] = simulate(model, case_output_fs(model, fs))
+        out_fs = case_output_fs(model, fs)
+        if isinstance(model, Members):
+            results[case] = mean_result([simulate(m, out_fs) for m in model.models])
+        else:
+            results[case] = simulate(model, out_fs)
     return results
 
 
@@ -118,11 +144,16 @@ class Mode1Decay:
         acceleration amplitude (``amplitude`` in m/s^2, ``zeta`` -).
     log_decrement : dict
         ``sloshrom.beam.analysis.log_decrement`` of mode 1, same reference.
+    members : list of Mode1Decay
+        For the mean response of an ensemble's members (a result with ``"members"``): each
+        member's own analysis, in order (the damping tables average their estimates); empty
+        otherwise.
     """
 
     modal: np.ndarray
     hilbert: dict[str, np.ndarray]
     log_decrement: dict[str, np.ndarray]
+    members: list[Mode1Decay] = field(default_factory=list)
 
 
 def mode1_decay(res: Mapping[str, Any], modal: ModalModel | np.ndarray,
@@ -132,7 +163,8 @@ def mode1_decay(res: Mapping[str, Any], modal: ModalModel | np.ndarray,
     Parameters
     ----------
     res : mapping
-        A free response (``sloshrom.beam.coupled.free_response``).
+        A free response (``sloshrom.beam.coupled.free_response``); with ``"members"``, each
+        member is analysed as well (:attr:`Mode1Decay.members`).
     modal : ModalModel or ndarray (n_stations, n_modes)
         The beam's modal model, or its mode shapes at the stations.
     f1 : float
@@ -149,6 +181,7 @@ def mode1_decay(res: Mapping[str, Any], modal: ModalModel | np.ndarray,
         modal=q,
         hilbert=instantaneous_damping(q[:, 0], res["fs"], f1, reference=ref),
         log_decrement=log_decrement(q[:, 0], res["fs"], f1, reference=ref),
+        members=[mode1_decay(m, modal, f1) for m in res.get("members", ())],
     )
 
 
@@ -167,14 +200,30 @@ def damping_by_band(zeta: np.ndarray, amplitude_g: np.ndarray) -> dict[str, floa
 def damping_summary(free: Mapping[str, Mapping[str, Any]],
                     decays: Mapping[str, Mode1Decay]) -> dict[str, dict[str, float]]:
     """Per case: the banded median first-mode damping (:func:`damping_by_band`) and
-    ``initial_tank_acceleration_g``, the largest tank acceleration of the free response (g)."""
+    ``initial_tank_acceleration_g``, the largest tank acceleration of the free response (g).
+
+    An ensemble's case (a result with ``"members"``): each value the mean over the members
+    that have one (NaN: none has)."""
     out: dict[str, dict[str, float]] = {}
     for case, r in free.items():
+        members = r.get("members")
+        if members:
+            per = damping_summary({str(k): m for k, m in enumerate(members)},
+                                  {str(k): d for k, d in enumerate(decays[case].members)})
+            out[case] = {key: _nanmean([v[key] for v in per.values()])
+                         for key in next(iter(per.values()))}
+            continue
         h = decays[case].hilbert
         out[case] = damping_by_band(h["zeta"], h["amplitude"] / G)
         out[case]["initial_tank_acceleration_g"] = float(np.max(np.abs(r["tank_acceleration"]))
                                                          / G)
     return out
+
+
+def _nanmean(values: Sequence[float]) -> float:
+    # the mean of the finite values; NaN for none
+    v = np.asarray(values, dtype=float)
+    return float(np.mean(v[np.isfinite(v)])) if np.isfinite(v).any() else float("nan")
 
 
 def damping_band_table(free: Mapping[str, Mapping[str, Any]],
@@ -183,10 +232,23 @@ def damping_band_table(free: Mapping[str, Mapping[str, Any]],
 
     One row per case, band of :data:`BANDS` and method (``sloshrom.beam.uncertainty.
     band_damping``): ``case``, ``band``, ``method`` (``hilbert`` or ``log_decrement``), ``zeta``,
-    ``std``, ``low``, ``high`` (damping ratio, -; interval at 95 %) and ``n_cycles`` (-).
+    ``std``, ``low``, ``high`` (damping ratio, -; interval at 95 %), ``n_cycles`` (-) and
+    ``reason`` (``""`` when the value and its interval exist, else why not).
+
+    An ensemble's case (its decay with :attr:`Mode1Decay.members`): the members' rows combined
+    (``sloshrom.beam.members.combine_band_rows``: mean of the members' estimates, their
+    spread and combined interval, with ``note``, ``spread`` and ``members`` columns).
     """
-    return [{"case": case, **row} for case in free
-            for row in band_damping(decays[case].hilbert, decays[case].log_decrement, f1)]
+    rows: list[Row] = []
+    for case in free:
+        d = decays[case]
+        if d.members:
+            rows += combine_band_rows(case, [band_damping(m.hilbert, m.log_decrement, f1)
+                                             for m in d.members])
+        else:
+            rows += [{"case": case, **row}
+                     for row in band_damping(d.hilbert, d.log_decrement, f1)]
+    return rows
 
 
 def _random_damping(random: Mapping[str, Mapping[str, Any]], levels: Sequence[float], f1: float,
@@ -198,9 +260,31 @@ def _random_damping(random: Mapping[str, Mapping[str, Any]], levels: Sequence[fl
             for case, r in random.items() for i in range(len(levels))]
 
 
+def member_damping_tables(random: Mapping[str, Mapping[str, Any]], levels: Sequence[float],
+                          f1: float, max_tank_acceleration: bool = False,
+                          estimators: Sequence[str] | None = None
+                          ) -> dict[str, list[list[Row]]]:
+    """Table 2 of each member of every ensemble case (a result with ``"members"``).
+
+    Returns
+    -------
+    dict
+        Case -> per member (in order) its rows of :func:`mode1_damping_table` (case
+        ``member0``, ``member1``, ...), one per level. Give it to :func:`mode1_damping_table`
+        (``member_rows``) so that the members are analysed once, for the ROM's row and for
+        their own figures.
+    """
+    return {case: [mode1_damping_table({f"member{k}": m}, levels, f1, max_tank_acceleration,
+                                       estimators)
+                   for k, m in enumerate(r["members"])]
+            for case, r in random.items() if r.get("members")}
+
+
 def mode1_damping_table(random: Mapping[str, Mapping[str, Any]], levels: Sequence[float],
                         f1: float, max_tank_acceleration: bool = False,
-                        estimators: Sequence[str] | None = None) -> list[dict[str, Any]]:
+                        estimators: Sequence[str] | None = None,
+                        member_rows: Mapping[str, list[list[Row]]] | None = None
+                        ) -> list[dict[str, Any]]:
     """Paper Table 2: first-mode damping of every random response, one row per case and level,
     each estimate with its standard deviation and interval.
 
@@ -208,18 +292,33 @@ def mode1_damping_table(random: Mapping[str, Mapping[str, Any]], levels: Sequenc
     ``max_tank_acceleration``), then those of ``sloshrom.beam.uncertainty.random_damping``
     (Table 2's flat columns, ``uncertainty.table2_columns``, a file contract: every
     estimator's value, with the bootstrapped ones corrected for their bias, the uncorrected
-    values, and ``{est}_std``, ``{est}_low``, ``{est}_high``). ``estimators``: registered names
-    (default ``registry.TABLE2``). The same as a Dataset: :func:`mode1_damping_dataset`;
-    :func:`table2_dataset` turns the rows of a case into one.
+    values, and ``{est}_std``, ``{est}_low``, ``{est}_high``, ``{est}_reason``,
+    ``{est}_note``). ``estimators``: registered names (default ``registry.TABLE2``). The same
+    as a Dataset: :func:`mode1_damping_dataset`; :func:`table2_dataset` turns the rows of a
+    case into one.
+
+    An ensemble's case (a result with ``"members"``): each member's rows
+    (:func:`member_damping_tables`, or ``member_rows[case]`` when given: the members are not
+    analysed again) combined level by level (``sloshrom.beam.members.combine_table2_rows``):
+    every column the mean over the members, every estimate the mean of the members'
+    estimates with the combined standard deviation and interval, plus ``{est}_spread`` (-),
+    ``{est}_members`` and ``n_members``. Rows of several cases may then hold different
+    columns (:func:`write_table` writes their union).
     """
-    rows = []
-    for case, i, d in _random_damping(random, levels, f1, estimators):
-        r = random[case]
-        row: dict[str, Any] = {"case": case, "rms_g": levels[i]}
-        if max_tank_acceleration:
-            row["max_tank_acceleration_g"] = float(np.max(np.abs(r["tank_acceleration"][i]))
-                                                   / G)
-        rows.append({**row, **table2_columns(d)})
+    member_rows = dict(member_rows or {})
+    rows: list[Row] = []
+    for case, r in random.items():
+        if r.get("members"):
+            per = member_rows.get(case) or member_damping_tables(
+                {case: r}, levels, f1, max_tank_acceleration, estimators)[case]
+            rows += [combine_table2_rows(case, [m[i] for m in per]) for i in range(len(levels))]
+            continue
+        for _, i, d in _random_damping({case: r}, levels, f1, estimators):
+            row: Row = {"case": case, "rms_g": levels[i]}
+            if max_tank_acceleration:
+                row["max_tank_acceleration_g"] = float(
+                    np.max(np.abs(r["tank_acceleration"][i])) / G)
+            rows.append({**row, **table2_columns(d)})
     return rows
 
 
@@ -233,16 +332,48 @@ def mode1_damping_dataset(random: Mapping[str, Mapping[str, Any]], levels: Seque
     xarray.Dataset
         The variables of ``sloshrom.beam.uncertainty.damping_dataset`` (``value``, ``std``,
         ``low``, ``high``, ``uncorrected``, ``iqr`` (-), ``frequency`` (Hz), ``n_poles``,
-        ``reason``) with dimensions ``(case, level, estimator)``; ``noise_input``,
-        ``noise_output``, ``n_cycles`` (-) and ``duration_s`` (s) over ``(case, level)``.
+        ``reason``, ``note``) with dimensions ``(case, level, estimator)``; ``noise_input``,
+        ``noise_output``, ``n_cycles`` (-) and ``duration_s`` (s) over ``(case, level)``. An
+        ensemble's case: the mean of its members' estimates with their combined uncertainty
+        (``sloshrom.beam.members``; the other variables the members' mean).
     """
-    per = {(case, i): d.to_dataset()
-           for case, i, d in _random_damping(random, levels, f1, estimators)}
+    per: dict[tuple[str, int], xr.Dataset] = {}
+    for case, r in random.items():
+        if not r.get("members"):
+            per.update({(case, i): d.to_dataset()
+                        for _, i, d in _random_damping({case: r}, levels, f1, estimators)})
+            continue
+        members = [[d.to_dataset() for _, _, d in _random_damping({"m": m}, levels, f1,
+                                                                  estimators)]
+                   for m in r["members"]]
+        per.update({(case, i): _combined_dataset([m[i] for m in members])
+                    for i in range(len(levels))})
     cases = list(random)
     return xr.concat(
         [xr.concat([per[(c, i)] for i in range(len(levels))], dim="level")
          for c in cases], dim="case", coords="minimal", compat="override",
     ).assign_coords(case=cases, level=("level", [float(x) for x in levels], {"units": "g"}))
+
+
+def _combined_dataset(dss: Sequence[xr.Dataset]) -> xr.Dataset:
+    # the members' damping datasets of one level as the ensemble's: every estimate combined
+    # (sloshrom.beam.members.combine_estimates), the other numbers the members' mean
+    names = list(dss[0].estimator.values)
+    out = xr.concat([d.drop_vars(["reason", "note"]) for d in dss], dim="member",
+                    coords="minimal", compat="override").mean("member")
+    def col(v: str, e: str) -> list[float]:
+        return [float(d[v].sel(estimator=e)) for d in dss]
+
+    combined = [combine_estimates(col("value", e), col("std", e), col("low", e), col("high", e),
+                                  [str(d["reason"].sel(estimator=e).values) for d in dss],
+                                  [str(d["note"].sel(estimator=e).values) for d in dss])
+                for e in names]
+    for v, k in (("value", "zeta"), ("std", "std"), ("low", "low"), ("high", "high")):
+        out[v] = ("estimator", np.array([getattr(c, k) for c in combined]), dss[0][v].attrs)
+    for v in ("reason", "note"):
+        out[v] = ("estimator", np.array([getattr(c, v) for c in combined], dtype=object))
+    out.attrs = dict(dss[0].attrs)
+    return out
 
 
 def table2_dataset(rows: Sequence[Mapping[str, Any]]) -> xr.Dataset:
@@ -255,7 +386,9 @@ def table2_dataset(rows: Sequence[Mapping[str, Any]]) -> xr.Dataset:
         Dimensions ``level`` (coordinate: ``rms_g``, g) and ``estimator`` (coordinates: the
         names, ``registry.TABLE2`` first and then every other registered estimator that a row
         holds, and ``label``); variables ``value``, ``std``, ``low``, ``high`` (damping ratio,
-        -; NaN where a row lacks the column).
+        -; NaN where a row lacks the column), ``spread`` (-: the standard deviation over an
+        ensemble's members, NaN for a single model), ``reason`` and ``note`` (str; ``""``
+        where a row lacks the column, as rows written before these columns existed).
     """
     keys = set().union(*(r.keys() for r in rows)) if rows else set()
     names = [*TABLE2, *(n for n in ESTIMATORS if n not in TABLE2 and n in keys)]
@@ -265,11 +398,17 @@ def table2_dataset(rows: Sequence[Mapping[str, Any]]) -> xr.Dataset:
         return np.array([[float(r.get(n + suffix, nan)) for n in names] for r in rows],
                         dtype=float).reshape(len(rows), len(names))
 
+    def text(suffix: str) -> np.ndarray:
+        return np.array([[str(r.get(n + suffix, "") or "") for n in names] for r in rows],
+                        dtype=object).reshape(len(rows), len(names))
+
     dims = ("level", "estimator")
     return xr.Dataset(
         {"value": (dims, column(""), {"units": "1"}), "std": (dims, column("_std"), {"units": "1"}),
          "low": (dims, column("_low"), {"units": "1"}),
-         "high": (dims, column("_high"), {"units": "1"})},
+         "high": (dims, column("_high"), {"units": "1"}),
+         "spread": (dims, column("_spread"), {"units": "1"}),
+         "reason": (dims, text("_reason")), "note": (dims, text("_note"))},
         coords={"level": ("level", [float(r["rms_g"]) for r in rows], {"units": "g"}),
                 "estimator": names, "label": ("estimator", [label(n) for n in names])})
 
@@ -337,6 +476,10 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank | Sequen
         names) has only the variables it holds (base, station and tank accelerations; no
         forces, no ``q``), one tank (the reference) and the attribute ``source``. The
         attribute ``origin`` is ``"measured"`` or ``"simulation"``.
+
+        An ensemble's case (a result with ``"members"``, each member coupled alone): the
+        variables hold the member-mean response, the attribute ``n_members`` the number of
+        members.
     """
     measured = "source" in res
     multi = modal.psi_tank.ndim == 2 and (
@@ -378,6 +521,8 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank | Sequen
     )
     if f1 is not None:
         ds.attrs["f1_Hz"] = float(f1)
+    if res.get("members"):  # the member-mean response of an ensemble's members coupled alone
+        ds.attrs["n_members"] = len(res["members"])
     if measured:
         ds.attrs["source"] = "; ".join(str(s) for s in res["source"])
     if multi:
@@ -416,11 +561,13 @@ def reference_tank(res: Mapping[str, Any], tank: int = 0) -> dict[str, Any]:
 
     The first-mode analyses and figures read ``tank_acceleration`` as the amplitude axis and
     the response; with several tanks they use the reference tank's. A one-tank result is
-    returned unchanged.
+    returned unchanged; an ensemble's members (``"members"``) are seen through the same tank.
     """
     if np.ndim(res["tank_acceleration"]) == np.ndim(res["base_acceleration"]):
         return dict(res)
     out = dict(res)
+    if res.get("members"):
+        out["members"] = [reference_tank(m, tank) for m in res["members"]]
     for k in TANK_KEYS:
         out[k] = res[k][..., tank]
     for k in ("envelope_outside_fraction", "envelope_acceleration_ratio",
@@ -483,28 +630,80 @@ def write_dataset(ds: xr.Dataset, path: str | Path, batch: OutputBatch | None = 
 
 def write_table(rows: Sequence[Mapping[str, Any]], path_stem: str | Path,
                 batch: OutputBatch | None = None) -> tuple[Path, Path]:
-    """Write ``rows`` (dicts with the same keys) as ``<stem>.csv`` and ``<stem>.md``.
+    """Write ``rows`` (dicts) as ``<stem>.csv`` and ``<stem>.md``.
 
-    The CSV holds the values as Python prints them; the Markdown table rounds floats to four
-    significant digits. Returns both paths.
+    The columns are the union of the rows' keys, in the order they first appear (an ensemble's
+    rows add columns to Table 2); a row without a column has an empty cell. The CSV holds the
+    values as Python prints them, unquoted (a comma in a text, e.g. a reason, is written as a
+    semicolon, so that every line splits at its commas); the Markdown table rounds floats to
+    four significant digits. Returns both paths.
     """
-    keys = list(rows[0])
+    keys = list(dict.fromkeys(k for r in rows for k in r))
+
+    def cell(v: object) -> str:
+        # a text (a reason) keeps the file one value per comma: its commas become semicolons
+        return f"{v}".replace(",", ";").replace("\n", " ")
 
     def csv(tmp: str) -> None:
         with open(tmp, "w", encoding="utf-8") as fh:
             fh.write(",".join(keys) + "\n")
             for r in rows:
-                fh.write(",".join(f"{r[k]}" for k in keys) + "\n")
+                fh.write(",".join(cell(r[k]) if k in r else "" for k in keys) + "\n")
 
     def md(tmp: str) -> None:
         def fmt(v: Any) -> str:
-            return f"{v:.4g}" if isinstance(v, float) else str(v)
+            return f"{v:.4g}" if isinstance(v, float) else str(v).replace("|", "/")
 
         with open(tmp, "w", encoding="utf-8") as fh:
             fh.write("| " + " | ".join(keys) + " |\n|" + "---|" * len(keys) + "\n")
             for r in rows:
-                fh.write("| " + " | ".join(fmt(r[k]) for k in keys) + " |\n")
+                fh.write("| " + " | ".join(fmt(r[k]) if k in r else "" for k in keys)
+                         + " |\n")
 
     write = batch.write if batch is not None else atomic_write
     stem = Path(path_stem)
     return write(stem.with_suffix(".csv"), csv), write(stem.with_suffix(".md"), md)
+
+
+def missing_cells(rows: Sequence[Mapping[str, Cell]],
+                  estimators: Sequence[str] | None = None) -> list[str]:
+    """Every Table 2 or free-decay band cell without a value, with its reason, as text lines.
+
+    Parameters
+    ----------
+    rows : sequence of mapping
+        Rows of :func:`mode1_damping_table` (``case``, ``rms_g``, ``{est}``, ``{est}_reason``)
+        or of :func:`damping_band_table` (``case``, ``band``, ``method``, ``zeta``,
+        ``reason``).
+    estimators : sequence of str, optional
+        The Table 2 columns to check (default: every registered estimator a row holds).
+
+    Returns
+    -------
+    list of str
+        E.g. ``"rom 0.4 g, LSCF on H1: — (no stable pole cluster in ...)"``; a value that a
+        fallback attempt or part of an ensemble's members gave is listed with its note. Empty
+        when every cell has a value from the primary procedure.
+    """
+    out = []
+    for r in rows:
+        # (what, value, reason, note) of each cell of the row
+        if "band" in r:
+            head = str(r.get("case", ""))
+            cells = [(f"{r['band']}, {label(str(r['method']))}", r.get("zeta"),
+                      str(r.get("reason", "")), str(r.get("note", "")))]
+        else:
+            head = f"{r.get('case', '')} {float(r['rms_g']):g} g"
+            names = estimators or [n for n in ESTIMATORS if n in r]
+            cells = [(label(n), r.get(n), str(r.get(f"{n}_reason", "")),
+                      str(r.get(f"{n}_note", ""))) for n in names]
+        for what, v, reason, note in cells:
+            try:
+                ok = bool(np.isfinite(float(v)))
+            except (TypeError, ValueError):
+                ok = False
+            if not ok:
+                out.append(f"{head}, {what}: — ({reason or 'no estimate'})")
+            elif note:
+                out.append(f"{head}, {what}: {100 * float(v):.3g} % ({note})")
+    return out

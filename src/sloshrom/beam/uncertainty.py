@@ -32,7 +32,12 @@ from threadpoolctl import threadpool_limits
 
 from sloshrom.beam.analysis import welch_psd
 from sloshrom.beam.errors import BeamError
-from sloshrom.beam.estimators import OUTPUT_ONLY_EFFICIENCY, DampingEstimate, RandomTest
+from sloshrom.beam.estimators import (
+    OUTPUT_ONLY_EFFICIENCY,
+    DampingEstimate,
+    RandomTest,
+    bootstrap_estimator,
+)
 from sloshrom.beam.registry import TABLE2, estimator_names, get_estimator, label
 from sloshrom.config import G
 
@@ -105,9 +110,10 @@ def _t(confidence: float, dof: float) -> float:
 
 # -- free decays ----------------------------------------------------------------------------------
 def _row(band: str, method: str, zeta: float, std: float, half: float,
-         n_cycles: float) -> dict[str, Any]:
+         n_cycles: float, reason: str = "") -> dict[str, Any]:
     return {"band": band, "method": method, "zeta": float(zeta), "std": float(std),
-            "low": float(zeta - half), "high": float(zeta + half), "n_cycles": float(n_cycles)}
+            "low": float(zeta - half), "high": float(zeta + half), "n_cycles": float(n_cycles),
+            "reason": reason}
 
 
 def band_damping(
@@ -163,7 +169,8 @@ def band_damping(
     list of dict
         One row per band and method (Hilbert first): ``band`` (e.g. ``"1-2 g"``), ``method``
         (``"hilbert"`` or ``"log_decrement"``), ``zeta``, ``std``, ``low``, ``high`` (damping
-        ratio, -) and ``n_cycles`` (cycles of the band, -). A Hilbert band shorter than one
+        ratio, -), ``n_cycles`` (cycles of the band, -) and ``reason`` (``""`` when the value
+        and its interval exist, else why not). A Hilbert band shorter than one
         smoothing window keeps its median (as :func:`sloshrom.beam.results.damping_by_band`,
         more than 10 samples) with NaN ``std``/``low``/``high``: no interval; NaN throughout
         where the band has too little data (10 samples or fewer, fewer than 3 peaks).
@@ -199,9 +206,14 @@ def band_damping(
         elif np.count_nonzero(sel) > 10:
             # shorter than one smoothing window: the samples are one estimate, with no
             # independent values to state its scatter (the median of damping_by_band)
-            rows.append(_row(name, "hilbert", float(np.median(zh[sel])), nan, nan, n_cyc))
+            rows.append(_row(name, "hilbert", float(np.median(zh[sel])), nan, nan, n_cyc,
+                             f"no interval: the band holds {n_cyc:.2g} cycles, fewer than the "
+                             f"{smooth_periods:g} of one smoothing window (its samples are one "
+                             "estimate)"))
         else:
-            rows.append(_row(name, "hilbert", nan, nan, nan, n_cyc))
+            rows.append(_row(name, "hilbert", nan, nan, nan, n_cyc,
+                             f"the decay has {np.count_nonzero(sel)} sample(s) in the band, "
+                             "10 or fewer (it does not pass through it)"))
         sp = (ap >= lo) & (ap < hi)
         t, y = tp[sp], lp[sp]
         if t.size >= 3:
@@ -220,7 +232,9 @@ def band_damping(
             half = _t(confidence, t.size - 2) * std
             rows.append(_row(name, "log_decrement", z, std, half, n_cyc_p))
         else:
-            rows.append(_row(name, "log_decrement", nan, nan, nan, max(t.size - 1, 0)))
+            rows.append(_row(name, "log_decrement", nan, nan, nan, max(t.size - 1, 0),
+                             f"{t.size} peak(s) in the band, fewer than the 3 a slope and its "
+                             "error need"))
     return rows
 
 
@@ -375,6 +389,8 @@ def estimate_random(
     ests = {n: get_estimator(n) for n in names}
     raw = {n: e.estimate(test) for n, e in ests.items()}
     boot = [n for n in names if ests[n].uncertainty == "bootstrap"]
+    # the simulated records are analysed by the procedure (attempt) that gave the value
+    boot_ests = {n: bootstrap_estimator(ests[n], raw[n]) for n in boot}
     duration = test.duration
     out: dict[str, DampingEstimate] = {}
 
@@ -393,7 +409,7 @@ def estimate_random(
             u, y = _simulate(f_mode, zeta_model, fs, test.base.size, n_resamples, noise, rng)
             sims = RandomTest(u, y, fs, f1, rel_band=rel_band, nperseg=test.nperseg)
             for n in boot:
-                v = ests[n].estimate_records(sims)
+                v = boot_ests[n].estimate_records(sims)
                 v = v[np.isfinite(v)]
                 if v.size >= max(2, n_resamples // 2):  # else the mode is mostly lost
                     bias[n], spread[n] = v.mean() - zeta_model, v.std(ddof=1)
@@ -495,6 +511,7 @@ class RandomDamping:
             k: ("estimator", np.array([getattr(x, k) for x in e]), {"units": u})
             for k, u in _FIELDS.items()}
         var["reason"] = ("estimator", np.array([x.reason for x in e], dtype=object), {})
+        var["note"] = ("estimator", np.array([x.note for x in e], dtype=object), {})
         var.update({k: ((), getattr(self, k), {"units": u}) for k, u in
                     (("noise_input", "1"), ("noise_output", "1"), ("duration_s", "s"),
                      ("n_cycles", "1"))})
@@ -520,8 +537,9 @@ def damping_dataset(base: Any, tank: Any, fs: float, f1: float, **kw: Any) -> xr
     xarray.Dataset
         Dimension ``estimator`` (coordinates: the names, and ``label``); variables ``value``,
         ``std``, ``low``, ``high``, ``uncorrected``, ``iqr`` (damping ratio, -),
-        ``frequency`` (Hz), ``n_poles`` and ``reason`` (str, ``""`` where the value and its
-        interval exist); scalars ``noise_input``, ``noise_output`` (-), ``duration_s`` (s),
+        ``frequency`` (Hz), ``n_poles``, ``reason`` (str, ``""`` where the value and its
+        interval exist) and ``note`` (str, ``""`` unless a fallback attempt gave the value);
+        scalars ``noise_input``, ``noise_output`` (-), ``duration_s`` (s),
         ``n_cycles`` (-); attribute ``confidence``.
     """
     return estimate_random(base, tank, fs, f1, **kw).to_dataset()
@@ -537,7 +555,9 @@ def table2_columns(result: RandomDamping) -> dict[str, Any]:
     bootstrapped values, the noise ratios, ``{est}_std``/``_low``/``_high`` (bootstrapped
     estimators first), ``duration_s``, ``n_cycles``. Any other estimator asked follows:
     ``{est}``, ``{est}_std``, ``{est}_low``, ``{est}_high``, ``frequency_{est}``,
-    ``{est}_uncorrected``.
+    ``{est}_uncorrected``. Last, for every estimator, ``{est}_reason`` (``""`` when the value and
+    its interval exist, else why not: a cell is never a silent NaN) and ``{est}_note`` (``""``
+    unless the value comes from a fallback attempt, which it names).
     """
     e = result.estimates
     legacy = [n for n in TABLE2 if n in e]
@@ -558,6 +578,8 @@ def table2_columns(result: RandomDamping) -> dict[str, Any]:
         if n not in legacy:
             out.update({n: x.value, f"{n}_std": x.std, f"{n}_low": x.low, f"{n}_high": x.high,
                         f"frequency_{n}": x.frequency, f"{n}_uncorrected": x.uncorrected})
+    for n, x in e.items():
+        out.update({f"{n}_reason": x.reason, f"{n}_note": x.note})
     return out
 
 

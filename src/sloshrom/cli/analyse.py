@@ -30,6 +30,7 @@ from sloshrom.cli.beam import (
     TankOpt,
     TankSpecOpt,
     check_outputs,
+    echo_missing,
     setup_structure,
 )
 from sloshrom.errors import SloshromError
@@ -197,6 +198,7 @@ def free(
         write_table(bands, out / "damping_bands", batch)
         for stem, fig in figs.items():
             savefig(fig, out / f"{stem}.png", batch)
+    echo_missing(bands, "damping bands")
     typer.echo(f"wrote free_{name}.nc, the damping bands and figures to {out}")
 
 
@@ -317,4 +319,5 @@ def random(
         write_table(rows, out / "table2_mode1_damping", batch)
         for stem, fig in figs.items():
             savefig(fig, out / f"{stem}.png", batch)
+    echo_missing(rows, "Table 2")
     typer.echo(f"wrote random_{name}.nc, Table 2 and figures to {out}")

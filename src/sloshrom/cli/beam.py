@@ -12,7 +12,7 @@ inside the commands, so that ``sloshrom --help`` does not load JAX, xarray and m
 from __future__ import annotations
 
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -290,11 +290,15 @@ def check_outputs(out: Path, names: list[str], inputs: tuple[Path | None, ...]) 
 
 def _run_cases(models: dict[str, Any], label: str,
                simulate: Callable[[Any, float | None], dict]) -> dict[str, dict]:
-    """Simulate every case at the beam's result rate, with a spinner per case."""
+    """Simulate every case at the beam's result rate, with a spinner per case.
+
+    An ensemble ROM is coupled member by member (``sloshrom.pipeline.beam.coupled_model``):
+    its case is the mean of the members' responses and damping estimates."""
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
     from sloshrom.beam.coupled import SimulationDivergedError, StepMismatchError
     from sloshrom.beam.results import simulate_cases
+    from sloshrom.pipeline.beam import coupled_models
 
     current: list[tuple[str, Any]] = []
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
@@ -306,11 +310,25 @@ def _run_cases(models: dict[str, Any], label: str,
             current.append((case, progress.add_task(f"{label}: {case}", total=None)))
 
         try:
-            return simulate_cases(models, simulate, BEAM_FS, on_case)
+            return simulate_cases(coupled_models(models), simulate, BEAM_FS, on_case)
         except SimulationDivergedError as exc:  # a ROM far outside its training range
             fail(f"{label} with {current[-1][0]}: {exc}")
         except StepMismatchError as exc:  # e.g. a rig and a ROM in two tanks
             fail(f"{label} {current[-1][0]}: {exc}")
+        except SloshromError as exc:  # e.g. ensembles of different sizes in two tanks
+            fail(f"{label}: {exc}")
+
+
+def echo_missing(rows: Sequence[Mapping[str, float | int | str]], what: str) -> None:
+    """Every cell of a damping table without a value, with its reason (never a silent NaN),
+    and the values a fallback attempt or part of an ensemble's members gave."""
+    from sloshrom.beam.results import missing_cells
+
+    lines = missing_cells(rows)
+    if lines:
+        typer.echo(f"{what}, cells without a value or with a note:")
+        for line in lines:
+            typer.echo(f"  {line}")
 
 
 def _analysed(what: str, fn: Callable[[], Any]) -> Any:
@@ -472,6 +490,7 @@ def free(
         write_table(bands, out / "damping_bands", batch)
         for name, fig in figs.items():
             savefig(fig, out / f"{name}.png", batch)
+    echo_missing(bands, "damping bands")
     typer.echo(f"wrote {len(res)} result file(s) and figures to {out}")
 
 
@@ -571,4 +590,5 @@ def random(
         write_table(rows, out / "table2_mode1_damping", batch)
         for name, fig in random_figures(ref, lv, random_window(duration)).items():
             savefig(fig, out / f"{name}.png", batch)
+    echo_missing(rows, "Table 2")
     typer.echo(f"wrote {len(res)} result file(s), Table 2 and figures to {out}")

@@ -123,9 +123,13 @@ def compare(
     head = "rms_g" if kind == "random" else "band"
     what = "estimator" if kind == "random" else "method"
     for r in rows:
-        typer.echo(f"{r[head]} {r[what]}: {r['case']} {100 * r['predicted']:.3g} % "
+        # a missing estimate is never a silent nan: its reason instead of the number
+        pred = (f"{100 * r['predicted']:.3g} %" if math.isfinite(r["predicted"])
+                else "—")
+        why = f" ({r['reason']})" if r.get("reason") else ""
+        typer.echo(f"{r[head]} {r[what]}: {r['case']} {pred} "
                    f"{r['verdict']} [{100 * r['measured_low']:.3g}, "
                    f"{100 * r['measured_high']:.3g}] % of {tests[0].case} "
-                   f"(z = {r['z']:.2g})")
+                   f"(z = {r['z']:.2g}){why}")
     typer.echo(f"wrote the comparison of {len(tests) - 1} prediction(s) with {tests[0].case} "
                f"to {out}")

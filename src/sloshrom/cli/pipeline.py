@@ -8,10 +8,14 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
+
+if TYPE_CHECKING:  # rich loads at the command, not at --help
+    from rich.console import Console
 
 from sloshrom.cli._app import (
     app,
@@ -63,6 +67,20 @@ def config_show(
         typer.echo(settings.default_text())
         return
     typer.echo(json.dumps(load_config(config, quick).as_dict(), indent=1))
+
+
+def _print_missing(console: Console, beam: Mapping[str, object]) -> None:
+    """Table 2's and the damping bands' cells without a value (each with its reason), and the
+    values a fallback attempt or part of an ensemble's members gave (with their note)."""
+    from sloshrom.beam.results import missing_cells
+
+    for what, key in (("Table 2", "table2"), ("damping bands", "damping_bands")):
+        rows = beam.get(key)
+        lines = missing_cells(rows) if isinstance(rows, list) else []
+        if lines:
+            console.print(f"{what}, cells without a value or with a note:", markup=False)
+            for line in lines:
+                console.print(f"  {line}", markup=False, highlight=False)
 
 
 @app.command()
@@ -120,6 +138,7 @@ def reproduce(
     for name, st in summary["stages"].items():
         console.print(f"{name:7s} {'reused' if st['reused'] else 'done'}"
                       f" ({summary['timings_s'].get(name, 0.0):.1f} s)")
+    _print_missing(console, summary["stages"].get("beam") or {})
     console.print(f"report: {Path(out) / 'report.html'}   summary: {Path(out) / 'summary.json'}")
 
 

@@ -5,18 +5,23 @@ The rig plays the laboratory as well: its beam runs are written as the UFF 58 fi
 hands over (station and base accelerometers, with sensor noise), read back and analysed as a
 measurement (``sloshrom analyse``), and the predictions are compared with it, interval by
 interval (``sloshrom compare``).
+
+An ensemble ROM is coupled member by member (:func:`coupled_model`): the ROM's prediction is
+the mean of its members' responses and of their damping estimates, with their spread in its
+uncertainty (``sloshrom.beam.members``).
 """
 
 from __future__ import annotations
 
 import tempfile
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from sloshrom.beam.channels import station_model
 from sloshrom.beam.compare import analysed_test, compare_rows
 from sloshrom.beam.coupled import free_response, random_response
+from sloshrom.beam.errors import BeamError
 from sloshrom.beam.labfiles import lab_test_paths, write_lab_test
 from sloshrom.beam.measured import (
     check_free_decay,
@@ -24,13 +29,16 @@ from sloshrom.beam.measured import (
     read_free_test,
     read_random_test,
 )
-from sloshrom.beam.registry import REFERENCE
+from sloshrom.beam.members import Members, Row
+from sloshrom.beam.registry import REFERENCE, TABLE2
 from sloshrom.beam.results import (
+    Mode1Decay,
     Simulate,
     damping_band_table,
     damping_summary,
     envelope_table,
     frozen_modes_table,
+    member_damping_tables,
     mode1_damping_table,
     mode1_decay,
     simulate_cases,
@@ -41,7 +49,7 @@ from sloshrom.beam.results import (
 from sloshrom.beam.structure import CantileverBeam, ModalModel, coupled_frozen_modes
 from sloshrom.config import Tank
 from sloshrom.fileio import OutputBatch
-from sloshrom.models import FrozenLiquid, SloshingModel
+from sloshrom.models import FrozenLiquid
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.settings import BeamTable
 from sloshrom.plotting import savefig
@@ -55,8 +63,8 @@ from sloshrom.plotting.signals import base_excitation_figure
 from sloshrom.rom.ensemble import Ensemble, is_ensemble, spread
 from sloshrom.rom.estimators import load_model
 
-__all__ = ["BEAM_KEYS", "EXPERIMENT", "beam_structure", "beam_tests", "laboratory", "member_spread",
-           "stage_beam"]
+__all__ = ["BEAM_KEYS", "EXPERIMENT", "beam_structure", "beam_tests", "coupled_model",
+           "coupled_models", "laboratory", "member_spread", "stage_beam"]
 
 #: Case name of the rig playing the laboratory (its runs read back from the lab's files).
 EXPERIMENT = "experiment"
@@ -96,6 +104,39 @@ def beam_tests(cfg: BeamTable, modal: ModalModel, tank: Tank,
     }
 
 
+def coupled_model(model: object) -> object:
+    """A beam case's model as it is coupled to the structure.
+
+    An ensemble ROM (``sloshrom.rom.ensemble.Ensemble``) becomes its
+    :class:`~sloshrom.beam.members.Members`: each member coupled alone, the case's response the
+    members' mean (``sloshrom.beam.results.simulate_cases``), never the ensemble's mean force
+    in one closed loop. With one model per tank (a list), member k of every ensemble runs
+    together, the other tanks' models in every member's run; the ensembles must then have as
+    many members. Any other model is returned as it is.
+
+    Raises
+    ------
+    BeamError
+        Ensembles of different sizes in the tanks of one case.
+    """
+    if is_ensemble(model):
+        return Members(tuple(cast(Ensemble, model).members_))
+    if isinstance(model, (list, tuple)) and any(is_ensemble(m) for m in model):
+        ens = {i: cast(Ensemble, m) for i, m in enumerate(model) if is_ensemble(m)}
+        sizes = {len(e.members_) for e in ens.values()}
+        if len(sizes) > 1:
+            raise BeamError(f"the tanks' ensemble ROMs have {sorted(sizes)} members: coupling "
+                            "member by member needs as many members in each")
+        return Members(tuple([ens[i].members_[k] if i in ens else m
+                              for i, m in enumerate(model)] for k in range(sizes.pop())))
+    return model
+
+
+def coupled_models(models: Mapping[str, object]) -> dict[str, object]:
+    """:func:`coupled_model` of every case (case name -> model or list of models)."""
+    return {case: coupled_model(m) for case, m in models.items()}
+
+
 def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], list[str]]:
     """Free and random responses of the beam with frozen liquid, the rig and the ROM.
 
@@ -112,7 +153,9 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
         prediction against the experiment's intervals) and ``envelope`` (per run and case: peak
         tank acceleration against the model's training envelope,
         ``sloshrom.beam.results.envelope_table``; ``None`` = n/a for a model without an
-        envelope).
+        envelope). An ensemble ROM (each member coupled alone, :func:`coupled_model`): its
+        rows are the mean of the members' estimates with the combined uncertainty, and
+        ``rom_members`` (:func:`member_spread`) the members' own values.
     files : list of str
         ``beam/{free,random}_<case>.nc`` (with the envelope coverage,
         ``sloshrom.beam.results.to_dataset``; the experiment's too), the lab files
@@ -125,9 +168,9 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     out = ctx.out / "beam"
     out.mkdir(parents=True, exist_ok=True)
     beam, modal = beam_structure(cfg, tank)
-    models: dict[str, SloshingModel] = {"frozen": FrozenLiquid(1.0 / fs), "rig": ctx.rig()}
+    models: dict[str, object] = {"frozen": FrozenLiquid(1.0 / fs), "rig": ctx.rig()}
     if rom_path is not None:
-        models["rom"] = load_model(rom_path)
+        models["rom"] = coupled_model(load_model(rom_path))
     outputs: dict[str, Any] = {}
     f1 = float(coupled_frozen_modes(modal, tank.liquid_mass)[0][0])
     outputs["f1_frozen_hz"] = f1
@@ -150,7 +193,10 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
 
     decays = {case: mode1_decay(r, modal, f1) for case, r in free_res.items()}
     outputs["instantaneous_damping"] = damping_summary(free_res, decays)
-    table2 = mode1_damping_table(rand_res, cfg.rms_g, f1, max_tank_acceleration=True)
+    # the members' Table 2 once: the ROM's row and rom_members both read it
+    member_rows = member_damping_tables(rand_res, cfg.rms_g, f1, max_tank_acceleration=True)
+    table2 = mode1_damping_table(rand_res, cfg.rms_g, f1, max_tank_acceleration=True,
+                                 member_rows=member_rows)
     bands = damping_band_table(free_res, decays, f1)
     outputs["envelope"] = envelope_table({"free": free_res, "random": rand_res})
 
@@ -172,9 +218,9 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
         "free": compare_rows(exp_free, predicted_free),
         "random": compare_rows(exp_random, predicted_random)}
 
-    if is_ensemble(models.get("rom")):
-        outputs["rom_members"] = member_spread(models["rom"], tests, modal, cfg.rms_g, fs,
-                                               f1, ctx)
+    if "rom" in member_rows:
+        outputs["rom_members"] = member_spread(member_rows["rom"], free_res["rom"]["members"],
+                                               decays["rom"], cfg.rms_g)
 
     figs = {**free_figures(free_res, modal, decays),
             **random_figures(rand_res, cfg.rms_g, random_window(cfg.random_duration)),
@@ -250,28 +296,42 @@ def laboratory(free: Mapping[str, Any], random: Mapping[str, Any], modal: ModalM
             "random_result": res_random, "modal": lab_modal, "files": files}
 
 
-def member_spread(ens: Ensemble, tests: dict[str, Simulate], modal: ModalModel,
-                  levels: list[float], fs: float, f1: float,
-                  ctx: Context | None = None) -> dict[str, Any]:
-    """The beam tests (:func:`beam_tests`) with each member of an ensemble ROM alone.
+def member_spread(member_rows: list[list[Row]], free_members: Sequence[Mapping[str, object]],
+                  decay: Mode1Decay, levels: list[float]) -> dict[str, Any]:
+    """The beam tests of each member of an ensemble ROM alone, from the ROM's own results.
+
+    The members were coupled one at a time for the ROM's case (:func:`coupled_model`); their
+    results and estimates are reused here, not simulated or analysed again. The ``mean`` of
+    each spread is the ROM's value in Table 2 and in the free-decay summary (the mean over the
+    members that have a value).
+
+    Parameters
+    ----------
+    member_rows : list of list of dict
+        Per member, its Table 2 rows, one per level
+        (``sloshrom.beam.results.member_damping_tables``).
+    free_members : sequence of mapping
+        The members' free responses (``"members"`` of the ROM's).
+    decay : Mode1Decay
+        Its mode-1 analysis (with :attr:`~sloshrom.beam.results.Mode1Decay.members`).
+    levels : list of float
+        RMS levels, g.
 
     Returns
     -------
     dict
         ``table2``: per RMS level (g, as text) the spread (mean ± std over members,
-        ``sloshrom.rom.ensemble.spread``) of the first-mode damping ratio, LSCF on H1 (-);
-        ``instantaneous_damping``: per amplitude band the spread of the banded median
-        first-mode damping of the free response (-).
+        ``sloshrom.rom.ensemble.spread``, with every member's value) of the first-mode
+        damping ratio, LSCF on H1 (-); ``estimators``: the same for each of Table 2's
+        estimators (name -> level -> spread); ``instantaneous_damping``: per amplitude band
+        the spread of the banded median first-mode damping of the free response (-).
     """
-    members = {f"member{k}": m for k, m in enumerate(ens.members_)}
-    if ctx is not None:
-        ctx.progress("beam", 0, 1, f"beam tests of the {len(members)} members")
-    free = simulate_cases(members, tests["free"], fs)
-    rand = simulate_cases(members, tests["random"], fs)
-    rows = mode1_damping_table(rand, levels, f1)
-    table2 = {f"{lv:g}": spread(r[REFERENCE] for r in rows if r["rms_g"] == lv)
-              for lv in levels}
-    inst = damping_summary(free, {c: mode1_decay(r, modal, f1) for c, r in free.items()})
+    by_est = {est: {f"{lv:g}": spread(rows[i][est] for rows in member_rows)
+                    for i, lv in enumerate(levels)}
+              for est in TABLE2 if est in member_rows[0][0]}
+    names = [f"member{k}" for k in range(len(decay.members))]
+    inst = damping_summary(dict(zip(names, free_members, strict=True)),
+                           dict(zip(names, decay.members, strict=True)))
     bands = [k for k in next(iter(inst.values())) if k != "initial_tank_acceleration_g"]
-    return {"table2": table2,
+    return {"table2": by_est[REFERENCE], "estimators": by_est,
             "instantaneous_damping": {b: spread(v[b] for v in inst.values()) for b in bands}}

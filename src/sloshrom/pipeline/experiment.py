@@ -10,7 +10,7 @@ import numpy as np
 from sloshrom.beam.registry import label
 from sloshrom.pipeline.html import Table
 
-__all__ = ["experiment_tables", "interval_text", "percent"]
+__all__ = ["cell_text", "experiment_tables", "interval_text", "percent"]
 
 
 def percent(v: Any) -> str:
@@ -33,6 +33,17 @@ def interval_text(v: Any, lo: Any, hi: Any) -> str:
         return "–"
 
 
+def cell_text(v: float, lo: float, hi: float, reason: str = "", note: str = "") -> str:
+    """A table cell of a damping estimate: :func:`interval_text`, or ``— (reason)`` when the
+    value is missing (never a silent gap); a value without an interval, or one a fallback or
+    part of an ensemble's members gave, followed by its reason or note in parentheses."""
+    text = interval_text(v, lo, hi)
+    if text == "–":
+        return f"— ({reason})" if reason else "–"
+    extra = "; ".join(x for x in (reason, note) if x)
+    return f"{text} ({extra})" if extra else text
+
+
 def experiment_tables(exp: Any, kind: str) -> list[Table]:
     """The rig as the laboratory against the predictions: one row per band (free decay, Hilbert
     and log decrement) or per level and estimator (random tests), a column per predicted case:
@@ -52,9 +63,13 @@ def experiment_tables(exp: Any, kind: str) -> list[Table]:
         sel = [r for r in rows if (r.get("band", r.get("rms_g")),
                                    r.get("method", r.get("estimator"))) == k]
         m = sel[0]
-        cells = {r["case"]: f"{percent(r['predicted'])} ({r['verdict']})" for r in sel}
+        # an n/a verdict says why (the estimates' reasons), as every other missing cell
+        cells = {r["case"]: f"{percent(r['predicted'])} ({r['verdict']}"
+                 + (f": {r['reason']})" if r.get("reason") else ")") for r in sel}
+        why_m = "; ".join(x.removeprefix("measured: ") for x in
+                          str(m.get("reason", "")).split("; ") if x.startswith("measured: "))
         body.append([k[0], label(k[1]),
-                     interval_text(m["measured"], m["measured_low"], m["measured_high"])]
+                     cell_text(m["measured"], m["measured_low"], m["measured_high"], why_m)]
                     + [cells.get(c, "–") for c in cases])
     return [Table(head + ["experiment (95 % interval)"] + cases, body,
                   f"The rig as the laboratory, {what} damping: its beam runs written as a test "

@@ -18,7 +18,7 @@ from sloshrom.beam.results import table2_dataset
 from sloshrom.pipeline import html as report
 from sloshrom.pipeline import settings
 from sloshrom.pipeline.context import Context
-from sloshrom.pipeline.experiment import experiment_tables, interval_text, percent
+from sloshrom.pipeline.experiment import cell_text, experiment_tables, percent
 from sloshrom.pipeline.html import Figure, Section, Table
 from sloshrom.pipeline.maps import HYSTERESIS_FREQUENCY, HYSTERESIS_GAMMA
 from sloshrom.rom.registry import CLASSES
@@ -370,9 +370,13 @@ def _beam_sections(ctx: Context, b: dict[str, Any]) -> list[Section]:
     for r in t2_rows:
         j = level_of[r["case"]] = level_of.get(r["case"], -1) + 1
         d = damping[r["case"]].isel(level=j)
+        # every cell a value or the reason it has none (and a fallback's or members' note)
         body.append([r["case"], r["rms_g"], r["max_tank_acceleration_g"],
-                     *(interval_text(*(float(d[v].sel(estimator=n))
-                                       for v in ("value", "low", "high")))
+                     *(cell_text(float(d["value"].sel(estimator=n)),
+                                 float(d["low"].sel(estimator=n)),
+                                 float(d["high"].sel(estimator=n)),
+                                 str(d["reason"].sel(estimator=n).values),
+                                 str(d["note"].sel(estimator=n).values))
                        for n in d.estimator.values)])
     names = [str(x) for x in next(iter(damping.values())).label.values] if damping else \
         [label(n) for n in TABLE2]
@@ -381,7 +385,9 @@ def _beam_sections(ctx: Context, b: dict[str, Any]) -> list[Section]:
                "interval (docs/beam.md, \"Uncertainty of the damping estimates\"). LSCF "
                "columns: median over the stable poles of model orders 2-40; output-only: "
                "half-spectrum of the tank acceleration (no base signal needed), corrected for "
-               "its exponential window.")
+               "its exponential window. A cell without a value says why (—, the reason); an "
+               "ensemble ROM's row is the mean of its members' estimates, each member coupled "
+               "to the beam alone, its interval holding their spread (docs/beam.md).")
     tables2 = [t2]
     rm = b.get("rom_members")
     if isinstance(rm, dict):
@@ -389,8 +395,9 @@ def _beam_sections(ctx: Context, b: dict[str, Any]) -> list[Section]:
         tables2.append(Table(
             ["RMS [g]", "LSCF on H1, members (mean ± std)"],
             [[lv, f"{_pm(rm['table2'][lv], '{:.2f}', 100)} %"] for lv in levels],
-            "The random tests with each member of the ensemble ROM alone: the spread of the "
-            "first-mode damping that one trained network carries."))
+            "The random tests with each member of the ensemble ROM coupled alone: the spread "
+            "of the first-mode damping that one trained network carries; their mean is the "
+            "ROM's value in Table 2 (members without a value left out)."))
         for band in bands:
             pm = f"{_pm(rm['instantaneous_damping'].get(band), '{:.2f}', 100)} %"
             t_inst.rows.append([f"{band}, ROM members (mean ± std)"]

@@ -13,7 +13,9 @@ The ensemble is itself a sloshing model (:func:`sloshrom.models.is_jax_model`): 
 tuple of the members' states, its :meth:`~Ensemble.step` the mean of the members' steps, pure
 JAX; it is a JAX pytree whose children are the members, so the coupled beam simulation runs it
 in one ``lax.scan`` like a single network. Note that the coupled response of the ensemble (the
-beam driven by the mean force) is not the mean of the members' coupled responses.
+beam driven by the mean force) is not the mean of the members' coupled responses: the beam tests
+(``sloshrom.pipeline.beam.coupled_model``) couple each member alone and average their
+responses and damping estimates.
 
 An ensemble is saved as one model file (:meth:`Ensemble.save`; docs/formats.md, "Model files",
 ensemble variant) and loaded by :func:`sloshrom.rom.load_model`.

@@ -40,7 +40,7 @@ from sloshrom.energy import DISSIPATIVE_THRESHOLD, map_fidelity, map_maximum
 from sloshrom.fileio import OutputBatch
 from sloshrom.io import Record, read_record
 from sloshrom.models import FrozenLiquid, SloshingModel
-from sloshrom.pipeline.beam import EXPERIMENT, beam_structure, beam_tests
+from sloshrom.pipeline.beam import EXPERIMENT, beam_structure, beam_tests, coupled_model
 from sloshrom.pipeline.cache import StageResult
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.maps import compute_map, write_map
@@ -325,8 +325,9 @@ def stage_baseline(ctx: Context, data: StageResult, rom: StageResult | None = No
         ra = _result_from_file(beam.optional_output(f"beam/random_{case}.nc") if beam else None)
         if fr is None or ra is None:
             m = model if model is not None else ctx.rig()
-            fr = simulate_cases({case: m}, tests["free"], fs)[case]
-            ra = simulate_cases({case: m}, tests["random"], fs)[case]
+            # an ensemble ROM member by member, as the beam stage couples it
+            fr = simulate_cases({case: coupled_model(m)}, tests["free"], fs)[case]
+            ra = simulate_cases({case: coupled_model(m)}, tests["random"], fs)[case]
         free_all[case], rand_all[case] = fr, ra
     free_all[CASE], rand_all[CASE] = free[CASE], rand[CASE]
     decays_all = {c: decays[c] if c == CASE else mode1_decay(r, modal, f1)

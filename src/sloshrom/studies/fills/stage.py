@@ -25,7 +25,7 @@ from sloshrom.config import FILL_TOLERANCE
 from sloshrom.energy import map_fidelity
 from sloshrom.fileio import OutputBatch
 from sloshrom.models import FrozenLiquid
-from sloshrom.pipeline.beam import beam_structure, beam_tests
+from sloshrom.pipeline.beam import beam_structure, beam_tests, coupled_models
 from sloshrom.pipeline.cache import StageResult
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.maps import compute_map
@@ -131,7 +131,9 @@ def stage_fills(ctx: Context, rom: StageResult, identify: Identify
         _, modal = beam_structure(bcfg, tank)
         f1 = float(coupled_frozen_modes(modal, tank.liquid_mass)[0][0])
         models = {"frozen": FrozenLiquid(1.0 / fs), "rig": ctx.rig(tank), "rom": family.at(f)}
-        res = simulate_cases(models, beam_tests(bcfg, modal, tank, fs)["random"], fs)
+        # an ensemble member of the family member by member, as the beam stage couples it
+        res = simulate_cases(coupled_models(models), beam_tests(bcfg, modal, tank, fs)["random"],
+                             fs)
         for row in mode1_damping_table(res, levels, f1, max_tank_acceleration=True):
             damping.append({"fill": f, "f1_frozen_hz": f1, **row})
     timings["beam"] = time.perf_counter() - t0
