@@ -9,7 +9,7 @@ import numpy as np
 
 from sloshrom import __version__, signals
 from sloshrom.beam.envelope import TankMotion, frozen_tank_motion
-from sloshrom.config import G, Tank
+from sloshrom.config import ConfigError, G, Tank
 from sloshrom.io import record_from_measurement, write_record
 from sloshrom.pipeline.beam import beam_structure, beam_tests
 from sloshrom.pipeline.context import Context
@@ -17,7 +17,8 @@ from sloshrom.pipeline.settings import DataTable, ReproduceConfig
 from sloshrom.plotting import savefig
 from sloshrom.plotting.signals import record_io_figure, vfa_paths_figure
 
-__all__ = ["design_outputs", "stage_data", "training_design", "vfa_pieces"]
+__all__ = ["SPLITS", "design_outputs", "record_acceleration", "replay_record", "split_settings",
+           "stage_data", "training_design", "vfa_pieces"]
 
 
 def training_design(cfg: ReproduceConfig, tank: Tank
@@ -102,6 +103,47 @@ def vfa_pieces(data: DataTable | None, split: str, duration: float, seed: int,
     return pieces
 
 
+#: The records of the data stage, in the order it records them.
+SPLITS = ("train", "validation")
+
+
+def split_settings(data: DataTable, split: str) -> tuple[float, int]:
+    """The duration (s) and seed of the paper's VFA path of record ``split`` (:data:`SPLITS`)."""
+    if split == "train":
+        return float(data.train_duration), int(data.train_seed)
+    if split == "validation":
+        return float(data.validation_duration), int(data.validation_seed)
+    raise ConfigError(f"no record {split!r}: one of {SPLITS}")
+
+
+def record_acceleration(cfg: ReproduceConfig, tank: Tank, split: str,
+                        fs: float) -> np.ndarray:
+    """The tank acceleration the data stage plays on the rig for record ``split``, m/s^2.
+
+    Its VFA pieces (:func:`vfa_pieces`, designed by :func:`training_design`) one after the
+    other at ``fs`` (Hz, the rig's integration rate): the very signal of the record, made
+    again (deterministic), e.g. to play it once more with another gain.
+    """
+    design, motion = training_design(cfg, tank)
+    duration, seed = split_settings(cfg.data, split)
+    pieces = vfa_pieces(cfg.data, split, duration, seed, design, motion, fs, tank)
+    return np.concatenate([p.acceleration for p in pieces])
+
+
+def replay_record(ctx: Context, split: str, gain: float) -> np.ndarray:
+    """Record ``split``'s dynamic force (N, at the record rate) from the rig with the record's
+    input times ``gain``: the rig's twin run (:mod:`sloshrom.pipeline.waveform`).
+
+    The input is made again (:func:`record_acceleration`) and goes through the same rig,
+    sensors and preprocessing as in :func:`stage_data`: with ``gain = 1`` the result equals the
+    record's ``dynamic_force`` exactly.
+    """
+    rig = ctx.rig()
+    acc = record_acceleration(ctx.cfg, ctx.tank, split, 1.0 / rig.dt)
+    rec = record_from_measurement(rig.measure(acc * gain), ctx.tank, truth=False)
+    return np.asarray(rec["dynamic_force"])
+
+
 def stage_data(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     """Record the training and validation VFA tests on the rig; write records and figures.
 
@@ -125,10 +167,7 @@ def stage_data(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     files, paths, records = [], [], {}
     outputs: dict[str, Any] = {"design": design_outputs(design, motion),
                                "rig": cfg.rig.overrides()}
-    splits = [
-        ("train", cfg.data.train_duration, cfg.data.train_seed),
-        ("validation", cfg.data.validation_duration, cfg.data.validation_seed),
-    ]
+    splits = [(split, *split_settings(cfg.data, split)) for split in SPLITS]
     fs_rig = 1.0 / rig.dt
     for k, (split, duration, seed) in enumerate(splits):
         ctx.progress("data", k + 1, len(splits) + 1, f"rig VFA {split} ({duration:.0f} s)")

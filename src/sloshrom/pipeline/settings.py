@@ -421,6 +421,11 @@ class RigTable(_Table):
     fs: _number(100.0, 5000.0, what="a record rate in Hz",
                 why="decimated from the sensors' 5 kHz acquisition; 25 Hz must stay inside the "
                     "anti-alias passband 0.8 fs/2")
+    # the input gain of the rig's twin runs (sloshrom.pipeline.waveform): how far a force the
+    # laboratory could not tell from the nominal one may lie from it
+    twin_gain: _number(0.9, 1.1, what="a gain factor",
+                       why="the twin run repeats a test with the input scaled by a factor close "
+                           "to 1: 1.001 = +0.1 %")
     # optional overrides of the calibrated physics (rig_params.toml): OPTIONAL_KEYS
     restitution: _number(0.0, 1.0, hi_open=True, what="a coefficient of restitution",
                          why="e = 1 would be a layer impact without loss") = None
