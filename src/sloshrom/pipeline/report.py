@@ -245,7 +245,7 @@ def _fidelity_text(m: dict[str, Any]) -> str:
         f"<p>ROM against the rig, on the {_num(f, 'n_points', fmt='{:d}')} grid points both "
         "maps cover, whole map first:</p><ul>"
         f"<li>full map: relative L2 error <b>{_num(f, 'full_l2', fmt='{:.1%}')}</b> "
-        "(‖Φ_d,ROM − Φ_d,rig‖ / ‖Φ_d,rig‖ over every point; target ≤ 10 %);</li>"
+        "(‖Φ_d,ROM − Φ_d,rig‖ / ‖Φ_d,rig‖ over every point; target ≤ 6 %);</li>"
         f"<li>dissipative region (rig Φ_d > {_num(f, 'dissipative_threshold', fmt='{:.0%}')} "
         f"of its maximum, {_num(f, 'n_dissipative', fmt='{:d}')} points): relative L2 error "
         f"<b>{_num(f, 'dissipative_l2', fmt='{:.1%}')}</b> (target ≤ 5 %);</li>"
