@@ -120,6 +120,16 @@ def test_waveform_fidelity_of_a_signal_against_itself_and_against_a_smooth_model
     assert json.loads(json.dumps(f)) == f  # JSON-able as it is
 
 
+def test_a_diverged_model_has_nan_figures_and_the_reference_keeps_its_own():
+    x, at, _, duration = _impact_train()
+    bad = np.full_like(x, np.nan)
+    f = fid.waveform_fidelity(x, bad, FS)
+    assert set(f) == set(fid.waveform_fidelity(x, x, FS))
+    assert math.isnan(f["fit"]) and math.isnan(f["rms_ratio"]) and math.isnan(f["impact_rate"])
+    assert f["impact_rate_reference"] == pytest.approx(at.size / duration, rel=RTOL)
+    assert math.isnan(fid.point_errors(x, bad)["nrmse"])
+
+
 def test_refusals_name_the_argument():
     x = np.zeros(100)
     with pytest.raises(fid.FidelityError, match="same length"):

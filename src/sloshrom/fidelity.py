@@ -381,8 +381,9 @@ def point_errors(reference: ArrayLike, model: ArrayLike) -> dict[str, float]:
 
     Parameters
     ----------
-    reference, model : array_like, shape (n,)
-        Forces, N.
+    reference, model : array_like
+        Forces of the same shape, N. A model's force that is not finite (a diverged free run)
+        gives NaN figures, not an error: the caller says what it makes of it.
 
     Returns
     -------
@@ -390,7 +391,11 @@ def point_errors(reference: ArrayLike, model: ArrayLike) -> dict[str, float]:
         ``mse`` (N^2), ``nrmse`` (RMS error / RMS of the reference, -) and ``fit``
         (MATLAB's, %: ``100 (1 - |e| / |y - mean y|)``).
     """
-    y, y_hat = _pair(reference, model)
+    y = np.asarray(reference, dtype=np.float64)
+    y_hat = np.asarray(model, dtype=np.float64)
+    if y.shape != y_hat.shape:
+        raise FidelityError(f"reference and model must have the same shape, got {y.shape} and "
+                            f"{y_hat.shape}")
     e = y_hat - y
     mse = float(np.mean(e**2))
     nrmse = float(np.sqrt(mse) / np.sqrt(np.mean(y**2)))
@@ -409,7 +414,8 @@ def waveform_fidelity(reference: ArrayLike, model: ArrayLike, fs: float,
     Parameters
     ----------
     reference, model : array_like, shape (n,)
-        Dynamic forces of the same test, N, at ``fs``.
+        Dynamic forces of the same test, N, at ``fs``; a model's force that is not finite (a
+        diverged free run) gives NaN for its figures (the reference's stand).
     fs : float
         Sample rate, Hz.
     high, low : (float, float or None)
@@ -436,10 +442,13 @@ def waveform_fidelity(reference: ArrayLike, model: ArrayLike, fs: float,
         ``peak_quantiles`` and ``peak_quantiles_reference`` (N, one per quantile, NaN without
         a peak).
     """
-    r, m = _pair(reference, model)
+    r = _signal(reference, "reference")
+    m = np.asarray(model, dtype=np.float64)
+    if m.shape != r.shape:
+        raise FidelityError(f"reference and model must have the same length, got {r.size} and "
+                            f"{m.size} samples")
     fs = _rate(fs)
     err = point_errors(r, m)
-    hf_m = band_power_ratio(m, fs, high, low, nperseg)
     hf_r = band_power_ratio(r, fs, high, low, nperseg)
     th = impact_threshold(r, k)
 
@@ -449,17 +458,28 @@ def waveform_fidelity(reference: ArrayLike, model: ArrayLike, fs: float,
     def peaks(x: NDArray[np.float64]) -> list[float]:
         return [float(v) for v in peak_quantiles(x, fs, quantiles, min_separation, polarity)]
 
+    reference_figures: Figures = {
+        "hf_ratio_reference": hf_r,
+        "impact_threshold": th,
+        "impact_rate_reference": rate(r),
+        "quantiles": [float(q) for q in quantiles],
+        "peak_quantiles_reference": peaks(r),
+    }
+    if not np.all(np.isfinite(m)):
+        # a diverged free run: the model has no waveform to judge (NaN), the reference's
+        # figures stand, as the point-wise errors are NaN rather than an error
+        nan = math.nan
+        return {"nrmse": nan, "fit": nan, "rms_ratio": nan, "hf_ratio": nan, "hf_factor": nan,
+                "impact_rate": nan, "peak_quantiles": [nan] * len(quantiles),
+                **reference_figures}
+    hf_m = band_power_ratio(m, fs, high, low, nperseg)
     return {
         "nrmse": err["nrmse"],
         "fit": err["fit"],
         "rms_ratio": rms_ratio(r, m),
         "hf_ratio": hf_m,
-        "hf_ratio_reference": hf_r,
         "hf_factor": float(hf_m / hf_r) if hf_r > 0 else math.inf,
-        "impact_threshold": th,
         "impact_rate": rate(m),
-        "impact_rate_reference": rate(r),
-        "quantiles": [float(q) for q in quantiles],
         "peak_quantiles": peaks(m),
-        "peak_quantiles_reference": peaks(r),
+        **reference_figures,
     }
