@@ -5,10 +5,15 @@ Runs (or reuses, through the stage cache) ``sloshrom reproduce`` in ``OUT/<name>
 configuration and prints, from the files it writes:
 
 - validation: fit % = 100 (1 - |e| / |y - mean y|) of the free run from rest over the whole
-  validation record (target >= 60 %, NRMSE <= 0.40), and with ``rom.compare`` the classes trained
-  in the same run beside it (fit, training time, and the ratio of the training times: target
-  <= 2);
-- Phi_d map of the ROM against the rig's: full-map relative L2 error (target <= 8 %),
+  validation record (target >= 50 %), beside the rig's twin run's (the same record with the
+  input's gain changed by ``[rig] twin_gain``: what a laboratory could confirm), and with
+  ``rom.compare`` the classes trained in the same run beside it (fit, training time, and the
+  ratio of the training times: target <= 2);
+- waveform (docs/rom.md, "Waveform fidelity"), each figure beside the twin run's: on the
+  validation record and at each level of the beam's random tests, the force RMS / rig's (random
+  tests: target within 10 %), the power above 60 Hz relative to 5-20 Hz against the rig's
+  (random tests: target within a factor of 2), impacts per second and the peak-force quantiles;
+- Phi_d map of the ROM against the rig's: full-map relative L2 error (target <= 6 %),
   dissipative-region error (target <= 5 %), passivity (points below -0.02 max, target 0), and
   for an ensemble the same figures as mean ± std over its members;
 - free response: first-mode instantaneous damping per amplitude band for frozen, rig and ROM;
@@ -30,7 +35,8 @@ Usage::
     python benchmarks/fidelity.py --summary results/summary.json       # figures of a past run
 
 A configuration is a TOML override file (as ``sloshrom reproduce --config``); "default" has
-none. Exit status 0 always: the figures are the result, MISS marks a target not met.
+none. Exit status 0 always: the figures are the result, MISS marks a target not met; a figure a
+past run's summary does not hold (written before it was recorded) prints as n/a.
 """
 
 from __future__ import annotations
@@ -64,6 +70,53 @@ def _pct(v: Any) -> str:
     return "  n/a " if v is None or not math.isfinite(v) else f"{100 * v:6.2f}"
 
 
+def _num(v: Any, fmt: str = "{:.3g}") -> str:
+    """A figure, or n/a (absent, None or not finite)."""
+    ok = isinstance(v, int | float) and math.isfinite(v)
+    return fmt.format(v) if ok else "n/a"
+
+
+def _quantiles(q: Any) -> str:
+    return "/".join(_num(v) for v in q) if isinstance(q, list) and q else "n/a"
+
+
+def waveform(st: dict[str, Any], levels: list[float]) -> None:
+    """The waveform figures of the ROM beside the rig's twin run (n/a: not in the summary)."""
+    wr = st["rom"].get("waveform_fidelity") or {}
+    wb = st["beam"].get("waveform_fidelity") or {}
+    if not wr and not wb:
+        print("waveform: n/a (a summary written before the waveform figures were recorded)")
+        return
+    gain = wr.get("twin_gain", wb.get("twin_gain"))
+    print("waveform (docs/rom.md, \"Waveform fidelity\"): ROM [the rig's twin run, input x "
+          f"{_num(gain, '{:g}')}]")
+    tests = [("validation", wr, False)]
+    tests += [(f"random {lv:g} g", (wb.get("levels") or {}).get(f"{lv:g}") or {}, True)
+              for lv in levels]
+    for test, w, targets in tests:
+        ro, tw = w.get("rom") or {}, w.get("twin") or {}
+        rms, hf = ro.get("rms_ratio"), ro.get("hf_factor")
+        rms_mark = hf_mark = ""
+        if targets:
+            rms_mark = (f" [{_mark(abs(rms - 1) <= 0.10) if rms is not None else 'n/a '} "
+                        "within 10 %]")
+            hf_mark = (f" [{_mark(0.5 <= hf <= 2.0) if hf is not None else 'n/a '} "
+                       "within x 2]")
+        print(f"  {test:>12}: force RMS / rig's {_num(rms, '{:.3f}')} "
+              f"[{_num(tw.get('rms_ratio'), '{:.3f}')}]"
+              f"{rms_mark}; power >60 Hz / 5-20 Hz {_num(ro.get('hf_ratio'))} "
+              f"[{_num(tw.get('hf_ratio'))}], rig {_num(ro.get('hf_ratio_reference'))}: "
+              f"x {_num(hf)} [{_num(tw.get('hf_factor'))}]{hf_mark}")
+        print(f"  {'':>12}  fit {_num(ro.get('fit'), '{:.1f}')} % "
+              f"[{_num(tw.get('fit'), '{:.1f}')} %], NRMSE {_num(ro.get('nrmse'), '{:.3f}')} "
+              f"[{_num(tw.get('nrmse'), '{:.3f}')}]; impacts "
+              f"{_num(ro.get('impact_rate'), '{:.2f}')} [{_num(tw.get('impact_rate'), '{:.2f}')}]"
+              f" /s, rig {_num(ro.get('impact_rate_reference'), '{:.2f}')} /s; peak force "
+              f"1/50/99 % {_quantiles(ro.get('peak_quantiles'))} "
+              f"[{_quantiles(tw.get('peak_quantiles'))}] N, rig "
+              f"{_quantiles(ro.get('peak_quantiles_reference'))} N")
+
+
 def report(name: str, s: dict[str, Any], seconds: float | None) -> None:
     st = s["stages"]
     print(f"\n=== {name} ===")
@@ -74,14 +127,16 @@ def report(name: str, s: dict[str, Any], seconds: float | None) -> None:
     print(f"ROM {r['name']}: validation MSE {r['val_mse']:.4f} N^2, train {r['train_seconds']:.0f}"
           f" s")
     fit = r.get("val_fit", math.nan)
-    print(f"validation fit {fit:6.2f} %  [{_mark(fit >= 60.0)} >= 60 %]")
+    twin_fit = ((r.get("waveform_fidelity") or {}).get("twin") or {}).get("fit")
+    print(f"validation fit {fit:6.2f} %  [{_mark(fit >= 50.0)} >= 50 %]; the rig's twin run "
+          f"{_num(twin_fit, '{:.2f}')} %")
     for arch, c in (r.get("compare") or {}).items():
         ratio = r["train_seconds"] / c["train_seconds"]
         mark = f" [{_mark(ratio <= 2.0)} <= 2]" if arch == "nfir" else ""
         print(f"compared {c['name']}: fit {c['val_fit']:.2f} %, train {c['train_seconds']:.0f} s;"
               f" training time ratio {ratio:.2f}{mark}")
     f = st["maps"]["rom_fidelity"]
-    print(f"map  full-map L2 {_pct(f['full_l2'])} %  [{_mark(f['full_l2'] <= 0.08)} <= 8 %]")
+    print(f"map  full-map L2 {_pct(f['full_l2'])} %  [{_mark(f['full_l2'] <= 0.06)} <= 6 %]")
     print(f"map  dissipative L2 {_pct(f['dissipative_l2'])} %  "
           f"[{_mark(f['dissipative_l2'] <= 0.05)} <= 5 %]")
     print(f"map  non-passive {f['n_nonpassive']}/{f['n_points']} = "
@@ -116,6 +171,7 @@ def report(name: str, s: dict[str, Any], seconds: float | None) -> None:
         spt = (f", members {100 * sp['mean']:.2f} ± {100 * sp['std']:.2f}" if sp else "")
         print(f"  {level:g} g: frozen {_pct(fr)} rig {_pct(rg)} ROM {_pct(ro)} "
               f"({100 * dev:+5.1f} %) [{_mark(abs(dev) <= 0.05)} within 5 %]{spt}")
+    waveform(st, s["config"]["beam"]["rms_g"])
     env = [e for e in b.get("envelope") or [] if e.get("acceleration_ratio") is not None]
     if env:
         print("envelope (runs of models with a training envelope):")

@@ -3,8 +3,8 @@
 Every module under ``src/sloshrom`` is parsed (nothing is imported) and put in a *room*:
 
 ========== =======================================================================
-base       ``sloshrom`` (root), ``config``, ``errors``, ``fileio``, ``limits``, ``models``,
-           ``signals``, ``_x64``, ``_jit``
+base       ``sloshrom`` (root), ``config``, ``errors``, ``fidelity``, ``fileio``, ``limits``,
+           ``models``, ``signals``, ``_x64``, ``_jit``
 domain     ``io``, ``rig``, ``rom``, ``energy``, ``beam`` (each one room)
 plotting   ``plotting``: figures only
 pipeline   ``pipeline``: the reproduce chain
@@ -33,7 +33,8 @@ from sloshrom.rom.registry import CLASSES
 SRC = Path(__file__).resolve().parents[1] / "src"
 PACKAGE = "sloshrom"
 
-BASE = {"_jit", "_x64", "config", "errors", "fileio", "limits", "models", "signals"}
+BASE = {"_jit", "_x64", "config", "errors", "fidelity", "fileio", "limits", "models",
+        "signals"}
 DOMAIN = ("io", "rig", "rom", "energy", "beam")
 
 #: The rooms each room may import (its own room is always allowed). Domain rooms see the base

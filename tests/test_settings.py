@@ -181,7 +181,7 @@ def test_validate_returns_the_typed_configuration():
     # the optional keys given, and only those, are in the dict form (the cache keys)
     assert "restitution" not in typed.as_dict()["rig"]
     rig_b = settings.validate(settings.merge(cfg, {"rig": {"beta": 0.7}}))
-    assert rig_b.as_dict()["rig"] == {"seed": 7, "fs": 500.0, "beta": 0.7}
+    assert rig_b.as_dict()["rig"] == {"seed": 7, "fs": 500.0, "twin_gain": 1.001, "beta": 0.7}
     assert rig_b.rig.overrides() == {"beta": 0.7}
     # in the order the user wrote them, as the merged dict had them (summary.json, config show)
     both = settings.merge(cfg, {"rig": {"beta": 0.7, "restitution": 0.05}})

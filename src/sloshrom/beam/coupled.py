@@ -709,6 +709,7 @@ def random_response(
     tank: Tank | Sequence[Tank] | None = None,
     output_fs: float | None = None,
     fade: float = 1.0,
+    gain: float = 1.0,
 ) -> dict:
     """Random base excitation (paper Sect. 4.4): Gaussian-PSD a_s at several RMS levels.
 
@@ -725,6 +726,10 @@ def random_response(
         Phase seed(s); several seeds give a batch of shape (n_seeds, n_levels, n).
     f0, sigma : float
         PSD centre and standard deviation, Hz (estimates).
+    gain : float
+        Factor on every level's signal, -: 1 = the test as asked; close to 1, the same test
+        with its input's gain changed (a twin run, ``sloshrom.pipeline.waveform``).
+        ``rms_levels_g`` is returned as given.
 
     Returns
     -------
@@ -736,7 +741,8 @@ def random_response(
     factor = fs_model / signal_fs
     if abs(factor - round(factor)) > 1e-6 or round(factor) < 1:
         raise BeamError(f"model rate {fs_model} Hz must be an integer multiple of {signal_fs} Hz")
-    levels = np.asarray(rms_levels_g, dtype=float) * G
+    # the gain scales the levels: the same phases, every sample times gain (1.0 is exact)
+    levels = np.asarray(rms_levels_g, dtype=float) * G * gain
     seeds = np.atleast_1d(seed)
     a = np.stack([
         random_base_acceleration(signal_fs, duration, levels, f0=f0, sigma=sigma, seed=int(s),

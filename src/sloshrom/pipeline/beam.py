@@ -14,6 +14,7 @@ uncertainty (``sloshrom.beam.members``).
 from __future__ import annotations
 
 import tempfile
+import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, cast
@@ -52,6 +53,7 @@ from sloshrom.fileio import OutputBatch
 from sloshrom.models import FrozenLiquid
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.settings import BeamTable
+from sloshrom.pipeline.waveform import random_fidelity
 from sloshrom.plotting import savefig
 from sloshrom.plotting.beam import (
     comparison_figures,
@@ -85,7 +87,7 @@ def beam_structure(cfg: BeamTable, tank: Tank) -> tuple[CantileverBeam, ModalMod
 
 
 def beam_tests(cfg: BeamTable, modal: ModalModel, tank: Tank,
-               fs: float) -> dict[str, Simulate]:
+               fs: float, gain: float = 1.0) -> dict[str, Simulate]:
     """The beam tests of the ``[beam]`` configuration, as ``simulate(model, output_fs)``.
 
     ``"free"``: release from the static tip deflection ``tip_displacement`` for
@@ -93,6 +95,8 @@ def beam_tests(cfg: BeamTable, modal: ModalModel, tank: Tank,
     ``f0``, ``sigma``, ``random_duration``), made at ``fs`` (Hz). The ``beam`` stage runs them
     with every model, the ``data`` stage with frozen liquid to design the training
     (:func:`sloshrom.pipeline.data.training_design`): one definition, the same signals.
+    ``gain`` scales the random tests' base excitation (the rig's twin run,
+    :mod:`sloshrom.pipeline.waveform`; 1 = as configured).
     """
     return {
         "free": lambda m, out_fs: free_response(m, modal, cfg.tip_displacement,
@@ -100,7 +104,7 @@ def beam_tests(cfg: BeamTable, modal: ModalModel, tank: Tank,
         "random": lambda m, out_fs: random_response(m, modal, cfg.rms_g,
                                                     cfg.random_duration, cfg.seed,
                                                     cfg.f0, cfg.sigma, signal_fs=fs,
-                                                    tank=tank, output_fs=out_fs),
+                                                    tank=tank, output_fs=out_fs, gain=gain),
     }
 
 
@@ -153,9 +157,12 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
         prediction against the experiment's intervals) and ``envelope`` (per run and case: peak
         tank acceleration against the model's training envelope,
         ``sloshrom.beam.results.envelope_table``; ``None`` = n/a for a model without an
-        envelope). An ensemble ROM (each member coupled alone, :func:`coupled_model`): its
-        rows are the mean of the members' estimates with the combined uncertainty, and
-        ``rom_members`` (:func:`member_spread`) the members' own values.
+        envelope), ``waveform_fidelity`` (the random tests' forces of the ROM and of the rig's
+        twin run against the rig's, per level:
+        :func:`sloshrom.pipeline.waveform.random_fidelity`). An ensemble ROM (each member
+        coupled alone, :func:`coupled_model`): its rows are the mean of the members'
+        estimates with the combined uncertainty, and ``rom_members`` (:func:`member_spread`)
+        the members' own values.
     files : list of str
         ``beam/{free,random}_<case>.nc`` (with the envelope coverage,
         ``sloshrom.beam.results.to_dataset``; the experiment's too), the lab files
@@ -189,6 +196,14 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     tests = beam_tests(cfg, modal, tank, fs)
     free_res = simulate_cases(models, tests["free"], fs, report("free"))
     rand_res = simulate_cases(models, tests["random"], fs, report("random"))
+    # the rig's twin run of the random tests, the scale of the ROM's waveform figures
+    # (docs/rom.md, "Waveform fidelity"); measured 1.4-3.7 s for 3 x 90 s
+    ctx.progress("beam", steps, steps, "the rig's twin run of the random tests")
+    gain, t0 = float(ctx.cfg.rig.twin_gain), time.perf_counter()
+    twin = simulate_cases({"twin": models["rig"]},
+                          beam_tests(cfg, modal, tank, fs, gain=gain)["random"], fs)["twin"]
+    outputs["waveform_fidelity"] = random_fidelity(rand_res, twin, cfg.rms_g, gain,
+                                                   time.perf_counter() - t0)
     ctx.progress("beam", steps, steps, "analysis and figures")
 
     decays = {case: mode1_decay(r, modal, f1) for case, r in free_res.items()}

@@ -12,12 +12,11 @@ from sloshrom import __version__, signals
 from sloshrom.beam.envelope import TankMotion, frozen_tank_motion
 from sloshrom.beam.programme import (
     Programme,
-    ProgrammeError,
     Segment,
     concatenate,
     structure_segments,
 )
-from sloshrom.config import G, Tank
+from sloshrom.config import ConfigError, G, Tank
 from sloshrom.io import record_from_measurement, write_record
 from sloshrom.pipeline.beam import beam_structure, beam_tests
 from sloshrom.pipeline.context import Context
@@ -26,7 +25,8 @@ from sloshrom.plotting import savefig
 from sloshrom.plotting.signals import record_io_figure, vfa_paths_figure
 
 __all__ = ["LAB_SETUP", "Peaks", "ProgrammeOutputs", "SegmentOutputs", "design_outputs",
-           "programme", "programme_outputs", "stage_data", "training_design", "use_segments",
+           "programme", "programme_outputs", "record_acceleration", "replay_record",
+           "SPLITS", "split_settings", "stage_data", "training_design", "use_segments",
            "vfa_pieces"]
 
 #: Laboratory set-up per segment, s: loading the drive file and the controller's low-level
@@ -191,13 +191,17 @@ def use_segments(cfg: ReproduceConfig, tank: Tank, split: str, fs: float) -> lis
                               float(data.decay_duration))
 
 
-def _split_size(cfg: ReproduceConfig, split: str) -> tuple[float, int]:
-    """The VFA duration (s) and seed of a split."""
+#: The records of the data stage, in the order it records them.
+SPLITS = ("train", "validation")
+
+
+def split_settings(data: DataTable, split: str) -> tuple[float, int]:
+    """The duration (s) and seed of the paper's VFA path of record ``split`` (:data:`SPLITS`)."""
     if split == "train":
-        return float(cfg.data.train_duration), int(cfg.data.train_seed)
+        return float(data.train_duration), int(data.train_seed)
     if split == "validation":
-        return float(cfg.data.validation_duration), int(cfg.data.validation_seed)
-    raise ProgrammeError(f"split must be 'train' or 'validation', got {split!r}")
+        return float(data.validation_duration), int(data.validation_seed)
+    raise ConfigError(f"no record {split!r}: one of {SPLITS}")
 
 
 def programme(cfg: ReproduceConfig, tank: Tank, split: str, fs: float, *,
@@ -227,7 +231,7 @@ def programme(cfg: ReproduceConfig, tank: Tank, split: str, fs: float, *,
         Segments ``"vfa"`` (level: the paper shaker's 6 g), ``"vfa extension"`` (the design's
         peak, g), ``"random <level> g"`` and ``"decay <factor>"``.
     """
-    duration, seed = _split_size(cfg, split)
+    duration, seed = split_settings(cfg.data, split)
     design, motion = training_design(cfg, tank) if training is None else training
     pieces = vfa_pieces(cfg.data, split, duration, seed, design, motion, fs, tank)
     names = [("vfa", signals.SHAKER_DESIGN.gamma_max), ("vfa extension", design.gamma_max)]
@@ -303,6 +307,30 @@ def programme_outputs(prog: Programme, limits: signals.ShakerLimits = signals.SH
     }
 
 
+def record_acceleration(cfg: ReproduceConfig, tank: Tank, split: str,
+                        fs: float) -> np.ndarray:
+    """The tank acceleration the data stage plays on the rig for record ``split``, m/s^2.
+
+    Its :func:`programme` at ``fs`` (Hz, the rig's integration rate): the very signal of the
+    record, made again (deterministic), e.g. to play it once more with another gain.
+    """
+    return programme(cfg, tank, split, fs).acceleration()
+
+
+def replay_record(ctx: Context, split: str, gain: float) -> np.ndarray:
+    """Record ``split``'s dynamic force (N, at the record rate) from the rig with the record's
+    input times ``gain``: the rig's twin run (:mod:`sloshrom.pipeline.waveform`).
+
+    The input is made again (:func:`record_acceleration`) and goes through the same rig,
+    sensors and preprocessing as in :func:`stage_data`: with ``gain = 1`` the result equals the
+    record's ``dynamic_force`` exactly.
+    """
+    rig = ctx.rig()
+    acc = record_acceleration(ctx.cfg, ctx.tank, split, 1.0 / rig.dt)
+    rec = record_from_measurement(rig.measure(acc * gain), ctx.tank, truth=False)
+    return np.asarray(rec["dynamic_force"])
+
+
 def stage_data(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     """Record the training and validation VFA tests on the rig; write records and figures.
 
@@ -328,10 +356,10 @@ def stage_data(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     files, paths, records = [], [], {}
     outputs: dict[str, Any] = {"rig": cfg.rig.overrides()}
     programmes: dict[str, ProgrammeOutputs] = {}
-    splits = ("train", "validation")
+    splits = SPLITS
     fs_rig = 1.0 / rig.dt
     for k, split in enumerate(splits):
-        duration, seed = _split_size(cfg, split)
+        duration, seed = split_settings(cfg.data, split)
         ctx.progress("data", k + 1, len(splits) + 1, f"rig VFA {split} ({duration:.0f} s)")
         prog = programme(cfg, tank, split, fs_rig, training=(design, motion))
         programmes[split] = programme_outputs(prog)

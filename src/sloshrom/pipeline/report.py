@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from sloshrom import fidelity
 from sloshrom import studies as registry
 from sloshrom.beam.registry import TABLE2, label
 from sloshrom.beam.results import table2_dataset
@@ -23,7 +24,7 @@ from sloshrom.pipeline.html import Figure, Section, Table
 from sloshrom.pipeline.maps import HYSTERESIS_FREQUENCY, HYSTERESIS_GAMMA
 from sloshrom.rom.registry import CLASSES
 
-__all__ = ["build_sections", "write_report"]
+__all__ = ["build_sections", "waveform_table", "write_report"]
 
 
 def _fig(ctx: Context, name: str, caption: str) -> list[Figure]:
@@ -212,7 +213,7 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
                "red where the ROM over-predicts dissipation, blue where it under-predicts, "
                "white where they agree."),
     ))
-    secs.extend(_beam_sections(ctx, st["beam"]))
+    secs.extend(_beam_sections(ctx, st["beam"], r))
     # the studies that ran, in the registry's order, after the beam's sections
     secs.extend(study.section(ctx, st[study.name]) for study in registry.registered()
                 if study.name in st)
@@ -244,7 +245,7 @@ def _fidelity_text(m: dict[str, Any]) -> str:
         f"<p>ROM against the rig, on the {_num(f, 'n_points', fmt='{:d}')} grid points both "
         "maps cover, whole map first:</p><ul>"
         f"<li>full map: relative L2 error <b>{_num(f, 'full_l2', fmt='{:.1%}')}</b> "
-        "(‖Φ_d,ROM − Φ_d,rig‖ / ‖Φ_d,rig‖ over every point; target ≤ 10 %);</li>"
+        "(‖Φ_d,ROM − Φ_d,rig‖ / ‖Φ_d,rig‖ over every point; target ≤ 6 %);</li>"
         f"<li>dissipative region (rig Φ_d > {_num(f, 'dissipative_threshold', fmt='{:.0%}')} "
         f"of its maximum, {_num(f, 'n_dissipative', fmt='{:d}')} points): relative L2 error "
         f"<b>{_num(f, 'dissipative_l2', fmt='{:.1%}')}</b> (target ≤ 5 %);</li>"
@@ -319,6 +320,64 @@ def _design_tables(d: dict[str, Any]) -> list[Table]:
                   "Tank motion of the beam tests with frozen liquid: what the training covers.")]
 
 
+def _waveform_rows(test: str, wf: object) -> list[list[str]]:
+    """Rows rig / ROM / twin of one test's waveform figures (``waveform_fidelity`` of a stage:
+    ``rom`` and ``twin``, each :func:`sloshrom.fidelity.waveform_fidelity`)."""
+    if not isinstance(wf, dict) or not isinstance(wf.get("twin"), dict):
+        return []
+    twin = wf["twin"]
+
+    def num(v: object, fmt: str) -> str:
+        ok = isinstance(v, int | float) and np.isfinite(v)
+        return fmt.format(v) if ok else "n/a"
+
+    def peaks(q: object) -> str:
+        return " / ".join(num(v, "{:.3g}") for v in q) if isinstance(q, list) and q else "n/a"
+
+    rows = [[test, "rig", "", "1", num(twin["hf_ratio_reference"], "{:.3g}"),
+             num(twin["impact_rate_reference"], "{:.2f}"),
+             peaks(twin["peak_quantiles_reference"])]]
+    gain = wf.get("twin_gain")
+    runs = [("ROM", wf.get("rom")),
+            (f"rig, input × {gain:g} (twin)" if isinstance(gain, int | float) else "rig twin",
+             twin)]
+    for run, f in runs:
+        if isinstance(f, dict):
+            rows.append([test, run, num(f["fit"], "{:.1f}"), num(f["rms_ratio"], "{:.3f}"),
+                         num(f["hf_ratio"], "{:.3g}"), num(f["impact_rate"], "{:.2f}"),
+                         peaks(f["peak_quantiles"])])
+    return rows
+
+
+def waveform_table(rom: object, beam: object) -> list[Table]:
+    """The "waveform fidelity" table: the ROM's force beside the rig's and the rig's twin run's,
+    on the validation record (``rom`` stage outputs) and the beam's random tests (``beam``);
+    empty for stages cached before the figures were recorded."""
+    rows = _waveform_rows("validation record",
+                          rom.get("waveform_fidelity") if isinstance(rom, dict) else None)
+    wf = beam.get("waveform_fidelity") if isinstance(beam, dict) else None
+    if isinstance(wf, dict):
+        for level, per in wf.get("levels", {}).items():
+            rows += _waveform_rows(f"beam random, {level} g",
+                                   {**per, "twin_gain": wf.get("twin_gain")})
+    if not rows:
+        return []
+    hi, lo = fidelity.HIGH_BAND, fidelity.LOW_BAND
+    high = f"> {hi[0]:g} Hz" if hi[1] is None else f"{hi[0]:g}–{hi[1]:g} Hz"
+    quantiles = " / ".join(f"{100 * q:g}" for q in fidelity.QUANTILES)
+    return [Table(
+        ["test", "run", "fit [%]", "force RMS / rig's", f"power {high} / {lo[0]:g}–{lo[1]:g} Hz",
+         "impacts [1/s]", f"peak force {quantiles} % [N]"],
+        rows,
+        "Waveform fidelity (docs/rom.md, \"Waveform fidelity\"): the dynamic force of the ROM "
+        "against the rig's, beside the rig's own twin run, the same test with the input's gain "
+        "changed slightly, which no laboratory could tell from the nominal one. Force RMS about "
+        "the mean; band powers from Welch PSDs; an impact is a downward peak beyond "
+        f"{fidelity.IMPACT_THRESHOLD:g} times the rig's RMS, {1e3 * fidelity.MIN_SEPARATION:g} ms "
+        "at least after the previous one; peak-force quantiles of every downward peak, from the "
+        "mean.")]
+
+
 def _envelope_table(rows: Any) -> list[Table]:
     """Peak tank acceleration of each beam run against the model's training envelope."""
     if not rows:
@@ -339,8 +398,10 @@ def _envelope_table(rows: Any) -> list[Table]:
                   "acceleration.")]
 
 
-def _beam_sections(ctx: Context, b: dict[str, Any]) -> list[Section]:
-    """Sections 6-8: the sloshing beam (outputs ``b`` of the ``beam`` stage)."""
+def _beam_sections(ctx: Context, b: dict[str, Any],
+                   rom: object = None) -> list[Section]:
+    """Sections 6-8: the sloshing beam (outputs ``b`` of the ``beam`` stage; ``rom``, those of
+    the ``rom`` stage, for the waveform table's validation rows)."""
     figdir = Path(ctx.out) / "figures"
 
     def fig(name: str, cap: str) -> list[Figure]:
@@ -445,7 +506,7 @@ def _beam_sections(ctx: Context, b: dict[str, Any]) -> list[Section]:
             + fig("table2_comparison", "Table 2 as intervals: the rig as the laboratory "
                   "(squares) and the predictions, each estimate with its 95 % interval."),
             [*tables2, *experiment_tables(b.get("experiment"), "random"),
-             *_envelope_table(b.get("envelope"))],
+             *_envelope_table(b.get("envelope")), *waveform_table(rom, b)],
         ),
     ]
 

@@ -421,6 +421,11 @@ class RigTable(_Table):
     fs: _number(100.0, 5000.0, what="a record rate in Hz",
                 why="decimated from the sensors' 5 kHz acquisition; 25 Hz must stay inside the "
                     "anti-alias passband 0.8 fs/2")
+    # the input gain of the rig's twin runs (sloshrom.pipeline.waveform): how far a force the
+    # laboratory could not tell from the nominal one may lie from it
+    twin_gain: _number(0.9, 1.1, what="a gain factor",
+                       why="the twin run repeats a test with the input scaled by a factor close "
+                           "to 1: 1.001 = +0.1 %")
     # optional overrides of the calibrated physics (rig_params.toml): OPTIONAL_KEYS
     restitution: _number(0.0, 1.0, hi_open=True, what="a coefficient of restitution",
                          why="e = 1 would be a layer impact without loss") = None
@@ -457,7 +462,8 @@ class DataTable(_Table):
     random_factors: _list(_number(0.01, 3.0, what="a factor on a [beam] rms_g level"),
                           "factors on the [beam] rms_g levels")
     random_duration: _number(10.0, 600.0, what="a duration in s",
-                             why="the validation segment, half of it, needs more than its two 2 s fades")
+                             why="the validation segment, half of it, needs more than its "
+                                 "two 2 s fades")
     decay_factors: _list(_number(0.01, 3.0, what="a factor on [beam] tip_displacement"),
                          "factors on [beam] tip_displacement")
     decay_duration: _number(2.0, 60.0, what="a duration in s")
