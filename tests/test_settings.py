@@ -89,7 +89,7 @@ def test_every_default_key_has_a_check():
         (lambda c: c["beam"].update(youngs_modulus=70.0),
          r"'beam\.youngs_modulus' must be a Young's modulus in Pa in \[1e\+06, 1e\+13\]"),
         (lambda c: c["data"].update(design="lab"),
-         r"'data\.design' must be \"structure\" or \"shaker\""),
+         r"'data\.design' must be \"use\" or \"structure\" or \"shaker\""),
         (lambda c: c["data"].update(margin=0.5), r"'data\.margin' must be a factor"),
         (lambda c: c["rig"].update(restitution=1.0), r"'rig\.restitution' must be a coeff"),
         (lambda c: c["rom"]["nss"].update(cycle_energy=-0.1),
