@@ -491,10 +491,6 @@ class NSS(_Estimator):
         Galilean augmentation, m/s (0 = off): each training sub-sequence's velocity is shifted
         by a uniform draw in ``[-velocity_offset, velocity_offset]`` and its force kept
         (:class:`~sloshrom.rom.shooting.ShootingOptions`).
-    level_match : float
-        Weight of the level terms (0 = off): each training sub-sequence's log force power and
-        log power of its first difference against the record's
-        (:class:`~sloshrom.rom.shooting.ShootingOptions`).
 
     Parameters are checked by :meth:`fit` (and by :func:`load_model`), not by the constructor.
     """
@@ -519,7 +515,6 @@ class NSS(_Estimator):
         cycle_energy: float = 0.0,
         feedthrough: str = "yes",
         velocity_offset: float = 0.0,
-        level_match: float = 0.0,
     ) -> None:
         self.n_states = n_states
         self.neurons = neurons
@@ -537,7 +532,6 @@ class NSS(_Estimator):
         self.cycle_energy = cycle_energy
         self.feedthrough = feedthrough
         self.velocity_offset = velocity_offset
-        self.level_match = level_match
 
     def _check_hyperparameters(self) -> StateSpaceSpec:
         mc = self.model_class
@@ -616,8 +610,7 @@ class NSS(_Estimator):
             amplitude_weighting=float(self.amplitude_weighting),
             passivity=float(self.passivity), cycle_energy=float(self.cycle_energy),
             frequency_band=(probe_band[0], probe_band[1]),
-            velocity_offset=float(self.velocity_offset),
-            level_match=float(self.level_match))
+            velocity_offset=float(self.velocity_offset))
         params, history = fit_statespace(spec, u, y, float(fs), scaler, validation, options,
                                          seed=int(self.seed), callback=callback)
         self.model_ = StateSpaceNetwork(params, scaler, spec, self.input, float(fs))

@@ -567,11 +567,7 @@ NSS_CLASS = ModelClass(
            Hyper("velocity_offset", 0.0, "float", 0.0, 10.0,
                  help="Galilean augmentation, m/s: each training sub-sequence's velocity "
                       "shifted by a uniform draw in +-this, its force kept (0 = off)",
-                 what="a velocity in m/s", file_default=0.0),
-           Hyper("level_match", 0.0, "float", 0.0, 1e3,
-                 help="weight of the error of each training sub-sequence's log force power "
-                      "and log power of its first difference (impacts); 0 = off",
-                 what="a loss weight", file_default=0.0)),
+                 what="a velocity in m/s", file_default=0.0)),
     label=lambda h: (f"NSS({h['n_states']} states, {h['neurons']} neurons"
                      + (", strictly proper)" if h.get("feedthrough", "yes") == "no" else ")")),
     shapes=nss_shapes, history=lambda h: int(h["window"]),

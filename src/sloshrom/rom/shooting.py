@@ -103,13 +103,6 @@ class ShootingOptions:
         Band of the passivity probes, Hz.
     probes_per_step : int
         Passivity probes per Adam step.
-    level_match : float
-        Weight of the level terms (0 = off): per sub-sequence, the squared error of the log
-        power of the simulated force (mean removed) and of the log power of its first
-        difference (the share of the impacts, above ~60 Hz at 500 Hz), scaled units. The
-        impacts of a chaotic liquid are not predictable to the sample: the mean-square error
-        alone is least for a force that leaves them out (too small and too smooth); these
-        terms ask for the force's level and roughness, whatever the timing.
     velocity_offset : float
         Galilean augmentation, m/s (0 = off): each sub-sequence's input (its past and future)
         is shifted by a uniform draw in ``[-velocity_offset, velocity_offset]`` and its output
@@ -130,17 +123,6 @@ class ShootingOptions:
     frequency_band: tuple[float, float] = (0.0, math.inf)
     probes_per_step: int = 24
     velocity_offset: float = 0.0
-    level_match: float = 0.0
-
-
-#: Floor of the level terms' powers, scaled units (a force at rest has none).
-_POWER_FLOOR = 1e-6
-
-
-def _log_power(z: jax.Array) -> jax.Array:
-    # log mean-square of each row about its mean
-    zc = z - jnp.mean(z, axis=1, keepdims=True)
-    return jnp.log(jnp.mean(zc**2, axis=1) + _POWER_FLOOR)
 
 
 def shooting_problem(
@@ -224,11 +206,6 @@ def shooting_problem(
             peak = jnp.maximum(jnp.max(jnp.abs(vw), axis=1), v_floor)
             de = jnp.sum(e * vw, axis=1) * a_max / (fs * peak**2) / ncyc[starts]
             value += cycle_energy * jnp.mean(de**2)
-        if o.level_match > 0:
-            yt, ym = y_s[fut], yh[: starts.size]
-            value += o.level_match * jnp.mean((_log_power(ym) - _log_power(yt)) ** 2
-                                              + (_log_power(jnp.diff(ym, axis=1))
-                                                 - _log_power(jnp.diff(yt, axis=1))) ** 2)
         if n_probe:
             phi = jnp.sum(yh[starts.size:] * pw[pidx], axis=1)
             value += passivity * jnp.mean(jnp.minimum(phi, 0.0) ** 2)
