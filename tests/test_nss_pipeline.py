@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import shutil
 
+import numpy as np
 import pytest
 
 from sloshrom.config import ConfigError
@@ -66,7 +67,8 @@ def test_config_show_lists_every_class_key_with_a_comment():
                        r"got 'lstm'"),
     ({"arch": "nss", "nss": {"window": 400_000}}, r"'rom\.nss\.window'"),
     ({"arch": "nss", "nss": {"neurons": 2000, "window": 2000}, "ensemble": 2},
-     r"'rom\.ensemble' x the weights of NSS\(8 states, 2000 neurons\) .* more than 4194304"),
+     r"'rom\.ensemble' x the weights of NSS\(8 states, 2000 neurons, strictly proper\) "
+     r".* more than 4194304"),
     ({"arch": "noe", "noe": {"passivity": 1.0}},
      r"'rom\.noe\.amplitude_weighting', 'rom\.noe\.passivity' and 'rom\.noe\.cycle_energy' "
      r"need trainer 'adam'"),
@@ -101,7 +103,8 @@ def test_former_flat_keys_are_read_under_their_new_names(tmp_path):
 
 
 def test_a_too_short_record_for_the_nss_names_its_table():
-    with pytest.raises(ConfigError, match=r"'rom\.nss': NSS\(8 states, 64 neurons\) needs at "
+    with pytest.raises(ConfigError, match=r"'rom\.nss': NSS\(8 states, 64 neurons, strictly "
+                                          r"proper\) needs at "
                                           r"least 14001 training samples"):
         settings.load().replace(data={"train_duration": 20.0},
                                 rom={"arch": "nss", "nss": {"window": 5000, "horizon": 9000}})
@@ -136,7 +139,7 @@ def test_rom_stage_with_an_nss_and_the_compared_nfir(tiny_reproduce, tmp_path):
     assert results["data"].reused and not results["rom"].reused
     r = results["rom"].outputs
     assert r["model"] == "models/nss.npz" and r["arch"] == "nss"
-    assert r["name"] == "NSS(2 states, 4 neurons)"
+    assert r["name"] == "NSS(2 states, 4 neurons, strictly proper)"
     model = load_model(out / r["model"])
     assert type(model).__name__ == "NSS" and model.n_states == 2 and model.window == 5
     # the summary contract: the chosen ROM's figures
@@ -160,8 +163,13 @@ def test_rom_stage_with_an_nss_and_the_compared_nfir(tiny_reproduce, tmp_path):
     assert "neural state-space model" in validation.text
     assert "Beside it, on the same records" in validation.text
     assert "the paper's class NFIR(6, 3)" in validation.text
+    # the ROM's frame sensitivity: in the summary and in the section
+    fr = r["frame_sensitivity"]
+    assert fr["offsets_m_s"] == [0.1, 0.3] and len(fr["energy_change"]) == 2
+    assert all(np.isfinite(fr["energy_change"] + fr["force_change"]))
+    assert f"{100 * fr['energy_change'][0]:.1f} % for 0.1 m/s" in validation.text
     setup = sections[0].tables[0].rows
-    assert ["ROM", "NSS(2 states, 4 neurons)", "configuration"] in setup
+    assert ["ROM", "NSS(2 states, 4 neurons, strictly proper)", "configuration"] in setup
 
 
 @pytest.mark.filterwarnings("ignore::UserWarning")

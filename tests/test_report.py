@@ -19,3 +19,4 @@ def test_report_is_self_contained(tmp_path):
     assert "data:image/png;base64," in text and "0.1235" in text
     # nothing that a browser would fetch from the network
     assert "http://" not in text and "https://" not in text and "src='/" not in text
+

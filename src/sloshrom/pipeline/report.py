@@ -48,6 +48,19 @@ def _pm(s: Any, fmt: str = "{:.3g}", scale: float = 1.0) -> str:
     return f"{fmt.format(s['mean'] * scale)} ± {fmt.format(s['std'] * scale)}"
 
 
+def _frame_text(fr: object) -> str:
+    """The ROM's frame sensitivity (``stages.rom.frame_sensitivity``) as a paragraph."""
+    if not isinstance(fr, dict) or not fr.get("offsets_m_s"):
+        return ""
+    parts = ", ".join(f"{100 * e:.1f} % for {c:g} m/s" for c, e in
+                      zip(fr["offsets_m_s"], fr.get("energy_change", []), strict=False))
+    return ("<p>Frame: the sloshing force does not depend on the tank's uniform velocity; "
+            "the ROM's energy dissipated over the validation record changes by "
+            f"{html.escape(parts)} added to its velocity (0 for the physics; a beam under "
+            "random base excitation drifts by tenths of a m/s; docs/rom.md, \"The damping the "
+            "structure sees\").</p>")
+
+
 def _num(d: dict[str, Any], *keys: str, fmt: str = "{:.3g}", default: str = "n/a") -> str:
     cur: Any = d
     for k in keys:
@@ -181,7 +194,8 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
            f"{_pm(r.get('val_mse_members'))} N² (mean ± std); of their mean: "
            f"{_num(r, 'val_mse')} N².</p>" if r.get("n_members", 1) > 1 else "")
         + _compare_text(r.get("compare"))
-        + (f"<p>{html.escape(r['recipe_text'])}</p>" if r.get("recipe_text") else ""),
+        + (f"<p>{html.escape(r['recipe_text'])}</p>" if r.get("recipe_text") else "")
+        + _frame_text(r.get("frame_sensitivity")),
         _fig(ctx, "fig10_validation.png", "Fig. 10 — ROM free-run prediction against the "
              "rig's dynamic force on the validation record"
              + (", and the classes compared with it (thin lines)." if r.get("compare")
