@@ -117,6 +117,25 @@ def waveform(st: dict[str, Any], levels: list[float]) -> None:
               f"{_quantiles(ro.get('peak_quantiles_reference'))} N")
 
 
+def experiment(b: dict[str, Any]) -> None:
+    """Table 2 of the ROM against the experiment (the rig as the laboratory): each estimator
+    inside the experiment's 95 % interval, or |z| <= 1.96 with both intervals."""
+    rows = [x for x in (b.get("experiment") or {}).get("random", []) if x["case"] == "rom"]
+    if not rows:
+        print("ROM against the experiment: n/a (no comparison in this summary)")
+        return
+    print("random response, ROM against the experiment (%; inside its 95 % interval or "
+          "|z| <= 1.96):")
+    for x in rows:
+        ok = x["verdict"] == "inside" or (x["z"] is not None and math.isfinite(x["z"])
+                                          and abs(x["z"]) <= 1.96)
+        why = f" ({x['reason']})" if x.get("reason") else ""
+        print(f"  {x['rms_g']:g} g {x['estimator']:>11}: ROM {_pct(x['predicted'])} "
+              f"experiment {_pct(x['measured'])} [{_pct(x['measured_low'])}, "
+              f"{_pct(x['measured_high'])}] {x['verdict']}, z {_num(x['z'], '{:+.2f}')} "
+              f"[{_mark(ok)}]{why}")
+
+
 def report(name: str, s: dict[str, Any], seconds: float | None) -> None:
     st = s["stages"]
     print(f"\n=== {name} ===")
@@ -171,6 +190,13 @@ def report(name: str, s: dict[str, Any], seconds: float | None) -> None:
         spt = (f", members {100 * sp['mean']:.2f} ± {100 * sp['std']:.2f}" if sp else "")
         print(f"  {level:g} g: frozen {_pct(fr)} rig {_pct(rg)} ROM {_pct(ro)} "
               f"({100 * dev:+5.1f} %) [{_mark(abs(dev) <= 0.05)} within 5 %]{spt}")
+    experiment(b)
+    frame = r.get("frame_sensitivity")
+    if frame:
+        print("frame: the ROM's dissipation on the validation record with the velocity shifted "
+              "by " + ", ".join(f"{c:g} m/s: {100 * e:.1f} %" for c, e in
+                                zip(frame["offsets_m_s"], frame["energy_change"], strict=False))
+              + " (the physics: 0)")
     waveform(st, s["config"]["beam"]["rms_g"])
     env = [e for e in b.get("envelope") or [] if e.get("acceleration_ratio") is not None]
     if env:
