@@ -91,6 +91,23 @@ def test_early_stopping_returns_the_best_epoch():
     assert len(seen) == 8
 
 
+def test_no_early_stop_before_min_epochs():
+    # the objective of test_early_stopping_returns_the_best_epoch: with min_epochs 20 the run
+    # goes on to epoch 20, and the best epoch is still 3
+    calls = []
+
+    def validate(w):
+        k = len(calls)
+        calls.append(k)
+        return float(k), float(abs(k - 3)) + 1.0
+
+    with jax.enable_x64(True):
+        problem, *_ = _linear_problem(validate)
+        res = adam_epochs(problem, max_epochs=50, max_fail=4, min_epochs=20)
+    assert res.stop_reason == "validation_stop" and res.best_epoch == 3
+    assert len(res.history["val_objective"]) == 21  # epochs 0..20
+
+
 def test_the_best_parameters_are_those_of_the_best_epoch():
     snapshots = []
 

@@ -120,6 +120,7 @@ def adam_epochs(
     *,
     max_epochs: int,
     max_fail: int = 6,
+    min_epochs: int = 0,
     seed: int = 0,
     mse_scale: float = 1.0,
     patience_without_validation: bool = False,
@@ -137,6 +138,8 @@ def adam_epochs(
     max_fail : int
         Epochs without a new best objective before stopping (with ``problem.validate``, or
         always with ``patience_without_validation``).
+    min_epochs : int
+        No early stop before this epoch (the best parameters are still the best epoch's).
     seed : int
         Seed of the generator passed to ``problem.draw``.
     mse_scale : float
@@ -193,7 +196,7 @@ def adam_epochs(
         if callback is not None and callback(epoch, info):
             reason = "callback"
             break
-        if patient and fail >= max_fail:
+        if patient and fail >= max_fail and epoch >= min_epochs:
             reason = "validation_stop"
             break
     return EngineResult(best, reason, hist, best_epoch)
