@@ -108,6 +108,31 @@ def test_no_early_stop_before_min_epochs():
     assert len(res.history["val_objective"]) == 21  # epochs 0..20
 
 
+def test_a_blow_up_continues_from_the_best_epoch():
+    # the validation objective explodes at epoch 4: with rollback the next epoch starts from
+    # epoch 3's parameters (the best), without it from epoch 4's
+    seen = []
+
+    def validate(w):
+        seen.append(np.asarray(w).copy())
+        k = len(seen) - 1
+        return 1.0, (100.0 if k == 4 else 1.0 / (k + 1))
+
+    starts = {}
+    for rb in (None, 10.0):
+        seen.clear()
+        with jax.enable_x64(True):
+            problem, *_ = _linear_problem(validate)
+            res = adam_epochs(problem, max_epochs=6, rollback=rb)
+        starts[rb] = [w.copy() for w in seen]
+        assert res.best_epoch == 6
+    # epoch 5 trains from epoch 3's parameters with rollback: it differs from the run without
+    np.testing.assert_array_equal(starts[None][4], starts[10.0][4])
+    assert not np.array_equal(starts[None][5], starts[10.0][5])
+    # a moderate rise (below 10x the best) does not roll back
+    assert np.array_equal(starts[None][3], starts[10.0][3])
+
+
 def test_the_best_parameters_are_those_of_the_best_epoch():
     snapshots = []
 

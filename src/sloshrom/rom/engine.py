@@ -121,6 +121,7 @@ def adam_epochs(
     max_epochs: int,
     max_fail: int = 6,
     min_epochs: int = 0,
+    rollback: float | None = None,
     seed: int = 0,
     mse_scale: float = 1.0,
     patience_without_validation: bool = False,
@@ -140,6 +141,10 @@ def adam_epochs(
         always with ``patience_without_validation``).
     min_epochs : int
         No early stop before this epoch (the best parameters are still the best epoch's).
+    rollback : float, optional
+        An epoch whose validation objective exceeds ``rollback`` times the best one (a
+        blow-up of the training) continues from the best epoch's parameters (the optimiser's
+        moments and schedule go on). None: never.
     seed : int
         Seed of the generator passed to ``problem.draw``.
     mse_scale : float
@@ -187,6 +192,8 @@ def adam_epochs(
             best, best_obj, best_epoch, fail = params, obj, epoch, 0
         elif epoch > 0:
             fail += 1
+            if rollback is not None and not obj <= rollback * best_obj:
+                params = best
         t_end = time.perf_counter()
         info = {"train_mse": tr * mse_scale, "val_mse": vmse * mse_scale,
                 "val_objective": obj, **(constant_history or {}), "seconds": t_end - t0,
