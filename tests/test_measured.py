@@ -101,9 +101,16 @@ def _same_rows(a, b):
     assert len(a) == len(b)
     for ra, rb in zip(a, b, strict=True):
         for k, v in ra.items():
-            if k == "case":
+            if k == "case" or isinstance(v, str):
+                assert rb[k] == v or k == "case", k
                 continue
-            np.testing.assert_allclose(rb[k], v, rtol=1e-6, atol=1e-9, equal_nan=True,
+            # a value LSCF found only with relaxed tolerances (its note says so) is less stable:
+            # the files' round-off moves its bias-corrected value by 4.2e-6 and its IQR by
+            # 1.5e-5, relative (measured; the primary estimates by less than 1e-6)
+            est = next((e for e in ("lscf_h1", "lscf_output", "half_power")
+                        if k.startswith(e)), None)
+            rtol = 1e-4 if est and ra.get(f"{est}_note") else 1e-6
+            np.testing.assert_allclose(rb[k], v, rtol=rtol, atol=1e-9, equal_nan=True,
                                        err_msg=k)
 
 

@@ -197,7 +197,7 @@ def test_rig_overrides_reach_the_rig(tmp_path):
 
 # -- the data stage --------------------------------------------------------------------------------
 TINY = {"data": {"train_duration": 12.0, "validation_duration": 12.0,
-                 "extension_duration": 20.0},
+                 "extension_duration": 20.0, "design": "structure"},
         "beam": {"free_duration": 3.0, "random_duration": 40.0, "rms_g": [0.1, 0.3]}}
 
 

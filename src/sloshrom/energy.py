@@ -17,10 +17,11 @@ from __future__ import annotations
 import math
 import time
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 import xarray as xr
 
 from sloshrom import __version__
@@ -95,8 +96,8 @@ def dissipated_energy(
     return -np.sum(fm * dw, axis=-1) / n_cycles
 
 
-def frame_sensitivity(model: SloshingModel, velocity: Any, fs: float,
-                      offsets: Any = (0.1, 0.3)) -> dict[str, Any]:
+def frame_sensitivity(model: SloshingModel, velocity: npt.ArrayLike, fs: float,
+                      offsets: Sequence[float] = (0.1, 0.3)) -> dict[str, list[float]]:
     """How much a model's force and dissipation depend on the frame it is driven in.
 
     The sloshing force does not depend on the tank's uniform velocity (Galilean invariance;

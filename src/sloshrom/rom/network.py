@@ -331,9 +331,11 @@ class FittedNetwork:
     jax_traceable = True
     #: how an unstable run is named in its error
     _simulation = "simulation"
-    #: the force at sample k reads the input at sample k (a state-space output map), not
-    #: past inputs only (an FMU declares the dependency)
-    feedthrough = False
+    @property
+    def feedthrough(self) -> bool:
+        """Whether the force at sample k reads the input at sample k (a state-space output
+        map), not past inputs only (an FMU declares the dependency)."""
+        return False
 
     @property
     def model_class(self) -> ModelClass:

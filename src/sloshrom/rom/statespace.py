@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import partial
 from typing import Any
@@ -143,7 +143,7 @@ def init_params(spec: StateSpaceSpec, seed: int) -> dict[str, np.ndarray]:
 # ---------------------------------------------------------------------------------------------
 
 
-def strictly_proper(p: dict[str, Any]) -> dict[str, Any]:
+def strictly_proper(p: Mapping[str, jax.Array]) -> dict[str, jax.Array]:
     """``p`` with the input rows of the output map (the last rows of ``C`` and ``V1``) at zero:
     ``y_k = H(x_k)``, no direct feed-through. The rows stay in the arrays, so every reader of
     the file layout (the FMU, ONNX) runs the strictly proper model unchanged; the gradient
@@ -241,7 +241,7 @@ class StateSpaceNetwork(FittedNetwork):
     _simulation = "state-space simulation"
 
     @property
-    def feedthrough(self) -> bool:  # type: ignore[override]
+    def feedthrough(self) -> bool:
         """Whether the force reads the current input directly (False: strictly proper)."""
         return bool(np.any(np.asarray(self.params["C"])[-1])
                     or np.any(np.asarray(self.params["V1"])[-1]))

@@ -86,7 +86,10 @@ class LinearStateSpace(FittedNetwork):
     fs: float = 1.0
     unstable_bound: float = 1e6
 
-    feedthrough = True
+    @property
+    def feedthrough(self) -> bool:
+        """The output reads the current input (``D``)."""
+        return True
 
     @property
     def model_class(self) -> ModelClass:
