@@ -7,7 +7,9 @@ input, ``r_u``/``r_y`` the scaled rest input and output, ``z_k = [x_k, u_k]``)::
     y_k     = H(z_k) - H(z_rest) + r_y,    H(z) = z C + tanh(z V1 + d1) V2
 
 with ``z_rest = [0, r_u]``: the state ``x = 0`` with the tank at rest is an equilibrium whose
-output is the physical zero force, by construction. A run from rest (the coupled beam, the
+output is the physical zero force, by construction. A strictly proper model
+(``NSS(feedthrough="no")``) holds the input's rows of ``C`` and ``V1`` at zero: ``y_k`` is a
+function of ``x_k`` alone. A run from rest (the coupled beam, the
 energy maps, :meth:`StateSpaceNetwork.free_run`) starts there.
 
 An **encoder** estimates the state from the ``window`` samples of input and output that precede
@@ -269,7 +271,8 @@ class StateSpaceNetwork(FittedNetwork):
 
     def step(self, state: Any, velocity: Any, acceleration: Any = None) -> tuple[Any, Any]:
         """One pure, jax-traceable step: ``(x_{k+1}, dynamic_force_k)`` from the velocity v_k
-        (m/s). The force at k depends on v_k and the state, so it is known once v_k is."""
+        (m/s). The force at k depends on the state and, unless the model is strictly proper
+        (:attr:`feedthrough` False), on v_k: it is known once v_k is."""
         ru, ry = self._rest()
         u_s = self.scaler.u(jnp.asarray(model_input(self, velocity, acceleration), jnp.float64))
         x, y_s = ss_step(self.params, state, u_s, ru, ry)
