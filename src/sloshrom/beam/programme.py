@@ -104,8 +104,11 @@ class Programme:
 
     @property
     def duration(self) -> float:
-        """Length of :meth:`acceleration`, s."""
-        return self.acceleration().size / self.fs
+        """Length of :meth:`acceleration`, s (from the segments' lengths: nothing is
+        concatenated)."""
+        n_gap = int(round(self.pause * self.fs))
+        n = sum(np.size(s.acceleration) for s in self.segments)
+        return (n + n_gap * max(len(self.segments) - 1, 0)) / self.fs
 
     def motion(self) -> dict[str, float]:
         """Peaks of the programme: ``acceleration`` (m/s^2), ``velocity`` (m/s) and
