@@ -46,26 +46,35 @@ def lab(tmp_path_factory):
     return {"dir": d, "modal": modal, "f1": f1, "free": free, "random": rnd}
 
 
+def _csv_rows(path: Path) -> list[dict[str, str]]:
+    lines = path.read_text().splitlines()
+    keys = lines[0].split(",")
+    return [dict(zip(keys, ln.split(","), strict=True)) for ln in lines[1:]]
+
+
 def test_analyse_free_end_to_end(lab, tmp_path):
+    """On the built-in beam at a given f1, the table is that of the simulation in memory."""
     d = lab["dir"]
     r = runner.invoke(app, ["analyse", "free", str(d / "free.uff"), "--channels",
-                            str(d / "plain.toml"), "--name", "lab", "--out", str(tmp_path)])
+                            str(d / "plain.toml"), "--name", "lab", "--builtin-beam",
+                            "--f1", repr(lab["f1"]), "--out", str(tmp_path)])
     assert r.exit_code == 0, r.output
+    assert "1 mode given" in r.output
     names = sorted(p.name for p in tmp_path.iterdir())
-    assert names == ["damping_bands.csv", "damping_bands.md", "fig14_station_accelerations.png",
-                     "fig16_modal_accelerations.png", "fig21_instantaneous_damping.png",
-                     "free_lab.nc"]
+    assert names == ["damping_bands.csv", "damping_bands.md", "damping_by_mode.png",
+                     "fig14_station_accelerations.png", "fig16_modal_accelerations.png",
+                     "fig21_instantaneous_damping.png", "free_lab.nc"]
     # the table holds what the analysis of the simulation in memory gives
     decay = mode1_decay(lab["free"], lab["modal"], lab["f1"])
     want = damping_band_table({"s": lab["free"]}, {"s": decay}, lab["f1"])
-    rows = [ln.split(",") for ln in (tmp_path / "damping_bands.csv").read_text().splitlines()]
-    assert rows[0][:4] == ["case", "band", "method", "zeta"]
-    assert [r[0] for r in rows[1:]] == ["lab"] * len(want)
-    for row, w in zip(rows[1:], want, strict=True):
-        assert row[1:3] == [w["band"], w["method"]]
-        np.testing.assert_allclose(float(row[3]), w["zeta"], rtol=1e-6, atol=1e-10,
+    rows = _csv_rows(tmp_path / "damping_bands.csv")
+    assert list(rows[0])[:6] == ["case", "mode", "mode_frequency_Hz", "band", "method", "zeta"]
+    assert [r["case"] for r in rows] == ["lab"] * len(want)
+    for row, w in zip(rows, want, strict=True):
+        assert [row["band"], row["method"]] == [w["band"], w["method"]]
+        np.testing.assert_allclose(float(row["zeta"]), w["zeta"], rtol=1e-6, atol=1e-10,
                                    equal_nan=True)
-    got = {(r[1], r[2]): float(r[3]) for r in rows[1:]}
+    got = {(r["band"], r["method"]): float(r["zeta"]) for r in rows}
     # the result file can be analysed again on its own (psi_stations, f1_Hz)
     with xr.open_dataset(tmp_path / "free_lab.nc") as ds:
         assert ds.attrs["f1_Hz"] == pytest.approx(lab["f1"], rel=1e-12)
@@ -80,24 +89,47 @@ def test_analyse_free_end_to_end(lab, tmp_path):
                                    equal_nan=True)
 
 
+def test_analyse_free_finds_the_modes(lab, tmp_path):
+    """Without a structure or --f1, mode 1 is found in the decay's spectrum and band-passed
+    out of the tank channel: its damping is the modal filter's within the bands' intervals."""
+    d = lab["dir"]
+    r = runner.invoke(app, ["analyse", "free", str(d / "free.uff"), "--channels",
+                            str(d / "plain.toml"), "--modes", "1", "--out", str(tmp_path)])
+    assert r.exit_code == 0, r.output
+    assert "1 mode found:" in r.output
+    assert "fig16_modal_accelerations.png" not in {p.name for p in tmp_path.iterdir()}
+    rows = _csv_rows(tmp_path / "damping_bands.csv")
+    # the periodogram of a 2 s decay locates the peak to a fraction of its 0.5 Hz lines
+    assert float(rows[0]["mode_frequency_Hz"]) == pytest.approx(lab["f1"], rel=0.01)
+    decay = mode1_decay(lab["free"], lab["modal"], lab["f1"])
+    want = damping_band_table({"s": lab["free"]}, {"s": decay}, lab["f1"])
+    for row, w in zip(rows, want, strict=True):
+        if np.isfinite(w["zeta"]) and np.isfinite(float(row["zeta"])):
+            assert abs(float(row["zeta"]) - w["zeta"]) <= max(
+                w["high"] - w["low"], 0.02 * w["zeta"]), row
+    with xr.open_dataset(tmp_path / "free_measured.nc") as ds:
+        # a measurement without a structure claims no model's values
+        assert "psi_stations" not in ds and "modal_frequencies_Hz" not in ds.attrs
+        assert ds.attrs["modes_from"] == "found"
+
+
 def test_analyse_random_end_to_end(lab, tmp_path):
     d = lab["dir"]
     files = [str(p) for p in lab_test_paths(d / "random.uff", "random", LEVELS)]
     r = runner.invoke(app, ["analyse", "random", *files, "--channels", str(d / "random.toml"),
-                            "--levels", "0.1,0.2", "--accuracy", "0.01", "--out",
-                            str(tmp_path)])
+                            "--levels", "0.1,0.2", "--accuracy", "0.01", "--builtin-beam",
+                            "--f1", repr(lab["f1"]), "--out", str(tmp_path)])
     assert r.exit_code == 0, r.output
-    assert "warning: 0.1 g RMS: a 33 s random record" in r.output  # too short for 1 %
+    assert "warning: mode 1, 0.1 g RMS: a 33 s random record" in r.output  # too short for 1 %
     assert {p.name for p in tmp_path.iterdir()} == {
-        "random_measured.nc", "table2_mode1_damping.csv", "table2_mode1_damping.md",
+        "random_measured.nc", "table2_damping.csv", "table2_damping.md", "damping_by_mode.png",
         "fig18_tank_acceleration.png", "fig22_tank_acceleration_window.png", "fig23_psd.png"}
     want = mode1_damping_table({"s": lab["random"]}, LEVELS, lab["f1"])
-    text = (tmp_path / "table2_mode1_damping.csv").read_text().splitlines()
-    keys = text[0].split(",")
-    assert keys[:3] == ["case", "rms_g", "lscf_h1"] and len(text) == 3
-    for line, row in zip(text[1:], want, strict=True):
-        got = dict(zip(keys, line.split(","), strict=True))
-        assert got["case"] == "measured"
+    rows = _csv_rows(tmp_path / "table2_damping.csv")
+    assert list(rows[0])[:5] == ["case", "mode", "mode_frequency_Hz", "rms_g", "lscf_h1"]
+    assert len(rows) == 2
+    for got, row in zip(rows, want, strict=True):
+        assert got["case"] == "measured" and got["mode"] == "1"
         np.testing.assert_allclose(float(got["lscf_output"]), row["lscf_output"], rtol=1e-6)
     with xr.open_dataset(tmp_path / "random_measured.nc") as ds:
         assert ds["level"].values.tolist() == list(LEVELS)
@@ -171,6 +203,7 @@ def _world(tmp: Path, lab_dir: Path) -> None:
     _csv(tmp / "nan.csv", lambda t: np.where(t == t[7], np.nan, _decay(t)))
     _csv(tmp / "steady.csv", lambda t: np.sin(2 * np.pi * 10.19 * t))
     _csv(tmp / "short.csv", _decay, n=500)
+    _csv(tmp / "noise.csv", lambda t: np.random.default_rng(0).standard_normal(t.size), n=4000)
     n = 16500
     _csv(tmp / "sine.csv", lambda t: np.sin(2 * np.pi * 10.3 * t), n=n, base=True)
     _csv(tmp / "r500.csv", lambda t: np.sin(2 * np.pi * 10.3 * t), n=n, base=True)
@@ -194,8 +227,11 @@ CASES = [
      r"nan\.csv.*contains NaN/inf"),
     ("free-does-not-decay", [*FREE, "{tmp}/steady.csv", "--channels", "{tmp}/nobase.toml", *OUT],
      r"steady\.csv: the tank acceleration does not decay"),
-    ("free-too-short", [*FREE, "{tmp}/short.csv", "--channels", "{tmp}/nobase.toml", *OUT],
-     r"short\.csv: 1 s is too short .*need 18 periods"),
+    ("free-too-short", [*FREE, "{tmp}/short.csv", "--channels", "{tmp}/nobase.toml",
+                        "--f1", "10.19", *OUT],
+     r"short\.csv: 1 s is too short .*mode 1 \(10\.19 Hz\): need 18 periods"),
+    ("free-no-resonance", [*FREE, "{tmp}/noise.csv", "--channels", "{tmp}/nobase.toml", *OUT],
+     r"no resonance found in the spectrum of the tank channel.*--f1 or --frequencies"),
     ("random-sine-base", [*RANDOM, "{tmp}/sine.csv", "--channels", "{tmp}/csv.toml", *OUT],
      r"sine\.csv: the base acceleration \(0\.071 g\) is not random: 100 % of its power"),
     ("random-zero-base", [*RANDOM, "{tmp}/zero.csv", "--channels", "{tmp}/csv.toml",
@@ -214,7 +250,20 @@ CASES = [
     ("map-unknown-key", [*FREE, "{tmp}/free.uff", "--channels", "{tmp}/bogus.toml", *OUT],
      r"--channels: .*bogus\.toml: unknown key\(s\) 'bogus'"),
     ("map-ids-without-structure", [*FREE, "{tmp}/free.uff", "--channels", "{tmp}/ids.toml",
-                                   *OUT], r"'ids' name grid IDs of your structure"),
+                                   *OUT], r"name the reference channel \('tank'\)"),
+    ("map-ids-on-builtin", [*FREE, "{tmp}/free.uff", "--channels", "{tmp}/ids.toml",
+                            "--builtin-beam", *OUT], r"'ids' name grid IDs of your structure"),
+    ("f1-and-frequencies", [*FREE, "{tmp}/free.uff", "--channels", "{tmp}/plain.toml",
+                            "--f1", "10", "--frequencies", "10,60", *OUT],
+     r"--f1 and --frequencies both name the modes"),
+    ("bad-frequencies", [*FREE, "{tmp}/free.uff", "--channels", "{tmp}/plain.toml",
+                         "--frequencies", "10,x", *OUT], r"--frequencies must be comma-separated"),
+    ("frequency-twice", [*FREE, "{tmp}/free.uff", "--channels", "{tmp}/plain.toml",
+                         "--frequencies", "10,10", *OUT], r"names a mode twice"),
+    ("mode-at-nyquist", [*FREE, "{tmp}/free.uff", "--channels", "{tmp}/plain.toml",
+                         "--frequencies", "10,240", *OUT], r"too close to the Nyquist"),
+    ("bad-modes", [*FREE, "{tmp}/free.uff", "--channels", "{tmp}/plain.toml", "--modes", "0",
+                   *OUT], r"--modes must be >= 1"),
     ("no-such-file", [*FREE, "{tmp}/nope.uff", "--channels", "{tmp}/plain.toml", *OUT],
      r"FILE .*nope\.uff: no such file"),
     ("bad-f1", [*FREE, "{tmp}/free.uff", "--channels", "{tmp}/plain.toml", "--f1", "-3",

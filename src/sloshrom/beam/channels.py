@@ -173,11 +173,20 @@ class ChannelMap:
         return (batch.write if batch is not None else atomic_write)(Path(path), write)
 
     # -- the tank ---------------------------------------------------------------------------
-    def tank_channel(self, modal: ModalModel) -> str:
+    def tank_channel(self, modal: ModalModel | None) -> str:
         """The channel of the tank acceleration: ``tank``, or the station at the tank (the
-        beam's tip, or the first tank's grid ID); a :class:`ChannelMapError` if neither."""
+        beam's tip, or the first tank's grid ID); a :class:`ChannelMapError` if neither.
+
+        ``modal=None`` (a structure known by its measured modes alone, without a tank): the
+        reference channel of the damping analyses, ``tank`` or the station farthest from the
+        root (``positions``)."""
         if self.tank is not None:
             return self.tank
+        if modal is None:
+            if self.positions is not None:
+                return self.stations[int(np.argmax(self.positions))]
+            raise ChannelMapError("channels: name the reference channel ('tank'): without a "
+                                  "structure, grid IDs do not say which station is the tip")
         if self.positions is not None and modal.length is not None:
             at = [s for s, x in zip(self.stations, self.positions, strict=True)
                   if abs(x - modal.length) <= 1e-6 * max(modal.length, 1.0)]

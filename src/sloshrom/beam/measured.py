@@ -133,7 +133,7 @@ def _test_dict(time: np.ndarray, fs: float, base: np.ndarray, stations: np.ndarr
 
 
 def read_free_test(paths: str | Path | Sequence[str | Path], channels: ChannelMap,
-                   modal: ModalModel, *, fs: float | None = None,
+                   modal: ModalModel | None, *, fs: float | None = None,
                    units: Mapping[str, str] | None = None) -> dict[str, Any]:
     """A measured free decay (one file) as the analyses read a simulated one.
 
@@ -143,8 +143,9 @@ def read_free_test(paths: str | Path | Sequence[str | Path], channels: ChannelMa
         UFF 58 (``.uff``/``.unv``), CSV, NetCDF or MATLAB file (:func:`sloshrom.io.read_record`).
     channels : ChannelMap
         Which channel is which accelerometer.
-    modal : ModalModel
-        The structure (it says where the tank is when the map does not name its channel).
+    modal : ModalModel or None
+        The structure (it says where the tank is when the map does not name its channel);
+        ``None``: the reference channel is ``tank`` or the outermost station.
     fs : float, optional
         Sample rate, Hz, for a file without a time axis.
     units : dict, optional
@@ -177,7 +178,7 @@ def read_free_test(paths: str | Path | Sequence[str | Path], channels: ChannelMa
 
 
 def read_random_test(paths: str | Path | Sequence[str | Path], channels: ChannelMap,
-                     modal: ModalModel, *, levels: Sequence[float] | None = None,
+                     modal: ModalModel | None, *, levels: Sequence[float] | None = None,
                      fs: float | None = None, units: Mapping[str, str] | None = None
                      ) -> dict[str, Any]:
     """A measured random base-excitation test, one file per level, as the analyses read a
@@ -252,12 +253,24 @@ def read_random_test(paths: str | Path | Sequence[str | Path], channels: Channel
 
 
 # -- properties of the data ----------------------------------------------------------------------
-def check_free_decay(res: Mapping[str, Any], f1: float) -> float:
-    """Whether a free response decays: the envelope ratio (end / start) of mode 1.
+def check_free_decay(res: Mapping[str, Any], f1: float, *, rel_band: float = 0.5,
+                     mode: int = 1) -> float:
+    """Whether a free response decays: the envelope ratio (end / start) of a mode.
 
-    The tank acceleration relative to the base is band-passed around ``f1`` (0.5-1.5 f1, as
-    the damping analyses); its RMS over periods 2-5 is the start, over the last 4 periods but
-    one the end.
+    The tank acceleration relative to the base is band-passed around ``f1`` (``1 -/+
+    rel_band`` of it: 0.5-1.5 f1 for mode 1, as the damping analyses); its RMS over periods 2-5
+    is the start, over the last 4 periods but one the end.
+
+    Parameters
+    ----------
+    res : mapping
+        The free decay (:func:`read_free_test`).
+    f1 : float
+        The mode's frequency, Hz.
+    rel_band : float
+        Half-width of the band-pass, relative to ``f1``.
+    mode : int
+        The mode's number (messages).
 
     Returns
     -------
@@ -267,17 +280,18 @@ def check_free_decay(res: Mapping[str, Any], f1: float) -> float:
     Raises
     ------
     AnalysisError
-        Fewer than 12 periods of mode 1, or a ratio of :data:`DECAY_RATIO` or more (not a free
-        decay: a forced or random run, or the wrong channel).
+        Fewer than 12 periods of the mode, or a ratio of :data:`DECAY_RATIO` or more (not a
+        free decay: a forced or random run, or the wrong channel).
     """
     fs = float(res["fs"])
     x = np.asarray(res["tank_acceleration"]) - np.asarray(res["base_acceleration"])
     per = fs / f1
     if x.size < 12 * per:
-        raise AnalysisError(f"the free decay holds {x.size / per:.1f} periods of mode 1 "
+        raise AnalysisError(f"the free decay holds {x.size / per:.1f} periods of mode {mode} "
                             f"({f1:.4g} Hz): need at least 12")
-    # the damping analyses' band: 4th-order Butterworth, zero phase, 0.5-1.5 f1
-    sos = signal.butter(4, [0.5 * f1, 1.5 * f1], btype="bandpass", fs=fs, output="sos")
+    # the damping analyses' band: 4th-order Butterworth, zero phase
+    sos = signal.butter(4, [(1 - rel_band) * f1, (1 + rel_band) * f1], btype="bandpass",
+                        fs=fs, output="sos")
     y = signal.sosfiltfilt(sos, x)
     start = y[int(2 * per):int(5 * per)]
     end = y[int(x.size - 5 * per):int(x.size - per)]
@@ -285,7 +299,7 @@ def check_free_decay(res: Mapping[str, Any], f1: float) -> float:
     ratio = b / a if a > 0 else float("inf")
     if not ratio < DECAY_RATIO:
         raise AnalysisError(
-            f"the tank acceleration does not decay: its mode-1 band ({f1:.4g} Hz) ends at "
+            f"the tank acceleration does not decay: its mode-{mode} band ({f1:.4g} Hz) ends at "
             f"{ratio:.2f} x its start (a free decay needs < {DECAY_RATIO:g}); a forced or "
             "random run, or the wrong tank channel?")
     return ratio

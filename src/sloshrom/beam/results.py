@@ -433,8 +433,9 @@ def frozen_modes_table(tank: Tank | Sequence[Tank], modal: ModalModel,
 
 
 # -- result files --------------------------------------------------------------------------------
-def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank | Sequence[Tank],
-               modal: ModalModel, seed: int = 0, f1: float | None = None) -> xr.Dataset:
+def to_dataset(res: Mapping[str, Any], case: str, kind: str,
+               tank: Tank | Sequence[Tank] | None, modal: ModalModel | None, seed: int = 0,
+               f1: float | None = None) -> xr.Dataset:
     """xarray Dataset of a coupled-simulation result (the standard beam-result names).
 
     Parameters
@@ -446,11 +447,13 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank | Sequen
         The sloshing model's case name (``frozen``, ``rig``, a ROM's name).
     kind : str
         ``"free"`` or ``"random"`` (the ``test`` attribute).
-    tank : Tank or sequence of Tank
+    tank : Tank or sequence of Tank or None
         The tank(s) (fill level and liquid mass go into the attributes).
-    modal : ModalModel
+    modal : ModalModel or None
         The structure's modal model (stations, modes, frequencies, damping; tank and output
-        point IDs when it has them).
+        point IDs when it has them). ``None`` (with ``tank``) for a measured test of a
+        structure known by its measured modes alone: stations numbered 1, 2, ..., no mode
+        shapes, no structural attributes.
     seed : int
         Seed of the run (attribute).
     f1 : float, optional
@@ -482,6 +485,8 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank | Sequen
         members.
     """
     measured = "source" in res
+    if modal is None:
+        return _measured_only(res, case, kind, f1)
     multi = modal.psi_tank.ndim == 2 and (
         np.ndim(res["tank_acceleration"]) > np.ndim(res["base_acceleration"]))
     lead = res["base_acceleration"].shape[:-1]
@@ -551,6 +556,29 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank | Sequen
         peak = np.asarray(res["training_peak_acceleration"], dtype=float)
         ds.attrs["training_peak_acceleration"] = peak if multi else float(peak)
     if ldims:
+        ds = ds.assign_coords(level=("level", res["rms_levels_g"], {"units": "g (RMS)"}))
+    return ds
+
+
+def _measured_only(res: Mapping[str, Any], case: str, kind: str,
+                   f1: float | None) -> xr.Dataset:
+    # a measured test without a structure: what the files held, and nothing of a model
+    lead = ("level",) if np.ndim(res["base_acceleration"]) == 2 else ()
+    acc = {"units": "m/s^2"}
+    ds = xr.Dataset(
+        {"base_acceleration": (lead + ("time",), res["base_acceleration"], acc),
+         "tank_acceleration": (lead + ("time",), res["tank_acceleration"],
+                               {**acc, "long_name": "reference (tank) absolute acceleration"}),
+         "station_acceleration": (lead + ("time", "station"), res["station_acceleration"],
+                                  {**acc, "long_name": "absolute"})},
+        coords={"time": ("time", res["time"], {"units": "s"}),
+                "station": ("station", np.arange(1, res["station_acceleration"].shape[-1] + 1))},
+        attrs={"case": case, "test": kind, "fs": float(res["fs"]),
+               "sloshrom_version": __version__, "origin": "measured",
+               "source": "; ".join(str(s) for s in res["source"])})
+    if f1 is not None:
+        ds.attrs["f1_Hz"] = float(f1)
+    if lead:
         ds = ds.assign_coords(level=("level", res["rms_levels_g"], {"units": "g (RMS)"}))
     return ds
 
@@ -687,23 +715,32 @@ def missing_cells(rows: Sequence[Mapping[str, Cell]],
     """
     out = []
     for r in rows:
-        # (what, value, reason, note) of each cell of the row
+        mode = f" mode {r['mode']}" if "mode" in r else ""
+        # (what, value, interval bounds, reason, note) of each cell of the row
         if "band" in r:
-            head = str(r.get("case", ""))
+            head = f"{r.get('case', '')}{mode}"
             cells = [(f"{r['band']}, {label(str(r['method']))}", r.get("zeta"),
-                      str(r.get("reason", "")), str(r.get("note", "")))]
+                      (r.get("low"), r.get("high")), str(r.get("reason", "")),
+                      str(r.get("note", "")))]
         else:
-            head = f"{r.get('case', '')} {float(r['rms_g']):g} g"
+            head = f"{r.get('case', '')}{mode} {float(r['rms_g']):g} g"
             names = estimators or [n for n in ESTIMATORS if n in r]
-            cells = [(label(n), r.get(n), str(r.get(f"{n}_reason", "")),
-                      str(r.get(f"{n}_note", ""))) for n in names]
-        for what, v, reason, note in cells:
-            try:
-                ok = bool(np.isfinite(float(v)))
-            except (TypeError, ValueError):
-                ok = False
-            if not ok:
+            cells = [(label(n), r.get(n), (r.get(f"{n}_low"), r.get(f"{n}_high")),
+                      str(r.get(f"{n}_reason", "")), str(r.get(f"{n}_note", "")))
+                     for n in names]
+        for what, v, bounds, reason, note in cells:
+            if not _finite(v):
                 out.append(f"{head}, {what}: — ({reason or 'no estimate'})")
+            elif any(b is not None for b in bounds) and not all(_finite(b) for b in bounds):
+                out.append(f"{head}, {what}: {100 * float(v):.3g} %, no interval "
+                           f"({reason or 'no spread estimate'})")
             elif note:
                 out.append(f"{head}, {what}: {100 * float(v):.3g} % ({note})")
     return out
+
+
+def _finite(v: Any) -> bool:
+    try:
+        return bool(np.isfinite(float(v)))
+    except (TypeError, ValueError):
+        return False

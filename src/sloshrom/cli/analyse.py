@@ -10,6 +10,7 @@ simulation: the NetCDF result, the damping tables and the figures, all together 
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -23,7 +24,6 @@ from sloshrom.cli.beam import (
     FillOpt,
     MassUnitOpt,
     ModalOpt,
-    ModesOpt,
     ModeTableOpt,
     StructureOpt,
     StructureOptions,
@@ -35,7 +35,7 @@ from sloshrom.cli.beam import (
 )
 from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputBatch
-from sloshrom.pipeline.settings import FREE_DAMPING_PERIODS, WELCH_NPERSEG, check_analysis_band
+from sloshrom.pipeline.settings import WELCH_NPERSEG
 from sloshrom.plotting import savefig
 
 analyse_app = typer.Typer(
@@ -55,8 +55,19 @@ _OutOpt = Annotated[Path, typer.Option(help="Output directory.", show_default=Fa
 _NameOpt = Annotated[str, typer.Option(
     help="Case name of the test (files free_NAME.nc / random_NAME.nc, table rows).")]
 _F1Opt = Annotated[float | None, typer.Option(
-    "--f1", help="First-mode frequency, Hz, around which the analyses band-pass; default: the "
-                 "structure's first mode with frozen liquid.")]
+    "--f1", help="Analyse this one mode, Hz (the band-pass centre); default: every mode found "
+                 "in the data.")]
+_FrequenciesOpt = Annotated[str | None, typer.Option(
+    "--frequencies", help="The modes to analyse, Hz, comma separated (e.g. 10.3,64.1); "
+                          "default: every mode found in the data (peaks of H1, or of the "
+                          "decay's spectrum).", show_default=False)]
+_BuiltinOpt = Annotated[bool, typer.Option(
+    "--builtin-beam", help="The stations are on the built-in tip-tank cantilever (the map's "
+                           "positions; --tank-toml/--fill its tank): its mode shapes filter "
+                           "them. Implied by --tank-toml and --fill.")]
+_AnalyseModesOpt = Annotated[int | None, typer.Option(
+    "--modes", help="Analyse the lowest N modes found in the data (and, with --structure, keep "
+                    "its first N modes).", show_default=False)]
 
 
 class _Steps:
@@ -85,12 +96,34 @@ def _checked(what: str, fn: Callable[[], Any]) -> Any:
         fail(f"{what}: {exc}" if what else str(exc))
 
 
+def _frequencies(f1: float | None, text: str | None) -> list[float] | None:
+    """The modes the user names (``--f1``, ``--frequencies``), Hz; ``None``: find them."""
+    if f1 is not None and text is not None:
+        fail("--f1 and --frequencies both name the modes: use one")
+    check_number(f1, "--f1", 0.0, None, lo_open=True, unit="Hz")
+    if f1 is not None:
+        return [f1]
+    if text is None:
+        return None
+    try:
+        fr = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        fail(f"--frequencies must be comma-separated numbers of Hz, got {text!r}")
+    if not fr or not all(math.isfinite(v) and v > 0 for v in fr):
+        fail(f"--frequencies must be positive numbers of Hz, got {text!r}")
+    if len(set(fr)) != len(fr):
+        fail(f"--frequencies {text!r} names a mode twice")
+    return fr
+
+
 def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml: Path | None,
              fill: float | None, modal_toml: Path | None, structure: Path | None,
              tank: list[str] | None, direction: str, mode_table: Path | None,
-             modes: int | None, mass_unit: str | None, f1: float | None) -> tuple:
+             modes: int | None, mass_unit: str | None, builtin: bool) -> tuple:
     """Options, channel map and structure, checked before any file is read: (map, setup,
-    station model, f1)."""
+    station model). Without a structure option (``--builtin-beam``, ``--structure``,
+    ``--modal-toml``, ``--tank-toml``, ``--fill``), the structure is known by its measured
+    modes alone: setup and station model are ``None``."""
     from sloshrom.beam.channels import ChannelMap, station_model
 
     if not files:
@@ -104,8 +137,15 @@ def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml:
     check_input(channels, "--channels")
     if not name.strip() or not all(c.isalnum() or c in "-_." for c in name):
         fail(f"--name {name!r}: letters, digits, '-', '_' and '.' only (it names the files)")
-    check_number(f1, "--f1", 0.0, None, lo_open=True, unit="Hz")
+    check_number(modes, "--modes", 1, None)
     cmap = _checked("--channels", lambda: ChannelMap.from_toml(channels))
+    if not builtin and all(v is None for v in (tank_toml, fill, modal_toml, structure)):
+        for given, opt in ((tank, "--tank"), (mode_table, "--mode-table"),
+                           (mass_unit, "--mass-unit")):
+            if given:
+                fail(f"{opt} places things on a --structure; give --structure FILE")
+        _checked("--channels", lambda: cmap.tank_channel(None))
+        return cmap, None, None
     outputs = None
     if cmap.ids is not None:
         if structure is None and modal_toml is None:
@@ -116,18 +156,24 @@ def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml:
     elif structure is not None:
         fail(f"--channels {channels}: on --structure the stations are grid IDs: give 'ids', "
              "not 'positions'")
-    st = StructureOptions.from_options(structure, tank, outputs, direction, mode_table, modes,
-                                 mass_unit)
+    st = StructureOptions.from_options(structure, tank, outputs, direction, mode_table,
+                                       modes if structure is not None else None, mass_unit)
     setup = setup_structure(tank_toml, modal_toml, 0, st, fill)
     if any(setup.own):
         fail("--tank GRID:MODEL: a measured test has no sloshing model; give GRID[:fill=F]")
     modal = _checked("--channels", lambda: station_model(setup.modal, cmap, setup.beam))
     _checked("--channels", lambda: cmap.tank_channel(modal))
-    return cmap, setup, modal, f1 if f1 is not None else setup.f1
+    return cmap, setup, modal
 
 
-def _band(f1: float, fs: float) -> None:
-    _checked("", lambda: check_analysis_band(f1, fs=fs))
+def _modes(res: dict, kind: str, frequencies: list[float] | None, modes: int | None) -> Any:
+    """The modes to analyse (given or found), each inside the record's band, or a user error."""
+    from sloshrom.beam.lab import describe, test_modes
+
+    found = _checked("modes", lambda: test_modes(res, kind, frequencies=frequencies,
+                                                 max_modes=modes))
+    typer.echo(describe(found))
+    return found
 
 
 @analyse_app.command("free")
@@ -137,6 +183,9 @@ def free(
     out: _OutOpt,
     name: _NameOpt = "measured",
     f1: _F1Opt = None,
+    frequencies: _FrequenciesOpt = None,
+    modes: _AnalyseModesOpt = None,
+    builtin_beam: _BuiltinOpt = False,
     tank_toml: TankOpt = None,
     fill: FillOpt = None,
     modal_toml: ModalOpt = None,
@@ -144,61 +193,69 @@ def free(
     tank: TankSpecOpt = None,
     direction: DirectionOpt = "+Z",
     mode_table: ModeTableOpt = None,
-    modes: ModesOpt = None,
     mass_unit: MassUnitOpt = None,
 ) -> None:
-    """A measured free decay (one file): modal filtering, first-mode damping by amplitude band.
+    """A measured free decay (one file): the damping of every mode by amplitude band.
 
-    The channel map (``--channels``) says which channel is which accelerometer; the stations'
-    mode shapes come from the built-in cantilever (``positions``), ``--modal-toml`` or
-    ``--structure`` (``ids``). The record needs at least 18 periods of mode 1 and must decay.
-    Writes ``free_NAME.nc``, ``damping_bands.csv/.md`` and the figures of ``sloshrom beam
-    free`` (without Fig. 20: a measured test has no forces), all together or none.
+    The modes are the peaks of the tank channel's spectrum (``--f1``, ``--frequencies`` or
+    ``--modes`` choose). The channel map (``--channels``) says which channel is which
+    accelerometer; the reference (tank) channel is ``tank`` or the outermost station. Without
+    a structure option each mode is band-passed out of the reference channel; with
+    ``--structure``, ``--modal-toml`` or ``--tank-toml`` its mode shapes filter the stations
+    (modal filtering). The record needs 18 periods of each mode and must decay. Writes
+    ``free_NAME.nc``, ``damping_bands.csv/.md`` (a row per mode, band and method) and the
+    figures, all together or none.
 
     Example: ``sloshrom analyse free decay.uff --channels channels.toml --out lab``
     """
+    from sloshrom.beam.lab import FREE_PERIODS, free_mode_decays, free_mode_rows
     from sloshrom.beam.measured import check_free_decay, read_free_test
-    from sloshrom.beam.results import (
-        damping_band_table,
-        mode1_decay,
-        to_dataset,
-        write_dataset,
-        write_table,
-    )
-    from sloshrom.plotting.beam import FREE_FIGURES, free_figures
+    from sloshrom.beam.results import to_dataset, write_dataset, write_table
+    from sloshrom.plotting.beam import FREE_FIGURES, free_figures, mode_decay_figure
 
-    cmap, setup, modal, f1v = _prepare(files, channels, out, name, tank_toml, fill, modal_toml,
-                                       structure, tank, direction, mode_table, modes,
-                                       mass_unit, f1)
-    figures = [f for f in FREE_FIGURES if f != "fig20_tank_interface_dynamic"]
+    freqs = _frequencies(f1, frequencies)
+    cmap, setup, modal = _prepare(files, channels, out, name, tank_toml, fill, modal_toml,
+                                  structure, tank, direction, mode_table, modes, mass_unit,
+                                  builtin_beam)
+    figures = [f for f in FREE_FIGURES if f != "fig20_tank_interface_dynamic"
+               and (modal is not None or f != "fig16_modal_accelerations")]
     check_outputs(out, [f"free_{name}.nc", "damping_bands.csv", "damping_bands.md",
-                         *(f"{f}.png" for f in figures)],
-                   (*files, channels, tank_toml, modal_toml, structure, mode_table))
+                        "damping_by_mode.png", *(f"{f}.png" for f in figures)],
+                  (*files, channels, tank_toml, modal_toml, structure, mode_table))
 
     def work(step: _Steps) -> tuple:
         step(f"reading {files[0].name}")
         res = _checked("", lambda: read_free_test(files, cmap, modal))
-        _band(f1v, res["fs"])
+        found = _modes(res, "free", freqs, modes)
         n = res["time"].size
-        if n < FREE_DAMPING_PERIODS * res["fs"] / f1v:
-            fail(f"{files[0]}: {n / res['fs']:g} s is too short for the damping analysis of "
-                 f"mode 1 ({f1v:.4g} Hz): need {FREE_DAMPING_PERIODS} periods, "
-                 f"{FREE_DAMPING_PERIODS / f1v:.3g} s")
-        step("damping analysis of mode 1")
-        _checked(f"{files[0]}", lambda: check_free_decay(res, f1v))
-        decay = _checked("damping analysis of mode 1", lambda: mode1_decay(res, modal, f1v))
-        return res, decay
+        for k, f in enumerate(found.frequencies):
+            if n < FREE_PERIODS * res["fs"] / f:
+                fail(f"{files[0]}: {n / res['fs']:g} s is too short for the damping analysis "
+                     f"of mode {k + 1} ({f:.4g} Hz): need {FREE_PERIODS} periods, "
+                     f"{FREE_PERIODS / f:.3g} s")
+        for k, f in enumerate(found.frequencies):
+            _checked(f"{files[0]}", lambda k=k, f=f: check_free_decay(
+                res, f, rel_band=found.rel_band(k, 0.5), mode=k + 1))
+        step("damping analysis of every mode")
+        decays = _checked("damping analysis", lambda: free_mode_decays(res, found, modal))
+        return res, found, decays
 
-    res, decay = _run("analyse free", work)
-    bands = damping_band_table({name: res}, {name: decay}, f1v)
-    figs = free_figures({name: res}, modal, {name: decay})
+    res, found, decays = _run("analyse free", work)
+    rows = free_mode_rows(name, found, decays)
+    figs = free_figures({name: res}, modal, {name: decays[0]},
+                        labels=None if modal is not None else cmap.stations)
+    figs = {k: v for k, v in figs.items() if k in figures}
+    figs["damping_by_mode"] = mode_decay_figure(name, found.frequencies, decays)
     with OutputBatch() as batch:  # all result files or none
-        ds = to_dataset(res, name, "free", setup.tank, modal, f1=f1v)
+        ds = to_dataset(res, name, "free", setup.tank if setup else None, modal,
+                        f1=found.frequencies[0])
+        ds.attrs["mode_frequencies_Hz"] = found.frequencies
+        ds.attrs["modes_from"] = found.how
         write_dataset(ds, out / f"free_{name}.nc", batch)
-        write_table(bands, out / "damping_bands", batch)
+        write_table(rows, out / "damping_bands", batch)
         for stem, fig in figs.items():
             savefig(fig, out / f"{stem}.png", batch)
-    echo_missing(bands, "damping bands")
+    echo_missing(rows, "damping bands")
     typer.echo(f"wrote free_{name}.nc, the damping bands and figures to {out}")
 
 
@@ -224,6 +281,9 @@ def random(
              "file's measured base RMS, to two significant digits.")] = None,
     name: _NameOpt = "measured",
     f1: _F1Opt = None,
+    frequencies: _FrequenciesOpt = None,
+    modes: _AnalyseModesOpt = None,
+    builtin_beam: _BuiltinOpt = False,
     accuracy: Annotated[float | None, typer.Option(
         help="Relative 1-sigma target on the damping ratio, e.g. 0.1: a warning for a record "
              "too short to reach it.")] = None,
@@ -239,17 +299,18 @@ def random(
     tank: TankSpecOpt = None,
     direction: DirectionOpt = "+Z",
     mode_table: ModeTableOpt = None,
-    modes: ModesOpt = None,
     mass_unit: MassUnitOpt = None,
 ) -> None:
-    """A measured random base-excitation test (one file per level): Table 2 and its figures.
+    """A measured random base-excitation test (one file per level): Table 2 at every mode.
 
-    The channel map needs the ``base`` channel (the shaker table). Each level needs one
-    16384-sample Welch segment (32.8 s at 500 Hz); files of different lengths are cut to the
-    shortest (with a warning), files at different sample rates refused, and a base that is
-    not random (constant, or its power in a few spectral lines: a sine) refused. Writes
-    ``random_NAME.nc``, ``table2_mode1_damping.csv/.md`` and the figures of ``sloshrom beam
-    random``, all together or none.
+    The modes are the peaks of H1 (base -> tank) that the levels share (``--f1``,
+    ``--frequencies`` or ``--modes`` choose); each is analysed in its band between its
+    neighbours. The channel map needs the ``base`` channel (the shaker table). Each level
+    needs one 16384-sample Welch segment (32.8 s at 500 Hz); files of different lengths are
+    cut to the shortest (with a warning), files at different sample rates refused, and a base
+    that is not random (constant, or its power in a few spectral lines: a sine) refused.
+    Writes ``random_NAME.nc``, ``table2_damping.csv/.md`` (a row per mode and level) and the
+    figures, all together or none.
 
     ``--estimator`` picks the damping estimators by their registered names (default the three
     of Table 2; e.g. ``ssi_cov`` adds the columns ``ssi_cov``, ``ssi_cov_std``, ``ssi_cov_low``,
@@ -258,11 +319,17 @@ def random(
     Example: ``sloshrom analyse random r01.uff r02.uff r04.uff --channels channels.toml
     --levels 0.1,0.2,0.4 --out lab``
     """
+    from sloshrom.beam.lab import random_mode_rows
     from sloshrom.beam.measured import check_random_base, read_random_test
     from sloshrom.beam.registry import estimator_names
     from sloshrom.beam.results import to_dataset, write_dataset, write_table
-    from sloshrom.beam.uncertainty import ShortRecordWarning, random_damping
-    from sloshrom.plotting.beam import RANDOM_FIGURES, random_figures, random_window
+    from sloshrom.beam.uncertainty import ShortRecordWarning
+    from sloshrom.plotting.beam import (
+        RANDOM_FIGURES,
+        mode_damping_figure,
+        random_figures,
+        random_window,
+    )
 
     try:
         names = estimator_names(estimator or None)
@@ -273,20 +340,20 @@ def random(
         fail(f"--levels gives {len(lv)} level(s) for {len(files)} file(s): one per file")
     check_number(accuracy, "--accuracy", 0.0, 1.0, lo_open=True,
                  why="a relative 1-sigma target on the damping ratio")
-    cmap, setup, modal, f1v = _prepare(files, channels, out, name, tank_toml, fill, modal_toml,
-                                       structure, tank, direction, mode_table, modes,
-                                       mass_unit, f1)
+    freqs = _frequencies(f1, frequencies)
+    cmap, setup, modal = _prepare(files, channels, out, name, tank_toml, fill, modal_toml,
+                                  structure, tank, direction, mode_table, modes, mass_unit,
+                                  builtin_beam)
     if cmap.base is None:
         fail(f"--channels {channels}: a random test needs the 'base' channel (the shaker "
              "table acceleration)")
-    check_outputs(out, [f"random_{name}.nc", "table2_mode1_damping.csv",
-                         "table2_mode1_damping.md", *(f"{f}.png" for f in RANDOM_FIGURES)],
-                   (*files, channels, tank_toml, modal_toml, structure, mode_table))
+    check_outputs(out, [f"random_{name}.nc", "table2_damping.csv", "table2_damping.md",
+                        "damping_by_mode.png", *(f"{f}.png" for f in RANDOM_FIGURES)],
+                  (*files, channels, tank_toml, modal_toml, structure, mode_table))
 
     def work(step: _Steps) -> tuple:
         step(f"reading {len(files)} file(s)")
         res = _checked("", lambda: read_random_test(files, cmap, modal, levels=lv))
-        _band(f1v, res["fs"])
         n = res["time"].size
         if n < WELCH_NPERSEG:
             fail(f"the records hold {n} samples: Table 2 needs at least {WELCH_NPERSEG} per "
@@ -294,30 +361,28 @@ def random(
                  f"{res['fs']:g} Hz)")
         for p, b, g in zip(files, res["base_acceleration"], res["rms_levels_g"], strict=True):
             _checked(str(p), lambda b=b, g=g: check_random_base(b, res["fs"], f"({g:g} g)"))
-        # Table 2's rows (results.mode1_damping_table), with the record-length check
-        rows = []
-        for i, g in enumerate(res["rms_levels_g"]):
-            step(f"damping analysis of mode 1 (Table 2), {g:g} g")
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always", ShortRecordWarning)
-                d = _checked("damping analysis of mode 1", lambda i=i: random_damping(
-                    res["base_acceleration"][i], res["tank_acceleration"][i], res["fs"], f1v,
-                    accuracy=accuracy, estimators=names))
-            for w in caught:  # say which level each warning is about
-                warnings.warn_explicit(f"{g:g} g RMS: {w.message}", w.category, w.filename,
-                                       w.lineno)
-            rows.append({"case": name, "rms_g": float(g), **d})
-        return res, rows
+        found = _modes(res, "random", freqs, modes)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", ShortRecordWarning)
+            rows = _checked("damping analysis", lambda: random_mode_rows(
+                res, name, found, estimators=names, accuracy=accuracy, step=step))
+        for w in caught:  # once each, after the analyses
+            warnings.warn_explicit(str(w.message), w.category, w.filename, w.lineno)
+        return res, found, rows
 
-    res, rows = _run("analyse random", work)
+    res, found, rows = _run("analyse random", work)
     duration = res["time"].size / res["fs"]
     levels_g = [float(x) for x in res["rms_levels_g"]]
     figs = random_figures({name: res}, levels_g, random_window(duration))
+    figs["damping_by_mode"] = mode_damping_figure(rows, names)
     with OutputBatch() as batch:  # all result files or none
-        ds = to_dataset(res, name, "random", setup.tank, modal, f1=f1v)
+        ds = to_dataset(res, name, "random", setup.tank if setup else None, modal,
+                        f1=found.frequencies[0])
+        ds.attrs["mode_frequencies_Hz"] = found.frequencies
+        ds.attrs["modes_from"] = found.how
         write_dataset(ds, out / f"random_{name}.nc", batch)
-        write_table(rows, out / "table2_mode1_damping", batch)
+        write_table(rows, out / "table2_damping", batch)
         for stem, fig in figs.items():
             savefig(fig, out / f"{stem}.png", batch)
     echo_missing(rows, "Table 2")
-    typer.echo(f"wrote random_{name}.nc, Table 2 and figures to {out}")
+    typer.echo(f"wrote random_{name}.nc, Table 2 at every mode and figures to {out}")

@@ -20,31 +20,36 @@ from sloshrom.beam.structure import ModalModel
 from sloshrom.config import G
 
 __all__ = ["COMPARE_FIGURES", "FREE_FIGURES", "RANDOM_FIGURES", "comparison_figures",
-           "free_figures", "random_figures", "random_window"]
+           "free_figures", "mode_damping_figure", "mode_decay_figure", "random_figures",
+           "random_window"]
 
 FREE_FIGURES = ("fig14_station_accelerations", "fig16_modal_accelerations",
                 "fig20_tank_interface_dynamic", "fig21_instantaneous_damping")
 RANDOM_FIGURES = ("fig18_tank_acceleration", "fig22_tank_acceleration_window", "fig23_psd")
 
 
-def free_figures(res: Mapping[str, Mapping[str, Any]], modal: ModalModel,
-                 decays: Mapping[str, Mode1Decay]) -> dict[str, Figure]:
+def free_figures(res: Mapping[str, Mapping[str, Any]], modal: ModalModel | None,
+                 decays: Mapping[str, Mode1Decay],
+                 labels: Sequence[str] | None = None) -> dict[str, Figure]:
     """Figures of a free-response comparison between cases.
 
     Parameters
     ----------
     res : mapping
         Case -> free response (``sloshrom.beam.coupled.free_response``).
-    modal : ModalModel
-        The beam's modal model (station positions, number of modes).
+    modal : ModalModel or None
+        The beam's modal model (station positions, number of modes); ``None`` for a structure
+        known by its measured modes alone (no Fig. 16: no modal filtering).
     decays : mapping
         Case -> its first-mode analysis (``sloshrom.beam.results.mode1_decay``).
+    labels : sequence of str, optional
+        The stations' names in Fig. 14 (default their positions on ``modal``).
 
     Returns
     -------
     dict
         :data:`FREE_FIGURES` stem -> Figure (without Fig. 20, the forces, when a case has
-        none: a measured test).
+        none: a measured test; without Fig. 16 when ``modal`` is ``None``).
     """
     figs = {}
     cases = list(res)
@@ -52,24 +57,29 @@ def free_figures(res: Mapping[str, Mapping[str, Any]], modal: ModalModel,
     axes = fig.subplots(len(cases), 1, sharex=True, squeeze=False)
     for ax, case in zip(axes[:, 0], cases, strict=True):
         r = res[case]
-        for j, x in enumerate(modal.stations):
-            ax.plot(r["time"], r["station_acceleration"][:, j] / G, lw=0.6, label=f"x={x:.3f} m")
+        names = (list(labels) if labels is not None else
+                 [f"x={x:.3f} m" for x in modal.stations] if modal is not None else
+                 [f"station {j + 1}" for j in range(r["station_acceleration"].shape[-1])])
+        for j, lab in enumerate(names):
+            ax.plot(r["time"], r["station_acceleration"][:, j] / G, lw=0.6, label=lab)
         ax.set_ylabel("acceleration (g)")
         ax.set_title(f"{case}: station accelerations")
     axes[0, 0].legend(fontsize=7, ncol=3)
     axes[-1, 0].set_xlabel("time (s)")
     figs["fig14_station_accelerations"] = fig
 
-    fig = Figure(figsize=(8, 2.2 * modal.n_modes))
-    axes = fig.subplots(modal.n_modes, 1, sharex=True, squeeze=False)
-    for n in range(modal.n_modes):
-        for case in cases:
-            axes[n, 0].plot(res[case]["time"], decays[case].modal[:, n], lw=0.6, label=case)
-        axes[n, 0].set_ylabel(f"q''_{n + 1} (m/s²)")
-    axes[0, 0].legend(fontsize=8)
-    axes[-1, 0].set_xlabel("time (s)")
-    fig.suptitle("Modal accelerations (modal filtering of the station accelerations)")
-    figs["fig16_modal_accelerations"] = fig
+    if modal is not None:
+        fig = Figure(figsize=(8, 2.2 * modal.n_modes))
+        axes = fig.subplots(modal.n_modes, 1, sharex=True, squeeze=False)
+        for n in range(modal.n_modes):
+            for case in cases:
+                axes[n, 0].plot(res[case]["time"], decays[case].modal[:, n], lw=0.6,
+                                label=case)
+            axes[n, 0].set_ylabel(f"q''_{n + 1} (m/s²)")
+        axes[0, 0].legend(fontsize=8)
+        axes[-1, 0].set_xlabel("time (s)")
+        fig.suptitle("Modal accelerations (modal filtering of the station accelerations)")
+        figs["fig16_modal_accelerations"] = fig
 
     if all("interface_force" in res[c] for c in cases):  # a measured test has no forces
         fig = Figure(figsize=(8, 7))
@@ -169,6 +179,60 @@ def random_figures(res: Mapping[str, Mapping[str, Any]], levels: Sequence[float]
     axes[0, 0].legend(fontsize=8)
     figs["fig23_psd"] = fig
     return figs
+
+
+def mode_decay_figure(case: str, frequencies: Sequence[float],
+                      decays: Sequence[Mode1Decay]) -> Figure:
+    """Fig. 21 at every mode of a free decay: each mode's instantaneous damping (Hilbert, line;
+    log decrement, dots) against its own amplitude at the tank, one panel per mode."""
+    n = len(decays)
+    fig = Figure(figsize=(7, 3.2 * n))
+    axes = fig.subplots(n, 1, squeeze=False)[:, 0]
+    for k, (ax, f, d) in enumerate(zip(axes, frequencies, decays, strict=True)):
+        h, ld = d.hilbert, d.log_decrement
+        ax.plot(h["amplitude"] / G, 100 * h["zeta"], lw=1.0, color="C0", label="Hilbert")
+        ax.plot(ld["amplitude"] / G, 100 * ld["zeta"], "o", ms=3, color="C0", alpha=0.6,
+                label="log decrement")
+        if h["zeta"].size:  # the scale of the Hilbert curve, not of scattered single peaks
+            lo, hi = np.percentile(100 * h["zeta"], [1, 99])
+            pad = 0.25 * max(hi - lo, 0.05 * abs(hi))
+            ax.set_ylim(lo - pad, hi + pad)
+        ax.set_ylabel(f"mode {k + 1} damping (%)")
+        ax.set_title(f"{case}: mode {k + 1}, {f:.4g} Hz", fontsize=9)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    axes[-1].set_xlabel("the mode's amplitude at the tank (g)")
+    return fig
+
+
+def mode_damping_figure(rows: Sequence[Mapping[str, Any]], estimators: Sequence[str]) -> Figure:
+    """Table 2 at every mode: damping ratio against RMS base level, one panel per mode, each
+    estimator with its 95 % interval (rows of ``sloshrom.beam.lab.random_mode_rows``)."""
+    from sloshrom.beam.registry import label
+
+    modes = sorted({int(r["mode"]) for r in rows})
+    fig = Figure(figsize=(7, 3.0 * len(modes)))
+    axes = fig.subplots(len(modes), 1, squeeze=False)[:, 0]
+    for ax, m in zip(axes, modes, strict=True):
+        rs = [r for r in rows if int(r["mode"]) == m]
+        g = np.array([float(r["rms_g"]) for r in rs])
+        for j, est in enumerate(estimators):
+            v = np.array([float(r.get(est, np.nan)) for r in rs])
+            lo = np.array([float(r.get(f"{est}_low", np.nan)) for r in rs])
+            hi = np.array([float(r.get(f"{est}_high", np.nan)) for r in rs])
+            x = g * (1 + 0.03 * (j - (len(estimators) - 1) / 2))
+            err = np.where(np.isfinite(lo) & np.isfinite(hi),
+                           np.stack([v - lo, hi - v]), 0.0)
+            ax.errorbar(x, 100 * v, yerr=100 * err, fmt="o", ms=4, capsize=3,
+                        label=label(est))
+        ax.set_xscale("log")
+        ax.set_xticks(g, [f"{x:g}" for x in g])
+        ax.set_ylabel(f"mode {m} damping (%)")
+        ax.set_title(f"mode {m}, {float(rs[0]['mode_frequency_Hz']):.4g} Hz", fontsize=9)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    axes[-1].set_xlabel("RMS base acceleration (g)")
+    return fig
 
 
 #: Figures of ``sloshrom compare``: free decays / random tests.

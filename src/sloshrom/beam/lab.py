@@ -1,0 +1,206 @@
+"""A laboratory's tests at every mode in the tested band: the modes found (or given), each
+analysed as the paper analyses mode 1.
+
+* :func:`test_modes` - the modes of a free decay or a random test: found from the data
+  (:mod:`sloshrom.beam.peaks`) or given, each with its analysis band.
+* :func:`random_mode_rows` - Table 2 at every mode: the damping estimators of
+  ``sloshrom.beam.registry`` with their intervals, one row per mode and level.
+* :func:`free_mode_decays`, :func:`free_mode_rows` - the free decay of every mode (Hilbert and
+  log decrement against the mode's own amplitude at the tank) and its damping per amplitude band.
+
+A mode is band-passed out of the tank channel (relative to the base) unless the user's
+structure gives mode shapes at the stations, in which case mode ``k`` is the modal coordinate of
+the structural mode nearest in frequency (modal filtering). Pure functions on the result dicts of
+:mod:`sloshrom.beam.measured`; no files, no printing.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from sloshrom.beam.analysis import AnalysisError, instantaneous_damping, log_decrement
+from sloshrom.beam.peaks import FoundMode, common_modes, find_modes, given_modes, mode_bands
+from sloshrom.beam.results import Mode1Decay, modal_accelerations
+from sloshrom.beam.structure import ModalModel
+from sloshrom.beam.uncertainty import ShortRecordWarning, band_damping, random_damping
+
+__all__ = ["TestModes", "free_mode_decays", "free_mode_rows", "random_mode_rows", "test_modes"]
+
+#: Periods of a mode that a free decay must hold for its damping analysis (5 trimmed at each
+#: end, 4 of smoothing, 4 left to analyse: ``analysis.instantaneous_damping``).
+FREE_PERIODS = 18
+#: Half-width of the Hilbert band-pass of a free decay, relative to the mode's frequency (the
+#: paper's mode-1 analysis), cut to the mode's band between its neighbours.
+DECAY_REL_BAND = 0.35
+
+
+@dataclass(frozen=True)
+class TestModes:
+    """The modes analysed in one test.
+
+    Attributes
+    ----------
+    modes : list of FoundMode
+        Lowest first.
+    bands : list of (float, float)
+        Each mode's analysis band, Hz (:func:`sloshrom.beam.peaks.mode_bands`).
+    how : str
+        ``"found"`` (from the data) or ``"given"``.
+    """
+
+    __test__ = False  # not a pytest class
+    modes: list[FoundMode]
+    bands: list[tuple[float, float]]
+    how: str
+
+    @property
+    def frequencies(self) -> list[float]:
+        """The modes' frequencies, Hz."""
+        return [m.frequency for m in self.modes]
+
+    def rel_band(self, k: int, rel: float) -> float:
+        """A symmetric half-width (relative) around mode ``k`` that stays in its band, at
+        most ``rel``."""
+        f = self.modes[k].frequency
+        lo, hi = self.bands[k]
+        return min(rel, (f - lo) / f, (hi - f) / f)
+
+
+def test_modes(res: Mapping[str, Any], kind: str, *,
+               frequencies: Sequence[float] | None = None,
+               max_modes: int | None = None) -> TestModes:
+    """The modes of a measured test: ``frequencies`` if given, else the resonances its data
+    show.
+
+    A random test: peaks of each level's H1 (base -> tank) that at least half of the levels
+    share. A free decay: peaks of the tank's output spectrum.
+
+    Parameters
+    ----------
+    res : mapping
+        A test of :func:`sloshrom.beam.measured.read_free_test` or ``read_random_test``.
+    kind : {"free", "random"}
+    frequencies : sequence of float, optional
+        The modes, Hz (``--f1``, ``--frequencies``).
+    max_modes : int, optional
+        Keep the lowest ``max_modes`` found.
+
+    Raises
+    ------
+    AnalysisError
+        No resonance in the data (the message says how to name one), or a mode too close to
+        Nyquist.
+    """
+    fs = float(res["fs"])
+    if frequencies is not None:
+        modes, how = given_modes(frequencies), "given"
+    else:
+        tank, base = np.asarray(res["tank_acceleration"]), np.asarray(res["base_acceleration"])
+        if kind == "random":
+            modes = common_modes([find_modes(t, fs, b)
+                                  for b, t in zip(np.atleast_2d(base), np.atleast_2d(tank),
+                                                  strict=True)])
+        else:
+            modes = find_modes(tank - base, fs)
+        how = "found"
+        if not modes:
+            where = ("H1 (base -> tank) of the levels" if kind == "random"
+                     else "spectrum of the tank channel")
+            raise AnalysisError(f"no resonance found in the {where}: no peak stands "
+                                "10 dB above its surroundings (with coherence >= 0.5 on H1); "
+                                "name the modes with --f1 or --frequencies")
+    if max_modes is not None:
+        modes = modes[:max_modes]
+    return TestModes(list(modes), mode_bands([m.frequency for m in modes], fs), how)
+
+
+def random_mode_rows(res: Mapping[str, Any], case: str, modes: TestModes, *,
+                     estimators: Sequence[str] | None = None, accuracy: float | None = None,
+                     step: Callable[[str], None] | None = None) -> list[dict[str, Any]]:
+    """Table 2 at every mode: one row per mode and level (``case``, ``mode`` (1-based),
+    ``mode_frequency_Hz``, ``rms_g``, then :func:`sloshrom.beam.uncertainty.random_damping`'s
+    columns), the fitting band the mode's (:attr:`TestModes.bands`, made symmetric).
+
+    ``step(text)`` is called before each analysis (progress)."""
+    rows = []
+    fs = float(res["fs"])
+    for k, m in enumerate(modes.modes):
+        rel = modes.rel_band(k, 0.5)
+        for i, g in enumerate(res["rms_levels_g"]):
+            if step is not None:
+                step(f"damping of mode {k + 1} ({m.frequency:.4g} Hz), {g:g} g")
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", ShortRecordWarning)
+                d = random_damping(res["base_acceleration"][i], res["tank_acceleration"][i],
+                                   fs, m.frequency, rel_band=rel, accuracy=accuracy,
+                                   estimators=estimators)
+            for w in caught:  # say which mode and level each warning is about
+                warnings.warn(f"mode {k + 1}, {g:g} g RMS: {w.message}", w.category,
+                              stacklevel=2)
+            rows.append({"case": case, "mode": k + 1, "mode_frequency_Hz": m.frequency,
+                         "rms_g": float(g), **d})
+    return rows
+
+
+def free_mode_decays(res: Mapping[str, Any], modes: TestModes,
+                     modal: ModalModel | None = None) -> list[Mode1Decay]:
+    """The free decay of every mode: Hilbert and log-decrement damping of the mode against
+    its own amplitude at the tank.
+
+    With ``modal`` (mode shapes at the stations, at least as many stations as modes), mode
+    ``k`` is the modal coordinate (modal filtering) of the structural mode nearest in frequency;
+    otherwise the tank channel relative to the base, band-passed around the mode. Mode 1's
+    amplitude axis is the tank acceleration (paper Fig. 21); the band-pass makes it the mode's
+    own share.
+
+    Raises
+    ------
+    AnalysisError
+        A record too short for a mode (fewer than :data:`FREE_PERIODS` periods), or the
+        stations cannot separate the modes.
+    """
+    fs = float(res["fs"])
+    n = np.asarray(res["tank_acceleration"]).size
+    tank = np.asarray(res["tank_acceleration"])
+    rel_x = tank - np.asarray(res["base_acceleration"])
+    q = None
+    if modal is not None and modal.psi_stations.shape[0] >= modal.n_modes:
+        q = modal_accelerations(res, modal)
+        f_struct = np.asarray(modal.frequencies)
+    out = []
+    for k, m in enumerate(modes.modes):
+        f = m.frequency
+        if n < FREE_PERIODS * fs / f:
+            raise AnalysisError(f"the free decay is {n / fs:g} s long: mode {k + 1} "
+                                f"({f:.4g} Hz) needs {FREE_PERIODS} periods, "
+                                f"{FREE_PERIODS / f:.3g} s")
+        x = rel_x if q is None else q[:, int(np.argmin(np.abs(f_struct - f)))]
+        rel = modes.rel_band(k, DECAY_REL_BAND)
+        out.append(Mode1Decay(
+            modal=q if q is not None else rel_x[:, None],
+            hilbert=instantaneous_damping(x, fs, f, rel_band=rel, reference=tank),
+            log_decrement=log_decrement(x, fs, f, rel_band=rel, reference=tank)))
+    return out
+
+
+def free_mode_rows(case: str, modes: TestModes, decays: Sequence[Mode1Decay]
+                   ) -> list[dict[str, Any]]:
+    """Damping per amplitude band of every mode (``case``, ``mode``, ``mode_frequency_Hz``,
+    then :func:`sloshrom.beam.uncertainty.band_damping`'s columns)."""
+    rows = []
+    for k, (m, d) in enumerate(zip(modes.modes, decays, strict=True)):
+        rows += [{"case": case, "mode": k + 1, "mode_frequency_Hz": m.frequency, **row}
+                 for row in band_damping(d.hilbert, d.log_decrement, m.frequency)]
+    return rows
+
+
+def describe(modes: TestModes) -> str:
+    """One line naming the analysed modes and how they were found."""
+    fr = ", ".join(f"{f:.4g}" for f in modes.frequencies)
+    n = len(modes.modes)
+    return f"{n} mode{'s' if n > 1 else ''} {modes.how}: {fr} Hz"
