@@ -14,6 +14,7 @@ the mean of the members' estimates with their combined uncertainty
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -737,6 +738,19 @@ def missing_cells(rows: Sequence[Mapping[str, Cell]],
             elif note:
                 out.append(f"{head}, {what}: {100 * float(v):.3g} % ({note})")
     return out
+
+
+def format_interval(value: float, low: Any, high: Any) -> str:
+    """``value [low, high] %`` of a damping ratio (-), with the decimals that tell the bounds
+    apart (the interval's width to two significant digits, at least two decimals of %);
+    without finite bounds ``value % (no interval)``."""
+    v = 100 * float(value)
+    if not (_finite(low) and _finite(high)):
+        return f"{v:.3g} % (no interval)"
+    lo, hi = 100 * float(low), 100 * float(high)
+    width = hi - lo
+    dec = 2 if not width > 0 else min(max(2, 1 - math.floor(math.log10(width))), 8)
+    return f"{v:.{dec}f} [{lo:.{dec}f}, {hi:.{dec}f}] %"
 
 
 def _finite(v: Any) -> bool:

@@ -5,7 +5,17 @@ this package imports them all.
 """
 
 # (each import registers its commands)
-from sloshrom.cli import analyse, beam, compare, design, export, pipeline, rig, rom  # noqa: F401
+from sloshrom.cli import (  # noqa: F401
+    analyse,
+    beam,
+    campaign,
+    compare,
+    design,
+    export,
+    pipeline,
+    rig,
+    rom,
+)
 from sloshrom.cli._app import app
 
 __all__ = ["app"]

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -208,55 +209,95 @@ def free(
 
     Example: ``sloshrom analyse free decay.uff --channels channels.toml --out lab``
     """
-    from sloshrom.beam.lab import FREE_PERIODS, free_mode_decays, free_mode_rows
-    from sloshrom.beam.measured import check_free_decay, read_free_test
-    from sloshrom.beam.results import to_dataset, write_dataset, write_table
-    from sloshrom.plotting.beam import FREE_FIGURES, free_figures, mode_decay_figure
-
     freqs = _frequencies(f1, frequencies)
     cmap, setup, modal = _prepare(files, channels, out, name, tank_toml, fill, modal_toml,
                                   structure, tank, direction, mode_table, modes, mass_unit,
                                   builtin_beam)
-    figures = [f for f in FREE_FIGURES if f != "fig20_tank_interface_dynamic"
-               and (modal is not None or f != "fig16_modal_accelerations")]
-    check_outputs(out, [f"free_{name}.nc", "damping_bands.csv", "damping_bands.md",
-                        "damping_by_mode.png", *(f"{f}.png" for f in figures)],
+    check_outputs(out, _free_outputs(name, modal),
                   (*files, channels, tank_toml, modal_toml, structure, mode_table))
+    test = _run("analyse free",
+                lambda step: _free_test(files, cmap, setup, modal, name, freqs, modes, step))
+    with OutputBatch() as batch:  # all result files or none
+        test.write(out, batch)
+    echo_missing(test.rows, "damping bands")
+    typer.echo(f"wrote free_{name}.nc, the damping bands and figures to {out}")
 
-    def work(step: _Steps) -> tuple:
-        step(f"reading {files[0].name}")
-        res = _checked("", lambda: read_free_test(files, cmap, modal))
-        found = _modes(res, "free", freqs, modes)
-        n = res["time"].size
-        for k, f in enumerate(found.frequencies):
-            if n < FREE_PERIODS * res["fs"] / f:
-                fail(f"{files[0]}: {n / res['fs']:g} s is too short for the damping analysis "
-                     f"of mode {k + 1} ({f:.4g} Hz): need {FREE_PERIODS} periods, "
-                     f"{FREE_PERIODS / f:.3g} s")
-        for k, f in enumerate(found.frequencies):
-            _checked(f"{files[0]}", lambda k=k, f=f: check_free_decay(
-                res, f, rel_band=found.rel_band(k, 0.5), mode=k + 1))
-        step("damping analysis of every mode")
-        decays = _checked("damping analysis", lambda: free_mode_decays(res, found, modal))
-        return res, found, decays
 
-    res, found, decays = _run("analyse free", work)
+@dataclass
+class _Test:
+    """One analysed test: its result dataset, table rows and figures."""
+
+    kind: str
+    name: str
+    ds: Any
+    rows: list[dict[str, Any]]
+    figs: dict[str, Any]
+    modes: Any
+
+    @property
+    def table(self) -> str:
+        return "damping_bands" if self.kind == "free" else "table2_damping"
+
+    def write(self, out: Path, batch: OutputBatch) -> None:
+        from sloshrom.beam.results import write_dataset, write_table
+
+        write_dataset(self.ds, out / f"{self.kind}_{self.name}.nc", batch)
+        write_table(self.rows, out / self.table, batch)
+        for stem, fig in self.figs.items():
+            savefig(fig, out / f"{stem}.png", batch)
+
+
+def _free_figures(modal: Any) -> list[str]:
+    from sloshrom.plotting.beam import FREE_FIGURES
+
+    return [f for f in FREE_FIGURES if f != "fig20_tank_interface_dynamic"
+            and (modal is not None or f != "fig16_modal_accelerations")] + ["damping_by_mode"]
+
+
+def _free_outputs(name: str, modal: Any) -> list[str]:
+    return [f"free_{name}.nc", "damping_bands.csv", "damping_bands.md",
+            *(f"{f}.png" for f in _free_figures(modal))]
+
+
+def _random_outputs(name: str) -> list[str]:
+    from sloshrom.plotting.beam import RANDOM_FIGURES
+
+    return [f"random_{name}.nc", "table2_damping.csv", "table2_damping.md",
+            "damping_by_mode.png", *(f"{f}.png" for f in RANDOM_FIGURES)]
+
+
+def _free_test(files: list[Path], cmap: Any, setup: Any, modal: Any, name: str,
+               freqs: list[float] | None, modes: int | None, step: _Steps) -> _Test:
+    """Read and analyse a free decay at every mode (user errors end the command)."""
+    from sloshrom.beam.lab import FREE_PERIODS, free_mode_decays, free_mode_rows
+    from sloshrom.beam.measured import check_free_decay, read_free_test
+    from sloshrom.beam.results import to_dataset
+    from sloshrom.plotting.beam import free_figures, mode_decay_figure
+
+    step(f"reading {files[0].name}")
+    res = _checked("", lambda: read_free_test(files, cmap, modal))
+    found = _modes(res, "free", freqs, modes)
+    n = res["time"].size
+    for k, f in enumerate(found.frequencies):
+        if n < FREE_PERIODS * res["fs"] / f:
+            fail(f"{files[0]}: {n / res['fs']:g} s is too short for the damping analysis "
+                 f"of mode {k + 1} ({f:.4g} Hz): need {FREE_PERIODS} periods, "
+                 f"{FREE_PERIODS / f:.3g} s")
+    for k, f in enumerate(found.frequencies):
+        _checked(f"{files[0]}", lambda k=k, f=f: check_free_decay(
+            res, f, rel_band=found.rel_band(k, 0.5), mode=k + 1))
+    step(f"{name}: damping analysis of every mode")
+    decays = _checked("damping analysis", lambda: free_mode_decays(res, found, modal))
     rows = free_mode_rows(name, found, decays)
     figs = free_figures({name: res}, modal, {name: decays[0]},
                         labels=None if modal is not None else cmap.stations)
-    figs = {k: v for k, v in figs.items() if k in figures}
     figs["damping_by_mode"] = mode_decay_figure(name, found.frequencies, decays)
-    with OutputBatch() as batch:  # all result files or none
-        ds = to_dataset(res, name, "free", setup.tank if setup else None, modal,
-                        f1=found.frequencies[0])
-        ds.attrs["mode_frequencies_Hz"] = found.frequencies
-        ds.attrs["modes_from"] = found.how
-        write_dataset(ds, out / f"free_{name}.nc", batch)
-        write_table(rows, out / "damping_bands", batch)
-        for stem, fig in figs.items():
-            savefig(fig, out / f"{stem}.png", batch)
-    echo_missing(rows, "damping bands")
-    typer.echo(f"wrote free_{name}.nc, the damping bands and figures to {out}")
+    figs = {k: figs[k] for k in _free_figures(modal)}
+    ds = to_dataset(res, name, "free", setup.tank if setup else None, modal,
+                    f1=found.frequencies[0])
+    ds.attrs["mode_frequencies_Hz"] = found.frequencies
+    ds.attrs["modes_from"] = found.how
+    return _Test("free", name, ds, rows, figs, found)
 
 
 def _levels(text: str | None) -> list[float] | None:
@@ -319,17 +360,7 @@ def random(
     Example: ``sloshrom analyse random r01.uff r02.uff r04.uff --channels channels.toml
     --levels 0.1,0.2,0.4 --out lab``
     """
-    from sloshrom.beam.lab import random_mode_rows
-    from sloshrom.beam.measured import check_random_base, read_random_test
     from sloshrom.beam.registry import estimator_names
-    from sloshrom.beam.results import to_dataset, write_dataset, write_table
-    from sloshrom.beam.uncertainty import ShortRecordWarning
-    from sloshrom.plotting.beam import (
-        RANDOM_FIGURES,
-        mode_damping_figure,
-        random_figures,
-        random_window,
-    )
 
     try:
         names = estimator_names(estimator or None)
@@ -347,42 +378,48 @@ def random(
     if cmap.base is None:
         fail(f"--channels {channels}: a random test needs the 'base' channel (the shaker "
              "table acceleration)")
-    check_outputs(out, [f"random_{name}.nc", "table2_damping.csv", "table2_damping.md",
-                        "damping_by_mode.png", *(f"{f}.png" for f in RANDOM_FIGURES)],
+    check_outputs(out, _random_outputs(name),
                   (*files, channels, tank_toml, modal_toml, structure, mode_table))
-
-    def work(step: _Steps) -> tuple:
-        step(f"reading {len(files)} file(s)")
-        res = _checked("", lambda: read_random_test(files, cmap, modal, levels=lv))
-        n = res["time"].size
-        if n < WELCH_NPERSEG:
-            fail(f"the records hold {n} samples: Table 2 needs at least {WELCH_NPERSEG} per "
-                 f"level (one Welch segment, {WELCH_NPERSEG / res['fs']:g} s at "
-                 f"{res['fs']:g} Hz)")
-        for p, b, g in zip(files, res["base_acceleration"], res["rms_levels_g"], strict=True):
-            _checked(str(p), lambda b=b, g=g: check_random_base(b, res["fs"], f"({g:g} g)"))
-        found = _modes(res, "random", freqs, modes)
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", ShortRecordWarning)
-            rows = _checked("damping analysis", lambda: random_mode_rows(
-                res, name, found, estimators=names, accuracy=accuracy, step=step))
-        for w in caught:  # once each, after the analyses
-            warnings.warn_explicit(str(w.message), w.category, w.filename, w.lineno)
-        return res, found, rows
-
-    res, found, rows = _run("analyse random", work)
-    duration = res["time"].size / res["fs"]
-    levels_g = [float(x) for x in res["rms_levels_g"]]
-    figs = random_figures({name: res}, levels_g, random_window(duration))
-    figs["damping_by_mode"] = mode_damping_figure(rows, names)
+    test = _run("analyse random", lambda step: _random_test(
+        files, cmap, setup, modal, name, freqs, modes, lv, names, accuracy, step))
     with OutputBatch() as batch:  # all result files or none
-        ds = to_dataset(res, name, "random", setup.tank if setup else None, modal,
-                        f1=found.frequencies[0])
-        ds.attrs["mode_frequencies_Hz"] = found.frequencies
-        ds.attrs["modes_from"] = found.how
-        write_dataset(ds, out / f"random_{name}.nc", batch)
-        write_table(rows, out / "table2_damping", batch)
-        for stem, fig in figs.items():
-            savefig(fig, out / f"{stem}.png", batch)
-    echo_missing(rows, "Table 2")
+        test.write(out, batch)
+    echo_missing(test.rows, "Table 2")
     typer.echo(f"wrote random_{name}.nc, Table 2 at every mode and figures to {out}")
+
+
+def _random_test(files: list[Path], cmap: Any, setup: Any, modal: Any, name: str,
+                 freqs: list[float] | None, modes: int | None, lv: list[float] | None,
+                 names: list[str], accuracy: float | None, step: _Steps) -> _Test:
+    """Read and analyse a random test (one file per level) at every mode."""
+    from sloshrom.beam.lab import random_mode_rows
+    from sloshrom.beam.measured import check_random_base, read_random_test
+    from sloshrom.beam.results import to_dataset
+    from sloshrom.beam.uncertainty import ShortRecordWarning
+    from sloshrom.plotting.beam import mode_damping_figure, random_figures, random_window
+
+    step(f"reading {len(files)} file(s)")
+    res = _checked("", lambda: read_random_test(files, cmap, modal, levels=lv))
+    n = res["time"].size
+    if n < WELCH_NPERSEG:
+        fail(f"the records hold {n} samples: Table 2 needs at least {WELCH_NPERSEG} per "
+             f"level (one Welch segment, {WELCH_NPERSEG / res['fs']:g} s at "
+             f"{res['fs']:g} Hz)")
+    for p, b, g in zip(files, res["base_acceleration"], res["rms_levels_g"], strict=True):
+        _checked(str(p), lambda b=b, g=g: check_random_base(b, res["fs"], f"({g:g} g)"))
+    found = _modes(res, "random", freqs, modes)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ShortRecordWarning)
+        rows = _checked("damping analysis", lambda: random_mode_rows(
+            res, name, found, estimators=names, accuracy=accuracy, step=step))
+    for w in caught:  # once each, after the analyses
+        warnings.warn_explicit(str(w.message), w.category, w.filename, w.lineno)
+    duration = res["time"].size / res["fs"]
+    figs = random_figures({name: res}, [float(x) for x in res["rms_levels_g"]],
+                          random_window(duration))
+    figs["damping_by_mode"] = mode_damping_figure(rows, names)
+    ds = to_dataset(res, name, "random", setup.tank if setup else None, modal,
+                    f1=found.frequencies[0])
+    ds.attrs["mode_frequencies_Hz"] = found.frequencies
+    ds.attrs["modes_from"] = found.how
+    return _Test("random", name, ds, rows, figs, found)

@@ -13,9 +13,11 @@ from sloshrom.pipeline.cache import atomic_write_text
 
 @dataclass
 class Figure:
-    """A figure of the report: a PNG file and its caption."""
+    """A figure of the report: a PNG file and its caption (``data``: the PNG's bytes, when
+    the file is not written yet)."""
     path: Path
     caption: str
+    data: bytes | None = None
 
 
 @dataclass
@@ -74,7 +76,8 @@ def render(title: str, intro: str, sections: Sequence[Section]) -> str:
         for t in s.tables:
             parts.append(render_table(t))
         for f in s.figures:
-            data = base64.b64encode(Path(f.path).read_bytes()).decode("ascii")
+            png = f.data if f.data is not None else Path(f.path).read_bytes()
+            data = base64.b64encode(png).decode("ascii")
             parts.append(
                 f"<figure><img alt='{html.escape(Path(f.path).stem)}' "
                 f"src='data:image/png;base64,{data}'><figcaption>{f.caption}</figcaption></figure>"

@@ -1,0 +1,193 @@
+"""``sloshrom analyse campaign``: a laboratory's campaign folder in one command.
+
+Every test of the folder (free decays and the random test, from ``campaign.toml`` or from the
+files' content: :mod:`sloshrom.beam.campaign`) through ``analyse free`` / ``analyse random``,
+each into its own sub-folder, and one report page (``campaign.md`` and a self-contained
+``campaign.html``) with every mode, every estimator, intervals and figures.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from sloshrom.cli._app import check_input, check_number, fail
+from sloshrom.cli.analyse import (
+    _AnalyseModesOpt,
+    _ChannelsOpt,
+    _checked,
+    _free_outputs,
+    _free_test,
+    _frequencies,
+    _FrequenciesOpt,
+    _OutOpt,
+    _random_outputs,
+    _random_test,
+    _run,
+    _Steps,
+    _Test,
+    analyse_app,
+)
+from sloshrom.cli.beam import check_outputs, echo_missing
+from sloshrom.fileio import OutputBatch
+
+_DirArg = Annotated[Path, typer.Argument(
+    help="The campaign folder: data files (UFF 58, CSV, NetCDF, MATLAB) and optionally "
+         "campaign.toml (which file is which test).", show_default=False)]
+
+
+def _pct(v: Any) -> str:
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        return "—"
+    return f"{100 * x:.3g}" if math.isfinite(x) else "—"
+
+
+def _cell(r: dict[str, Any], key: str, low: str, high: str, reason: str) -> str:
+    """``value [low, high] %`` with the digits the interval needs, or ``— (reason)``."""
+    from sloshrom.beam.results import format_interval
+
+    v = r.get(key)
+    try:
+        ok = math.isfinite(float(v))  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        return f"— ({r.get(reason) or 'no estimate'})"
+    return format_interval(float(v), r.get(low), r.get(high))  # type: ignore[arg-type]
+
+
+def _random_table(test: _Test, estimators: list[str]) -> tuple[list[str], list[list[str]]]:
+    from sloshrom.beam.registry import label
+
+    head = ["mode", "f (Hz)", "RMS base (g)", *(f"{label(e)} (%)" for e in estimators)]
+    rows = [[str(r["mode"]), f"{r['mode_frequency_Hz']:.4g}", f"{r['rms_g']:g}",
+             *(_cell(r, e, f"{e}_low", f"{e}_high", f"{e}_reason") for e in estimators)]
+            for r in test.rows]
+    return head, rows
+
+
+def _free_table(test: _Test) -> tuple[list[str], list[list[str]]]:
+    from sloshrom.beam.registry import label
+
+    head = ["mode", "f (Hz)", "band", "method", "damping (%)"]
+    rows = [[str(r["mode"]), f"{r['mode_frequency_Hz']:.4g}", str(r["band"]),
+             label(str(r["method"])), _cell(r, "zeta", "low", "high", "reason")]
+            for r in test.rows]
+    return head, rows
+
+
+def _markdown(head: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines += ["| " + " | ".join(c.replace("|", "/") for c in r) + " |" for r in rows]
+    return "\n".join(lines) + "\n"
+
+
+def _png(fig: Any) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    return buf.getvalue()
+
+
+def _report(directory: Path, tests: list[tuple[Any, _Test]], estimators: list[str]
+            ) -> tuple[str, str]:
+    """The campaign page as Markdown (figures linked) and self-contained HTML."""
+    from sloshrom.pipeline.html import Figure, Section, Table, render
+
+    md = [f"# Campaign {directory.name}\n",
+          f"{len(tests)} test(s) from `{directory}`; damping ratios in %, each with its 95 % "
+          "interval, or — with the reason it has none.\n"]
+    sections = []
+    for spec, t in tests:
+        files = ", ".join(p.name for p in spec.files)
+        modes = ", ".join(f"{f:.4g}" for f in t.modes.frequencies)
+        text = (f"{'Free decay' if t.kind == 'free' else 'Random base excitation'} "
+                f"({files}, classified by {spec.how}); modes {t.modes.how}: {modes} Hz.")
+        head, rows = (_free_table(t) if t.kind == "free" else _random_table(t, estimators))
+        title = f"{t.name}: {'free decay' if t.kind == 'free' else 'random test'}"
+        md += [f"## {title}\n", text + "\n", _markdown(head, rows),
+               f"\n![damping by mode]({t.name}/damping_by_mode.png)\n"]
+        figs = [Figure(Path(f"{t.name}/damping_by_mode.png"), "damping of every mode",
+                       data=_png(t.figs["damping_by_mode"]))]
+        sections.append(Section(title, f"<p>{text}</p>", figs, [Table(head, rows)]))
+    page = render(f"Campaign {directory.name}", "<p>" + md[1].strip() + "</p>", sections)
+    return "\n".join(md), page
+
+
+@analyse_app.command("campaign")
+def campaign(
+    directory: _DirArg,
+    channels: _ChannelsOpt,
+    out: _OutOpt,
+    frequencies: _FrequenciesOpt = None,
+    modes: _AnalyseModesOpt = None,
+    estimator: Annotated[list[str] | None, typer.Option(
+        "--estimator", help="A damping estimator of the registry, repeatable; default the "
+                            "three of paper Table 2.")] = None,
+) -> None:
+    """A campaign folder in one command: every free decay and the random test, every mode.
+
+    Which file is which test: ``campaign.toml`` in the folder (``[[test]]`` tables with
+    ``file``/``files``, ``kind``, optional ``name`` and ``levels``; see docs/beam.md), else
+    by content (a file with the map's random ``base`` is a level of the random test, any
+    other a free decay). One channel map serves every test. Each test is written as
+    ``analyse free``/``random`` write it, into ``OUT/<case>/``; ``OUT/campaign.md`` and
+    ``OUT/campaign.html`` hold every mode, estimator and interval. All files or none.
+
+    Example: ``sloshrom analyse campaign lab/ --channels lab/channels.toml --out results``
+    """
+    from sloshrom.beam.campaign import campaign_tests
+    from sloshrom.beam.channels import ChannelMap
+    from sloshrom.beam.registry import estimator_names
+    from sloshrom.errors import SloshromError
+
+    try:
+        names = estimator_names(estimator or None)
+    except SloshromError as e:
+        fail(f"--estimator: {e}")
+    if not directory.is_dir():
+        fail(f"DIRECTORY {directory}: not a folder")
+    check_input(channels, "--channels")
+    check_number(modes, "--modes", 1, None)
+    freqs = _frequencies(None, frequencies)
+    cmap = _checked("--channels", lambda: ChannelMap.from_toml(channels))
+    _checked("--channels", lambda: cmap.tank_channel(None))
+    specs = _checked(str(directory), lambda: campaign_tests(directory, cmap))
+    planned = ["campaign.md", "campaign.html"]
+    for s in specs:
+        if s.kind == "random" and cmap.base is None:
+            fail(f"--channels {channels}: the random test ({', '.join(p.name for p in s.files)})"
+                 " needs the 'base' channel")
+        planned += [f"{s.name}/{f}" for f in (_free_outputs(s.name, None) if s.kind == "free"
+                                              else _random_outputs(s.name))]
+    check_outputs(out, planned, (channels, *(p for s in specs for p in s.files)))
+    typer.echo(f"{directory}: " + "; ".join(
+        f"{s.name} ({s.kind}: {', '.join(p.name for p in s.files)})" for s in specs))
+
+    def work(step: _Steps) -> list[tuple[Any, _Test]]:
+        done = []
+        for s in specs:
+            if s.kind == "free":
+                t = _free_test(list(s.files), cmap, None, None, s.name, freqs, modes, step)
+            else:
+                lv = list(s.levels) if s.levels is not None else None
+                t = _random_test(list(s.files), cmap, None, None, s.name, freqs, modes, lv,
+                                 names, None, step)
+            done.append((s, t))
+        return done
+
+    tests = _run("analyse campaign", work)
+    md, page = _report(directory, tests, names)
+    with OutputBatch() as batch:  # all result files or none
+        for _, t in tests:
+            t.write(out / t.name, batch)
+        batch.write_text(out / "campaign.md", md)
+        batch.write_text(out / "campaign.html", page)
+    for _, t in tests:
+        echo_missing(t.rows, f"{t.name}")
+    typer.echo(f"wrote {len(tests)} test(s) and campaign.md / campaign.html to {out}")
