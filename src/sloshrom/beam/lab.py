@@ -1,7 +1,7 @@
 """A laboratory's tests at every mode in the tested band: the modes found (or given), each
 analysed as the paper analyses mode 1.
 
-* :func:`test_modes` - the modes of a free decay or a random test: found from the data
+* :func:`modes_of_test` - the modes of a free decay or a random test: found from the data
   (:mod:`sloshrom.beam.peaks`) or given, each with its analysis band.
 * :func:`random_mode_rows` - Table 2 at every mode: the damping estimators of
   ``sloshrom.beam.registry`` with their intervals, one row per mode and level.
@@ -29,7 +29,8 @@ from sloshrom.beam.results import Mode1Decay, modal_accelerations
 from sloshrom.beam.structure import ModalModel
 from sloshrom.beam.uncertainty import ShortRecordWarning, band_damping, random_damping
 
-__all__ = ["TestModes", "free_mode_decays", "free_mode_rows", "random_mode_rows", "test_modes"]
+__all__ = ["TestModes", "describe", "free_mode_decays", "free_mode_rows", "modes_of_test",
+           "random_mode_rows"]
 
 #: Periods of a mode that a free decay must hold for its damping analysis (5 trimmed at each
 #: end, 4 of smoothing, 4 left to analyse: ``analysis.instantaneous_damping``).
@@ -71,7 +72,7 @@ class TestModes:
         return min(rel, (f - lo) / f, (hi - f) / f)
 
 
-def test_modes(res: Mapping[str, Any], kind: str, *,
+def modes_of_test(res: Mapping[str, Any], kind: str, *,
                frequencies: Sequence[float] | None = None,
                max_modes: int | None = None) -> TestModes:
     """The modes of a measured test: ``frequencies`` if given, else the resonances its data

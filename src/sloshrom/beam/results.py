@@ -733,8 +733,10 @@ def missing_cells(rows: Sequence[Mapping[str, Cell]],
             if not _finite(v):
                 out.append(f"{head}, {what}: — ({reason or 'no estimate'})")
             elif any(b is not None for b in bounds) and not all(_finite(b) for b in bounds):
-                out.append(f"{head}, {what}: {100 * float(v):.3g} %, no interval "
-                           f"({reason or 'no spread estimate'})")
+                why = reason or "no spread estimate"
+                if not why.startswith("no interval"):
+                    why = f"no interval ({why})"
+                out.append(f"{head}, {what}: {100 * float(v):.3g} %, {why}")
             elif note:
                 out.append(f"{head}, {what}: {100 * float(v):.3g} % ({note})")
     return out

@@ -169,9 +169,9 @@ def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml:
 
 def _modes(res: dict, kind: str, frequencies: list[float] | None, modes: int | None) -> Any:
     """The modes to analyse (given or found), each inside the record's band, or a user error."""
-    from sloshrom.beam.lab import describe, test_modes
+    from sloshrom.beam.lab import describe, modes_of_test
 
-    found = _checked("modes", lambda: test_modes(res, kind, frequencies=frequencies,
+    found = _checked("modes", lambda: modes_of_test(res, kind, frequencies=frequencies,
                                                  max_modes=modes))
     typer.echo(describe(found))
     return found
