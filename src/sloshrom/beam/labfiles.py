@@ -5,6 +5,10 @@
   (:class:`~sloshrom.beam.channels.ChannelMap`) that reads them back
   (:mod:`sloshrom.beam.measured`).
 * :func:`lab_test_paths` - the files it writes.
+* :func:`write_lab_campaign` - a campaign on a beam of known modes without tank
+  (:class:`~sloshrom.beam.synthetic.LabBeam`): a free decay and random tests at several
+  levels, as UFF 58 with channels in g or m/s^2, their unit labels written or left empty (as
+  some test-lab exports leave them).
 
 A bad argument is a :class:`~sloshrom.beam.errors.BeamError`.
 """
@@ -23,6 +27,8 @@ from sloshrom.beam.channels import ChannelMap, ChannelMapError
 from sloshrom.beam.errors import BeamError
 from sloshrom.beam.export import BASE_NODE, FIRST_TANK_NODE
 from sloshrom.beam.structure import ModalModel
+from sloshrom.beam.synthetic import LabBeam, free_decay, random_test
+from sloshrom.config import G
 from sloshrom.fileio import OutputBatch
 from sloshrom.io.uff import (
     DIR_PLUS_Z,
@@ -33,7 +39,7 @@ from sloshrom.io.uff import (
     write_uff_sets,
 )
 
-__all__ = ["lab_test_paths", "write_lab_test"]
+__all__ = ["lab_test_paths", "write_lab_campaign", "write_lab_test"]
 
 
 def lab_test_paths(path: str | Path, kind: str, levels: Sequence[float] | None = None
@@ -136,3 +142,74 @@ def write_lab_test(res: Mapping[str, Any], modal: ModalModel, path: str | Path, 
                 ordinate=(SPEC_ACCELERATION, "Acceleration", "m/s^2")))
         write_uff_sets(sets, p, batch=batch)
     return cmap
+
+
+def write_lab_campaign(directory: str | Path, beam: LabBeam | None = None, *,
+                       levels: Sequence[float] = (0.1, 0.2, 0.4), duration: float = 120.0,
+                       decay_duration: float = 20.0, decay_peak_g: float = 8.5,
+                       fs: float = 500.0, units: Sequence[str] | None = None,
+                       unit_labels: bool = True, seed: int = 0,
+                       batch: OutputBatch | None = None) -> ChannelMap:
+    """A laboratory's campaign on ``beam`` as UFF 58 files: ``decay.uff`` (a free decay, no
+    base channel) and ``random_<level>g.uff`` (random base excitation).
+
+    Channels ``acc1``... at ``beam.positions`` (nodes 1, 2, ..., +Z) and ``base`` (node
+    :data:`~sloshrom.beam.export.BASE_NODE`) on the random runs; each station in its unit of
+    ``units`` (default alternately g and m/s^2, the base in g).
+
+    Parameters
+    ----------
+    directory : path
+        Where the files go (created).
+    beam : LabBeam, optional
+        Default ``LabBeam()`` (10.3 / 64.1 / 180 Hz, 1.37 / 0.62 / 0.48 %).
+    levels : sequence of float
+        RMS base levels, g.
+    duration, decay_duration : float
+        Length of each random run and of the decay, s.
+    decay_peak_g : float
+        Peak tip acceleration of the decay, g.
+    fs : float
+        Sample rate, Hz.
+    units : sequence of str, optional
+        ``"g"`` or ``"m/s^2"`` per station.
+    unit_labels : bool
+        Write the ordinate unit labels (``False``: empty labels and no units dataset 164, so
+        that a reader needs the units from the user).
+    seed : int
+        Seed of the excitation and the sensor noise.
+
+    Returns
+    -------
+    ChannelMap
+        The map of the campaign (stations, positions, base).
+    """
+    beam = beam or LabBeam()
+    n_st = len(beam.positions)
+    u = list(units) if units is not None else ["g" if k % 2 == 0 else "m/s^2"
+                                               for k in range(n_st)]
+    if len(u) != n_st or any(x not in ("g", "m/s^2") for x in u):
+        raise BeamError(f"units: 'g' or 'm/s^2' for each of the {n_st} stations, got {u}")
+    names = [f"acc{k + 1}" for k in range(n_st)]
+    d = Path(directory)
+
+    def write(path: Path, res: Mapping[str, Any], run: str, base: bool) -> None:
+        chans = [(n, k + 1, res["stations"][:, k], unit)
+                 for k, (n, unit) in enumerate(zip(names, u, strict=True))]
+        if base:
+            chans.insert(0, ("base", BASE_NODE, res["base"], "g"))
+        sets = [dataset164_si()] if unit_labels else []
+        for j, (name, node, v, unit) in enumerate(chans):
+            sets.append(dataset58(
+                v / G if unit == "g" else v, 0.0, 1.0 / fs, id1=name, id2=run, func_type=1,
+                func_id=j + 1, rsp=("beam", int(node), DIR_PLUS_Z),
+                abscissa=(SPEC_TIME, "Time", "s"),
+                ordinate=(SPEC_ACCELERATION, "Acceleration", unit if unit_labels else "")))
+        write_uff_sets(sets, path, batch=batch)
+
+    for i, g in enumerate(levels):
+        res = random_test(beam, g, duration, fs, seed=seed + i)
+        write(d / f"random_{g:g}g.uff", res, f"random base excitation, {g:g} g RMS", True)
+    write(d / "decay.uff", free_decay(beam, decay_peak_g, decay_duration, fs,
+                                      seed=seed + len(levels)), "free decay", False)
+    return ChannelMap(stations=tuple(names), positions=tuple(beam.positions), base="base")

@@ -191,3 +191,35 @@ def campaign(
     for _, t in tests:
         echo_missing(t.rows, f"{t.name}")
     typer.echo(f"wrote {len(tests)} test(s) and campaign.md / campaign.html to {out}")
+
+
+@analyse_app.command("example")
+def example(
+    directory: Annotated[Path, typer.Argument(help="Folder to write the campaign into.",
+                                              show_default=False)],
+    empty_units: Annotated[bool, typer.Option(
+        "--empty-units", help="Leave the UFF unit labels empty (the units then come from "
+                              "--unit or the map's [units]).")] = False,
+    duration: Annotated[float, typer.Option(help="Length of each random run, s.")] = 120.0,
+    seed: Annotated[int, typer.Option(help="Seed of the excitation and noise.")] = 0,
+) -> None:
+    """Write a laboratory's campaign to try `analyse` on: a three-mode cantilever without tank
+    (10.3 / 64.1 / 180 Hz, damping 1.37 / 0.62 / 0.48 %), five accelerometers alternately in g
+    and m/s^2, a free decay and random tests at 0.1 / 0.2 / 0.4 g, as UFF 58, and its channel
+    map ``channels.toml``.
+
+    Example: ``sloshrom analyse example lab && sloshrom analyse campaign lab --channels
+    lab/channels.toml --out results``
+    """
+    from sloshrom.beam.labfiles import write_lab_campaign
+
+    check_number(duration, "--duration", 34.0, 3600.0, unit="s",
+                 why="one 16384-sample Welch segment at 500 Hz and at most an hour")
+    check_number(seed, "--seed", 0, 2**32 - 1)
+    names = ["decay.uff", *(f"random_{g:g}g.uff" for g in (0.1, 0.2, 0.4)), "channels.toml"]
+    check_outputs(directory, names, ())
+    with OutputBatch() as batch:
+        cmap = write_lab_campaign(directory, duration=duration, unit_labels=not empty_units,
+                                  seed=seed, batch=batch)
+        cmap.write_toml(directory / "channels.toml", batch)
+    typer.echo(f"wrote {', '.join(names)} to {directory}")
