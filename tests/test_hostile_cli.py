@@ -780,7 +780,7 @@ HOSTILE_CASES = [
     ("uff-tank-missing", None, [*U, "{tmp}/good.uff", "{tmp}/o.nc", "--tank", "{tmp}/none.toml"],
      r"--tank .*none\.toml: no such file"),
     ("uff-name-without-key", None, [*U, "{tmp}/good.uff", "{tmp}/o.nc", "--name", "=force"],
-     r"--name must look like KEY=VALUE, got '=force'"),
+     r"--name must look like CHANNEL=VARIABLE, got '=force'"),
     # == the kinds of the hostile review (each kind, several commands where it occurs) ========
     # -- modal files must not change the physics without a word --------------------------------
     ("beam-uff-negative-damping", _uff_modes("neg.unv", modal_damp_vis=-0.01),

@@ -17,7 +17,7 @@ from typing import Annotated, Any
 
 import typer
 
-from sloshrom.cli._app import app, check_input, check_number, fail
+from sloshrom.cli._app import app, check_input, check_number, fail, key_value_pairs
 from sloshrom.cli.beam import (
     DirectionOpt,
     FillOpt,
@@ -49,11 +49,15 @@ _FilesArg = Annotated[list[Path], typer.Argument(
     help="The test's files: UFF 58 (.uff/.unv), CSV, NetCDF (.nc) or MATLAB (.mat).",
     metavar="FILE", show_default=False)]
 _ChannelsOpt = Annotated[Path, typer.Option(
-    "--channels", help="Channel map TOML (\\[channels]: stations, positions or ids, base, tank; "
-                       "see docs/formats.md).", show_default=False)]
+    "--channels", help="Channel map TOML (\\[channels]: stations, positions or ids, base, "
+                       "tank; \\[units]: channel units; see docs/formats.md).",
+    show_default=False)]
 _OutOpt = Annotated[Path, typer.Option(help="Output directory.", show_default=False)]
 _NameOpt = Annotated[str, typer.Option(
     help="Case name of the test (files free_NAME.nc / random_NAME.nc, table rows).")]
+_UnitOpt = Annotated[list[str] | None, typer.Option(
+    "--unit", help="CHANNEL=UNIT for a channel whose file gives no unit, e.g. --unit acc1=g "
+                   "(repeatable; wins over the channel map's \\[units]).", show_default=False)]
 _F1Opt = Annotated[float | None, typer.Option(
     "--f1", help="First-mode frequency, Hz, around which the analyses band-pass; default: the "
                  "structure's first mode with frozen liquid.")]
@@ -88,10 +92,11 @@ def _checked(what: str, fn: Callable[[], Any]) -> Any:
 def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml: Path | None,
              fill: float | None, modal_toml: Path | None, structure: Path | None,
              tank: list[str] | None, direction: str, mode_table: Path | None,
-             modes: int | None, mass_unit: str | None, f1: float | None) -> tuple:
-    """Options, channel map and structure, checked before any file is read: (map, setup,
-    station model, f1)."""
-    from sloshrom.beam.channels import ChannelMap, station_model
+             modes: int | None, mass_unit: str | None, f1: float | None,
+             units: dict[str, str] | None = None) -> tuple:
+    """Options, channel map (with the --unit units) and structure, checked before any file
+    is read: (map, setup, station model, f1)."""
+    from sloshrom.beam.channels import ChannelMap, acceleration_unit, station_model
 
     if not files:
         fail("give the test's file(s)")
@@ -106,6 +111,15 @@ def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml:
         fail(f"--name {name!r}: letters, digits, '-', '_' and '.' only (it names the files)")
     check_number(f1, "--f1", 0.0, None, lo_open=True, unit="Hz")
     cmap = _checked("--channels", lambda: ChannelMap.from_toml(channels))
+    units = units or {}
+    for key, u in units.items():
+        if key not in cmap.channels:
+            fail(f"--unit {key}={u}: {key!r} is not a channel of --channels {channels} (its "
+                 f"channels: {', '.join(map(repr, cmap.channels))})")
+        why = acceleration_unit(u)
+        if why is not None:
+            fail(f"--unit {key}={u}: {why}")
+    cmap = cmap.with_units(units)
     outputs = None
     if cmap.ids is not None:
         if structure is None and modal_toml is None:
@@ -124,6 +138,48 @@ def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml:
     modal = _checked("--channels", lambda: station_model(setup.modal, cmap, setup.beam))
     _checked("--channels", lambda: cmap.tank_channel(modal))
     return cmap, setup, modal, f1 if f1 is not None else setup.f1
+
+
+def _read(fn: Callable[[], Any], cli: dict[str, str], channels: Path) -> Any:
+    """``fn()`` (a reader of the test's files); a unit missing or contradicting the file is a
+    user error naming --unit (``cli``: its units) and the map's [units]."""
+    import shlex
+
+    from sloshrom.io.record import MissingUnitError, UnitConflictError
+
+    try:
+        return fn()
+    except MissingUnitError as e:
+        fail(f"{e.path}: channel {e.channel!r} has no unit in the file ({e.detail}); give it "
+             f"with --unit {shlex.quote(e.channel + '=g')} (or m/s^2), or in the channel map's "
+             "[units] table")
+    except UnitConflictError as e:
+        who = (f"--unit {e.channel}={e.given}" if e.channel in cli
+               else f"the [units] table of --channels {channels} ({e.channel} = {e.given!r})")
+        fail(f"{e.path}: channel {e.channel!r} is in {e.in_file!r} in the file but {who} "
+             f"says {e.given!r}; a unit given is for a channel whose file has none: drop it")
+    except SloshromError as exc:
+        fail(str(exc))
+
+
+def _f1_from(f1: float | None, structure: Path | None, modal_toml: Path | None) -> str:
+    """Where the analyses' f1 comes from (an attribute of the result file)."""
+    if f1 is not None:
+        return "--f1"
+    of = _structure_given(structure, modal_toml) or "the built-in cantilever model"
+    return f"first mode with frozen liquid of {of}"
+
+
+def _structure_given(structure: Path | None, modal_toml: Path | None) -> str | None:
+    if structure is not None:
+        return f"--structure {structure.name}"
+    return f"--modal-toml {modal_toml.name}" if modal_toml is not None else None
+
+
+def _tank_given(tank_toml: Path | None, fill: float | None) -> str | None:
+    given = [f"--tank-toml {tank_toml.name}" if tank_toml is not None else "",
+             f"--fill {fill:g}" if fill is not None else ""]
+    return " ".join(g for g in given if g) or None
 
 
 def _band(f1: float, fs: float) -> None:
@@ -146,6 +202,7 @@ def free(
     mode_table: ModeTableOpt = None,
     modes: ModesOpt = None,
     mass_unit: MassUnitOpt = None,
+    unit: _UnitOpt = None,
 ) -> None:
     """A measured free decay (one file): modal filtering, first-mode damping by amplitude band.
 
@@ -155,8 +212,14 @@ def free(
     Writes ``free_NAME.nc``, ``damping_bands.csv/.md`` and the figures of ``sloshrom beam
     free`` (without Fig. 20: a measured test has no forces), all together or none.
 
+    One map may serve a whole campaign: a base channel the file lacks is at rest, stations it
+    lacks are left out of the modal filter (a note says so; the tank channel and as many
+    stations as the structure has modes must remain). ``--unit CHANNEL=UNIT`` (or the map's
+    ``[units]``) gives the unit of a channel whose file has none.
+
     Example: ``sloshrom analyse free decay.uff --channels channels.toml --out lab``
     """
+    from sloshrom.beam.channels import station_model
     from sloshrom.beam.measured import check_free_decay, read_free_test
     from sloshrom.beam.results import (
         damping_band_table,
@@ -167,17 +230,22 @@ def free(
     )
     from sloshrom.plotting.beam import FREE_FIGURES, free_figures
 
+    units = key_value_pairs(unit, "--unit", "CHANNEL=UNIT")
     cmap, setup, modal, f1v = _prepare(files, channels, out, name, tank_toml, fill, modal_toml,
                                        structure, tank, direction, mode_table, modes,
-                                       mass_unit, f1)
+                                       mass_unit, f1, units)
     figures = [f for f in FREE_FIGURES if f != "fig20_tank_interface_dynamic"]
     check_outputs(out, [f"free_{name}.nc", "damping_bands.csv", "damping_bands.md",
                          *(f"{f}.png" for f in figures)],
                    (*files, channels, tank_toml, modal_toml, structure, mode_table))
 
     def work(step: _Steps) -> tuple:
+        nonlocal modal
         step(f"reading {files[0].name}")
-        res = _checked("", lambda: read_free_test(files, cmap, modal))
+        res = _read(lambda: read_free_test(files, cmap, modal), units, channels)
+        if res["channel_map"].stations != cmap.stations:  # the file lacks stations
+            modal = _checked("--channels", lambda: station_model(
+                setup.modal, res["channel_map"], setup.beam))
         _band(f1v, res["fs"])
         n = res["time"].size
         if n < FREE_DAMPING_PERIODS * res["fs"] / f1v:
@@ -193,7 +261,10 @@ def free(
     bands = damping_band_table({name: res}, {name: decay}, f1v)
     figs = free_figures({name: res}, modal, {name: decay})
     with OutputBatch() as batch:  # all result files or none
-        ds = to_dataset(res, name, "free", setup.tank, modal, f1=f1v)
+        ds = to_dataset(res, name, "free", setup.tank, modal, f1=f1v,
+                        f1_from=_f1_from(f1, structure, modal_toml),
+                        structure_given=_structure_given(structure, modal_toml),
+                        tank_given=_tank_given(tank_toml, fill))
         write_dataset(ds, out / f"free_{name}.nc", batch)
         write_table(bands, out / "damping_bands", batch)
         for stem, fig in figs.items():
@@ -241,13 +312,16 @@ def random(
     mode_table: ModeTableOpt = None,
     modes: ModesOpt = None,
     mass_unit: MassUnitOpt = None,
+    unit: _UnitOpt = None,
 ) -> None:
     """A measured random base-excitation test (one file per level): Table 2 and its figures.
 
     The channel map needs the ``base`` channel (the shaker table). Each level needs one
     16384-sample Welch segment (32.8 s at 500 Hz); files of different lengths are cut to the
     shortest (with a warning), files at different sample rates refused, and a base that is
-    not random (constant, or its power in a few spectral lines: a sine) refused. Writes
+    not random (constant, or its power in a few spectral lines: a sine) refused. Stations a
+    file lacks are left out (a note says so); the base and the tank channel are required.
+    ``--unit CHANNEL=UNIT`` as for ``analyse free``. Writes
     ``random_NAME.nc``, ``table2_mode1_damping.csv/.md`` and the figures of ``sloshrom beam
     random``, all together or none.
 
@@ -258,6 +332,7 @@ def random(
     Example: ``sloshrom analyse random r01.uff r02.uff r04.uff --channels channels.toml
     --levels 0.1,0.2,0.4 --out lab``
     """
+    from sloshrom.beam.channels import station_model
     from sloshrom.beam.measured import check_random_base, read_random_test
     from sloshrom.beam.registry import estimator_names
     from sloshrom.beam.results import to_dataset, write_dataset, write_table
@@ -273,9 +348,10 @@ def random(
         fail(f"--levels gives {len(lv)} level(s) for {len(files)} file(s): one per file")
     check_number(accuracy, "--accuracy", 0.0, 1.0, lo_open=True,
                  why="a relative 1-sigma target on the damping ratio")
+    units = key_value_pairs(unit, "--unit", "CHANNEL=UNIT")
     cmap, setup, modal, f1v = _prepare(files, channels, out, name, tank_toml, fill, modal_toml,
                                        structure, tank, direction, mode_table, modes,
-                                       mass_unit, f1)
+                                       mass_unit, f1, units)
     if cmap.base is None:
         fail(f"--channels {channels}: a random test needs the 'base' channel (the shaker "
              "table acceleration)")
@@ -284,8 +360,12 @@ def random(
                    (*files, channels, tank_toml, modal_toml, structure, mode_table))
 
     def work(step: _Steps) -> tuple:
+        nonlocal modal
         step(f"reading {len(files)} file(s)")
-        res = _checked("", lambda: read_random_test(files, cmap, modal, levels=lv))
+        res = _read(lambda: read_random_test(files, cmap, modal, levels=lv), units, channels)
+        if res["channel_map"].stations != cmap.stations:  # a file lacks stations
+            modal = _checked("--channels", lambda: station_model(
+                setup.modal, res["channel_map"], setup.beam))
         _band(f1v, res["fs"])
         n = res["time"].size
         if n < WELCH_NPERSEG:
@@ -314,7 +394,10 @@ def random(
     levels_g = [float(x) for x in res["rms_levels_g"]]
     figs = random_figures({name: res}, levels_g, random_window(duration))
     with OutputBatch() as batch:  # all result files or none
-        ds = to_dataset(res, name, "random", setup.tank, modal, f1=f1v)
+        ds = to_dataset(res, name, "random", setup.tank, modal, f1=f1v,
+                        f1_from=_f1_from(f1, structure, modal_toml),
+                        structure_given=_structure_given(structure, modal_toml),
+                        tank_given=_tank_given(tank_toml, fill))
         write_dataset(ds, out / f"random_{name}.nc", batch)
         write_table(rows, out / "table2_mode1_damping", batch)
         for stem, fig in figs.items():
