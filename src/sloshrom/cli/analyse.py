@@ -10,6 +10,7 @@ simulation: the NetCDF result, the damping tables and the figures, all together 
 
 from __future__ import annotations
 
+import shlex
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -35,6 +36,7 @@ from sloshrom.cli.beam import (
 )
 from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputBatch
+from sloshrom.io.record import MissingUnitError, UnitConflictError
 from sloshrom.pipeline.settings import FREE_DAMPING_PERIODS, WELCH_NPERSEG, check_analysis_band
 from sloshrom.plotting import savefig
 
@@ -143,10 +145,6 @@ def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml:
 def _read(fn: Callable[[], Any], cli: dict[str, str], channels: Path) -> Any:
     """``fn()`` (a reader of the test's files); a unit missing or contradicting the file is a
     user error naming --unit (``cli``: its units) and the map's [units]."""
-    import shlex
-
-    from sloshrom.io.record import MissingUnitError, UnitConflictError
-
     try:
         return fn()
     except MissingUnitError as e:
