@@ -189,7 +189,7 @@ class ChannelMap:
     # -- files ------------------------------------------------------------------------------
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], where: str = "channels",
-                  units: Mapping[str, Any] | None = None) -> ChannelMap:
+                  units: Mapping[str, str] | None = None) -> ChannelMap:
         """From the ``[channels]`` table (keys ``stations``, ``positions`` or ``ids``,
         ``base``, ``tank``) and the ``[units]`` table (channel = unit); unknown or missing
         keys are errors naming them."""
@@ -239,7 +239,7 @@ class ChannelMap:
             d["positions"] = list(self.positions)
         else:
             d["ids"] = list(self.ids or ())
-        doc: dict[str, Any] = {"channels": d}
+        doc: dict[str, dict[str, object]] = {"channels": d}
         if self.units:
             doc["units"] = dict(self.units)
         return tomli_w.dumps(doc)

@@ -68,7 +68,7 @@ class MissingChannelNote(Note):
 
 
 # -- reading -------------------------------------------------------------------------------------
-def _uff_channels(rec: Record, path: Path) -> list[dict[str, Any]] | None:
+def _uff_channels(rec: Record, path: Path) -> list[dict[str, object]] | None:
     # a NetCDF made from a UFF file keeps its uff_channels attribute: only UFF files use it
     return rec.attrs.get("uff_channels") if path.suffix.lower() in (".uff", ".unv") else None
 
@@ -81,11 +81,11 @@ def _channel_variable(rec: Record, name: str, path: Path) -> str | None:
     if uff:
         for ch in uff:
             if ch["label"] == name.strip():
-                return ch["variable"]
+                return str(ch["variable"])
         nd = node_dir(name)
         for ch in uff:
             if nd == (ch["node"], ch["direction"]):
-                return ch["variable"]
+                return str(ch["variable"])
         return None
     return name if name in rec.variables else None
 
@@ -250,7 +250,7 @@ def read_free_test(paths: str | Path | Sequence[str | Path], channels: ChannelMa
         warnings.warn(f"{ps[0].name} has no channel {channels.base!r} (the map names it): a "
                       "free decay without a base channel has its base at rest",
                       MissingChannelNote, stacklevel=2)
-    base = ch[channels.base] if has_base else np.zeros(n)
+    base = ch[channels.base] if channels.base is not None and has_base else np.zeros(n)
     st = np.stack([ch[s] for s in kept], axis=-1)
     out = _test_dict(rec.time - rec.time[0], float(rec.fs), base, st, ch[tank], [ps[0].name])
     out["channel_map"] = channels.only(kept, base=has_base)

@@ -28,6 +28,7 @@ from sloshrom.beam.analysis import (
     log_decrement,
     modal_filter,
 )
+from sloshrom.beam.channels import ChannelMap
 from sloshrom.beam.members import (
     Cell,
     Members,
@@ -550,7 +551,8 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank | Sequen
     if res.get("members"):  # the member-mean response of an ensemble's members coupled alone
         ds.attrs["n_members"] = len(res["members"])
     if measured:
-        _measured_attrs(ds, res, tank, modal, structure_given, tank_given)
+        _measured_attrs(ds, [str(x) for x in res["source"]], res.get("channel_map"),
+                        res.get("channel_units"), tank, modal, structure_given, tank_given)
         if ldims:
             ds = ds.assign_coords(level=("level", res["rms_levels_g"], {"units": "g (RMS)"}))
         return ds
@@ -586,16 +588,15 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str, tank: Tank | Sequen
     return ds
 
 
-def _measured_attrs(ds: xr.Dataset, res: Mapping[str, Any], tank: Tank | Sequence[Tank],
-                    modal: ModalModel, structure_given: str | None,
-                    tank_given: str | None) -> None:
+def _measured_attrs(ds: xr.Dataset, sources: list[str], cmap: ChannelMap | None,
+                    channel_units: str | None, tank: Tank | Sequence[Tank], modal: ModalModel,
+                    structure_given: str | None, tank_given: str | None) -> None:
     """The attributes of a measured test: what was measured, read or given (in place)."""
-    ds.attrs["source"] = "; ".join(str(s) for s in res["source"])
-    cmap = res.get("channel_map")
+    ds.attrs["source"] = "; ".join(sources)
     if cmap is not None:
         ds.attrs["channel_map"] = cmap.to_toml()
-    if res.get("channel_units"):
-        ds.attrs["channel_units"] = str(res["channel_units"])
+    if channel_units:
+        ds.attrs["channel_units"] = channel_units
     ds.attrs["structure"] = structure_given or BUILT_IN_STRUCTURE
     if structure_given:
         ds.attrs.update(given_modal_frequencies_Hz=modal.frequencies,

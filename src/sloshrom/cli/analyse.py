@@ -14,7 +14,7 @@ import shlex
 import warnings
 from collections.abc import Callable
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, TypeVar
 
 import typer
 
@@ -57,6 +57,7 @@ _ChannelsOpt = Annotated[Path, typer.Option(
 _OutOpt = Annotated[Path, typer.Option(help="Output directory.", show_default=False)]
 _NameOpt = Annotated[str, typer.Option(
     help="Case name of the test (files free_NAME.nc / random_NAME.nc, table rows).")]
+_T = TypeVar("_T")
 _UnitOpt = Annotated[list[str] | None, typer.Option(
     "--unit", help="CHANNEL=UNIT for a channel whose file gives no unit, e.g. --unit acc1=g "
                    "(repeatable; wins over the channel map's \\[units]).", show_default=False)]
@@ -142,7 +143,7 @@ def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml:
     return cmap, setup, modal, f1 if f1 is not None else setup.f1
 
 
-def _read(fn: Callable[[], Any], cli: dict[str, str], channels: Path) -> Any:
+def _read(fn: Callable[[], _T], cli: dict[str, str], channels: Path) -> _T:
     """``fn()`` (a reader of the test's files); a unit missing or contradicting the file is a
     user error naming --unit (``cli``: its units) and the map's [units]."""
     try:
