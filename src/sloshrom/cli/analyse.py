@@ -214,7 +214,7 @@ def free(
     One map may serve a whole campaign: a base channel the file lacks is at rest, stations it
     lacks are left out of the modal filter (a note says so; the tank channel and as many
     stations as the structure has modes must remain). ``--unit CHANNEL=UNIT`` (or the map's
-    ``[units]``) gives the unit of a channel whose file has none.
+    ``\\[units]`` table) gives the unit of a channel whose file has none.
 
     Example: ``sloshrom analyse free decay.uff --channels channels.toml --out lab``
     """
