@@ -109,6 +109,7 @@ def _read_channels(path: Path, names: Sequence[str], fs: float | None,
     checked), and their units as read; the channels the file lacks are left out."""
     rec = read_record(path, fs=fs, units=units, si=False, shared_units=True)
     out, read_units = {}, {}
+    uff = {c["variable"]: c for c in _uff_channels(rec, path) or ()}
     for name in names:
         var = _channel_variable(rec, name, path)
         if var is None:
@@ -123,7 +124,6 @@ def _read_channels(path: Path, names: Sequence[str], fs: float | None,
             raise RecordError(f"{path}: channel {name!r} is in {unit or 'no unit'!r}, not an "
                               "acceleration (m/s^2, g, mm/s^2, ...)")
         out[name] = arr * factor
-        uff = {c["variable"]: c for c in _uff_channels(rec, path) or ()}
         # UFF says where each unit came from; elsewhere a given unit agrees with the file's
         given = uff[var]["unit_from"] == "units=" if var in uff else name in (units or {})
         read_units[name] = f"{unit} (given)" if given else unit
@@ -151,11 +151,10 @@ def _stations_left(channels: ChannelMap, tank: str, modal: ModalModel,
     # a map with few stations is the user's choice; a file that leaves too few is refused
     if len(kept) < len(channels.stations) and len(kept) < max(modal.n_modes, 1):
         path, rec, ch = next(f for f in found if any(s not in f[2] for s in channels.stations))
-        lost = [s for s in channels.stations if s not in kept]
         raise _no_channel(rec, path, [s for s in channels.stations if s not in ch],
-                          f"; without {', '.join(map(repr, lost))} {len(kept)} station(s) are "
-                          f"left, and the modal filter needs at least {modal.n_modes} for the "
-                          f"{modal.n_modes} modes of the structure")
+                          f"; {len(kept)} station(s) are left, and the modal filter needs at "
+                          f"least {modal.n_modes} for the {modal.n_modes} modes of the "
+                          "structure")
     for path, _, ch in found:
         lost = [s for s in channels.stations if s not in ch]
         if lost:
