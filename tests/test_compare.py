@@ -182,6 +182,9 @@ def test_comparison_cases_checks_names_kinds_and_levels(random_sets, free_sets):
         comparison_cases([m, twin], ["m", "t"])
     # renaming the first input that has the case resolves the clash
     assert comparison_cases([m, twin], ["m", "t"], {"measured": "lab"}) == ["lab", "measured"]
+    # renames apply to the names as given: no chains, a swap is a swap
+    assert comparison_cases([m, f], ["m", "f"], {"measured": "frozen", "frozen": "measured"}) \
+        == ["frozen", "measured"]
     with pytest.raises(CaseNameError, match=r"no input has the case 'rom'") as err:
         comparison_cases([m, f], ["m", "f"], {"rom": "x"})
     assert err.value.rename == ("rom", "x")

@@ -176,7 +176,8 @@ def comparison_cases(datasets: Sequence[xr.Dataset], sources: Sequence[str],
         Their names in messages (the file names).
     renames : mapping, optional
         ``{old: new}`` case names: ``old`` is the case of the first input (in order) that has
-        it, ``new`` its name in the tables.
+        it, ``new`` its name in the tables; every ``old`` is a name as given (``{"a": "b",
+        "b": "a"}`` swaps two names).
 
     Returns
     -------
@@ -198,12 +199,13 @@ def comparison_cases(datasets: Sequence[xr.Dataset], sources: Sequence[str],
             kinds.append(_check_dataset(ds))
         except BeamError as exc:
             raise BeamError(f"{src}: {exc}") from None
-    names = [str(ds.attrs.get("case", "test")) for ds in datasets]
-    for old, new in (renames or {}).items():
-        if old not in names:
+    given = [str(ds.attrs.get("case", "test")) for ds in datasets]
+    names = list(given)
+    for old, new in (renames or {}).items():  # all on the names as given: no chains
+        if old not in given:
             raise CaseNameError(f"no input has the case {old!r} (their cases: "
-                                f"{', '.join(map(repr, names))})", (old, new))
-        names[names.index(old)] = new
+                                f"{', '.join(map(repr, given))})", (old, new))
+        names[given.index(old)] = new
     for i, n in enumerate(names):
         if n in names[:i]:
             j = names.index(n)
