@@ -153,6 +153,11 @@ def test_analyse_free_on_modal_toml_with_ids(lab, tmp_path):
         assert ds["station_id"].values.tolist() == [15, 11, 12, 13, 14]
         np.testing.assert_array_equal(ds["psi_stations"].values[0],
                                       lab["modal"].psi_stations[4])
+        # the user gave the structure: its values are written, marked as given
+        assert ds.attrs["structure"] == "--modal-toml modal.toml"
+        np.testing.assert_array_equal(ds.attrs["given_modal_frequencies_Hz"],
+                                      lab["modal"].frequencies)
+        assert "modal_frequencies_Hz" not in ds.attrs and "given_liquid_mass" not in ds.attrs
 
 
 def test_beam_free_writes_the_damping_bands(tmp_path):
@@ -163,6 +168,50 @@ def test_beam_free_writes_the_damping_bands(tmp_path):
     assert rows[0].startswith("case,band,method,zeta") and len(rows) == 9  # 4 bands x 2
     with xr.open_dataset(tmp_path / "free_frozen.nc") as ds:
         assert ds.attrs["f1_Hz"] > 0 and "psi_stations" in ds and "q" in ds
+
+
+def test_one_map_for_a_campaign_and_units_from_the_command_line(lab, tmp_path):
+    """The random test's map (it names the base) on the free decay, a station the file lacks,
+    and a channel without a unit given by --unit: the results of the plain map."""
+    import pyuff
+
+    d = lab["dir"]
+    sets = [dict(s) for s in pyuff.UFF(str(d / "free.uff")).read_sets() if s["type"] == 58]
+    for s in sets:  # Acc 1 without a unit label, no dataset 164 saying SI
+        s["ordinate_axis_units_lab"] = "" if s["id1"] == "Acc 1" else "m/s^2"
+    pyuff.UFF(str(tmp_path / "r01.uff")).write_sets(sets, mode="overwrite")
+    text = (d / "random.toml").read_text()
+    campaign = text.replace('"Acc 1",', '"Acc 1",\n    "Acc 9",').replace(
+        "0.148,", "0.148,\n    0.2,")
+    (tmp_path / "campaign.toml").write_text(campaign)
+    ref = tmp_path / "ref"
+    r = runner.invoke(app, ["analyse", "free", str(d / "free.uff"), "--channels",
+                            str(d / "plain.toml"), "--out", str(ref)])
+    assert r.exit_code == 0, r.output
+    argv = ["analyse", "free", str(tmp_path / "r01.uff"), "--channels",
+            str(tmp_path / "campaign.toml"), "--out", str(tmp_path / "o")]
+    r = runner.invoke(app, argv)
+    assert r.exit_code == 2
+    assert ("r01.uff: channel 'Acc 1' has no unit in the file (UFF 58 dataset 1, ordinate unit "
+            "label empty); give it with --unit 'Acc 1=g' (or m/s^2), or in the channel map's "
+            "[units] table") in " ".join(r.output.split())
+    r = runner.invoke(app, [*argv, "--unit", "Acc 1=m/s^2"])
+    assert r.exit_code == 0, r.output
+    out = " ".join(r.output.split())
+    assert ("note: r01.uff has no channel 'Acc 9' (the map names it): the modal filter uses the "
+            "stations 'Acc 1', 'Acc 2', 'Acc 3', 'Acc 4', 'Acc 5'") in out
+    assert ("note: r01.uff has no channel 'Base Z' (the map names it): a free decay without a "
+            "base channel has its base at rest") in out
+    assert ((tmp_path / "o" / "damping_bands.csv").read_text()
+            == (ref / "damping_bands.csv").read_text())
+    with xr.open_dataset(tmp_path / "o" / "free_measured.nc") as ds:
+        assert ds["station"].values.tolist() == [0.148, 0.296, 0.444, 0.592, 0.74]
+        assert ds.attrs["channel_units"].startswith("Acc 1=m/s^2 (given), Acc 2=m/s^2")
+        assert "Acc 9" not in ds.attrs["channel_map"] and "Base Z" not in ds.attrs["channel_map"]
+        assert ds.attrs["f1_from"] == ("first mode with frozen liquid of the built-in "
+                                       "cantilever model")
+        for key in ("modal_frequencies_Hz", "modal_damping", "liquid_mass", "structure_mass"):
+            assert key not in ds.attrs
 
 
 # -- bad input -----------------------------------------------------------------------------------

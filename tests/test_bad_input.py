@@ -147,10 +147,11 @@ READER_CASES = [
      r"'force' contains NaN/inf \(first at sample 199"),
     ("csv-missing-unit", lambda tmp: _csv(tmp, "time [s],acceleration,force [N]",
                                           _good_rows()), {},
-     r"'acceleration' has no unit \(give units="),
+     r"'acceleration' has no unit in the file \(no \[unit\] in the CSV header\); give it "
+     r"with units="),
     ("nc-missing-unit", lambda tmp: _nc_with(
         tmp, lambda ds: ds.assign(force=ds["force"].copy(data=ds["force"].values).drop_attrs())),
-     {}, r"variable 'force' has no 'units' attribute"),
+     {}, r"variable 'force' has no unit in the file \(no 'units' attribute\)"),
     ("csv-time-unit-wrong", lambda tmp: _csv(tmp, "time [m],acceleration [g],force [N]",
                                              _good_rows()), {},
      r"time unit 'm' is not a time unit"),

@@ -12,16 +12,20 @@ import pytest
 import xarray as xr
 from typer.testing import CliRunner
 
+from sloshrom.beam import compare as compare_module
 from sloshrom.beam.compare import (
     AnalysedTest,
+    CaseNameError,
     analyse_test,
     compare_rows,
+    comparison_cases,
     match_levels,
 )
 from sloshrom.beam.coupled import free_response, random_response
 from sloshrom.beam.errors import BeamError
 from sloshrom.beam.results import to_dataset
 from sloshrom.beam.structure import CantileverBeam, ModalModel, coupled_frozen_modes
+from sloshrom.beam.uncertainty import format_interval
 from sloshrom.cli import app
 from sloshrom.config import Tank
 from sloshrom.models import FrozenLiquid
@@ -167,3 +171,95 @@ def test_cli_compare_bad_input(tmp_path, random_sets, free_sets, what):
     assert r.exit_code == 2, r.output
     assert match in " ".join(r.output.split())
     assert not out.exists()
+
+
+# -- checks before any analysis, renamed cases -----------------------------------------------------
+def test_comparison_cases_checks_names_kinds_and_levels(random_sets, free_sets):
+    m, f, s = random_sets["measured"], random_sets["frozen"], random_sets["stiff"]
+    assert comparison_cases([m, f, s], ["m", "f", "s"]) == ["measured", "frozen", "stiff"]
+    twin = f.assign_attrs(case="measured")
+    with pytest.raises(CaseNameError, match=r"m and t both have the case name 'measured'"):
+        comparison_cases([m, twin], ["m", "t"])
+    # renaming the first input that has the case resolves the clash
+    assert comparison_cases([m, twin], ["m", "t"], {"measured": "lab"}) == ["lab", "measured"]
+    # renames apply to the names as given: no chains, a swap is a swap
+    assert comparison_cases([m, f], ["m", "f"], {"measured": "frozen", "frozen": "measured"}) \
+        == ["frozen", "measured"]
+    with pytest.raises(CaseNameError, match=r"no input has the case 'rom'") as err:
+        comparison_cases([m, f], ["m", "f"], {"rom": "x"})
+    assert err.value.rename == ("rom", "x")
+    with pytest.raises(CaseNameError, match=r"both have the case name 'measured'"):
+        comparison_cases([m, f], ["m", "f"], {"frozen": "measured"})
+    with pytest.raises(BeamError, match=r"f is a free test, the measurement m a random test"):
+        comparison_cases([m, free_sets["frozen"]], ["m", "f"])
+    far = f.assign_coords(level=f["level"].values * 3)
+    with pytest.raises(BeamError, match=r"far has no RMS level within 10 %"):
+        comparison_cases([m, far], ["m", "far"])
+    with pytest.raises(BeamError, match=r"old: the beam result lacks psi_stations"):
+        comparison_cases([m, f.drop_vars("psi_stations")], ["m", "old"])
+
+
+def test_cli_compare_refuses_same_case_names_before_any_analysis(tmp_path, random_sets,
+                                                                  monkeypatch):
+    a = _write(random_sets["measured"], tmp_path / "a.nc")
+    b = _write(random_sets["frozen"].assign_attrs(case="measured"), tmp_path / "b.nc")
+    calls = []
+    monkeypatch.setattr(compare_module, "analyse_test",
+                        lambda *a, **k: calls.append(a) or pytest.fail("analysed"))
+    r = CliRunner().invoke(app, ["compare", str(a), str(b), "--out", str(tmp_path / "cmp")])
+    assert r.exit_code == 2 and calls == []
+    assert "rename one with --name OLD=NEW" in " ".join(r.output.split())
+
+
+def test_cli_compare_renames_a_case(tmp_path, free_sets):
+    a = _write(free_sets["measured"], tmp_path / "a.nc")
+    b = _write(free_sets["frozen"].assign_attrs(case="measured"), tmp_path / "b.nc")
+    out = tmp_path / "cmp"
+    r = CliRunner().invoke(app, ["compare", str(a), str(b), "--name", "measured=lab",
+                                 "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    assert "of lab (z = " in r.output
+    rows = (out / "comparison.csv").read_text().splitlines()
+    case = rows[0].split(",").index("case")
+    assert {ln.split(",")[case] for ln in rows[1:]} == {"measured"}  # the prediction's name
+    assert {ln.split(",")[0] for ln in (out / "analyses.csv").read_text().splitlines()[1:]} \
+        == {"lab", "measured"}
+
+
+def test_compare_reads_measured_files_of_both_versions(free_sets):
+    """A measured result of format version 1 (the built-in model's values in its attributes)
+    and one of version 2 (only what was measured or given) are analysed alike."""
+    new = free_sets["measured"].copy()
+    for key in ("seed", "modal_frequencies_Hz", "modal_damping", "liquid_mass",
+                "structure_mass", "tank_fill"):
+        new.attrs.pop(key, None)
+    new.attrs.update(origin="measured", source="lab.uff", format_version=2,
+                     structure="built-in cantilever model (not measured)")
+    old = free_sets["measured"].copy()
+    old.attrs.pop("format_version", None)
+    old.attrs.update(origin="measured", source="lab.uff")
+    a, b = analyse_test(old), analyse_test(new)
+    assert a.source == b.source == "lab.uff"
+    for ra, rb in zip(a.rows, b.rows, strict=True):
+        assert ra.keys() == rb.keys()
+        np.testing.assert_array_equal([ra["zeta"], ra["low"], ra["high"]],
+                                      [rb["zeta"], rb["low"], rb["high"]])
+
+
+# -- printing intervals ------------------------------------------------------------------------
+def test_format_interval_resolves_the_width():
+    assert format_interval(1.36841, 1.37512) == ("1.3684", "1.3751")
+    assert format_interval(1.0, 2.0, 1.234) == ("1.0", "2.0", "1.2")  # values share decimals
+    assert format_interval(1.37, 1.37) == ("1.37", "1.37")  # no width: 3 significant digits
+    assert format_interval(250.0, 980.0) == ("250", "980")  # never negative decimals
+    assert format_interval(1.0, 1.0 + 1e-12) == ("1.000000", "1.000000")  # capped
+    assert format_interval(float("nan"), 2.0, float("inf")) == ("—", "2.00", "—")
+    rng = np.random.default_rng(0)
+    for _ in range(500):
+        width = 10 ** rng.uniform(-5, 2)  # down to what 6 decimals resolve
+        mid = width * 10 ** rng.uniform(0, 5)
+        lo, hi = mid - width / 2, mid + width / 2
+        a, b = format_interval(lo, hi)
+        # the bounds differ visibly, and the printed width is the width to two digits
+        assert a != b, (lo, hi)
+        assert abs((float(b) - float(a)) - width) <= 0.1 * width + 1e-12, (lo, hi, a, b)

@@ -318,6 +318,23 @@ def _png(name: str):
     return make
 
 
+def _unitless(name: str, label: str):
+    """``lab.uff`` as a file whose channel ``label`` has an empty ordinate unit label (and
+    no dataset 164 saying SI)."""
+
+    def make(tmp: Path) -> None:
+        import pyuff
+
+        sets = [dict(s) for s in pyuff.UFF(str(tmp / "lab.uff")).read_sets() if s["type"] == 58]
+        for s in sets:
+            s["ordinate_axis_units_lab"] = "" if s["id1"] == label else "m/s^2"
+        pyuff.UFF(str(tmp / name)).write_sets(sets, mode="overwrite")
+
+    return make
+
+
+MAP5 = ('[channels]\nstations = ["Acc 1", "Acc 2", "Acc 3", "Acc 4", "Acc 5"]\n'
+        'positions = [0.148, 0.296, 0.444, 0.592, 0.74]\n')
 AF = ["analyse", "free", "{tmp}/lab.uff", "--channels", "{tmp}/ch.toml"]
 AFO = [*AF, "--out", "{tmp}/res"]
 AR = ["analyse", "random", "{tmp}/lab.uff", "--channels", "{tmp}/chb.toml"]
@@ -780,7 +797,7 @@ HOSTILE_CASES = [
     ("uff-tank-missing", None, [*U, "{tmp}/good.uff", "{tmp}/o.nc", "--tank", "{tmp}/none.toml"],
      r"--tank .*none\.toml: no such file"),
     ("uff-name-without-key", None, [*U, "{tmp}/good.uff", "{tmp}/o.nc", "--name", "=force"],
-     r"--name must look like KEY=VALUE, got '=force'"),
+     r"--name must look like CHANNEL=VARIABLE, got '=force'"),
     # == the kinds of the hostile review (each kind, several commands where it occurs) ========
     # -- modal files must not change the physics without a word --------------------------------
     ("beam-uff-negative-damping", _uff_modes("neg.unv", modal_damp_vis=-0.01),
@@ -1119,6 +1136,62 @@ HOSTILE_CASES = [
      r"--fill must be in \(0, 1\), got 0\.0"),
     ("analyse-random-tank-without-structure", None, [*ARO, "--tank", "5"],
      r"--tank places things on a --structure"),
+    ("analyse-random-file-without-base", None, ARO,
+     r"lab\.uff: no channel 'Base Z' \(the channel map names it: a random test needs the base"),
+    ("analyse-random-unit-empty", None, [*ARO, "--unit", ""],
+     r"--unit must look like CHANNEL=UNIT, got ''"),
+    # -- units of channels: --unit and the map's [units] ------------------------------------------
+    ("analyse-free-unit-no-equals", None, [*AFO, "--unit", "acc1"],
+     r"--unit must look like CHANNEL=UNIT, got 'acc1'"),
+    ("analyse-free-unit-no-channel", None, [*AFO, "--unit", "=g"],
+     r"--unit must look like CHANNEL=UNIT, got '=g'"),
+    ("analyse-free-unit-no-unit", None, [*AFO, "--unit", "Acc 1="],
+     r"--unit must look like CHANNEL=UNIT, got 'Acc 1='"),
+    ("analyse-free-unit-unknown", None, [*AFO, "--unit", "Acc 1=furlong"],
+     r"--unit Acc 1=furlong: unknown unit 'furlong' \(use one of g, m/s\^2, mm/s\^2"),
+    ("analyse-free-unit-not-acceleration", None, [*AFO, "--unit", "Acc 1=m/s"],
+     r"--unit Acc 1=m/s: 'm/s' is not an acceleration unit \(use one of g, m/s\^2"),
+    ("analyse-free-unit-not-a-channel", None, [*AFO, "--unit", "acc1=g"],
+     r"--unit acc1=g: 'acc1' is not a channel of --channels .*ch\.toml \(its channels: "
+     r"'Acc 1'"),
+    ("analyse-free-unit-twice", None, [*AFO, "--unit", "Acc 1=g", "--unit", "Acc 1=m/s^2"],
+     r"--unit: the key 'Acc 1' is given twice \('g' and 'm/s\^2'\); give it once"),
+    ("analyse-free-unit-contradicts-the-file", None, [*AFO, "--unit", "Acc 2=g"],
+     r"lab\.uff: channel 'Acc 2' is in 'm/s\^2' in the file but --unit Acc 2=g says 'g'; a "
+     r"unit given is for a channel whose file has none"),
+    ("analyse-free-map-unit-contradicts-the-file",
+     _text("u.toml", MAP5 + '[units]\n"Acc 2" = "g"\n'),
+     ["analyse", "free", "{tmp}/lab.uff", "--channels", "{tmp}/u.toml", "--out", "{tmp}/res"],
+     r"lab\.uff: channel 'Acc 2' is in 'm/s\^2' in the file but the \[units\] table of "
+     r"--channels .*u\.toml \(Acc 2 = 'g'\) says 'g'"),
+    ("analyse-free-no-unit-in-the-file", _unitless("nounit.uff", "Acc 1"),
+     ["analyse", "free", "{tmp}/nounit.uff", "--channels", "{tmp}/ch.toml", "--out",
+      "{tmp}/res"],
+     r"nounit\.uff: channel 'Acc 1' has no unit in the file \(UFF 58 dataset 1, ordinate unit "
+     r"label empty\); give it with --unit 'Acc 1=g' \(or m/s\^2\), or in the channel map's "
+     r"\[units\] table"),
+    ("analyse-free-map-units-unknown", _text("u.toml", MAP5 + '[units]\n"Acc 1" = "furlong"\n'),
+     ["analyse", "free", "{tmp}/lab.uff", "--channels", "{tmp}/u.toml", "--out", "{tmp}/res"],
+     r"--channels: .*u\.toml: \[units\] 'Acc 1': unknown unit 'furlong' \(use one of g"),
+    ("analyse-free-map-units-not-a-channel", _text("u.toml", MAP5 + '[units]\nacc9 = "g"\n'),
+     ["analyse", "free", "{tmp}/lab.uff", "--channels", "{tmp}/u.toml", "--out", "{tmp}/res"],
+     r"--channels: .*u\.toml: \[units\]: 'acc9' is not a channel of the map"),
+    ("analyse-free-map-units-not-a-table", _text("u.toml", 'units = "g"\n' + MAP5),
+     ["analyse", "free", "{tmp}/lab.uff", "--channels", "{tmp}/u.toml", "--out", "{tmp}/res"],
+     r"--channels: .*u\.toml: \[units\] must be a table of channel = unit"),
+    ("analyse-free-map-units-a-number", _text("u.toml", MAP5 + '[units]\n"Acc 1" = 9.81\n'),
+     ["analyse", "free", "{tmp}/lab.uff", "--channels", "{tmp}/u.toml", "--out", "{tmp}/res"],
+     r"\[units\] 'Acc 1': 9\.81 is not a unit"),
+    # -- a campaign's map on a file that lacks its channels ---------------------------------------
+    ("analyse-free-file-without-the-tank",
+     _text("tip.toml", MAP5.replace("[channels]\n", '[channels]\ntank = "Tip Z"\n')),
+     ["analyse", "free", "{tmp}/lab.uff", "--channels", "{tmp}/tip.toml", "--out", "{tmp}/res"],
+     r"lab\.uff: no channel 'Tip Z' \(the channel map names it: the tank channel"),
+    ("analyse-free-file-with-too-few-stations",
+     _text("few.toml", MAP5.replace('"Acc 2", "Acc 3", "Acc 4"', '"Acc 7", "Acc 8", "Acc 9"')),
+     ["analyse", "free", "{tmp}/lab.uff", "--channels", "{tmp}/few.toml", "--out", "{tmp}/res"],
+     r"lab\.uff: no channel 'Acc 7', 'Acc 8', 'Acc 9' \(the channel map names them; 2 "
+     r"station\(s\) are left, and the modal filter needs at least 3 for the 3 modes"),
     # -- compare ----------------------------------------------------------------------------------
     ("compare-no-out", None, CMP, r"Missing option '--out'"),
     ("compare-no-prediction", None, ["compare", "{tmp}/free_m.nc", "--out", "{tmp}/cmp"],
@@ -1204,7 +1277,27 @@ HOSTILE_CASES = [
      r"old\.nc: .*f1_Hz"),
     ("compare-prediction-same-case", _result("twin.nc", case="measured"),
      ["compare", "{tmp}/free_m.nc", "{tmp}/twin.nc", "--out", "{tmp}/cmp"],
-     r"two files have the case name 'measured'"),
+     r"free_m\.nc and .*twin\.nc both have the case name 'measured' \(the tables would mix "
+     r"them\): rename one with --name OLD=NEW"),
+    ("compare-prediction-other-kind", _result("rnd.nc", test="random"),
+     ["compare", "{tmp}/free_m.nc", "{tmp}/rnd.nc", "--out", "{tmp}/cmp"],
+     r"rnd\.nc: a random-test result needs a 'level' dimension"),
+    ("compare-name-no-new", None, [*CMPO, "--name", "frozen="],
+     r"--name must look like OLD=NEW, got 'frozen='"),
+    ("compare-name-no-old", None, [*CMPO, "--name", "=rig"],
+     r"--name must look like OLD=NEW, got '=rig'"),
+    ("compare-name-no-equals", None, [*CMPO, "--name", "frozen"],
+     r"--name must look like OLD=NEW, got 'frozen'"),
+    ("compare-name-slash", None, [*CMPO, "--name", "frozen=a/b"],
+     r"--name frozen=a/b: a case name has letters, digits, '-', '_' and '\.' only"),
+    ("compare-name-space", None, [*CMPO, "--name", "frozen=a b"],
+     r"--name frozen=a b: a case name has letters"),
+    ("compare-name-twice", None, [*CMPO, "--name", "frozen=a", "--name", "frozen=b"],
+     r"--name: the key 'frozen' is given twice \('a' and 'b'\); give it once"),
+    ("compare-name-not-a-case", None, [*CMPO, "--name", "rom=a"],
+     r"--name rom=a: no input has the case 'rom' \(their cases: 'measured', 'frozen'\)"),
+    ("compare-name-clashes", None, [*CMPO, "--name", "frozen=measured"],
+     r"free_m\.nc and .*free_p\.nc both have the case name 'measured'"),
 ]
 
 

@@ -11,6 +11,8 @@ most sensitive).
 
 from __future__ import annotations
 
+import dataclasses
+import tomllib
 import warnings
 from pathlib import Path
 
@@ -25,6 +27,7 @@ from sloshrom.beam.labfiles import lab_test_paths, write_lab_test
 from sloshrom.beam.measured import (
     DECAY_RATIO,
     LINE_FRACTION,
+    MissingChannelNote,
     TruncatedRecordWarning,
     check_free_decay,
     check_random_base,
@@ -33,6 +36,7 @@ from sloshrom.beam.measured import (
 )
 from sloshrom.beam.results import (
     BANDS,
+    BUILT_IN_STRUCTURE,
     damping_summary,
     mode1_damping_table,
     mode1_decay,
@@ -41,7 +45,7 @@ from sloshrom.beam.results import (
 from sloshrom.beam.structure import CantileverBeam, ModalModel, coupled_frozen_modes
 from sloshrom.config import G, Tank
 from sloshrom.io import Record, read_record, write_record
-from sloshrom.io.record import RecordError
+from sloshrom.io.record import MissingUnitError, RecordError, UnitConflictError
 from sloshrom.models import FrozenLiquid
 from sloshrom.signals import random_base_acceleration
 
@@ -209,6 +213,19 @@ def test_to_dataset_of_a_measured_test(rig, lab):
     assert ds.attrs["f1_Hz"] == rig["f1"] and ds.attrs["origin"] == "measured"
     assert ds.attrs["source"] == "random_0.1g.uff; random_0.2g.uff"
     np.testing.assert_array_equal(ds["psi_stations"].values, modal.psi_stations)
+    # only what was measured or given: not the built-in model's values
+    for key in ("modal_frequencies_Hz", "modal_damping", "liquid_mass", "structure_mass",
+                "tank_fill", "seed"):
+        assert key not in ds.attrs and f"given_{key}" not in ds.attrs, key
+    assert ds.attrs["format_version"] == 2
+    assert ChannelMap.from_dict(tomllib.loads(ds.attrs["channel_map"])["channels"]) == cmap
+    assert ds.attrs["channel_units"] == ", ".join(f"{c}=m/s^2" for c in cmap.channels)
+    assert ds.attrs["structure"] == ds["psi_stations"].attrs["from"] == BUILT_IN_STRUCTURE
+    given = to_dataset(res, "lab", "random", rig["tank"], modal, f1=rig["f1"],
+                       structure_given="--modal-toml m.toml", tank_given="--fill 0.5")
+    np.testing.assert_array_equal(given.attrs["given_modal_frequencies_Hz"], modal.frequencies)
+    assert given.attrs["given_liquid_mass"] == rig["tank"].liquid_mass
+    assert given.attrs["structure"] == "--modal-toml m.toml" and given.attrs["tank"] == "--fill 0.5"
     sim = to_dataset(rig["free"], "frozen", "free", rig["tank"], rig["modal"])
     assert {"interface_force", "dynamic_force", "tank_velocity", "modal_acceleration", "q",
             "psi_stations"} <= set(sim.data_vars)
@@ -310,3 +327,108 @@ def test_no_warning_for_files_of_one_length(rig, lab):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         read_random_test(lab["random"], lab["random_map"], rig["modal"])
+
+
+# -- units given by the user ---------------------------------------------------------------------
+def _unitless_uff(src: Path, dst: Path, label: str) -> Path:
+    """``src`` with the ordinate unit label of ``label`` empty and no dataset 164 (SI)."""
+    import pyuff
+
+    sets = [dict(s) for s in pyuff.UFF(str(src)).read_sets() if s["type"] == 58]
+    for s in sets:
+        s["ordinate_axis_units_lab"] = "" if s["id1"] == label else "m/s^2"
+    pyuff.UFF(str(dst)).write_sets(sets, mode="overwrite")
+    return dst
+
+
+def test_units_of_the_map_and_of_the_caller(rig, lab, tmp_path):
+    p = _unitless_uff(lab["dir"] / "free.uff", tmp_path / "r01.uff", "Acc 1")
+    cmap = lab["free_map"]
+    with pytest.raises(MissingUnitError, match=r"r01\.uff: channel 'Acc 1' has no unit in the "
+                       r"file \(UFF 58 dataset 1, ordinate unit label empty\)") as err:
+        read_free_test(p, cmap, rig["modal"])
+    assert err.value.channel == "Acc 1"
+    ref = read_free_test(lab["dir"] / "free.uff", cmap, rig["modal"])
+    by_map = read_free_test(p, cmap.with_units({"Acc 1": "m/s^2"}), rig["modal"])
+    np.testing.assert_array_equal(by_map["station_acceleration"], ref["station_acceleration"])
+    assert by_map["channel_units"].startswith("Acc 1=m/s^2 (given), Acc 2=m/s^2,")
+    # the caller's units win over the map's
+    mixed = read_free_test(p, cmap.with_units({"Acc 1": "g"}), rig["modal"],
+                           units={"Acc 1": "mm/s^2"})
+    np.testing.assert_allclose(mixed["station_acceleration"][:, 0],
+                               1e-3 * ref["station_acceleration"][:, 0], rtol=1e-12)
+    # a unit that contradicts the file's own is refused, naming both
+    with pytest.raises(UnitConflictError, match=r"channel 'Acc 2': units= gives 'g' but the "
+                       r"file says 'm/s\^2'"):
+        read_free_test(p, cmap, rig["modal"], units={"Acc 1": "g", "Acc 2": "g"})
+    # the same unit spelled otherwise is no contradiction; node:dir names a channel too
+    read_free_test(p, cmap, rig["modal"], units={"1:+Z": "m/s2", "Acc 2": "m/s2"})
+
+
+def test_units_for_channels_a_csv_lacks_are_ignored(rig, lab, tmp_path):
+    rec = read_record(lab["dir"] / "free.uff")
+    write_record(rec, tmp_path / "free.csv")
+    cmap = _sanitised(lab["free_map"])
+    with_base = ChannelMap(stations=cmap.stations, positions=cmap.positions, base="base_z",
+                           units={"base_z": "g", "acc_2": "m/s^2"})
+    with pytest.warns(MissingChannelNote):
+        res = read_free_test(tmp_path / "free.csv", with_base, rig["modal"])
+    np.testing.assert_allclose(res["tank_acceleration"], rig["free"]["tank_acceleration"],
+                               rtol=1e-10, atol=1e-10)  # through ASCII UFF: 12 digits
+    with pytest.raises(UnitConflictError, match=r"'acc_2': units= gives 'g'"):
+        read_free_test(tmp_path / "free.csv", cmap, rig["modal"], units={"acc_2": "g"})
+
+
+def test_map_units_round_trip_and_checks(tmp_path):
+    cmap = ChannelMap(stations=("Acc 1", "a2"), positions=(0.3, 0.74), base="b",
+                      units={"Acc 1": "g", "b": "mm/s^2"})
+    p = cmap.write_toml(tmp_path / "ch.toml")
+    back = ChannelMap.from_toml(p)
+    assert back == cmap and back.units == {"Acc 1": "g", "b": "mm/s^2"}
+    assert "[units]" in p.read_text()
+    assert "[units]" not in ChannelMap(stations=("a",), positions=(0.74,)).to_toml()
+    for units, match in (({"c": "g"}, r"'c' is not a channel of the map"),
+                         ({"a2": "furlong"}, r"unknown unit 'furlong' \(use one of g, m/s\^2"),
+                         ({"a2": "N"}, r"'N' is not an acceleration unit"),
+                         ({"a2": ""}, r"'' is not a unit")):
+        with pytest.raises(ChannelMapError, match=match):
+            ChannelMap(stations=("Acc 1", "a2"), positions=(0.3, 0.74), units=units)
+    assert cmap.only(["a2"]).units == {"b": "mm/s^2"}
+    assert cmap.only(["a2"], base=False).units == {}
+
+
+# -- one map for a campaign ----------------------------------------------------------------------
+def test_a_free_decay_without_the_maps_base_and_stations(rig, lab, tmp_path):
+    cmap = lab["random_map"]  # names the base, which a free decay's file lacks
+    ref = read_free_test(lab["dir"] / "free.uff", lab["free_map"], rig["modal"])
+    with pytest.warns(MissingChannelNote, match=r"free\.uff has no channel 'Base Z' \(the map "
+                      r"names it\): a free decay without a base channel has its base at rest"):
+        res = read_free_test(lab["dir"] / "free.uff", cmap, rig["modal"])
+    for key in ("station_acceleration", "tank_acceleration", "base_acceleration"):
+        np.testing.assert_array_equal(res[key], ref[key])
+    assert res["channel_map"] == lab["free_map"]
+    # a station the file lacks: the others remain, and the modal filter uses them
+    more = ChannelMap(stations=("Acc 1", "Acc 9", *cmap.stations[1:]),
+                      positions=(0.148, 0.2, *cmap.positions[1:]))
+    with pytest.warns(MissingChannelNote, match=r"free\.uff has no channel 'Acc 9' \(the map "
+                      r"names it\): the modal filter uses the stations 'Acc 1', 'Acc 2'"):
+        res = read_free_test(lab["dir"] / "free.uff", more, rig["modal"])
+    assert res["channel_map"].stations == cmap.stations
+    assert res["channel_map"].positions == cmap.positions
+    np.testing.assert_array_equal(res["station_acceleration"], ref["station_acceleration"])
+    few = ChannelMap(stations=("Acc 1", "Acc 7", "Acc 8", "Acc 5"),
+                     positions=(0.148, 0.3, 0.5, 0.74))
+    with pytest.raises(RecordError, match=r"no channel 'Acc 7', 'Acc 8' .*2 station\(s\) are "
+                       r"left, and the modal filter needs at least 3"):
+        read_free_test(lab["dir"] / "free.uff", few, rig["modal"])
+    with pytest.raises(RecordError, match=r"no channel 'Tip' \(the channel map names it: the "
+                       r"tank channel"):
+        read_free_test(lab["dir"] / "free.uff",
+                       dataclasses.replace(lab["free_map"], tank="Tip"), rig["modal"])
+
+
+def test_a_random_test_needs_its_base_in_every_file(rig, lab):
+    cmap = lab["random_map"]
+    with pytest.raises(RecordError, match=r"free\.uff: no channel 'Base Z' \(the channel map "
+                       r"names it: a random test needs the base"):
+        read_random_test([lab["random"][0], lab["dir"] / "free.uff"], cmap, rig["modal"])

@@ -212,7 +212,7 @@ def test_cli_import_uff(tmp_path, rig_measurement):
     assert np.sqrt(np.mean(err**2)) < 0.1 * np.std(m["true_dynamic_force"])
     for args, match in [
         (["--name", "Tank Z=acceleration", "--name", "1=force"], "'Load cell'.*no unit"),
-        (["--name", "Tank Z"], "--name must look like KEY=VALUE"),
+        (["--name", "Tank Z"], "--name must look like CHANNEL=VARIABLE"),
         (["--name", "Tank Z=acceleration", "--unit", "load_cell=N"],
          r"missing variable\(s\) 'force'"),
     ]:

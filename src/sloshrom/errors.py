@@ -8,8 +8,14 @@ escapes is a programming error and keeps its traceback.
 
 from __future__ import annotations
 
-__all__ = ["SloshromError"]
+__all__ = ["Note", "SloshromError"]
 
 
 class SloshromError(ValueError):
     """Bad input to sloshrom: a value, a file, a record or an option that cannot be used."""
+
+
+class Note(UserWarning):
+    """Information about the user's input that changes no result they asked for (a file
+    without a channel the test can do without, ...): the command line prints it as one
+    ``note: ...`` line."""

@@ -3,8 +3,9 @@ accelerometer, and the structure those accelerometers see.
 
 * :class:`ChannelMap` - the map, a small TOML file (``[channels]``: ``stations`` with their
   ``positions`` on the built-in cantilever or ``ids`` on the user's structure, ``base``,
-  ``tank``), validated on construction; read and written by :meth:`ChannelMap.from_toml` and
-  :meth:`ChannelMap.write_toml`.
+  ``tank``; ``[units]``: units of channels whose files give none), validated on construction;
+  read and written by :meth:`ChannelMap.from_toml` and :meth:`ChannelMap.write_toml`.
+* :func:`acceleration_unit` - a unit the user gives for an accelerometer channel, checked.
 * :func:`station_model` - the modal model seen by the map's stations (modal filtering).
 
 A bad map is a :class:`ChannelMapError`. The readers of the files the map names are in
@@ -16,7 +17,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -26,14 +27,43 @@ from sloshrom.beam.errors import BeamError
 from sloshrom.beam.structure import CantileverBeam, ModalModel
 from sloshrom.config import ConfigError, load_toml_table
 from sloshrom.fileio import OutputBatch, atomic_write
+from sloshrom.io.units import canonical_unit, is_known_unit
 
-__all__ = ["ChannelMap", "ChannelMapError", "station_model"]
+__all__ = ["ACCELERATION_UNITS", "ChannelMap", "ChannelMapError", "acceleration_unit",
+           "station_model"]
 
 _KEYS = ("stations", "positions", "ids", "base", "tank")
+#: The usual spellings of acceleration units, named in messages (docs/formats.md lists all).
+ACCELERATION_UNITS = ("g", "m/s^2", "mm/s^2", "cm/s^2", "ft/s^2", "in/s^2")
 
 
 class ChannelMapError(ConfigError, BeamError):
     """A channel map is invalid (unknown or missing keys, duplicates, wrong types)."""
+
+
+def acceleration_unit(unit: object) -> str | None:
+    """Why ``unit`` cannot be the unit of an accelerometer channel, or ``None`` if it can.
+
+    Parameters
+    ----------
+    unit : object
+        A unit the user gives, e.g. ``"g"``, ``"m/s2"``, ``"mm/s^2"``.
+
+    Returns
+    -------
+    str or None
+        ``None`` for a known acceleration unit (the unit table of :mod:`sloshrom.io.units`);
+        else a phrase naming the accepted spellings.
+    """
+    accepted = ", ".join(ACCELERATION_UNITS)
+    if not isinstance(unit, str) or not unit.strip():
+        return f"{unit!r} is not a unit (use one of {accepted})"
+    if not is_known_unit(unit):
+        return (f"unknown unit {unit!r} (use one of {accepted}; docs/formats.md lists every "
+                "spelling)")
+    if canonical_unit(unit)[0] != "m/s^2":
+        return f"{unit!r} is not an acceleration unit (use one of {accepted})"
+    return None
 
 
 @dataclass(frozen=True)
@@ -56,6 +86,10 @@ class ChannelMap:
     tank : str, optional
         Channel of the tank acceleration (the amplitude axis of the damping analyses);
         default: the station at the tank (position = beam length, or the tank's grid ID).
+    units : dict of str to str, optional
+        Units of channels of the map whose files give none (the ``[units]`` table), e.g.
+        ``{"acc1": "g"}``: known acceleration units (:func:`acceleration_unit`). A file's own
+        non-empty unit that contradicts one is an error.
     """
 
     stations: tuple[str, ...]
@@ -63,6 +97,7 @@ class ChannelMap:
     ids: tuple[int, ...] | None = None
     base: str | None = None
     tank: str | None = None
+    units: Mapping[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         st = self.stations
@@ -115,14 +150,53 @@ class ChannelMap:
                                   "is the shaker table, not a point of the beam")
         if self.base is not None and self.base == self.tank:
             raise ChannelMapError(f"channels.base and channels.tank are both {self.base!r}")
+        if not isinstance(self.units, Mapping):
+            raise ChannelMapError(f"[units] must be a table of channel = unit, got "
+                                  f"{self.units!r}")
+        names = self.channels
+        for key, unit in self.units.items():
+            if key not in names:
+                raise ChannelMapError(f"[units]: {key!r} is not a channel of the map (its "
+                                      f"channels: {', '.join(map(repr, names))})")
+            why = acceleration_unit(unit)
+            if why is not None:
+                raise ChannelMapError(f"[units] {key!r}: {why}")
+        object.__setattr__(self, "units", {k: str(v).strip() for k, v in self.units.items()})
+
+    @property
+    def channels(self) -> tuple[str, ...]:
+        """Every channel the map names: the stations, then the tank and the base if named."""
+        extra = tuple(c for c in (self.tank, self.base) if c is not None and c not in
+                      self.stations)
+        return self.stations + extra
+
+    def only(self, stations: Sequence[str], base: bool = True) -> ChannelMap:
+        """The map with only ``stations`` (a subset, kept in the map's order) and, unless
+        ``base`` is false, its base; ``units`` of the channels dropped go too."""
+        keep = [i for i, s in enumerate(self.stations) if s in stations]
+        pos = None if self.positions is None else tuple(self.positions[i] for i in keep)
+        ids = None if self.ids is None else tuple(self.ids[i] for i in keep)
+        out = dataclasses.replace(self, stations=tuple(self.stations[i] for i in keep),
+                                  positions=pos, ids=ids, base=self.base if base else None,
+                                  units={})
+        return dataclasses.replace(out, units={k: v for k, v in self.units.items()
+                                               if k in out.channels})
+
+    def with_units(self, units: Mapping[str, str]) -> ChannelMap:
+        """The map with ``units`` added (they win over the map's own ``[units]``)."""
+        return dataclasses.replace(self, units={**self.units, **units})
 
     # -- files ------------------------------------------------------------------------------
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any], where: str = "channels") -> ChannelMap:
+    def from_dict(cls, data: Mapping[str, Any], where: str = "channels",
+                  units: Mapping[str, str] | None = None) -> ChannelMap:
         """From the ``[channels]`` table (keys ``stations``, ``positions`` or ``ids``,
-        ``base``, ``tank``); unknown or missing keys are errors naming them."""
+        ``base``, ``tank``) and the ``[units]`` table (channel = unit); unknown or missing
+        keys are errors naming them."""
         if not isinstance(data, Mapping):
             raise ChannelMapError(f"{where}: [channels] must be a table")
+        if units is not None and not isinstance(units, Mapping):
+            raise ChannelMapError(f"{where}: [units] must be a table of channel = unit")
         unknown = [k for k in data if k not in _KEYS]
         if unknown:
             raise ChannelMapError(f"{where}: unknown key(s) {', '.join(map(repr, unknown))} in "
@@ -133,23 +207,27 @@ class ChannelMap:
         try:
             kwargs: dict[str, Any] = {k: (tuple(v) if isinstance(v, list) else v)
                                       for k, v in data.items()}
-            return cls(**kwargs)
+            return cls(**kwargs, units=dict(units or {}))
         except ChannelMapError as exc:
             raise ChannelMapError(f"{where}: {exc}") from None
 
     @classmethod
     def from_toml(cls, path: str | Path) -> ChannelMap:
-        """Read the ``[channels]`` table of a TOML file (see the module docstring)."""
+        """Read the ``[channels]`` and ``[units]`` tables of a TOML file (see the module
+        docstring)."""
         try:
-            table = load_toml_table(path, "channels", ChannelMapError)
+            data = load_toml_table(path, "", ChannelMapError)
         except ChannelMapError:
             raise
         except ConfigError as exc:
             raise ChannelMapError(str(exc)) from None
-        return cls.from_dict(table, str(path))
+        if "channels" not in data:
+            raise ChannelMapError(f"{path}: no [channels] table")
+        return cls.from_dict(data["channels"], str(path), data.get("units"))
 
     def to_toml(self) -> str:
-        """The map as TOML text (``[channels]`` table) that :meth:`from_toml` reads back."""
+        """The map as TOML text (``[channels]`` and, if any, ``[units]`` tables) that
+        :meth:`from_toml` reads back."""
         import tomli_w
 
         d: dict[str, Any] = {}
@@ -161,7 +239,10 @@ class ChannelMap:
             d["positions"] = list(self.positions)
         else:
             d["ids"] = list(self.ids or ())
-        return tomli_w.dumps({"channels": d})
+        doc: dict[str, dict[str, object]] = {"channels": d}
+        if self.units:
+            doc["units"] = dict(self.units)
+        return tomli_w.dumps(doc)
 
     def write_toml(self, path: str | Path, batch: OutputBatch | None = None) -> Path:
         """Write :meth:`to_toml` to ``path``, atomically or into ``batch``."""

@@ -42,11 +42,20 @@ from sloshrom.beam.results import (
 )
 from sloshrom.beam.uncertainty import CONFIDENCE
 
-__all__ = ["AnalysedTest", "analyse_test", "analysed_test", "compare_rows",
-           "match_levels", "test_from_dataset"]
+__all__ = ["AnalysedTest", "CaseNameError", "analyse_test", "analysed_test", "compare_rows",
+           "comparison_cases", "match_levels", "test_from_dataset"]
 # the relative difference of RMS levels that still counts as the same level (a measured base
 # RMS is never exactly the nominal one)
 LEVEL_TOLERANCE = 0.1
+
+
+class CaseNameError(BeamError):
+    """Case names of a comparison that clash, or a rename of a case no input has (attribute
+    ``rename``: the ``(old, new)`` at fault, else ``None``)."""
+
+    def __init__(self, message: str, rename: tuple[str, str] | None = None) -> None:
+        super().__init__(message)
+        self.rename = rename
 
 
 @dataclass
@@ -118,31 +127,104 @@ def test_from_dataset(ds: xr.Dataset) -> tuple[dict[str, Any], np.ndarray]:
         The dataset is not a beam result of this version (a name it lacks), or a unit is not
         m/s^2.
     """
-    kind = ds.attrs.get("test")
-    if kind not in ("free", "random"):
-        raise BeamError(f"not a beam test result: attribute 'test' is {kind!r}, not 'free' or "
-                        "'random'")
-    need = ("station_acceleration", "tank_acceleration", "base_acceleration", "psi_stations")
-    missing = [v for v in need if v not in ds.variables]
-    if "f1_Hz" not in ds.attrs or "fs" not in ds.attrs:
-        missing += [a for a in ("f1_Hz", "fs") if a not in ds.attrs]
-    if missing:
-        raise BeamError(f"the beam result lacks {', '.join(missing)} (written by an older "
-                        "sloshrom? run the test again with this version)")
-    for v in need[:3]:
-        unit = ds[v].attrs.get("units")
-        if unit != "m/s^2":
-            raise BeamError(f"{v} is in {unit!r}, expected 'm/s^2'")
+    kind = _check_dataset(ds)
+    need = _NEED
     if "tank" in ds.dims:
         ds = ds.isel(tank=0)
     res: dict[str, Any] = {
         "time": np.asarray(ds["time"].values, float), "fs": float(ds.attrs["fs"]),
         **{v: np.asarray(ds[v].values, float) for v in need[:3]}}
     if kind == "random":
-        if "level" not in ds.dims:
-            raise BeamError("a random-test result needs a 'level' dimension")
         res["rms_levels_g"] = [float(x) for x in ds["level"].values]
     return res, np.asarray(ds["psi_stations"].values, float)
+
+
+_NEED = ("station_acceleration", "tank_acceleration", "base_acceleration", "psi_stations")
+
+
+def _check_dataset(ds: xr.Dataset) -> str:
+    """The kind of a beam result dataset (``"free"`` or ``"random"``), its names and units
+    checked (every format version: only what every version holds is read)."""
+    kind = ds.attrs.get("test")
+    if kind not in ("free", "random"):
+        raise BeamError(f"not a beam test result: attribute 'test' is {kind!r}, not 'free' or "
+                        "'random'")
+    missing = [v for v in _NEED if v not in ds.variables]
+    if "f1_Hz" not in ds.attrs or "fs" not in ds.attrs:
+        missing += [a for a in ("f1_Hz", "fs") if a not in ds.attrs]
+    if missing:
+        raise BeamError(f"the beam result lacks {', '.join(missing)} (written by an older "
+                        "sloshrom? run the test again with this version)")
+    for v in _NEED[:3]:
+        unit = ds[v].attrs.get("units")
+        if unit != "m/s^2":
+            raise BeamError(f"{v} is in {unit!r}, expected 'm/s^2'")
+    if kind == "random" and "level" not in ds.dims:
+        raise BeamError("a random-test result needs a 'level' dimension")
+    return str(kind)
+
+
+def comparison_cases(datasets: Sequence[xr.Dataset], sources: Sequence[str],
+                     renames: Mapping[str, str] | None = None) -> list[str]:
+    """The case names of a comparison's inputs, after every check that needs no analysis.
+
+    Parameters
+    ----------
+    datasets : sequence of xarray.Dataset
+        The measurement first, then the predictions (beam results, :func:`test_from_dataset`).
+    sources : sequence of str
+        Their names in messages (the file names).
+    renames : mapping, optional
+        ``{old: new}`` case names: ``old`` is the case of the first input (in order) that has
+        it, ``new`` its name in the tables; every ``old`` is a name as given (``{"a": "b",
+        "b": "a"}`` swaps two names).
+
+    Returns
+    -------
+    list of str
+        The case name of each input, in order (``case`` attribute, default ``"test"``, after
+        ``renames``).
+
+    Raises
+    ------
+    BeamError
+        An input that is not a beam result (or lacks what the analyses read; the message
+        starts with its source), a rename of a case no input has, case names that are not
+        unique (both a :class:`CaseNameError`), kinds of test that differ, or a prediction of
+        a random test at none of the measured RMS levels (within 10 %).
+    """
+    kinds = []
+    for ds, src in zip(datasets, sources, strict=True):
+        try:
+            kinds.append(_check_dataset(ds))
+        except BeamError as exc:
+            raise BeamError(f"{src}: {exc}") from None
+    given = [str(ds.attrs.get("case", "test")) for ds in datasets]
+    names = list(given)
+    for old, new in (renames or {}).items():  # all on the names as given: no chains
+        if old not in given:
+            raise CaseNameError(f"no input has the case {old!r} (their cases: "
+                                f"{', '.join(map(repr, given))})", (old, new))
+        names[given.index(old)] = new
+    for i, n in enumerate(names):
+        if n in names[:i]:
+            j = names.index(n)
+            raise CaseNameError(f"{sources[j]} and {sources[i]} both have the case name {n!r} "
+                                "(the tables would mix them): rename one")
+    for k, src in zip(kinds[1:], sources[1:], strict=True):
+        if k != kinds[0]:
+            raise BeamError(f"{src} is a {k} test, the measurement {sources[0]} a {kinds[0]} "
+                            "test")
+    if kinds[0] == "random":
+        measured = [float(x) for x in datasets[0]["level"].values]
+        for ds, src in zip(datasets[1:], sources[1:], strict=True):
+            levels = [float(x) for x in ds["level"].values]
+            if all(i is None for i in match_levels(measured, levels)):
+                raise BeamError(
+                    f"{src} has no RMS level within {100 * LEVEL_TOLERANCE:.0f} % of the "
+                    f"measured ones: {', '.join(f'{x:.3g}' for x in levels)} g against "
+                    f"{', '.join(f'{x:.3g}' for x in measured)} g")
+    return names
 
 
 def analyse_test(ds: xr.Dataset, case: str | None = None) -> AnalysedTest:

@@ -21,7 +21,6 @@ cannot use an :class:`~sloshrom.beam.analysis.AnalysisError`.
 
 from __future__ import annotations
 
-import re
 import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -36,14 +35,16 @@ from sloshrom.beam.errors import BeamError
 from sloshrom.beam.labfiles import lab_test_paths, write_lab_test
 from sloshrom.beam.structure import ModalModel
 from sloshrom.config import G
+from sloshrom.errors import Note
 from sloshrom.io.read import read_record
 from sloshrom.io.record import Record, RecordError
+from sloshrom.io.uff import node_dir
 from sloshrom.io.units import canonical_unit
 
 __all__ = [
     "DECAY_RATIO", "LINE_FRACTION", "LINE_BINS", "ChannelMap", "ChannelMapError",
-    "TruncatedRecordWarning", "check_free_decay", "check_random_base", "lab_test_paths",
-    "read_free_test", "read_random_test", "station_model", "write_lab_test",
+    "MissingChannelNote", "TruncatedRecordWarning", "check_free_decay", "check_random_base",
+    "lab_test_paths", "read_free_test", "read_random_test", "station_model", "write_lab_test",
 ]
 
 #: A free decay must decay: the mode-1 band envelope (RMS) over its last periods must be below
@@ -55,46 +56,64 @@ DECAY_RATIO = 0.7
 LINE_FRACTION = 0.5
 LINE_BINS = 10
 
-_NODE_DIR = re.compile(r"^\s*(\d+)\s*:\s*([+-]?)\s*([XYZxyz]|R[XYZxyz])\s*$")
-
 
 class TruncatedRecordWarning(UserWarning):
     """The files of one test had different lengths; all were cut to the shortest."""
 
 
+class MissingChannelNote(Note):
+    """A file of a test lacks channels its (campaign's) channel map names, and the test does
+    without them: a free decay's base (then at rest), stations beyond those the modal filter
+    needs."""
+
+
 # -- reading -------------------------------------------------------------------------------------
-def _channel_variable(rec: Record, name: str, path: Path) -> str:
-    """The record variable of the channel ``name``: a UFF channel by its label (ID line 1),
-    else by ``node:dir``; other formats by variable name (the label wins over node:dir)."""
+def _uff_channels(rec: Record, path: Path) -> list[dict[str, object]] | None:
     # a NetCDF made from a UFF file keeps its uff_channels attribute: only UFF files use it
-    uff = rec.attrs.get("uff_channels") if path.suffix.lower() in (".uff", ".unv") else None
+    return rec.attrs.get("uff_channels") if path.suffix.lower() in (".uff", ".unv") else None
+
+
+def _channel_variable(rec: Record, name: str, path: Path) -> str | None:
+    """The record variable of the channel ``name`` (``None`` if the file lacks it): a UFF
+    channel by its label (ID line 1), else by ``node:dir``; other formats by variable name
+    (the label wins over node:dir)."""
+    uff = _uff_channels(rec, path)
     if uff:
         for ch in uff:
             if ch["label"] == name.strip():
-                return ch["variable"]
-        m = _NODE_DIR.match(name)
-        if m:
-            node, sign, axis = int(m.group(1)), m.group(2) or "+", m.group(3).upper()
-            for ch in uff:
-                if ch["node"] == node and ch["direction"] == f"{sign}{axis}":
-                    return ch["variable"]
-        have = [f"{c['label']} ({c['node']}:{c['direction']})" for c in uff]
-    else:
-        if name in rec.variables:
-            return name
-        have = list(rec.variables)
+                return str(ch["variable"])
+        nd = node_dir(name)
+        for ch in uff:
+            if nd == (ch["node"], ch["direction"]):
+                return str(ch["variable"])
+        return None
+    return name if name in rec.variables else None
+
+
+def _no_channel(rec: Record, path: Path, names: Sequence[str], why: str) -> RecordError:
+    """The error of channels ``names`` the file lacks, listing the file's channels."""
+    uff = _uff_channels(rec, path)
+    have = ([f"{c['label']} ({c['node']}:{c['direction']})" for c in uff] if uff
+            else list(rec.variables))
     shown = ", ".join(repr(h) for h in have[:20]) + (" ..." if len(have) > 20 else "")
-    raise RecordError(f"{path}: no channel {name!r} (the channel map names it); the file's "
-                      f"channels: {shown}")
+    which = ", ".join(repr(n) for n in names)
+    return RecordError(f"{path}: no channel {which} (the channel map names "
+                       f"{'it' if len(names) == 1 else 'them'}{why}); the file's channels: "
+                       f"{shown}")
 
 
 def _read_channels(path: Path, names: Sequence[str], fs: float | None,
-                   units: Mapping[str, str] | None) -> tuple[Record, dict[str, np.ndarray]]:
-    """One file's channels ``names`` as accelerations in m/s^2 (the file's units checked)."""
-    rec = read_record(path, fs=fs, units=units, si=False)
-    out = {}
+                   units: Mapping[str, str] | None
+                   ) -> tuple[Record, dict[str, np.ndarray], dict[str, str]]:
+    """One file's channels among ``names`` as accelerations in m/s^2 (the file's units
+    checked), and their units as read; the channels the file lacks are left out."""
+    rec = read_record(path, fs=fs, units=units, si=False, shared_units=True)
+    out, read_units = {}, {}
+    uff = {c["variable"]: c for c in _uff_channels(rec, path) or ()}
     for name in names:
         var = _channel_variable(rec, name, path)
+        if var is None:
+            continue
         arr = np.asarray(rec.variables[var], dtype=float)
         if arr.ndim != 1:
             raise RecordError(f"{path}: channel {name!r} is {arr.ndim}-D; a channel is one time "
@@ -105,7 +124,10 @@ def _read_channels(path: Path, names: Sequence[str], fs: float | None,
             raise RecordError(f"{path}: channel {name!r} is in {unit or 'no unit'!r}, not an "
                               "acceleration (m/s^2, g, mm/s^2, ...)")
         out[name] = arr * factor
-    return rec, out
+        # UFF says where each unit came from; elsewhere a given unit agrees with the file's
+        given = uff[var]["unit_from"] == "units=" if var in uff else name in (units or {})
+        read_units[name] = f"{unit} (given)" if given else unit
+    return rec, out, read_units
 
 
 def _channels_of(channels: ChannelMap, tank: str, base: bool) -> list[str]:
@@ -115,6 +137,45 @@ def _channels_of(channels: ChannelMap, tank: str, base: bool) -> list[str]:
     if base and channels.base is not None:
         names.append(channels.base)
     return names
+
+
+def _stations_left(channels: ChannelMap, tank: str, modal: ModalModel,
+                   found: Sequence[tuple[Path, Record, Mapping[str, np.ndarray]]]) -> list[str]:
+    """The map's stations every file holds (a :class:`MissingChannelNote` per file that lacks
+    some); errors when a file lacks the tank, or too few stations are left for the modes."""
+    for path, rec, ch in found:
+        if tank not in ch:
+            raise _no_channel(rec, path, [tank], ": the tank channel, the amplitude axis of the "
+                                                 "damping analyses")
+    kept = [s for s in channels.stations if all(s in ch for _, _, ch in found)]
+    # a map with few stations is the user's choice; a file that leaves too few is refused
+    if len(kept) < len(channels.stations) and len(kept) < max(modal.n_modes, 1):
+        path, rec, ch = next(f for f in found if any(s not in f[2] for s in channels.stations))
+        raise _no_channel(rec, path, [s for s in channels.stations if s not in ch],
+                          f"; {len(kept)} station(s) are left, and the modal filter needs at "
+                          f"least {modal.n_modes} for the {modal.n_modes} modes of the "
+                          "structure")
+    for path, _, ch in found:
+        lost = [s for s in channels.stations if s not in ch]
+        if lost:
+            warnings.warn(f"{path.name} has no channel {', '.join(map(repr, lost))} (the map "
+                          f"names {'it' if len(lost) == 1 else 'them'}): the modal filter uses "
+                          f"the stations {', '.join(map(repr, kept))}", MissingChannelNote,
+                          stacklevel=3)
+    return kept
+
+
+def _units_as_read(paths: Sequence[Path], units: Sequence[Mapping[str, str]]) -> str:
+    """The channels' units as read, ``"Acc 1=g, Acc 2=g"`` (per file when they differ)."""
+    texts = [", ".join(f"{k}={v}" for k, v in u.items()) for u in units]
+    if len(set(texts)) == 1:
+        return texts[0]
+    return "; ".join(f"{p.name}: {t}" for p, t in zip(paths, texts, strict=True))
+
+
+def _units_of(channels: ChannelMap, units: Mapping[str, str] | None) -> dict[str, str]:
+    """The map's ``[units]`` with the caller's ``units`` over them."""
+    return {**channels.units, **dict(units or {})}
 
 
 def _as_paths(paths: str | Path | Sequence[str | Path]) -> list[Path]:
@@ -149,20 +210,30 @@ def read_free_test(paths: str | Path | Sequence[str | Path], channels: ChannelMa
     fs : float, optional
         Sample rate, Hz, for a file without a time axis.
     units : dict, optional
-        Units of channels whose file gives none, e.g. ``{"Acc 1": "g"}``.
+        Units of channels whose file gives none, e.g. ``{"Acc 1": "g"}``; they win over the
+        map's ``[units]``. A unit that contradicts the file's own is an error.
 
     Returns
     -------
     dict
         ``time`` (s, from 0 at the first sample), ``fs`` (Hz), ``base_acceleration`` (m/s^2;
         zeros without a base channel), ``station_acceleration`` (absolute, m/s^2, (n,
-        n_stations)), ``tank_acceleration`` (m/s^2), ``source`` (file names).
+        n_stations)), ``tank_acceleration`` (m/s^2), ``source`` (file names),
+        ``channel_map`` (the :class:`ChannelMap` of the channels used: the file's stations,
+        its base if it has one) and ``channel_units`` (the channels' units as read, text).
+
+        A base the file lacks is at rest, stations it lacks are left out (the modal filter
+        then uses the others: build its model with ``station_model`` of ``channel_map``);
+        a :class:`MissingChannelNote` says so.
 
     Raises
     ------
     RecordError
-        Missing file or channel (the message lists the file's channels), a channel that is not
-        an acceleration, NaN/inf values.
+        Missing file, a file without the tank channel or with fewer stations than the
+        structure's modes (the message lists the file's channels), a channel that is not an
+        acceleration, a channel without a unit (:class:`~sloshrom.io.record.MissingUnitError`)
+        or whose given unit contradicts the file's
+        (:class:`~sloshrom.io.record.UnitConflictError`), NaN/inf values.
     BeamError
         More than one file.
     """
@@ -170,11 +241,21 @@ def read_free_test(paths: str | Path | Sequence[str | Path], channels: ChannelMa
     if len(ps) != 1:
         raise BeamError(f"a free decay is one file, got {len(ps)}")
     tank = channels.tank_channel(modal)
-    rec, ch = _read_channels(ps[0], _channels_of(channels, tank, True), fs, units)
+    rec, ch, read_units = _read_channels(ps[0], _channels_of(channels, tank, True), fs,
+                                         _units_of(channels, units))
+    kept = _stations_left(channels, tank, modal, [(ps[0], rec, ch)])
     n = rec.time.size
-    base = ch[channels.base] if channels.base is not None else np.zeros(n)
-    st = np.stack([ch[s] for s in channels.stations], axis=-1)
-    return _test_dict(rec.time - rec.time[0], float(rec.fs), base, st, ch[tank], [ps[0].name])
+    has_base = channels.base is not None and channels.base in ch
+    if channels.base is not None and not has_base:
+        warnings.warn(f"{ps[0].name} has no channel {channels.base!r} (the map names it): a "
+                      "free decay without a base channel has its base at rest",
+                      MissingChannelNote, stacklevel=2)
+    base = ch[channels.base] if channels.base is not None and has_base else np.zeros(n)
+    st = np.stack([ch[s] for s in kept], axis=-1)
+    out = _test_dict(rec.time - rec.time[0], float(rec.fs), base, st, ch[tank], [ps[0].name])
+    out["channel_map"] = channels.only(kept, base=has_base)
+    out["channel_units"] = _units_as_read(ps, [read_units])
+    return out
 
 
 def read_random_test(paths: str | Path | Sequence[str | Path], channels: ChannelMap,
@@ -203,14 +284,16 @@ def read_random_test(paths: str | Path | Sequence[str | Path], channels: Channel
     dict
         As :func:`read_free_test` with a leading level axis on every signal, and
         ``rms_levels_g``. Files of different lengths are cut to the shortest
-        (a :class:`TruncatedRecordWarning` says so).
+        (a :class:`TruncatedRecordWarning` says so). Stations a file lacks are left out of
+        every level (a :class:`MissingChannelNote` says so).
 
     Raises
     ------
     RecordError
-        As :func:`read_free_test`; files with different sample rates (both named).
+        As :func:`read_free_test`; a file without the base channel; files with different
+        sample rates (both named).
     ChannelMapError
-        No ``base`` channel.
+        No ``base`` channel in the map.
     BeamError
         ``levels`` not one per file, or levels that are not distinct.
     """
@@ -222,13 +305,20 @@ def read_random_test(paths: str | Path | Sequence[str | Path], channels: Channel
         raise BeamError(f"{len(levels)} level(s) for {len(ps)} file(s): one level per file")
     tank = channels.tank_channel(modal)
     names = _channels_of(channels, tank, True)
-    runs = []
+    given = _units_of(channels, units)
+    runs, read_units = [], []
     for p in ps:
-        rec, ch = _read_channels(p, names, fs, units)
+        rec, ch, ru = _read_channels(p, names, fs, given)
+        if channels.base not in ch:
+            raise _no_channel(rec, p, [channels.base], ": a random test needs the base, the "
+                                                       "input of H1")
         if runs and abs(rec.fs - runs[0][0].fs) > 1e-6 * runs[0][0].fs:
             raise RecordError(f"{p} is sampled at {rec.fs:g} Hz, {ps[0]} at "
                               f"{runs[0][0].fs:g} Hz: one test has one sample rate")
         runs.append((rec, ch))
+        read_units.append(ru)
+    kept = _stations_left(channels, tank, modal,
+                          [(p, r, ch) for p, (r, ch) in zip(ps, runs, strict=True)])
     n = min(r.time.size for r, _ in runs)
     if any(r.time.size != n for r, _ in runs):
         sizes = ", ".join(f"{p.name} {r.time.size}" for p, (r, _) in zip(ps, runs, strict=True))
@@ -244,10 +334,12 @@ def read_random_test(paths: str | Path | Sequence[str | Path], channels: Channel
     if len(set(lv)) != len(lv):
         raise BeamError(f"RMS levels {lv} g are not distinct (one row per level in Table 2): "
                         "give the levels (--levels)")
-    st = np.stack([np.stack([ch[s][:n] for s in channels.stations], axis=-1) for _, ch in runs])
+    st = np.stack([np.stack([ch[s][:n] for s in kept], axis=-1) for _, ch in runs])
     out = _test_dict(rec0.time[:n] - rec0.time[0], float(rec0.fs), base, st,
                      np.stack([ch[tank][:n] for _, ch in runs]), [p.name for p in ps])
     out["rms_levels_g"] = np.asarray(lv)
+    out["channel_map"] = channels.only(kept)
+    out["channel_units"] = _units_as_read(ps, read_units)
     return out
 
 

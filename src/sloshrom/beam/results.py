@@ -29,6 +29,8 @@ from sloshrom.beam.analysis import (
     log_decrement,
     modal_filter,
 )
+from sloshrom.beam.channels import ChannelMap
+from sloshrom.beam.errors import BeamError
 from sloshrom.beam.members import (
     Cell,
     Members,
@@ -63,6 +65,7 @@ __all__ = [
     "frozen_modes_table",
     "modal_accelerations", "mode1_damping_dataset", "mode1_damping_table", "mode1_decay",
     "case_output_fs", "member_damping_tables", "missing_cells", "table2_dataset",
+    "BUILT_IN_STRUCTURE", "RESULT_FORMAT_VERSION",
     "reference_tank", "simulate_cases", "to_dataset", "write_dataset", "write_table",
 ]
 
@@ -434,9 +437,21 @@ def frozen_modes_table(tank: Tank | Sequence[Tank], modal: ModalModel,
 
 
 # -- result files --------------------------------------------------------------------------------
+#: Version of the beam result files :func:`to_dataset` writes (attribute ``format_version``):
+#: 2 since a measured test's file holds only what was measured or given (files without the
+#: attribute are version 1).
+RESULT_FORMAT_VERSION = 2
+#: What a measured test's ``structure`` attribute says on the built-in cantilever.
+BUILT_IN_STRUCTURE = "built-in cantilever model (not measured)"
+#: ... and without a structure (each mode band-passed out of the reference channel).
+MEASURED_MODES_ONLY = "none: the measured modes alone (no mode shapes)"
+
+
 def to_dataset(res: Mapping[str, Any], case: str, kind: str,
                tank: Tank | Sequence[Tank] | None, modal: ModalModel | None, seed: int = 0,
-               f1: float | None = None) -> xr.Dataset:
+               f1: float | None = None, *,
+               f1_from: str | None = None, structure_given: str | None = None,
+               tank_given: str | None = None) -> xr.Dataset:
     """xarray Dataset of a coupled-simulation result (the standard beam-result names).
 
     Parameters
@@ -454,12 +469,18 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str,
         The structure's modal model (stations, modes, frequencies, damping; tank and output
         point IDs when it has them). ``None`` (with ``tank``) for a measured test of a
         structure known by its measured modes alone: stations numbered 1, 2, ..., no mode
-        shapes, no structural attributes.
+        shapes (``structure`` = :data:`MEASURED_MODES_ONLY`).
     seed : int
         Seed of the run (attribute).
     f1 : float, optional
         The first-mode frequency the damping analyses band-pass around, Hz (attribute
         ``f1_Hz``), so that the file can be re-analysed alone.
+    f1_from : str, optional
+        Where ``f1`` comes from (attribute ``f1_from``), e.g. ``"--f1"``.
+    structure_given, tank_given : str, optional
+        A measured test only: what the user gave for the structure (``"--structure
+        plate.pch"``) and the tank (``"--tank tank.toml"``). Without them the structure and
+        tank are models the measurement does not confirm, and their values are not written.
 
     Returns
     -------
@@ -478,16 +499,25 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str,
 
         A measured test (``sloshrom.beam.measured``: a result with ``source``, the file
         names) has only the variables it holds (base, station and tank accelerations; no
-        forces, no ``q``), one tank (the reference) and the attribute ``source``. The
-        attribute ``origin`` is ``"measured"`` or ``"simulation"``.
+        forces, no ``q``), one tank (the reference) and only what was measured or given: the
+        attributes ``source``, ``channel_map`` (TOML text of the channels used),
+        ``channel_units`` (their units as read), ``fs``, ``f1_Hz`` and ``f1_from``,
+        ``structure`` (what gave the mode shapes ``psi_stations``: the user's structure or
+        :data:`BUILT_IN_STRUCTURE`) and, only when the user gave them,
+        ``given_modal_frequencies_Hz``, ``given_modal_damping``, ``given_structure_mass``
+        (structure) and ``tank``, ``given_tank_fill``, ``given_liquid_mass`` (tank); no seed.
+        The attribute ``origin`` is ``"measured"`` or ``"simulation"``; ``format_version``
+        is :data:`RESULT_FORMAT_VERSION`.
 
         An ensemble's case (a result with ``"members"``, each member coupled alone): the
         variables hold the member-mean response, the attribute ``n_members`` the number of
         members.
     """
     measured = "source" in res
-    if modal is None:
-        return _measured_only(res, case, kind, f1)
+    if modal is None or tank is None:
+        if not measured:
+            raise BeamError("a simulation's result needs its tank and modal model")
+        return _measured_only(res, case, kind, f1, f1_from)
     multi = modal.psi_tank.ndim == 2 and (
         np.ndim(res["tank_acceleration"]) > np.ndim(res["base_acceleration"]))
     lead = res["base_acceleration"].shape[:-1]
@@ -514,23 +544,31 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str,
     data["psi_stations"] = (("station", "mode"), modal.psi_stations,
                             {"units": "1",
                              "long_name": "mode shapes at the stations (modal filtering)"})
+    if measured:
+        data["psi_stations"][2]["from"] = structure_given or BUILT_IN_STRUCTURE
     ds = xr.Dataset(
         data,
         coords={"time": ("time", t, {"units": "s"}),
                 "station": ("station", modal.stations, {"units": "m"}),
                 "mode": ("mode", np.arange(1, modal.n_modes + 1))},
         attrs={"case": case, "test": kind, "fs": float(res["fs"]),
-               "sloshrom_version": __version__, "seed": int(seed),
-               "modal_frequencies_Hz": modal.frequencies,
-               "modal_damping": modal.damping,
+               "sloshrom_version": __version__, "format_version": RESULT_FORMAT_VERSION,
                "origin": "measured" if measured else "simulation"},
     )
     if f1 is not None:
         ds.attrs["f1_Hz"] = float(f1)
+    if f1_from is not None:
+        ds.attrs["f1_from"] = f1_from
     if res.get("members"):  # the member-mean response of an ensemble's members coupled alone
         ds.attrs["n_members"] = len(res["members"])
     if measured:
-        ds.attrs["source"] = "; ".join(str(s) for s in res["source"])
+        _measured_attrs(ds, [str(x) for x in res["source"]], res.get("channel_map"),
+                        res.get("channel_units"), tank, modal, structure_given, tank_given)
+        if ldims:
+            ds = ds.assign_coords(level=("level", res["rms_levels_g"], {"units": "g (RMS)"}))
+        return ds
+    ds.attrs.update(seed=int(seed), modal_frequencies_Hz=modal.frequencies,
+                    modal_damping=modal.damping)
     if multi:
         ids = modal.tank_ids or tuple(range(1, modal.n_tanks + 1))
         ds = ds.assign_coords(tank=("tank", np.asarray(ids, dtype=np.int64)))
@@ -561,8 +599,8 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str,
     return ds
 
 
-def _measured_only(res: Mapping[str, Any], case: str, kind: str,
-                   f1: float | None) -> xr.Dataset:
+def _measured_only(res: Mapping[str, Any], case: str, kind: str, f1: float | None,
+                   f1_from: str | None) -> xr.Dataset:
     # a measured test without a structure: what the files held, and nothing of a model
     lead = ("level",) if np.ndim(res["base_acceleration"]) == 2 else ()
     acc = {"units": "m/s^2"}
@@ -575,13 +613,44 @@ def _measured_only(res: Mapping[str, Any], case: str, kind: str,
         coords={"time": ("time", res["time"], {"units": "s"}),
                 "station": ("station", np.arange(1, res["station_acceleration"].shape[-1] + 1))},
         attrs={"case": case, "test": kind, "fs": float(res["fs"]),
-               "sloshrom_version": __version__, "origin": "measured",
-               "source": "; ".join(str(s) for s in res["source"])})
+               "sloshrom_version": __version__, "format_version": RESULT_FORMAT_VERSION,
+               "origin": "measured", "structure": MEASURED_MODES_ONLY,
+               "source": "; ".join(str(x) for x in res["source"])})
     if f1 is not None:
         ds.attrs["f1_Hz"] = float(f1)
+    if f1_from is not None:
+        ds.attrs["f1_from"] = f1_from
+    if res.get("channel_map") is not None:
+        ds.attrs["channel_map"] = res["channel_map"].to_toml()
+    if res.get("channel_units"):
+        ds.attrs["channel_units"] = res["channel_units"]
     if lead:
         ds = ds.assign_coords(level=("level", res["rms_levels_g"], {"units": "g (RMS)"}))
     return ds
+
+
+def _measured_attrs(ds: xr.Dataset, sources: list[str], cmap: ChannelMap | None,
+                    channel_units: str | None, tank: Tank | Sequence[Tank], modal: ModalModel,
+                    structure_given: str | None, tank_given: str | None) -> None:
+    """The attributes of a measured test: what was measured, read or given (in place)."""
+    ds.attrs["source"] = "; ".join(sources)
+    if cmap is not None:
+        ds.attrs["channel_map"] = cmap.to_toml()
+    if channel_units:
+        ds.attrs["channel_units"] = channel_units
+    ds.attrs["structure"] = structure_given or BUILT_IN_STRUCTURE
+    if structure_given:
+        ds.attrs.update(given_modal_frequencies_Hz=modal.frequencies,
+                        given_modal_damping=modal.damping,
+                        given_structure_mass=float(modal.structure_masses[0]))
+        if modal.tank_ids is not None:
+            ds.attrs["tank_id"] = modal.tank_ids[0]
+    if tank_given:
+        first = tank[0] if isinstance(tank, (list, tuple)) else tank
+        ds.attrs.update(tank=tank_given, given_tank_fill=first.fill,
+                        given_liquid_mass=first.liquid_mass)
+    if modal.station_ids is not None:
+        ds.coords["station_id"] = ("station", np.asarray(modal.station_ids, dtype=np.int64))
 
 
 def reference_tank(res: Mapping[str, Any], tank: int = 0) -> dict[str, Any]:
@@ -740,19 +809,6 @@ def missing_cells(rows: Sequence[Mapping[str, Cell]],
             elif note:
                 out.append(f"{head}, {what}: {100 * float(v):.3g} % ({note})")
     return out
-
-
-def format_interval(value: float, low: Any, high: Any) -> str:
-    """``value [low, high] %`` of a damping ratio (-), with the decimals that tell the bounds
-    apart (the interval's width to two significant digits, at least two decimals of %);
-    without finite bounds ``value % (no interval)``."""
-    v = 100 * float(value)
-    if not (_finite(low) and _finite(high)):
-        return f"{v:.3g} % (no interval)"
-    lo, hi = 100 * float(low), 100 * float(high)
-    width = hi - lo
-    dec = 2 if not width > 0 else min(max(2, 1 - math.floor(math.log10(width))), 8)
-    return f"{v:.{dec}f} [{lo:.{dec}f}, {hi:.{dec}f}] %"
 
 
 def _finite(v: Any) -> bool:

@@ -43,13 +43,49 @@ from sloshrom.config import G
 
 __all__ = [
     "BANDS", "CONFIDENCE", "OUTPUT_ONLY_EFFICIENCY", "RandomDamping", "ShortRecordWarning",
-    "au_damping_cov", "band_damping", "damping_dataset", "estimate_random",
+    "au_damping_cov", "band_damping", "damping_dataset", "estimate_random", "format_interval",
     "mode1_damping_random", "noise_ratios", "random_damping", "required_duration",
     "table2_columns",
 ]
 
 #: Two-sided confidence level of every interval.
 CONFIDENCE: float = 0.95
+#: The most decimals :func:`format_interval` prints.
+MAX_DECIMALS = 6
+
+
+def format_interval(low: float, high: float, *values: float,
+                    max_decimals: int = MAX_DECIMALS) -> tuple[str, ...]:
+    """An interval's bounds and values printed with the decimals the interval needs.
+
+    All numbers get one number of decimals: enough for two significant digits of the width
+    ``|high - low|`` (so that the bounds differ visibly: ``1.3684, 1.3751``, not ``1.37,
+    1.37``), at most ``max_decimals``. A zero or unknown width gives three significant digits
+    of the largest number. Non-finite numbers print as ``"—"``.
+
+    Parameters
+    ----------
+    low, high : float
+        The interval, in the unit it is printed in (e.g. %).
+    *values : float
+        Numbers printed beside it (its estimate, a prediction), same unit.
+    max_decimals : int
+        Cap on the decimals (>= 0).
+
+    Returns
+    -------
+    tuple of str
+        ``low``, ``high``, then each of ``values``.
+    """
+    nums = (low, high, *values)
+    width = abs(high - low) if math.isfinite(low) and math.isfinite(high) else math.nan
+    if width > 0:
+        decimals = 1 - math.floor(math.log10(width))
+    else:
+        top = max((abs(x) for x in nums if math.isfinite(x)), default=0.0)
+        decimals = 2 - math.floor(math.log10(top)) if top > 0 else 0
+    decimals = min(max(decimals, 0), max(int(max_decimals), 0))
+    return tuple(f"{x:.{decimals}f}" if math.isfinite(x) else "—" for x in nums)
 
 #: Bands of tank-acceleration amplitude (g) in which the instantaneous first-mode damping is
 #: summarised.

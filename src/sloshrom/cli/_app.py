@@ -32,14 +32,14 @@ import typer
 from typer.core import TyperGroup
 
 from sloshrom import __version__
-from sloshrom.errors import SloshromError
+from sloshrom.errors import Note, SloshromError
 from sloshrom.fileio import OutputPathError, check_output, not_a_regular_file
 from sloshrom.io import same_unit
 from sloshrom.models import INPUT_UNITS, input_of
 
 __all__ = [
     "app", "check_input", "check_number", "check_out", "check_sloshing_rom", "fail",
-    "route_warnings", "warn",
+    "key_value_pairs", "route_warnings", "warn",
 ]
 
 
@@ -212,6 +212,25 @@ def check_number(
     fail(f"{name} must be {rng}, got {value!r}" + (f" ({why})" if why else ""))
 
 
+def key_value_pairs(items: list[str] | None, what: str,
+                    form: str = "KEY=VALUE") -> dict[str, str]:
+    """Repeatable ``KEY=VALUE`` options as a mapping (both sides stripped, neither empty); a
+    key given twice is an error naming it (never a silent "the last one wins").
+
+    ``form`` names the two sides in the message, e.g. ``"NAME=UNIT"``.
+    """
+    out: dict[str, str] = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip() or not value.strip():
+            fail(f"{what} must look like {form}, got {item!r}")
+        if key.strip() in out:
+            fail(f"{what}: the key {key.strip()!r} is given twice ({out[key.strip()]!r} and "
+                 f"{value.strip()!r}); give it once")
+        out[key.strip()] = value.strip()
+    return out
+
+
 def check_input(path: Path | None, what: str) -> None:
     """Fail unless ``path`` (if given) is an existing regular file (not a directory, a named
     pipe, a socket or a device: each said as such)."""
@@ -246,7 +265,8 @@ def route_warnings() -> Iterator[None]:
     Our own warnings (``EnvelopeWarning``, a ROM leaving its training envelope, a test outside
     the rig's calibrated domain) and third-party warnings about the user's data (numpy
     ``RuntimeWarning``, scipy's "nperseg is greater than the input length", ...) are shown
-    once each, the latter with their origin; third-party ``DeprecationWarning``/
+    once each, the latter with their origin; a :class:`~sloshrom.errors.Note` (information that
+    changes no result) is one plain ``note: ...`` line; third-party ``DeprecationWarning``/
     ``FutureWarning`` (xarray, JAX, ... talking to developers) are silenced.
     """
     seen: set[str] = set()
@@ -254,6 +274,11 @@ def route_warnings() -> Iterator[None]:
     def show(message: Any, category: type[Warning], filename: str, lineno: int,
              file: Any = None, line: str | None = None) -> None:
         text = " ".join(str(message).split())
+        if issubclass(category, Note):  # information, not a warning: one plain line
+            if text not in seen:
+                seen.add(text)
+                typer.echo(f"note: {text}", err=True)
+            return
         origin = _origin(filename)
         if origin != "sloshrom":
             text += f" ({category.__name__}{' from ' + origin if origin else ''})"

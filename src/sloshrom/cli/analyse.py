@@ -11,15 +11,16 @@ simulation: the NetCDF result, the damping tables and the figures, all together 
 from __future__ import annotations
 
 import math
+import shlex
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, TypeVar
 
 import typer
 
-from sloshrom.cli._app import app, check_input, check_number, fail
+from sloshrom.cli._app import app, check_input, check_number, fail, key_value_pairs
 from sloshrom.cli.beam import (
     DirectionOpt,
     FillOpt,
@@ -36,6 +37,7 @@ from sloshrom.cli.beam import (
 )
 from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputBatch
+from sloshrom.io.record import MissingUnitError, UnitConflictError
 from sloshrom.pipeline.settings import WELCH_NPERSEG
 from sloshrom.plotting import savefig
 
@@ -50,11 +52,16 @@ _FilesArg = Annotated[list[Path], typer.Argument(
     help="The test's files: UFF 58 (.uff/.unv), CSV, NetCDF (.nc) or MATLAB (.mat).",
     metavar="FILE", show_default=False)]
 _ChannelsOpt = Annotated[Path, typer.Option(
-    "--channels", help="Channel map TOML (\\[channels]: stations, positions or ids, base, tank; "
-                       "see docs/formats.md).", show_default=False)]
+    "--channels", help="Channel map TOML (\\[channels]: stations, positions or ids, base, "
+                       "tank; \\[units]: channel units; see docs/formats.md).",
+    show_default=False)]
 _OutOpt = Annotated[Path, typer.Option(help="Output directory.", show_default=False)]
 _NameOpt = Annotated[str, typer.Option(
     help="Case name of the test (files free_NAME.nc / random_NAME.nc, table rows).")]
+_T = TypeVar("_T")
+_UnitOpt = Annotated[list[str] | None, typer.Option(
+    "--unit", help="CHANNEL=UNIT for a channel whose file gives no unit, e.g. --unit acc1=g "
+                   "(repeatable; wins over the channel map's \\[units]).", show_default=False)]
 _F1Opt = Annotated[float | None, typer.Option(
     "--f1", help="Analyse this one mode, Hz (the band-pass centre); default: every mode found "
                  "in the data.")]
@@ -120,7 +127,8 @@ def _frequencies(f1: float | None, text: str | None) -> list[float] | None:
 def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml: Path | None,
              fill: float | None, modal_toml: Path | None, structure: Path | None,
              tank: list[str] | None, direction: str, mode_table: Path | None,
-             modes: int | None, mass_unit: str | None, builtin: bool) -> tuple:
+             modes: int | None, mass_unit: str | None, builtin: bool,
+             units: dict[str, str] | None = None) -> tuple:
     """Options, channel map and structure, checked before any file is read: (map, setup,
     station model). Without a structure option (``--builtin-beam``, ``--structure``,
     ``--modal-toml``, ``--tank-toml``, ``--fill``), the structure is known by its measured
@@ -140,6 +148,7 @@ def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml:
         fail(f"--name {name!r}: letters, digits, '-', '_' and '.' only (it names the files)")
     check_number(modes, "--modes", 1, None)
     cmap = _checked("--channels", lambda: ChannelMap.from_toml(channels))
+    cmap = _with_units(cmap, units or {}, channels)
     if not builtin and all(v is None for v in (tank_toml, fill, modal_toml, structure)):
         for given, opt in ((tank, "--tank"), (mode_table, "--mode-table"),
                            (mass_unit, "--mass-unit")):
@@ -165,6 +174,55 @@ def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml:
     modal = _checked("--channels", lambda: station_model(setup.modal, cmap, setup.beam))
     _checked("--channels", lambda: cmap.tank_channel(modal))
     return cmap, setup, modal
+
+
+def _with_units(cmap: Any, units: dict[str, str], channels: Path) -> Any:
+    """The map with the --unit units (each a channel of the map, an acceleration unit)."""
+    from sloshrom.beam.channels import acceleration_unit
+
+    for key, u in units.items():
+        if key not in cmap.channels:
+            fail(f"--unit {key}={u}: {key!r} is not a channel of --channels {channels} (its "
+                 f"channels: {', '.join(map(repr, cmap.channels))})")
+        why = acceleration_unit(u)
+        if why is not None:
+            fail(f"--unit {key}={u}: {why}")
+    return cmap.with_units(units)
+
+
+def _read(fn: Callable[[], _T], cli: dict[str, str], channels: Path) -> _T:
+    """``fn()`` (a reader of the test's files); a unit missing or contradicting the file is a
+    user error naming --unit (``cli``: its units) and the map's [units]."""
+    try:
+        return fn()
+    except MissingUnitError as e:
+        fail(f"{e.path}: channel {e.channel!r} has no unit in the file ({e.detail}); give it "
+             f"with --unit {shlex.quote(e.channel + '=g')} (or m/s^2), or in the channel map's "
+             "[units] table")
+    except UnitConflictError as e:
+        who = (f"--unit {e.channel}={e.given}" if e.channel in cli
+               else f"the [units] table of --channels {channels} ({e.channel} = {e.given!r})")
+        fail(f"{e.path}: channel {e.channel!r} is in {e.in_file!r} in the file but {who} "
+             f"says {e.given!r}; a unit given is for a channel whose file has none: drop it")
+    except SloshromError as exc:
+        fail(str(exc))
+
+
+@dataclass(frozen=True)
+class _Given:
+    """What the user gave for the structure and the tank (result-file attributes)."""
+
+    structure: str | None = None
+    tank: str | None = None
+
+    @classmethod
+    def of(cls, structure: Path | None, modal_toml: Path | None, tank_toml: Path | None,
+           fill: float | None, builtin: bool = False) -> _Given:
+        st = (f"--structure {structure.name}" if structure is not None else
+              f"--modal-toml {modal_toml.name}" if modal_toml is not None else None)
+        tk = [f"--tank-toml {tank_toml.name}" if tank_toml is not None else "",
+              f"--fill {fill:g}" if fill is not None else ""]
+        return cls(st, " ".join(t for t in tk if t) or None)
 
 
 def _modes(res: dict, kind: str, frequencies: list[float] | None, modes: int | None) -> Any:
@@ -195,6 +253,7 @@ def free(
     direction: DirectionOpt = "+Z",
     mode_table: ModeTableOpt = None,
     mass_unit: MassUnitOpt = None,
+    unit: _UnitOpt = None,
 ) -> None:
     """A measured free decay (one file): the damping of every mode by amplitude band.
 
@@ -210,17 +269,33 @@ def free(
     Example: ``sloshrom analyse free decay.uff --channels channels.toml --out lab``
     """
     freqs = _frequencies(f1, frequencies)
+    units = key_value_pairs(unit, "--unit", "CHANNEL=UNIT")
     cmap, setup, modal = _prepare(files, channels, out, name, tank_toml, fill, modal_toml,
                                   structure, tank, direction, mode_table, modes, mass_unit,
-                                  builtin_beam)
+                                  builtin_beam, units)
+    ctx = _Setting(cmap, setup, modal, channels, units,
+                   _Given.of(structure, modal_toml, tank_toml, fill), freqs, modes)
     check_outputs(out, _free_outputs(name, modal),
                   (*files, channels, tank_toml, modal_toml, structure, mode_table))
-    test = _run("analyse free",
-                lambda step: _free_test(files, cmap, setup, modal, name, freqs, modes, step))
+    test = _run("analyse free", lambda step: _free_test(files, ctx, name, step))
     with OutputBatch() as batch:  # all result files or none
         test.write(out, batch)
     echo_missing(test.rows, "damping bands")
     typer.echo(f"wrote free_{name}.nc, the damping bands and figures to {out}")
+
+
+@dataclass(frozen=True)
+class _Setting:
+    """What every test of a command is read and analysed with."""
+
+    cmap: Any  # the channel map, with the --unit units
+    setup: Any  # the structure (None: known by its measured modes alone)
+    modal: Any  # its modal model at the map's stations (None without a structure)
+    channels: Path  # the map's file (messages)
+    units: dict[str, str]  # the --unit units (messages)
+    given: _Given
+    frequencies: list[float] | None  # the modes named by the user, Hz
+    modes: int | None  # --modes
 
 
 @dataclass
@@ -266,17 +341,40 @@ def _random_outputs(name: str) -> list[str]:
             "damping_by_mode.png", *(f"{f}.png" for f in RANDOM_FIGURES)]
 
 
-def _free_test(files: list[Path], cmap: Any, setup: Any, modal: Any, name: str,
-               freqs: list[float] | None, modes: int | None, step: _Steps) -> _Test:
+def _station_model(ctx: _Setting, res: dict[str, Any]) -> Any:
+    """The modal model at the stations the files hold (a campaign's map may name more)."""
+    from sloshrom.beam.channels import station_model
+
+    if ctx.setup is None or res["channel_map"].stations == ctx.cmap.stations:
+        return ctx.modal
+    return _checked("--channels", lambda: station_model(ctx.setup.modal, res["channel_map"],
+                                                        ctx.setup.beam))
+
+
+def _dataset(ctx: _Setting, res: dict[str, Any], name: str, kind: str, found: Any,
+             modal: Any) -> Any:
+    from sloshrom.beam.results import to_dataset
+
+    f1_from = ("--f1" if found.how == "given" and len(found.modes) == 1
+               else "--frequencies" if found.how == "given" else "the data (spectral peak)")
+    ds = to_dataset(res, name, kind, ctx.setup.tank if ctx.setup else None, modal,
+                    f1=found.frequencies[0], f1_from=f1_from,
+                    structure_given=ctx.given.structure, tank_given=ctx.given.tank)
+    ds.attrs["mode_frequencies_Hz"] = found.frequencies
+    ds.attrs["modes_from"] = found.how
+    return ds
+
+
+def _free_test(files: list[Path], ctx: _Setting, name: str, step: _Steps) -> _Test:
     """Read and analyse a free decay at every mode (user errors end the command)."""
     from sloshrom.beam.lab import FREE_PERIODS, free_mode_decays, free_mode_rows
     from sloshrom.beam.measured import check_free_decay, read_free_test
-    from sloshrom.beam.results import to_dataset
     from sloshrom.plotting.beam import free_figures, mode_decay_figure
 
     step(f"reading {files[0].name}")
-    res = _checked("", lambda: read_free_test(files, cmap, modal))
-    found = _modes(res, "free", freqs, modes)
+    res = _read(lambda: read_free_test(files, ctx.cmap, ctx.modal), ctx.units, ctx.channels)
+    modal = _station_model(ctx, res)
+    found = _modes(res, "free", ctx.frequencies, ctx.modes)
     n = res["time"].size
     for k, f in enumerate(found.frequencies):
         if n < FREE_PERIODS * res["fs"] / f:
@@ -290,14 +388,11 @@ def _free_test(files: list[Path], cmap: Any, setup: Any, modal: Any, name: str,
     decays = _checked("damping analysis", lambda: free_mode_decays(res, found, modal))
     rows = free_mode_rows(name, found, decays)
     figs = free_figures({name: res}, modal, {name: decays[0]},
-                        labels=None if modal is not None else cmap.stations)
+                        labels=None if modal is not None else res["channel_map"].stations)
     figs["damping_by_mode"] = mode_decay_figure(name, found.frequencies, decays)
     figs = {k: figs[k] for k in _free_figures(modal)}
-    ds = to_dataset(res, name, "free", setup.tank if setup else None, modal,
-                    f1=found.frequencies[0])
-    ds.attrs["mode_frequencies_Hz"] = found.frequencies
-    ds.attrs["modes_from"] = found.how
-    return _Test("free", name, ds, rows, figs, found)
+    return _Test("free", name, _dataset(ctx, res, name, "free", found, modal), rows, figs,
+                 found)
 
 
 def _levels(text: str | None) -> list[float] | None:
@@ -341,6 +436,7 @@ def random(
     direction: DirectionOpt = "+Z",
     mode_table: ModeTableOpt = None,
     mass_unit: MassUnitOpt = None,
+    unit: _UnitOpt = None,
 ) -> None:
     """A measured random base-excitation test (one file per level): Table 2 at every mode.
 
@@ -372,34 +468,37 @@ def random(
     check_number(accuracy, "--accuracy", 0.0, 1.0, lo_open=True,
                  why="a relative 1-sigma target on the damping ratio")
     freqs = _frequencies(f1, frequencies)
+    units = key_value_pairs(unit, "--unit", "CHANNEL=UNIT")
     cmap, setup, modal = _prepare(files, channels, out, name, tank_toml, fill, modal_toml,
                                   structure, tank, direction, mode_table, modes, mass_unit,
-                                  builtin_beam)
+                                  builtin_beam, units)
+    ctx = _Setting(cmap, setup, modal, channels, units,
+                   _Given.of(structure, modal_toml, tank_toml, fill), freqs, modes)
     if cmap.base is None:
         fail(f"--channels {channels}: a random test needs the 'base' channel (the shaker "
              "table acceleration)")
     check_outputs(out, _random_outputs(name),
                   (*files, channels, tank_toml, modal_toml, structure, mode_table))
     test = _run("analyse random", lambda step: _random_test(
-        files, cmap, setup, modal, name, freqs, modes, lv, names, accuracy, step))
+        files, ctx, name, lv, names, accuracy, step))
     with OutputBatch() as batch:  # all result files or none
         test.write(out, batch)
     echo_missing(test.rows, "Table 2")
     typer.echo(f"wrote random_{name}.nc, Table 2 at every mode and figures to {out}")
 
 
-def _random_test(files: list[Path], cmap: Any, setup: Any, modal: Any, name: str,
-                 freqs: list[float] | None, modes: int | None, lv: list[float] | None,
+def _random_test(files: list[Path], ctx: _Setting, name: str, lv: list[float] | None,
                  names: list[str], accuracy: float | None, step: _Steps) -> _Test:
     """Read and analyse a random test (one file per level) at every mode."""
     from sloshrom.beam.lab import random_mode_rows
     from sloshrom.beam.measured import check_random_base, read_random_test
-    from sloshrom.beam.results import to_dataset
     from sloshrom.beam.uncertainty import ShortRecordWarning
     from sloshrom.plotting.beam import mode_damping_figure, random_figures, random_window
 
     step(f"reading {len(files)} file(s)")
-    res = _checked("", lambda: read_random_test(files, cmap, modal, levels=lv))
+    res = _read(lambda: read_random_test(files, ctx.cmap, ctx.modal, levels=lv), ctx.units,
+                ctx.channels)
+    modal = _station_model(ctx, res)
     n = res["time"].size
     if n < WELCH_NPERSEG:
         fail(f"the records hold {n} samples: Table 2 needs at least {WELCH_NPERSEG} per "
@@ -407,7 +506,7 @@ def _random_test(files: list[Path], cmap: Any, setup: Any, modal: Any, name: str
              f"{res['fs']:g} Hz)")
     for p, b, g in zip(files, res["base_acceleration"], res["rms_levels_g"], strict=True):
         _checked(str(p), lambda b=b, g=g: check_random_base(b, res["fs"], f"({g:g} g)"))
-    found = _modes(res, "random", freqs, modes)
+    found = _modes(res, "random", ctx.frequencies, ctx.modes)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ShortRecordWarning)
         rows = _checked("damping analysis", lambda: random_mode_rows(
@@ -418,8 +517,5 @@ def _random_test(files: list[Path], cmap: Any, setup: Any, modal: Any, name: str
     figs = random_figures({name: res}, [float(x) for x in res["rms_levels_g"]],
                           random_window(duration))
     figs["damping_by_mode"] = mode_damping_figure(rows, names)
-    ds = to_dataset(res, name, "random", setup.tank if setup else None, modal,
-                    f1=found.frequencies[0])
-    ds.attrs["mode_frequencies_Hz"] = found.frequencies
-    ds.attrs["modes_from"] = found.how
-    return _Test("random", name, ds, rows, figs, found)
+    return _Test("random", name, _dataset(ctx, res, name, "random", found, modal), rows, figs,
+                 found)

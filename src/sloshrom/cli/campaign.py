@@ -24,12 +24,17 @@ from sloshrom.cli.analyse import (
     _free_test,
     _frequencies,
     _FrequenciesOpt,
+    _Given,
     _OutOpt,
     _random_outputs,
     _random_test,
+    _read,
     _run,
+    _Setting,
     _Steps,
     _Test,
+    _UnitOpt,
+    _with_units,
     analyse_app,
 )
 from sloshrom.cli.beam import check_outputs, echo_missing
@@ -40,26 +45,24 @@ _DirArg = Annotated[Path, typer.Argument(
          "campaign.toml (which file is which test).", show_default=False)]
 
 
-def _pct(v: Any) -> str:
-    try:
-        x = float(v)
-    except (TypeError, ValueError):
-        return "—"
-    return f"{100 * x:.3g}" if math.isfinite(x) else "—"
-
-
 def _cell(r: dict[str, Any], key: str, low: str, high: str, reason: str) -> str:
     """``value [low, high] %`` with the digits the interval needs, or ``— (reason)``."""
-    from sloshrom.beam.results import format_interval
+    from sloshrom.beam.uncertainty import format_interval
 
-    v = r.get(key)
-    try:
-        ok = math.isfinite(float(v))  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        ok = False
-    if not ok:
+    v, lo, hi = (_num(r.get(k)) for k in (key, low, high))
+    if not math.isfinite(v):
         return f"— ({r.get(reason) or 'no estimate'})"
-    return format_interval(float(v), r.get(low), r.get(high))  # type: ignore[arg-type]
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        return f"{100 * v:.3g} % (no interval: {r.get(reason) or 'no spread estimate'})"
+    a, b, c = format_interval(100 * lo, 100 * hi, 100 * v)
+    return f"{c} [{a}, {b}] %"
+
+
+def _num(v: Any) -> float:
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return math.nan
 
 
 def _random_table(test: _Test, estimators: list[str]) -> tuple[list[str], list[list[str]]]:
@@ -129,6 +132,7 @@ def campaign(
     estimator: Annotated[list[str] | None, typer.Option(
         "--estimator", help="A damping estimator of the registry, repeatable; default the "
                             "three of paper Table 2.")] = None,
+    unit: _UnitOpt = None,
 ) -> None:
     """A campaign folder in one command: every free decay and the random test, every mode.
 
@@ -144,6 +148,7 @@ def campaign(
     from sloshrom.beam.campaign import campaign_tests
     from sloshrom.beam.channels import ChannelMap
     from sloshrom.beam.registry import estimator_names
+    from sloshrom.cli._app import key_value_pairs
     from sloshrom.errors import SloshromError
 
     try:
@@ -155,9 +160,12 @@ def campaign(
     check_input(channels, "--channels")
     check_number(modes, "--modes", 1, None)
     freqs = _frequencies(None, frequencies)
-    cmap = _checked("--channels", lambda: ChannelMap.from_toml(channels))
+    units = key_value_pairs(unit, "--unit", "CHANNEL=UNIT")
+    cmap = _with_units(_checked("--channels", lambda: ChannelMap.from_toml(channels)), units,
+                       channels)
     _checked("--channels", lambda: cmap.tank_channel(None))
-    specs = _checked(str(directory), lambda: campaign_tests(directory, cmap))
+    specs = _read(lambda: campaign_tests(directory, cmap), units, channels)
+    ctx = _Setting(cmap, None, None, channels, units, _Given(), freqs, modes)
     planned = ["campaign.md", "campaign.html"]
     for s in specs:
         if s.kind == "random" and cmap.base is None:
@@ -173,11 +181,10 @@ def campaign(
         done = []
         for s in specs:
             if s.kind == "free":
-                t = _free_test(list(s.files), cmap, None, None, s.name, freqs, modes, step)
+                t = _free_test(list(s.files), ctx, s.name, step)
             else:
                 lv = list(s.levels) if s.levels is not None else None
-                t = _random_test(list(s.files), cmap, None, None, s.name, freqs, modes, lv,
-                                 names, None, step)
+                t = _random_test(list(s.files), ctx, s.name, lv, names, None, step)
             done.append((s, t))
         return done
 

@@ -9,7 +9,7 @@ from typing import Annotated, Any
 
 import typer
 
-from sloshrom.cli._app import app, check_input, check_out, fail
+from sloshrom.cli._app import app, check_input, check_out, fail, key_value_pairs
 from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputBatch
 from sloshrom.pipeline.settings import check_analysis_band
@@ -55,6 +55,10 @@ def compare(
         help="Predictions of the same test: beam result NetCDF files of 'sloshrom beam' (rig, "
              "ROM, frozen, ...).", metavar="PREDICTED", show_default=False)],
     out: Annotated[Path, typer.Option(help="Output directory.")],
+    name: Annotated[list[str] | None, typer.Option(
+        "--name", help="OLD=NEW: the case OLD of the inputs (the first file that has it) is "
+                       "called NEW in the tables (repeatable), e.g. for two files of the same "
+                       "case name.", show_default=False)] = None,
 ) -> None:
     """Measured against predicted: first-mode damping with intervals and a verdict per level.
 
@@ -69,17 +73,31 @@ def compare(
     ``fig23_comparison.png``, ``table2_comparison.png``). Random tests are matched by RMS
     level (within 10 %).
 
+    Every check that needs no analysis (readable beam results, unique case names, one kind of
+    test, RMS levels that match) runs before the first analysis. ``--name OLD=NEW`` renames a
+    case (two files of the same case name need it).
+
     Example: ``sloshrom compare lab/random_measured.nc sim/random_rig.nc sim/random_rom.nc
     --out cmp``
     """
     import xarray as xr
 
-    from sloshrom.beam.compare import analyse_test, compare_rows
+    from sloshrom.beam.compare import (
+        CaseNameError,
+        analyse_test,
+        compare_rows,
+        comparison_cases,
+    )
     from sloshrom.beam.results import write_table
+    from sloshrom.beam.uncertainty import format_interval
     from sloshrom.plotting import savefig
     from sloshrom.plotting.beam import COMPARE_FIGURES, comparison_figures
 
     paths = [measured, *predicted]
+    renames = key_value_pairs(name, "--name", "OLD=NEW")
+    for old, new in renames.items():
+        if not all(c.isalnum() or c in "-_." for c in new):
+            fail(f"--name {old}={new}: a case name has letters, digits, '-', '_' and '.' only")
     for p in paths:
         check_input(p, "beam result")
     if len({p.resolve() for p in paths}) < len(paths):
@@ -98,18 +116,23 @@ def compare(
     check_out(out, directory=True, inputs=tuple(paths), contents=tuple(stems))
     for stem in stems:  # a directory in a result's place would fail the batch half-way
         check_out(out / stem, inputs=tuple(paths), what="result file")
-    tests = []
+    # every check that needs no analysis, before the first (long) one
+    try:
+        cases = comparison_cases(datasets, [str(p) for p in paths], renames)
+    except CaseNameError as exc:
+        if exc.rename is not None:
+            fail(f"--name {exc.rename[0]}={exc.rename[1]}: {exc}")
+        fail(f"{exc} with --name OLD=NEW")
+    except SloshromError as exc:
+        fail(str(exc))
     for p, ds in zip(paths, datasets, strict=True):
         _check_result(p, ds)
+    tests = []
+    for p, ds, case in zip(paths, datasets, cases, strict=True):
         try:
-            tests.append(analyse_test(ds))
+            tests.append(analyse_test(ds, case))
         except SloshromError as exc:
             fail(f"{p}: {exc}")
-    names = [t.case for t in tests]
-    dupes = sorted({n for n in names if names.count(n) > 1})
-    if dupes:
-        fail(f"two files have the case name {dupes[0]!r}: rename one (the tables would mix "
-             "them)")
     try:
         rows = compare_rows(tests[0], tests[1:])
     except SloshromError as exc:
@@ -118,18 +141,18 @@ def compare(
     with OutputBatch() as batch:
         write_table(rows, out / "comparison", batch)
         write_table([r for t in tests for r in t.rows], out / "analyses", batch)
-        for name, fig in figs.items():
-            savefig(fig, out / f"{name}.png", batch)
+        for stem, fig in figs.items():
+            savefig(fig, out / f"{stem}.png", batch)
     head = "rms_g" if kind == "random" else "band"
     what = "estimator" if kind == "random" else "method"
     for r in rows:
         # a missing estimate is never a silent nan: its reason instead of the number
-        pred = (f"{100 * r['predicted']:.3g} %" if math.isfinite(r["predicted"])
-                else "—")
+        low, high, pred = format_interval(100 * r["measured_low"], 100 * r["measured_high"],
+                                          100 * r["predicted"])
+        pred = f"{pred} %" if math.isfinite(r["predicted"]) else pred
         why = f" ({r['reason']})" if r.get("reason") else ""
         typer.echo(f"{r[head]} {r[what]}: {r['case']} {pred} "
-                   f"{r['verdict']} [{100 * r['measured_low']:.3g}, "
-                   f"{100 * r['measured_high']:.3g}] % of {tests[0].case} "
+                   f"{r['verdict']} [{low}, {high}] % of {tests[0].case} "
                    f"(z = {r['z']:.2g}){why}")
     typer.echo(f"wrote the comparison of {len(tests) - 1} prediction(s) with {tests[0].case} "
                f"to {out}")

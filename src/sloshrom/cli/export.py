@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from sloshrom.cli._app import app, check_input, check_number, check_out, fail
+from sloshrom.cli._app import app, check_input, check_number, check_out, fail, key_value_pairs
 from sloshrom.config import Tank
 from sloshrom.errors import SloshromError
 from sloshrom.fileio import not_a_regular_file
@@ -210,21 +210,6 @@ import_app = typer.Typer(help="Import test-lab files as sloshrom records (UFF da
 app.add_typer(import_app, name="import")
 
 
-def _pairs(items: list[str], what: str) -> dict[str, str]:
-    """``KEY=VALUE`` options as a mapping; a key given twice is an error naming it (never a
-    silent "the last one wins")."""
-    out: dict[str, str] = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip() or not value.strip():
-            fail(f"{what} must look like KEY=VALUE, got {item!r}")
-        if key.strip() in out:
-            fail(f"{what}: the key {key.strip()!r} is given twice ({out[key.strip()]!r} and "
-                 f"{value.strip()!r}); give it once")
-        out[key.strip()] = value.strip()
-    return out
-
-
 @import_app.command("uff")
 def import_uff_cmd(
     uff: Annotated[Path, typer.Argument(help="UFF/UNV file with dataset-58 time responses.")],
@@ -248,9 +233,9 @@ def import_uff_cmd(
     --name "Load cell=force" --unit force=N``
     """
     names: dict[str | int, str] = {}
-    for key, value in _pairs(name, "--name").items():
+    for key, value in key_value_pairs(name, "--name", "CHANNEL=VARIABLE").items():
         names[int(key) if key.isdigit() else key] = value
-    units = _pairs(unit, "--unit")
+    units = key_value_pairs(unit, "--unit", "VARIABLE=UNIT")
     check_number(f_highpass, "--f-highpass", 0.0, unit="Hz")
     check_input(uff, "UFF")
     check_input(tank_toml, "--tank")

@@ -13,7 +13,15 @@ from pathlib import Path
 
 from sloshrom.fileio import atomic_write, not_a_regular_file
 from sloshrom.io import csv, matlab, netcdf, uff
-from sloshrom.io.record import Record, RecordError, _check_fs, _show, _unit_text, _why
+from sloshrom.io.record import (
+    AbsentUnitNamesError,
+    Record,
+    RecordError,
+    _check_fs,
+    _show,
+    _unit_text,
+    _why,
+)
 
 __all__ = ["read_record", "write_record"]
 
@@ -22,6 +30,8 @@ def read_record(
     fs: float | None = None,
     units: Mapping[str, str] | None = None,
     si: bool = True,
+    *,
+    shared_units: bool = False,
 ) -> Record:
     """Read a record from NetCDF (``.nc``), CSV (``.csv``), MATLAB (``.mat``, v5 or v7.3) or
     UFF dataset 58 (``.uff``/``.unv``, see :func:`sloshrom.io.uff.read_uff58`).
@@ -40,6 +50,11 @@ def read_record(
     si : bool
         Convert known units (g, mm, kN, mN, ms, ft/s, lbf, ...) to SI (default). Unknown units
         (``"V"``) are kept as written.
+    shared_units : bool
+        ``units`` are shared by the files of a test campaign (a channel map's): names this file
+        lacks are ignored, and for UFF a unit only fills an empty ordinate label (one that
+        contradicts the label is an error, as for the other formats; UFF keys may also be
+        ``node:dir``).
 
     Returns
     -------
@@ -69,22 +84,35 @@ def read_record(
             f"{p}: unknown record format {suffix!r} (use .nc, .csv, .mat, .uff or .unv)"
         )
     try:
-        if suffix in (".csv", ".txt"):
-            rec = csv.read_csv(p, fs, given)
-        elif suffix == ".mat":
-            rec = matlab.read_mat(p, fs, given)
-        elif suffix in (".uff", ".unv"):
-            rec = uff.read_uff58(p, units=given)
-            if fs is not None and abs(rec.fs - fs) > 1e-3 * fs:
-                raise RecordError(
-                    f"{p}: fs={fs:g} Hz given but the file's time axis says {rec.fs:g} Hz"
-                )
-        else:
-            rec = netcdf.read_netcdf(p, fs, given)
+        try:
+            rec = _read(p, suffix, fs, given, shared_units)
+        except AbsentUnitNamesError as exc:
+            if not shared_units:
+                raise
+            # a campaign's units name channels other files have: read again with this file's
+            rec = _read(p, suffix, fs, {k: v for k, v in given.items() if k in exc.present},
+                        shared_units)
     except OSError as exc:  # permissions, a file that vanished or changed while read
         raise RecordError(f"{p}: cannot read the file ({_why(exc)})") from exc
     rec.attrs.setdefault("source", str(p))
     return rec.to_si() if si else rec
+
+
+def _read(p: Path, suffix: str, fs: float | None, given: dict[str, str],
+          shared_units: bool) -> Record:
+    """The record of one file by its format (``given``: checked units)."""
+    if suffix in (".csv", ".txt"):
+        return csv.read_csv(p, fs, given)
+    if suffix == ".mat":
+        return matlab.read_mat(p, fs, given)
+    if suffix in (".uff", ".unv"):
+        rec = uff.read_uff58(p, units=given, shared_units=shared_units)
+        if fs is not None and abs(rec.fs - fs) > 1e-3 * fs:
+            raise RecordError(
+                f"{p}: fs={fs:g} Hz given but the file's time axis says {rec.fs:g} Hz"
+            )
+        return rec
+    return netcdf.read_netcdf(p, fs, given)
 
 
 def _check_units_arg(p: Path, units: Mapping[str, str] | None) -> dict[str, str]:

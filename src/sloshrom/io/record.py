@@ -40,8 +40,11 @@ from sloshrom.io.units import (
 
 __all__ = [
     "MAX_ABS_VALUE",
+    "AbsentUnitNamesError",
+    "MissingUnitError",
     "Record",
     "RecordError",
+    "UnitConflictError",
     "require",
     "require_unit",
 ]
@@ -55,6 +58,43 @@ class RecordError(SloshromError):
 
     def __init__(self, message: object = "", *args: object) -> None:
         super().__init__(re.sub(r"\s*[\r\n]+\s*", " ", str(message)).strip(), *args)
+
+
+class MissingUnitError(RecordError):
+    """A channel has no unit in its file and the caller gave none.
+
+    Attributes ``path`` (the file), ``channel`` (its label), ``detail`` (where the file would
+    say it, e.g. ``"UFF 58 dataset 1, ordinate unit label empty"``) and ``si`` (the SI unit of
+    a standard variable name, else ``None``) let a caller say how to give it.
+    """
+
+    def __init__(self, path: object, channel: str, detail: str, si: str | None = None,
+                 kind: str = "channel") -> None:
+        self.path, self.channel, self.detail, self.si = str(path), channel, detail, si
+        hint = f" (SI: {si!r})" if si else ""
+        super().__init__(f"{path}: {kind} {channel!r} has no unit in the file ({detail}); give "
+                         f"it with units={{{channel!r}: ...}}{hint}")
+
+
+class UnitConflictError(RecordError):
+    """A unit the caller gave contradicts the file's own (attributes ``path``, ``channel``,
+    ``given``, ``in_file``)."""
+
+    def __init__(self, path: object, channel: str, given: str, in_file: str,
+                 kind: str = "variable") -> None:
+        self.path, self.channel, self.given, self.in_file = str(path), channel, given, in_file
+        super().__init__(f"{path}: {kind} {channel!r}: units= gives {given!r} but the file "
+                         f"says {in_file!r}")
+
+
+class AbsentUnitNamesError(RecordError):
+    """``units=`` names variables the file does not have (attributes ``absent`` and
+    ``present``, the file's names)."""
+
+    def __init__(self, source: str, absent: list[str], present: list[str]) -> None:
+        self.absent, self.present = list(absent), list(present)
+        super().__init__(f"{source}: units= names {_names(self.absent)}, which the file does not "
+                         f"have (it has {_names(self.present)})")
 
 
 # Second axes of the standard 2-D variables (first axis is always time).
@@ -337,10 +377,9 @@ class Record:
                     "unit string"
                 )
             if unit is None or not unit.strip():
-                raise RecordError(
-                    f"variable {name!r} has no unit (give units={{{name!r}: ...}}; "
-                    f"SI for this name: {STANDARD_UNITS.get(name, 'unknown')!r})"
-                )
+                si = STANDARD_UNITS.get(name)
+                raise RecordError(f"variable {name!r} has no unit (give units={{{name!r}: ...}}"
+                                  + (f"; SI: {si!r})" if si else ")"))
             variables[name] = arr
             si, k = canonical_unit(unit)
             units[name] = si if k == 1.0 else unit.strip()
@@ -504,11 +543,8 @@ class Record:
         all_units.pop("time", None)  # converted to s above
         for name in variables:
             if name not in all_units:
-                raise RecordError(
-                    f"{source}: variable {name!r} has no 'units' attribute (give units="
-                    f"{{{name!r}: ...}}; SI for this name: "
-                    f"{STANDARD_UNITS.get(name, 'unknown')!r})"
-                )
+                raise MissingUnitError(source, name, "no 'units' attribute",
+                                       STANDARD_UNITS.get(name), kind="variable")
         attrs = _unflatten_attrs(dict(ds.attrs), source)
         fs_file = attrs.pop("fs", None)
         if fs is not None and fs_file is not None:
@@ -575,17 +611,12 @@ def _merge_units(
     """
     unknown = [k for k in given if k not in names]
     if unknown:
-        raise RecordError(
-            f"{source}: units= names {_names(unknown)}, which the file does not have (it has "
-            f"{_names(names)})"
-        )
+        raise AbsentUnitNamesError(source, unknown, names)
     out = dict(file_units)
     for name, unit in given.items():
         have = file_units.get(name)
         if have is not None and not same_unit(have, unit):
-            raise RecordError(
-                f"{source}: variable {name!r}: units= gives {unit!r} but the file says {have!r}"
-            )
+            raise UnitConflictError(source, name, unit, have)
         out.setdefault(name, unit)
     return out
 
@@ -762,6 +793,12 @@ def _build(
     if not cols:
         raise RecordError(f"{source}: no data variables besides time{_ignored_note(ignored)}")
     var_units = {k: all_units[k] for k in cols if k in all_units}
+    unitless = [k for k in cols if not str(var_units.get(k) or "").strip()]
+    if unitless:
+        where = ("no [unit] in the CSV header" if source.lower().endswith((".csv", ".txt"))
+                 else "no entry in the units struct")
+        raise MissingUnitError(source, unitless[0], where, STANDARD_UNITS.get(unitless[0]),
+                               kind="variable")
     try:
         return Record(time, fs, cols, var_units, attrs)
     except RecordError as exc:

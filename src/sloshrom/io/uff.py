@@ -35,10 +35,19 @@ from typing import Any
 import numpy as np
 
 from sloshrom.fileio import OutputBatch, atomic_write, not_a_regular_file
-from sloshrom.io.record import Record, RecordError, _show, _unit_text, _why
-from sloshrom.io.units import STANDARD_UNITS, _time_unit, is_known_unit
+from sloshrom.io.record import (
+    MissingUnitError,
+    Record,
+    RecordError,
+    UnitConflictError,
+    _show,
+    _unit_text,
+    _why,
+)
+from sloshrom.io.units import STANDARD_UNITS, _time_unit, is_known_unit, same_unit
 
-__all__ = ["dataset58", "dataset164_si", "id_line", "read_uff58", "write_uff58", "write_uff_sets"]
+__all__ = ["dataset58", "dataset164_si", "id_line", "node_dir", "read_uff58", "write_uff58",
+           "write_uff_sets"]
 
 # UFF "specific data type" codes -> (standard variable name, SI unit)
 _SPEC_TYPES: dict[int, tuple[str, str]] = {
@@ -53,6 +62,18 @@ _SPEC_CODES = {"displacement": 8, "velocity": 11, "acceleration": 12, "force": 9
                "true_velocity": 11, "tank_acceleration": 12, "base_acceleration": 12}
 _DIRS = {0: "scalar", 1: "+X", 2: "+Y", 3: "+Z", 4: "+RX", 5: "+RY", 6: "+RZ",
          -1: "-X", -2: "-Y", -3: "-Z", -4: "-RX", -5: "-RY", -6: "-RZ"}
+
+
+_NODE_DIR = re.compile(r"^\s*(\d+)\s*:\s*([+-]?)\s*([XYZxyz]|R[XYZxyz])\s*$")
+
+
+def node_dir(name: str) -> tuple[int, str] | None:
+    """A channel named ``node:dir`` (``"101:+Z"``, ``"101:z"``) as ``(101, "+Z")``; ``None``
+    for any other name."""
+    m = _NODE_DIR.match(name) if isinstance(name, str) else None
+    if m is None:
+        return None
+    return int(m.group(1)), f"{m.group(2) or '+'}{m.group(3).upper()}"
 
 
 def _label(ds: Mapping[str, Any]) -> str:
@@ -72,6 +93,8 @@ def read_uff58(
     path: str | Path,
     names: Mapping[str | int, str] | None = None,
     units: Mapping[str, str] | None = None,
+    *,
+    shared_units: bool = False,
 ) -> Record:
     """Read the time-response (function type 1) dataset-58 channels of a UFF file.
 
@@ -86,6 +109,11 @@ def read_uff58(
     units : dict, optional
         Unit per variable name or channel label, for channels whose file gives none (or to
         override the file), e.g. ``{"force": "kN"}``; a key that is neither is an error.
+    shared_units : bool
+        ``units`` are shared by the files of a test campaign (a channel map's): keys may also be
+        ``node:dir`` (``"101:+Z"``), a key that names no channel of this file is ignored, and a
+        unit only fills an empty ordinate label: one that contradicts a non-empty label is a
+        :class:`~sloshrom.io.record.UnitConflictError` naming both.
 
     Returns
     -------
@@ -195,28 +223,34 @@ def read_uff58(
         file_unit = _unit_text(s.get("ordinate_axis_units_lab", "") or "", where)
         if file_unit is not None and file_unit.upper() == "NONE":
             file_unit = None
-        if name in units or label in units:
-            unit, how = units.get(name, units.get(label)), "units="
+        node, direction = int(s.get("rsp_node", 0) or 0), _DIRS.get(
+            int(s.get("rsp_dir", 0) or 0), str(s.get("rsp_dir")))
+        keys = [k for k in (label, name) if k in units]
+        if shared_units:
+            keys += [k for k in units if node_dir(k) == (node, direction) and k not in keys]
+        given = units[keys[0]] if keys else None
+        if given is not None and shared_units and file_unit is not None:
+            if not same_unit(given, file_unit):
+                raise UnitConflictError(p, label, given, file_unit, kind="channel")
+            given = None  # the file's spelling, as read
+        if given is not None:
+            unit, how = given, "units="
         elif file_unit is not None:
             unit, how = file_unit, "ordinate units label"
         elif si_file and std:
             unit, how = std[1], "dataset 164 (SI) + specific data type"
         else:
-            raise RecordError(
-                f"{where} ({name!r}) has no unit in the file; give "
-                f"units={{{name!r}: ...}} (SI for this name: "
-                f"{STANDARD_UNITS.get(name, 'unknown')!r})"
-            )
+            raise MissingUnitError(p, label, f"UFF 58 dataset {i + 1}, ordinate unit label "
+                                   "empty", STANDARD_UNITS.get(name))
         variables[name] = data
         var_units[name] = str(unit)
         channels.append({
             "index": k, "dataset": i + 1, "label": label, "variable": name,
-            "node": int(s.get("rsp_node", 0) or 0),
-            "direction": _DIRS.get(int(s.get("rsp_dir", 0) or 0), str(s.get("rsp_dir"))),
+            "node": node, "direction": direction,
             "spec_data_type": spec, "unit": str(unit), "unit_from": how,
         })
     stray = [u for u in units if u not in variables and u not in labels]
-    if stray:
+    if stray and not shared_units:
         raise RecordError(
             f"{p}: units= names {_show(stray)}, neither a variable nor a channel label (variables "
             f"{_show(list(variables))}, channels {_show(labels)})"
