@@ -198,7 +198,7 @@ def test_one_map_for_a_campaign_and_units_from_the_command_line(lab, tmp_path):
     r = runner.invoke(app, [*argv, "--unit", "Acc 1=m/s^2"])
     assert r.exit_code == 0, r.output
     out = " ".join(r.output.split())
-    assert ("note: r01.uff has no channel 'Acc 9' (the map names it): the modal filter uses the "
+    assert ("note: r01.uff has no channel 'Acc 9' (the map names it): the analyses use the "
             "stations 'Acc 1', 'Acc 2', 'Acc 3', 'Acc 4', 'Acc 5'") in out
     assert ("note: r01.uff has no channel 'Base Z' (the map names it): a free decay without a "
             "base channel has its base at rest") in out
@@ -208,8 +208,8 @@ def test_one_map_for_a_campaign_and_units_from_the_command_line(lab, tmp_path):
         assert ds["station"].values.tolist() == [0.148, 0.296, 0.444, 0.592, 0.74]
         assert ds.attrs["channel_units"].startswith("Acc 1=m/s^2 (given), Acc 2=m/s^2")
         assert "Acc 9" not in ds.attrs["channel_map"] and "Base Z" not in ds.attrs["channel_map"]
-        assert ds.attrs["f1_from"] == ("first mode with frozen liquid of the built-in "
-                                       "cantilever model")
+        assert ds.attrs["f1_from"] == "the data (spectral peak)"
+        assert ds.attrs["structure"].startswith("none: the measured modes alone")
         for key in ("modal_frequencies_Hz", "modal_damping", "liquid_mass", "structure_mass"):
             assert key not in ds.attrs
 

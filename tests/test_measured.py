@@ -411,7 +411,7 @@ def test_a_free_decay_without_the_maps_base_and_stations(rig, lab, tmp_path):
     more = ChannelMap(stations=("Acc 1", "Acc 9", *cmap.stations[1:]),
                       positions=(0.148, 0.2, *cmap.positions[1:]))
     with pytest.warns(MissingChannelNote, match=r"free\.uff has no channel 'Acc 9' \(the map "
-                      r"names it\): the modal filter uses the stations 'Acc 1', 'Acc 2'"):
+                      r"names it\): the analyses use the stations 'Acc 1', 'Acc 2'"):
         res = read_free_test(lab["dir"] / "free.uff", more, rig["modal"])
     assert res["channel_map"].stations == cmap.stations
     assert res["channel_map"].positions == cmap.positions

@@ -27,6 +27,7 @@ from typing import Any
 from sloshrom.beam.analysis import AnalysisError
 from sloshrom.beam.channels import ChannelMap
 from sloshrom.beam.errors import BeamError
+from sloshrom.beam.measured import check_random_base, read_random_test
 from sloshrom.config import ConfigError, load_toml_table
 from sloshrom.io.record import RecordError
 
@@ -116,8 +117,6 @@ def _from_manifest(directory: Path, table: Any) -> list[CampaignTest]:
 
 
 def _is_random(path: Path, channels: ChannelMap, units: Mapping[str, str] | None) -> bool:
-    from sloshrom.beam.measured import check_random_base, read_random_test
-
     if channels.base is None:
         return False
     try:

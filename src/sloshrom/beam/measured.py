@@ -139,7 +139,7 @@ def _channels_of(channels: ChannelMap, tank: str, base: bool) -> list[str]:
     return names
 
 
-def _stations_left(channels: ChannelMap, tank: str, modal: ModalModel,
+def _stations_left(channels: ChannelMap, tank: str, modal: ModalModel | None,
                    found: Sequence[tuple[Path, Record, Mapping[str, np.ndarray]]]) -> list[str]:
     """The map's stations every file holds (a :class:`MissingChannelNote` per file that lacks
     some); errors when a file lacks the tank, or too few stations are left for the modes."""
@@ -149,17 +149,17 @@ def _stations_left(channels: ChannelMap, tank: str, modal: ModalModel,
                                                  "damping analyses")
     kept = [s for s in channels.stations if all(s in ch for _, _, ch in found)]
     # a map with few stations is the user's choice; a file that leaves too few is refused
-    if len(kept) < len(channels.stations) and len(kept) < max(modal.n_modes, 1):
+    need = max(modal.n_modes, 1) if modal is not None else 1  # no structure: no modal filter
+    if len(kept) < len(channels.stations) and len(kept) < need:
         path, rec, ch = next(f for f in found if any(s not in f[2] for s in channels.stations))
         raise _no_channel(rec, path, [s for s in channels.stations if s not in ch],
                           f"; {len(kept)} station(s) are left, and the modal filter needs at "
-                          f"least {modal.n_modes} for the {modal.n_modes} modes of the "
-                          "structure")
+                          f"least {need} for the {need} modes of the structure")
     for path, _, ch in found:
         lost = [s for s in channels.stations if s not in ch]
         if lost:
             warnings.warn(f"{path.name} has no channel {', '.join(map(repr, lost))} (the map "
-                          f"names {'it' if len(lost) == 1 else 'them'}): the modal filter uses "
+                          f"names {'it' if len(lost) == 1 else 'them'}): the analyses use "
                           f"the stations {', '.join(map(repr, kept))}", MissingChannelNote,
                           stacklevel=3)
     return kept

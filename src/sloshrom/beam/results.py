@@ -14,7 +14,6 @@ the mean of the members' estimates with their combined uncertainty
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -604,14 +603,18 @@ def _measured_only(res: Mapping[str, Any], case: str, kind: str, f1: float | Non
     # a measured test without a structure: what the files held, and nothing of a model
     lead = ("level",) if np.ndim(res["base_acceleration"]) == 2 else ()
     acc = {"units": "m/s^2"}
+    cmap = res.get("channel_map")
+    # the map's positions (m) of the stations the files held, else their numbers
+    stations: tuple = (("station", np.asarray(cmap.positions), {"units": "m"})
+                       if cmap is not None and cmap.positions is not None else
+                       ("station", np.arange(1, res["station_acceleration"].shape[-1] + 1)))
     ds = xr.Dataset(
         {"base_acceleration": (lead + ("time",), res["base_acceleration"], acc),
          "tank_acceleration": (lead + ("time",), res["tank_acceleration"],
                                {**acc, "long_name": "reference (tank) absolute acceleration"}),
          "station_acceleration": (lead + ("time", "station"), res["station_acceleration"],
                                   {**acc, "long_name": "absolute"})},
-        coords={"time": ("time", res["time"], {"units": "s"}),
-                "station": ("station", np.arange(1, res["station_acceleration"].shape[-1] + 1))},
+        coords={"time": ("time", res["time"], {"units": "s"}), "station": stations},
         attrs={"case": case, "test": kind, "fs": float(res["fs"]),
                "sloshrom_version": __version__, "format_version": RESULT_FORMAT_VERSION,
                "origin": "measured", "structure": MEASURED_MODES_ONLY,
@@ -620,8 +623,10 @@ def _measured_only(res: Mapping[str, Any], case: str, kind: str, f1: float | Non
         ds.attrs["f1_Hz"] = float(f1)
     if f1_from is not None:
         ds.attrs["f1_from"] = f1_from
-    if res.get("channel_map") is not None:
-        ds.attrs["channel_map"] = res["channel_map"].to_toml()
+    if cmap is not None:
+        ds.attrs["channel_map"] = cmap.to_toml()
+        if cmap.ids is not None:
+            ds.coords["station_id"] = ("station", np.asarray(cmap.ids, dtype=np.int64))
     if res.get("channel_units"):
         ds.attrs["channel_units"] = res["channel_units"]
     if lead:

@@ -15,7 +15,7 @@ from typing import Annotated, Any
 
 import typer
 
-from sloshrom.cli._app import check_input, check_number, fail
+from sloshrom.cli._app import check_input, check_number, fail, key_value_pairs
 from sloshrom.cli.analyse import (
     _AnalyseModesOpt,
     _ChannelsOpt,
@@ -38,6 +38,7 @@ from sloshrom.cli.analyse import (
     analyse_app,
 )
 from sloshrom.cli.beam import check_outputs, echo_missing
+from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputBatch
 
 _DirArg = Annotated[Path, typer.Argument(
@@ -148,8 +149,6 @@ def campaign(
     from sloshrom.beam.campaign import campaign_tests
     from sloshrom.beam.channels import ChannelMap
     from sloshrom.beam.registry import estimator_names
-    from sloshrom.cli._app import key_value_pairs
-    from sloshrom.errors import SloshromError
 
     try:
         names = estimator_names(estimator or None)

@@ -15,6 +15,7 @@ from matplotlib.figure import Figure
 
 from sloshrom.beam.analysis import welch_psd
 from sloshrom.beam.compare import AnalysedTest, match_levels
+from sloshrom.beam.registry import label
 from sloshrom.beam.results import Mode1Decay
 from sloshrom.beam.structure import ModalModel
 from sloshrom.config import G
@@ -208,8 +209,6 @@ def mode_decay_figure(case: str, frequencies: Sequence[float],
 def mode_damping_figure(rows: Sequence[Mapping[str, Any]], estimators: Sequence[str]) -> Figure:
     """Table 2 at every mode: damping ratio against RMS base level, one panel per mode, each
     estimator with its 95 % interval (rows of ``sloshrom.beam.lab.random_mode_rows``)."""
-    from sloshrom.beam.registry import label
-
     modes = sorted({int(r["mode"]) for r in rows})
     fig = Figure(figsize=(7, 3.0 * len(modes)))
     axes = fig.subplots(len(modes), 1, squeeze=False)[:, 0]
