@@ -199,3 +199,25 @@ def test_campaign_rejects(campaign, tmp_path):
     check_cli(tmp_path, campaign, world,
               ["analyse", "campaign", "{tmp}/empty", "--channels", "{tmp}/map.toml", "--out",
                "{tmp}/res"], r"holds no data file")
+
+
+def test_compare_a_measurement_without_structure(tmp_path):
+    """``analyse free`` without a structure writes no mode shapes; ``compare`` analyses it
+    again on its own (mode 1 band-passed out of the tank channel) and gets its table."""
+    dec = free_decay(BEAM, 8.5, 10.0, FS, seed=5)
+    dec["base"] = np.zeros(dec["time"].size)
+    _write(tmp_path / "decay.csv", dec)
+    (tmp_path / "map.toml").write_text(MAP.to_toml())
+    r = runner.invoke(app, ["analyse", "free", str(tmp_path / "decay.csv"), "--channels",
+                            str(tmp_path / "map.toml"), "--modes", "1", "--out",
+                            str(tmp_path / "m")])
+    assert r.exit_code == 0, r.output
+    copy = tmp_path / "copy.nc"
+    copy.write_bytes((tmp_path / "m" / "free_measured.nc").read_bytes())
+    r = runner.invoke(app, ["compare", str(tmp_path / "m" / "free_measured.nc"), str(copy),
+                            "--name", "measured=again", "--out", str(tmp_path / "c")])
+    assert r.exit_code == 0, r.output
+    first = (tmp_path / "m" / "damping_bands.csv").read_text().splitlines()
+    z = [ln.split(",")[5] for ln in first[1:]]
+    table = (tmp_path / "c" / "analyses.csv").read_text()
+    assert all(v in table for v in z if v != "nan"), (z, table)

@@ -34,6 +34,7 @@ from scipy import stats
 from sloshrom.beam.analysis import welch_psd
 from sloshrom.beam.errors import BeamError
 from sloshrom.beam.results import (
+    MEASURED_MODES_ONLY,
     Mode1Decay,
     damping_band_table,
     mode1_damping_table,
@@ -102,7 +103,7 @@ class AnalysedTest:
         return table2_dataset(self.rows)
 
 
-def test_from_dataset(ds: xr.Dataset) -> tuple[dict[str, Any], np.ndarray]:
+def test_from_dataset(ds: xr.Dataset) -> tuple[dict[str, Any], np.ndarray | None]:
     """The result dict of a beam result dataset, and the station mode shapes of its analysis.
 
     Parameters
@@ -119,7 +120,9 @@ def test_from_dataset(ds: xr.Dataset) -> tuple[dict[str, Any], np.ndarray]:
         ``time`` (s), ``fs`` (Hz), ``base_acceleration``, ``station_acceleration``,
         ``tank_acceleration`` (m/s^2; random tests with a leading level axis) and, for random
         tests, ``rms_levels_g`` (g).
-    psi : ndarray (n_stations, n_modes)
+    psi : ndarray (n_stations, n_modes) or None
+        ``None`` for a measured test of a structure known by its measured modes alone (no
+        ``psi_stations``: mode 1 is band-passed out of the tank channel).
 
     Raises
     ------
@@ -136,10 +139,18 @@ def test_from_dataset(ds: xr.Dataset) -> tuple[dict[str, Any], np.ndarray]:
         **{v: np.asarray(ds[v].values, float) for v in need[:3]}}
     if kind == "random":
         res["rms_levels_g"] = [float(x) for x in ds["level"].values]
-    return res, np.asarray(ds["psi_stations"].values, float)
+    psi = ds["psi_stations"].values if "psi_stations" in ds.variables else None
+    return res, None if psi is None else np.asarray(psi, float)
 
 
 _NEED = ("station_acceleration", "tank_acceleration", "base_acceleration", "psi_stations")
+
+
+def _needs(ds: xr.Dataset) -> tuple[str, ...]:
+    # a measured test without a structure has no mode shapes: nothing to filter with
+    if ds.attrs.get("structure") == MEASURED_MODES_ONLY:
+        return _NEED[:3]
+    return _NEED
 
 
 def _check_dataset(ds: xr.Dataset) -> str:
@@ -149,7 +160,7 @@ def _check_dataset(ds: xr.Dataset) -> str:
     if kind not in ("free", "random"):
         raise BeamError(f"not a beam test result: attribute 'test' is {kind!r}, not 'free' or "
                         "'random'")
-    missing = [v for v in _NEED if v not in ds.variables]
+    missing = [v for v in _needs(ds) if v not in ds.variables]
     if "f1_Hz" not in ds.attrs or "fs" not in ds.attrs:
         missing += [a for a in ("f1_Hz", "fs") if a not in ds.attrs]
     if missing:

@@ -159,7 +159,7 @@ class Mode1Decay:
     members: list[Mode1Decay] = field(default_factory=list)
 
 
-def mode1_decay(res: Mapping[str, Any], modal: ModalModel | np.ndarray,
+def mode1_decay(res: Mapping[str, Any], modal: ModalModel | np.ndarray | None,
                 f1: float) -> Mode1Decay:
     """Modal filtering and first-mode damping (Hilbert and log decrement) of a free response.
 
@@ -168,8 +168,9 @@ def mode1_decay(res: Mapping[str, Any], modal: ModalModel | np.ndarray,
     res : mapping
         A free response (``sloshrom.beam.coupled.free_response``); with ``"members"``, each
         member is analysed as well (:attr:`Mode1Decay.members`).
-    modal : ModalModel or ndarray (n_stations, n_modes)
-        The beam's modal model, or its mode shapes at the stations.
+    modal : ModalModel or ndarray (n_stations, n_modes) or None
+        The beam's modal model, or its mode shapes at the stations; ``None``: the tank channel
+        relative to the base (band-passed around ``f1`` by the analyses).
     f1 : float
         First mode with frozen liquid, Hz (the band-pass centre).
 
@@ -178,8 +179,10 @@ def mode1_decay(res: Mapping[str, Any], modal: ModalModel | np.ndarray,
     AnalysisError
         The stations cannot separate the modes, or the record is too short.
     """
-    q = modal_accelerations(res, modal)
     ref = res["tank_acceleration"]
+    # without mode shapes, mode 1 is band-passed out of the tank channel (relative to the base)
+    q = (modal_accelerations(res, modal) if modal is not None
+         else (np.asarray(ref) - np.asarray(res["base_acceleration"]))[:, None])
     return Mode1Decay(
         modal=q,
         hilbert=instantaneous_damping(q[:, 0], res["fs"], f1, reference=ref),
