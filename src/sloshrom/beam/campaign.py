@@ -22,7 +22,6 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from sloshrom.beam.analysis import AnalysisError
 from sloshrom.beam.channels import ChannelMap
@@ -72,7 +71,7 @@ def _case(stem: str) -> str:
     return _NAME.sub("_", stem).strip("_") or "test"
 
 
-def _from_manifest(directory: Path, table: Any) -> list[CampaignTest]:
+def _from_manifest(directory: Path, table: object) -> list[CampaignTest]:
     where = str(directory / MANIFEST)
     if not isinstance(table, list) or not table:
         raise CampaignError(f"{where}: give the tests as [[test]] tables")

@@ -17,13 +17,14 @@ the structural mode nearest in frequency (modal filtering). Pure functions on th
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from sloshrom.beam.analysis import AnalysisError, instantaneous_damping, log_decrement
+from sloshrom.beam.measured import MeasuredTest
+from sloshrom.beam.members import Row
 from sloshrom.beam.peaks import FoundMode, common_modes, find_modes, given_modes, mode_bands
 from sloshrom.beam.results import Mode1Decay, modal_accelerations
 from sloshrom.beam.structure import ModalModel
@@ -72,7 +73,7 @@ class TestModes:
         return min(rel, (f - lo) / f, (hi - f) / f)
 
 
-def modes_of_test(res: Mapping[str, Any], kind: str, *,
+def modes_of_test(res: MeasuredTest, kind: str, *,
                frequencies: Sequence[float] | None = None,
                max_modes: int | None = None) -> TestModes:
     """The modes of a measured test: ``frequencies`` if given, else the resonances its data
@@ -120,9 +121,9 @@ def modes_of_test(res: Mapping[str, Any], kind: str, *,
     return TestModes(list(modes), mode_bands([m.frequency for m in modes], fs), how)
 
 
-def random_mode_rows(res: Mapping[str, Any], case: str, modes: TestModes, *,
+def random_mode_rows(res: MeasuredTest, case: str, modes: TestModes, *,
                      estimators: Sequence[str] | None = None, accuracy: float | None = None,
-                     step: Callable[[str], None] | None = None) -> list[dict[str, Any]]:
+                     step: Callable[[str], None] | None = None) -> list[Row]:
     """Table 2 at every mode: one row per mode and level (``case``, ``mode`` (1-based),
     ``mode_frequency_Hz``, ``rms_g``, then :func:`sloshrom.beam.uncertainty.random_damping`'s
     columns), the fitting band the mode's (:attr:`TestModes.bands`, made symmetric).
@@ -148,7 +149,7 @@ def random_mode_rows(res: Mapping[str, Any], case: str, modes: TestModes, *,
     return rows
 
 
-def free_mode_decays(res: Mapping[str, Any], modes: TestModes,
+def free_mode_decays(res: MeasuredTest, modes: TestModes,
                      modal: ModalModel | None = None) -> list[Mode1Decay]:
     """The free decay of every mode: Hilbert and log-decrement damping of the mode against
     its own amplitude at the tank.
@@ -190,7 +191,7 @@ def free_mode_decays(res: Mapping[str, Any], modes: TestModes,
 
 
 def free_mode_rows(case: str, modes: TestModes, decays: Sequence[Mode1Decay]
-                   ) -> list[dict[str, Any]]:
+                   ) -> list[Row]:
     """Damping per amplitude band of every mode (``case``, ``mode``, ``mode_frequency_Hz``,
     then :func:`sloshrom.beam.uncertainty.band_damping`'s columns)."""
     rows = []

@@ -24,7 +24,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 from scipy import signal
@@ -43,8 +43,9 @@ from sloshrom.io.units import canonical_unit
 
 __all__ = [
     "DECAY_RATIO", "LINE_FRACTION", "LINE_BINS", "ChannelMap", "ChannelMapError",
-    "MissingChannelNote", "TruncatedRecordWarning", "check_free_decay", "check_random_base",
-    "lab_test_paths", "read_free_test", "read_random_test", "station_model", "write_lab_test",
+    "MeasuredTest", "MissingChannelNote", "TruncatedRecordWarning", "check_free_decay",
+    "check_random_base", "lab_test_paths", "read_free_test", "read_random_test",
+    "station_model", "write_lab_test",
 ]
 
 #: A free decay must decay: the mode-1 band envelope (RMS) over its last periods must be below
@@ -187,15 +188,31 @@ def _as_paths(paths: str | Path | Sequence[str | Path]) -> list[Path]:
     return out
 
 
+class MeasuredTest(TypedDict, total=False):
+    """A measured test as the analyses read it (:func:`read_free_test`, :func:`read_random_test`:
+    every key but ``rms_levels_g``, which random tests have). Signals in m/s^2, random tests
+    with a leading level axis."""
+
+    time: np.ndarray  # s, from 0
+    fs: float  # Hz
+    base_acceleration: np.ndarray
+    station_acceleration: np.ndarray  # absolute, (..., n, n_stations)
+    tank_acceleration: np.ndarray
+    source: list[str]  # the file names
+    channel_map: ChannelMap  # the map's channels the files held
+    channel_units: str  # the channels' units as read
+    rms_levels_g: np.ndarray  # random tests: RMS base levels, g
+
+
 def _test_dict(time: np.ndarray, fs: float, base: np.ndarray, stations: np.ndarray,
-               tank: np.ndarray, sources: list[str]) -> dict[str, Any]:
+               tank: np.ndarray, sources: list[str]) -> MeasuredTest:
     return {"time": time, "fs": fs, "base_acceleration": base,
             "station_acceleration": stations, "tank_acceleration": tank, "source": sources}
 
 
 def read_free_test(paths: str | Path | Sequence[str | Path], channels: ChannelMap,
                    modal: ModalModel | None, *, fs: float | None = None,
-                   units: Mapping[str, str] | None = None) -> dict[str, Any]:
+                   units: Mapping[str, str] | None = None) -> MeasuredTest:
     """A measured free decay (one file) as the analyses read a simulated one.
 
     Parameters
@@ -261,7 +278,7 @@ def read_free_test(paths: str | Path | Sequence[str | Path], channels: ChannelMa
 def read_random_test(paths: str | Path | Sequence[str | Path], channels: ChannelMap,
                      modal: ModalModel | None, *, levels: Sequence[float] | None = None,
                      fs: float | None = None, units: Mapping[str, str] | None = None
-                     ) -> dict[str, Any]:
+                     ) -> MeasuredTest:
     """A measured random base-excitation test, one file per level, as the analyses read a
     simulated one.
 

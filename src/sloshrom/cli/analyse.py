@@ -13,10 +13,10 @@ from __future__ import annotations
 import math
 import shlex
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any, TypeVar
+from typing import TYPE_CHECKING, Annotated, Any, TypeVar
 
 import typer
 
@@ -40,6 +40,17 @@ from sloshrom.fileio import OutputBatch
 from sloshrom.io.record import MissingUnitError, UnitConflictError
 from sloshrom.pipeline.settings import WELCH_NPERSEG
 from sloshrom.plotting import savefig
+
+if TYPE_CHECKING:  # the heavy modules load when a command runs
+    import xarray as xr
+    from matplotlib.figure import Figure
+
+    from sloshrom.beam.channels import ChannelMap
+    from sloshrom.beam.lab import TestModes
+    from sloshrom.beam.measured import MeasuredTest
+    from sloshrom.beam.members import Row
+    from sloshrom.beam.structure import ModalModel
+    from sloshrom.cli.beam import _Setup
 
 analyse_app = typer.Typer(
     help="Measured beam tests (free decays, random base excitation) through the damping "
@@ -176,7 +187,7 @@ def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml:
     return cmap, setup, modal
 
 
-def _with_units(cmap: Any, units: dict[str, str], channels: Path) -> Any:
+def _with_units(cmap: ChannelMap, units: dict[str, str], channels: Path) -> ChannelMap:
     """The map with the --unit units (each a channel of the map, an acceleration unit)."""
     from sloshrom.beam.channels import acceleration_unit
 
@@ -225,7 +236,8 @@ class _Given:
         return cls(st, " ".join(t for t in tk if t) or None)
 
 
-def _modes(res: dict, kind: str, frequencies: list[float] | None, modes: int | None) -> Any:
+def _modes(res: MeasuredTest, kind: str, frequencies: list[float] | None,
+           modes: int | None) -> TestModes:
     """The modes to analyse (given or found), each inside the record's band, or a user error."""
     from sloshrom.beam.lab import describe, modes_of_test
 
@@ -288,9 +300,9 @@ def free(
 class _Setting:
     """What every test of a command is read and analysed with."""
 
-    cmap: Any  # the channel map, with the --unit units
-    setup: Any  # the structure (None: known by its measured modes alone)
-    modal: Any  # its modal model at the map's stations (None without a structure)
+    cmap: ChannelMap  # with the --unit units
+    setup: _Setup | None  # the structure (None: known by its measured modes alone)
+    modal: ModalModel | None  # its modal model at the map's stations
     channels: Path  # the map's file (messages)
     units: dict[str, str]  # the --unit units (messages)
     given: _Given
@@ -304,10 +316,10 @@ class _Test:
 
     kind: str
     name: str
-    ds: Any
-    rows: list[dict[str, Any]]
-    figs: dict[str, Any]
-    modes: Any
+    ds: xr.Dataset
+    rows: list[Row]
+    figs: dict[str, Figure]
+    modes: TestModes
 
     @property
     def table(self) -> str:
@@ -322,14 +334,14 @@ class _Test:
             savefig(fig, out / f"{stem}.png", batch)
 
 
-def _free_figures(modal: Any) -> list[str]:
+def _free_figures(modal: ModalModel | None) -> list[str]:
     from sloshrom.plotting.beam import FREE_FIGURES
 
     return [f for f in FREE_FIGURES if f != "fig20_tank_interface_dynamic"
             and (modal is not None or f != "fig16_modal_accelerations")] + ["damping_by_mode"]
 
 
-def _free_outputs(name: str, modal: Any) -> list[str]:
+def _free_outputs(name: str, modal: ModalModel | None) -> list[str]:
     return [f"free_{name}.nc", "damping_bands.csv", "damping_bands.md",
             *(f"{f}.png" for f in _free_figures(modal))]
 
@@ -341,18 +353,19 @@ def _random_outputs(name: str) -> list[str]:
             "damping_by_mode.png", *(f"{f}.png" for f in RANDOM_FIGURES)]
 
 
-def _station_model(ctx: _Setting, res: dict[str, Any]) -> Any:
+def _station_model(ctx: _Setting, res: MeasuredTest) -> ModalModel | None:
     """The modal model at the stations the files hold (a campaign's map may name more)."""
     from sloshrom.beam.channels import station_model
 
-    if ctx.setup is None or res["channel_map"].stations == ctx.cmap.stations:
+    setup = ctx.setup
+    if setup is None or res["channel_map"].stations == ctx.cmap.stations:
         return ctx.modal
-    return _checked("--channels", lambda: station_model(ctx.setup.modal, res["channel_map"],
-                                                        ctx.setup.beam))
+    return _checked("--channels", lambda: station_model(setup.modal, res["channel_map"],
+                                                        setup.beam))
 
 
-def _dataset(ctx: _Setting, res: dict[str, Any], name: str, kind: str, found: Any,
-             modal: Any) -> Any:
+def _dataset(ctx: _Setting, res: MeasuredTest, name: str, kind: str, found: TestModes,
+             modal: ModalModel | None) -> xr.Dataset:
     from sloshrom.beam.results import to_dataset
 
     f1_from = ("--f1" if found.how == "given" and len(found.modes) == 1
@@ -488,7 +501,7 @@ def random(
 
 
 def _random_test(files: list[Path], ctx: _Setting, name: str, lv: list[float] | None,
-                 names: list[str], accuracy: float | None, step: _Steps) -> _Test:
+                 names: Sequence[str], accuracy: float | None, step: _Steps) -> _Test:
     """Read and analyse a random test (one file per level) at every mode."""
     from sloshrom.beam.lab import random_mode_rows
     from sloshrom.beam.measured import check_random_base, read_random_test

@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import io
 import math
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -41,12 +42,18 @@ from sloshrom.cli.beam import check_outputs, echo_missing
 from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputBatch
 
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from sloshrom.beam.campaign import CampaignTest
+    from sloshrom.beam.members import Row
+
 _DirArg = Annotated[Path, typer.Argument(
     help="The campaign folder: data files (UFF 58, CSV, NetCDF, MATLAB) and optionally "
          "campaign.toml (which file is which test).", show_default=False)]
 
 
-def _cell(r: dict[str, Any], key: str, low: str, high: str, reason: str) -> str:
+def _cell(r: Row, key: str, low: str, high: str, reason: str) -> str:
     """``value [low, high] %`` with the digits the interval needs, or ``— (reason)``."""
     from sloshrom.beam.uncertainty import format_interval
 
@@ -59,14 +66,16 @@ def _cell(r: dict[str, Any], key: str, low: str, high: str, reason: str) -> str:
     return f"{c} [{a}, {b}] %"
 
 
-def _num(v: Any) -> float:
+def _num(v: float | str | None) -> float:
+    if v is None:
+        return math.nan
     try:
         return float(v)
     except (TypeError, ValueError):
         return math.nan
 
 
-def _random_table(test: _Test, estimators: list[str]) -> tuple[list[str], list[list[str]]]:
+def _random_table(test: _Test, estimators: Sequence[str]) -> tuple[list[str], list[list[str]]]:
     from sloshrom.beam.registry import label
 
     head = ["mode", "f (Hz)", "RMS base (g)", *(f"{label(e)} (%)" for e in estimators)]
@@ -92,13 +101,14 @@ def _markdown(head: list[str], rows: list[list[str]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _png(fig: Any) -> bytes:
+def _png(fig: Figure) -> bytes:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
     return buf.getvalue()
 
 
-def _report(directory: Path, tests: list[tuple[Any, _Test]], estimators: list[str]
+def _report(directory: Path, tests: list[tuple[CampaignTest, _Test]],
+            estimators: Sequence[str]
             ) -> tuple[str, str]:
     """The campaign page as Markdown (figures linked) and self-contained HTML."""
     from sloshrom.pipeline.html import Figure, Section, Table, render
@@ -176,7 +186,7 @@ def campaign(
     typer.echo(f"{directory}: " + "; ".join(
         f"{s.name} ({s.kind}: {', '.join(p.name for p in s.files)})" for s in specs))
 
-    def work(step: _Steps) -> list[tuple[Any, _Test]]:
+    def work(step: _Steps) -> list[tuple[CampaignTest, _Test]]:
         done = []
         for s in specs:
             if s.kind == "free":

@@ -15,6 +15,7 @@ from matplotlib.figure import Figure
 
 from sloshrom.beam.analysis import welch_psd
 from sloshrom.beam.compare import AnalysedTest, match_levels
+from sloshrom.beam.members import Row
 from sloshrom.beam.registry import label
 from sloshrom.beam.results import Mode1Decay
 from sloshrom.beam.structure import ModalModel
@@ -206,7 +207,7 @@ def mode_decay_figure(case: str, frequencies: Sequence[float],
     return fig
 
 
-def mode_damping_figure(rows: Sequence[Mapping[str, Any]], estimators: Sequence[str]) -> Figure:
+def mode_damping_figure(rows: Sequence[Row], estimators: Sequence[str]) -> Figure:
     """Table 2 at every mode: damping ratio against RMS base level, one panel per mode, each
     estimator with its 95 % interval (rows of ``sloshrom.beam.lab.random_mode_rows``)."""
     modes = sorted({int(r["mode"]) for r in rows})
