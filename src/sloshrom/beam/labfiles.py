@@ -193,7 +193,7 @@ def write_lab_campaign(directory: str | Path, beam: LabBeam | None = None, *,
     names = [f"acc{k + 1}" for k in range(n_st)]
     d = Path(directory)
 
-    def write(path: Path, res: Mapping[str, Any], run: str, base: bool) -> None:
+    def write(path: Path, res: Mapping[str, np.ndarray], run: str, base: bool) -> None:
         chans = [(n, k + 1, res["stations"][:, k], unit)
                  for k, (n, unit) in enumerate(zip(names, u, strict=True))]
         if base:

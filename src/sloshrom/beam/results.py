@@ -17,7 +17,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import xarray as xr
@@ -57,6 +57,9 @@ from sloshrom.beam.uncertainty import (
 from sloshrom.config import G, Tank
 from sloshrom.fileio import OutputBatch, atomic_write
 from sloshrom.models import SloshingModel
+
+if TYPE_CHECKING:  # the readers import this module's writers' neighbours
+    from sloshrom.beam.measured import MeasuredTest
 
 __all__ = [
     "BANDS", "Mode1Decay", "damping_band_table", "damping_by_band", "damping_summary",
@@ -519,7 +522,7 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str,
     if modal is None or tank is None:
         if not measured:
             raise BeamError("a simulation's result needs its tank and modal model")
-        return _measured_only(res, case, kind, f1, f1_from)
+        return _measured_only(cast("MeasuredTest", res), case, kind, f1, f1_from)
     multi = modal.psi_tank.ndim == 2 and (
         np.ndim(res["tank_acceleration"]) > np.ndim(res["base_acceleration"]))
     lead = res["base_acceleration"].shape[:-1]
@@ -601,7 +604,7 @@ def to_dataset(res: Mapping[str, Any], case: str, kind: str,
     return ds
 
 
-def _measured_only(res: Mapping[str, Any], case: str, kind: str, f1: float | None,
+def _measured_only(res: MeasuredTest, case: str, kind: str, f1: float | None,
                    f1_from: str | None) -> xr.Dataset:
     # a measured test without a structure: what the files held, and nothing of a model
     lead = ("level",) if np.ndim(res["base_acceleration"]) == 2 else ()
@@ -819,8 +822,8 @@ def missing_cells(rows: Sequence[Mapping[str, Cell]],
     return out
 
 
-def _finite(v: Any) -> bool:
+def _finite(v: float | str | None) -> bool:
     try:
-        return bool(np.isfinite(float(v)))
+        return v is not None and bool(np.isfinite(float(v)))
     except (TypeError, ValueError):
         return False

@@ -33,6 +33,7 @@ from functools import cached_property
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy import signal
 
 from sloshrom.beam.errors import BeamError
@@ -96,7 +97,7 @@ class LabBeam:
         # the shapes of a uniform clamped-free beam do not depend on its section or material
         return CantileverBeam(length=self.length)
 
-    def shapes(self, x: Any = None) -> np.ndarray:
+    def shapes(self, x: ArrayLike | None = None) -> np.ndarray:
         """Mode shapes at ``x`` (m; default the stations), ``(n_x, n_modes)``, -: uniform
         clamped-free, unit maximum (tip) displacement, tip positive."""
         x = self.positions if x is None else x
@@ -117,7 +118,7 @@ class LabBeam:
         """Natural circular frequencies, rad/s."""
         return 2 * math.pi * np.asarray(self.frequencies, dtype=float)
 
-    def frf(self, f: Any, x: Any = None) -> np.ndarray:
+    def frf(self, f: ArrayLike, x: ArrayLike | None = None) -> np.ndarray:
         """Analytical FRF base -> absolute acceleration at ``x`` (m; default the stations) at
         frequencies ``f`` (Hz), ``(n_f, n_x)``, complex, -."""
         w = 2 * math.pi * np.atleast_1d(np.asarray(f, dtype=float))[:, None]
