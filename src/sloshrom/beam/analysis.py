@@ -5,6 +5,7 @@
 * :func:`instantaneous_damping` - first-mode damping from the Hilbert envelope,
   ``zeta = -(d ln A/dt) / omega`` with a local-regression slope over a few periods.
 * :func:`log_decrement` - the same from successive peaks (cross-check).
+* :func:`noise_floor` - the band-passed noise amplitude of a decay record (its floor).
 * :func:`welch_psd`, :func:`frf_h1` - Welch estimates (Hann window, 50 % overlap, explicit
   ``nperseg``).
 * :func:`lscf_poles`, :func:`stable_pole_cluster`, :func:`lscf_cluster_damping` - poles of the
@@ -35,7 +36,7 @@ import warnings
 from typing import Any
 
 import numpy as np
-from scipy import signal
+from scipy import optimize, signal
 from scipy.ndimage import minimum_filter1d
 
 from sloshrom.beam.errors import BeamError
@@ -150,6 +151,101 @@ def instantaneous_damping(
             "frequency": omega[keep] / (2 * np.pi), "amplitude": amp[keep]}
 
 
+def bandpass_noise_gain(fs: float, f: float, rel_band: float = 0.35) -> float:
+    """RMS of white noise of unit standard deviation after the analyses' band-pass around ``f``
+    (Butterworth order 4, zero phase: ``|H|^4``), -."""
+    w, h = signal.sosfreqz(signal.butter(4, [f * (1 - rel_band), f * (1 + rel_band)],
+                                         btype="bandpass", fs=fs, output="sos"), worN=16384)
+    return float(np.sqrt(np.mean(np.abs(h) ** 4)))
+
+
+def noise_floor(x: Any, fs: float, f: float, rel_band: float = 0.35,
+                window_periods: float = 2.0, tail_fraction: float = 0.05) -> float:
+    """Noise amplitude of a free-decay record in the analyses' band around the mode at ``f``.
+
+    The record is band-passed as by :func:`instantaneous_damping` (around ``f``, any mode); its
+    mean power over windows of ``window_periods`` periods is fitted, over the tail (the windows
+    after the power first falls below ``tail_fraction`` of its largest value, at least 8),
+    by ``P(t) = a exp(-b t) + c`` (relative least squares; ``a, c >= 0``): the decay still
+    present in the tail and the band-passed noise power ``c``. The result is the RMS envelope of
+    that noise, ``sqrt(2 c)``, comparable with a Hilbert amplitude (its mean envelope is
+    ``0.89`` times it); the noise's RMS in the band is ``sqrt(c)``.
+
+    Assumes a noise stationary over the record and a decay that is exponential in its tail (a
+    linear mode at small amplitude). A record that never decays towards the floor gives its
+    tail's level, an upper bound.
+
+    Parameters
+    ----------
+    x : array (n,)
+        The decay, any unit.
+    fs, f : float
+        Sampling frequency and the mode's frequency (the band-pass centre), Hz.
+    rel_band : float
+        Half-width of the band-pass, relative to ``f``.
+    window_periods : float
+        Length of the power windows, periods of ``f``.
+    tail_fraction : float
+        Power, relative to the largest window's, below which the tail starts.
+
+    Returns
+    -------
+    float
+        Noise amplitude (RMS envelope of the band-passed noise), unit of ``x``.
+    """
+    x = np.asarray(x, dtype=float)
+    if x.ndim != 1:
+        raise BeamError("x must be 1-D")
+    nw = max(4, int(round(window_periods * fs / f)))
+    edge = int(round(5 * fs / f))  # the zero-phase filter's end effects
+    xb = _bandpass(x, fs, f, rel_band)[edge : x.size - edge]
+    k = xb.size // nw
+    if k < 8:
+        raise AnalysisError("record too short for a noise-floor estimate")
+    p = np.mean(xb[: k * nw].reshape(k, nw) ** 2, axis=1)
+    t = (np.arange(k) + 0.5) * nw / fs
+    start = int(np.argmax(p < tail_fraction * p.max())) if (p < tail_fraction * p.max()).any() \
+        else k - 8
+    start = min(start, k - 8)
+    t, p = t[start:] - t[start], np.maximum(p[start:], 1e-300)
+
+    # maximum likelihood for window powers scattered as chi-square about P(t) (a Whittle-type
+    # likelihood, sum p / P + ln P, by iteratively reweighted least squares for a and c on a grid
+    # of b): plain least squares would be pulled to the powers' frequent small values. The
+    # decay must fall by e^3 over the tail at least (or it would stand for the noise), at most
+    # at the rate of a damping ratio of 1
+    def profile(b: float) -> tuple[float, float]:
+        u = np.exp(-b * t)
+        m = np.maximum(p, p.mean() * 1e-6)
+        for _ in range(8):
+            coef, _ = optimize.nnls(np.stack([u, np.ones(t.size)], axis=1) / m[:, None], p / m)
+            m = np.maximum(coef[0] * u + coef[1], 1e-300)
+        return float(np.sum(p / m + np.log(m))), float(coef[1])
+
+    fits = [profile(b) for b in np.geomspace(3 / t[-1], 4 * np.pi * f, 48)]
+    c = min(fits)[1]
+    if not c > 0:  # the tail is decay only: its last windows bound the noise from above
+        c = float(np.min(p[-4:]))
+    return float(math.sqrt(2 * c))
+
+
+def _peak_interpolation(xb: np.ndarray, peaks: np.ndarray, fs: float
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    # the sinusoid through the three samples around each peak (exact for a sinusoid of the
+    # peaks' mean frequency): its amplitude and the time of its crest. A sampled peak is up to
+    # 1 - cos(pi f / fs) low (8 % at 64 Hz, 500 Hz), a deterministic scatter the log decrement
+    # would take for noise
+    if peaks.size < 2:
+        return peaks / fs, xb[peaks]
+    period = float(np.polyfit(np.arange(peaks.size), peaks, 1)[0])  # samples
+    theta = 2 * np.pi / period
+    x0, xm, xp = xb[peaks], xb[peaks - 1], xb[peaks + 1]
+    s = (xp - xm) / (2 * math.sin(theta))  # -A sin(phase) at the sample
+    amp = np.hypot(x0, s)
+    phase = np.arctan2(-s, x0)
+    return (peaks - phase / theta) / fs, amp
+
+
 def log_decrement(
     x: Any, fs: float, f1: float, rel_band: float = 0.35, reference: Any = None
 ) -> dict[str, np.ndarray]:
@@ -157,6 +253,9 @@ def log_decrement(
 
     ``delta = ln(x_i / x_{i+1})``, ``zeta = delta / sqrt(4 pi^2 + delta^2)``; each value is placed
     at the mid time of its pair, with ``amplitude`` the mean peak of ``reference`` (default x).
+    Each peak is the crest of the sinusoid through the three samples around the sampled maximum
+    (of the peaks' mean period), not the sampled maximum: at a few samples per period the
+    latter is low by up to ``1 - cos(pi f1 / fs)``.
 
     Returns
     -------
@@ -174,14 +273,15 @@ def log_decrement(
     peaks = peaks[xb[peaks] > 0]
     edge = int(5 * fs / f1)  # drop peaks spoilt by the zero-phase filter's end effects
     peaks = peaks[(peaks > edge) & (peaks < x.size - edge)]
-    per_peak = {"peak_time": peaks / fs, "peak": xb[peaks], "peak_amplitude": np.abs(ref[peaks])}
+    t_peak, a_peak = _peak_interpolation(xb, peaks, fs)
+    _, r_peak = _peak_interpolation(ref, peaks, fs)
+    per_peak = {"peak_time": t_peak, "peak": a_peak, "peak_amplitude": np.abs(r_peak)}
     if peaks.size < 2:
         return {"time": np.zeros(0), "zeta": np.zeros(0), "amplitude": np.zeros(0), **per_peak}
-    p0, p1 = peaks[:-1], peaks[1:]
-    delta = np.log(xb[p0] / xb[p1])
+    delta = np.log(a_peak[:-1] / a_peak[1:])
     zeta = delta / np.sqrt(4 * np.pi**2 + delta**2)
-    return {"time": 0.5 * (p0 + p1) / fs, "zeta": zeta,
-            "amplitude": 0.5 * (np.abs(ref[p0]) + np.abs(ref[p1])), **per_peak}
+    return {"time": 0.5 * (t_peak[:-1] + t_peak[1:]), "zeta": zeta,
+            "amplitude": 0.5 * (np.abs(r_peak[:-1]) + np.abs(r_peak[1:])), **per_peak}
 
 
 def welch_psd(x: Any, fs: float, nperseg: int = 4096) -> tuple[np.ndarray, np.ndarray]:
