@@ -24,9 +24,11 @@ import xarray as xr
 
 from sloshrom import __version__
 from sloshrom.beam.analysis import (
+    AnalysisError,
     instantaneous_damping,
     log_decrement,
     modal_filter,
+    noise_floor,
 )
 from sloshrom.beam.members import (
     Cell,
@@ -58,6 +60,7 @@ from sloshrom.models import SloshingModel
 
 __all__ = [
     "BANDS", "Mode1Decay", "damping_band_table", "damping_by_band", "damping_summary",
+    "decay_floor",
     "envelope_table",
     "frozen_modes_table",
     "modal_accelerations", "mode1_damping_dataset", "mode1_damping_table", "mode1_decay",
@@ -185,13 +188,15 @@ def mode1_decay(res: Mapping[str, Any], modal: ModalModel | np.ndarray,
     )
 
 
-def damping_by_band(zeta: np.ndarray, amplitude_g: np.ndarray) -> dict[str, float]:
-    """Median instantaneous damping ratio (-) in each band of :data:`BANDS` (amplitude in g).
+def damping_by_band(zeta: np.ndarray, amplitude_g: np.ndarray,
+                    bands: Sequence[tuple[float, float]] = BANDS) -> dict[str, float]:
+    """Median instantaneous damping ratio (-) in each amplitude band (default :data:`BANDS`,
+    or e.g. ``uncertainty.amplitude_bands`` of the decay; amplitude and bands in g).
 
     NaN for a band with 10 samples or fewer. Keys: ``"0.5-1 g"``, ``"1-2 g"``, ...
     """
     out = {}
-    for lo, hi in BANDS:
+    for lo, hi in bands:
         sel = (amplitude_g >= lo) & (amplitude_g < hi)
         out[f"{lo:g}-{hi:g} g"] = float(np.median(zeta[sel])) if sel.sum() > 10 else float("nan")
     return out
@@ -226,14 +231,43 @@ def _nanmean(values: Sequence[float]) -> float:
     return float(np.mean(v[np.isfinite(v)])) if np.isfinite(v).any() else float("nan")
 
 
+def decay_floor(res: Mapping[str, Any], f: float) -> float:
+    """Noise floor of a free response's tank acceleration around the mode at ``f`` (Hz), m/s^2
+    (``sloshrom.beam.analysis.noise_floor``); NaN for a record too short to tell."""
+    try:
+        return noise_floor(np.asarray(res["tank_acceleration"], dtype=float), res["fs"], f)
+    except AnalysisError:
+        return float("nan")
+
+
+def _case_bands(res: Mapping[str, Any], d: Mode1Decay, f1: float,
+                bands: Sequence[tuple[float, float]] | None, seed: int
+                ) -> list[dict[str, Any]]:
+    # one response's rows: the bootstrap on its first modal acceleration, the samples below
+    # the floor of its tank acceleration dropped
+    if bands is None and "source" not in res:
+        bands = BANDS  # a simulation keeps the paper's bands
+    floor = decay_floor(res, f1)
+    return band_damping(d.hilbert, d.log_decrement, f1, bands=bands, record=d.modal[:, 0],
+                        fs=res["fs"], floor=floor if np.isfinite(floor) else None, seed=seed)
+
+
 def damping_band_table(free: Mapping[str, Mapping[str, Any]],
-                       decays: Mapping[str, Mode1Decay], f1: float) -> list[dict[str, Any]]:
+                       decays: Mapping[str, Mode1Decay], f1: float,
+                       bands: Sequence[tuple[float, float]] | None = None,
+                       seed: int = 0) -> list[dict[str, Any]]:
     """First-mode damping per amplitude band of every free response, with intervals.
 
-    One row per case, band of :data:`BANDS` and method (``sloshrom.beam.uncertainty.
-    band_damping``): ``case``, ``band``, ``method`` (``hilbert`` or ``log_decrement``), ``zeta``,
-    ``std``, ``low``, ``high`` (damping ratio, -; interval at 95 %), ``n_cycles`` (-) and
-    ``reason`` (``""`` when the value and its interval exist, else why not).
+    One row per case, band and method (``sloshrom.beam.uncertainty.band_damping``, its
+    intervals from a noise-added bootstrap of the first modal acceleration, the samples below
+    ``FLOOR_FACTOR`` times the tank acceleration's noise floor (:func:`decay_floor`) dropped):
+    ``case``, ``band``, ``method`` (``hilbert`` or ``log_decrement``), ``zeta``, ``std``,
+    ``low``, ``high`` (damping ratio, -; interval at 95 %), ``n_cycles`` (-) and ``reason``
+    (``""`` when the value and its interval exist, else why not).
+
+    ``bands`` (g): default ``None``, the paper's :data:`BANDS` for a simulation and the decay's
+    own (``uncertainty.amplitude_bands`` above the floor) for a measured test (a result with
+    ``source``); a sequence imposes its bands on every case. ``seed``: the bootstrap's.
 
     An ensemble's case (its decay with :attr:`Mode1Decay.members`): the members' rows combined
     (``sloshrom.beam.members.combine_band_rows``: mean of the members' estimates, their
@@ -243,11 +277,12 @@ def damping_band_table(free: Mapping[str, Mapping[str, Any]],
     for case in free:
         d = decays[case]
         if d.members:
-            rows += combine_band_rows(case, [band_damping(m.hilbert, m.log_decrement, f1)
-                                             for m in d.members])
+            rows += combine_band_rows(case, [_case_bands(r, m, f1, bands, seed) for r, m in
+                                             zip(free[case]["members"], d.members,
+                                                 strict=True)])
         else:
             rows += [{"case": case, **row}
-                     for row in band_damping(d.hilbert, d.log_decrement, f1)]
+                     for row in _case_bands(free[case], d, f1, bands, seed)]
     return rows
 
 

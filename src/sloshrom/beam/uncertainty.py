@@ -33,8 +33,7 @@ from threadpoolctl import threadpool_limits
 
 from sloshrom.beam.analysis import (
     bandpass_noise_gain,
-    instantaneous_damping,
-    log_decrement,
+    decay_copy,
     noise_floor,
     welch_psd,
 )
@@ -50,7 +49,8 @@ from sloshrom.config import G
 
 __all__ = [
     "BANDS", "CONFIDENCE", "FLOOR_FACTOR", "OUTPUT_ONLY_EFFICIENCY", "RandomDamping",
-    "ShortRecordWarning", "amplitude_bands", "au_damping_cov", "band_damping", "damping_dataset", "estimate_random",
+    "ShortRecordWarning", "amplitude_bands", "au_damping_cov", "band_damping",
+    "damping_dataset", "estimate_random",
     "mode1_damping_random", "noise_ratios", "random_damping", "required_duration",
     "table2_columns",
 ]
@@ -378,15 +378,10 @@ def _decay_bootstrap(x: np.ndarray, fs: float, f: float, times: np.ndarray,
     zeta = np.empty((n_boot, idx.size))
     peaks = []
     for k in range(n_boot):
-        xs = x + sd * rng.standard_normal(x.size)
-        h = instantaneous_damping(xs, fs, f, rel_band=rel_band, smooth_periods=smooth_periods,
-                                  min_relative_amplitude=0.0)
-        # every sample but the trimmed ends is kept: align by sample index
-        full = np.full(x.size, np.nan)
-        full[np.rint(h["time"] * fs).astype(int)] = h["zeta"]
-        zeta[k] = full[idx]
-        ld = log_decrement(xs, fs, f, rel_band=rel_band)
-        peaks.append((np.asarray(ld["peak_time"]), np.log(np.abs(np.asarray(ld["peak"])))))
+        z, tp, ap = decay_copy(x + sd * rng.standard_normal(x.size), fs, f, rel_band,
+                               smooth_periods)
+        zeta[k] = z[idx]
+        peaks.append((tp, np.log(np.abs(ap))))
     return {"hilbert": zeta, "peaks": peaks}
 
 
