@@ -44,10 +44,15 @@ def test_noise_floor_of_a_decay_that_reaches_it(f, zeta, duration):
     assert est.std() < 0.12
 
 
-def test_noise_floor_of_a_decay_that_does_not_reach_it_is_an_upper_bound():
-    # 0.25 %: the record ends at 2000 times the floor; the estimate bounds it from above
-    truth = math.sqrt(2) * 0.005 * bandpass_noise_gain(FS, 10.0)
-    assert noise_floor(decay(10.0, 0.0025, 0.005, 0), FS, 10.0) > truth
+def test_noise_floor_of_a_decay_that_does_not_reach_it_is_nan():
+    # 0.25 %: the record ends at 2000 times the floor; noise-free: no floor at all. Both keep
+    # the closed-form intervals, as narrow as before for the noise-free one
+    assert np.isnan(noise_floor(decay(10.0, 0.0025, 0.005, 0), FS, 10.0))
+    x = decay(10.0, 0.01, 0.0, 0)
+    assert np.isnan(noise_floor(x, FS, 10.0))
+    h, ld = instantaneous_damping(x, FS, 10.0), log_decrement(x, FS, 10.0)
+    closed = band_damping(h, ld, 10.0, amplitude_scale=1.0)
+    assert band_damping(h, ld, 10.0, amplitude_scale=1.0, record=x, fs=FS) == closed
 
 
 def test_amplitude_bands_of_the_decays_own_range():

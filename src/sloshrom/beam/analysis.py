@@ -210,8 +210,8 @@ def noise_floor(x: Any, fs: float, f: float, rel_band: float = 0.35,
     ``0.89`` times it); the noise's RMS in the band is ``sqrt(c)``.
 
     Assumes a noise stationary over the record and a decay that is exponential in its tail (a
-    linear mode at small amplitude). A record that never decays towards the floor gives its
-    tail's level, an upper bound.
+    linear mode at small amplitude). NaN for a record whose last window is still more decay
+    than noise (a noise-free simulation, a record stopped early): its floor is not measurable.
 
     Parameters
     ----------
@@ -229,7 +229,8 @@ def noise_floor(x: Any, fs: float, f: float, rel_band: float = 0.35,
     Returns
     -------
     float
-        Noise amplitude (RMS envelope of the band-passed noise), unit of ``x``.
+        Noise amplitude (RMS envelope of the band-passed noise), unit of ``x``; NaN if the
+        record does not reach it.
     """
     x = np.asarray(x, dtype=float)
     if x.ndim != 1:
@@ -252,18 +253,18 @@ def noise_floor(x: Any, fs: float, f: float, rel_band: float = 0.35,
     # of b): plain least squares would be pulled to the powers' frequent small values. The
     # decay must fall by e^3 over the tail at least (or it would stand for the noise), at most
     # at the rate of a damping ratio of 1
-    def profile(b: float) -> tuple[float, float]:
+    def profile(b: float) -> tuple[float, float, float]:
         u = np.exp(-b * t)
         m = np.maximum(p, p.mean() * 1e-6)
         for _ in range(8):
             coef, _ = optimize.nnls(np.stack([u, np.ones(t.size)], axis=1) / m[:, None], p / m)
             m = np.maximum(coef[0] * u + coef[1], 1e-300)
-        return float(np.sum(p / m + np.log(m))), float(coef[1])
+        return float(np.sum(p / m + np.log(m))), float(coef[1]), float(coef[0] * u[-1])
 
-    fits = [profile(b) for b in np.geomspace(3 / t[-1], 4 * np.pi * f, 48)]
-    c = min(fits)[1]
-    if not c > 0:  # the tail is decay only: its last windows bound the noise from above
-        c = float(np.min(p[-4:]))
+    _, c, left = min(profile(b) for b in np.geomspace(3 / t[-1], 4 * np.pi * f, 48))
+    if not c > 0 or c < left:
+        # the decay still dominates the last window: the noise is below what the record shows
+        return float("nan")
     return float(math.sqrt(2 * c))
 
 

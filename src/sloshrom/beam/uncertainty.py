@@ -32,6 +32,7 @@ from scipy import optimize, signal, stats
 from threadpoolctl import threadpool_limits
 
 from sloshrom.beam.analysis import (
+    AnalysisError,
     bandpass_noise_gain,
     decay_copy,
     noise_floor,
@@ -192,7 +193,8 @@ def band_damping(
       peaks in the band, ``zeta = sigma / sqrt(omega_d^2 + sigma^2)`` with ``omega_d`` from the
       peaks' mean spacing.
 
-    Intervals. With the analysed ``record`` (and ``fs``): a noise-added bootstrap. ``n_boot``
+    Intervals. With the analysed ``record`` (and ``fs``) that reaches its noise floor: a
+    noise-added bootstrap. ``n_boot``
     copies of the record, each plus white noise of the record's own band-passed level
     (``noise``, default ``sloshrom.beam.analysis.noise_floor`` of the record), are analysed
     the same way over the same samples (Hilbert) or time span (peaks) of each band; the
@@ -201,11 +203,13 @@ def band_damping(
     freedom. The analysis' own deterministic ripple (the Hilbert envelope of a decaying
     sinusoid, the smoothing's end effects) is the same in every copy and does not widen the
     interval, and the correlation of neighbouring samples (smoothing window, band-passed noise)
-    is in the copies. Without the record: the earlier closed forms, which count the ripple as
-    scatter (too wide at a high signal-to-noise ratio): Hilbert ``1.2533 s W / (sqrt(6) L)``
-    (``s`` the samples' standard deviation, ``W`` the window, ``L`` the band's length; t with
-    ``L / W + 1`` degrees of freedom), log decrement the slope's standard error inflated by
-    the residuals' lag-one correlation (t with ``n_peaks - 2``).
+    is in the copies. Without the record, or if its floor is not measurable (``noise_floor``
+    NaN: a noise-free simulation, a record stopped above its floor): the closed forms, which
+    count the ripple as scatter (too wide at a high signal-to-noise ratio): Hilbert
+    ``1.2533 s W / (sqrt(6) L)`` (``s`` the samples' standard deviation, ``W`` the window,
+    ``L`` the band's length; t with ``L / W + 1`` degrees of freedom), log decrement the
+    slope's standard error inflated by the residuals' lag-one correlation (t with
+    ``n_peaks - 2``).
 
     Samples and peaks whose amplitude is below ``floor_factor * floor`` are dropped: there the
     noise, not the decay, sets the envelope.
@@ -236,7 +240,7 @@ def band_damping(
     fs : float, optional
         Its sampling frequency, Hz (with ``record``).
     noise : float, optional
-        The record's noise amplitude (``noise_floor``), unit of ``record``.
+        The record's noise amplitude, unit of ``record``; default its ``noise_floor``.
     floor : float, optional
         Noise floor of the amplitude (the reference's ``noise_floor``), unit of the amplitude
         (before ``amplitude_scale``); default: no sample dropped.
@@ -280,9 +284,16 @@ def band_damping(
              else -np.inf)
     if bands is None:
         bands = amplitude_bands(ah, least if np.isfinite(least) else None)
+    if record is not None and noise is None:
+        try:
+            noise = noise_floor(np.asarray(record, dtype=float), float(fs), f1, rel_band)
+        except AnalysisError:
+            noise = nan
+    # a record that does not reach its noise floor (noise-free, stopped early) keeps the
+    # closed forms: its noise is not measurable
     boot = (_decay_bootstrap(np.asarray(record, dtype=float), float(fs), f1, th, noise,
                              smooth_periods, rel_band, n_boot, seed)
-            if record is not None else None)
+            if record is not None and noise is not None and np.isfinite(noise) else None)
     t_boot = _t(confidence, n_boot - 1)
     below = f"below {floor_factor:g} times the noise floor" if np.isfinite(least) else ""
     rows = []
@@ -364,13 +375,11 @@ def _slope_damping(t: np.ndarray, y: np.ndarray) -> tuple[float, float, Any]:
     return sigma / math.hypot(wd, sigma), wd, fit
 
 
-def _decay_bootstrap(x: np.ndarray, fs: float, f: float, times: np.ndarray,
-                     noise: float | None, smooth_periods: float, rel_band: float,
-                     n_boot: int, seed: int) -> dict[str, Any]:
+def _decay_bootstrap(x: np.ndarray, fs: float, f: float, times: np.ndarray, noise: float,
+                     smooth_periods: float, rel_band: float, n_boot: int, seed: int
+                     ) -> dict[str, Any]:
     # the record plus white noise of its own band-passed level, analysed n_boot times: zeta(t)
     # at the record's Hilbert samples, and every copy's peaks
-    if noise is None:
-        noise = noise_floor(x, fs, f, rel_band)
     # noise is the RMS envelope, sqrt(2) times the band-passed RMS
     sd = noise / math.sqrt(2) / bandpass_noise_gain(fs, f, rel_band)
     idx = np.rint(times * fs).astype(int)
