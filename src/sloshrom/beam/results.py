@@ -30,6 +30,7 @@ from sloshrom.beam.analysis import (
     modal_filter,
     noise_floor,
 )
+from sloshrom.beam.errors import BeamError
 from sloshrom.beam.members import (
     Cell,
     Members,
@@ -241,12 +242,16 @@ def decay_floor(res: Mapping[str, Any], f: float) -> float:
 
 
 def _case_bands(res: Mapping[str, Any], d: Mode1Decay, f1: float,
-                bands: Sequence[tuple[float, float]] | None, seed: int
+                bands: Sequence[tuple[float, float]] | str | None, seed: int
                 ) -> list[dict[str, Any]]:
     # one response's rows: the bootstrap on its first modal acceleration, the samples below
     # the floor of its tank acceleration dropped
-    if bands is None and "source" not in res:
-        bands = BANDS  # a simulation keeps the paper's bands
+    if bands is None:  # a simulation keeps the paper's bands, a measurement gets its own
+        bands = BANDS if "source" not in res else "auto"
+    if isinstance(bands, str):
+        if bands != "auto":
+            raise BeamError(f"bands must be a sequence, 'auto' or None, got {bands!r}")
+        bands = None
     floor = decay_floor(res, f1)
     return band_damping(d.hilbert, d.log_decrement, f1, bands=bands, record=d.modal[:, 0],
                         fs=res["fs"], floor=floor if np.isfinite(floor) else None, seed=seed)
@@ -254,7 +259,7 @@ def _case_bands(res: Mapping[str, Any], d: Mode1Decay, f1: float,
 
 def damping_band_table(free: Mapping[str, Mapping[str, Any]],
                        decays: Mapping[str, Mode1Decay], f1: float,
-                       bands: Sequence[tuple[float, float]] | None = None,
+                       bands: Sequence[tuple[float, float]] | str | None = None,
                        seed: int = 0) -> list[dict[str, Any]]:
     """First-mode damping per amplitude band of every free response, with intervals.
 
@@ -266,8 +271,9 @@ def damping_band_table(free: Mapping[str, Mapping[str, Any]],
     (``""`` when the value and its interval exist, else why not).
 
     ``bands`` (g): default ``None``, the paper's :data:`BANDS` for a simulation and the decay's
-    own (``uncertainty.amplitude_bands`` above the floor) for a measured test (a result with
-    ``source``); a sequence imposes its bands on every case. ``seed``: the bootstrap's.
+    own (``"auto"``: ``uncertainty.amplitude_bands`` above the floor) for a measured test (a
+    result with ``source``); ``"auto"`` or a sequence for every case. ``seed``: the
+    bootstrap's.
 
     An ensemble's case (its decay with :attr:`Mode1Decay.members`): the members' rows combined
     (``sloshrom.beam.members.combine_band_rows``: mean of the members' estimates, their
