@@ -126,19 +126,22 @@ def damping_ylim(zeta: Sequence[Any], amplitude: Sequence[Any], floor: float | N
 
     The points (arrays of damping ratios and their amplitudes, one pair per series) whose
     amplitude is at least ``FLOOR_FACTOR * floor`` (``floor`` in the amplitudes' unit; all
-    points without one), their 2nd to 98th percentiles padded by 15 % of the range: the
-    scatter at the end of a decay, in the noise, does not set the scale. ``None`` without any
-    finite point.
+    points without one), their 2nd to 98th percentiles weighted by the squared amplitude (the
+    noise scatters a damping estimate as 1 / amplitude), padded by 15 % of the range: the
+    scatter at the end of a decay, in the noise, does not set the scale, even where the floor
+    is not known. ``None`` without any finite point.
     """
     least = FLOOR_FACTOR * floor if floor is not None and np.isfinite(floor) else -np.inf
-    keep = [np.asarray(z, float)[(np.asarray(a, float) >= least)]
-            for z, a in zip(zeta, amplitude, strict=True)]
-    v = np.concatenate(keep) if keep else np.zeros(0)
-    v = v[np.isfinite(v)]
-    if v.size == 0:
+    z = np.concatenate([np.ravel(np.asarray(v, float)) for v in zeta] or [np.zeros(0)])
+    a = np.concatenate([np.ravel(np.asarray(v, float)) for v in amplitude] or [np.zeros(0)])
+    ok = np.isfinite(z) & np.isfinite(a) & (a >= least)
+    z, w = z[ok], a[ok] ** 2
+    if z.size == 0 or not w.sum() > 0:
         return None
-    lo, hi = np.percentile(v, [2, 98])
-    pad = 0.15 * max(hi - lo, 0.05 * abs(hi), 1e-12)
+    order = np.argsort(z)
+    cw = np.cumsum(w[order]) / w.sum()
+    lo, hi = np.interp([0.01, 0.99], cw, z[order])
+    pad = 0.25 * max(hi - lo, 0.05 * abs(hi), 1e-12)
     return float(lo - pad), float(hi + pad)
 
 
