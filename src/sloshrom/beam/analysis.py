@@ -210,8 +210,9 @@ def noise_floor(x: Any, fs: float, f: float, rel_band: float = 0.35,
     ``0.89`` times it); the noise's RMS in the band is ``sqrt(c)``.
 
     Assumes a noise stationary over the record and a decay that is exponential in its tail (a
-    linear mode at small amplitude). NaN for a record whose last window is still more decay
-    than noise (a noise-free simulation, a record stopped early): its floor is not measurable.
+    linear mode at small amplitude). NaN for a record whose power never falls below
+    ``tail_fraction`` of its largest, or whose last window is still more decay than noise (a
+    noise-free simulation, a record stopped early): its floor is not measurable.
 
     Parameters
     ----------
@@ -243,9 +244,9 @@ def noise_floor(x: Any, fs: float, f: float, rel_band: float = 0.35,
         raise AnalysisError("record too short for a noise-floor estimate")
     p = np.mean(xb[: k * nw].reshape(k, nw) ** 2, axis=1)
     t = (np.arange(k) + 0.5) * nw / fs
-    start = int(np.argmax(p < tail_fraction * p.max())) if (p < tail_fraction * p.max()).any() \
-        else k - 8
-    start = min(start, k - 8)
+    if not (p < tail_fraction * p.max()).any():
+        return float("nan")  # the record never decays towards its floor
+    start = min(int(np.argmax(p < tail_fraction * p.max())), k - 8)
     t, p = t[start:] - t[start], np.maximum(p[start:], 1e-300)
 
     # maximum likelihood for window powers scattered as chi-square about P(t) (a Whittle-type
