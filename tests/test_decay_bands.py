@@ -136,3 +136,23 @@ def test_fig21_scale_ignores_the_points_below_the_floor():
     # without the floor: the squared-amplitude weights still leave the scatter out
     lo, hi = damping_ylim([zeta], [amp])
     assert lo > 1.0 and hi < 1.8
+
+
+def test_members_share_the_bands_of_their_mean_response():
+    # two members of slightly different amplitude: with their own bands they could differ and
+    # not combine band by band
+    xs = [decay(10.0, 0.0137, 0.02, s, a0=a, duration=12.0) * G
+          for s, a in ((4, 5.2), (5, 4.8))]
+
+    def one(x: np.ndarray) -> Mode1Decay:
+        return Mode1Decay(modal=x[:, None], hilbert=instantaneous_damping(x, FS, 10.0),
+                          log_decrement=log_decrement(x, FS, 10.0))
+
+    mean = 0.5 * (xs[0] + xs[1])
+    free = {"e": {"tank_acceleration": mean, "fs": FS,
+                  "members": [{"tank_acceleration": x, "fs": FS} for x in xs]}}
+    d = one(mean)
+    d.members = [one(x) for x in xs]
+    rows = damping_band_table(free, {"e": d}, 10.0, bands="auto")
+    assert "3-5 g" in {r["band"] for r in rows}
+    assert all("members" in r for r in rows)

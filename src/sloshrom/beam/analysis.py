@@ -5,7 +5,8 @@
 * :func:`instantaneous_damping` - first-mode damping from the Hilbert envelope,
   ``zeta = -(d ln A/dt) / omega`` with a local-regression slope over a few periods.
 * :func:`log_decrement` - the same from successive peaks (cross-check).
-* :func:`noise_floor` - the band-passed noise amplitude of a decay record (its floor).
+* :func:`noise_floor` - the band-passed noise amplitude of a decay record (its floor);
+  :func:`bandpass_noise_gain`, :func:`decay_copy` - for the bootstrap of the band intervals.
 * :func:`welch_psd`, :func:`frf_h1` - Welch estimates (Hann window, 50 % overlap, explicit
   ``nperseg``).
 * :func:`lscf_poles`, :func:`stable_pole_cluster`, :func:`lscf_cluster_damping` - poles of the
@@ -137,7 +138,9 @@ def instantaneous_damping(
 ) -> dict[str, np.ndarray]:
     """Instantaneous damping ratio of a (mode-1 dominated) decaying response.
 
-    Band-pass around ``f1`` (Butterworth order 4, zero phase), Hilbert envelope A(t) and phase;
+    Band-pass around ``f1`` (Butterworth order 4, zero phase; the record continued at both ends
+    by 12 periods of linear prediction, so that a decay starting at the first sample is no
+    step for the filter), Hilbert envelope A(t) and phase;
     ``zeta(t) = -(d ln A/dt) / omega(t)`` with both derivatives from a local linear regression
     (Savitzky-Golay, order 1) over ``smooth_periods`` periods; ``trim_periods`` periods are cut
     at both ends (filter and Hilbert end effects).

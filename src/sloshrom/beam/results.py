@@ -50,7 +50,9 @@ from sloshrom.beam.structure import (
 )
 from sloshrom.beam.uncertainty import (
     BANDS,
+    FLOOR_FACTOR,
     RandomDamping,
+    amplitude_bands,
     band_damping,
     estimate_random,
     table2_columns,
@@ -283,7 +285,16 @@ def damping_band_table(free: Mapping[str, Mapping[str, Any]],
     for case in free:
         d = decays[case]
         if d.members:
-            rows += combine_band_rows(case, [_case_bands(r, m, f1, bands, seed) for r, m in
+            shared = bands
+            if (isinstance(bands, str) and bands == "auto") or (bands is None
+                                                              and "source" in free[case]):
+                # one set of bands for every member (they are combined band by band): those of
+                # the members' mean response
+                floor = decay_floor(free[case], f1)
+                shared = amplitude_bands(d.hilbert["amplitude"] / G,
+                                         FLOOR_FACTOR * floor / G if np.isfinite(floor)
+                                         else None)
+            rows += combine_band_rows(case, [_case_bands(r, m, f1, shared, seed) for r, m in
                                              zip(free[case]["members"], d.members,
                                                  strict=True)])
         else:
