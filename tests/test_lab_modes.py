@@ -106,17 +106,22 @@ def test_random_rows_at_every_mode():
 
 
 def test_free_decay_of_every_mode():
-    """Each mode band-passed out of the tip channel decays at its own damping: the Hilbert
-    band medians of modes 1 and 2 within 3 % of the truth (sensor noise 2 mg)."""
+    """Each mode band-passed out of the tip channel decays at its own damping: in the bands
+    of its own amplitude range (down to 3 x the noise floor), the 95 % intervals of modes 1 and
+    2 hold the true damping in at least 80 % of the (band, method) cells (about 30 cells:
+    fewer than 80 % has a binomial probability below 1 % for calibrated intervals)."""
     res = _free_res()
     modes = modes_of_test(res, "free", max_modes=2)
     decays = free_mode_decays(res, modes)
-    rows = free_mode_rows("lab", modes, decays)
-    for k in (1, 2):
-        z = [r["zeta"] for r in rows if r["mode"] == k and r["method"] == "hilbert"
-             and np.isfinite(r["zeta"])]
-        assert z, rows
-        np.testing.assert_allclose(z, BEAM.damping[k - 1], rtol=0.03)
+    rows = free_mode_rows(res, "lab", modes, decays)
+    inside = []
+    for r in rows:
+        if np.isfinite(r["low"]) and np.isfinite(r["high"]):
+            inside.append(r["low"] <= BEAM.damping[r["mode"] - 1] <= r["high"])
+    assert len(inside) >= 20 and np.mean(inside) >= 0.8, rows
+    assert {r["mode"] for r in rows} == {1, 2}
+    # every cell without a value or an interval says why
+    assert all(r["reason"] for r in rows if not np.isfinite(r["high"]))
 
 
 def test_given_modes_and_too_short():

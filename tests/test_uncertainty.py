@@ -3,7 +3,8 @@
 Truth: the base-excited SDOF of benchmarks/damping_estimators.py (10 Hz, zeta 1 %, exact ZOH
 discretisation at 500 Hz, Gaussian white base, 90 s) plus white sensor noise of 5 % of each
 channel's RMS; and a free decay 8 exp(-zeta w t) cos(w_d t) "g" plus 0.04 g of white noise,
-crossing the bands 0.5-1, 1-2, 2-3 and 3-5 g.
+12 s, crossing the bands 0.5-1, 1-2, 2-3 and 3-5 g (slow tier: 10 Hz, 1.37 % and 64 Hz, 0.62 %
+with 0.05 g).
 
 Coverage bounds. Fast tier: 10 random records (20 decays); a correct 95 % interval covers >= 8
 of 10 (>= 16 of 20) with probability 0.99 (0.98, binomial); one that misses the bias of the
@@ -152,7 +153,9 @@ def test_random_coverage_fast():
 
 
 def test_band_coverage_fast():
-    table = coverage_decay(0.04, list(range(20)))
+    # 12 s: the decay reaches the noise floor, which the bootstrap's noise is measured from
+    # (an 8 s record ends at 0.05 g, 5 times the floor, and the floor is then an upper bound)
+    table = coverage_decay(0.04, list(range(20)), duration=12.0)
     assert len(table) == 8
     for c in table.values():
         _assert_coverage(c, 20, 16)
@@ -190,7 +193,7 @@ def test_damping_band_table_in_g_and_summary_unchanged():
     x = noisy_decay(0.04, 1) * G  # m/s^2, as the tank acceleration of a free response
     decay = Mode1Decay(modal=x[:, None], hilbert=instantaneous_damping(x, FS, F1),
                        log_decrement=log_decrement(x, FS, F1))
-    free = {"rig": {"tank_acceleration": x}}
+    free = {"rig": {"tank_acceleration": x, "fs": FS}}
     rows = damping_band_table(free, {"rig": decay}, F1)
     assert list(rows[0]) == ["case", "band", "method", "zeta", "std", "low", "high", "n_cycles",
                             "reason"]
@@ -210,16 +213,18 @@ def test_random_coverage_100_records():
 
 
 @pytest.mark.slow
-def test_band_coverage_100_records():
-    table = coverage_decay(0.04, list(range(1000, 1100)))
+@pytest.mark.parametrize("f, zeta, duration", _BENCH.DECAY_MODES)
+def test_band_coverage_100_records(f, zeta, duration):
+    # the bootstrap's intervals, at the noise where they hold the whole error (0.05 g white:
+    # 0.008 g band-passed at 10 Hz); at 0.005 g the method's own deterministic bias (0.1-0.2 %
+    # of zeta) is no longer small against them (docs/beam.md)
+    table = coverage_decay(0.05, list(range(1000, 1100)), f, zeta, duration)
     for key, c in table.items():
-        if key.endswith("3-5 g"):
-            # measured over-coverage, reported in docs/beam.md: Hilbert 100 % on seeds 0-99 and
-            # 1000-1099 (its stated std is right, the t quantile with ~3 degrees of freedom is
-            # wide), log decrement 97 % and 99 %. Conservative; never below the floor
-            assert c["coverage"] >= 0.90, (key, c)
-        else:
-            assert 0.90 <= c["coverage"] <= 0.98, (key, c)
+        assert c["coverage"] >= 0.90, (key, c)
+        # not merely wide: 3.9-4.3 times the scatter for a calibrated interval (measured 3.7-5.2
+        # on seeds 0-99). Hilbert 3-5 g at 10 Hz covers 100 % on these seeds with a calibrated
+        # width (docs/beam.md): the width, not the count, is the test of a too wide interval
+        assert c["width"] / c["scatter"] < 6, (key, c)
 
 
 def test_a_missing_estimate_carries_its_reason():

@@ -238,7 +238,8 @@ def comparison_cases(datasets: Sequence[xr.Dataset], sources: Sequence[str],
     return names
 
 
-def analyse_test(ds: xr.Dataset, case: str | None = None) -> AnalysedTest:
+def analyse_test(ds: xr.Dataset, case: str | None = None,
+                 bands: Sequence[tuple[float, float]] | None = None) -> AnalysedTest:
     """Run the first-mode damping analyses of a beam result dataset, with intervals.
 
     Free decays: modal filtering with the dataset's ``psi_stations``, Hilbert and log-decrement
@@ -252,6 +253,9 @@ def analyse_test(ds: xr.Dataset, case: str | None = None) -> AnalysedTest:
         See :func:`test_from_dataset`.
     case : str, optional
         Name of the test in the tables; default the dataset's ``case`` attribute.
+    bands : sequence of (float, float), optional
+        Free decays: the amplitude bands, g (a prediction in the measurement's bands); default
+        the decay's own bands for a measurement, the paper's for a simulation.
     """
     res, psi = test_from_dataset(ds)
     name = str(case or ds.attrs.get("case", "test"))
@@ -265,7 +269,10 @@ def analyse_test(ds: xr.Dataset, case: str | None = None) -> AnalysedTest:
     f1, kind = float(ds.attrs["f1_Hz"]), str(ds.attrs["test"])
     if kind == "free":
         decay = mode1_decay(res, psi, f1)
-        rows = damping_band_table({name: res}, {name: decay}, f1)
+        if bands is None and ds.attrs.get("origin") == "measured":
+            # a measurement in the bands of its own amplitude range, as `analyse` gave them
+            res["source"] = [str(ds.attrs.get("source", name))]
+        rows = damping_band_table({name: res}, {name: decay}, f1, bands=bands)
     else:
         decay, rows = None, mode1_damping_table({name: res}, res["rms_levels_g"], f1)
     return analysed_test(name, kind, res, f1, rows, decay,

@@ -26,12 +26,19 @@ from sloshrom.beam.analysis import AnalysisError, instantaneous_damping, log_dec
 from sloshrom.beam.measured import MeasuredTest
 from sloshrom.beam.members import Row
 from sloshrom.beam.peaks import FoundMode, common_modes, find_modes, given_modes, mode_bands
-from sloshrom.beam.results import Mode1Decay, modal_accelerations
+from sloshrom.beam.results import Mode1Decay, decay_floor, modal_accelerations
 from sloshrom.beam.structure import ModalModel
-from sloshrom.beam.uncertainty import ShortRecordWarning, band_damping, random_damping
+from sloshrom.beam.uncertainty import (
+    FLOOR_FACTOR,
+    ShortRecordWarning,
+    amplitude_bands,
+    band_damping,
+    random_damping,
+)
+from sloshrom.config import G
 
-__all__ = ["TestModes", "describe", "free_mode_decays", "free_mode_rows", "modes_of_test",
-           "random_mode_rows"]
+__all__ = ["ModeDecay", "TestModes", "describe", "free_mode_decays", "free_mode_rows",
+           "modes_of_test", "random_mode_rows"]
 
 #: Periods of a mode that a free decay must hold for its damping analysis (5 trimmed at each
 #: end, 4 of smoothing, 4 left to analyse: ``analysis.instantaneous_damping``).
@@ -149,8 +156,30 @@ def random_mode_rows(res: MeasuredTest, case: str, modes: TestModes, *,
     return rows
 
 
+@dataclass(frozen=True)
+class ModeDecay:
+    """The free decay of one mode.
+
+    Attributes
+    ----------
+    decay : Mode1Decay
+        Its Hilbert and log-decrement damping against its own amplitude at the tank
+        (``decay.modal``: the modal accelerations with a structure, else the tank channel
+        relative to the base, ``(n, 1)``).
+    record : ndarray (n,)
+        The signal analysed: the mode's modal coordinate, or the tank channel relative to the
+        base (m/s^2).
+    rel_band : float
+        Half-width of its band-pass, relative to the mode's frequency.
+    """
+
+    decay: Mode1Decay
+    record: np.ndarray
+    rel_band: float
+
+
 def free_mode_decays(res: MeasuredTest, modes: TestModes,
-                     modal: ModalModel | None = None) -> list[Mode1Decay]:
+                     modal: ModalModel | None = None) -> list[ModeDecay]:
     """The free decay of every mode: Hilbert and log-decrement damping of the mode against
     its own amplitude at the tank.
 
@@ -183,21 +212,32 @@ def free_mode_decays(res: MeasuredTest, modes: TestModes,
                                 f"{FREE_PERIODS / f:.3g} s")
         x = rel_x if q is None else q[:, int(np.argmin(np.abs(f_struct - f)))]
         rel = modes.rel_band(k, DECAY_REL_BAND)
-        out.append(Mode1Decay(
+        out.append(ModeDecay(Mode1Decay(
             modal=q if q is not None else rel_x[:, None],
             hilbert=instantaneous_damping(x, fs, f, rel_band=rel, reference=tank),
-            log_decrement=log_decrement(x, fs, f, rel_band=rel, reference=tank)))
+            log_decrement=log_decrement(x, fs, f, rel_band=rel, reference=tank)), x, rel))
     return out
 
 
-def free_mode_rows(case: str, modes: TestModes, decays: Sequence[Mode1Decay]
-                   ) -> list[Row]:
+def free_mode_rows(res: MeasuredTest, case: str, modes: TestModes,
+                   decays: Sequence[ModeDecay], *, seed: int = 0) -> list[Row]:
     """Damping per amplitude band of every mode (``case``, ``mode``, ``mode_frequency_Hz``,
-    then :func:`sloshrom.beam.uncertainty.band_damping`'s columns)."""
-    rows = []
+    then :func:`sloshrom.beam.uncertainty.band_damping`'s columns): each mode in the bands of
+    its own amplitude range above the noise floor of the tank channel around it
+    (:func:`~sloshrom.beam.uncertainty.amplitude_bands`), intervals from the noise-added
+    bootstrap of the mode's record."""
+    rows: list[Row] = []
+    fs = float(res["fs"])
     for k, (m, d) in enumerate(zip(modes.modes, decays, strict=True)):
+        floor = decay_floor(res, m.frequency, d.rel_band)
+        ok = bool(np.isfinite(floor))
+        bands = amplitude_bands(d.decay.hilbert["amplitude"] / G,
+                                FLOOR_FACTOR * floor / G if ok else None)
         rows += [{"case": case, "mode": k + 1, "mode_frequency_Hz": m.frequency, **row}
-                 for row in band_damping(d.hilbert, d.log_decrement, m.frequency)]
+                 for row in band_damping(d.decay.hilbert, d.decay.log_decrement, m.frequency,
+                                         bands=bands, record=d.record, fs=fs,
+                                         floor=floor if ok else None, rel_band=d.rel_band,
+                                         seed=seed)]
     return rows
 
 

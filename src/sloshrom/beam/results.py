@@ -24,9 +24,11 @@ import xarray as xr
 
 from sloshrom import __version__
 from sloshrom.beam.analysis import (
+    AnalysisError,
     instantaneous_damping,
     log_decrement,
     modal_filter,
+    noise_floor,
 )
 from sloshrom.beam.channels import ChannelMap
 from sloshrom.beam.errors import BeamError
@@ -49,7 +51,9 @@ from sloshrom.beam.structure import (
 )
 from sloshrom.beam.uncertainty import (
     BANDS,
+    FLOOR_FACTOR,
     RandomDamping,
+    amplitude_bands,
     band_damping,
     estimate_random,
     table2_columns,
@@ -63,6 +67,7 @@ if TYPE_CHECKING:  # the readers import this module's writers' neighbours
 
 __all__ = [
     "BANDS", "Mode1Decay", "damping_band_table", "damping_by_band", "damping_summary",
+    "decay_floor",
     "envelope_table",
     "frozen_modes_table",
     "modal_accelerations", "mode1_damping_dataset", "mode1_damping_table", "mode1_decay",
@@ -194,13 +199,15 @@ def mode1_decay(res: Mapping[str, Any], modal: ModalModel | np.ndarray | None,
     )
 
 
-def damping_by_band(zeta: np.ndarray, amplitude_g: np.ndarray) -> dict[str, float]:
-    """Median instantaneous damping ratio (-) in each band of :data:`BANDS` (amplitude in g).
+def damping_by_band(zeta: np.ndarray, amplitude_g: np.ndarray,
+                    bands: Sequence[tuple[float, float]] = BANDS) -> dict[str, float]:
+    """Median instantaneous damping ratio (-) in each amplitude band (default :data:`BANDS`,
+    or e.g. ``uncertainty.amplitude_bands`` of the decay; amplitude and bands in g).
 
     NaN for a band with 10 samples or fewer. Keys: ``"0.5-1 g"``, ``"1-2 g"``, ...
     """
     out = {}
-    for lo, hi in BANDS:
+    for lo, hi in bands:
         sel = (amplitude_g >= lo) & (amplitude_g < hi)
         out[f"{lo:g}-{hi:g} g"] = float(np.median(zeta[sel])) if sel.sum() > 10 else float("nan")
     return out
@@ -235,14 +242,50 @@ def _nanmean(values: Sequence[float]) -> float:
     return float(np.mean(v[np.isfinite(v)])) if np.isfinite(v).any() else float("nan")
 
 
+def decay_floor(res: Mapping[str, Any], f: float, rel_band: float = 0.35) -> float:
+    """Noise floor of a free response's tank acceleration around the mode at ``f`` (Hz), m/s^2
+    (``sloshrom.beam.analysis.noise_floor``, band ``f (1 -/+ rel_band)``); NaN for a record too
+    short to tell."""
+    try:
+        return noise_floor(np.asarray(res["tank_acceleration"], dtype=float), res["fs"], f,
+                           rel_band=rel_band)
+    except AnalysisError:
+        return float("nan")
+
+
+def _case_bands(res: Mapping[str, Any], d: Mode1Decay, f1: float,
+                bands: Sequence[tuple[float, float]] | str | None, seed: int
+                ) -> list[dict[str, Any]]:
+    # one response's rows: the bootstrap on its first modal acceleration, the samples below
+    # the floor of its tank acceleration dropped
+    if bands is None:  # a simulation keeps the paper's bands, a measurement gets its own
+        bands = BANDS if "source" not in res else "auto"
+    if isinstance(bands, str):
+        if bands != "auto":
+            raise BeamError(f"bands must be a sequence, 'auto' or None, got {bands!r}")
+        bands = None
+    floor = decay_floor(res, f1)
+    return band_damping(d.hilbert, d.log_decrement, f1, bands=bands, record=d.modal[:, 0],
+                        fs=res["fs"], floor=floor if np.isfinite(floor) else None, seed=seed)
+
+
 def damping_band_table(free: Mapping[str, Mapping[str, Any]],
-                       decays: Mapping[str, Mode1Decay], f1: float) -> list[dict[str, Any]]:
+                       decays: Mapping[str, Mode1Decay], f1: float,
+                       bands: Sequence[tuple[float, float]] | str | None = None,
+                       seed: int = 0) -> list[dict[str, Any]]:
     """First-mode damping per amplitude band of every free response, with intervals.
 
-    One row per case, band of :data:`BANDS` and method (``sloshrom.beam.uncertainty.
-    band_damping``): ``case``, ``band``, ``method`` (``hilbert`` or ``log_decrement``), ``zeta``,
-    ``std``, ``low``, ``high`` (damping ratio, -; interval at 95 %), ``n_cycles`` (-) and
-    ``reason`` (``""`` when the value and its interval exist, else why not).
+    One row per case, band and method (``sloshrom.beam.uncertainty.band_damping``, its
+    intervals from a noise-added bootstrap of the first modal acceleration, the samples below
+    ``FLOOR_FACTOR`` times the tank acceleration's noise floor (:func:`decay_floor`) dropped):
+    ``case``, ``band``, ``method`` (``hilbert`` or ``log_decrement``), ``zeta``, ``std``,
+    ``low``, ``high`` (damping ratio, -; interval at 95 %), ``n_cycles`` (-) and ``reason``
+    (``""`` when the value and its interval exist, else why not).
+
+    ``bands`` (g): default ``None``, the paper's :data:`BANDS` for a simulation and the decay's
+    own (``"auto"``: ``uncertainty.amplitude_bands`` above the floor) for a measured test (a
+    result with ``source``); ``"auto"`` or a sequence for every case. ``seed``: the
+    bootstrap's.
 
     An ensemble's case (its decay with :attr:`Mode1Decay.members`): the members' rows combined
     (``sloshrom.beam.members.combine_band_rows``: mean of the members' estimates, their
@@ -252,11 +295,21 @@ def damping_band_table(free: Mapping[str, Mapping[str, Any]],
     for case in free:
         d = decays[case]
         if d.members:
-            rows += combine_band_rows(case, [band_damping(m.hilbert, m.log_decrement, f1)
-                                             for m in d.members])
+            shared = bands
+            if (isinstance(bands, str) and bands == "auto") or (bands is None
+                                                              and "source" in free[case]):
+                # one set of bands for every member (they are combined band by band): those of
+                # the members' mean response
+                floor = decay_floor(free[case], f1)
+                shared = amplitude_bands(d.hilbert["amplitude"] / G,
+                                         FLOOR_FACTOR * floor / G if np.isfinite(floor)
+                                         else None)
+            rows += combine_band_rows(case, [_case_bands(r, m, f1, shared, seed) for r, m in
+                                             zip(free[case]["members"], d.members,
+                                                 strict=True)])
         else:
             rows += [{"case": case, **row}
-                     for row in band_damping(d.hilbert, d.log_decrement, f1)]
+                     for row in _case_bands(free[case], d, f1, bands, seed)]
     return rows
 
 

@@ -4,7 +4,8 @@ its standard deviation and confidence interval.
 * :func:`au_damping_cov`, :func:`required_duration` - Au's uncertainty law of output-only
   (ambient) damping identification and its inverse (the record length a precision needs).
 * :func:`band_damping` - free decays: Hilbert and log-decrement damping per amplitude band,
-  with intervals.
+  with intervals (a noise-added bootstrap of the record); :func:`amplitude_bands` - the bands
+  of a decay's own amplitude range.
 * :func:`estimate_random` (typed), :func:`damping_dataset` (an xarray Dataset over the
   estimators), :func:`random_damping` (Table 2's flat columns) - random tests: every asked
   estimator of ``sloshrom.beam.registry`` through its protocol, the bias of the bootstrapped
@@ -30,7 +31,13 @@ import xarray as xr
 from scipy import optimize, signal, stats
 from threadpoolctl import threadpool_limits
 
-from sloshrom.beam.analysis import welch_psd
+from sloshrom.beam.analysis import (
+    AnalysisError,
+    bandpass_noise_gain,
+    decay_copy,
+    noise_floor,
+    welch_psd,
+)
 from sloshrom.beam.errors import BeamError
 from sloshrom.beam.estimators import (
     OUTPUT_ONLY_EFFICIENCY,
@@ -42,8 +49,9 @@ from sloshrom.beam.registry import TABLE2, estimator_names, get_estimator, label
 from sloshrom.config import G
 
 __all__ = [
-    "BANDS", "CONFIDENCE", "OUTPUT_ONLY_EFFICIENCY", "RandomDamping", "ShortRecordWarning",
-    "au_damping_cov", "band_damping", "damping_dataset", "estimate_random", "format_interval",
+    "BANDS", "CONFIDENCE", "FLOOR_FACTOR", "OUTPUT_ONLY_EFFICIENCY", "RandomDamping",
+    "ShortRecordWarning", "amplitude_bands", "au_damping_cov", "band_damping",
+    "damping_dataset", "estimate_random", "format_interval",
     "mode1_damping_random", "noise_ratios", "random_damping", "required_duration",
     "table2_columns",
 ]
@@ -90,6 +98,50 @@ def format_interval(low: float, high: float, *values: float,
 #: Bands of tank-acceleration amplitude (g) in which the instantaneous first-mode damping is
 #: summarised.
 BANDS: tuple[tuple[float, float], ...] = ((0.5, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 5.0))
+
+#: Amplitudes below this multiple of the noise floor (``sloshrom.beam.analysis.noise_floor``,
+#: the RMS envelope of the band-passed noise) carry no damping information: there the noise
+#: moves ``ln A`` by about 1/3 and the Hilbert envelope's noise bias
+#: (``+noise^2 / (2 A)``) is no longer small.
+FLOOR_FACTOR: float = 3.0
+
+#: The mantissas of the amplitude bands' edges (1-2-3-5 series).
+_SERIES = (1.0, 2.0, 3.0, 5.0)
+
+
+def amplitude_bands(amplitude_g: Any, floor_g: float | None = None
+                    ) -> tuple[tuple[float, float], ...]:
+    """Amplitude bands of a decay's own range: consecutive edges of the 1-2-3-5 series
+    (..., 0.1, 0.2, 0.3, 0.5, 1, 2, 3, 5, 10, 20, ... g) that the amplitudes above ``floor_g``
+    reach.
+
+    A decay that covers 0.5-5 g has :data:`BANDS` among its bands, unchanged.
+
+    Parameters
+    ----------
+    amplitude_g : array
+        Amplitudes of the decay (e.g. the Hilbert envelope of the reference), g.
+    floor_g : float, optional
+        Lowest amplitude that carries information, g (e.g. :data:`FLOOR_FACTOR` times the
+        noise floor); default: every finite positive amplitude.
+
+    Returns
+    -------
+    tuple of (float, float)
+        Bands ``[low, high)`` in increasing order, g; empty if no amplitude is above the floor.
+    """
+    a = np.asarray(amplitude_g, dtype=float).ravel()
+    a = a[np.isfinite(a) & (a > 0)]
+    if floor_g is not None and np.isfinite(floor_g):
+        a = a[a >= floor_g]
+    if a.size == 0:
+        return ()
+    lo, hi = float(a.min()), float(a.max())
+    k0, k1 = math.floor(math.log10(lo)) - 1, math.floor(math.log10(hi)) + 1
+    # round the edges: 0.3 must be 0.3, not 0.30000000000000004, in the band's name
+    edges = [float(f"{m * 10.0**k:.12g}") for k in range(k0, k1 + 1) for m in _SERIES]
+    return tuple((e0, e1) for e0, e1 in zip(edges[:-1], edges[1:], strict=True)
+                 if e1 > lo and e0 < hi)
 
 class ShortRecordWarning(UserWarning):
     """A random test is too short for the asked precision of the damping ratio; the message
@@ -158,27 +210,45 @@ def band_damping(
     f1: float,
     *,
     amplitude_scale: float = 1 / G,
-    bands: Sequence[tuple[float, float]] = BANDS,
+    bands: Sequence[tuple[float, float]] | None = BANDS,
     confidence: float = CONFIDENCE,
     smooth_periods: float = 4.0,
+    record: Any = None,
+    fs: float | None = None,
+    noise: float | None = None,
+    floor: float | None = None,
+    floor_factor: float = FLOOR_FACTOR,
+    rel_band: float = 0.35,
+    n_boot: int = 40,
+    seed: int = 0,
 ) -> list[dict[str, Any]]:
-    """Instantaneous first-mode damping per amplitude band of a free decay, with intervals.
+    """Instantaneous damping of a mode per amplitude band of a free decay, with intervals.
 
     * ``hilbert``: the median of ``zeta(t)`` over the samples whose amplitude is in the band.
-      Each ``zeta(t)`` is a regression slope of ``ln A`` over the smoothing window ``W``
-      (``smooth_periods`` periods); over a band of length ``L`` their mean is about the slope
-      between the band's ends, whose variance is ``W^2 / (6 L^2)`` times that of one sample
-      (noise on ``ln A`` correlated over less than ``W``). Standard error ``1.2533 s W /
-      (sqrt(6) L)`` (``s`` the samples' standard deviation, 1.2533 the median's efficiency),
-      interval from Student's t with ``L / W + 1`` degrees of freedom; for ``L < W`` the
-      median without an interval.
     * ``log_decrement``: least-squares slope ``-sigma`` of ``ln(peak)`` against time over the
       peaks in the band, ``zeta = sigma / sqrt(omega_d^2 + sigma^2)`` with ``omega_d`` from the
-      median peak spacing; standard error of the slope, its variance inflated by ``(1 + rho) /
-      (1 - rho)`` (``rho`` the lag-one correlation of the residuals, corrected for its small-sample
-      bias ``-(1 + 3 rho) / n`` and clipped to [0, 0.9]: neighbouring peaks share band-passed
-      noise), Student's t with ``n_peaks - 2`` degrees of
-      freedom.
+      peaks' mean spacing.
+
+    Intervals. With the analysed ``record`` (and ``fs``) that reaches its noise floor: a
+    noise-added bootstrap. ``n_boot``
+    copies of the record, each plus white noise of the record's own band-passed level
+    (``noise``, default ``sloshrom.beam.analysis.noise_floor`` of the record), are analysed
+    the same way over the same samples (Hilbert) or time span (peaks) of each band; the
+    standard deviation of their band values is the estimate's (the estimator is nearly linear
+    in the noise above the floor), the interval Student's t with ``n_boot - 1`` degrees of
+    freedom. The analysis' own deterministic ripple (the Hilbert envelope of a decaying
+    sinusoid, the smoothing's end effects) is the same in every copy and does not widen the
+    interval, and the correlation of neighbouring samples (smoothing window, band-passed noise)
+    is in the copies. Without the record, or if its floor is not measurable (``noise_floor``
+    NaN: a noise-free simulation, a record stopped above its floor): the closed forms, which
+    count the ripple as scatter (too wide at a high signal-to-noise ratio): Hilbert
+    ``1.2533 s W / (sqrt(6) L)`` (``s`` the samples' standard deviation, ``W`` the window,
+    ``L`` the band's length; t with ``L / W + 1`` degrees of freedom), log decrement the
+    slope's standard error inflated by the residuals' lag-one correlation (t with
+    ``n_peaks - 2``).
+
+    Samples and peaks whose amplitude is below ``floor_factor * floor`` are dropped: there the
+    noise, not the decay, sets the envelope.
 
     A noise-free decay gives very narrow intervals: they hold the record's statistical error
     only, not the method's own (small) bias.
@@ -187,18 +257,37 @@ def band_damping(
     ----------
     hilbert, log_decrement : mapping
         Results of ``sloshrom.beam.analysis.instantaneous_damping`` and ``log_decrement`` (the
-        latter with its per-peak entries ``peak_time``, ``peak``, ``peak_amplitude``);
-        amplitudes in the reference's unit.
+        latter with its per-peak entries ``peak_time``, ``peak``, ``peak_amplitude``) of one
+        mode; amplitudes in the reference's unit.
     f1 : float
-        First-mode frequency (the band-pass centre), Hz.
+        The mode's frequency (the band-pass centre), Hz.
     amplitude_scale : float
         Factor from the amplitude's unit to g (default: amplitudes in m/s^2).
-    bands : sequence of (float, float)
-        Amplitude bands ``[low, high)``, g.
+    bands : sequence of (float, float), optional
+        Amplitude bands ``[low, high)``, g; ``None``: the decay's own
+        (:func:`amplitude_bands` of the amplitudes above ``floor_factor * floor``).
     confidence : float
         Two-sided confidence level of the intervals.
     smooth_periods : float
         The smoothing window of ``instantaneous_damping``, periods.
+    record : array (n,), optional
+        The signal both analyses were given (``x``, unit of the ``peak``); enables the
+        bootstrap. Both analyses must have used the default trimming and ``rel_band``.
+    fs : float, optional
+        Its sampling frequency, Hz (with ``record``).
+    noise : float, optional
+        The record's noise amplitude, unit of ``record``; default its ``noise_floor``.
+    floor : float, optional
+        Noise floor of the amplitude (the reference's ``noise_floor``), unit of the amplitude
+        (before ``amplitude_scale``); default: no sample dropped.
+    floor_factor : float
+        Multiple of ``floor`` below which samples are dropped (:data:`FLOOR_FACTOR`).
+    rel_band : float
+        Half-width of the analyses' band-pass, relative to ``f1``.
+    n_boot : int
+        Bootstrap copies (at least 2).
+    seed : int
+        Seed of the bootstrap's noise.
 
     Returns
     -------
@@ -206,16 +295,18 @@ def band_damping(
         One row per band and method (Hilbert first): ``band`` (e.g. ``"1-2 g"``), ``method``
         (``"hilbert"`` or ``"log_decrement"``), ``zeta``, ``std``, ``low``, ``high`` (damping
         ratio, -), ``n_cycles`` (cycles of the band, -) and ``reason`` (``""`` when the value
-        and its interval exist, else why not). A Hilbert band shorter than one
-        smoothing window keeps its median (as :func:`sloshrom.beam.results.damping_by_band`,
-        more than 10 samples) with NaN ``std``/``low``/``high``: no interval; NaN throughout
-        where the band has too little data (10 samples or fewer, fewer than 3 peaks).
+        and its interval exist, else why not: every NaN has one). Without a record, a Hilbert
+        band shorter than one smoothing window keeps its median with NaN
+        ``std``/``low``/``high``; NaN throughout where the band has too little data (10
+        samples or fewer, fewer than 3 peaks).
     """
     missing = [k for k in ("peak_time", "peak", "peak_amplitude") if k not in log_decrement]
     if missing:
         raise BeamError(f"log_decrement lacks {missing}: pass the dict of analysis.log_decrement")
     if f1 <= 0 or smooth_periods <= 0:
         raise BeamError("f1 and smooth_periods must be positive")
+    if record is not None and (fs is None or fs <= 0 or n_boot < 2):
+        raise BeamError("a record needs its positive fs and n_boot >= 2")
     nan = float("nan")
     zh = np.asarray(hilbert["zeta"], dtype=float)
     ah = np.asarray(hilbert["amplitude"], dtype=float) * amplitude_scale
@@ -225,13 +316,41 @@ def band_damping(
     tp = np.asarray(log_decrement["peak_time"], dtype=float)
     lp = np.log(np.abs(np.asarray(log_decrement["peak"], dtype=float)))
     ap = np.asarray(log_decrement["peak_amplitude"], dtype=float) * amplitude_scale
+    least = (floor_factor * floor * amplitude_scale if floor is not None and np.isfinite(floor)
+             else -np.inf)
+    if bands is None:
+        bands = amplitude_bands(ah, least if np.isfinite(least) else None)
+    if record is not None and noise is None:
+        try:
+            noise = noise_floor(np.asarray(record, dtype=float), float(fs), f1, rel_band)
+        except AnalysisError:
+            noise = nan
+    # a record that does not reach its noise floor (noise-free, stopped early) keeps the
+    # closed forms: its noise is not measurable
+    boot = (_decay_bootstrap(np.asarray(record, dtype=float), float(fs), f1, th, noise,
+                             smooth_periods, rel_band, n_boot, seed)
+            if record is not None and noise is not None and np.isfinite(noise) else None)
+    t_boot = _t(confidence, n_boot - 1)
+    below = f"below {floor_factor:g} times the noise floor" if np.isfinite(least) else ""
     rows = []
     for lo, hi in bands:
         name = f"{lo:g}-{hi:g} g"
-        sel = (ah >= lo) & (ah < hi)
-        n_cyc = float(np.count_nonzero(sel) * dt * np.median(fh[sel])) if sel.any() else 0.0
+        in_band = (ah >= lo) & (ah < hi)
+        sel = in_band & (ah >= least)
+        n_sel = int(np.count_nonzero(sel))
+        n_cyc = float(n_sel * dt * np.median(fh[sel])) if n_sel else 0.0
         span = n_cyc / smooth_periods  # band length in smoothing windows
-        if span >= 1 and np.isfinite(dt):
+        lost = (f" ({int(np.count_nonzero(in_band)) - n_sel} more {below})"
+                if below and np.count_nonzero(in_band) > n_sel else "")
+        if n_sel <= 10:
+            rows.append(_row(name, "hilbert", nan, nan, nan, n_cyc,
+                             f"the decay has {n_sel} sample(s) in the band{lost}, 10 or fewer "
+                             "(it does not pass through it)"))
+        elif boot is not None:
+            z = float(np.median(zh[sel]))
+            std = float(np.std(np.median(boot["hilbert"][:, sel], axis=1), ddof=1))
+            rows.append(_row(name, "hilbert", z, std, t_boot * std, n_cyc))
+        elif span >= 1 and np.isfinite(dt):
             z = float(np.median(zh[sel]))
             # zeta(t) is a regression slope over the window W: over a band of length L their
             # mean is about the slope between the band's two ends, of variance W^2 / (6 L^2)
@@ -239,39 +358,76 @@ def band_damping(
             std = 1.2533 * float(np.std(zh[sel], ddof=1)) / math.sqrt(max(1.0, 6 * span**2))
             half = _t(confidence, span + 1) * std
             rows.append(_row(name, "hilbert", z, std, half, n_cyc))
-        elif np.count_nonzero(sel) > 10:
+        else:
             # shorter than one smoothing window: the samples are one estimate, with no
             # independent values to state its scatter (the median of damping_by_band)
             rows.append(_row(name, "hilbert", float(np.median(zh[sel])), nan, nan, n_cyc,
                              f"no interval: the band holds {n_cyc:.2g} cycles, fewer than the "
                              f"{smooth_periods:g} of one smoothing window (its samples are one "
                              "estimate)"))
-        else:
-            rows.append(_row(name, "hilbert", nan, nan, nan, n_cyc,
-                             f"the decay has {np.count_nonzero(sel)} sample(s) in the band, "
-                             "10 or fewer (it does not pass through it)"))
-        sp = (ap >= lo) & (ap < hi)
+        sp = (ap >= lo) & (ap < hi) & (ap >= least)
         t, y = tp[sp], lp[sp]
-        if t.size >= 3:
-            fit = stats.linregress(t, y)
-            sigma = -fit.slope
-            wd = 2 * math.pi / float(np.median(np.diff(t)))
-            z = sigma / math.hypot(wd, sigma)
-            # neighbouring peaks share band-passed noise: inflate the slope's standard error
-            # as for AR(1) residuals, (1 + rho) / (1 - rho) on the variance
-            res = y - (fit.intercept + fit.slope * t)
-            rho = np.sum(res[1:] * res[:-1]) / max(np.sum(res**2), 1e-300)
-            # the lag-one correlation of a few residuals is biased low by about (1 + 3 rho) / n
-            rho = float(np.clip(rho + (1 + 3 * rho) / t.size, 0, 0.9))
-            std = fit.stderr / wd * math.sqrt((1 + rho) / (1 - rho))
-            n_cyc_p = (t[-1] - t[0]) * wd / (2 * math.pi)
-            half = _t(confidence, t.size - 2) * std
-            rows.append(_row(name, "log_decrement", z, std, half, n_cyc_p))
-        else:
+        if t.size < 3:
+            n_out = int(np.count_nonzero((ap >= lo) & (ap < hi))) - t.size
             rows.append(_row(name, "log_decrement", nan, nan, nan, max(t.size - 1, 0),
-                             f"{t.size} peak(s) in the band, fewer than the 3 a slope and its "
-                             "error need"))
+                             f"{t.size} peak(s) in the band"
+                             + (f" ({n_out} more {below})" if below and n_out else "")
+                             + ", fewer than the 3 a slope and its error need"))
+            continue
+        z, wd, fit = _slope_damping(t, y)
+        n_cyc_p = (t[-1] - t[0]) * wd / (2 * math.pi)
+        if boot is not None:
+            half_period = math.pi / wd
+            zb = [_slope_damping(tb[m], yb[m])[0] for tb, yb in boot["peaks"]
+                  for m in [(tb >= t[0] - half_period) & (tb <= t[-1] + half_period)]
+                  if np.count_nonzero(m) >= 3]
+            if len(zb) < 2:
+                rows.append(_row(name, "log_decrement", z, nan, nan, n_cyc_p,
+                                 "no interval: the noisy copies of the record lose the band's "
+                                 "peaks"))
+                continue
+            std = float(np.std(zb, ddof=1))
+            rows.append(_row(name, "log_decrement", z, std, _t(confidence, len(zb) - 1) * std,
+                             n_cyc_p))
+            continue
+        # neighbouring peaks share band-passed noise: inflate the slope's standard error
+        # as for AR(1) residuals, (1 + rho) / (1 - rho) on the variance
+        res = y - (fit.intercept + fit.slope * t)
+        rho = np.sum(res[1:] * res[:-1]) / max(np.sum(res**2), 1e-300)
+        # the lag-one correlation of a few residuals is biased low by about (1 + 3 rho) / n
+        rho = float(np.clip(rho + (1 + 3 * rho) / t.size, 0, 0.9))
+        std = fit.stderr / wd * math.sqrt((1 + rho) / (1 - rho))
+        half = _t(confidence, t.size - 2) * std
+        rows.append(_row(name, "log_decrement", z, std, half, n_cyc_p))
     return rows
+
+
+def _slope_damping(t: np.ndarray, y: np.ndarray) -> tuple[float, float, Any]:
+    # damping ratio from the slope of ln(peak) against time, the damped circular frequency
+    # from the peaks' mean spacing (interpolated peak times)
+    fit = stats.linregress(t, y)
+    sigma = -fit.slope
+    wd = 2 * math.pi * (t.size - 1) / float(t[-1] - t[0])
+    return sigma / math.hypot(wd, sigma), wd, fit
+
+
+def _decay_bootstrap(x: np.ndarray, fs: float, f: float, times: np.ndarray, noise: float,
+                     smooth_periods: float, rel_band: float, n_boot: int, seed: int
+                     ) -> dict[str, Any]:
+    # the record plus white noise of its own band-passed level, analysed n_boot times: zeta(t)
+    # at the record's Hilbert samples, and every copy's peaks
+    # noise is the RMS envelope, sqrt(2) times the band-passed RMS
+    sd = noise / math.sqrt(2) / bandpass_noise_gain(fs, f, rel_band)
+    idx = np.rint(times * fs).astype(int)
+    rng = np.random.default_rng(seed)
+    zeta = np.empty((n_boot, idx.size))
+    peaks = []
+    for k in range(n_boot):
+        z, tp, ap = decay_copy(x + sd * rng.standard_normal(x.size), fs, f, rel_band,
+                               smooth_periods)
+        zeta[k] = z[idx]
+        peaks.append((tp, np.log(np.abs(ap))))
+    return {"hilbert": zeta, "peaks": peaks}
 
 
 # -- random tests: every estimator through its protocol, with intervals ---------------------

@@ -399,10 +399,11 @@ def _free_test(files: list[Path], ctx: _Setting, name: str, step: _Steps) -> _Te
             res, f, rel_band=found.rel_band(k, 0.5), mode=k + 1))
     step(f"{name}: damping analysis of every mode")
     decays = _checked("damping analysis", lambda: free_mode_decays(res, found, modal))
-    rows = free_mode_rows(name, found, decays)
-    figs = free_figures({name: res}, modal, {name: decays[0]},
+    rows = free_mode_rows(res, name, found, decays)
+    figs = free_figures({name: res}, modal, {name: decays[0].decay},
                         labels=None if modal is not None else res["channel_map"].stations)
-    figs["damping_by_mode"] = mode_decay_figure(name, found.frequencies, decays)
+    figs["damping_by_mode"] = mode_decay_figure(name, found.frequencies,
+                                                [d.decay for d in decays])
     figs = {k: figs[k] for k in _free_figures(modal)}
     return _Test("free", name, _dataset(ctx, res, name, "free", found, modal), rows, figs,
                  found)

@@ -128,11 +128,14 @@ def compare(
     for p, ds in zip(paths, datasets, strict=True):
         _check_result(p, ds)
     tests = []
+    bands = None  # the predictions in the measurement's bands (its first row's)
     for p, ds, case in zip(paths, datasets, cases, strict=True):
         try:
-            tests.append(analyse_test(ds, case))
+            tests.append(analyse_test(ds, case, bands))
         except SloshromError as exc:
             fail(f"{p}: {exc}")
+        if bands is None and tests[0].kind == "free":
+            bands = _bands_of(tests[0].rows)
     try:
         rows = compare_rows(tests[0], tests[1:])
     except SloshromError as exc:
@@ -156,3 +159,13 @@ def compare(
                    f"(z = {r['z']:.2g}){why}")
     typer.echo(f"wrote the comparison of {len(tests) - 1} prediction(s) with {tests[0].case} "
                f"to {out}")
+
+
+def _bands_of(rows: list[dict]) -> list[tuple[float, float]]:
+    """The amplitude bands (g) of a free decay's rows, in order (``"0.5-1 g"`` -> (0.5, 1))."""
+    out: list[tuple[float, float]] = []
+    for r in rows:
+        lo, hi = (float(x) for x in str(r["band"]).removesuffix(" g").split("-"))
+        if (lo, hi) not in out:
+            out.append((lo, hi))
+    return out

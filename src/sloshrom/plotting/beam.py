@@ -17,13 +17,14 @@ from sloshrom.beam.analysis import welch_psd
 from sloshrom.beam.compare import AnalysedTest, match_levels
 from sloshrom.beam.members import Row
 from sloshrom.beam.registry import label
-from sloshrom.beam.results import Mode1Decay
+from sloshrom.beam.results import Mode1Decay, decay_floor
 from sloshrom.beam.structure import ModalModel
+from sloshrom.beam.uncertainty import FLOOR_FACTOR
 from sloshrom.config import G
 
 __all__ = ["COMPARE_FIGURES", "FREE_FIGURES", "RANDOM_FIGURES", "comparison_figures",
-           "free_figures", "mode_damping_figure", "mode_decay_figure", "random_figures",
-           "random_window"]
+           "damping_ylim", "free_figures", "mode_damping_figure", "mode_decay_figure",
+           "random_figures", "random_window"]
 
 FREE_FIGURES = ("fig14_station_accelerations", "fig16_modal_accelerations",
                 "fig20_tank_interface_dynamic", "fig21_instantaneous_damping")
@@ -100,17 +101,60 @@ def free_figures(res: Mapping[str, Mapping[str, Any]], modal: ModalModel | None,
 
     fig = Figure(figsize=(7, 4.5))
     ax = fig.subplots()
+    zs, amps = [], []
     for case in cases:
         h, ld = decays[case].hilbert, decays[case].log_decrement
-        line, = ax.plot(h["amplitude"] / G, 100 * h["zeta"], lw=1.0, label=f"{case} (Hilbert)")
-        ax.plot(ld["amplitude"] / G, 100 * ld["zeta"], "o", ms=3, color=line.get_color(),
+        f = float(np.median(h["frequency"])) if len(h["frequency"]) else float("nan")
+        floor = decay_floor(res[case], f) / G if np.isfinite(f) else float("nan")
+        least = FLOOR_FACTOR * floor if np.isfinite(floor) else -np.inf
+        ah, al = h["amplitude"] / G, ld["amplitude"] / G
+        zh, zl = 100 * np.where(ah >= least, h["zeta"], np.nan), 100 * ld["zeta"]
+        line, = ax.plot(ah, zh, lw=1.0, label=f"{case} (Hilbert)")
+        ax.plot(al[al >= least], zl[al >= least], "o", ms=3, color=line.get_color(),
                 label=f"{case} (log decrement)")
+        # below the noise floor: drawn faintly, no part of the scale
+        ax.plot(al[al < least], zl[al < least], "o", ms=2, color=line.get_color(), alpha=0.25)
+        zs += [zh, np.where(al >= least, zl, np.nan)]
+        amps += [ah, al]
+        if np.isfinite(floor):
+            ax.axvline(least, color=line.get_color(), lw=0.6, ls=":")
+    lim = damping_ylim(zs, amps, None)
+    if lim is not None:
+        ax.set_ylim(*lim)
     ax.set_xlabel("tank acceleration amplitude (g)")
     ax.set_ylabel("first-mode damping ratio (%)")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
+    ax.set_title(f"dotted: {FLOOR_FACTOR:g} x noise floor (faint points below it do not set "
+                 "the scale)", fontsize=8)
     figs["fig21_instantaneous_damping"] = fig
     return figs
+
+
+def damping_ylim(zeta: Sequence[Any], amplitude: Sequence[Any], floor: float | None = None
+                 ) -> tuple[float, float] | None:
+    """Damping-axis limits of Fig. 21 (unit of ``zeta``) from the points that carry
+    information.
+
+    The points (arrays of damping ratios and their amplitudes, one pair per series) whose
+    amplitude is at least ``FLOOR_FACTOR * floor`` (``floor`` in the amplitudes' unit; all
+    points without one), their 2nd to 98th percentiles weighted by the squared amplitude (the
+    noise scatters a damping estimate as 1 / amplitude), padded by 15 % of the range: the
+    scatter at the end of a decay, in the noise, does not set the scale, even where the floor
+    is not known. ``None`` without any finite point.
+    """
+    least = FLOOR_FACTOR * floor if floor is not None and np.isfinite(floor) else -np.inf
+    z = np.concatenate([np.ravel(np.asarray(v, float)) for v in zeta] or [np.zeros(0)])
+    a = np.concatenate([np.ravel(np.asarray(v, float)) for v in amplitude] or [np.zeros(0)])
+    ok = np.isfinite(z) & np.isfinite(a) & (a >= least)
+    z, w = z[ok], a[ok] ** 2
+    if z.size == 0 or not w.sum() > 0:
+        return None
+    order = np.argsort(z)
+    cw = np.cumsum(w[order]) / w.sum()
+    lo, hi = np.interp([0.01, 0.99], cw, z[order])
+    pad = 0.25 * max(hi - lo, 0.05 * abs(hi), 1e-12)
+    return float(lo - pad), float(hi + pad)
 
 
 def random_window(duration: float) -> tuple[float, float]:
@@ -285,6 +329,12 @@ def comparison_figures(measured: AnalysedTest, predicted: Sequence[AnalysedTest]
             if np.isfinite(r["low"]) and np.isfinite(r["high"]):
                 ax.fill_between([lo_g, hi_g], 100 * r["low"], 100 * r["high"], color="k",
                                 alpha=0.12, lw=0)
+        lim = damping_ylim([100 * t.decay.hilbert["zeta"] for t in tests if t.decay]
+                           + [100 * t.decay.log_decrement["zeta"] for t in tests if t.decay],
+                           [t.decay.hilbert["amplitude"] for t in tests if t.decay]
+                           + [t.decay.log_decrement["amplitude"] for t in tests if t.decay])
+        if lim is not None:
+            ax.set_ylim(*lim)
         ax.set_xlabel("tank acceleration amplitude (g)")
         ax.set_ylabel("first-mode damping ratio (%)")
         ax.set_title(f"{measured.case}: grey boxes = 95 % intervals per band (Hilbert); "
