@@ -320,14 +320,15 @@ def band_damping(
              else -np.inf)
     if bands is None:
         bands = amplitude_bands(ah, least if np.isfinite(least) else None)
+    rate = float(fs) if fs is not None else nan  # checked above when there is a record
     if record is not None and noise is None:
         try:
-            noise = noise_floor(np.asarray(record, dtype=float), float(fs), f1, rel_band)
+            noise = noise_floor(np.asarray(record, dtype=float), rate, f1, rel_band)
         except AnalysisError:
             noise = nan
     # a record that does not reach its noise floor (noise-free, stopped early) keeps the
     # closed forms: its noise is not measurable
-    boot = (_decay_bootstrap(np.asarray(record, dtype=float), float(fs), f1, th, noise,
+    boot = (_decay_bootstrap(np.asarray(record, dtype=float), rate, f1, th, noise,
                              smooth_periods, rel_band, n_boot, seed)
             if record is not None and noise is not None and np.isfinite(noise) else None)
     t_boot = _t(confidence, n_boot - 1)

@@ -8,7 +8,6 @@ this package imports them all.
 from sloshrom.cli import (  # noqa: F401
     analyse,
     beam,
-    campaign,
     compare,
     design,
     export,

@@ -99,7 +99,7 @@ def _model(name: str, tank: Tank, seed: int,
 
 
 @dataclass
-class _Setup:
+class StructureSetup:
     """What every beam command works on: the tanks, the structure, the first frozen mode."""
 
     tanks: list[Tank]  # one per tank of ``modal``
@@ -114,7 +114,7 @@ class _Setup:
         return self.tanks if self.modal.psi_tank.ndim == 2 else self.tanks[0]
 
 
-def _models(names: list[str] | None, setup: _Setup, seed: int) -> dict[str, Any]:
+def _models(names: list[str] | None, setup: StructureSetup, seed: int) -> dict[str, Any]:
     """Every case's sloshing model(s), loaded and checked before any simulation (frozen first).
 
     On the built-in beam or a ``--modal-toml`` structure a case is one model for every tank.
@@ -186,7 +186,7 @@ def _tank_spec(spec: str, base: Tank) -> tuple[int, str | None, Tank]:
 
 
 def setup_structure(tank_toml: Path | None, modal_toml: Path | None, seed: int,
-           structure: StructureOptions | None = None, fill: float | None = None) -> _Setup:
+           structure: StructureOptions | None = None, fill: float | None = None) -> StructureSetup:
     """Tanks, modal model, the beam it comes from (``None`` for the user's own modal data) and
     the first frozen-liquid mode (Hz), or a user error."""
     from sloshrom.beam.structure import CantileverBeam, ModalModel, coupled_frozen_modes
@@ -217,7 +217,7 @@ def setup_structure(tank_toml: Path | None, modal_toml: Path | None, seed: int,
         check_analysis_band(f1)
     except SloshromError as exc:
         fail(str(exc))
-    return _Setup(tanks, modal, beam, f1, own or [None] * len(tanks))
+    return StructureSetup(tanks, modal, beam, f1, own or [None] * len(tanks))
 
 
 @dataclass
@@ -378,7 +378,7 @@ _UffOpt = Annotated[bool, typer.Option(
                            "H1 FRFs and coherences), for modal-analysis tools.")]
 
 
-def _inputs(setup: _Setup, sloshing: list[str] | None, *paths: Path | None
+def _inputs(setup: StructureSetup, sloshing: list[str] | None, *paths: Path | None
             ) -> tuple[Path | None, ...]:
     """Every file the command reads (no output may overwrite one)."""
     names = [*(sloshing or []), *(o for o in setup.own if o)]
