@@ -38,6 +38,7 @@ import warnings
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy import linalg, optimize, signal
 from scipy.ndimage import minimum_filter1d
 
@@ -200,7 +201,7 @@ def bandpass_noise_gain(fs: float, f: float, rel_band: float = 0.35) -> float:
     return float(np.sqrt(np.mean(np.abs(h) ** 4)))
 
 
-def noise_floor(x: Any, fs: float, f: float, rel_band: float = 0.35,
+def noise_floor(x: ArrayLike, fs: float, f: float, rel_band: float = 0.35,
                 window_periods: float = 2.0, tail_fraction: float = 0.05) -> float:
     """Noise amplitude of a free-decay record in the analyses' band around the mode at ``f``.
 

@@ -255,7 +255,7 @@ def decay_floor(res: Mapping[str, Any], f: float, rel_band: float = 0.35) -> flo
 
 def _case_bands(res: Mapping[str, Any], d: Mode1Decay, f1: float,
                 bands: Sequence[tuple[float, float]] | str | None, seed: int
-                ) -> list[dict[str, Any]]:
+                ) -> list[Row]:
     # one response's rows: the bootstrap on its first modal acceleration, the samples below
     # the floor of its tank acceleration dropped
     if bands is None:  # a simulation keeps the paper's bands, a measurement gets its own
@@ -272,7 +272,7 @@ def _case_bands(res: Mapping[str, Any], d: Mode1Decay, f1: float,
 def damping_band_table(free: Mapping[str, Mapping[str, Any]],
                        decays: Mapping[str, Mode1Decay], f1: float,
                        bands: Sequence[tuple[float, float]] | str | None = None,
-                       seed: int = 0) -> list[dict[str, Any]]:
+                       seed: int = 0) -> list[Row]:
     """First-mode damping per amplitude band of every free response, with intervals.
 
     One row per case, band and method (``sloshrom.beam.uncertainty.band_damping``, its

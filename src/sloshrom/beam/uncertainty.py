@@ -24,11 +24,13 @@ import math
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 import xarray as xr
+from numpy.typing import ArrayLike
 from scipy import optimize, signal, stats
+from scipy.stats._stats_py import LinregressResult
 from threadpoolctl import threadpool_limits
 
 from sloshrom.beam.analysis import (
@@ -109,7 +111,7 @@ FLOOR_FACTOR: float = 3.0
 _SERIES = (1.0, 2.0, 3.0, 5.0)
 
 
-def amplitude_bands(amplitude_g: Any, floor_g: float | None = None
+def amplitude_bands(amplitude_g: ArrayLike, floor_g: float | None = None
                     ) -> tuple[tuple[float, float], ...]:
     """Amplitude bands of a decay's own range: consecutive edges of the 1-2-3-5 series
     (..., 0.1, 0.2, 0.3, 0.5, 1, 2, 3, 5, 10, 20, ... g) that the amplitudes above ``floor_g``
@@ -213,7 +215,7 @@ def band_damping(
     bands: Sequence[tuple[float, float]] | None = BANDS,
     confidence: float = CONFIDENCE,
     smooth_periods: float = 4.0,
-    record: Any = None,
+    record: ArrayLike | None = None,
     fs: float | None = None,
     noise: float | None = None,
     floor: float | None = None,
@@ -403,7 +405,7 @@ def band_damping(
     return rows
 
 
-def _slope_damping(t: np.ndarray, y: np.ndarray) -> tuple[float, float, Any]:
+def _slope_damping(t: np.ndarray, y: np.ndarray) -> tuple[float, float, LinregressResult]:
     # damping ratio from the slope of ln(peak) against time, the damped circular frequency
     # from the peaks' mean spacing (interpolated peak times)
     fit = stats.linregress(t, y)
@@ -414,7 +416,7 @@ def _slope_damping(t: np.ndarray, y: np.ndarray) -> tuple[float, float, Any]:
 
 def _decay_bootstrap(x: np.ndarray, fs: float, f: float, times: np.ndarray, noise: float,
                      smooth_periods: float, rel_band: float, n_boot: int, seed: int
-                     ) -> dict[str, Any]:
+                     ) -> _Copies:
     # the record plus white noise of its own band-passed level, analysed n_boot times: zeta(t)
     # at the record's Hilbert samples, and every copy's peaks
     # noise is the RMS envelope, sqrt(2) times the band-passed RMS
@@ -429,6 +431,11 @@ def _decay_bootstrap(x: np.ndarray, fs: float, f: float, times: np.ndarray, nois
         zeta[k] = z[idx]
         peaks.append((tp, np.log(np.abs(ap))))
     return {"hilbert": zeta, "peaks": peaks}
+
+
+class _Copies(TypedDict):
+    hilbert: np.ndarray  # (n_boot, n): zeta(t) of each copy at the record's Hilbert samples
+    peaks: list[tuple[np.ndarray, np.ndarray]]  # each copy's peak times and ln(peak)
 
 
 # -- random tests: every estimator through its protocol, with intervals ---------------------

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
+from numpy.typing import ArrayLike
 
 from sloshrom.beam.analysis import welch_psd
 from sloshrom.beam.compare import AnalysedTest, match_levels
@@ -131,8 +132,8 @@ def free_figures(res: Mapping[str, Mapping[str, Any]], modal: ModalModel | None,
     return figs
 
 
-def damping_ylim(zeta: Sequence[Any], amplitude: Sequence[Any], floor: float | None = None
-                 ) -> tuple[float, float] | None:
+def damping_ylim(zeta: Sequence[ArrayLike], amplitude: Sequence[ArrayLike],
+                 floor: float | None = None) -> tuple[float, float] | None:
     """Damping-axis limits of Fig. 21 (unit of ``zeta``) from the points that carry
     information.
 
