@@ -339,11 +339,13 @@ def mode_frf(f: np.ndarray, h: np.ndarray, frequency: float, zeta: float,
              band: tuple[float, float], weight: np.ndarray | None = None) -> np.ndarray:
     """The FRF base -> absolute acceleration of a mode among others, fitted to a record's H1.
 
-    ``H(w) = c0 + c1 (w_n/w)^2 + c2 (w/w_n)^2 + R w^2 / (w_n^2 - w^2 + 2 i zeta w_n w)``: the
-    mode of residue ``R`` (a base-excited oscillator has ``c0 = R = 1``), the modes below
-    as a mass line (a constant and ``c1``), those above as a stiffness line (``c2``);
-    ``R`` and the ``c`` real (light, proportional damping), fitted by weighted least squares
-    on the lines of ``band`` with ``frequency`` and ``zeta`` held. A tip accelerometer sees
+    ``H(w) = c0 + c1 (w_n/w)^2 + c2 (w_n/w)^4 + c3 (w/w_n)^2 + c4 (w/w_n)^4
+    + R w^2 / (w_n^2 - w^2 + 2 i zeta w_n w)``: the mode of residue ``R`` (a base-excited
+    oscillator has ``c0 = R = 1``, the others 0), the modes below as a mass line (a constant,
+    ``c1``, ``c2``: the first terms of their tails' expansion in ``w_k / w``), those above as a
+    stiffness line (``c3``, ``c4``: in ``w / w_k``); ``R`` and the ``c`` real (light,
+    proportional damping), fitted by weighted least squares on the lines of ``band`` with
+    ``frequency`` and ``zeta`` held. A tip accelerometer sees
     mode 2 of a cantilever with ``R = -0.87`` over a background near -0.5: the bias of LSCF on
     H1 there differs from that of a lone oscillator by 2.4 % of the damping (noise-free 120 s
     records at 500 Hz), more than its scatter.
@@ -362,9 +364,9 @@ def mode_frf(f: np.ndarray, h: np.ndarray, frequency: float, zeta: float,
 
     Returns
     -------
-    ndarray (4,)
-        ``c0, c1, c2, R``, -; those of the lone oscillator (1, 0, 0, 1) if the band holds
-        fewer than 8 lines.
+    ndarray (6,)
+        ``c0, c1, c2, c3, c4, R``, -; those of the lone oscillator (1, 0, 0, 0, 0, 1) if the
+        band holds fewer than 8 lines.
     """
     w = np.ones(f.size) if weight is None else np.asarray(weight, dtype=float)
     sel = (f >= band[0]) & (f <= band[1]) & (f > 0) & np.isfinite(h) & (w > 0)
