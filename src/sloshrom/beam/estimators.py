@@ -32,6 +32,7 @@ Arrays in, typed results out; frequencies in Hz, damping ratios dimensionless (-
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from functools import cached_property
 from typing import Any, Literal, Protocol, runtime_checkable
@@ -124,11 +125,16 @@ class RandomTest:
     fs, f1 : float
         Sampling frequency and approximate first-mode frequency, Hz.
     rel_band : float
-        Fitting band ``f1 (1 -/+ rel_band)``, Hz.
+        Fitting band ``f1 (1 -/+ rel_band)``, Hz, unless ``band`` is given.
     nperseg : int
         Welch segment length of H1, samples (at most the record length).
     pol_order_high : int
         Highest model order of the LSCF fits (models with 2 to ``2 pol_order_high`` poles).
+    band : (float, float), optional
+        Fitting band (low, high), Hz, overriding ``rel_band``: a mode between neighbours needs
+        a band between them, not a symmetric one. Must hold ``f1``.
+
+    The band the estimators fit is :attr:`fit_band`, clipped to the Nyquist frequency.
     """
 
     base: np.ndarray
@@ -138,6 +144,7 @@ class RandomTest:
     rel_band: float = 0.5
     nperseg: int = 16384
     pol_order_high: int = 20
+    band: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         base = np.asarray(self.base, dtype=float)
@@ -148,11 +155,23 @@ class RandomTest:
         object.__setattr__(self, "base", base)
         object.__setattr__(self, "response", resp)
         object.__setattr__(self, "nperseg", min(int(self.nperseg), base.shape[-1]))
+        if self.band is not None:
+            lo, hi = (float(v) for v in self.band)
+            if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo < self.f1 < hi):
+                raise BeamError(f"the fitting band must hold the mode: 0 <= low < f1 = "
+                                f"{self.f1:.4g} Hz < high, got {self.band}")
+            if not self.f1 < self.fs / 2:
+                raise BeamError(f"the mode ({self.f1:.4g} Hz) must lie below the Nyquist "
+                                f"frequency ({self.fs / 2:g} Hz)")
+            object.__setattr__(self, "band", (lo, hi))
 
     @property
-    def band(self) -> tuple[float, float]:
-        """The fitting band, Hz."""
-        return (self.f1 * (1 - self.rel_band), self.f1 * (1 + self.rel_band))
+    def fit_band(self) -> tuple[float, float]:
+        """The fitting band, Hz: ``band`` if given, else ``f1 (1 -/+ rel_band)``; its upper
+        edge clipped to the Nyquist frequency (no line lies above it)."""
+        lo, hi = self.band if self.band is not None else (self.f1 * (1 - self.rel_band),
+                                                          self.f1 * (1 + self.rel_band))
+        return (lo, min(hi, self.fs / 2))
 
     @property
     def duration(self) -> float:
@@ -293,7 +312,7 @@ class LscfH1:
     def estimate(self, test: RandomTest) -> DampingEstimate:
         """The raw first-mode damping of one record (the protocol's ``estimate``)."""
         f, h, _ = test.h1
-        poles = lscf_poles(f, h, test.band, test.pol_order_high)
+        poles = lscf_poles(f, h, test.fit_band, test.pol_order_high)
         tried: list[tuple[ClusterAttempt, str]] = []
         for k, a in enumerate(self.attempts):
             c = a.cluster(poles, test.f1)
@@ -302,18 +321,18 @@ class LscfH1:
                 if not tried:
                     return e
                 note = (f"fallback attempt {self.first_attempt + k} ({a.describe()}): "
-                        + _no_cluster_reason(test.band, test.pol_order_high, tried))
+                        + _no_cluster_reason(test.fit_band, test.pol_order_high, tried))
                 return replace(e, note=note, attempt=self.first_attempt + k)
             tried.append((a, str(c["reason"])))
         return replace(_cluster_estimate(c),
-                       reason=_no_cluster_reason(test.band, test.pol_order_high, tried))
+                       reason=_no_cluster_reason(test.fit_band, test.pol_order_high, tried))
 
     def estimate_records(self, records: RandomTest) -> np.ndarray:
         """Damping ratio (-) of each record of a stack, NaN where none (the protocol's
         ``estimate_records``): each record by the first attempt that finds a cluster."""
         f, h, _ = records.h1
         out = []
-        for p in lscf_poles_batch(f, h, records.band, records.pol_order_high):
+        for p in lscf_poles_batch(f, h, records.fit_band, records.pol_order_high):
             z = _NAN
             for a in self.attempts:
                 z = float(a.cluster(p, records.f1)["zeta"])
@@ -347,17 +366,17 @@ class LscfOutput:
 
     def estimate(self, test: RandomTest) -> DampingEstimate:
         """The raw first-mode damping of one record (the protocol's ``estimate``)."""
-        e = _cluster_estimate(output_only_damping(test.response, test.fs, test.f1, test.band,
+        e = _cluster_estimate(output_only_damping(test.response, test.fs, test.f1, test.fit_band,
                                                   pol_order_high=test.pol_order_high))
         if e.reason:  # say what was tried, as LSCF on H1 does
-            e = replace(e, reason=_no_cluster_reason(test.band, test.pol_order_high,
+            e = replace(e, reason=_no_cluster_reason(test.fit_band, test.pol_order_high,
                                                      [(ClusterAttempt(), e.reason)]))
         return e
 
     def estimate_records(self, records: RandomTest) -> np.ndarray:
         """Damping ratio (-) of each record of a stack, NaN where none (the protocol's
         ``estimate_records``)."""
-        return np.array([output_only_damping(y, records.fs, records.f1, records.band,
+        return np.array([output_only_damping(y, records.fs, records.f1, records.fit_band,
                                              pol_order_high=records.pol_order_high)["zeta"]
                          for y in records.response])
 
@@ -376,7 +395,7 @@ class HalfPower:
         """The raw first-mode damping of one record (the protocol's ``estimate``)."""
         f, h, _ = test.h1
         try:
-            r = half_power_damping(f, h, test.band)
+            r = half_power_damping(f, h, test.fit_band)
         except AnalysisError as e:  # no clear peak in this record: the estimate is missing
             return DampingEstimate(value=_NAN, reason=str(e))
         return DampingEstimate(value=r["zeta"], frequency=r["frequency"],
@@ -389,7 +408,7 @@ class HalfPower:
         out = np.full(h.shape[0], _NAN)
         for k in range(h.shape[0]):
             try:
-                out[k] = half_power_damping(f, h[k], records.band)["zeta"]
+                out[k] = half_power_damping(f, h[k], records.fit_band)["zeta"]
             except AnalysisError:  # no clear peak in this record: the estimate is missing
                 pass
         return out

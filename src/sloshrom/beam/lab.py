@@ -133,20 +133,19 @@ def random_mode_rows(res: MeasuredTest, case: str, modes: TestModes, *,
                      step: Callable[[str], None] | None = None) -> list[Row]:
     """Table 2 at every mode: one row per mode and level (``case``, ``mode`` (1-based),
     ``mode_frequency_Hz``, ``rms_g``, then :func:`sloshrom.beam.uncertainty.random_damping`'s
-    columns), the fitting band the mode's (:attr:`TestModes.bands`, made symmetric).
+    columns), the fitting band the mode's (:attr:`TestModes.bands`).
 
     ``step(text)`` is called before each analysis (progress)."""
     rows = []
     fs = float(res["fs"])
     for k, m in enumerate(modes.modes):
-        rel = modes.rel_band(k, 0.5)
         for i, g in enumerate(res["rms_levels_g"]):
             if step is not None:
                 step(f"damping of mode {k + 1} ({m.frequency:.4g} Hz), {g:g} g")
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always", ShortRecordWarning)
                 d = random_damping(res["base_acceleration"][i], res["tank_acceleration"][i],
-                                   fs, m.frequency, rel_band=rel, accuracy=accuracy,
+                                   fs, m.frequency, band=modes.bands[k], accuracy=accuracy,
                                    estimators=estimators)
             for w in caught:  # say which mode and level each warning is about
                 warnings.warn(f"mode {k + 1}, {g:g} g RMS: {w.message}", w.category,

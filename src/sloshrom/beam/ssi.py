@@ -140,7 +140,7 @@ class SsiCov:
 
     def _one(self, y: np.ndarray, test: RandomTest) -> dict[str, Any]:
         try:
-            return ssi_cov_damping(y, test.fs, test.f1, test.band, 2 * test.pol_order_high,
+            return ssi_cov_damping(y, test.fs, test.f1, test.fit_band, 2 * test.pol_order_high,
                                    self.block_periods)
         except AnalysisError as e:  # a record SSI cannot analyse: the estimate is missing
             nan = float("nan")

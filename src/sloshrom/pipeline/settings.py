@@ -1003,12 +1003,27 @@ def min_free_duration(f1: float) -> float:
 
 
 def check_analysis_band(f1: float, error: type[ValueError] = ConfigError,
-                        fs: float = BEAM_FS) -> None:
-    """Mode 1 must lie well below the results' Nyquist frequency (band-pass up to 1.5 f1)."""
-    if not 1.5 * f1 < 0.8 * fs / 2:
-        raise error(f"the first beam mode ({f1:.4g} Hz) is too high for the {fs:g} Hz results: "
-                    f"the damping analyses band-pass up to 1.5 f1, which must stay below "
-                    f"{0.8 * fs / 2:g} Hz")
+                        fs: float = BEAM_FS, band: tuple[float, float] | None = None) -> None:
+    """The analysed mode must lie well below the results' Nyquist frequency.
+
+    Without ``band`` (Hz) the damping analyses band-pass up to 1.5 ``f1``, which must stay below
+    0.8 of the Nyquist frequency. With ``band`` (a mode between neighbours), the band must hold
+    ``f1`` (``0 <= low < f1 < high``) and ``f1`` must lie below 0.8 of the Nyquist frequency;
+    an upper edge beyond the Nyquist frequency is clipped by the estimators.
+    """
+    nyq = 0.8 * fs / 2
+    if band is None:
+        if not 1.5 * f1 < nyq:
+            raise error(f"the first beam mode ({f1:.4g} Hz) is too high for the {fs:g} Hz "
+                        f"results: the damping analyses band-pass up to 1.5 f1, which must "
+                        f"stay below {nyq:g} Hz")
+        return
+    lo, hi = band
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo < f1 < hi):
+        raise error(f"the analysis band {lo:g}-{hi:g} Hz must hold the mode ({f1:.4g} Hz)")
+    if not f1 < nyq:
+        raise error(f"the mode ({f1:.4g} Hz) is too high for the {fs:g} Hz results: it must "
+                    f"stay below {nyq:g} Hz (0.8 of the Nyquist frequency)")
 
 
 def check_psd_band(f0: float, sigma: float, names: tuple[str, str] = ("--f0", "--sigma"),
