@@ -232,7 +232,7 @@ class _Given:
 
     @classmethod
     def of(cls, structure: Path | None, modal_toml: Path | None, tank_toml: Path | None,
-           fill: float | None, builtin: bool = False) -> _Given:
+           fill: float | None) -> _Given:
         st = (f"--structure {structure.name}" if structure is not None else
               f"--modal-toml {modal_toml.name}" if modal_toml is not None else None)
         tk = [f"--tank-toml {tank_toml.name}" if tank_toml is not None else "",
