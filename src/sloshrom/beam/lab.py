@@ -85,8 +85,8 @@ class TestModes:
 
 
 def modes_of_test(res: MeasuredTest, kind: str, *,
-               frequencies: Sequence[float] | None = None,
-               max_modes: int | None = None) -> TestModes:
+                  frequencies: Sequence[float] | None = None,
+                  max_modes: int | None = None) -> TestModes:
     """The modes of a measured test: ``frequencies`` if given, else the resonances its data
     show.
 
