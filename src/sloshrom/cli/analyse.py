@@ -284,14 +284,10 @@ def free(
 
     Example: ``sloshrom analyse free decay.uff --channels channels.toml --out lab``
     """
-    freqs = _frequencies(f1, frequencies)
-    units = key_value_pairs(unit, "--unit", "CHANNEL=UNIT")
-    cmap, setup, modal = _prepare(files, channels, out, name, tank_toml, fill, modal_toml,
-                                  structure, tank, direction, mode_table, modes, mass_unit,
-                                  builtin_beam, units)
-    ctx = _Setting(cmap, setup, modal, channels, units,
-                   _Given.of(structure, modal_toml, tank_toml, fill), freqs, modes)
-    check_outputs(out, _free_outputs(name, modal),
+    ctx = _setting(files, channels, out, name, f1, frequencies, unit, tank_toml, fill,
+                   modal_toml, structure, tank, direction, mode_table, modes, mass_unit,
+                   builtin_beam)
+    check_outputs(out, _free_outputs(name, ctx.modal),
                   (*files, channels, tank_toml, modal_toml, structure, mode_table))
     test = _run("analyse free", lambda step: _free_test(files, ctx, name, step))
     with OutputBatch() as batch:  # all result files or none
@@ -312,6 +308,21 @@ class _Setting:
     given: _Given
     frequencies: list[float] | None  # the modes named by the user, Hz
     modes: int | None  # --modes
+
+
+def _setting(files: list[Path], channels: Path, out: Path, name: str, f1: float | None,
+             frequencies: str | None, unit: list[str] | None, tank_toml: Path | None,
+             fill: float | None, modal_toml: Path | None, structure: Path | None,
+             tank: list[str] | None, direction: str, mode_table: Path | None,
+             modes: int | None, mass_unit: str | None, builtin: bool) -> _Setting:
+    """The options of ``analyse free``/``random`` checked, as the setting of their test."""
+    freqs = _frequencies(f1, frequencies)
+    units = key_value_pairs(unit, "--unit", "CHANNEL=UNIT")
+    cmap, setup, modal = _prepare(files, channels, out, name, tank_toml, fill, modal_toml,
+                                  structure, tank, direction, mode_table, modes, mass_unit,
+                                  builtin, units)
+    return _Setting(cmap, setup, modal, channels, units,
+                    _Given.of(structure, modal_toml, tank_toml, fill), freqs, modes)
 
 
 @dataclass
@@ -485,14 +496,10 @@ def random(
         fail(f"--levels gives {len(lv)} level(s) for {len(files)} file(s): one per file")
     check_number(accuracy, "--accuracy", 0.0, 1.0, lo_open=True,
                  why="a relative 1-sigma target on the damping ratio")
-    freqs = _frequencies(f1, frequencies)
-    units = key_value_pairs(unit, "--unit", "CHANNEL=UNIT")
-    cmap, setup, modal = _prepare(files, channels, out, name, tank_toml, fill, modal_toml,
-                                  structure, tank, direction, mode_table, modes, mass_unit,
-                                  builtin_beam, units)
-    ctx = _Setting(cmap, setup, modal, channels, units,
-                   _Given.of(structure, modal_toml, tank_toml, fill), freqs, modes)
-    if cmap.base is None:
+    ctx = _setting(files, channels, out, name, f1, frequencies, unit, tank_toml, fill,
+                   modal_toml, structure, tank, direction, mode_table, modes, mass_unit,
+                   builtin_beam)
+    if ctx.cmap.base is None:
         fail(f"--channels {channels}: a random test needs the 'base' channel (the shaker "
              "table acceleration)")
     check_outputs(out, _random_outputs(name),
