@@ -240,10 +240,10 @@ def mode_decay_figure(case: str, frequencies: Sequence[float],
         ax.plot(h["amplitude"] / G, 100 * h["zeta"], lw=1.0, color="C0", label="Hilbert")
         ax.plot(ld["amplitude"] / G, 100 * ld["zeta"], "o", ms=3, color="C0", alpha=0.6,
                 label="log decrement")
-        if h["zeta"].size:  # the scale of the Hilbert curve, not of scattered single peaks
-            lo, hi = np.percentile(100 * h["zeta"], [1, 99])
-            pad = 0.25 * max(hi - lo, 0.05 * abs(hi))
-            ax.set_ylim(lo - pad, hi + pad)
+        lim = damping_ylim([100 * h["zeta"], 100 * ld["zeta"]],
+                           [h["amplitude"], ld["amplitude"]])
+        if lim is not None:  # Fig. 21's scale: scattered points in the noise do not set it
+            ax.set_ylim(*lim)
         ax.set_ylabel(f"mode {k + 1} damping (%)")
         ax.set_title(f"{case}: mode {k + 1}, {f:.4g} Hz", fontsize=9)
         ax.grid(alpha=0.3)
