@@ -204,6 +204,9 @@ def test_time_left_is_the_epochs_left_times_the_median_epoch():
     assert tp.seconds_left() == 96.0
     assert tp.text() == "epoch 4/100, train 0.5, val 0.25 N^2, at most 1 min 36 s left"
     assert (tp.done, tp.total) == (4, 100)
+    # an error it does not have (Adam's epoch 0: no training error yet) is left out
+    tp.epoch(5, {"train_mse": float("nan"), "val_mse": 0.125, "seconds": 14.0})
+    assert tp.text().startswith("epoch 5/100, val 0.125 N^2, at most")
 
 
 def test_reports_that_skip_epochs_give_the_mean_epoch_between_them():

@@ -210,10 +210,15 @@ class PlainProgress:
         if self._thread is not None or self.heartbeat <= 0:
             return
         self._stop.clear()
-        tick = min(1.0, self.heartbeat / 10)
+
+        def due() -> float:
+            # wake when the heartbeat is due (not on a coarse tick: a log's gaps stay <= 30 s)
+            with self._lock:
+                wait = self._last_line + self.heartbeat - self.clock()
+            return min(max(wait, 0.005), self.heartbeat)
 
         def loop() -> None:
-            while not self._stop.wait(tick):
+            while not self._stop.wait(due()):
                 self.beat()
 
         self._thread = threading.Thread(target=loop, name="sloshrom-heartbeat", daemon=True)

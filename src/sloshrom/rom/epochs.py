@@ -158,12 +158,16 @@ class TrainingProgress:
             member, epoch, info = latest
             who = f"member {member} " if self.members > 1 else ""
             of = f"/{self.max_epochs}" if self.max_epochs else ""
-            unit = f" {self.unit}" if self.unit else ""
-            errors = (f"train {info.get('train_mse', math.nan):.3g}, "
-                      f"val {info.get('val_mse', math.nan):.3g}{unit}")
-            # Levenberg-Marquardt's damping says whether it still makes progress
-            mu = f", mu {info['mu']:.1e}" if math.isfinite(info.get("mu", math.nan)) else ""
-            parts.append(f"{who}epoch {epoch}{of}, {errors}{mu}")
+            # the errors it has (Adam's epoch 0 has no training error yet; no validation
+            # record, none), then Levenberg-Marquardt's damping: whether it still progresses
+            shown = [f"{label} {info[key]:.3g}" for label, key in
+                     (("train", "train_mse"), ("val", "val_mse"))
+                     if math.isfinite(info.get(key, math.nan))]
+            if shown and self.unit:
+                shown[-1] += f" {self.unit}"
+            if math.isfinite(info.get("mu", math.nan)):
+                shown.append(f"mu {info['mu']:.1e}")
+            parts.append(", ".join([f"{who}epoch {epoch}{of}", *shown]))
         left = self.seconds_left()
         if left is not None:
             parts.append(f"at most {duration_text(left)} left")
