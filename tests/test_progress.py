@@ -134,6 +134,19 @@ def test_a_spinner_task_without_total_says_its_stage_and_step():
                                                       "analyse free: reading 3 files"]
 
 
+def test_a_removed_task_stays_the_latest_news_and_a_closed_stream_stops_nothing():
+    log, out, clock = _plain()
+    task = log.add_task("free response: rig", total=None)
+    log.remove_task(task)
+    clock.t += 30.0
+    log.beat()
+    assert _lines(out.getvalue())[-1] == (
+        30.0, "still running, last news 30 s ago: free response: rig")
+    out.close()  # the log's reader went away
+    log.line("beam: done in 31.0 s")
+    log.update(task, completed=1)  # a task it forgot: nothing
+
+
 # -- which display -------------------------------------------------------------------------------
 def test_a_terminal_keeps_richs_bars(monkeypatch):
     monkeypatch.setattr(Console, "is_terminal", property(lambda self: True))

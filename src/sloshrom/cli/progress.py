@@ -121,9 +121,12 @@ class PlainProgress:
 
     # -- lines -----------------------------------------------------------------------------------
     def _write(self, text: str, now: float) -> None:
-        self.stream.write(f"[{now - self._t0:7.1f} s] {text}\n")
-        self.stream.flush()
         self._last_line = now
+        try:
+            self.stream.write(f"[{now - self._t0:7.1f} s] {text}\n")
+            self.stream.flush()
+        except (OSError, ValueError):  # the reader went away (a closed pipe): not the run's end
+            pass
 
     def line(self, text: str) -> None:
         """Print ``text`` now (an event: not throttled)."""
@@ -198,11 +201,11 @@ class PlainProgress:
             self._news(task_id, first=False)
 
     def remove_task(self, task_id: TaskID) -> None:
-        """Forget a task (the heartbeat no longer repeats it)."""
+        """Forget a task (its last state stays the latest news until another comes)."""
         with self._lock:
             self._tasks.pop(task_id, None)
             if self._latest is not None and self._latest[0] == task_id:
-                self._latest = None
+                self._latest = (None, *self._latest[1:])
 
     def start(self) -> None:
         """Start the heartbeat thread (a daemon: it never keeps the process alive); none for
