@@ -43,8 +43,9 @@ def tiny_reproduce(tmp_path_factory) -> dict:
     sweep, then rerun without it (everything reused).
 
     ``out`` (results folder), ``config`` (its TOML file), ``cfg`` (validated), ``resumed`` and
-    ``rerun`` (the two summaries), ``html`` (the resumed run's report). Read only: copy ``out``
-    to run more stages in it.
+    ``rerun`` (the two summaries), ``html`` (the resumed run's report), ``resumed_log`` and
+    ``rerun_log`` (the two commands' output: CliRunner is not a terminal). Read only: copy
+    ``out`` to run more stages in it.
     """
     import json
 
@@ -58,10 +59,12 @@ def tiny_reproduce(tmp_path_factory) -> dict:
     config.write_text(TINY_REPRODUCE)
     cfg = settings.load(config)
     out = d / "results"
-    resumed = reproduce_interrupted_then_resumed(out, cfg, ["--config", str(config), "--sweep"])
+    logs: list[str] = []
+    resumed = reproduce_interrupted_then_resumed(out, cfg, ["--config", str(config), "--sweep"],
+                                                 logs)
     html = (out / "report.html").read_text()
     res = CliRunner().invoke(app, ["reproduce", "--config", str(config), "--out", str(out)])
     assert res.exit_code == 0, res.output
     rerun = json.loads((out / "summary.json").read_text())
     return {"out": out, "config": config, "cfg": cfg, "resumed": resumed, "rerun": rerun,
-            "html": html}
+            "html": html, "resumed_log": logs[0], "rerun_log": res.output}

@@ -255,8 +255,9 @@ rms_g = [0.2]
 """
 
 
-def reproduce_interrupted_then_resumed(out, cfg, argv):
-    """Run until the maps stage starts, then ``sloshrom reproduce ARGV``; the summary."""
+def reproduce_interrupted_then_resumed(out, cfg, argv, logs=None):
+    """Run until the maps stage starts, then ``sloshrom reproduce ARGV``; the summary (and the
+    command's output appended to the list ``logs``, if given)."""
 
     def stop_at_maps(stage, done, total, text):
         if stage == "maps":
@@ -270,4 +271,6 @@ def reproduce_interrupted_then_resumed(out, cfg, argv):
     assert not (out / "report.html").exists()
     res = CliRunner().invoke(app, ["reproduce", *argv, "--out", str(out)])
     assert res.exit_code == 0, res.output
+    if logs is not None:
+        logs.append(res.output)
     return json.loads((out / "summary.json").read_text())

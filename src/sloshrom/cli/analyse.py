@@ -38,6 +38,7 @@ from sloshrom.cli.beam import (
     echo_missing,
     setup_structure,
 )
+from sloshrom.cli.progress import Bars, progress_bars
 from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputBatch
 from sloshrom.io.record import MissingUnitError, UnitConflictError
@@ -94,21 +95,22 @@ _AnalyseModesOpt = Annotated[int | None, typer.Option(
 
 
 class _Steps:
-    """A spinner whose text names the step under way (reading, analysing, writing)."""
+    """A spinner whose text names the step under way (reading, analysing, writing); in a log,
+    the lines of the step start with ``label`` (``analyse free: ...``)."""
 
-    def __init__(self, progress: Any) -> None:
-        self.progress, self.task = progress, progress.add_task("", total=None)
+    def __init__(self, progress: Bars, label: str) -> None:
+        self.progress, self.task = progress, progress.add_task("", total=None, stage=label)
 
     def __call__(self, text: str) -> None:
         self.progress.update(self.task, description=text)
 
 
 def _run(label: str, work: Callable[[_Steps], Any]) -> Any:
-    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+    from rich.progress import SpinnerColumn, TextColumn, TimeElapsedColumn
 
-    with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
-                  transient=True) as progress:
-        return work(_Steps(progress))
+    with progress_bars(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
+                       transient=True) as progress:
+        return work(_Steps(progress, label))
 
 
 def _checked(what: str, fn: Callable[[], Any]) -> Any:

@@ -28,6 +28,7 @@ from sloshrom.cli._app import (
     check_sloshing_rom,
     fail,
 )
+from sloshrom.cli.progress import progress_bars
 from sloshrom.config import ConfigError, Tank
 from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputBatch, not_a_regular_file
@@ -46,6 +47,8 @@ from sloshrom.pipeline.settings import (
 from sloshrom.plotting import savefig
 
 if TYPE_CHECKING:
+    from rich.progress import TaskID
+
     from sloshrom.beam.structure import CantileverBeam, ModalModel
 
 beam_app = typer.Typer(
@@ -294,15 +297,15 @@ def _run_cases(models: dict[str, Any], label: str,
 
     An ensemble ROM is coupled member by member (``sloshrom.pipeline.beam.coupled_model``):
     its case is the mean of the members' responses and damping estimates."""
-    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+    from rich.progress import SpinnerColumn, TextColumn, TimeElapsedColumn
 
     from sloshrom.beam.coupled import SimulationDivergedError, StepMismatchError
     from sloshrom.beam.results import simulate_cases
     from sloshrom.pipeline.beam import coupled_models
 
-    current: list[tuple[str, Any]] = []
-    with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
-                  transient=True) as progress:
+    current: list[tuple[str, TaskID]] = []
+    with progress_bars(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
+                       transient=True) as progress:
 
         def on_case(case: str) -> None:
             if current:

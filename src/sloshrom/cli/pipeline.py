@@ -16,6 +16,7 @@ import typer
 
 if TYPE_CHECKING:  # rich loads at the command, not at --help
     from rich.console import Console
+    from rich.progress import TaskID
 
 from sloshrom.cli._app import (
     app,
@@ -25,6 +26,7 @@ from sloshrom.cli._app import (
     check_sloshing_rom,
     fail,
 )
+from sloshrom.cli.progress import progress_bars, stage_events
 from sloshrom.config import Tank
 from sloshrom.errors import SloshromError
 from sloshrom.limits import MAX_SEED
@@ -104,7 +106,7 @@ def reproduce(
     Example: ``sloshrom reproduce --out results --quick``
     """
     from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 
     from sloshrom.pipeline import run
     from sloshrom.pipeline.chain import RESULT_ENTRIES
@@ -120,10 +122,11 @@ def reproduce(
     # the configuration is protected from every file the run writes, not only from --out
     check_out(out, directory=True, inputs=(config,), contents=RESULT_ENTRIES)
     console = Console(stderr=True)
-    tasks: dict[str, int] = {}
-    with Progress(TextColumn("[bold]{task.fields[stage]:<7}"), BarColumn(),
-                  TextColumn("{task.description}"), TimeElapsedColumn(),
-                  console=console) as prog:
+    tasks: dict[str, TaskID] = {}
+    # without a terminal: a log line per stage start and end, progress every 30 s at most
+    with progress_bars(TextColumn("[bold]{task.fields[stage]:<7}"), BarColumn(),
+                       TextColumn("{task.description}"), TimeElapsedColumn(),
+                       console=console) as prog:
 
         def report(stage: str, done: float, total: float, text: str) -> None:
             if stage not in tasks:
@@ -131,7 +134,7 @@ def reproduce(
             prog.update(tasks[stage], completed=done, total=total, description=text)
 
         try:
-            summary = run(out, cfg, progress=report)
+            summary = run(out, cfg, progress=report, on_stage=stage_events(prog))
         except (SloshromError, OSError) as exc:  # user input or disk, not a bug: one line
             prog.stop()
             fail(str(exc))
@@ -211,12 +214,10 @@ def map_cmd(
         title = f"ROM {model.name}"
     if fill is not None:
         title += f", fill {tank.fill:.1%}"
-    from rich.progress import Progress
-
     from sloshrom.energy import map_fidelity, map_maximum
     from sloshrom.pipeline.maps import compute_map, fidelity_lines, write_map
 
-    with Progress(transient=True) as prog:
+    with progress_bars(transient=True) as prog:
         task = prog.add_task("harmonic tests", total=n_omega)
         da = compute_map(sm, cfg, tank, lambda d, t: prog.update(task, completed=d, total=t))
     fid = map_fidelity(ref, da) if ref is not None else None

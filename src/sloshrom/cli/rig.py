@@ -20,6 +20,7 @@ import typer
 
 from sloshrom import __version__
 from sloshrom.cli._app import app, check_input, check_number, check_out, fail, warn
+from sloshrom.cli.progress import progress_bars
 from sloshrom.config import G, Tank
 from sloshrom.errors import SloshromError
 from sloshrom.io import Record, record_from_measurement, write_record
@@ -99,9 +100,9 @@ def _provenance(kind: str, signal: dict[str, Any], rig: VirtualRig) -> dict[str,
 
 def _run(rig: VirtualRig, acceleration: np.ndarray, tank: Tank, truth: bool, label: str,
          **attrs: Any) -> Record:
-    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+    from rich.progress import SpinnerColumn, TextColumn, TimeElapsedColumn
 
-    with Progress(
+    with progress_bars(
         SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), transient=True
     ) as progress:
         progress.add_task(label, total=None)

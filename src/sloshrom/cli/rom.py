@@ -12,6 +12,7 @@ from __future__ import annotations
 import functools
 import inspect
 import os
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -19,6 +20,7 @@ import numpy as np
 import typer
 
 from sloshrom.cli._app import app, check_input, check_number, check_out, fail
+from sloshrom.cli.progress import progress_bars
 from sloshrom.config import FILL_TOLERANCE
 from sloshrom.errors import SloshromError
 from sloshrom.io import STANDARD_UNITS, read_record, same_unit, write_record
@@ -31,6 +33,7 @@ from sloshrom.limits import (
     MAX_SEED,
     MAX_WEIGHTS,
 )
+from sloshrom.rom.epochs import TrainingProgress
 from sloshrom.rom.registry import CLASSES, Hyper, ModelClass, model_class
 
 __all__ = ["predict", "sweep", "train"]
@@ -302,7 +305,7 @@ def _train(**kw: Any) -> None:
     if len(val) <= history:
         fail(f"{validation}: {len(val)} samples are too few for {history} samples of history "
              f"({label})")
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 
     try:
         model = mc.estimator_class()(**hyper, units=units, names=(input_name, output_name))
@@ -315,16 +318,15 @@ def _train(**kw: Any) -> None:
                         workers, fill, label)
         return
     epochs = int(hyper.get("max_epochs", 0))
-    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[info]}"),
-                  TimeElapsedColumn()) as progress:
+    # epoch, errors (and Levenberg-Marquardt's damping mu) and an upper bound of the time left
+    pace = TrainingProgress(epochs, unit=f"{rec.units[output_name]}^2")
+    with progress_bars(TextColumn("{task.description}"), BarColumn(),
+                       TextColumn("{task.fields[info]}"), TimeElapsedColumn()) as progress:
         task = progress.add_task(f"training {mc.class_name}", total=epochs, info="")
 
         def cb(epoch: int, info: dict[str, float]) -> None:
-            # Levenberg–Marquardt reports its damping mu; Adam has none
-            mu = f" mu {info['mu']:.1e}" if "mu" in info else ""
-            progress.update(task, completed=epoch,
-                            info=f"epoch {epoch} train {info['train_mse']:.4g} "
-                                 f"val {info['val_mse']:.4g}{mu}")
+            pace.epoch(epoch, info)
+            progress.update(task, completed=epoch, info=pace.text())
 
         try:
             model.fit(rec[input_name], rec[output_name], fs=rec.fs,
@@ -403,23 +405,34 @@ def _train_ensemble(template: Any, k: int, rec: Any, val: Any, input_name: str,
                     fill: float | None, label: str) -> None:
     """``train --ensemble K``: K members through Dask, one file, per-member validation MSE;
     ``label`` names the members' architecture (``NFIR(70, 35)``)."""
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.progress import BarColumn, MofNCompleteColumn, TextColumn, TimeElapsedColumn
 
     from sloshrom.rom.ensemble import Ensemble, spread
 
     ens = Ensemble(template, n_members=k)
     arch = label.split("(")[0]
-    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                  TextColumn("{task.fields[info]}"), TimeElapsedColumn()) as progress:
+    # the members' epochs come from the workers (sloshrom.rom.epochs); members at once: the
+    # workers, one in this process for "sequential"
+    pace = TrainingProgress(int(template.get_params().get("max_epochs", 0)), members=k,
+                            concurrent=1 if scheduler == "sequential" else workers,
+                            unit=f"{rec.units[output_name]}^2")
+    with progress_bars(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                       TextColumn("{task.fields[info]}"), TimeElapsedColumn()) as progress:
         task = progress.add_task(f"training {k} x {arch}", total=k, info="")
 
         def cb(i: int, member: Any) -> None:
-            progress.update(task, advance=1, info=f"member {i} (seed {member.seed}) done")
+            pace.finished(i)
+            progress.update(task, advance=1, info=f"member {i} (seed {member.seed}) done; "
+                                                  f"{pace.text()}")
+
+        def epoch_cb(i: int, epoch: int, info: Mapping[str, float]) -> None:
+            if pace.epoch(epoch, info, member=i):
+                progress.update(task, info=pace.text())
 
         try:
             ens.fit(rec[input_name], rec[output_name], fs=rec.fs,
                     validation=(val[input_name], val[output_name]), scheduler=scheduler,
-                    n_workers=workers, progress=cb, fill=fill)
+                    n_workers=workers, progress=cb, epoch_progress=epoch_cb, fill=fill)
         except SloshromError as exc:  # ROMError (a constant record, ...), UnstableModelError
             fail(str(exc))
     try:
@@ -595,13 +608,7 @@ def sweep(
     check_out(out, directory=True, inputs=(data, validation), contents=written)
     rec, val = _read_pair(data, validation, [input_name, output_name])
 
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-    )
+    from rich.progress import BarColumn, MofNCompleteColumn, TextColumn, TimeElapsedColumn
 
     from sloshrom.plotting.rom import plot_sweep
     from sloshrom.rom.sweep import run_sweep
@@ -610,8 +617,8 @@ def sweep(
         big = [p for p in pts if p[0] == a]
         _check_length(rec, data, a, max(p[1] for p in big), max(p[2] for p in big),
                       "the largest network of the grid")
-    with Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(),
-                  TextColumn("{task.fields[info]}"), TimeElapsedColumn()) as progress:
+    with progress_bars(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(),
+                       TextColumn("{task.fields[info]}"), TimeElapsedColumn()) as progress:
         task = progress.add_task("sweep", total=len(pts), info="")
 
         def cb(row: dict[str, Any]) -> None:

@@ -27,8 +27,7 @@ from __future__ import annotations
 import functools
 import json
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -37,12 +36,20 @@ from sloshrom import studies as registry
 from sloshrom.fileio import atomic_write_text
 from sloshrom.pipeline.beam import stage_beam
 from sloshrom.pipeline.cache import StageCache, StageResult
-from sloshrom.pipeline.context import Context, Progress, check_rig_tanks, quiet
+from sloshrom.pipeline.context import (
+    Context,
+    Progress,
+    StageEvents,
+    check_rig_tanks,
+    no_events,
+    quiet,
+)
 from sloshrom.pipeline.data import stage_data
 from sloshrom.pipeline.maps import stage_maps
 from sloshrom.pipeline.report import write_report
 from sloshrom.pipeline.rom import stage_rom, stage_sweep, sweep_keys
 from sloshrom.pipeline.settings import ReproduceConfig, validate
+from sloshrom.pipeline.study import StageRecord
 from sloshrom.rom.registry import CLASSES
 
 __all__ = ["RESULT_ENTRIES", "identify", "run"]
@@ -55,11 +62,20 @@ RESULT_ENTRIES = ("report.html", "summary.json", ".stages/", "data/", "sweep/", 
                   *(d for study in registry.registered() for d in study.directories))
 
 
-@contextmanager
-def _timer(ctx: Context, name: str) -> Iterator[None]:
+def _stage(ctx: Context, cache: StageCache, name: str, config: object,
+           depends: list[StageResult], func: Callable[[], StageRecord]) -> StageResult:
+    """``cache.run`` of stage ``name``, timed in ``ctx.timings``; ``ctx.on_stage`` is told when
+    it starts (only if it runs) and when it is done or reused."""
+
+    def started() -> StageRecord:
+        ctx.on_stage(name, "start", 0.0)
+        return func()
+
     t0 = time.perf_counter()
-    yield
+    result = cache.run(name, config, depends, started, __version__)
     ctx.timings[name] = time.perf_counter() - t0
+    ctx.on_stage(name, "reused" if result.reused else "done", ctx.timings[name])
+    return result
 
 
 def rom_stage_keys(rom: dict[str, Any]) -> dict[str, Any]:
@@ -82,29 +98,19 @@ def identify(ctx: Context, cache: StageCache | None = None) -> dict[str, StageRe
     # a structure-designed training depends on the beam tests it is designed from
     data_tables = ("tank", "rig", "data") + (("beam",) if cfg.data.design != "shaker"
                                              else ())
-    with _timer(ctx, "data"):
-        results["data"] = cache.run(
-            "data", cfg.tables(*data_tables), [],
-            lambda: stage_data(ctx), __version__,
-        )
+    results["data"] = _stage(ctx, cache, "data", cfg.tables(*data_tables), [],
+                             lambda: stage_data(ctx))
     rom = cfg.tables("rom")["rom"]
     if cfg.rom.sweep:
-        with _timer(ctx, "sweep"):
-            results["sweep"] = cache.run(
-                "sweep", sweep_keys(rom), [results["data"]],
-                lambda: stage_sweep(ctx, results["data"]), __version__,
-            )
-    rom_keys = rom_stage_keys(rom)
-    with _timer(ctx, "rom"):
-        results["rom"] = cache.run(
-            "rom", rom_keys, [results["data"]], lambda: stage_rom(ctx, results["data"]),
-            __version__
-        )
+        results["sweep"] = _stage(ctx, cache, "sweep", sweep_keys(rom), [results["data"]],
+                                  lambda: stage_sweep(ctx, results["data"]))
+    results["rom"] = _stage(ctx, cache, "rom", rom_stage_keys(rom), [results["data"]],
+                            lambda: stage_rom(ctx, results["data"]))
     return results
 
 
 def run(out: str | Path, cfg: ReproduceConfig | dict[str, Any],
-        progress: Progress = quiet) -> dict[str, Any]:
+        progress: Progress = quiet, on_stage: StageEvents = no_events) -> dict[str, Any]:
     """Run every stage, reuse cached ones, write the report and the summary; return it.
 
     Parameters
@@ -116,6 +122,9 @@ def run(out: str | Path, cfg: ReproduceConfig | dict[str, Any],
         code (validated here).
     progress : callable
         ``progress(stage, done, total, text)``, called as the stages advance.
+    on_stage : callable
+        ``on_stage(stage, event, seconds)`` as each stage starts, ends or is reused
+        (:data:`~sloshrom.pipeline.context.StageEvents`), the report (``"report"``) too.
 
     Returns
     -------
@@ -138,33 +147,24 @@ def run(out: str | Path, cfg: ReproduceConfig | dict[str, Any],
     studies = [s for s in registry.registered() if s.enabled(cfg)]
     for study in studies:  # the studies' own checks, before any stage
         study.check(cfg)
-    ctx = Context(Path(out), cfg, progress)
+    ctx = Context(Path(out), cfg, progress, on_stage=on_stage)
     ctx.out.mkdir(parents=True, exist_ok=True)
     cache = StageCache(ctx.out)
     results = identify(ctx, cache)
     rom = results["rom"]
     rom_path = rom.output(rom.outputs["model"])  # the model file, as the rom stage recorded it
     deps = [results["data"], results["rom"]]
-    with _timer(ctx, "maps"):
-        results["maps"] = cache.run(
-            "maps", cfg.tables("tank", "rig", "map"), deps,
-            lambda: stage_maps(ctx, rom_path), __version__,
-        )
-    with _timer(ctx, "beam"):
-        results["beam"] = cache.run(
-            "beam", cfg.tables("tank", "rig", "beam"), deps,
-            lambda: stage_beam(ctx, rom_path), __version__,
-        )
+    results["maps"] = _stage(ctx, cache, "maps", cfg.tables("tank", "rig", "map"), deps,
+                             lambda: stage_maps(ctx, rom_path))
+    results["beam"] = _stage(ctx, cache, "beam", cfg.tables("tank", "rig", "beam"), deps,
+                             lambda: stage_beam(ctx, rom_path))
 
     for study in studies:
         # the upstream results in the order the study declares: the order of its cache key
         upstream = {name: results[name] for name in study.after}
-        with _timer(ctx, study.name):
-            results[study.name] = cache.run(
-                study.name, study.cache_config(cfg), list(upstream.values()),
-                functools.partial(study.run, ctx, upstream, identify),
-                __version__,
-            )
+        results[study.name] = _stage(ctx, cache, study.name, study.cache_config(cfg),
+                                     list(upstream.values()),
+                                     functools.partial(study.run, ctx, upstream, identify))
 
     summary = {
         "sloshrom_version": __version__,
@@ -172,6 +172,10 @@ def run(out: str | Path, cfg: ReproduceConfig | dict[str, Any],
         "stages": {k: {"reused": r.reused, **r.outputs} for k, r in results.items()},
         "timings_s": ctx.timings,
     }
+    # not a cached stage, and not in the timings the summary already holds: told, not timed
+    on_stage("report", "start", 0.0)
+    t0 = time.perf_counter()
     write_report(ctx, summary)
     atomic_write_text(ctx.out / "summary.json", json.dumps(summary, indent=1, default=float))
+    on_stage("report", "done", time.perf_counter() - t0)
     return summary

@@ -11,14 +11,23 @@ from sloshrom.config import ConfigError, Tank
 from sloshrom.pipeline.settings import ReproduceConfig, validate
 from sloshrom.rig.virtual import RigParams, SensorParams, VirtualRig
 
-__all__ = ["Context", "Progress", "check_rig_tanks", "quiet"]
+__all__ = ["Context", "Progress", "StageEvents", "check_rig_tanks", "no_events", "quiet"]
 
 #: Called as ``progress(stage, done, total, text)``; the CLI turns it into progress bars.
 Progress = Callable[[str, float, float, str], None]
 
+#: Called as ``on_stage(stage, event, seconds)``: ``event`` is ``"start"`` (the stage runs;
+#: seconds 0), ``"done"`` (it finished; its wall time) or ``"reused"`` (found in the cache;
+#: the time to check it). The CLI logs them when its output is not a terminal.
+StageEvents = Callable[[str, str, float], None]
+
 
 def quiet(stage: str, done: float, total: float, text: str) -> None:
     """A :data:`Progress` that reports nothing."""
+
+
+def no_events(stage: str, event: str, seconds: float) -> None:
+    """A :data:`StageEvents` that reports nothing."""
 
 
 @dataclass
@@ -36,12 +45,15 @@ class Context:
         Progress callback.
     timings : dict
         Stage name -> wall time, s (filled by :func:`sloshrom.pipeline.run`).
+    on_stage : StageEvents
+        Told when each stage starts and ends, or is reused.
     """
 
     out: Path
     cfg: ReproduceConfig
     progress: Progress = quiet
     timings: dict[str, float] = field(default_factory=dict)
+    on_stage: StageEvents = no_events
 
     def __post_init__(self) -> None:
         if isinstance(self.cfg, dict):  # built in code: typed here

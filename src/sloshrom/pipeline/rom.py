@@ -21,6 +21,7 @@ from sloshrom.pipeline.waveform import validation_fidelity
 from sloshrom.plotting import savefig
 from sloshrom.plotting.rom import plot_sweep, validation_figure
 from sloshrom.rom.ensemble import Ensemble, is_ensemble, spread
+from sloshrom.rom.epochs import TrainingProgress
 from sloshrom.rom.registry import CLASSES
 from sloshrom.rom.sweep import run_sweep
 
@@ -186,18 +187,32 @@ def _train(ctx: Context, model: Any, name: str, epochs: int, k_members: int, wor
     """Fit ``model`` (an ensemble of ``k_members`` of it if > 1) on ``records`` = (u, y, u
     validation, y validation); the fitted model, its name and the training time, s."""
     u, y, uv, yv = records
+    # epoch, errors and time left of the training (of every member of an ensemble)
+    pace = TrainingProgress(epochs, members=k_members, concurrent=workers, unit="N^2")
+    what = f"training {name}" if k_members == 1 else f"training {k_members} x {name}"
 
-    def cb(epoch: int, *args: Any, **kwargs: Any) -> None:
-        ctx.progress("rom", epoch, epochs, f"training {name}, epoch {epoch}")
+    def show() -> None:
+        ctx.progress("rom", pace.done, max(pace.total, 1), f"{what}: {pace.text()}")
+
+    def cb(epoch: int, info: Mapping[str, float]) -> None:
+        pace.epoch(epoch, info)
+        show()
+
+    def member_epoch(k: int, epoch: int, info: Mapping[str, float]) -> None:
+        if pace.epoch(epoch, info, member=k):  # (not a late file of a finished member)
+            show()
+
+    def member_done(k: int, member: object) -> None:
+        pace.finished(k)
+        show()
 
     t0 = time.perf_counter()
+    ctx.progress("rom", 0, max(pace.total, 1), what)
     if k_members > 1:
-        ctx.progress("rom", 0, k_members, f"training {k_members} x {name}")
         model = Ensemble(model, n_members=k_members).fit(
             u, y, fs=fs, validation=(uv, yv),
             scheduler="sequential" if workers == 1 else None, n_workers=workers,
-            progress=lambda k, m: ctx.progress("rom", k + 1, k_members, f"member {k} done"),
-            fill=fill)
+            progress=member_done, epoch_progress=member_epoch, fill=fill)
         name = f"{name} x {k_members}"
     else:
         model.fit(u, y, fs=fs, validation=(uv, yv), callback=cb, fill=fill)

@@ -35,6 +35,7 @@ import numpy as np
 
 from sloshrom import __version__
 from sloshrom.models import EnvelopeWarning, check_envelope, envelope_union, model_input
+from sloshrom.rom.epochs import EpochFile, EpochReport, epoch_reports
 from sloshrom.rom.errors import NotFittedError, ROMError
 from sloshrom.rom.family import check_training_fill
 from sloshrom.rom.modelfile import (
@@ -111,13 +112,18 @@ def _fit_member(
     params: dict[str, Any],
     fs: float,
     fill: float | None = None,
+    epochs_dir: str | None = None,
 ) -> Any:
-    """Train member ``k`` with ``seed`` (``item = (k, seed)``): a task of :func:`run_tasks`."""
-    _, seed = item
+    """Train member ``k`` with ``seed`` (``item = (k, seed)``): a task of :func:`run_tasks`.
+
+    ``epochs_dir``: where the member writes its latest epoch (:class:`~sloshrom.rom.epochs.
+    EpochFile`), read by the parent process (:func:`~sloshrom.rom.epochs.epoch_reports`)."""
+    k, seed = item
     model = cls(**params)
     model.set_params(seed=seed)
     validation = (val_u, val_y) if val_u.size else None
-    return model.fit(u, y, fs=fs, validation=validation, fill=fill)
+    callback = EpochFile(epochs_dir, k) if epochs_dir is not None else None
+    return model.fit(u, y, fs=fs, validation=validation, callback=callback, fill=fill)
 
 
 @jax.tree_util.register_pytree_node_class
@@ -237,6 +243,7 @@ class Ensemble:
         n_workers: int = 2,
         progress: Callable[[int, Any], Any] | None = None,
         fill: float | None = None,
+        epoch_progress: EpochReport | None = None,
     ) -> Ensemble:
         """Train the K members on the same record, in parallel.
 
@@ -259,6 +266,12 @@ class Ensemble:
         fill : float, optional
             Fill level d/h (-) of the training record, recorded in every member's envelope
             (:meth:`sloshrom.rom.NFIR.fit`).
+        epoch_progress : callable, optional
+            ``epoch_progress(k, epoch, info)`` with member k's latest epoch and its training
+            callback's ``info`` (``train_mse``, ``val_mse``, ``seconds``, ...), about once a
+            second per member, from a thread of this process (:func:`sloshrom.rom.epochs.
+            epoch_reports`: the members, in worker processes or not, write it to files). A
+            worker on another machine reports nothing before its member finishes.
 
         Returns
         -------
@@ -291,12 +304,14 @@ class Ensemble:
             if vu.size == 0:
                 raise ROMError("validation record is empty")
         fill = check_training_fill(fill)
-        members = run_tasks(
-            _fit_member, list(enumerate(seeds)), shared=(u, y, vu, vy),
-            args=(type(self.template), self.template.get_params(), float(fs), fill),
-            scheduler=scheduler, n_workers=n_workers,
-            done=None if progress is None else progress,
-        )
+        with epoch_reports(epoch_progress) as epochs_dir:
+            members = run_tasks(
+                _fit_member, list(enumerate(seeds)), shared=(u, y, vu, vy),
+                args=(type(self.template), self.template.get_params(), float(fs), fill,
+                      epochs_dir),
+                scheduler=scheduler, n_workers=n_workers,
+                done=None if progress is None else progress,
+            )
         self._set_members(members)
         return self
 
