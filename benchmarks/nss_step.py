@@ -1,13 +1,15 @@
-"""The state-space ROM's training step against the hardware: the compiled loops that run it
-(``sloshrom.rom.fused``) against XLA's small products, in the same run, on one core.
+"""The state-space ROM's training step against the hardware: the trainer's (XLA's small products)
+against the compiled loops of ``benchmarks/nss_kernel.py`` (a lever measured and not adopted),
+in the same run, on one core.
 
 For the default recipe (NSS(8, 64), strictly proper, batch 128 + 24 passivity probes, horizon
 200, the passive loss terms, the Galilean augmentation) on the default records
 (``results/data`` of ``make reproduce``, else the rig's VFA tests), prints per Adam step:
 
+- that the compiled loops' loss and gradient are the trainer's (relative difference, float32);
 - the time of an epoch of ``--steps`` Adam steps (the median of ``--repeats`` epochs after the
-  first, which compiles), with the simulation run by the compiled loops (the trainer's) and by
-  XLA (``jax.lax.scan`` over the model's products: the trainer before);
+  first, which compiles), with the simulation run by XLA (``jax.lax.scan`` over the model's
+  products: the trainer's) and by the compiled loops;
 - the step's FLOPs counted from the architecture (as ``benchmarks/train_speed.py``: forward and
   backward products, 3x the forward; tanh not counted) and their rate;
 - the float32 peak of one core (a 2048^2 product, timed in the same run) and the step's
@@ -23,7 +25,6 @@ import argparse
 import os
 import sys
 import time
-import types
 from pathlib import Path
 
 import jax
@@ -31,7 +32,8 @@ import jax.numpy as jnp
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from sloshrom.rom import NSS, fused  # noqa: E402
+import nss_kernel  # noqa: E402
+from sloshrom.rom import NSS  # noqa: E402
 from sloshrom.rom import statespace as ss  # noqa: E402
 from sloshrom.rom.engine import epoch_program  # noqa: E402
 from sloshrom.rom.network import MinMaxScaler  # noqa: E402
@@ -40,16 +42,27 @@ from sloshrom.signals import power_band  # noqa: E402
 from train_speed import nss_flops, peak_rate, records  # noqa: E402
 
 
-def xla_simulate(weights, f0, c0, x0, u):
-    """The same simulation as XLA's scan of small products (the trainer's before)."""
-    p = dict(zip(fused.WEIGHT_NAMES, weights, strict=True))
+def loops_simulate(p, x0, u_s, r_u, r_y, unroll=1):
+    """``statespace.ss_simulate``'s signature (the outputs only), run by the compiled loops."""
+    f0, h0 = ss._rest_terms(p, r_u, p["A"].shape[1])
+    y = nss_kernel.simulate([p[k] for k in nss_kernel.WEIGHT_NAMES], f0, r_y - h0, x0, u_s.T)
+    return None, y.T
 
-    def body(x, uk):
-        z = jnp.concatenate([x, uk[:, None]], axis=-1)
-        return (x + z @ p["A"] + jnp.tanh(z @ p["W1"] + p["b1"]) @ p["W2"] - f0,
-                z @ p["C"] + jnp.tanh(z @ p["V1"] + p["d1"]) @ p["V2"] + c0)
 
-    return jax.lax.scan(body, x0, u.T)[1].T
+def problem(sim, spec, u, y, fs, scaler, opts):
+    """The trainer's multiple-shooting problem, its simulation run by ``sim``."""
+    xla = ss.ss_simulate
+    ss.ss_simulate = sim  # read when the loss is traced: swapped back after the first epoch
+    try:
+        pr = ss.shooting_problem(spec, u, y, fs, scaler, None, opts, 0)
+        ep = epoch_program(pr.loss, pr.optimizer)
+        draws = tuple(jnp.asarray(a) for a in pr.draw(np.random.default_rng(99)))
+        jax.block_until_ready(ep(pr.params0, pr.optimizer.init(pr.params0), draws)[2])
+        (value, _), grad = jax.value_and_grad(pr.loss, has_aux=True)(
+            pr.params0, *(a[0] for a in draws))
+    finally:
+        ss.ss_simulate = xla
+    return pr, ep, float(value), grad
 
 
 def main() -> None:
@@ -69,17 +82,15 @@ def main() -> None:
                            frequency_band=(band[0], band[1]), velocity_offset=0.5)
     scaler = MinMaxScaler.fit(u, y)
     print(f"records: {source}; cores usable: {len(os.sched_getaffinity(0))}", flush=True)
-    progs = {}
+    progs, checks = {}, {}
     with jax.enable_x64(True):
-        for name, sim in (("compiled loops", fused.simulate), ("XLA", xla_simulate)):
-            # the problem traces the module's `fused.simulate` when first run: swap, compile
-            ss.fused = types.SimpleNamespace(WEIGHT_NAMES=fused.WEIGHT_NAMES, simulate=sim)
-            pr = ss.shooting_problem(spec, u, y, fs, scaler, None, opts, 0)
-            ep = epoch_program(pr.loss, pr.optimizer)
-            jax.block_until_ready(ep(pr.params0, pr.optimizer.init(pr.params0),
-                                     pr.draw(np.random.default_rng(99)))[2])
-            progs[name] = (pr, ep)
-        ss.fused = fused
+        for name, sim in (("XLA (trainer)", ss.ss_simulate), ("compiled loops", loops_simulate)):
+            pr, ep, value, grad = problem(sim, spec, u, y, fs, scaler, opts)
+            progs[name], checks[name] = (pr, ep), (value, grad)
+        (v0, g0), (v1, g1) = checks.values()
+        worst = max(float(np.max(np.abs(g1[k] - g0[k])) / np.max(np.abs(g0[k]))) for k in g0)
+        print(f"the loops' loss / the trainer's - 1: {v1 / v0 - 1:.1e}; largest relative "
+              f"difference of a parameter's gradient: {worst:.1e} (float32)", flush=True)
         times: dict[str, list[float]] = {k: [] for k in progs}
         for rep in range(a.repeats):
             for name, (pr, ep) in progs.items():  # interleaved: the machine's drift hits both
@@ -96,7 +107,7 @@ def main() -> None:
         print(f"  {name:15s} {t * 1e3:7.2f} ms/step  {flops / t / 1e9:6.1f} GFLOP/s  "
               f"{t / (flops / peak):5.1f}x the peak's time  "
               f"[{', '.join(f'{x * 1e3:.1f}' for x in times[name])}]")
-    ratios = np.asarray(times["XLA"]) / np.asarray(times["compiled loops"])
+    ratios = np.asarray(times["XLA (trainer)"]) / np.asarray(times["compiled loops"])
     print(f"speed-up of the compiled loops (XLA / loops, per interleaved pair): median "
           f"{np.median(ratios):.2f} [{', '.join(f'{r:.2f}' for r in ratios)}]")
 

@@ -52,7 +52,6 @@ from jax import lax
 
 from sloshrom._x64 import float64
 from sloshrom.models import model_input
-from sloshrom.rom import fused
 from sloshrom.rom.engine import AdamProblem, adam_epochs
 from sloshrom.rom.errors import ROMError
 from sloshrom.rom.losses import TRAIN_DTYPE
@@ -379,11 +378,7 @@ def shooting_problem(
     out_map = strictly_proper if spec.proper else (lambda p: p)
 
     def simulate(p: PyTree, x0: jax.Array, uf: jax.Array) -> jax.Array:
-        # the compiled loops of sloshrom.rom.fused: the same model, twice as fast as XLA's
-        # small products (docs/performance.md)
-        q = out_map(p)
-        f0, h0 = _rest_terms(q, ru, spec.n_states)
-        return fused.simulate([q[k] for k in fused.WEIGHT_NAMES], f0, ry - h0, x0, uf)
+        return ss_simulate(out_map(p), x0, uf.T, ru, ry)[1].T
 
     def free_run(p: PyTree, uv: np.ndarray) -> np.ndarray:
         return np.asarray(ss_free_run(_as64(out_map(p)), jnp.asarray(uv)[:, None], ru,

@@ -1,11 +1,20 @@
-"""The state-space ROM's training simulation as two compiled loops: the forward run, and its
-gradient by back-propagation through time, written out.
+"""A lever measured and not adopted: the state-space ROM's training simulation as two compiled
+loops (numba), the forward run and its gradient by back-propagation through time, written out,
+called from JAX through ``jax.pure_callback`` with a custom VJP (``benchmarks/nss_step.py``
+times it against the trainer's XLA simulation).
 
-A training step of :class:`sloshrom.rom.NSS` simulates a batch of about 150 sub-sequences over
+Not adopted (docs/performance.md, "The NSS step, lever by lever"): 1.45-1.6x faster steps, but
+a Python callback inside the compiled epoch deadlocks in a Dask worker whose XLA client has one
+thread (JAX puts the callback's arguments on the CPU device, a transfer queued behind the
+program that waits for the callback). Safe only as a compiled XLA custom call (FFI), without
+Python in the step.
+
+A training step of the NSS simulates a batch of about 150 sub-sequences over
 200 samples and differentiates the simulation. XLA runs each sample of that recurrence as some
 thirty small products (152 x 9 by 9 x 64 and the like) at about 15 GFLOP/s on one core; these
 loops run the same arithmetic with the batch as the innermost, vectorised axis and no per-op
-dispatch, about twice as fast (docs/performance.md, "The NSS step, lever by lever").
+dispatch: the simulation and its gradient in about half the time, the whole Adam step 1.45-1.6x
+faster.
 
 The model is the one of :mod:`sloshrom.rom.statespace` (scaled units, ``z = [x, u]``)::
 
@@ -32,8 +41,7 @@ from typing import TYPE_CHECKING
 import jax
 import jax.numpy as jnp
 import numpy as np
-
-from sloshrom._jit import njit
+from numba import njit
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -58,7 +66,7 @@ ZERO = F32(0.0)
 
 # error_model="numpy": no ZeroDivisionError check in the division, which would keep the loops
 # from vectorising; fastmath: sums over the batch may be reassociated into vector lanes
-@njit(fastmath=True, error_model="numpy", inline="always")
+@njit(fastmath=True, error_model="numpy", inline="always", cache=True)
 def tanh32(x: np.float32) -> np.float32:
     """tanh of a float32 (rational approximation, absolute error <= 2.5e-7)."""
     x = x if x < CLAMP else CLAMP
@@ -69,7 +77,7 @@ def tanh32(x: np.float32) -> np.float32:
     return p / q
 
 
-@njit(fastmath=True, error_model="numpy", boundscheck=False)
+@njit(fastmath=True, error_model="numpy", boundscheck=False, cache=True)
 def _forward(A: np.ndarray, W1: np.ndarray, b1: np.ndarray, W2: np.ndarray, C: np.ndarray,
              V1: np.ndarray, d1: np.ndarray, V2: np.ndarray, f0: np.ndarray, c0: float,
              x0: np.ndarray, u: np.ndarray, Z: np.ndarray, H: np.ndarray, G: np.ndarray,
@@ -128,7 +136,7 @@ def _forward(A: np.ndarray, W1: np.ndarray, b1: np.ndarray, W2: np.ndarray, C: n
                 y[b] += v2 * gv
 
 
-@njit(fastmath=True, error_model="numpy", boundscheck=False)
+@njit(fastmath=True, error_model="numpy", boundscheck=False, cache=True)
 def _backward(A: np.ndarray, W1: np.ndarray, W2: np.ndarray, C: np.ndarray, V1: np.ndarray,
               V2: np.ndarray, Z: np.ndarray, H: np.ndarray, G: np.ndarray, dY: np.ndarray,
               gA: np.ndarray, gW1: np.ndarray, gb1: np.ndarray, gW2: np.ndarray,
