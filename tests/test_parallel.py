@@ -158,6 +158,23 @@ def test_plan_workers_reserves_the_cores_it_pins_to(tmp_path):
     busy = dict.fromkeys(cores, 1.0)
     placement, reservation = plan_workers(2, busy=busy, directory=tmp_path)
     assert placement.cores is None and reservation is None and placement.crowded
+    # no lock directory to use: not pinned (blind pinning could collide with another run)
+    (tmp_path / "file").write_text("")
+    placement, reservation = plan_workers(2, busy=quiet, directory=tmp_path / "file")
+    assert placement.cores is None and reservation is None and placement.crowded
+    assert placement.reason.startswith("cannot reserve cores (")
+
+
+def test_the_lock_directory_is_this_users_own(monkeypatch, tmp_path):
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))
+    path = parallel.runtime_dir()
+    assert path == tmp_path / "sloshrom" and (path.stat().st_mode & 0o777) == 0o700
+    assert parallel.runtime_dir() == path  # made once, then found
+    path.rmdir()
+    (tmp_path / "elsewhere").mkdir()
+    path.symlink_to(tmp_path / "elsewhere")  # a link planted in its place: refused
+    with pytest.raises(OSError, match="not a directory of this user"):
+        parallel.runtime_dir()
 
 
 # --- the workers' environment ----------------------------------------------------------------

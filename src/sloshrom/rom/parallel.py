@@ -414,21 +414,21 @@ def plan_workers(
         threads = max(1, len(cores) // n_workers)
         return (Placement(None, threads, f"cannot pin on this platform: {n_workers} workers "
                                          f"not pinned, {threads} thread(s) each"), None)
-    try:
-        directory = runtime_dir() if directory is None else directory
-    except OSError as e:
-        return (Placement(None, 1, f"cannot reserve cores ({e}): {n_workers} workers not "
-                                   "pinned, 1 thread each", crowded=True), None)
     if busy is None:
         busy = measure_busy()
-    for _ in range(3):
-        placement = place_workers(n_workers, cores, held_cores(cores, directory), busy)
-        if placement.cores is None:
-            return placement, None
-        reservation = reserve_cores(placement.cores, n_workers, directory)
-        if reservation.cores == placement.cores:
-            return placement, reservation
-        reservation.release()  # another run took one of them meanwhile: read again
+    try:
+        directory = runtime_dir() if directory is None else directory
+        for _ in range(3):
+            placement = place_workers(n_workers, cores, held_cores(cores, directory), busy)
+            if placement.cores is None:
+                return placement, None
+            reservation = reserve_cores(placement.cores, n_workers, directory)
+            if reservation.cores == placement.cores:
+                return placement, reservation
+            reservation.release()  # another run took one of them meanwhile: read again
+    except OSError as e:  # no lock directory of our own: pinning blind could collide
+        return (Placement(None, 1, f"cannot reserve cores ({e}): {n_workers} workers not "
+                                   "pinned, 1 thread each", crowded=True), None)
     return (Placement(None, 1, f"cores taken by other sloshrom runs while reserving: "
                                f"{n_workers} workers not pinned, 1 thread each", crowded=True),
             None)
