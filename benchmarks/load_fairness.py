@@ -5,14 +5,22 @@ What the ROM stage of ``make reproduce`` trains: the default NSS ensemble, two m
 Dask LocalCluster of two workers (:func:`sloshrom.rom.parallel.run_tasks`), shortened to
 ``--epochs`` epochs each (the recipe unchanged; the full stage runs 60). Records: those of a
 finished ``make reproduce`` (``--run``), else the rig's VFA tests (480 s / 240 s, cached in the
-temporary directory; as ``benchmarks/train_speed.py``). Timed in one run, in this order:
+temporary directory; as ``benchmarks/train_speed.py``). Timed in one run, each quiet and then
+beside ``--hogs`` CPU-bound processes (``python -c "while True: pass"``), for each behaviour
+(``--behaviours``):
 
-1. the default placement (:func:`~sloshrom.rom.parallel.plan_workers`: cores reserved, idle
-   cores only, every worker's thread pools limited to its cores), quiet;
-2. the old behaviour (each worker pinned to one of the first cores, whatever the load; no
-   thread limits but Dask's ``OMP/MKL/OPENBLAS_NUM_THREADS=1``), quiet;
-3. the default beside ``--hogs`` CPU-bound processes (``python -c "while True: pass"``);
-4. the old behaviour beside them.
+``new``
+    the default (:func:`~sloshrom.rom.parallel.plan_workers`: cores reserved, idle cores only,
+    every worker's thread pools limited to its cores; beside the hogs: not pinned);
+``old``
+    as before: each worker pinned to one of the first cores whatever the load, no cores
+    reserved, no thread limits but Dask's ``OMP/MKL/OPENBLAS_NUM_THREADS=1``;
+``pinned``
+    the default's thread limits, but pinned whatever the load (to tell the effect of pinning
+    from that of the threads).
+
+``--repeat R`` runs R rounds (the behaviours' order reversed every other round) and compares
+medians.
 
 Each line: the placement taken, the wall time of the training (the cluster's start and the
 compilation included: what the stage waits for), the steady epoch of Adam steps (the slower
@@ -27,8 +35,9 @@ The machine's own load (other users) is printed before each case (the 1-minute l
 each core's busy fraction over 0.25 s); a "quiet" case on a busy machine is not quiet, and the
 ratios drift with it: run it when the machine is otherwise idle.
 
-Run: ``.venv/bin/python benchmarks/load_fairness.py [--epochs 3] [--hogs 2] [--skip-old]``
-(about 3 min with the defaults on a 2-core machine).
+Run: ``.venv/bin/python benchmarks/load_fairness.py [--epochs 3] [--hogs 2] [--repeat 1]
+[--behaviours new old pinned]`` (about 4 min per round of the default two behaviours on a
+2-core machine).
 """
 
 from __future__ import annotations
@@ -65,18 +74,31 @@ def _fit_member(seed: int, u, y, uv, yv, fs: float, epochs: int):
     return m, ru.ru_utime + ru.ru_stime, sorted(os.sched_getaffinity(0))
 
 
+#: The behaviours timed: name -> (what it is, whether to limit the threads, whether to pin
+#: whatever the load).
+BEHAVIOURS = {
+    "new": ("the default", True, False),
+    "old": ("pinned, threads unlimited", False, True),
+    "pinned": ("pinned whatever the load, threads limited", True, True),
+}
+
+
 @contextlib.contextmanager
-def old_behaviour() -> Iterator[None]:
-    """run_tasks as before: the workers pinned to the first cores whatever the load, no cores
-    reserved, no thread limits but Dask's defaults."""
+def behaviour(name: str) -> Iterator[None]:
+    """run_tasks as the behaviour ``name`` of :data:`BEHAVIOURS`: "new" as it is; "old" as
+    before (each worker pinned to one of the first cores whatever the load, no cores reserved,
+    no thread limits but Dask's defaults); "pinned" as "new" but pinned whatever the load."""
+    _, limited, forced = BEHAVIOURS[name]
     plan, environ = par.plan_workers, par.worker_environ
 
     def pinned(n_workers, **_):
         cores = tuple(par.usable_cores()[:n_workers])
-        return par.Placement(cores, 1, f"pinned to cores {', '.join(map(str, cores))} (old)"), None
+        return par.Placement(cores, 1, "pinned to the first cores"), None
 
-    par.plan_workers = pinned
-    par.worker_environ = lambda threads, environ=None: {}
+    if forced:
+        par.plan_workers = pinned
+    if not limited:
+        par.worker_environ = lambda threads, environ=None: {}
     try:
         yield
     finally:
@@ -105,11 +127,11 @@ def machine() -> tuple[str, float]:
     return f"load {os.getloadavg()[0]:.1f}, busy {cores}", max(busy.values(), default=0.0)
 
 
-def case(data, epochs: int, old: bool, n_hogs: int) -> dict:
-    """Train the two members once; the times, the CPU and the placement."""
+def case(data, epochs: int, name: str, n_hogs: int) -> dict:
+    """Train the two members once as behaviour ``name``; the times, the CPU, the placement."""
     u, y, uv, yv, fs = data
-    label = f"{'old' if old else 'new'}, {f'beside {n_hogs} hogs' if n_hogs else 'quiet'}"
-    with hogs(n_hogs), old_behaviour() if old else contextlib.nullcontext():
+    label = f"{name}, {f'beside {n_hogs} hogs' if n_hogs else 'quiet'}"
+    with hogs(n_hogs), behaviour(name):
         before, busiest = machine()
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", par.BusyCoresNote)
@@ -135,31 +157,44 @@ def main() -> None:
                     help="a finished `make reproduce` run: its records")
     ap.add_argument("--epochs", type=int, default=3, help="epochs of each member (>= 3)")
     ap.add_argument("--hogs", type=int, default=2, help="CPU-bound processes beside it")
-    ap.add_argument("--skip-old", action="store_true", help="do not time the old behaviour")
+    ap.add_argument("--behaviours", nargs="+", choices=list(BEHAVIOURS), default=["new", "old"],
+                    help="the behaviours to time (module docstring)")
+    ap.add_argument("--repeat", type=int, default=1, help="rounds of every case (medians)")
     args = ap.parse_args()
     epochs = max(3, args.epochs)
     data, source = records(args.run)
     n_cores, n_workers = len(par.usable_cores()), 2
     print(f"records: {source}; 2 NSS members x {epochs} epochs on {n_workers} workers; "
           f"{n_cores} usable cores; {args.hogs} hogs", flush=True)
-    behaviours = [False] if args.skip_old else [False, True]
-    quiet = {old: case(data, epochs, old, 0) for old in behaviours}
-    loaded = {old: case(data, epochs, old, args.hogs) for old in behaviours}
+    names = args.behaviours
+    quiet: dict[str, list[dict]] = {n: [] for n in names}
+    loaded: dict[str, list[dict]] = {n: [] for n in names}
+    for r in range(args.repeat):
+        order = names if r % 2 == 0 else names[::-1]  # no behaviour always first
+        for n in order:
+            quiet[n].append(case(data, epochs, n, 0))
+        for n in order:
+            loaded[n].append(case(data, epochs, n, args.hogs))
     runnable = n_workers + args.hogs
     fair = max(1.0, runnable / n_cores)
     print(f"CPU share beside {args.hogs} hogs: {n_workers} workers + {args.hogs} hogs on "
           f"{n_cores} cores -> {min(1.0, n_cores / runnable):.2f} of a core each, fair "
-          f"slow-down {fair:.2f}x")
-    for old in behaviours:
-        q, lo = quiet[old], loaded[old]
-        wall, epoch = lo["wall"] / q["wall"], lo["epoch"] / q["epoch"]
-        cpu = np.mean(lo["cpu"]) / np.mean(q["cpu"])
+          f"slow-down {fair:.2f}x; medians of {args.repeat} run(s):")
+    for n in names:
+
+        def med(cases: list[dict], key: str) -> float:
+            return float(np.median([np.mean(c[key]) for c in cases]))
+
+        q, lo = quiet[n], loaded[n]
+        wall, epoch = med(lo, "wall") / med(q, "wall"), med(lo, "epoch") / med(q, "epoch")
+        cpu = med(lo, "cpu") / med(q, "cpu")
         verdict = "met" if wall <= 1.5 * fair else "NOT met"
-        name = "old (pinned, threads unlimited)" if old else "new (the default)"
-        print(f"{name}: slow-down {wall:.2f}x wall ({epoch:.2f}x per epoch) = "
-              f"{wall / fair:.2f}x the fair one (target <= 1.5x: {verdict}); worker CPU "
-              f"under load / quiet {cpu:.2f}x")
-    if any(q["busiest"] > QUIET_BELOW for q in quiet.values()):
+        print(f"{n} ({BEHAVIOURS[n][0]}): quiet {med(q, 'wall'):.1f} s, loaded "
+              f"{med(lo, 'wall'):.1f} s: slow-down {wall:.2f}x wall ({epoch:.2f}x per epoch) = "
+              f"{wall / fair:.2f}x the fair one (target <= 1.5x: {verdict}); worker CPU under "
+              f"load / quiet {cpu:.2f}x")
+    quiet_cases = [c for cs in quiet.values() for c in cs]
+    if any(q["busiest"] > QUIET_BELOW for q in quiet_cases):
         print(f"NOTE: a core was more than {QUIET_BELOW:.0%} busy before a quiet case: the "
               "machine was not quiet, the slow-downs above understate the hogs' effect")
 
