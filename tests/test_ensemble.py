@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import warnings
 
 import jax
@@ -23,7 +22,7 @@ from sloshrom.rom.ensemble import Ensemble, spread
 from sloshrom.rom.errors import EnvelopeWarning, NotFittedError, ROMError
 from sloshrom.rom.estimators import NFIR, NOE, ModelFileError
 from sloshrom.rom.onnx import onnx_model
-from sloshrom.rom.parallel import pin_workers, run_tasks, usable_cores
+from sloshrom.rom.parallel import run_tasks
 
 FS = 500.0
 
@@ -348,34 +347,3 @@ def test_an_input_that_does_not_oscillate_is_named_as_such(monkeypatch):
                                        r"changing sign\): passivity and cycle_energy"):
         NFIR(delays=4, neurons=3, passivity=1.0, cycle_energy=0.1, trainer="adam").fit(
             np.abs(u) + 0.01, y, fs=500.0)
-
-
-@pytest.mark.skipif(not hasattr(os, "sched_setaffinity") or len(usable_cores()) < 2,
-                    reason="pinning needs Linux and two cores")
-def test_local_cluster_workers_are_pinned_to_a_core_each():
-    from dask.distributed import Client, LocalCluster
-
-    # the tasks of run_tasks: the thread that runs each may use one core only
-    seen = run_tasks(os.sched_getaffinity, [0, 0, 0], n_workers=2)
-    assert all(len(s) == 1 and s <= set(usable_cores()) for s in seen), seen
-    # and the workers keep glibc's allocator as this process has it, not Dask's
-    # MALLOC_TRIM_THRESHOLD_=65536 (training steps re-faulted their buffers)
-    trim = run_tasks(os.environ.get, ["MALLOC_TRIM_THRESHOLD_"], n_workers=2)
-    assert trim == [os.environ.get("MALLOC_TRIM_THRESHOLD_")]
-    # and the two workers have a core each
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster, Client(cluster) as client:
-        cores = pin_workers(client, 2)
-        assert sorted(cores.values()) == usable_cores()[:2]
-        every_thread = client.run(_thread_affinities)
-        assert sorted(every_thread.values()) == [[c] for c in usable_cores()[:2]]
-        # more workers than cores: left to the OS
-        assert pin_workers(client, len(usable_cores()) + 1) is None
-
-
-def _thread_affinities() -> list[int]:
-    """The union of the cores every thread of this process may use."""
-    cores = set()
-    for tid in os.listdir("/proc/self/task"):
-        cores |= os.sched_getaffinity(int(tid))
-    return sorted(cores)
