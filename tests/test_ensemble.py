@@ -355,13 +355,13 @@ def test_an_input_that_does_not_oscillate_is_named_as_such(monkeypatch):
 def test_local_cluster_workers_are_pinned_to_a_core_each():
     from dask.distributed import Client, LocalCluster
 
-    # the tasks of run_tasks: the thread that runs each may use one core only
-    seen = run_tasks(os.sched_getaffinity, [0, 0, 0], n_workers=2)
-    assert all(len(s) == 1 and s <= set(usable_cores()) for s in seen), seen
+    # the tasks of run_tasks (one cluster for both checks): the thread that runs each may use
+    # one core only
+    seen = run_tasks(_affinity_and_trim, [0, 0, 0], n_workers=2)
+    assert all(len(s) == 1 and s <= set(usable_cores()) for s, _ in seen), seen
     # and the workers keep glibc's allocator as this process has it, not Dask's
     # MALLOC_TRIM_THRESHOLD_=65536 (training steps re-faulted their buffers)
-    trim = run_tasks(os.environ.get, ["MALLOC_TRIM_THRESHOLD_"], n_workers=2)
-    assert trim == [os.environ.get("MALLOC_TRIM_THRESHOLD_")]
+    assert [trim for _, trim in seen] == [os.environ.get("MALLOC_TRIM_THRESHOLD_")] * 3
     # and the two workers have a core each
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                       dashboard_address=None) as cluster, Client(cluster) as client:
@@ -371,6 +371,11 @@ def test_local_cluster_workers_are_pinned_to_a_core_each():
         assert sorted(every_thread.values()) == [[c] for c in usable_cores()[:2]]
         # more workers than cores: left to the OS
         assert pin_workers(client, len(usable_cores()) + 1) is None
+
+
+def _affinity_and_trim(pid: int) -> tuple[set[int], str | None]:
+    """The cores this thread may use, and the allocator setting its process has."""
+    return os.sched_getaffinity(pid), os.environ.get("MALLOC_TRIM_THRESHOLD_")
 
 
 def _thread_affinities() -> list[int]:
