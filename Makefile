@@ -14,6 +14,11 @@ PEERS      := .venv-peers
 PEERS_LOCK := benchmarks/peers-requirements.txt
 PYOMA      := .venv-pyoma
 PYOMA_LOCK := benchmarks/pyoma-requirements.txt
+# pytest-xdist processes of the fast tier (one a core of the 2-core machine); --dist loadfile:
+# each test file is one unit, so that module-scoped fixtures are built once (tests/conftest.py
+# also keeps together the files that share the tiny `reproduce` run)
+WORKERS    ?= 2
+XDIST      := -n $(WORKERS) --dist loadfile
 
 .PHONY: reproduce test test-other-isa test-slow test-all test-latest lint bench beyond fidelity \
 	peers pyoma lock clean
@@ -28,11 +33,12 @@ $(STAMP): $(LOCK) pyproject.toml
 reproduce: $(STAMP)
 	$(BIN)/sloshrom reproduce --out results
 
-# ruff, the fast tier, then mypy (gradual for the package, strict for the modules pyproject.toml
-# lists; cache in .mypy_cache/, git-ignored) and the type-debt counts, which may only fall
+# ruff, the fast tier (in WORKERS processes), then mypy (gradual for the package, strict for the
+# modules pyproject.toml lists; cache in .mypy_cache/, git-ignored) and the type-debt counts,
+# which may only fall
 test: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks tools
-	$(BIN)/python -m pytest -m "not slow" -q
+	$(BIN)/python -m pytest -m "not slow" -q $(XDIST)
 	$(BIN)/python -m mypy
 	$(BIN)/python tools/type_debt.py
 
@@ -121,7 +127,7 @@ test-latest:
 	$(LATEST)/bin/python -m pip install --quiet --upgrade --upgrade-strategy eager \
 		-r tools/build-requirements.in -e '.[dev]'
 	$(LATEST)/bin/python tools/lock_diff.py $(LOCK)
-	$(LATEST)/bin/python -m pytest -m "not slow" -q
+	$(LATEST)/bin/python -m pytest -m "not slow" -q $(XDIST)
 
 clean:
 	rm -rf $(VENV) $(TOOLS) $(LATEST) $(PYOMA) results .pytest_cache .mypy_cache

@@ -14,6 +14,59 @@ import pytest
 
 from helpers import TINY_REPRODUCE, make_model_files, reproduce_interrupted_then_resumed
 
+#: session fixtures too costly to build once per pytest-xdist worker
+SHARED_ON_ONE_WORKER = ("tiny_reproduce",)
+
+
+@pytest.hookimpl(optionalhook=True)  # a pytest-xdist hook: without xdist it is never called
+def pytest_xdist_make_scheduler(config, log):
+    """``--dist loadfile`` (`make test`), where the test files that use one of
+    ``SHARED_ON_ONE_WORKER`` are one unit: that fixture is built on one worker, not on each.
+
+    Every test file is one unit of work, as with xdist's own loadfile, so that a module-scoped
+    fixture is built once too. (Grouping by the ``xdist_group`` mark, ``--dist loadgroup``, does
+    nothing with pytest 9.2: pytest-xdist issue 1386.)
+    """
+    if config.getvalue("dist") != "loadfile":
+        return None
+    from xdist.scheduler import LoadFileScheduling
+
+    root = config.rootpath
+    shared = {name: {p.relative_to(root).as_posix() for p in (root / "tests").glob("test_*.py")
+                     if name in p.read_text(encoding="utf-8")}
+              for name in SHARED_ON_ONE_WORKER}
+
+    class SharedFixtureScheduling(LoadFileScheduling):
+        def _split_scope(self, nodeid):
+            path = super()._split_scope(nodeid)
+            return next((name for name, files in shared.items() if path in files), path)
+
+        def _assign_work_unit(self, node):
+            # the shared units are the largest: first, then xdist's order (most tests first)
+            for name in reversed(SHARED_ON_ONE_WORKER):
+                if name in self.workqueue:
+                    self.workqueue.move_to_end(name, last=False)
+            super()._assign_work_unit(node)
+
+    return SharedFixtureScheduling(config, log)
+
+
+def pytest_configure(config):
+    """typer's ``CliRunner.invoke`` builds the whole command tree anew on every call, and
+    reads the signature of each of the ~40 commands again (``eval`` of every annotation: about
+    60 ms a call, half the time of the bad-input suites). Read each function's signature once:
+    the commands are still built and run as the ``sloshrom`` script builds them.
+    """
+    import functools
+
+    import typer.main
+
+    read = getattr(typer.main, "get_params_from_function", None)
+    if read is None or hasattr(read, "cache_info"):
+        return
+    once = functools.lru_cache(maxsize=None)(read)
+    typer.main.get_params_from_function = lambda func: dict(once(func))
+
 
 def _frozen_arrays(obj):
     for f in dataclasses.fields(obj):

@@ -99,6 +99,25 @@ def test_metadata(tmp_path, nfir):
     assert [o.name for o in proto.graph.output] == ["dynamic_force", "u_state_out"]
 
 
+#: 5 s is enough to check the graph
+N_OTHER = 2500
+
+
+@pytest.fixture(scope="module")
+def other_models(records):
+    """Each architecture's model, fitted once for both graph forms (by class name)."""
+    train, _ = records
+    u, y = train["velocity"][:N_OTHER], train["dynamic_force"][:N_OTHER]
+    fitted = {}
+
+    def model(cls, kw):
+        if cls.__name__ not in fitted:
+            fitted[cls.__name__] = cls(max_epochs=3, seed=0, **kw).fit(u, y, fs=train.fs)
+        return fitted[cls.__name__]
+
+    return model
+
+
 @pytest.mark.parametrize(
     ("cls", "kw"),
     [(NFIR, dict(delays=[1, 2, 4, 8], neurons=5, hidden="distance")),
@@ -106,11 +125,10 @@ def test_metadata(tmp_path, nfir):
     ids=["nfir-distance", "noe"],
 )
 @pytest.mark.parametrize("form", ["step", "sequence"])
-def test_other_architectures(tmp_path, records, cls, kw, form):
-    train, val = records
-    n = 2500  # 5 s is enough to check the graph
-    model = cls(max_epochs=3, seed=0, **kw).fit(train["velocity"][:n],
-                                                train["dynamic_force"][:n], fs=train.fs)
+def test_other_architectures(tmp_path, records, other_models, cls, kw, form):
+    _, val = records
+    n = N_OTHER
+    model = other_models(cls, kw)
     u = val["velocity"][:n]
     y = run_onnx(export_onnx(model, tmp_path / "m.onnx", form=form), u)
     assert _rel(y, model.predict(u)) <= 1e-6
