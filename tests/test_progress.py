@@ -4,6 +4,7 @@ ensemble members in other processes included."""
 
 from __future__ import annotations
 
+import functools
 import io
 import multiprocessing
 import re
@@ -18,6 +19,8 @@ from typer.testing import CliRunner
 
 import sloshrom.cli.progress as progress_module
 import sloshrom.pipeline.chain as chain
+import sloshrom.rom.ensemble as ensemble_module
+import sloshrom.rom.epochs as epochs_module
 from helpers import smooth_io
 from sloshrom.cli import app
 from sloshrom.cli.progress import PlainProgress, progress_bars
@@ -328,6 +331,10 @@ def test_train_without_a_terminal_logs_the_epochs(tmp_path, monkeypatch):
 
 def test_train_ensemble_without_a_terminal_logs_its_members(tmp_path, monkeypatch):
     monkeypatch.setattr(progress_module, "EVERY", 0.0)
+    # the members' files polled every 10 ms, not every second: these members train for about
+    # a second in all, and a member done before the first poll is reported only as done
+    monkeypatch.setattr(ensemble_module, "epoch_reports",
+                        functools.partial(epochs_module.epoch_reports, interval=0.01))
     res = CliRunner().invoke(app, ["train", *_records(tmp_path), "--out",
                                    str(tmp_path / "e.npz"), "--ensemble", "2",
                                    "--scheduler", "threads"])
