@@ -19,8 +19,9 @@ beside ``--hogs`` CPU-bound processes (``python -c "while True: pass"``), for ea
     the default's thread limits, but pinned whatever the load (to tell the effect of pinning
     from that of the threads).
 
-``--repeat R`` runs R rounds (the behaviours' order reversed every other round) and compares
-medians.
+``--hogs-on CORE`` pins the hogs to one core, as the workers of another run pinned there (a
+second ``make reproduce``, the tests) would be. ``--repeat R`` runs R rounds (the behaviours'
+order reversed every other round) and compares medians.
 
 Each line: the placement taken, the wall time of the training (the cluster's start and the
 compilation included: what the stage waits for), the steady epoch of Adam steps (the slower
@@ -35,9 +36,9 @@ The machine's own load (other users) is printed before each case (the 1-minute l
 each core's busy fraction over 0.25 s); a "quiet" case on a busy machine is not quiet, and the
 ratios drift with it: run it when the machine is otherwise idle.
 
-Run: ``.venv/bin/python benchmarks/load_fairness.py [--epochs 3] [--hogs 2] [--repeat 1]
-[--behaviours new old pinned]`` (about 4 min per round of the default two behaviours on a
-2-core machine).
+Run: ``.venv/bin/python benchmarks/load_fairness.py [--epochs 3] [--hogs 2] [--hogs-on CORE]
+[--repeat 1] [--behaviours new old pinned]`` (about 4 min per round of the default two
+behaviours on a 2-core machine).
 """
 
 from __future__ import annotations
@@ -106,11 +107,14 @@ def behaviour(name: str) -> Iterator[None]:
 
 
 @contextlib.contextmanager
-def hogs(n: int) -> Iterator[None]:
+def hogs(n: int, core: int | None = None) -> Iterator[None]:
     """``n`` CPU-bound processes for the duration (started 1 s before: the load is there when
-    the placement reads the cores)."""
+    the placement reads the cores), pinned to ``core`` if given."""
     procs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(n)]
     try:
+        for p in procs:
+            if core is not None:
+                os.sched_setaffinity(p.pid, {core})
         time.sleep(1.0 if n else 0.0)
         yield
     finally:
@@ -127,11 +131,12 @@ def machine() -> tuple[str, float]:
     return f"load {os.getloadavg()[0]:.1f}, busy {cores}", max(busy.values(), default=0.0)
 
 
-def case(data, epochs: int, name: str, n_hogs: int) -> dict:
-    """Train the two members once as behaviour ``name``; the times, the CPU, the placement."""
+def case(data, epochs: int, name: str, n_hogs: int, core: int | None = None) -> dict:
+    """Train the two members once as behaviour ``name``, beside ``n_hogs`` hogs (pinned to
+    ``core`` if given); the times, the CPU, the placement."""
     u, y, uv, yv, fs = data
     label = f"{name}, {f'beside {n_hogs} hogs' if n_hogs else 'quiet'}"
-    with hogs(n_hogs), behaviour(name):
+    with hogs(n_hogs, core), behaviour(name):
         before, busiest = machine()
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", par.BusyCoresNote)
@@ -157,6 +162,8 @@ def main() -> None:
                     help="a finished `make reproduce` run: its records")
     ap.add_argument("--epochs", type=int, default=3, help="epochs of each member (>= 3)")
     ap.add_argument("--hogs", type=int, default=2, help="CPU-bound processes beside it")
+    ap.add_argument("--hogs-on", type=int, default=None, metavar="CORE",
+                    help="pin the hogs to this core (as the pinned workers of another run)")
     ap.add_argument("--behaviours", nargs="+", choices=list(BEHAVIOURS), default=["new", "old"],
                     help="the behaviours to time (module docstring)")
     ap.add_argument("--repeat", type=int, default=1, help="rounds of every case (medians)")
@@ -174,10 +181,11 @@ def main() -> None:
         for n in order:
             quiet[n].append(case(data, epochs, n, 0))
         for n in order:
-            loaded[n].append(case(data, epochs, n, args.hogs))
+            loaded[n].append(case(data, epochs, n, args.hogs, args.hogs_on))
     runnable = n_workers + args.hogs
     fair = max(1.0, runnable / n_cores)
-    print(f"CPU share beside {args.hogs} hogs: {n_workers} workers + {args.hogs} hogs on "
+    where = "" if args.hogs_on is None else f" (pinned to core {args.hogs_on})"
+    print(f"CPU share beside {args.hogs} hogs{where}: {n_workers} workers + {args.hogs} hogs on "
           f"{n_cores} cores -> {min(1.0, n_cores / runnable):.2f} of a core each, fair "
           f"slow-down {fair:.2f}x; medians of {args.repeat} run(s):")
     for n in names:
