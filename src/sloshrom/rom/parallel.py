@@ -29,8 +29,10 @@ cores"). So, on Linux, with at least two workers:
   :data:`BUSY_INTERVAL` s just before the cluster starts (:func:`measure_busy`); a core busy
   above :data:`BUSY_ABOVE` is not free. When fewer cores are free than workers, the workers are
   not pinned (a pinned worker cannot move away from the processes that load its core; unpinned,
-  the OS balances them with the others) and a :class:`BusyCoresNote` says so in one line. The
-  decision itself is the pure function :func:`place_workers`.
+  the OS balances them with the others) and a :class:`BusyCoresNote` says so in one line.
+  Beside two processes pinned to core 0, the ROM stage's two members took 1.8x their quiet
+  time so, against 2.9x pinned to cores 0 and 1 (fair: 2x; ``benchmarks/load_fairness.py``).
+  The decision itself is the pure function :func:`place_workers`.
 - **As many threads as cores.** Every worker's thread pools are limited to the cores it owns
   (one when pinned), through the environment it is started with, before it loads NumPy, numba
   or JAX (:func:`worker_environ`): OpenBLAS, MKL and OpenMP, numba, XLA's CPU thread pools
