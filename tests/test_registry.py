@@ -30,8 +30,11 @@ def test_every_class_names_its_estimator_and_its_arrays():
         assert est.model_class is mc and est.__name__ == mc.class_name
         params = set(est().get_params()) - {"units", "names"}
         assert params == {h.name for h in mc.hyper}, name  # one name everywhere
+        # a hyperparameter sized by the record is None (its default on a long record)
         assert est().get_params() | {} and all(
-            getattr(est(), h.name) == h.default for h in mc.hyper), name
+            getattr(est(), h.name) == (None if h.name in mc.sized_by_record else h.default)
+            for h in mc.hyper), name
+        assert est().effective_params() | {} == {**est().get_params(), **mc.defaults()}
         assert mc.n_params(mc.defaults()) == sum(
             int(np.prod(s)) for s in mc.shapes(mc.defaults()).values())
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import functools
 import inspect
 import os
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated, Any
@@ -34,6 +35,7 @@ from sloshrom.limits import (
     MAX_WEIGHTS,
 )
 from sloshrom.rom.epochs import TrainingProgress
+from sloshrom.rom.errors import ModelSizeWarning
 from sloshrom.rom.registry import CLASSES, Hyper, ModelClass, model_class
 
 __all__ = ["predict", "sweep", "train"]
@@ -270,7 +272,15 @@ def _train(**kw: Any) -> None:
     check_out(out, suffixes=(".npz",), inputs=(data, validation))
     rec, val = _read_pair(data, validation, [input_name, output_name])
     fill = _training_fill(fill, rec, data, val, validation)
-    hyper = {**mc.defaults(), **given}
+    # the options not given that the class sizes by the record's length (an NSS's size and
+    # recipe: the defaults on a long record, smaller on a short one); one line says them
+    hyper = mc.sized({**mc.defaults(), **given}, len(rec), given)
+    chosen = [k for k in mc.sized_by_record if k not in given]
+    if chosen and any(hyper[k] != mc.hyper_named(k).default for k in chosen):
+        typer.echo(mc.size_note(hyper, len(rec), chosen))
+    too_big = mc.oversize(hyper, len(rec))
+    if too_big is not None:
+        typer.echo(f"warning: {too_big}")
     units = (rec.units[input_name], rec.units[output_name])
     # the recipe by the records' units: its terms hold for m/s in and N out only
     choice = mc.passive_recipe(*units, same=same_unit)
@@ -329,8 +339,12 @@ def _train(**kw: Any) -> None:
             progress.update(task, completed=epoch, info=pace.text())
 
         try:
-            model.fit(rec[input_name], rec[output_name], fs=rec.fs,
-                      validation=(val[input_name], val[output_name]), callback=cb, fill=fill)
+            with warnings.catch_warnings():
+                # said above, in the command's words
+                warnings.simplefilter("ignore", ModelSizeWarning)
+                model.fit(rec[input_name], rec[output_name], fs=rec.fs,
+                          validation=(val[input_name], val[output_name]), callback=cb,
+                          fill=fill)
         except SloshromError as exc:  # ROMError (a constant record, ...), UnstableModelError
             fail(str(exc))
     try:
@@ -430,9 +444,11 @@ def _train_ensemble(template: Any, k: int, rec: Any, val: Any, input_name: str,
                 progress.update(task, info=pace.text())
 
         try:
-            ens.fit(rec[input_name], rec[output_name], fs=rec.fs,
-                    validation=(val[input_name], val[output_name]), scheduler=scheduler,
-                    n_workers=workers, progress=cb, epoch_progress=epoch_cb, fill=fill)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", ModelSizeWarning)  # said by the command
+                ens.fit(rec[input_name], rec[output_name], fs=rec.fs,
+                        validation=(val[input_name], val[output_name]), scheduler=scheduler,
+                        n_workers=workers, progress=cb, epoch_progress=epoch_cb, fill=fill)
         except SloshromError as exc:  # ROMError (a constant record, ...), UnstableModelError
             fail(str(exc))
     try:

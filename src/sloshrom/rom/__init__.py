@@ -17,7 +17,8 @@ from sloshrom.rom.registry import CLASSES
 
 _ESTIMATORS = [
     "FORMAT_VERSION", "BouncingBall", "Ensemble", "EnvelopeWarning", "FillFamily",
-    "FillRangeError", "MinMaxScaler", "ModelFileError", "Network", "NotFittedError",
+    "FillRangeError", "MinMaxScaler", "ModelFileError", "ModelSizeWarning", "Network",
+    "NotFittedError",
     "ROMError", "UnstableModelError", "hidden_activations", "load_model", "n_params",
     "noe_simulate", "pack", "rbf_apply", "unpack",
 ]

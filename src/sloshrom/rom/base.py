@@ -180,6 +180,12 @@ class Estimator:
         """Validate the constructor arguments; the architecture (spec) they give."""
         raise NotImplementedError
 
+    def effective_params(self) -> dict[str, Any]:
+        """The hyperparameters the model has (a model file records them): :meth:`get_params`,
+        with the values :meth:`fit` chose for those a class leaves to the record (an NSS's
+        size)."""
+        return self.get_params()
+
     def _model(self, params: Mapping[str, Any], scaler: MinMaxScaler, spec: Any,
                fs: float) -> Any:
         """The fitted model of ``params`` (arrays by name)."""
@@ -265,7 +271,7 @@ class Estimator:
         """
         obj = cls(**hyperparameters)
         spec = obj._check_hyperparameters()
-        shapes = cls.model_class.shapes(obj.get_params())
+        shapes = cls.model_class.shapes(obj.effective_params())
         arrays = {k: np.asarray(params[k], dtype=np.float64) for k in shapes}
         for k, shp in shapes.items():
             if arrays[k].shape != shp:
@@ -383,7 +389,7 @@ class Estimator:
             "format_version": version,
             "class": type(self).__name__,
             "sloshrom_version": __version__,
-            "hyperparameters": self.get_params(),
+            "hyperparameters": self.effective_params(),
             "fs": self.fs_,
             "units": {"input": self.units[0], "output": self.units[1]},
             "names": {"input": self.names[0], "output": self.names[1]},

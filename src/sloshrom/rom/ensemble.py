@@ -539,7 +539,8 @@ class Ensemble:
         self._check_fitted()
         p = model_file_path(path)
         t = self.template
-        hyper = t.get_params()
+        # the members' hyperparameters (an NSS's size chosen by its fit), the template's seed
+        hyper = {**self.members_[0].effective_params(), "seed": t.get_params()["seed"]}
         mc = t.model_class
         meta = {
             "format": "sloshrom-rom",

@@ -13,7 +13,8 @@ from sloshrom.errors import SloshromError
 # defined once, beside the model contract, for every sloshing model; re-exported here
 from sloshrom.models import EnvelopeWarning
 
-__all__ = ["EnvelopeWarning", "FillRangeError", "NotFittedError", "ROMError", "UnstableModelError"]
+__all__ = ["EnvelopeWarning", "FillRangeError", "ModelSizeWarning", "NotFittedError", "ROMError",
+           "UnstableModelError"]
 
 
 class ROMError(SloshromError):
@@ -40,3 +41,9 @@ class NotFittedError(ROMError, AttributeError):
     raising.
     """
 
+
+
+class ModelSizeWarning(UserWarning):
+    """A model the user sized has many more parameters than its training record supports
+    (the size rule's, :meth:`sloshrom.rom.registry.ModelClass.oversize`): it will overfit.
+    The message gives the samples per parameter and the rule's size."""

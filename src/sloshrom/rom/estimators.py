@@ -35,6 +35,7 @@ Precision: fitting, prediction and saving run in float64 (``jax.enable_x64`` aro
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -51,6 +52,7 @@ from sloshrom.rom.ensemble import Ensemble
 from sloshrom.rom.errors import (
     EnvelopeWarning,
     FillRangeError,
+    ModelSizeWarning,
     NotFittedError,
     ROMError,
     UnstableModelError,
@@ -106,6 +108,7 @@ __all__ = [
     "FillRangeError",
     "MinMaxScaler",
     "ModelFileError",
+    "ModelSizeWarning",
     "Network",
     "NotFittedError",
     "ROMError",
@@ -456,24 +459,39 @@ class NSS(_Estimator):
     starts the training's sub-sequences and is available as
     :meth:`sloshrom.rom.statespace.StateSpaceNetwork.encode`.
 
+    The size (``n_states``, ``neurons``, ``window``) and the shooting recipe's ``horizon``,
+    ``batch`` and ``steps_per_epoch`` left at None are **sized by the training record**
+    (:meth:`sloshrom.rom.registry.ModelClass.sized`, the rule
+    :func:`sloshrom.rom.registry.nss_size`): from 100,000 samples on they are the defaults
+    below, exactly (the sloshing records'); on a short record smaller (on 1,000 samples and
+    fewer: 4 states, 16 neurons, window 10, horizon 50, batch 64, 50 steps per epoch;
+    docs/short-records.md). A value given is kept; a size given with more than
+    :data:`~sloshrom.rom.registry.OVERSIZE` times the rule's parameters is warned of
+    (:class:`~sloshrom.rom.errors.ModelSizeWarning`). After :meth:`fit`, ``sized_`` holds the
+    values the rule chose, ``sizing_`` a line saying them (None when none was left to it), and
+    :meth:`effective_params` (what a model file records) every value.
+
     Parameters
     ----------
-    n_states : int
-        Dimension of the state.
-    neurons : int
-        Hidden tanh units of each of the state map, the output map and the encoder.
-    window : int
-        Past samples of input and output the encoder reads.
-    horizon : int
+    n_states : int or None
+        Dimension of the state (None: sized; 8 on a long record).
+    neurons : int or None
+        Hidden tanh units of each of the state map, the output map and the encoder (None:
+        sized; 64 on a long record).
+    window : int or None
+        Past samples of input and output the encoder reads (None: sized; 50 on a long record).
+    horizon : int or None
         Samples simulated from each encoded start in training (and the length of the passivity
-        probes, which must hold a ramp and two periods of the band's lowest frequency).
-    batch : int
-        Sub-sequences per Adam step.
+        probes, which must hold a ramp and two periods of the band's lowest frequency) (None:
+        sized; 200 on a long record).
+    batch : int or None
+        Sub-sequences per Adam step (None: sized; 128 on a long record).
     max_epochs : int
         Epochs of ``steps_per_epoch`` Adam steps at most (early stopping on the validation
         free run, patience 6 epochs).
-    steps_per_epoch : int
-        Adam steps between validations.
+    steps_per_epoch : int or None
+        Adam steps between validations (None: sized; 200 on a long record); the learning
+        rate's cosine decay spans ``max_epochs * steps_per_epoch`` steps.
     learning_rate : float
         Initial Adam step (cosine decay to 5 % of it over ``max_epochs``).
     seed : int
@@ -491,6 +509,9 @@ class NSS(_Estimator):
         Galilean augmentation, m/s (0 = off): each training sub-sequence's velocity is shifted
         by a uniform draw in ``[-velocity_offset, velocity_offset]`` and its force kept
         (:class:`~sloshrom.rom.shooting.ShootingOptions`).
+    weight_decay : float
+        AdamW's decoupled weight decay per unit learning rate (0 = plain Adam):
+        :attr:`~sloshrom.rom.shooting.ShootingOptions.weight_decay`.
 
     Parameters are checked by :meth:`fit` (and by :func:`load_model`), not by the constructor.
     """
@@ -499,13 +520,13 @@ class NSS(_Estimator):
 
     def __init__(
         self,
-        n_states: int = 8,
-        neurons: int = 64,
-        window: int = 50,
-        horizon: int = 200,
-        batch: int = 128,
+        n_states: int | None = None,
+        neurons: int | None = None,
+        window: int | None = None,
+        horizon: int | None = None,
+        batch: int | None = None,
         max_epochs: int = 60,
-        steps_per_epoch: int = 200,
+        steps_per_epoch: int | None = None,
         learning_rate: float = 3e-3,
         seed: int = 0,
         units: Sequence[str] = ("m/s", "N"),
@@ -515,6 +536,7 @@ class NSS(_Estimator):
         cycle_energy: float = 0.0,
         feedthrough: str = "yes",
         velocity_offset: float = 0.0,
+        weight_decay: float = 0.0,
     ) -> None:
         self.n_states = n_states
         self.neurons = neurons
@@ -532,10 +554,34 @@ class NSS(_Estimator):
         self.cycle_energy = cycle_energy
         self.feedthrough = feedthrough
         self.velocity_offset = velocity_offset
+        self.weight_decay = weight_decay
 
-    def _check_hyperparameters(self) -> StateSpaceSpec:
+    def _hyper(self, n_samples: int | None = None) -> dict[str, Any]:
+        """The hyperparameters checked, those left to the record (None) sized for a training
+        record of ``n_samples`` samples by the registry's rule; without a record, their
+        defaults (the size for a long record)."""
         mc = self.model_class
-        h = check_hyperparameters(mc, {x.name: getattr(self, x.name) for x in mc.hyper})
+        values = {x.name: getattr(self, x.name) for x in mc.hyper}
+        given = {k: v for k, v in values.items() if v is not None}
+        # the user's values checked first: the rule reads them
+        for k, v in given.items():
+            mc.hyper_named(k).check(v)
+        full = {**mc.defaults(), **given}
+        if n_samples is not None:
+            full = mc.sized(full, n_samples, given)
+        return check_hyperparameters(mc, full)
+
+    def effective_params(self) -> dict[str, Any]:
+        """:meth:`get_params` with the values :meth:`fit` chose for the hyperparameters left
+        to the record (before a fit: their defaults, the size for a long record)."""
+        p = self.get_params()
+        chosen = getattr(self, "sized_", None)
+        if chosen is None:
+            chosen = {k: v for k, v in self._hyper().items() if p.get(k) is None}
+        return {**p, **chosen}
+
+    def _check_hyperparameters(self, n_samples: int | None = None) -> StateSpaceSpec:
+        h = self._hyper(n_samples)
         if self.input != "velocity":
             # the coupled beam hands a model the acceleration of the previous step: a state
             # driven by it would run one sample behind its training
@@ -595,24 +641,34 @@ class NSS(_Estimator):
             A hyperparameter out of its domain, a bad record (shape, NaN, constant, too short)
             or sample rate.
         """
-        spec = self._check_hyperparameters()
+        n_samples = int(np.size(u))
+        spec = self._check_hyperparameters(n_samples)
+        h = self._hyper(n_samples)
         u, y, validation, fill = checked_records(
-            u, y, fs, validation, fill, spec.window + int(self.horizon) + 1, spec.window)
+            u, y, fs, validation, fill, spec.window + h["horizon"] + 1, spec.window)
         if (self.passivity > 0 or self.cycle_energy > 0) and not (u.min() < 0.0 < u.max()):
             raise ROMError(f"the input {self.names[0]!r} does not oscillate about rest: "
                            "passivity and cycle_energy judge the energy of a motion about rest")
+        mc = self.model_class
+        chosen = {k: h[k] for k in mc.sized_by_record if getattr(self, k) is None}
+        too_big = mc.oversize(h, n_samples)
+        if too_big is not None and not chosen.keys() >= {"n_states", "neurons", "window"}:
+            # a size the user chose: the rule's own sizes are not warned of
+            warnings.warn(too_big, ModelSizeWarning, stacklevel=3)
         scaler = MinMaxScaler.fit(u, y)
         band = power_band(u, fs)
         probe_band = power_band(u, fs, 0.001, 0.999)
         options = ShootingOptions(
-            horizon=int(self.horizon), batch=int(self.batch), max_epochs=int(self.max_epochs),
-            steps_per_epoch=int(self.steps_per_epoch), learning_rate=float(self.learning_rate),
-            amplitude_weighting=float(self.amplitude_weighting),
-            passivity=float(self.passivity), cycle_energy=float(self.cycle_energy),
+            horizon=h["horizon"], batch=h["batch"], max_epochs=h["max_epochs"],
+            steps_per_epoch=h["steps_per_epoch"], learning_rate=h["learning_rate"],
+            amplitude_weighting=h["amplitude_weighting"],
+            passivity=h["passivity"], cycle_energy=h["cycle_energy"],
             frequency_band=(probe_band[0], probe_band[1]),
-            velocity_offset=float(self.velocity_offset))
+            velocity_offset=h["velocity_offset"], weight_decay=h["weight_decay"])
         params, history = fit_statespace(spec, u, y, float(fs), scaler, validation, options,
-                                         seed=int(self.seed), callback=callback)
+                                         seed=h["seed"], callback=callback)
+        self.sized_ = chosen
+        self.sizing_ = mc.size_note(h, n_samples, chosen) if chosen else None
         self.model_ = StateSpaceNetwork(params, scaler, spec, self.input, float(fs))
         self.envelope_ = record_envelope(u, fs, scaler, band, self.input, fill)
         self.history_ = history

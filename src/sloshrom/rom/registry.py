@@ -24,7 +24,7 @@ from __future__ import annotations
 import importlib
 import math
 import operator
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -39,9 +39,10 @@ from sloshrom.limits import (
 )
 from sloshrom.rom.errors import ROMError
 
-__all__ = ["CLASSES", "LOSS_TERMS", "RECIPE_UNITS", "Hyper", "LossChoice", "ModelClass",
+__all__ = ["CLASSES", "LOSS_TERMS", "NSS_FULL_SIZE_SAMPLES", "NSS_SHORT_SAMPLES",
+           "NSS_SHORT_SIZE", "OVERSIZE", "RECIPE_UNITS", "Hyper", "LossChoice", "ModelClass",
            "check_delays", "check_hyperparameters", "loss_recipe",
-           "model_class", "model_class_of_file"]
+           "model_class", "model_class_of_file", "nss_size"]
 
 #: The passive recipe's loss terms (docs/rom.md, "A passive ROM"): the loss weight floor of
 #: the amplitude weighting 1/(a^2 + eps^2), eps in m/s; the weight of the penalty on energy
@@ -276,6 +277,13 @@ class ModelClass:
     report : str
         What the report says of the class: what it is for sloshing, and why one would choose
         it (a paragraph's sentences, after "The ROM of this report is <label>: ").
+    size_rule : callable, optional
+        ``size_rule(hyper, n_samples, given) -> hyper``: the hyperparameters of
+        :attr:`sized_by_record` that are not in ``given`` (the names the user set) chosen for
+        a training record of ``n_samples`` samples; the others unchanged. None: no rule.
+    sized_by_record : tuple of str
+        The hyperparameters the rule may choose (the estimator's argument None: "sized by the
+        record").
     """
 
     name: str
@@ -300,6 +308,48 @@ class ModelClass:
     ensemble: bool = True
     paper: bool = False
     report: str = ""
+    size_rule: Callable[[Mapping[str, Any], int, Collection[str]], dict[str, Any]] | None = None
+    sized_by_record: tuple[str, ...] = ()
+
+    def sized(self, hyper: Mapping[str, Any], n_samples: int,
+              given: Collection[str] = ()) -> dict[str, Any]:
+        """``hyper`` with the hyperparameters the user did not give sized for a training
+        record of ``n_samples`` samples (:attr:`size_rule`; without one, ``hyper``)."""
+        if self.size_rule is None:
+            return dict(hyper)
+        return self.size_rule(hyper, int(n_samples), frozenset(given))
+
+    def size_note(self, hyper: Mapping[str, Any], n_samples: int,
+                  chosen: Collection[str]) -> str:
+        """One line: the values of ``chosen`` (the hyperparameters the rule set) in ``hyper``,
+        its parameters and samples per parameter, e.g. ``"NSS sized for 819 samples: 4
+        states, 16 neurons, window 10, ... (697 parameters, 1.2 samples per parameter)"``."""
+        words = {"n_states": "{} states", "neurons": "{} neurons", "window": "window {}",
+                 "horizon": "horizon {}", "batch": "batch {}",
+                 "steps_per_epoch": "{} steps per epoch"}
+        parts = [words.get(k, k + " {}").format(hyper[k]) for k in self.sized_by_record
+                 if k in chosen]
+        p = self.n_params(hyper)
+        return (f"{self.class_name} sized for {n_samples} samples: {', '.join(parts)} "
+                f"({p} parameters, {n_samples / p:.2g} samples per parameter)")
+
+    def oversize(self, hyper: Mapping[str, Any], n_samples: int) -> str | None:
+        """A warning's text when ``hyper`` has more than :data:`OVERSIZE` times the
+        parameters the size rule gives a record of ``n_samples`` samples (None: it fits, or
+        the class has no rule): the parameters per sample and the rule's size."""
+        if self.size_rule is None:
+            return None
+        rule = self.sized({**hyper, **{k: self.hyper_named(k).default
+                                       for k in self.sized_by_record}}, n_samples)
+        p, q = self.n_params(hyper), self.n_params(rule)
+        if p <= OVERSIZE * q:
+            return None
+        size = ", ".join(f"{h.option} {rule[h.name]}" for h in self.hyper
+                         if h.name in self.sized_by_record and rule[h.name] != hyper[h.name])
+        return (f"{self.label(hyper)} has {p} parameters for {n_samples} training samples "
+                f"({n_samples / p:.2g} samples per parameter): a record this short overfits "
+                f"it; the size rule suggests {size} ({q} parameters), or leave the size "
+                "options out")
 
     def hyper_named(self, name: str) -> Hyper:
         """The hyperparameter ``name``; :class:`ROMError` listing the valid ones."""
@@ -477,6 +527,49 @@ def nss_shapes(h: Mapping[str, Any]) -> dict[str, tuple[int, ...]]:
             "E1": (2 * w, n), "e1": (n,), "E2": (n, nx)}
 
 
+#: A user's size with more than this many times the parameters of the size rule's is warned
+#: of (:meth:`ModelClass.oversize`).
+OVERSIZE = 4.0
+#: Training samples from which an NSS keeps the size of its defaults exactly (8 states, 64
+#: neurons, window 50, horizon 200, batch 128, 200 steps per epoch): the sloshing records they
+#: were sized for have 240,000.
+NSS_FULL_SIZE_SAMPLES = 100_000
+#: Training samples of the short-record anchor: the Cascaded Tanks sweep's 819
+#: (docs/short-records.md).
+NSS_SHORT_SAMPLES = 1_000
+#: The NSS's size and recipe on a record of :data:`NSS_SHORT_SAMPLES` samples or fewer: the
+#: best of the short-record sweep (benchmarks/short_record.py, docs/short-records.md).
+NSS_SHORT_SIZE: dict[str, int] = {"n_states": 4, "neurons": 16, "window": 10, "horizon": 50,
+                                  "batch": 64, "steps_per_epoch": 50}
+
+
+def nss_size(hyper: Mapping[str, Any], n_samples: int,
+             given: Collection[str] = ()) -> dict[str, Any]:
+    """The NSS's size rule: ``hyper`` with the hyperparameters of :data:`NSS_SHORT_SIZE` that
+    are not in ``given`` chosen for a training record of ``n_samples`` samples.
+
+    From :data:`NSS_FULL_SIZE_SAMPLES` samples on, ``hyper`` unchanged (the defaults the
+    sloshing pipeline depends on); at :data:`NSS_SHORT_SAMPLES` and below, the sweep's best
+    size; in between, each value interpolated geometrically in the record's length (a
+    straight line on log-log axes between the two measured anchors; nothing between them
+    was measured). The horizon then leaves at least half of the record's samples as
+    starts of the multiple shooting.
+    """
+    out = dict(hyper)
+    n = int(n_samples)
+    if n >= NSS_FULL_SIZE_SAMPLES:
+        return out
+    t = min(1.0, max(0.0, math.log(max(n, 1) / NSS_SHORT_SAMPLES)
+                     / math.log(NSS_FULL_SIZE_SAMPLES / NSS_SHORT_SAMPLES)))
+    for k, small in NSS_SHORT_SIZE.items():
+        if k not in given:
+            out[k] = max(1, round(small * (int(hyper[k]) / small) ** t))
+    if "horizon" not in given:
+        # a horizon near the record's length leaves a handful of distinct sub-sequences
+        out["horizon"] = max(8, min(int(out["horizon"]), (n - int(out["window"])) // 2))
+    return out
+
+
 def _lss_shapes(h: Mapping[str, Any]) -> dict[str, tuple[int, ...]]:
     n = int(h["n_states"])
     return {"A": (n, n), "B": (n,), "C": (n,), "D": ()}
@@ -567,15 +660,20 @@ NSS_CLASS = ModelClass(
            Hyper("velocity_offset", 0.0, "float", 0.0, 10.0,
                  help="Galilean augmentation, m/s: each training sub-sequence's velocity "
                       "shifted by a uniform draw in +-this, its force kept (0 = off)",
-                 what="a velocity in m/s", file_default=0.0)),
+                 what="a velocity in m/s", file_default=0.0),
+           Hyper("weight_decay", 0.0, "float", 0.0, 100.0,
+                 help="AdamW's decoupled weight decay per unit learning rate: each Adam step "
+                      "also shrinks every weight by learning_rate x this (0 = plain Adam)",
+                 what="a decay rate (0 = off)", file_default=0.0)),
     label=lambda h: (f"NSS({h['n_states']} states, {h['neurons']} neurons"
                      + (", strictly proper)" if h.get("feedthrough", "yes") == "no" else ")")),
     shapes=nss_shapes, history=lambda h: int(h["window"]),
     min_samples=lambda h: int(h["window"]) + int(h["horizon"]) + 1,
     loss_terms=LOSS_TERMS,
     recipe={"amplitude_weighting": 0.0, "passivity": 1.0, "cycle_energy": 0.1},
-    # version 5 added feedthrough and velocity_offset; version 3 files read with their defaults
-    format_version=5, read_versions=(3,), exports=frozenset({"fmu"}),
+    # version 5 added feedthrough and velocity_offset, version 6 weight_decay; version 3 and 5
+    # files read with their defaults
+    format_version=6, read_versions=(3, 5), exports=frozenset({"fmu"}),
     width=lambda h: int(h["n_states"]) + 1,
     sizes=("neurons", "n_states", "window"),
     report="a neural state-space model, not the paper's NFIR class. Why: the force depends "
@@ -584,6 +682,7 @@ NSS_CLASS = ModelClass(
            "does, and with it predicts the impacts the NFIR misses while its dissipation map "
            "stays at least as close to the rig's (docs/rom.md, \"A ROM with state\", with the "
            "figures of both classes).",
+    size_rule=nss_size, sized_by_record=tuple(NSS_SHORT_SIZE),
 )
 
 LSS_CLASS = ModelClass(

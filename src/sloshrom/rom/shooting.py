@@ -37,7 +37,7 @@ from sloshrom.rom.losses import (
 )
 from sloshrom.rom.network import MinMaxScaler
 
-__all__ = ["PyTree", "Recurrence", "ShootingOptions", "shooting_problem"]
+__all__ = ["PyTree", "Recurrence", "ShootingOptions", "adam_optimizer", "shooting_problem"]
 
 #: A JAX pytree (a model's parameters, a batch of its states): a dict of arrays, a tuple of
 #: arrays or an array.
@@ -103,6 +103,10 @@ class ShootingOptions:
         Band of the passivity probes, Hz.
     probes_per_step : int
         Passivity probes per Adam step.
+    weight_decay : float
+        Decoupled weight decay of AdamW (Loshchilov and Hutter), per unit learning rate: each
+        step also moves every parameter by ``-learning_rate * weight_decay * p``; 0 = plain
+        Adam (the optimiser of every model before it).
     velocity_offset : float
         Galilean augmentation, m/s (0 = off): each sub-sequence's input (its past and future)
         is shifted by a uniform draw in ``[-velocity_offset, velocity_offset]`` and its output
@@ -123,6 +127,19 @@ class ShootingOptions:
     frequency_band: tuple[float, float] = (0.0, math.inf)
     probes_per_step: int = 24
     velocity_offset: float = 0.0
+    weight_decay: float = 0.0
+
+
+def adam_optimizer(options: ShootingOptions) -> optax.GradientTransformation:
+    """The recipe's optimiser: the global gradient norm clipped to 1, then Adam, or AdamW
+    with ``options.weight_decay`` > 0, on a cosine schedule from ``learning_rate`` to 5 % of
+    it over ``max_epochs * steps_per_epoch`` steps."""
+    total = max(1, int(options.max_epochs) * int(options.steps_per_epoch))
+    sched = optax.cosine_decay_schedule(float(options.learning_rate), total, 0.05)
+    # plain Adam without decay: the same arithmetic as before the option existed
+    step = (optax.adamw(sched, weight_decay=float(options.weight_decay))
+            if options.weight_decay > 0 else optax.adam(sched))
+    return optax.chain(optax.clip_by_global_norm(1.0), step)
 
 
 def shooting_problem(
@@ -211,9 +228,7 @@ def shooting_problem(
             value += passivity * jnp.mean(jnp.minimum(phi, 0.0) ** 2)
         return value, mse
 
-    total = max(1, int(o.max_epochs) * steps_per_epoch)
-    sched = optax.cosine_decay_schedule(float(o.learning_rate), total, 0.05)
-    opt = optax.chain(optax.clip_by_global_norm(1.0), optax.adam(sched))
+    opt = adam_optimizer(o)
 
     def draw(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         starts = rng.integers(0, rec.n_starts, (steps_per_epoch, batch))
