@@ -88,44 +88,49 @@ def test_one_seed_one_record():
 # -- the size rule ------------------------------------------------------------------------------
 def test_the_rule_keeps_the_defaults_on_a_long_record():
     d = NSS_CLASS.defaults()
+    sized = {k: d[k] for k in NSS_CLASS.sized_by_record}
     for n in (NSS_FULL_SIZE_SAMPLES, 240_000, 10**7):
-        assert nss_size(d, n) == d
-        assert NSS_CLASS.sized(d, n, given=()) == d
+        assert nss_size(n, {}) == sized
+        assert NSS_CLASS.size(n, {}) == sized
     # and so does the estimator left at its defaults: the sloshing pipeline's NSS
-    assert NSS()._hyper(240_000) == {**d}
-    assert NSS().effective_params() | {} == {**NSS().get_params(), **d}
+    assert NSS()._sizes(240_000) == sized
+    assert NSS()._check_hyperparameters(240_000) == NSS(**sized)._check_hyperparameters()
+    assert NSS().effective_params() == {**NSS().get_params(), **sized}
 
 
 def test_the_rule_sizes_a_short_record_smaller_and_monotonically():
     d = NSS_CLASS.defaults()
-    short = nss_size(d, 819)
-    assert {k: short[k] for k in NSS_SHORT_SIZE} == NSS_SHORT_SIZE
-    sizes = [NSS_CLASS.n_params(nss_size(d, n)) for n in (819, 3000, 10_000, 50_000, 240_000)]
+    assert nss_size(819, {}) == NSS_SHORT_SIZE
+    sizes = [NSS_CLASS.n_params({**d, **nss_size(n, {})})
+             for n in (819, 3000, 10_000, 50_000, 240_000)]
     assert sizes == sorted(sizes) and sizes[0] < sizes[-1] / 10
     for n in (819, 5000, 60_000):
-        h = nss_size(d, n)
+        h = nss_size(n, {})
         assert all(h[k] <= d[k] for k in NSS_SHORT_SIZE)
         assert h["window"] + h["horizon"] + 1 <= n  # trainable
     # a record too short for the anchor's horizon: the horizon leaves half of it as starts
-    assert nss_size(d, 80)["horizon"] == (80 - NSS_SHORT_SIZE["window"]) // 2
+    assert nss_size(80, {})["horizon"] == (80 - NSS_SHORT_SIZE["window"]) // 2
+    assert nss_size(80, {"window": 30})["horizon"] == 25
 
 
 def test_the_user_s_values_win():
-    d = NSS_CLASS.defaults()
-    h = nss_size({**d, "n_states": 8, "horizon": 150}, 819, given={"n_states", "horizon"})
-    assert h["n_states"] == 8 and h["horizon"] == 150
+    h = nss_size(819, {"n_states": 8, "horizon": 150})
+    assert "n_states" not in h and "horizon" not in h
     assert h["neurons"] == NSS_SHORT_SIZE["neurons"]
     m = NSS(n_states=6, window=20)
-    assert m._hyper(819)["n_states"] == 6 and m._hyper(819)["window"] == 20
-    assert m._hyper(819)["neurons"] == NSS_SHORT_SIZE["neurons"]
+    assert m._sizes(819)["n_states"] == 6 and m._sizes(819)["window"] == 20
+    assert m._sizes(819)["neurons"] == NSS_SHORT_SIZE["neurons"]
+    assert m._check_hyperparameters(819).n_states == 6
 
 
 def test_a_user_size_far_beyond_the_record_is_warned_of_with_a_suggestion():
-    msg = NSS_CLASS.oversize(NSS_CLASS.defaults(), 819)
+    d = NSS_CLASS.defaults()
+    full = {k: d[k] for k in NSS_CLASS.sized_by_record}
+    msg = NSS_CLASS.oversize(full, 819)
     assert msg is not None and "8913 parameters for 819 training samples" in msg
     assert "0.092 samples per parameter" in msg and "--n-states 4" in msg
-    assert NSS_CLASS.oversize(NSS_CLASS.defaults(), 240_000) is None
-    assert NSS_CLASS.oversize(nss_size(NSS_CLASS.defaults(), 819), 819) is None
+    assert NSS_CLASS.oversize(full, 240_000) is None
+    assert NSS_CLASS.oversize(nss_size(819, {}), 819) is None
 
 
 def _short(n: int = 400, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -137,8 +142,8 @@ def test_fit_sizes_records_and_saves_the_chosen_size(tmp_path):
     u, y = _short()
     with warnings.catch_warnings():
         warnings.simplefilter("error", ModelSizeWarning)  # the rule's size is not warned of
-        m = NSS(max_epochs=1, steps_per_epoch=2, units=("V", "V"), names=("u", "y")).fit(
-            u, y, 1 / TS)
+        # no epoch: the size is chosen before the training
+        m = NSS(max_epochs=0, units=("V", "V"), names=("u", "y")).fit(u, y, 1 / TS)
     assert m.spec.n_states == 4 and m.spec.neurons == 16 and m.spec.window == 10
     assert m.sized_["horizon"] == 50 and m.n_states is None  # the argument stays "sized"
     assert m.sizing_.startswith("NSS sized for 400 samples: 4 states, 16 neurons, window 10")
@@ -153,6 +158,7 @@ def test_fit_warns_of_a_user_size_far_beyond_the_record():
         m = NSS(n_states=8, neurons=64, window=50, max_epochs=0, units=("V", "V"),
                 names=("u", "y")).fit(u, y, 1 / TS)
     assert m.sizing_ is not None and "horizon 50" in m.sizing_  # the recipe is still sized
+    assert m.spec.n_states == 8 and m.effective_params()["horizon"] == 50
 
 
 # -- weight decay --------------------------------------------------------------------------------
@@ -167,15 +173,23 @@ def test_weight_decay_shrinks_the_weights_where_the_gradient_is_zero():
         np.testing.assert_allclose(new["W"], p["W"] * (1 - 1e-2 * wd), rtol=1e-6)
 
 
-def test_weight_decay_reaches_the_nss_training():
+def test_weight_decay_reaches_the_nss_training(monkeypatch):
+    import sloshrom.rom.estimators as est
+
+    seen = []
+
+    def capture(spec, u, y, fs, scaler, validation, options, **kw):
+        seen.append(options)
+        raise KeyboardInterrupt  # the options are all this test needs
+
+    monkeypatch.setattr(est, "fit_statespace", capture)
     u, y = _short()
-    kw = dict(n_states=2, neurons=4, window=5, horizon=20, batch=8, max_epochs=1,
-              steps_per_epoch=20, units=("V", "V"), names=("u", "y"))
-    plain = NSS(**kw).fit(u, y, 1 / TS)
-    decayed = NSS(**kw, weight_decay=50.0).fit(u, y, 1 / TS)
-    norm = [float(np.sum(np.asarray(m.params_["W1"]) ** 2)) for m in (plain, decayed)]
-    assert norm[1] < 0.9 * norm[0]
-    assert NSS(**kw, weight_decay=50.0).effective_params()["weight_decay"] == 50.0
+    for wd in (0.0, 0.25):
+        with pytest.raises(KeyboardInterrupt):
+            NSS(weight_decay=wd, units=("V", "V"), names=("u", "y")).fit(u, y, 1 / TS)
+    assert [o.weight_decay for o in seen] == [0.0, 0.25]
+    assert adam_optimizer(seen[1]) is not None
+    assert NSS(weight_decay=0.25).effective_params()["weight_decay"] == 0.25
 
 
 def test_weight_decay_is_a_registry_option_old_files_read_as_zero():

@@ -274,11 +274,13 @@ def _train(**kw: Any) -> None:
     fill = _training_fill(fill, rec, data, val, validation)
     # the options not given that the class sizes by the record's length (an NSS's size and
     # recipe: the defaults on a long record, smaller on a short one); one line says them
-    hyper = mc.sized({**mc.defaults(), **given}, len(rec), given)
-    chosen = [k for k in mc.sized_by_record if k not in given]
-    if chosen and any(hyper[k] != mc.hyper_named(k).default for k in chosen):
-        typer.echo(mc.size_note(hyper, len(rec), chosen))
-    too_big = mc.oversize(hyper, len(rec))
+    sized_given = {k: int(v) for k, v in given.items() if k in mc.sized_by_record}
+    chosen = mc.size(len(rec), sized_given)
+    hyper = {**mc.defaults(), **given, **chosen}
+    sizes = {**sized_given, **chosen}
+    if any(v != mc.hyper_named(k).default for k, v in chosen.items()):
+        typer.echo(mc.size_note(sizes, len(rec), chosen))
+    too_big = mc.oversize(sizes, len(rec))
     if too_big is not None:
         typer.echo(f"warning: {too_big}")
     units = (rec.units[input_name], rec.units[output_name])

@@ -180,11 +180,15 @@ class Estimator:
         """Validate the constructor arguments; the architecture (spec) they give."""
         raise NotImplementedError
 
-    def effective_params(self) -> dict[str, Any]:
+    def effective_params(self) -> dict[str, object]:
         """The hyperparameters the model has (a model file records them): :meth:`get_params`,
         with the values :meth:`fit` chose for those a class leaves to the record (an NSS's
-        size)."""
-        return self.get_params()
+        size; before a fit, their defaults)."""
+        return {**self.get_params(), **self._chosen_sizes()}
+
+    def _chosen_sizes(self) -> dict[str, int]:
+        """The values chosen for the hyperparameters left to the record (none by default)."""
+        return {}
 
     def _model(self, params: Mapping[str, Any], scaler: MinMaxScaler, spec: Any,
                fs: float) -> Any:

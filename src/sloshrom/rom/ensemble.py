@@ -539,8 +539,9 @@ class Ensemble:
         self._check_fitted()
         p = model_file_path(path)
         t = self.template
+        hyper = t.get_params()
         # the members' hyperparameters (an NSS's size chosen by its fit), the template's seed
-        hyper = {**self.members_[0].effective_params(), "seed": t.get_params()["seed"]}
+        members = {**self.members_[0].effective_params(), "seed": hyper["seed"]}
         mc = t.model_class
         meta = {
             "format": "sloshrom-rom",
@@ -548,7 +549,7 @@ class Ensemble:
             "class": "Ensemble",
             "sloshrom_version": __version__,
             "member_class": self.member_class,
-            "hyperparameters": hyper,
+            "hyperparameters": members,
             "n_members": len(self.members_),
             "fs": self.fs_,
             "units": {"input": hyper["units"][0], "output": hyper["units"][1]},

@@ -556,32 +556,31 @@ class NSS(_Estimator):
         self.velocity_offset = velocity_offset
         self.weight_decay = weight_decay
 
-    def _hyper(self, n_samples: int | None = None) -> dict[str, Any]:
-        """The hyperparameters checked, those left to the record (None) sized for a training
-        record of ``n_samples`` samples by the registry's rule; without a record, their
-        defaults (the size for a long record)."""
+    def _sizes(self, n_samples: int | None = None) -> dict[str, int]:
+        """The values of the hyperparameters the rule may size (the registry's
+        ``sized_by_record``): the user's, checked, and the others chosen by the rule for a
+        training record of ``n_samples`` samples (None: their defaults, a long record's)."""
         mc = self.model_class
-        values = {x.name: getattr(self, x.name) for x in mc.hyper}
-        given = {k: v for k, v in values.items() if v is not None}
-        # the user's values checked first: the rule reads them
-        for k, v in given.items():
-            mc.hyper_named(k).check(v)
-        full = {**mc.defaults(), **given}
-        if n_samples is not None:
-            full = mc.sized(full, n_samples, given)
-        return check_hyperparameters(mc, full)
+        given = {}
+        for k in mc.sized_by_record:
+            v = getattr(self, k)
+            if v is not None:
+                # the user's values checked first: the rule reads them
+                given[k] = int(mc.hyper_named(k).check(v))
+        if n_samples is None:
+            return {k: int(mc.hyper_named(k).default) for k in mc.sized_by_record} | given
+        return {**given, **mc.size(n_samples, given)}
 
-    def effective_params(self) -> dict[str, Any]:
-        """:meth:`get_params` with the values :meth:`fit` chose for the hyperparameters left
-        to the record (before a fit: their defaults, the size for a long record)."""
-        p = self.get_params()
+    def _chosen_sizes(self) -> dict[str, int]:
         chosen = getattr(self, "sized_", None)
-        if chosen is None:
-            chosen = {k: v for k, v in self._hyper().items() if p.get(k) is None}
-        return {**p, **chosen}
+        if chosen is not None:
+            return dict(chosen)
+        return {k: v for k, v in self._sizes().items() if getattr(self, k) is None}
 
     def _check_hyperparameters(self, n_samples: int | None = None) -> StateSpaceSpec:
-        h = self._hyper(n_samples)
+        mc = self.model_class
+        h = check_hyperparameters(mc, {**{x.name: getattr(self, x.name) for x in mc.hyper},
+                                       **self._sizes(n_samples)})
         if self.input != "velocity":
             # the coupled beam hands a model the acceleration of the previous step: a state
             # driven by it would run one sample behind its training
@@ -643,32 +642,33 @@ class NSS(_Estimator):
         """
         n_samples = int(np.size(u))
         spec = self._check_hyperparameters(n_samples)
-        h = self._hyper(n_samples)
+        sz = self._sizes(n_samples)
         u, y, validation, fill = checked_records(
-            u, y, fs, validation, fill, spec.window + h["horizon"] + 1, spec.window)
+            u, y, fs, validation, fill, spec.window + sz["horizon"] + 1, spec.window)
         if (self.passivity > 0 or self.cycle_energy > 0) and not (u.min() < 0.0 < u.max()):
             raise ROMError(f"the input {self.names[0]!r} does not oscillate about rest: "
                            "passivity and cycle_energy judge the energy of a motion about rest")
         mc = self.model_class
-        chosen = {k: h[k] for k in mc.sized_by_record if getattr(self, k) is None}
-        too_big = mc.oversize(h, n_samples)
-        if too_big is not None and not chosen.keys() >= {"n_states", "neurons", "window"}:
-            # a size the user chose: the rule's own sizes are not warned of
+        chosen = {k: sz[k] for k in mc.sized_by_record if getattr(self, k) is None}
+        too_big = mc.oversize(sz, n_samples)
+        if too_big is not None:
+            # only a size the user gave can be too big: the rule's is the reference
             warnings.warn(too_big, ModelSizeWarning, stacklevel=3)
         scaler = MinMaxScaler.fit(u, y)
         band = power_band(u, fs)
         probe_band = power_band(u, fs, 0.001, 0.999)
         options = ShootingOptions(
-            horizon=h["horizon"], batch=h["batch"], max_epochs=h["max_epochs"],
-            steps_per_epoch=h["steps_per_epoch"], learning_rate=h["learning_rate"],
-            amplitude_weighting=h["amplitude_weighting"],
-            passivity=h["passivity"], cycle_energy=h["cycle_energy"],
+            horizon=sz["horizon"], batch=sz["batch"], max_epochs=int(self.max_epochs),
+            steps_per_epoch=sz["steps_per_epoch"], learning_rate=float(self.learning_rate),
+            amplitude_weighting=float(self.amplitude_weighting),
+            passivity=float(self.passivity), cycle_energy=float(self.cycle_energy),
             frequency_band=(probe_band[0], probe_band[1]),
-            velocity_offset=h["velocity_offset"], weight_decay=h["weight_decay"])
+            velocity_offset=float(self.velocity_offset),
+            weight_decay=float(self.weight_decay))
         params, history = fit_statespace(spec, u, y, float(fs), scaler, validation, options,
-                                         seed=h["seed"], callback=callback)
+                                         seed=int(self.seed), callback=callback)
         self.sized_ = chosen
-        self.sizing_ = mc.size_note(h, n_samples, chosen) if chosen else None
+        self.sizing_ = mc.size_note(sz, n_samples, chosen) if chosen else None
         self.model_ = StateSpaceNetwork(params, scaler, spec, self.input, float(fs))
         self.envelope_ = record_envelope(u, fs, scaler, band, self.input, fill)
         self.history_ = history

@@ -278,12 +278,12 @@ class ModelClass:
         What the report says of the class: what it is for sloshing, and why one would choose
         it (a paragraph's sentences, after "The ROM of this report is <label>: ").
     size_rule : callable, optional
-        ``size_rule(hyper, n_samples, given) -> hyper``: the hyperparameters of
-        :attr:`sized_by_record` that are not in ``given`` (the names the user set) chosen for
-        a training record of ``n_samples`` samples; the others unchanged. None: no rule.
+        ``size_rule(n_samples, given) -> {name: value}``: the values of the hyperparameters
+        of :attr:`sized_by_record` that are not in ``given`` (the user's values of the others)
+        for a training record of ``n_samples`` samples. None: no rule.
     sized_by_record : tuple of str
-        The hyperparameters the rule may choose (the estimator's argument None: "sized by the
-        record").
+        The hyperparameters the rule chooses when the user gives none (integers; the
+        estimator's argument None: "sized by the record").
     """
 
     name: str
@@ -308,44 +308,49 @@ class ModelClass:
     ensemble: bool = True
     paper: bool = False
     report: str = ""
-    size_rule: Callable[[Mapping[str, Any], int, Collection[str]], dict[str, Any]] | None = None
+    size_rule: Callable[[int, Mapping[str, int]], dict[str, int]] | None = None
     sized_by_record: tuple[str, ...] = ()
 
-    def sized(self, hyper: Mapping[str, Any], n_samples: int,
-              given: Collection[str] = ()) -> dict[str, Any]:
-        """``hyper`` with the hyperparameters the user did not give sized for a training
-        record of ``n_samples`` samples (:attr:`size_rule`; without one, ``hyper``)."""
+    def size(self, n_samples: int, given: Mapping[str, int]) -> dict[str, int]:
+        """The values the size rule chooses for a training record of ``n_samples`` samples:
+        those of :attr:`sized_by_record` not in ``given`` (the user's values, which the rule
+        may read); none without a rule."""
         if self.size_rule is None:
-            return dict(hyper)
-        return self.size_rule(hyper, int(n_samples), frozenset(given))
+            return {}
+        return self.size_rule(int(n_samples), given)
 
-    def size_note(self, hyper: Mapping[str, Any], n_samples: int,
+    def _with_sizes(self, sizes: Mapping[str, int]) -> dict[str, object]:
+        return {**self.defaults(), **sizes}
+
+    def size_note(self, sizes: Mapping[str, int], n_samples: int,
                   chosen: Collection[str]) -> str:
-        """One line: the values of ``chosen`` (the hyperparameters the rule set) in ``hyper``,
-        its parameters and samples per parameter, e.g. ``"NSS sized for 819 samples: 4
-        states, 16 neurons, window 10, ... (697 parameters, 1.2 samples per parameter)"``."""
+        """One line: the values of ``chosen`` (those the rule set) among ``sizes`` (the values
+        of :attr:`sized_by_record`), the parameters and samples per parameter, e.g. ``"NSS
+        sized for 819 samples: 4 states, 16 neurons, window 10, ... (697 parameters, 1.2
+        samples per parameter)"``."""
         words = {"n_states": "{} states", "neurons": "{} neurons", "window": "window {}",
                  "horizon": "horizon {}", "batch": "batch {}",
                  "steps_per_epoch": "{} steps per epoch"}
-        parts = [words.get(k, k + " {}").format(hyper[k]) for k in self.sized_by_record
+        parts = [words.get(k, k + " {}").format(sizes[k]) for k in self.sized_by_record
                  if k in chosen]
-        p = self.n_params(hyper)
+        p = self.n_params(self._with_sizes(sizes))
         return (f"{self.class_name} sized for {n_samples} samples: {', '.join(parts)} "
                 f"({p} parameters, {n_samples / p:.2g} samples per parameter)")
 
-    def oversize(self, hyper: Mapping[str, Any], n_samples: int) -> str | None:
-        """A warning's text when ``hyper`` has more than :data:`OVERSIZE` times the
-        parameters the size rule gives a record of ``n_samples`` samples (None: it fits, or
-        the class has no rule): the parameters per sample and the rule's size."""
+    def oversize(self, sizes: Mapping[str, int], n_samples: int) -> str | None:
+        """A warning's text when the values ``sizes`` of :attr:`sized_by_record` give more
+        than :data:`OVERSIZE` times the parameters the size rule gives a record of
+        ``n_samples`` samples (None: they fit, or the class has no rule): the samples per
+        parameter and the rule's size."""
         if self.size_rule is None:
             return None
-        rule = self.sized({**hyper, **{k: self.hyper_named(k).default
-                                       for k in self.sized_by_record}}, n_samples)
-        p, q = self.n_params(hyper), self.n_params(rule)
+        hyper = self._with_sizes(sizes)
+        rule = self.size(n_samples, {})
+        p, q = self.n_params(hyper), self.n_params(self._with_sizes(rule))
         if p <= OVERSIZE * q:
             return None
-        size = ", ".join(f"{h.option} {rule[h.name]}" for h in self.hyper
-                         if h.name in self.sized_by_record and rule[h.name] != hyper[h.name])
+        size = ", ".join(f"{self.hyper_named(k).option} {v}" for k, v in rule.items()
+                         if v != sizes.get(k))
         return (f"{self.label(hyper)} has {p} parameters for {n_samples} training samples "
                 f"({n_samples / p:.2g} samples per parameter): a record this short overfits "
                 f"it; the size rule suggests {size} ({q} parameters), or leave the size "
@@ -543,30 +548,30 @@ NSS_SHORT_SIZE: dict[str, int] = {"n_states": 4, "neurons": 16, "window": 10, "h
                                   "batch": 64, "steps_per_epoch": 50}
 
 
-def nss_size(hyper: Mapping[str, Any], n_samples: int,
-             given: Collection[str] = ()) -> dict[str, Any]:
-    """The NSS's size rule: ``hyper`` with the hyperparameters of :data:`NSS_SHORT_SIZE` that
-    are not in ``given`` chosen for a training record of ``n_samples`` samples.
+def nss_size(n_samples: int, given: Mapping[str, int]) -> dict[str, int]:
+    """The NSS's size rule: the values of :data:`NSS_SHORT_SIZE`'s hyperparameters not in
+    ``given`` (the user's values) for a training record of ``n_samples`` samples.
 
-    From :data:`NSS_FULL_SIZE_SAMPLES` samples on, ``hyper`` unchanged (the defaults the
-    sloshing pipeline depends on); at :data:`NSS_SHORT_SAMPLES` and below, the sweep's best
-    size; in between, each value interpolated geometrically in the record's length (a
-    straight line on log-log axes between the two measured anchors; nothing between them
-    was measured). The horizon then leaves at least half of the record's samples as
-    starts of the multiple shooting.
+    From :data:`NSS_FULL_SIZE_SAMPLES` samples on, the defaults (those the sloshing pipeline
+    depends on); at :data:`NSS_SHORT_SAMPLES` and below, the sweep's best size; in between,
+    each value interpolated geometrically in the record's length (a straight line on log-log
+    axes between the two measured anchors; nothing between them was measured). The horizon
+    then leaves at least half of the record's samples as starts of the multiple shooting.
     """
-    out = dict(hyper)
     n = int(n_samples)
+    default = {k: int(NSS_CLASS.hyper_named(k).default) for k in NSS_SHORT_SIZE}
+    out = {k: v for k, v in default.items() if k not in given}
     if n >= NSS_FULL_SIZE_SAMPLES:
         return out
     t = min(1.0, max(0.0, math.log(max(n, 1) / NSS_SHORT_SAMPLES)
                      / math.log(NSS_FULL_SIZE_SAMPLES / NSS_SHORT_SAMPLES)))
-    for k, small in NSS_SHORT_SIZE.items():
-        if k not in given:
-            out[k] = max(1, round(small * (int(hyper[k]) / small) ** t))
-    if "horizon" not in given:
+    for k in out:
+        small = NSS_SHORT_SIZE[k]
+        out[k] = max(1, round(small * (default[k] / small) ** t))
+    if "horizon" in out:
         # a horizon near the record's length leaves a handful of distinct sub-sequences
-        out["horizon"] = max(8, min(int(out["horizon"]), (n - int(out["window"])) // 2))
+        window = int(given.get("window", out.get("window", default["window"])))
+        out["horizon"] = max(8, min(out["horizon"], (n - window) // 2))
     return out
 
 
