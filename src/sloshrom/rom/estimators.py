@@ -460,10 +460,15 @@ class NSS(_Estimator):
 
     Unlike the NFIR, whose force is a function of the last ``delays`` inputs only, the model
     carries a state (where the liquid is, how fast it moves), so it can remember an impact or a
-    flight phase for as long as it lasts. It starts from rest in every run (the coupled beam,
-    the maps, :meth:`predict`); its encoder, which estimates the state from measured history,
-    starts the training's sub-sequences and is available as
+    flight phase for as long as it lasts. It starts from rest in the coupled beam and the maps;
+    its encoder, which estimates the state from measured history, starts the training's
+    sub-sequences, :meth:`predict` given ``history`` and the validation run of a fit given
+    ``validation_history`` (a record that does not start at rest), and is available as
     :meth:`sloshrom.rom.statespace.StateSpaceNetwork.encode`.
+
+    It identifies any single-input single-output system, not only a tank: the input and output
+    may be any signals in any units (``names``, ``units``); the passive recipe's loss terms
+    alone are written for a velocity in m/s and a force in N.
 
     Parameters
     ----------
@@ -488,7 +493,8 @@ class NSS(_Estimator):
     seed : int
         Seeds the initialisation and the draws of sub-sequences (>= 0).
     units, names
-        As :class:`NFIR`; the input must be the tank velocity.
+        As :class:`NFIR`: any signals (the loss terms need a velocity in m/s and a force
+        in N).
     amplitude_weighting, passivity, cycle_energy : float
         The passive recipe's loss terms, as :class:`NFIR` (the energy term is the error of the
         energy each sub-sequence exchanges with the liquid). 0 = off.
@@ -581,14 +587,15 @@ class NSS(_Estimator):
         Parameters
         ----------
         u : array_like, shape (n,)
-            Tank vertical velocity (m/s), sampled at ``fs``.
+            Input (the tank vertical velocity, m/s, or any signal), sampled at ``fs``.
         y : array_like, shape (n,)
-            Dynamic sloshing force (N).
+            Output (the dynamic sloshing force, N, or any signal).
         fs : float
             Sample rate, Hz.
         validation : (u_val, y_val), optional
-            Validation record at the same rate, starting at rest: its free run from rest
-            decides the early stopping and the parameters returned.
+            Validation record at the same rate: its run from rest (or from its first
+            ``validation_history`` samples) decides the early stopping and the parameters
+            returned.
         callback : callable, optional
             ``callback(epoch, info)`` after every epoch (``train_mse``, ``val_mse`` in N^2,
             ``val_objective``, ``seconds``); returning True stops training.
