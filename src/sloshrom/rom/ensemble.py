@@ -35,6 +35,7 @@ import numpy as np
 
 from sloshrom import __version__
 from sloshrom.models import EnvelopeWarning, check_envelope, envelope_union, model_input
+from sloshrom.rom.base import checked_past
 from sloshrom.rom.epochs import EpochFile, EpochReport, epoch_reports
 from sloshrom.rom.errors import NotFittedError, ROMError
 from sloshrom.rom.family import check_training_fill
@@ -113,6 +114,7 @@ def _fit_member(
     fs: float,
     fill: float | None = None,
     epochs_dir: str | None = None,
+    validation_history: int = 0,
 ) -> Any:
     """Train member ``k`` with ``seed`` (``item = (k, seed)``): a task of :func:`run_tasks`.
 
@@ -123,7 +125,8 @@ def _fit_member(
     model.set_params(seed=seed)
     validation = (val_u, val_y) if val_u.size else None
     callback = EpochFile(epochs_dir, k) if epochs_dir is not None else None
-    return model.fit(u, y, fs=fs, validation=validation, callback=callback, fill=fill)
+    return model.fit(u, y, fs=fs, validation=validation, callback=callback, fill=fill,
+                     validation_history=validation_history)
 
 
 @jax.tree_util.register_pytree_node_class
@@ -244,6 +247,7 @@ class Ensemble:
         progress: Callable[[int, Any], Any] | None = None,
         fill: float | None = None,
         epoch_progress: EpochReport | None = None,
+        validation_history: int = 0,
     ) -> Ensemble:
         """Train the K members on the same record, in parallel.
 
@@ -272,6 +276,9 @@ class Ensemble:
             second per member, from a thread of this process (:func:`sloshrom.rom.epochs.
             epoch_reports`: the members, in worker processes or not, write it to files). A
             worker on another machine reports nothing before its member finishes.
+        validation_history : int
+            The validation record's first samples taken as measured history by every member
+            (:meth:`sloshrom.rom.NSS.fit`); 0: from rest.
 
         Returns
         -------
@@ -308,7 +315,7 @@ class Ensemble:
             members = run_tasks(
                 _fit_member, list(enumerate(seeds)), shared=(u, y, vu, vy),
                 args=(type(self.template), self.template.get_params(), float(fs), fill,
-                      epochs_dir),
+                      epochs_dir, int(validation_history)),
                 scheduler=scheduler, n_workers=n_workers,
                 done=None if progress is None else progress,
             )
@@ -441,21 +448,35 @@ class Ensemble:
         return obj
 
     # -- prediction ---------------------------------------------------------------------------
-    def _outputs(self, u: Any, stacklevel: int) -> np.ndarray:
+    @property
+    def history_samples(self) -> int:
+        """Samples of measured history a start from it reads: the most any member reads."""
+        self._check_fitted()
+        return max(int(m.history_samples) for m in self.members_)
+
+    def _outputs(self, u: Any, stacklevel: int, history: tuple[Any, Any] | None = None
+                 ) -> np.ndarray:
         self._check_fitted()
         u = _signal("u", u)
-        check_envelope(self, u, unit=str(self.units[0]), stacklevel=stacklevel)
+        if history is not None:
+            up, yp = checked_past(history)
+            check_envelope(self, np.concatenate([up, np.ravel(u)]), unit=str(self.units[0]),
+                           stacklevel=stacklevel)
+        else:
+            check_envelope(self, u, unit=str(self.units[0]), stacklevel=stacklevel)
         with warnings.catch_warnings():  # warned once above, for the union of the envelopes
             warnings.simplefilter("ignore", EnvelopeWarning)
-            return np.stack([np.asarray(m.predict(u)) for m in self.members_])
+            return np.stack([np.asarray(m.predict(u, history=history)) for m in self.members_])
 
-    def member_predictions(self, u: Any) -> np.ndarray:
-        """Every member's free-run output from rest (for spread bands).
+    def member_predictions(self, u: Any, history: tuple[Any, Any] | None = None) -> np.ndarray:
+        """Every member's output from rest, or from measured history (for spread bands).
 
         Parameters
         ----------
         u : array_like, shape (n,) or (batch, n)
             Input sampled at ``fs_`` (physical units, e.g. m/s).
+        history : (u_past, y_past), optional
+            Measured input and output before ``u`` (:meth:`sloshrom.rom.NSS.predict`).
 
         Returns
         -------
@@ -476,10 +497,11 @@ class Ensemble:
         EnvelopeWarning
             ``u`` leaves the union of the members' training input ranges (once per call).
         """
-        return self._outputs(u, stacklevel=3)
+        return self._outputs(u, stacklevel=3, history=history)
 
-    def predict(self, u: Any) -> np.ndarray:
-        """Mean of the members' free-run outputs from rest; does not change the ensemble.
+    def predict(self, u: Any, history: tuple[Any, Any] | None = None) -> np.ndarray:
+        """Mean of the members' outputs from rest (or from measured ``history``); does not
+        change the ensemble.
 
         Parameters, errors and warnings as :meth:`member_predictions`.
 
@@ -488,7 +510,7 @@ class Ensemble:
         ndarray, same shape as ``u``
             Output (physical units, e.g. N), float64.
         """
-        return np.mean(self._outputs(u, stacklevel=3), axis=0)
+        return np.mean(self._outputs(u, stacklevel=3, history=history), axis=0)
 
     def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
         """Sloshing-model contract: dynamic force (N) from the signal the members read
