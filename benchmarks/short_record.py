@@ -5,7 +5,7 @@ samples at Ts = 4 s, an overflowing upper tank, the test record far from rest). 
 the sweep is an NSS trained on the estimation record's first 80 % (819 samples) with early
 stopping on its last 20 % (205 samples), the validation's state encoded from the
 ``window`` training samples before it (the lead's ``validation_history``, or the same
-computation here when the installed NSS lacks it), and scored on the test record: the state
+computation in :func:`fit_here` for the sweep's recipes), and scored on the test record: the state
 encoded from the test record's first ``window`` samples, the model simulated from there, the
 RMSE (V) over the samples from :data:`SCORED_FROM` on (the same samples for every window).
 
@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import inspect
 import json
 import math
 import sys
@@ -83,10 +82,6 @@ def test_rmse(model: Any, test: Any, window: int) -> float:
     return float(np.sqrt(np.mean(e**2))) if np.all(np.isfinite(e)) else math.inf
 
 
-def _has_validation_history() -> bool:
-    return "validation_history" in inspect.signature(NSS.fit).parameters
-
-
 def fit_here(hyper: Mapping[str, Any], u: np.ndarray, y: np.ndarray, fs: float,
              u_val: np.ndarray, y_val: np.ndarray, hist: tuple[np.ndarray, np.ndarray]
              ) -> tuple[Any, dict[str, Any]]:
@@ -139,15 +134,15 @@ def run_point(hyper: Mapping[str, Any], seed: int, est: Any, test: Any,
     if use_estimator:
         given = {k: v for k, v in hyper.items() if v is not None}
         m = NSS(**given, seed=seed, units=("V", "V"), names=("u", "y"))
-        w_guess = int(given.get("window", 0)) or None
-        kw: dict[str, Any] = {}
-        if _has_validation_history():
-            kw["validation_history"] = True
-        m.fit(u_tr, y_tr, fs, validation=(u_val, y_val), **kw)
-        model, h = m.model_, m.history_
-        info = {"best_epoch": h["best_epoch"], "epochs": len(h["train_mse"]) - 1,
-                "stop_reason": h["stop_reason"]}
-        del w_guess
+        # the validation's history: the last SCORED_FROM training samples (at least any
+        # window); the encoder reads the last `window` of them, as fit_here does
+        h = SCORED_FROM
+        m.fit(u_tr, y_tr, fs, validation=(np.concatenate([u_tr[-h:], u_val]),
+                                          np.concatenate([y_tr[-h:], y_val])),
+              validation_history=h)
+        model, hist = m.model_, m.history_
+        info = {"best_epoch": hist["best_epoch"], "epochs": len(hist["train_mse"]) - 1,
+                "stop_reason": hist["stop_reason"], "sizing": m.sizing_}
     else:
         w = int(hyper["window"])
         model, info = fit_here({**hyper, "seed": seed}, u_tr, y_tr, fs, u_val, y_val,

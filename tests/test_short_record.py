@@ -216,3 +216,26 @@ def test_the_defaults_fit_a_short_record():
     est, test = cascaded_tanks(seed=0)
     rmse = [sr.run_point({}, seed, est, test, True)["test_rmse"] for seed in (0, 1, 2)]
     assert float(np.median(rmse)) <= 1.2 * sr.BEST_SWEEP_RMSE, rmse
+
+
+# -- the command line -----------------------------------------------------------------------------
+def test_train_sizes_a_short_record_and_warns_of_a_size_too_big(tmp_path):
+    from typer.testing import CliRunner
+
+    from sloshrom.cli import app
+    from sloshrom.io import write_record
+
+    est, test = cascaded_tanks(seed=0, n=400, warmup=64)
+    data, val = write_record(est, tmp_path / "e.nc"), write_record(test, tmp_path / "t.nc")
+    base = ["train", "--data", str(data), "--validation", str(val), "--arch", "nss",
+            "--input", "u", "--output", "y", "--max-epochs", "0", "--history", "30"]
+    # the size left out: its line; the size given (the window too): the warning
+    res = CliRunner().invoke(app, [*base, "--n-states", "8", "--neurons", "64", "--window",
+                                   "25", "--weight-decay", "0.1", "--out",
+                                   str(tmp_path / "b.npz")])
+    assert res.exit_code == 0, res.output
+    assert "NSS sized for 400 samples: horizon 50, batch 64, 50 steps per epoch" in res.output
+    assert "warning: NSS(8 states, 64 neurons) has" in res.output
+    assert "samples per parameter" in res.output and "--n-states 4" in res.output
+    m = load_model(tmp_path / "b.npz")
+    assert (m.n_states, m.window, m.horizon, m.weight_decay) == (8, 25, 50, 0.1)
