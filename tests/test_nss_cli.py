@@ -143,13 +143,14 @@ TR = ["train", "--data", "{tmp}/train.nc", "--validation", "{tmp}/validation.nc"
     ([*TR, "--n-states", "3"], r"--n-states does not apply to --arch nfir \(NFIR: .*\); its "
                                r"options are --delays, --neurons"),
     ([*TR, "--arch", "noe", "--window", "3"], r"--window does not apply to --arch noe"),
-    ([*TR, "--arch", "nss", "--window", "1000"],
-     r"train\.nc: 1200 samples are too few for NSS\(8 states, 64 neurons\) \(training "
+    # (the size not given is the size rule's for 1200 samples: 4 states, 17 neurons)
+    ([*TR, "--arch", "nss", "--window", "1000", "--horizon", "200"],
+     r"train\.nc: 1200 samples are too few for NSS\(4 states, 17 neurons\) \(training "
      r"needs at least 1201\)"),
     ([*TR, "--arch", "nss", "--window", "500", "--horizon", "20"],
-     r"validation\.nc: 400 samples are too few for 500 samples of history \(NSS\(8 states, "
-     r"64 neurons\)\)"),
-    ([*TR, "--arch", "nss", "--neurons", "4096", "--window", "4096"],
+     r"validation\.nc: 400 samples are too few for 500 samples of history \(NSS\(4 states, "
+     r"17 neurons\)\)"),
+    ([*TR, "--arch", "nss", "--n-states", "8", "--neurons", "4096", "--window", "4096"],
      r"NSS\(8 states, 4096 neurons\) has \d+ weights, more than 4194304"),
     ([*TR, "--arch", "nss", "--passivity", "-1"], r"--passivity must be in \[0, 1e\+12\], got -1"),
 ])
