@@ -155,6 +155,30 @@ def run_point(hyper: Mapping[str, Any], seed: int, est: Any, test: Any,
             "seconds": seconds, **info}
 
 
+def run_lss(n_states: int, est: Any, test: Any) -> dict[str, Any]:
+    """The best linear model for reference: an LSS of ``n_states`` (N4SID refined on its
+    simulation error) trained and validated as the NSS, its test run started from the test
+    record's first :data:`SCORED_FROM` samples (``predict(history=...)``)."""
+    from sloshrom.rom.lss import LSS
+
+    u, y = np.asarray(est["u"]), np.asarray(est["y"])
+    u_tr, y_tr, u_val, y_val = split(u, y)
+    h = SCORED_FROM
+    t0 = time.perf_counter()
+    m = LSS(n_states=n_states, units=("V", "V"), names=("u", "y")).fit(
+        u_tr, y_tr, float(est.fs), validation=(np.concatenate([u_tr[-h:], u_val]),
+                                               np.concatenate([y_tr[-h:], y_val])),
+        validation_history=h)
+    seconds = time.perf_counter() - t0
+    ut, yt = np.asarray(test["u"]), np.asarray(test["y"])
+    yhat = m.predict(ut[h:], history=(ut[:h], yt[:h]))
+    rmse = float(np.sqrt(np.mean((yhat - yt[h:]) ** 2)))
+    n_params = int(m.n_params)
+    return {"n_states": n_states, "neurons": 0, "window": 0, "seed": 0, "test_rmse": rmse,
+            "n_params": n_params, "samples_per_param": u_tr.size / n_params,
+            "seconds": seconds, "best_epoch": 0, "epochs": 0, "stop_reason": "-"}
+
+
 #: The sweep's points: (n_states, neurons, window).
 SWEEP: tuple[tuple[int, int, int], ...] = (
     (8, 64, 50), (8, 64, 10), (8, 32, 10), (8, 16, 10),
@@ -184,7 +208,7 @@ def table(rows: Sequence[Mapping[str, Any]]) -> str:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--grid", choices=("sweep", "default", "point"), default="sweep")
+    ap.add_argument("--grid", choices=("sweep", "default", "point", "lss"), default="sweep")
     ap.add_argument("--point", action="append", default=[],
                     help="n_states,neurons,window (with --grid point; repeatable)")
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
@@ -200,7 +224,13 @@ def main() -> None:
         extra[k] = float(v) if "." in v or "e" in v else int(v)
     rows = []
     t0 = time.perf_counter()
-    if a.grid == "default":
+    if a.grid == "lss":
+        for nx in (1, 2, 3, 4, 6):
+            r = {**run_lss(nx, est, test), "label": f"LSS({nx})", "hyper": {}}
+            rows.append(r)
+            print(f"LSS({nx}): test RMSE {r['test_rmse']:.4f} V", flush=True)
+        points = []
+    elif a.grid == "default":
         points: list[tuple[str, dict[str, Any], bool]] = [("default (sized)", {**extra}, True)]
     else:
         pts = ([tuple(int(x) for x in p.split(",")) for p in a.point] if a.grid == "point"
