@@ -37,6 +37,7 @@ from typing import Any, cast
 import numpy as np
 import scipy.linalg
 from numpy.lib.stride_tricks import sliding_window_view
+from numpy.typing import ArrayLike
 from scipy.signal import lfilter, resample_poly, welch
 from threadpoolctl import threadpool_limits
 
@@ -238,8 +239,8 @@ def lss_simulate(A: Any, B: Any, C: Any, D: Any, u: Any) -> np.ndarray:
     return y
 
 
-def lss_history_run(A: Any, B: Any, C: Any, D: Any, u_past: Any, y_past: Any,
-                    u: Any) -> np.ndarray:
+def lss_history_run(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike,
+                    u_past: ArrayLike, y_past: ArrayLike, u: ArrayLike) -> np.ndarray:
     """Response to ``u`` from the state that the measured history before it gives.
 
     The state at the history's start is the least-squares fit of the history's output (the
@@ -667,7 +668,8 @@ def _mse(a: np.ndarray, b: np.ndarray) -> float:
 
 @threadpool_limits.wrap(limits=1, user_api="blas")  # type: ignore[untyped-decorator]  # no types
 def pem_refine(A: Any, B: Any, C: Any, D: Any, u: Any, y: Any, max_iter: int,
-               validation: tuple[Any, Any] | None = None, validation_history: int = 0
+               validation: tuple[ArrayLike, ArrayLike] | None = None,
+               validation_history: int = 0
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
     """Refine a stable model by minimising its simulation error (output-error method).
 
