@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import functools
 import inspect
+from collections.abc import Callable
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
 import typer
 
@@ -49,7 +50,7 @@ def _write(record: Record, tmp: str) -> None:
     write_record(record, tmp)
 
 
-def _system(**kw: Any) -> None:
+def _system(**kw: object) -> None:
     """Write the records of a benchmark system: training, validation and test records of its
     input and output, ready for `sloshrom train` and `sloshrom predict`.
 
@@ -66,12 +67,14 @@ def _system(**kw: Any) -> None:
     --validation bw/validation.nc --arch nss --input force --output displacement --out
     bw/nss.npz and sloshrom predict --model bw/nss.npz --data bw/test.nc --out bw/pred.nc
     """
-    name, out, seed = kw.pop("name"), kw.pop("out"), kw.pop("seed")
+    name, out, seed = str(kw.pop("name")), Path(str(kw.pop("out"))), kw.pop("seed")
+    assert isinstance(seed, int)  # typer's conversion of --seed
     if name not in SYSTEMS:
         fail(f"no system {name!r}; the systems are {', '.join(SYSTEMS)}")
     sysm = SYSTEMS[name]
     check_number(seed, "--seed", 0, MAX_SEED)
-    given = {k: v for k, v in kw.items() if v is not None}
+    # the options given (typer's int or float; None: not given)
+    given = {k: v for k, v in kw.items() if isinstance(v, int | float)}
     own = {o.name: o for o in sysm.options}
     for key, value in given.items():
         opt = "--" + key.replace("_", "-")
@@ -94,7 +97,7 @@ def _system(**kw: Any) -> None:
                    + (f", from {what}" if what else ""))
 
 
-def _command() -> Any:
+def _command() -> Callable[..., None]:
     """``_system`` with the signature typer reads: the system, ``--out``, ``--seed``, then one
     option per keyword of the systems' generators."""
     params = [
@@ -110,7 +113,7 @@ def _command() -> Any:
     ]
 
     @functools.wraps(_system)
-    def command(**kw: Any) -> None:
+    def command(**kw: object) -> None:
         _system(**kw)
 
     vars(command)["__signature__"] = inspect.Signature(params)  # what typer reads

@@ -6,19 +6,22 @@ train`` and ``sloshrom predict`` read like any other, with the system's own inpu
 names and units. ``sloshrom system NAME --out DIR`` writes them. A domain room: it imports the
 base and :mod:`sloshrom.io` only.
 
+The registry names each generator as a string (``module:function``) and imports it on first
+use, as :mod:`sloshrom.studies` does its studies: ``import sloshrom.systems`` (and so
+``sloshrom --help``) loads no numba.
+
 Modules: :mod:`~sloshrom.systems.boucwen` (the Bouc–Wen hysteretic benchmark of Noël &
 Schoukens, 2016).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import importlib
 from dataclasses import dataclass
 
 from sloshrom.io import Record
-from sloshrom.systems.boucwen import BoucWenError, BoucWenParams, benchmark_records
 
-__all__ = ["SYSTEMS", "BoucWenError", "BoucWenParams", "Option", "System", "benchmark_records"]
+__all__ = ["SYSTEMS", "Option", "System"]
 
 
 @dataclass(frozen=True)
@@ -54,9 +57,10 @@ class System:
         The command line's name (``bouc-wen``).
     summary : str
         One line: the system, its input and its output.
-    generate : callable
-        ``generate(seed=..., **options) -> dict[str, Record]``: the records by file stem, the
-        first ones ``train``, ``validation`` and ``test``.
+    generator : str
+        ``"module:function"`` of the generator, ``function(seed=..., **options) -> dict[str,
+        Record]``: the records by file stem, the first ones ``train``, ``validation`` and
+        ``test``.
     options : tuple of Option
         The generator's keywords besides ``seed``.
     records : tuple of str
@@ -68,17 +72,24 @@ class System:
 
     name: str
     summary: str
-    generate: Callable[..., dict[str, Record]]
+    generator: str
     options: tuple[Option, ...]
     records: tuple[str, ...]
     names: tuple[str, str]
+
+    def generate(self, seed: int = 0, **options: float) -> dict[str, Record]:
+        """The system's records (its generator, imported on first use), by file stem."""
+        module, _, function = self.generator.partition(":")
+        records: dict[str, Record] = getattr(importlib.import_module(module), function)(
+            seed=seed, **options)
+        return records
 
 
 _BOUC_WEN = System(
     name="bouc-wen",
     summary="the Bouc–Wen hysteretic benchmark (Noël & Schoukens 2016): force (N) on a "
             "hysteretic oscillator in, its displacement (m) out, at 750 Hz",
-    generate=benchmark_records,
+    generator="sloshrom.systems.boucwen:benchmark_records",
     options=(
         Option("periods", 5, "multisine periods of the training record, from rest", 1, 100),
         Option("samples", 8192, "samples per multisine period (the benchmark's 8192)", 256,

@@ -57,6 +57,7 @@ import math
 from dataclasses import asdict, dataclass, fields
 
 import numpy as np
+
 from sloshrom._jit import njit
 from sloshrom.errors import SloshromError
 from sloshrom.io import Record
