@@ -94,7 +94,7 @@ def _system(**kw: object) -> None:
         what = rec.attrs.get("start", "")
         typer.echo(f"wrote {out / f'{stem}.nc'}: {len(rec)} samples at {rec.fs:g} Hz, "
                    f"{', '.join(f'{v} [{rec.units[v]}]' for v in rec.names)}"
-                   + (f", from {what}" if what else ""))
+                   + (f", {what}" if what else ""))
 
 
 def _command() -> Callable[..., None]:

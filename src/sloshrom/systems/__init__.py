@@ -92,8 +92,8 @@ _BOUC_WEN = System(
     generator="sloshrom.systems.boucwen:benchmark_records",
     options=(
         Option("periods", 5, "multisine periods of the training record, from rest", 1, 100),
-        Option("samples", 8192, "samples per multisine period (the benchmark's 8192)", 256,
-               2**20),
+        Option("samples", 8192, "samples per multisine period (the benchmark's 8192; at most "
+               "2^20 samples a record)", 256, 2**18),
         Option("noise", 8e-6, "RMS of the output noise of the training and validation "
                "records, m (the benchmark's 8e-3 mm; 0 = noiseless)", 0.0, 1.0),
         Option("validation_periods", 2, "multisine periods of the validation record, from "

@@ -64,21 +64,25 @@ from sloshrom.io import Record
 
 __all__ = [
     "FS",
+    "MAX_SAMPLES",
     "SWEEP",
     "UPSAMPLE",
     "BoucWenError",
     "BoucWenParams",
     "benchmark_records",
-    "hysteresis_work",
     "multisine",
     "simulate",
     "sine_sweep",
+    "work",
 ]
 
 #: The benchmark's working sample rate, Hz.
 FS = 750.0
 #: Integration steps per sample (15 kHz).
 UPSAMPLE = 20
+#: The most samples of one multisine record (23 min at 750 Hz; its force at the half steps
+#: takes 340 MB).
+MAX_SAMPLES = 2**20
 
 
 class BoucWenError(SloshromError):
@@ -163,14 +167,14 @@ def _rhs(p, y, v, z, u):
 
 
 @njit
-def _rk4(p, u_half, dt, y0, v0, z0):
+def _rk4(p, u_half, dt, y0, v0, z0, stride):
     """Classical RK4 over ``n = (len(u_half) - 1) // 2`` steps of ``dt``.
 
     ``u_half[2 i]`` is the force at ``t_i``, ``u_half[2 i + 1]`` at ``t_i + dt / 2``. Returns
-    the states at ``t_0 .. t_n``, shape ``(3, n + 1)`` (displacement, velocity, hysteretic
-    force)."""
+    the states at ``t_0, t_stride, t_2stride, ...``, shape ``(3, n // stride + 1)``
+    (displacement, velocity, hysteretic force)."""
     n = (u_half.shape[0] - 1) // 2
-    out = np.empty((3, n + 1))
+    out = np.empty((3, n // stride + 1))
     y, v, z = y0, v0, z0
     out[0, 0], out[1, 0], out[2, 0] = y, v, z
     h = dt
@@ -183,7 +187,9 @@ def _rk4(p, u_half, dt, y0, v0, z0):
         y += h / 6.0 * (k1y + 2.0 * k2y + 2.0 * k3y + k4y)
         v += h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v)
         z += h / 6.0 * (k1z + 2.0 * k2z + 2.0 * k3z + k4z)
-        out[0, i + 1], out[1, i + 1], out[2, i + 1] = y, v, z
+        if (i + 1) % stride == 0:
+            j = (i + 1) // stride
+            out[0, j], out[1, j], out[2, j] = y, v, z
     return out
 
 
@@ -192,6 +198,7 @@ def simulate(
     dt: float,
     params: BoucWenParams | None = None,
     state0: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    stride: int = 1,
 ) -> np.ndarray:
     """Integrate the Bouc–Wen oscillator with RK4 at the fixed step ``dt``.
 
@@ -206,11 +213,13 @@ def simulate(
         Default: the benchmark's.
     state0 : (float, float, float)
         Displacement (m), velocity (m/s) and hysteretic force (N) at ``t = 0``; default rest.
+    stride : int
+        Keep every ``stride``-th state (20: the benchmark's 750 Hz from its 15 kHz step).
 
     Returns
     -------
-    ndarray, shape (3, n + 1)
-        Displacement (m), velocity (m/s) and hysteretic force z (N) at ``0, dt, ..., n dt``.
+    ndarray, shape (3, n // stride + 1)
+        Displacement (m), velocity (m/s) and hysteretic force z (N) at ``0, stride dt, ...``.
     """
     p = params or BoucWenParams()
     u = np.asarray(force_half, dtype=np.float64)
@@ -221,17 +230,18 @@ def simulate(
         raise BoucWenError("the force has NaN or infinite values")
     if not (math.isfinite(dt) and dt > 0):
         raise BoucWenError(f"the step dt must be a positive number of seconds, got {dt!r}")
+    stride = _check_count(stride, "the stride", 1)
     y0, v0, z0 = (float(s) for s in state0)
-    return np.asarray(_rk4(p.array(), u, float(dt), y0, v0, z0))
+    return np.asarray(_rk4(p.array(), u, float(dt), y0, v0, z0, stride))
 
 
-def hysteresis_work(velocity: np.ndarray, z: np.ndarray, dt: float) -> float:
-    """Work done on the hysteretic element over a record, J: ``integral of z y' dt``
-    (trapezoid rule).
+def work(force: np.ndarray, velocity: np.ndarray, dt: float) -> float:
+    """The work of a force over a record, J: ``integral of f y' dt`` (trapezoid rule).
 
-    Over a closed loop (same state at both ends) it is the energy the hysteresis dissipated,
-    ``>= 0`` for a dissipative element."""
-    w = np.asarray(z, dtype=np.float64) * np.asarray(velocity, dtype=np.float64)
+    Of the force u on the mass: the energy it put in. Of the hysteretic force z over a closed
+    loop (the same state at both ends): the energy the hysteresis dissipated, ``>= 0`` for a
+    dissipative element."""
+    w = np.asarray(force, dtype=np.float64) * np.asarray(velocity, dtype=np.float64)
     return float(dt * (w.sum() - 0.5 * (w[0] + w[-1])))
 
 
@@ -326,8 +336,8 @@ def sine_sweep(t: np.ndarray, f_start: float = 18.0, f_end: float = 52.0,
 def _response(u_half: np.ndarray, params: BoucWenParams) -> np.ndarray:
     """Displacement at 750 Hz (every 20th step from rest) for the force given at the steps and
     half steps of the 15 kHz grid; one sample per 40 values of ``u_half``."""
-    y = simulate(u_half, 1.0 / (FS * UPSAMPLE), params)[0]
-    return y[:-1 : UPSAMPLE]
+    y = simulate(u_half, 1.0 / (FS * UPSAMPLE), params, stride=UPSAMPLE)[0]
+    return y[:-1]
 
 
 def _periodic(period_half: np.ndarray, periods: int,
@@ -399,6 +409,12 @@ def benchmark_records(
     periods = _check_count(periods, "the estimation periods", 1)
     validation_periods = _check_count(validation_periods, "the validation periods", 1)
     samples = _check_count(samples, "the samples per period", 256)
+    longest = max(periods, validation_periods, 3) * samples
+    if longest > MAX_SAMPLES:
+        raise BoucWenError(f"a record of {longest} samples (periods x samples per period) is "
+                           f"more than {MAX_SAMPLES} ({MAX_SAMPLES / FS / 60:.0f} min at 750 "
+                           "Hz), the most one run simulates (its force at 30 kHz holds 40 "
+                           "values a sample)")
     if isinstance(noise, bool) or not isinstance(noise, (int, float)) \
             or not (math.isfinite(noise) and noise >= 0):
         raise BoucWenError(f"the output noise must be a number >= 0 (m RMS), got {noise!r}")
@@ -410,18 +426,18 @@ def benchmark_records(
                             ("validation", phases[1], validation_periods)):
         u, y = _periodic(ph, count, p)
         y = y + noise * rng.standard_normal(y.size)
-        out[name] = _record(u, y, name, seed, float(noise), periods=count, start="rest")
+        out[name] = _record(u, y, name, seed, float(noise), periods=count, start="from rest")
     # the test realisation from rest; its third period is in steady state (the transient of a
     # start from rest decays within a period, section 4 of the benchmark)
     u, y = _periodic(phases[2], 3, p)
     n = samples
-    out["test"] = _record(u[:n], y[:n], "test", seed, 0.0, periods=1, start="rest")
+    out["test"] = _record(u[:n], y[:n], "test", seed, 0.0, periods=1, start="from rest")
     out["test_steady"] = _record(u[2 * n:], y[2 * n:], "test_steady", seed, 0.0, periods=1,
-                                 start="steady state")
+                                 start="in steady state")
     if sweep:
         m = int(round((SWEEP["f_end"] - SWEEP["f_start"]) / SWEEP["rate"] * FS))
         t_half = np.arange(2 * UPSAMPLE * m + 1) / (2 * UPSAMPLE * FS)
         u_half = sine_sweep(t_half, **SWEEP)
         out["sweep"] = _record(u_half[:-1 : 2 * UPSAMPLE], _response(u_half, p), "sweep", seed,
-                               0.0, start="rest")
+                               0.0, start="from rest")
     return out
