@@ -24,7 +24,7 @@ from sloshrom.cli._app import app, check_input, check_number, check_out, fail
 from sloshrom.cli.progress import progress_bars
 from sloshrom.config import FILL_TOLERANCE
 from sloshrom.errors import SloshromError
-from sloshrom.io import STANDARD_UNITS, read_record, same_unit, write_record
+from sloshrom.io import STANDARD_UNITS, Record, read_record, same_unit, write_record
 from sloshrom.limits import (
     HIDDEN_KINDS,
     MAX_DELAY,
@@ -56,7 +56,7 @@ def _read(path: Path, names: list[str], what: str):
     return rec
 
 
-def _same_units(a: Any, pa: Path, b: Any, pb: Path, names: list[str]) -> None:
+def _same_units(a: Record, pa: Path, b: Record, pb: Path, names: list[str]) -> None:
     """Training and validation records must measure each variable in the same unit."""
     for n in names:
         ua, ub = a.units[n], b.units[n]
@@ -64,7 +64,7 @@ def _same_units(a: Any, pa: Path, b: Any, pb: Path, names: list[str]) -> None:
             fail(f"unit mismatch: variable '{n}' is in '{ua}' in {pa} but in '{ub}' in {pb}")
 
 
-def _standard_units(rec: Any, path: Path, names: list[str]) -> None:
+def _standard_units(rec: Record, path: Path, names: list[str]) -> None:
     """A variable with a standard name must be in that name's unit (swapped columns, ...)."""
     for n in names:
         si = STANDARD_UNITS.get(n)
@@ -109,7 +109,7 @@ def _training_fill(fill: float | None, rec: Any, data: Path, val: Any,
     return next(iter(found.values()), None)
 
 
-def _not_at_rest(rec: Any, name: str, share: float = 0.05) -> str:
+def _not_at_rest(rec: Record, name: str, share: float = 0.05) -> str:
     """Why a record does not start at rest (a model's rest: zero output), or "": its output
     ``name`` starts farther from zero than ``share`` of its range. (The first input sample says
     nothing: a model at rest reads it at its first step.)"""
@@ -581,7 +581,7 @@ def predict(
         y = m.predict(rec[in_name]) if past is None else m.predict(rec[in_name], history=past)
     except SloshromError as exc:  # UnstableModelError, ROMError (NaN in the record)
         fail(str(exc))
-    attrs: dict[str, Any] = {"prediction_model": str(model)}
+    attrs: dict[str, str | int] = {"prediction_model": str(model)}
     if history:
         attrs["prediction_history"] = history
     new = rec.with_variables({f"{out_name}_pred": y}, {f"{out_name}_pred": m.units[1]},
@@ -599,7 +599,8 @@ def predict(
     typer.echo(msg)
 
 
-def _history_of(model: Any, rec: Any, history: int, data: Path) -> tuple[Any, Any]:
+def _history_of(model: Any, rec: Record, history: int, data: Path
+                ) -> tuple[np.ndarray, np.ndarray]:
     """``predict --history N``: the record's first N samples of input and output, checked
     (the model can start from history, N is enough for it and leaves samples to predict, the
     output is in the model's unit)."""
@@ -618,9 +619,9 @@ def _history_of(model: Any, rec: Any, history: int, data: Path) -> tuple[Any, An
     return rec[in_name][:history], rec[out_name][:history]
 
 
-def _after(rec: Any, start: int) -> Any:
+def _after(rec: Record, start: int) -> Record:
     """The record from sample ``start`` on (every variable, time included)."""
-    return type(rec)(rec.time[start:], rec.fs, {k: v[start:] for k, v in rec.variables.items()},
+    return Record(rec.time[start:], rec.fs, {k: v[start:] for k, v in rec.variables.items()},
                      dict(rec.units), dict(rec.attrs), dict(rec.dims))
 
 

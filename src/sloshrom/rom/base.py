@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any, ClassVar, Literal, cast
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sloshrom import __version__
 from sloshrom._x64 import float64
@@ -34,8 +35,8 @@ from sloshrom.rom.modelfile import model_file_path, write_model_file
 from sloshrom.rom.network import MinMaxScaler
 from sloshrom.rom.registry import ModelClass
 
-__all__ = ["Estimator", "as_signal", "checked_history", "checked_past", "checked_records",
-           "record_envelope"]
+__all__ = ["Estimator", "History", "as_signal", "checked_history", "checked_past",
+           "checked_records", "record_envelope"]
 
 
 def as_signal(name: str, x: Any, allow_batch: bool = False) -> np.ndarray:
@@ -105,7 +106,11 @@ def checked_records(u: Any, y: Any, fs: float, validation: tuple[Any, Any] | Non
     return u, y, validation, fill
 
 
-def checked_past(history: Any) -> tuple[np.ndarray, np.ndarray]:
+#: Measured history before a record: its input and output, oldest first.
+History = tuple[ArrayLike, ArrayLike]
+
+
+def checked_past(history: object) -> tuple[np.ndarray, np.ndarray]:
     """``(u_past, y_past)`` of a prediction from measured history, as finite 1-D float64
     signals of one length.
 
@@ -123,7 +128,7 @@ def checked_past(history: Any) -> tuple[np.ndarray, np.ndarray]:
     return up, yp
 
 
-def checked_history(history: Any, validation: tuple[np.ndarray, np.ndarray] | None,
+def checked_history(history: object, validation: tuple[np.ndarray, np.ndarray] | None,
                     need: int, label: str) -> int:
     """``validation_history`` of a fit, checked: 0, or the validation record's first samples
     taken as measured history (at least ``need``, the samples the class ``label`` reads, and
@@ -362,7 +367,7 @@ class Estimator:
         return cast(int, self.model_.history_samples)
 
     @float64
-    def predict(self, u: Any, history: tuple[Any, Any] | None = None) -> np.ndarray:
+    def predict(self, u: Any, history: History | None = None) -> np.ndarray:
         """Simulation from rest, or from measured history; does not change the model.
 
         Parameters

@@ -35,7 +35,7 @@ import numpy as np
 
 from sloshrom import __version__
 from sloshrom.models import EnvelopeWarning, check_envelope, envelope_union, model_input
-from sloshrom.rom.base import checked_past
+from sloshrom.rom.base import History, checked_past
 from sloshrom.rom.epochs import EpochFile, EpochReport, epoch_reports
 from sloshrom.rom.errors import NotFittedError, ROMError
 from sloshrom.rom.family import check_training_fill
@@ -454,7 +454,7 @@ class Ensemble:
         self._check_fitted()
         return max(int(m.history_samples) for m in self.members_)
 
-    def _outputs(self, u: Any, stacklevel: int, history: tuple[Any, Any] | None = None
+    def _outputs(self, u: Any, stacklevel: int, history: History | None = None
                  ) -> np.ndarray:
         self._check_fitted()
         u = _signal("u", u)
@@ -468,7 +468,7 @@ class Ensemble:
             warnings.simplefilter("ignore", EnvelopeWarning)
             return np.stack([np.asarray(m.predict(u, history=history)) for m in self.members_])
 
-    def member_predictions(self, u: Any, history: tuple[Any, Any] | None = None) -> np.ndarray:
+    def member_predictions(self, u: Any, history: History | None = None) -> np.ndarray:
         """Every member's output from rest, or from measured history (for spread bands).
 
         Parameters
@@ -499,7 +499,7 @@ class Ensemble:
         """
         return self._outputs(u, stacklevel=3, history=history)
 
-    def predict(self, u: Any, history: tuple[Any, Any] | None = None) -> np.ndarray:
+    def predict(self, u: Any, history: History | None = None) -> np.ndarray:
         """Mean of the members' outputs from rest (or from measured ``history``); does not
         change the ensemble.
 

@@ -42,6 +42,7 @@ from typing import Any
 
 import jax
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sloshrom.config import FILL_TOLERANCE
 from sloshrom.fileio import atomic_write_text, not_a_regular_file
@@ -253,7 +254,8 @@ class FillBlend:
         """Samples of measured history a start from it reads: the most any member reads."""
         return max(int(m.history_samples) for m in self.members)
 
-    def predict(self, u: Any, history: tuple[Any, Any] | None = None) -> np.ndarray:
+    def predict(self, u: Any, history: tuple[ArrayLike, ArrayLike] | None = None
+                ) -> np.ndarray:
         """:meth:`simulate` of the input ``u`` alone (velocity-input members), or the blend of
         the members' runs from measured ``history`` (:meth:`sloshrom.rom.NSS.predict`)."""
         if history is None:

@@ -33,6 +33,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from jax import lax
+from numpy.typing import ArrayLike
 
 from sloshrom._x64 import float64
 from sloshrom.limits import HIDDEN_KINDS
@@ -315,15 +316,16 @@ def noe_free_run(theta: Any, u_s: Any, rest_u: Any, rest_y: Any, delays: tuple[i
     return noe_simulate(theta, u_s, state0, delays, out_delays, neurons, hidden)[1]
 
 
-def past_lines(past: Any, length: int) -> jnp.ndarray:
+def past_lines(past: jax.Array, length: int) -> jax.Array:
     """A delay line filled with measured history: the last ``length`` samples of ``past``
     (..., n >= length; oldest first), most recent first."""
     return jnp.flip(past[..., past.shape[-1] - length:], axis=-1)
 
 
 @partial(jax.jit, static_argnames=("delays", "out_delays", "neurons", "hidden"))
-def noe_history_run(theta: Any, u_past: Any, y_past: Any, u_s: Any, delays: tuple[int, ...],
-                    out_delays: int, neurons: int, hidden: str) -> jnp.ndarray:
+def noe_history_run(theta: jax.Array, u_past: jax.Array, y_past: jax.Array, u_s: jax.Array,
+                    delays: tuple[int, ...], out_delays: int, neurons: int, hidden: str
+                    ) -> jax.Array:
     """NOE closed loop of a scaled input ``u_s`` started from measured history: the delay lines
     hold the last inputs and outputs of ``u_past``/``y_past`` (scaled, oldest first, at least
     ``max(delays)`` and ``out_delays`` samples); returns the scaled output."""
@@ -399,7 +401,8 @@ class FittedNetwork:
         raise NotImplementedError
 
     @float64
-    def run_from_history(self, u_past: Any, y_past: Any, u: Any) -> np.ndarray:
+    def run_from_history(self, u_past: ArrayLike, y_past: ArrayLike, u: ArrayLike
+                         ) -> np.ndarray:
         """Output for an input record started from measured history instead of rest.
 
         Parameters

@@ -208,8 +208,8 @@ def ss_encode(p: dict[str, Any], u_past: Any, y_past: Any, r_u: Any, r_y: Any) -
 
 
 @jax.jit
-def ss_history_run(p: dict[str, Any], u_past: Any, y_past: Any, u_s: Any, r_u: Any,
-                   r_y: Any) -> Any:
+def ss_history_run(p: dict[str, jax.Array], u_past: jax.Array, y_past: jax.Array,
+                   u_s: jax.Array, r_u: float, r_y: float) -> jax.Array:
     """Run of the scaled input ``u_s`` (n,) from the state encoded from measured history: the
     last ``window`` samples of the scaled ``u_past``/``y_past`` (oldest first); the scaled
     outputs (n,)."""

@@ -363,7 +363,7 @@ def noe_problem(
 
 def noe_validation_run(validation: tuple[np.ndarray, np.ndarray], rest_u: float, rest_y: float,
                        delays: tuple[int, ...], out_delays: int, neurons: int, hidden: str,
-                       history: int = 0) -> Callable[[Any], np.ndarray]:
+                       history: int = 0) -> Callable[[np.ndarray], np.ndarray]:
     """``run(theta)``: an NOE's scaled outputs on a scaled validation record, from rest or,
     after its first ``history`` samples of measured history, from delay lines holding them
     (the scored part only)."""
