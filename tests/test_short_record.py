@@ -239,3 +239,13 @@ def test_train_sizes_a_short_record_and_warns_of_a_size_too_big(tmp_path):
     assert "samples per parameter" in res.output and "--n-states 4" in res.output
     m = load_model(tmp_path / "b.npz")
     assert (m.n_states, m.window, m.horizon, m.weight_decay) == (8, 25, 50, 0.1)
+
+
+def test_the_registry_s_records_split_the_estimation_record():
+    from sloshrom.systems.tanks import HISTORY, tank_records
+
+    r = tank_records(seed=1, n=300, warmup=40)
+    assert list(r)[:3] == ["train", "validation", "test"]
+    assert len(r["train"]) == 240 and len(r["validation"]) == 60 + HISTORY
+    np.testing.assert_array_equal(r["validation"]["y"][:HISTORY], r["train"]["y"][-HISTORY:])
+    np.testing.assert_array_equal(r["validation"]["u"][HISTORY:], r["estimation"]["u"][240:])

@@ -41,7 +41,8 @@ import numpy as np
 
 from sloshrom.io import Record
 
-__all__ = ["TankParameters", "cascaded_tanks", "multisine", "simulate_tanks", "steady_levels"]
+__all__ = ["HISTORY", "TankParameters", "cascaded_tanks", "multisine", "simulate_tanks",
+           "steady_levels", "tank_records"]
 
 
 @dataclass(frozen=True)
@@ -230,3 +231,40 @@ def cascaded_tanks(seed: int = 0, n: int = 1024, *, ts: float = 4.0, f_max: floa
         records.append(Record(time=t, fs=1.0 / ts, variables={"u": u, "y": y},
                               units={"u": "V", "y": "V"}, attrs=attrs))
     return records[0], records[1]
+
+
+#: Samples of measured history at the head of the validation record of :func:`tank_records`
+#: (``sloshrom train --history``): at least any encoder window of the short-record sweep.
+HISTORY = 50
+
+
+def _part(rec: Record, start: int, stop: int, name: str) -> Record:
+    t = np.asarray(rec.time)[start:stop]
+    return Record(time=t - t[0], fs=rec.fs,
+                  variables={k: np.asarray(rec[k])[start:stop] for k in ("u", "y")},
+                  units=dict(rec.units), attrs={**rec.attrs, "record": name,
+                                                "first_sample": int(start)})
+
+
+def tank_records(seed: int = 0, n: int = 1024, noise: float = 0.03,
+                 warmup: int = 256) -> dict[str, Record]:
+    """The records of :func:`cascaded_tanks` by file stem, for the systems' registry.
+
+    Parameters
+    ----------
+    seed, n, noise, warmup
+        As :func:`cascaded_tanks` (``noise``: the measurement noise's standard deviation, V).
+
+    Returns
+    -------
+    dict of str to Record
+        ``train``: the estimation record's first 80 %; ``validation``: the rest, preceded by
+        :data:`HISTORY` samples of the training part as measured history (train with
+        ``--history 50``); ``test``: the test record (far from rest: predict with
+        ``--history``); ``estimation``: the whole estimation record.
+    """
+    est, test = cascaded_tanks(seed=seed, n=int(n), noise=float(noise), warmup=int(warmup))
+    n_train = int(round(0.8 * len(est)))
+    return {"train": _part(est, 0, n_train, "train"),
+            "validation": _part(est, max(0, n_train - HISTORY), len(est), "validation"),
+            "test": test, "estimation": est}
