@@ -100,7 +100,7 @@ def test_the_rule_keeps_the_defaults_on_a_long_record():
 
 def test_the_rule_sizes_a_short_record_smaller_and_monotonically():
     d = NSS_CLASS.defaults()
-    assert nss_size(819, {}) == NSS_SHORT_SIZE
+    assert nss_size(819, {}) == {**NSS_SHORT_SIZE, "horizon": 200}  # the recipe's horizon
     sizes = [NSS_CLASS.n_params({**d, **nss_size(n, {})})
              for n in (819, 3000, 10_000, 50_000, 240_000)]
     assert sizes == sorted(sizes) and sizes[0] < sizes[-1] / 10
@@ -145,7 +145,8 @@ def test_fit_sizes_records_and_saves_the_chosen_size(tmp_path):
         # no epoch: the size is chosen before the training
         m = NSS(max_epochs=0, units=("V", "V"), names=("u", "y")).fit(u, y, 1 / TS)
     assert m.spec.n_states == 4 and m.spec.neurons == 16 and m.spec.window == 10
-    assert m.sized_["horizon"] == 50 and m.n_states is None  # the argument stays "sized"
+    # the horizon shortened to leave half of the 400 samples as starts
+    assert m.sized_["horizon"] == 195 and m.n_states is None  # the argument stays "sized"
     assert m.sizing_.startswith("NSS sized for 400 samples: 4 states, 16 neurons, window 10")
     back = load_model(m.save(tmp_path / "m.npz"))
     assert back.get_params() == m.effective_params()
@@ -157,8 +158,8 @@ def test_fit_warns_of_a_user_size_far_beyond_the_record():
     with pytest.warns(ModelSizeWarning, match="samples per parameter"):
         m = NSS(n_states=8, neurons=64, window=50, max_epochs=0, units=("V", "V"),
                 names=("u", "y")).fit(u, y, 1 / TS)
-    assert m.sizing_ is not None and "horizon 50" in m.sizing_  # the recipe is still sized
-    assert m.spec.n_states == 8 and m.effective_params()["horizon"] == 50
+    assert m.sizing_ is not None and "horizon 175" in m.sizing_  # (400 - 50) // 2
+    assert m.spec.n_states == 8 and m.effective_params()["horizon"] == 175
 
 
 # -- weight decay --------------------------------------------------------------------------------
@@ -234,11 +235,11 @@ def test_train_sizes_a_short_record_and_warns_of_a_size_too_big(tmp_path):
                                    "25", "--weight-decay", "0.1", "--out",
                                    str(tmp_path / "b.npz")])
     assert res.exit_code == 0, res.output
-    assert "NSS sized for 400 samples: horizon 50, batch 64, 50 steps per epoch" in res.output
+    assert "NSS sized for 400 samples: horizon 187 (" in res.output  # (400 - 25) // 2
     assert "warning: NSS(8 states, 64 neurons) has" in res.output
     assert "samples per parameter" in res.output and "--n-states 4" in res.output
     m = load_model(tmp_path / "b.npz")
-    assert (m.n_states, m.window, m.horizon, m.weight_decay) == (8, 25, 50, 0.1)
+    assert (m.n_states, m.window, m.horizon, m.weight_decay) == (8, 25, 187, 0.1)
 
 
 def test_the_registry_s_records_split_the_estimation_record():

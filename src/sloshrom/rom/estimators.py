@@ -473,17 +473,17 @@ class NSS(_Estimator):
     may be any signals in any units (``names``, ``units``); the passive recipe's loss terms
     alone are written for a velocity in m/s and a force in N.
 
-    The size (``n_states``, ``neurons``, ``window``) and the shooting recipe's ``horizon``,
-    ``batch`` and ``steps_per_epoch`` left at None are **sized by the training record**
-    (:meth:`sloshrom.rom.registry.ModelClass.sized`, the rule
+    The size (``n_states``, ``neurons``, ``window``) and the ``horizon`` left at None are
+    **sized by the training record** (:meth:`sloshrom.rom.registry.ModelClass.size`, the rule
     :func:`sloshrom.rom.registry.nss_size`): from 100,000 samples on they are the defaults
-    below, exactly (the sloshing records'); on a short record smaller (on 1,000 samples and
-    fewer: 4 states, 16 neurons, window 10, horizon 50, batch 64, 50 steps per epoch;
-    docs/short-records.md). A value given is kept; a size given with more than
-    :data:`~sloshrom.rom.registry.OVERSIZE` times the rule's parameters is warned of
-    (:class:`~sloshrom.rom.errors.ModelSizeWarning`). After :meth:`fit`, ``sized_`` holds the
-    values the rule chose, ``sizing_`` a line saying them (None when none was left to it), and
-    :meth:`effective_params` (what a model file records) every value.
+    below, exactly (the sloshing records'); on a short record the network is smaller (on
+    1,000 samples and fewer: 4 states, 16 neurons, window 10; docs/short-records.md) and the
+    horizon is shortened only where the record is too short for it. A value given is kept; a
+    size given with more than :data:`~sloshrom.rom.registry.OVERSIZE` times the rule's
+    parameters is warned of (:class:`~sloshrom.rom.errors.ModelSizeWarning`). After
+    :meth:`fit`, ``sized_`` holds the values the rule chose, ``sizing_`` a line saying them
+    (None when none was left to it), and :meth:`effective_params` (what a model file records)
+    every value.
 
     Parameters
     ----------
@@ -497,15 +497,15 @@ class NSS(_Estimator):
     horizon : int or None
         Samples simulated from each encoded start in training (and the length of the passivity
         probes, which must hold a ramp and two periods of the band's lowest frequency) (None:
-        sized; 200 on a long record).
-    batch : int or None
-        Sub-sequences per Adam step (None: sized; 128 on a long record).
+        200, shortened on a record too short for it).
+    batch : int
+        Sub-sequences per Adam step.
     max_epochs : int
         Epochs of ``steps_per_epoch`` Adam steps at most (early stopping on the validation
         free run, patience 6 epochs).
-    steps_per_epoch : int or None
-        Adam steps between validations (None: sized; 200 on a long record); the learning
-        rate's cosine decay spans ``max_epochs * steps_per_epoch`` steps.
+    steps_per_epoch : int
+        Adam steps between validations; the learning rate's cosine decay spans
+        ``max_epochs * steps_per_epoch`` steps.
     learning_rate : float
         Initial Adam step (cosine decay to 5 % of it over ``max_epochs``).
     seed : int
@@ -539,9 +539,9 @@ class NSS(_Estimator):
         neurons: int | None = None,
         window: int | None = None,
         horizon: int | None = None,
-        batch: int | None = None,
+        batch: int = 128,
         max_epochs: int = 60,
-        steps_per_epoch: int | None = None,
+        steps_per_epoch: int = 200,
         learning_rate: float = 3e-3,
         seed: int = 0,
         units: Sequence[str] = ("m/s", "N"),
@@ -681,8 +681,8 @@ class NSS(_Estimator):
         band = power_band(u, fs)
         probe_band = power_band(u, fs, 0.001, 0.999)
         options = ShootingOptions(
-            horizon=sz["horizon"], batch=sz["batch"], max_epochs=int(self.max_epochs),
-            steps_per_epoch=sz["steps_per_epoch"], learning_rate=float(self.learning_rate),
+            horizon=sz["horizon"], batch=int(self.batch), max_epochs=int(self.max_epochs),
+            steps_per_epoch=int(self.steps_per_epoch), learning_rate=float(self.learning_rate),
             amplitude_weighting=float(self.amplitude_weighting),
             passivity=float(self.passivity), cycle_energy=float(self.cycle_energy),
             frequency_band=(probe_band[0], probe_band[1]),

@@ -334,8 +334,7 @@ class ModelClass:
         sized for 819 samples: 4 states, 16 neurons, window 10, ... (697 parameters, 1.2
         samples per parameter)"``."""
         words = {"n_states": "{} states", "neurons": "{} neurons", "window": "window {}",
-                 "horizon": "horizon {}", "batch": "batch {}",
-                 "steps_per_epoch": "{} steps per epoch"}
+                 "horizon": "horizon {}"}
         parts = [words.get(k, k + " {}").format(sizes[k]) for k in self.sized_by_record
                  if k in chosen]
         p = self.n_params(self._with_sizes(sizes))
@@ -541,38 +540,41 @@ def nss_shapes(h: Mapping[str, Any]) -> dict[str, tuple[int, ...]]:
 #: of (:meth:`ModelClass.oversize`).
 OVERSIZE = 4.0
 #: Training samples from which an NSS keeps the size of its defaults exactly (8 states, 64
-#: neurons, window 50, horizon 200, batch 128, 200 steps per epoch): the sloshing records they
-#: were sized for have 240,000.
+#: neurons, window 50): the sloshing records they were sized for have 240,000.
 NSS_FULL_SIZE_SAMPLES = 100_000
 #: Training samples of the short-record anchor: the Cascaded Tanks sweep's 819
 #: (docs/short-records.md).
 NSS_SHORT_SAMPLES = 1_000
-#: The NSS's size and recipe on a record of :data:`NSS_SHORT_SAMPLES` samples or fewer: the
-#: best of the short-record sweep (benchmarks/short_record.py, docs/short-records.md).
-NSS_SHORT_SIZE: dict[str, int] = {"n_states": 4, "neurons": 16, "window": 10, "horizon": 50,
-                                  "batch": 64, "steps_per_epoch": 50}
+#: The NSS's size on a record of :data:`NSS_SHORT_SAMPLES` samples or fewer: the best of the
+#: short-record sweep (benchmarks/short_record.py, docs/short-records.md). The shooting recipe
+#: (horizon 200, batch 128, 200 steps per epoch) stays: on the short record it was worth more
+#: than any smaller one.
+NSS_SHORT_SIZE: dict[str, int] = {"n_states": 4, "neurons": 16, "window": 10}
 
 
 def nss_size(n_samples: int, given: Mapping[str, int]) -> dict[str, int]:
-    """The NSS's size rule: the values of :data:`NSS_SHORT_SIZE`'s hyperparameters not in
-    ``given`` (the user's values) for a training record of ``n_samples`` samples.
+    """The NSS's size rule: the values of ``n_states``, ``neurons``, ``window`` and
+    ``horizon`` not in ``given`` (the user's values) for a training record of ``n_samples``
+    samples.
 
     From :data:`NSS_FULL_SIZE_SAMPLES` samples on, the defaults (those the sloshing pipeline
-    depends on); at :data:`NSS_SHORT_SAMPLES` and below, the sweep's best size; in between,
-    each value interpolated geometrically in the record's length (a straight line on log-log
-    axes between the two measured anchors; nothing between them was measured). The horizon
-    then leaves at least half of the record's samples as starts of the multiple shooting.
+    depends on); at :data:`NSS_SHORT_SAMPLES` and below, the sweep's best size
+    (:data:`NSS_SHORT_SIZE`); in between, each value interpolated geometrically in the
+    record's length (a straight line on log-log axes between the two measured anchors;
+    nothing between them was measured). The horizon is the default's, shortened on a record
+    too short for it so that at least half of the record's samples start a sub-sequence.
     """
     n = int(n_samples)
-    default = {k: int(NSS_CLASS.hyper_named(k).default) for k in NSS_SHORT_SIZE}
+    names = (*NSS_SHORT_SIZE, "horizon")
+    default = {k: int(NSS_CLASS.hyper_named(k).default) for k in names}
     out = {k: v for k, v in default.items() if k not in given}
     if n >= NSS_FULL_SIZE_SAMPLES:
         return out
     t = min(1.0, max(0.0, math.log(max(n, 1) / NSS_SHORT_SAMPLES)
                      / math.log(NSS_FULL_SIZE_SAMPLES / NSS_SHORT_SAMPLES)))
-    for k in out:
-        small = NSS_SHORT_SIZE[k]
-        out[k] = max(1, round(small * (default[k] / small) ** t))
+    for k, small in NSS_SHORT_SIZE.items():
+        if k in out:
+            out[k] = max(1, round(small * (default[k] / small) ** t))
     if "horizon" in out:
         # a horizon near the record's length leaves a handful of distinct sub-sequences
         window = int(given.get("window", out.get("window", default["window"])))
@@ -693,7 +695,7 @@ NSS_CLASS = ModelClass(
            "does, and with it predicts the impacts the NFIR misses while its dissipation map "
            "stays at least as close to the rig's (docs/rom.md, \"A ROM with state\", with the "
            "figures of both classes).",
-    size_rule=nss_size, sized_by_record=tuple(NSS_SHORT_SIZE),
+    size_rule=nss_size, sized_by_record=(*NSS_SHORT_SIZE, "horizon"),
 )
 
 LSS_CLASS = ModelClass(
