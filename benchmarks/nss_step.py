@@ -74,9 +74,11 @@ def main() -> None:
     (u, y, _, _, fs), source = records(a.run)
     # the recipe of `reproduce` ([rom.nss] and the registry's passive recipe)
     est = NSS(feedthrough="no", velocity_offset=0.5, passivity=1.0, cycle_energy=0.1)
-    spec = ss.StateSpaceSpec(est.n_states, est.neurons, est.window, proper=True)
+    # the size of a long record (the defaults; the estimator's sized arguments are None)
+    h = est.effective_params()
+    spec = ss.StateSpaceSpec(h["n_states"], h["neurons"], h["window"], proper=True)
     band = power_band(u, fs, 0.001, 0.999)  # the probes' band, as NSS.fit takes it
-    opts = ShootingOptions(horizon=est.horizon, batch=est.batch, steps_per_epoch=a.steps,
+    opts = ShootingOptions(horizon=h["horizon"], batch=est.batch, steps_per_epoch=a.steps,
                            passivity=est.passivity, cycle_energy=est.cycle_energy,
                            amplitude_weighting=est.amplitude_weighting,
                            frequency_band=(band[0], band[1]), velocity_offset=0.5)

@@ -127,12 +127,14 @@ def steady(h: dict, key: str) -> float:
 
 def nss_flops(m) -> tuple[float, int, int]:
     """FLOPs of one NSS epoch, and the (k, n) of its widest layer."""
-    nx, h, w = m.n_states, m.neurons, m.window
+    # the size it has (the estimator's sized arguments are None until a fit chooses them)
+    p = m.effective_params()
+    nx, h, w = p["n_states"], p["neurons"], p["window"]
     n_probe = 24 if m.passivity > 0 else 0
     seqs = m.batch + n_probe
     per_step = (nx + 1) * (nx + 2 * h + 1) + h * (nx + 1)  # A, W1, V1, C; W2, V2 (MACs)
     encoder = 2 * w * h + h * nx
-    fwd = 2.0 * (seqs * m.horizon * per_step + m.batch * encoder)
+    fwd = 2.0 * (seqs * p["horizon"] * per_step + m.batch * encoder)
     return m.steps_per_epoch * 3.0 * fwd, nx + 1, 2 * h
 
 
