@@ -14,7 +14,7 @@ import inspect
 import os
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
 import typer
@@ -23,7 +23,7 @@ from sloshrom.cli._app import app, check_input, check_number, check_out, fail
 from sloshrom.cli.progress import progress_bars
 from sloshrom.config import FILL_TOLERANCE
 from sloshrom.errors import SloshromError
-from sloshrom.io import STANDARD_UNITS, read_record, same_unit, write_record
+from sloshrom.io import STANDARD_UNITS, Record, read_record, same_unit, write_record
 from sloshrom.limits import (
     HIDDEN_KINDS,
     MAX_DELAY,
@@ -32,9 +32,14 @@ from sloshrom.limits import (
     MAX_NEURONS,
     MAX_SEED,
     MAX_WEIGHTS,
+    MU_MAX,
 )
 from sloshrom.rom.epochs import TrainingProgress
 from sloshrom.rom.registry import CLASSES, Hyper, ModelClass, model_class
+
+if TYPE_CHECKING:  # annotations only: the CLI loads JAX when it trains
+    from sloshrom.rom.base import Estimator
+    from sloshrom.rom.ensemble import Ensemble
 
 __all__ = ["predict", "sweep", "train"]
 
@@ -229,8 +234,11 @@ def _train(**kw: Any) -> None:
     The two records must have the same sample rate and the same units of the input and of the
     output; the model file may not be one of the records. With --ensemble K, K models with
     seeds SEED..SEED+K-1 are trained in parallel (Dask) and written as one model file whose
-    prediction is the mean of the members; the validation MSE of every member and their mean
-    +- standard deviation are printed.
+    prediction is the mean of the members; the validation MSE of every member and their spread
+    (mean +- standard deviation, min, max) are printed. With --seeds N, N models with seeds
+    SEED..SEED+N-1 are trained the same way, every seed's validation MSE and their spread are
+    printed, and the best single model on the validation record is written (its seed in its
+    hyperparameters).
 
     Example: sloshrom train --data train.nc --validation validation.nc --arch nfir --delays 70
     --neurons 35 --out nfir.npz [--ensemble 5 --workers 2]
@@ -238,6 +246,7 @@ def _train(**kw: Any) -> None:
     data, validation, out = kw.pop("data"), kw.pop("validation"), kw.pop("out")
     input_name, output_name = kw.pop("input_name"), kw.pop("output_name")
     arch, fill, ensemble = kw.pop("arch"), kw.pop("fill"), kw.pop("ensemble")
+    seeds = kw.pop("seeds")
     scheduler, workers = kw.pop("scheduler"), kw.pop("workers")
     try:
         mc = model_class(arch)
@@ -258,7 +267,8 @@ def _train(**kw: Any) -> None:
     if seed + ensemble - 1 > MAX_SEED:
         fail(f"--seed {seed} with --ensemble {ensemble}: the last member's seed "
              f"{seed + ensemble - 1} exceeds {MAX_SEED}")
-    if ensemble > 1:
+    _check_seeds(seeds, ensemble, mc, seed)
+    if ensemble > 1 or seeds > 1:
         n_cpu = os.cpu_count() or 1
         check_number(workers, "--workers", 1, n_cpu, why=f"this machine has {n_cpu} CPU(s)")
         if scheduler not in (None, "threads", "sequential"):
@@ -312,10 +322,11 @@ def _train(**kw: Any) -> None:
         model.spec  # noqa: B018 - the estimator's own checks (file limits), before training
     except SloshromError as exc:  # ROMError: a model no model file holds
         fail(str(exc))
-    if ensemble > 1:
-        _train_ensemble(model, ensemble, rec, val, input_name, output_name, out,
-                        scheduler if scheduler is not None or workers > 1 else "sequential",
-                        workers, fill, label)
+    if ensemble > 1 or seeds > 1:
+        (_train_ensemble if ensemble > 1 else _train_seeds)(
+            model, max(ensemble, seeds), rec, val, input_name, output_name, out,
+            scheduler if scheduler is not None or workers > 1 else "sequential", workers, fill,
+            label)
         return
     epochs = int(hyper.get("max_epochs", 0))
     # epoch, errors (and Levenberg-Marquardt's damping mu) and an upper bound of the time left
@@ -342,7 +353,7 @@ def _train(**kw: Any) -> None:
         f"wrote {path}: {label}, {n_params} parameters, {len(h['train_mse']) - 1} epochs "
         f"({h['stop_reason']}), best epoch {h['best_epoch']}, validation MSE "
         f"{h['val_mse'][h['best_epoch']]:.4g} {rec.units[output_name]}^2, "
-        f"{h['train_seconds']:.1f} s"
+        f"{h['train_seconds']:.1f} s" + _stopped(h, advice=True)
     )
 
 
@@ -369,12 +380,17 @@ _AFTER: list[tuple[str, Any, Any]] = [
                                                   "(members have seeds SEED..SEED+K-1) and "
                                                   "save them as one ensemble file (mean of "
                                                   "the members); 1 = a single model.")], 1),
+    ("seeds", Annotated[int, typer.Option(
+        help="Train N models that differ only by their seed (SEED..SEED+N-1, in parallel as "
+             "--ensemble), print every seed's validation MSE and their spread, and write the "
+             "best single model on the validation record; 1 = one model. Not with "
+             "--ensemble.")], 1),
     ("scheduler", Annotated[str | None, typer.Option(
         help="Ensemble: Dask scheduler address tcp://HOST:PORT; 'threads' or 'sequential' for "
              "no cluster; default: a new LocalCluster of --workers processes (in this process "
              "for --workers 1).")], None),
-    ("workers", Annotated[int, typer.Option(help="Ensemble: members trained at once, 1 to the "
-                                                 "number of CPUs.")], 2),
+    ("workers", Annotated[int, typer.Option(help="Ensemble, seeds: models trained at once, 1 to "
+                                                 "the number of CPUs.")], 2),
 ]
 
 
@@ -400,17 +416,49 @@ def _command(func: Any) -> Any:
 train = app.command(name="train")(_command(_train))
 
 
-def _train_ensemble(template: Any, k: int, rec: Any, val: Any, input_name: str,
-                    output_name: str, out: Path, scheduler: str | None, workers: int,
-                    fill: float | None, label: str) -> None:
-    """``train --ensemble K``: K members through Dask, one file, per-member validation MSE;
-    ``label`` names the members' architecture (``NFIR(70, 35)``)."""
+def _check_seeds(seeds: int, ensemble: int, mc: ModelClass, seed: int) -> None:
+    """``--seeds N``: a number of models, not with ``--ensemble``, for a class with a seed."""
+    check_number(seeds, "--seeds", 1, MAX_MEMBERS)
+    if seeds > 1 and ensemble > 1:
+        fail(f"--seeds {seeds} with --ensemble {ensemble}: --seeds keeps the best single model, "
+             "--ensemble the mean of all; give one of them")
+    if seeds > 1 and not mc.ensemble:
+        fail(f"--seeds {seeds}: an {mc.class_name} is fitted deterministically, so every seed "
+             "gives the same model; train it alone")
+    if seed + seeds - 1 > MAX_SEED:
+        fail(f"--seed {seed} with --seeds {seeds}: the last seed {seed + seeds - 1} exceeds "
+             f"{MAX_SEED}")
+
+
+def _stopped(h: Mapping[str, object], advice: bool = False) -> str:
+    """`` stopped: ...`` when Levenberg-Marquardt's damping reached mu_max (the training's
+    warning says why), with the options to try; empty for any other stop."""
+    epochs = h.get("train_mse")
+    if h.get("stop_reason") != "mu_max" or not isinstance(epochs, list):
+        return ""
+    mu_max = f"{MU_MAX:.0e}".replace("e+", "e")
+    text = (f"; stopped: Levenberg-Marquardt's damping mu passed mu_max = {mu_max} at epoch "
+            f"{len(epochs) - 1}, no step lowered the training error")
+    if not advice:
+        return text
+    return (f"{text} (why: the warning above); try --trainer adam, fewer --neurons or --delays, "
+            "or other seeds (--seeds N keeps the best of N)")
+
+
+def _fit_members(template: Estimator, k: int, rec: Record, val: Record, input_name: str,
+                 output_name: str, scheduler: str | None, workers: int, fill: float | None,
+                 label: str) -> Ensemble:
+    """K models of ``template`` with seeds SEED..SEED+K-1 through Dask (``Ensemble.fit``),
+    with a progress bar of the members and their epochs; the fitted ensemble."""
     from rich.progress import BarColumn, MofNCompleteColumn, TextColumn, TimeElapsedColumn
 
-    from sloshrom.rom.ensemble import Ensemble, spread
+    from sloshrom.rom.ensemble import Ensemble
 
     ens = Ensemble(template, n_members=k)
     arch = label.split("(")[0]
+    fs = rec.fs
+    if fs is None:  # unreachable after _read_pair's rate check; narrows the type
+        fail(f"the training record has no sample rate; {label} needs one")
     # the members' epochs come from the workers (sloshrom.rom.epochs); members at once: the
     # workers, one in this process for "sequential"
     pace = TrainingProgress(int(template.get_params().get("max_epochs", 0)), members=k,
@@ -430,11 +478,49 @@ def _train_ensemble(template: Any, k: int, rec: Any, val: Any, input_name: str,
                 progress.update(task, info=pace.text())
 
         try:
-            ens.fit(rec[input_name], rec[output_name], fs=rec.fs,
+            ens.fit(rec[input_name], rec[output_name], fs=fs,
                     validation=(val[input_name], val[output_name]), scheduler=scheduler,
                     n_workers=workers, progress=cb, epoch_progress=epoch_cb, fill=fill)
         except SloshromError as exc:  # ROMError (a constant record, ...), UnstableModelError
             fail(str(exc))
+    return ens
+
+
+def _member_lines(ens: Ensemble, mse: list[float], unit: str, what: str) -> None:
+    """One line per member: its seed, validation MSE over the whole validation record, epochs
+    and stop reason."""
+    for i, (m, e) in enumerate(zip(ens.members_, mse, strict=True)):
+        h = m.history_
+        err = "unstable on the validation record" if np.isnan(e) else f"{e:.4g} {unit}"
+        who = f"seed {m.seed}" if what == "seed" else f"{what} {i} (seed {m.seed})"
+        typer.echo(f"{who}: validation MSE {err}, "
+                   f"{len(h['train_mse']) - 1} epochs ({h['stop_reason']}){_stopped(h)}")
+
+
+def _spread_text(ens: Ensemble, mse: list[float], unit: str) -> str:
+    """``mean +- std, min (seed), max (seed), max/min`` of the members' validation MSE (NaN,
+    an unstable member, left out and counted)."""
+    from sloshrom.rom.ensemble import spread
+
+    s = spread(mse)
+    ok = [(e, m.seed) for e, m in zip(mse, ens.members_, strict=True) if not np.isnan(e)]
+    if not ok:
+        return "every member unstable on the validation record"
+    lo, hi = min(ok), max(ok)
+    ratio = f"{hi[0] / lo[0]:.3g}" if lo[0] > 0 else "inf"
+    bad = len(mse) - len(ok)
+    return (f"{s['mean']:.4g} +- {s['std']:.4g} {unit}, min {lo[0]:.4g} (seed {lo[1]}), max "
+            f"{hi[0]:.4g} (seed {hi[1]}), max/min {ratio}"
+            + (f"; {bad} unstable on the validation record" if bad else ""))
+
+
+def _train_ensemble(template: Any, k: int, rec: Any, val: Any, input_name: str,
+                    output_name: str, out: Path, scheduler: str | None, workers: int,
+                    fill: float | None, label: str) -> None:
+    """``train --ensemble K``: K members through Dask, one file, per-member validation MSE;
+    ``label`` names the members' architecture (``NFIR(70, 35)``)."""
+    ens = _fit_members(template, k, rec, val, input_name, output_name, scheduler, workers,
+                       fill, label)
     try:
         path = ens.save(out)
         uv, yv = val[input_name], val[output_name]
@@ -443,16 +529,39 @@ def _train_ensemble(template: Any, k: int, rec: Any, val: Any, input_name: str,
         fail(str(exc))
     unit = f"{rec.units[output_name]}^2"
     mse = [float(np.mean((p - yv) ** 2)) for p in preds]
-    for i, (m, e) in enumerate(zip(ens.members_, mse, strict=True)):
-        h = m.history_
-        typer.echo(f"member {i} (seed {m.seed}): validation MSE {e:.4g} {unit}, "
-                   f"{len(h['train_mse']) - 1} epochs ({h['stop_reason']})")
-    s = spread(mse)
+    _member_lines(ens, mse, unit, "member")
     mean_mse = float(np.mean((np.mean(preds, axis=0) - yv) ** 2))
     typer.echo(
         f"wrote {path}: ensemble of {k} {label}, "
-        f"{ens.n_params} parameters; validation MSE over members {s['mean']:.4g} +- "
-        f"{s['std']:.4g} {unit}, of the ensemble mean {mean_mse:.4g} {unit}"
+        f"{ens.n_params} parameters; validation MSE over members {_spread_text(ens, mse, unit)}"
+        f"; of the ensemble mean {mean_mse:.4g} {unit}"
+    )
+
+
+def _train_seeds(template: Estimator, k: int, rec: Record, val: Record, input_name: str,
+                 output_name: str, out: Path, scheduler: str | None, workers: int,
+                 fill: float | None, label: str) -> None:
+    """``train --seeds N``: N models through Dask (as ``--ensemble``), each seed's validation
+    MSE and their spread; the best on the validation record written as a single model."""
+    ens = _fit_members(template, k, rec, val, input_name, output_name, scheduler, workers,
+                       fill, label)
+    uv, yv = val[input_name], val[output_name]
+    try:
+        mse = [float(e) for e in ens.member_errors(uv, yv)]
+        best = ens.best_member(uv, yv)
+        path = best.save(out)
+    except SloshromError as exc:  # every seed unstable on the validation record, ...
+        fail(str(exc))
+    unit = f"{rec.units[output_name]}^2"
+    _member_lines(ens, mse, unit, "seed")
+    i = next(j for j, m in enumerate(ens.members_) if m is best)
+    h = best.history_
+    typer.echo(f"validation MSE over {k} seeds: {_spread_text(ens, mse, unit)}")
+    typer.echo(
+        f"wrote {path}: {label}, seed {best.get_params()['seed']} (the best of {k} on "
+        "validation), "
+        f"{best.n_params} parameters, {len(h['train_mse']) - 1} epochs "
+        f"({h['stop_reason']}), validation MSE {mse[i]:.4g} {unit}" + _stopped(h, advice=True)
     )
 
 

@@ -6,8 +6,10 @@ one template estimator (:class:`~sloshrom.rom.NFIR`, :class:`~sloshrom.rom.NOE` 
 :class:`~sloshrom.rom.NSS`) with seeds ``template.seed + k`` (or given seeds), in parallel
 through the Dask machinery of the sweep (:func:`sloshrom.rom.parallel.run_tasks`). Its
 prediction is the mean of the members' outputs; the spread of the members
-(:meth:`Ensemble.member_predictions`, :func:`spread`) shows how much of a result is the network
-and how much the draw.
+(:meth:`Ensemble.member_predictions`, :meth:`Ensemble.member_errors`, :func:`spread`) shows how
+much of a result is the network and how much the draw. :meth:`Ensemble.best_member` picks the
+one member that does best on a validation record: training K seeds to keep the best single
+network (``sloshrom train --seeds K``).
 
 The ensemble is itself a sloshing model (:func:`sloshrom.models.is_jax_model`): its state is the
 tuple of the members' states, its :meth:`~Ensemble.step` the mean of the members' steps, pure
@@ -32,11 +34,13 @@ from typing import Any, ClassVar, Literal
 import jax
 import jax.numpy as jnp
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sloshrom import __version__
 from sloshrom.models import EnvelopeWarning, check_envelope, envelope_union, model_input
+from sloshrom.rom.base import Estimator
 from sloshrom.rom.epochs import EpochFile, EpochReport, epoch_reports
-from sloshrom.rom.errors import NotFittedError, ROMError
+from sloshrom.rom.errors import NotFittedError, ROMError, TrainingWarning, UnstableModelError
 from sloshrom.rom.family import check_training_fill
 from sloshrom.rom.modelfile import (
     MAX_MEMBERS,
@@ -123,7 +127,10 @@ def _fit_member(
     model.set_params(seed=seed)
     validation = (val_u, val_y) if val_u.size else None
     callback = EpochFile(epochs_dir, k) if epochs_dir is not None else None
-    return model.fit(u, y, fs=fs, validation=validation, callback=callback, fill=fill)
+    with warnings.catch_warnings():
+        # said once for all the members by Ensemble.fit, whichever process trained them
+        warnings.simplefilter("ignore", TrainingWarning)
+        return model.fit(u, y, fs=fs, validation=validation, callback=callback, fill=fill)
 
 
 @jax.tree_util.register_pytree_node_class
@@ -285,6 +292,12 @@ class Ensemble:
             record, ...).
         UnstableModelError
             An NOE member unstable at its initial parameters.
+
+        Warns
+        -----
+        TrainingWarning
+            Once, naming the members whose Levenberg-Marquardt stopped at ``mu_max`` (each
+            member's ``history_["stop_message"]`` says why).
         """
         seeds = self._member_seeds()
         first = self._clone(seeds[0])
@@ -313,6 +326,14 @@ class Ensemble:
                 done=None if progress is None else progress,
             )
         self._set_members(members)
+        stuck = [k for k, h in enumerate(self.history_) if h.get("stop_reason") == "mu_max"]
+        if stuck:
+            warnings.warn(TrainingWarning(
+                f"{len(stuck)} of {len(seeds)} members (seed{'s' if len(stuck) > 1 else ''} "
+                f"{', '.join(str(self.seeds_[k]) for k in stuck)}) stopped with "
+                "Levenberg-Marquardt's damping at mu_max: no step lowered their training error "
+                "(history_[k]['stop_message'] says why for member k). First: "
+                f"{self.history_[stuck[0]].get('stop_message', '')}"), stacklevel=2)
         return self
 
     @classmethod
@@ -489,6 +510,83 @@ class Ensemble:
             Output (physical units, e.g. N), float64.
         """
         return np.mean(self._outputs(u, stacklevel=3), axis=0)
+
+    def member_errors(self, u: ArrayLike, y: ArrayLike) -> np.ndarray:
+        """Each member's mean squared error on a record: its free run from rest over the whole
+        record, as early stopping scored it on the validation record.
+
+        Parameters
+        ----------
+        u : array_like, shape (n,)
+            Input sampled at ``fs_`` (physical units, e.g. m/s), starting at rest.
+        y : array_like, shape (n,)
+            Measured output (physical units, e.g. N).
+
+        Returns
+        -------
+        ndarray, shape (K,)
+            MSE of member k (output units squared, e.g. N^2), float64; NaN for a member whose
+            simulation left its stability bound (an NOE).
+
+        Raises
+        ------
+        NotFittedError
+            The ensemble is not fitted.
+        ROMError
+            ``u`` or ``y`` not 1-D, of different lengths, or with NaN or inf.
+
+        Warns
+        -----
+        EnvelopeWarning
+            ``u`` leaves the union of the members' training input ranges (once per call).
+        """
+        return self._errors(u, y, stacklevel=3)
+
+    def _errors(self, u: ArrayLike, y: ArrayLike, stacklevel: int) -> np.ndarray:
+        self._check_fitted()
+        u, y = _signal("u", u), _signal("y", y)
+        if u.ndim != 1 or y.shape != u.shape:
+            raise ROMError(f"u and y must be records of the same length, shape (n,), got "
+                           f"{u.shape} and {y.shape}")
+        check_envelope(self, u, unit=str(self.units[0]), stacklevel=stacklevel)
+        errors = []
+        with warnings.catch_warnings():  # warned once above, for the union of the envelopes
+            warnings.simplefilter("ignore", EnvelopeWarning)
+            for m in self.members_:
+                try:
+                    errors.append(float(np.mean((np.asarray(m.predict(u)) - y) ** 2)))
+                except UnstableModelError:  # no error to rank: never the best
+                    errors.append(math.nan)
+        return np.asarray(errors, dtype=np.float64)
+
+    def best_member(self, u: ArrayLike, y: ArrayLike) -> Estimator:
+        """The member with the lowest :meth:`member_errors` on a (validation) record.
+
+        A normal single model (NFIR, NOE or NSS, fitted): ``save`` writes a single-model file
+        and its ``seed`` is the one that trained it. Choose it on a validation record, not on
+        the training record: on the training record the lowest error rewards over-fitting.
+
+        Parameters
+        ----------
+        u, y : array_like, shape (n,)
+            Input and measured output, as :meth:`member_errors`.
+
+        Returns
+        -------
+        NFIR, NOE or NSS
+            The best member (the first of equal errors).
+
+        Raises
+        ------
+        NotFittedError
+            The ensemble is not fitted.
+        ROMError
+            Bad records (as :meth:`member_errors`), or every member unstable on them.
+        """
+        errors = self._errors(u, y, stacklevel=3)
+        if np.all(np.isnan(errors)):
+            raise ROMError(f"all {errors.size} members are unstable on this record: none is best")
+        return self.members_[int(np.nanargmin(errors))]
 
     def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
         """Sloshing-model contract: dynamic force (N) from the signal the members read

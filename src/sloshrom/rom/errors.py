@@ -4,6 +4,7 @@
 record that cannot be identified from, a model file that cannot be loaded, a model that goes
 unstable on the user's input): a :class:`~sloshrom.errors.SloshromError`, which command-line
 tools catch and print in one line. A plain ``ValueError`` from inside is a programming error.
+:class:`TrainingWarning` says that a training ended where its result is probably poor (and why).
 """
 
 from __future__ import annotations
@@ -13,7 +14,8 @@ from sloshrom.errors import SloshromError
 # defined once, beside the model contract, for every sloshing model; re-exported here
 from sloshrom.models import EnvelopeWarning
 
-__all__ = ["EnvelopeWarning", "FillRangeError", "NotFittedError", "ROMError", "UnstableModelError"]
+__all__ = ["EnvelopeWarning", "FillRangeError", "NotFittedError", "ROMError", "TrainingWarning",
+           "UnstableModelError"]
 
 
 class ROMError(SloshromError):
@@ -40,3 +42,14 @@ class NotFittedError(ROMError, AttributeError):
     raising.
     """
 
+
+
+class TrainingWarning(UserWarning):
+    """A training stopped where its result is probably poor: Levenberg-Marquardt's damping
+    passed ``mu_max`` (no step lowered the training error).
+
+    The model is still fitted (the best parameters on validation so far); the message says at
+    which epoch, why no step was taken and what to try. The reason is also in the model's
+    ``history_`` (``stop_reason``, ``stop_message``). The command line prints it as one
+    ``warning: ...`` line.
+    """
