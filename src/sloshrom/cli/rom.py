@@ -353,7 +353,7 @@ def _train(**kw: Any) -> None:
         f"wrote {path}: {label}, {n_params} parameters, {len(h['train_mse']) - 1} epochs "
         f"({h['stop_reason']}), best epoch {h['best_epoch']}, validation MSE "
         f"{h['val_mse'][h['best_epoch']]:.4g} {rec.units[output_name]}^2, "
-        f"{h['train_seconds']:.1f} s" + _stopped(h, advice=True)
+        f"{h['train_seconds']:.1f} s" + _stopped(h)
     )
 
 
@@ -430,8 +430,8 @@ def _check_seeds(seeds: int, ensemble: int, mc: ModelClass, seed: int) -> None:
              f"{MAX_SEED}")
 
 
-def _stopped(h: Mapping[str, object], advice: bool = False) -> str:
-    """`` stopped: ...`` when Levenberg-Marquardt's damping reached mu_max (the training's
+def _stopped(h: Mapping[str, object]) -> str:
+    """``; stopped: ...`` when Levenberg-Marquardt's damping reached mu_max (the training's
     warning says why), with the options to try; empty for any other stop."""
     epochs = h.get("train_mse")
     if h.get("stop_reason") != "mu_max" or not isinstance(epochs, list):
@@ -439,8 +439,6 @@ def _stopped(h: Mapping[str, object], advice: bool = False) -> str:
     mu_max = f"{MU_MAX:.0e}".replace("e+", "e")
     text = (f"; stopped: Levenberg-Marquardt's damping mu passed mu_max = {mu_max} at epoch "
             f"{len(epochs) - 1}, no step lowered the training error")
-    if not advice:
-        return text
     return (f"{text} (why: the warning above); try --trainer adam, fewer --neurons or --delays, "
             "or other seeds (--seeds N keeps the best of N)")
 
@@ -493,8 +491,9 @@ def _member_lines(ens: Ensemble, mse: list[float], unit: str, what: str) -> None
         h = m.history_
         err = "unstable on the validation record" if np.isnan(e) else f"{e:.4g} {unit}"
         who = f"seed {m.seed}" if what == "seed" else f"{what} {i} (seed {m.seed})"
+        why = (": no step lowered the training error" if h["stop_reason"] == "mu_max" else "")
         typer.echo(f"{who}: validation MSE {err}, "
-                   f"{len(h['train_mse']) - 1} epochs ({h['stop_reason']}){_stopped(h)}")
+                   f"{len(h['train_mse']) - 1} epochs ({h['stop_reason']}{why})")
 
 
 def _spread_text(ens: Ensemble, mse: list[float], unit: str) -> str:
@@ -561,7 +560,7 @@ def _train_seeds(template: Estimator, k: int, rec: Record, val: Record, input_na
         f"wrote {path}: {label}, seed {best.get_params()['seed']} (the best of {k} on "
         "validation), "
         f"{best.n_params} parameters, {len(h['train_mse']) - 1} epochs "
-        f"({h['stop_reason']}), validation MSE {mse[i]:.4g} {unit}" + _stopped(h, advice=True)
+        f"({h['stop_reason']}), validation MSE {mse[i]:.4g} {unit}" + _stopped(h)
     )
 
 

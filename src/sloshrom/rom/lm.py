@@ -49,7 +49,8 @@ class LMResult:
     (training error inf: a non-finite trial, an NOE beyond its stability bound), ``worse`` (a
     finite error not below the current one), ``shortest_step`` (norm of the last step tried,
     scaled units; NaN if none was solved), ``jtj_max`` (largest diagonal entry of ``J^T J``),
-    ``grad`` (gradient norm of the scaled MSE) and ``best_epoch``.
+    ``grad`` (gradient norm of the scaled MSE), ``best_epoch`` and ``validation`` (1.0 if the
+    problem had a validation error, else 0.0).
     """
     theta: np.ndarray
     stop_reason: str
@@ -180,7 +181,7 @@ def levenberg_marquardt(
     if reason == "mu_max":
         info = {"epoch": epoch, "mu_max": mu_max, **tried, "shortest_step": last_step,
                 "jtj_max": float(np.max(np.diag(jtj))) if p else 0.0, "grad": grad,
-                "best_epoch": best_epoch}
+                "best_epoch": best_epoch, "validation": float(problem.val_mse is not None)}
     return LMResult(best_theta, reason, hist, best_epoch, info)
 
 
@@ -221,8 +222,12 @@ def stop_message(info: dict[str, float]) -> str:
             f"(gradient norm {info['grad']:.2g}): a minimum to within rounding, or an error "
             "rougher than its linearisation")))
     best = int(info["best_epoch"])
-    kept = ("the initial parameters are kept (best on validation at epoch 0)" if best == 0
-            else f"the parameters of epoch {best} are kept (best on validation)")
+    if not info.get("validation", 1.0):
+        kept = "the last parameters are kept (no validation record)"
+    elif best == 0:
+        kept = "the initial parameters are kept (best on validation at epoch 0)"
+    else:
+        kept = f"the parameters of epoch {best} are kept (best on validation)"
     if not causes:
         return f"{head}; {kept}."
     if len(causes) == 1:
