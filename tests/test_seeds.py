@@ -301,3 +301,36 @@ def test_train_ensemble_prints_the_members_spread_for_every_class(smooth, tmp_pa
     last = res.output.strip().splitlines()[-1]
     assert re.search(r"validation MSE over members [\d.e+-]+ \+- [\d.e+-]+ N\^2, min .* max "
                      r".* max/min [\d.e+-]+; of the ensemble mean", last), last
+
+
+def test_spread_text_gives_mean_std_min_max_and_their_ratio():
+    from sloshrom.rom.ensemble import spread_text
+
+    assert spread_text([1.0, 3.0], "N²") == "2 ± 1.41 N² (min 1, max 3, max/min 3)"
+    assert spread_text([2.0, float("nan"), 4.0], "N²").endswith(", 1 member without a value")
+    assert spread_text([float("nan")], "N²") == "n/a"
+
+
+def test_the_fill_study_reports_the_spread_of_an_ensemble_member(tmp_path):
+    """[beyond] fill_ensemble > 1 trains an ensemble at every fill: its members' spread is in
+    the section, as the main ROM's is in the validation section."""
+    from types import SimpleNamespace
+
+    from sloshrom.studies.fills import fills_section
+    from sloshrom.studies.fills.config import FILL_TARGETS
+    from sloshrom.studies.fills.outputs import FillsOutputs
+
+    members = {"50": {"model": "m.npz", "main_rom": True},
+               "25": {"model": "f.npz", "main_rom": False, "reused": False,
+                      "train_seconds": 12.0, "val_fit": 80.0,
+                      "val_mse_members": {"mean": 2.0, "std": 1.0, "n": 2,
+                                          "values": [1.0, 3.0]}},
+               "75": {"model": "g.npz", "main_rom": False, "reused": False,
+                      "train_seconds": 11.0, "val_fit": 81.0, "val_mse_members": None}}
+    o = FillsOutputs(fills=[0.25, 0.5, 0.75], unseen_fills=[], targets=dict(FILL_TARGETS),
+                     members=members, family="fills/family.toml", maps=[], damping=[],
+                     beam_errors=[], seconds={"members": 23.0, "maps": 1.0, "beam": 1.0})
+    text = fills_section(SimpleNamespace(out=tmp_path), o).text
+    assert ("25 % (trained in 12 s; validation MSE of its 2 networks 2 ± 1.41 N² (min 1, max "
+            "3, max/min 3))") in text, text
+    assert "75 % (trained in 11 s)" in text and "50 % (the main ROM)" in text

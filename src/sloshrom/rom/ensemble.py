@@ -53,7 +53,7 @@ from sloshrom.rom.network import MinMaxScaler, network_of
 from sloshrom.rom.parallel import run_tasks
 from sloshrom.rom.registry import CLASSES
 
-__all__ = ["Ensemble", "is_ensemble", "spread"]
+__all__ = ["Ensemble", "is_ensemble", "spread", "spread_text"]
 
 
 def spread(values: Iterable[float]) -> dict[str, Any]:
@@ -77,6 +77,37 @@ def spread(values: Iterable[float]) -> dict[str, Any]:
     mean = float(np.mean(ok)) if n else math.nan
     std = float(np.std(ok, ddof=1)) if n > 1 else (0.0 if n == 1 else math.nan)
     return {"mean": mean, "std": std, "n": n, "values": vals}
+
+
+def spread_text(values: Iterable[float], unit: str, fmt: str = "{:.3g}") -> str:
+    """A quantity's spread over the members in words, for reports and consoles.
+
+    Parameters
+    ----------
+    values : iterable of float
+        One value per member (NaN: a member without a value, e.g. unstable), in ``unit``.
+    unit : str
+        Unit of the values, e.g. ``"N²"``.
+    fmt : str
+        Format of each number.
+
+    Returns
+    -------
+    str
+        ``"mean ± std unit (min a, max b, max/min r)"`` (:func:`spread`), followed by how many
+        members have no value; ``"n/a"`` when none has one.
+    """
+    s = spread(values)
+    ok = [v for v in s["values"] if not math.isnan(v)]
+    if not ok:
+        return "n/a"
+    lo, hi = min(ok), max(ok)
+    ratio = fmt.format(hi / lo) if lo > 0 else "n/a"
+    missing = len(s["values"]) - len(ok)
+    f = fmt.format
+    return (f"{f(s['mean'])} ± {f(s['std'])} {unit} (min {f(lo)}, max {f(hi)}, max/min {ratio})"
+            + (f", {missing} member{'s' if missing > 1 else ''} without a value" if missing
+               else ""))
 
 
 def is_ensemble(model: Any) -> bool:
