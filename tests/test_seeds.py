@@ -221,18 +221,18 @@ def test_train_seeds_writes_the_best_single_model(smooth, tmp_path):
     out = tmp_path / "best.npz"
     res = runner.invoke(app, ["train", "--data", str(train), "--validation", str(val),
                               "--delays", "3", "--neurons", "4", "--max-epochs", "2",
-                              "--seed", "3", "--seeds", "3", "--scheduler", "threads",
+                              "--seed", "3", "--seeds", "2", "--scheduler", "threads",
                               "--amplitude-weighting", "0", "--passivity", "0",
                               "--cycle-energy", "0", "--out", str(out)])
     assert res.exit_code == 0, res.output
     printed = {int(s): float(e) for s, e in
                re.findall(r"^seed (\d+): validation MSE ([\d.e+-]+) N\^2", res.output, re.M)}
-    assert sorted(printed) == [3, 4, 5]
+    assert sorted(printed) == [3, 4]
     # the same seeds trained one by one: the file holds the one best on validation
     u, y = smooth_io(2000, 1)
     uv, yv = smooth_io(600, 2)
     mse = {}
-    for s in (3, 4, 5):
+    for s in (3, 4):
         m = NFIR(delays=3, neurons=4, max_epochs=2, seed=s).fit(u, y, FS, validation=(uv, yv))
         mse[s] = float(np.mean((m.predict(uv) - yv) ** 2))
         # printed with 4 significant digits
@@ -241,7 +241,7 @@ def test_train_seeds_writes_the_best_single_model(smooth, tmp_path):
     assert type(best) is NFIR and best.seed == min(mse, key=mse.get)
     assert np.mean((best.predict(uv) - yv) ** 2) == pytest.approx(mse[best.seed], rel=1e-9)
     vals = sorted(mse.values())
-    spread = re.search(r"validation MSE over 3 seeds: ([\d.e+-]+) \+- ([\d.e+-]+) N\^2, min "
+    spread = re.search(r"validation MSE over 2 seeds: ([\d.e+-]+) \+- ([\d.e+-]+) N\^2, min "
                        r"([\d.e+-]+) \(seed (\d+)\), max ([\d.e+-]+) \(seed (\d+)\), max/min "
                        r"([\d.e+-]+)", res.output)
     assert spread, res.output
@@ -249,7 +249,7 @@ def test_train_seeds_writes_the_best_single_model(smooth, tmp_path):
     assert float(spread[2]) == pytest.approx(np.std(vals, ddof=1), rel=5e-4)
     assert int(spread[4]) == best.seed and float(spread[7]) == pytest.approx(
         vals[-1] / vals[0], rel=5e-3)
-    assert f"seed {best.seed} (the best of 3 on validation)" in res.output.splitlines()[-1]
+    assert f"seed {best.seed} (the best of 2 on validation)" in res.output.splitlines()[-1]
 
 
 TR = ["train", "--data", "{tmp}/train.nc", "--validation", "{tmp}/validation.nc",
@@ -283,7 +283,8 @@ NSS_TINY = ["--states", "2", "--neurons", "4", "--window", "5", "--horizon", "20
 
 @pytest.mark.parametrize("argv", [
     ["--arch", "noe", "--delays", "2", "--neurons", "3", "--max-epochs", "2"],
-    ["--arch", "nss", *NSS_TINY],
+    # two NSS compilations and trainings: 12-20 s on a busy machine
+    pytest.param(["--arch", "nss", *NSS_TINY], marks=pytest.mark.slow),
 ], ids=["noe", "nss"])
 def test_train_ensemble_prints_the_members_spread_for_every_class(smooth, tmp_path, argv):
     train, val = smooth
