@@ -739,5 +739,8 @@ def sweep(
     fig = plot_sweep(rows, out / SWEEP_FIGURE)
     best = rows[0]
     n_bad = sum(r["unstable"] for r in rows)
+    stuck = sum(r.get("stop_reason") == "mu_max" for r in rows)
     typer.echo(f"wrote {out}/sweep.csv, sweep.json, {fig.name}: best {best['name']} score "
-               f"{best['score']:.4g}; {n_bad} unstable")
+               f"{best['score']:.4g}; {n_bad} unstable"
+               + (f"; {stuck} stopped at Levenberg-Marquardt's mu_max (no step lowered the "
+                  "training error: stop_reason in sweep.csv)" if stuck else ""))

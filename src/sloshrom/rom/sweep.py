@@ -17,6 +17,7 @@ import io
 import json
 import math
 import time
+import warnings
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
@@ -24,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from sloshrom.fileio import atomic_write_text
-from sloshrom.rom.errors import ROMError
+from sloshrom.rom.errors import ROMError, TrainingWarning
 from sloshrom.rom.estimators import NFIR, NOE, UnstableModelError
 from sloshrom.rom.parallel import run_tasks
 
@@ -88,7 +89,11 @@ def fit_point(
     row: dict[str, Any] = {"name": name, "arch": arch, "delays": delays, "neurons": neurons}
     t0 = time.perf_counter()
     try:
-        model.fit(*train, fs=fs, validation=validation)
+        with warnings.catch_warnings():
+            # a grid point at mu_max is one row of the table (its stop_reason), not one warning
+            # per point from every worker
+            warnings.simplefilter("ignore", TrainingWarning)
+            model.fit(*train, fs=fs, validation=validation)
         tr = float(np.mean((model.predict(train[0]) - train[1]) ** 2))
         va = float(np.mean((model.predict(validation[0]) - validation[1]) ** 2))
         row.update(train_mse=tr, val_mse=va, score=0.5 * (tr + va), unstable=False,
