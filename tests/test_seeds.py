@@ -335,3 +335,39 @@ def test_the_fill_study_reports_the_spread_of_an_ensemble_member(tmp_path):
     assert ("25 % (trained in 12 s; validation MSE of its 2 networks 2 ± 1.41 N² (min 1, max "
             "3, max/min 3))") in text, text
     assert "75 % (trained in 11 s)" in text and "50 % (the main ROM)" in text
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+def test_reproduce_reports_the_spread_of_an_noe_ensemble(tiny_reproduce, tmp_path):
+    """The rom stage with ``rom.ensemble = 2`` of a class other than the tiny run's NFIR: the
+    members' validation MSE (each one's free run over the whole validation record) in the
+    summary and in the report."""
+    import shutil
+
+    from sloshrom.io import read_record
+    from sloshrom.pipeline import Context
+    from sloshrom.pipeline.chain import identify
+    from sloshrom.pipeline.report import build_sections
+
+    out = tmp_path / "results"
+    shutil.copytree(tiny_reproduce["out"], out)
+    cfg = tiny_reproduce["cfg"].replace(rom={
+        "arch": "noe", "ensemble": 2, "ensemble_workers": 1, "compare": [],
+        "noe": {"delays": 2, "neurons": 2, "max_epochs": 2}})
+    ctx = Context(out, cfg)
+    results = identify(ctx)
+    r = results["rom"].outputs
+    assert r["n_members"] == 2 and len(r["stop_message"]) == 2
+    ens = load_model(out / r["model"])
+    val = read_record(out / "data" / "validation.nc")
+    np.testing.assert_allclose(r["val_mse_members"]["values"],
+                               ens.member_errors(val["velocity"], val["dynamic_force"]),
+                               rtol=1e-12)
+    stages = {**tiny_reproduce["rerun"]["stages"],
+              **{k: {"reused": v.reused, **v.outputs} for k, v in results.items()}}
+    section = next(s for s in build_sections(ctx, {"stages": stages})
+                   if s.title.startswith("4. Validation"))
+    assert ("Validation MSE of the members (each one's free run over the whole validation "
+            "record): ") in section.text
+    assert re.search(r"\(min [\d.e+-]+, max [\d.e+-]+, max/min [\d.e+-]+\) \(mean ± std\)",
+                     section.text), section.text
