@@ -161,11 +161,15 @@ def test_train_says_nothing_of_mu_max_after_a_normal_stop(smooth, tmp_path):
     assert "warning:" not in res.output
 
 
-def test_an_ensemble_warns_once_for_its_members_stuck_at_mu_max():
+@pytest.mark.parametrize("scheduler", ["sequential", "threads"])
+def test_an_ensemble_warns_once_for_its_members_stuck_at_mu_max(scheduler):
     u, y = resonant_io(1000, 1)
     ens = Ensemble(NOE(seed=STUCK_SEED - 1, max_epochs=50), n_members=2)
+    before = list(warnings.filters)
     with pytest.warns(TrainingWarning) as rec:
-        ens.fit(u, y, FS, validation=resonant_io(600, 2), scheduler="sequential")
+        ens.fit(u, y, FS, validation=resonant_io(600, 2), scheduler=scheduler, n_workers=2)
+    # the members' own warnings filtered in this thread only, and the filter restored
+    assert warnings.filters == before
     stuck = [m.seed for m in ens.members_ if m.history_["stop_reason"] == "mu_max"]
     assert STUCK_SEED in stuck
     ours = [w for w in rec if w.category is TrainingWarning]
@@ -371,3 +375,19 @@ def test_reproduce_reports_the_spread_of_an_noe_ensemble(tiny_reproduce, tmp_pat
             "record): ") in section.text
     assert re.search(r"\(min [\d.e+-]+, max [\d.e+-]+, max/min [\d.e+-]+\) \(mean ± std\)",
                      section.text), section.text
+
+
+def test_quiet_worker_ignores_a_category_in_a_worker_process_only(monkeypatch):
+    import os
+
+    from sloshrom.rom import parallel
+
+    with warnings.catch_warnings():
+        before = list(warnings.filters)
+        parallel.quiet_worker(None, TrainingWarning)
+        parallel.quiet_worker(os.getpid(), TrainingWarning)  # the caller's own process
+        assert warnings.filters == before
+        me = os.getpid()
+        monkeypatch.setattr(parallel.os, "getpid", lambda: me + 1)  # as in a Dask worker
+        parallel.quiet_worker(me, TrainingWarning)
+        assert warnings.filters[0][:3] == ("ignore", None, TrainingWarning)

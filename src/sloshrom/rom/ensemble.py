@@ -26,6 +26,7 @@ ensemble variant) and loaded by :func:`sloshrom.rom.load_model`.
 from __future__ import annotations
 
 import math
+import os
 import warnings
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
@@ -50,7 +51,7 @@ from sloshrom.rom.modelfile import (
     write_model_file,
 )
 from sloshrom.rom.network import MinMaxScaler, network_of
-from sloshrom.rom.parallel import run_tasks
+from sloshrom.rom.parallel import quiet_worker, run_tasks
 from sloshrom.rom.registry import CLASSES
 
 __all__ = ["Ensemble", "is_ensemble", "spread", "spread_text"]
@@ -148,20 +149,21 @@ def _fit_member(
     fs: float,
     fill: float | None = None,
     epochs_dir: str | None = None,
+    parent: int | None = None,
 ) -> Any:
     """Train member ``k`` with ``seed`` (``item = (k, seed)``): a task of :func:`run_tasks`.
 
     ``epochs_dir``: where the member writes its latest epoch (:class:`~sloshrom.rom.epochs.
-    EpochFile`), read by the parent process (:func:`~sloshrom.rom.epochs.epoch_reports`)."""
+    EpochFile`), read by the parent process (:func:`~sloshrom.rom.epochs.epoch_reports`).
+    ``parent``: the process id of :meth:`Ensemble.fit`'s caller; in any other process (a Dask
+    worker's) the :class:`TrainingWarning` of a member is not shown."""
+    quiet_worker(parent, TrainingWarning)  # Ensemble.fit says it once, from the histories
     k, seed = item
     model = cls(**params)
     model.set_params(seed=seed)
     validation = (val_u, val_y) if val_u.size else None
     callback = EpochFile(epochs_dir, k) if epochs_dir is not None else None
-    with warnings.catch_warnings():
-        # said once for all the members by Ensemble.fit, whichever process trained them
-        warnings.simplefilter("ignore", TrainingWarning)
-        return model.fit(u, y, fs=fs, validation=validation, callback=callback, fill=fill)
+    return model.fit(u, y, fs=fs, validation=validation, callback=callback, fill=fill)
 
 
 @jax.tree_util.register_pytree_node_class
@@ -348,11 +350,14 @@ class Ensemble:
             if vu.size == 0:
                 raise ROMError("validation record is empty")
         fill = check_training_fill(fill)
-        with epoch_reports(epoch_progress) as epochs_dir:
+        with epoch_reports(epoch_progress) as epochs_dir, warnings.catch_warnings():
+            # said once below for all the members; set in this thread only, which the
+            # "threads" scheduler's workers read (a filter set in each of them would race)
+            warnings.simplefilter("ignore", TrainingWarning)
             members = run_tasks(
                 _fit_member, list(enumerate(seeds)), shared=(u, y, vu, vy),
                 args=(type(self.template), self.template.get_params(), float(fs), fill,
-                      epochs_dir),
+                      epochs_dir, os.getpid()),
                 scheduler=scheduler, n_workers=n_workers,
                 done=None if progress is None else progress,
             )
