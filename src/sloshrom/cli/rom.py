@@ -59,7 +59,7 @@ def _read(path: Path, names: list[str], what: str):
     return rec
 
 
-def _same_units(a: Any, pa: Path, b: Any, pb: Path, names: list[str]) -> None:
+def _same_units(a: Record, pa: Path, b: Record, pb: Path, names: list[str]) -> None:
     """Training and validation records must measure each variable in the same unit."""
     for n in names:
         ua, ub = a.units[n], b.units[n]
@@ -67,7 +67,7 @@ def _same_units(a: Any, pa: Path, b: Any, pb: Path, names: list[str]) -> None:
             fail(f"unit mismatch: variable '{n}' is in '{ua}' in {pa} but in '{ub}' in {pb}")
 
 
-def _standard_units(rec: Any, path: Path, names: list[str]) -> None:
+def _standard_units(rec: Record, path: Path, names: list[str]) -> None:
     """A variable with a standard name must be in that name's unit (swapped columns, ...)."""
     for n in names:
         si = STANDARD_UNITS.get(n)
@@ -110,6 +110,18 @@ def _training_fill(fill: float | None, rec: Any, data: Path, val: Any,
                 fail(f"--fill {fill:g} but {p} was taken at fill {f:g} (its attribute fill)")
         return fill
     return next(iter(found.values()), None)
+
+
+def _not_at_rest(rec: Record, name: str, share: float = 0.05) -> str:
+    """Why a record does not start at rest (a model's rest: zero output), or "": its output
+    ``name`` starts farther from zero than ``share`` of its range. (The first input sample says
+    nothing: a model at rest reads it at its first step.)"""
+    x = rec[name]
+    span = float(np.ptp(x))
+    if span > 0 and abs(float(x[0])) > share * span:
+        return (f"{name} starts at {float(x[0]):.4g} {rec.units[name]}, "
+                f"{abs(float(x[0])) / span:.0%} of its range")
+    return ""
 
 
 def _same_rate(a: float, b: float, what: str) -> None:
@@ -248,6 +260,7 @@ def _train(**kw: Any) -> None:
     arch, fill, ensemble = kw.pop("arch"), kw.pop("fill"), kw.pop("ensemble")
     seeds = kw.pop("seeds")
     scheduler, workers = kw.pop("scheduler"), kw.pop("workers")
+    history = kw.pop("history")
     try:
         mc = model_class(arch)
     except SloshromError as exc:
@@ -311,10 +324,23 @@ def _train(**kw: Any) -> None:
     if len(rec) < need:
         fail(f"{data}: {len(rec)} samples are too few for {label} (training needs at least "
              f"{need})")
-    history = mc.history(hyper)
-    if len(val) <= history:
-        fail(f"{validation}: {len(val)} samples are too few for {history} samples of history "
+    n_past = int(mc.history(hyper))
+    if len(val) <= n_past:
+        fail(f"{validation}: {len(val)} samples are too few for {n_past} samples of history "
              f"({label})")
+    start = max(n_past, int(mc.start_history(hyper)))
+    check_number(history, "--history", 0, len(val) - 1,
+                 why=f"samples of the validation record {validation} ({len(val)})")
+    if 0 < history < start:
+        fail(f"--history {history}: a start from history reads {start} samples ({label}); "
+             f"give at least {start}")
+    if history == 0:
+        note = _not_at_rest(val, output_name)
+        if note:
+            typer.echo(f"note: the validation record {validation} does not start at rest "
+                       f"({note}): its run from rest is scored on that transient; give "
+                       f"--history N (N >= {start}) to start it from its first N samples",
+                       err=True)
     from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 
     try:
@@ -326,7 +352,7 @@ def _train(**kw: Any) -> None:
         (_train_ensemble if ensemble > 1 else _train_seeds)(
             model, max(ensemble, seeds), rec, val, input_name, output_name, out,
             scheduler if scheduler is not None or workers > 1 else "sequential", workers, fill,
-            label)
+            label, history)
         return
     epochs = int(hyper.get("max_epochs", 0))
     # epoch, errors (and Levenberg-Marquardt's damping mu) and an upper bound of the time left
@@ -341,7 +367,8 @@ def _train(**kw: Any) -> None:
 
         try:
             model.fit(rec[input_name], rec[output_name], fs=rec.fs,
-                      validation=(val[input_name], val[output_name]), callback=cb, fill=fill)
+                      validation=(val[input_name], val[output_name]), callback=cb, fill=fill,
+                      validation_history=history)
         except SloshromError as exc:  # ROMError (a constant record, ...), UnstableModelError
             fail(str(exc))
     try:
@@ -349,9 +376,10 @@ def _train(**kw: Any) -> None:
     except SloshromError as exc:  # ROMError: a value beyond the model-file format's bounds
         fail(str(exc))
     h = model.history_
+    after = f" (after {history} samples of history)" if history else ""
     typer.echo(
         f"wrote {path}: {label}, {n_params} parameters, {len(h['train_mse']) - 1} epochs "
-        f"({h['stop_reason']}), best epoch {h['best_epoch']}, validation MSE "
+        f"({h['stop_reason']}), best epoch {h['best_epoch']}, validation MSE{after} "
         f"{h['val_mse'][h['best_epoch']]:.4g} {rec.units[output_name]}^2, "
         f"{h['train_seconds']:.1f} s" + _stopped(h)
     )
@@ -391,6 +419,13 @@ _AFTER: list[tuple[str, Any, Any]] = [
              "for --workers 1).")], None),
     ("workers", Annotated[int, typer.Option(help="Ensemble, seeds: models trained at once, 1 to "
                                                  "the number of CPUs.")], 2),
+    ("history", Annotated[int, typer.Option(
+        "--history", help="Samples at the start of the validation record taken as measured "
+                          "history: its run starts from them (delay lines filled, state "
+                          "encoded or fitted) instead of from rest, and is scored after them; "
+                          "for a validation record that does not start at rest. At least the "
+                          "samples the class reads (NFIR/NOE: the delays; NSS: --window; "
+                          "LSS: --n-states). 0 = from rest.")], 0),
 ]
 
 
@@ -445,9 +480,10 @@ def _stopped(h: Mapping[str, object]) -> str:
 
 def _fit_members(template: Estimator, k: int, rec: Record, val: Record, input_name: str,
                  output_name: str, scheduler: str | None, workers: int, fill: float | None,
-                 label: str) -> Ensemble:
+                 label: str, history: int) -> Ensemble:
     """K models of ``template`` with seeds SEED..SEED+K-1 through Dask (``Ensemble.fit``),
-    with a progress bar of the members and their epochs; the fitted ensemble."""
+    with a progress bar of the members and their epochs; the fitted ensemble. ``history``:
+    samples of the validation record each member's validation run starts from."""
     from rich.progress import BarColumn, MofNCompleteColumn, TextColumn, TimeElapsedColumn
 
     from sloshrom.rom.ensemble import Ensemble
@@ -478,7 +514,8 @@ def _fit_members(template: Estimator, k: int, rec: Record, val: Record, input_na
         try:
             ens.fit(rec[input_name], rec[output_name], fs=fs,
                     validation=(val[input_name], val[output_name]), scheduler=scheduler,
-                    n_workers=workers, progress=cb, epoch_progress=epoch_cb, fill=fill)
+                    n_workers=workers, progress=cb, epoch_progress=epoch_cb, fill=fill,
+                    validation_history=history)
         except SloshromError as exc:  # ROMError (a constant record, ...), UnstableModelError
             fail(str(exc))
     return ens
@@ -515,15 +552,17 @@ def _spread_text(ens: Ensemble, mse: list[float], unit: str) -> str:
 
 def _train_ensemble(template: Any, k: int, rec: Any, val: Any, input_name: str,
                     output_name: str, out: Path, scheduler: str | None, workers: int,
-                    fill: float | None, label: str) -> None:
+                    fill: float | None, label: str, history: int = 0) -> None:
     """``train --ensemble K``: K members through Dask, one file, per-member validation MSE;
     ``label`` names the members' architecture (``NFIR(70, 35)``)."""
     ens = _fit_members(template, k, rec, val, input_name, output_name, scheduler, workers,
-                       fill, label)
+                       fill, label, history)
     try:
         path = ens.save(out)
         uv, yv = val[input_name], val[output_name]
-        preds = ens.member_predictions(uv)
+        past = (uv[:history], yv[:history]) if history else None
+        uv, yv = uv[history:], yv[history:]
+        preds = ens.member_predictions(uv, history=past)
     except SloshromError as exc:
         fail(str(exc))
     unit = f"{rec.units[output_name]}^2"
@@ -539,15 +578,19 @@ def _train_ensemble(template: Any, k: int, rec: Any, val: Any, input_name: str,
 
 def _train_seeds(template: Estimator, k: int, rec: Record, val: Record, input_name: str,
                  output_name: str, out: Path, scheduler: str | None, workers: int,
-                 fill: float | None, label: str) -> None:
+                 fill: float | None, label: str, history: int = 0) -> None:
     """``train --seeds N``: N models through Dask (as ``--ensemble``), each seed's validation
-    MSE and their spread; the best on the validation record written as a single model."""
+    MSE and their spread; the best on the validation record written as a single model.
+    ``history``: the validation record's first samples each run starts from (scored after
+    them)."""
     ens = _fit_members(template, k, rec, val, input_name, output_name, scheduler, workers,
-                       fill, label)
+                       fill, label, history)
     uv, yv = val[input_name], val[output_name]
+    past = (uv[:history], yv[:history]) if history else None
+    uv, yv = uv[history:], yv[history:]
     try:
-        mse = [float(e) for e in ens.member_errors(uv, yv)]
-        best = ens.best_member(uv, yv)
+        mse = [float(e) for e in ens.member_errors(uv, yv, history=past)]
+        best = ens.best_member(uv, yv, history=past)
         path = best.save(out)
     except SloshromError as exc:  # every seed unstable on the validation record, ...
         fail(str(exc))
@@ -555,12 +598,12 @@ def _train_seeds(template: Estimator, k: int, rec: Record, val: Record, input_na
     _member_lines(ens, mse, unit, "seed")
     i = next(j for j, m in enumerate(ens.members_) if m is best)
     h = best.history_
-    typer.echo(f"validation MSE over {k} seeds: {_spread_text(ens, mse, unit)}")
+    after = f" (after {history} samples of history)" if history else ""
+    typer.echo(f"validation MSE{after} over {k} seeds: {_spread_text(ens, mse, unit)}")
     typer.echo(
         f"wrote {path}: {label}, seed {best.get_params()['seed']} (the best of {k} on "
-        "validation), "
-        f"{best.n_params} parameters, {len(h['train_mse']) - 1} epochs "
-        f"({h['stop_reason']}), validation MSE {mse[i]:.4g} {unit}" + _stopped(h)
+        f"validation), {best.n_params} parameters, {len(h['train_mse']) - 1} epochs "
+        f"({h['stop_reason']}), validation MSE{after} {mse[i]:.4g} {unit}" + _stopped(h)
     )
 
 
@@ -574,6 +617,12 @@ def predict(
         help="Fill level d/h to run the model at: a fill family (.toml) needs it, a single "
              "model refuses a fill it was not identified at. Default: the record's fill "
              "attribute, if any.")] = None,
+    history: Annotated[int, typer.Option(
+        "--history", help="Samples at the record's start taken as measured history (its input "
+                          "and output): the run starts from them instead of from rest, and the "
+                          "record after them is written and scored. At least the samples the "
+                          "model reads (NFIR/NOE: the delays; NSS: its window; LSS: its "
+                          "order). 0 = from rest, the whole record.")] = 0,
 ) -> None:
     """Simulate a ROM on an input record; writes the record plus ``<output>_pred``.
 
@@ -581,7 +630,14 @@ def predict(
     after conversion to SI (a record in mm/s or ft/s is converted for a model in m/s; one in
     rad/s, or in a unit sloshrom does not know, is refused).
 
+    A run starts from rest. A record that does not start at rest (a test record cut from a
+    longer run) is predicted with --history N: its first N samples of input and output are the
+    measured history that the run starts from (the NSS encodes its state from them, the NFIR
+    and NOE fill their delay lines, the LSS fits its state); the written record holds the
+    samples after them.
+
     Example: sloshrom predict --model nfir.npz --data validation.nc --out prediction.nc
+    [--history 50]
     """
     check_number(fill, "--fill", 0.0, 1.0, lo_open=True, hi_open=True,
                  why="liquid depth / tank height")
@@ -596,7 +652,7 @@ def predict(
     except SloshromError as exc:
         fail(str(exc))
     names = m.names  # a fill family describes its members' records
-    rec = _read(data, [names[0]], "--data")
+    rec = _read(data, [names[0], *([names[1]] if history else [])], "--data")
     if fill is None and isinstance(rec.attrs.get("fill"), float):
         fill = rec.attrs["fill"]
     try:
@@ -613,14 +669,22 @@ def predict(
         if two_d:
             fail(f"--out {out}: CSV holds 1-D variables only, {data} has 2-D {', '.join(two_d)} "
                  "(use .nc)")
+    past = None
+    if history:
+        past = _history_of(m, rec, history, data)
+        rec = _after(rec, history)
     try:
-        y = m.predict(rec[in_name])
+        y = m.predict(rec[in_name]) if past is None else m.predict(rec[in_name], history=past)
     except SloshromError as exc:  # UnstableModelError, ROMError (NaN in the record)
         fail(str(exc))
+    attrs: dict[str, str | int] = {"prediction_model": str(model)}
+    if history:
+        attrs["prediction_history"] = history
     new = rec.with_variables({f"{out_name}_pred": y}, {f"{out_name}_pred": m.units[1]},
-                             prediction_model=str(model))
+                             **attrs)
     write_record(new, out)
-    msg = f"wrote {out}: {out_name}_pred ({len(y)} samples)"
+    msg = f"wrote {out}: {out_name}_pred ({len(y)} samples"
+    msg += f" after {history} samples of history)" if history else ")"
     if out_name in rec:
         if same_unit(rec.units[out_name], m.units[1]):
             e = y - rec[out_name]
@@ -629,6 +693,32 @@ def predict(
             msg += (f" (no MSE: {out_name} is in '{rec.units[out_name]}', the model gives "
                     f"'{m.units[1]}')")
     typer.echo(msg)
+
+
+def _history_of(model: Any, rec: Record, history: int, data: Path
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """``predict --history N``: the record's first N samples of input and output, checked
+    (the model can start from history, N is enough for it and leaves samples to predict, the
+    output is in the model's unit)."""
+    in_name, out_name = model.names
+    need = getattr(model, "history_samples", None)
+    if need is None:
+        fail(f"--history: a {type(model).__name__} starts from rest only")
+    check_number(history, "--history", 0, len(rec) - 1,
+                 why=f"samples of {data} ({len(rec)})")
+    if history < need:
+        fail(f"--history {history}: the model reads {need} samples of measured history; "
+             f"give at least {need}")
+    if not same_unit(rec.units[out_name], model.units[1]):
+        fail(f"{data}: variable '{out_name}' is in '{rec.units[out_name]}', the model gives "
+             f"'{model.units[1]}': the measured history must be in the model's unit")
+    return rec[in_name][:history], rec[out_name][:history]
+
+
+def _after(rec: Record, start: int) -> Record:
+    """The record from sample ``start`` on (every variable, time included)."""
+    return Record(rec.time[start:], rec.fs, {k: v[start:] for k, v in rec.variables.items()},
+                     dict(rec.units), dict(rec.attrs), dict(rec.dims))
 
 
 def check_scheduler(address: str, timeout: float = 5.0) -> None:

@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any, ClassVar, Literal, cast
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sloshrom import __version__
 from sloshrom._x64 import float64
@@ -34,7 +35,8 @@ from sloshrom.rom.modelfile import model_file_path, write_model_file
 from sloshrom.rom.network import MinMaxScaler
 from sloshrom.rom.registry import ModelClass
 
-__all__ = ["Estimator", "as_signal", "checked_records", "record_envelope"]
+__all__ = ["Estimator", "History", "as_signal", "checked_history", "checked_past",
+           "checked_records", "record_envelope"]
 
 
 def as_signal(name: str, x: Any, allow_batch: bool = False) -> np.ndarray:
@@ -102,6 +104,55 @@ def checked_records(u: Any, y: Any, fs: float, validation: tuple[Any, Any] | Non
             raise ROMError(f"validation record too short for {history} samples of history")
         validation = (uv, yv)
     return u, y, validation, fill
+
+
+#: Measured history before a record: its input and output, oldest first.
+History = tuple[ArrayLike, ArrayLike]
+
+
+def checked_past(history: object) -> tuple[np.ndarray, np.ndarray]:
+    """``(u_past, y_past)`` of a prediction from measured history, as finite 1-D float64
+    signals of one length.
+
+    Raises
+    ------
+    ROMError
+        Not a pair, other shapes or lengths, NaN or inf.
+    """
+    if not isinstance(history, tuple | list) or len(history) != 2:
+        raise ROMError("history must be a pair (u_past, y_past) of measured input and output")
+    up = as_signal("history input", history[0])
+    yp = as_signal("history output", history[1])
+    if up.size != yp.size:
+        raise ROMError(f"the history's input has {up.size} samples, its output {yp.size}")
+    return up, yp
+
+
+def checked_history(history: object, validation: tuple[np.ndarray, np.ndarray] | None,
+                    need: int, label: str) -> int:
+    """``validation_history`` of a fit, checked: 0, or the validation record's first samples
+    taken as measured history (at least ``need``, the samples the class ``label`` reads, and
+    fewer than the record, so that something is scored).
+
+    Raises
+    ------
+    ROMError
+        Not an integer >= 0, given without a validation record, too short or too long.
+    """
+    if isinstance(history, bool) or not isinstance(history, int | np.integer) or history < 0:
+        raise ROMError(f"validation_history must be an integer >= 0 (samples), got {history!r}")
+    h = int(history)
+    if h == 0:
+        return 0
+    if validation is None:
+        raise ROMError("validation_history needs a validation record")
+    if h < need:
+        raise ROMError(f"validation_history {h}: a start from history reads {need} samples "
+                       f"({label})")
+    if h >= validation[0].size:
+        raise ROMError(f"validation_history {h} leaves nothing to score in a validation record "
+                       f"of {validation[0].size} samples")
+    return h
 
 
 def record_envelope(u: np.ndarray, fs: float, scaler: MinMaxScaler, band: Any, input: str,
@@ -298,14 +349,26 @@ class Estimator:
         self._check_fitted()
         return cast(float, self.model_.dt)
 
+    @property
+    def history_samples(self) -> int:
+        """Samples of measured input and output that :meth:`predict` reads as ``history``
+        (the delay lines, the encoder's window, a linear model's order)."""
+        self._check_fitted()
+        return cast(int, self.model_.history_samples)
+
     @float64
-    def predict(self, u: Any) -> np.ndarray:
-        """Free-run simulation from rest; does not change the model.
+    def predict(self, u: Any, history: History | None = None) -> np.ndarray:
+        """Simulation from rest, or from measured history; does not change the model.
 
         Parameters
         ----------
         u : array_like, shape (n,) or (batch, n)
             Input sampled at ``fs_`` (physical units, e.g. m/s).
+        history : (u_past, y_past), optional
+            The measured input and output of the samples just before ``u`` (oldest first, at
+            least :attr:`history_samples` of them; ``u`` 1-D): the run starts where they
+            leave the system (delay lines filled, state encoded or fitted) instead of at
+            rest, for a record that does not start at rest.
 
         Returns
         -------
@@ -317,7 +380,8 @@ class Estimator:
         NotFittedError
             The model is not fitted.
         ROMError
-            ``u`` of another shape, or with NaN or inf.
+            ``u`` of another shape, or with NaN or inf; a history of other lengths or shorter
+            than :attr:`history_samples`.
         UnstableModelError
             A recurrent model whose simulation left its stability bound.
 
@@ -327,10 +391,15 @@ class Estimator:
             ``u`` leaves the input range of the training record.
         """
         self._check_fitted()
-        u = as_signal("u", u, allow_batch=True)
-        # predict < float64 wrapper < the caller
-        check_envelope(self, u, unit=str(self.units[0]), stacklevel=3)
-        return cast(np.ndarray, self.model_.free_run(u))
+        if history is None:
+            u = as_signal("u", u, allow_batch=True)
+            # predict < float64 wrapper < the caller
+            check_envelope(self, u, unit=str(self.units[0]), stacklevel=3)
+            return cast(np.ndarray, self.model_.free_run(u))
+        u = as_signal("u", u)
+        up, yp = checked_past(history)
+        check_envelope(self, np.concatenate([up, u]), unit=str(self.units[0]), stacklevel=3)
+        return cast(np.ndarray, self.model_.run_from_history(up, yp, u))
 
     def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
         """Sloshing-model contract: dynamic force (N) from the tank velocity (m/s) or, for a

@@ -39,7 +39,7 @@ from numpy.typing import ArrayLike
 
 from sloshrom import __version__
 from sloshrom.models import EnvelopeWarning, check_envelope, envelope_union, model_input
-from sloshrom.rom.base import Estimator
+from sloshrom.rom.base import Estimator, History, checked_past
 from sloshrom.rom.epochs import EpochFile, EpochReport, epoch_reports
 from sloshrom.rom.errors import NotFittedError, ROMError, TrainingWarning, UnstableModelError
 from sloshrom.rom.family import check_training_fill
@@ -149,6 +149,7 @@ def _fit_member(
     fs: float,
     fill: float | None = None,
     epochs_dir: str | None = None,
+    validation_history: int = 0,
     parent: int | None = None,
 ) -> Any:
     """Train member ``k`` with ``seed`` (``item = (k, seed)``): a task of :func:`run_tasks`.
@@ -163,7 +164,8 @@ def _fit_member(
     model.set_params(seed=seed)
     validation = (val_u, val_y) if val_u.size else None
     callback = EpochFile(epochs_dir, k) if epochs_dir is not None else None
-    return model.fit(u, y, fs=fs, validation=validation, callback=callback, fill=fill)
+    return model.fit(u, y, fs=fs, validation=validation, callback=callback, fill=fill,
+                     validation_history=validation_history)
 
 
 @jax.tree_util.register_pytree_node_class
@@ -284,6 +286,7 @@ class Ensemble:
         progress: Callable[[int, Any], Any] | None = None,
         fill: float | None = None,
         epoch_progress: EpochReport | None = None,
+        validation_history: int = 0,
     ) -> Ensemble:
         """Train the K members on the same record, in parallel.
 
@@ -312,6 +315,9 @@ class Ensemble:
             second per member, from a thread of this process (:func:`sloshrom.rom.epochs.
             epoch_reports`: the members, in worker processes or not, write it to files). A
             worker on another machine reports nothing before its member finishes.
+        validation_history : int
+            The validation record's first samples taken as measured history by every member
+            (:meth:`sloshrom.rom.NSS.fit`); 0: from rest.
 
         Returns
         -------
@@ -357,7 +363,7 @@ class Ensemble:
             members = run_tasks(
                 _fit_member, list(enumerate(seeds)), shared=(u, y, vu, vy),
                 args=(type(self.template), self.template.get_params(), float(fs), fill,
-                      epochs_dir, os.getpid()),
+                      epochs_dir, int(validation_history), os.getpid()),
                 scheduler=scheduler, n_workers=n_workers,
                 done=None if progress is None else progress,
             )
@@ -498,21 +504,35 @@ class Ensemble:
         return obj
 
     # -- prediction ---------------------------------------------------------------------------
-    def _outputs(self, u: Any, stacklevel: int) -> np.ndarray:
+    @property
+    def history_samples(self) -> int:
+        """Samples of measured history a start from it reads: the most any member reads."""
+        self._check_fitted()
+        return max(int(m.history_samples) for m in self.members_)
+
+    def _outputs(self, u: Any, stacklevel: int, history: History | None = None
+                 ) -> np.ndarray:
         self._check_fitted()
         u = _signal("u", u)
-        check_envelope(self, u, unit=str(self.units[0]), stacklevel=stacklevel)
+        if history is not None:
+            up, yp = checked_past(history)
+            check_envelope(self, np.concatenate([up, np.ravel(u)]), unit=str(self.units[0]),
+                           stacklevel=stacklevel)
+        else:
+            check_envelope(self, u, unit=str(self.units[0]), stacklevel=stacklevel)
         with warnings.catch_warnings():  # warned once above, for the union of the envelopes
             warnings.simplefilter("ignore", EnvelopeWarning)
-            return np.stack([np.asarray(m.predict(u)) for m in self.members_])
+            return np.stack([np.asarray(m.predict(u, history=history)) for m in self.members_])
 
-    def member_predictions(self, u: Any) -> np.ndarray:
-        """Every member's free-run output from rest (for spread bands).
+    def member_predictions(self, u: Any, history: History | None = None) -> np.ndarray:
+        """Every member's output from rest, or from measured history (for spread bands).
 
         Parameters
         ----------
         u : array_like, shape (n,) or (batch, n)
             Input sampled at ``fs_`` (physical units, e.g. m/s).
+        history : (u_past, y_past), optional
+            Measured input and output before ``u`` (:meth:`sloshrom.rom.NSS.predict`).
 
         Returns
         -------
@@ -533,10 +553,11 @@ class Ensemble:
         EnvelopeWarning
             ``u`` leaves the union of the members' training input ranges (once per call).
         """
-        return self._outputs(u, stacklevel=3)
+        return self._outputs(u, stacklevel=3, history=history)
 
-    def predict(self, u: Any) -> np.ndarray:
-        """Mean of the members' free-run outputs from rest; does not change the ensemble.
+    def predict(self, u: Any, history: History | None = None) -> np.ndarray:
+        """Mean of the members' outputs from rest (or from measured ``history``); does not
+        change the ensemble.
 
         Parameters, errors and warnings as :meth:`member_predictions`.
 
@@ -545,18 +566,24 @@ class Ensemble:
         ndarray, same shape as ``u``
             Output (physical units, e.g. N), float64.
         """
-        return np.mean(self._outputs(u, stacklevel=3), axis=0)
+        return np.mean(self._outputs(u, stacklevel=3, history=history), axis=0)
 
-    def member_errors(self, u: ArrayLike, y: ArrayLike) -> np.ndarray:
-        """Each member's mean squared error on a record: its free run from rest over the whole
-        record, as early stopping scored it on the validation record.
+    def member_errors(self, u: ArrayLike, y: ArrayLike, history: History | None = None
+                      ) -> np.ndarray:
+        """Each member's mean squared error on a record: its free run over the whole record,
+        from rest or from measured ``history``, as early stopping scored it on the validation
+        record.
 
         Parameters
         ----------
         u : array_like, shape (n,)
-            Input sampled at ``fs_`` (physical units, e.g. m/s), starting at rest.
+            Input sampled at ``fs_`` (physical units, e.g. m/s), starting at rest unless
+            ``history`` is given.
         y : array_like, shape (n,)
             Measured output (physical units, e.g. N).
+        history : (u_past, y_past), optional
+            Measured input and output just before ``u``: every member starts from them
+            (:meth:`predict`); the error is over ``u`` only.
 
         Returns
         -------
@@ -569,33 +596,39 @@ class Ensemble:
         NotFittedError
             The ensemble is not fitted.
         ROMError
-            ``u`` or ``y`` not 1-D, of different lengths, or with NaN or inf.
+            ``u`` or ``y`` not 1-D, of different lengths, or with NaN or inf; a bad
+            ``history``.
 
         Warns
         -----
         EnvelopeWarning
-            ``u`` leaves the union of the members' training input ranges (once per call).
+            ``u`` (with the history's input) leaves the union of the members' training input
+            ranges (once per call).
         """
-        return self._errors(u, y, stacklevel=3)
+        return self._errors(u, y, history, stacklevel=3)
 
-    def _errors(self, u: ArrayLike, y: ArrayLike, stacklevel: int) -> np.ndarray:
+    def _errors(self, u: ArrayLike, y: ArrayLike, history: History | None, stacklevel: int
+                ) -> np.ndarray:
         self._check_fitted()
         u, y = _signal("u", u), _signal("y", y)
         if u.ndim != 1 or y.shape != u.shape:
             raise ROMError(f"u and y must be records of the same length, shape (n,), got "
                            f"{u.shape} and {y.shape}")
-        check_envelope(self, u, unit=str(self.units[0]), stacklevel=stacklevel)
+        seen = u if history is None else np.concatenate([checked_past(history)[0], u])
+        check_envelope(self, seen, unit=str(self.units[0]), stacklevel=stacklevel)
         errors = []
         with warnings.catch_warnings():  # warned once above, for the union of the envelopes
             warnings.simplefilter("ignore", EnvelopeWarning)
             for m in self.members_:
                 try:
-                    errors.append(float(np.mean((np.asarray(m.predict(u)) - y) ** 2)))
+                    yh = np.asarray(m.predict(u, history=history))
+                    errors.append(float(np.mean((yh - y) ** 2)))
                 except UnstableModelError:  # no error to rank: never the best
                     errors.append(math.nan)
         return np.asarray(errors, dtype=np.float64)
 
-    def best_member(self, u: ArrayLike, y: ArrayLike) -> Estimator:
+    def best_member(self, u: ArrayLike, y: ArrayLike, history: History | None = None
+                    ) -> Estimator:
         """The member with the lowest :meth:`member_errors` on a (validation) record.
 
         A normal single model (NFIR, NOE or NSS, fitted): ``save`` writes a single-model file
@@ -606,6 +639,8 @@ class Ensemble:
         ----------
         u, y : array_like, shape (n,)
             Input and measured output, as :meth:`member_errors`.
+        history : (u_past, y_past), optional
+            Measured history before ``u``, as :meth:`member_errors`.
 
         Returns
         -------
@@ -619,7 +654,7 @@ class Ensemble:
         ROMError
             Bad records (as :meth:`member_errors`), or every member unstable on them.
         """
-        errors = self._errors(u, y, stacklevel=3)
+        errors = self._errors(u, y, history, stacklevel=3)
         if np.all(np.isnan(errors)):
             raise ROMError(f"all {errors.size} members are unstable on this record: none is best")
         return self.members_[int(np.nanargmin(errors))]

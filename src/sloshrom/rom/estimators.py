@@ -45,7 +45,7 @@ import numpy as np
 
 from sloshrom._x64 import float64
 from sloshrom.rom import training
-from sloshrom.rom.base import Estimator, checked_records, record_envelope
+from sloshrom.rom.base import Estimator, checked_history, checked_records, record_envelope
 from sloshrom.rom.bouncing import BouncingBall, is_ball_file
 from sloshrom.rom.ensemble import Ensemble
 from sloshrom.rom.errors import (
@@ -188,6 +188,7 @@ class _Estimator(Estimator):
         callback: Callable[..., Any] | None = None,
         *,
         fill: float | None = None,
+        validation_history: int = 0,
     ) -> _Estimator:
         """Identify the network from an input/output record.
 
@@ -210,6 +211,11 @@ class _Estimator(Estimator):
             Fill level d/h (-) of the tank in the training record (``Record.attrs["fill"]`` of
             rig records). Stored in ``envelope_`` (``fill_min``/``fill_max``): the model then
             refuses other fills (:func:`sloshrom.rom.family.check_fill`).
+        validation_history : int
+            The validation record's first samples taken as measured history (at least the delay
+            lines: ``max(delays)``, and ``out_delays`` for an NOE): the validation run starts from
+            them instead of from rest and is scored after them, for a validation record that does
+            not start at rest. 0 (default): from rest, every sample scored.
 
         Returns
         -------
@@ -226,6 +232,8 @@ class _Estimator(Estimator):
         spec = self._check_hyperparameters()
         u, y, validation, fill = checked_records(u, y, fs, validation, fill,
                                                   self._fewest_samples(spec), spec.max_delay)
+        hv = checked_history(validation_history, validation,
+                             max(spec.max_delay, spec.out_delays), type(self).__name__)
         if (self.passivity > 0 or self.cycle_energy > 0) and not (u.min() < 0.0 < u.max()):
             # say what is wrong with the input, not which loss term tripped over it
             on = " and ".join(n for n in ("passivity", "cycle_energy") if getattr(self, n) > 0)
@@ -246,7 +254,8 @@ class _Estimator(Estimator):
             unstable_bound=float(self.unstable_bound), callback=callback, fs=float(fs),
             amplitude_weighting=float(self.amplitude_weighting),
             passivity=float(self.passivity), frequency_band=(probe_band[0], probe_band[1]),
-            cycle_energy=float(self.cycle_energy), **self._trainer_options(),
+            cycle_energy=float(self.cycle_energy), validation_history=hv,
+            **self._trainer_options(),
         )
         self.model_ = self._model({k: np.asarray(v) for k, v in
                                    unpack(theta, spec.n_inputs, spec.neurons).items()},
@@ -451,10 +460,15 @@ class NSS(_Estimator):
 
     Unlike the NFIR, whose force is a function of the last ``delays`` inputs only, the model
     carries a state (where the liquid is, how fast it moves), so it can remember an impact or a
-    flight phase for as long as it lasts. It starts from rest in every run (the coupled beam,
-    the maps, :meth:`predict`); its encoder, which estimates the state from measured history,
-    starts the training's sub-sequences and is available as
+    flight phase for as long as it lasts. It starts from rest in the coupled beam and the maps;
+    its encoder, which estimates the state from measured history, starts the training's
+    sub-sequences, :meth:`predict` given ``history`` and the validation run of a fit given
+    ``validation_history`` (a record that does not start at rest), and is available as
     :meth:`sloshrom.rom.statespace.StateSpaceNetwork.encode`.
+
+    It identifies any single-input single-output system, not only a tank: the input and output
+    may be any signals in any units (``names``, ``units``); the passive recipe's loss terms
+    alone are written for a velocity in m/s and a force in N.
 
     Parameters
     ----------
@@ -479,7 +493,8 @@ class NSS(_Estimator):
     seed : int
         Seeds the initialisation and the draws of sub-sequences (>= 0).
     units, names
-        As :class:`NFIR`; the input must be the tank velocity.
+        As :class:`NFIR`: any signals (the loss terms need a velocity in m/s and a force
+        in N).
     amplitude_weighting, passivity, cycle_energy : float
         The passive recipe's loss terms, as :class:`NFIR` (the energy term is the error of the
         energy each sub-sequence exchanges with the liquid). 0 = off.
@@ -565,25 +580,32 @@ class NSS(_Estimator):
         callback: Callable[..., Any] | None = None,
         *,
         fill: float | None = None,
+        validation_history: int = 0,
     ) -> NSS:
         """Identify the state-space ROM from an input/output record.
 
         Parameters
         ----------
         u : array_like, shape (n,)
-            Tank vertical velocity (m/s), sampled at ``fs``.
+            Input (the tank vertical velocity, m/s, or any signal), sampled at ``fs``.
         y : array_like, shape (n,)
-            Dynamic sloshing force (N).
+            Output (the dynamic sloshing force, N, or any signal).
         fs : float
             Sample rate, Hz.
         validation : (u_val, y_val), optional
-            Validation record at the same rate, starting at rest: its free run from rest
-            decides the early stopping and the parameters returned.
+            Validation record at the same rate: its run from rest (or from its first
+            ``validation_history`` samples) decides the early stopping and the parameters
+            returned.
         callback : callable, optional
             ``callback(epoch, info)`` after every epoch (``train_mse``, ``val_mse`` in N^2,
             ``val_objective``, ``seconds``); returning True stops training.
         fill : float, optional
             Fill level d/h (-) of the training record, as :meth:`NFIR.fit`.
+        validation_history : int
+            The validation record's first samples taken as measured history (at least ``window``,
+            the encoder's: the run starts from the state it gives): the validation run starts from
+            them instead of from rest and is scored after them, for a validation record that does
+            not start at rest. 0 (default): from rest, every sample scored.
 
         Returns
         -------
@@ -598,6 +620,7 @@ class NSS(_Estimator):
         spec = self._check_hyperparameters()
         u, y, validation, fill = checked_records(
             u, y, fs, validation, fill, spec.window + int(self.horizon) + 1, spec.window)
+        hv = checked_history(validation_history, validation, spec.window, "NSS")
         if (self.passivity > 0 or self.cycle_energy > 0) and not (u.min() < 0.0 < u.max()):
             raise ROMError(f"the input {self.names[0]!r} does not oscillate about rest: "
                            "passivity and cycle_energy judge the energy of a motion about rest")
@@ -612,7 +635,8 @@ class NSS(_Estimator):
             frequency_band=(probe_band[0], probe_band[1]),
             velocity_offset=float(self.velocity_offset))
         params, history = fit_statespace(spec, u, y, float(fs), scaler, validation, options,
-                                         seed=int(self.seed), callback=callback)
+                                         seed=int(self.seed), callback=callback,
+                                         validation_history=hv)
         self.model_ = StateSpaceNetwork(params, scaler, spec, self.input, float(fs))
         self.envelope_ = record_envelope(u, fs, scaler, band, self.input, fill)
         self.history_ = history

@@ -42,6 +42,7 @@ from typing import Any
 
 import jax
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sloshrom.config import FILL_TOLERANCE
 from sloshrom.fileio import atomic_write_text, not_a_regular_file
@@ -248,9 +249,22 @@ class FillBlend:
             out = f if out is None else out + f
         return out
 
-    def predict(self, u: Any) -> np.ndarray:
-        """:meth:`simulate` of the input ``u`` alone (velocity-input members)."""
-        return self.simulate(u, None)
+    @property
+    def history_samples(self) -> int:
+        """Samples of measured history a start from it reads: the most any member reads."""
+        return max(int(m.history_samples) for m in self.members)
+
+    def predict(self, u: Any, history: tuple[ArrayLike, ArrayLike] | None = None
+                ) -> np.ndarray:
+        """:meth:`simulate` of the input ``u`` alone (velocity-input members), or the blend of
+        the members' runs from measured ``history`` (:meth:`sloshrom.rom.NSS.predict`)."""
+        if history is None:
+            return self.simulate(u, None)
+        out = np.zeros(np.shape(u))
+        for m, w in zip(self.members, self.weights, strict=True):
+            if w != 0.0:
+                out = out + w * np.asarray(m.predict(u, history=history), dtype=np.float64)
+        return out
 
     def __repr__(self) -> str:
         return (f"FillBlend(fill={self.fill:.3f}, weights={self.weights}, "

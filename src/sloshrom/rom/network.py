@@ -33,6 +33,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from jax import lax
+from numpy.typing import ArrayLike
 
 from sloshrom._x64 import float64
 from sloshrom.limits import HIDDEN_KINDS
@@ -56,11 +57,13 @@ __all__ = [
     "nfir_free_run",
     "nfir_rows",
     "noe_free_run",
+    "noe_history_run",
     "noe_rest_state",
     "noe_simulate",
     "noe_step",
     "network_of",
     "pack",
+    "past_lines",
     "rbf_apply",
     "row_index",
     "unpack",
@@ -313,6 +316,23 @@ def noe_free_run(theta: Any, u_s: Any, rest_u: Any, rest_y: Any, delays: tuple[i
     return noe_simulate(theta, u_s, state0, delays, out_delays, neurons, hidden)[1]
 
 
+def past_lines(past: jax.Array, length: int) -> jax.Array:
+    """A delay line filled with measured history: the last ``length`` samples of ``past``
+    (..., n >= length; oldest first), most recent first."""
+    return jnp.flip(past[..., past.shape[-1] - length:], axis=-1)
+
+
+@partial(jax.jit, static_argnames=("delays", "out_delays", "neurons", "hidden"))
+def noe_history_run(theta: jax.Array, u_past: jax.Array, y_past: jax.Array, u_s: jax.Array,
+                    delays: tuple[int, ...], out_delays: int, neurons: int, hidden: str
+                    ) -> jax.Array:
+    """NOE closed loop of a scaled input ``u_s`` started from measured history: the delay lines
+    hold the last inputs and outputs of ``u_past``/``y_past`` (scaled, oldest first, at least
+    ``max(delays)`` and ``out_delays`` samples); returns the scaled output."""
+    state0 = (past_lines(u_past, int(np.max(delays))), past_lines(y_past, out_delays))
+    return noe_simulate(theta, u_s, state0, delays, out_delays, neurons, hidden)[1]
+
+
 # ---------------------------------------------------------------------------------------------
 # The fitted network as a sloshing model
 # ---------------------------------------------------------------------------------------------
@@ -368,6 +388,54 @@ class FittedNetwork:
                 f"{self._simulation} unstable: output non-finite or beyond "
                 f"{self.unstable_bound} half-ranges of the training output at sample {k} "
                 f"(t = {k / self.fs:.3f} s)")
+
+    @property
+    def history_samples(self) -> int:
+        """Samples of measured input and output that a start from history reads (the delay
+        lines, the encoder's window, a linear model's order)."""
+        raise NotImplementedError
+
+    def _history_run(self, u_past: np.ndarray, y_past: np.ndarray, u: np.ndarray
+                     ) -> np.ndarray:
+        """:meth:`run_from_history` on checked arrays (physical units)."""
+        raise NotImplementedError
+
+    @float64
+    def run_from_history(self, u_past: ArrayLike, y_past: ArrayLike, u: ArrayLike
+                         ) -> np.ndarray:
+        """Output for an input record started from measured history instead of rest.
+
+        Parameters
+        ----------
+        u_past, y_past : array_like, shape (h,)
+            The measured input and output of the ``h >= history_samples`` samples just before
+            ``u`` (physical units, oldest first): they fill the delay lines (NFIR, NOE), are
+            encoded into the state (NSS) or give the state by least squares (LSS).
+        u : array_like, shape (n,)
+            The input from the start on, finite (checked by the caller).
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Output (physical units), float64.
+
+        Raises
+        ------
+        ROMError
+            Histories of other lengths, or shorter than :attr:`history_samples`.
+        UnstableModelError
+            The run left the stability bound.
+        """
+        up = np.asarray(u_past, dtype=np.float64)
+        yp = np.asarray(y_past, dtype=np.float64)
+        need = self.history_samples
+        if up.ndim != 1 or up.shape != yp.shape:
+            raise ROMError(f"the history must be two 1-D records of one length, got input "
+                           f"{up.shape} and output {yp.shape}")
+        if up.size < need:
+            raise ROMError(f"a start from history reads {need} samples of input and output "
+                           f"({self.describe()}), got {up.size}")
+        return self._history_run(up, yp, np.asarray(u, dtype=np.float64))
 
     def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
         """Sloshing-model contract: dynamic force (N) from the signal the network reads."""
@@ -499,6 +567,17 @@ class NFIRNetwork(Network):
                                                    spec.hidden))
         return np.asarray(self.scaler.y_inverse(y_s))
 
+    @property
+    def history_samples(self) -> int:
+        """The delay line: ``max_delay`` samples of input (the output is not read)."""
+        return int(self.spec.max_delay)
+
+    def _history_run(self, u_past: np.ndarray, y_past: np.ndarray, u: np.ndarray
+                     ) -> np.ndarray:
+        # a feed-forward network: the measured inputs before the start replace the rest padding
+        d = self.spec.max_delay
+        return np.asarray(self.free_run(np.concatenate([u_past[u_past.size - d:], u])))[d:]
+
 
 @partial(jax.tree_util.register_dataclass, data_fields=["params", "scaler"],
          meta_fields=["spec", "input", "fs", "unstable_bound"])
@@ -554,6 +633,21 @@ class NOENetwork(Network):
                                                   spec.out_delays, spec.neurons, spec.hidden))
         self._check_stable(y_s)
         return np.asarray(self.scaler.y_inverse(y_s))
+
+    @property
+    def history_samples(self) -> int:
+        """The delay lines: the longest input delay and the fed-back outputs."""
+        return max(int(self.spec.max_delay), int(self.spec.out_delays))
+
+    def _history_run(self, u_past: np.ndarray, y_past: np.ndarray, u: np.ndarray
+                     ) -> np.ndarray:
+        spec, s = self.spec, self.scaler
+        y_s = np.asarray(noe_history_run(pack(self.params), jnp.asarray(s.u(u_past)),
+                                         jnp.asarray(s.y(y_past)), jnp.asarray(s.u(u)),
+                                         spec.delays, spec.out_delays, spec.neurons,
+                                         spec.hidden))
+        self._check_stable(y_s)
+        return np.asarray(s.y_inverse(y_s))
 
 
 def network_of(model: Any) -> FittedNetwork | None:

@@ -244,6 +244,10 @@ class ModelClass:
         record must be longer).
     min_samples : callable
         ``min_samples(hyper) -> int``: the fewest training samples.
+    start_history : callable
+        ``start_history(hyper) -> int``: samples of measured input and output a start from
+        history reads beyond ``history`` (an NOE's fed-back outputs, a linear model's order);
+        a start from history needs the larger of the two.
     inputs : tuple of str
         The tank signals a model may read (``"velocity"``, ``"acceleration"``).
     loss_terms : tuple of str
@@ -288,6 +292,7 @@ class ModelClass:
     history: Callable[[Mapping[str, Any]], int]
     min_samples: Callable[[Mapping[str, Any]], int]
     inputs: tuple[str, ...] = ("velocity",)
+    start_history: Callable[[Mapping[str, Any]], int] = lambda h: 0
     loss_terms: tuple[str, ...] = ()
     recipe: Mapping[str, float] = field(default_factory=dict)
     recipe_needs: Callable[[Mapping[str, Any]], str | None] = lambda h: None
@@ -532,6 +537,7 @@ NOE_CLASS = ModelClass(
     label=lambda h: f"NOE({h['delays']}, {h['neurons']})",
     shapes=_noe_shapes, history=_max_delay,
     min_samples=_rbf_min_samples(_noe_shapes, lambda h: int(h["out_delays"])),
+    start_history=lambda h: int(h["out_delays"]),
     loss_terms=LOSS_TERMS, recipe=dict.fromkeys(LOSS_TERMS, 0.0), recipe_needs=_adam_only,
     format_version=1, exports=frozenset({"fmu", "onnx"}), width=_rbf_width,
     weights=_rbf_weights, sizes=("neurons", "delays", "out_delays"),
@@ -602,6 +608,7 @@ LSS_CLASS = ModelClass(
     shapes=_lss_shapes, history=lambda h: 0,
     # the block Hankel matrices need 2 i samples per column and 8 i columns (i block rows)
     min_samples=lambda h: 10 * int(h["block_rows"]) - 1,
+    start_history=lambda h: int(h["n_states"]),
     format_version=4, exports=frozenset({"fmu"}), width=lambda h: int(h["n_states"]),
     sizes=("n_states",), ensemble=False,
     report="the best linear model of the records (N4SID refined on its simulation error): "

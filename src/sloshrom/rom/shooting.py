@@ -7,7 +7,9 @@ simulation error of the sub-sequences, weighted by the amplitude weighting, plus
 recipe's cycle-energy term (the error of the energy each sub-sequence exchanges with the
 liquid, per input cycle in it) and its passivity penalty (harmonic probes run from rest in the
 same batch, no energy created). Early stopping scores the free run from rest of the whole
-validation record the same way.
+validation record the same way, or, for a validation record that does not start at rest, its
+run started from its first samples as measured history (``validation_history``), scored after
+them.
 
 What differs between classes is how a sub-sequence starts, how the model runs, and its free
 run: a class hands these to :func:`shooting_problem` as a :class:`Recurrence`, as an ODE
@@ -28,6 +30,7 @@ import numpy as np
 import optax
 
 from sloshrom.rom.engine import AdamProblem
+from sloshrom.rom.errors import ROMError
 from sloshrom.rom.losses import (
     TRAIN_DTYPE,
     amplitude_weights,
@@ -70,6 +73,10 @@ class Recurrence:
         scaled input record ``u`` ``(n,)``.
     bound : float
         A validation free run beyond this scaled magnitude (or not finite) is unstable.
+    history_run : callable, optional
+        ``history_run(params, u_past, y_past, u) -> y``: the scaled run (float64, NumPy) of
+        ``u`` started from the measured history ``u_past``/``y_past`` (scaled, oldest first):
+        a validation record that does not start at rest.
     """
 
     offset: int
@@ -79,6 +86,7 @@ class Recurrence:
     simulate: Callable[[PyTree, PyTree, jax.Array], jax.Array]
     free_run: Callable[[PyTree, np.ndarray], np.ndarray]
     bound: float = 10.0
+    history_run: Callable[[PyTree, np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None
 
 
 @dataclass(frozen=True)
@@ -134,6 +142,7 @@ def shooting_problem(
     scaler: MinMaxScaler,
     validation: tuple[np.ndarray, np.ndarray] | None = None,
     options: ShootingOptions = ShootingOptions(),
+    validation_history: int = 0,
 ) -> AdamProblem:
     """The multiple-shooting problem of a recurrent class for the training engine
     (:func:`sloshrom.rom.engine.adam_epochs`).
@@ -155,6 +164,9 @@ def shooting_problem(
         early stopping.
     options : ShootingOptions
         The recipe: horizon, batch, schedule, loss weights, probes.
+    validation_history : int
+        The validation record's first samples that are measured history: its run starts from
+        them (``rec.history_run``) and is scored on the rest; 0: from rest, all scored.
 
     Returns
     -------
@@ -223,13 +235,27 @@ def shooting_problem(
                  if shift_scale > 0 else np.zeros((steps_per_epoch, batch)))
         return starts, pidx, shift.astype(np.float32)
 
-    # validation: the free run from rest of the whole record, scored like the training loss
+    # validation: the free run of the whole record from rest (or of the rest of it from its
+    # measured history), scored like the training loss
     val = None
     if validation is not None:
+        hv = int(validation_history)
         uv = np.asarray(validation[0], dtype=np.float64)
         yv = np.asarray(validation[1], dtype=np.float64)
         uvs = np.asarray(sc.u(uv))
         yvs = np.asarray(sc.y(yv))
+        if hv:
+            hist_run = rec.history_run
+            if hist_run is None:
+                raise ROMError("this class has no start from measured history")
+            past = (uvs[:hv], yvs[:hv])
+            uv, yv, uvs, yvs = uv[hv:], yv[hv:], uvs[hv:], yvs[hv:]
+
+            def run(p: PyTree) -> np.ndarray:
+                return hist_run(p, past[0], past[1], uvs)
+        else:
+            def run(p: PyTree) -> np.ndarray:
+                return rec.free_run(p, uvs)
         wv = (amplitude_weights(uv, fs, amplitude_weighting) if amplitude_weighting > 0
               else np.ones(uv.size))
         nwin = uv.size // T
@@ -245,7 +271,7 @@ def shooting_problem(
             return jnp.mean(jnp.minimum(phi, 0.0) ** 2)
 
         def val(p: PyTree) -> tuple[float, float]:
-            yh = rec.free_run(p, uvs)
+            yh = run(p)
             if not np.all(np.isfinite(yh)) or np.max(np.abs(yh)) > rec.bound:
                 return math.inf, math.inf
             e = yh - yvs

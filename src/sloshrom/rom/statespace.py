@@ -75,6 +75,7 @@ __all__ = [
     "param_shapes",
     "ss_encode",
     "ss_free_run",
+    "ss_history_run",
     "ss_step",
     "strictly_proper",
 ]
@@ -206,6 +207,17 @@ def ss_encode(p: dict[str, Any], u_past: Any, y_past: Any, r_u: Any, r_y: Any) -
     return jnp.tanh(q @ p["E1"] + p["e1"]) @ p["E2"] - e0
 
 
+@jax.jit
+def ss_history_run(p: dict[str, jax.Array], u_past: jax.Array, y_past: jax.Array,
+                   u_s: jax.Array, r_u: float, r_y: float) -> jax.Array:
+    """Run of the scaled input ``u_s`` (n,) from the state encoded from measured history: the
+    last ``window`` samples of the scaled ``u_past``/``y_past`` (oldest first); the scaled
+    outputs (n,)."""
+    w = p["E1"].shape[0] // 2
+    x0 = ss_encode(p, u_past[u_past.shape[0] - w:], y_past[y_past.shape[0] - w:], r_u, r_y)
+    return ss_simulate(p, x0[None, :], u_s[:, None], r_u, r_y, unroll=8)[1][:, 0]
+
+
 # ---------------------------------------------------------------------------------------------
 # The fitted model
 # ---------------------------------------------------------------------------------------------
@@ -305,6 +317,20 @@ class StateSpaceNetwork(FittedNetwork):
         out = np.asarray(self.scaler.y_inverse(y_s))
         return out if u.ndim == 2 else out[0]
 
+    @property
+    def history_samples(self) -> int:
+        """The encoder's window."""
+        return int(self.spec.window)
+
+    def _history_run(self, u_past: np.ndarray, y_past: np.ndarray, u: np.ndarray
+                     ) -> np.ndarray:
+        ru, ry = (float(r) for r in self._rest())
+        s = self.scaler
+        y_s = np.asarray(ss_history_run(self.params, jnp.asarray(s.u(u_past)),
+                                        jnp.asarray(s.y(y_past)), jnp.asarray(s.u(u)), ru, ry))
+        self._check_stable(y_s)
+        return np.asarray(s.y_inverse(y_s))
+
     @float64
     def encode(self, u_past: Any, y_past: Any) -> np.ndarray:
         """The state at the sample after measured history (physical units, oldest first).
@@ -354,6 +380,7 @@ def shooting_problem(
     validation: tuple[np.ndarray, np.ndarray] | None = None,
     options: ShootingOptions = NSS_SHOOTING,
     seed: int = 0,
+    validation_history: int = 0,
 ) -> AdamProblem:
     """The multiple-shooting problem of :func:`fit_statespace` for the training engine
     (:func:`sloshrom.rom.engine.adam_epochs`); the parameters are :func:`fit_statespace`'s.
@@ -384,11 +411,15 @@ def shooting_problem(
         return np.asarray(ss_free_run(_as64(out_map(p)), jnp.asarray(uv)[:, None], ru,
                                       ry))[:, 0]
 
+    def history_run(p: PyTree, up: np.ndarray, yp: np.ndarray, uv: np.ndarray) -> np.ndarray:
+        return np.asarray(ss_history_run(_as64(out_map(p)), jnp.asarray(up), jnp.asarray(yp),
+                                         jnp.asarray(uv), ru, ry))
+
     rec = Recurrence(offset=w, n_starts=n - w - T, start=start,
                      rest=lambda k: jnp.zeros((k, spec.n_states), f32), simulate=simulate,
-                     free_run=free_run)
+                     free_run=free_run, history_run=history_run)
     params0 = out_map({k: jnp.asarray(v, f32) for k, v in init_params(spec, seed).items()})
-    return shooting(rec, params0, u, y, fs, scaler, validation, options)
+    return shooting(rec, params0, u, y, fs, scaler, validation, options, validation_history)
 
 
 @float64
@@ -404,6 +435,7 @@ def fit_statespace(
     max_fail: int = 6,
     seed: int = 0,
     callback: Callable[[int, dict], Any] | None = None,
+    validation_history: int = 0,
 ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """Identify a state-space network by multiple shooting (see the module docstring).
 
@@ -419,6 +451,10 @@ def fit_statespace(
     validation : (u_val, y_val), optional
         Early stopping: the free run of the whole record from rest; the best parameters are
         returned. Without it, the epoch of the lowest training MSE.
+    validation_history : int
+        The validation record's first samples (>= ``spec.window``) taken as measured history:
+        the run starts from the state the encoder gives for them and is scored after them
+        (a validation record that does not start at rest); 0: from rest.
     options : ShootingOptions
         The recipe (:class:`sloshrom.rom.shooting.ShootingOptions`): horizon (samples simulated
         from each encoded start), batch, epochs of ``steps_per_epoch`` Adam steps at most, the
@@ -441,7 +477,8 @@ def fit_statespace(
         ``stop_reason``, ``best_epoch``, ``trainer`` ("shooting"), ``n_rows``,
         ``train_seconds``.
     """
-    problem = shooting_problem(spec, u, y, fs, scaler, validation, options, seed)
+    problem = shooting_problem(spec, u, y, fs, scaler, validation, options, seed,
+                               validation_history)
     t0 = time.perf_counter()
     # no early stop in the first half of the cosine schedule, and a blow-up (validation 10x
     # the best) continues from the best epoch: on a CPU with another instruction set a member

@@ -88,6 +88,7 @@ from sloshrom.rom.network import (
     nfir_free_run,
     nfir_rows,
     noe_free_run,
+    noe_history_run,
     noe_rest_state,
     noe_simulate,
     rbf_apply,
@@ -122,8 +123,10 @@ __all__ = [
     "levenberg_marquardt",
     "mu_max_message",
     "nfir_problem",
+    "nfir_validation",
     "noe_shoot",
     "noe_problem",
+    "noe_validation_run",
     "passivity_penalty",
     "probe_dissipation",
     "train",
@@ -208,8 +211,11 @@ def nfir_problem(
     rows: np.ndarray | None = None,
     validation: tuple[np.ndarray, np.ndarray] | None = None,
     chunk: int = CHUNK,
+    validation_history: int = 0,
 ) -> LMProblem:
-    """NFIR least-squares problem in scaled units on the time indices ``rows`` (default all)."""
+    """NFIR least-squares problem in scaled units on the time indices ``rows`` (default all);
+    the validation record's first ``validation_history`` samples are measured history (they
+    fill the delay line, and are not scored)."""
     d = np.asarray(delays)
     dmax = int(d.max())
     up = jnp.asarray(np.concatenate([np.full(dmax, rest_u), u_s]))
@@ -239,15 +245,27 @@ def nfir_problem(
 
     val = None
     if validation is not None:
-        uv, yv = jnp.asarray(validation[0]), np.asarray(validation[1])
+        uv, yv, lead = nfir_validation(validation, dmax, validation_history)
 
         def val(theta):
             yh = np.asarray(nfir_free_run(jnp.asarray(theta), uv, rest_u, delays, neurons,
-                                          hidden))
+                                          hidden))[lead:]
             m = float(np.mean((yh - yv) ** 2))
             return m if np.isfinite(m) else math.inf
 
     return LMProblem(normal_eq, sse, val)
+
+
+def nfir_validation(validation: tuple[np.ndarray, np.ndarray], max_delay: int,
+                    history: int = 0) -> tuple[jnp.ndarray, np.ndarray, int]:
+    """An NFIR's validation run: ``(input, scored output, lead)``, the run's first ``lead``
+    outputs not scored. With ``history`` samples of measured history (>= ``max_delay``), the
+    input starts ``max_delay`` samples before the scored part, so that those measured samples
+    fill the delay line in place of rest."""
+    u, y = np.asarray(validation[0]), np.asarray(validation[1])
+    if not history:
+        return jnp.asarray(u), y, 0
+    return jnp.asarray(u[history - max_delay:]), y[history:], max_delay
 
 
 # ---------------------------------------------------------------------------------------------
@@ -287,8 +305,11 @@ def noe_problem(
     bound: float,
     validation: tuple[np.ndarray, np.ndarray] | None = None,
     chunk: int = 8192,
+    validation_history: int = 0,
 ) -> LMProblem:
-    """NOE simulation-error least-squares problem (scaled units), closed loop from rest."""
+    """NOE simulation-error least-squares problem (scaled units), closed loop from rest; the
+    validation record's first ``validation_history`` samples are measured history (they fill
+    the delay lines, and are not scored)."""
     d = np.asarray(delays)
     n = u_s.size
     chunk = min(chunk, n)
@@ -329,16 +350,33 @@ def noe_problem(
 
     val = None
     if validation is not None:
-        uv, yv = jnp.asarray(validation[0]), np.asarray(validation[1])
+        run = noe_validation_run(validation, rest_u, rest_y, delays, out_delays, neurons,
+                                 hidden, validation_history)
+        yv = np.asarray(validation[1])[validation_history:]
 
         def val(theta):
-            yh = np.asarray(noe_free_run(jnp.asarray(theta), uv, rest_u, rest_y, delays,
-                                         out_delays, neurons, hidden))
+            yh = run(theta)
             if not np.all(np.isfinite(yh)) or np.max(np.abs(yh)) > bound:
                 return math.inf
             return float(np.mean((yh - yv) ** 2))
 
     return LMProblem(normal_eq, sse, val)
+
+
+def noe_validation_run(validation: tuple[np.ndarray, np.ndarray], rest_u: float, rest_y: float,
+                       delays: tuple[int, ...], out_delays: int, neurons: int, hidden: str,
+                       history: int = 0) -> Callable[[np.ndarray], np.ndarray]:
+    """``run(theta)``: an NOE's scaled outputs on a scaled validation record, from rest or,
+    after its first ``history`` samples of measured history, from delay lines holding them
+    (the scored part only)."""
+    uv, yv = jnp.asarray(validation[0]), jnp.asarray(validation[1])
+    if not history:
+        return lambda theta: np.asarray(noe_free_run(jnp.asarray(theta, jnp.float64), uv,
+                                                     rest_u, rest_y, delays, out_delays,
+                                                     neurons, hidden))
+    up, yp, uf = uv[:history], yv[:history], uv[history:]
+    return lambda theta: np.asarray(noe_history_run(jnp.asarray(theta, jnp.float64), up, yp,
+                                                    uf, delays, out_delays, neurons, hidden))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -413,6 +451,7 @@ def nfir_adam_problem(
     cycle_energy: float = 0.0,
     cycles_per_step: int = 32,
     val_cycle_error: Callable[[np.ndarray], float] | None = None,
+    val_lead: int = 0,
 ) -> AdamProblem:
     """The minibatch-Adam problem of :func:`adam_nfir` for the training engine; the parameters
     are :func:`adam_nfir`'s."""
@@ -464,7 +503,7 @@ def nfir_adam_problem(
             vmse = value = train_mse(th)
         else:
             e = np.asarray(nfir_free_run(jnp.asarray(th), uvj, rest_u, delays, neurons,
-                                         hidden)) - yv
+                                         hidden))[val_lead:] - yv
             vmse = float(np.mean(e**2))
             value = vmse if wv is None else float(np.mean(wv * e**2))
             vmse, value = (v if math.isfinite(v) else math.inf for v in (vmse, value))
@@ -506,6 +545,7 @@ def adam_nfir(
     cycle_energy: float = 0.0,
     cycles_per_step: int = 32,
     val_cycle_error: Callable[[np.ndarray], float] | None = None,
+    val_lead: int = 0,
 ) -> LMResult:
     """Minibatch Adam (``optax.adam``) on the NFIR MSE (scaled units); an "epoch" is
     ``steps_per_epoch`` steps of ``batch`` samples drawn (seeded) from every sample.
@@ -520,8 +560,9 @@ def adam_nfir(
     on every probe, plus ``cycle_energy * val_cycle_error(theta)`` (the cycle-energy error of
     the validation record) if given. ``problem`` supplies the training SSE (on its ``n_rows``
     rows) reported in the history. ``lr``, ``b1``, ``b2``, ``eps`` as :func:`optax.adam`
-    (``eps`` outside the square root). The epochs run in the training engine
-    (:func:`sloshrom.rom.engine.adam_epochs`).
+    (``eps`` outside the square root). ``val_lead``: the validation run's first outputs not
+    scored (its input starts with measured history: :func:`nfir_validation`). The epochs run
+    in the training engine (:func:`sloshrom.rom.engine.adam_epochs`).
     """
     adam_problem = nfir_adam_problem(
         u_s, y_s, theta0, delays, neurons, hidden, rest_u, problem, n_rows,
@@ -529,7 +570,7 @@ def adam_nfir(
         weights=weights, validation=validation, val_weights=val_weights, probes=probes,
         passivity=passivity, probes_per_step=probes_per_step, cycles=cycles,
         cycle_energy=cycle_energy, cycles_per_step=cycles_per_step,
-        val_cycle_error=val_cycle_error)
+        val_cycle_error=val_cycle_error, val_lead=val_lead)
     res = adam_epochs(adam_problem, max_epochs=int(max_epochs), max_fail=max_fail, seed=seed,
                       mse_scale=mse_scale, patience_without_validation=True,
                       constant_history={"mu": math.nan, "grad": math.nan}, callback=callback)
@@ -582,6 +623,7 @@ def noe_shooting_problem(
     options: ShootingOptions = NOE_SHOOTING,
     *,
     bound: float = 10.0,
+    validation_history: int = 0,
 ) -> AdamProblem:
     """The multiple-shooting problem of :func:`adam_noe` for the training engine; the
     parameters are :func:`adam_noe`'s (``max_epochs`` sets the learning-rate schedule's
@@ -616,10 +658,16 @@ def noe_shooting_problem(
         return np.asarray(noe_free_run(jnp.asarray(th, jnp.float64), jnp.asarray(uv), ru, ry,
                                        delays, m, neurons, hidden))
 
+    def history_run(th: PyTree, up: np.ndarray, yp: np.ndarray, uv: np.ndarray) -> np.ndarray:
+        return np.asarray(noe_history_run(jnp.asarray(th, jnp.float64), jnp.asarray(up),
+                                          jnp.asarray(yp), jnp.asarray(uv), delays, m, neurons,
+                                          hidden))
+
     rec = Recurrence(offset=0, n_starts=n - T + 1, start=start, rest=rest,
                      simulate=lambda th, b, uf: shoot(th, b[0], b[1], uf), free_run=free_run,
-                     bound=bound)
-    return shooting(rec, jnp.asarray(theta0, f32), u, y, fs, scaler, validation, options)
+                     bound=bound, history_run=history_run)
+    return shooting(rec, jnp.asarray(theta0, f32), u, y, fs, scaler, validation, options,
+                    validation_history)
 
 
 def adam_noe(
@@ -639,6 +687,7 @@ def adam_noe(
     max_fail: int = 6,
     seed: int = 0,
     callback: Callable[[int, dict], Any] | None = None,
+    validation_history: int = 0,
 ) -> LMResult:
     """Train an NOE by multiple shooting with the passive recipe's loss terms.
 
@@ -675,7 +724,8 @@ def adam_noe(
     delays, out_delays, neurons, hidden
         The NOE's architecture.
     validation : (u_val, y_val), optional
-        Validation record, physical units, starting at rest.
+        Validation record, physical units, starting at rest (or after its first
+        ``validation_history`` samples, which then fill the delay lines and are not scored).
     options : ShootingOptions
         The recipe (:class:`sloshrom.rom.shooting.ShootingOptions`): horizon (samples
         simulated from each start, and the length of the probes), batch, epochs at most, Adam
@@ -695,7 +745,8 @@ def adam_noe(
         (NaN: no such quantity); ``seconds``) and best epoch.
     """
     problem = noe_shooting_problem(u, y, fs, scaler, theta0, delays, out_delays, neurons,
-                                   hidden, validation, options, bound=bound)
+                                   hidden, validation, options, bound=bound,
+                                   validation_history=validation_history)
     res = adam_epochs(problem, max_epochs=int(options.max_epochs), max_fail=max_fail, seed=seed,
                       mse_scale=scaler.out_half_range**2,
                       constant_history={"mu": math.nan, "grad": math.nan}, callback=callback)
@@ -742,6 +793,7 @@ def train(
     batch: int = 128,
     steps_per_epoch: int = 200,
     learning_rate: float = 3e-3,
+    validation_history: int = 0,
 ) -> tuple[np.ndarray, dict[str, Any]]:
     """Train the network ``spec`` on a record (physical units, scaled here by ``scaler``).
 
@@ -755,6 +807,10 @@ def train(
         Scaling of the input and output (normally fitted on ``u``, ``y``).
     validation : (u_val, y_val), optional
         Validation record (early stopping, best network).
+    validation_history : int
+        The validation record's first samples taken as measured history (at least the delay
+        lines' length): they fill the delay lines and are not scored; 0: the run starts from
+        rest, every sample scored.
     trainer : {"fast", "lm", "adam"}
         See the module docstring; ``"adam"`` for an NOE is :func:`adam_noe` (multiple
         shooting).
@@ -817,11 +873,13 @@ def train(
     init_rows = rows if rows.size <= FAST_MAX_ROWS else rows[:: -(-rows.size // FAST_MAX_ROWS)]
     X0 = _regressors(u_s, y_s, init_rows, delays, out_delays, rest_u, rest_y)
     theta0 = init_theta(X0, y_s[init_rows], h, hidden, int(seed))
+    hv = int(validation_history)
     if spec.arch == "nfir":
-        problem = nfir_problem(u_s, y_s, delays, h, hidden, rest_u, rows, val)
+        problem = nfir_problem(u_s, y_s, delays, h, hidden, rest_u, rows, val,
+                               validation_history=hv)
     else:
         problem = noe_problem(u_s, y_s, delays, out_delays, h, hidden, rest_u, rest_y,
-                              float(unstable_bound), val)
+                              float(unstable_bound), val, validation_history=hv)
         if not np.isfinite(problem.sse(theta0)):
             raise UnstableModelError("NOE unstable at its initial parameters")
     t0 = time.perf_counter()
@@ -834,23 +892,32 @@ def train(
             cycle_energy=float(cycle_energy), frequency_band=band)
         res = adam_noe(u, y, float(fs) if fs is not None else 1.0, sc, theta0, delays,
                        out_delays, h, hidden, validation, options,
-                       bound=float(unstable_bound), seed=int(seed), callback=callback)
+                       bound=float(unstable_bound), seed=int(seed), callback=callback,
+                       validation_history=hv)
     elif trainer == "adam":
         weights = val_weights = probes = None
+        dmax = int(max(delays))
+        # with measured history: the validation run from the history's last max(delays)
+        # samples, scored after them
+        val_run = lead = None
+        if val is not None:
+            uvl, yvl, lead = nfir_validation(val, dmax, hv)
+            val_run = (np.asarray(uvl), yvl)
         if amplitude_weighting > 0:
             weights = amplitude_weights(u, fs, amplitude_weighting)
             if validation is not None:
-                val_weights = amplitude_weights(validation[0], fs, amplitude_weighting)
+                val_weights = amplitude_weights(validation[0], fs, amplitude_weighting)[hv:]
         band = frequency_band if frequency_band is not None else (0.0, math.inf)
         if passivity > 0:
             probes = harmonic_probes(u, fs, sc, delays, band)
         cycles = val_cycle_error = None
         if cycle_energy > 0:
             cycles = energy_cycles(u, fs, band)
-            if validation is not None:
-                cv = energy_cycles(validation[0], fs, band)
-                upv = jnp.asarray(np.concatenate([np.full(int(max(delays)), rest_u), val[0]]))
-                yvj = jnp.asarray(val[1])
+            if validation is not None and val is not None:
+                cv = energy_cycles(validation[0][hv:], fs, band)
+                upv = jnp.asarray(val[0][hv - dmax:] if hv else
+                                  np.concatenate([np.full(dmax, rest_u), val[0]]))
+                yvj = jnp.asarray(val[1][hv:])
                 # fixed-size chunks of cycles: one compilation, bounded memory
                 chunk = 256
                 idx = np.arange(-(-cv.n // chunk) * chunk) % cv.n
@@ -868,10 +935,10 @@ def train(
         res = adam_nfir(u_s, y_s, theta0, delays, h, hidden, rest_u, problem, int(rows.size),
                         max_epochs=int(max_epochs), seed=int(seed),
                         callback=callback, mse_scale=sc.out_half_range**2, weights=weights,
-                        validation=val, val_weights=val_weights, probes=probes,
+                        validation=val_run, val_weights=val_weights, probes=probes,
                         passivity=float(passivity),
                         cycles=cycles, cycle_energy=float(cycle_energy),
-                        val_cycle_error=val_cycle_error)
+                        val_cycle_error=val_cycle_error, val_lead=int(lead or 0))
     else:
         res = levenberg_marquardt(problem, theta0, max_epochs=int(max_epochs),
                                   callback=callback, mse_scale=sc.out_half_range**2)

@@ -26,9 +26,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from sloshrom.models import model_input
-from sloshrom.rom.base import Estimator, checked_records, record_envelope
+from sloshrom.rom.base import Estimator, checked_history, checked_records, record_envelope
 from sloshrom.rom.errors import ROMError
-from sloshrom.rom.lss.core import lss_simulate, n4sid, pem_refine
+from sloshrom.rom.lss.core import lss_history_run, lss_simulate, n4sid, pem_refine
 from sloshrom.rom.network import FittedNetwork, MinMaxScaler
 from sloshrom.rom.registry import LSS_CLASS, ModelClass, check_hyperparameters
 from sloshrom.signals import power_band
@@ -118,6 +118,18 @@ class LinearStateSpace(FittedNetwork):
         return lss_simulate(p["A"], p["B"].reshape(n, 1), p["C"].reshape(1, n),
                             p["D"].reshape(1, 1), np.asarray(u, dtype=np.float64))
 
+    @property
+    def history_samples(self) -> int:
+        """The order: the least a least-squares state needs (more samples average noise)."""
+        return int(self.spec.n_states)
+
+    def _history_run(self, u_past: np.ndarray, y_past: np.ndarray, u: np.ndarray
+                     ) -> np.ndarray:
+        p = {k: np.asarray(v, dtype=np.float64) for k, v in self.params.items()}
+        n = self.spec.n_states
+        return lss_history_run(p["A"], p["B"].reshape(n, 1), p["C"].reshape(1, n),
+                               p["D"].reshape(1, 1), u_past, y_past, u)
+
     def fmu_member(self) -> tuple[str, dict[str, np.ndarray], dict[str, float | int | str]]:
         """The model as an FMU's state-space member without hidden units.
 
@@ -202,6 +214,7 @@ class LSS(Estimator):
         callback: Callable[..., Any] | None = None,
         *,
         fill: float | None = None,
+        validation_history: int = 0,
     ) -> LSS:
         """Identify the linear model from an input/output record that starts at rest.
 
@@ -221,6 +234,11 @@ class LSS(Estimator):
             in N^2).
         fill : float, optional
             Fill level d/h (-) of the training record, as :meth:`sloshrom.rom.NFIR.fit`.
+        validation_history : int
+            The validation record's first samples taken as measured history (at least ``n_states``:
+            the state is their least-squares fit): the validation run starts from them instead of
+            from rest and is scored after them, for a validation record that does not start at rest.
+            0 (default): from rest, every sample scored.
 
         Returns
         -------
@@ -236,13 +254,18 @@ class LSS(Estimator):
         hyper = self.get_params()
         u, y, validation, fill = checked_records(u, y, fs, validation, fill,
                                                  self.model_class.min_samples(hyper), 0)
+        hv = checked_history(validation_history, validation, spec.n_states, "LSS")
         t0 = time.perf_counter()
         a, b, c, d = n4sid(u, y, spec.n_states, int(self.block_rows))
         # the subspace estimate's validation error: the history's epoch 0
-        val0 = None if validation is None else float(np.mean(
-            (lss_simulate(a, b, c, d, validation[0]) - validation[1]) ** 2))
+        val0 = None
+        if validation is not None:
+            uv, yv = validation
+            yh = (lss_history_run(a, b, c, d, uv[:hv], yv[:hv], uv[hv:]) if hv
+                  else lss_simulate(a, b, c, d, uv))
+            val0 = float(np.mean((yh - yv[hv:]) ** 2))
         a, b, c, d, info = pem_refine(a, b, c, d, u, y, int(self.max_epochs),
-                                      validation=validation)
+                                      validation=validation, validation_history=hv)
         seconds = time.perf_counter() - t0
         n = spec.n_states
         scaler = MinMaxScaler.fit(u, y)

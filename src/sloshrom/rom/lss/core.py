@@ -37,13 +37,19 @@ from typing import Any, cast
 import numpy as np
 import scipy.linalg
 from numpy.lib.stride_tricks import sliding_window_view
+from numpy.typing import ArrayLike
 from scipy.signal import lfilter, resample_poly, welch
 from threadpoolctl import threadpool_limits
 
 from sloshrom.rom.errors import ROMError
 from sloshrom.rom.registry import LSS_CLASS
 
-__all__ = ["MAX_SPECTRAL_RADIUS", "lss_simulate", "min_samples", "n4sid", "pem_refine"]
+__all__ = ["MAX_SPECTRAL_RADIUS", "lss_history_run", "lss_simulate", "min_samples", "n4sid",
+           "pem_refine"]
+
+#: Samples of measured history a start from history fits its state to, at most (the last
+#: ones): enough for any order the class allows, and a bounded cost.
+HISTORY_FIT_SAMPLES = 2000
 
 #: Largest eigenvalue modulus an identified ``A`` may have: a time constant of 1e4 samples
 #: (20 s at 500 Hz), far slower than any sloshing dynamics, yet a margin of 1e-4 from the unit
@@ -231,6 +237,63 @@ def lss_simulate(A: Any, B: Any, C: Any, D: Any, u: Any) -> np.ndarray:
     for c, x in zip((C @ Q)[0], xt, strict=True):
         y += c * x
     return y
+
+
+def lss_history_run(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike,
+                    u_past: ArrayLike, y_past: ArrayLike, u: ArrayLike) -> np.ndarray:
+    """Response to ``u`` from the state that the measured history before it gives.
+
+    The state at the history's start is the least-squares fit of the history's output (the
+    model's free response from it plus its forced response from rest) over the last
+    :data:`HISTORY_FIT_SAMPLES` samples at most, carried to the end of the history by the
+    model: for the system the model is, and an output without noise, the start is exact once
+    the history holds ``n`` samples (an observable model).
+
+    Parameters
+    ----------
+    A, B, C, D : array_like
+        The model, as :func:`lss_simulate`.
+    u_past, y_past : array_like, shape (h,)
+        Measured input and output of the ``h >= n`` samples before ``u``, oldest first.
+    u : array_like, shape (N,)
+        Input from the start on.
+
+    Returns
+    -------
+    y : ndarray, shape (N,)
+        Output.
+
+    Raises
+    ------
+    ROMError
+        Wrong shapes, NaN or inf, a history shorter than the order.
+    """
+    A, B, C, D = _check_system(A, B, C, D)
+    n = A.shape[0]
+    # a history at rest is a history: no check of the input's variation
+    up, yp = _as_record("history input", u_past), _as_record("history output", y_past)
+    if up.size != yp.size:
+        raise ROMError(f"lengths differ: the history input has {up.size} samples, its output "
+                       f"{yp.size}")
+    if up.size < n:
+        raise ROMError(f"a start from history needs at least {n} samples (the order), "
+                       f"got {up.size}")
+    up, yp = up[up.size - min(up.size, HISTORY_FIT_SAMPLES):], \
+        yp[yp.size - min(yp.size, HISTORY_FIT_SAMPLES):]
+    m = up.size
+
+    def free(x0: np.ndarray, length: int) -> np.ndarray:
+        # C A^k x0, k = 0 .. length - 1: the response to a unit pulse through "B" = x0
+        pulse = np.zeros(length + 1)
+        pulse[0] = 1.0
+        return lss_simulate(A, x0.reshape(n, 1), C, np.zeros((1, 1)), pulse)[1:]
+
+    obs = np.stack([free(e, m) for e in np.eye(n)], axis=1)
+    x0 = np.linalg.lstsq(obs, yp - lss_simulate(A, B, C, D, up), rcond=None)[0]
+    b = B[:, 0]
+    for uk in up:  # the state at the end of the history
+        x0 = A @ x0 + b * uk
+    return np.asarray(lss_simulate(A, B, C, D, u) + free(x0, np.size(u)))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -605,7 +668,8 @@ def _mse(a: np.ndarray, b: np.ndarray) -> float:
 
 @threadpool_limits.wrap(limits=1, user_api="blas")  # type: ignore[untyped-decorator]  # no types
 def pem_refine(A: Any, B: Any, C: Any, D: Any, u: Any, y: Any, max_iter: int,
-               validation: tuple[Any, Any] | None = None
+               validation: tuple[ArrayLike, ArrayLike] | None = None,
+               validation_history: int = 0
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
     """Refine a stable model by minimising its simulation error (output-error method).
 
@@ -628,6 +692,9 @@ def pem_refine(A: Any, B: Any, C: Any, D: Any, u: Any, y: Any, max_iter: int,
     validation : (uv, yv), optional
         A validation record: then the accepted iterate (or the start) with the lowest
         validation error is returned (early stopping by selection).
+    validation_history : int
+        The validation record's first samples taken as measured history
+        (:func:`lss_history_run`), not scored; 0: its run starts from rest.
 
     Returns
     -------
@@ -670,7 +737,15 @@ def pem_refine(A: Any, B: Any, C: Any, D: Any, u: Any, y: Any, max_iter: int,
 
     start = (A.copy(), B.copy(), C.copy(), D.copy())
     initial_mse = _mse(lss_simulate(A, B, C, D, u), y)
-    start_val = None if val is None else _mse(lss_simulate(A, B, C, D, val[0]), val[1])
+    hv = _check_int("validation_history", validation_history, 0)
+
+    def val_error(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> float:
+        uv, yv = cast("tuple[np.ndarray, np.ndarray]", val)
+        if hv:
+            return _mse(lss_history_run(a, b, c, d, uv[:hv], yv[:hv], uv[hv:]), yv[hv:])
+        return _mse(lss_simulate(a, b, c, d, uv), yv)
+
+    start_val = None if val is None else val_error(A, B, C, D)
     info: dict[str, Any] = {"initial_mse": initial_mse, "final_mse": initial_mse,
                             "iterations": 0, "validation_mse": start_val,
                             "stop_reason": "max_iter = 0"}
@@ -728,7 +803,8 @@ def pem_refine(A: Any, B: Any, C: Any, D: Any, u: Any, y: Any, max_iter: int,
         info["stop_reason"] = reason
     else:
         uv, yv = val
-        scored = [(_mse(model.simulate(p, uv / su) * sy, yv), p, mse) for p, mse in candidates]
+        scored = [(val_error(*model.realisation(p, gain)) if hv else
+                   _mse(model.simulate(p, uv / su) * sy, yv), p, mse) for p, mse in candidates]
         val_mse, p_best, mse_best = min(scored, key=lambda t: t[0])
         if val_mse >= cast(float, start_val):  # set whenever val is
             info["stop_reason"] = f"start kept: no step improved the validation fit ({reason})"
