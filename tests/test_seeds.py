@@ -206,7 +206,7 @@ def test_an_unstable_member_is_never_the_best(three_seeds, monkeypatch):
     errors = three_seeds.member_errors(uv, yv)
     first = int(np.argmin(errors))
 
-    def unstable(self, u):
+    def unstable(self, u, history=None):
         raise UnstableModelError("left its bound")
 
     monkeypatch.setattr(three_seeds.members_[first], "predict", unstable.__get__(
@@ -391,3 +391,23 @@ def test_quiet_worker_ignores_a_category_in_a_worker_process_only(monkeypatch):
         monkeypatch.setattr(parallel.os, "getpid", lambda: me + 1)  # as in a Dask worker
         parallel.quiet_worker(me, TrainingWarning)
         assert warnings.filters[0][:3] == ("ignore", None, TrainingWarning)
+
+
+def test_train_seeds_scores_after_the_validation_history(smooth, tmp_path):
+    """With --history N every seed's run starts from the validation record's first N samples
+    and is scored after them, as its early stopping was."""
+    train, val = smooth
+    out = tmp_path / "best.npz"
+    res = runner.invoke(app, ["train", "--data", str(train), "--validation", str(val),
+                              "--delays", "3", "--neurons", "4", "--max-epochs", "2",
+                              "--seeds", "2", "--history", "10", "--scheduler", "threads",
+                              "--amplitude-weighting", "0", "--passivity", "0",
+                              "--cycle-energy", "0", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "validation MSE (after 10 samples of history) over 2 seeds:" in res.output
+    best = load_model(out)
+    uv, yv = smooth_io(600, 2)
+    mse = float(np.mean((best.predict(uv[10:], history=(uv[:10], yv[:10])) - yv[10:]) ** 2))
+    printed = float(re.search(rf"^seed {best.seed}: validation MSE ([\d.e+-]+) N\^2",
+                              res.output, re.M)[1])
+    assert printed == pytest.approx(mse, rel=5e-4)
