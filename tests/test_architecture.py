@@ -5,7 +5,7 @@ Every module under ``src/sloshrom`` is parsed (nothing is imported) and put in a
 ========== =======================================================================
 base       ``sloshrom`` (root), ``config``, ``errors``, ``fidelity``, ``fileio``, ``limits``,
            ``models``, ``signals``, ``_x64``, ``_jit``
-domain     ``io``, ``rig``, ``rom``, ``energy``, ``beam`` (each one room)
+domain     ``io``, ``rig``, ``rom``, ``energy``, ``beam``, ``systems`` (each one room)
 plotting   ``plotting``: figures only
 pipeline   ``pipeline``: the reproduce chain
 studies    ``studies``: one package per study beyond the paper
@@ -35,7 +35,7 @@ PACKAGE = "sloshrom"
 
 BASE = {"_jit", "_x64", "config", "errors", "fidelity", "fileio", "limits", "models",
         "signals"}
-DOMAIN = ("io", "rig", "rom", "energy", "beam")
+DOMAIN = ("io", "rig", "rom", "energy", "beam", "systems")
 
 #: The rooms each room may import (its own room is always allowed). Domain rooms see the base
 #: and ``io`` (the records they read), never each other: a sloshing model reaches the beam and
@@ -48,6 +48,7 @@ ALLOWED: dict[str, set[str]] = {
     "rom": {"base", "io"},
     "energy": {"base", "io"},
     "beam": {"base", "io"},
+    "systems": {"base", "io"},
     "plotting": {"base", *DOMAIN},
     "pipeline": {"base", *DOMAIN, "plotting", "studies"},
     "studies": {"base", *DOMAIN, "plotting", "pipeline"},

@@ -14,6 +14,7 @@ from sloshrom.cli import (  # noqa: F401
     pipeline,
     rig,
     rom,
+    system,
 )
 from sloshrom.cli._app import app
 

@@ -792,7 +792,9 @@ def pem_refine(A: Any, B: Any, C: Any, D: Any, u: Any, y: Any, max_iter: int,
     result = least_squares(residual, p0, jac=jacobian, bounds=(lo, hi), method="trf",
                            x_scale="jac", tr_solver="exact", max_nfev=max_iter + 1)
     info["iterations"] = max(trials["n"], 0)
-    reason = "max_iter reached" if result.status == 0 else result.message
+    # least_squares' status in a word: a model file keeps 64 characters of a stop reason
+    reason = {0: "max_iter", 1: "gtol", 2: "ftol", 3: "xtol", 4: "ftol and xtol"}.get(
+        int(result.status), f"status {result.status}")
 
     candidates = [(p, mse) for p, mse in accepted if mse < initial_mse]
     if not candidates:
@@ -807,11 +809,10 @@ def pem_refine(A: Any, B: Any, C: Any, D: Any, u: Any, y: Any, max_iter: int,
                    _mse(model.simulate(p, uv / su) * sy, yv), p, mse) for p, mse in candidates]
         val_mse, p_best, mse_best = min(scored, key=lambda t: t[0])
         if val_mse >= cast(float, start_val):  # set whenever val is
-            info["stop_reason"] = f"start kept: no step improved the validation fit ({reason})"
+            info["stop_reason"] = f"start kept: no step improved validation ({reason})"
             return (*start, info)
         info["validation_mse"] = val_mse
         at = next(k for k, c in enumerate(candidates) if c[0] is p_best) + 1
-        info["stop_reason"] = (f"{reason}; best validation at accepted step {at} "
-                               f"of {len(candidates)}")
+        info["stop_reason"] = f"{reason}; best validation at step {at} of {len(candidates)}"
     info["final_mse"] = mse_best
     return (*model.realisation(p_best, gain), info)
