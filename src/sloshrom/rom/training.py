@@ -843,7 +843,8 @@ def train(
     history : dict
         JSON-serialisable: per-epoch ``train_mse``, ``val_mse`` (physical units squared),
         ``mu``, ``grad``, ``seconds``; ``stop_reason``, ``best_epoch``, ``trainer``,
-        ``n_rows``, ``train_seconds``.
+        ``n_rows``, ``train_seconds``; after a stop at mu_max, ``stop_message``
+        (:func:`mu_max_message`).
 
     Raises
     ------
@@ -851,6 +852,11 @@ def train(
         Unknown trainer, or a loss term with a trainer other than Adam.
     UnstableModelError
         An NOE unstable at its initial parameters.
+
+    Warns
+    -----
+    TrainingWarning
+        Levenberg-Marquardt stopped at mu_max (the text of ``stop_message``).
     """
     sc = scaler
     u_s, y_s = sc.u(u), sc.y(y)
