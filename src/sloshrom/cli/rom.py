@@ -557,22 +557,25 @@ def _train_ensemble(template: Any, k: int, rec: Any, val: Any, input_name: str,
     ``label`` names the members' architecture (``NFIR(70, 35)``)."""
     ens = _fit_members(template, k, rec, val, input_name, output_name, scheduler, workers,
                        fill, label, history)
+    uv, yv = val[input_name], val[output_name]
+    past = (uv[:history], yv[:history]) if history else None
+    uv, yv = uv[history:], yv[history:]
+    unit = f"{rec.units[output_name]}^2"
     try:
+        # NaN for a member unstable on the validation record: scored, not an error
+        mse = [float(e) for e in ens.member_errors(uv, yv, history=past)]
         path = ens.save(out)
-        uv, yv = val[input_name], val[output_name]
-        past = (uv[:history], yv[:history]) if history else None
-        uv, yv = uv[history:], yv[history:]
-        preds = ens.member_predictions(uv, history=past)
     except SloshromError as exc:
         fail(str(exc))
-    unit = f"{rec.units[output_name]}^2"
-    mse = [float(np.mean((p - yv) ** 2)) for p in preds]
+    try:
+        of_mean = f"{float(np.mean((ens.predict(uv, history=past) - yv) ** 2)):.4g} {unit}"
+    except SloshromError:  # UnstableModelError of a member: the mean is unstable too
+        of_mean = "n/a (a member is unstable on the validation record)"
     _member_lines(ens, mse, unit, "member")
-    mean_mse = float(np.mean((np.mean(preds, axis=0) - yv) ** 2))
     typer.echo(
         f"wrote {path}: ensemble of {k} {label}, "
         f"{ens.n_params} parameters; validation MSE over members {_spread_text(ens, mse, unit)}"
-        f"; of the ensemble mean {mean_mse:.4g} {unit}"
+        f"; of the ensemble mean {of_mean}"
     )
 
 
