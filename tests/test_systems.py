@@ -258,10 +258,10 @@ def test_the_command_line_identifies_the_bouc_wen_benchmark(tmp_path):
     100 s on 2 busy cores).
 
     Measured with 12 epochs: test RMSE 2.75e-5 m (training seed 0) and 2.61e-5 m (seed 1);
-    with the default 60 epochs 1.16e-5 m. The bound is the target of docs/systems.md,
-    4.5e-5 m (dynoNet's published 4.52e-5 m), 1.6 x the worst measurement. The best linear
-    model of the same records (LSS, 1.55e-4 m measured) must be at least 3 x worse (5.6 x
-    measured): the NSS has learnt the hysteresis, not only the linear part."""
+    with the default 60 epochs 1.16e-5 m. The bound is the target of docs/rom.md ("Identify
+    any system"), 4.5e-5 m (dynoNet's published 4.52e-5 m), 1.6 x the worst measurement. The
+    best linear model of the same records (LSS, 1.55e-4 m measured) must be at least 3 x worse
+    (5.6 x measured): the NSS has learnt the hysteresis, not only the linear part."""
     d = tmp_path / "bw"
     res = runner.invoke(app, ["system", "bouc-wen", "--out", str(d)])
     assert res.exit_code == 0, res.output

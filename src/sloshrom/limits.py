@@ -26,6 +26,7 @@ __all__ = [
     "MAX_STATES",
     "MAX_WEIGHTS",
     "TRAINERS",
+    "MU_MAX",
     "Hidden",
 ]
 
@@ -33,6 +34,9 @@ __all__ = [
 #: ``trainlm``) and optax Adam (the NFIR's default; for an NOE multiple shooting), the one with the
 #: recipe's loss terms.
 TRAINERS = ("fast", "lm", "adam")
+#: Levenberg–Marquardt stops when its damping mu passes this (``trainlm``'s ``mu_max``): no step
+#: lowered the training error at any damping up to it.
+MU_MAX = 1e10
 #: The normalized-RBF variants of the hidden layer: MATLAB's ``radbasn`` (``W x + b``) and the
 #: distance form (``b ||x - C||``); :mod:`sloshrom.rom.network`.
 Hidden = Literal["matlab", "distance"]

@@ -15,7 +15,7 @@ import os
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
 import typer
@@ -33,10 +33,15 @@ from sloshrom.limits import (
     MAX_NEURONS,
     MAX_SEED,
     MAX_WEIGHTS,
+    MU_MAX,
 )
 from sloshrom.rom.epochs import TrainingProgress
 from sloshrom.rom.errors import ModelSizeWarning
 from sloshrom.rom.registry import CLASSES, Hyper, ModelClass, model_class
+
+if TYPE_CHECKING:  # annotations only: the CLI loads JAX when it trains
+    from sloshrom.rom.base import Estimator
+    from sloshrom.rom.ensemble import Ensemble
 
 __all__ = ["predict", "sweep", "train"]
 
@@ -243,8 +248,11 @@ def _train(**kw: Any) -> None:
     The two records must have the same sample rate and the same units of the input and of the
     output; the model file may not be one of the records. With --ensemble K, K models with
     seeds SEED..SEED+K-1 are trained in parallel (Dask) and written as one model file whose
-    prediction is the mean of the members; the validation MSE of every member and their mean
-    +- standard deviation are printed.
+    prediction is the mean of the members; the validation MSE of every member and their spread
+    (mean +- standard deviation, min, max) are printed. With --seeds N, N models with seeds
+    SEED..SEED+N-1 are trained the same way, every seed's validation MSE and their spread are
+    printed, and the best single model on the validation record is written (its seed in its
+    hyperparameters).
 
     Example: sloshrom train --data train.nc --validation validation.nc --arch nfir --delays 70
     --neurons 35 --out nfir.npz [--ensemble 5 --workers 2]
@@ -252,6 +260,7 @@ def _train(**kw: Any) -> None:
     data, validation, out = kw.pop("data"), kw.pop("validation"), kw.pop("out")
     input_name, output_name = kw.pop("input_name"), kw.pop("output_name")
     arch, fill, ensemble = kw.pop("arch"), kw.pop("fill"), kw.pop("ensemble")
+    seeds = kw.pop("seeds")
     scheduler, workers = kw.pop("scheduler"), kw.pop("workers")
     history = kw.pop("history")
     try:
@@ -273,7 +282,8 @@ def _train(**kw: Any) -> None:
     if seed + ensemble - 1 > MAX_SEED:
         fail(f"--seed {seed} with --ensemble {ensemble}: the last member's seed "
              f"{seed + ensemble - 1} exceeds {MAX_SEED}")
-    if ensemble > 1:
+    _check_seeds(seeds, ensemble, mc, seed)
+    if ensemble > 1 or seeds > 1:
         n_cpu = os.cpu_count() or 1
         check_number(workers, "--workers", 1, n_cpu, why=f"this machine has {n_cpu} CPU(s)")
         if scheduler not in (None, "threads", "sequential"):
@@ -350,10 +360,11 @@ def _train(**kw: Any) -> None:
         model.spec  # noqa: B018 - the estimator's own checks (file limits), before training
     except SloshromError as exc:  # ROMError: a model no model file holds
         fail(str(exc))
-    if ensemble > 1:
-        _train_ensemble(model, ensemble, rec, val, input_name, output_name, out,
-                        scheduler if scheduler is not None or workers > 1 else "sequential",
-                        workers, fill, label, history)
+    if ensemble > 1 or seeds > 1:
+        (_train_ensemble if ensemble > 1 else _train_seeds)(
+            model, max(ensemble, seeds), rec, val, input_name, output_name, out,
+            scheduler if scheduler is not None or workers > 1 else "sequential", workers, fill,
+            label, history)
         return
     epochs = int(hyper.get("max_epochs", 0))
     # epoch, errors (and Levenberg-Marquardt's damping mu) and an upper bound of the time left
@@ -385,7 +396,7 @@ def _train(**kw: Any) -> None:
         f"wrote {path}: {label}, {n_params} parameters, {len(h['train_mse']) - 1} epochs "
         f"({h['stop_reason']}), best epoch {h['best_epoch']}, validation MSE{after} "
         f"{h['val_mse'][h['best_epoch']]:.4g} {rec.units[output_name]}^2, "
-        f"{h['train_seconds']:.1f} s"
+        f"{h['train_seconds']:.1f} s" + _stopped(h)
     )
 
 
@@ -412,12 +423,17 @@ _AFTER: list[tuple[str, Any, Any]] = [
                                                   "(members have seeds SEED..SEED+K-1) and "
                                                   "save them as one ensemble file (mean of "
                                                   "the members); 1 = a single model.")], 1),
+    ("seeds", Annotated[int, typer.Option(
+        help="Train N models that differ only by their seed (SEED..SEED+N-1, in parallel as "
+             "--ensemble), print every seed's validation MSE and their spread, and write the "
+             "best single model on the validation record; 1 = one model. Not with "
+             "--ensemble.")], 1),
     ("scheduler", Annotated[str | None, typer.Option(
         help="Ensemble: Dask scheduler address tcp://HOST:PORT; 'threads' or 'sequential' for "
              "no cluster; default: a new LocalCluster of --workers processes (in this process "
              "for --workers 1).")], None),
-    ("workers", Annotated[int, typer.Option(help="Ensemble: members trained at once, 1 to the "
-                                                 "number of CPUs.")], 2),
+    ("workers", Annotated[int, typer.Option(help="Ensemble, seeds: models trained at once, 1 to "
+                                                 "the number of CPUs.")], 2),
     ("history", Annotated[int, typer.Option(
         "--history", help="Samples at the start of the validation record taken as measured "
                           "history: its run starts from them (delay lines filled, state "
@@ -450,17 +466,48 @@ def _command(func: Any) -> Any:
 train = app.command(name="train")(_command(_train))
 
 
-def _train_ensemble(template: Any, k: int, rec: Any, val: Any, input_name: str,
-                    output_name: str, out: Path, scheduler: str | None, workers: int,
-                    fill: float | None, label: str, history: int = 0) -> None:
-    """``train --ensemble K``: K members through Dask, one file, per-member validation MSE;
-    ``label`` names the members' architecture (``NFIR(70, 35)``)."""
+def _check_seeds(seeds: int, ensemble: int, mc: ModelClass, seed: int) -> None:
+    """``--seeds N``: a number of models, not with ``--ensemble``, for a class with a seed."""
+    check_number(seeds, "--seeds", 1, MAX_MEMBERS)
+    if seeds > 1 and ensemble > 1:
+        fail(f"--seeds {seeds} with --ensemble {ensemble}: --seeds keeps the best single model, "
+             "--ensemble the mean of all; give one of them")
+    if seeds > 1 and not mc.ensemble:
+        fail(f"--seeds {seeds}: an {mc.class_name} is fitted deterministically, so every seed "
+             "gives the same model; train it alone")
+    if seed + seeds - 1 > MAX_SEED:
+        fail(f"--seed {seed} with --seeds {seeds}: the last seed {seed + seeds - 1} exceeds "
+             f"{MAX_SEED}")
+
+
+def _stopped(h: Mapping[str, object]) -> str:
+    """``; stopped: ...`` when Levenberg-Marquardt's damping reached mu_max (the training's
+    warning says why), with the options to try; empty for any other stop."""
+    epochs = h.get("train_mse")
+    if h.get("stop_reason") != "mu_max" or not isinstance(epochs, list):
+        return ""
+    mu_max = f"{MU_MAX:.0e}".replace("e+", "e")
+    text = (f"; stopped: Levenberg-Marquardt's damping mu passed mu_max = {mu_max} at epoch "
+            f"{len(epochs) - 1}, no step lowered the training error")
+    return (f"{text} (why: the warning above); try --trainer adam, fewer --neurons or --delays, "
+            "or other seeds (--seeds N keeps the best of N)")
+
+
+def _fit_members(template: Estimator, k: int, rec: Record, val: Record, input_name: str,
+                 output_name: str, scheduler: str | None, workers: int, fill: float | None,
+                 label: str, history: int) -> Ensemble:
+    """K models of ``template`` with seeds SEED..SEED+K-1 through Dask (``Ensemble.fit``),
+    with a progress bar of the members and their epochs; the fitted ensemble. ``history``:
+    samples of the validation record each member's validation run starts from."""
     from rich.progress import BarColumn, MofNCompleteColumn, TextColumn, TimeElapsedColumn
 
-    from sloshrom.rom.ensemble import Ensemble, spread
+    from sloshrom.rom.ensemble import Ensemble
 
     ens = Ensemble(template, n_members=k)
     arch = label.split("(")[0]
+    fs = rec.fs
+    if fs is None:  # unreachable after _read_pair's rate check; narrows the type
+        fail(f"the training record has no sample rate; {label} needs one")
     # the members' epochs come from the workers (sloshrom.rom.epochs); members at once: the
     # workers, one in this process for "sequential"
     pace = TrainingProgress(int(template.get_params().get("max_epochs", 0)), members=k,
@@ -482,32 +529,101 @@ def _train_ensemble(template: Any, k: int, rec: Any, val: Any, input_name: str,
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", ModelSizeWarning)  # said by the command
-                ens.fit(rec[input_name], rec[output_name], fs=rec.fs,
+                ens.fit(rec[input_name], rec[output_name], fs=fs,
                         validation=(val[input_name], val[output_name]), scheduler=scheduler,
                         n_workers=workers, progress=cb, epoch_progress=epoch_cb, fill=fill,
                         validation_history=history)
         except SloshromError as exc:  # ROMError (a constant record, ...), UnstableModelError
             fail(str(exc))
-    try:
-        path = ens.save(out)
-        uv, yv = val[input_name], val[output_name]
-        past = (uv[:history], yv[:history]) if history else None
-        uv, yv = uv[history:], yv[history:]
-        preds = ens.member_predictions(uv, history=past)
-    except SloshromError as exc:
-        fail(str(exc))
-    unit = f"{rec.units[output_name]}^2"
-    mse = [float(np.mean((p - yv) ** 2)) for p in preds]
+    return ens
+
+
+def _member_lines(ens: Ensemble, mse: list[float], unit: str, what: str) -> None:
+    """One line per member: its seed, validation MSE over the whole validation record, epochs
+    and stop reason."""
     for i, (m, e) in enumerate(zip(ens.members_, mse, strict=True)):
         h = m.history_
-        typer.echo(f"member {i} (seed {m.seed}): validation MSE {e:.4g} {unit}, "
-                   f"{len(h['train_mse']) - 1} epochs ({h['stop_reason']})")
+        err = "unstable on the validation record" if np.isnan(e) else f"{e:.4g} {unit}"
+        who = f"seed {m.seed}" if what == "seed" else f"{what} {i} (seed {m.seed})"
+        why = (": no step lowered the training error" if h["stop_reason"] == "mu_max" else "")
+        typer.echo(f"{who}: validation MSE {err}, "
+                   f"{len(h['train_mse']) - 1} epochs ({h['stop_reason']}{why})")
+
+
+def _spread_text(ens: Ensemble, mse: list[float], unit: str) -> str:
+    """``mean +- std, min (seed), max (seed), max/min`` of the members' validation MSE (NaN,
+    an unstable member, left out and counted)."""
+    from sloshrom.rom.ensemble import spread
+
     s = spread(mse)
-    mean_mse = float(np.mean((np.mean(preds, axis=0) - yv) ** 2))
+    ok = [(e, m.seed) for e, m in zip(mse, ens.members_, strict=True) if not np.isnan(e)]
+    if not ok:
+        return "every member unstable on the validation record"
+    lo, hi = min(ok), max(ok)
+    ratio = f"{hi[0] / lo[0]:.3g}" if lo[0] > 0 else "inf"
+    bad = len(mse) - len(ok)
+    return (f"{s['mean']:.4g} +- {s['std']:.4g} {unit}, min {lo[0]:.4g} (seed {lo[1]}), max "
+            f"{hi[0]:.4g} (seed {hi[1]}), max/min {ratio}"
+            + (f"; {bad} unstable on the validation record" if bad else ""))
+
+
+def _train_ensemble(template: Any, k: int, rec: Any, val: Any, input_name: str,
+                    output_name: str, out: Path, scheduler: str | None, workers: int,
+                    fill: float | None, label: str, history: int = 0) -> None:
+    """``train --ensemble K``: K members through Dask, one file, per-member validation MSE;
+    ``label`` names the members' architecture (``NFIR(70, 35)``)."""
+    ens = _fit_members(template, k, rec, val, input_name, output_name, scheduler, workers,
+                       fill, label, history)
+    uv, yv = val[input_name], val[output_name]
+    past = (uv[:history], yv[:history]) if history else None
+    uv, yv = uv[history:], yv[history:]
+    unit = f"{rec.units[output_name]}^2"
+    try:
+        # NaN for a member unstable on the validation record: scored, not an error
+        mse = [float(e) for e in ens.member_errors(uv, yv, history=past)]
+        path = ens.save(out)
+    except SloshromError as exc:
+        fail(str(exc))
+    try:
+        of_mean = f"{float(np.mean((ens.predict(uv, history=past) - yv) ** 2)):.4g} {unit}"
+    except SloshromError:  # UnstableModelError of a member: the mean is unstable too
+        of_mean = "n/a (a member is unstable on the validation record)"
+    _member_lines(ens, mse, unit, "member")
     typer.echo(
         f"wrote {path}: ensemble of {k} {label}, "
-        f"{ens.n_params} parameters; validation MSE over members {s['mean']:.4g} +- "
-        f"{s['std']:.4g} {unit}, of the ensemble mean {mean_mse:.4g} {unit}"
+        f"{ens.n_params} parameters; validation MSE over members {_spread_text(ens, mse, unit)}"
+        f"; of the ensemble mean {of_mean}"
+    )
+
+
+def _train_seeds(template: Estimator, k: int, rec: Record, val: Record, input_name: str,
+                 output_name: str, out: Path, scheduler: str | None, workers: int,
+                 fill: float | None, label: str, history: int = 0) -> None:
+    """``train --seeds N``: N models through Dask (as ``--ensemble``), each seed's validation
+    MSE and their spread; the best on the validation record written as a single model.
+    ``history``: the validation record's first samples each run starts from (scored after
+    them)."""
+    ens = _fit_members(template, k, rec, val, input_name, output_name, scheduler, workers,
+                       fill, label, history)
+    uv, yv = val[input_name], val[output_name]
+    past = (uv[:history], yv[:history]) if history else None
+    uv, yv = uv[history:], yv[history:]
+    try:
+        mse = [float(e) for e in ens.member_errors(uv, yv, history=past)]
+        best = ens.best_member(uv, yv, history=past)
+        path = best.save(out)
+    except SloshromError as exc:  # every seed unstable on the validation record, ...
+        fail(str(exc))
+    unit = f"{rec.units[output_name]}^2"
+    _member_lines(ens, mse, unit, "seed")
+    i = next(j for j, m in enumerate(ens.members_) if m is best)
+    h = best.history_
+    after = f" (after {history} samples of history)" if history else ""
+    typer.echo(f"validation MSE{after} over {k} seeds: {_spread_text(ens, mse, unit)}")
+    typer.echo(
+        f"wrote {path}: {label}, seed {best.get_params()['seed']} (the best of {k} on "
+        f"validation), {best.n_params} parameters, {len(h['train_mse']) - 1} epochs "
+        f"({h['stop_reason']}), validation MSE{after} {mse[i]:.4g} {unit}" + _stopped(h)
     )
 
 
@@ -733,5 +849,8 @@ def sweep(
     fig = plot_sweep(rows, out / SWEEP_FIGURE)
     best = rows[0]
     n_bad = sum(r["unstable"] for r in rows)
+    stuck = sum(r.get("stop_reason") == "mu_max" for r in rows)
     typer.echo(f"wrote {out}/sweep.csv, sweep.json, {fig.name}: best {best['name']} score "
-               f"{best['score']:.4g}; {n_bad} unstable")
+               f"{best['score']:.4g}; {n_bad} unstable"
+               + (f"; {stuck} stopped at Levenberg-Marquardt's mu_max (no step lowered the "
+                  "training error: stop_reason in sweep.csv)" if stuck else ""))

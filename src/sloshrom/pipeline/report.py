@@ -22,6 +22,7 @@ from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.experiment import cell_text, experiment_tables, percent
 from sloshrom.pipeline.html import Figure, Section, Table
 from sloshrom.pipeline.maps import HYSTERESIS_FREQUENCY, HYSTERESIS_GAMMA
+from sloshrom.rom.ensemble import spread_text
 from sloshrom.rom.registry import CLASSES
 
 __all__ = ["build_sections", "waveform_table", "write_report"]
@@ -46,6 +47,24 @@ def _pm(s: Any, fmt: str = "{:.3g}", scale: float = 1.0) -> str:
     if not isinstance(s, dict) or s.get("mean") is None:
         return "n/a"
     return f"{fmt.format(s['mean'] * scale)} ± {fmt.format(s['std'] * scale)}"
+
+
+def _members_mse(s: object) -> str:
+    """The members' validation MSE (a :func:`~sloshrom.rom.ensemble.spread` record) in words:
+    mean ± std, min, max and their ratio (N²)."""
+    if not isinstance(s, dict) or not isinstance(s.get("values"), list):
+        return "n/a"
+    return html.escape(spread_text(s["values"], "N²") + " (mean ± std)")
+
+
+def _stop_text(messages: object) -> str:
+    """Why a training of the ROM (or of a member) stopped where its result is probably poor
+    (Levenberg-Marquardt at mu_max), one paragraph each; empty for any other stop."""
+    if not isinstance(messages, list):
+        return ""
+    many = len(messages) > 1
+    return "".join(f"<p>{'Member ' + str(k) + ': ' if many else ''}{html.escape(str(m))}</p>"
+                   for k, m in enumerate(messages) if m)
 
 
 def _frame_text(fr: object) -> str:
@@ -190,9 +209,10 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
         f"({_listed(r.get('epochs'))} epochs, stop: "
         f"{html.escape(_listed(r.get('stop_reason')))}).</p>"
         + (f"<p>Ensemble of {r['n_members']} networks (seeds {_listed(r.get('seeds'))}), the "
-           "ROM's force is their mean. Validation MSE of the members: "
-           f"{_pm(r.get('val_mse_members'))} N² (mean ± std); of their mean: "
-           f"{_num(r, 'val_mse')} N².</p>" if r.get("n_members", 1) > 1 else "")
+           "ROM's force is their mean. Validation MSE of the members (each one's free run over "
+           f"the whole validation record): {_members_mse(r.get('val_mse_members'))}; of their "
+           f"mean: {_num(r, 'val_mse')} N².</p>" if r.get("n_members", 1) > 1 else "")
+        + _stop_text(r.get("stop_message"))
         + _compare_text(r.get("compare"))
         + (f"<p>{html.escape(r['recipe_text'])}</p>" if r.get("recipe_text") else "")
         + _frame_text(r.get("frame_sensitivity")),

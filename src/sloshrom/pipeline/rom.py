@@ -231,7 +231,8 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
     outputs : dict
         Of the chosen ROM (the ROM of the report): ``model`` (its file), ``arch``, ``name``,
         ``train_seconds`` (s), MSE (N^2), NRMSE (-) and fit (%) on the validation (``val_*``)
-        and training (``train_*``) records, ``epochs``, ``stop_reason``, ``epoch_seconds``
+        and training (``train_*``) records, ``epochs``, ``stop_reason``, ``stop_message`` (per
+        member: why Levenberg-Marquardt stopped at mu_max, else None), ``epoch_seconds``
         and ``validation_seconds`` (each member's median epoch of Adam steps and of
         validation, s; None for Levenberg-Marquardt), the report's
         paragraphs ``model_class_text`` and ``recipe_text``; ``compare``: for each compared
@@ -241,7 +242,9 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
         shifted by a constant (:func:`sloshrom.energy.frame_sensitivity`; 0 = invariant, as
         the physics); ``waveform_fidelity``: the ROM's and the rig's twin run's waveform
         figures on the validation record
-        (:func:`sloshrom.pipeline.waveform.validation_fidelity`).
+        (:func:`sloshrom.pipeline.waveform.validation_fidelity`); for an ensemble, ``seeds``
+        and ``val_mse_members`` (:func:`sloshrom.rom.ensemble.spread` of each member's MSE,
+        N^2, its free run over the whole validation record), whatever its class.
     files : list of str
         The model file(s) and Fig. 10, relative to ``ctx.out``.
     """
@@ -275,6 +278,8 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
         train_mse=et["mse"], train_nrmse=et["nrmse"], train_fit=et["fit"],
         epochs=[len(h.get("train_mse", [])) for h in hists],
         stop_reason=[h.get("stop_reason") for h in hists],
+        # why a training stopped where its result is probably poor (LM at mu_max), else None
+        stop_message=[h.get("stop_message") for h in hists],
         # where each member's training went: its median epoch of Adam steps and of validation
         epoch_seconds=[_median_after_compile(h, "step_seconds") for h in hists],
         validation_seconds=[_median_after_compile(h, "validation_seconds") for h in hists],

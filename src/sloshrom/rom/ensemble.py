@@ -6,8 +6,10 @@ one template estimator (:class:`~sloshrom.rom.NFIR`, :class:`~sloshrom.rom.NOE` 
 :class:`~sloshrom.rom.NSS`) with seeds ``template.seed + k`` (or given seeds), in parallel
 through the Dask machinery of the sweep (:func:`sloshrom.rom.parallel.run_tasks`). Its
 prediction is the mean of the members' outputs; the spread of the members
-(:meth:`Ensemble.member_predictions`, :func:`spread`) shows how much of a result is the network
-and how much the draw.
+(:meth:`Ensemble.member_predictions`, :meth:`Ensemble.member_errors`, :func:`spread`) shows how
+much of a result is the network and how much the draw. :meth:`Ensemble.best_member` picks the
+one member that does best on a validation record: training K seeds to keep the best single
+network (``sloshrom train --seeds K``).
 
 The ensemble is itself a sloshing model (:func:`sloshrom.models.is_jax_model`): its state is the
 tuple of the members' states, its :meth:`~Ensemble.step` the mean of the members' steps, pure
@@ -24,6 +26,7 @@ ensemble variant) and loaded by :func:`sloshrom.rom.load_model`.
 from __future__ import annotations
 
 import math
+import os
 import warnings
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
@@ -32,12 +35,13 @@ from typing import Any, ClassVar, Literal
 import jax
 import jax.numpy as jnp
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sloshrom import __version__
 from sloshrom.models import EnvelopeWarning, check_envelope, envelope_union, model_input
-from sloshrom.rom.base import History, checked_past
+from sloshrom.rom.base import Estimator, History, checked_past
 from sloshrom.rom.epochs import EpochFile, EpochReport, epoch_reports
-from sloshrom.rom.errors import NotFittedError, ROMError
+from sloshrom.rom.errors import NotFittedError, ROMError, TrainingWarning, UnstableModelError
 from sloshrom.rom.family import check_training_fill
 from sloshrom.rom.modelfile import (
     MAX_MEMBERS,
@@ -47,10 +51,10 @@ from sloshrom.rom.modelfile import (
     write_model_file,
 )
 from sloshrom.rom.network import MinMaxScaler, network_of
-from sloshrom.rom.parallel import run_tasks
+from sloshrom.rom.parallel import quiet_worker, run_tasks
 from sloshrom.rom.registry import CLASSES
 
-__all__ = ["Ensemble", "is_ensemble", "spread"]
+__all__ = ["Ensemble", "is_ensemble", "spread", "spread_text"]
 
 
 def spread(values: Iterable[float]) -> dict[str, Any]:
@@ -74,6 +78,37 @@ def spread(values: Iterable[float]) -> dict[str, Any]:
     mean = float(np.mean(ok)) if n else math.nan
     std = float(np.std(ok, ddof=1)) if n > 1 else (0.0 if n == 1 else math.nan)
     return {"mean": mean, "std": std, "n": n, "values": vals}
+
+
+def spread_text(values: Iterable[float], unit: str, fmt: str = "{:.3g}") -> str:
+    """A quantity's spread over the members in words, for reports and consoles.
+
+    Parameters
+    ----------
+    values : iterable of float
+        One value per member (NaN: a member without a value, e.g. unstable), in ``unit``.
+    unit : str
+        Unit of the values, e.g. ``"N²"``.
+    fmt : str
+        Format of each number.
+
+    Returns
+    -------
+    str
+        ``"mean ± std unit (min a, max b, max/min r)"`` (:func:`spread`), followed by how many
+        members have no value; ``"n/a"`` when none has one.
+    """
+    s = spread(values)
+    ok = [v for v in s["values"] if not math.isnan(v)]
+    if not ok:
+        return "n/a"
+    lo, hi = min(ok), max(ok)
+    ratio = fmt.format(hi / lo) if lo > 0 else "n/a"
+    missing = len(s["values"]) - len(ok)
+    f = fmt.format
+    return (f"{f(s['mean'])} ± {f(s['std'])} {unit} (min {f(lo)}, max {f(hi)}, max/min {ratio})"
+            + (f", {missing} member{'s' if missing > 1 else ''} without a value" if missing
+               else ""))
 
 
 def is_ensemble(model: Any) -> bool:
@@ -115,11 +150,15 @@ def _fit_member(
     fill: float | None = None,
     epochs_dir: str | None = None,
     validation_history: int = 0,
+    parent: int | None = None,
 ) -> Any:
     """Train member ``k`` with ``seed`` (``item = (k, seed)``): a task of :func:`run_tasks`.
 
     ``epochs_dir``: where the member writes its latest epoch (:class:`~sloshrom.rom.epochs.
-    EpochFile`), read by the parent process (:func:`~sloshrom.rom.epochs.epoch_reports`)."""
+    EpochFile`), read by the parent process (:func:`~sloshrom.rom.epochs.epoch_reports`).
+    ``parent``: the process id of :meth:`Ensemble.fit`'s caller; in any other process (a Dask
+    worker's) the :class:`TrainingWarning` of a member is not shown."""
+    quiet_worker(parent, TrainingWarning)  # Ensemble.fit says it once, from the histories
     k, seed = item
     model = cls(**params)
     model.set_params(seed=seed)
@@ -292,6 +331,12 @@ class Ensemble:
             record, ...).
         UnstableModelError
             An NOE member unstable at its initial parameters.
+
+        Warns
+        -----
+        TrainingWarning
+            Once, naming the members whose Levenberg-Marquardt stopped at ``mu_max`` (each
+            member's ``history_["stop_message"]`` says why).
         """
         seeds = self._member_seeds()
         first = self._clone(seeds[0])
@@ -311,15 +356,26 @@ class Ensemble:
             if vu.size == 0:
                 raise ROMError("validation record is empty")
         fill = check_training_fill(fill)
-        with epoch_reports(epoch_progress) as epochs_dir:
+        with epoch_reports(epoch_progress) as epochs_dir, warnings.catch_warnings():
+            # said once below for all the members; set in this thread only, which the
+            # "threads" scheduler's workers read (a filter set in each of them would race)
+            warnings.simplefilter("ignore", TrainingWarning)
             members = run_tasks(
                 _fit_member, list(enumerate(seeds)), shared=(u, y, vu, vy),
                 args=(type(self.template), self.template.get_params(), float(fs), fill,
-                      epochs_dir, int(validation_history)),
+                      epochs_dir, int(validation_history), os.getpid()),
                 scheduler=scheduler, n_workers=n_workers,
                 done=None if progress is None else progress,
             )
         self._set_members(members)
+        stuck = [k for k, h in enumerate(self.history_) if h.get("stop_reason") == "mu_max"]
+        if stuck:
+            warnings.warn(TrainingWarning(
+                f"{len(stuck)} of {len(seeds)} members (seed{'s' if len(stuck) > 1 else ''} "
+                f"{', '.join(str(self.seeds_[k]) for k in stuck)}) stopped with "
+                "Levenberg-Marquardt's damping at mu_max: no step lowered their training error "
+                "(history_[k]['stop_message'] says why for member k). First: "
+                f"{self.history_[stuck[0]].get('stop_message', '')}"), stacklevel=2)
         return self
 
     @classmethod
@@ -511,6 +567,97 @@ class Ensemble:
             Output (physical units, e.g. N), float64.
         """
         return np.mean(self._outputs(u, stacklevel=3, history=history), axis=0)
+
+    def member_errors(self, u: ArrayLike, y: ArrayLike, history: History | None = None
+                      ) -> np.ndarray:
+        """Each member's mean squared error on a record: its free run over the whole record,
+        from rest or from measured ``history``, as early stopping scored it on the validation
+        record.
+
+        Parameters
+        ----------
+        u : array_like, shape (n,)
+            Input sampled at ``fs_`` (physical units, e.g. m/s), starting at rest unless
+            ``history`` is given.
+        y : array_like, shape (n,)
+            Measured output (physical units, e.g. N).
+        history : (u_past, y_past), optional
+            Measured input and output just before ``u``: every member starts from them
+            (:meth:`predict`); the error is over ``u`` only.
+
+        Returns
+        -------
+        ndarray, shape (K,)
+            MSE of member k (output units squared, e.g. N^2), float64; NaN for a member whose
+            simulation left its stability bound (an NOE).
+
+        Raises
+        ------
+        NotFittedError
+            The ensemble is not fitted.
+        ROMError
+            ``u`` or ``y`` not 1-D, of different lengths, or with NaN or inf; a bad
+            ``history``.
+
+        Warns
+        -----
+        EnvelopeWarning
+            ``u`` (with the history's input) leaves the union of the members' training input
+            ranges (once per call).
+        """
+        return self._errors(u, y, history, stacklevel=3)
+
+    def _errors(self, u: ArrayLike, y: ArrayLike, history: History | None, stacklevel: int
+                ) -> np.ndarray:
+        self._check_fitted()
+        u, y = _signal("u", u), _signal("y", y)
+        if u.ndim != 1 or y.shape != u.shape:
+            raise ROMError(f"u and y must be records of the same length, shape (n,), got "
+                           f"{u.shape} and {y.shape}")
+        seen = u if history is None else np.concatenate([checked_past(history)[0], u])
+        check_envelope(self, seen, unit=str(self.units[0]), stacklevel=stacklevel)
+        errors = []
+        with warnings.catch_warnings():  # warned once above, for the union of the envelopes
+            warnings.simplefilter("ignore", EnvelopeWarning)
+            for m in self.members_:
+                try:
+                    yh = np.asarray(m.predict(u, history=history))
+                    errors.append(float(np.mean((yh - y) ** 2)))
+                except UnstableModelError:  # no error to rank: never the best
+                    errors.append(math.nan)
+        return np.asarray(errors, dtype=np.float64)
+
+    def best_member(self, u: ArrayLike, y: ArrayLike, history: History | None = None
+                    ) -> Estimator:
+        """The member with the lowest :meth:`member_errors` on a (validation) record.
+
+        A normal single model (NFIR, NOE or NSS, fitted): ``save`` writes a single-model file
+        and its ``seed`` is the one that trained it. Choose it on a validation record, not on
+        the training record: on the training record the lowest error rewards over-fitting.
+
+        Parameters
+        ----------
+        u, y : array_like, shape (n,)
+            Input and measured output, as :meth:`member_errors`.
+        history : (u_past, y_past), optional
+            Measured history before ``u``, as :meth:`member_errors`.
+
+        Returns
+        -------
+        NFIR, NOE or NSS
+            The best member (the first of equal errors).
+
+        Raises
+        ------
+        NotFittedError
+            The ensemble is not fitted.
+        ROMError
+            Bad records (as :meth:`member_errors`), or every member unstable on them.
+        """
+        errors = self._errors(u, y, history, stacklevel=3)
+        if np.all(np.isnan(errors)):
+            raise ROMError(f"all {errors.size} members are unstable on this record: none is best")
+        return self.members_[int(np.nanargmin(errors))]
 
     def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
         """Sloshing-model contract: dynamic force (N) from the signal the members read

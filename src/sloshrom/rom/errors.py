@@ -4,6 +4,7 @@
 record that cannot be identified from, a model file that cannot be loaded, a model that goes
 unstable on the user's input): a :class:`~sloshrom.errors.SloshromError`, which command-line
 tools catch and print in one line. A plain ``ValueError`` from inside is a programming error.
+:class:`TrainingWarning` says that a training ended where its result is probably poor (and why).
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from sloshrom.errors import SloshromError
 from sloshrom.models import EnvelopeWarning
 
 __all__ = ["EnvelopeWarning", "FillRangeError", "ModelSizeWarning", "NotFittedError", "ROMError",
-           "UnstableModelError"]
+           "TrainingWarning", "UnstableModelError"]
 
 
 class ROMError(SloshromError):
@@ -41,6 +42,17 @@ class NotFittedError(ROMError, AttributeError):
     raising.
     """
 
+
+
+class TrainingWarning(UserWarning):
+    """A training stopped where its result is probably poor: Levenberg-Marquardt's damping
+    passed ``mu_max`` (no step lowered the training error).
+
+    The model is still fitted (the best parameters on validation so far); the message says at
+    which epoch, why no step was taken and what to try. The reason is also in the model's
+    ``history_`` (``stop_reason``, ``stop_message``). The command line prints it as one
+    ``warning: ...`` line.
+    """
 
 
 class ModelSizeWarning(UserWarning):

@@ -231,6 +231,12 @@ class _Estimator(Estimator):
             or sample rate.
         UnstableModelError
             An NOE unstable at its initial parameters.
+
+        Warns
+        -----
+        TrainingWarning
+            Levenberg-Marquardt stopped at mu_max: no step lowered the training error (why, and
+            what to try: ``history_["stop_message"]``).
         """
         spec = self._check_hyperparameters()
         u, y, validation, fill = checked_records(u, y, fs, validation, fill,

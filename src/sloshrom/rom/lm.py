@@ -20,7 +20,9 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
-__all__ = ["LMProblem", "LMResult", "levenberg_marquardt"]
+from sloshrom.limits import MU_MAX
+
+__all__ = ["LMProblem", "LMResult", "levenberg_marquardt", "stop_message"]
 
 
 @dataclass
@@ -39,11 +41,22 @@ class LMProblem:
 
 @dataclass
 class LMResult:
-    """The result of a Levenberg-Marquardt fit: parameters, stop reason, history."""
+    """The result of a Levenberg-Marquardt fit: parameters, stop reason, history.
+
+    ``stop_info`` is empty unless the stop reason is ``"mu_max"``; then it describes the epoch
+    that failed: ``epoch``, ``mu_max``, ``trials`` (steps tried), ``not_solved`` (``J^T J +
+    mu I`` not positive definite in floating point, or a non-finite step), ``not_finite``
+    (training error inf: a non-finite trial, an NOE beyond its stability bound), ``worse`` (a
+    finite error not below the current one), ``shortest_step`` (norm of the last step tried,
+    scaled units; NaN if none was solved), ``jtj_max`` (largest diagonal entry of ``J^T J``),
+    ``grad`` (gradient norm of the scaled MSE), ``best_epoch`` and ``validation`` (1.0 if the
+    problem had a validation error, else 0.0).
+    """
     theta: np.ndarray
     stop_reason: str
     history: dict[str, list[float]] = field(default_factory=dict)
     best_epoch: int = 0
+    stop_info: dict[str, float] = field(default_factory=dict)
 
 
 def levenberg_marquardt(
@@ -53,7 +66,7 @@ def levenberg_marquardt(
     mu: float = 1e-3,
     mu_dec: float = 0.1,
     mu_inc: float = 10.0,
-    mu_max: float = 1e10,
+    mu_max: float = MU_MAX,
     min_grad: float = 1e-7,
     max_fail: int = 6,
     callback: Callable[[int, dict[str, float]], Any] | None = None,
@@ -78,8 +91,9 @@ def levenberg_marquardt(
     Returns
     -------
     LMResult
-        Best-validation parameters (last ones without validation), the stop reason and the
-        per-epoch history (``train_mse``, ``val_mse``, ``mu``, ``grad``, ``seconds``).
+        Best-validation parameters (last ones without validation), the stop reason, the
+        per-epoch history (``train_mse``, ``val_mse``, ``mu``, ``grad``, ``seconds``) and, for a
+        stop at ``mu_max``, what the failed epoch's trial steps did (``stop_info``).
     """
     theta = np.asarray(theta0, dtype=np.float64).copy()
     p = theta.size
@@ -107,6 +121,8 @@ def levenberg_marquardt(
     grad = 2.0 * float(np.linalg.norm(jte)) / n
     stop = record(0, grad)
     eye = np.eye(p)
+    tried = dict.fromkeys(("trials", "not_solved", "not_finite", "worse"), 0)
+    last_step = math.nan
     while True:
         if stop:
             reason = "callback"
@@ -124,19 +140,29 @@ def levenberg_marquardt(
             break
         epoch += 1
         accepted = False
+        # how this epoch's trials failed: if mu passes mu_max, the stop message says which
+        tried = dict.fromkeys(("trials", "not_solved", "not_finite", "worse"), 0)
+        last_step = math.nan
         while mu <= mu_max:
+            tried["trials"] += 1
             try:
                 cf = scipy.linalg.cho_factor(jtj + mu * eye, lower=False, check_finite=False)
                 step = scipy.linalg.cho_solve(cf, jte, check_finite=False)
+                last_step = float(np.linalg.norm(step))
                 trial = theta - step
-                sse2 = problem.sse(trial) if np.all(np.isfinite(trial)) else math.inf
+                if np.all(np.isfinite(trial)):
+                    sse2 = problem.sse(trial)
+                    failure = "worse" if np.isfinite(sse2) else "not_finite"
+                else:  # a non-finite solution: the system was not solved
+                    sse2, failure = math.inf, "not_solved"
             except np.linalg.LinAlgError:  # not positive definite at this mu: like a failure
-                sse2 = math.inf
+                sse2, failure = math.inf, "not_solved"
             if np.isfinite(sse2) and sse2 < sse:
                 theta = trial
                 mu *= mu_dec
                 accepted = True
                 break
+            tried[failure] += 1
             mu *= mu_inc
         if accepted:
             jtj, jte, sse, n = problem.normal_eq(theta)
@@ -151,9 +177,66 @@ def levenberg_marquardt(
         stop = record(epoch, grad)
     if problem.val_mse is None:
         best_theta, best_epoch = theta, epoch
-    return LMResult(best_theta, reason, hist, best_epoch)
+    info: dict[str, float] = {}
+    if reason == "mu_max":
+        info = {"epoch": epoch, "mu_max": mu_max, **tried, "shortest_step": last_step,
+                "jtj_max": float(np.max(np.diag(jtj))) if p else 0.0, "grad": grad,
+                "best_epoch": best_epoch, "validation": float(problem.val_mse is not None)}
+    return LMResult(best_theta, reason, hist, best_epoch, info)
 
 
-# ---------------------------------------------------------------------------------------------
-# Initialisation
-# ---------------------------------------------------------------------------------------------
+def stop_message(info: dict[str, float]) -> str:
+    """Why Levenberg-Marquardt stopped at ``mu_max``, in one paragraph (no advice).
+
+    Parameters
+    ----------
+    info : dict
+        :attr:`LMResult.stop_info` of a stop at ``mu_max``.
+
+    Returns
+    -------
+    str
+        The epoch, what the trial steps did (each count with its cause) and which parameters
+        were kept. ``J^T J`` larger than ``mu_max`` over the float64 rounding unit is said to be
+        beyond any damping: adding ``mu_max`` to it changes it by less than its own rounding.
+    """
+    n, mu_max = int(info["trials"]), info["mu_max"]
+    mu_text = f"{mu_max:.0e}".replace("e+", "e")  # 1e10, as trainlm's documentation writes it
+    head = (f"Levenberg-Marquardt stopped at epoch {int(info['epoch'])}: its damping mu passed "
+            f"mu_max = {mu_text} (MATLAB trainlm's 'Maximum MU reached') without a step that "
+            "lowered the training error")
+    causes = []
+    if info["not_solved"]:
+        big = info["jtj_max"] * np.finfo(np.float64).eps > mu_max
+        causes.append((int(info["not_solved"]), (
+            "could not be solved (J^T J + mu I not positive definite in float64; the largest "
+            f"diagonal entry of J^T J is {info['jtj_max']:.2g}"
+            + (", so even mu_max is below its rounding error: the output's sensitivity to the "
+               "weights is enormous" if big else "") + ")")))
+    if info["not_finite"]:
+        causes.append((int(info["not_finite"]), "gave a non-finite training error (for an NOE: "
+                                                "a simulation beyond its stability bound)"))
+    if info["worse"]:
+        causes.append((int(info["worse"]), (
+            f"raised it, down to the shortest step, of norm {info['shortest_step']:.2g} "
+            f"(gradient norm {info['grad']:.2g}): a minimum to within rounding, or an error "
+            "rougher than its linearisation")))
+    best = int(info["best_epoch"])
+    if not info.get("validation", 1.0):
+        kept = "the last parameters are kept (no validation record)"
+    elif best == 0:
+        kept = "the initial parameters are kept (best on validation at epoch 0)"
+    else:
+        kept = f"the parameters of epoch {best} are kept (best on validation)"
+    if not causes:
+        return f"{head}; {kept}."
+    if len(causes) == 1:
+        what = causes[0][1]
+        if what.startswith("could not"):  # "none could be solved", not "all could not"
+            tried = f"None of the {n} trial steps" if n > 1 else "The one trial step"
+            what = what.replace("could not", "could", 1) if n > 1 else what
+        else:
+            tried = f"All {n} trial steps" if n > 1 else "The one trial step"
+        return f"{head}. {tried} {what}; {kept}."
+    listed = "; ".join(f"{k} {text}" for k, text in causes)
+    return f"{head}. Of {n} trial steps, {listed}; {kept}."

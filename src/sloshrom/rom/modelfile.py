@@ -150,6 +150,8 @@ MIN_SPAN = 1e-100
 MAX_PARAM = 1e50
 #: Longest name, unit, version or stop-reason string, characters.
 MAX_TEXT = 64
+#: Longest explanation of a training's stop (``history.stop_message``), characters.
+MAX_MESSAGE = 2000
 
 
 def check_file_limits(max_delay: int, neurons: int, n_inputs: int, members: int = 1) -> None:
@@ -292,6 +294,7 @@ def _delays_value(v: Any) -> int | list[int]:
 Text = Annotated[str, StringConstraints(min_length=1, max_length=MAX_TEXT),
                  AfterValidator(_printable)]
 Unit = Annotated[str, StringConstraints(max_length=MAX_TEXT), AfterValidator(_printable)]
+Message = Annotated[str, StringConstraints(max_length=MAX_MESSAGE), AfterValidator(_printable)]
 Bound = Annotated[float, Field(allow_inf_nan=False, ge=-MAX_ABS, le=MAX_ABS)]
 HistoryList = Annotated[list[Annotated[float | None, PlainValidator(_number_or_null)]],
                         Field(max_length=MAX_EPOCHS + 1)]
@@ -380,6 +383,7 @@ class _History(_Strict):
     step_seconds: HistoryList | None = None
     validation_seconds: HistoryList | None = None
     stop_reason: Unit | None = None
+    stop_message: Message | None = None
     best_epoch: Annotated[int, Field(ge=0, le=MAX_EPOCHS)] | None = None
     trainer: Literal["fast", "lm", "adam", "shooting"] | None = None
     n_rows: Annotated[int, Field(ge=0, le=10**12)] | None = None

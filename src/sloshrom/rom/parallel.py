@@ -67,7 +67,8 @@ if TYPE_CHECKING:
 
 __all__ = ["BUSY_ABOVE", "BUSY_INTERVAL", "BusyCoresNote", "CoreReservation", "Placement",
            "THREAD_VARIABLES", "busy_fractions", "can_pin", "held_cores", "measure_busy",
-           "pin_workers", "place_workers", "plan_workers", "reserve_cores", "run_tasks",
+           "pin_workers", "place_workers", "plan_workers", "quiet_worker", "reserve_cores",
+           "run_tasks",
            "runtime_dir", "stat_times", "usable_cores", "worker_environ"]
 
 T = TypeVar("T")
@@ -522,6 +523,27 @@ def pin_workers(client: Any, cores: Sequence[int]) -> dict[str, int]:
         The core of each worker (by address).
     """
     return client.run(_pin_this_process, list(cores))
+
+
+def quiet_worker(parent: int | None, *categories: type[Warning]) -> None:
+    """In a process other than ``parent``, ignore warnings of ``categories`` for good.
+
+    For a task of :func:`run_tasks` whose warnings its caller says once, from the results, in
+    its own process (``parent``: that process's id, passed in the task's arguments). A Dask
+    worker process would otherwise print each one raw; in the caller's process (``"threads"``,
+    ``"sequential"``) nothing is changed: the caller filters there, in its own thread, since a
+    filter set and restored in each task would race between threads.
+
+    Parameters
+    ----------
+    parent : int or None
+        Process id of the caller of :func:`run_tasks`; None: change nothing.
+    *categories : type of Warning
+        The warnings to ignore in this process.
+    """
+    if parent is not None and os.getpid() != parent:
+        for category in categories:
+            warnings.filterwarnings("ignore", category=category)
 
 
 def run_tasks(

@@ -16,7 +16,9 @@ import csv
 import io
 import json
 import math
+import os
 import time
+import warnings
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
@@ -24,9 +26,9 @@ from typing import Any
 import numpy as np
 
 from sloshrom.fileio import atomic_write_text
-from sloshrom.rom.errors import ROMError
+from sloshrom.rom.errors import ROMError, TrainingWarning
 from sloshrom.rom.estimators import NFIR, NOE, UnstableModelError
-from sloshrom.rom.parallel import run_tasks
+from sloshrom.rom.parallel import quiet_worker, run_tasks
 
 __all__ = ["SWEEP_FIGURE", "SWEEP_TABLES", "fit_point", "point_name", "run_sweep",
            "sweep_grid", "write_table"]
@@ -75,8 +77,13 @@ def fit_point(
     fs: float,
     out_dir: str,
     options: dict[str, Any],
+    parent: int | None = None,
 ) -> dict[str, Any]:
-    """Train (or resume from disk) one grid point; returns its result row."""
+    """Train (or resume from disk) one grid point; returns its result row.
+
+    ``parent``: the process id of :func:`run_sweep`'s caller (a :class:`TrainingWarning` is
+    not shown in a worker process: the row's ``stop_reason`` says it)."""
+    quiet_worker(parent, TrainingWarning)
     arch, delays, neurons = point
     name = point_name(arch, delays, neurons)
     out = Path(out_dir)
@@ -148,9 +155,14 @@ def run_sweep(
     # the longest trainings first (the NOE's Levenberg-Marquardt, then the largest NFIRs): the
     # workers then finish together instead of one waiting on the last long point
     pts.sort(key=lambda p: (p[0] != "noe", -p[1] * p[2]))
-    rows = run_tasks(fit_point, pts, shared=(train, validation), args=(float(fs), str(out), opts),
-                     scheduler=scheduler, n_workers=n_workers,
-                     done=None if progress is None else lambda _i, row: progress(row))
+    with warnings.catch_warnings():
+        # a grid point at mu_max is a row of the table (its stop_reason), not a warning per
+        # point; set in this thread, which the "threads" scheduler's workers read
+        warnings.simplefilter("ignore", TrainingWarning)
+        rows = run_tasks(fit_point, pts, shared=(train, validation),
+                         args=(float(fs), str(out), opts, os.getpid()), scheduler=scheduler,
+                         n_workers=n_workers,
+                         done=None if progress is None else lambda _i, row: progress(row))
     rows.sort(key=lambda r: (r["score"], r["name"]))
     write_table(rows, out)
     return rows

@@ -52,6 +52,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from collections.abc import Callable
 from functools import partial
 from typing import Any
@@ -64,8 +65,8 @@ import optax
 from sloshrom._x64 import float64
 from sloshrom.limits import TRAINERS
 from sloshrom.rom.engine import AdamProblem, adam_epochs
-from sloshrom.rom.errors import ROMError, UnstableModelError
-from sloshrom.rom.lm import LMProblem, LMResult, levenberg_marquardt
+from sloshrom.rom.errors import ROMError, TrainingWarning, UnstableModelError
+from sloshrom.rom.lm import LMProblem, LMResult, levenberg_marquardt, stop_message
 from sloshrom.rom.losses import (
     MAX_CYCLE,
     TRAIN_DTYPE,
@@ -120,6 +121,7 @@ __all__ = [
     "harmonic_probes",
     "init_theta",
     "levenberg_marquardt",
+    "mu_max_message",
     "nfir_problem",
     "nfir_validation",
     "noe_shoot",
@@ -841,7 +843,8 @@ def train(
     history : dict
         JSON-serialisable: per-epoch ``train_mse``, ``val_mse`` (physical units squared),
         ``mu``, ``grad``, ``seconds``; ``stop_reason``, ``best_epoch``, ``trainer``,
-        ``n_rows``, ``train_seconds``.
+        ``n_rows``, ``train_seconds``; after a stop at mu_max, ``stop_message``
+        (:func:`mu_max_message`).
 
     Raises
     ------
@@ -849,6 +852,11 @@ def train(
         Unknown trainer, or a loss term with a trainer other than Adam.
     UnstableModelError
         An NOE unstable at its initial parameters.
+
+    Warns
+    -----
+    TrainingWarning
+        Levenberg-Marquardt stopped at mu_max (the text of ``stop_message``).
     """
     sc = scaler
     u_s, y_s = sc.u(u), sc.y(y)
@@ -948,4 +956,36 @@ def train(
         n_rows=int(rows.size),
         train_seconds=time.perf_counter() - t0,
     )
+    if res.stop_reason == "mu_max":
+        # not silent: the network kept may be no better than its initialisation
+        history["stop_message"] = mu_max_message(res.stop_info, spec.arch)
+        warnings.warn(TrainingWarning(history["stop_message"]), stacklevel=3)
     return res.theta, history
+
+
+def mu_max_message(info: dict[str, float], arch: str) -> str:
+    """:func:`~sloshrom.rom.lm.stop_message` of a network's stop at ``mu_max``, with what to
+    try.
+
+    Parameters
+    ----------
+    info : dict
+        :attr:`~sloshrom.rom.lm.LMResult.stop_info`.
+    arch : {"nfir", "noe"}
+        The network: for an NOE whose ``J^T J`` is beyond any damping, the cause is named (its
+        derivatives run through its closed loop over the whole record).
+
+    Returns
+    -------
+    str
+        One paragraph: the stop, its cause, the advice (trainer ``"adam"``, a smaller network,
+        another seed).
+    """
+    text = stop_message(info)
+    beyond = info.get("jtj_max", 0.0) * np.finfo(np.float64).eps > info.get("mu_max", math.inf)
+    if arch == "noe" and beyond:
+        text += (" The NOE's derivatives run through its fed-back outputs over the whole record "
+                 "and grow wherever the loop amplifies a change of its weights.")
+    how = ("multiple shooting on short sub-sequences" if arch == "noe" else "minibatch Adam")
+    return (f"{text} Try trainer 'adam' ({how}), fewer neurons or delays, or another seed "
+            "(an ensemble of seeds shows how much is the draw).")

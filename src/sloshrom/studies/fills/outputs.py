@@ -25,7 +25,9 @@ class FillsOutputs:
         :data:`~sloshrom.studies.fills.config.FILL_TARGETS`.
     members : dict
         Fill label (per cent) -> model file (relative to the output directory), ``main_rom``
-        and, for the members identified here, ``reused``, ``train_seconds`` (s), ``val_fit``.
+        and, for the members identified here, ``reused``, ``train_seconds`` (s), ``val_fit``
+        (%) and ``val_mse_members`` (an ensemble's: :func:`sloshrom.rom.ensemble.spread` of
+        its members' validation MSE, N^2; None or absent for a single network).
     family : str
         The family's manifest, relative to the output directory.
     maps : list of dict

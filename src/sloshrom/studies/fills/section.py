@@ -15,6 +15,7 @@ import numpy as np
 
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.html import Figure, Section, Table
+from sloshrom.rom.ensemble import spread_text
 from sloshrom.studies.fills.config import label as _pct
 from sloshrom.studies.fills.outputs import FillsOutputs
 
@@ -27,6 +28,19 @@ def _fmt(v: Any, scale: float = 100.0, fmt: str = "{:.2f}") -> str:
     except (TypeError, ValueError):
         return "n/a"
     return fmt.format(scale * x) if np.isfinite(x) else "n/a"
+
+
+def _member_text(v: Mapping[str, object]) -> str:
+    """How the family's member at one fill was identified: the main ROM, or its training time
+    and, for an ensemble, its networks' validation MSE (spread, N²)."""
+    if v["main_rom"]:
+        return "the main ROM"
+    text = f"trained in {_fmt(v['train_seconds'], scale=1.0, fmt='{:.0f}')} s"
+    spread = v.get("val_mse_members")
+    if isinstance(spread, dict) and len(spread.get("values", [])) > 1:
+        text += (f"; validation MSE of its {len(spread['values'])} networks "
+                 f"{spread_text(spread['values'], 'N²')}")
+    return text
 
 
 def fills_section(ctx: Context, outputs: FillsOutputs | Mapping[str, Any]) -> Section:
@@ -46,10 +60,7 @@ def fills_section(ctx: Context, outputs: FillsOutputs | Mapping[str, Any]) -> Se
                   ("ok" if abs(r["rom_vs_rig"]) <= t["damping"] else "MISS")
                   if r["unseen"] and np.isfinite(r["rom_vs_rig"]) else ""]
                  for r in o.beam_errors]
-    members = ", ".join(
-        f"{k} % (" + ("the main ROM" if v["main_rom"] else
-                      "trained in {:.0f} s".format(v["train_seconds"])) + ")"
-        for k, v in o.members.items())
+    members = ", ".join(f"{k} % ({_member_text(v)})" for k, v in o.members.items())
     s = o.seconds
     text = (
         "The paper ends with \"include different filling levels in the training process\". "

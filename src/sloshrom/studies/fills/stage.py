@@ -63,12 +63,13 @@ def stage_fills(ctx: Context, rom: StageResult, identify: Identify
     -------
     outputs : dict
         The record of :class:`~sloshrom.studies.fills.outputs.FillsOutputs`: ``family`` (the
-        manifest), ``members`` (fill -> model file, training seconds, whether
-        reused), ``maps`` (one row per fill: ``fill``, ``unseen``, the
-        :func:`sloshrom.energy.map_fidelity` figures of the family's map against the rig's at
-        that fill), ``damping`` (rows of case, fill, RMS level and the Table 2 estimators),
-        ``beam_errors`` (per unseen beam fill and level: the family's first-mode damping
-        relative to the rig's), ``targets`` and the wall times (s) of each part.
+        manifest), ``members`` (fill -> model file, training seconds, whether reused,
+        validation fit and, for an ensemble, its members' validation MSE), ``maps`` (one row
+        per fill: ``fill``, ``unseen``, the :func:`sloshrom.energy.map_fidelity` figures of
+        the family's map against the rig's at that fill), ``damping`` (rows of case, fill,
+        RMS level and the Table 2 estimators), ``beam_errors`` (per unseen beam fill and
+        level: the family's first-mode damping relative to the rig's), ``targets`` and the
+        wall times (s) of each part.
     files : list of str
         Relative to ``ctx.out``.
     """
@@ -97,7 +98,10 @@ def stage_fills(ctx: Context, rom: StageResult, identify: Identify
         info[_pct(f)] = {"model": ctx.rel(members[f]), "main_rom": False,
                          "reused": member.reused,
                          "train_seconds": member.outputs["train_seconds"],
-                         "val_fit": member.outputs["val_fit"]}
+                         "val_fit": member.outputs["val_fit"],
+                         # an ensemble at this fill ([beyond] fill_ensemble > 1): its members'
+                         # validation MSE, as the main ROM's (N^2, spread), else None
+                         "val_mse_members": member.outputs.get("val_mse_members")}
     timings["members"] = time.perf_counter() - t0
     out["members"] = info
     manifest = write_family(ctx.path("fills", "family.toml"), members)
