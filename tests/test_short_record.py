@@ -250,3 +250,14 @@ def test_the_registry_s_records_split_the_estimation_record():
     assert len(r["train"]) == 240 and len(r["validation"]) == 60 + HISTORY
     np.testing.assert_array_equal(r["validation"]["y"][:HISTORY], r["train"]["y"][-HISTORY:])
     np.testing.assert_array_equal(r["validation"]["u"][HISTORY:], r["estimation"]["u"][240:])
+
+
+def test_a_model_rebuilt_from_its_leaves_keeps_its_size():
+    import jax
+
+    u, y = _short()
+    m = NSS(max_epochs=0, units=("V", "V"), names=("u", "y")).fit(u, y, 1 / TS)
+    leaves, tree = jax.tree_util.tree_flatten(m)
+    back = jax.tree_util.tree_unflatten(tree, leaves)
+    assert back.effective_params()["n_states"] == 4 == back.spec.n_states
+    assert m.set_params(n_states=5).effective_params()["n_states"] == 5  # the user's, now

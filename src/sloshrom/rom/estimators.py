@@ -593,10 +593,14 @@ class NSS(_Estimator):
         return {**given, **mc.size(n_samples, given)}
 
     def _chosen_sizes(self) -> dict[str, int]:
-        chosen = getattr(self, "sized_", None)
-        if chosen is not None:
-            return dict(chosen)
-        return {k: v for k, v in self._sizes().items() if getattr(self, k) is None}
+        sizes = {**self._sizes(), **getattr(self, "sized_", {})}
+        if hasattr(self, "model_"):
+            # the network's own size: also for an estimator rebuilt from pytree leaves, which
+            # has no sized_
+            sp = self.model_.spec
+            sizes.update(n_states=sp.n_states, neurons=sp.neurons, window=sp.window)
+        # the hyperparameters still left to the record (a value set since is the user's)
+        return {k: v for k, v in sizes.items() if getattr(self, k) is None}
 
     def _check_hyperparameters(self, n_samples: int | None = None) -> StateSpaceSpec:
         mc = self.model_class
