@@ -4,20 +4,25 @@ The records are :func:`sloshrom.systems.tanks.cascaded_tanks` (1024 estimation a
 samples at Ts = 4 s, an overflowing upper tank, the test record far from rest). Each point of
 the sweep is an NSS trained on the estimation record's first 80 % (819 samples) with early
 stopping on its last 20 % (205 samples), the validation's state encoded from the
-``window`` training samples before it (the lead's ``validation_history``, or the same
-computation in :func:`fit_here` for the sweep's recipes), and scored on the test record: the state
-encoded from the test record's first ``window`` samples, the model simulated from there, the
-RMSE (V) over the samples from :data:`SCORED_FROM` on (the same samples for every window).
+``window`` training samples before it (``NSS.fit(..., validation_history=...)`` for the
+defaults, the same computation in :func:`fit_here` for the sweep's points, whose recipe
+``--set`` changes), and scored on the test record: the state encoded from the test record's
+first ``window`` samples, the model simulated from there, the RMSE (V) over the samples from
+:data:`SCORED_FROM` on (the same samples for every window).
 
 It prints one row per point (median and range over the seeds, the parameters, samples per
-parameter, epochs, seconds) and the timing. One training process at a time (the machine is
-shared); each training takes seconds to a minute.
+parameter, best epochs, seconds) and the timing. One training process at a time (the machine
+is shared); a training takes 10 s (the short recipe) to 4 min (the default recipe, loaded).
+The figures and what they say: docs/short-records.md.
 
 Usage::
 
-    PYTHONPATH=src .venv/bin/python benchmarks/short_record.py --grid sweep --seeds 0 1 2
-    PYTHONPATH=src .venv/bin/python benchmarks/short_record.py --grid default --seeds 0 1 2
-    ... --point 3,16,10 --out results.json   # n_states,neurons,window of one point
+    PYTHONPATH=src .venv/bin/python benchmarks/short_record.py --grid sweep   # stage 1
+    PYTHONPATH=src .venv/bin/python benchmarks/short_record.py --grid point --point 4,16,10 \
+        --set horizon=200 --set batch=128 --set steps_per_epoch=200           # one point
+    PYTHONPATH=src .venv/bin/python benchmarks/short_record.py --grid default  # the defaults
+    PYTHONPATH=src .venv/bin/python benchmarks/short_record.py --grid lss      # LSS reference
+    options: --seeds 0 1 2, --data-seed 1, --out rows.json (appended)
 """
 
 from __future__ import annotations
