@@ -13,7 +13,7 @@ first ``window`` samples, the model simulated from there, the RMSE (V) over the 
 It prints one row per point (median and range over the seeds, the parameters, samples per
 parameter, best epochs, seconds) and the timing. One training process at a time (the machine
 is shared); a training takes 10 s (the short recipe) to 4 min (the default recipe, loaded).
-The figures and what they say: docs/short-records.md.
+The figures and what they say: docs/rom.md, "Short records".
 
 Usage::
 
@@ -52,7 +52,7 @@ from sloshrom.systems.tanks import cascaded_tanks
 #: point is scored on the same samples whatever its window.
 SCORED_FROM = 50
 #: The best median test RMSE (V) of the sweep (data seed 0, seeds 0-2: NSS(4, 16, 10) with
-#: the default recipe; docs/short-records.md): the defaults must come within 20 % of it.
+#: the default recipe; docs/rom.md, "Short records"): the defaults must come within 20 % of it.
 BEST_SWEEP_RMSE = 0.0905
 #: The estimation record's share used for training; the rest validates (early stopping).
 TRAIN_SHARE = 0.8

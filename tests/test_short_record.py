@@ -2,7 +2,7 @@
 a long record, exactly; smaller on a short one; the user's values kept; a warning for a user's
 size far beyond the record), its weight decay, and (slow) the acceptance on the short record:
 the NSS with its defaults within 20 % of the best size of the sweep
-(benchmarks/short_record.py, docs/short-records.md)."""
+(benchmarks/short_record.py, docs/rom.md, "Short records")."""
 
 from __future__ import annotations
 
@@ -205,7 +205,7 @@ def test_weight_decay_is_a_registry_option_old_files_read_as_zero():
 def test_the_defaults_fit_a_short_record():
     """The NSS with every size option left out, on the short record (819 training samples):
     the median test RMSE over 3 seeds within 20 % of the sweep's best median
-    (docs/short-records.md), and well below the unsized defaults'."""
+    (docs/rom.md, "Short records"), and well below the unsized defaults'."""
     import importlib.util
     from pathlib import Path
 

@@ -282,3 +282,16 @@ def test_the_command_line_identifies_the_bouc_wen_benchmark(tmp_path):
         np.testing.assert_allclose(rmse[arch], np.sqrt(np.mean(e**2)), rtol=1e-3)
     assert rmse["nss"] < 4.5e-5, rmse
     assert rmse["lss"] > 3 * rmse["nss"], rmse
+
+
+def test_cascaded_tanks_command_writes_a_short_record_and_a_test_away_from_rest(tmp_path):
+    out = tmp_path / "ct"
+    res = runner.invoke(app, ["system", "cascaded-tanks", "--out", str(out), "--n", "300",
+                              "--seed", "2"])
+    assert res.exit_code == 0, res.output
+    recs = {stem: read_record(out / f"{stem}.nc") for stem in SYSTEMS["cascaded-tanks"].records}
+    assert all(r.units["u"] == "V" and r.units["y"] == "V" for r in recs.values())
+    assert len(recs["estimation"]) == len(recs["test"]) == 300
+    assert len(recs["train"]) == 240 and len(recs["validation"]) == 60 + 50
+    # the estimation record starts from empty tanks, the test record well above them
+    assert abs(recs["estimation"]["y"][0]) < 0.2 < 2.0 < recs["test"]["y"][0]

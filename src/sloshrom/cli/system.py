@@ -60,8 +60,16 @@ def _system(**kw: object) -> None:
     from rest with the benchmark's output noise (8e-3 mm RMS); validation.nc 2 periods of
     another; test.nc one period of a third, from rest, noiseless; test_steady.nc the same
     realisation's steady-state period (the benchmark's form of its test); sweep.nc the
-    benchmark's sine sweep (40 N, 18-52 Hz at 10 Hz/min, from rest). The same --seed gives the
-    same records.
+    benchmark's sine sweep (40 N, 18-52 Hz at 10 Hz/min, from rest).
+
+    cascaded-tanks: a short record, the cascaded tanks of Schoukens et al. (2016) simulated:
+    pump voltage u (V) in, the lower tank's level y (V) out, Ts = 4 s, both tanks overflowing
+    at 10 V, measurement noise --noise in V. train.nc holds the estimation record's first 819
+    samples (from empty tanks), validation.nc the last 205 preceded by 50 samples of measured
+    history (train with --history 50), test.nc 1,024 samples that start away from rest
+    (predict with --history).
+
+    The same --seed gives the same records.
 
     Example: sloshrom system bouc-wen --out bw/ then sloshrom train --data bw/train.nc
     --validation bw/validation.nc --arch nss --input force --output displacement --out

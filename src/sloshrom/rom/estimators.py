@@ -483,7 +483,7 @@ class NSS(_Estimator):
     **sized by the training record** (:meth:`sloshrom.rom.registry.ModelClass.size`, the rule
     :func:`sloshrom.rom.registry.nss_size`): from 100,000 samples on they are the defaults
     below, exactly (the sloshing records'); on a short record the network is smaller (on
-    1,000 samples and fewer: 4 states, 16 neurons, window 10; docs/short-records.md) and the
+    1,000 samples and fewer: 4 states, 16 neurons, window 10; docs/rom.md, "Short records") and the
     horizon is shortened only where the record is too short for it. A value given is kept; a
     size given with more than :data:`~sloshrom.rom.registry.OVERSIZE` times the rule's
     parameters is warned of (:class:`~sloshrom.rom.errors.ModelSizeWarning`). After

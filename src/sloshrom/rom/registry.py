@@ -543,11 +543,11 @@ OVERSIZE = 4.0
 #: neurons, window 50): the sloshing records they were sized for have 240,000.
 NSS_FULL_SIZE_SAMPLES = 100_000
 #: Training samples of the short-record anchor: the Cascaded Tanks sweep's 819
-#: (docs/short-records.md).
+#: (docs/rom.md, "Short records").
 NSS_SHORT_SAMPLES = 1_000
 #: The NSS's size on a record of :data:`NSS_SHORT_SAMPLES` samples or fewer: the best of the
-#: short-record sweep (benchmarks/short_record.py, docs/short-records.md). The shooting recipe
-#: (horizon 200, batch 128, 200 steps per epoch) stays: on the short record it was worth more
+#: short-record sweep (benchmarks/short_record.py, docs/rom.md, "Short records"). The shooting
+#: recipe (horizon 200, batch 128, 200 steps per epoch) stays: on the short record it was worth more
 #: than any smaller one.
 NSS_SHORT_SIZE: dict[str, int] = {"n_states": 4, "neurons": 16, "window": 10}
 

@@ -11,7 +11,8 @@ use, as :mod:`sloshrom.studies` does its studies: ``import sloshrom.systems`` (a
 ``sloshrom --help``) loads no numba.
 
 Modules: :mod:`~sloshrom.systems.boucwen` (the Bouc–Wen hysteretic benchmark of Noël &
-Schoukens, 2016).
+Schoukens, 2016) and :mod:`~sloshrom.systems.tanks` (the cascaded tanks of Schoukens, Mattsson,
+Wigren and Noël, 2016, simulated: a short record with a saturation).
 """
 
 from __future__ import annotations
@@ -103,5 +104,22 @@ _BOUC_WEN = System(
     names=("force", "displacement"),
 )
 
+_CASCADED_TANKS = System(
+    name="cascaded-tanks",
+    summary="a short record: the cascaded tanks (Schoukens et al. 2016) simulated, pump "
+            "voltage u (V) in, the lower tank's level y (V) out, Ts = 4 s, overflow at 10 V; "
+            "1,024 estimation samples, a test record that does not start at rest",
+    generator="sloshrom.systems.tanks:tank_records",
+    options=(
+        Option("n", 1024, "samples of the estimation and of the test record (the benchmark's "
+               "1024)", 256, 2**16),
+        Option("noise", 0.03, "standard deviation of the measurement noise, V", 0.0, 1.0),
+        Option("warmup", 256, "samples run before the test record starts (it starts away "
+               "from rest)", 0, 2**16),
+    ),
+    records=("train", "validation", "test", "estimation"),
+    names=("u", "y"),
+)
+
 #: Every system by its command-line name. A new system: one module and one entry here.
-SYSTEMS: dict[str, System] = {s.name: s for s in (_BOUC_WEN,)}
+SYSTEMS: dict[str, System] = {s.name: s for s in (_BOUC_WEN, _CASCADED_TANKS)}
