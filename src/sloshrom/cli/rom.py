@@ -567,6 +567,15 @@ def _spread_text(ens: Ensemble, mse: list[float], unit: str) -> str:
             + (f"; {bad} unstable on the validation record" if bad else ""))
 
 
+def _scored(val: Record, input_name: str, output_name: str, history: int
+            ) -> tuple[tuple[np.ndarray, np.ndarray] | None, np.ndarray, np.ndarray]:
+    """The validation record as the members were scored on it: its measured history (None
+    from rest), then the input and output after it."""
+    uv, yv = val[input_name], val[output_name]
+    past = (uv[:history], yv[:history]) if history else None
+    return past, uv[history:], yv[history:]
+
+
 def _train_ensemble(template: Any, k: int, rec: Any, val: Any, input_name: str,
                     output_name: str, out: Path, scheduler: str | None, workers: int,
                     fill: float | None, label: str, history: int = 0) -> None:
@@ -574,9 +583,7 @@ def _train_ensemble(template: Any, k: int, rec: Any, val: Any, input_name: str,
     ``label`` names the members' architecture (``NFIR(70, 35)``)."""
     ens = _fit_members(template, k, rec, val, input_name, output_name, scheduler, workers,
                        fill, label, history)
-    uv, yv = val[input_name], val[output_name]
-    past = (uv[:history], yv[:history]) if history else None
-    uv, yv = uv[history:], yv[history:]
+    past, uv, yv = _scored(val, input_name, output_name, history)
     unit = f"{rec.units[output_name]}^2"
     try:
         # NaN for a member unstable on the validation record: scored, not an error
@@ -605,9 +612,7 @@ def _train_seeds(template: Estimator, k: int, rec: Record, val: Record, input_na
     them)."""
     ens = _fit_members(template, k, rec, val, input_name, output_name, scheduler, workers,
                        fill, label, history)
-    uv, yv = val[input_name], val[output_name]
-    past = (uv[:history], yv[:history]) if history else None
-    uv, yv = uv[history:], yv[history:]
+    past, uv, yv = _scored(val, input_name, output_name, history)
     try:
         mse = [float(e) for e in ens.member_errors(uv, yv, history=past)]
         best = ens.best_member(uv, yv, history=past)
