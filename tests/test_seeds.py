@@ -220,14 +220,18 @@ def test_an_unstable_member_is_never_the_best(three_seeds, monkeypatch):
         three_seeds.best_member(uv, yv)
 
 
+def _tiny_seeds(train, val, out, *extra: str) -> list[str]:
+    """``train --seeds 2`` of a tiny NFIR on the plain MSE, in threads."""
+    return ["train", "--data", str(train), "--validation", str(val), "--delays", "3",
+            "--neurons", "4", "--max-epochs", "2", "--seeds", "2", "--scheduler", "threads",
+            "--amplitude-weighting", "0", "--passivity", "0", "--cycle-energy", "0",
+            "--out", str(out), *extra]
+
+
 def test_train_seeds_writes_the_best_single_model(smooth, tmp_path):
     train, val = smooth
     out = tmp_path / "best.npz"
-    res = runner.invoke(app, ["train", "--data", str(train), "--validation", str(val),
-                              "--delays", "3", "--neurons", "4", "--max-epochs", "2",
-                              "--seed", "3", "--seeds", "2", "--scheduler", "threads",
-                              "--amplitude-weighting", "0", "--passivity", "0",
-                              "--cycle-energy", "0", "--out", str(out)])
+    res = runner.invoke(app, _tiny_seeds(train, val, out, "--seed", "3"))
     assert res.exit_code == 0, res.output
     printed = {int(s): float(e) for s, e in
                re.findall(r"^seed (\d+): validation MSE ([\d.e+-]+) N\^2", res.output, re.M)}
@@ -398,11 +402,7 @@ def test_train_seeds_scores_after_the_validation_history(smooth, tmp_path):
     and is scored after them, as its early stopping was."""
     train, val = smooth
     out = tmp_path / "best.npz"
-    res = runner.invoke(app, ["train", "--data", str(train), "--validation", str(val),
-                              "--delays", "3", "--neurons", "4", "--max-epochs", "2",
-                              "--seeds", "2", "--history", "10", "--scheduler", "threads",
-                              "--amplitude-weighting", "0", "--passivity", "0",
-                              "--cycle-energy", "0", "--out", str(out)])
+    res = runner.invoke(app, _tiny_seeds(train, val, out, "--history", "10"))
     assert res.exit_code == 0, res.output
     assert "validation MSE (after 10 samples of history) over 2 seeds:" in res.output
     best = load_model(out)
