@@ -447,7 +447,9 @@ def _build_binary(root: Path) -> None:
                        "FMU's binary: install one (Debian/Ubuntu: apt install gcc), or export "
                        "a source-only FMU (--source-only) and build it where it runs")
     with tempfile.TemporaryDirectory(prefix="sloshrom-fmu-build-") as build:
-        options = {} if os.name == "nt" else {"CMAKE_C_STANDARD_LIBRARIES:STRING": "-lm"}
+        # only the fmi2 functions leave the shared library (sloshrom_model.h hides the rest too)
+        options = {} if os.name == "nt" else {"CMAKE_C_STANDARD_LIBRARIES:STRING": "-lm",
+                                              "CMAKE_C_VISIBILITY_PRESET:STRING": "hidden"}
         create_cmake_settings(root, build, cmake_options=options)
         source = Path(fmpy.__file__).parent / "c-code"
         for cmd in ([_cmake(), "-S", source.as_posix(), "-B", build],
@@ -460,8 +462,10 @@ def _build_binary(root: Path) -> None:
                                f"{tail}")
 
 
-def _guid(data_without_guid: str) -> str:
-    digest = hashlib.sha256(data_without_guid.encode()).hexdigest()
+def _guid(data_without_guid: str, identifier: str) -> str:
+    """The FMU's GUID: a digest of the model's data and its ``modelIdentifier`` (two exports of
+    one model under two names are two FMUs)."""
+    digest = hashlib.sha256((identifier + "\n" + data_without_guid).encode()).hexdigest()
     return "{" + str(uuid.uuid5(_NAMESPACE, digest)) + "}"
 
 
@@ -514,7 +518,7 @@ def export_fmu(model: Any, path: str | Path, *, binary: bool = True,
     if p.suffix.lower() != ".fmu":
         raise FMUError(f"an FMU file ends in .fmu, got {p.name}")
     identifier = model_identifier(p)
-    guid = _guid(model_data_source(model))
+    guid = _guid(model_data_source(model), identifier)
     sources = [*(n for n in FMU_SOURCES if n.endswith(".c")), _DATA_SOURCE]
     here = resources.files("sloshrom.rom") / "fmu_c"
     with tempfile.TemporaryDirectory(prefix="sloshrom-fmu-") as tmp:
@@ -524,9 +528,8 @@ def export_fmu(model: Any, path: str | Path, *, binary: bool = True,
         for name in FMU_SOURCES:
             (src / name).write_text((here / name).read_text(encoding="utf-8"), encoding="utf-8")
         (src / _DATA_SOURCE).write_text(model_data_source(model, guid), encoding="utf-8")
-        headers = Path(fmpy.__file__).parent / "c-code"
-        for name in _FMI_HEADERS:
-            shutil.copyfile(headers / name, src / name)
+        for name in _FMI_HEADERS:  # the standard's, honouring FMI2_FUNCTION_PREFIX
+            (src / name).write_bytes((here / name).read_bytes())
         (root / "modelDescription.xml").write_text(
             model_description(model, identifier, guid, sources), encoding="utf-8")
         if binary:

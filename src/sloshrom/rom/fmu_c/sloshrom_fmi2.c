@@ -15,11 +15,17 @@
  * Semantics at a communication point t_k = t_0 + k dt: the inputs are the tank's signals at t_k;
  * dynamic_force is the model's force at sample k (NFIR, NOE: from the past inputs only; NSS:
  * also from the input at t_k); fmi2DoStep(t_k, dt) moves the state to t_{k+1}. The state starts
- * at rest. The only communication step is the model's dt (fmi2DoStep refuses any other).
+ * at rest. The only communication step is the model's dt (fmi2DoStep refuses any other). The
+ * next communication point is the last one plus its step (FMI 2.0), within half a step: a
+ * master that adds up its clock (t += h) runs for ever, a skipped or repeated step is refused.
+ *
+ * The calls follow the FMI 2.0 co-simulation state machine (instantiated, initialization mode,
+ * stepping, terminated, error); a call its state does not allow is an fmi2Error with a logged
+ * message. Log categories: logStatusError, logStatusWarning and logAll (both), all on unless
+ * fmi2SetDebugLogging switches them off.
  *
  * This file is part of the sources that sloshrom writes into every FMU it exports.
  */
-#include <float.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -44,18 +50,30 @@
 #define VR_FILL_MAX 18
 #define VR_READS_ACCELERATION 19
 
-/* relative tolerance on the communication step and on the communication point (the master's
- * time may be accumulated with rounding; a skipped or repeated step is off by a whole dt) */
+/* relative tolerance on the communication step (the rounding of a master's step) */
 #define STEP_RTOL 1e-6
+/* a communication point within this fraction of the step of the next one is that one (a master's
+ * clock t += h carries rounding that grows with the steps; a skipped or repeated step is off by
+ * a whole step) */
+#define POINT_TOL 0.5
 
-enum { MODE_INSTANTIATED, MODE_INIT, MODE_STEP, MODE_TERMINATED, MODE_ERROR };
+/* the serialized FMU state: magic number, format version, the model's GUID, then the Snapshot */
+#define STATE_MAGIC 0x534c5354u /* "SLST" */
+#define STATE_VERSION 1u
+#define GUID_SIZE 64
+
+enum { MODE_INSTANTIATED, MODE_INIT, MODE_STEP, MODE_TERMINATED, MODE_ERROR, N_MODES };
+
+/* log categories (modelDescription.xml, LogCategories) */
+enum { LOG_ERROR = 1, LOG_WARNING = 2 };
 
 typedef struct {
     fmi2CallbackFunctions cb;
     char name[128];
-    int logging_on;
+    int log_on;               /* LOG_ERROR | LOG_WARNING: the categories logged */
     int mode;
     double t0;
+    double t_next;            /* s: the next communication point (the last one + its step) */
     long long k;              /* samples since t0 */
     double velocity, acceleration;
     int outputs_valid;
@@ -68,7 +86,10 @@ typedef struct {
 
 /* the part of the instance fmi2GetFMUstate saves, followed by the n_state doubles */
 typedef struct {
-    double t0;
+    unsigned int magic, version;
+    char guid[GUID_SIZE];
+    unsigned long long n_state;
+    double t0, t_next;
     long long k;
     double velocity, acceleration;
     long long n_outside;
@@ -80,7 +101,7 @@ static void logmsg(Instance *c, fmi2Status status, const char *category, const c
     char buf[1024];
     va_list ap;
     if (c == NULL || c->cb.logger == NULL) return;
-    if (status == fmi2OK && !c->logging_on) return;
+    if (!(c->log_on & (status == fmi2Warning ? LOG_WARNING : LOG_ERROR))) return;
     va_start(ap, fmt);
     vsnprintf(buf, sizeof buf, fmt, ap);
     va_end(ap);
@@ -125,11 +146,26 @@ static int outside(const Instance *c) {
     return SL_MODEL.has_envelope && (u < SL_MODEL.input_min || u > SL_MODEL.input_max);
 }
 
+static const char *const MODE_NAMES[N_MODES] = {
+    "instantiated (before fmi2EnterInitializationMode)", "initialization mode",
+    "stepping (after fmi2ExitInitializationMode)", "terminated", "error"};
+
+/* fmi2Error unless the instance is in one of the modes of the bit mask `allowed` (the FMI 2.0
+ * co-simulation state table) */
+#define IN(mode) (1 << (mode))
+static fmi2Status check_mode(Instance *c, int allowed, const char *function) {
+    char d[200];
+    if (allowed & IN(c->mode)) return fmi2OK;
+    snprintf(d, sizeof d, "%s is not allowed when the FMU is %s", function, MODE_NAMES[c->mode]);
+    return fail(c, "%s (FMI 2.0 co-simulation state machine)", d);
+}
+
 static void reset_state(Instance *c) {
     int j;
     for (j = 0; j < SL_MODEL.n_members; j++)
         sl_rest(&SL_MODEL.members[j], member_state(c, j), member_rest(c, j), scratch_of(c, j));
     c->k = 0;
+    c->t_next = c->t0;
     c->velocity = 0.0;
     c->acceleration = 0.0;
     c->outputs_valid = 0;
@@ -147,10 +183,12 @@ static fmi2Status compute_outputs(Instance *c) {
         const SlMember *m = &SL_MODEL.members[j];
         double *s = scratch_of(c, j);
         double y_s = sl_output(m, member_state(c, j), member_rest(c, j), u, s);
-        if (!(fabs(y_s) <= m->unstable_bound)) {
+        /* a closed loop (NOE, NSS) can run away; a feed-forward NFIR cannot: its output is
+         * bounded by its weights, however large the input (as the model's predict) */
+        if (!isfinite(y_s) || (m->arch != SL_NFIR && !(fabs(y_s) <= m->unstable_bound))) {
             char d[160];
-            snprintf(d, sizeof d, "member %d at t = %.6g s: scaled output %.6g", j,
-                     c->t0 + (double)c->k * SL_MODEL.dt, y_s);
+            snprintf(d, sizeof d, "member %d at t = %.6g s: scaled output %.6g", j, c->t_next,
+                     y_s);
             c->mode = MODE_ERROR;
             return fail(c, "simulation unstable: output non-finite or beyond the member's "
                            "stability bound (%s)", d);
@@ -172,10 +210,22 @@ const char *fmi2GetVersion(void) { return fmi2Version; }
 fmi2Status fmi2SetDebugLogging(fmi2Component comp, fmi2Boolean loggingOn, size_t n,
                                const fmi2String categories[]) {
     Instance *c = (Instance *)comp;
-    (void)n;
-    (void)categories;
+    int mask = 0;
+    size_t i;
     if (c == NULL) return fmi2Error;
-    c->logging_on = loggingOn ? 1 : 0;
+    if (n > 0 && categories == NULL) return fail(c, "%s", "fmi2SetDebugLogging: no categories");
+    for (i = 0; i < n; i++) {
+        const char *cat = categories[i];
+        if (cat != NULL && strcmp(cat, "logStatusError") == 0) mask |= LOG_ERROR;
+        else if (cat != NULL && strcmp(cat, "logStatusWarning") == 0) mask |= LOG_WARNING;
+        else if (cat != NULL && strcmp(cat, "logAll") == 0) mask |= LOG_ERROR | LOG_WARNING;
+        else
+            return fail(c, "fmi2SetDebugLogging: unknown log category '%s' (this FMU has "
+                           "logStatusError, logStatusWarning and logAll)",
+                        cat != NULL ? cat : "(null)");
+    }
+    if (n == 0) mask = LOG_ERROR | LOG_WARNING;  /* no categories: all of them */
+    c->log_on = loggingOn ? (c->log_on | mask) : (c->log_on & ~mask);
     return fmi2OK;
 }
 
@@ -206,7 +256,9 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     memset(c, 0, sizeof(Instance));
     c->cb = *functions;
     snprintf(c->name, sizeof c->name, "%s", instanceName ? instanceName : "sloshrom");
-    c->logging_on = loggingOn ? 1 : 0;
+    /* errors and warnings are what a master needs to see: logged unless switched off */
+    (void)loggingOn;
+    c->log_on = LOG_ERROR | LOG_WARNING;
     for (j = 0; j < SL_MODEL.n_members; j++) {
         n_state += sl_state_size(&SL_MODEL.members[j]);
         n_rest += sl_rest_size(&SL_MODEL.members[j]);
@@ -240,18 +292,17 @@ fmi2Status fmi2SetupExperiment(fmi2Component comp, fmi2Boolean toleranceDefined,
     (void)stopTimeDefined;
     (void)stopTime;
     if (c == NULL) return fmi2Error;
-    if (c->mode != MODE_INSTANTIATED)
-        return fail(c, "%s", "fmi2SetupExperiment is allowed only after fmi2Instantiate");
+    if (check_mode(c, IN(MODE_INSTANTIATED), "fmi2SetupExperiment") != fmi2OK) return fmi2Error;
     c->t0 = startTime;
+    c->t_next = startTime;
     return fmi2OK;
 }
 
 fmi2Status fmi2EnterInitializationMode(fmi2Component comp) {
     Instance *c = (Instance *)comp;
     if (c == NULL) return fmi2Error;
-    if (c->mode != MODE_INSTANTIATED)
-        return fail(c, "%s", "fmi2EnterInitializationMode is allowed only after "
-                             "fmi2Instantiate");
+    if (check_mode(c, IN(MODE_INSTANTIATED), "fmi2EnterInitializationMode") != fmi2OK)
+        return fmi2Error;
     c->mode = MODE_INIT;
     return fmi2OK;
 }
@@ -259,9 +310,7 @@ fmi2Status fmi2EnterInitializationMode(fmi2Component comp) {
 fmi2Status fmi2ExitInitializationMode(fmi2Component comp) {
     Instance *c = (Instance *)comp;
     if (c == NULL) return fmi2Error;
-    if (c->mode != MODE_INIT)
-        return fail(c, "%s", "fmi2ExitInitializationMode is allowed only in initialization "
-                             "mode");
+    if (check_mode(c, IN(MODE_INIT), "fmi2ExitInitializationMode") != fmi2OK) return fmi2Error;
     c->mode = MODE_STEP;
     return fmi2OK;
 }
@@ -269,6 +318,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component comp) {
 fmi2Status fmi2Terminate(fmi2Component comp) {
     Instance *c = (Instance *)comp;
     if (c == NULL) return fmi2Error;
+    if (check_mode(c, IN(MODE_STEP), "fmi2Terminate") != fmi2OK) return fmi2Error;
     c->mode = MODE_TERMINATED;
     return fmi2OK;
 }
@@ -276,8 +326,8 @@ fmi2Status fmi2Terminate(fmi2Component comp) {
 fmi2Status fmi2Reset(fmi2Component comp) {
     Instance *c = (Instance *)comp;
     if (c == NULL) return fmi2Error;
-    reset_state(c);
     c->t0 = 0.0;
+    reset_state(c);
     c->mode = MODE_INSTANTIATED;
     return fmi2OK;
 }
@@ -285,6 +335,9 @@ fmi2Status fmi2Reset(fmi2Component comp) {
 /* ---------------------------------------------------------------------------------------------
  * Variables
  * ------------------------------------------------------------------------------------------- */
+/* the modes fmi2Get* is allowed in (in initialization mode: the initial unknowns only) */
+#define GETTABLE (IN(MODE_INIT) | IN(MODE_STEP) | IN(MODE_TERMINATED) | IN(MODE_ERROR))
+
 static int known_parameter(fmi2ValueReference vr, double *value) {
     switch (vr) {
     case VR_TIME_STEP: *value = SL_MODEL.dt; return 1;
@@ -306,10 +359,18 @@ fmi2Status fmi2GetReal(fmi2Component comp, const fmi2ValueReference vr[], size_t
     Instance *c = (Instance *)comp;
     size_t i;
     if (c == NULL) return fmi2Error;
+    if (check_mode(c, GETTABLE, "fmi2GetReal") != fmi2OK) return fmi2Error;
     for (i = 0; i < nvr; i++) {
         switch (vr[i]) {
-        case VR_VELOCITY: value[i] = c->velocity; break;
-        case VR_ACCELERATION: value[i] = c->acceleration; break;
+        case VR_VELOCITY:
+        case VR_ACCELERATION:
+            /* initialization mode: the initial unknowns only (outputs, calculated
+             * parameters) */
+            if (c->mode == MODE_INIT)
+                return fail(c, "%s", "fmi2GetReal of an input is not allowed in initialization "
+                                     "mode (FMI 2.0 co-simulation state machine)");
+            value[i] = vr[i] == VR_VELOCITY ? c->velocity : c->acceleration;
+            break;
         case VR_FORCE:
             if (compute_outputs(c) != fmi2OK) return fmi2Error;
             value[i] = c->force;
@@ -330,6 +391,7 @@ fmi2Status fmi2GetInteger(fmi2Component comp, const fmi2ValueReference vr[], siz
     Instance *c = (Instance *)comp;
     size_t i;
     if (c == NULL) return fmi2Error;
+    if (check_mode(c, GETTABLE, "fmi2GetInteger") != fmi2OK) return fmi2Error;
     for (i = 0; i < nvr; i++) {
         if (vr[i] != VR_N_OUTSIDE) return fail(c, "%s", "no such Integer variable");
         value[i] = (fmi2Integer)(c->n_outside > 2147483647LL ? 2147483647LL : c->n_outside);
@@ -342,6 +404,7 @@ fmi2Status fmi2GetBoolean(fmi2Component comp, const fmi2ValueReference vr[], siz
     Instance *c = (Instance *)comp;
     size_t i;
     if (c == NULL) return fmi2Error;
+    if (check_mode(c, GETTABLE, "fmi2GetBoolean") != fmi2OK) return fmi2Error;
     for (i = 0; i < nvr; i++) {
         if (vr[i] == VR_READS_ACCELERATION)
             value[i] = SL_MODEL.reads_acceleration ? fmi2True : fmi2False;
@@ -365,6 +428,9 @@ fmi2Status fmi2SetReal(fmi2Component comp, const fmi2ValueReference vr[], size_t
     Instance *c = (Instance *)comp;
     size_t i;
     if (c == NULL) return fmi2Error;
+    if (check_mode(c, IN(MODE_INSTANTIATED) | IN(MODE_INIT) | IN(MODE_STEP), "fmi2SetReal")
+        != fmi2OK)
+        return fmi2Error;
     for (i = 0; i < nvr; i++) {
         if (vr[i] != VR_VELOCITY && vr[i] != VR_ACCELERATION)
             return fail(c, "%s", "only the inputs velocity and acceleration can be set (the "
@@ -406,23 +472,53 @@ fmi2Status fmi2SetString(fmi2Component comp, const fmi2ValueReference vr[], size
 /* ---------------------------------------------------------------------------------------------
  * FMU state
  * ------------------------------------------------------------------------------------------- */
+static size_t state_size(const Instance *c) {
+    return sizeof(Snapshot) + c->n_state * sizeof(double);
+}
+
+/* NULL if `s` (of `size` bytes) is a state of this model, else why not */
+static const char *foreign_state(const Instance *c, const Snapshot *s, size_t size) {
+    const double *x = (const double *)(const void *)(s + 1);
+    size_t i;
+    if (size < sizeof(Snapshot) || s->magic != STATE_MAGIC)
+        return "not an FMU state of a sloshrom FMU (no header: corrupt or truncated)";
+    if (s->version != STATE_VERSION) return "an FMU state of another format version";
+    if (memchr(s->guid, 0, GUID_SIZE) == NULL || strcmp(s->guid, SL_MODEL.guid) != 0)
+        return "an FMU state of another model (its GUID differs)";
+    if (s->n_state != c->n_state || size != state_size(c))
+        return "an FMU state of the wrong size (corrupt or truncated)";
+    if (s->mode < 0 || s->mode >= N_MODES || s->k < 0 || s->n_outside < 0
+        || !isfinite(s->t0) || !isfinite(s->t_next) || !isfinite(s->velocity)
+        || !isfinite(s->acceleration))
+        return "a corrupt FMU state (values out of range)";
+    for (i = 0; i < c->n_state; i++)
+        if (!isfinite(x[i])) return "a corrupt FMU state (a non-finite state value)";
+    return NULL;
+}
+
 fmi2Status fmi2GetFMUstate(fmi2Component comp, fmi2FMUstate *state) {
     Instance *c = (Instance *)comp;
     Snapshot *s;
     if (c == NULL || state == NULL) return fmi2Error;
     s = (Snapshot *)*state;
     if (s == NULL) {
-        s = (Snapshot *)c->cb.allocateMemory(1, sizeof(Snapshot) + c->n_state * sizeof(double));
+        s = (Snapshot *)c->cb.allocateMemory(1, state_size(c));
         if (s == NULL) return fail(c, "%s", "out of memory");
     }
+    memset(s, 0, sizeof(Snapshot));
+    s->magic = STATE_MAGIC;
+    s->version = STATE_VERSION;
+    snprintf(s->guid, GUID_SIZE, "%s", SL_MODEL.guid);
+    s->n_state = c->n_state;
     s->t0 = c->t0;
+    s->t_next = c->t_next;
     s->k = c->k;
     s->velocity = c->velocity;
     s->acceleration = c->acceleration;
     s->n_outside = c->n_outside;
     s->mode = c->mode;
     s->warned_envelope = c->warned_envelope;
-    memcpy((char *)s + sizeof(Snapshot), c->mem, c->n_state * sizeof(double));
+    memcpy(s + 1, c->mem, c->n_state * sizeof(double));
     *state = s;
     return fmi2OK;
 }
@@ -430,15 +526,20 @@ fmi2Status fmi2GetFMUstate(fmi2Component comp, fmi2FMUstate *state) {
 fmi2Status fmi2SetFMUstate(fmi2Component comp, fmi2FMUstate state) {
     Instance *c = (Instance *)comp;
     const Snapshot *s = (const Snapshot *)state;
-    if (c == NULL || s == NULL) return fmi2Error;
+    const char *why;
+    if (c == NULL) return fmi2Error;
+    if (s == NULL) return fail(c, "%s", "fmi2SetFMUstate: no state (NULL)");
+    why = foreign_state(c, s, state_size(c));
+    if (why != NULL) return fail(c, "fmi2SetFMUstate refuses %s", why);
     c->t0 = s->t0;
+    c->t_next = s->t_next;
     c->k = s->k;
     c->velocity = s->velocity;
     c->acceleration = s->acceleration;
     c->n_outside = s->n_outside;
     c->mode = s->mode;
     c->warned_envelope = s->warned_envelope;
-    memcpy(c->mem, (const char *)s + sizeof(Snapshot), c->n_state * sizeof(double));
+    memcpy(c->mem, s + 1, c->n_state * sizeof(double));
     c->outputs_valid = 0;
     return fmi2OK;
 }
@@ -455,16 +556,24 @@ fmi2Status fmi2SerializedFMUstateSize(fmi2Component comp, fmi2FMUstate state, si
     Instance *c = (Instance *)comp;
     (void)state;
     if (c == NULL || size == NULL) return fmi2Error;
-    *size = sizeof(Snapshot) + c->n_state * sizeof(double);
+    *size = state_size(c);
     return fmi2OK;
 }
 
+/* the serialized state is the snapshot itself, header first (magic number, format version,
+ * GUID): the bytes of this platform's doubles */
 fmi2Status fmi2SerializeFMUstate(fmi2Component comp, fmi2FMUstate state, fmi2Byte bytes[],
                                  size_t size) {
     Instance *c = (Instance *)comp;
-    if (c == NULL || state == NULL) return fmi2Error;
-    if (size != sizeof(Snapshot) + c->n_state * sizeof(double))
-        return fail(c, "%s", "serialized FMU state of the wrong size");
+    const char *why;
+    if (c == NULL) return fmi2Error;
+    if (state == NULL || bytes == NULL)
+        return fail(c, "%s", "fmi2SerializeFMUstate: no state or no buffer (NULL)");
+    if (size != state_size(c))
+        return fail(c, "%s", "fmi2SerializeFMUstate: a buffer of the wrong size (ask "
+                             "fmi2SerializedFMUstateSize)");
+    why = foreign_state(c, (const Snapshot *)state, size);
+    if (why != NULL) return fail(c, "fmi2SerializeFMUstate refuses %s", why);
     memcpy(bytes, state, size);
     return fmi2OK;
 }
@@ -472,14 +581,24 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component comp, fmi2FMUstate state, fmi2Byt
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component comp, const fmi2Byte bytes[], size_t size,
                                    fmi2FMUstate *state) {
     Instance *c = (Instance *)comp;
-    if (c == NULL || state == NULL) return fmi2Error;
-    if (size != sizeof(Snapshot) + c->n_state * sizeof(double))
-        return fail(c, "%s", "serialized FMU state of the wrong size (another model?)");
-    if (*state == NULL) {
-        *state = c->cb.allocateMemory(1, size);
-        if (*state == NULL) return fail(c, "%s", "out of memory");
+    const char *why;
+    void *copy;
+    if (c == NULL) return fmi2Error;
+    if (state == NULL || bytes == NULL)
+        return fail(c, "%s", "fmi2DeSerializeFMUstate: no bytes or no state (NULL)");
+    if (size < sizeof(Snapshot))
+        return fail(c, "fmi2DeSerializeFMUstate refuses %s", "a truncated FMU state (shorter "
+                    "than its header)");
+    copy = c->cb.allocateMemory(1, size);  /* aligned for the doubles, unlike `bytes` */
+    if (copy == NULL) return fail(c, "%s", "out of memory");
+    memcpy(copy, bytes, size);
+    why = foreign_state(c, (const Snapshot *)copy, size);
+    if (why != NULL) {
+        c->cb.freeMemory(copy);
+        return fail(c, "fmi2DeSerializeFMUstate refuses %s", why);
     }
-    memcpy(*state, bytes, size);
+    if (*state != NULL) c->cb.freeMemory(*state);
+    *state = copy;
     return fmi2OK;
 }
 
@@ -522,15 +641,16 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component comp, const fmi2ValueRefer
 fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real t, fmi2Real h,
                       fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
     Instance *c = (Instance *)comp;
-    double expected, u;
+    double u;
     char d[256];
     int j;
+    fmi2Status status = fmi2OK;
     (void)noSetFMUStatePriorToCurrentPoint;
     if (c == NULL) return fmi2Error;
-    if (c->mode != MODE_STEP)
-        return fail(c, "%s", c->mode == MODE_ERROR
-                                 ? "the FMU is in an error state (see the earlier message)"
-                                 : "fmi2DoStep is allowed only after initialization");
+    if (c->mode == MODE_ERROR)
+        return fail(c, "%s", "fmi2DoStep: the FMU is in an error state (see the earlier "
+                             "message; fmi2Reset or fmi2SetFMUstate to go on)");
+    if (check_mode(c, IN(MODE_STEP), "fmi2DoStep") != fmi2OK) return fmi2Error;
     if (!(fabs(h - SL_MODEL.dt) <= STEP_RTOL * SL_MODEL.dt)) {
         snprintf(d, sizeof d, "%.17g s is not the model's step %.17g s (%.10g Hz)", h,
                  SL_MODEL.dt, 1.0 / SL_MODEL.dt);
@@ -538,9 +658,10 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real t, fmi2Real h,
                        "rate; use it as the communication step (a rate transition in front of "
                        "and behind the FMU if the rest of the model runs at another rate)", d);
     }
-    expected = c->t0 + (double)c->k * SL_MODEL.dt;
-    if (!(fabs(t - expected) <= STEP_RTOL * SL_MODEL.dt + 4.0 * DBL_EPSILON * fabs(expected))) {
-        snprintf(d, sizeof d, "%.17g s, but the FMU is at %.17g s", t, expected);
+    /* the next point is the last one plus its step (FMI 2.0): compared with the FMU's own
+     * clock, the rounding of a master's t += h would grow with the steps taken */
+    if (!(fabs(t - c->t_next) < POINT_TOL * SL_MODEL.dt)) {
+        snprintf(d, sizeof d, "%.17g s, but the FMU is at %.17g s", t, c->t_next);
         return fail(c, "communication point %s: steps must follow one another (restore a "
                        "saved FMU state to go back)", d);
     }
@@ -558,6 +679,7 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real t, fmi2Real h,
                    "samples_outside_envelope counts such samples", d);
             c->warned_envelope = 1;
         }
+        status = fmi2Warning;  /* the step is taken; its force is an extrapolation */
     }
     for (j = 0; j < SL_MODEL.n_members; j++) {
         const SlMember *m = &SL_MODEL.members[j];
@@ -565,8 +687,9 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real t, fmi2Real h,
         sl_advance(m, member_state(c, j), member_rest(c, j), u, s[sl_scratch_size(m)], s);
     }
     c->k++;
+    c->t_next = t + h;
     c->outputs_valid = 0;
-    return fmi2OK;
+    return status;
 }
 
 fmi2Status fmi2CancelStep(fmi2Component comp) {
@@ -582,7 +705,7 @@ fmi2Status fmi2GetStatus(fmi2Component comp, const fmi2StatusKind s, fmi2Status 
 fmi2Status fmi2GetRealStatus(fmi2Component comp, const fmi2StatusKind s, fmi2Real *value) {
     Instance *c = (Instance *)comp;
     if (c != NULL && s == fmi2LastSuccessfulTime && value != NULL) {
-        *value = c->t0 + (double)c->k * SL_MODEL.dt;
+        *value = c->t_next;
         return fmi2OK;
     }
     return fail(c, "%s", "no such status");

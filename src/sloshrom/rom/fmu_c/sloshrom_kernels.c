@@ -9,6 +9,20 @@
 #include <math.h>
 #include "sloshrom_model.h"
 
+/* Linux: bind exp to its oldest glibc version, so that the binary loads on every glibc since
+ * 2.17 (the manylinux2014 baseline: RHEL 7/8, Ubuntu 18.04, SLES 12). glibc 2.29 gave exp a new
+ * default version (exp@GLIBC_2.29) that only drops the SVID error handling: the same result
+ * for every finite argument. tanh, and the rest of what the FMU calls, is older than 2.17. */
+#if defined(__GLIBC__) && defined(__GNUC__)
+#if defined(__x86_64__) && !defined(__ILP32__)
+__asm__(".symver exp,exp@GLIBC_2.2.5");
+#elif defined(__aarch64__)
+__asm__(".symver exp,exp@GLIBC_2.17");
+#elif defined(__i386__)
+__asm__(".symver exp,exp@GLIBC_2.0");
+#endif
+#endif
+
 static double scale_u(const SlMember *m, double u) {
     return 2.0 * (u - m->in_min) / (m->in_max - m->in_min) - 1.0;
 }

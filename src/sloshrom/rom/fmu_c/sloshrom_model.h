@@ -23,6 +23,33 @@
 
 #include <stddef.h>
 
+/* The internal names (the model's data, the kernels) are private to the FMU: hidden from the
+ * shared library's dynamic symbol table (two sloshrom FMUs loaded into one process with
+ * RTLD_GLOBAL each keep their own model), and prefixed like the fmi2 functions when the sources
+ * are compiled with FMI2_FUNCTION_PREFIX (several source FMUs linked into one program). Only
+ * the fmi2 functions are exported (FMI2_Export, fmi2Functions.h). */
+#if defined(FMI2_FUNCTION_PREFIX)
+#define SL_PASTE_(a, b) a##b
+#define SL_PASTE(a, b) SL_PASTE_(a, b)
+#define SL_NAME(name) SL_PASTE(FMI2_FUNCTION_PREFIX, name)
+#else
+#define SL_NAME(name) name
+#endif
+#if defined(__GNUC__) && !defined(_WIN32) && !defined(__CYGWIN__)
+#define SL_INTERNAL __attribute__((visibility("hidden")))
+#else
+#define SL_INTERNAL
+#endif
+
+#define SL_MODEL SL_NAME(SL_MODEL)
+#define sl_state_size SL_NAME(sl_state_size)
+#define sl_rest_size SL_NAME(sl_rest_size)
+#define sl_scratch_size SL_NAME(sl_scratch_size)
+#define sl_rest SL_NAME(sl_rest)
+#define sl_output SL_NAME(sl_output)
+#define sl_advance SL_NAME(sl_advance)
+#define sl_unscale SL_NAME(sl_unscale)
+
 #define SL_NFIR 0
 #define SL_NOE 1
 #define SL_NSS 2
@@ -62,23 +89,23 @@ typedef struct {
     double acceleration_max, frequency_min, frequency_max, fill_min, fill_max;
 } SlModel;
 
-extern const SlModel SL_MODEL;
+extern SL_INTERNAL const SlModel SL_MODEL;
 
 /* doubles of state, of rest terms (constants of the NSS) and of scratch one member needs */
-size_t sl_state_size(const SlMember *m);
-size_t sl_rest_size(const SlMember *m);
-size_t sl_scratch_size(const SlMember *m);
+SL_INTERNAL size_t sl_state_size(const SlMember *m);
+SL_INTERNAL size_t sl_rest_size(const SlMember *m);
+SL_INTERNAL size_t sl_scratch_size(const SlMember *m);
 /* the state at rest, and the member's rest terms */
-void sl_rest(const SlMember *m, double *state, double *rest, double *scratch);
+SL_INTERNAL void sl_rest(const SlMember *m, double *state, double *rest, double *scratch);
 /* scaled output at the current sample from the state and the current input u (physical) */
-double sl_output(const SlMember *m, const double *state, const double *rest, double u,
-                 double *scratch);
+SL_INTERNAL double sl_output(const SlMember *m, const double *state, const double *rest,
+                             double u, double *scratch);
 /* advance the state by one sample, given the current input u (physical) and the scaled output
  * y_s that sl_output gave for it; call it right after that sl_output, with the same scratch
  * (the NSS reuses its map F from there) */
-void sl_advance(const SlMember *m, double *state, const double *rest, double u, double y_s,
-                double *scratch);
+SL_INTERNAL void sl_advance(const SlMember *m, double *state, const double *rest, double u,
+                            double y_s, double *scratch);
 /* physical output from the scaled one */
-double sl_unscale(const SlMember *m, double y_s);
+SL_INTERNAL double sl_unscale(const SlMember *m, double y_s);
 
 #endif
