@@ -63,7 +63,7 @@ def onnx_cmd(
         fail(f"MODEL {model}: {why}")
     if not model.is_file():
         fail(f"model file not found: {model}")
-    check_out(out, suffixes=(".onnx",), inputs=(model,), what="OUT")
+    _check_out_file(out, (".onnx",), model)
     from sloshrom.rom.estimators import load_model
     from sloshrom.rom.onnx import check_exportable, export_onnx, run_onnx
 
@@ -93,6 +93,16 @@ def onnx_cmd(
     if check:
         msg += f"; onnxruntime vs sloshrom on {u.size} samples: max rel. difference {rel[0]:.2e}"
     typer.echo(msg)
+
+
+def _check_out_file(out: Path, suffixes: tuple[str, ...], model: Path) -> None:
+    """:func:`check_out` for an export's OUT, and an existing OUT must be a regular file: the
+    export replaces it by renaming, which would silently turn a named pipe (or a device) that
+    another program reads into a file."""
+    check_out(out, suffixes=suffixes, inputs=(model,), what="OUT")
+    why = not_a_regular_file(out)
+    if why is not None:
+        fail(f"OUT {out}: {why}")
 
 
 def _check_input(rom: Any) -> np.ndarray:
@@ -148,7 +158,7 @@ def fmu_cmd(
     if step is not None:
         check_number(step, "--step", 0.0, lo_open=True, unit="s")
     check_input(model, "MODEL")
-    check_out(out, suffixes=(".fmu",), inputs=(model,), what="OUT")
+    _check_out_file(out, (".fmu",), model)
     from sloshrom.rom.estimators import load_model
     from sloshrom.rom.fmu import (
         STEP_RTOL,
@@ -180,9 +190,12 @@ def fmu_cmd(
                      f"{out} not written")
             if source_only:
                 return
-            fmu = load_fmu(tmp)
+            fmu = load_fmu(tmp, name=out.name)  # its messages name OUT, not the temporary
             try:
                 y = fmu.predict(u)
+            except SloshromError as exc:
+                fail(f"MODEL {model}: its FMU fails on the check input ({exc}); {out} not "
+                     "written")
             finally:
                 fmu.close()
             ref = np.asarray(rom.predict(u))
@@ -194,6 +207,9 @@ def fmu_cmd(
         export_fmu(rom, out, binary=not source_only, verify=verify if check else None)
     except SloshromError as exc:
         fail(str(exc))
+    except OSError as exc:  # the disk: full, a file-size limit (EFBIG), ...; OUT as it was
+        fail(f"OUT {out}: not written ({exc.strerror or exc}); a previous {out.name} is left "
+             "as it was")
     what = (f"{len(nets)} x {rom.member_class}" if len(nets) > 1 else type(rom).__name__)
     msg = (f"wrote {out}: {what}, {1 / dt:g} Hz (communication step {dt:.10g} s), "
            + ("sources only" if source_only else f"binary for {fmu_platform()} + sources"))

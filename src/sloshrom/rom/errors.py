@@ -14,8 +14,8 @@ from sloshrom.errors import SloshromError
 # defined once, beside the model contract, for every sloshing model; re-exported here
 from sloshrom.models import EnvelopeWarning
 
-__all__ = ["EnvelopeWarning", "FillRangeError", "ModelSizeWarning", "NotFittedError", "ROMError",
-           "TrainingWarning", "UnstableModelError"]
+__all__ = ["EnvelopeWarning", "FeedthroughWarning", "FillRangeError", "ModelSizeWarning",
+           "NotFittedError", "ROMError", "TrainingWarning", "UnstableModelError"]
 
 
 class ROMError(SloshromError):
@@ -53,6 +53,13 @@ class TrainingWarning(UserWarning):
     ``history_`` (``stop_reason``, ``stop_message``). The command line prints it as one
     ``warning: ...`` line.
     """
+
+
+class FeedthroughWarning(UserWarning):
+    """An exported model (an FMU) has direct feed-through: its force at a communication point
+    reads the input of that point. A co-simulation master that reads the outputs before it
+    sets the inputs gets the force one input late, and a feedback coupling through it is an
+    algebraic loop. The command line prints it as one ``warning: ...`` line."""
 
 
 class ModelSizeWarning(UserWarning):

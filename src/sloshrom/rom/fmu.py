@@ -57,7 +57,9 @@ import re
 import shutil
 import subprocess
 import tempfile
+import time
 import uuid
+import warnings
 import zipfile
 from collections.abc import Callable, Sequence
 from importlib import resources
@@ -76,14 +78,14 @@ from sloshrom.models import (
     input_of,
 )
 from sloshrom.rom.ensemble import is_ensemble
-from sloshrom.rom.errors import ROMError
+from sloshrom.rom.errors import FeedthroughWarning, ROMError
 from sloshrom.rom.fmu_runtime import GENERATOR, FMUError, FMUModel, load_fmu
 from sloshrom.rom.network import FittedNetwork, network_of
 from sloshrom.rom.registry import CLASSES
 
-__all__ = ["FMU_SOURCES", "STEP_RTOL", "VR", "FMUError", "FMUModel", "check_fmu_exportable",
-           "export_fmu", "fmu_platform", "load_fmu", "model_data_source", "model_description",
-           "model_identifier"]
+__all__ = ["FMU_SOURCES", "STALE_BUILD_AGE", "STEP_RTOL", "VR", "FMUError", "FMUModel",
+           "check_fmu_exportable", "export_fmu", "fmu_platform", "load_fmu", "model_data_source",
+           "model_description", "model_identifier", "remove_stale_builds"]
 
 #: the static C sources shipped in every FMU (package data of ``sloshrom.rom``)
 FMU_SOURCES = ("sloshrom_model.h", "sloshrom_kernels.c", "sloshrom_fmi2.c")
@@ -96,6 +98,10 @@ VR = {"velocity": 0, "acceleration": 1, "dynamic_force": 2, "outside_envelope": 
       "fill_min": 17, "fill_max": 18, "reads_acceleration": 19}
 #: relative tolerance of the FMU on its communication step (sloshrom_fmi2.c, STEP_RTOL)
 STEP_RTOL = 1e-6
+#: the build folders in the temporary directory: ``sloshrom-fmu-<pid>-...``
+_BUILD_PREFIX = "sloshrom-fmu-"
+#: s: a build folder of a process that is gone is removed once it is this old (a reused PID)
+STALE_BUILD_AGE = 600.0
 _NAMESPACE = uuid.UUID("5c1a3b5e-2f0d-4d0e-9a57-6f6d5e0a51f0")
 
 
@@ -218,8 +224,28 @@ def _description(model: Any, nets: Sequence[FittedNetwork]) -> str:
     arch = net.describe()
     what = f"ensemble of {len(nets)} {arch}" if len(nets) > 1 else arch
     kind = input_of(model)
-    return (f"sloshrom sloshing ROM, {what}, at {net.fs:.10g} Hz: tank vertical {kind} "
+    text = (f"sloshrom sloshing ROM, {what}, at {net.fs:.10g} Hz: tank vertical {kind} "
             f"({INPUT_UNITS[kind].replace('^', '')}, up +) -> dynamic sloshing force (N, up +)")
+    if _feedthrough(nets):
+        text += (f"; direct feed-through: the force at t_k reads the {kind} at t_k (set the "
+                 "inputs before reading the outputs; an algebraic loop in a feedback coupling)")
+    return text
+
+
+def _feedthrough(nets: Sequence[FittedNetwork]) -> bool:
+    """Whether the force at a communication point reads the input of that point."""
+    return any(n.feedthrough for n in nets)
+
+
+def _warn_feedthrough(model: Any, nets: Sequence[FittedNetwork]) -> None:
+    if _feedthrough(nets):
+        warnings.warn(FeedthroughWarning(
+            f"the {nets[0].describe()} has direct feed-through (its force at t_k reads the "
+            f"{input_of(model)} at t_k): a co-simulation master that reads the outputs before "
+            "it sets the inputs of the same point (FMPy's simulate_fmu, libcosim) gets the "
+            "force one input late, and a feedback coupling through the FMU is an algebraic "
+            "loop; a strictly proper NSS has neither (train --arch nss --feedthrough no)"),
+            stacklevel=3)
 
 
 def model_data_source(model: Any, guid: str = "") -> str:
@@ -296,7 +322,7 @@ def model_description(model: Any, identifier: str, guid: str, sources: Sequence[
     """
     nets = check_fmu_exportable(model)
     kind = input_of(model)
-    feedthrough = nets[0].feedthrough
+    feedthrough = _feedthrough(nets)
     dt = nets[0].dt
     env = _envelope_values(model)
     in_unit = INPUT_UNITS[kind].replace("^", "")
@@ -446,7 +472,7 @@ def _build_binary(root: Path) -> None:
         raise FMUError("no C compiler found (cc, gcc or clang on PATH, or $CC) to build the "
                        "FMU's binary: install one (Debian/Ubuntu: apt install gcc), or export "
                        "a source-only FMU (--source-only) and build it where it runs")
-    with tempfile.TemporaryDirectory(prefix="sloshrom-fmu-build-") as build:
+    with tempfile.TemporaryDirectory(prefix=f"{_BUILD_PREFIX}{os.getpid()}-build-") as build:
         # only the fmi2 functions leave the shared library (sloshrom_model.h hides the rest too)
         options = {} if os.name == "nt" else {"CMAKE_C_STANDARD_LIBRARIES:STRING": "-lm",
                                               "CMAKE_C_VISIBILITY_PRESET:STRING": "hidden"}
@@ -460,6 +486,49 @@ def _build_binary(root: Path) -> None:
                 tail = "\n".join((run.stdout + run.stderr).strip().splitlines()[-15:])
                 raise FMUError(f"building the FMU's binary failed ({' '.join(cmd[1:3])}):\n"
                                f"{tail}")
+
+
+def _alive(pid: int) -> bool:
+    """Whether a process ``pid`` exists (one of another user's counts)."""
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)  # signal 0: only asks (POSIX)
+    except ProcessLookupError:
+        return False
+    except OSError:  # EPERM: it exists, another user's
+        return True
+    return True
+
+
+def remove_stale_builds(root: str | Path | None = None, *,
+                        age: float = STALE_BUILD_AGE) -> list[Path]:
+    """Remove the build folders of exports that were killed before they could clean up.
+
+    A build folder ``sloshrom-fmu-<pid>-...`` in the temporary directory ``root`` (default:
+    :func:`tempfile.gettempdir`) goes when its process ``pid`` is gone and it was last modified
+    more than ``age`` seconds ago (a PID may be reused by then: a live one always keeps its
+    folder). POSIX only (another system's export cleans up after itself only).
+
+    Returns
+    -------
+    list of Path
+        The folders removed.
+    """
+    if os.name != "posix":
+        return []
+    gone = []
+    for d in Path(root or tempfile.gettempdir()).glob(f"{_BUILD_PREFIX}*"):
+        m = re.fullmatch(rf"{_BUILD_PREFIX}(\d+)-.+", d.name)
+        try:
+            stale = (m is not None and d.is_dir() and not d.is_symlink()
+                     and time.time() - d.stat().st_mtime > age and not _alive(int(m.group(1))))
+        except OSError:  # went away meanwhile, or not ours to look at
+            continue
+        if stale:
+            shutil.rmtree(d, ignore_errors=True)
+            gone.append(d)
+    return gone
 
 
 def _guid(data_without_guid: str, identifier: str) -> str:
@@ -504,16 +573,22 @@ def export_fmu(model: Any, path: str | Path, *, binary: bool = True,
     -------
     Path
 
+    Warns
+    -----
+    FeedthroughWarning
+        A model with direct feed-through (an NSS whose force reads the current input).
+
     Raises
     ------
     ROMError
         A model that cannot be exported (says why).
+    OSError
+        The disk refused a file (full, a file-size limit): nothing written.
     FMUError
         No C compiler or CMake, or the build failed (the compiler's last lines).
     """
-    import fmpy
-
-    check_fmu_exportable(model)
+    nets = check_fmu_exportable(model)
+    _warn_feedthrough(model, nets)
     p = Path(path)
     if p.suffix.lower() != ".fmu":
         raise FMUError(f"an FMU file ends in .fmu, got {p.name}")
@@ -521,7 +596,9 @@ def export_fmu(model: Any, path: str | Path, *, binary: bool = True,
     guid = _guid(model_data_source(model), identifier)
     sources = [*(n for n in FMU_SOURCES if n.endswith(".c")), _DATA_SOURCE]
     here = resources.files("sloshrom.rom") / "fmu_c"
-    with tempfile.TemporaryDirectory(prefix="sloshrom-fmu-") as tmp:
+    remove_stale_builds()
+    # the PID in the name: a killed export's folder is recognised as stale by the next one
+    with tempfile.TemporaryDirectory(prefix=f"{_BUILD_PREFIX}{os.getpid()}-") as tmp:
         root = Path(tmp) / "fmu"
         src = root / "sources"
         src.mkdir(parents=True)

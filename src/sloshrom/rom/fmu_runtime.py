@@ -73,12 +73,19 @@ def _read_checked(path: Path) -> tuple[Any, list[str]]:
     return md, platforms
 
 
-def load_fmu(path: str | Path) -> FMUModel:
+def load_fmu(path: str | Path, name: str | None = None) -> FMUModel:
     """Read an FMU written by :func:`export_fmu` back as a sloshing model (:class:`FMUModel`).
 
     Unlike a model file, an FMU is code: this loads and runs its native binary. Load FMUs you
     trust (your own exports); :func:`sloshrom.rom.load_model` reads data only and does not take
     them.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.fmu``.
+    name : str, optional
+        How the messages of a run name it (default: its file name).
 
     Raises
     ------
@@ -86,7 +93,7 @@ def load_fmu(path: str | Path) -> FMUModel:
         Not a zip archive, a damaged archive (checksum), no or an invalid modelDescription.xml,
         an FMU of another tool, no binary for this platform (says which platforms it has).
     """
-    return FMUModel(path)
+    return FMUModel(path, name)
 
 
 class FMUModel:
@@ -102,6 +109,9 @@ class FMUModel:
     ----------
     path : str or Path
         An ``.fmu`` written by :func:`export_fmu` with a binary for this platform.
+    name : str, optional
+        How the messages of a run name the FMU (default: its file name; the exporter checks a
+        temporary file under the name of the file it becomes).
 
     Attributes
     ----------
@@ -119,11 +129,12 @@ class FMUModel:
 
     force_rule = "trapezoid"
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, name: str | None = None) -> None:
         import fmpy
         from fmpy.fmi2 import FMU2Slave
 
         self.path = Path(path)
+        self._name = self.path.name if name is None else name
         md, platforms = _read_checked(self.path)
         here = fmpy.platform
         if here not in platforms:
@@ -205,11 +216,11 @@ class FMUModel:
         try:
             out = fn(*args)
         except FMICallException as exc:
-            raise ModelError(f"FMU {self.path.name}: {self._last_error() or exc}") from exc
+            raise ModelError(f"FMU {self._name}: {self._last_error() or exc}") from exc
         finally:
             for status, text in self._messages:
                 if status == 1:
-                    warnings.warn(f"FMU {self.path.name}: {text}", EnvelopeWarning,
+                    warnings.warn(f"FMU {self._name}: {text}", EnvelopeWarning,
                                   stacklevel=4)
         return out
 
