@@ -913,6 +913,11 @@ HOSTILE_CASES = [
      r"--sloshing .*fifo\.npz: is a named pipe \(FIFO\)"),
     ("onnx-model-fifo", _fifo("fifo.npz"), [*E, "{tmp}/fifo.npz", "{tmp}/o.onnx"],
      r"MODEL .*fifo\.npz: is a named pipe \(FIFO\)"),
+    # an export replaces OUT by renaming: a named pipe another program reads is refused
+    ("onnx-out-fifo", _fifo("o.onnx"), [*E, "{models}/good.npz", "{tmp}/o.onnx"],
+     r"OUT .*o\.onnx: is a named pipe \(FIFO\), not a regular file"),
+    ("fmu-out-fifo", _fifo("o.fmu"), [*EF, "{models}/good.npz", "{tmp}/o.fmu"],
+     r"OUT .*o\.fmu: is a named pipe \(FIFO\), not a regular file"),
     ("beam-uff-negative-modal-mass", _uff_modes("negm.unv", modal_m=-2.0),
      [*ST, "{tmp}/negm.unv", "--tank", "5"],
      r"negm\.unv: the modal mass of mode 1 is -2\.0 in the file; a modal mass .* must be "

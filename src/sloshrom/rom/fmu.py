@@ -415,6 +415,7 @@ def model_description(model: Any, identifier: str, guid: str, sources: Sequence[
     <Category name="logStatusError" description="errors: a wrong communication step, a \
 non-finite input, an unstable simulation, a call out of order"/>
     <Category name="logStatusWarning" description="the input left the training envelope"/>
+    <Category name="logAll" description="every message: logStatusError and logStatusWarning"/>
   </LogCategories>
   <DefaultExperiment startTime="0" stepSize="{_num(dt)}"/>
   <ModelVariables>
