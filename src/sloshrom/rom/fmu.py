@@ -27,9 +27,14 @@ out.) At a communication point ``t_k``, the inputs are the tank's signals at ``t
 ``dynamic_force`` is the model's force at sample k: an NFIR or NOE reads past inputs only
 (no direct feed-through), a state-space ROM (NSS) also the input at ``t_k``.
 ``fmi2DoStep(t_k, dt)`` moves the state to ``t_{k+1}``; the state starts at rest. Another step
-size, or a communication point that does not follow the last one, is an ``fmi2Error`` with a
-message that says so. A network on the acceleration reads ``acceleration``, every other model
-``velocity``; the other input is ignored (both are there so that one FMU block fits every ROM).
+size, or a communication point more than half a step from the last one plus its step (a skipped
+or repeated step; a master's clock ``t += h`` is fine however long it runs), is an
+``fmi2Error`` with a message that says so; so is a call the FMI 2.0 co-simulation state machine
+does not allow. A step outside the training envelope returns ``fmi2Warning``. A model with direct
+feed-through (an NSS) says so in its description and :func:`export_fmu` warns
+(:class:`~sloshrom.rom.errors.FeedthroughWarning`). A network on the acceleration reads
+``acceleration``, every other model ``velocity``; the other input is ignored (both are there
+so that one FMU block fits every ROM).
 
 What is inside (:func:`export_fmu`):
 
@@ -37,12 +42,15 @@ What is inside (:func:`export_fmu`):
     ``sloshrom_model.h``, ``sloshrom_kernels.c`` (delay lines, scaler, normalised RBF layer, the
     NOE's and the NSS's recurrences, an ensemble's mean), ``sloshrom_fmi2.c`` (the FMI 2.0
     co-simulation functions), the generated ``sloshrom_model_data.c`` (architecture and every
-    parameter, written to 17 significant digits: the doubles exactly) and the FMI 2.0 headers.
+    parameter, written to 17 significant digits: the doubles exactly) and the FMI 2.0 headers
+    (the standard's: ``FMI2_FUNCTION_PREFIX`` prefixes the internal names too, so several
+    source FMUs link into one program).
     A user on another platform builds the binary from them (``fmpy`` ``compile``, or any C99
     compiler: ``cc -shared -fPIC -O2 -I sources sources/*.c -lm``).
 ``binaries/<platform>/<modelIdentifier>.so|.dll|.dylib``
     Compiled here with the machine's C compiler through CMake (FMPy's build project), unless a
-    source-only FMU is asked for.
+    source-only FMU is asked for. It exports the ``fmi2`` functions only, and on Linux needs
+    glibc 2.17 at most (``exp`` bound to its oldest version: ``sloshrom_kernels.c``).
 
 :func:`load_fmu` (:mod:`sloshrom.rom.fmu_runtime`, the runtime half; re-exported here) reads
 such an FMU back as a sloshing model (:class:`FMUModel`) that steps the native code through
@@ -237,7 +245,7 @@ def _feedthrough(nets: Sequence[FittedNetwork]) -> bool:
     return any(n.feedthrough for n in nets)
 
 
-def _warn_feedthrough(model: Any, nets: Sequence[FittedNetwork]) -> None:
+def _warn_feedthrough(model: object, nets: Sequence[FittedNetwork]) -> None:
     if _feedthrough(nets):
         warnings.warn(FeedthroughWarning(
             f"the {nets[0].describe()} has direct feed-through (its force at t_k reads the "
