@@ -124,6 +124,7 @@ def test_its_map_is_the_damper_s_and_independent_of_the_amplitude():
     np.testing.assert_allclose(m.values[:, 0], m.values[:, 1], rtol=1e-4)
 
 
+@pytest.mark.filterwarnings("ignore::sloshrom.rom.errors.FeedthroughWarning")  # its D term
 def test_the_fmu_gives_its_force(fitted, tmp_path):
     pytest.importorskip("fmpy")
     from sloshrom.rom.fmu import export_fmu, load_fmu

@@ -252,7 +252,8 @@ def _warn_feedthrough(model: object, nets: Sequence[FittedNetwork]) -> None:
             f"{input_of(model)} at t_k): a co-simulation master that reads the outputs before "
             "it sets the inputs of the same point (FMPy's simulate_fmu, libcosim) gets the "
             "force one input late, and a feedback coupling through the FMU is an algebraic "
-            "loop; a strictly proper NSS has neither (train --arch nss --feedthrough no)"),
+            "loop; a strictly proper model has neither (an NSS: train --arch nss "
+            "--feedthrough no)"),
             stacklevel=3)
 
 
