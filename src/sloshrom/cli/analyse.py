@@ -435,6 +435,8 @@ def _levels(text: str | None) -> list[float] | None:
         fail(f"--levels must be comma-separated numbers in g, got {text!r}")
     if not lv or any(not (0 < x < 100) for x in lv):
         fail(f"--levels must be RMS values in (0, 100) g, got {text!r}")
+    if len(set(lv)) != len(lv):
+        fail(f"--levels {text!r} names a level twice: one level per file, each file's own")
     return lv
 
 
@@ -515,10 +517,12 @@ def random(
 
 
 def _random_test(files: list[Path], ctx: _Setting, name: str, lv: list[float] | None,
-                 names: Sequence[str], accuracy: float | None, step: _Steps) -> _Test:
-    """Read and analyse a random test (one file per level) at every mode."""
+                 names: Sequence[str], accuracy: float | None, step: _Steps,
+                 levels_from: str = "--levels") -> _Test:
+    """Read and analyse a random test (one file per level) at every mode (``levels_from``:
+    where ``lv`` came from, for messages)."""
     from sloshrom.beam.lab import random_mode_rows
-    from sloshrom.beam.measured import check_random_base, read_random_test
+    from sloshrom.beam.measured import check_levels, check_random_base, read_random_test
     from sloshrom.beam.uncertainty import ShortRecordWarning
     from sloshrom.plotting.beam import mode_damping_figure, random_figures, random_window
 
@@ -533,6 +537,9 @@ def _random_test(files: list[Path], ctx: _Setting, name: str, lv: list[float] | 
              f"{res['fs']:g} Hz)")
     for p, b, g in zip(files, res["base_acceleration"], res["rms_levels_g"], strict=True):
         _checked(str(p), lambda b=b, g=g: check_random_base(b, res["fs"], f"({g:g} g)"))
+    if lv is not None:  # nominal levels label Table 2 and match the predictions: theirs?
+        _checked(levels_from, lambda: check_levels(res["base_acceleration"], lv,
+                                                   [p.name for p in files]))
     found = _modes(res, "random", ctx.frequencies, ctx.modes)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ShortRecordWarning)
@@ -694,7 +701,8 @@ def campaign(
                 t = _free_test(list(s.files), ctx, s.name, step)
             else:
                 lv = list(s.levels) if s.levels is not None else None
-                t = _random_test(list(s.files), ctx, s.name, lv, names, None, step)
+                t = _random_test(list(s.files), ctx, s.name, lv, names, None, step,
+                                 f"{directory / 'campaign.toml'}: test {s.name!r}: levels")
             done.append((s, t))
         return done
 

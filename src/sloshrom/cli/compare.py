@@ -19,8 +19,8 @@ _SIGNALS = ("station_acceleration", "tank_acceleration", "base_acceleration")
 
 def _check_result(path: Path, ds: Any) -> None:
     """The numbers the analyses take from a beam result dataset ``ds``, checked before they
-    run: ``fs`` and ``f1_Hz`` finite and positive (Hz) with mode 1 well below Nyquist, and
-    finite signals. Missing names are left to ``beam.compare.test_from_dataset``."""
+    run: ``fs`` and ``f1_Hz`` finite and positive (Hz) with mode 1 well below Nyquist, ``fs``
+    the rate of the time axis, and finite signals. Missing names are left to ``beam.compare.test_from_dataset``."""
     import numpy as np
 
     hz = {}
@@ -39,6 +39,13 @@ def _check_result(path: Path, ds: Any) -> None:
     if len(hz) == 2:
         try:
             check_analysis_band(hz["f1_Hz"], fs=hz["fs"])
+        except SloshromError as exc:
+            fail(f"{path}: {exc}")
+    if "fs" in hz:
+        from sloshrom.beam.compare import check_sample_rate
+
+        try:
+            check_sample_rate(ds)
         except SloshromError as exc:
             fail(f"{path}: {exc}")
     for name in _SIGNALS:
@@ -74,7 +81,8 @@ def compare(
     level (within 10 %).
 
     Every check that needs no analysis (readable beam results, unique case names, one kind of
-    test, RMS levels that match) runs before the first analysis. ``--name OLD=NEW`` renames a
+    test, RMS levels that match, an ``fs`` that is the time axis's rate, one structure: first
+    mode frequencies within 15 %) runs before the first analysis. ``--name OLD=NEW`` renames a
     case (two files of the same case name need it).
 
     Example: ``sloshrom compare lab/random_measured.nc sim/random_rig.nc sim/random_rom.nc
@@ -85,6 +93,7 @@ def compare(
     from sloshrom.beam.compare import (
         CaseNameError,
         analyse_test,
+        check_structures,
         compare_rows,
         comparison_cases,
     )
@@ -127,6 +136,10 @@ def compare(
         fail(str(exc))
     for p, ds in zip(paths, datasets, strict=True):
         _check_result(p, ds)
+    try:
+        check_structures(datasets, [str(p) for p in paths])
+    except SloshromError as exc:
+        fail(str(exc))
     tests = []
     bands = None  # the predictions in the measurement's bands (its first row's)
     for p, ds, case in zip(paths, datasets, cases, strict=True):
