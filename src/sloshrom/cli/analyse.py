@@ -36,6 +36,7 @@ from sloshrom.cli.beam import (
     TankSpecOpt,
     check_outputs,
     echo_missing,
+    refuse_empty,
     setup_structure,
 )
 from sloshrom.cli.progress import Bars, progress_bars
@@ -395,6 +396,15 @@ def _dataset(ctx: _Setting, res: MeasuredTest, name: str, kind: str, found: Test
     return ds
 
 
+def _check_stations(ctx: _Setting, res: MeasuredTest, found: TestModes,
+                    modal: ModalModel | None) -> None:
+    """The map's station order against the data at mode 1 (``lab.check_station_order``)."""
+    from sloshrom.beam.lab import DECAY_REL_BAND, check_station_order
+
+    _checked(f"--channels {ctx.channels}", lambda: check_station_order(
+        res, found.frequencies[0], found.rel_band(0, DECAY_REL_BAND), modal))
+
+
 def _free_test(files: list[Path], ctx: _Setting, name: str, step: _Steps) -> _Test:
     """Read and analyse a free decay at every mode (user errors end the command)."""
     from sloshrom.beam.lab import FREE_PERIODS, free_mode_decays, free_mode_rows
@@ -405,6 +415,7 @@ def _free_test(files: list[Path], ctx: _Setting, name: str, step: _Steps) -> _Te
     res = _read(lambda: read_free_test(files, ctx.cmap, ctx.modal), ctx.units, ctx.channels)
     modal = _station_model(ctx, res)
     found = _modes(res, "free", ctx.frequencies, ctx.modes)
+    _check_stations(ctx, res, found, modal)
     n = res["time"].size
     for k, f in enumerate(found.frequencies):
         if n < FREE_PERIODS * res["fs"] / f:
@@ -417,6 +428,7 @@ def _free_test(files: list[Path], ctx: _Setting, name: str, step: _Steps) -> _Te
     step(f"{name}: damping analysis of every mode")
     decays = _checked("damping analysis", lambda: free_mode_decays(res, found, modal))
     rows = free_mode_rows(res, name, found, decays)
+    refuse_empty(rows, f"{files[0]}: damping bands")
     figs = free_figures({name: res}, modal, {name: decays[0].decay},
                         labels=None if modal is not None else res["channel_map"].stations)
     figs["damping_by_mode"] = mode_decay_figure(name, found.frequencies,
@@ -541,12 +553,14 @@ def _random_test(files: list[Path], ctx: _Setting, name: str, lv: list[float] | 
         _checked(levels_from, lambda: check_levels(res["base_acceleration"], lv,
                                                    [p.name for p in files]))
     found = _modes(res, "random", ctx.frequencies, ctx.modes)
+    _check_stations(ctx, res, found, modal)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ShortRecordWarning)
         rows = _checked("damping analysis", lambda: random_mode_rows(
             res, name, found, estimators=names, accuracy=accuracy, step=step))
     for w in caught:  # once each, after the analyses
         warnings.warn_explicit(str(w.message), w.category, w.filename, w.lineno)
+    refuse_empty(rows, f"{', '.join(p.name for p in files)}: Table 2", names)
     duration = res["time"].size / res["fs"]
     figs = random_figures({name: res}, [float(x) for x in res["rms_levels_g"]],
                           random_window(duration))

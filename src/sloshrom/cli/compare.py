@@ -20,7 +20,8 @@ _SIGNALS = ("station_acceleration", "tank_acceleration", "base_acceleration")
 def _check_result(path: Path, ds: Any) -> None:
     """The numbers the analyses take from a beam result dataset ``ds``, checked before they
     run: ``fs`` and ``f1_Hz`` finite and positive (Hz) with mode 1 well below Nyquist, ``fs``
-    the rate of the time axis, and finite signals. Missing names are left to ``beam.compare.test_from_dataset``."""
+    the rate of the time axis, and finite signals. Missing names are left to
+    ``beam.compare.test_from_dataset``."""
     import numpy as np
 
     hz = {}
@@ -153,6 +154,10 @@ def compare(
         rows = compare_rows(tests[0], tests[1:])
     except SloshromError as exc:
         fail(str(exc))
+    if all(r["verdict"] == "n/a" for r in rows):  # a table of n/a says nothing
+        fail("no comparison, nothing written: " + (
+            f"every row is n/a; the first, {rows[0]['case']}: {rows[0]['reason']}" if rows
+            else "no level or band of a prediction matches the measurement's"))
     figs = comparison_figures(tests[0], tests[1:])
     with OutputBatch() as batch:
         write_table(rows, out / "comparison", batch)
