@@ -185,6 +185,10 @@ def _check_dataset(ds: xr.Dataset) -> str:
             raise BeamError(f"{v} is in {unit!r}, expected 'm/s^2'")
     if kind == "random" and "level" not in ds.dims:
         raise BeamError("a random-test result needs a 'level' dimension")
+    if kind == "free" and "level" in ds["base_acceleration"].dims:
+        raise BeamError(f"attribute 'test' says 'free', but the file holds a random test, not "
+                        f"a free decay: its signals have a 'level' dimension "
+                        f"({ds.sizes['level']} RMS base level(s))")
     return str(kind)
 
 

@@ -55,6 +55,8 @@ FREE_PERIODS = 18
 #: and intervals hold (the lab coverage benchmark runs 120 s at 500 Hz: 6 segments).
 WELCH_SEGMENT = 16384
 MIN_SEGMENTS = 3
+#: Lines of those spectra a mode's band must hold (the LSCF fits' least).
+MIN_BAND_LINES = 8
 #: Half-width of the Hilbert band-pass of a free decay, relative to the mode's frequency (the
 #: paper's mode-1 analysis), cut to the mode's band between its neighbours.
 DECAY_REL_BAND = 0.35
@@ -140,7 +142,24 @@ def modes_of_test(res: MeasuredTest, kind: str, *,
                                 "name the modes with --f1 or --frequencies")
     if max_modes is not None:
         modes = modes[:max_modes]
-    return TestModes(list(modes), mode_bands([m.frequency for m in modes], fs), how)
+    bands = mode_bands([m.frequency for m in modes], fs)
+    if kind == "random":
+        for m, (lo, hi) in zip(modes, bands, strict=True):
+            _check_resolution(m.frequency, lo, hi, fs)
+    return TestModes(list(modes), bands, how)
+
+
+def _check_resolution(f: float, lo: float, hi: float, fs: float) -> None:
+    """A random test's mode band must hold :data:`MIN_BAND_LINES` lines of its
+    :data:`WELCH_SEGMENT`-sample Welch spectra (the LSCF fits need them)."""
+    n = int((hi - lo) * WELCH_SEGMENT / fs)
+    if n < MIN_BAND_LINES:
+        raise AnalysisError(
+            f"the files' sample rate fs = {fs:g} Hz leaves {n} line(s) of the "
+            f"{WELCH_SEGMENT}-sample Welch spectra ({fs / WELCH_SEGMENT:.3g} Hz apart) in the "
+            f"band of the mode at {f:.4g} Hz ({lo:.4g}-{hi:.4g} Hz); its analyses need "
+            f"{MIN_BAND_LINES}, so fs at most {(hi - lo) * WELCH_SEGMENT / MIN_BAND_LINES:.4g} "
+            "Hz: is the files' fs (their time axis) right?")
 
 
 def _check_given_mode(f: float, band: tuple[float, float], tank: np.ndarray, base: np.ndarray,
