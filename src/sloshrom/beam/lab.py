@@ -189,11 +189,23 @@ def check_station_order(res: MeasuredTest, f1: float, rel_band: float,
     (``f1``), the station that should move most moves more than the one that should move least.
 
     Which is which comes from the structure's mode shape at the stations (``modal``: its mode
-    nearest ``f1``),
-    else from the map's ``positions``: a cantilever's first mode grows from the root to the
-    tip. Each station's motion is its acceleration relative to the base, band-passed around
-    ``f1`` (``1 -/+ rel_band``, 4th-order Butterworth, zero phase), as RMS over the record (a
-    random test's last level). A map without positions and structure is not checked.
+    nearest ``f1``), else from the map's ``positions``: a cantilever's first mode grows from
+    the root to the tip. Each station's motion is its acceleration relative to the base,
+    band-passed around ``f1`` (``1 -/+ rel_band``, 4th-order Butterworth, zero phase), as RMS
+    over the record (a random test's last level). A map without positions and structure is
+    not checked.
+
+    Parameters
+    ----------
+    res : mapping
+        A test of :func:`sloshrom.beam.measured.read_free_test` or ``read_random_test`` (its
+        ``channel_map`` names the stations it holds).
+    f1 : float
+        The first mode found (or given), Hz.
+    rel_band : float
+        Half-width of the band-pass, relative to ``f1`` (-).
+    modal : ModalModel, optional
+        The structure at the test's stations.
 
     Raises
     ------
@@ -213,10 +225,10 @@ def check_station_order(res: MeasuredTest, f1: float, rel_band: float,
         # the structure's mode nearest in frequency (as the modal filter takes it)
         k = int(np.argmin(np.abs(np.asarray(modal.frequencies) - f1)))
         expect = np.abs(np.asarray(modal.psi_stations, dtype=float)[:, k])
-        what = [f"mode shape {v:.3g}" for v in expect]
+        what, ref = [f"mode shape {v:.3g}" for v in expect], "on the structure"
     elif cmap.positions is not None:
         expect = np.asarray(cmap.positions, dtype=float)
-        what = [f"at {x:g} m" for x in expect]
+        what, ref = [f"at {x:g} m" for x in expect], "their positions"
     else:
         return
     fs = float(res["fs"])
@@ -231,7 +243,7 @@ def check_station_order(res: MeasuredTest, f1: float, rel_band: float,
             f"the channel map contradicts the data: at mode 1 ({f1:.4g} Hz) station "
             f"{names[hi]!r} ({what[hi]}) moves {rms[hi] / rms[lo]:.2g} x as much as "
             f"{names[lo]!r} ({what[lo]}), and should move most; are the stations listed in "
-            "another order (reversed?) than their positions?")
+            f"another order (reversed?) than {ref}?")
 
 
 def random_mode_rows(res: MeasuredTest, case: str, modes: TestModes, *,

@@ -168,6 +168,17 @@ def band_maximum(response: Sequence[float] | np.ndarray, fs: float, band: tuple[
     random test (with ``base``, each row a level, their mean in dB), the whole record's
     periodogram (Hann, zero-padded four times) of a free decay.
 
+    Parameters
+    ----------
+    response : array (n,) or (n_levels, n)
+        The response (e.g. the tank acceleration relative to the base), any unit.
+    fs : float
+        Sample rate, Hz.
+    band : (float, float)
+        The band, Hz.
+    base : array like ``response``, optional
+        Base acceleration of a random test.
+
     Returns
     -------
     (float, float, float) or None
