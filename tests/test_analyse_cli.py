@@ -276,6 +276,13 @@ def _world(tmp: Path, lab_dir: Path) -> None:
     # the stations in reverse: the reference (outermost) channel is the root's sensor
     (tmp / "reversed.toml").write_text(MAP.replace('"Acc 1", "Acc 2", "Acc 3", "Acc 4", "Acc 5"',
                                                    '"Acc 5", "Acc 4", "Acc 3", "Acc 2", "Acc 1"'))
+    # a campaign whose manifest swaps the levels of its random runs
+    (tmp / "camp").mkdir()
+    for g in LEVELS:
+        shutil.copy(lab_dir / f"random_{g:g}g.uff", tmp / "camp" / f"r{g:g}.uff")
+    (tmp / "camp" / "campaign.toml").write_text(
+        '[[test]]\nfiles = ["r0.1.uff", "r0.2.uff"]\nkind = "random"\nname = "rnd"\n'
+        'levels = [0.2, 0.1]\n')
     t = np.arange(n) / FS
     write_record(Record(t, FS, {**{f"a{k}": np.sin(2 * np.pi * 10 * t) for k in range(1, 6)},
                                 "base": np.zeros(n)}, dict.fromkeys(
@@ -355,6 +362,10 @@ CASES = [
     ("random-levels-not-the-base", [*RANDOM, "{tmp}/rms098.csv", "--channels", "{tmp}/csv.toml",
                                     "--levels", "0.1", *OUT],
      r"rms098\.csv: 0\.1 g given, its base RMS 0\.9\d+ g"),
+    ("campaign-levels-swapped", ["analyse", "campaign", "{tmp}/camp", "--channels",
+                                 "{tmp}/random.toml", *OUT],
+     r"camp/campaign\.toml: test 'rnd': levels: the levels do not match the files' measured "
+     r"base RMS \(r0\.1\.uff: 0\.2 g given, its base RMS 0\.1 g; r0\.2\.uff: 0\.1 g given"),
     # a given mode that is not a resonance of the data
     ("free-f1-not-the-peak", [*FREE, "{tmp}/decay.csv", "--channels", "{tmp}/nobase.toml",
                               "--f1", "20", *OUT],
