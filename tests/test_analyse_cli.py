@@ -352,9 +352,9 @@ CASES = [
      r"--estimator: unknown damping estimator 'prony'; known: lscf_h1, .*ssi_cov"),
     # the levels given against the files' measured base RMS (factor 1.25)
     ("random-levels-swapped", [*RANDOM, *RUNS, "--levels", "0.2,0.1", *OUT],
-     r"--levels: the levels do not match the files' measured base RMS \(random_0\.1g\.uff: "
+     r"--levels: the levels given do not match the measured base RMS \(random_0\.1g\.uff: "
      r"0\.2 g given, its base RMS 0\.1 g; random_0\.2g\.uff: 0\.1 g given, its base RMS "
-     r"0\.2 g\); each level must be within a factor 1\.25"),
+     r"0\.2 g\); each level must be within a factor 1\.25 of its run's"),
     ("random-levels-tiny", [*RANDOM, *RUNS, "--levels", "1e-300,0.1", *OUT],
      r"random_0\.1g\.uff: 1e-300 g given, its base RMS 0\.1 g; random_0\.2g\.uff: 0\.1 g"),
     ("random-levels-far", [*RANDOM, *RUNS, "--levels", "1.5,1.9", *OUT],
@@ -364,7 +364,7 @@ CASES = [
      r"rms098\.csv: 0\.1 g given, its base RMS 0\.9\d+ g"),
     ("campaign-levels-swapped", ["analyse", "campaign", "{tmp}/camp", "--channels",
                                  "{tmp}/random.toml", *OUT],
-     r"camp/campaign\.toml: test 'rnd': levels: the levels do not match the files' measured "
+     r"camp/campaign\.toml: test 'rnd': levels: the levels given do not match the measured "
      r"base RMS \(r0\.1\.uff: 0\.2 g given, its base RMS 0\.1 g; r0\.2\.uff: 0\.1 g given"),
     # a given mode that is not a resonance of the data
     ("free-f1-not-the-peak", [*FREE, "{tmp}/decay.csv", "--channels", "{tmp}/nobase.toml",

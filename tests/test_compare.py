@@ -295,3 +295,16 @@ def test_structures_and_sample_rates_are_checked(free_sets):
     with pytest.raises(BeamError, match=r"attribute 'fs' says 500\.55 Hz but the time axis is "
                        r"sampled at 500 Hz"):
         compare_module.check_sample_rate(m.assign_attrs(fs=FS * 1.0011))
+
+
+def test_cli_compare_refuses_levels_that_are_not_the_base_rms(tmp_path, random_sets):
+    """A result whose level labels are swapped (0.2 g on the 0.1 g run) would match each
+    prediction to the wrong run: refused before any analysis, both values named."""
+    a = _write(random_sets["measured"].assign_coords(level=[0.2, 0.1]), tmp_path / "a.nc")
+    b = _write(random_sets["frozen"], tmp_path / "b.nc")
+    out = tmp_path / "cmp"
+    r = CliRunner().invoke(app, ["compare", str(a), str(b), "--out", str(out)])
+    assert r.exit_code == 2, r.output
+    assert ("a.nc: the levels given do not match the measured base RMS (level 1: 0.2 g given, "
+            "its base RMS 0.1 g; level 2: 0.1 g given, its base RMS 0.2 g)") in r.output
+    assert not out.exists()

@@ -389,7 +389,7 @@ def check_levels(base: np.ndarray, levels: Sequence[float], sources: Sequence[st
     levels : sequence of float
         The nominal RMS levels given, g, one per run.
     sources : sequence of str
-        The runs' names in messages (file names).
+        The runs' names in messages (file names, or ``"FILE level 1"``).
 
     Raises
     ------
@@ -403,9 +403,9 @@ def check_levels(base: np.ndarray, levels: Sequence[float], sources: Sequence[st
     if bad:
         each = "; ".join(f"{src}: {g:g} g given, its base RMS {m:.3g} g" for src, g, m in bad)
         raise AnalysisError(
-            f"the levels do not match the files' measured base RMS ({each}); each level must "
-            f"be within a factor {LEVEL_FACTOR:g} of its file's (in the files' order; a "
-            "swapped level, or a base in another unit than its file says?)")
+            f"the levels given do not match the measured base RMS ({each}); each level must "
+            f"be within a factor {LEVEL_FACTOR:g} of its run's (in order: a swapped level, or "
+            "a base in another unit than its file says?)")
 
 
 def check_free_decay(res: Mapping[str, Any], f1: float, *, rel_band: float = 0.5,

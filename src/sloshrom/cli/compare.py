@@ -20,7 +20,8 @@ _SIGNALS = ("station_acceleration", "tank_acceleration", "base_acceleration")
 def _check_result(path: Path, ds: Any) -> None:
     """The numbers the analyses take from a beam result dataset ``ds``, checked before they
     run: ``fs`` and ``f1_Hz`` finite and positive (Hz) with mode 1 well below Nyquist, ``fs``
-    the rate of the time axis, and finite signals. Missing names are left to
+    the rate of the time axis, finite signals, and a random test's levels (g) each within a
+    factor 1.25 of its base RMS (``measured.check_levels``). Missing names are left to
     ``beam.compare.test_from_dataset``."""
     import numpy as np
 
@@ -52,6 +53,17 @@ def _check_result(path: Path, ds: Any) -> None:
     for name in _SIGNALS:
         if name in ds and not np.isfinite(ds[name].values).all():
             fail(f"{path}: variable '{name}' contains NaN/inf")
+    if ds.attrs.get("test") == "random" and "level" in ds.dims and "base_acceleration" in ds:
+        # the levels match the predictions to the measurement: each its run's own?
+        from sloshrom.beam.measured import check_levels
+
+        base = ds["base_acceleration"].transpose("level", ...).values
+        levels = [float(g) for g in ds["level"].values]
+        try:
+            check_levels(base.reshape(base.shape[0], -1), levels,
+                         [f"level {k + 1}" for k in range(len(levels))])
+        except SloshromError as exc:
+            fail(f"{path}: {exc}")
 
 
 @app.command("compare")
