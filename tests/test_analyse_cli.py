@@ -239,6 +239,10 @@ def _decay(t):
     return np.exp(-0.6 * t) * np.sin(2 * np.pi * 10.19 * t)
 
 
+def _noise(t):
+    return 9.8 * np.random.default_rng(3).standard_normal(t.size)
+
+
 CSV_MAP = """[channels]
 stations = ["a1", "a2", "a3", "a4", "a5"]
 positions = [0.148, 0.296, 0.444, 0.592, 0.74]
@@ -265,6 +269,20 @@ def _world(tmp: Path, lab_dir: Path) -> None:
     _csv(tmp / "r500.csv", lambda t: np.sin(2 * np.pi * 10.3 * t), n=n, base=True)
     _csv(tmp / "r250.csv", lambda t: np.sin(2 * np.pi * 10.3 * t), n=n, fs=250.0, base=True)
     _csv(tmp / "rshort.csv", lambda t: np.sin(2 * np.pi * 10.3 * t), n=4000, base=True)
+    # random runs: a base of 0.98 g RMS (m/s^2 labelled g?), and a 1 MHz time axis
+    _csv(tmp / "rms098.csv", _noise, n=n, base=True)
+    _csv(tmp / "fast.csv", _noise, n=n, fs=1e6, base=True)
+    _csv(tmp / "decay.csv", _decay)
+    # the stations in reverse: the reference (outermost) channel is the root's sensor
+    (tmp / "reversed.toml").write_text(MAP.replace('"Acc 1", "Acc 2", "Acc 3", "Acc 4", "Acc 5"',
+                                                   '"Acc 5", "Acc 4", "Acc 3", "Acc 2", "Acc 1"'))
+    # a campaign whose manifest swaps the levels of its random runs
+    (tmp / "camp").mkdir()
+    for g in LEVELS:
+        shutil.copy(lab_dir / f"random_{g:g}g.uff", tmp / "camp" / f"r{g:g}.uff")
+    (tmp / "camp" / "campaign.toml").write_text(
+        '[[test]]\nfiles = ["r0.1.uff", "r0.2.uff"]\nkind = "random"\nname = "rnd"\n'
+        'levels = [0.2, 0.1]\n')
     t = np.arange(n) / FS
     write_record(Record(t, FS, {**{f"a{k}": np.sin(2 * np.pi * 10 * t) for k in range(1, 6)},
                                 "base": np.zeros(n)}, dict.fromkeys(
@@ -274,6 +292,7 @@ def _world(tmp: Path, lab_dir: Path) -> None:
 FREE = ["analyse", "free"]
 RANDOM = ["analyse", "random"]
 OUT = ["--out", "{tmp}/res"]
+RUNS = ["{tmp}/random_0.1g.uff", "{tmp}/random_0.2g.uff", "--channels", "{tmp}/random.toml"]
 CASES = [
     ("channel-not-in-file", [*FREE, "{tmp}/free.uff", "--channels", "{tmp}/missing.toml", *OUT],
      r"free\.uff: no channel 'Acc 9' .*the file's channels: 'Acc 1 \(1:\+Z\)'"),
@@ -331,9 +350,97 @@ CASES = [
     ("unknown-estimator", [*RANDOM, "{tmp}/sine.csv", "--channels", "{tmp}/csv.toml",
                            "--estimator", "prony", *OUT],
      r"--estimator: unknown damping estimator 'prony'; known: lscf_h1, .*ssi_cov"),
+    # the levels given against the files' measured base RMS (factor 1.25)
+    ("random-levels-swapped", [*RANDOM, *RUNS, "--levels", "0.2,0.1", *OUT],
+     r"--levels: the levels given do not match the measured base RMS \(random_0\.1g\.uff: "
+     r"0\.2 g given, its base RMS 0\.1 g; random_0\.2g\.uff: 0\.1 g given, its base RMS "
+     r"0\.2 g\); each level must be within a factor 1\.25 of its run's"),
+    ("random-levels-tiny", [*RANDOM, *RUNS, "--levels", "1e-300,0.1", *OUT],
+     r"random_0\.1g\.uff: 1e-300 g given, its base RMS 0\.1 g; random_0\.2g\.uff: 0\.1 g"),
+    ("random-levels-far", [*RANDOM, *RUNS, "--levels", "1.5,1.9", *OUT],
+     r"random_0\.1g\.uff: 1\.5 g given, its base RMS 0\.1 g; random_0\.2g\.uff: 1\.9 g"),
+    ("random-levels-not-the-base", [*RANDOM, "{tmp}/rms098.csv", "--channels", "{tmp}/csv.toml",
+                                    "--levels", "0.1", *OUT],
+     r"rms098\.csv: 0\.1 g given, its base RMS 0\.9\d+ g"),
+    ("campaign-levels-swapped", ["analyse", "campaign", "{tmp}/camp", "--channels",
+                                 "{tmp}/random.toml", *OUT],
+     r"camp/campaign\.toml: test 'rnd': levels: the levels given do not match the measured "
+     r"base RMS \(r0\.1\.uff: 0\.2 g given, its base RMS 0\.1 g; r0\.2\.uff: 0\.1 g given"),
+    # a given mode that is not a resonance of the data
+    ("free-f1-not-the-peak", [*FREE, "{tmp}/decay.csv", "--channels", "{tmp}/nobase.toml",
+                              "--f1", "20", *OUT],
+     r"modes: the mode given at 20 Hz is not a resonance of the data: the tank channel's "
+     r"spectrum has no peak in 13-27 Hz.*strongest peak is at 10\.\d+ Hz"),
+    ("free-lab-f1-not-the-peak", [*FREE, "{tmp}/free.uff", "--channels", "{tmp}/plain.toml",
+                                  "--f1", "20", *OUT],
+     r"the mode given at 20 Hz is not a resonance.*strongest peak is at 10\.\d+ Hz"),
+    ("random-f1-not-the-peak", [*RANDOM, *RUNS, "--f1", "20", *OUT],
+     r"the mode given at 20 Hz is not a resonance of the data: H1 \(base -> tank\) has no "
+     r"peak in 13-27 Hz"),
+    # the map's station order against the data at mode 1
+    ("free-stations-reversed", [*FREE, "{tmp}/free.uff", "--channels", "{tmp}/reversed.toml",
+                                *OUT],
+     r"--channels .*reversed\.toml: the channel map contradicts the data: at mode 1 \(10\.\d+ "
+     r"Hz\) station 'Acc 1' \(at 0\.74 m\) moves 0\.0\d+ x as much as 'Acc 5' \(at 0\.148 m\)"),
+    ("free-stations-reversed-builtin", [*FREE, "{tmp}/free.uff", "--channels",
+                                        "{tmp}/reversed.toml", "--builtin-beam", *OUT],
+     r"station 'Acc 1' \(mode shape 1\) moves 0\.0\d+ x as much as 'Acc 5' \(mode shape"),
+    # a sample rate that leaves the mode's band without lines
+    ("random-fs-1MHz", [*RANDOM, "{tmp}/fast.csv", "--channels", "{tmp}/csv.toml", "--f1",
+                        "10.2", *OUT],
+     r"the files' sample rate fs = 1e\+06 Hz leaves 0 line\(s\) of the 16384-sample Welch "
+     r"spectra .* its analyses need 8, so fs at most 2\.089e\+04 Hz"),
 ]
 
 
 @pytest.mark.parametrize(("argv", "match"), [c[1:] for c in CASES], ids=[c[0] for c in CASES])
 def test_analyse_rejects(tmp_path, lab, argv, match):
     check_cli(tmp_path, lab["dir"], lambda tmp: _world(tmp, lab["dir"]), argv, match)
+
+
+def _nan_rows(rows):
+    """The rows with every estimate NaN and a reason, as an analysis that found nothing."""
+    out = []
+    for r in rows:
+        r = dict(r)
+        for k in [k for k in r if k in ("zeta", "lscf_h1", "lscf_output", "half_power")]:
+            r[k] = float("nan")
+            r["reason" if k == "zeta" else f"{k}_reason"] = "no peak inside band (test)"
+        out.append(r)
+    return out
+
+
+@pytest.mark.parametrize("kind", ["free", "random"])
+def test_a_table_of_nan_is_never_written(lab, tmp_path, monkeypatch, kind):
+    """Every estimate NaN: exit 2 with the first cell's reason, nothing written."""
+    from sloshrom.beam import lab as lab_module
+
+    d = lab["dir"]
+    if kind == "free":
+        real = lab_module.free_mode_rows
+        monkeypatch.setattr(lab_module, "free_mode_rows",
+                            lambda *a, **k: _nan_rows(real(*a, **k)))
+        argv = [*FREE, "{tmp}/free.uff", "--channels", "{tmp}/plain.toml", *OUT]
+        match = r"free\.uff: damping bands: no damping estimate at all, nothing written; " \
+                r"the first cell: measured mode 1, .* g, Hilbert: no peak inside band \(test\)"
+    else:  # the analyses replaced: rows of NaN at once
+        monkeypatch.setattr(lab_module, "random_mode_rows", lambda res, name, found, **k: [
+            {"case": name, "mode": 1, "mode_frequency_Hz": 10.2, "rms_g": g, "lscf_h1": np.nan,
+             "lscf_h1_reason": "no peak inside band (test)", "lscf_output": np.nan,
+             "half_power": np.nan} for g in LEVELS])
+        argv = [*RANDOM, *RUNS, *OUT]
+        match = r"random_0\.1g\.uff, random_0\.2g\.uff: Table 2: no damping estimate at all, " \
+                r"nothing written; the first cell: measured mode 1 0\.1 g, LSCF on H1: no peak"
+    check_cli(tmp_path, d, lambda tmp: _world(tmp, d), argv, match)
+
+
+def test_fewer_stations_than_the_structures_modes(lab, tmp_path):
+    """Two stations on the built-in beam's three modes: no modal filtering (the tank channel
+    band-passed), the figures drawn (``compare`` of such a result: test_hostile_cli.py)."""
+    d = lab["dir"]
+    (tmp_path / "two.toml").write_text(
+        '[channels]\nstations = ["Acc 1", "Acc 5"]\npositions = [0.148, 0.74]\n')
+    r = runner.invoke(app, [*FREE, str(d / "free.uff"), "--channels", str(tmp_path / "two.toml"),
+                            "--builtin-beam", "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "o" / "fig16_modal_accelerations.png").is_file()

@@ -263,3 +263,48 @@ def test_format_interval_resolves_the_width():
         # the bounds differ visibly, and the printed width is the width to two digits
         assert a != b, (lo, hi)
         assert abs((float(b) - float(a)) - width) <= 0.1 * width + 1e-12, (lo, hi, a, b)
+
+
+def test_cli_compare_refuses_a_comparison_of_only_na(tmp_path, free_sets, monkeypatch):
+    """Every row n/a: exit 2 naming the first row's reason, nothing written."""
+    real = compare_module.compare_rows
+
+    def all_na(measured, predicted):
+        return [dict(r, verdict="n/a", reason="measured: no estimate (test)")
+                for r in real(measured, predicted)]
+
+    monkeypatch.setattr(compare_module, "compare_rows", all_na)
+    files = [_write(free_sets[k], tmp_path / f"free_{k}.nc") for k in ("measured", "frozen")]
+    out = tmp_path / "cmp"
+    r = CliRunner().invoke(app, ["compare", *map(str, files), "--out", str(out)])
+    assert r.exit_code == 2, r.output
+    assert ("error: no comparison, nothing written: every row is n/a; the first, frozen: "
+            "measured: no estimate (test)") in r.output
+    assert not out.exists()
+
+
+def test_structures_and_sample_rates_are_checked(free_sets):
+    """One structure within 15 % of f1; fs the rate of the time axis within 0.1 %."""
+    m = free_sets["measured"]
+    f1 = float(m.attrs["f1_Hz"])
+    compare_module.check_structures([m, m.assign_attrs(f1_Hz=1.14 * f1)], ["m", "p"])
+    with pytest.raises(BeamError, match=r"p predicts a structure whose first mode is at "
+                       r"11\.8\d Hz, the measurement m has it at 10\.19 Hz \(\+16 %"):
+        compare_module.check_structures([m, m.assign_attrs(f1_Hz=1.16 * f1)], ["m", "p"])
+    compare_module.check_sample_rate(m.assign_attrs(fs=FS * 1.0009))
+    with pytest.raises(BeamError, match=r"attribute 'fs' says 500\.55 Hz but the time axis is "
+                       r"sampled at 500 Hz"):
+        compare_module.check_sample_rate(m.assign_attrs(fs=FS * 1.0011))
+
+
+def test_cli_compare_refuses_levels_that_are_not_the_base_rms(tmp_path, random_sets):
+    """A result whose level labels are swapped (0.2 g on the 0.1 g run) would match each
+    prediction to the wrong run: refused before any analysis, both values named."""
+    a = _write(random_sets["measured"].assign_coords(level=[0.2, 0.1]), tmp_path / "a.nc")
+    b = _write(random_sets["frozen"], tmp_path / "b.nc")
+    out = tmp_path / "cmp"
+    r = CliRunner().invoke(app, ["compare", str(a), str(b), "--out", str(out)])
+    assert r.exit_code == 2, r.output
+    assert ("a.nc: the levels given do not match the measured base RMS (level 1: 0.2 g given, "
+            "its base RMS 0.1 g; level 2: 0.1 g given, its base RMS 0.2 g)") in r.output
+    assert not out.exists()

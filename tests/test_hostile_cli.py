@@ -309,6 +309,29 @@ def _result(name: str, nan: str = "", **attrs):
     return make
 
 
+def _reshaped(name: str, how: str):
+    """A beam result made from free_m.nc (case ``measured``) or free_p.nc: ``"two"`` keeps
+    its first and last station (2 stations for the 3 modes of its ``psi_stations``);
+    ``"levels"`` gives its signals a level axis of 2 RMS levels (a random test's shape) while
+    its attribute still says ``test = "free"``."""
+
+    def make(tmp: Path) -> None:
+        import xarray as xr
+
+        src = "free_m.nc" if how == "two" else "free_p.nc"
+        with xr.open_dataset(tmp / src, engine="h5netcdf") as ds:
+            ds = ds.load()
+        if how == "two":
+            ds = ds.isel(station=[0, ds.sizes["station"] - 1])
+        else:
+            signals = ["station_acceleration", "tank_acceleration", "base_acceleration"]
+            ds = ds.assign({v: ds[v].expand_dims(level=[0.1, 0.2]) for v in signals})
+            ds = ds.assign_attrs(case="random")
+        ds.to_netcdf(tmp / name, engine="h5netcdf")
+
+    return make
+
+
 def _png(name: str):
     """A binary file (a PNG's first bytes) under ``name``: not text, not NetCDF."""
 
@@ -1135,6 +1158,8 @@ HOSTILE_CASES = [
     ("analyse-random-file-is-a-directory", None,
      ["analyse", "random", "{tmp}/lab.uff", "{tmp}/adir", "--channels", "{tmp}/chb.toml",
       "--out", "{tmp}/res"], r"FILE .*adir: is a directory"),
+    ("analyse-random-levels-twice", None, [*ARO, "--levels", "0.1,0.1"],
+     r"--levels '0\.1,0\.1' names a level twice: one level per file"),
     ("analyse-random-levels-0", None, [*ARO, "--levels", "0"],
      r"--levels must be RMS values in \(0, 100\) g, got '0'"),
     ("analyse-random-levels--1", None, [*ARO, "--levels", "-1"], r"--levels must be RMS values"),
@@ -1320,6 +1345,21 @@ HOSTILE_CASES = [
     ("compare-prediction-other-kind", _result("rnd.nc", test="random"),
      ["compare", "{tmp}/free_m.nc", "{tmp}/rnd.nc", "--out", "{tmp}/cmp"],
      r"rnd\.nc: a random-test result needs a 'level' dimension"),
+    ("compare-prediction-of-another-structure", _result("f25.nc", f1_Hz=25.4),
+     ["compare", "{tmp}/free_m.nc", "{tmp}/f25.nc", "--out", "{tmp}/cmp"],
+     r"f25\.nc predicts a structure whose first mode is at 25\.4 Hz, the measurement "
+     r".*free_m\.nc has it at 10\.19 Hz \(\+149 %, beyond the 15 % of one structure\)"),
+    ("compare-prediction-fs-not-its-time-axis", _result("fs2.nc", fs=1000.0),
+     ["compare", "{tmp}/free_m.nc", "{tmp}/fs2.nc", "--out", "{tmp}/cmp"],
+     r"fs2\.nc: attribute 'fs' says 1000 Hz but the time axis is sampled at 500 Hz"),
+    ("compare-prediction-random-labelled-free", _reshaped("rf.nc", "levels"),
+     ["compare", "{tmp}/free_m.nc", "{tmp}/rf.nc", "--out", "{tmp}/cmp"],
+     r"rf\.nc: attribute 'test' says 'free', but the file holds a random test, not a free "
+     r"decay: its signals have a 'level' dimension \(2 RMS base level\(s\)\)"),
+    ("compare-measured-two-stations-three-modes", _reshaped("two.nc", "two"),
+     ["compare", "{tmp}/two.nc", "{tmp}/free_p.nc", "--out", "{tmp}/cmp"],
+     r"two\.nc: 2 station\(s\) for 3 modes: modal filtering separates at most as many "
+     r"modes as there are stations"),
     ("compare-name-no-new", None, [*CMPO, "--name", "frozen="],
      r"--name must look like OLD=NEW, got 'frozen='"),
     ("compare-name-no-old", None, [*CMPO, "--name", "=rig"],

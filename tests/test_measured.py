@@ -23,6 +23,7 @@ from sloshrom.beam import channels, labfiles, measured
 from sloshrom.beam.analysis import AnalysisError
 from sloshrom.beam.channels import ChannelMap, ChannelMapError, station_model
 from sloshrom.beam.coupled import free_response, random_response
+from sloshrom.beam.errors import BeamError
 from sloshrom.beam.labfiles import lab_test_paths, write_lab_test
 from sloshrom.beam.measured import (
     DECAY_RATIO,
@@ -30,6 +31,7 @@ from sloshrom.beam.measured import (
     MissingChannelNote,
     TruncatedRecordWarning,
     check_free_decay,
+    check_levels,
     check_random_base,
     read_free_test,
     read_random_test,
@@ -432,3 +434,29 @@ def test_a_random_test_needs_its_base_in_every_file(rig, lab):
     with pytest.raises(RecordError, match=r"free\.uff: no channel 'Base Z' \(the channel map "
                        r"names it: a random test needs the base"):
         read_random_test([lab["random"][0], lab["dir"] / "free.uff"], cmap, rig["modal"])
+
+
+def test_levels_that_are_not_distinct_say_where_they_came_from(rig, lab):
+    """Levels given twice name the levels given; levels read from the files that round to one
+    value ask for the levels (--levels)."""
+    cmap = lab["random_map"]
+    with pytest.raises(BeamError, match=r"the RMS levels given, \[0\.1, 0\.1\] g, are not "
+                       r"distinct .*one level per file, each file's own$"):
+        read_random_test(lab["random"], cmap, rig["modal"], levels=[0.1, 0.1])
+    twice = [lab["random"][0], lab["random"][0]]
+    with pytest.raises(BeamError, match=r"the files' base RMS levels round to \[0\.1, 0\.1\] "
+                       r"g, not distinct .*give the levels \(--levels\)"):
+        read_random_test(twice, cmap, rig["modal"])
+
+
+def test_levels_are_checked_against_the_measured_base_rms(rig, lab):
+    """Each given level within a factor 1.25 of its run's base RMS, else both values."""
+    res = read_random_test(lab["random"], lab["random_map"], rig["modal"])
+    names = ["a.uff", "b.uff"]
+    check_levels(res["base_acceleration"], [0.1, 0.2], names)
+    check_levels(res["base_acceleration"], [0.1 * 1.24, 0.2 / 1.24], names)
+    with pytest.raises(AnalysisError, match=r"\(b\.uff: 0\.15 g given, its base RMS 0\.2 g\)"):
+        check_levels(res["base_acceleration"], [0.1, 0.15], names)
+    with pytest.raises(AnalysisError, match=r"a\.uff: 0\.2 g given, its base RMS 0\.1 g; "
+                       r"b\.uff: 0\.1 g given, its base RMS 0\.2 g"):
+        check_levels(res["base_acceleration"], [0.2, 0.1], names)

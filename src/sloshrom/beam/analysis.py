@@ -72,6 +72,10 @@ def modal_filter(station_acceleration: Any, psi_stations: Any) -> np.ndarray:
             f"psi_stations must be (n_stations, n_modes) with n_stations = {a.shape[-1]}, "
             f"got {psi.shape}"
         )
+    if psi.shape[0] < psi.shape[1]:
+        raise AnalysisError(
+            f"{psi.shape[0]} station(s) for {psi.shape[1]} modes: modal filtering separates "
+            "at most as many modes as there are stations (add stations, or keep fewer modes)")
     if np.linalg.matrix_rank(psi) < psi.shape[1]:
         raise AnalysisError(
             "mode shapes at the stations are not independent: cannot separate modes")
@@ -426,6 +430,20 @@ def _frf_h1_one_pass(base: np.ndarray, tank: np.ndarray, fs: float, nperseg: int
         return fft.rfftfreq(nperseg, 1 / fs), sxy / sxx, np.abs(sxy)**2 / (sxx * syy)
 
 
+def _check_band_lines(f: np.ndarray, band: tuple[float, float], need: int) -> None:
+    """An :class:`AnalysisError` when the spectrum's lines ``f`` (Hz, evenly spaced) put fewer
+    than ``need`` in ``band``: its spacing is the sample rate over the segment length, so a
+    wrong ``fs`` (or too short a segment) is the usual cause."""
+    n = int(np.count_nonzero((f >= band[0]) & (f <= band[1])))
+    if n >= need:
+        return
+    df = float(f[1] - f[0]) if f.size > 1 else float("nan")
+    raise AnalysisError(
+        f"too few frequency points in band {band[0]:.4g}-{band[1]:.4g} Hz: {n} line(s) "
+        f"{df:.3g} Hz apart, the fit needs {need}; the spacing is the sample rate (fs) over "
+        "the Welch segment's samples: is the record's fs (its time axis) right?")
+
+
 def half_power_damping(f: Any, spectrum: Any, band: tuple[float, float]) -> dict[str, float]:
     """Half-power bandwidth damping of the peak of ``|spectrum|`` in ``band`` (Hz).
 
@@ -437,8 +455,7 @@ def half_power_damping(f: Any, spectrum: Any, band: tuple[float, float]) -> dict
     f = np.asarray(f, dtype=float)
     s = np.abs(np.asarray(spectrum))
     sel = np.nonzero((f >= band[0]) & (f <= band[1]))[0]
-    if sel.size < 5:
-        raise AnalysisError(f"too few frequency points in band {band} Hz")
+    _check_band_lines(f, band, 5)
     ip = sel[np.argmax(s[sel])]
     if not (sel[0] < ip < sel[-1] and s[ip] > 0):
         raise AnalysisError(f"no peak inside band {band} Hz (maximum at its edge)")
@@ -511,8 +528,7 @@ def lscf_poles(
     f = np.asarray(f, dtype=float)
     h = np.asarray(spectrum)
     sel = f <= band[1]
-    if np.count_nonzero(sel & (f >= band[0])) < 8:
-        raise AnalysisError(f"too few frequency points in band {band} Hz")
+    _check_band_lines(f, band, 8)
     if solver == "qr":
         order, pole = _lscf_qr(f, h[None, :], band, int(pol_order_high))[0]
     elif solver == "sdypy":
@@ -565,8 +581,7 @@ def lscf_poles_batch(
     h = np.asarray(spectra)
     if h.ndim != 2 or h.shape[1] != f.size:
         raise BeamError("spectra must be a 2-D array with one row of f.size values per spectrum")
-    if np.count_nonzero((f <= band[1]) & (f >= band[0])) < 8:
-        raise AnalysisError(f"too few frequency points in band {band} Hz")
+    _check_band_lines(f, band, 8)
     return [_pole_table(o, p) for o, p in _lscf_qr(f, h, band, int(pol_order_high))]
 
 
@@ -918,8 +933,7 @@ def lscf_damping(
     f = np.asarray(f, dtype=float)
     h = np.asarray(spectrum)
     sel = f <= band[1]
-    if np.count_nonzero(sel & (f >= band[0])) < 8:
-        raise AnalysisError(f"too few frequency points in band {band} Hz")
+    _check_band_lines(f, band, 8)
     fw = max(1, int(round(band[1] - band[0])))
     with warnings.catch_warnings(), contextlib.redirect_stderr(io.StringIO()):
         warnings.simplefilter("ignore", UserWarning)

@@ -43,11 +43,24 @@ from sloshrom.beam.results import (
 )
 from sloshrom.beam.uncertainty import CONFIDENCE
 
-__all__ = ["AnalysedTest", "CaseNameError", "analyse_test", "analysed_test", "compare_rows",
+__all__ = ["FS_TOLERANCE", "STRUCTURE_TOLERANCE", "AnalysedTest", "CaseNameError", "analyse_test",
+           "analysed_test", "check_sample_rate", "check_structures", "compare_rows",
            "comparison_cases", "match_levels", "test_from_dataset"]
 # the relative difference of RMS levels that still counts as the same level (a measured base
 # RMS is never exactly the nominal one)
 LEVEL_TOLERANCE = 0.1
+#: The relative difference of a result's ``fs`` attribute from its time axis's rate (1 / the
+#: mean step) that still counts as the same rate (that of ``sloshrom.io.Record``).
+FS_TOLERANCE = 1e-3
+#: The relative difference of first-mode frequencies (``f1_Hz``) of a prediction and the
+#: measurement that still counts as the same structure. The frequency an analysis finds is
+#: within 1 % (the 0.05 Hz lines of a random test's H1 peak search, the zero-padded
+#: periodogram of a 2 s decay: 0.06 Hz, at 10 Hz); a prediction's may differ from the
+#: measured by the liquid's share of the modal mass (the paper beam's f1 is 10.19 Hz with the
+#: liquid frozen, 10.85 Hz without it: 6.5 %) and by a mode's drift with level (the peaks
+#: of a test's levels count as one mode within 10 %, ``sloshrom.beam.peaks.common_modes``).
+#: Beyond 15 % the mode-1 analyses of the two filter different bands: another structure.
+STRUCTURE_TOLERANCE = 0.15
 
 
 class CaseNameError(BeamError):
@@ -172,6 +185,10 @@ def _check_dataset(ds: xr.Dataset) -> str:
             raise BeamError(f"{v} is in {unit!r}, expected 'm/s^2'")
     if kind == "random" and "level" not in ds.dims:
         raise BeamError("a random-test result needs a 'level' dimension")
+    if kind == "free" and "level" in ds["base_acceleration"].dims:
+        raise BeamError(f"attribute 'test' says 'free', but the file holds a random test, not "
+                        f"a free decay: its signals have a 'level' dimension "
+                        f"({ds.sizes['level']} RMS base level(s))")
     return str(kind)
 
 
@@ -236,6 +253,46 @@ def comparison_cases(datasets: Sequence[xr.Dataset], sources: Sequence[str],
                     f"measured ones: {', '.join(f'{x:.3g}' for x in levels)} g against "
                     f"{', '.join(f'{x:.3g}' for x in measured)} g")
     return names
+
+
+def check_sample_rate(ds: xr.Dataset) -> None:
+    """Whether a beam result's ``fs`` attribute (Hz, finite and positive) is the rate of its
+    time axis (within :data:`FS_TOLERANCE`); a result without a time axis passes.
+
+    Raises
+    ------
+    BeamError
+        Both rates named.
+    """
+    if "time" not in ds.variables or ds["time"].size < 2:
+        return
+    t = np.asarray(ds["time"].values, dtype=float)
+    fs, fs_time = float(ds.attrs["fs"]), (t.size - 1) / float(t[-1] - t[0])
+    if not (np.isfinite(fs_time) and abs(fs - fs_time) <= FS_TOLERANCE * fs):
+        raise BeamError(f"attribute 'fs' says {fs:g} Hz but the time axis is sampled at "
+                        f"{fs_time:g} Hz ({t.size} samples over {float(t[-1] - t[0]):g} s): "
+                        "one of them is wrong")
+
+
+def check_structures(datasets: Sequence[xr.Dataset], sources: Sequence[str]) -> None:
+    """Whether the predictions are of the measured structure: each first-mode frequency
+    (attribute ``f1_Hz``, Hz) within :data:`STRUCTURE_TOLERANCE` of the measurement's (the
+    first dataset).
+
+    Raises
+    ------
+    BeamError
+        A prediction of another structure (both frequencies named).
+    """
+    fm = float(datasets[0].attrs["f1_Hz"])
+    for ds, src in zip(datasets[1:], sources[1:], strict=True):
+        fp = float(ds.attrs["f1_Hz"])
+        if abs(fp / fm - 1) > STRUCTURE_TOLERANCE:
+            raise BeamError(
+                f"{src} predicts a structure whose first mode is at {fp:.4g} Hz, the "
+                f"measurement {sources[0]} has it at {fm:.4g} Hz ({100 * (fp / fm - 1):+.0f} "
+                f"%, beyond the {100 * STRUCTURE_TOLERANCE:.0f} % of one structure): a "
+                "prediction of another structure")
 
 
 def analyse_test(ds: xr.Dataset, case: str | None = None,

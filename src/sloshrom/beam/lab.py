@@ -21,11 +21,19 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import signal
 
 from sloshrom.beam.analysis import AnalysisError, instantaneous_damping, log_decrement
 from sloshrom.beam.measured import MeasuredTest
 from sloshrom.beam.members import Row
-from sloshrom.beam.peaks import FoundMode, common_modes, find_modes, given_modes, mode_bands
+from sloshrom.beam.peaks import (
+    FoundMode,
+    band_maximum,
+    common_modes,
+    find_modes,
+    given_modes,
+    mode_bands,
+)
 from sloshrom.beam.results import Mode1Decay, decay_floor, modal_accelerations
 from sloshrom.beam.structure import ModalModel
 from sloshrom.beam.uncertainty import (
@@ -37,8 +45,8 @@ from sloshrom.beam.uncertainty import (
 )
 from sloshrom.config import G
 
-__all__ = ["ModeDecay", "TestModes", "describe", "free_mode_decays", "free_mode_rows",
-           "modes_of_test", "random_mode_rows"]
+__all__ = ["ModeDecay", "TestModes", "check_station_order", "describe", "free_mode_decays",
+           "free_mode_rows", "modes_of_test", "random_mode_rows"]
 
 #: Periods of a mode that a free decay must hold for its damping analysis (5 trimmed at each
 #: end, 4 of smoothing, 4 left to analyse: ``analysis.instantaneous_damping``).
@@ -47,6 +55,8 @@ FREE_PERIODS = 18
 #: and intervals hold (the lab coverage benchmark runs 120 s at 500 Hz: 6 segments).
 WELCH_SEGMENT = 16384
 MIN_SEGMENTS = 3
+#: Lines of those spectra a mode's band must hold (the LSCF fits' least).
+MIN_BAND_LINES = 8
 #: Half-width of the Hilbert band-pass of a free decay, relative to the mode's frequency (the
 #: paper's mode-1 analysis), cut to the mode's band between its neighbours.
 DECAY_REL_BAND = 0.35
@@ -110,10 +120,13 @@ def modes_of_test(res: MeasuredTest, kind: str, *,
         Nyquist.
     """
     fs = float(res["fs"])
+    tank, base = np.asarray(res["tank_acceleration"]), np.asarray(res["base_acceleration"])
     if frequencies is not None:
         modes, how = given_modes(frequencies), "given"
+        bands = mode_bands([m.frequency for m in modes], fs)
+        for m, b in zip(modes, bands, strict=True):
+            _check_given_mode(m.frequency, b, tank, base, fs, kind)
     else:
-        tank, base = np.asarray(res["tank_acceleration"]), np.asarray(res["base_acceleration"])
         if kind == "random":
             modes = common_modes([find_modes(t, fs, b)
                                   for b, t in zip(np.atleast_2d(base), np.atleast_2d(tank),
@@ -129,7 +142,108 @@ def modes_of_test(res: MeasuredTest, kind: str, *,
                                 "name the modes with --f1 or --frequencies")
     if max_modes is not None:
         modes = modes[:max_modes]
-    return TestModes(list(modes), mode_bands([m.frequency for m in modes], fs), how)
+    bands = mode_bands([m.frequency for m in modes], fs)
+    if kind == "random":
+        for m, (lo, hi) in zip(modes, bands, strict=True):
+            _check_resolution(m.frequency, lo, hi, fs)
+    return TestModes(list(modes), bands, how)
+
+
+def _check_resolution(f: float, lo: float, hi: float, fs: float) -> None:
+    """A random test's mode band must hold :data:`MIN_BAND_LINES` lines of its
+    :data:`WELCH_SEGMENT`-sample Welch spectra (the LSCF fits need them)."""
+    n = int((hi - lo) * WELCH_SEGMENT / fs)
+    if n < MIN_BAND_LINES:
+        raise AnalysisError(
+            f"the files' sample rate fs = {fs:g} Hz leaves {n} line(s) of the "
+            f"{WELCH_SEGMENT}-sample Welch spectra ({fs / WELCH_SEGMENT:.3g} Hz apart) in the "
+            f"band of the mode at {f:.4g} Hz ({lo:.4g}-{hi:.4g} Hz); its analyses need "
+            f"{MIN_BAND_LINES}, so fs at most {(hi - lo) * WELCH_SEGMENT / MIN_BAND_LINES:.4g} "
+            "Hz: is the files' fs (their time axis) right?")
+
+
+def _check_given_mode(f: float, band: tuple[float, float], tank: np.ndarray, base: np.ndarray,
+                      fs: float, kind: str) -> None:
+    """A mode the user names must be a resonance of the data: the spectrum's maximum in the
+    band its analyses filter (``f`` -/+ :data:`DECAY_REL_BAND`, inside its band between its
+    neighbours) lies inside it, not at an edge (the skirt of a resonance beside it)."""
+    rel = min(DECAY_REL_BAND, (f - band[0]) / f, (band[1] - f) / f)
+    lo, hi = f * (1 - rel), f * (1 + rel)
+    found = (band_maximum(tank, fs, (lo, hi), base) if kind == "random"
+             else band_maximum(tank - base, fs, (lo, hi)))
+    if found is None:
+        return
+    at, top, line = found
+    if lo + 2 * line < at < hi - 2 * line:  # inside: more than two lines from an edge
+        return
+    where = "H1 (base -> tank)" if kind == "random" else "the tank channel's spectrum"
+    raise AnalysisError(
+        f"the mode given at {f:.4g} Hz is not a resonance of the data: {where} has no peak "
+        f"in {lo:.3g}-{hi:.3g} Hz, the band its analyses filter (it is largest at the edge, "
+        f"{at:.4g} Hz); the data's strongest peak is at {top:.4g} Hz")
+
+
+def check_station_order(res: MeasuredTest, f1: float, rel_band: float,
+                        modal: ModalModel | None = None) -> None:
+    """Whether the channel map's stations are where the data say: at the first mode found
+    (``f1``), the station that should move most moves more than the one that should move least.
+
+    Which is which comes from the structure's mode shape at the stations (``modal``: its mode
+    nearest ``f1``), else from the map's ``positions``: a cantilever's first mode grows from
+    the root to the tip. Each station's motion is its acceleration relative to the base,
+    band-passed around ``f1`` (``1 -/+ rel_band``, 4th-order Butterworth, zero phase), as RMS
+    over the record (a random test's last level). A map without positions and structure is
+    not checked.
+
+    Parameters
+    ----------
+    res : mapping
+        A test of :func:`sloshrom.beam.measured.read_free_test` or ``read_random_test`` (its
+        ``channel_map`` names the stations it holds).
+    f1 : float
+        The first mode found (or given), Hz.
+    rel_band : float
+        Half-width of the band-pass, relative to ``f1`` (-).
+    modal : ModalModel, optional
+        The structure at the test's stations.
+
+    Raises
+    ------
+    AnalysisError
+        The station that should move most moves less (both stations, their positions or
+        mode-shape values and the ratio named): a map listing the stations in reverse, or
+        another station order than the data's.
+    """
+    cmap = res["channel_map"]
+    st = np.asarray(res["station_acceleration"], dtype=float)
+    base = np.asarray(res["base_acceleration"], dtype=float)
+    if st.ndim == 3:  # a random test: its last level
+        st, base = st[-1], base[-1]
+    if st.shape[-1] < 2:
+        return
+    if modal is not None and modal.psi_stations.shape[0] == st.shape[-1]:
+        # the structure's mode nearest in frequency (as the modal filter takes it)
+        k = int(np.argmin(np.abs(np.asarray(modal.frequencies) - f1)))
+        expect = np.abs(np.asarray(modal.psi_stations, dtype=float)[:, k])
+        what, ref = [f"mode shape {v:.3g}" for v in expect], "on the structure"
+    elif cmap.positions is not None:
+        expect = np.asarray(cmap.positions, dtype=float)
+        what, ref = [f"at {x:g} m" for x in expect], "their positions"
+    else:
+        return
+    fs = float(res["fs"])
+    sos = signal.butter(4, [(1 - rel_band) * f1, (1 + rel_band) * f1], btype="bandpass",
+                        fs=fs, output="sos")
+    y = signal.sosfiltfilt(sos, st - base[:, None], axis=0)
+    rms = np.sqrt(np.mean(y**2, axis=0))
+    hi, lo = int(np.argmax(expect)), int(np.argmin(expect))
+    if rms[hi] < rms[lo]:
+        names = cmap.stations
+        raise AnalysisError(
+            f"the channel map contradicts the data: at mode 1 ({f1:.4g} Hz) station "
+            f"{names[hi]!r} ({what[hi]}) moves {rms[hi] / rms[lo]:.2g} x as much as "
+            f"{names[lo]!r} ({what[lo]}), and should move most; are the stations listed in "
+            f"another order (reversed?) than {ref}?")
 
 
 def random_mode_rows(res: MeasuredTest, case: str, modes: TestModes, *,

@@ -42,10 +42,10 @@ from sloshrom.io.uff import node_dir
 from sloshrom.io.units import canonical_unit
 
 __all__ = [
-    "DECAY_RATIO", "LINE_FRACTION", "LINE_BINS", "ChannelMap", "ChannelMapError",
-    "MeasuredTest", "MissingChannelNote", "TruncatedRecordWarning", "check_free_decay",
-    "check_random_base", "lab_test_paths", "read_free_test", "read_random_test",
-    "station_model", "write_lab_test",
+    "DECAY_RATIO", "LEVEL_FACTOR", "LINE_FRACTION", "LINE_BINS", "ChannelMap",
+    "ChannelMapError", "MeasuredTest", "MissingChannelNote", "TruncatedRecordWarning",
+    "base_rms_g", "check_free_decay", "check_levels", "check_random_base", "lab_test_paths",
+    "read_free_test", "read_random_test", "station_model", "write_lab_test",
 ]
 
 #: A free decay must decay: the mode-1 band envelope (RMS) over its last periods must be below
@@ -56,6 +56,13 @@ DECAY_RATIO = 0.7
 #: about 100 %, the paper's Gaussian-PSD excitation about 14 %.
 LINE_FRACTION = 0.5
 LINE_BINS = 10
+#: A nominal RMS level (g) given for a random run must lie within this factor of the run's
+#: measured base RMS: the virtual lab's runs read within 0.14 % of their nominal levels (sensor
+#: noise; 18 campaign runs and 12 simulated ones, 34-120 s), a laboratory's shaker controls
+#: its RMS to a few per cent, and a campaign's levels double (0.1, 0.2, 0.4 g), so that a
+#: label of the neighbouring level is a factor 2 off: 1.25 stays below the halfway factor
+#: sqrt(2) = 1.41 with room for a shaker's control error.
+LEVEL_FACTOR = 1.25
 
 
 class TruncatedRecordWarning(UserWarning):
@@ -345,12 +352,15 @@ def read_random_test(paths: str | Path | Sequence[str | Path], channels: Channel
     rec0 = runs[0][0]
     base = np.stack([ch[channels.base][:n] for _, ch in runs])
     if levels is None:
-        lv = [float(f"{np.sqrt(np.mean(b**2)) / G:.2g}") for b in base]
+        lv = [float(f"{g:.2g}") for g in base_rms_g(base)]
     else:
         lv = [float(v) for v in levels]
     if len(set(lv)) != len(lv):
-        raise BeamError(f"RMS levels {lv} g are not distinct (one row per level in Table 2): "
-                        "give the levels (--levels)")
+        if levels is not None:
+            raise BeamError(f"the RMS levels given, {lv} g, are not distinct (one row per level "
+                            "in Table 2): one level per file, each file's own")
+        raise BeamError(f"the files' base RMS levels round to {lv} g, not distinct (one row "
+                        "per level in Table 2): give the levels (--levels)")
     st = np.stack([np.stack([ch[s][:n] for s in kept], axis=-1) for _, ch in runs])
     out = _test_dict(rec0.time[:n] - rec0.time[0], float(rec0.fs), base, st,
                      np.stack([ch[tank][:n] for _, ch in runs]), [p.name for p in ps])
@@ -362,6 +372,42 @@ def read_random_test(paths: str | Path | Sequence[str | Path], channels: Channel
 
 
 # -- properties of the data ----------------------------------------------------------------------
+def base_rms_g(base: np.ndarray) -> np.ndarray:
+    """The RMS of each run's base acceleration (m/s^2, ``(..., n)``), g."""
+    b = np.asarray(base, dtype=float)
+    return np.sqrt(np.mean(b**2, axis=-1)) / G
+
+
+def check_levels(base: np.ndarray, levels: Sequence[float], sources: Sequence[str]) -> None:
+    """Whether the nominal RMS levels given for a random test's runs are theirs: each within
+    :data:`LEVEL_FACTOR` of its run's measured base RMS.
+
+    Parameters
+    ----------
+    base : array (n_levels, n)
+        The runs' base accelerations, m/s^2.
+    levels : sequence of float
+        The nominal RMS levels given, g, one per run.
+    sources : sequence of str
+        The runs' names in messages (file names, or ``"FILE level 1"``).
+
+    Raises
+    ------
+    AnalysisError
+        A level not within the factor of its run's base RMS (both values named, per run: a
+        swapped or mistyped level, or a base channel in another unit than its file says).
+    """
+    measured = base_rms_g(base)
+    bad = [(src, g, float(m)) for src, g, m in zip(sources, levels, measured, strict=True)
+           if not (m > 0 and 1 / LEVEL_FACTOR <= g / m <= LEVEL_FACTOR)]
+    if bad:
+        each = "; ".join(f"{src}: {g:g} g given, its base RMS {m:.3g} g" for src, g, m in bad)
+        raise AnalysisError(
+            f"the levels given do not match the measured base RMS ({each}); each level must "
+            f"be within a factor {LEVEL_FACTOR:g} of its run's (in order: a swapped level, or "
+            "a base in another unit than its file says?)")
+
+
 def check_free_decay(res: Mapping[str, Any], f1: float, *, rel_band: float = 0.5,
                      mode: int = 1) -> float:
     """Whether a free response decays: the envelope ratio (end / start) of a mode.

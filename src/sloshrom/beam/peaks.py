@@ -23,8 +23,8 @@ from scipy import signal
 from sloshrom.beam.analysis import AnalysisError
 
 __all__ = [
-    "FREQUENCY_RESOLUTION", "MIN_COHERENCE", "MIN_PROMINENCE_DB", "FoundMode", "common_modes",
-    "find_modes", "given_modes", "mode_bands",
+    "FREQUENCY_RESOLUTION", "MIN_COHERENCE", "MIN_PROMINENCE_DB", "FoundMode", "band_maximum",
+    "common_modes", "find_modes", "given_modes", "mode_bands",
 ]
 
 #: A resonance must stand this far (dB) above the spectrum on both sides of it (scipy's
@@ -155,6 +155,58 @@ def find_modes(response: Sequence[float] | np.ndarray, fs: float,
             fj = float(fine[0][near][np.argmax(fine[1][near])])
         out.append(FoundMode(fj, float(prom), c, source))
     return out
+
+
+def band_maximum(response: Sequence[float] | np.ndarray, fs: float, band: tuple[float, float],
+                 base: Sequence[float] | np.ndarray | None = None
+                 ) -> tuple[float, float, float] | None:
+    """Where the response's spectrum is largest in ``band`` (Hz), and where over the whole
+    spectrum (up to 0.9 Nyquist): a resonance in the band has its maximum inside it, a band
+    beside a resonance at the edge nearest it.
+
+    The spectrum is that :func:`find_modes` searches: ``|H1|`` (base -> response, Welch) of a
+    random test (with ``base``, each row a level, their mean in dB), the whole record's
+    periodogram (Hann, zero-padded four times) of a free decay.
+
+    Parameters
+    ----------
+    response : array (n,) or (n_levels, n)
+        The response (e.g. the tank acceleration relative to the base), any unit.
+    fs : float
+        Sample rate, Hz.
+    band : (float, float)
+        The band, Hz.
+    base : array like ``response``, optional
+        Base acceleration of a random test.
+
+    Returns
+    -------
+    (float, float, float) or None
+        The frequencies (Hz) of the band's maximum and of the spectrum's, and the spacing of
+        its lines (Hz); ``None`` when the band holds fewer than 3 lines of the spectrum (its
+        shape cannot tell).
+    """
+    y = np.atleast_2d(np.asarray(response, dtype=float))
+    if base is not None:
+        x = np.atleast_2d(np.asarray(base, dtype=float))
+        nper = _nperseg(y.shape[-1], fs)
+        kw = dict(fs=fs, window="hann", nperseg=nper, noverlap=nper // 2)
+        f, sxx = signal.welch(x, **kw)
+        _, sxy = signal.csd(x, y, **kw)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            db = np.nanmean(20 * np.log10(np.abs(sxy / sxx)), axis=0)
+    else:
+        z = y[0] - y[0].mean()
+        f, p = signal.periodogram(z, fs=fs, window="hann", nfft=min(4 * z.size, 2**22))
+        with np.errstate(divide="ignore"):
+            db = 10 * np.log10(p)
+    db = np.where(np.isfinite(db), db, -np.inf)
+    inside = np.flatnonzero((f >= band[0]) & (f <= band[1]))
+    search = np.flatnonzero((f > 0) & (f <= 0.9 * fs / 2))
+    if inside.size < 3 or search.size == 0:
+        return None
+    return (float(f[inside[np.argmax(db[inside])]]), float(f[search[np.argmax(db[search])]]),
+            float(f[1] - f[0]))
 
 
 def common_modes(per_record: Sequence[Sequence[FoundMode]], rel_tol: float = 0.1

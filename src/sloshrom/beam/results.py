@@ -71,7 +71,7 @@ __all__ = [
     "envelope_table",
     "frozen_modes_table",
     "modal_accelerations", "mode1_damping_dataset", "mode1_damping_table", "mode1_decay",
-    "case_output_fs", "member_damping_tables", "missing_cells", "table2_dataset",
+    "case_output_fs", "member_damping_tables", "missing_cells", "no_estimate", "table2_dataset",
     "BUILT_IN_STRUCTURE", "RESULT_FORMAT_VERSION",
     "reference_tank", "simulate_cases", "to_dataset", "write_dataset", "write_table",
 ]
@@ -849,19 +849,7 @@ def missing_cells(rows: Sequence[Mapping[str, Cell]],
     """
     out = []
     for r in rows:
-        mode = f" mode {r['mode']}" if "mode" in r else ""
-        # (what, value, interval bounds, reason, note) of each cell of the row
-        if "band" in r:
-            head = f"{r.get('case', '')}{mode}"
-            cells = [(f"{r['band']}, {label(str(r['method']))}", r.get("zeta"),
-                      (r.get("low"), r.get("high")), str(r.get("reason", "")),
-                      str(r.get("note", "")))]
-        else:
-            head = f"{r.get('case', '')}{mode} {float(r['rms_g']):g} g"
-            names = estimators or [n for n in ESTIMATORS if n in r]
-            cells = [(label(n), r.get(n), (r.get(f"{n}_low"), r.get(f"{n}_high")),
-                      str(r.get(f"{n}_reason", "")), str(r.get(f"{n}_note", "")))
-                     for n in names]
+        head, cells = _cells(r, estimators)
         for what, v, bounds, reason, note in cells:
             if not _finite(v):
                 out.append(f"{head}, {what}: — ({reason or 'no estimate'})")
@@ -880,3 +868,38 @@ def _finite(v: float | str | None) -> bool:
         return v is not None and bool(np.isfinite(float(v)))
     except (TypeError, ValueError):
         return False
+
+
+_CellText = tuple[str, Cell | None, tuple[Cell | None, Cell | None], str, str]
+
+
+def _cells(r: Mapping[str, Cell], estimators: Sequence[str] | None
+           ) -> tuple[str, list[_CellText]]:
+    """A damping table row's head text and its cells: (what, value, interval bounds, reason,
+    note) each (:func:`missing_cells`)."""
+    mode = f" mode {r['mode']}" if "mode" in r else ""
+    if "band" in r:
+        return f"{r.get('case', '')}{mode}", [
+            (f"{r['band']}, {label(str(r['method']))}", r.get("zeta"),
+             (r.get("low"), r.get("high")), str(r.get("reason", "")), str(r.get("note", "")))]
+    names = estimators or [n for n in ESTIMATORS if n in r]
+    return f"{r.get('case', '')}{mode} {float(r['rms_g']):g} g", [
+        (label(n), r.get(n), (r.get(f"{n}_low"), r.get(f"{n}_high")),
+         str(r.get(f"{n}_reason", "")), str(r.get(f"{n}_note", ""))) for n in names]
+
+
+def no_estimate(rows: Sequence[Mapping[str, Cell]],
+                estimators: Sequence[str] | None = None) -> str | None:
+    """Why a damping table has no value at all: its first cell's reason as text (as
+    :func:`missing_cells` gives it), or ``"no rows"``; ``None`` when a cell has a value.
+
+    A table whose every cell is empty says nothing of the damping: its command refuses to
+    write it, with this first cause."""
+    first = None
+    for r in rows:
+        head, cells = _cells(r, estimators)
+        for what, v, _, reason, _ in cells:
+            if _finite(v):
+                return None
+            first = first or f"{head}, {what}: {reason or 'no estimate'}"
+    return first or "no rows"

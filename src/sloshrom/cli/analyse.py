@@ -36,6 +36,7 @@ from sloshrom.cli.beam import (
     TankSpecOpt,
     check_outputs,
     echo_missing,
+    refuse_empty,
     setup_structure,
 )
 from sloshrom.cli.progress import Bars, progress_bars
@@ -395,6 +396,15 @@ def _dataset(ctx: _Setting, res: MeasuredTest, name: str, kind: str, found: Test
     return ds
 
 
+def _check_stations(ctx: _Setting, res: MeasuredTest, found: TestModes,
+                    modal: ModalModel | None) -> None:
+    """The map's station order against the data at mode 1 (``lab.check_station_order``)."""
+    from sloshrom.beam.lab import DECAY_REL_BAND, check_station_order
+
+    _checked(f"--channels {ctx.channels}", lambda: check_station_order(
+        res, found.frequencies[0], found.rel_band(0, DECAY_REL_BAND), modal))
+
+
 def _free_test(files: list[Path], ctx: _Setting, name: str, step: _Steps) -> _Test:
     """Read and analyse a free decay at every mode (user errors end the command)."""
     from sloshrom.beam.lab import FREE_PERIODS, free_mode_decays, free_mode_rows
@@ -405,6 +415,7 @@ def _free_test(files: list[Path], ctx: _Setting, name: str, step: _Steps) -> _Te
     res = _read(lambda: read_free_test(files, ctx.cmap, ctx.modal), ctx.units, ctx.channels)
     modal = _station_model(ctx, res)
     found = _modes(res, "free", ctx.frequencies, ctx.modes)
+    _check_stations(ctx, res, found, modal)
     n = res["time"].size
     for k, f in enumerate(found.frequencies):
         if n < FREE_PERIODS * res["fs"] / f:
@@ -417,6 +428,7 @@ def _free_test(files: list[Path], ctx: _Setting, name: str, step: _Steps) -> _Te
     step(f"{name}: damping analysis of every mode")
     decays = _checked("damping analysis", lambda: free_mode_decays(res, found, modal))
     rows = free_mode_rows(res, name, found, decays)
+    refuse_empty(rows, f"{files[0]}: damping bands")
     figs = free_figures({name: res}, modal, {name: decays[0].decay},
                         labels=None if modal is not None else res["channel_map"].stations)
     figs["damping_by_mode"] = mode_decay_figure(name, found.frequencies,
@@ -435,6 +447,8 @@ def _levels(text: str | None) -> list[float] | None:
         fail(f"--levels must be comma-separated numbers in g, got {text!r}")
     if not lv or any(not (0 < x < 100) for x in lv):
         fail(f"--levels must be RMS values in (0, 100) g, got {text!r}")
+    if len(set(lv)) != len(lv):
+        fail(f"--levels {text!r} names a level twice: one level per file, each file's own")
     return lv
 
 
@@ -515,10 +529,12 @@ def random(
 
 
 def _random_test(files: list[Path], ctx: _Setting, name: str, lv: list[float] | None,
-                 names: Sequence[str], accuracy: float | None, step: _Steps) -> _Test:
-    """Read and analyse a random test (one file per level) at every mode."""
+                 names: Sequence[str], accuracy: float | None, step: _Steps,
+                 levels_from: str = "--levels") -> _Test:
+    """Read and analyse a random test (one file per level) at every mode (``levels_from``:
+    where ``lv`` came from, for messages)."""
     from sloshrom.beam.lab import random_mode_rows
-    from sloshrom.beam.measured import check_random_base, read_random_test
+    from sloshrom.beam.measured import check_levels, check_random_base, read_random_test
     from sloshrom.beam.uncertainty import ShortRecordWarning
     from sloshrom.plotting.beam import mode_damping_figure, random_figures, random_window
 
@@ -533,13 +549,18 @@ def _random_test(files: list[Path], ctx: _Setting, name: str, lv: list[float] | 
              f"{res['fs']:g} Hz)")
     for p, b, g in zip(files, res["base_acceleration"], res["rms_levels_g"], strict=True):
         _checked(str(p), lambda b=b, g=g: check_random_base(b, res["fs"], f"({g:g} g)"))
+    if lv is not None:  # nominal levels label Table 2 and match the predictions: theirs?
+        _checked(levels_from, lambda: check_levels(res["base_acceleration"], lv,
+                                                   [p.name for p in files]))
     found = _modes(res, "random", ctx.frequencies, ctx.modes)
+    _check_stations(ctx, res, found, modal)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ShortRecordWarning)
         rows = _checked("damping analysis", lambda: random_mode_rows(
             res, name, found, estimators=names, accuracy=accuracy, step=step))
     for w in caught:  # once each, after the analyses
         warnings.warn_explicit(str(w.message), w.category, w.filename, w.lineno)
+    refuse_empty(rows, f"{', '.join(p.name for p in files)}: Table 2", names)
     duration = res["time"].size / res["fs"]
     figs = random_figures({name: res}, [float(x) for x in res["rms_levels_g"]],
                           random_window(duration))
@@ -694,7 +715,8 @@ def campaign(
                 t = _free_test(list(s.files), ctx, s.name, step)
             else:
                 lv = list(s.levels) if s.levels is not None else None
-                t = _random_test(list(s.files), ctx, s.name, lv, names, None, step)
+                t = _random_test(list(s.files), ctx, s.name, lv, names, None, step,
+                                 f"{directory / 'campaign.toml'}: test {s.name!r}: levels")
             done.append((s, t))
         return done
 

@@ -334,6 +334,17 @@ def echo_missing(rows: Sequence[Mapping[str, float | int | str]], what: str) -> 
             typer.echo(f"  {line}")
 
 
+def refuse_empty(rows: Sequence[Mapping[str, float | int | str]], what: str,
+                 estimators: Sequence[str] | None = None) -> None:
+    """A user error, before anything is written, when no cell of a damping table has a value
+    (a table of NaN says nothing): its first cell's reason."""
+    from sloshrom.beam.results import no_estimate
+
+    why = no_estimate(rows, estimators)
+    if why is not None:
+        fail(f"{what}: no damping estimate at all, nothing written; the first cell: {why}")
+
+
 def _analysed(what: str, fn: Callable[[], Any]) -> Any:
     """``fn()``; a response the analysis cannot handle (``AnalysisError``) is a user error."""
     try:

@@ -19,8 +19,10 @@ _SIGNALS = ("station_acceleration", "tank_acceleration", "base_acceleration")
 
 def _check_result(path: Path, ds: Any) -> None:
     """The numbers the analyses take from a beam result dataset ``ds``, checked before they
-    run: ``fs`` and ``f1_Hz`` finite and positive (Hz) with mode 1 well below Nyquist, and
-    finite signals. Missing names are left to ``beam.compare.test_from_dataset``."""
+    run: ``fs`` and ``f1_Hz`` finite and positive (Hz) with mode 1 well below Nyquist, ``fs``
+    the rate of the time axis, finite signals, and a random test's levels (g) each within a
+    factor 1.25 of its base RMS (``measured.check_levels``). Missing names are left to
+    ``beam.compare.test_from_dataset``."""
     import numpy as np
 
     hz = {}
@@ -41,9 +43,27 @@ def _check_result(path: Path, ds: Any) -> None:
             check_analysis_band(hz["f1_Hz"], fs=hz["fs"])
         except SloshromError as exc:
             fail(f"{path}: {exc}")
+    if "fs" in hz:
+        from sloshrom.beam.compare import check_sample_rate
+
+        try:
+            check_sample_rate(ds)
+        except SloshromError as exc:
+            fail(f"{path}: {exc}")
     for name in _SIGNALS:
         if name in ds and not np.isfinite(ds[name].values).all():
             fail(f"{path}: variable '{name}' contains NaN/inf")
+    if ds.attrs.get("test") == "random" and "level" in ds.dims and "base_acceleration" in ds:
+        # the levels match the predictions to the measurement: each its run's own?
+        from sloshrom.beam.measured import check_levels
+
+        base = ds["base_acceleration"].transpose("level", ...).values
+        levels = [float(g) for g in ds["level"].values]
+        try:
+            check_levels(base.reshape(base.shape[0], -1), levels,
+                         [f"level {k + 1}" for k in range(len(levels))])
+        except SloshromError as exc:
+            fail(f"{path}: {exc}")
 
 
 @app.command("compare")
@@ -74,7 +94,8 @@ def compare(
     level (within 10 %).
 
     Every check that needs no analysis (readable beam results, unique case names, one kind of
-    test, RMS levels that match) runs before the first analysis. ``--name OLD=NEW`` renames a
+    test, RMS levels that match, an ``fs`` that is the time axis's rate, one structure: first
+    mode frequencies within 15 %) runs before the first analysis. ``--name OLD=NEW`` renames a
     case (two files of the same case name need it).
 
     Example: ``sloshrom compare lab/random_measured.nc sim/random_rig.nc sim/random_rom.nc
@@ -85,6 +106,7 @@ def compare(
     from sloshrom.beam.compare import (
         CaseNameError,
         analyse_test,
+        check_structures,
         compare_rows,
         comparison_cases,
     )
@@ -127,6 +149,10 @@ def compare(
         fail(str(exc))
     for p, ds in zip(paths, datasets, strict=True):
         _check_result(p, ds)
+    try:
+        check_structures(datasets, [str(p) for p in paths])
+    except SloshromError as exc:
+        fail(str(exc))
     tests = []
     bands = None  # the predictions in the measurement's bands (its first row's)
     for p, ds, case in zip(paths, datasets, cases, strict=True):
@@ -140,6 +166,10 @@ def compare(
         rows = compare_rows(tests[0], tests[1:])
     except SloshromError as exc:
         fail(str(exc))
+    if all(r["verdict"] == "n/a" for r in rows):  # a table of n/a says nothing
+        fail("no comparison, nothing written: " + (
+            f"every row is n/a; the first, {rows[0]['case']}: {rows[0]['reason']}" if rows
+            else "no level or band of a prediction matches the measurement's"))
     figs = comparison_figures(tests[0], tests[1:])
     with OutputBatch() as batch:
         write_table(rows, out / "comparison", batch)

@@ -73,9 +73,11 @@ def free_figures(res: Mapping[str, Mapping[str, Any]], modal: ModalModel | None,
     figs["fig14_station_accelerations"] = fig
 
     if modal is not None:
-        fig = Figure(figsize=(8, 2.2 * modal.n_modes))
-        axes = fig.subplots(modal.n_modes, 1, sharex=True, squeeze=False)
-        for n in range(modal.n_modes):
+        # fewer stations than modes: no modal filtering, one band-passed record per case
+        n_q = min(modal.n_modes, *(decays[c].modal.shape[-1] for c in cases))
+        fig = Figure(figsize=(8, 2.2 * n_q))
+        axes = fig.subplots(n_q, 1, sharex=True, squeeze=False)
+        for n in range(n_q):
             for case in cases:
                 axes[n, 0].plot(res[case]["time"], decays[case].modal[:, n], lw=0.6,
                                 label=case)
