@@ -38,6 +38,7 @@ journal is written), ``rename:{k}`` (before the ``k``-th rename of a commit, fro
 from __future__ import annotations
 
 import errno
+import fcntl
 import fnmatch
 import json
 import os
@@ -45,7 +46,9 @@ import re
 import signal
 import stat
 import tempfile
-from collections.abc import Callable, Sequence
+import time
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -55,9 +58,9 @@ if TYPE_CHECKING:
     import xarray as xr
 
 __all__ = [
-    "FAULT_ENV", "OutputBatch", "OutputPathError", "OutputWriteError", "atomic_write",
-    "atomic_write_text", "check_output", "complete_commits", "netcdf_writer",
-    "not_a_regular_file", "pid_alive", "same_file",
+    "FAULT_ENV", "FolderBusyError", "OutputBatch", "OutputPathError", "OutputWriteError",
+    "atomic_write", "atomic_write_text", "check_output", "complete_commits", "folder_lock",
+    "netcdf_writer", "not_a_regular_file", "pid_alive", "same_file",
 ]
 
 # Bytes of a temporary name beyond the (possibly shortened) target name: "." + name + "." +
@@ -93,6 +96,10 @@ class OutputWriteError(OutputPathError, OSError):
     Both a :class:`~sloshrom.errors.SloshromError` (the command line prints it as one line) and
     an ``OSError`` (``errno`` is the system's); the previous result is intact.
     """
+
+
+class FolderBusyError(OutputPathError):
+    """Another live process holds the lock of an output folder (the message names it)."""
 
 
 def _step(name: str) -> None:
@@ -631,3 +638,83 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
             fh.write(text)
 
     return atomic_write(path, write, suffix=".tmp")
+
+
+def _lock_holder(fd: int) -> tuple[int, str] | None:
+    """The process id and start time a lock file holds (``None``: empty or unreadable)."""
+    try:
+        os.lseek(fd, 0, os.SEEK_SET)
+        info = json.loads(os.read(fd, 4096).decode("utf-8"))
+        return int(info["pid"]), str(info.get("started", "?"))
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+@contextmanager
+def folder_lock(path: str | Path, what: str = "output folder") -> Iterator[str | None]:
+    """Hold the lock file ``path`` of an output folder while the block runs.
+
+    The lock is an ``fcntl.flock`` on ``path`` (released by the kernel when the process ends,
+    however it ends), and the file holds the holder's process id and start time for the
+    message. A lock file that names another live process is held too (a lock planted by hand,
+    or held on another machine); one that names a dead process is taken over. The file is
+    removed when the block ends.
+
+    Parameters
+    ----------
+    path : str or Path
+        The lock file (its folder exists).
+    what : str
+        How to name the folder in the message (e.g. ``"--out results"``).
+
+    Yields
+    ------
+    str or None
+        A note when a stale lock (of a process no longer alive) was taken over, else ``None``.
+
+    Raises
+    ------
+    FolderBusyError
+        Another live process holds the lock: the message names its process id, start time and
+        the file to delete if no such run exists.
+    """
+    p = Path(path)
+    for _ in range(3):  # the holder may remove the file between our open and our flock
+        fd = os.open(p, os.O_RDWR | os.O_CREAT, 0o666 & ~_umask())
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            locked = True
+        except BlockingIOError:
+            locked = False
+        holder = _lock_holder(fd)
+        try:
+            same = os.fstat(fd).st_ino == os.stat(p).st_ino
+        except FileNotFoundError:
+            same = False
+        if locked and not same:
+            os.close(fd)
+            continue
+        if not locked or (holder is not None and holder[0] != os.getpid()
+                          and pid_alive(holder[0])):
+            os.close(fd)
+            pid, started = holder if holder is not None else ("unknown", "?")
+            raise FolderBusyError(
+                f"{what}: another sloshrom run (process {pid}, started {started}) is writing "
+                f"there; wait for it to end or choose another folder (if no such run exists, "
+                f"delete {p})")
+        break
+    else:
+        raise FolderBusyError(f"{what}: the lock {p} keeps changing; try again")
+    note = (None if holder is None else
+            f"{p}: took over the lock of process {holder[0]} (started {holder[1]}), which no "
+            "longer runs")
+    try:
+        os.ftruncate(fd, 0)
+        started = time.strftime("%Y-%m-%dT%H:%M:%S%z")
+        os.pwrite(fd, json.dumps({"pid": os.getpid(), "started": started}).encode(), 0)
+        yield note
+    finally:
+        try:
+            p.unlink(missing_ok=True)  # while still locked: a waiting open finds a new file
+        finally:
+            os.close(fd)
