@@ -418,6 +418,7 @@ class OutputBatch:
         except OSError as exc:
             self._pending.clear()  # listed in the journal: the next run completes them
             self._made.clear()
+            journal = _abandon(journal)
             raise _write_error(exc, p, f"the batch's journal {journal} lists the files still to "
                                        "move: the next sloshrom run writing there completes it") \
                 from exc
@@ -454,6 +455,16 @@ class OutputBatch:
             self.commit()
         else:
             self.discard()
+
+
+def _abandon(journal: Path) -> Path:
+    """Hand an unfinished commit's journal to any process: process id 0, never alive."""
+    left = journal.with_name(re.sub(r"^(\.sloshrom-commit\.)\d+\.", r"\g<1>0.", journal.name))
+    try:
+        os.replace(journal, left)
+    except OSError:
+        return journal  # then it is completed once this process has ended
+    return left
 
 
 def netcdf_writer(ds: xr.Dataset) -> Callable[[str], None]:
