@@ -343,6 +343,68 @@ def test_a_failed_rename_leaves_a_journal_the_next_run_completes(tmp_path, monke
     assert temporaries(d) == []
 
 
+# -- 4. each command: a disk error at its write leaves the previous results ---------------------
+@pytest.fixture(scope="module")
+def command_inputs(inputs, tmp_path_factory):
+    """Two beam results for ``compare`` (one analysed lab test under two names) and the short
+    records of ``train --ensemble``."""
+    from helpers import smooth_io
+
+    d = tmp_path_factory.mktemp("command_inputs")
+    res = runner.invoke(app, analyse_argv(inputs, d / "analysed"))
+    assert res.exit_code == 0, res.output
+    for name in ("m1.nc", "m2.nc"):
+        shutil.copy(d / "analysed" / "free_measured.nc", d / name)
+    for name, seed, n in (("train", 1, 2000), ("validation", 2, 600)):
+        u, y = smooth_io(n, seed)
+        rec = Record(np.arange(n) / FS, FS, {"velocity": u, "dynamic_force": y},
+                     {"velocity": "m/s", "dynamic_force": "N"}, {})
+        write_record(rec, d / f"{name}.nc")
+    return {**inputs, "dir": d}
+
+
+def _command(name: str, ins: dict, out: Path) -> list[str]:
+    d = ins.get("dir")
+    return {
+        "predict": lambda: predict_argv(ins, out / "pred.nc"),
+        "analyse": lambda: analyse_argv(ins, out),
+        "compare": lambda: ["compare", str(d / "m1.nc"), str(d / "m2.nc"), "--name",
+                            "measured=lab", "--out", str(out)],
+        "export fmu": lambda: ["export", "fmu", str(ins["model"]), str(out / "rom.fmu")],
+        "train --ensemble": lambda: [
+            "train", "--data", str(d / "train.nc"), "--validation", str(d / "validation.nc"),
+            "--out", str(out / "ens.npz"), "--delays", "3", "--neurons", "4",
+            "--max-epochs", "2", "--seed", "3", "--ensemble", "2", "--scheduler", "threads"],
+    }[name]()
+
+
+COMMANDS = ["predict", "analyse", "compare", "export fmu", "train --ensemble"]
+
+
+@pytest.mark.parametrize("err, reason", [(errno.ENOSPC, "no space left on device"),
+                                         (errno.EROFS, "read-only file system")])
+@pytest.mark.parametrize("command", COMMANDS)
+def test_a_disk_error_at_a_commands_write_leaves_its_results(command_inputs, tmp_path,
+                                                             monkeypatch, command, err, reason):
+    """The error as the command's last file is complete (for a batch: after the others):
+    exit 2, one line, every previous file byte-identical, no temporary."""
+    out = tmp_path / "res"
+    argv = _command(command, command_inputs, out)
+    if command == "train --ensemble":  # (training twice would take 20 s)
+        out.mkdir()
+        (out / "ens.npz").write_bytes(b"the previous model")
+        last = "written:ens.npz"
+    else:
+        steps: list[str] = []
+        monkeypatch.setattr(fileio, "_fault_hook", steps.append)
+        first_run(argv)
+        last = [st for st in steps if st.startswith("written:")][-1]
+    before = snapshot(tmp_path)
+    monkeypatch.setattr(fileio, "_fault_hook", raise_at(last, err))
+    res = runner.invoke(app, argv)
+    assert_refused_cleanly(res.exit_code, res.output, before, [tmp_path], reason)
+
+
 # -- 5. one reproduce per folder ---------------------------------------------------------------
 def test_folder_lock_refuses_a_live_holder_and_takes_over_a_dead_one(tmp_path, live_pid):
     lock = tmp_path / ".sloshrom.lock"
