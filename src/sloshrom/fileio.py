@@ -20,12 +20,15 @@ Failures and kills
 - A batch commits through a roll-forward journal: every file is first written completely to its
   temporary; then ``.sloshrom-commit.{pid}.{random}.commit`` is written (atomically) in the
   folder common to the batch's targets, listing the renames; then the temporaries are renamed
-  onto their targets and the journal is removed. A commit stopped part-way (killed, or a rename
-  that failed) leaves its journal: the next batch writing into that folder, and
-  :func:`complete_commits` (which ``reproduce`` calls on its output folder), perform the
-  remaining renames. A reader that calls :func:`complete_commits` first (or any later sloshrom
-  run) sees either the old set of files or the new set, complete. A journal of a live process is
-  left to that process.
+  onto their targets and the journal is removed. A commit stopped part-way (killed; or a rename
+  that failed, whose journal is then handed to any process: pid 0) leaves its journal: the next
+  write whose file lies in that folder or one level below it, and :func:`complete_commits`
+  (which ``reproduce`` calls on its whole output tree), perform the remaining renames. A reader
+  that calls :func:`complete_commits` first (or any later sloshrom run) sees either the old set
+  of files or the new set, complete; a kill before the journal exists leaves the old set. A
+  journal of a live process is left to that process. The guarantee covers processes that stop,
+  not a power loss (nothing is ``fsync``-ed).
+- :func:`folder_lock`: one run at a time in an output folder (``reproduce``).
 
 Tests stop a write at a named step: :data:`FAULT_ENV` (``SLOSHROM_FAULT_KILL``, a glob of step
 names) kills the process with ``SIGKILL`` at the first matching step, and ``_fault_hook`` is
@@ -470,9 +473,10 @@ def _abandon(journal: Path) -> Path:
 def netcdf_writer(ds: xr.Dataset) -> Callable[[str], None]:
     """A ``write(tmp)`` for :func:`atomic_write`/:meth:`OutputBatch.write`: ``ds`` as NetCDF-4.
 
-    The file's bytes are made in memory now (h5netcdf, about twice the file's size: results are
-    a few MB) and written by plain Python I/O, so that a full disk or the file-size limit is an
-    ``OSError`` here, not a failure inside HDF5 (which crashed the process after a failed write).
+    The file's bytes are made in memory now (h5netcdf: the peak memory grows by the file's size,
+    +32 MB for a 32 MB file; results are a few MB) and written by plain Python I/O, so that a
+    full disk or the file-size limit is an ``OSError`` here, not a failure inside HDF5 (which
+    crashed the process after a failed write).
 
     Parameters
     ----------
