@@ -38,7 +38,8 @@ FS = 500.0
 
 
 def _env(**extra: str) -> dict[str, str]:
-    path = os.pathsep.join(p for p in (SRC, os.environ.get("PYTHONPATH")) if p)
+    # the sloshrom this test imports (PYTHONPATH first), else this checkout's
+    path = os.pathsep.join(p for p in (os.environ.get("PYTHONPATH"), SRC) if p)
     return {**os.environ, "PYTHONPATH": path, **extra}
 
 
