@@ -406,6 +406,27 @@ def test_a_disk_error_at_a_commands_write_leaves_its_results(command_inputs, tmp
     assert_refused_cleanly(res.exit_code, res.output, before, [tmp_path], reason)
 
 
+@pytest.mark.parametrize("command", ["compare", "export fmu", "train --ensemble"])
+def test_a_kill_at_a_commands_write_leaves_its_results(command_inputs, tmp_path, command):
+    """SIGKILL as the command's first file is complete: every previous file as it was; the
+    next run succeeds and removes the killed run's temporaries."""
+    out = tmp_path / "res"
+    argv = _command(command, command_inputs, out)
+    if command == "train --ensemble":
+        out.mkdir()
+        (out / "ens.npz").write_bytes(b"the previous model")
+    else:
+        first_run(argv)
+    before = snapshot(tmp_path)
+    res = sloshrom(argv, kill_at="written:*")
+    assert res.returncode == -9, res.stderr
+    assert temporaries(tmp_path), "the kill came after the write"
+    visible = {k: v for k, v in snapshot(tmp_path).items() if not Path(k).name.startswith(".")}
+    assert visible == before
+    first_run(argv)
+    assert temporaries(tmp_path) == []
+
+
 # -- 5. one reproduce per folder ---------------------------------------------------------------
 def test_folder_lock_refuses_a_live_holder_and_takes_over_a_dead_one(tmp_path, live_pid):
     lock = tmp_path / ".sloshrom.lock"
