@@ -524,3 +524,25 @@ def test_reproduce_killed_then_resumed(finished, tmp_path):
     assert res.returncode == 0, res.stderr
     assert "took over the lock" in res.stderr
     assert temporaries(out) == []
+
+
+def test_reproduce_killed_in_a_stages_commit_then_resumed(finished, tmp_path):
+    """Killed between the two renames of a map's batch (NetCDF + PNG): a reader finishing the
+    commit sees both new files; the next run redoes the maps stage (its record was not written)
+    and ends with no journal, no temporary and no lock."""
+    out, config = finished
+    (out / ".stages" / "maps.json").unlink()  # the maps stage runs again
+    argv = ["reproduce", "--config", str(config), "--out", str(out)]
+    res = sloshrom(argv, kill_at="rename:1")
+    assert res.returncode == -9, res.stderr
+    (journal,) = out.rglob(".sloshrom-commit.*.commit")
+    renames = json.loads(journal.read_text())["renames"]
+    assert [Path(t).name for _, t in renames] == ["phi_d_rig.nc", "phi_d_rig.png"]
+    png = out / "maps" / "phi_d_rig.png"
+    assert (out / "maps" / Path(renames[1][0]).name).is_file()  # the new figure, not moved
+    assert fileio.complete_commits(out) == [png]  # what a reader does first
+    assert png.stat().st_mtime_ns >= (out / "maps" / "phi_d_rig.nc").stat().st_mtime_ns
+    assert not list(out.rglob(".sloshrom-commit*"))
+    res = sloshrom(argv)
+    assert res.returncode == 0, res.stderr
+    assert "maps" in res.stderr and temporaries(out) == []
