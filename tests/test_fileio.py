@@ -1,3 +1,4 @@
+import os
 from pathlib import Path
 
 import pytest
@@ -61,8 +62,9 @@ def test_suffix_is_passed_to_the_temporary(tmp_path, name, suffix, expected):
     atomic_write(target, write, suffix=suffix)
     (tmp,) = seen
     assert tmp.parent == tmp_path
-    assert tmp.name.startswith(f".{name}.")
-    rest = tmp.name[len(f".{name}."):]  # random part (no dots) + suffix
+    # the writer's process id tells a killed writer's leftover from a live one's
+    assert tmp.name.startswith(f".{name}.{os.getpid()}.")
+    rest = tmp.name[len(f".{name}.{os.getpid()}."):]  # random part (no dots) + suffix
     assert rest.endswith(expected) and "." not in rest[: len(rest) - len(expected)]
     assert target.read_bytes() == b"x" and not tmp.exists()
 

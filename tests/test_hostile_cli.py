@@ -845,6 +845,15 @@ HOSTILE_CASES = [
     ("reproduce-config-is-the-summary", _text("res/summary.json", "[rom]\nseed = 1\n"),
      ["reproduce", "--config", "{tmp}/res/summary.json", "--out", "{tmp}/res"],
      r"the command writes .*summary\.json, and .*summary\.json is also an input"),
+    ("reproduce-config-is-the-lock", _text("res/.sloshrom.lock", "[rom]\nseed = 1\n"),
+     ["reproduce", "--config", "{tmp}/res/.sloshrom.lock", "--out", "{tmp}/res"],
+     r"the command writes .*\.sloshrom\.lock, and .*\.sloshrom\.lock is also an input"),
+    # another run (this test's parent process: alive) holds the output folder
+    ("reproduce-out-held-by-another-run",
+     _text("res/.sloshrom.lock", f'{{"pid": {os.getppid()}, "started": "then"}}'),
+     ["reproduce", "--quick", "--out", "{tmp}/res"],
+     rf"--out .*res: another sloshrom run \(process {os.getppid()}, started then\) is writing "
+     r"there; .*delete .*res/\.sloshrom\.lock"),
     ("reproduce-config-in-a-stage-directory", _all(lambda tmp: (tmp / "res/data").mkdir(
         parents=True), _text("res/data/c.toml", "[rom]\nseed = 1\n")),
      ["reproduce", "--config", "{tmp}/res/data/c.toml", "--out", "{tmp}/res"],

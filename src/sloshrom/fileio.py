@@ -1,4 +1,4 @@
-"""Atomic file writes and output-path checks.
+"""Atomic file writes, all-or-nothing batches of files, and output-path checks.
 
 A reader never sees a half-written file (a temporary file in the target's directory, then
 ``os.replace``), an interrupted or failed write leaves the previous file (if any) untouched and no
@@ -6,31 +6,142 @@ temporary behind, and :class:`OutputBatch` makes several files appear together o
 failed batch also removes the directories it created). :func:`check_output` tells, before any
 work starts, whether a path can be written at all and that no input of the command is among what
 it writes; :func:`not_a_regular_file` tells why an input path cannot be read as a file.
+
+Failures and kills
+------------------
+- A write that fails (a full disk: ``ENOSPC``; the file-size limit: ``EFBIG``; a read-only
+  folder: ``EROFS``/``EACCES``) raises :class:`OutputWriteError`, one line naming the file, the
+  reason and that the previous result is intact. NetCDF files are made in memory
+  (:func:`netcdf_writer`) and written with plain Python I/O, so that such an error reaches us as
+  an ``OSError`` instead of inside the HDF5 library (which crashed after a failed write).
+- A temporary is named ``.{name}.{pid}.{random}{suffix}``: the writer's process id. A process
+  killed with ``kill -9`` leaves its temporaries; the next completed write or batch of the same
+  target removes those whose process is no longer alive (never another live process's).
+- A batch commits through a roll-forward journal: every file is first written completely to its
+  temporary; then ``.sloshrom-commit.{pid}.{random}.commit`` is written (atomically) in the
+  folder common to the batch's targets, listing the renames; then the temporaries are renamed
+  onto their targets and the journal is removed. A commit stopped part-way (killed; or a rename
+  that failed, whose journal is then handed to any process: pid 0) leaves its journal: the next
+  write whose file lies in that folder or one level below it, and :func:`complete_commits`
+  (which ``reproduce`` calls on its whole output tree), perform the remaining renames. A reader
+  that calls :func:`complete_commits` first (or any later sloshrom run) sees either the old set
+  of files or the new set, complete; a kill before the journal exists leaves the old set. A
+  journal of a live process is left to that process. The guarantee covers processes that stop,
+  not a power loss (nothing is ``fsync``-ed).
+- :func:`folder_lock`: one run at a time in an output folder (``reproduce``).
+
+Tests stop a write at a named step: :data:`FAULT_ENV` (``SLOSHROM_FAULT_KILL``, a glob of step
+names) kills the process with ``SIGKILL`` at the first matching step, and ``_fault_hook`` is
+called with every step name (an in-process test raises from it). Steps: ``written:{name}`` (a
+temporary is complete), ``replace:{name}`` (before an atomic write's rename), ``journal`` (the
+journal is written), ``rename:{k}`` (before the ``k``-th rename of a commit, from 0),
+``renamed`` (every rename done, the journal not yet removed).
 """
 
 from __future__ import annotations
 
+import errno
+import fcntl
+import fnmatch
+import json
 import os
+import re
+import signal
 import stat
 import tempfile
-from collections.abc import Callable, Sequence
+import time
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from sloshrom.errors import SloshromError
 
+if TYPE_CHECKING:
+    import xarray as xr
+
 __all__ = [
-    "OutputBatch", "OutputPathError", "atomic_write", "atomic_write_text", "check_output",
-    "not_a_regular_file", "same_file",
+    "FAULT_ENV", "FolderBusyError", "OutputBatch", "OutputPathError", "OutputWriteError",
+    "atomic_write", "atomic_write_text", "check_output", "complete_commits", "folder_lock",
+    "netcdf_writer", "not_a_regular_file", "pid_alive", "same_file",
 ]
 
 # Bytes of a temporary name beyond the (possibly shortened) target name: "." + name + "." +
-# mkstemp's 8 random characters + the suffix.
-_TMP_EXTRA = 2 + 8
+# the process id (at most 7 digits: pid_max is 4194304) + "." + mkstemp's 8 random characters +
+# the suffix.
+_TMP_EXTRA = 2 + 8 + 8
 _NAME_MAX = 255
+_JOURNAL = re.compile(r"^\.sloshrom-commit\.(\d+)\.[^.]+\.(commit|tmp)$")
+
+#: Environment variable naming (a glob of) the step at which a test kills the writing process.
+FAULT_ENV = "SLOSHROM_FAULT_KILL"
+#: Called with the name of every step of a write or a commit (tests only; see the module).
+_fault_hook: Callable[[str], None] | None = None
+
+# Why a write failed, in the user's words (the errno's strerror otherwise).
+_REASONS = {
+    errno.ENOSPC: "no space left on device",
+    errno.EFBIG: "file too large (beyond the file-size limit)",
+    errno.EDQUOT: "disk quota exceeded",
+    errno.EROFS: "read-only file system",
+    errno.EACCES: "permission denied",
+    errno.EPERM: "operation not permitted",
+}
 
 
 class OutputPathError(SloshromError):
     """An output path cannot be written (the message names the path and the reason)."""
+
+
+class OutputWriteError(OutputPathError, OSError):
+    """Writing an output failed (full disk, file-size limit, read-only folder, ...).
+
+    Both a :class:`~sloshrom.errors.SloshromError` (the command line prints it as one line) and
+    an ``OSError`` (``errno`` is the system's); the previous result is intact.
+    """
+
+
+class FolderBusyError(OutputPathError):
+    """Another live process holds the lock of an output folder (the message names it)."""
+
+
+def _step(name: str) -> None:
+    """A named step of a write: the tests' fault injection (nothing happens otherwise)."""
+    if _fault_hook is not None:
+        _fault_hook(name)
+    pattern = os.environ.get(FAULT_ENV)
+    if pattern and fnmatch.fnmatchcase(name, pattern):
+        os.kill(os.getpid(), signal.SIGKILL)
+
+
+def _write_error(exc: OSError, path: Path, intact: str) -> OutputWriteError:
+    """``exc`` (raised while writing ``path``) as one line: the file, the reason, what is intact."""
+    if isinstance(exc, OutputWriteError):
+        return exc
+    reason = _REASONS.get(exc.errno or 0) or exc.strerror or str(exc) or type(exc).__name__
+    # name the target, not our temporary (a folder that could not be made keeps its own name)
+    named = exc.filename and not os.path.basename(os.fsdecode(exc.filename)).startswith(".")
+    where = os.fsdecode(exc.filename) if named else path
+    err = OutputWriteError(f"{where}: cannot write: {reason}; {intact}")
+    err.errno = exc.errno
+    return err
+
+
+def _intact(p: Path) -> str:
+    return f"the previous {p.name} is intact" if p.exists() else f"no {p.name} was written"
+
+
+def pid_alive(pid: int) -> bool:
+    """True if a process ``pid`` exists (one of another user counts as alive)."""
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 def _umask() -> int:
@@ -44,12 +155,13 @@ def atomic_write(
 ) -> Path:
     """Write ``path`` atomically through a temporary file in the same directory.
 
-    The parent directory is created if needed. A temporary file named ``.{name}.<random>{suffix}``
-    is created beside the target (so the final ``os.replace`` stays on one file system), its
-    descriptor is closed and ``write`` is called with its path; the temporary then replaces the
-    target. On any exception (including ``KeyboardInterrupt``) the temporary (and any directory
-    the call created) is removed and the exception re-raised, leaving a previous version of the
-    target intact.
+    The parent directory is created if needed. A temporary file named
+    ``.{name}.{pid}.<random>{suffix}`` is created beside the target (so the final ``os.replace``
+    stays on one file system), its descriptor is closed and ``write`` is called with its path;
+    the temporary then replaces the target, and temporaries of the same target left by killed
+    processes are removed. On any exception (including ``KeyboardInterrupt``) the temporary (and
+    any directory the call created) is removed and the exception re-raised (an ``OSError`` as
+    :class:`OutputWriteError`), leaving a previous version of the target intact.
 
     Parameters
     ----------
@@ -66,23 +178,34 @@ def atomic_write(
     -------
     Path
         ``path`` as a :class:`~pathlib.Path`.
+
+    Raises
+    ------
+    OutputWriteError
+        The file system refused the write (the message names the file and the reason).
     """
     p = Path(path)
     made = _missing_dirs(p.parent)
+    intact = _intact(p)
     try:
+        complete_commits(p.parent, recursive=False)
         tmp = _write_temporary(p, write, suffix)
         try:
+            _step(f"replace:{p.name}")
             os.replace(tmp, p)
         except BaseException:
             Path(tmp).unlink(missing_ok=True)
             raise
-    except BaseException:
+    except BaseException as exc:
         for d in reversed(made):  # a failed write leaves no empty directory behind
             try:
                 d.rmdir()
             except OSError:
                 pass
+        if isinstance(exc, OSError):
+            raise _write_error(exc, p, intact) from exc
         raise
+    _remove_stale(p)
     return p
 
 
@@ -97,44 +220,151 @@ def _write_temporary(p: Path, write: Callable[[str], None], suffix: str | None) 
     """Write the complete content to a new temporary file beside ``p``; return its name."""
     p.parent.mkdir(parents=True, exist_ok=True)
     sfx = p.suffix if suffix is None else suffix
-    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=_temporary_prefix(p.name, sfx), suffix=sfx)
+    prefix = f"{_temporary_prefix(p.name, sfx)}{os.getpid()}."
+    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=prefix, suffix=sfx)
     os.close(fd)
     try:
         write(tmp)
         # mkstemp makes the file 0600; a result file gets the permissions of an ordinary one
         os.chmod(tmp, 0o666 & ~_umask())
+        _step(f"written:{p.name}")
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
     return tmp
 
 
+def _remove_stale(p: Path) -> None:
+    """Remove the temporaries of target ``p`` whose writing process is no longer alive.
+
+    Temporaries of the current process (its own pending batch) and of live processes stay, and
+    so do old temporaries without a process id (nothing tells whether their writer still runs).
+    """
+    # the copy of the name in a temporary is shortened by the suffix's length (long names only)
+    prefixes = {_temporary_prefix(p.name, "x" * k) for k in range(33)}
+    alternatives = "|".join(re.escape(s) for s in sorted(prefixes))
+    pattern = re.compile(rf"^(?:{alternatives})(\d+)\.[a-z0-9_]{{8}}")
+    try:
+        entries = list(os.scandir(p.parent))
+    except OSError:
+        return
+    for entry in entries:
+        m = pattern.match(entry.name)
+        if m is None:
+            continue
+        pid = int(m.group(1))
+        if pid == os.getpid() or pid_alive(pid):
+            continue
+        try:
+            os.unlink(entry.path)
+        except OSError:
+            pass
+
+
+def complete_commits(folder: str | Path, *, recursive: bool = True) -> list[Path]:
+    """Finish the batch commits that stopped part-way in ``folder`` (roll forward).
+
+    Each journal ``.sloshrom-commit.{pid}.{random}.commit`` whose process is no longer alive
+    lists the renames of one batch; those not done yet are done now (every temporary was
+    complete before its journal was written), then the journal is removed. Half-written journals
+    (``.tmp``: the commit had not started) of dead processes are removed with the temporaries
+    they would have listed left to :func:`atomic_write`'s clean-up.
+
+    Parameters
+    ----------
+    folder : str or Path
+        A results folder.
+    recursive : bool
+        Also the folders under it.
+
+    Returns
+    -------
+    list of Path
+        The targets renamed into place now.
+    """
+    done: list[Path] = []
+    root = Path(folder)
+    if not root.is_dir():
+        return done
+    walk = os.walk(root) if recursive else [(str(root), [], [])]
+    for d, _, _ in walk:
+        try:
+            names = sorted(e.name for e in os.scandir(d) if _JOURNAL.match(e.name))
+        except OSError:
+            continue
+        for name in names:
+            m = _JOURNAL.match(name)
+            assert m is not None
+            pid = int(m.group(1))
+            if pid == os.getpid() or pid_alive(pid):
+                continue
+            journal = Path(d) / name
+            if m.group(2) == "commit":
+                done += _roll_forward(journal)
+            journal.unlink(missing_ok=True)
+    return done
+
+
+def _roll_forward(journal: Path) -> list[Path]:
+    """The renames that ``journal`` lists and that are not done yet, done."""
+    try:
+        renames = json.loads(journal.read_text(encoding="utf-8"))["renames"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return []  # unreadable: leave the files as they are
+    done = []
+    for tmp, target in renames:
+        src, dst = journal.parent / tmp, journal.parent / target
+        if src.exists():
+            os.replace(src, dst)
+            done.append(dst)
+    return done
+
+
 class OutputBatch:
     """Several files that appear together or not at all.
 
     Each :meth:`write` writes its file completely to a temporary beside the target; leaving the
-    ``with`` block without an exception moves every temporary onto its target, an exception
-    removes them all and leaves every target as it was. A command that writes a result
-    directory uses one batch, so that a failure half-way leaves no partial set of results.
+    ``with`` block without an exception commits: a journal listing the renames is written, every
+    temporary is moved onto its target and the journal removed (a commit stopped part-way is
+    finished by the next run: :func:`complete_commits`). An exception removes the temporaries
+    and leaves every target as it was. A command that writes a result directory uses one batch,
+    so that a failure half-way leaves no partial set of results.
 
     Examples
     --------
     >>> with OutputBatch() as batch:                                    # doctest: +SKIP
-    ...     batch.write("out/a.nc", lambda tmp: ds.to_netcdf(tmp))
+    ...     batch.write("out/a.nc", netcdf_writer(ds))
     ...     batch.write_text("out/a.md", "| table |")
     """
 
     def __init__(self) -> None:
         self._pending: list[tuple[str, Path]] = []
         self._made: list[Path] = []  # directories this batch created, outermost first
+        self._seen: set[Path] = set()  # folders whose unfinished commits were completed
 
     def write(
         self, path: str | Path, write: Callable[[str], None], suffix: str | None = None
     ) -> Path:
-        """Write ``path``'s content now (to a temporary); it appears when the batch commits."""
+        """Write ``path``'s content now (to a temporary); it appears when the batch commits.
+
+        Raises
+        ------
+        OutputWriteError
+            The file system refused the write (full disk, read-only folder, ...).
+        """
         p = Path(path)
+        for d in (p.parent, p.parent.parent):  # a journal sits in the batch's common folder
+            if d not in self._seen:
+                self._seen.add(d)
+                try:
+                    complete_commits(d, recursive=False)
+                except OSError as exc:
+                    raise _write_error(exc, p, _intact(p)) from exc
         self._made += _missing_dirs(p.parent)
-        self._pending.append((_write_temporary(p, write, suffix), p))
+        try:
+            self._pending.append((_write_temporary(p, write, suffix), p))
+        except OSError as exc:
+            raise _write_error(exc, p, "the previous results are intact") from exc
         return p
 
     def write_text(self, path: str | Path, text: str) -> Path:
@@ -164,15 +394,61 @@ class OutputBatch:
         self._made.clear()
 
     def commit(self) -> None:
-        """Rename every pending temporary file onto its path, in the order written."""
-        try:
-            while self._pending:
-                tmp, p = self._pending[0]
-                os.replace(tmp, p)
-                self._pending.pop(0)
-            self._made.clear()  # committed: the directories hold results now
-        finally:
+        """Move every pending temporary onto its path, all or nothing (through a journal).
+
+        Raises
+        ------
+        OutputWriteError
+            The journal could not be written (nothing changed: the temporaries are removed),
+            or a rename failed part-way (the journal stays: the next run completes the batch).
+        """
+        if not self._pending:
             self.discard()
+            return
+        targets = [p for _, p in self._pending]
+        try:
+            journal = self._write_journal()
+        except BaseException as exc:
+            self.discard()
+            if isinstance(exc, OSError):
+                raise _write_error(exc, targets[0], "the previous results are intact") from exc
+            raise
+        _step("journal")
+        try:
+            for k, (tmp, p) in enumerate(self._pending):
+                _step(f"rename:{k}")
+                os.replace(tmp, p)
+        except OSError as exc:
+            self._pending.clear()  # listed in the journal: the next run completes them
+            self._made.clear()
+            journal = _abandon(journal)
+            raise _write_error(exc, p, f"the batch's journal {journal} lists the files still to "
+                                       "move: the next sloshrom run writing there completes it") \
+                from exc
+        _step("renamed")
+        journal.unlink(missing_ok=True)
+        self._pending.clear()
+        self._made.clear()  # committed: the directories hold results now
+        for p in targets:
+            _remove_stale(p)
+
+    def _write_journal(self) -> Path:
+        """Write the commit journal (atomically) in the folder common to every target."""
+        folder = Path(os.path.commonpath([os.path.abspath(p.parent) for _, p in self._pending]))
+        renames = [[os.path.relpath(os.path.abspath(t), folder),
+                    os.path.relpath(os.path.abspath(p), folder)] for t, p in self._pending]
+        text = json.dumps({"pid": os.getpid(), "renames": renames}, indent=1)
+        fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".sloshrom-commit.{os.getpid()}.",
+                                   suffix=".tmp")
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8") as fh:
+                fh.write(text)
+            journal = Path(tmp).with_suffix(".commit")
+            os.replace(tmp, journal)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        return journal
 
     def __enter__(self) -> OutputBatch:
         return self
@@ -182,6 +458,43 @@ class OutputBatch:
             self.commit()
         else:
             self.discard()
+
+
+def _abandon(journal: Path) -> Path:
+    """Hand an unfinished commit's journal to any process: process id 0, never alive."""
+    left = journal.with_name(re.sub(r"^(\.sloshrom-commit\.)\d+\.", r"\g<1>0.", journal.name))
+    try:
+        os.replace(journal, left)
+    except OSError:
+        return journal  # then it is completed once this process has ended
+    return left
+
+
+def netcdf_writer(ds: xr.Dataset) -> Callable[[str], None]:
+    """A ``write(tmp)`` for :func:`atomic_write`/:meth:`OutputBatch.write`: ``ds`` as NetCDF-4.
+
+    The file's bytes are made in memory now (h5netcdf: the peak memory grows by the file's size,
+    +32 MB for a 32 MB file; results are a few MB) and written by plain Python I/O, so that a
+    full disk or the file-size limit is an ``OSError`` here, not a failure inside HDF5 (which
+    crashed the process after a failed write).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        What to write.
+
+    Returns
+    -------
+    callable
+        ``write(tmp_path)``, writing the bytes to the file named ``tmp_path``.
+    """
+    data = ds.to_netcdf(engine="h5netcdf")
+
+    def write(tmp: str) -> None:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+
+    return write
 
 
 def _missing_dirs(d: Path) -> list[Path]:
@@ -340,3 +653,83 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
             fh.write(text)
 
     return atomic_write(path, write, suffix=".tmp")
+
+
+def _lock_holder(fd: int) -> tuple[int, str] | None:
+    """The process id and start time a lock file holds (``None``: empty or unreadable)."""
+    try:
+        os.lseek(fd, 0, os.SEEK_SET)
+        info = json.loads(os.read(fd, 4096).decode("utf-8"))
+        return int(info["pid"]), str(info.get("started", "?"))
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+@contextmanager
+def folder_lock(path: str | Path, what: str = "output folder") -> Iterator[str | None]:
+    """Hold the lock file ``path`` of an output folder while the block runs.
+
+    The lock is an ``fcntl.flock`` on ``path`` (released by the kernel when the process ends,
+    however it ends), and the file holds the holder's process id and start time for the
+    message. A lock file that names another live process is held too (a lock planted by hand,
+    or held on another machine); one that names a dead process is taken over. The file is
+    removed when the block ends.
+
+    Parameters
+    ----------
+    path : str or Path
+        The lock file (its folder exists).
+    what : str
+        How to name the folder in the message (e.g. ``"--out results"``).
+
+    Yields
+    ------
+    str or None
+        A note when a stale lock (of a process no longer alive) was taken over, else ``None``.
+
+    Raises
+    ------
+    FolderBusyError
+        Another live process holds the lock: the message names its process id, start time and
+        the file to delete if no such run exists.
+    """
+    p = Path(path)
+    for _ in range(3):  # the holder may remove the file between our open and our flock
+        fd = os.open(p, os.O_RDWR | os.O_CREAT, 0o666 & ~_umask())
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            locked = True
+        except BlockingIOError:
+            locked = False
+        holder = _lock_holder(fd)
+        try:
+            same = os.fstat(fd).st_ino == os.stat(p).st_ino
+        except FileNotFoundError:
+            same = False
+        if locked and not same:
+            os.close(fd)
+            continue
+        if not locked or (holder is not None and holder[0] != os.getpid()
+                          and pid_alive(holder[0])):
+            os.close(fd)
+            pid, started = holder if holder is not None else ("unknown", "?")
+            raise FolderBusyError(
+                f"{what}: another sloshrom run (process {pid}, started {started}) is writing "
+                f"there; wait for it to end or choose another folder (if no such run exists, "
+                f"delete {p})")
+        break
+    else:
+        raise FolderBusyError(f"{what}: the lock {p} keeps changing; try again")
+    note = (None if holder is None else
+            f"{p}: took over the lock of process {holder[0]} (started {holder[1]}), which no "
+            "longer runs")
+    try:
+        os.ftruncate(fd, 0)
+        started = time.strftime("%Y-%m-%dT%H:%M:%S%z")
+        os.pwrite(fd, json.dumps({"pid": os.getpid(), "started": started}).encode(), 0)
+        yield note
+    finally:
+        try:
+            p.unlink(missing_ok=True)  # while still locked: a waiting open finds a new file
+        finally:
+            os.close(fd)

@@ -33,7 +33,12 @@ import numpy as np
 from sloshrom.beam.modes import ModeSet, mode_table_arrays
 from sloshrom.beam.structure import ModalDataError
 from sloshrom.config import load_toml_table
-from sloshrom.fileio import atomic_write, atomic_write_text, not_a_regular_file
+from sloshrom.fileio import (
+    atomic_write,
+    atomic_write_text,
+    netcdf_writer,
+    not_a_regular_file,
+)
 from sloshrom.io.uff import open_uff
 from sloshrom.io.units import canonical_unit, is_known_unit
 
@@ -594,7 +599,7 @@ def write_modes_netcdf(ms: ModeSet, path: str | Path) -> Path:
         attrs={"format": NETCDF_FORMAT, "format_version": NETCDF_VERSION,
                "source": ms.source},
     )
-    return atomic_write(path, lambda tmp: ds.to_netcdf(tmp, engine="h5netcdf"), suffix=".nc")
+    return atomic_write(path, netcdf_writer(ds), suffix=".nc")
 
 
 # =============================================================================================

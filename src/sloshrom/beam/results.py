@@ -59,7 +59,7 @@ from sloshrom.beam.uncertainty import (
     table2_columns,
 )
 from sloshrom.config import G, Tank
-from sloshrom.fileio import OutputBatch, atomic_write
+from sloshrom.fileio import OutputBatch, atomic_write, netcdf_writer
 from sloshrom.models import SloshingModel
 
 if TYPE_CHECKING:  # the readers import this module's writers' neighbours
@@ -787,7 +787,7 @@ def envelope_table(results: Mapping[str, Mapping[str, Mapping[str, Any]]]
 def write_dataset(ds: xr.Dataset, path: str | Path, batch: OutputBatch | None = None) -> Path:
     """Write ``ds`` as NetCDF-4 (h5netcdf), atomically or into ``batch``; return the path."""
     write = batch.write if batch is not None else atomic_write
-    return write(path, lambda tmp: ds.to_netcdf(tmp, engine="h5netcdf"))
+    return write(path, netcdf_writer(ds))
 
 
 def write_table(rows: Sequence[Mapping[str, Any]], path_stem: str | Path,

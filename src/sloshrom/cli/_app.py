@@ -21,6 +21,7 @@ import importlib
 import inspect
 import math
 import re
+import signal
 import sys
 import warnings
 from collections.abc import Iterator
@@ -90,6 +91,7 @@ class _OneLineErrors(TyperGroup):
              **extra: Any) -> Any:
         self.help = help_paragraphs(self.help)
         _paragraph_help(self)
+        _ignore_file_size_signal()
         if not standalone_mode:
             return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         exc = _click_exceptions()
@@ -112,6 +114,20 @@ class _OneLineErrors(TyperGroup):
             typer.secho("error: aborted", fg=typer.colors.RED, err=True)
             sys.exit(1)
         sys.exit(rv if isinstance(rv, int) else 0)
+
+
+def _ignore_file_size_signal() -> None:
+    """Let a write beyond the file-size limit fail with ``EFBIG`` instead of killing us.
+
+    ``SIGXFSZ``'s default action ends the process (with a core dump) before the failed write can
+    be reported; ignored, the write raises an ``OSError`` that becomes one ``error:`` line and
+    leaves the previous result intact (:mod:`sloshrom.fileio`). The command line owns its process.
+    """
+    if hasattr(signal, "SIGXFSZ"):
+        try:
+            signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        except ValueError:  # not the main thread (the app run from a caller's thread)
+            pass
 
 
 app = typer.Typer(

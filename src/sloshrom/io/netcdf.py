@@ -13,6 +13,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from sloshrom.fileio import netcdf_writer
 from sloshrom.io.record import Record, RecordError, _why
 
 __all__ = ["read_netcdf", "write_netcdf"]
@@ -49,5 +50,8 @@ def read_netcdf(p: Path, fs: float | None, units: Mapping[str, str]) -> Record:
 
 
 def write_netcdf(record: Record, path: str) -> None:
-    """Write ``record`` as NetCDF-4 to ``path`` (atomically: use write_record)."""
-    record.to_dataset().to_netcdf(path, engine="h5netcdf")
+    """Write ``record`` as NetCDF-4 to ``path`` (atomically: use write_record).
+
+    The bytes are made in memory and written with plain I/O (:func:`sloshrom.fileio.netcdf_writer`).
+    """
+    netcdf_writer(record.to_dataset())(path)

@@ -27,13 +27,15 @@ from __future__ import annotations
 import functools
 import json
 import time
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from sloshrom import __version__
 from sloshrom import studies as registry
-from sloshrom.fileio import atomic_write_text
+from sloshrom.errors import Note
+from sloshrom.fileio import atomic_write_text, complete_commits, folder_lock
 from sloshrom.pipeline.beam import stage_beam
 from sloshrom.pipeline.cache import StageCache, StageResult
 from sloshrom.pipeline.context import (
@@ -54,11 +56,11 @@ from sloshrom.rom.registry import CLASSES
 
 __all__ = ["RESULT_ENTRIES", "identify", "run"]
 
-#: What :func:`run` writes in its output directory: two files and the directories whose whole
-#: tree the stages own (a trailing ``/``). The command line refuses an input (``--config``)
-#: that is one of them or lies inside one, before any work.
-RESULT_ENTRIES = ("report.html", "summary.json", ".stages/", "data/", "sweep/", "models/",
-                  "maps/", "beam/", "figures/",
+#: What :func:`run` writes in its output directory: two files, the lock held while it runs
+#: and the directories whose whole tree the stages own (a trailing ``/``). The command line
+#: refuses an input (``--config``) that is one of them or lies inside one, before any work.
+RESULT_ENTRIES = ("report.html", "summary.json", ".sloshrom.lock", ".stages/", "data/", "sweep/",
+                  "models/", "maps/", "beam/", "figures/",
                   *(d for study in registry.registered() for d in study.directories))
 
 
@@ -141,6 +143,9 @@ def run(out: str | Path, cfg: ReproduceConfig | dict[str, Any],
         or that an enabled study's own check refuses (:attr:`~sloshrom.pipeline.study.Study.
         check`, e.g. a wing the two-mode study cannot build): one error naming the key, before
         any work and before anything is written.
+    FolderBusyError
+        Another live run holds ``OUT/.sloshrom.lock`` (:func:`sloshrom.fileio.folder_lock`):
+        the message names its process id; nothing is written.
     """
     cfg = validate(cfg)
     check_rig_tanks(cfg)  # the tanks the rig runs at, before any stage or file
@@ -149,33 +154,39 @@ def run(out: str | Path, cfg: ReproduceConfig | dict[str, Any],
         study.check(cfg)
     ctx = Context(Path(out), cfg, progress, on_stage=on_stage)
     ctx.out.mkdir(parents=True, exist_ok=True)
-    cache = StageCache(ctx.out)
-    results = identify(ctx, cache)
-    rom = results["rom"]
-    rom_path = rom.output(rom.outputs["model"])  # the model file, as the rom stage recorded it
-    deps = [results["data"], results["rom"]]
-    results["maps"] = _stage(ctx, cache, "maps", cfg.tables("tank", "rig", "map"), deps,
-                             lambda: stage_maps(ctx, rom_path))
-    results["beam"] = _stage(ctx, cache, "beam", cfg.tables("tank", "rig", "beam"), deps,
-                             lambda: stage_beam(ctx, rom_path))
+    # one run per folder: a second one at once is refused with the first's process id
+    with folder_lock(ctx.out / ".sloshrom.lock", what=f"--out {ctx.out}") as note:
+        if note is not None:
+            warnings.warn(note, Note, stacklevel=2)
+        # a batch whose commit a killed run left part-way: finished before anything is read
+        complete_commits(ctx.out)
+        cache = StageCache(ctx.out)
+        results = identify(ctx, cache)
+        rom = results["rom"]
+        rom_path = rom.output(rom.outputs["model"])  # the model file, as the rom stage recorded it
+        deps = [results["data"], results["rom"]]
+        results["maps"] = _stage(ctx, cache, "maps", cfg.tables("tank", "rig", "map"), deps,
+                                 lambda: stage_maps(ctx, rom_path))
+        results["beam"] = _stage(ctx, cache, "beam", cfg.tables("tank", "rig", "beam"), deps,
+                                 lambda: stage_beam(ctx, rom_path))
 
-    for study in studies:
-        # the upstream results in the order the study declares: the order of its cache key
-        upstream = {name: results[name] for name in study.after}
-        results[study.name] = _stage(ctx, cache, study.name, study.cache_config(cfg),
-                                     list(upstream.values()),
-                                     functools.partial(study.run, ctx, upstream, identify))
+        for study in studies:
+            # the upstream results in the order the study declares: the order of its cache key
+            upstream = {name: results[name] for name in study.after}
+            results[study.name] = _stage(ctx, cache, study.name, study.cache_config(cfg),
+                                         list(upstream.values()),
+                                         functools.partial(study.run, ctx, upstream, identify))
 
-    summary = {
-        "sloshrom_version": __version__,
-        "config": cfg.as_dict(),
-        "stages": {k: {"reused": r.reused, **r.outputs} for k, r in results.items()},
-        "timings_s": ctx.timings,
-    }
-    # not a cached stage, and not in the timings the summary already holds: told, not timed
-    on_stage("report", "start", 0.0)
-    t0 = time.perf_counter()
-    write_report(ctx, summary)
-    atomic_write_text(ctx.out / "summary.json", json.dumps(summary, indent=1, default=float))
-    on_stage("report", "done", time.perf_counter() - t0)
-    return summary
+        summary = {
+            "sloshrom_version": __version__,
+            "config": cfg.as_dict(),
+            "stages": {k: {"reused": r.reused, **r.outputs} for k, r in results.items()},
+            "timings_s": ctx.timings,
+        }
+        # not a cached stage, and not in the timings the summary already holds: told, not timed
+        on_stage("report", "start", 0.0)
+        t0 = time.perf_counter()
+        write_report(ctx, summary)
+        atomic_write_text(ctx.out / "summary.json", json.dumps(summary, indent=1, default=float))
+        on_stage("report", "done", time.perf_counter() - t0)
+        return summary

@@ -24,7 +24,7 @@ from sloshrom.energy import (
     map_maximum,
     phi_d_map,
 )
-from sloshrom.fileio import OutputBatch
+from sloshrom.fileio import OutputBatch, netcdf_writer
 from sloshrom.models import SloshingModel
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.settings import ReproduceConfig
@@ -112,7 +112,7 @@ def write_map(da: xr.DataArray, path: Path, title: str, kind: str = "map",
     """
     fig = phi_d_map_figure(da, title, kind=kind, negative_below=negative_below)
     with OutputBatch() as batch:
-        batch.write(path, lambda tmp: da.to_dataset().to_netcdf(tmp, engine="h5netcdf"))
+        batch.write(path, netcdf_writer(da.to_dataset()))
         png = savefig(fig, path.with_suffix(".png"), batch)
     return [path, png]
 

@@ -23,7 +23,7 @@ from sloshrom.beam.results import mode1_damping_table, simulate_cases, write_tab
 from sloshrom.beam.structure import coupled_frozen_modes
 from sloshrom.config import FILL_TOLERANCE
 from sloshrom.energy import map_fidelity
-from sloshrom.fileio import OutputBatch
+from sloshrom.fileio import OutputBatch, netcdf_writer
 from sloshrom.models import FrozenLiquid
 from sloshrom.pipeline.beam import beam_structure, beam_tests, coupled_models
 from sloshrom.pipeline.cache import StageResult
@@ -158,8 +158,7 @@ def stage_fills(ctx: Context, rom: StageResult, identify: Identify
         "fills_damping": damping_fill_figure(damping, levels, unseen),
     }
     with OutputBatch() as batch:
-        batch.write(ctx.path("fills", "phi_d_maps.nc"),
-                    lambda tmp: maps_ds.to_netcdf(tmp, engine="h5netcdf"))
+        batch.write(ctx.path("fills", "phi_d_maps.nc"), netcdf_writer(maps_ds))
         write_table(damping, ctx.out / "fills" / "damping_against_fill", batch)
         for name, fig in figs.items():
             savefig(fig, ctx.path("figures", f"{name}.png"), batch)
