@@ -51,7 +51,7 @@ from sloshrom.pipeline.maps import stage_maps
 from sloshrom.pipeline.report import write_report
 from sloshrom.pipeline.rom import stage_rom, stage_sweep, sweep_keys
 from sloshrom.pipeline.settings import ReproduceConfig, validate
-from sloshrom.pipeline.study import StageRecord
+from sloshrom.pipeline.study import StageRecord, Study
 from sloshrom.rom.registry import CLASSES
 
 __all__ = ["RESULT_ENTRIES", "identify", "run"]
@@ -158,35 +158,40 @@ def run(out: str | Path, cfg: ReproduceConfig | dict[str, Any],
     with folder_lock(ctx.out / ".sloshrom.lock", what=f"--out {ctx.out}") as note:
         if note is not None:
             warnings.warn(note, Note, stacklevel=2)
-        # a batch whose commit a killed run left part-way: finished before anything is read
-        complete_commits(ctx.out)
-        cache = StageCache(ctx.out)
-        results = identify(ctx, cache)
-        rom = results["rom"]
-        rom_path = rom.output(rom.outputs["model"])  # the model file, as the rom stage recorded it
-        deps = [results["data"], results["rom"]]
-        results["maps"] = _stage(ctx, cache, "maps", cfg.tables("tank", "rig", "map"), deps,
-                                 lambda: stage_maps(ctx, rom_path))
-        results["beam"] = _stage(ctx, cache, "beam", cfg.tables("tank", "rig", "beam"), deps,
-                                 lambda: stage_beam(ctx, rom_path))
+        return _run_stages(ctx, cfg, studies)
 
-        for study in studies:
-            # the upstream results in the order the study declares: the order of its cache key
-            upstream = {name: results[name] for name in study.after}
-            results[study.name] = _stage(ctx, cache, study.name, study.cache_config(cfg),
-                                         list(upstream.values()),
-                                         functools.partial(study.run, ctx, upstream, identify))
 
-        summary = {
-            "sloshrom_version": __version__,
-            "config": cfg.as_dict(),
-            "stages": {k: {"reused": r.reused, **r.outputs} for k, r in results.items()},
-            "timings_s": ctx.timings,
-        }
-        # not a cached stage, and not in the timings the summary already holds: told, not timed
-        on_stage("report", "start", 0.0)
-        t0 = time.perf_counter()
-        write_report(ctx, summary)
-        atomic_write_text(ctx.out / "summary.json", json.dumps(summary, indent=1, default=float))
-        on_stage("report", "done", time.perf_counter() - t0)
-        return summary
+def _run_stages(ctx: Context, cfg: ReproduceConfig, studies: list[Study]) -> dict[str, Any]:
+    """Every stage, then the report and the summary (the caller holds the folder's lock)."""
+    # a batch whose commit a killed run left part-way: finished before anything is read
+    complete_commits(ctx.out)
+    cache = StageCache(ctx.out)
+    results = identify(ctx, cache)
+    rom = results["rom"]
+    rom_path = rom.output(rom.outputs["model"])  # the model file, as the rom stage recorded it
+    deps = [results["data"], results["rom"]]
+    results["maps"] = _stage(ctx, cache, "maps", cfg.tables("tank", "rig", "map"), deps,
+                             lambda: stage_maps(ctx, rom_path))
+    results["beam"] = _stage(ctx, cache, "beam", cfg.tables("tank", "rig", "beam"), deps,
+                             lambda: stage_beam(ctx, rom_path))
+
+    for study in studies:
+        # the upstream results in the order the study declares: the order of its cache key
+        upstream = {name: results[name] for name in study.after}
+        results[study.name] = _stage(ctx, cache, study.name, study.cache_config(cfg),
+                                     list(upstream.values()),
+                                     functools.partial(study.run, ctx, upstream, identify))
+
+    summary = {
+        "sloshrom_version": __version__,
+        "config": cfg.as_dict(),
+        "stages": {k: {"reused": r.reused, **r.outputs} for k, r in results.items()},
+        "timings_s": ctx.timings,
+    }
+    # not a cached stage, and not in the timings the summary already holds: told, not timed
+    ctx.on_stage("report", "start", 0.0)
+    t0 = time.perf_counter()
+    write_report(ctx, summary)
+    atomic_write_text(ctx.out / "summary.json", json.dumps(summary, indent=1, default=float))
+    ctx.on_stage("report", "done", time.perf_counter() - t0)
+    return summary
