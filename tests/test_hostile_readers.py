@@ -57,10 +57,14 @@ def _rows(n: int = N, sep: str = ",", acc=ACC, force=FORCE) -> str:
     return _table(T[:n], acc[:n], force[:n], sep=sep)
 
 
-def _table(*cols, sep: str = ",", comma: bool = False) -> str:
-    """Data rows of columns (17 significant digits), optionally with decimal commas."""
-    rows = "".join(sep.join(repr(float(c[k])) for c in cols) + "\n" for k in range(len(cols[0])))
-    return rows.replace(".", ",") if comma else rows
+def _table(*cols, sep: str = ",", comma: bool = False, quote: bool = False) -> str:
+    """Data rows of columns (17 significant digits), optionally with decimal commas, optionally
+    each field in double quotes (as spreadsheets export them)."""
+    def field(v) -> str:
+        text = repr(float(v)).replace(".", ",") if comma else repr(float(v))
+        return f'"{text}"' if quote else text
+
+    return "".join(sep.join(field(c[k]) for c in cols) + "\n" for k in range(len(cols[0])))
 
 
 def _csv(header: str, rows: str | None = None, name: str = "r.csv") -> Callable[[Path], Path]:
@@ -457,6 +461,15 @@ REJECT_STRUCTURE = [
         f"{k / FS},1,2,\n" for k in range(5))), {}, r"r\.csv: empty column name in header"),
     ("csv-decimal-comma-with-comma-delimiter", _csv(UNITS, "0,0;1,5;2\n"), {},
      r"r\.csv: bad data row \(data row 1, column 'acceleration': '0;1' is not a number"),
+    ("csv-quoted-decimal-comma-with-comma-delimiter", _csv(UNITS, _table(
+        T, ACC, FORCE, comma=True, quote=True)), {},
+     r"r\.csv: data row 1, column 'time': '0,0' is a number with a decimal comma in a "
+     r"comma-delimited file; write it with a decimal point, or delimit the columns with ';'"),
+    ("csv-quoted-decimal-comma-no-units", _csv("time,acceleration,force", _table(
+        T, ACC, FORCE, comma=True, quote=True)), {},
+     r"r\.csv: data row 1, column 'time': '0,0' is a number with a decimal comma"),
+    ("csv-quoted-decimal-comma-in-a-later-row", _csv(UNITS, _rows(5) + '"0,05",1,2\n'), {},
+     r"r\.csv: data row 6, column 'time': '0,05' is a number with a decimal comma"),
     ("mat-transposed-matrix", _mat(station=np.vstack([ACC, ACC, ACC]),
                                    units={"acceleration": "m/s^2", "force": "N",
                                           "station": "g"}), {},
@@ -656,6 +669,11 @@ ACCEPT_CASES = [
     ("csv-tab-decimal-comma-units-row", _csv("time\tacceleration\tforce\ns\tm/s^2\tN",
                                              _table(T, ACC, FORCE, sep="\t", comma=True)), {},
      _check_standard),
+    ("csv-semicolon-quoted-decimal-comma", _csv("time [s];acceleration [m/s2];force [N]",
+                                                _table(T, ACC, FORCE, sep=";", comma=True,
+                                                       quote=True)), {}, _check_standard),
+    ("csv-quoted-fields", _csv("time [s],acceleration [m/s2],force [N]",
+                               _table(T, ACC, FORCE, quote=True)), {}, _check_standard),
     ("csv-units-row-same-unit-respelled", _csv("time [s],acceleration [m/s2],force [N]\n"
                                                "sec,m s-2,newton"), {}, _check_standard),
     ("csv-ft-per-s-and-lbf-exact", _csv("time [s],velocity [ft/s],force [lbf]",
