@@ -574,6 +574,10 @@ def _check_since(k: float, ref: str, offset: float, atol: float = 1e-9
     return check
 
 
+#: 2023-11-14 22:13:20.123456789 in ns since 1970 (not a multiple of the float64 step there)
+NS_START = 1_700_000_000_123_456_789
+
+
 def _days(ds: xr.Dataset) -> xr.Dataset:
     # 100 Hz samples starting 1500.25 days after 2020-01-01, in days
     return ds.assign_coords(time=("time", 1500.25 + T / 86400.0,
@@ -710,6 +714,21 @@ ACCEPT_CASES = [
     ("nc-cf-ms-since", _nc(lambda ds: ds.assign_coords(
         time=("time", 5000.0 + 1000.0 * T, {"units": "ms since 2020-01-01"}))), {},
      _check_since(1e-3, "2020-01-01", 5000.0)),
+    # int64 nanoseconds since 1970 (pandas, numpy datetime64 as integers): exact, although
+    # float64 holds 1.7e18 only to 256 ns
+    ("nc-cf-int64-nanoseconds-since", _nc(lambda ds: ds.assign_coords(
+        time=("time", NS_START + np.arange(N, dtype=np.int64) * 10_000_000,
+              {"units": "nanoseconds since 1970-01-01"}))), {},
+     _check_since(1e-9, "1970-01-01", float(NS_START), 1e-15)),
+    ("nc-cf-float-ns-since", _nc(lambda ds: ds.assign_coords(
+        time=("time", NS_START + 1e9 * T, {"units": "ns since 1970-01-01"}))), {},
+     _check_since(1e-9, "1970-01-01", float(NS_START), 2.6e-7)),  # float64 step at 1.7e18: 256
+    ("csv-ns-since", _csv("time [ns since 2020-01-01],acceleration [m/s^2],force [N]",
+                          _table(5e12 + 1e9 * T, ACC, FORCE)), {},
+     _check_since(1e-9, "2020-01-01", 5e12, 1e-9)),
+    ("csv-microseconds-since", _csv("time [microseconds since 2020-01-01],acceleration [m/s^2],"
+                                    "force [N]", _table(5e9 + 1e6 * T, ACC, FORCE)), {},
+     _check_since(1e-6, "2020-01-01", 5e9, 1e-9)),
     ("nc-time-without-units-is-seconds", _nc(lambda ds: ds.assign_coords(time=("time", T))),
      {}, _check_standard),
     ("nc3-classic-round-trip", _nc(engine="scipy", format="NETCDF3_CLASSIC"), {},
@@ -883,7 +902,8 @@ def test_missing_variable_says_why_it_was_ignored(tmp_path):
      ("cm/s", "m/s", 1e-2), ("ft/s^2", "m/s^2", 0.3048), ("in/s2", "m/s^2", 0.0254),
      ("mm/s^2", "m/s^2", 1e-3), ("cm/s\u00b2", "m/s^2", 1e-2), ("lbf", "N", 4.4482216152605),
      ("kip", "N", 4448.2216152605), ("min", "s", 60.0), ("h", "s", 3600.0),
-     ("days", "s", 86400.0), ("us", "s", 1e-6), ("Millimeter", "m", 1e-3)],
+     ("days", "s", 86400.0), ("us", "s", 1e-6),
+     ("ns", "s", 1e-9), ("nanoseconds", "s", 1e-9), ("Millimeter", "m", 1e-3)],
 )
 def test_unit_table(unit, si, k):
     assert canonical_unit(unit) == (si, k) and is_known_unit(unit)
