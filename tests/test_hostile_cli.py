@@ -476,6 +476,22 @@ HOSTILE_CASES = [
     ("train-input-empty", None, [*TRO, "--input", ""], r"--input must name a variable"),
     ("train-input-is-output", None, [*TRO, "--input", "velocity", "--output", "velocity"],
      r"--input and --output must be different variables"),
+    # the time axis is no signal: a model of it (validation MSE = predicting 0) was written
+    ("train-input-time", None, [*TRO, "--input", "time"],
+     r"--input time: 'time' is the time axis of .*good\.nc, not a signal; name one of its "
+     r"signals: velocity, dynamic_force$"),
+    ("train-output-time-mat", None, [*TR, "--data", "{tmp}/good.mat", "--validation",
+                                     "{tmp}/good.mat", "--out", "{tmp}/m.npz", "--output", "time"],
+     r"--output time: 'time' is the time axis of .*good\.mat, not a signal"),
+    ("train-input-csv-time-column-t", _text("tcol.csv", "t [s],velocity [m/s],dynamic_force [N]\n"
+                                                        "0,0,0\n0.002,0.1,0.2\n0.004,0.2,0.3\n"),
+     [*TR, "--data", "{tmp}/tcol.csv", "--validation", "{tmp}/good.nc", "--out", "{tmp}/m.npz",
+      "--input", "t"], r"--input t: 't' is the time axis of .*tcol\.csv, not a signal; name one "
+                       r"of its signals: velocity, dynamic_force$"),
+    ("train-validation-input-time", _text("tval.csv", "Time [s],velocity [m/s],force [N]\n"
+                                                      "0,0,0\n0.002,0.1,0.2\n"),
+     [*TR, "--data", "{tmp}/tval.csv", "--validation", "{tmp}/tval.csv", "--out", "{tmp}/m.npz",
+      "--input", "Time", "--output", "force"], r"--input Time: 'Time' is the time axis"),
     ("train-data-missing", None,
      [*TR, "--data", "{tmp}/none.nc", "--validation", "{tmp}/good.nc", "--out", "{tmp}/m.npz"],
      r"--data .*none\.nc: no such file"),
@@ -558,6 +574,8 @@ HOSTILE_CASES = [
      r"afile: exists and is not a directory"),
     ("sweep-out-is-the-data", None, [*S, "--out", "{tmp}/good.nc"],
      r"good\.nc is also an input of this command"),
+    ("sweep-input-time", None, [*SO, "--input", "time"],
+     r"--input time: 'time' is the time axis of .*good\.nc, not a signal"),
     ("sweep-validation-other-unit", None,
      ["sweep", "--data", "{tmp}/good.nc", "--validation", "{tmp}/rads.nc", "--out", "{tmp}/sw"],
      r"unit mismatch: variable 'velocity'"),
@@ -642,6 +660,11 @@ HOSTILE_CASES = [
      r"'rom\.sweep_workers' must be a number of parallel trainings in \[1, 64\], got 0"),
     ("config-neurons-float", _cfg("[rom]\nneurons = 3.5\n"), CS,
      r"'rom\.nfir\.neurons' must be a number of neurons in \[1, 4096\], got 3\.5"),
+    # bool is an int in Python: true is called a boolean, not "must be true or false"
+    ("config-nss-states-true", _cfg("[rom.nss]\nn_states = true\n"), CS,
+     r"'rom\.nss\.n_states' must be an integer, got true \(a boolean\)$"),
+    ("config-former-nss-states-true", _cfg("[rom]\nnss_states = true\n"), CS,
+     r"'rom\.nss\.n_states' must be an integer, got true \(a boolean\)$"),
     ("config-max-epochs-negative", _cfg("[rom]\nmax_epochs = -1\n"), CS,
      r"'rom\.nfir\.max_epochs' must be an integer in \[0, 10000000\], got -1"),
     ("config-rig-seed-negative", _cfg("[rig]\nseed = -1\n"), CS,

@@ -1006,3 +1006,14 @@ def test_a_named_pipe_is_not_a_missing_file(tmp_path):
     os.mkfifo(tmp_path / "pipe.uff")
     with pytest.raises(RecordError, match=r"pipe\.uff: is a named pipe"):
         read_uff58(tmp_path / "pipe.uff")
+
+
+def test_time_axis_names():
+    """The names of a record's time axis: "time", and a reader's time name (t, Time, TIME)
+    unless a variable has it (a file with a time and a t column keeps t as a signal)."""
+    t = np.arange(4) / FS
+    rec = Record(t, FS, {"force": np.ones(4)}, {"force": "N"})
+    assert [n for n in ("time", "t", "Time", "TIME", "force", "T", "tt") if rec.is_time_axis(n)] \
+        == ["time", "t", "Time", "TIME"]
+    rec = Record(t, FS, {"t": np.ones(4)}, {"t": "N"})
+    assert rec.is_time_axis("time") and not rec.is_time_axis("t")

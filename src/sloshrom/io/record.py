@@ -406,6 +406,13 @@ class Record:
     def __len__(self) -> int:
         return int(self.time.size)
 
+    def is_time_axis(self, name: str) -> bool:
+        """Whether ``name`` names the record's time axis rather than a signal: ``"time"``, or a
+        name the readers take the time axis from (``t``, ``Time``, ``TIME``) that is not one of
+        the variables (a file with both a ``time`` and a ``t`` column keeps ``t`` as a signal).
+        """
+        return name == "time" or (name in _TIME_NAMES and name not in self.variables)
+
     @property
     def names(self) -> list[str]:
         """Variable names (time excluded)."""
