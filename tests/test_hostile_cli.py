@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from helpers import check_cli, good_record, make_model_files, runner
+from helpers import check_cli, good_record, make_model_files, model_parts, runner, write_model_parts
 from sloshrom.cli import app
 from sloshrom.io import Record, write_record
 from sloshrom.io.uff import write_uff58
@@ -38,7 +38,21 @@ def model_files(tmp_path_factory):
     NFIR(delays=4, neurons=3, max_epochs=2).fit(u, y, fs=250.0).save(d / "r250.npz")
     NFIR(delays=4, neurons=3, max_epochs=2).fit(u, y, fs=100.0).save(d / "slow100.npz")
     _ball_file(d / "ball.toml")
+    _forged_ensemble(u, y, d / "ens_fills.npz")
     return d
+
+
+def _forged_ensemble(u: np.ndarray, y: np.ndarray, path: Path) -> None:
+    """An ensemble identified at fill 0.5 whose member 1 is forged to fill 0.3 (checksum
+    recomputed): the union of the members' ranges, 0.3 to 0.5, holds both fills."""
+    from sloshrom.rom.ensemble import Ensemble
+    from sloshrom.rom.estimators import NFIR
+
+    ens = Ensemble(NFIR(delays=4, neurons=3, max_epochs=2), n_members=2).fit(
+        u, y, 500.0, scheduler="sequential", fill=0.5)
+    meta, arrays = model_parts(ens.save(path))
+    meta["members"][1]["envelope"].update(fill_min=0.3, fill_max=0.3)
+    write_model_parts(path, meta, arrays)
 
 
 def _ball_file(path: Path) -> None:
@@ -545,6 +559,16 @@ HOSTILE_CASES = [
     ("predict-model-missing", None,
      ["predict", "--model", "{tmp}/none.npz", "--data", "{tmp}/good.nc", "--out", "{tmp}/p.nc"],
      r"--model .*none\.npz: no such file"),
+    # each member at its own fill, not the union of the members' ranges
+    ("predict-ensemble-member-at-another-fill", None,
+     ["predict", "--model", "{models}/ens_fills.npz", "--data", "{tmp}/good.nc", "--fill", "0.5",
+      "--out", "{tmp}/p.nc"],
+     r"--model .*ens_fills\.npz, ensemble member 1 \(seed 1\), was identified at fill 30\.0%; "
+     r"fill 50\.0% is outside"),
+    ("predict-ensemble-fill-of-the-other-member", None,
+     ["predict", "--model", "{models}/ens_fills.npz", "--data", "{tmp}/good.nc", "--fill", "0.3",
+      "--out", "{tmp}/p.nc"],
+     r"ens_fills\.npz, ensemble member 0 \(seed 0\), was identified at fill 50\.0%; fill 30\.0%"),
     ("predict-data-empty-path", None, [*P, "--data", "", "--out", "{tmp}/p.nc"],
      r"--data \.: is a directory, expected a file"),
     # -- sweep ----------------------------------------------------------------------------------
