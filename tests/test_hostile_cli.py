@@ -473,6 +473,17 @@ HOSTILE_CASES = [
     ("train-nss-learning-rate-nan", None, [*NSO, "--learning-rate", "nan"],
      r"--learning-rate must be in \(0, 1\], got nan"),
     ("train-nss-horizon-7", None, [*NSO, "--horizon", "7"], r"--horizon must be in \[8, 10000\]"),
+    # each option bounded alone, their product ran for hours: one epoch's work is bounded
+    ("train-nss-epoch-cost-window-horizon", None,
+     [*NSO, "--neurons", "64", "--window", "9000", "--horizon", "9000"],
+     r"one training epoch of NSS\(\d+ states, 64 neurons\), --steps-per-epoch x --batch x "
+     r"\(--window \+ --horizon\) x --neurons = 200 x 128 x \(9000 \+ 9000\) x 64 = "
+     r"2\.95e\+10 neuron-samples, more than 1\.5e\+10 \(about 6 min per epoch"),
+    ("train-nss-epoch-cost-steps", None, [*NSO, "--steps-per-epoch", "10000000"],
+     r"--steps-per-epoch x --batch x \(--window \+ --horizon\) x --neurons = 10000000 x 128 "
+     r"x .* more than 1\.5e\+10"),
+    ("train-nss-epoch-cost-batch", None, [*NSO, "--batch", "65536", "--neurons", "64"],
+     r"= 200 x 65536 x \(\d+ \+ \d+\) x 64 = .* neuron-samples, more than 1\.5e\+10"),
     ("train-nss-input-acceleration", None, [*NSO, "--input", "acceleration"],
      r"--input acceleration needs --arch nfir: NSS reads the tank velocity"),
     ("train-window-for-nfir", None, [*TRO, "--window", "5"],
@@ -689,6 +700,19 @@ HOSTILE_CASES = [
      r"'rom\.nss\.n_states' must be an integer, got true \(a boolean\)$"),
     ("config-former-nss-states-true", _cfg("[rom]\nnss_states = true\n"), CS,
      r"'rom\.nss\.n_states' must be an integer, got true \(a boolean\)$"),
+    ("config-nss-epoch-cost", _cfg("[rom.nss]\nwindow = 9000\nhorizon = 9000\n"), CS,
+     r"one training epoch of NSS\(8 states, 64 neurons, strictly proper\), "
+     r"'rom\.nss\.steps_per_epoch' x 'rom\.nss\.batch' x \('rom\.nss\.window' \+ "
+     r"'rom\.nss\.horizon'\) x 'rom\.nss\.neurons' = 200 x 128 x \(9000 \+ 9000\) x 64 = "
+     r"2\.95e\+10 neuron-samples, more than 1\.5e\+10"),
+    ("reproduce-quick-nss-epoch-cost", _cfg("[rom.nss]\nwindow = 9000\nhorizon = 9000\n"),
+     ["reproduce", "--quick", "--config", "{tmp}/c.toml", "--out", "{tmp}/res"],
+     r"'rom\.nss\.window' \+ 'rom\.nss\.horizon'\) x 'rom\.nss\.neurons' = .* more than "
+     r"1\.5e\+10"),
+    ("config-compared-nss-epoch-cost", _cfg("[rom]\narch = \"nfir\"\ncompare = [\"nss\"]\n"
+                                            "[rom.nss]\nneurons = 4096\n"), CS,
+     r"NSS\(8 states, 4096 neurons, strictly proper\), .* = 200 x 128 x \(50 \+ 200\) x "
+     r"4096 = 2\.62e\+10 neuron-samples"),
     ("config-max-epochs-negative", _cfg("[rom]\nmax_epochs = -1\n"), CS,
      r"'rom\.nfir\.max_epochs' must be an integer in \[0, 10000000\], got -1"),
     ("config-rig-seed-negative", _cfg("[rig]\nseed = -1\n"), CS,

@@ -341,6 +341,9 @@ def _train(**kw: Any) -> None:
         fail(f"{label}{f' x {ensemble} members' if ensemble > 1 else ''} has "
              f"{ensemble * mc.file_weights(hyper)} weights, more than {MAX_WEIGHTS}, the most "
              "a model file holds")
+    cost = mc.epoch_cost(hyper, key=lambda k: mc.hyper_named(k).option)
+    if cost:  # each option bounded alone lets their product run for hours per epoch
+        fail(cost)
     need = mc.min_samples(hyper)
     if len(rec) < need:
         fail(f"{data}: {len(rec)} samples are too few for {label} (training needs at least "

@@ -549,6 +549,10 @@ class RomTable(create_model("_RomClasses", __base__=_RomTableBase,
                 raise ConfigError(f"'rom.{name}.amplitude_weighting', 'rom.{name}.passivity' "
                                   f"and 'rom.{name}.cycle_energy' need {why}: set them to 0 "
                                   f"or 'rom.{name}.trainer' = \"adam\"")
+            # each key bounded alone lets their product run for hours per epoch
+            cost = mc.epoch_cost(self.hyper(name), key=lambda k, n=name: f"'rom.{n}.{k}'")
+            if cost:
+                raise ConfigError(cost)
         return self
 
     def compared(self) -> list[str]:
