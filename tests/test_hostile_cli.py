@@ -570,16 +570,16 @@ HOSTILE_CASES = [
     ("predict-model-missing", None,
      ["predict", "--model", "{tmp}/none.npz", "--data", "{tmp}/good.nc", "--out", "{tmp}/p.nc"],
      r"--model .*none\.npz: no such file"),
-    # each member at its own fill, not the union of the members' ranges
-    ("predict-ensemble-member-at-another-fill", None,
+    # an ensemble is the mean of models at one fill: the union of the members' fill ranges
+    # passed a member at 30 % beside one at 50 %
+    ("predict-ensemble-members-at-two-fills", None,
      ["predict", "--model", "{models}/ens_fills.npz", "--data", "{tmp}/good.nc", "--fill", "0.5",
       "--out", "{tmp}/p.nc"],
-     r"--model .*ens_fills\.npz, ensemble member 1 \(seed 1\), was identified at fill 30\.0%; "
-     r"fill 50\.0% is outside"),
-    ("predict-ensemble-fill-of-the-other-member", None,
-     ["predict", "--model", "{models}/ens_fills.npz", "--data", "{tmp}/good.nc", "--fill", "0.3",
-      "--out", "{tmp}/p.nc"],
-     r"ens_fills\.npz, ensemble member 0 \(seed 0\), was identified at fill 50\.0%; fill 30\.0%"),
+     r"ens_fills\.npz: ensemble member 1 was identified at fill 30\.0%, member 0 was identified "
+     r"at fill 50\.0%: the members of an ensemble are identified at one fill"),
+    ("predict-ensemble-members-at-two-fills-no-fill", None,
+     ["predict", "--model", "{models}/ens_fills.npz", "--data", "{tmp}/good.nc", "--out",
+      "{tmp}/p.nc"], r"ens_fills\.npz: ensemble member 1 was identified at fill 30\.0%"),
     ("predict-data-empty-path", None, [*P, "--data", "", "--out", "{tmp}/p.nc"],
      r"--data \.: is a directory, expected a file"),
     # -- sweep ----------------------------------------------------------------------------------

@@ -109,27 +109,19 @@ def check_fill(model: Any, fill: float, what: str = "the model") -> None:
     Raises
     ------
     FillRangeError
-        ``fill`` lies outside ``[fill_min, fill_max]`` by more than :data:`FILL_TOLERANCE`;
-        for an ensemble, outside the range of any one member (the message names it).
+        ``fill`` lies outside ``[fill_min, fill_max]`` by more than :data:`FILL_TOLERANCE`.
     """
     f = check_training_fill(fill)
     rng = training_fills(model)
-    if rng is not None and f is not None:
-        lo, hi = rng
-        if f < lo - FILL_TOLERANCE or f > hi + FILL_TOLERANCE:
-            trained = f"{lo:.1%}" if hi - lo < 1e-12 else f"{lo:.1%} to {hi:.1%}"
-            raise FillRangeError(
-                f"{what} was identified at fill {trained}; fill {f:.1%} is outside that range "
-                f"(tolerance {FILL_TOLERANCE:.1%}): identify a model at this fill or use a "
-                "fill family that spans it")
-    # An ensemble predicts the mean of its members, each at the fill it was identified at (not a
-    # blend): the union of their ranges would pass a member at 30 % beside one at 50 %.
-    members = getattr(model, "members_", None)
-    if f is not None and isinstance(members, list) and len(members) > 1:
-        seeds = getattr(model, "seeds_", None)
-        for k, m in enumerate(members):
-            seed = f" (seed {seeds[k]})" if isinstance(seeds, list) and k < len(seeds) else ""
-            check_fill(m, f, f"{what}, ensemble member {k}{seed},")
+    if rng is None or f is None:
+        return
+    lo, hi = rng
+    if f < lo - FILL_TOLERANCE or f > hi + FILL_TOLERANCE:
+        trained = f"{lo:.1%}" if hi - lo < 1e-12 else f"{lo:.1%} to {hi:.1%}"
+        raise FillRangeError(
+            f"{what} was identified at fill {trained}; fill {f:.1%} is outside that range "
+            f"(tolerance {FILL_TOLERANCE:.1%}): identify a model at this fill or use a fill "
+            "family that spans it")
 
 
 def at_fill(model: Any, fill: float | None, what: str = "the model") -> Any:
