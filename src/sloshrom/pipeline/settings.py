@@ -549,10 +549,6 @@ class RomTable(create_model("_RomClasses", __base__=_RomTableBase,
                 raise ConfigError(f"'rom.{name}.amplitude_weighting', 'rom.{name}.passivity' "
                                   f"and 'rom.{name}.cycle_energy' need {why}: set them to 0 "
                                   f"or 'rom.{name}.trainer' = \"adam\"")
-            # each key bounded alone lets their product run for hours per epoch
-            cost = mc.epoch_cost(self.hyper(name), key=lambda k, n=name: f"'rom.{n}.{k}'")
-            if cost:
-                raise ConfigError(cost)
         return self
 
     def compared(self) -> list[str]:
@@ -882,6 +878,11 @@ class ReproduceConfig(_Table):
                 raise ConfigError(
                     f"{net.keys}: {net.class_.label(net.hyper)} needs at least {need} training "
                     f"samples, but 'data.train_duration' gives {n_train:.0f} at {fs:g} Hz")
+            # each key bounded alone lets their product run for hours per epoch
+            cost = net.class_.epoch_cost(
+                net.hyper, key=lambda k, n=net.class_.name: f"'rom.{n}.{k}'")
+            if cost:
+                raise ConfigError(cost)
         check_psd_band(b.f0, b.sigma, names=("'beam.f0'", "'beam.sigma'"), error=ConfigError,
                        fs=fs)
         if b.random_duration * fs < WELCH_NPERSEG:
