@@ -347,3 +347,45 @@ def test_an_input_that_does_not_oscillate_is_named_as_such(monkeypatch):
                                        r"changing sign\): passivity and cycle_energy"):
         NFIR(delays=4, neurons=3, passivity=1.0, cycle_energy=0.1, trainer="adam").fit(
             np.abs(u) + 0.01, y, fs=500.0)
+
+
+def _forged_fills(tmp_path, fills):
+    """An ensemble of NFIRs identified at fill 0.5, its file forged so that member k says it
+    was identified at ``fills[k]`` (None: no fill; checksum recomputed: a consistent-looking
+    file). Returns the file."""
+    u, y = smooth_io()
+    ens = Ensemble(NFIR(delays=3, neurons=4, max_epochs=2, seed=7), n_members=len(fills)).fit(
+        u, y, FS, scheduler="sequential", fill=0.5)
+    meta, arrays = model_parts(ens.save(tmp_path / "ens.npz"))
+    for m, f in zip(meta["members"], fills, strict=True):
+        if f is None:
+            del m["envelope"]["fill_min"], m["envelope"]["fill_max"]
+        else:
+            m["envelope"]["fill_min"] = m["envelope"]["fill_max"] = f
+    return write_model_parts(tmp_path / "forged.npz", meta, arrays)
+
+
+def test_the_members_of_an_ensemble_are_identified_at_one_fill(tmp_path):
+    """A member forged to fill 0.3 beside one at 0.5: the envelope's union of their ranges
+    (0.3 to 0.5) passed a fill check at either, running a member at a fill it was not
+    identified at. The file is refused when read, naming the member and both fills."""
+    from sloshrom.rom.family import at_fill
+
+    with pytest.raises(ModelFileError, match=r"forged\.npz: ensemble member 1 was identified at "
+                                             r"fill 30\.0%, member 0 was identified at fill "
+                                             r"50\.0%: the members of an ensemble are "
+                                             r"identified at one fill"):
+        rom.load_model(_forged_fills(tmp_path, [0.5, 0.3]))
+    with pytest.raises(ModelFileError, match=r"ensemble member 2 records no fill, member 0 was "
+                                             r"identified at fill 50\.0%"):
+        rom.load_model(_forged_fills(tmp_path, [0.5, 0.5, None]))
+    with pytest.raises(ModelFileError, match=r"member 1 was identified at fill 50\.0%, member 0 "
+                                             r"records no fill"):
+        rom.load_model(_forged_fills(tmp_path, [None, 0.5]))
+    # within the gauge tolerance (0.5 %) one fill; the model runs there
+    ens = rom.load_model(_forged_fills(tmp_path, [0.5, 0.504]))
+    assert at_fill(ens, 0.5) is ens
+    members = rom.load_model(_forged_fills(tmp_path, [0.5, 0.5])).members_
+    members[1].envelope_["fill_min"] = members[1].envelope_["fill_max"] = 0.75
+    with pytest.raises(ROMError, match=r"^ensemble member 1 was identified at fill 75\.0%"):
+        Ensemble.from_members(members)

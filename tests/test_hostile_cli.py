@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from helpers import check_cli, good_record, make_model_files, runner
+from helpers import check_cli, good_record, make_model_files, model_parts, runner, write_model_parts
 from sloshrom.cli import app
 from sloshrom.io import Record, write_record
 from sloshrom.io.uff import write_uff58
@@ -38,7 +38,21 @@ def model_files(tmp_path_factory):
     NFIR(delays=4, neurons=3, max_epochs=2).fit(u, y, fs=250.0).save(d / "r250.npz")
     NFIR(delays=4, neurons=3, max_epochs=2).fit(u, y, fs=100.0).save(d / "slow100.npz")
     _ball_file(d / "ball.toml")
+    _forged_ensemble(u, y, d / "ens_fills.npz")
     return d
+
+
+def _forged_ensemble(u: np.ndarray, y: np.ndarray, path: Path) -> None:
+    """An ensemble identified at fill 0.5 whose member 1 is forged to fill 0.3 (checksum
+    recomputed): the union of the members' ranges, 0.3 to 0.5, holds both fills."""
+    from sloshrom.rom.ensemble import Ensemble
+    from sloshrom.rom.estimators import NFIR
+
+    ens = Ensemble(NFIR(delays=4, neurons=3, max_epochs=2), n_members=2).fit(
+        u, y, 500.0, scheduler="sequential", fill=0.5)
+    meta, arrays = model_parts(ens.save(path))
+    meta["members"][1]["envelope"].update(fill_min=0.3, fill_max=0.3)
+    write_model_parts(path, meta, arrays)
 
 
 def _ball_file(path: Path) -> None:
@@ -482,6 +496,17 @@ HOSTILE_CASES = [
     ("train-nss-learning-rate-nan", None, [*NSO, "--learning-rate", "nan"],
      r"--learning-rate must be in \(0, 1\], got nan"),
     ("train-nss-horizon-7", None, [*NSO, "--horizon", "7"], r"--horizon must be in \[8, 10000\]"),
+    # each option bounded alone, their product ran for hours: one epoch's work is bounded
+    ("train-nss-epoch-cost-window-horizon", None,
+     [*NSO, "--neurons", "64", "--window", "9000", "--horizon", "9000"],
+     r"one training epoch of NSS\(\d+ states, 64 neurons\), --steps-per-epoch x --batch x "
+     r"\(--window \+ --horizon\) x --neurons = 200 x 128 x \(9000 \+ 9000\) x 64 = "
+     r"2\.95e\+10 neuron-samples, more than 1\.5e\+10 \(about 6 min per epoch"),
+    ("train-nss-epoch-cost-steps", None, [*NSO, "--steps-per-epoch", "10000000"],
+     r"--steps-per-epoch x --batch x \(--window \+ --horizon\) x --neurons = 10000000 x 128 "
+     r"x .* more than 1\.5e\+10"),
+    ("train-nss-epoch-cost-batch", None, [*NSO, "--batch", "65536", "--neurons", "64"],
+     r"= 200 x 65536 x \(\d+ \+ \d+\) x 64 = .* neuron-samples, more than 1\.5e\+10"),
     ("train-nss-input-acceleration", None, [*NSO, "--input", "acceleration"],
      r"--input acceleration needs --arch nfir: NSS reads the tank velocity"),
     ("train-window-for-nfir", None, [*TRO, "--window", "5"],
@@ -499,6 +524,22 @@ HOSTILE_CASES = [
     ("train-input-empty", None, [*TRO, "--input", ""], r"--input must name a variable"),
     ("train-input-is-output", None, [*TRO, "--input", "velocity", "--output", "velocity"],
      r"--input and --output must be different variables"),
+    # the time axis is no signal: a model of it (validation MSE = predicting 0) was written
+    ("train-input-time", None, [*TRO, "--input", "time"],
+     r"--input time: 'time' is the time axis of .*good\.nc, not a signal; name one of its "
+     r"signals: velocity, dynamic_force$"),
+    ("train-output-time-mat", None, [*TR, "--data", "{tmp}/good.mat", "--validation",
+                                     "{tmp}/good.mat", "--out", "{tmp}/m.npz", "--output", "time"],
+     r"--output time: 'time' is the time axis of .*good\.mat, not a signal"),
+    ("train-input-csv-time-column-t", _text("tcol.csv", "t [s],velocity [m/s],dynamic_force [N]\n"
+                                                        "0,0,0\n0.002,0.1,0.2\n0.004,0.2,0.3\n"),
+     [*TR, "--data", "{tmp}/tcol.csv", "--validation", "{tmp}/good.nc", "--out", "{tmp}/m.npz",
+      "--input", "t"], r"--input t: 't' is the time axis of .*tcol\.csv, not a signal; name one "
+                       r"of its signals: velocity, dynamic_force$"),
+    ("train-validation-input-time", _text("tval.csv", "Time [s],velocity [m/s],force [N]\n"
+                                                      "0,0,0\n0.002,0.1,0.2\n"),
+     [*TR, "--data", "{tmp}/tval.csv", "--validation", "{tmp}/tval.csv", "--out", "{tmp}/m.npz",
+      "--input", "Time", "--output", "force"], r"--input Time: 'Time' is the time axis"),
     ("train-data-missing", None,
      [*TR, "--data", "{tmp}/none.nc", "--validation", "{tmp}/good.nc", "--out", "{tmp}/m.npz"],
      r"--data .*none\.nc: no such file"),
@@ -552,6 +593,16 @@ HOSTILE_CASES = [
     ("predict-model-missing", None,
      ["predict", "--model", "{tmp}/none.npz", "--data", "{tmp}/good.nc", "--out", "{tmp}/p.nc"],
      r"--model .*none\.npz: no such file"),
+    # an ensemble is the mean of models at one fill: the union of the members' fill ranges
+    # passed a member at 30 % beside one at 50 %
+    ("predict-ensemble-members-at-two-fills", None,
+     ["predict", "--model", "{models}/ens_fills.npz", "--data", "{tmp}/good.nc", "--fill", "0.5",
+      "--out", "{tmp}/p.nc"],
+     r"ens_fills\.npz: ensemble member 1 was identified at fill 30\.0%, member 0 was identified "
+     r"at fill 50\.0%: the members of an ensemble are identified at one fill"),
+    ("predict-ensemble-members-at-two-fills-no-fill", None,
+     ["predict", "--model", "{models}/ens_fills.npz", "--data", "{tmp}/good.nc", "--out",
+      "{tmp}/p.nc"], r"ens_fills\.npz: ensemble member 1 was identified at fill 30\.0%"),
     ("predict-data-empty-path", None, [*P, "--data", "", "--out", "{tmp}/p.nc"],
      r"--data \.: is a directory, expected a file"),
     # -- sweep ----------------------------------------------------------------------------------
@@ -581,6 +632,8 @@ HOSTILE_CASES = [
      r"afile: exists and is not a directory"),
     ("sweep-out-is-the-data", None, [*S, "--out", "{tmp}/good.nc"],
      r"good\.nc is also an input of this command"),
+    ("sweep-input-time", None, [*SO, "--input", "time"],
+     r"--input time: 'time' is the time axis of .*good\.nc, not a signal"),
     ("sweep-validation-other-unit", None,
      ["sweep", "--data", "{tmp}/good.nc", "--validation", "{tmp}/rads.nc", "--out", "{tmp}/sw"],
      r"unit mismatch: variable 'velocity'"),
@@ -665,6 +718,24 @@ HOSTILE_CASES = [
      r"'rom\.sweep_workers' must be a number of parallel trainings in \[1, 64\], got 0"),
     ("config-neurons-float", _cfg("[rom]\nneurons = 3.5\n"), CS,
      r"'rom\.nfir\.neurons' must be a number of neurons in \[1, 4096\], got 3\.5"),
+    # bool is an int in Python: true is called a boolean, not "must be true or false"
+    ("config-nss-states-true", _cfg("[rom.nss]\nn_states = true\n"), CS,
+     r"'rom\.nss\.n_states' must be an integer, got true \(a boolean\)$"),
+    ("config-former-nss-states-true", _cfg("[rom]\nnss_states = true\n"), CS,
+     r"'rom\.nss\.n_states' must be an integer, got true \(a boolean\)$"),
+    ("config-nss-epoch-cost", _cfg("[rom.nss]\nwindow = 9000\nhorizon = 9000\n"), CS,
+     r"one training epoch of NSS\(8 states, 64 neurons, strictly proper\), "
+     r"'rom\.nss\.steps_per_epoch' x 'rom\.nss\.batch' x \('rom\.nss\.window' \+ "
+     r"'rom\.nss\.horizon'\) x 'rom\.nss\.neurons' = 200 x 128 x \(9000 \+ 9000\) x 64 = "
+     r"2\.95e\+10 neuron-samples, more than 1\.5e\+10"),
+    ("reproduce-quick-nss-epoch-cost", _cfg("[rom.nss]\nwindow = 9000\nhorizon = 9000\n"),
+     ["reproduce", "--quick", "--config", "{tmp}/c.toml", "--out", "{tmp}/res"],
+     r"'rom\.nss\.window' \+ 'rom\.nss\.horizon'\) x 'rom\.nss\.neurons' = .* more than "
+     r"1\.5e\+10"),
+    ("config-compared-nss-epoch-cost", _cfg("[rom]\narch = \"nfir\"\ncompare = [\"nss\"]\n"
+                                            "[rom.nss]\nneurons = 4096\n"), CS,
+     r"NSS\(8 states, 4096 neurons, strictly proper\), .* = 200 x 128 x \(50 \+ 200\) x "
+     r"4096 = 2\.62e\+10 neuron-samples"),
     ("config-max-epochs-negative", _cfg("[rom]\nmax_epochs = -1\n"), CS,
      r"'rom\.nfir\.max_epochs' must be an integer in \[0, 10000000\], got -1"),
     ("config-rig-seed-negative", _cfg("[rig]\nseed = -1\n"), CS,

@@ -57,10 +57,14 @@ def _rows(n: int = N, sep: str = ",", acc=ACC, force=FORCE) -> str:
     return _table(T[:n], acc[:n], force[:n], sep=sep)
 
 
-def _table(*cols, sep: str = ",", comma: bool = False) -> str:
-    """Data rows of columns (17 significant digits), optionally with decimal commas."""
-    rows = "".join(sep.join(repr(float(c[k])) for c in cols) + "\n" for k in range(len(cols[0])))
-    return rows.replace(".", ",") if comma else rows
+def _table(*cols, sep: str = ",", comma: bool = False, quote: bool = False) -> str:
+    """Data rows of columns (17 significant digits), optionally with decimal commas, optionally
+    each field in double quotes (as spreadsheets export them)."""
+    def field(v) -> str:
+        text = repr(float(v)).replace(".", ",") if comma else repr(float(v))
+        return f'"{text}"' if quote else text
+
+    return "".join(sep.join(field(c[k]) for c in cols) + "\n" for k in range(len(cols[0])))
 
 
 def _csv(header: str, rows: str | None = None, name: str = "r.csv") -> Callable[[Path], Path]:
@@ -457,6 +461,15 @@ REJECT_STRUCTURE = [
         f"{k / FS},1,2,\n" for k in range(5))), {}, r"r\.csv: empty column name in header"),
     ("csv-decimal-comma-with-comma-delimiter", _csv(UNITS, "0,0;1,5;2\n"), {},
      r"r\.csv: bad data row \(data row 1, column 'acceleration': '0;1' is not a number"),
+    ("csv-quoted-decimal-comma-with-comma-delimiter", _csv(UNITS, _table(
+        T, ACC, FORCE, comma=True, quote=True)), {},
+     r"r\.csv: data row 1, column 'time': '0,0' is a number with a decimal comma in a "
+     r"comma-delimited file; write it with a decimal point, or delimit the columns with ';'"),
+    ("csv-quoted-decimal-comma-no-units", _csv("time,acceleration,force", _table(
+        T, ACC, FORCE, comma=True, quote=True)), {},
+     r"r\.csv: data row 1, column 'time': '0,0' is a number with a decimal comma"),
+    ("csv-quoted-decimal-comma-in-a-later-row", _csv(UNITS, _rows(5) + '"0,05",1,2\n'), {},
+     r"r\.csv: data row 6, column 'time': '0,05' is a number with a decimal comma"),
     ("mat-transposed-matrix", _mat(station=np.vstack([ACC, ACC, ACC]),
                                    units={"acceleration": "m/s^2", "force": "N",
                                           "station": "g"}), {},
@@ -561,6 +574,10 @@ def _check_since(k: float, ref: str, offset: float, atol: float = 1e-9
     return check
 
 
+#: 2023-11-14 22:13:20.123456789 in ns since 1970 (not a multiple of the float64 step there)
+NS_START = 1_700_000_000_123_456_789
+
+
 def _days(ds: xr.Dataset) -> xr.Dataset:
     # 100 Hz samples starting 1500.25 days after 2020-01-01, in days
     return ds.assign_coords(time=("time", 1500.25 + T / 86400.0,
@@ -656,6 +673,11 @@ ACCEPT_CASES = [
     ("csv-tab-decimal-comma-units-row", _csv("time\tacceleration\tforce\ns\tm/s^2\tN",
                                              _table(T, ACC, FORCE, sep="\t", comma=True)), {},
      _check_standard),
+    ("csv-semicolon-quoted-decimal-comma", _csv("time [s];acceleration [m/s2];force [N]",
+                                                _table(T, ACC, FORCE, sep=";", comma=True,
+                                                       quote=True)), {}, _check_standard),
+    ("csv-quoted-fields", _csv("time [s],acceleration [m/s2],force [N]",
+                               _table(T, ACC, FORCE, quote=True)), {}, _check_standard),
     ("csv-units-row-same-unit-respelled", _csv("time [s],acceleration [m/s2],force [N]\n"
                                                "sec,m s-2,newton"), {}, _check_standard),
     ("csv-ft-per-s-and-lbf-exact", _csv("time [s],velocity [ft/s],force [lbf]",
@@ -692,6 +714,21 @@ ACCEPT_CASES = [
     ("nc-cf-ms-since", _nc(lambda ds: ds.assign_coords(
         time=("time", 5000.0 + 1000.0 * T, {"units": "ms since 2020-01-01"}))), {},
      _check_since(1e-3, "2020-01-01", 5000.0)),
+    # int64 nanoseconds since 1970 (pandas, numpy datetime64 as integers): exact, although
+    # float64 holds 1.7e18 only to 256 ns
+    ("nc-cf-int64-nanoseconds-since", _nc(lambda ds: ds.assign_coords(
+        time=("time", NS_START + np.arange(N, dtype=np.int64) * 10_000_000,
+              {"units": "nanoseconds since 1970-01-01"}))), {},
+     _check_since(1e-9, "1970-01-01", float(NS_START), 1e-15)),
+    ("nc-cf-float-ns-since", _nc(lambda ds: ds.assign_coords(
+        time=("time", NS_START + 1e9 * T, {"units": "ns since 1970-01-01"}))), {},
+     _check_since(1e-9, "1970-01-01", float(NS_START), 2.6e-7)),  # float64 step at 1.7e18: 256
+    ("csv-ns-since", _csv("time [ns since 2020-01-01],acceleration [m/s^2],force [N]",
+                          _table(5e12 + 1e9 * T, ACC, FORCE)), {},
+     _check_since(1e-9, "2020-01-01", 5e12, 1e-9)),
+    ("csv-microseconds-since", _csv("time [microseconds since 2020-01-01],acceleration [m/s^2],"
+                                    "force [N]", _table(5e9 + 1e6 * T, ACC, FORCE)), {},
+     _check_since(1e-6, "2020-01-01", 5e9, 1e-9)),
     ("nc-time-without-units-is-seconds", _nc(lambda ds: ds.assign_coords(time=("time", T))),
      {}, _check_standard),
     ("nc3-classic-round-trip", _nc(engine="scipy", format="NETCDF3_CLASSIC"), {},
@@ -865,7 +902,8 @@ def test_missing_variable_says_why_it_was_ignored(tmp_path):
      ("cm/s", "m/s", 1e-2), ("ft/s^2", "m/s^2", 0.3048), ("in/s2", "m/s^2", 0.0254),
      ("mm/s^2", "m/s^2", 1e-3), ("cm/s\u00b2", "m/s^2", 1e-2), ("lbf", "N", 4.4482216152605),
      ("kip", "N", 4448.2216152605), ("min", "s", 60.0), ("h", "s", 3600.0),
-     ("days", "s", 86400.0), ("us", "s", 1e-6), ("Millimeter", "m", 1e-3)],
+     ("days", "s", 86400.0), ("us", "s", 1e-6),
+     ("ns", "s", 1e-9), ("nanoseconds", "s", 1e-9), ("Millimeter", "m", 1e-3)],
 )
 def test_unit_table(unit, si, k):
     assert canonical_unit(unit) == (si, k) and is_known_unit(unit)
@@ -968,3 +1006,14 @@ def test_a_named_pipe_is_not_a_missing_file(tmp_path):
     os.mkfifo(tmp_path / "pipe.uff")
     with pytest.raises(RecordError, match=r"pipe\.uff: is a named pipe"):
         read_uff58(tmp_path / "pipe.uff")
+
+
+def test_time_axis_names():
+    """The names of a record's time axis: "time", and a reader's time name (t, Time, TIME)
+    unless a variable has it (a file with a time and a t column keeps t as a signal)."""
+    t = np.arange(4) / FS
+    rec = Record(t, FS, {"force": np.ones(4)}, {"force": "N"})
+    assert [n for n in ("time", "t", "Time", "TIME", "force", "T", "tt") if rec.is_time_axis(n)] \
+        == ["time", "t", "Time", "TIME"]
+    rec = Record(t, FS, {"t": np.ones(4)}, {"t": "N"})
+    assert rec.is_time_axis("time") and not rec.is_time_axis("t")

@@ -183,3 +183,36 @@ def test_lss_trains_from_the_command_line_and_exports(tmp_path):
     res = CliRunner().invoke(app, ["train", "--data", str(data), "--validation", str(val),
                                    "--arch", "lss", "--ensemble", "2", "--out", str(out)])
     assert res.exit_code == 2 and "fitted deterministically" in res.output
+
+
+def test_one_epoch_of_an_nss_is_bounded_as_the_product_of_its_options():
+    """steps_per_epoch x batch x (window + horizon) x neurons: the defaults (and QUICK's, which
+    keep the sizes) far inside the limit; just past it refused, naming each factor; a class
+    without a shooting epoch not bounded."""
+    nss = CLASSES["nss"]
+    d = nss.defaults()
+    work = d["steps_per_epoch"] * d["batch"] * (d["window"] + d["horizon"]) * d["neurons"]
+    assert work * 30 < limits.MAX_EPOCH_WORK and nss.epoch_cost(d) is None
+    # the largest horizon the limit takes at the other defaults, then one sample more
+    per = d["steps_per_epoch"] * d["batch"] * d["neurons"]
+    h = limits.MAX_EPOCH_WORK // per - d["window"]
+    assert nss.epoch_cost({**d, "horizon": h}) is None
+    msg = nss.epoch_cost({**d, "horizon": h + 1}, key=lambda k: k.upper())
+    assert msg is not None and (f"STEPS_PER_EPOCH x BATCH x (WINDOW + HORIZON) x NEURONS = "
+                                f"200 x 128 x (50 + {h + 1}) x 64 = ") in msg
+    assert "more than 1.5e+10" in msg
+    for name in ("nfir", "noe", "lss"):
+        assert not CLASSES[name].epoch_work
+        assert CLASSES[name].epoch_cost(CLASSES[name].defaults()) is None
+
+
+def test_the_settings_bound_an_nss_epoch_of_the_rom_and_of_the_compared_classes():
+    cfg = settings.defaults()
+    settings.validate(cfg)
+    cfg["rom"]["nss"].update(window=9000, horizon=9000)
+    with pytest.raises(ConfigError, match=r"\('rom\.nss\.window' \+ 'rom\.nss\.horizon'\) x "
+                                          r"'rom\.nss\.neurons' = 200 x 128 x \(9000 \+ 9000\) x "
+                                          r"64 = 2\.95e\+10 neuron-samples"):
+        settings.validate(cfg)
+    cfg["rom"].update(arch="nfir", compare=["lss"])  # an NSS no stage trains: not bounded
+    settings.validate(cfg)

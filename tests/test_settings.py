@@ -26,7 +26,7 @@ def test_user_file_overrides_quick_and_defaults(tmp_path):
     "text, match",
     [
         ("[rom]\nneuron = 3\n", "unknown configuration key 'rom.neuron'"),
-        ("[rom.nfir]\nneurons = 'many'\n", "'rom.nfir.neurons' must be a number"),
+        ("[rom.nfir]\nneurons = 'many'\n", "'rom.nfir.neurons' must be an integer, got 'many'"),
         ("[rom.lss]\ndelays = 3\n", "unknown configuration key 'rom.lss.delays'"),
         ("rom = 3\n", "'rom' must be a table"),
         ("[rom]\nsweep = 1\n", "true or false"),
@@ -277,3 +277,78 @@ def test_every_tank_the_rig_runs_at_is_checked_before_any_stage():
     cfg["beyond"]["enabled"] = True
     with pytest.raises(ConfigError, match=r"'beyond\.fills' = 1e-09"):
         check_rig_tanks(cfg)
+
+
+def _leaves(cfg: dict, where: str = ""):
+    """(dotted key, value) of every key of a configuration, its tables flattened."""
+    for k, v in cfg.items():
+        if isinstance(v, dict):
+            yield from _leaves(v, f"{where}{k}.")
+        else:
+            yield f"{where}{k}", v
+
+
+def _set(cfg: dict, key: str, value) -> dict:
+    *tables, last = key.split(".")
+    out = copy.deepcopy(cfg)
+    t = out
+    for name in tables:
+        t = t[name]
+    t[last] = value
+    return out
+
+
+def _user_file(key: str, value: str) -> str:
+    *tables, last = key.split(".")
+    return f"[{'.'.join(tables)}]\n{last} = {value}\n"
+
+
+def test_a_boolean_where_a_number_goes_is_called_a_boolean(tmp_path):
+    """``n_states = true`` (bool is an int in Python): the message says what the key must be,
+    an integer or a number, and that true is a boolean; never "must be true or false"."""
+    numbers = [(k, v) for k, v in _leaves(settings.defaults())
+               if isinstance(v, int | float) and not isinstance(v, bool)]
+    assert len(numbers) > 50  # every number of every table, the classes' included
+    p = tmp_path / "c.toml"
+    for key, ref in numbers:
+        p.write_text(_user_file(key, "true"))
+        with pytest.raises(ConfigError) as info:
+            settings.load(p)
+        what = "an integer" if isinstance(ref, int) else "a number"
+        assert str(info.value) == f"'{key}' must be {what}, got true (a boolean)", key
+        # a configuration built in code (no merge): the schema's words, the same value
+        with pytest.raises(ConfigError) as info:
+            settings.validate(_set(settings.defaults(), key, False))
+        msg = str(info.value)
+        assert msg.startswith(f"'{key}' must be ") and "got false (a boolean)" in msg, msg
+        assert "true or false" not in msg, msg
+    for key, value in [("rom.sweep_nfir_delays", "[50, true]"), ("beam.rms_g", "[true]")]:
+        p.write_text(_user_file(key, value))
+        with pytest.raises(ConfigError, match=r"got true \(a boolean\)"):
+            settings.load(p)
+
+
+def test_a_number_where_a_boolean_goes_is_refused_as_such(tmp_path):
+    flags = [k for k, v in _leaves(settings.defaults()) if isinstance(v, bool)]
+    assert flags
+    p = tmp_path / "c.toml"
+    for key in flags:
+        p.write_text(_user_file(key, "1"))
+        with pytest.raises(ConfigError, match=rf"^'{key}' must be true or false, got 1$"):
+            settings.load(p)
+
+
+@pytest.mark.parametrize(("key", "want"), [("rom.arch", "a string"), ("beam.rms_g", "a list")])
+def test_a_boolean_where_text_or_a_list_goes(tmp_path, key, want):
+    p = tmp_path / "c.toml"
+    p.write_text(_user_file(key, "true"))
+    with pytest.raises(ConfigError, match=rf"^'{key}' must be {want}, got true \(a boolean\)$"):
+        settings.load(p)
+
+
+def test_an_optional_key_given_a_boolean(tmp_path):
+    p = tmp_path / "c.toml"
+    p.write_text("[rig]\nrestitution = true\n")
+    with pytest.raises(ConfigError, match=r"^'rig\.restitution' must be a number, got true "
+                                          r"\(a boolean\)$"):
+        settings.load(p)

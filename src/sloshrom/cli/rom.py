@@ -46,12 +46,20 @@ if TYPE_CHECKING:  # annotations only: the CLI loads JAX when it trains
 __all__ = ["predict", "sweep", "train"]
 
 RECORD_SUFFIXES = (".nc", ".csv", ".mat")
-def _read(path: Path, names: list[str], what: str):
+def _read(path: Path, names: list[str], what: str, options: tuple[str, ...] = ()):
+    """The record of ``path`` (option ``what``) with the 1-D variables ``names``; ``options``
+    are the options that named them (``--input``, ``--output``): a name of the time axis is
+    refused as such."""
     check_input(path, what)
     try:
         rec = read_record(path)
     except SloshromError as exc:
         fail(str(exc))
+    for opt, n in zip(options, names, strict=False):
+        if rec.is_time_axis(n):
+            # time is the axis the signals are sampled on: a model of it predicts nothing
+            fail(f"{opt} {n}: '{n}' is the time axis of {path}, not a signal; name one of its "
+                 f"signals: {', '.join(rec.names)}")
     missing = [n for n in names if n not in rec]
     if missing:
         fail(f"{path}: no variable {', '.join(missing)} (has: {', '.join(rec.names)})")
@@ -80,8 +88,9 @@ def _standard_units(rec: Record, path: Path, names: list[str]) -> None:
 
 def _read_pair(data: Path, validation: Path, names: list[str]) -> tuple[Any, Any]:
     """Training and validation records: same rate, same units, standard names in SI."""
-    rec = _read(data, names, "--data")
-    val = _read(validation, names, "--validation")
+    opts = ("--input", "--output")
+    rec = _read(data, names, "--data", opts)
+    val = _read(validation, names, "--validation", opts)
     _same_rate(rec.fs, val.fs, f"{data} vs {validation}")
     _same_units(rec, data, val, validation, names)
     _standard_units(rec, data, names)
@@ -332,6 +341,9 @@ def _train(**kw: Any) -> None:
         fail(f"{label}{f' x {ensemble} members' if ensemble > 1 else ''} has "
              f"{ensemble * mc.file_weights(hyper)} weights, more than {MAX_WEIGHTS}, the most "
              "a model file holds")
+    cost = mc.epoch_cost(hyper, key=lambda k: mc.hyper_named(k).option)
+    if cost:  # each option bounded alone lets their product run for hours per epoch
+        fail(cost)
     need = mc.min_samples(hyper)
     if len(rec) < need:
         fail(f"{data}: {len(rec)} samples are too few for {label} (training needs at least "

@@ -1,10 +1,11 @@
 """CSV records (``.csv``, ``.txt``): text tables of one column per variable.
 
 A header row of names, units as ``name [unit]`` (or ``name (unit)``) or in a second row; a
-``time`` column or the ``fs`` argument. Delimiter ``,``, ``;`` or tab (from the header); with
-``;`` or tab and no decimal point anywhere, a comma is the decimal separator (European
-spreadsheets). Lines starting with ``#`` are comments. Written as ``name [unit]`` headers and
-17 significant digits (1-D variables only).
+``time`` column or the ``fs`` argument. Delimiter ``,``, ``;`` or tab (from the header); fields
+may be quoted. With ``;`` or tab and no decimal point anywhere, a comma is the decimal separator
+(European spreadsheets: ``0,5;1,2`` or ``"0,5";"1,2"``); a quoted decimal comma with ``,`` as
+the delimiter is refused, naming the row and column. Lines starting with ``#`` are comments.
+Written as ``name [unit]`` headers and 17 significant digits (1-D variables only).
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ from sloshrom.io.units import same_unit
 __all__ = ["read_csv", "write_csv"]
 
 _HEADER_UNIT = re.compile(r"^\s*(?P<name>[^\[\(]*?)\s*[\[\(]\s*(?P<unit>[^\]\)]*?)\s*[\]\)]\s*$")
+# a number written with a decimal comma ("0,5", "-1,25e-3"): never a unit, never a valid number
+_DECIMAL_COMMA = re.compile(r"^\s*[+-]?\d*,\d+(?:[eE][+-]?\d+)?\s*$")
 
 
 def _is_number(text: str) -> bool:
@@ -71,6 +74,8 @@ def read_csv(p: Path, fs: float | None, units: Mapping[str, str]) -> Record:
     body = lines[1:]
     if body:
         first = next(csv.reader([body[0]], delimiter=delim))
+        if delim == ",":
+            _refuse_decimal_comma(p, names, first, 1)
         if not _is_numeric_row(first, delim != ","):  # a units row, or a data row with a typo
             _units_row(p, names, first, file_units)
             body = body[1:]
@@ -81,8 +86,12 @@ def read_csv(p: Path, fs: float | None, units: Mapping[str, str]) -> Record:
         # and no decimal point anywhere, a comma can only be the decimal separator
         body = [ln.replace(",", ".") for ln in body]
     try:
-        data = np.loadtxt(io.StringIO("\n".join(body)), delimiter=delim, ndmin=2)
+        # quotechar: spreadsheets may quote every field ("0,5";"1,2")
+        data = np.loadtxt(io.StringIO("\n".join(body)), delimiter=delim, ndmin=2, quotechar='"')
     except ValueError as exc:
+        if delim == ",":
+            for i, fields in enumerate(csv.reader(body, delimiter=delim)):
+                _refuse_decimal_comma(p, names, fields, i + 1)
         raise RecordError(
             f"{p}: bad data row ({_find_bad_field(body, delim, names) or _why(exc)})"
         ) from exc
@@ -90,6 +99,21 @@ def read_csv(p: Path, fs: float | None, units: Mapping[str, str]) -> Record:
         raise RecordError(f"{p}: {data.shape[1]} data columns but {len(names)} names in header")
     cols = {name: data[:, i] for i, name in enumerate(names)}
     return _build(str(p), cols, file_units, fs, units)
+
+
+def _refuse_decimal_comma(p: Path, names: list[str], fields: list[str], row: int) -> None:
+    """RecordError naming the first decimal-comma number of a comma-delimited data row.
+
+    With ``,`` as the delimiter a decimal comma can only come quoted (``"0,5","1,2"``); it is
+    refused rather than guessed (``"1,234"`` may be a thousands separator), with the fix.
+    """
+    for name, f in zip(names, fields, strict=False):
+        if _DECIMAL_COMMA.match(f):
+            raise RecordError(
+                f"{p}: data row {row}, column {name!r}: {_show(f)} is a number with a decimal "
+                "comma in a comma-delimited file; write it with a decimal point, or delimit "
+                "the columns with ';' or tab (a comma is then read as the decimal separator)"
+            )
 
 
 def _units_row(p: Path, names: list[str], fields: list[str], file_units: dict[str, str]) -> None:

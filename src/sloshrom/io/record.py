@@ -406,6 +406,13 @@ class Record:
     def __len__(self) -> int:
         return int(self.time.size)
 
+    def is_time_axis(self, name: str) -> bool:
+        """Whether ``name`` names the record's time axis rather than a signal: ``"time"``, or a
+        name the readers take the time axis from (``t``, ``Time``, ``TIME``) that is not one of
+        the variables (a file with both a ``time`` and a ``t`` column keeps ``t`` as a signal).
+        """
+        return name == "time" or (name in _TIME_NAMES and name not in self.variables)
+
     @property
     def names(self) -> list[str]:
         """Variable names (time excluded)."""
@@ -581,13 +588,14 @@ def _time_seconds(source: str, time: Any, unit: str) -> tuple[np.ndarray, dict[s
     """Time values in ``unit`` as seconds, plus the attrs of a CF reference date (if any).
 
     CF ``"<unit> since <date>"`` times are counted from the first sample (subtracted before
-    scaling, so that e.g. days since 1970 keep sub-millisecond resolution).
+    scaling, so that e.g. days since 1970 keep sub-millisecond resolution; integer counts, such
+    as int64 nanoseconds since 1970, are subtracted as integers: exact).
     """
     conv = _time_unit(unit)
     if conv is None:
         raise RecordError(
-            f"{source}: time unit {unit!r} is not a time unit (use s, ms, us, min, h, d or CF "
-            "'<unit> since <date>')"
+            f"{source}: time unit {unit!r} is not a time unit (use s, ms, us, ns, min, h, d or "
+            "CF '<unit> since <date>' with one of them)"
         )
     k, ref = conv
     try:
@@ -598,6 +606,11 @@ def _time_seconds(source: str, time: Any, unit: str) -> tuple[np.ndarray, dict[s
         return (t * k if k != 1.0 else t), {}
     if t.ndim != 1 or t.size == 0 or not np.isfinite(t[0]):
         return t * k, {}  # the Record names the problem
+    raw = np.asarray(time)
+    if raw.dtype.kind in "iu" and -2**62 <= int(raw.min()) <= int(raw.max()) < 2**62:
+        # float64 holds 1.7e18 ns only to 256 ns: subtract the integers (no int64 overflow here)
+        offset = (raw.astype(np.int64) - np.int64(raw[0])).astype(float)
+        return offset * k, {"time_reference": ref, "time_start": float(raw[0]) * k}
     return (t - t[0]) * k, {"time_reference": ref, "time_start": float(t[0]) * k}
 
 

@@ -200,6 +200,14 @@ def defaults() -> dict[str, Any]:
     return tomllib.loads(default_text())
 
 
+def _shown(value: object) -> str:
+    """A configuration value as a message quotes it: TOML's ``true``/``false`` said to be
+    booleans (Python's ``True`` is also an integer, the confusion to avoid), else its repr."""
+    if isinstance(value, bool):
+        return f"{str(value).lower()} (a boolean)"
+    return repr(value)
+
+
 def merge(base: dict[str, Any], override: dict[str, Any], where: str = "") -> dict[str, Any]:
     """Deep-merge ``override`` into a copy of ``base``; unknown keys or wrong types are errors.
 
@@ -212,7 +220,7 @@ def merge(base: dict[str, Any], override: dict[str, Any], where: str = "") -> di
         path = f"{where}{key}"
         if key not in base and key in OPTIONAL_KEYS.get(where.rstrip("."), ()):
             if not isinstance(value, int | float) or isinstance(value, bool):
-                raise ConfigError(f"'{path}' must be a number, got {value!r}")
+                raise ConfigError(f"'{path}' must be a number, got {_shown(value)}")
             out[key] = float(value)
             continue
         if key not in base:
@@ -223,16 +231,19 @@ def merge(base: dict[str, Any], override: dict[str, Any], where: str = "") -> di
             out[key] = merge(base[key], value, where=f"{path}.")
             continue
         ref = base[key]
-        if isinstance(ref, bool) != isinstance(value, bool):
-            raise ConfigError(f"'{path}' must be true or false, got {value!r}")
-        if isinstance(ref, int | float) and not isinstance(ref, bool):
+        if isinstance(ref, bool):
+            if not isinstance(value, bool):
+                raise ConfigError(f"'{path}' must be true or false, got {_shown(value)}")
+        elif isinstance(ref, int | float):
+            # bool is an int in Python: true is no number of a TOML file
             if not isinstance(value, int | float) or isinstance(value, bool):
-                raise ConfigError(f"'{path}' must be a number, got {value!r}")
+                what = "an integer" if isinstance(ref, int) else "a number"
+                raise ConfigError(f"'{path}' must be {what}, got {_shown(value)}")
             value = type(ref)(value) if isinstance(ref, float) else value
         elif isinstance(ref, str) and not isinstance(value, str):
-            raise ConfigError(f"'{path}' must be a string, got {value!r}")
+            raise ConfigError(f"'{path}' must be a string, got {_shown(value)}")
         elif isinstance(ref, list) and not isinstance(value, list):
-            raise ConfigError(f"'{path}' must be a list, got {value!r}")
+            raise ConfigError(f"'{path}' must be a list, got {_shown(value)}")
         out[key] = value
     return out
 
@@ -318,7 +329,8 @@ class _Says:
     item: _Says | None = None
 
     def value(self, key: str, v: Any) -> str:
-        return f"'{key}' must be {self.what}, got {v!r}" + (f" ({self.why})" if self.why else "")
+        return (f"'{key}' must be {self.what}, got {_shown(v)}"
+                + (f" ({self.why})" if self.why else ""))
 
 
 def _number(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False,
@@ -866,6 +878,11 @@ class ReproduceConfig(_Table):
                 raise ConfigError(
                     f"{net.keys}: {net.class_.label(net.hyper)} needs at least {need} training "
                     f"samples, but 'data.train_duration' gives {n_train:.0f} at {fs:g} Hz")
+            # each key bounded alone lets their product run for hours per epoch
+            cost = net.class_.epoch_cost(
+                net.hyper, key=lambda k, n=net.class_.name: f"'rom.{n}.{k}'")
+            if cost:
+                raise ConfigError(cost)
         check_psd_band(b.f0, b.sigma, names=("'beam.f0'", "'beam.sigma'"), error=ConfigError,
                        fs=fs)
         if b.random_duration * fs < WELCH_NPERSEG:
@@ -974,13 +991,13 @@ def _message(error: ErrorDetails) -> str:
         if get_args(ann) and not isinstance(get_args(ann)[0], str):  # a list of choices
             ann = get_args(ann)[0]
         options = " or ".join(f'"{o}"' for o in get_args(ann))
-        return f"'{key}' must be {options}, got {v!r}"
+        return f"'{key}' must be {options}, got {_shown(v)}"
     if kind == "bool_type":
-        return f"'{key}' must be true or false, got {v!r}"
+        return f"'{key}' must be true or false, got {_shown(v)}"
     if says is None:  # [tank] values: Tank checks them once they are numbers
-        return f"'{key}' must be a number, got {v!r}"
+        return f"'{key}' must be a number, got {_shown(v)}"
     if kind == "distinct":
-        return f"'{key}' {error['msg']}, got {v!r}"
+        return f"'{key}' {error['msg']}, got {_shown(v)}"
     if rest and says.item is not None:
         item = says.item.value(f"{key}[{rest[0]}]", v)
         return f"'{key}' must be {says.what}: {item}"

@@ -38,11 +38,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from sloshrom import __version__
+from sloshrom.config import FILL_TOLERANCE
 from sloshrom.models import EnvelopeWarning, check_envelope, envelope_union, model_input
 from sloshrom.rom.base import Estimator, History, checked_past
 from sloshrom.rom.epochs import EpochFile, EpochReport, epoch_reports
 from sloshrom.rom.errors import NotFittedError, ROMError, TrainingWarning, UnstableModelError
-from sloshrom.rom.family import check_training_fill
+from sloshrom.rom.family import check_training_fill, training_fills
 from sloshrom.rom.modelfile import (
     MAX_MEMBERS,
     check_file_limits,
@@ -166,6 +167,33 @@ def _fit_member(
     callback = EpochFile(epochs_dir, k) if epochs_dir is not None else None
     return model.fit(u, y, fs=fs, validation=validation, callback=callback, fill=fill,
                      validation_history=validation_history)
+
+
+def _fill_said(rng: tuple[float, float] | None) -> str:
+    if rng is None:
+        return "records no fill"
+    lo, hi = rng
+    return f"was identified at fill {lo:.1%}" + ("" if hi - lo < 1e-12 else f" to {hi:.1%}")
+
+
+def _one_fill(members: Sequence[object]) -> None:
+    """ROMError naming the first member identified at another fill than member 0 (beyond
+    :data:`~sloshrom.config.FILL_TOLERANCE`), or with a fill beside one without.
+
+    An ensemble is the mean of models of one tank at one fill (``fit`` gives every member the
+    same ``fill``), not a blend: its envelope's fill range is the union of the members', so a
+    member at 30 % beside one at 50 % would pass a fill check at either.
+    """
+    ref = training_fills(members[0])
+    for k, m in enumerate(members[1:], 1):
+        rng = training_fills(m)
+        if (rng is None) != (ref is None) or (
+                rng is not None and ref is not None
+                and max(abs(rng[0] - ref[0]), abs(rng[1] - ref[1])) > FILL_TOLERANCE):
+            raise ROMError(
+                f"ensemble member {k} {_fill_said(rng)}, member 0 {_fill_said(ref)}: the members "
+                "of an ensemble are identified at one fill (their mean at two fills is a model "
+                "of neither; a fill family blends fills)")
 
 
 @jax.tree_util.register_pytree_node_class
@@ -423,6 +451,7 @@ class Ensemble:
         fs = {float(m.fs_) for m in members}
         if len(fs) != 1:
             raise ROMError(f"members sampled at different rates: {sorted(fs)} Hz")
+        _one_fill(members)
         self.members_ = list(members)
         self.seeds_ = [int(m.get_params()["seed"]) for m in members]
         self.fs_ = fs.pop()

@@ -771,8 +771,8 @@ def load_model(path: str | Path, fill: float | None = None) -> Any:
                                      template=cls(**mf.meta["hyperparameters"]))
     except ModelFileError:
         raise
-    except ROMError as exc:  # unreachable after the schema; kept as a net
-        raise ModelFileError(f"{path}: corrupt metadata ({exc})") from None
+    except ROMError as exc:  # members the schema cannot relate (fills that disagree)
+        raise ModelFileError(f"{path}: {exc}") from None
 
 
 def _from_model_file(mf: ModelFile, path: str | Path) -> Estimator:

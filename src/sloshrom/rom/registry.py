@@ -29,8 +29,10 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from sloshrom.limits import (
+    EPOCH_WORK_SECONDS,
     MAX_BATCH,
     MAX_DELAY,
+    MAX_EPOCH_WORK,
     MAX_EPOCHS,
     MAX_NEURONS,
     MAX_OUT_DELAYS,
@@ -288,6 +290,10 @@ class ModelClass:
     sized_by_record : tuple of str
         The hyperparameters the rule chooses when the user gives none (integers; the
         estimator's argument None: "sized by the record").
+    epoch_work : tuple
+        The work of one training epoch as a product of hyperparameters (a tuple in it: their
+        sum), in neuron-samples, bounded by :data:`sloshrom.limits.MAX_EPOCH_WORK`
+        (:meth:`epoch_cost`); empty: not bounded.
     """
 
     name: str
@@ -315,6 +321,7 @@ class ModelClass:
     report: str = ""
     size_rule: Callable[[int, Mapping[str, int]], dict[str, int]] | None = None
     sized_by_record: tuple[str, ...] = ()
+    epoch_work: tuple[str | tuple[str, ...], ...] = ()
 
     def size(self, n_samples: int, given: Mapping[str, int]) -> dict[str, int]:
         """The values the size rule chooses for a training record of ``n_samples`` samples:
@@ -359,6 +366,32 @@ class ModelClass:
                 f"({n_samples / p:.2g} samples per parameter): a record this short overfits "
                 f"it; the size rule suggests {size} ({q} parameters), or leave the size "
                 "options out")
+
+    def epoch_cost(self, hyper: Mapping[str, int | float | str],
+                   key: Callable[[str], str] = str) -> str | None:
+        """Why one training epoch of ``hyper`` costs too much, or None (within
+        :data:`~sloshrom.limits.MAX_EPOCH_WORK`, or a class without :attr:`epoch_work`).
+
+        The message names the factors by ``key(name)`` (an option, a configuration key), their
+        values, the product, the limit and the time they stand for on the measured machine.
+        """
+        if not self.epoch_work:
+            return None
+
+        def term(f: str | tuple[str, ...], text: Callable[[str], str]) -> str:
+            return f"({' + '.join(map(text, f))})" if isinstance(f, tuple) else text(f)
+
+        work = math.prod(sum(int(hyper[k]) for k in f) if isinstance(f, tuple)
+                         else int(hyper[f]) for f in self.epoch_work)
+        if work <= MAX_EPOCH_WORK:
+            return None
+        names = " x ".join(term(f, key) for f in self.epoch_work)
+        values = " x ".join(term(f, lambda k: str(int(hyper[k]))) for f in self.epoch_work)
+        return (f"one training epoch of {self.label(hyper)}, {names} = {values} = {work:.3g} "
+                f"neuron-samples, more than {MAX_EPOCH_WORK:.3g} (about "
+                f"{work * EPOCH_WORK_SECONDS / 60:.0f} min per epoch at the measured "
+                f"{EPOCH_WORK_SECONDS * 1e9:.0f} ns each on 2 cores; the limit is about "
+                f"{MAX_EPOCH_WORK * EPOCH_WORK_SECONDS / 60:.0f} min): lower one of them")
 
     def hyper_named(self, name: str) -> Hyper:
         """The hyperparameter ``name``; :class:`ROMError` listing the valid ones."""
@@ -696,6 +729,7 @@ NSS_CLASS = ModelClass(
            "stays at least as close to the rig's (docs/rom.md, \"A ROM with state\", with the "
            "figures of both classes).",
     size_rule=nss_size, sized_by_record=(*NSS_SHORT_SIZE, "horizon"),
+    epoch_work=("steps_per_epoch", "batch", ("window", "horizon"), "neurons"),
 )
 
 LSS_CLASS = ModelClass(
