@@ -161,7 +161,7 @@ def run(out: str | Path, cfg: ReproduceConfig | dict[str, Any],
         return _run_stages(ctx, cfg, studies)
 
 
-def _run_stages(ctx: Context, cfg: ReproduceConfig, studies: list[Study]) -> dict[str, Any]:
+def _run_stages(ctx: Context, cfg: ReproduceConfig, studies: list[Study]) -> dict[str, object]:
     """Every stage, then the report and the summary (the caller holds the folder's lock)."""
     # a batch whose commit a killed run left part-way: finished before anything is read
     complete_commits(ctx.out)
