@@ -182,7 +182,7 @@ def _run_stages(ctx: Context, cfg: ReproduceConfig, studies: list[Study]) -> dic
                                      list(upstream.values()),
                                      functools.partial(study.run, ctx, upstream, identify))
 
-    summary = {
+    summary: dict[str, object] = {
         "sloshrom_version": __version__,
         "config": cfg.as_dict(),
         "stages": {k: {"reused": r.reused, **r.outputs} for k, r in results.items()},
