@@ -372,6 +372,7 @@ def _command(name: str, ins: dict, out: Path) -> list[str]:
         "compare": lambda: ["compare", str(d / "m1.nc"), str(d / "m2.nc"), "--name",
                             "measured=lab", "--out", str(out)],
         "export fmu": lambda: ["export", "fmu", str(ins["model"]), str(out / "rom.fmu")],
+        "export onnx": lambda: ["export", "onnx", str(ins["model"]), str(out / "rom.onnx")],
         "train --ensemble": lambda: [
             "train", "--data", str(d / "train.nc"), "--validation", str(d / "validation.nc"),
             "--out", str(out / "ens.npz"), "--delays", "3", "--neurons", "4",
@@ -379,7 +380,7 @@ def _command(name: str, ins: dict, out: Path) -> list[str]:
     }[name]()
 
 
-COMMANDS = ["predict", "analyse", "compare", "export fmu", "train --ensemble"]
+COMMANDS = ["predict", "analyse", "compare", "export fmu", "export onnx", "train --ensemble"]
 
 
 @pytest.mark.parametrize("err, reason", [(errno.ENOSPC, "no space left on device"),
