@@ -78,7 +78,7 @@ from xml.sax.saxutils import escape, quoteattr
 import numpy as np
 
 from sloshrom import __version__
-from sloshrom.fileio import atomic_write
+from sloshrom.fileio import atomic_write, pid_alive
 from sloshrom.io.units import same_unit
 from sloshrom.models import (
     INPUT_UNITS,
@@ -498,19 +498,6 @@ def _build_binary(root: Path) -> None:
                                f"{tail}")
 
 
-def _alive(pid: int) -> bool:
-    """Whether a process ``pid`` exists (one of another user's counts)."""
-    if pid == os.getpid():
-        return True
-    try:
-        os.kill(pid, 0)  # signal 0: only asks (POSIX)
-    except ProcessLookupError:
-        return False
-    except OSError:  # EPERM: it exists, another user's
-        return True
-    return True
-
-
 def remove_stale_builds(root: str | Path | None = None, *,
                         age: float = STALE_BUILD_AGE) -> list[Path]:
     """Remove the build folders of exports that were killed before they could clean up.
@@ -532,7 +519,7 @@ def remove_stale_builds(root: str | Path | None = None, *,
         m = re.fullmatch(rf"{_BUILD_PREFIX}(\d+)-.+", d.name)
         try:
             stale = (m is not None and d.is_dir() and not d.is_symlink()
-                     and time.time() - d.stat().st_mtime > age and not _alive(int(m.group(1))))
+                     and time.time() - d.stat().st_mtime > age and not pid_alive(int(m.group(1))))
         except OSError:  # went away meanwhile, or not ours to look at
             continue
         if stale:
