@@ -31,7 +31,7 @@ TARGET_S = 5e-3
 
 def make_rom():
     """A real sloshrom NFIR(70, 35) with a couple of LM epochs on a synthetic record."""
-    from sloshrom.rom.estimators import NFIR
+    from sloshrom.rom.tdnn.estimators import NFIR
 
     t = np.arange(0, 8, 1 / FS)
     u = 0.3 * np.sin(2 * np.pi * (4 + 1.5 * t) * t)

@@ -47,8 +47,8 @@ from sloshrom.pipeline.beam import beam_structure
 from sloshrom.pipeline.cache import StageCache
 from sloshrom.pipeline.maps import compute_map
 from sloshrom.pipeline.settings import ReproduceConfig, defaults, load, merge, validate
-from sloshrom.rom.bouncing import BouncingBall
-from sloshrom.rom.estimators import load_model
+from sloshrom.rom.ball.model import BouncingBall
+from sloshrom.rom.loading import load_model
 from sloshrom.studies.baseline import CASE, FREQUENCY_BANDS, frequency_band_errors
 from sloshrom.studies.baseline.stage import lowpassed_nrmse, stage_baseline
 

@@ -202,7 +202,7 @@ def train_models() -> list[tuple[str, object]]:
 def flops_per_step(model: object) -> int:
     """Multiply-adds (2 FLOP each) of the products of one step, summed over the members."""
     from sloshrom.rom.fmu import check_fmu_exportable
-    from sloshrom.rom.statespace import StateSpaceSpec
+    from sloshrom.rom.nss.network import StateSpaceSpec
 
     total = 0
     for net in check_fmu_exportable(model):

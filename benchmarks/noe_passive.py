@@ -1,6 +1,6 @@
 """The NOE trained by multiple shooting with the passive recipe's loss terms, on a reproduce run.
 
-Trains NOEs with ``trainer="adam"`` (:func:`sloshrom.rom.training.adam_noe`) on the run's
+Trains NOEs with ``trainer="adam"`` (:func:`sloshrom.rom.tdnn.training.adam_noe`) on the run's
 training record (``velocity`` -> ``dynamic_force``) with early stopping on its validation record,
 each within a time budget, and reports for each:
 

@@ -16,7 +16,7 @@ loops run the same arithmetic with the batch as the innermost, vectorised axis a
 dispatch: the simulation and its gradient in about half the time, the whole Adam step 1.45-1.6x
 faster.
 
-The model is the one of :mod:`sloshrom.rom.statespace` (scaled units, ``z = [x, u]``)::
+The model is the one of :mod:`sloshrom.rom.nss.network` (scaled units, ``z = [x, u]``)::
 
     x_{k+1} = x_k + z_k A + tanh(z_k W1 + b1) W2 - f0
     y_k     = z_k C + tanh(z_k V1 + d1) V2 + c0

@@ -34,9 +34,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import nss_kernel  # noqa: E402
 from sloshrom.rom import NSS  # noqa: E402
-from sloshrom.rom import statespace as ss  # noqa: E402
 from sloshrom.rom.engine import epoch_program  # noqa: E402
 from sloshrom.rom.network import MinMaxScaler  # noqa: E402
+from sloshrom.rom.nss import network as ss  # noqa: E402
+from sloshrom.rom.nss import training as sst  # noqa: E402
 from sloshrom.rom.shooting import ShootingOptions  # noqa: E402
 from sloshrom.signals import power_band  # noqa: E402
 from train_speed import nss_flops, peak_rate, records  # noqa: E402
@@ -54,7 +55,7 @@ def problem(sim, spec, u, y, fs, scaler, opts):
     xla = ss.ss_simulate
     ss.ss_simulate = sim  # read when the loss is traced: swapped back after the first epoch
     try:
-        pr = ss.shooting_problem(spec, u, y, fs, scaler, None, opts, 0)
+        pr = sst.shooting_problem(spec, u, y, fs, scaler, None, opts, 0)
         ep = epoch_program(pr.loss, pr.optimizer)
         draws = tuple(jnp.asarray(a) for a in pr.draw(np.random.default_rng(99)))
         jax.block_until_ready(ep(pr.params0, pr.optimizer.init(pr.params0), draws)[2])

@@ -42,9 +42,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from sloshrom.rom import NSS
-from sloshrom.rom import statespace as ss
 from sloshrom.rom.engine import adam_epochs
 from sloshrom.rom.network import MinMaxScaler
+from sloshrom.rom.nss import network as ss
+from sloshrom.rom.nss import training as sst
 from sloshrom.rom.shooting import ShootingOptions
 from sloshrom.systems.tanks import cascaded_tanks
 
@@ -93,7 +94,7 @@ def test_rmse(model: Any, test: Any, window: int) -> float:
 def fit_here(hyper: Mapping[str, Any], u: np.ndarray, y: np.ndarray, fs: float,
              u_val: np.ndarray, y_val: np.ndarray, hist: tuple[np.ndarray, np.ndarray]
              ) -> tuple[Any, dict[str, Any]]:
-    """:func:`sloshrom.rom.statespace.fit_statespace` with an early stopping on the encoded
+    """:func:`sloshrom.rom.nss.training.fit_statespace` with an early stopping on the encoded
     run of the validation record (its state from ``hist``, the samples before it): the
     validation of the lead's ``NSS.fit(..., validation_history=window)``, for a package
     without it."""
@@ -107,7 +108,7 @@ def fit_here(hyper: Mapping[str, Any], u: np.ndarray, y: np.ndarray, fs: float,
     w = spec.window
 
     with jax.enable_x64(True):
-        problem = ss.shooting_problem(spec, u, y, fs, scaler, None, opts, int(hyper["seed"]))
+        problem = sst.shooting_problem(spec, u, y, fs, scaler, None, opts, int(hyper["seed"]))
         ru, ry = float(scaler.u(0.0)), float(scaler.y(0.0))
         uvs = jnp.asarray(scaler.u(uv_all))
         yvs = np.asarray(scaler.y(yv_all))

@@ -141,7 +141,7 @@ def nss_flops(m) -> tuple[float, int, int]:
 def nfir_rows(m, u: np.ndarray, fs: float) -> int:
     """Rows of NFIR regressors one Adam step evaluates (data, probes, cycles)."""
     from sloshrom.rom.network import MinMaxScaler
-    from sloshrom.rom.training import energy_cycles, harmonic_probes
+    from sloshrom.rom.tdnn.training import energy_cycles, harmonic_probes
     from sloshrom.signals import power_band
 
     rows = 4096
@@ -257,9 +257,9 @@ def vmap_scaling(data, t1: float) -> float:
 
     from sloshrom.rom import NSS
     from sloshrom.rom.network import MinMaxScaler
+    from sloshrom.rom.nss.training import shooting_problem
     from sloshrom.rom.registry import CLASSES
     from sloshrom.rom.shooting import ShootingOptions
-    from sloshrom.rom.statespace import shooting_problem
     from sloshrom.signals import power_band
 
     u, y, uv, yv, fs = data

@@ -21,7 +21,7 @@ from sloshrom.beam.coupled import free_response, random_response
 from sloshrom.beam.structure import CantileverBeam, ModalModel
 from sloshrom.energy import phi_d_map
 from sloshrom.rig.virtual import SensorParams, VirtualRig
-from sloshrom.rom.estimators import NFIR, NOE
+from sloshrom.rom.tdnn.estimators import NFIR, NOE
 from sloshrom.signals import SHAKER_ENVELOPE as SHAKER
 from sloshrom.signals import harmonic, vfa
 

@@ -61,7 +61,7 @@ def rig_records() -> tuple[Record, Record]:
 
 def make_model_files(d: Path) -> Path:
     """Write good.npz (NFIR, 500 Hz, m/s -> N), newer.npz, tampered.npz and text.npz into d."""
-    from sloshrom.rom.estimators import NFIR
+    from sloshrom.rom.tdnn.estimators import NFIR
 
     rng = np.random.default_rng(0)
     u = np.convolve(rng.standard_normal(600), np.ones(8) / 8, mode="same") * 0.05

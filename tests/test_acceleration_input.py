@@ -19,9 +19,10 @@ from sloshrom.models import model_input
 from sloshrom.rom import load_model
 from sloshrom.rom.ensemble import Ensemble
 from sloshrom.rom.errors import ROMError
-from sloshrom.rom.estimators import NFIR, NOE, MinMaxScaler
 from sloshrom.rom.family import FillBlend
+from sloshrom.rom.network import MinMaxScaler
 from sloshrom.rom.onnx import check_exportable
+from sloshrom.rom.tdnn.estimators import NFIR, NOE
 
 ACC = {"units": ("m/s^2", "N"), "names": ("acceleration", "dynamic_force")}
 FS = 500.0

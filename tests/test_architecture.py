@@ -376,16 +376,17 @@ def test_no_function_local_imports_of_the_package():
 #: The concrete sloshing-model classes (and their estimators' base) and the module of each.
 MODEL_CLASSES = {
     "FrozenLiquid": "sloshrom.models", "VirtualRig": "sloshrom.rig.virtual",
-    "Network": "sloshrom.rom.network", "FittedNetwork": "sloshrom.rom.network",
-    "NFIRNetwork": "sloshrom.rom.network", "NOENetwork": "sloshrom.rom.network",
-    "StateSpaceNetwork": "sloshrom.rom.statespace", "NSS": "sloshrom.rom.estimators",
-    "LinearStateSpace": "sloshrom.rom.lss", "LSS": "sloshrom.rom.lss",
+    "Network": "sloshrom.rom.tdnn.network", "FittedNetwork": "sloshrom.rom.network",
+    "NFIRNetwork": "sloshrom.rom.tdnn.network", "NOENetwork": "sloshrom.rom.tdnn.network",
+    "StateSpaceNetwork": "sloshrom.rom.nss.network", "NSS": "sloshrom.rom.nss.estimator",
+    "LinearStateSpace": "sloshrom.rom.lss.estimator", "LSS": "sloshrom.rom.lss.estimator",
     "Estimator": "sloshrom.rom.base",
-    "NFIR": "sloshrom.rom.estimators",
-    "NOE": "sloshrom.rom.estimators", "_Estimator": "sloshrom.rom.estimators",
+    "NFIR": "sloshrom.rom.tdnn.estimators",
+    "NOE": "sloshrom.rom.tdnn.estimators",
+    "TimeDelayEstimator": "sloshrom.rom.tdnn.estimators",
     "Ensemble": "sloshrom.rom.ensemble", "FillFamily": "sloshrom.rom.family",
-    "FillBlend": "sloshrom.rom.family", "BouncingBall": "sloshrom.rom.bouncing",
-    "Ball": "sloshrom.rom.bouncing",
+    "FillBlend": "sloshrom.rom.family", "BouncingBall": "sloshrom.rom.ball.model",
+    "Ball": "sloshrom.rom.ball.model",
     "CompiledKernel": "sloshrom.models",  # a protocol: isinstance asks for kernel()
 }
 #: Members by which a model says what kind of model it is.
@@ -458,8 +459,9 @@ def test_the_capability_checks_are_few_and_documented():
 
 # -- the registry of ROM classes: the one place that names a class ------------------------------
 #: Spec (architecture) types of the classes: nothing outside their own module asks for one.
-SPEC_TYPES = {"NetworkSpec": "sloshrom.rom.network", "StateSpaceSpec": "sloshrom.rom.statespace",
-              "LinearSpec": "sloshrom.rom.lss"}
+SPEC_TYPES = {"NetworkSpec": "sloshrom.rom.tdnn.network",
+              "StateSpaceSpec": "sloshrom.rom.nss.network",
+              "LinearSpec": "sloshrom.rom.lss.estimator"}
 #: Modules that may compare a value with a class's name, and why. Everything else reads the
 #: registry (a class's entry, its estimator, its network's methods).
 NAMES_CLASSES = {
@@ -474,7 +476,7 @@ NAMES_CLASSES = {
     "sloshrom.pipeline.settings": "former flat keys; the sweep's NFIR/NOE grid",
     # the NFIR's and NOE's trainers, chosen by the architecture (one shooting trainer for the
     # recurrent classes is the next step)
-    "sloshrom.rom.training": "the trainers of the time-delay networks",
+    "sloshrom.rom.tdnn.training": "the trainers of the time-delay networks",
 }
 
 

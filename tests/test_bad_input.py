@@ -426,7 +426,7 @@ def test_case_count():
 
 def test_config_error_is_value_error():
     # every user-input error type is a ValueError: callers can catch one thing
-    from sloshrom.rom.estimators import ModelFileError
+    from sloshrom.rom.modelfile import ModelFileError
 
     assert issubclass(ConfigError, ValueError) and issubclass(RecordError, ValueError)
     assert issubclass(ModelFileError, ValueError)

@@ -30,7 +30,7 @@ from sloshrom.config import Tank
 from sloshrom.pipeline.beam import coupled_model, member_spread
 from sloshrom.pipeline.experiment import cell_text
 from sloshrom.rom.ensemble import Ensemble
-from sloshrom.rom.estimators import NFIR
+from sloshrom.rom.tdnn.estimators import NFIR
 
 FS = 500.0
 LEVELS = [0.1]

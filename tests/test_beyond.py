@@ -16,8 +16,8 @@ from sloshrom.pipeline.chain import RESULT_ENTRIES
 from sloshrom.pipeline.html import Section
 from sloshrom.pipeline.study import Study
 from sloshrom.rom.errors import FillRangeError
-from sloshrom.rom.estimators import load_model
 from sloshrom.rom.family import FillFamily, training_fills
+from sloshrom.rom.loading import load_model
 
 
 def tiny_config(config) -> settings.ReproduceConfig:

@@ -1,4 +1,4 @@
-"""The bouncing-ball equivalent mechanical model (sloshrom.rom.bouncing): exact flight and impacts,
+"""The bouncing-ball equivalent mechanical model (sloshrom.rom.ball): exact flight and impacts,
 exact energy and momentum bookkeeping, identification, the sloshing-model contract, model files."""
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from sloshrom.models import FrozenLiquid, SloshingModel, has_kernel
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.html import render_table
 from sloshrom.pipeline.settings import load
-from sloshrom.rom.bouncing import (
+from sloshrom.rom.ball.model import (
     STATE_NAMES,
     Ball,
     BouncingBall,

@@ -285,7 +285,8 @@ def test_rom_in_the_loop_and_cli(modal, tmp_path):
 
     import sloshrom.cli.beam  # noqa: F401
     from sloshrom.cli._app import app
-    from sloshrom.rom.estimators import NFIR, load_model
+    from sloshrom.rom.loading import load_model
+    from sloshrom.rom.tdnn.estimators import NFIR
 
     t = np.arange(0, 4, 1 / 500)
     u = 0.3 * np.sin(2 * np.pi * (4 + 2 * t) * t)

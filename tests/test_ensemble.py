@@ -13,16 +13,17 @@ import pytest
 from typer.testing import CliRunner
 
 from helpers import model_parts, smooth_io, write_model_parts
+from sloshrom import rom
 from sloshrom.cli import app
 from sloshrom.io import Record, write_record
 from sloshrom.models import SloshingModel, envelope_of, is_jax_model
-from sloshrom.rom import estimators as rom
 from sloshrom.rom import modelfile
 from sloshrom.rom.ensemble import Ensemble, spread
 from sloshrom.rom.errors import EnvelopeWarning, NotFittedError, ROMError
-from sloshrom.rom.estimators import NFIR, NOE, ModelFileError
+from sloshrom.rom.modelfile import ModelFileError
 from sloshrom.rom.onnx import onnx_model
 from sloshrom.rom.parallel import run_tasks
+from sloshrom.rom.tdnn.estimators import NFIR, NOE
 
 FS = 500.0
 
@@ -316,6 +317,7 @@ def test_fit_through_a_dask_local_cluster(fitted):
 def test_weight_limits_are_checked_before_any_training(monkeypatch):
     """A network or an ensemble that no model file holds is refused by fit, not by save."""
     import sloshrom.rom.ensemble as ens_mod
+    import sloshrom.rom.tdnn.estimators as tdnn_estimators
     from sloshrom.pipeline.settings import MAX_MODEL_WEIGHTS
 
     assert MAX_MODEL_WEIGHTS == modelfile.MAX_WEIGHTS  # the configuration's copy of the limit
@@ -329,7 +331,7 @@ def test_weight_limits_are_checked_before_any_training(monkeypatch):
     with pytest.raises(ROMError, match=r"64 members x 950 neurons x 70 regressor entries = "
                                        r"4256000 weights, more than 4194304"):
         ens.fit(u, y, fs=500.0, scheduler="sequential")
-    monkeypatch.setattr(rom.training, "train", no_training)
+    monkeypatch.setattr(tdnn_estimators.training, "train", no_training)
     with pytest.raises(ROMError, match=r"4096 neurons x 2000 regressor entries = 8192000 "
                                        r"weights, more than 4194304"):
         NFIR(delays=2000, neurons=4096).fit(u, y, fs=500.0)
@@ -340,7 +342,9 @@ def test_weight_limits_are_checked_before_any_training(monkeypatch):
 
 def test_an_input_that_does_not_oscillate_is_named_as_such(monkeypatch):
     """The passive recipe needs motion about rest: say so, not "passivity probes need ..."."""
-    monkeypatch.setattr(rom.training, "train", lambda *a, **k: pytest.fail("trained"))
+    import sloshrom.rom.tdnn.estimators as tdnn_estimators
+
+    monkeypatch.setattr(tdnn_estimators.training, "train", lambda *a, **k: pytest.fail("trained"))
     u, y = smooth_io(2000)
     with pytest.raises(ROMError, match=r"the input 'velocity' does not oscillate about rest "
                                        r"\(it stays between 0\.01 and [\d.]+ m/s, never "

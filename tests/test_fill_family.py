@@ -20,7 +20,6 @@ from sloshrom.io import Record, read_record, write_record
 from sloshrom.models import SloshingModel, is_jax_model
 from sloshrom.rom.ensemble import Ensemble
 from sloshrom.rom.errors import FillRangeError, ROMError
-from sloshrom.rom.estimators import NFIR, ModelFileError, load_model
 from sloshrom.rom.family import (
     FILL_TOLERANCE,
     FillBlend,
@@ -31,6 +30,9 @@ from sloshrom.rom.family import (
     training_fills,
     write_family,
 )
+from sloshrom.rom.loading import load_model
+from sloshrom.rom.modelfile import ModelFileError
+from sloshrom.rom.tdnn.estimators import NFIR
 from sloshrom.signals import harmonic
 
 FS = 500.0

@@ -32,7 +32,6 @@ from sloshrom.cli import app
 from sloshrom.models import EnvelopeWarning, ModelError
 from sloshrom.rom.ensemble import Ensemble
 from sloshrom.rom.errors import ROMError
-from sloshrom.rom.estimators import NFIR, NOE, NSS
 from sloshrom.rom.family import FillBlend
 from sloshrom.rom.fmu import (
     VR,
@@ -43,6 +42,8 @@ from sloshrom.rom.fmu import (
     model_data_source,
 )
 from sloshrom.rom.fmu_runtime import _callbacks
+from sloshrom.rom.nss.estimator import NSS
+from sloshrom.rom.tdnn.estimators import NFIR, NOE
 
 # the validation record exceeds the short training record's input range by ~1 %: expected here;
 # the NSS's feed-through warning is tested in tests/test_fmu_fmi.py

@@ -37,9 +37,10 @@ from typer.testing import CliRunner
 from helpers import check_cli
 from sloshrom.cli import app
 from sloshrom.rom.errors import FeedthroughWarning
-from sloshrom.rom.estimators import NFIR, NOE, NSS
 from sloshrom.rom.fmu import VR, export_fmu, load_fmu, remove_stale_builds
 from sloshrom.rom.fmu_runtime import _callbacks
+from sloshrom.rom.nss.estimator import NSS
+from sloshrom.rom.tdnn.estimators import NFIR, NOE
 
 pytestmark = [
     pytest.mark.filterwarnings("ignore::sloshrom.models.EnvelopeWarning"),

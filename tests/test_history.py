@@ -17,8 +17,9 @@ from sloshrom.cli import app
 from sloshrom.io import Record, read_record, write_record
 from sloshrom.rom import NFIR, NOE, NSS, Ensemble, MinMaxScaler, ROMError
 from sloshrom.rom.lss import LSS
-from sloshrom.rom.network import unpack
-from sloshrom.rom.statespace import StateSpaceSpec, init_params
+from sloshrom.rom.nss.network import StateSpaceSpec
+from sloshrom.rom.nss.training import init_params
+from sloshrom.rom.tdnn.network import unpack
 
 FS = 100.0
 # a lightly damped oscillator (20 rad/s, 5 % damping) with direct feed-through, sampled at FS

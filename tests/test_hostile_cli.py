@@ -26,7 +26,7 @@ from sloshrom.io.uff import write_uff58
 @pytest.fixture(scope="module")
 def model_files(tmp_path_factory):
     """The session's model files (conftest.py) plus ROMs the beam and the map cannot use."""
-    from sloshrom.rom.estimators import NFIR
+    from sloshrom.rom.tdnn.estimators import NFIR
 
     d = make_model_files(tmp_path_factory.mktemp("models"))
     rng = np.random.default_rng(1)
@@ -46,7 +46,7 @@ def _forged_ensemble(u: np.ndarray, y: np.ndarray, path: Path) -> None:
     """An ensemble identified at fill 0.5 whose member 1 is forged to fill 0.3 (checksum
     recomputed): the union of the members' ranges, 0.3 to 0.5, holds both fills."""
     from sloshrom.rom.ensemble import Ensemble
-    from sloshrom.rom.estimators import NFIR
+    from sloshrom.rom.tdnn.estimators import NFIR
 
     ens = Ensemble(NFIR(delays=4, neurons=3, max_epochs=2), n_members=2).fit(
         u, y, 500.0, scheduler="sequential", fill=0.5)
@@ -57,7 +57,7 @@ def _forged_ensemble(u: np.ndarray, y: np.ndarray, path: Path) -> None:
 
 def _ball_file(path: Path) -> None:
     """A bouncing-ball model of the paper tank at fill 0.5 (parameters given, not fitted)."""
-    from sloshrom.rom.bouncing import BouncingBall
+    from sloshrom.rom.ball.model import BouncingBall
 
     ball = BouncingBall.from_parameters(0.5, 0.3, 0.01, fs=500.0)
     ball.envelope_ = {"input_min": -0.1, "input_max": 0.1, "output_min": -1.0,
@@ -1551,13 +1551,13 @@ def test_late_failure_leaves_no_partial_results(tmp_path, monkeypatch):
 def test_warnings_are_one_line_each(capsys):
     """Our warnings: one yellow line; third-party deprecations: silenced; others: with origin."""
     from sloshrom.cli._app import route_warnings
-    from sloshrom.rom.estimators import EnvelopeWarning
+    from sloshrom.rom.errors import EnvelopeWarning
 
     with route_warnings():
         for _ in range(2):  # the same warning twice: shown once
             warnings.warn_explicit("input outside the training envelope\n  by 3 %",
                                    EnvelopeWarning, "/x/src/sloshrom/rom.py", 10,
-                                   module="sloshrom.rom.estimators")
+                                   module="sloshrom.rom.tdnn.estimators")
         warnings.warn_explicit("old API", FutureWarning,
                                "/v/lib/python3.11/site-packages/xarray/core.py", 1,
                                module="xarray.core")

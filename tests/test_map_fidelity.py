@@ -206,7 +206,7 @@ def test_cli_map_reference_prints_the_whole_picture(tmp_path):
     from sloshrom.config import Tank
     from sloshrom.pipeline import settings
     from sloshrom.pipeline.maps import map_grid
-    from sloshrom.rom.estimators import NFIR
+    from sloshrom.rom.tdnn.estimators import NFIR
 
     rng = np.random.default_rng(0)
     u = np.convolve(rng.standard_normal(600), np.ones(8) / 8, mode="same") * 0.05

@@ -19,9 +19,11 @@ import numpy as np
 import pytest
 
 from helpers import model_parts, perturbation_tolerance, relative_change, write_model_parts
-from sloshrom.rom import estimators as rom
+from sloshrom import rom
 from sloshrom.rom import modelfile
-from sloshrom.rom.estimators import NFIR, NOE, MinMaxScaler, ModelFileError
+from sloshrom.rom.modelfile import ModelFileError
+from sloshrom.rom.network import MinMaxScaler
+from sloshrom.rom.tdnn.estimators import NFIR, NOE
 
 DATA = Path(__file__).parent / "data"
 

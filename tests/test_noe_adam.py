@@ -10,7 +10,7 @@ from scipy import signal
 
 from helpers import model_parts, write_model_parts
 from sloshrom import rom
-from sloshrom.rom import network, training
+from sloshrom.rom.tdnn import network, training
 
 FS = 100.0
 NEW_FIELDS = ("amplitude_weighting", "passivity", "cycle_energy", "horizon", "batch",
@@ -191,8 +191,9 @@ def test_the_schema_bounds_the_adam_options(records, tmp_path, field, value):
 def test_the_recurrent_classes_share_one_shooting_problem():
     # one loss, schedule, draws and validation for the NOE and the state-space ROM: each class
     # hands its starts, rest states, simulation and free run to the one builder
-    from sloshrom.rom import losses, shooting, statespace
+    from sloshrom.rom import losses, shooting
+    from sloshrom.rom.nss import training as nss_training
 
-    assert statespace.shooting is shooting.shooting_problem
+    assert nss_training.shooting is shooting.shooting_problem
     assert training.shooting is shooting.shooting_problem
-    assert statespace.TRAIN_DTYPE is training.TRAIN_DTYPE is losses.TRAIN_DTYPE
+    assert nss_training.TRAIN_DTYPE is training.TRAIN_DTYPE is losses.TRAIN_DTYPE

@@ -20,7 +20,8 @@ from sloshrom.config import Tank
 from sloshrom.models import SloshingModel, is_jax_model
 from sloshrom.rom import NSS, Ensemble, EnvelopeWarning, ModelFileError, ROMError, load_model
 from sloshrom.rom.network import MinMaxScaler, network_of
-from sloshrom.rom.statespace import StateSpaceNetwork, init_params
+from sloshrom.rom.nss.network import StateSpaceNetwork
+from sloshrom.rom.nss.training import init_params
 
 FS = 200.0
 

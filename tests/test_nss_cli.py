@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 from helpers import check_cli
 from sloshrom.cli import app
 from sloshrom.io import Record, read_record, write_record
-from sloshrom.rom.estimators import load_model
+from sloshrom.rom.loading import load_model
 from sloshrom.rom.registry import CLASSES
 
 runner = CliRunner()

@@ -13,7 +13,7 @@ from sloshrom.pipeline import Context, settings
 from sloshrom.pipeline.chain import identify
 from sloshrom.pipeline.report import build_sections
 from sloshrom.pipeline.rom import model_class_text, recipe_text
-from sloshrom.rom.estimators import load_model
+from sloshrom.rom.loading import load_model
 from sloshrom.rom.registry import CLASSES
 
 #: The smallest NSS and compared NFIR that train in a few seconds on the tiny records.

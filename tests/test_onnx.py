@@ -11,8 +11,9 @@ import pytest
 import sloshrom.cli.export  # noqa: F401  (registers `sloshrom export`)
 from helpers import rig_records
 from sloshrom.cli import app
-from sloshrom.rom.estimators import NFIR, NOE, ROMError
+from sloshrom.rom.errors import ROMError
 from sloshrom.rom.onnx import ONNX_FORMAT_VERSION, SIGN_CONVENTION, export_onnx, run_onnx
+from sloshrom.rom.tdnn.estimators import NFIR, NOE
 
 # the validation record exceeds the short training record's input range by ~1 %: expected here
 pytestmark = pytest.mark.filterwarnings("ignore::sloshrom.rom.EnvelopeWarning")

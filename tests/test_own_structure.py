@@ -24,7 +24,7 @@ from sloshrom.beam.modes import ModeSet
 from sloshrom.beam.structure import ModalModel
 from sloshrom.cli import app
 from sloshrom.models import FrozenLiquid
-from sloshrom.rom.estimators import load_model
+from sloshrom.rom.loading import load_model
 
 ROM = "tests/data/model_v1_nfir.npz"
 KEYS = ("q", "tank_acceleration", "interface_force", "dynamic_force", "station_acceleration")

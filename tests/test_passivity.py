@@ -15,10 +15,10 @@ from sloshrom.config import Tank
 from sloshrom.energy import dissipated_energy, map_fidelity, phi_d_map
 from sloshrom.io import record_from_measurement
 from sloshrom.rig.virtual import SensorParams, VirtualRig
-from sloshrom.rom import training
 from sloshrom.rom.errors import ROMError
-from sloshrom.rom.estimators import NFIR
-from sloshrom.rom.network import pack
+from sloshrom.rom.tdnn import training
+from sloshrom.rom.tdnn.estimators import NFIR
+from sloshrom.rom.tdnn.network import pack
 
 FS = 500.0
 

@@ -270,7 +270,7 @@ def test_epoch_files_cross_a_process_boundary(tmp_path):
 @pytest.mark.parametrize("scheduler", ["sequential", "threads"])
 def test_ensemble_members_report_their_epochs(scheduler):
     from sloshrom.rom.ensemble import Ensemble
-    from sloshrom.rom.estimators import NFIR
+    from sloshrom.rom.tdnn.estimators import NFIR
 
     u, y = smooth_io()
     got = []
@@ -285,7 +285,7 @@ def test_ensemble_members_report_their_epochs(scheduler):
 @pytest.mark.slow
 def test_ensemble_members_in_worker_processes_report_their_epochs():
     from sloshrom.rom.ensemble import Ensemble
-    from sloshrom.rom.estimators import NFIR
+    from sloshrom.rom.tdnn.estimators import NFIR
 
     u, y = smooth_io()
     got = []

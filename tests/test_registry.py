@@ -14,7 +14,8 @@ from sloshrom.cli import app
 from sloshrom.config import ConfigError
 from sloshrom.io import Record, write_record
 from sloshrom.pipeline import settings
-from sloshrom.rom.registry import CLASSES, LOSS_TERMS, check_hyperparameters, loss_recipe
+from sloshrom.rom.nss.entry import MAX_EPOCH_WORK
+from sloshrom.rom.registry import CLASSES, LOSS_TERMS, check_hyperparameters
 
 FS = 200.0
 
@@ -97,7 +98,7 @@ def test_recipe_defaults_are_those_of_the_configuration():
                                                 (("m/s^2", "N"), False), (("m/s", "m"), False)])
 def test_the_recipe_applies_to_a_velocity_in_and_a_force_out(units, passive):
     recipe = CLASSES["nfir"].recipe
-    choice = loss_recipe(*units)
+    choice = CLASSES["nfir"].passive_recipe(*units)
     assert choice.passive is passive
     assert choice.terms == (dict(recipe) if passive else dict.fromkeys(LOSS_TERMS, 0.0))
     line = str(choice)
@@ -120,7 +121,7 @@ def _records(tmp_path, names, units, seed=1):
 
 
 def _train(tmp_path, names, units, *extra):
-    from sloshrom.rom.estimators import load_model
+    from sloshrom.rom.loading import load_model
 
     data, val = _records(tmp_path, names, units)
     out = tmp_path / "m.npz"
@@ -192,10 +193,10 @@ def test_one_epoch_of_an_nss_is_bounded_as_the_product_of_its_options():
     nss = CLASSES["nss"]
     d = nss.defaults()
     work = d["steps_per_epoch"] * d["batch"] * (d["window"] + d["horizon"]) * d["neurons"]
-    assert work * 30 < limits.MAX_EPOCH_WORK and nss.epoch_cost(d) is None
+    assert work * 30 < MAX_EPOCH_WORK and nss.epoch_cost(d) is None
     # the largest horizon the limit takes at the other defaults, then one sample more
     per = d["steps_per_epoch"] * d["batch"] * d["neurons"]
-    h = limits.MAX_EPOCH_WORK // per - d["window"]
+    h = MAX_EPOCH_WORK // per - d["window"]
     assert nss.epoch_cost({**d, "horizon": h}) is None
     msg = nss.epoch_cost({**d, "horizon": h + 1}, key=lambda k: k.upper())
     assert msg is not None and (f"STEPS_PER_EPOCH x BATCH x (WINDOW + HORIZON) x NEURONS = "

@@ -84,7 +84,7 @@ def test_vfa_same_seed_identical_other_seed_different(tmp_path):
 
 
 def _tiny_fit(seed: int):
-    from sloshrom.rom.estimators import NFIR
+    from sloshrom.rom.tdnn.estimators import NFIR
 
     rng = np.random.default_rng(11)
     u = np.convolve(rng.standard_normal(800), np.ones(8) / 8, mode="same") * 0.05

@@ -10,9 +10,12 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sloshrom.rom import estimators as rom
+from sloshrom import rom
 from sloshrom.rom import modelfile
-from sloshrom.rom.estimators import NFIR, NOE, MinMaxScaler, ModelFileError, UnstableModelError
+from sloshrom.rom.errors import UnstableModelError
+from sloshrom.rom.modelfile import ModelFileError
+from sloshrom.rom.network import MinMaxScaler
+from sloshrom.rom.tdnn.estimators import NFIR, NOE
 
 
 def _random_model(cls, seed=0, **kw):

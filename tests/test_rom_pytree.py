@@ -18,7 +18,8 @@ from sloshrom.beam import coupled
 from sloshrom.beam.coupled import CoupledSimulator, discretise, simulate_jax
 from sloshrom.config import Tank
 from sloshrom.models import SloshingModel, has_kernel, is_jax_model
-from sloshrom.rom.estimators import NFIR, NOE, MinMaxScaler
+from sloshrom.rom.network import MinMaxScaler
+from sloshrom.rom.tdnn.estimators import NFIR, NOE
 
 
 def _model(cls=NFIR, seed=0, scale=1.0, **kw):
@@ -171,8 +172,9 @@ def test_no_global_x64_switch_and_float64_results():
         import sloshrom
         from sloshrom.beam.coupled import free_response
         from sloshrom.beam.structure import ModalModel
-        from sloshrom.rom.estimators import NFIR
-        from sloshrom.rom import training, onnx
+        from sloshrom.rom.tdnn.estimators import NFIR
+        from sloshrom.rom import onnx
+        from sloshrom.rom.tdnn import training
         assert not jax.config.jax_enable_x64, "import flipped jax_enable_x64"
         t = np.arange(1500) / 500.0
         u = 0.3 * np.sin(2 * np.pi * 4 * t) * np.sin(np.pi * t / t[-1])

@@ -19,8 +19,9 @@ from sloshrom.io import Record, write_record
 from sloshrom.limits import MAX_SEED, MU_MAX
 from sloshrom.rom.ensemble import Ensemble
 from sloshrom.rom.errors import ROMError, TrainingWarning, UnstableModelError
-from sloshrom.rom.estimators import NFIR, NOE, load_model
 from sloshrom.rom.lm import LMProblem, levenberg_marquardt, stop_message
+from sloshrom.rom.loading import load_model
+from sloshrom.rom.tdnn.estimators import NFIR, NOE
 
 runner = CliRunner()
 FS = 500.0

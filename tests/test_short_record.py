@@ -15,12 +15,7 @@ import optax
 import pytest
 
 from sloshrom.rom import NSS, ModelSizeWarning, load_model
-from sloshrom.rom.registry import (
-    NSS_CLASS,
-    NSS_FULL_SIZE_SAMPLES,
-    NSS_SHORT_SIZE,
-    nss_size,
-)
+from sloshrom.rom.nss.entry import NSS_CLASS, NSS_FULL_SIZE_SAMPLES, NSS_SHORT_SIZE, nss_size
 from sloshrom.rom.shooting import ShootingOptions, adam_optimizer
 from sloshrom.systems.tanks import (
     TankParameters,
@@ -175,7 +170,7 @@ def test_weight_decay_shrinks_the_weights_where_the_gradient_is_zero():
 
 
 def test_weight_decay_reaches_the_nss_training(monkeypatch):
-    import sloshrom.rom.estimators as est
+    import sloshrom.rom.nss.estimator as est
 
     seen = []
 

@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
+from sloshrom import rom
 from sloshrom.plotting.rom import plot_sweep
-from sloshrom.rom import estimators as rom
 from sloshrom.rom import sweep
 
 

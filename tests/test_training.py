@@ -9,9 +9,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sloshrom.rom import estimators as rom
-from sloshrom.rom import network, training
-from sloshrom.rom.training import LMProblem, levenberg_marquardt
+from sloshrom import rom
+from sloshrom.rom.tdnn import network, training
+from sloshrom.rom.tdnn.training import LMProblem, levenberg_marquardt
 
 
 def _linear_problem(A: np.ndarray, b: np.ndarray, val=None) -> LMProblem:

@@ -77,7 +77,7 @@ def test_pyuff_file_read_preprocessed_and_trained(tmp_path, rig_measurement):
     # preprocessing recovers the rig's true dynamic force from the UFF data
     assert np.sqrt(np.mean(err**2)) < 0.1 * np.std(m["true_dynamic_force"])
 
-    from sloshrom.rom.estimators import NFIR
+    from sloshrom.rom.tdnn.estimators import NFIR
 
     u, y = pre["velocity"], pre["dynamic_force"]
     model = NFIR(delays=21, neurons=10, max_epochs=30, seed=0).fit(u, y, fs=pre.fs)
@@ -175,7 +175,7 @@ def test_cli_train_on_uff(tmp_path, rig_measurement):
     import sloshrom.cli.rom  # noqa: F401  (registers `train` on the app)
     from sloshrom.cli import app
     from sloshrom.io import record_from_measurement
-    from sloshrom.rom.estimators import load_model
+    from sloshrom.rom.loading import load_model
 
     rec = record_from_measurement(rig_measurement, truth=False)
     path = write_uff58(rec, tmp_path / "pre.uff")

@@ -1,5 +1,7 @@
-"""The ROMs' size limits, in one place: the bounds that the registry of ROM classes
-(``sloshrom.rom.registry``) gives their hyperparameters, and the limits of a model file.
+"""The ROMs' shared size limits: the bounds that several classes of the registry
+(``sloshrom.rom.registry``) give their hyperparameters, and the limits of a model file. A limit
+of one class alone is in its package's entry (the NSS's largest state and epoch:
+``sloshrom.rom.nss.entry``).
 
 The registry's hyperparameters, and so the command line (``sloshrom train``, ``sweep``), the
 configuration of `sloshrom reproduce` and the model-file schema, take these values, so that a
@@ -15,17 +17,14 @@ from __future__ import annotations
 from typing import Literal
 
 __all__ = [
-    "EPOCH_WORK_SECONDS",
     "HIDDEN_KINDS",
     "MAX_BATCH",
     "MAX_DELAY",
     "MAX_EPOCHS",
-    "MAX_EPOCH_WORK",
     "MAX_MEMBERS",
     "MAX_NEURONS",
     "MAX_OUT_DELAYS",
     "MAX_SEED",
-    "MAX_STATES",
     "MAX_WEIGHTS",
     "TRAINERS",
     "MU_MAX",
@@ -62,20 +61,7 @@ MAX_MEMBERS = 64
 #: Most network weights one model file holds, members x neurons x regressor entries (32 MiB
 #: of float64).
 MAX_WEIGHTS = 2**22
-#: Largest state of a neural state-space ROM (NSS).
-MAX_STATES = 1024
-#: Most sub-sequences per Adam step of an NSS.
+#: Most sub-sequences per Adam step of a multiple-shooting class (the NOE's, the NSS's).
 MAX_BATCH = 65536
-#: Most work of one training epoch of a multiple-shooting class (an NSS), in neuron-samples:
-#: steps_per_epoch x batch x (window + horizon) x neurons, the samples an epoch's Adam steps
-#: read times the width of the maps that run on each. Each bound alone let window = horizon =
-#: 9000 through (quick reproduce still training after 300 s). Measured (2026-11-28, 2 cores
-#: shared, load 3): an Adam step of the default NSS (128 x (50 + 200) samples, 64 neurons)
-#: takes 27 ms, 13 ns per neuron-sample; 4x the horizon, batch or neurons 2.0-2.4x, 16x 13-22x
-#: (the cost grows about as the product). 1.5e10 keeps an epoch's steps within about 3 min
-#: (up to 5 at the larger sizes' rates), 37 times the default's 4.1e8.
-MAX_EPOCH_WORK = 15_000_000_000
-#: Measured cost of one neuron-sample of a multiple-shooting epoch, s (see MAX_EPOCH_WORK).
-EPOCH_WORK_SECONDS = 13e-9
 #: Largest seed: JAX PRNG keys take 32-bit seeds.
 MAX_SEED = 2**32 - 1

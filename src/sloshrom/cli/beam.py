@@ -81,8 +81,8 @@ def _model(name: str, tank: Tank, seed: int,
         fail(f"--sloshing {p}: {why}")
     if not name.strip() or not p.is_file():
         fail(f"--sloshing must be 'frozen', 'rig' or a ROM model file; {p} does not exist")
-    from sloshrom.rom.estimators import load_model
     from sloshrom.rom.family import at_fill
+    from sloshrom.rom.loading import load_model
 
     if p not in roms:
         try:

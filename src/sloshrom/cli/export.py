@@ -64,7 +64,7 @@ def onnx_cmd(
     if not model.is_file():
         fail(f"model file not found: {model}")
     _check_out_file(out, (".onnx",), model)
-    from sloshrom.rom.estimators import load_model
+    from sloshrom.rom.loading import load_model
     from sloshrom.rom.onnx import check_exportable, export_onnx, run_onnx
 
     limit = 1e-6 if dtype == "float64" else 1e-4
@@ -159,7 +159,6 @@ def fmu_cmd(
         check_number(step, "--step", 0.0, lo_open=True, unit="s")
     check_input(model, "MODEL")
     _check_out_file(out, (".fmu",), model)
-    from sloshrom.rom.estimators import load_model
     from sloshrom.rom.fmu import (
         STEP_RTOL,
         check_fmu_exportable,
@@ -167,6 +166,7 @@ def fmu_cmd(
         fmu_platform,
         load_fmu,
     )
+    from sloshrom.rom.loading import load_model
 
     rel = [float("nan")]
     try:

@@ -236,8 +236,8 @@ def map_cmd(
 def _load_rom(path: Path, min_fs: float, fill: float | None) -> tuple[Any, float | None]:
     """A ROM usable for harmonic tests (m/s or m/s^2 -> N, fast enough for the top frequency) at
     ``fill``, and the fill (default: the one its training records had, if it says)."""
-    from sloshrom.rom.estimators import load_model
     from sloshrom.rom.family import at_fill, training_fills
+    from sloshrom.rom.loading import load_model
 
     try:
         m = load_model(path)

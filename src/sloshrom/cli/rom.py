@@ -681,8 +681,8 @@ def predict(
     check_input(model, "--model")
     check_input(data, "--data")
     check_out(out, suffixes=RECORD_SUFFIXES, inputs=(data, model))
-    from sloshrom.rom.estimators import load_model
     from sloshrom.rom.family import at_fill
+    from sloshrom.rom.loading import load_model
 
     try:
         m = load_model(model)

@@ -64,7 +64,7 @@ from sloshrom.plotting.beam import (
 )
 from sloshrom.plotting.signals import base_excitation_figure
 from sloshrom.rom.ensemble import Ensemble, is_ensemble, spread
-from sloshrom.rom.estimators import load_model
+from sloshrom.rom.loading import load_model
 
 __all__ = ["BEAM_KEYS", "EXPERIMENT", "beam_structure", "beam_tests", "coupled_model",
            "coupled_models", "laboratory", "member_spread", "stage_beam"]

@@ -31,7 +31,7 @@ from sloshrom.pipeline.settings import ReproduceConfig
 from sloshrom.plotting import savefig
 from sloshrom.plotting.maps import Loop, hysteresis_figure, phi_d_map_figure
 from sloshrom.rom.ensemble import is_ensemble, spread
-from sloshrom.rom.estimators import load_model
+from sloshrom.rom.loading import load_model
 from sloshrom.signals import harmonic
 
 __all__ = [

@@ -715,7 +715,7 @@ def _pair(item: Any, what: str) -> Any:
 
 
 class BaselineTable(_Table):
-    """``[baseline]``: the bouncing ball's identification (``sloshrom.rom.bouncing``)."""
+    """``[baseline]``: the bouncing ball's identification (``sloshrom.rom.ball.model``)."""
 
     mass_fraction: _pair(BallFraction, "mass fractions in (0, 1]")
     restitution: _pair(BallRestitution, "restitutions in [0, 1]")

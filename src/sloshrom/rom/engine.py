@@ -1,8 +1,9 @@
 """The training engine of every minibatch-Adam ROM: compiled epochs, early stopping, history.
 
-The three first-order trainers (the NFIR's minibatch Adam, :func:`sloshrom.rom.training.adam_nfir`;
-the NOE's and the state-space ROM's multiple shooting, :func:`sloshrom.rom.training.adam_noe` and
-:func:`sloshrom.rom.statespace.fit_statespace`) differ only in their loss and in what they draw
+The three first-order trainers (the NFIR's minibatch Adam,
+:func:`sloshrom.rom.tdnn.training.adam_nfir`; the NOE's and the state-space ROM's multiple
+shooting, :func:`sloshrom.rom.tdnn.training.adam_noe` and
+:func:`sloshrom.rom.nss.training.fit_statespace`) differ only in their loss and in what they draw
 at random; everything else is :func:`adam_epochs`:
 
 - an epoch is **one compiled program**: ``lax.scan`` over its ``steps_per_epoch`` Adam steps

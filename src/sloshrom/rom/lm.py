@@ -6,7 +6,7 @@ runs the damped Gauss-Newton iteration with ``trainlm``'s schedule of the dampin
 stopping rules (maximum epochs, ``mu_max``, gradient, validation failures) and returns the
 best-validation parameters with their history. The networks' problems (the NFIR's rows, the
 NOE's simulation error with forward-mode derivatives) are built in
-:mod:`sloshrom.rom.training`.
+:mod:`sloshrom.rom.tdnn.training`.
 """
 
 from __future__ import annotations

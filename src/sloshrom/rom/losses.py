@@ -14,7 +14,7 @@ Pure functions of the training record (NumPy) and small JAX pytrees of what they
 - :data:`TRAIN_DTYPE`, the precision of the shooting trainers' Adam steps.
 
 The terms that evaluate a model on them live with the model's trainer
-(:mod:`sloshrom.rom.training` for the NFIR, :mod:`sloshrom.rom.shooting` for the recurrent
+(:mod:`sloshrom.rom.tdnn.training` for the NFIR, :mod:`sloshrom.rom.shooting` for the recurrent
 classes).
 """
 

@@ -4,12 +4,13 @@ A model file is a zip archive of ``.npy`` members: ``metadata`` (one JSON text) 
 parameter arrays ``W``, ``b``, ``c``, ``c0`` (see :meth:`sloshrom.rom.NFIR.save`). Two variants
 (docs/formats.md, "Model files"):
 
-single model (format version 1, class ``"NFIR"``/``"NOE"``)
-    One network: ``W`` (H, D), ``b`` (H,), ``c`` (H,), ``c0`` ().
-state-space model (format version 3, class ``"NSS"``, :class:`sloshrom.rom.NSS`)
-    The arrays of :data:`NSS_PARAM_NAMES`; an ensemble of them is
-    an ensemble file of version 3 with member class ``"NSS"``.
-ensemble (format version 2, class ``"Ensemble"``, :class:`sloshrom.rom.ensemble.Ensemble`)
+single model (class ``"NFIR"``, ``"NOE"``, ``"NSS"``, ... of the registry)
+    One model: its class's parameter arrays (:meth:`~sloshrom.rom.registry.ModelClass.shapes`;
+    an NFIR's ``W`` (H, D), ``b`` (H,), ``c`` (H,), ``c0`` ()), written with the format
+    version of its class's entry (``ModelClass.format_version``: 1 for the time-delay
+    networks).
+ensemble (format version 2, or its class's version, class ``"Ensemble"``,
+:class:`sloshrom.rom.ensemble.Ensemble`)
     K networks of one class and the same hyperparameters but their seeds: the same four arrays
     with a leading member axis, ``W`` (K, H, D), ``b`` (K, H), ``c`` (K, H), ``c0`` (K,); the
     metadata holds the member class, the shared hyperparameters and per member its seed, scaler,
@@ -77,41 +78,49 @@ from sloshrom.limits import (  # the limits the command line and the settings sh
     MAX_WEIGHTS,
 )
 from sloshrom.rom.errors import ROMError
-from sloshrom.rom.registry import (
-    CLASSES,
-    NFIR_CLASS,
-    NSS_CLASS,
-    Hyper,
-    ModelClass,
-    model_class_of_file,
-)
+from sloshrom.rom.registry import CLASSES, Hyper, ModelClass, model_class_of_file
 
 __all__ = [
     "ENSEMBLE_FORMAT_VERSION", "FORMAT_VERSION", "HIDDEN_KINDS", "MAX_DELAY", "MAX_DEPTH",
     "MAX_FILE_BYTES", "MAX_MEMBERS", "MAX_METADATA_CHARS", "MAX_NEURONS", "MAX_REGRESSOR",
-    "MAX_WEIGHTS", "NEWEST_FORMAT_VERSION", "NSS_FORMAT_VERSION", "NSS_PARAM_NAMES",
-    "PARAM_NAMES", "ModelFile", "ModelFileError", "check_file_limits", "file_version",
+    "MAX_WEIGHTS", "ModelFile", "ModelFileError", "check_file_limits", "file_version",
+    "NEWEST_FORMAT_VERSION", "PARAM_NAMES",  # noqa: F822 - read from the registry when asked
     "checksum", "model_file_path", "read_model_file", "validate_for_save", "write_model_file",
 ]
 
 FORMAT = "sloshrom-rom"
-#: Version of single-model (NFIR/NOE) files: their layout has not changed since version 1, so
-#: every sloshrom reads the single models this one writes.
+#: Version of the single-model files of the first classes (the time-delay networks): their
+#: layout has not changed since version 1, so every sloshrom reads the single models written
+#: with it.
 FORMAT_VERSION = 1
-#: Version of ensemble files (version 1 plus the ensemble variant).
+#: Version of ensemble files of those classes (version 1 plus the ensemble variant).
 ENSEMBLE_FORMAT_VERSION = 2
-#: Version of state-space (NSS) files, single and ensemble: older readers refuse them by
-#: version, with a message to upgrade, rather than by an unknown class.
-NSS_FORMAT_VERSION = NSS_CLASS.format_version
-#: The newest version this sloshrom reads (it reads every version from 1): each class's
-#: files carry the version of its registry entry (``ModelClass.format_version``).
-NEWEST_FORMAT_VERSION = max(ENSEMBLE_FORMAT_VERSION,
-                            *(mc.format_version for mc in CLASSES.values()))
-PARAM_NAMES = NFIR_CLASS.param_names()
-#: The arrays of a neural state-space network (:mod:`sloshrom.rom.statespace`), in file order.
-NSS_PARAM_NAMES = NSS_CLASS.param_names()
-#: Every array name a model file of any class may hold.
-_ARRAY_NAMES = tuple(dict.fromkeys(n for mc in CLASSES.values() for n in mc.param_names()))
+
+
+def _newest_version() -> int:
+    """The newest version this sloshrom reads (it reads every version from 1): each class's
+    files carry the version of its registry entry (``ModelClass.format_version``)."""
+    return max(ENSEMBLE_FORMAT_VERSION, *(mc.format_version for mc in CLASSES.values()))
+
+
+def _first_class() -> ModelClass:
+    """The registry's first class (the paper's NFIR): the layout of version 1, which a file
+    of no known class is checked against."""
+    return next(iter(CLASSES.values()))
+
+
+def _array_names() -> tuple[str, ...]:
+    """Every array name a model file of any registered class may hold."""
+    return tuple(dict.fromkeys(n for mc in CLASSES.values() for n in mc.param_names()))
+
+
+def __getattr__(name: str) -> int | tuple[str, ...]:
+    # read from the registry when asked, so that a class registered later counts
+    if name == "NEWEST_FORMAT_VERSION":
+        return _newest_version()
+    if name == "PARAM_NAMES":  # the arrays of version 1's layout
+        return _first_class().param_names()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _file_class(meta: Mapping[str, Any]) -> ModelClass | None:
@@ -122,7 +131,7 @@ def _file_class(meta: Mapping[str, Any]) -> ModelClass | None:
 
 def _param_names(meta: Mapping[str, Any]) -> tuple[str, ...]:
     mc = _file_class(meta)
-    return PARAM_NAMES if mc is None else mc.param_names()
+    return (_first_class() if mc is None else mc).param_names()
 
 
 def file_version(mc: ModelClass, ensemble: bool) -> int:
@@ -193,12 +202,14 @@ def check_file_limits(max_delay: int, neurons: int, n_inputs: int, members: int 
             f"{'fewer members or ' if members > 1 else ''}a smaller network")
 
 
-_MEMBERS = ("metadata", *_ARRAY_NAMES)
 _MAX_MEMBERS = 64
 _MAX_NPY_HEADER = 10_000
-# a member may hold its header and at most this many bytes of data
-_MAX_DATA = {"metadata": 4 * MAX_METADATA_CHARS,
-             **dict.fromkeys(_ARRAY_NAMES, 8 * MAX_WEIGHTS)}
+
+
+def _max_data(name: str) -> int:
+    """The most bytes of data a zip member may hold beyond its header (the metadata, an
+    array)."""
+    return 4 * MAX_METADATA_CHARS if name == "metadata" else 8 * MAX_WEIGHTS
 
 
 class ModelFileError(ROMError):
@@ -222,9 +233,9 @@ def checksum(meta: Mapping[str, Any], arrays: Mapping[str, np.ndarray]) -> str:
     meta : mapping
         The metadata (JSON-serialisable).
     arrays : mapping of str to ndarray
-        ``W``, ``b``, ``c``, ``c0`` (the :data:`NSS_PARAM_NAMES` of a state-space model; any
-        float dtype; hashed as little-endian float64, with their shapes: an ensemble's
-        stacked arrays hash as they are stored).
+        The class's parameter arrays (an NFIR's ``W``, ``b``, ``c``, ``c0``; any float
+        dtype; hashed as little-endian float64, with their shapes: an ensemble's stacked
+        arrays hash as they are stored).
 
     Returns
     -------
@@ -569,7 +580,7 @@ def _schema(meta: dict[str, Any]) -> type[_Strict]:
         return create_model("_AnyEnsembleMeta", __base__=_EnsembleMeta,
                             member_class=(Literal[tuple(CLASSES[k].class_name
                                                         for k in CLASSES)], ...))
-    return _schema_of((mc or NFIR_CLASS).class_name, ensemble)
+    return _schema_of((mc or _first_class()).class_name, ensemble)
 
 
 def _check_trained(part: dict[str, Any], fs: float, where: str, prefix: str) -> None:
@@ -773,7 +784,7 @@ def _read_npy(zf: zipfile.ZipFile, info: zipfile.ZipInfo, name: str, where: str)
     if info.compress_type not in (zipfile.ZIP_STORED, zipfile.ZIP_DEFLATED):
         raise ModelFileError(f"{where}: not a sloshrom model file (member {name!r} uses an "
                              "unsupported compression)")
-    if info.file_size > _MAX_DATA[name] + _MAX_NPY_HEADER + 16:
+    if info.file_size > _max_data(name) + _MAX_NPY_HEADER + 16:
         raise ModelFileError(f"{where}: not a sloshrom model file (member {name!r} has "
                              f"{info.file_size} bytes, more than a model file holds)")
     with zf.open(info) as fh:
@@ -796,7 +807,7 @@ def _read_npy(zf: zipfile.ZipFile, info: zipfile.ZipInfo, name: str, where: str)
             raise ModelFileError(f"{where}: metadata of {dtype.itemsize // 4} characters is "
                                  f"more than {MAX_METADATA_CHARS}")
         nbytes = math.prod(shape) * dtype.itemsize
-        fits = min(shape, default=0) >= 0 and nbytes <= _MAX_DATA[name]
+        fits = min(shape, default=0) >= 0 and nbytes <= _max_data(name)
         if not fits or fh.tell() + nbytes != info.file_size:
             raise ModelFileError(f"{where}: not a sloshrom model file (member {name!r}: array "
                                  f"{shape} {dtype} does not match its {info.file_size} bytes)")
@@ -818,11 +829,12 @@ def _read_members(p: Path, where: str) -> tuple[dict[str, np.ndarray], list[str]
             raise ModelFileError(f"{where}: not a sloshrom model file (duplicate members)")
         if "metadata.npy" not in names:
             raise ModelFileError(f"{where}: not a sloshrom model file (no metadata)")
-        unknown = [n for n in names if n.removesuffix(".npy") not in _MEMBERS
+        members = ("metadata", *_array_names())
+        unknown = [n for n in names if n.removesuffix(".npy") not in members
                    or not n.endswith(".npy")]
         for info in infos:
             name = info.filename.removesuffix(".npy")
-            if info.filename.endswith(".npy") and name in _MEMBERS:
+            if info.filename.endswith(".npy") and name in members:
                 arrays[name] = _read_npy(zf, info, name, where)
     return arrays, unknown
 
@@ -889,14 +901,15 @@ def read_model_file(path: str | Path) -> ModelFile:
     ver = meta.get("format_version")
     if type(ver) is not int:
         raise ModelFileError(f"{where}: missing format version")
-    if ver > NEWEST_FORMAT_VERSION:
+    newest = _newest_version()
+    if ver > newest:
         raise ModelFileError(
             f"{where}: format version {ver} is newer than this sloshrom reads "
-            f"({NEWEST_FORMAT_VERSION}); upgrade sloshrom"
+            f"({newest}); upgrade sloshrom"
         )
     if ver < FORMAT_VERSION:
         raise ModelFileError(f"{where}: unsupported format version {ver} (reads "
-                             f"{FORMAT_VERSION} to {NEWEST_FORMAT_VERSION})")
+                             f"{FORMAT_VERSION} to {newest})")
     cls = meta.get("class")
     if cls != "Ensemble" and not (isinstance(cls, str) and model_class_of_file(cls)):
         raise ModelFileError(f"{where}: unknown model class {_repr.repr(cls)}")

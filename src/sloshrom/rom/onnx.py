@@ -19,7 +19,7 @@ Metadata (``metadata_props``, all strings): format/format version, model class, 
 delays, neurons, hidden layer kind, units and names of input/output, sign convention, state
 layout, training envelope, sloshrom version.
 
-The arithmetic follows :mod:`sloshrom.rom.estimators` exactly: ``x = scale(u)``, ``n = x W^T + b``
+The arithmetic follows :mod:`sloshrom.rom.tdnn.network` exactly: ``x = scale(u)``, ``n = x W^T + b``
 (``"matlab"``) or ``n^2 = b^2 ||x - C||^2`` (``"distance"``), ``a = softmax(-n^2)``,
 ``y = unscale(a . c + c0)``. Double precision by default (parity with the JAX model to ~1e-15);
 ``dtype="float32"`` for tools that only take single precision (MATLAB ``importNetworkFromONNX``).
@@ -43,7 +43,7 @@ from sloshrom.rom.network import network_of
 from sloshrom.rom.registry import CLASSES
 
 if TYPE_CHECKING:
-    from sloshrom.rom.estimators import NFIR, NOE
+    from sloshrom.rom.tdnn.estimators import NFIR, NOE
 
     ROM = NFIR | NOE
 

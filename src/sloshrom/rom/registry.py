@@ -1,50 +1,65 @@
-"""The registry of ROM classes: one entry per class, the one place that says what a class is.
+"""The registry of ROM classes: the machinery that says what a class is, and the list of them.
 
-Each entry is a frozen :class:`ModelClass`: its name (``--arch``, the ``[rom.<name>]`` table
-of ``sloshrom reproduce``), the class name its model files record, its hyperparameters with
-their defaults and bounds (:class:`Hyper`), its parameter arrays and their shapes, the
-shortest training record and the history it reads, its label in messages and the report,
-the loss terms and the inputs it can be trained on, its trainers, the model-file format
-version, the estimator that implements it (imported when first needed) and the formats it
-exports to. The command line (``sloshrom train``), the configuration of
-``sloshrom reproduce``, the model-file schema, the report and the FMU/ONNX capability checks
-read these entries; none of them branches on a class.
+A class is one package under ``sloshrom/rom/`` (``tdnn``, ``nss``, ``lss``, ...) whose light
+module ``entry`` (no JAX) declares it as a frozen :class:`ModelClass`: its name (``--arch``, the
+``[rom.<name>]`` table of ``sloshrom reproduce``), the class name its model files record, its
+hyperparameters with their defaults and bounds (:class:`Hyper`), its parameter arrays and their
+shapes, its rules (the fewest training samples, the cost of an epoch, what its loss terms
+need), its label in messages and the report, the model-file format version, the estimator that
+implements it (imported when first needed) and the formats it exports to. The command line
+(``sloshrom train``), the configuration of ``sloshrom reproduce``, the model-file schema, the
+report and the FMU/ONNX capability checks read these entries; none of them branches on a class.
+
+The rules of a class are checked by one function, :meth:`ModelClass.check`: the estimator's
+``fit``, the command line and the settings call it, the last two naming each value by their
+own words (:class:`Naming`: an option, a configuration key).
 
 One name per quantity everywhere: a hyperparameter ``n_states`` is the estimator's argument
 ``n_states``, the model file's field ``hyperparameters.n_states``, the configuration key
 ``rom.nss.n_states`` and the option ``--n-states``.
 
+:data:`ENTRIES` lists the classes, one line each: the entry of each package, imported the first
+time :data:`CLASSES` is read (so that this module imports no class, and a class's entry may use
+the machinery here). :func:`register` adds a class from outside the package (before the command
+line or the settings are imported: they build their options and tables from the classes then).
+A model that is no ROM class but is loaded by :func:`sloshrom.rom.load_model` (the bouncing
+ball's ``.toml`` files) declares its files as a :class:`FileKind` in the list too.
+
 This module imports nothing heavy (no JAX), so the command line and the settings read it when
-they start. Adding a class is its own module and one entry in :data:`CLASSES`
-(docs/architecture.md, "Adding a model class").
+they start (docs/architecture.md, "Adding a model class").
 """
 
 from __future__ import annotations
 
+import functools
 import importlib
 import math
 import operator
-from collections.abc import Callable, Collection, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from pathlib import Path
+from typing import Any, cast
 
-from sloshrom.limits import (
-    EPOCH_WORK_SECONDS,
-    MAX_BATCH,
-    MAX_DELAY,
-    MAX_EPOCH_WORK,
-    MAX_EPOCHS,
-    MAX_NEURONS,
-    MAX_OUT_DELAYS,
-    MAX_SEED,
-    MAX_STATES,
-)
+from sloshrom.limits import MAX_BATCH, MAX_DELAY, MAX_EPOCHS, MAX_NEURONS, MAX_SEED
 from sloshrom.rom.errors import ROMError
 
-__all__ = ["CLASSES", "LOSS_TERMS", "NSS_FULL_SIZE_SAMPLES", "NSS_SHORT_SAMPLES",
-           "NSS_SHORT_SIZE", "OVERSIZE", "RECIPE_UNITS", "Hyper", "LossChoice", "ModelClass",
-           "check_delays", "check_hyperparameters", "loss_recipe",
-           "model_class", "model_class_of_file", "nss_size"]
+__all__ = ["ARGUMENTS", "CLASSES", "ENTRIES", "LOSS_HYPERS", "LOSS_TERMS", "OVERSIZE",
+           "RECIPE_UNITS", "SEED", "SHOOTING_HYPERS", "EpochWork", "FileKind", "Hyper",
+           "LossChoice", "ModelClass", "Naming", "adam_only", "check_hyperparameters",
+           "file_kinds", "loss_recipe", "model_class", "model_class_of_file", "neurons",
+           "register", "required"]
+
+#: The classes, one line each: ``"module:attribute"`` of the entry that declares it (a
+#: :class:`ModelClass`, or a :class:`FileKind` for a model loaded from its own files), in the
+#: order of ``--help``, the settings' tables and the report. A new class is its package and
+#: one line here.
+ENTRIES: tuple[str, ...] = (
+    "sloshrom.rom.tdnn.entry:NFIR_CLASS",
+    "sloshrom.rom.tdnn.entry:NOE_CLASS",
+    "sloshrom.rom.nss.entry:NSS_CLASS",
+    "sloshrom.rom.lss.entry:LSS_CLASS",
+    "sloshrom.rom.ball.entry:BALL_FILES",
+)
 
 #: The passive recipe's loss terms (docs/rom.md, "A passive ROM"): the loss weight floor of
 #: the amplitude weighting 1/(a^2 + eps^2), eps in m/s; the weight of the penalty on energy
@@ -52,8 +67,24 @@ __all__ = ["CLASSES", "LOSS_TERMS", "NSS_FULL_SIZE_SAMPLES", "NSS_SHORT_SAMPLES"
 LOSS_TERMS = ("amplitude_weighting", "passivity", "cycle_energy")
 #: The units the recipe is written for: a velocity in, a force out (F v is a power).
 RECIPE_UNITS = ("m/s", "N")
+#: A user's size with more than this many times the parameters of the size rule's is warned
+#: of (:meth:`ModelClass.oversize`).
+OVERSIZE = 4.0
 
 _REQUIRED = object()
+
+
+@dataclass(frozen=True)
+class Naming:
+    """How a rule's message names a hyperparameter (``key``): the Python argument
+    (``n_states``, the default), the command line's option (``--n-states``) or the
+    configuration's key (``'rom.nss.n_states'``)."""
+
+    key: Callable[[str], str] = str
+
+
+#: The names of the estimators' arguments (:meth:`ModelClass.check` by default).
+ARGUMENTS = Naming()
 
 
 @dataclass(frozen=True)
@@ -76,7 +107,7 @@ class Hyper:
     help : str
         One line for ``--help`` and the configuration's comments.
     what : str
-        What a value is, for messages ("a number of samples").
+        What a value is, for the configuration's schema ("a number of samples").
     file_default : optional
         The value a model file written before the field existed is read with; absent: the
         field is required in a file.
@@ -176,26 +207,6 @@ def _delays_value(value: Any, where: str, top: int) -> int | list[int]:
     return [int(x) for x in d]
 
 
-def check_delays(delays: int | Sequence[int], name: str = "delays") -> tuple[int, ...]:
-    """Delays (samples) as a tuple: ``n`` means ``1..n`` (MATLAB ``timedelaynet``).
-
-    Raises
-    ------
-    ROMError
-        ``n < 1``, an empty list, a delay < 1 or a repeated delay.
-    """
-    try:
-        n = operator.index(delays)  # type: ignore[arg-type]
-    except TypeError:
-        d = tuple(int(x) for x in delays)  # type: ignore[union-attr]
-        if not d or min(d) < 1 or len(set(d)) != len(d):
-            raise ROMError(f"{name} must be distinct integers >= 1, got {delays!r}") from None
-        return d
-    if n < 1:
-        raise ROMError(f"{name} must be >= 1, got {delays}")
-    return tuple(range(1, n + 1))
-
-
 @dataclass(frozen=True)
 class LossChoice:
     """The loss chosen for a pair of units: the recipe's ``terms`` (all 0: plain MSE), ``why``.
@@ -221,8 +232,31 @@ class LossChoice:
 
 
 @dataclass(frozen=True)
+class EpochWork:
+    """The bound on the work of one training epoch of a class, and what it measures.
+
+    Parameters
+    ----------
+    factors : tuple
+        The work as a product of hyperparameters (a tuple in it: their sum), in the unit of
+        ``limit`` (an NSS's: neuron-samples).
+    limit : float
+        The most work one epoch may take.
+    seconds : float
+        The measured time of one unit of work, s (said in the message).
+    unit : str
+        The unit's name, plural ("neuron-samples").
+    """
+
+    factors: tuple[str | tuple[str, ...], ...]
+    limit: float
+    seconds: float
+    unit: str = "neuron-samples"
+
+
+@dataclass(frozen=True)
 class ModelClass:
-    """What a ROM class is, for everything outside its own module (module docstring).
+    """What a ROM class is, for everything outside its own package (module docstring).
 
     Parameters
     ----------
@@ -246,7 +280,7 @@ class ModelClass:
         ``history(hyper) -> int``: samples of past record a prediction reads (a validation
         record must be longer).
     min_samples : callable
-        ``min_samples(hyper) -> int``: the fewest training samples.
+        ``min_samples(hyper) -> int``: the fewest training samples (:meth:`check`).
     start_history : callable
         ``start_history(hyper) -> int``: samples of measured input and output a start from
         history reads beyond ``history`` (an NOE's fed-back outputs, a linear model's order);
@@ -276,6 +310,13 @@ class ModelClass:
     weights : callable, optional
         ``weights(hyper) -> int``: the weights that a model file's size limit counts (default:
         every parameter).
+    weights_text : callable, optional
+        ``weights_text(hyper) -> str``: the weights' count in words, for a message (e.g.
+        ``"35 neurons x 70 regressor entries"``); default: the label's parameters.
+    relations : callable, optional
+        ``relations(hyper, naming)``: the rules between its hyperparameters beyond their
+        domains (:class:`ROMError` naming them by ``naming``), e.g. an LSS's block rows above
+        its order.
     ensemble : bool
         Whether members that differ by their seed make sense (a deterministic fit: no).
     paper : bool
@@ -290,10 +331,17 @@ class ModelClass:
     sized_by_record : tuple of str
         The hyperparameters the rule chooses when the user gives none (integers; the
         estimator's argument None: "sized by the record").
-    epoch_work : tuple
-        The work of one training epoch as a product of hyperparameters (a tuple in it: their
-        sum), in neuron-samples, bounded by :data:`sloshrom.limits.MAX_EPOCH_WORK`
-        (:meth:`epoch_cost`); empty: not bounded.
+    size_words : mapping
+        How :meth:`size_note` says a value of :attr:`sized_by_record` (``"{} states"``).
+    epoch_work : EpochWork, optional
+        The bound on the work of one training epoch (:meth:`epoch_cost`); None: not bounded.
+    sweep : tuple, optional
+        The grid of the sensitivity analysis (paper Fig. 8) over the class's delays and
+        neurons: ``(delays, neurons)``, the defaults of ``rom.sweep_<name>_delays`` and
+        ``rom.sweep_<name>_neurons``; empty: the class is not swept.
+    sweep_first : bool
+        Its grid points train longest (a recurrent network's Levenberg-Marquardt): a sweep
+        starts them first, so that its workers finish together.
     """
 
     name: str
@@ -316,12 +364,17 @@ class ModelClass:
     width: Callable[[Mapping[str, Any]], int] = lambda h: 1
     sizes: tuple[str, ...] = ()
     weights: Callable[[Mapping[str, Any]], int] | None = None
+    weights_text: Callable[[Mapping[str, Any]], str] | None = None
+    relations: Callable[[Mapping[str, Any], Naming], None] | None = None
     ensemble: bool = True
     paper: bool = False
     report: str = ""
     size_rule: Callable[[int, Mapping[str, int]], dict[str, int]] | None = None
     sized_by_record: tuple[str, ...] = ()
-    epoch_work: tuple[str | tuple[str, ...], ...] = ()
+    size_words: Mapping[str, str] = field(default_factory=dict)
+    epoch_work: EpochWork | None = None
+    sweep: tuple[tuple[int, ...], tuple[int, ...]] | tuple[()] = ()
+    sweep_first: bool = False
 
     def size(self, n_samples: int, given: Mapping[str, int]) -> dict[str, int]:
         """The values the size rule chooses for a training record of ``n_samples`` samples:
@@ -340,9 +393,7 @@ class ModelClass:
         of :attr:`sized_by_record`), the parameters and samples per parameter, e.g. ``"NSS
         sized for 819 samples: 4 states, 16 neurons, window 10, ... (697 parameters, 1.2
         samples per parameter)"``."""
-        words = {"n_states": "{} states", "neurons": "{} neurons", "window": "window {}",
-                 "horizon": "horizon {}"}
-        parts = [words.get(k, k + " {}").format(sizes[k]) for k in self.sized_by_record
+        parts = [self.size_words.get(k, k + " {}").format(sizes[k]) for k in self.sized_by_record
                  if k in chosen]
         p = self.n_params(self._with_sizes(sizes))
         return (f"{self.class_name} sized for {n_samples} samples: {', '.join(parts)} "
@@ -369,29 +420,30 @@ class ModelClass:
 
     def epoch_cost(self, hyper: Mapping[str, int | float | str],
                    key: Callable[[str], str] = str) -> str | None:
-        """Why one training epoch of ``hyper`` costs too much, or None (within
-        :data:`~sloshrom.limits.MAX_EPOCH_WORK`, or a class without :attr:`epoch_work`).
+        """Why one training epoch of ``hyper`` costs too much, or None (within the bound of
+        :attr:`epoch_work`, or a class without one).
 
         The message names the factors by ``key(name)`` (an option, a configuration key), their
         values, the product, the limit and the time they stand for on the measured machine.
         """
-        if not self.epoch_work:
+        ew = self.epoch_work
+        if ew is None:
             return None
 
         def term(f: str | tuple[str, ...], text: Callable[[str], str]) -> str:
             return f"({' + '.join(map(text, f))})" if isinstance(f, tuple) else text(f)
 
         work = math.prod(sum(int(hyper[k]) for k in f) if isinstance(f, tuple)
-                         else int(hyper[f]) for f in self.epoch_work)
-        if work <= MAX_EPOCH_WORK:
+                         else int(hyper[f]) for f in ew.factors)
+        if work <= ew.limit:
             return None
-        names = " x ".join(term(f, key) for f in self.epoch_work)
-        values = " x ".join(term(f, lambda k: str(int(hyper[k]))) for f in self.epoch_work)
+        names = " x ".join(term(f, key) for f in ew.factors)
+        values = " x ".join(term(f, lambda k: str(int(hyper[k]))) for f in ew.factors)
         return (f"one training epoch of {self.label(hyper)}, {names} = {values} = {work:.3g} "
-                f"neuron-samples, more than {MAX_EPOCH_WORK:.3g} (about "
-                f"{work * EPOCH_WORK_SECONDS / 60:.0f} min per epoch at the measured "
-                f"{EPOCH_WORK_SECONDS * 1e9:.0f} ns each on 2 cores; the limit is about "
-                f"{MAX_EPOCH_WORK * EPOCH_WORK_SECONDS / 60:.0f} min): lower one of them")
+                f"{ew.unit}, more than {ew.limit:.3g} (about "
+                f"{work * ew.seconds / 60:.0f} min per epoch at the measured "
+                f"{ew.seconds * 1e9:.0f} ns each on 2 cores; the limit is about "
+                f"{ew.limit * ew.seconds / 60:.0f} min): lower one of them")
 
     def hyper_named(self, name: str) -> Hyper:
         """The hyperparameter ``name``; :class:`ROMError` listing the valid ones."""
@@ -402,7 +454,7 @@ class ModelClass:
                        f"{', '.join(h.name for h in self.hyper)})")
 
     def defaults(self) -> dict[str, Any]:
-        """Every hyperparameter's default by name."""
+        """Every hyperparameter's default by name (the one place they are written)."""
         return {h.name: h.default for h in self.hyper}
 
     def n_params(self, hyper: Mapping[str, Any]) -> int:
@@ -430,8 +482,7 @@ class ModelClass:
 
 
 def loss_recipe(input_unit: str, output_unit: str,
-                same: Callable[[str, str], bool] | None = None,
-                recipe: Mapping[str, float] | None = None,
+                same: Callable[[str, str], bool] | None, recipe: Mapping[str, float],
                 terms: Sequence[str] = LOSS_TERMS) -> LossChoice:
     """The default loss of a class trained by its recipe, chosen by the units of its records.
 
@@ -445,10 +496,10 @@ def loss_recipe(input_unit: str, output_unit: str,
         The records' units of the model's input and output.
     same : callable, optional
         ``same(a, b)`` says whether two unit strings denote one unit (the command line passes
-        ``sloshrom.io.same_unit``, which knows the spellings); default: equal once spaces are
+        ``sloshrom.io.same_unit``, which knows the spellings); None: equal once spaces are
         removed.
-    recipe : mapping, optional
-        The recipe's weights (default: the NFIR's).
+    recipe : mapping
+        The recipe's weights.
     terms : sequence of str
         The terms the class trains with.
 
@@ -458,7 +509,7 @@ def loss_recipe(input_unit: str, output_unit: str,
         ``terms`` are the recipe's or all zero; ``str()`` of it is one line saying which and
         why.
     """
-    recipe = dict(CLASSES["nfir"].recipe if recipe is None else recipe)
+    recipe = dict(recipe)
 
     def _same(a: str, b: str) -> bool:
         return a.replace(" ", "") == b.replace(" ", "")
@@ -479,285 +530,113 @@ def loss_recipe(input_unit: str, output_unit: str,
                       "power F v does not apply")
 
 
-# -- the classes ----------------------------------------------------------------------------
-def _weight(name: str, what: str) -> Hyper:
-    return Hyper(name, 0.0, "float", 0.0, 1e12, help=what, what="a weight (0 = off)",
-                 file_default=0.0)
+@dataclass(frozen=True)
+class FileKind:
+    """A model that is loaded from its own files, not a ROM class's ``.npz`` (the bouncing
+    ball's ``.toml``): how :func:`sloshrom.rom.load_model` recognises one and loads it.
 
-
-_LOSS = (_weight("amplitude_weighting", "loss weights 1/(a^2 + eps^2), eps in input units "
-                 "(m/s); 0 = plain MSE"),
-         _weight("passivity", "weight of the penalty on energy created at harmonic probes; "
-                 "0 = off"),
-         _weight("cycle_energy", "weight of the error of the energy each input cycle "
-                 "exchanges; 0 = off"))
-_SEED = Hyper("seed", 0, "int", 0, MAX_SEED, help="seeds the initialisation and the draws",
-              what="a seed")
-_EPOCHS = "training epochs at most"
-
-
-def _delays(default: int, help: str) -> Hyper:
-    return Hyper("delays", default, "delays", 1, MAX_DELAY, help=help, what="delays")
-
-
-def _neurons(default: int, help: str) -> Hyper:
-    return Hyper("neurons", default, "int", 1, MAX_NEURONS, help=help,
-                 what="a number of neurons")
-
-
-_HIDDEN = Hyper("hidden", "matlab", "choice", choices=("matlab", "distance"),
-                help="normalized-RBF variant: matlab (radbasn, W x + b) or distance")
-# the Adam (multiple shooting) options of a recurrent class
-_SHOOTING = (
-    Hyper("batch", 128, "int", 1, MAX_BATCH, help="sub-sequences per Adam step",
-          what="a number of sub-sequences", file_default=128),
-    Hyper("steps_per_epoch", 200, "int", 1, MAX_EPOCHS, help="Adam steps between validations",
-          what="a number of Adam steps", file_default=200),
-    Hyper("learning_rate", 3e-3, "float", 0.0, 1.0, lo_open=True,
-          help="initial Adam step (cosine decay to 5 % of it)", what="an Adam step",
-          file_default=3e-3),
-)
-
-
-def _required(h: Hyper) -> Hyper:
-    return replace(h, file_default=_REQUIRED)
-
-
-def _rbf_shapes(h: Mapping[str, Any], out_delays: int = 0) -> dict[str, tuple[int, ...]]:
-    d = len(check_delays(h["delays"])) + out_delays
-    n = int(h["neurons"])
-    return {"W": (n, d), "b": (n,), "c": (n,), "c0": ()}
-
-
-def _max_delay(h: Mapping[str, Any]) -> int:
-    return max(check_delays(h["delays"]))
-
-
-def _rbf_min_samples(mc_shapes: Callable[[Mapping[str, Any]], dict[str, tuple[int, ...]]],
-                     out: Callable[[Mapping[str, Any]], int]
-                     ) -> Callable[[Mapping[str, Any]], int]:
-    # the delay line and two samples per hundred parameters
-    def need(h: Mapping[str, Any]) -> int:
-        n_params = sum(math.prod(s) for s in mc_shapes(h).values())
-        return _max_delay(h) + out(h) + 2 * n_params // 100 + 10
-    return need
-
-
-def _rbf_width(h: Mapping[str, Any]) -> int:
-    return len(check_delays(h["delays"])) + int(h.get("out_delays", 0))
-
-
-def _rbf_weights(h: Mapping[str, Any]) -> int:
-    return int(h["neurons"]) * _rbf_width(h)
-
-
-def _nfir_shapes(h: Mapping[str, Any]) -> dict[str, tuple[int, ...]]:
-    return _rbf_shapes(h)
-
-
-def _noe_shapes(h: Mapping[str, Any]) -> dict[str, tuple[int, ...]]:
-    return _rbf_shapes(h, int(h["out_delays"]))
-
-
-def nss_shapes(h: Mapping[str, Any]) -> dict[str, tuple[int, ...]]:
-    """Every array of a state-space network: state map ``A``, ``W1``, ``b1``, ``W2``, output
-    map ``C``, ``V1``, ``d1``, ``V2``, encoder ``E1``, ``e1``, ``E2``."""
-    nx, n, w = int(h["n_states"]), int(h["neurons"]), int(h["window"])
-    nz = nx + 1
-    return {"A": (nz, nx), "W1": (nz, n), "b1": (n,), "W2": (n, nx),
-            "C": (nz,), "V1": (nz, n), "d1": (n,), "V2": (n,),
-            "E1": (2 * w, n), "e1": (n,), "E2": (n, nx)}
-
-
-#: A user's size with more than this many times the parameters of the size rule's is warned
-#: of (:meth:`ModelClass.oversize`).
-OVERSIZE = 4.0
-#: Training samples from which an NSS keeps the size of its defaults exactly (8 states, 64
-#: neurons, window 50): the sloshing records they were sized for have 240,000.
-NSS_FULL_SIZE_SAMPLES = 100_000
-#: Training samples of the short-record anchor: the Cascaded Tanks sweep's 819
-#: (docs/rom.md, "Short records").
-NSS_SHORT_SAMPLES = 1_000
-#: The NSS's size on a record of :data:`NSS_SHORT_SAMPLES` samples or fewer: the best of the
-#: short-record sweep (benchmarks/short_record.py, docs/rom.md, "Short records"). The shooting
-#: recipe (horizon 200, batch 128, 200 steps per epoch) stays: on the short record it was worth more
-#: than any smaller one.
-NSS_SHORT_SIZE: dict[str, int] = {"n_states": 4, "neurons": 16, "window": 10}
-
-
-def nss_size(n_samples: int, given: Mapping[str, int]) -> dict[str, int]:
-    """The NSS's size rule: the values of ``n_states``, ``neurons``, ``window`` and
-    ``horizon`` not in ``given`` (the user's values) for a training record of ``n_samples``
-    samples.
-
-    From :data:`NSS_FULL_SIZE_SAMPLES` samples on, the defaults (those the sloshing pipeline
-    depends on); at :data:`NSS_SHORT_SAMPLES` and below, the sweep's best size
-    (:data:`NSS_SHORT_SIZE`); in between, each value interpolated geometrically in the
-    record's length (a straight line on log-log axes between the two measured anchors;
-    nothing between them was measured). The horizon is the default's, shortened on a record
-    too short for it so that at least half of the record's samples start a sub-sequence.
+    Parameters
+    ----------
+    name : str
+        What the files hold, for messages ("bouncing ball").
+    recognises : callable
+        ``recognises(path) -> bool``: reads no more than a header (no heavy import).
+    loader : str
+        ``"module:attribute"`` of ``load(path)``, imported on first use.
     """
-    n = int(n_samples)
-    names = (*NSS_SHORT_SIZE, "horizon")
-    default = {k: int(NSS_CLASS.hyper_named(k).default) for k in names}
-    out = {k: v for k, v in default.items() if k not in given}
-    if n >= NSS_FULL_SIZE_SAMPLES:
-        return out
-    t = min(1.0, max(0.0, math.log(max(n, 1) / NSS_SHORT_SAMPLES)
-                     / math.log(NSS_FULL_SIZE_SAMPLES / NSS_SHORT_SAMPLES)))
-    for k, small in NSS_SHORT_SIZE.items():
-        if k in out:
-            out[k] = max(1, round(small * (default[k] / small) ** t))
-    if "horizon" in out:
-        # a horizon near the record's length leaves a handful of distinct sub-sequences
-        window = int(given.get("window", out.get("window", default["window"])))
-        out["horizon"] = max(8, min(out["horizon"], (n - window) // 2))
-    return out
+
+    name: str
+    recognises: Callable[[Path], bool]
+    loader: str
+
+    def load(self, path: str | Path) -> object:
+        """The model of the file ``path`` (imports the loader's module)."""
+        module, attr = self.loader.split(":")
+        load = cast("Callable[[str | Path], object]",
+                    functools.reduce(getattr, attr.split("."), importlib.import_module(module)))
+        return load(path)
 
 
-def _lss_shapes(h: Mapping[str, Any]) -> dict[str, tuple[int, ...]]:
-    n = int(h["n_states"])
-    return {"A": (n, n), "B": (n,), "C": (n,), "D": ()}
+# -- the list, loaded on first use -------------------------------------------------------------
+_classes: dict[str, ModelClass] = {}
+_file_kinds: list[FileKind] = []
+_state = {"loaded": False, "loading": False}
 
 
-def _adam_only(h: Mapping[str, Any]) -> str | None:
-    t = h.get("trainer", "adam")
-    return None if t == "adam" else "trainer 'adam'"
+def _add(entry: object, where: str) -> None:
+    if isinstance(entry, FileKind):
+        _file_kinds.append(entry)
+        return
+    if not isinstance(entry, ModelClass):
+        raise ROMError(f"{where} is not a ModelClass or a FileKind, got {type(entry).__name__}")
+    for mc in _classes.values():
+        if entry.name in (mc.name, mc.class_name) or entry.class_name in (mc.name,
+                                                                          mc.class_name):
+            raise ROMError(f"{where}: a class named {entry.name!r} or {entry.class_name!r} is "
+                           f"registered already ({mc.class_name})")
+    _classes[entry.name] = entry
 
 
-NFIR_CLASS = ModelClass(
-    name="nfir", class_name="NFIR", estimator="sloshrom.rom.estimators:NFIR",
-    summary="the paper's time-delay network: the force from the last `delays` inputs "
-            "through a normalized radial-basis layer",
-    hyper=(_delays(70, "input delays: n for 1..n (MATLAB timedelaynet) or a list"),
-           _neurons(35, "hidden normalized-RBF neurons"), _HIDDEN,
-           Hyper("max_epochs", 1000, "int", 0, MAX_EPOCHS, help=_EPOCHS, what="an integer"),
-           _SEED,
-           Hyper("trainer", "adam", "choice", choices=("adam", "fast", "lm"),
-                 help="adam (minibatch, the loss terms), fast (subsampled LM) or lm (trainlm)"),
-           *_LOSS),
-    label=lambda h: f"NFIR({h['delays']}, {h['neurons']})",
-    shapes=_nfir_shapes, history=_max_delay,
-    min_samples=_rbf_min_samples(_nfir_shapes, lambda h: 0),
-    inputs=("velocity", "acceleration"), loss_terms=LOSS_TERMS,
-    recipe={"amplitude_weighting": 0.05, "passivity": 1.0, "cycle_energy": 0.1},
-    recipe_needs=_adam_only, format_version=1, exports=frozenset({"fmu", "onnx"}),
-    width=_rbf_width, weights=_rbf_weights, sizes=("neurons", "delays"),
-    paper=True, report="the paper's class, a network of the last samples of the tank velocity.",
-)
+def _load() -> None:
+    """Import the entries of :data:`ENTRIES` (once)."""
+    if _state["loaded"]:
+        return
+    if _state["loading"]:  # an entry module that reads CLASSES while it is imported
+        raise ROMError("a class's entry module read the registry while it was being loaded")
+    _state["loading"] = True
+    try:
+        for line in ENTRIES:
+            module, attr = line.split(":")
+            _add(getattr(importlib.import_module(module), attr), line)
+        _state["loaded"] = True
+    finally:
+        _state["loading"] = False
 
-NOE_CLASS = ModelClass(
-    name="noe", class_name="NOE", estimator="sloshrom.rom.estimators:NOE",
-    summary="the paper's recurrent network: the force from the last inputs and its own last "
-            "outputs",
-    hyper=(_delays(2, "input delays: n for 1..n or a list"),
-           _neurons(10, "hidden normalized-RBF neurons"), _HIDDEN,
-           Hyper("max_epochs", 1000, "int", 0, MAX_EPOCHS, help=_EPOCHS, what="an integer"),
-           _SEED,
-           Hyper("trainer", "lm", "choice", choices=("lm", "fast", "adam"),
-                 help="lm (Levenberg-Marquardt on the simulation error) or adam (multiple "
-                      "shooting, the loss terms)"),
-           Hyper("out_delays", 2, "int", 1, MAX_OUT_DELAYS, help="fed-back past outputs",
-                 what="a number of outputs"),
-           Hyper("unstable_bound", 10.0, "float", 0.0, 1e12, lo_open=True,
-                 help="|scaled output| beyond which a simulation is unstable",
-                 what="a bound"),
-           *_LOSS,
-           Hyper("horizon", 300, "int", 8, MAX_DELAY,
-                 help="adam: samples simulated from each start", what="a number of samples",
-                 file_default=300),
-           *_SHOOTING),
-    label=lambda h: f"NOE({h['delays']}, {h['neurons']})",
-    shapes=_noe_shapes, history=_max_delay,
-    min_samples=_rbf_min_samples(_noe_shapes, lambda h: int(h["out_delays"])),
-    start_history=lambda h: int(h["out_delays"]),
-    loss_terms=LOSS_TERMS, recipe=dict.fromkeys(LOSS_TERMS, 0.0), recipe_needs=_adam_only,
-    format_version=1, exports=frozenset({"fmu", "onnx"}), width=_rbf_width,
-    weights=_rbf_weights, sizes=("neurons", "delays", "out_delays"),
-    paper=True,
-    report="the paper's recurrent class, a network of the last samples of the tank velocity "
-           "and of its own last outputs.",
-)
 
-NSS_CLASS = ModelClass(
-    name="nss", class_name="NSS", estimator="sloshrom.rom.estimators:NSS",
-    summary="a neural state-space model: a state that carries where the liquid is and how "
-            "it moves, identified by multiple shooting from an encoder",
-    hyper=(Hyper("n_states", 8, "int", 1, MAX_STATES, help="dimension of the state",
-                 what="a state dimension"),
-           _neurons(64, "tanh units of each of the state map, output map and encoder"),
-           Hyper("window", 50, "int", 1, MAX_DELAY,
-                 help="samples of past input and output the encoder reads",
-                 what="a number of samples"),
-           Hyper("horizon", 200, "int", 8, MAX_DELAY,
-                 help="samples simulated from each encoded start in training",
-                 what="a number of samples"),
-           _required(_SHOOTING[0]),
-           Hyper("max_epochs", 60, "int", 0, MAX_EPOCHS,
-                 help="epochs of steps_per_epoch Adam steps at most", what="an integer"),
-           _required(_SHOOTING[1]), _required(_SHOOTING[2]),
-           _SEED, *_LOSS,
-           Hyper("feedthrough", "yes", "choice", choices=("yes", "no"),
-                 help="whether the force reads the current velocity directly; 'no': a "
-                      "strictly proper model (the force from the state alone): no algebraic "
-                      "loop in a coupling, and a co-simulation master that reads outputs "
-                      "before setting inputs gets the same force",
-                 what="'yes' or 'no'", file_default="yes"),
-           Hyper("velocity_offset", 0.0, "float", 0.0, 10.0,
-                 help="Galilean augmentation, m/s: each training sub-sequence's velocity "
-                      "shifted by a uniform draw in +-this, its force kept (0 = off)",
-                 what="a velocity in m/s", file_default=0.0),
-           Hyper("weight_decay", 0.0, "float", 0.0, 100.0,
-                 help="AdamW's decoupled weight decay per unit learning rate: each Adam step "
-                      "also shrinks every weight by learning_rate x this (0 = plain Adam)",
-                 what="a decay rate (0 = off)", file_default=0.0)),
-    label=lambda h: (f"NSS({h['n_states']} states, {h['neurons']} neurons"
-                     + (", strictly proper)" if h.get("feedthrough", "yes") == "no" else ")")),
-    shapes=nss_shapes, history=lambda h: int(h["window"]),
-    min_samples=lambda h: int(h["window"]) + int(h["horizon"]) + 1,
-    loss_terms=LOSS_TERMS,
-    recipe={"amplitude_weighting": 0.0, "passivity": 1.0, "cycle_energy": 0.1},
-    # version 5 added feedthrough and velocity_offset, version 6 weight_decay; version 3 and 5
-    # files read with their defaults
-    format_version=6, read_versions=(3, 5), exports=frozenset({"fmu"}),
-    width=lambda h: int(h["n_states"]) + 1,
-    sizes=("neurons", "n_states", "window"),
-    report="a neural state-space model, not the paper's NFIR class. Why: the force depends "
-           "on where the liquid is, how fast it moves and when it lands, a state that a "
-           "finite-memory NFIR (70 samples, 0.14 s) cannot carry; the state-space model "
-           "does, and with it predicts the impacts the NFIR misses while its dissipation map "
-           "stays at least as close to the rig's (docs/rom.md, \"A ROM with state\", with the "
-           "figures of both classes).",
-    size_rule=nss_size, sized_by_record=(*NSS_SHORT_SIZE, "horizon"),
-    epoch_work=("steps_per_epoch", "batch", ("window", "horizon"), "neurons"),
-)
+def register(entry: ModelClass | FileKind) -> None:
+    """Add a class (or a kind of model file) to the registry, after those of :data:`ENTRIES`.
 
-LSS_CLASS = ModelClass(
-    name="lss", class_name="LSS", estimator="sloshrom.rom.lss:LSS",
-    summary="the best linear model: a linear state-space model identified by a subspace "
-            "method (N4SID) and refined on its simulation error",
-    hyper=(Hyper("n_states", 8, "int", 1, 64, help="order of the linear model",
-                 what="a state dimension"),
-           Hyper("block_rows", 20, "int", 2, 1000,
-                 help="block rows of the subspace method's Hankel matrices (> n_states)",
-                 what="a number of samples"),
-           Hyper("max_epochs", 20, "int", 0, 10_000,
-                 help="iterations of the output-error refinement (0 = the subspace estimate)",
-                 what="an integer")),
-    label=lambda h: f"LSS({h['n_states']} states)",
-    shapes=_lss_shapes, history=lambda h: 0,
-    # the block Hankel matrices need 2 i samples per column and 8 i columns (i block rows)
-    min_samples=lambda h: 10 * int(h["block_rows"]) - 1,
-    start_history=lambda h: int(h["n_states"]),
-    format_version=4, exports=frozenset({"fmu"}), width=lambda h: int(h["n_states"]),
-    sizes=("n_states",), ensemble=False,
-    report="the best linear model of the records (N4SID refined on its simulation error): "
-           "what any nonlinear ROM buys is measured against it.",
-)
+    The public hook for a class defined outside this package. Register it before importing
+    the command line (``sloshrom.cli``) or the settings (``sloshrom.pipeline.settings``):
+    they make their options and tables of the classes registered then.
+
+    Raises
+    ------
+    ROMError
+        Not a :class:`ModelClass` or :class:`FileKind`; a class whose name or class name is
+        taken.
+    """
+    _load()
+    _add(entry, f"register({getattr(entry, 'name', entry)!r})")
+
+
+class _Classes(Mapping[str, ModelClass]):
+    """Every registered class by its name, loaded on first use (module docstring)."""
+
+    def __getitem__(self, name: str) -> ModelClass:
+        _load()
+        return _classes[name]
+
+    def __iter__(self) -> Iterator[str]:
+        _load()
+        return iter(dict(_classes))
+
+    def __len__(self) -> int:
+        _load()
+        return len(_classes)
+
+    def __repr__(self) -> str:
+        return f"CLASSES({', '.join(self)})"
+
 
 #: Every ROM class by its name, in the order of ``--help`` and the report.
-CLASSES: dict[str, ModelClass] = {mc.name: mc for mc in
-                                  (NFIR_CLASS, NOE_CLASS, NSS_CLASS, LSS_CLASS)}
+CLASSES: Mapping[str, ModelClass] = _Classes()
+
+
+def file_kinds() -> tuple[FileKind, ...]:
+    """The registered kinds of model file that are not a ROM class's ``.npz``."""
+    _load()
+    return tuple(_file_kinds)
 
 
 def model_class(name: str, what: str = "--arch") -> ModelClass:
@@ -807,3 +686,50 @@ def check_hyperparameters(mc: ModelClass, values: Mapping[str, Any],
         v = values.get(h.name, h.default)
         out[h.name] = h.check(v, None if where is None else where(h))
     return out
+
+
+# -- hyperparameters shared by several classes: one definition each --------------------------
+def _weight(name: str, what: str) -> Hyper:
+    return Hyper(name, 0.0, "float", 0.0, 1e12, help=what, what="a weight (0 = off)",
+                 file_default=0.0)
+
+
+#: The passive recipe's weights, 0 by default (a class's recipe sets them for m/s in, N out).
+LOSS_HYPERS = (
+    _weight("amplitude_weighting", "loss weights 1/(a^2 + eps^2), eps in input units "
+            "(m/s); 0 = plain MSE"),
+    _weight("passivity", "weight of the penalty on energy created at harmonic probes; 0 = off"),
+    _weight("cycle_energy", "weight of the error of the energy each input cycle exchanges; "
+            "0 = off"))
+#: The seed of a class whose training draws.
+SEED = Hyper("seed", 0, "int", 0, MAX_SEED, help="seeds the initialisation and the draws",
+             what="a seed")
+#: The Adam (multiple shooting) options of a recurrent class: its batch, its steps per
+#: epoch and its learning rate (a model file of before them reads these defaults).
+SHOOTING_HYPERS = (
+    Hyper("batch", 128, "int", 1, MAX_BATCH, help="sub-sequences per Adam step",
+          what="a number of sub-sequences", file_default=128),
+    Hyper("steps_per_epoch", 200, "int", 1, MAX_EPOCHS, help="Adam steps between validations",
+          what="a number of Adam steps", file_default=200),
+    Hyper("learning_rate", 3e-3, "float", 0.0, 1.0, lo_open=True,
+          help="initial Adam step (cosine decay to 5 % of it)", what="an Adam step",
+          file_default=3e-3),
+)
+
+
+def neurons(default: int, help: str) -> Hyper:
+    """The hidden units of a network class, up to :data:`~sloshrom.limits.MAX_NEURONS`."""
+    return Hyper("neurons", default, "int", 1, MAX_NEURONS, help=help,
+                 what="a number of neurons")
+
+
+def required(h: Hyper) -> Hyper:
+    """``h`` required in a model file (a class whose files always held it)."""
+    return replace(h, file_default=_REQUIRED)
+
+
+def adam_only(h: Mapping[str, Any]) -> str | None:
+    """The loss terms' need of a class with a ``trainer``: ``"trainer 'adam'"`` unless it is
+    Adam (:attr:`ModelClass.recipe_needs`)."""
+    return None if h.get("trainer", "adam") == "adam" else "trainer 'adam'"
+

@@ -26,9 +26,9 @@ from typing import Any
 import numpy as np
 
 from sloshrom.fileio import atomic_write_text
-from sloshrom.rom.errors import ROMError, TrainingWarning
-from sloshrom.rom.estimators import NFIR, NOE, UnstableModelError
+from sloshrom.rom.errors import ROMError, TrainingWarning, UnstableModelError
 from sloshrom.rom.parallel import quiet_worker, run_tasks
+from sloshrom.rom.registry import model_class
 
 __all__ = ["SWEEP_FIGURE", "SWEEP_TABLES", "fit_point", "point_name", "run_sweep",
            "sweep_grid", "write_table"]
@@ -90,8 +90,7 @@ def fit_point(
     res_path = out / f"{name}.json"
     if res_path.is_file():  # finished before: resume
         return json.loads(res_path.read_text(encoding="utf-8"))
-    cls = {"nfir": NFIR, "noe": NOE}[arch]
-    model = cls(delays=delays, neurons=neurons, **options)
+    model = model_class(arch).estimator_class()(delays=delays, neurons=neurons, **options)
     row: dict[str, Any] = {"name": name, "arch": arch, "delays": delays, "neurons": neurons}
     t0 = time.perf_counter()
     try:

@@ -42,7 +42,7 @@ from scipy.signal import lfilter, resample_poly, welch
 from threadpoolctl import threadpool_limits
 
 from sloshrom.rom.errors import ROMError
-from sloshrom.rom.registry import LSS_CLASS
+from sloshrom.rom.lss.entry import lss_min_samples
 
 __all__ = ["MAX_SPECTRAL_RADIUS", "lss_history_run", "lss_simulate", "min_samples", "n4sid",
            "pem_refine"]
@@ -136,7 +136,7 @@ def min_samples(block_rows: int) -> int:
     The block Hankel matrices need ``2 block_rows`` samples per column and
     ``8 block_rows`` columns: ``N >= 10 block_rows - 1``.
     """
-    return LSS_CLASS.min_samples({"block_rows": block_rows})
+    return lss_min_samples({"block_rows": block_rows})
 
 
 # ---------------------------------------------------------------------------------------------

@@ -4,7 +4,7 @@
 tests and the comparison: :func:`~sloshrom.studies.baseline.stage.stage_baseline`), ``outputs``
 (:class:`~sloshrom.studies.baseline.outputs.BaselineOutputs`), ``section`` (the report
 section), ``figures``, ``study`` (its declaration to the pipeline, ``STUDY``). The model
-itself is :class:`sloshrom.rom.bouncing.BouncingBall`.
+itself is :class:`sloshrom.rom.ball.model.BouncingBall`.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Configuration of the bouncing-ball baseline: the ``[baseline]`` table and the study's names.
 
-The table's keys and defaults (those of :class:`sloshrom.rom.bouncing.BouncingBall`) are in
+The table's keys and defaults (those of :class:`sloshrom.rom.ball.model.BouncingBall`) are in
 ``sloshrom/pipeline/defaults.toml`` and validated by
 :class:`sloshrom.pipeline.settings.BaselineTable`; :func:`ball_options` turns them into the
 estimator's arguments (TOML has no ``None``: ``lowpass = "none"`` and ``n_substeps = "auto"``
@@ -15,7 +15,7 @@ from sloshrom.pipeline.settings import ReproduceConfig
 
 __all__ = ["BALL_KEYS", "BALL_MODEL", "CASE", "FREQUENCY_BANDS", "ball_options", "cache_config"]
 
-#: The keys of ``[baseline]``: the arguments of :class:`~sloshrom.rom.bouncing.BouncingBall`.
+#: The keys of ``[baseline]``: the arguments of :class:`~sloshrom.rom.ball.model.BouncingBall`.
 BALL_KEYS = ("mass_fraction", "restitution", "gap_factor", "seed", "lowpass", "n_substeps",
              "maxiter", "popsize", "tol")
 #: The ball's model file, relative to the output directory.
@@ -27,7 +27,7 @@ FREQUENCY_BANDS = ("low", "mid", "high")
 
 
 def ball_options(cfg: ReproduceConfig) -> dict[str, Any]:
-    """The arguments of :class:`~sloshrom.rom.bouncing.BouncingBall` from ``[baseline]``:
+    """The arguments of :class:`~sloshrom.rom.ball.model.BouncingBall` from ``[baseline]``:
     search bounds as pairs, ``"none"`` and ``"auto"`` as ``None``."""
     t = cfg.baseline
     out: dict[str, Any] = {k: getattr(t, k) for k in BALL_KEYS}

@@ -25,7 +25,7 @@ class BaselineOutputs:
     fit_seconds : float
         Wall time of the fit, s.
     parameters : dict
-        :meth:`~sloshrom.rom.bouncing.BouncingBall.parameters`.
+        :meth:`~sloshrom.rom.ball.model.BouncingBall.parameters`.
     fit : dict
         The fit's history: objective, NRMSE, validation errors, cutoff, seconds.
     rig_mass_fraction : float

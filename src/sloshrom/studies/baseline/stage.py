@@ -1,5 +1,5 @@
 """The ``baseline`` stage of `sloshrom reproduce`: the bouncing-ball equivalent mechanical model
-(:class:`sloshrom.rom.bouncing.BouncingBall`) through the same Phi_d map, beam tests and Table 2
+(:class:`sloshrom.rom.ball.model.BouncingBall`) through the same Phi_d map, beam tests and Table 2
 as the ROM, side by side with it.
 
 The stage takes its inputs from the records of the stages before it
@@ -46,8 +46,8 @@ from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.maps import compute_map, write_map
 from sloshrom.plotting import savefig
 from sloshrom.plotting.beam import free_figures, random_figures, random_window
-from sloshrom.rom.bouncing import BouncingBall, lowpass_gain
-from sloshrom.rom.estimators import load_model
+from sloshrom.rom.ball.model import BouncingBall, lowpass_gain
+from sloshrom.rom.loading import load_model
 from sloshrom.studies.baseline.config import BALL_MODEL, CASE, FREQUENCY_BANDS, ball_options
 from sloshrom.studies.baseline.figures import frequency_band_figure
 from sloshrom.studies.baseline.outputs import BaselineOutputs
@@ -62,7 +62,7 @@ TRAIN_RECORD, VALIDATION_RECORD = "data/train.nc", "data/validation.nc"
 # -- identification ------------------------------------------------------------------------------
 def lowpassed_nrmse(y: np.ndarray, y_hat: np.ndarray, fs: float, cutoff: float) -> float:
     """RMS of ``y_hat - y`` over the RMS of ``y``, both low-passed by the ball's objective
-    filter (:func:`sloshrom.rom.bouncing.lowpass_gain`, zero phase, ``cutoff`` in Hz), -."""
+    filter (:func:`sloshrom.rom.ball.model.lowpass_gain`, zero phase, ``cutoff`` in Hz), -."""
     f = np.fft.rfftfreq(y.size, 1.0 / fs)
     gain = lowpass_gain(f, cutoff)
 
@@ -78,7 +78,7 @@ def fit_ball(ctx: Context, train: Record, validation: Record) -> BouncingBall:
 
     Hyperparameters: the ``[baseline]`` table (:func:`~sloshrom.studies.baseline.config.
     ball_options`). The acceleration is the forward difference of the record's velocity
-    (:func:`sloshrom.rom.bouncing.forward_acceleration`), the exact mean acceleration over each
+    (:func:`sloshrom.rom.ball.model.forward_acceleration`), the exact mean acceleration over each
     sample step, as the ROM sees the tank through the same velocity.
     """
     return BouncingBall(tank=ctx.tank, **ball_options(ctx.cfg)).fit(

@@ -31,8 +31,8 @@ from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.maps import compute_map
 from sloshrom.pipeline.study import Identify
 from sloshrom.plotting import savefig
-from sloshrom.rom.estimators import load_model
 from sloshrom.rom.family import write_family
+from sloshrom.rom.loading import load_model
 from sloshrom.studies.fills.config import FILL_TARGETS, member_config
 from sloshrom.studies.fills.config import label as _pct
 from sloshrom.studies.fills.figures import damping_fill_figure, fill_maps_figure

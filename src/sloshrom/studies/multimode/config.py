@@ -15,7 +15,7 @@ from sloshrom.beam.multimode import WingDesign
 from sloshrom.beam.structure import ModalDataError
 from sloshrom.config import ConfigError
 from sloshrom.pipeline.settings import MultimodeTable, ReproduceConfig
-from sloshrom.rom.estimators import LOSS_TERMS
+from sloshrom.rom.registry import LOSS_TERMS
 
 __all__ = ["CASES", "DATA_SETS", "JUDGED_ROM", "RECIPE_KEYS", "ROM_INPUTS", "WING_KEYS",
            "cache_config", "rom_params", "wing_design"]

@@ -67,8 +67,9 @@ from sloshrom.pipeline.settings import MultimodeTable
 from sloshrom.plotting import savefig
 from sloshrom.rig.virtual import SensorParams, VirtualRig
 from sloshrom.rom.errors import EnvelopeWarning
-from sloshrom.rom.estimators import LOSS_TERMS, NFIR
 from sloshrom.rom.parallel import run_tasks
+from sloshrom.rom.registry import LOSS_TERMS
+from sloshrom.rom.tdnn.estimators import NFIR
 from sloshrom.signals import broadband_acceleration
 from sloshrom.studies.multimode.config import (
     CASES,

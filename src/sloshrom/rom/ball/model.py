@@ -88,6 +88,13 @@ from sloshrom import __version__
 from sloshrom._jit import njit
 from sloshrom.config import ConfigError, G, Tank
 from sloshrom.fileio import atomic_write_text, not_a_regular_file
+from sloshrom.rom.ball.entry import (
+    BALL_FORMAT,
+    BALL_FORMAT_VERSION,
+    LIMITS,
+    MAX_MODEL_STEP,
+    is_ball_file,
+)
 from sloshrom.rom.errors import NotFittedError, ROMError
 from sloshrom.rom.modelfile import ModelFileError
 from sloshrom.signals import power_band
@@ -107,23 +114,8 @@ __all__ = [
     "lowpass_gain",
 ]
 
-#: Format tag and version of the TOML model file (table ``[bouncing_ball]``).
-BALL_FORMAT = "sloshrom-bouncing-ball"
-#: 2: the envelope's input range is the acceleration (version 1: the velocity)
-BALL_FORMAT_VERSION = 2
-
-#: Largest model step (s) of :class:`BouncingBall` with ``n_substeps=None``: the virtual rig's.
-MAX_MODEL_STEP = 1e-4
-
 #: A rebound slower than this off a wall the ball is pushed against ends in rest, m/s.
 REST_SPEED = 1e-5
-
-#: Physical limits of the parameters and their search bounds: (low, high, low open?).
-LIMITS: dict[str, tuple[float, float, bool]] = {
-    "mass_fraction": (0.0, 1.0, True),  # beta in (0, 1]: the ball is part of the liquid
-    "restitution": (0.0, 1.0, False),  # e in [0, 1]: an impact cannot create energy
-    "gap_factor": (0.0, 10.0, True),  # gamma in (0, 10]: Gap / ullage (10: a sanity bound)
-}
 
 #: The kernel's state vector, in order: relative position (m) and velocity (m/s), contact
 #: (0 flight, 1 resting on the floor, 2 resting against the ceiling), dissipated energy (J),
@@ -1194,18 +1186,3 @@ class BouncingBall:
         model.history_ = {k: v for k, v in hist.items()
                           if isinstance(v, bool | int | float | str)}
         return model
-
-
-def is_ball_file(path: str | Path) -> bool:
-    """True if ``path`` is a ``.toml`` file with a ``[bouncing_ball]`` table (for dispatch).
-
-    Reads the file as TOML only; a file that is not valid TOML is not a ball file.
-    """
-    p = Path(path)
-    if p.suffix.lower() != ".toml" or not p.is_file():
-        return False
-    try:
-        return isinstance(tomllib.loads(p.read_text(encoding="utf-8")).get("bouncing_ball"),
-                          dict)
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError, OSError):
-        return False

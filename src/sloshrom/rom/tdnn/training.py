@@ -35,7 +35,7 @@ cycle-energy term: the error of the energy each cycle of the record exchanges wi
 simulation error of short sub-sequences drawn from the record, each started from the NOE's delay
 lines filled with the measured past inputs and outputs (its exact state there), with the same
 three loss terms in the form of the neural state-space ROM's trainer
-(:func:`sloshrom.rom.statespace.fit_statespace`) and early stopping on the free run of the
+(:func:`sloshrom.rom.nss.training.fit_statespace`) and early stopping on the free run of the
 validation record from rest.
 
 Initialisation (seeded): RBF centres are training regressors drawn at random; ``"matlab"``
@@ -80,8 +80,10 @@ from sloshrom.rom.losses import (
     shooting_probes,
     window_energy_weights,
 )
-from sloshrom.rom.network import (
-    MinMaxScaler,
+from sloshrom.rom.network import MinMaxScaler
+from sloshrom.rom.shooting import PyTree, Recurrence, ShootingOptions
+from sloshrom.rom.shooting import shooting_problem as shooting
+from sloshrom.rom.tdnn.network import (
     NetworkSpec,
     hidden_activations,
     n_params,
@@ -95,8 +97,6 @@ from sloshrom.rom.network import (
     row_index,
     unpack,
 )
-from sloshrom.rom.shooting import PyTree, Recurrence, ShootingOptions
-from sloshrom.rom.shooting import shooting_problem as shooting
 
 __all__ = [
     "FAST_MAX_ROWS",
@@ -589,7 +589,7 @@ def noe_shoot(theta: Any, ubuf0: Any, ybuf0: Any, u_s: Any, delays: tuple[int, .
     Parameters
     ----------
     theta : array, shape (P,)
-        Packed parameters (:func:`~sloshrom.rom.network.pack`); their dtype sets the precision.
+        Packed parameters (:func:`~sloshrom.rom.tdnn.network.pack`); their dtype sets the precision.
     ubuf0 : array, shape (b, max_delay)
         Input delay lines at the start, most recent first.
     ybuf0 : array, shape (b, out_delays)
@@ -600,7 +600,7 @@ def noe_shoot(theta: Any, ubuf0: Any, ybuf0: Any, u_s: Any, delays: tuple[int, .
     Returns
     -------
     array, shape (b, T)
-        Scaled outputs: :func:`~sloshrom.rom.network.noe_simulate` of each row.
+        Scaled outputs: :func:`~sloshrom.rom.tdnn.network.noe_simulate` of each row.
     """
 
     def one(ub: Any, yb: Any, u: Any) -> Any:
@@ -696,7 +696,7 @@ def adam_noe(
     ``s`` in the record, fills the NOE's delay lines with the *measured* inputs and outputs
     before ``s`` (its exact state there: the record is taken at rest before its first sample)
     and simulates ``horizon`` samples in closed loop. The loss, as
-    :func:`sloshrom.rom.statespace.fit_statespace`'s:
+    :func:`sloshrom.rom.nss.training.fit_statespace`'s:
 
     - the mean squared simulation error, each sample weighted by :func:`amplitude_weights`
       when ``amplitude_weighting > 0``;
@@ -839,7 +839,7 @@ def train(
     Returns
     -------
     theta : ndarray
-        The best parameters, packed (:func:`~sloshrom.rom.network.pack`), scaled units.
+        The best parameters, packed (:func:`~sloshrom.rom.tdnn.network.pack`), scaled units.
     history : dict
         JSON-serialisable: per-epoch ``train_mse``, ``val_mse`` (physical units squared),
         ``mu``, ``grad``, ``seconds``; ``stop_reason``, ``best_epoch``, ``trainer``,
