@@ -22,6 +22,7 @@ benchmarks/nss_step.py`` (about 1 min).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import sys
 import time
@@ -38,7 +39,6 @@ from sloshrom.rom.engine import epoch_program  # noqa: E402
 from sloshrom.rom.network import MinMaxScaler  # noqa: E402
 from sloshrom.rom.nss import network as ss  # noqa: E402
 from sloshrom.rom.nss import training as sst  # noqa: E402
-from sloshrom.rom.shooting import ShootingOptions  # noqa: E402
 from sloshrom.signals import power_band  # noqa: E402
 from train_speed import nss_flops, peak_rate, records  # noqa: E402
 
@@ -79,7 +79,8 @@ def main() -> None:
     h = est.effective_params()
     spec = ss.StateSpaceSpec(h["n_states"], h["neurons"], h["window"], proper=True)
     band = power_band(u, fs, 0.001, 0.999)  # the probes' band, as NSS.fit takes it
-    opts = ShootingOptions(horizon=h["horizon"], batch=est.batch, steps_per_epoch=a.steps,
+    opts = dataclasses.replace(sst.NSS_SHOOTING,
+                               horizon=h["horizon"], batch=est.batch, steps_per_epoch=a.steps,
                            passivity=est.passivity, cycle_energy=est.cycle_energy,
                            amplitude_weighting=est.amplitude_weighting,
                            frequency_band=(band[0], band[1]), velocity_offset=0.5)

@@ -102,7 +102,8 @@ def fit_here(hyper: Mapping[str, Any], u: np.ndarray, y: np.ndarray, fs: float,
                              int(hyper["window"]))
     scaler = MinMaxScaler.fit(u, y)
     names = {f.name for f in dataclasses.fields(ShootingOptions)}
-    opts = ShootingOptions(**{k: v for k, v in hyper.items() if k in names})
+    opts = dataclasses.replace(sst.NSS_SHOOTING,
+                               **{k: v for k, v in hyper.items() if k in names})
     uh, yh = hist
     uv_all, yv_all = np.concatenate([uh, u_val]), np.concatenate([yh, y_val])
     w = spec.window

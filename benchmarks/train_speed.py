@@ -34,6 +34,7 @@ Run: ``.venv/bin/python benchmarks/train_speed.py`` (about 3 min; ``--sweep`` ad
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import os
 import tempfile
@@ -257,17 +258,16 @@ def vmap_scaling(data, t1: float) -> float:
 
     from sloshrom.rom import NSS
     from sloshrom.rom.network import MinMaxScaler
-    from sloshrom.rom.nss.training import shooting_problem
+    from sloshrom.rom.nss.training import NSS_SHOOTING, shooting_problem
     from sloshrom.rom.registry import CLASSES
-    from sloshrom.rom.shooting import ShootingOptions
     from sloshrom.signals import power_band
 
     u, y, uv, yv, fs = data
     m = NSS(**CLASSES["nss"].recipe)
     with jax.enable_x64(True):
         band = tuple(power_band(u, fs, 0.001, 0.999))
-        options = ShootingOptions(frequency_band=band, passivity=m.passivity,
-                                  cycle_energy=m.cycle_energy)
+        options = dataclasses.replace(NSS_SHOOTING, frequency_band=band,
+                                      passivity=m.passivity, cycle_energy=m.cycle_energy)
         probs = [shooting_problem(m._check_hyperparameters(), u, y, fs, MinMaxScaler.fit(u, y),
                                   None, options, seed=s) for s in (0, 1)]
         opt = probs[0].optimizer

@@ -193,7 +193,9 @@ def test_cli_trains_a_network_on_the_acceleration(tmp_path):
     assert res.exit_code == 0, res.output
     bad = tmp_path / "bad.npz"
     res = CliRunner().invoke(app, [*common, "--out", str(bad), "--passivity", "1"])
-    assert res.exit_code == 2 and "--passivity needs a velocity input" in res.output, res.output
+    assert res.exit_code == 2 and "--passivity > 0 needs a velocity input" in res.output, \
+        res.output
     res = CliRunner().invoke(app, [*common, "--out", str(bad), "--arch", "noe"])
-    assert res.exit_code == 2 and "--input acceleration needs --arch nfir" in res.output
+    assert res.exit_code == 2 and ("--input acceleration: an NOE takes the tank velocity; the "
+                                   "acceleration needs --arch nfir") in res.output, res.output
     assert not bad.exists()

@@ -339,7 +339,7 @@ ROM_CLI_CASES = [
     ("train-mismatched-rates", [*TR, "--data", "{tmp}/good.nc", "--validation",
                                 "{tmp}/r250.nc"], r"sample-rate mismatch.*500 Hz vs 250 Hz"),
     ("train-zero-delays", [*TR, "--delays", "0", "--data", "{tmp}/good.nc", "--validation",
-                           "{tmp}/good.nc"], r"--delays must be in \[1, 10000\], got 0"),
+                           "{tmp}/good.nc"], r"--delays must be an integer in \[1, 10000\], got 0"),
     ("predict-newer-model", ["predict", "--model", "{models}/newer.npz", "--data",
                              "{tmp}/good.nc", "--out", "{tmp}/p.nc"], r"format version 99"),
     ("predict-tampered-model", ["predict", "--model", "{models}/tampered.npz", "--data",

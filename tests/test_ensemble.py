@@ -328,12 +328,13 @@ def test_weight_limits_are_checked_before_any_training(monkeypatch):
     monkeypatch.setattr(ens_mod, "run_tasks", no_training)
     u, y = smooth_io(2000)
     ens = Ensemble(NFIR(delays=70, neurons=950), n_members=64)
-    with pytest.raises(ROMError, match=r"64 members x 950 neurons x 70 regressor entries = "
-                                       r"4256000 weights, more than 4194304"):
+    with pytest.raises(ROMError, match=r"64 members of NFIR\(70, 950\) have 64 x 66500 = "
+                                       r"4256000 weights \(950 neurons x 70 regressor entries "
+                                       r"each\), more than 4194304"):
         ens.fit(u, y, fs=500.0, scheduler="sequential")
     monkeypatch.setattr(tdnn_estimators.training, "train", no_training)
-    with pytest.raises(ROMError, match=r"4096 neurons x 2000 regressor entries = 8192000 "
-                                       r"weights, more than 4194304"):
+    with pytest.raises(ROMError, match=r"NFIR\(2000, 4096\) has 8192000 weights \(4096 neurons "
+                                       r"x 2000 regressor entries\), more than 4194304"):
         NFIR(delays=2000, neurons=4096).fit(u, y, fs=500.0)
     with pytest.raises(ROMError, match=r"delays must be distinct integers in \[1, 10000\], "
                                        r"got \[20000\]"):

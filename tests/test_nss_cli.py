@@ -132,14 +132,20 @@ TR = ["train", "--data", "{tmp}/train.nc", "--validation", "{tmp}/validation.nc"
     ([*TR, "--arch", "nss", "--hidden", "matlab"], r"--hidden does not apply to --arch nss"),
     ([*TR, "--arch", "nss", "--trainer", "adam"], r"--trainer does not apply to --arch nss"),
     # --states: the former name of --n-states, still read
-    ([*TR, "--arch", "nss", "--states", "0"], r"--n-states must be in \[1, 1024\], got 0"),
-    ([*TR, "--arch", "nss", "--n-states", "0"], r"--n-states must be in \[1, 1024\], got 0"),
-    ([*TR, "--arch", "nss", "--horizon", "7"], r"--horizon must be in \[8, 10000\], got 7"),
-    ([*TR, "--arch", "nss", "--learning-rate", "0"], r"--learning-rate must be in \(0, 1\]"),
-    ([*TR, "--arch", "nss", "--batch", "100000"], r"--batch must be in \[1, 65536\]"),
-    ([*TR, "--arch", "nss", "--steps-per-epoch", "0"], r"--steps-per-epoch must be in \[1, "),
+    ([*TR, "--arch", "nss", "--states", "0"],
+     r"--n-states must be an integer in \[1, 1024\], got 0"),
+    ([*TR, "--arch", "nss", "--n-states", "0"],
+     r"--n-states must be an integer in \[1, 1024\], got 0"),
+    ([*TR, "--arch", "nss", "--horizon", "7"],
+     r"--horizon must be an integer in \[8, 10000\], got 7"),
+    ([*TR, "--arch", "nss", "--learning-rate", "0"],
+     r"--learning-rate must be a number in \(0, 1\]"),
+    ([*TR, "--arch", "nss", "--batch", "100000"], r"--batch must be an integer in \[1, 65536\]"),
+    ([*TR, "--arch", "nss", "--steps-per-epoch", "0"],
+     r"--steps-per-epoch must be an integer in \[1, "),
     ([*TR, "--arch", "nss", "--input", "acceleration"],
-     r"--input acceleration needs --arch nfir: NSS reads the tank velocity"),
+     r"--input acceleration: an NSS takes the tank velocity; the acceleration needs --arch "
+     r"nfir"),
     ([*TR, "--n-states", "3"], r"--n-states does not apply to --arch nfir \(NFIR: .*\); its "
                                r"options are --delays, --neurons"),
     ([*TR, "--arch", "noe", "--window", "3"], r"--window does not apply to --arch noe"),
@@ -152,7 +158,8 @@ TR = ["train", "--data", "{tmp}/train.nc", "--validation", "{tmp}/validation.nc"
      r"17 neurons\)\)"),
     ([*TR, "--arch", "nss", "--n-states", "8", "--neurons", "4096", "--window", "4096"],
      r"NSS\(8 states, 4096 neurons\) has \d+ weights, more than 4194304"),
-    ([*TR, "--arch", "nss", "--passivity", "-1"], r"--passivity must be in \[0, 1e\+12\], got -1"),
+    ([*TR, "--arch", "nss", "--passivity", "-1"],
+     r"--passivity must be a number in \[0, 1e\+12\], got -1"),
 ])
 def test_bad_nss_options_fail_clearly_and_write_nothing(tmp_path, argv, match):
     check_cli(tmp_path, tmp_path, lambda d: _records(d, 100.0), argv, match)

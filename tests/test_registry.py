@@ -15,7 +15,7 @@ from sloshrom.config import ConfigError
 from sloshrom.io import Record, write_record
 from sloshrom.pipeline import settings
 from sloshrom.rom.nss.entry import MAX_EPOCH_WORK
-from sloshrom.rom.registry import CLASSES, LOSS_TERMS, check_hyperparameters
+from sloshrom.rom.registry import CLASSES, LOSS_TERMS
 
 FS = 200.0
 
@@ -53,9 +53,10 @@ def test_cli_settings_and_estimator_refuse_one_past_the_bound(tmp_path, arch, na
                                    str(tmp_path / "b.nc"), "--out", str(tmp_path / "m.npz"),
                                    "--arch", arch, h.option, str(past)])
     assert res.exit_code == 2
-    assert f"{h.option} must be in [{lo}, {int(h.hi)}], got {past}" in res.output, res.output
+    assert f"{h.option} must be an integer in [{lo}, {int(h.hi)}], got {past}" in res.output, \
+        res.output
     with pytest.raises(Exception, match=name):
-        check_hyperparameters(mc, {name: past})
+        mc.check({name: past})
 
 
 def test_the_settings_bounds_are_the_registry_s():

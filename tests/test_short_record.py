@@ -16,6 +16,7 @@ import pytest
 
 from sloshrom.rom import NSS, ModelSizeWarning, load_model
 from sloshrom.rom.nss.entry import NSS_CLASS, NSS_FULL_SIZE_SAMPLES, NSS_SHORT_SIZE, nss_size
+from sloshrom.rom.nss.training import NSS_SHOOTING
 from sloshrom.rom.shooting import ShootingOptions, adam_optimizer
 from sloshrom.systems.tanks import (
     TankParameters,
@@ -162,7 +163,7 @@ def test_weight_decay_shrinks_the_weights_where_the_gradient_is_zero():
     p = {"W": jnp.array([[1.0, -2.0], [0.5, 4.0]])}
     zero = {"W": jnp.zeros((2, 2))}
     for wd in (0.0, 0.5):
-        opt = adam_optimizer(ShootingOptions(learning_rate=1e-2, weight_decay=wd))
+        opt = adam_optimizer(dataclasses.replace(NSS_SHOOTING, learning_rate=1e-2, weight_decay=wd))
         upd, _ = opt.update(zero, opt.init(p), p)
         new = optax.apply_updates(p, upd)
         # AdamW: p - lr wd p (Adam's own step is zero for a zero gradient)

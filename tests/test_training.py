@@ -281,6 +281,6 @@ def test_train_takes_the_architecture_explicitly():
     assert len(hist["train_mse"]) == 3
     with pytest.raises(rom.ROMError, match="trainer"):
         training.train(spec, u, y, sc, trainer="sgd")
-    with pytest.raises(rom.ROMError, match="need trainer 'adam'"):
+    with pytest.raises(rom.ROMError, match="needs trainer 'adam'"):
         training.train(network.NetworkSpec("noe", (1, 2), 3, out_delays=2), u, y, sc,
                        trainer="lm", fs=100.0, passivity=1.0)

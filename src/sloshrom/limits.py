@@ -24,6 +24,7 @@ __all__ = [
     "MAX_MEMBERS",
     "MAX_NEURONS",
     "MAX_OUT_DELAYS",
+    "MAX_REGRESSOR",
     "MAX_SEED",
     "MAX_WEIGHTS",
     "TRAINERS",
@@ -46,7 +47,7 @@ HIDDEN_KINDS: tuple[str, ...] = ("matlab", "distance")
 #: Largest input delay, samples. The model-file schema's 10 000 is kept (the command line and
 #: the settings said 1000): a file with a sparse delay line reaching it loads today. The memory
 #: of a contiguous delay line is bounded separately, by the model file's regressor limit
-#: (``sloshrom.rom.modelfile.MAX_REGRESSOR``, 4096 entries).
+#: (:data:`MAX_REGRESSOR`).
 MAX_DELAY = 10_000
 #: Most hidden neurons. The schema's 4096 is kept (the command line and settings said 1000).
 MAX_NEURONS = 4096
@@ -58,6 +59,10 @@ MAX_OUT_DELAYS = 1000
 MAX_EPOCHS = 10_000_000
 #: Most members of an ensemble.
 MAX_MEMBERS = 64
+#: Most entries a model reads at each step (a time-delay network's regressor: its delays and
+#: fed-back outputs; a state-space model's state and input): a free run builds chunks of 8192
+#: regressor rows, so this bounds its memory to well under 1 GB.
+MAX_REGRESSOR = 4096
 #: Most network weights one model file holds, members x neurons x regressor entries (32 MiB
 #: of float64).
 MAX_WEIGHTS = 2**22

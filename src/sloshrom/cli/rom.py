@@ -32,12 +32,11 @@ from sloshrom.limits import (
     MAX_MEMBERS,
     MAX_NEURONS,
     MAX_SEED,
-    MAX_WEIGHTS,
     MU_MAX,
 )
 from sloshrom.rom.epochs import TrainingProgress
 from sloshrom.rom.errors import ModelSizeWarning
-from sloshrom.rom.registry import CLASSES, Hyper, ModelClass, model_class
+from sloshrom.rom.registry import CLASSES, Hyper, ModelClass, Naming, model_class
 
 if TYPE_CHECKING:  # annotations only: the CLI loads JAX when it trains
     from sloshrom.rom.base import Estimator
@@ -169,15 +168,26 @@ def _check_common(max_epochs: int, seed: int, hidden: str) -> None:
         fail(f"--hidden must be matlab or distance, got {hidden!r}")
 
 
-def _check_length(rec: Any, path: Path, arch: str, delays: int, neurons: int,
-                  what: str) -> None:
-    """The record must hold enough samples for the network (the check of ``fit``, before it)."""
-    mc = model_class(arch)
-    hyper = {**mc.defaults(), "delays": delays, "neurons": neurons}
-    need = mc.min_samples(hyper)
-    if len(rec) < need:
-        fail(f"{path}: {len(rec)} samples are too few for {mc.label(hyper)} ({what} needs at "
-             f"least {need})")
+def _naming(record: Path | None = None) -> Naming:
+    """How the class's rules name values on the command line: options, ``--input``,
+    ``--arch``, ``--ensemble`` and the training record ``record``."""
+    return Naming(key=lambda k: "--" + k.replace("_", "-"), input=lambda v: f"--input {v}",
+                  arch=lambda m: f"--arch {m.name}",
+                  samples=lambda n: f"{n} samples" if record is None else f"{record}: {n} samples",
+                  members=lambda k: f"--ensemble {k}: {k} members")
+
+
+def _rules(mc: ModelClass, values: Mapping[str, object], *, record: Path | None = None,
+           n_samples: int | None = None, input: str = "velocity", training: bool = True
+           ) -> dict[str, Any]:
+    """The class's rules on the options (:meth:`sloshrom.rom.registry.ModelClass.check`, the
+    one place they are written): one ``error:`` line naming the options at fault (and the
+    record, ``record``, when it is too short); the other arguments as the check's."""
+    try:
+        return mc.check(values, n_samples=n_samples, input=input, training=training,
+                        naming=_naming(record))
+    except SloshromError as exc:
+        fail(str(exc))
 
 
 InputOpt = Annotated[str, typer.Option("--input", help="Input variable of the records.")]
@@ -214,24 +224,15 @@ def _hyper_options() -> list[inspect.Parameter]:
 _ALIASES = {"n_states": ("--states",)}
 
 
-def _check_hyper(mc: ModelClass, given: dict[str, Any]) -> dict[str, Any]:
-    """The given options of class ``mc`` checked (one ``error:`` line naming the option),
-    refusing those of other classes."""
+def _given(mc: ModelClass, given: dict[str, Any]) -> dict[str, Any]:
+    """The given options of class ``mc``, refusing those of other classes (one ``error:`` line
+    listing the class's own)."""
     names = [h.name for h in mc.hyper]
-    for name, value in given.items():
+    for name in given:
         if name not in names:
             opts = ", ".join(h.option for h in mc.hyper)
             fail(f"{'--' + name.replace('_', '-')} does not apply to --arch {mc.name} "
                  f"({mc.class_name}: {mc.summary}); its options are {opts}")
-        h = mc.hyper_named(name)
-        if h.kind == "choice":
-            if value not in h.choices:
-                of = f" for {mc.class_name}" if name == "trainer" else ""
-                fail(f"{h.option}{of} must be {', '.join(h.choices)}, got {value!r}")
-        elif h.kind == "delays":
-            check_number(value, h.option, 1, h.hi)
-        else:
-            check_number(value, h.option, h.lo, h.hi, lo_open=h.lo_open, hi_open=h.hi_open)
     return given
 
 
@@ -276,13 +277,11 @@ def _train(**kw: Any) -> None:
         mc = model_class(arch)
     except SloshromError as exc:
         fail(str(exc))
-    given = _check_hyper(mc, {k: v for k, v in kw.items() if v is not None})
+    given = _given(mc, {k: v for k, v in kw.items() if v is not None})
     _check_names(input_name, output_name)
     reads = "acceleration" if input_name == "acceleration" else "velocity"
-    if reads not in mc.inputs:
-        fail(f"--input {input_name} needs --arch "
-             f"{' or '.join(m.name for m in CLASSES.values() if reads in m.inputs)}: "
-             f"{mc.class_name} reads the tank {' or '.join(mc.inputs)}")
+    # the class's rules on the options alone (domains, the signal read), before any data
+    _rules(mc, given, input=reads, training=False)
     check_number(ensemble, "--ensemble", 1, MAX_MEMBERS)
     if ensemble > 1 and not mc.ensemble:
         fail(f"--ensemble {ensemble}: an {mc.class_name} is fitted deterministically, so its "
@@ -304,50 +303,40 @@ def _train(**kw: Any) -> None:
     check_out(out, suffixes=(".npz",), inputs=(data, validation))
     rec, val = _read_pair(data, validation, [input_name, output_name])
     fill = _training_fill(fill, rec, data, val, validation)
-    # the options not given that the class sizes by the record's length (an NSS's size and
-    # recipe: the defaults on a long record, smaller on a short one); one line says them
-    sized_given = {k: int(v) for k, v in given.items() if k in mc.sized_by_record}
-    chosen = mc.size(len(rec), sized_given)
-    hyper = {**mc.defaults(), **given, **chosen}
-    sizes = {**sized_given, **chosen}
-    if any(v != mc.hyper_named(k).default for k, v in chosen.items()):
-        typer.echo(mc.size_note(sizes, len(rec), chosen))
-    too_big = mc.oversize(sizes, len(rec))
-    if too_big is not None:
-        typer.echo(f"warning: {too_big}")
     units = (rec.units[input_name], rec.units[output_name])
     # the recipe by the records' units: its terms hold for m/s in and N out only
     choice = mc.passive_recipe(*units, same=same_unit)
     set_by = [k for k in mc.loss_terms if k in given]
-    why_not = mc.recipe_needs(hyper)
-    for k in set_by:
-        flag = "--" + k.replace("_", "-")
-        if given[k] and why_not:
-            fail(f"{flag} needs {why_not} (got --arch {arch}"
-                 f"{'' if 'trainer' not in given else ' --trainer ' + given['trainer']})")
-        if given[k] and reads == "acceleration":
-            fail(f"{flag} needs a velocity input: the term is written for the power F v "
-                 "(a model on the acceleration trains on the plain MSE)")
-    if mc.loss_terms and why_not is None:
+    values = dict(given)
+    recipe = bool(mc.loss_terms) and mc.recipe_needs({**mc.defaults(), **given}) is None
+    if recipe:
         for k in mc.loss_terms:
-            hyper[k] = given.get(k, choice.terms.get(k, 0.0))
+            values.setdefault(k, choice.terms.get(k, 0.0))
+    try:
+        model = mc.estimator_class()(**values, units=units, names=(input_name, output_name))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", ModelSizeWarning)
+            # every rule of the class for this record, once (the fit reuses it); the options
+            # left out that the class sizes by the record's length (an NSS's size and horizon)
+            # are chosen here
+            hyper = model.check_training(len(rec), members=ensemble, naming=_naming(data))
+        model.spec  # noqa: B018 - the estimator's own checks (a unit), before training
+    except SloshromError as exc:
+        fail(str(exc))
+    chosen = [k for k in mc.sized_by_record if k not in given]
+    sizes = {k: int(hyper[k]) for k in mc.sized_by_record}
+    if any(hyper[k] != mc.hyper_named(k).default for k in chosen):
+        typer.echo(mc.size_note(sizes, len(rec), chosen))
+    for w in caught:  # a size too big for the record: said before the training
+        if issubclass(w.category, ModelSizeWarning):
+            typer.echo(f"warning: {w.message}")
+    if recipe:
         typer.echo(str(choice) if not set_by else
                    f"loss: {', '.join(f'{k} {hyper[k]:g}' for k in mc.loss_terms)}: "
                    f"{', '.join(set_by)} set by the options (by the records' units: "
                    f"{choice.name})")
     label = mc.label(hyper)
     n_params = mc.n_params(hyper)
-    if ensemble * mc.file_weights(hyper) > MAX_WEIGHTS:  # the model file's limit, first
-        fail(f"{label}{f' x {ensemble} members' if ensemble > 1 else ''} has "
-             f"{ensemble * mc.file_weights(hyper)} weights, more than {MAX_WEIGHTS}, the most "
-             "a model file holds")
-    cost = mc.epoch_cost(hyper, key=lambda k: mc.hyper_named(k).option)
-    if cost:  # each option bounded alone lets their product run for hours per epoch
-        fail(cost)
-    need = mc.min_samples(hyper)
-    if len(rec) < need:
-        fail(f"{data}: {len(rec)} samples are too few for {label} (training needs at least "
-             f"{need})")
     n_past = int(mc.history(hyper))
     if len(val) <= n_past:
         fail(f"{validation}: {len(val)} samples are too few for {n_past} samples of history "
@@ -367,11 +356,6 @@ def _train(**kw: Any) -> None:
                        err=True)
     from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 
-    try:
-        model = mc.estimator_class()(**hyper, units=units, names=(input_name, output_name))
-        model.spec  # noqa: B018 - the estimator's own checks (file limits), before training
-    except SloshromError as exc:  # ROMError: a model no model file holds
-        fail(str(exc))
     if ensemble > 1 or seeds > 1:
         (_train_ensemble if ensemble > 1 else _train_seeds)(
             model, max(ensemble, seeds), rec, val, input_name, output_name, out,
@@ -848,10 +832,11 @@ def sweep(
     from sloshrom.plotting.rom import plot_sweep
     from sloshrom.rom.sweep import run_sweep
 
-    for a in sorted({p[0] for p in pts}):
+    for a in sorted({p[0] for p in pts}):  # the largest network of each class of the grid
         big = [p for p in pts if p[0] == a]
-        _check_length(rec, data, a, max(p[1] for p in big), max(p[2] for p in big),
-                      "the largest network of the grid")
+        _rules(model_class(a), {"delays": max(p[1] for p in big),
+                                "neurons": max(p[2] for p in big)},
+               record=data, n_samples=len(rec))
     with progress_bars(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(),
                        TextColumn("{task.fields[info]}"), TimeElapsedColumn()) as progress:
         task = progress.add_task("sweep", total=len(pts), info="")

@@ -18,6 +18,7 @@ import copy
 import math
 import tomllib
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -51,7 +52,8 @@ from sloshrom.limits import (
     MAX_WEIGHTS,
     Hidden,
 )
-from sloshrom.rom.registry import CLASSES, LOSS_TERMS, Hyper, ModelClass
+from sloshrom.rom.errors import ROMError
+from sloshrom.rom.registry import CLASSES, LOSS_TERMS, Hyper, ModelClass, Naming
 
 __all__ = [
     "BEAM_FS",
@@ -484,11 +486,37 @@ class DataTable(_Table):
 class RomNetwork(NamedTuple):
     """A model the ``rom`` stage (or the sweep) trains, for the checks against the record and
     the model-file limits: its registry ``class_`` (:class:`sloshrom.rom.registry.ModelClass`),
-    its hyperparameters ``hyper`` and ``keys``, the configuration keys named in a message."""
+    its hyperparameters ``hyper`` (those that train it) and ``keys``, the configuration keys
+    named in a message (``key(name)``: the key of each hyperparameter)."""
 
     class_: ModelClass
     hyper: dict[str, Any]
     keys: str
+    key: Callable[[str], str]
+
+    def check(self, n_samples: int, samples: str, members: int = 1,
+              members_key: str = "") -> None:
+        """The class's rules for a training (:meth:`ModelClass.check`, the one place they
+        are written) on ``n_samples`` samples (``samples``: the keys that give them), with
+        ``members`` in one file (given by ``members_key``).
+
+        Raises
+        ------
+        ConfigError
+            The first rule broken, naming the keys.
+        """
+        naming = Naming(key=self.key, samples=lambda n: f"{self.keys}: {n} samples ({samples})",
+                        members=lambda k: f"{members_key} = {k} members", value=_shown)
+        try:
+            self.class_.check(self.hyper, n_samples=n_samples, members=members, naming=naming)
+        except ROMError as exc:
+            raise ConfigError(str(exc)) from None
+
+
+def _keys(mc: ModelClass) -> Callable[[str], str]:
+    """The configuration key of each hyperparameter of ``mc``: ``'rom.<class>.<name>'``, the
+    seed ``'rom.seed'``."""
+    return lambda k: "'rom.seed'" if k == "seed" else f"'rom.{mc.name}.{k}'"
 
 
 def _hyper_field(h: Hyper) -> Any:
@@ -503,10 +531,23 @@ def _hyper_field(h: Hyper) -> Any:
 
 def _class_table(mc: ModelClass) -> type[_Table]:
     """``[rom.<class>]``: the class's hyperparameters (the seed is ``rom.seed``), by the
-    registry."""
+    registry; the class's rules (:meth:`ModelClass.check`) check them first, their messages
+    naming the keys."""
     fields = {h.name: (_hyper_field(h), ...) for h in mc.hyper if h.name != "seed"}
+
+    def rules(cls: type[_Table], values: object) -> object:
+        # a table of every key (pydantic names a missing or unknown one)
+        if isinstance(values, dict) and set(values) == set(fields):
+            try:
+                mc.check(values, training=False, naming=Naming(key=_keys(mc), value=_shown))
+            except ROMError as exc:
+                raise ConfigError(str(exc)) from None
+        return values
+
     return create_model(f"{mc.class_name}Table", __base__=_Table,
-                        __doc__=f"``[rom.{mc.name}]``: {mc.summary}.", **fields)
+                        __doc__=f"``[rom.{mc.name}]``: {mc.summary}.",
+                        __validators__={"_rules": model_validator(mode="before")(rules)},
+                        **fields)
 
 
 #: The table of each ROM class, ``[rom.<name>]``.
@@ -542,13 +583,6 @@ class RomTable(create_model("_RomClasses", __base__=_RomTableBase,
             raise ConfigError(f"'rom.ensemble' = {self.ensemble}: an "
                               f"{CLASSES[self.arch].class_name} is fitted deterministically, "
                               "so its members would be one model; set 'rom.ensemble' = 1")
-        for name in (self.arch, *self.compared()):
-            mc = CLASSES[name]
-            why = mc.recipe_needs(self.hyper(name))
-            if why and any(getattr(self.table(name), k) > 0 for k in mc.loss_terms):
-                raise ConfigError(f"'rom.{name}.amplitude_weighting', 'rom.{name}.passivity' "
-                                  f"and 'rom.{name}.cycle_energy' need {why}: set them to 0 "
-                                  f"or 'rom.{name}.trainer' = \"adam\"")
         return self
 
     def compared(self) -> list[str]:
@@ -583,14 +617,16 @@ class RomTable(create_model("_RomClasses", __base__=_RomTableBase,
     def networks(self) -> list[RomNetwork]:
         """The largest model of each kind to be trained: the ROM, the compared classes, the
         sweep's largest NFIR and NOE."""
-        out = [RomNetwork(CLASSES[n], self.hyper(n), f"'rom.{n}'")
+        out = [RomNetwork(CLASSES[n], self.hyper(n), f"'rom.{n}'", _keys(CLASSES[n]))
                for n in (self.arch, *self.compared())]
         if self.sweep:
             for a in ("nfir", "noe"):
+                grid = {k: f"'rom.sweep_{a}_{k}'" for k in ("delays", "neurons")}
                 hyper = {**self.hyper(a), "delays": max(getattr(self, f"sweep_{a}_delays")),
                          "neurons": max(getattr(self, f"sweep_{a}_neurons"))}
-                out.append(RomNetwork(CLASSES[a], hyper, f"the largest of 'rom.sweep_{a}_delays'"
-                                                         f"/'rom.sweep_{a}_neurons'"))
+                out.append(RomNetwork(
+                    CLASSES[a], hyper, f"the largest of {'/'.join(grid.values())}",
+                    lambda k, a=a, grid=grid: grid.get(k) or _keys(CLASSES[a])(k)))
         return out
 
 
@@ -859,30 +895,16 @@ class ReproduceConfig(_Table):
         fs, b = self.rig.fs, self.beam
         n_train = self.data.train_duration * fs
         r = self.rom
-        rom = r.networks()[0]
-        members = [("'rom.ensemble'", r.ensemble)]
+        samples = (f"'data.train_duration' = {self.data.train_duration:g} s at 'rig.fs' = "
+                   f"{fs:g} Hz")
+        rom, *others = r.networks()
+        # the ROM's members are one file (and the fill family's, each)
+        rom.check(int(n_train), samples, r.ensemble, "'rom.ensemble'")
         if self.beyond.enabled:
-            members.append(("'beyond.fill_ensemble'", self.beyond.fill_ensemble))
-        for key, k in members:
-            weights = k * rom.class_.file_weights(rom.hyper)
-            if weights <= MAX_MODEL_WEIGHTS:
-                continue
-            raise ConfigError(
-                f"{key} x the weights of {rom.class_.label(rom.hyper)} ({rom.keys}) = {k} x "
-                f"{rom.class_.file_weights(rom.hyper)} = {weights} weights, more than "
-                f"{MAX_MODEL_WEIGHTS} (32 MiB), the most a model file holds: fewer members or "
-                "a smaller model")
-        for net in r.networks():
-            need = net.class_.min_samples(net.hyper)
-            if need > n_train:
-                raise ConfigError(
-                    f"{net.keys}: {net.class_.label(net.hyper)} needs at least {need} training "
-                    f"samples, but 'data.train_duration' gives {n_train:.0f} at {fs:g} Hz")
-            # each key bounded alone lets their product run for hours per epoch
-            cost = net.class_.epoch_cost(
-                net.hyper, key=lambda k, n=net.class_.name: f"'rom.{n}.{k}'")
-            if cost:
-                raise ConfigError(cost)
+            rom.check(int(n_train), samples, self.beyond.fill_ensemble,
+                      "'beyond.fill_ensemble'")
+        for net in others:
+            net.check(int(n_train), samples)
         check_psd_band(b.f0, b.sigma, names=("'beam.f0'", "'beam.sigma'"), error=ConfigError,
                        fs=fs)
         if b.random_duration * fs < WELCH_NPERSEG:

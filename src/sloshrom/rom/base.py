@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import functools
 import inspect
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, ClassVar, Literal, cast
@@ -29,17 +30,17 @@ from numpy.typing import ArrayLike
 from sloshrom import __version__
 from sloshrom._x64 import float64
 from sloshrom.models import check_envelope, model_input
-from sloshrom.rom.errors import NotFittedError, ROMError
+from sloshrom.rom.errors import ModelSizeWarning, NotFittedError, ROMError
 from sloshrom.rom.family import check_training_fill
 from sloshrom.rom.modelfile import model_file_path, write_model_file
 from sloshrom.rom.network import MinMaxScaler
-from sloshrom.rom.registry import ModelClass
+from sloshrom.rom.registry import ARGUMENTS, ModelClass, Naming
 
 __all__ = ["Estimator", "History", "as_signal", "checked_history", "checked_past",
            "checked_records", "record_envelope"]
 
 
-def as_signal(name: str, x: Any, allow_batch: bool = False) -> np.ndarray:
+def as_signal(name: str, x: ArrayLike, allow_batch: bool = False) -> np.ndarray:
     """``x`` as a finite float64 signal, shape (n,) (or (batch, n)); :class:`ROMError` else."""
     a = np.asarray(x, dtype=np.float64)
     if a.ndim != 1 and not (allow_batch and a.ndim == 2):
@@ -70,7 +71,8 @@ def _thawed(v: Any) -> Any:
     return [_thawed(x) for x in v] if isinstance(v, tuple) else v
 
 
-def checked_records(u: Any, y: Any, fs: float, validation: tuple[Any, Any] | None,
+def checked_records(u: ArrayLike, y: ArrayLike, fs: float,
+                    validation: tuple[ArrayLike, ArrayLike] | None,
                     fill: float | None, need: int, history: int
                     ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray] | None,
                                float | None]:
@@ -227,6 +229,52 @@ class Estimator:
             setattr(self, k, v)
         return self
 
+    def _arguments(self) -> dict[str, object]:
+        """The hyperparameters as given to the constructor, by name (the class's entry's)."""
+        return {h.name: getattr(self, h.name) for h in self.model_class.hyper}
+
+    def check_training(self, n_samples: int | None = None, members: int = 1,
+                       naming: Naming = ARGUMENTS) -> dict[str, Any]:
+        """The hyperparameters checked by every rule of the class for a training
+        (:meth:`sloshrom.rom.registry.ModelClass.check`, the one place of its rules): on a
+        record of ``n_samples`` samples (None: not known yet), ``members`` models in one file
+        (an ensemble's); ``naming``: how a message names the values (the command line's
+        options). ``fit`` calls it first, an ensemble before any member trains, the command
+        line before either; a second call for the same record reuses the first's result.
+
+        Returns
+        -------
+        dict
+            Every hyperparameter by name (a size left to the record: the size rule's).
+
+        Raises
+        ------
+        ROMError
+            The first rule broken, naming the arguments at fault.
+
+        Warns
+        -----
+        ModelSizeWarning
+            A size given with many more parameters than the record supports (the size rule's
+            for it, :meth:`~sloshrom.rom.registry.ModelClass.oversize`).
+        """
+        mc = self.model_class
+        args = self._arguments()
+        key = (repr(sorted(args.items())), n_samples, members, self.input)
+        done = getattr(self, "_checked", None)
+        if done is not None and done[0] == key:
+            return dict(done[1])
+        h = mc.check(args, n_samples=n_samples, input=self.input, members=members,
+                     naming=naming)
+        given = [k for k in mc.sized_by_record if args[k] is not None]
+        if n_samples is not None and given:
+            # only a size the user gave can be too big: the rule's is the reference
+            too_big = mc.oversize({k: int(h[k]) for k in mc.sized_by_record}, n_samples)
+            if too_big is not None:
+                warnings.warn(too_big, ModelSizeWarning, stacklevel=4)  # fit's caller
+        self._checked = (key, h)
+        return dict(h)
+
     def _check_hyperparameters(self) -> Any:
         """Validate the constructor arguments; the architecture (spec) they give."""
         raise NotImplementedError
@@ -367,7 +415,7 @@ class Estimator:
         return cast(int, self.model_.history_samples)
 
     @float64
-    def predict(self, u: Any, history: History | None = None) -> np.ndarray:
+    def predict(self, u: ArrayLike, history: History | None = None) -> np.ndarray:
         """Simulation from rest, or from measured history; does not change the model.
 
         Parameters
@@ -411,7 +459,8 @@ class Estimator:
         check_envelope(self, np.concatenate([up, u]), unit=str(self.units[0]), stacklevel=3)
         return cast(np.ndarray, self.model_.run_from_history(up, yp, u))
 
-    def simulate(self, velocity: Any, acceleration: Any = None) -> np.ndarray:
+    def simulate(self, velocity: ArrayLike, acceleration: ArrayLike | None = None
+                 ) -> np.ndarray:
         """Sloshing-model contract: dynamic force (N) from the tank velocity (m/s) or, for a
         model on the acceleration (:attr:`input`), the acceleration (m/s^2)."""
         return self.predict(model_input(self, velocity, acceleration))

@@ -46,7 +46,6 @@ from sloshrom.rom.errors import NotFittedError, ROMError, TrainingWarning, Unsta
 from sloshrom.rom.family import check_training_fill, training_fills
 from sloshrom.rom.modelfile import (
     MAX_MEMBERS,
-    check_file_limits,
     file_version,
     model_file_path,
     write_model_file,
@@ -272,7 +271,8 @@ class Ensemble:
     def _member_seeds(self) -> list[int]:
         """Validated template, K and seeds; the seeds of the members."""
         t = self.template
-        if not all(hasattr(t, a) for a in ("get_params", "set_params", "fit", "step")) or \
+        if not all(hasattr(t, a) for a in ("get_params", "set_params", "fit", "step",
+                                           "check_training")) or \
                 "seed" not in t.get_params():
             seeded = ", ".join(mc.class_name for mc in CLASSES.values() if mc.ensemble)
             raise ROMError(f"template must be an unfitted estimator whose members differ by "
@@ -367,11 +367,9 @@ class Ensemble:
             member's ``history_["stop_message"]`` says why).
         """
         seeds = self._member_seeds()
-        first = self._clone(seeds[0])
-        if hasattr(first, "spec"):  # the template's hyperparameters, checked before any work
-            spec = first.spec
-            # K members in one file: its weight limit before K trainings, not at save time
-            check_file_limits(spec.max_delay, spec.neurons, spec.n_inputs, len(seeds))
+        # every rule of the class before any member trains: K members in one file (its weight
+        # limit before K trainings, not at save time), the cost of an epoch, the record's length
+        self.template.check_training(int(np.size(u)), members=len(seeds))
         if not (np.isfinite(fs) and fs > 0):
             raise ROMError(f"fs must be a finite positive sample rate in Hz, got {fs!r}")
         u = np.asarray(u, dtype=np.float64)
@@ -442,7 +440,11 @@ class Ensemble:
             if type(m) is not type(t):
                 raise ROMError(f"member {k} is a {type(m).__name__}, the template a "
                                f"{type(t).__name__}")
-            if network_of(m) is None:
+            try:
+                fitted = network_of(m) is not None
+            except NotFittedError:
+                fitted = False
+            if not fitted:
                 raise ROMError(f"member {k} is not fitted")
             if _without_seed(m.get_params()) != ref:
                 diff = sorted(n for n, v in _without_seed(m.get_params()).items()

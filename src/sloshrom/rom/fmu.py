@@ -86,7 +86,7 @@ from sloshrom.models import (
     input_of,
 )
 from sloshrom.rom.ensemble import is_ensemble
-from sloshrom.rom.errors import FeedthroughWarning, ROMError
+from sloshrom.rom.errors import FeedthroughWarning, NotFittedError, ROMError
 from sloshrom.rom.fmu_runtime import GENERATOR, FMUError, FMUModel, load_fmu
 from sloshrom.rom.network import FittedNetwork, network_of
 from sloshrom.rom.registry import CLASSES
@@ -121,9 +121,12 @@ def _networks(model: Any) -> list[FittedNetwork]:
             members = model.members_
         except AttributeError:
             raise ROMError("the ensemble is not fitted: nothing to export") from None
-        nets = [network_of(m) for m in members]
     else:
-        nets = [network_of(model)]
+        members = [model]
+    try:
+        nets = [network_of(m) for m in members]
+    except NotFittedError:
+        raise ROMError(f"the {type(model).__name__} is not fitted: nothing to export") from None
     if any(n is None for n in nets):
         raise ROMError(_refusal(model))
     return nets  # type: ignore[return-value]
@@ -131,8 +134,6 @@ def _networks(model: Any) -> list[FittedNetwork]:
 
 def _refusal(model: Any) -> str:
     name = type(model).__name__
-    if hasattr(model, "spec"):  # an estimator without its fitted network
-        return f"the {name} is not fitted: nothing to export"
     held = ", ".join(mc.class_name for mc in CLASSES.values() if "fmu" in mc.exports)
     return (f"a {name} cannot be exported to an FMU: an FMU holds fitted ROMs ({held}) or an "
             "ensemble of them. A fill family or blend mixes networks by the fill "

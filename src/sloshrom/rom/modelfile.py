@@ -75,6 +75,7 @@ from sloshrom.limits import (  # the limits the command line and the settings sh
     MAX_EPOCHS,
     MAX_MEMBERS,
     MAX_NEURONS,
+    MAX_REGRESSOR,
     MAX_WEIGHTS,
 )
 from sloshrom.rom.errors import ROMError
@@ -83,7 +84,7 @@ from sloshrom.rom.registry import CLASSES, Hyper, ModelClass, model_class_of_fil
 __all__ = [
     "ENSEMBLE_FORMAT_VERSION", "FORMAT_VERSION", "HIDDEN_KINDS", "MAX_DELAY", "MAX_DEPTH",
     "MAX_FILE_BYTES", "MAX_MEMBERS", "MAX_METADATA_CHARS", "MAX_NEURONS", "MAX_REGRESSOR",
-    "MAX_WEIGHTS", "ModelFile", "ModelFileError", "check_file_limits", "file_version",
+    "MAX_WEIGHTS", "ModelFile", "ModelFileError", "file_version",
     "NEWEST_FORMAT_VERSION", "PARAM_NAMES",  # noqa: F822 - read from the registry when asked
     "checksum", "model_file_path", "read_model_file", "validate_for_save", "write_model_file",
 ]
@@ -146,9 +147,6 @@ MAX_FILE_BYTES = 64 * 2**20
 MAX_METADATA_CHARS = 4 * 2**20
 #: Deepest bracket nesting of the metadata JSON (a valid file has 3, an ensemble file 4).
 MAX_DEPTH = 16
-#: Most regressor entries, ``len(delays) + out_delays``: a free run builds chunks of 8192
-#: regressor rows, so this bounds its memory to well under 1 GB.
-MAX_REGRESSOR = 4096
 #: Largest sample rate, Hz.
 MAX_FS = 1e6
 #: Largest magnitude of a scaler or envelope bound (physical units).
@@ -161,45 +159,6 @@ MAX_PARAM = 1e50
 MAX_TEXT = 64
 #: Longest explanation of a training's stop (``history.stop_message``), characters.
 MAX_MESSAGE = 2000
-
-
-def check_file_limits(max_delay: int, neurons: int, n_inputs: int, members: int = 1) -> None:
-    """Refuse, before any training, a network (or ``members`` of them) no model file holds.
-
-    Saving checks the same limits, but only after the training: an estimator and an ensemble
-    call this first (``fit``).
-
-    Parameters
-    ----------
-    max_delay, neurons, n_inputs : int
-        Largest input delay (samples), hidden neurons, regressor entries (delays + output
-        delays) of one network.
-    members : int
-        Networks of an ensemble (1: a single network).
-
-    Raises
-    ------
-    ROMError
-        A value beyond :data:`MAX_DELAY`, :data:`MAX_NEURONS`, :data:`MAX_REGRESSOR`, or more
-        than :data:`MAX_WEIGHTS` weights (members x neurons x regressor entries); the message
-        names the limit.
-    """
-    if max_delay > MAX_DELAY:
-        raise ROMError(f"the largest delay {max_delay} is more than {MAX_DELAY}, the most a "
-                       "model file holds")
-    if neurons > MAX_NEURONS:
-        raise ROMError(f"neurons = {neurons} is more than {MAX_NEURONS}, the most a model file "
-                       "holds")
-    if n_inputs > MAX_REGRESSOR:
-        raise ROMError(f"the regressor would have {n_inputs} entries (delays + output delays), "
-                       f"more than {MAX_REGRESSOR}, the most a model file holds")
-    weights = members * neurons * n_inputs
-    if weights > MAX_WEIGHTS:
-        of = f"{members} members x " if members > 1 else ""
-        raise ROMError(
-            f"{of}{neurons} neurons x {n_inputs} regressor entries = {weights} weights, more "
-            f"than {MAX_WEIGHTS} (32 MiB), the most a model file holds: "
-            f"{'fewer members or ' if members > 1 else ''}a smaller network")
 
 
 _MAX_MEMBERS = 64

@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike
 
 from sloshrom._x64 import float64
 from sloshrom.models import model_input
-from sloshrom.rom.errors import ROMError, UnstableModelError
+from sloshrom.rom.errors import NotFittedError, ROMError, UnstableModelError
 from sloshrom.rom.registry import ModelClass
 
 __all__ = ["FittedNetwork", "MinMaxScaler", "network_of"]
@@ -208,8 +208,19 @@ class FittedNetwork:
 
 def network_of(model: Any) -> FittedNetwork | None:
     """The one fitted network ``model`` is or delegates to (an estimator's ``model_``); None
-    for anything else (an ensemble, a fill blend, a physics model)."""
+    for anything else (an ensemble, a fill blend, a physics model).
+
+    Raises
+    ------
+    NotFittedError
+        ``model`` is an estimator of a registered class (it has its entry, ``model_class``)
+        that is not fitted yet.
+    """
     if isinstance(model, FittedNetwork):
         return model
     net = getattr(model, "model_", None)
-    return net if isinstance(net, FittedNetwork) else None
+    if isinstance(net, FittedNetwork):
+        return net
+    if getattr(model, "model_class", None) is not None:
+        raise NotFittedError(f"this {type(model).__name__} is not fitted: call fit() first")
+    return None

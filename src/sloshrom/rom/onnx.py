@@ -212,7 +212,7 @@ def check_exportable(model: Any) -> None:
                        "state as input and output, which is not implemented. Export it as "
                        "an FMU (`sloshrom export fmu`) or run it through sloshrom (Python "
                        "API: step/simulate; command line: predict, map, beam)")
-    if net is None and not hasattr(model, "spec"):  # a family, a ball
+    if net is None:  # a family, a ball
         raise ROMError(f"a {type(model).__name__} cannot be exported to ONNX: a graph holds "
                        "one NFIR or NOE network (export a fill family's members one by one)")
     if input_of(model) == "acceleration":

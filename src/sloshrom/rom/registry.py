@@ -40,14 +40,22 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, cast
 
-from sloshrom.limits import MAX_BATCH, MAX_DELAY, MAX_EPOCHS, MAX_NEURONS, MAX_SEED
+from sloshrom.limits import (
+    MAX_BATCH,
+    MAX_DELAY,
+    MAX_EPOCHS,
+    MAX_NEURONS,
+    MAX_REGRESSOR,
+    MAX_SEED,
+    MAX_WEIGHTS,
+)
 from sloshrom.rom.errors import ROMError
 
 __all__ = ["ARGUMENTS", "CLASSES", "ENTRIES", "LOSS_HYPERS", "LOSS_TERMS", "OVERSIZE",
            "RECIPE_UNITS", "SEED", "SHOOTING_HYPERS", "EpochWork", "FileKind", "Hyper",
-           "LossChoice", "ModelClass", "Naming", "adam_only", "check_hyperparameters",
+           "LossChoice", "ModelClass", "Naming", "adam_only",
            "file_kinds", "loss_recipe", "model_class", "model_class_of_file", "neurons",
-           "register", "required"]
+           "packages", "paper_class", "register", "required"]
 
 #: The classes, one line each: ``"module:attribute"`` of the entry that declares it (a
 #: :class:`ModelClass`, or a :class:`FileKind` for a model loaded from its own files), in the
@@ -76,11 +84,33 @@ _REQUIRED = object()
 
 @dataclass(frozen=True)
 class Naming:
-    """How a rule's message names a hyperparameter (``key``): the Python argument
-    (``n_states``, the default), the command line's option (``--n-states``) or the
-    configuration's key (``'rom.nss.n_states'``)."""
+    """How the messages of :meth:`ModelClass.check` name what they are about, in the words of
+    the caller: the estimator's arguments (:data:`ARGUMENTS`), the command line's options, the
+    configuration's keys.
+
+    Parameters
+    ----------
+    key : callable
+        ``key(name)``: a hyperparameter (``n_states``, ``--n-states``, ``'rom.nss.n_states'``).
+    input : callable
+        ``input(signal)``: the signal a model reads (``names[0] = 'acceleration'``,
+        ``--input acceleration``).
+    arch : callable
+        ``arch(model_class)``: a class (``NFIR``, ``--arch nfir``).
+    samples : callable
+        ``samples(n)``: the training record's samples (``train.nc: 1200 samples``).
+    members : callable
+        ``members(k)``: the models of one file (``'rom.ensemble' = 2 members``).
+    value : callable
+        ``value(v)``: a value given (``repr``; a configuration's ``true (a boolean)``).
+    """
 
     key: Callable[[str], str] = str
+    input: Callable[[str], str] = lambda signal: f"names[0] = {signal!r}"
+    arch: Callable[[ModelClass], str] = lambda mc: mc.class_name
+    samples: Callable[[int], str] = lambda n: f"{n} samples"
+    members: Callable[[int], str] = lambda k: f"{k} members"
+    value: Callable[[object], str] = repr
 
 
 #: The names of the estimators' arguments (:meth:`ModelClass.check` by default).
@@ -147,9 +177,11 @@ class Hyper:
             return f"an integer in {lo}{int(self.lo or 0)}, {int(self.hi or 0)}{hi}"
         return f"a number in {lo}{self.lo:g}, {self.hi:g}{hi}"
 
-    def check(self, value: Any, where: str | None = None) -> Any:
+    def check(self, value: Any, where: str | None = None,
+              shown: Callable[[object], str] = repr) -> Any:
         """``value`` if it lies in the domain (ints as int, floats as float), else
-        :class:`ROMError` naming ``where`` (default: the name).
+        :class:`ROMError` naming ``where`` (default: the name) and the value as ``shown``
+        says it.
 
         Raises
         ------
@@ -157,53 +189,55 @@ class Hyper:
             A value of the wrong type or outside the bounds.
         """
         where = self.name if where is None else where
+        bad = ROMError(f"{where} must be {self.domain()}, got {shown(value)}")
         if self.kind == "choice":
             if value not in self.choices:
-                raise ROMError(f"{where} must be {self.domain()}, got {value!r}")
+                raise bad
             return value
         if self.kind == "delays":
-            return _delays_value(value, where, int(self.hi or MAX_DELAY))
+            return _delays_value(value, where, int(self.hi or MAX_DELAY), shown)
         if self.kind == "int":
             try:
                 v: float = operator.index(value)  # ints and NumPy integers, not floats
             except TypeError:
-                raise ROMError(f"{where} must be {self.domain()}, got {value!r}") from None
+                raise bad from None
             if isinstance(value, bool):
-                raise ROMError(f"{where} must be {self.domain()}, got {value!r}")
+                raise bad
         else:
             if isinstance(value, bool) or not isinstance(value, int | float) and \
                     not hasattr(value, "__float__"):
-                raise ROMError(f"{where} must be {self.domain()}, got {value!r}")
+                raise bad
             v = float(value)
             if not math.isfinite(v):
-                raise ROMError(f"{where} must be {self.domain()}, got {value!r}")
+                raise bad
         lo, hi = self.lo, self.hi
         if lo is not None and (v < lo or (self.lo_open and v == lo)):
-            raise ROMError(f"{where} must be {self.domain()}, got {value!r}")
+            raise bad
         if hi is not None and (v > hi or (self.hi_open and v == hi)):
-            raise ROMError(f"{where} must be {self.domain()}, got {value!r}")
+            raise bad
         return int(v) if self.kind == "int" else v
 
 
-def _delays_value(value: Any, where: str, top: int) -> int | list[int]:
+def _delays_value(value: Any, where: str, top: int,
+                  shown: Callable[[object], str] = repr) -> int | list[int]:
     if isinstance(value, bool):
-        raise ROMError(f"{where} must be an integer >= 1 or a list of delays, got {value!r}")
+        raise ROMError(f"{where} must be an integer >= 1 or a list of delays, got {shown(value)}")
     try:
         n = operator.index(value)
     except TypeError:
         pass
     else:
         if not 1 <= n <= top:
-            raise ROMError(f"{where} must be an integer in [1, {top}], got {value!r}")
+            raise ROMError(f"{where} must be an integer in [1, {top}], got {shown(value)}")
         return int(n)
     try:
         d = [operator.index(x) for x in value]
     except TypeError:
         raise ROMError(f"{where} must be an integer >= 1 or a list of delays, got "
-                       f"{value!r}") from None
+                       f"{shown(value)}") from None
     if not d or min(d) < 1 or max(d) > top or len(set(d)) != len(d) \
             or any(isinstance(x, bool) for x in value):
-        raise ROMError(f"{where} must be distinct integers in [1, {top}], got {value!r}")
+        raise ROMError(f"{where} must be distinct integers in [1, {top}], got {shown(value)}")
     return [int(x) for x in d]
 
 
@@ -280,7 +314,7 @@ class ModelClass:
         ``history(hyper) -> int``: samples of past record a prediction reads (a validation
         record must be longer).
     min_samples : callable
-        ``min_samples(hyper) -> int``: the fewest training samples (:meth:`check`).
+        ``min_samples(hyper) -> int``: the fewest training samples (read by :meth:`check`).
     start_history : callable
         ``start_history(hyper) -> int``: samples of measured input and output a start from
         history reads beyond ``history`` (an NOE's fed-back outputs, a linear model's order);
@@ -292,8 +326,9 @@ class ModelClass:
     recipe : mapping
         Its passive recipe: the terms' weights on a velocity in m/s and a force in N.
     recipe_needs : callable, optional
-        ``recipe_needs(hyper) -> str or None``: what the loss terms need that this
-        configuration lacks (e.g. ``"trainer 'adam'"``), None when they can train it.
+        ``recipe_needs(hyper) -> (name, value) or None``: the hyperparameter value the loss
+        terms need that this configuration lacks (``("trainer", "adam")``), None when they
+        can train it.
     format_version : int
         The model-file format version its files are written with.
     read_versions : tuple of int
@@ -312,7 +347,9 @@ class ModelClass:
         every parameter).
     weights_text : callable, optional
         ``weights_text(hyper) -> str``: the weights' count in words, for a message (e.g.
-        ``"35 neurons x 70 regressor entries"``); default: the label's parameters.
+        ``"35 neurons x 70 regressor entries"``); default: none.
+    width_text : str
+        What :attr:`width` counts, for a message (``"delays + output delays"``).
     relations : callable, optional
         ``relations(hyper, naming)``: the rules between its hyperparameters beyond their
         domains (:class:`ROMError` naming them by ``naming``), e.g. an LSS's block rows above
@@ -357,7 +394,7 @@ class ModelClass:
     start_history: Callable[[Mapping[str, Any]], int] = lambda h: 0
     loss_terms: tuple[str, ...] = ()
     recipe: Mapping[str, float] = field(default_factory=dict)
-    recipe_needs: Callable[[Mapping[str, Any]], str | None] = lambda h: None
+    recipe_needs: Callable[[Mapping[str, Any]], tuple[str, str] | None] = lambda h: None
     format_version: int = 1
     read_versions: tuple[int, ...] = ()
     exports: frozenset[str] = frozenset()
@@ -365,6 +402,7 @@ class ModelClass:
     sizes: tuple[str, ...] = ()
     weights: Callable[[Mapping[str, Any]], int] | None = None
     weights_text: Callable[[Mapping[str, Any]], str] | None = None
+    width_text: str = "its state and input"
     relations: Callable[[Mapping[str, Any], Naming], None] | None = None
     ensemble: bool = True
     paper: bool = False
@@ -444,6 +482,108 @@ class ModelClass:
                 f"{work * ew.seconds / 60:.0f} min per epoch at the measured "
                 f"{ew.seconds * 1e9:.0f} ns each on 2 cores; the limit is about "
                 f"{ew.limit * ew.seconds / 60:.0f} min): lower one of them")
+
+    def check(self, values: Mapping[str, object], *, n_samples: int | None = None,
+              input: str = "velocity", members: int = 1, training: bool = True,
+              naming: Naming = ARGUMENTS) -> dict[str, Any]:
+        """The rules of the class, in one place: ``values`` checked, every hyperparameter by
+        name with the defaults filled in.
+
+        The estimator's ``fit``, the command line and the settings call this (the last two
+        naming values by their options and keys, ``naming``), so that a configuration one of
+        them accepts the others accept too. Always: each value in its domain (a size left
+        to the record, None or absent, is the size rule's for ``n_samples`` samples, else
+        its default), the class's rules between values (:attr:`relations`) and the signal
+        it reads. For a training (``training``): a model file holds ``members`` models of
+        them, the loss terms have what they need (:attr:`recipe_needs`, a velocity input),
+        one epoch's work is within its bound (:meth:`epoch_cost`) and a record of
+        ``n_samples`` samples is long enough (:attr:`min_samples`).
+
+        Parameters
+        ----------
+        values : mapping
+            Hyperparameters by name (a missing one takes its default).
+        n_samples : int, optional
+            Samples of the training record (None: not known yet).
+        input : {"velocity", "acceleration"}
+            The tank signal the model reads.
+        members : int
+            Models of these hyperparameters in one file (an ensemble's members).
+        training : bool
+            Check the rules of a training too (not for a model read from a file).
+        naming : Naming
+            How a message names a value.
+
+        Raises
+        ------
+        ROMError
+            The first rule broken, naming the values at fault.
+        """
+        key = naming.key
+        names = [h.name for h in self.hyper]
+        unknown = [k for k in values if k not in names]
+        if unknown:
+            raise ROMError(f"{self.class_name} has no hyperparameter {unknown[0]!r} (valid: "
+                           f"{', '.join(names)})")
+        given = {k: v for k, v in values.items()
+                 if not (v is None and k in self.sized_by_record)}
+        # the user's sizes first: the size rule reads them
+        sized = {k: int(self.hyper_named(k).check(given[k], key(k), naming.value))
+                 for k in self.sized_by_record if k in given}
+        left = n_samples is not None and len(sized) < len(self.sized_by_record)
+        chosen = self.size(n_samples, sized) if left and n_samples is not None else {}
+        h = {p.name: p.check(given.get(p.name, chosen.get(p.name, p.default)), key(p.name),
+                             naming.value)
+             for p in self.hyper}
+        if self.relations is not None:
+            self.relations(h, naming)
+        if input not in self.inputs:
+            readers = " or ".join(naming.arch(mc) for mc in CLASSES.values()
+                                  if input in mc.inputs)
+            raise ROMError(f"{naming.input(input)}: an {self.class_name} takes the tank "
+                           f"{' or '.join(self.inputs)}"
+                           + (f"; the {input} needs {readers}" if readers else ""))
+        if not training:
+            return h
+        self._check_capacity(h, members, naming)
+        needs = self.recipe_needs(h)
+        for k in self.loss_terms:
+            if h[k] > 0 and needs is not None:
+                name, value = needs
+                raise ROMError(f"{key(k)} > 0 needs {key(name)} {value!r}, got {h[name]!r}: "
+                               f"set {key(k)} to 0 or {key(name)} to {value!r}")
+            if h[k] > 0 and input != "velocity":
+                # the weights, probes and cycle energies are written for the power F v
+                raise ROMError(f"{key(k)} > 0 needs a velocity input: the term is written for "
+                               f"the power F v; set it to 0 for a model on the {input} (the "
+                               "plain MSE)")
+        cost = self.epoch_cost(h, key)
+        if cost:  # each value bounded alone lets their product run for hours per epoch
+            raise ROMError(cost)
+        if n_samples is not None:
+            need = self.min_samples(h)
+            if n_samples < need:
+                raise ROMError(f"{naming.samples(n_samples)} are too few for {self.label(h)} "
+                               f"(training needs at least {need})")
+        return h
+
+    def _check_capacity(self, h: Mapping[str, object], members: int, naming: Naming) -> None:
+        """A model file holds ``members`` models of ``h``: their regressor (each step's
+        entries) and their weights are within its limits."""
+        width = self.width(h)
+        if width > MAX_REGRESSOR:
+            raise ROMError(f"{self.label(h)} reads {width} entries at each step "
+                           f"({self.width_text}), more than {MAX_REGRESSOR}, the most a model "
+                           "file holds")
+        w = self.file_weights(h)
+        if members * w > MAX_WEIGHTS:
+            each = " each" if members > 1 else ""
+            text = "" if self.weights_text is None else f" ({self.weights_text(h)}{each})"
+            who = (f"{naming.members(members)} of {self.label(h)} have {members} x {w} ="
+                   if members > 1 else f"{self.label(h)} has")
+            raise ROMError(f"{who} {members * w} weights{text}, more than {MAX_WEIGHTS} "
+                           "(32 MiB), the most a model file holds: "
+                           f"{'fewer members or ' if members > 1 else ''}a smaller model")
 
     def hyper_named(self, name: str) -> Hyper:
         """The hyperparameter ``name``; :class:`ROMError` listing the valid ones."""
@@ -653,39 +793,21 @@ def model_class(name: str, what: str = "--arch") -> ModelClass:
     raise ROMError(f"{what} must be one of {', '.join(CLASSES)}, got {name!r}")
 
 
+def paper_class() -> ModelClass:
+    """The class of the paper's ROM (its selection, Fig. 10): the first registered class of
+    the paper (:attr:`ModelClass.paper`)."""
+    return next(mc for mc in CLASSES.values() if mc.paper)
+
+
+def packages() -> tuple[str, ...]:
+    """The packages of the registered entries (``sloshrom.rom.nss``), in :data:`ENTRIES`'
+    order."""
+    return tuple(dict.fromkeys(line.split(":")[0].rsplit(".", 1)[0] for line in ENTRIES))
+
+
 def model_class_of_file(class_name: str) -> ModelClass | None:
     """The class a model file's ``"class"`` names, None for another."""
     return next((mc for mc in CLASSES.values() if mc.class_name == class_name), None)
-
-
-def check_hyperparameters(mc: ModelClass, values: Mapping[str, Any],
-                          where: Callable[[Hyper], str] | None = None) -> dict[str, Any]:
-    """``values`` checked against ``mc``'s domains, defaults filled in, by name.
-
-    Parameters
-    ----------
-    mc : ModelClass
-    values : mapping
-        Hyperparameters by name; a missing one takes its default.
-    where : callable, optional
-        ``where(hyper) -> str``: how a message names a value (default: its name; the command
-        line passes the option, the settings the key).
-
-    Raises
-    ------
-    ROMError
-        An unknown name, or the first value outside its domain, named.
-    """
-    names = {h.name for h in mc.hyper}
-    unknown = [k for k in values if k not in names]
-    if unknown:
-        raise ROMError(f"{mc.class_name} has no hyperparameter {unknown[0]!r} (valid: "
-                       f"{', '.join(h.name for h in mc.hyper)})")
-    out = {}
-    for h in mc.hyper:
-        v = values.get(h.name, h.default)
-        out[h.name] = h.check(v, None if where is None else where(h))
-    return out
 
 
 # -- hyperparameters shared by several classes: one definition each --------------------------
@@ -728,8 +850,8 @@ def required(h: Hyper) -> Hyper:
     return replace(h, file_default=_REQUIRED)
 
 
-def adam_only(h: Mapping[str, Any]) -> str | None:
-    """The loss terms' need of a class with a ``trainer``: ``"trainer 'adam'"`` unless it is
-    Adam (:attr:`ModelClass.recipe_needs`)."""
-    return None if h.get("trainer", "adam") == "adam" else "trainer 'adam'"
+def adam_only(h: Mapping[str, Any]) -> tuple[str, str] | None:
+    """The loss terms' need of a class with a ``trainer``: ``("trainer", "adam")`` unless it
+    is Adam (:attr:`ModelClass.recipe_needs`)."""
+    return None if h.get("trainer", "adam") == "adam" else ("trainer", "adam")
 

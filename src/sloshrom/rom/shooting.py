@@ -89,7 +89,7 @@ class Recurrence:
     history_run: Callable[[PyTree, np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class ShootingOptions:
     """The multiple-shooting recipe of a recurrent class (its estimator's hyperparameters).
 
@@ -124,18 +124,19 @@ class ShootingOptions:
         oscillation's velocity, a motion no shaker record holds.
     """
 
-    horizon: int = 200
-    batch: int = 128
-    max_epochs: int = 60
-    steps_per_epoch: int = 200
-    learning_rate: float = 3e-3
+    # the recipe's values: each class's own, from its registry entry (no default here)
+    horizon: int
+    batch: int
+    max_epochs: int
+    steps_per_epoch: int
+    learning_rate: float
     amplitude_weighting: float = 0.0
     passivity: float = 0.0
     cycle_energy: float = 0.0
     frequency_band: tuple[float, float] = (0.0, math.inf)
     probes_per_step: int = 24
-    velocity_offset: float = 0.0
-    weight_decay: float = 0.0
+    velocity_offset: float
+    weight_decay: float
 
 
 def adam_optimizer(options: ShootingOptions) -> optax.GradientTransformation:
@@ -157,8 +158,8 @@ def shooting_problem(
     y: np.ndarray,
     fs: float,
     scaler: MinMaxScaler,
-    validation: tuple[np.ndarray, np.ndarray] | None = None,
-    options: ShootingOptions = ShootingOptions(),
+    validation: tuple[np.ndarray, np.ndarray] | None,
+    options: ShootingOptions,
     validation_history: int = 0,
 ) -> AdamProblem:
     """The multiple-shooting problem of a recurrent class for the training engine

@@ -12,7 +12,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from sloshrom.rom.registry import Hyper, ModelClass
+from sloshrom.rom.errors import ROMError
+from sloshrom.rom.registry import Hyper, ModelClass, Naming
 
 __all__ = ["LSS_CLASS", "lss_min_samples"]
 
@@ -26,6 +27,13 @@ def lss_min_samples(h: Mapping[str, Any]) -> int:
     """The fewest training samples: the block Hankel matrices need 2 i samples per column and
     8 i columns (i block rows)."""
     return 10 * int(h["block_rows"]) - 1
+
+
+def _relations(h: Mapping[str, Any], naming: Naming) -> None:
+    if h["block_rows"] <= h["n_states"]:
+        raise ROMError(f"{naming.key('block_rows')} ({h['block_rows']}) must be more than "
+                       f"{naming.key('n_states')} ({h['n_states']}): the Hankel matrices must "
+                       "see the whole state")
 
 
 LSS_CLASS = ModelClass(
@@ -45,7 +53,7 @@ LSS_CLASS = ModelClass(
     min_samples=lss_min_samples,
     start_history=lambda h: int(h["n_states"]),
     format_version=4, exports=frozenset({"fmu"}), width=lambda h: int(h["n_states"]),
-    sizes=("n_states",), ensemble=False,
+    sizes=("n_states",), ensemble=False, relations=_relations,
     report="the best linear model of the records (N4SID refined on its simulation error): "
            "what any nonlinear ROM buys is measured against it.",
 )

@@ -25,14 +25,16 @@ import numpy as np
 
 from sloshrom.models import model_input
 from sloshrom.rom.base import Estimator, checked_history, checked_records, record_envelope
-from sloshrom.rom.errors import ROMError
 from sloshrom.rom.lss.core import lss_history_run, lss_simulate, n4sid, pem_refine
 from sloshrom.rom.lss.entry import LSS_CLASS
 from sloshrom.rom.network import FittedNetwork, MinMaxScaler
-from sloshrom.rom.registry import ModelClass, check_hyperparameters
+from sloshrom.rom.registry import ModelClass
 from sloshrom.signals import power_band
 
 __all__ = ["LSS", "LinearSpec", "LinearStateSpace"]
+
+#: The hyperparameters by default: the registry entry's, the one place they are written
+_LSS = LSS_CLASS.defaults()
 
 
 @dataclass(frozen=True)
@@ -175,11 +177,11 @@ class LSS(Estimator):
 
     model_class = LSS_CLASS
 
-    def __init__(
+    def __init__(  # the defaults: its registry entry's
         self,
-        n_states: int = 8,
-        block_rows: int = 20,
-        max_epochs: int = 20,
+        n_states: int = _LSS["n_states"],
+        block_rows: int = _LSS["block_rows"],
+        max_epochs: int = _LSS["max_epochs"],
         units: Sequence[str] = ("m/s", "N"),
         names: Sequence[str] = ("velocity", "dynamic_force"),
     ) -> None:
@@ -190,14 +192,7 @@ class LSS(Estimator):
         self.names = names
 
     def _check_hyperparameters(self) -> LinearSpec:
-        h = check_hyperparameters(self.model_class, {
-            k: getattr(self, k) for k in ("n_states", "block_rows", "max_epochs")})
-        if h["block_rows"] <= h["n_states"]:
-            raise ROMError(f"block_rows ({h['block_rows']}) must be more than n_states "
-                           f"({h['n_states']}): the Hankel matrices must see the whole state")
-        if self.input != "velocity":
-            raise ROMError("an LSS takes the tank velocity (names[0] = 'velocity'), which the "
-                           "coupled beam hands it at the current sample")
+        h = self.model_class.check(self._arguments(), input=self.input, training=False)
         return LinearSpec(h["n_states"])
 
     def _model(self, params: Mapping[str, Any], scaler: MinMaxScaler, spec: Any,
@@ -249,10 +244,9 @@ class LSS(Estimator):
             A hyperparameter out of its domain, a bad record (shape, NaN, constant, too short)
             or sample rate.
         """
-        spec = self._check_hyperparameters()
-        hyper = self.get_params()
-        u, y, validation, fill = checked_records(u, y, fs, validation, fill,
-                                                 self.model_class.min_samples(hyper), 0)
+        # the class's rules (the fewest samples among them) before anything else
+        spec = LinearSpec(self.check_training(int(np.size(u)))["n_states"])
+        u, y, validation, fill = checked_records(u, y, fs, validation, fill, 0, 0)
         hv = checked_history(validation_history, validation, spec.n_states, "LSS")
         t0 = time.perf_counter()
         a, b, c, d = n4sid(u, y, spec.n_states, int(self.block_rows))

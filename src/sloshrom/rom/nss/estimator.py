@@ -10,7 +10,6 @@ as ``model_``; the rest (prediction, the step contract, the pytree, saving) is t
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -20,16 +19,18 @@ import numpy as np
 
 from sloshrom._x64 import float64
 from sloshrom.rom.base import Estimator, checked_history, checked_records, record_envelope
-from sloshrom.rom.errors import ModelSizeWarning, ROMError
+from sloshrom.rom.errors import ROMError
 from sloshrom.rom.network import MinMaxScaler
 from sloshrom.rom.nss.entry import NSS_CLASS, NSS_PARAM_NAMES
 from sloshrom.rom.nss.network import StateSpaceNetwork, StateSpaceSpec
 from sloshrom.rom.nss.training import fit_statespace
-from sloshrom.rom.registry import check_hyperparameters
 from sloshrom.rom.shooting import ShootingOptions
 from sloshrom.signals import power_band
 
 __all__ = ["NSS"]
+
+#: The hyperparameters by default: the registry entry's, the one place they are written
+_NSS = NSS_CLASS.defaults()
 
 
 @jax.tree_util.register_pytree_node_class
@@ -109,25 +110,25 @@ class NSS(Estimator):
 
     model_class = NSS_CLASS
 
-    def __init__(
+    def __init__(  # the defaults: its registry entry's (a size: None, the rule's)
         self,
         n_states: int | None = None,
         neurons: int | None = None,
         window: int | None = None,
         horizon: int | None = None,
-        batch: int = 128,
-        max_epochs: int = 60,
-        steps_per_epoch: int = 200,
-        learning_rate: float = 3e-3,
-        seed: int = 0,
+        batch: int = _NSS["batch"],
+        max_epochs: int = _NSS["max_epochs"],
+        steps_per_epoch: int = _NSS["steps_per_epoch"],
+        learning_rate: float = _NSS["learning_rate"],
+        seed: int = _NSS["seed"],
         units: Sequence[str] = ("m/s", "N"),
         names: Sequence[str] = ("velocity", "dynamic_force"),
-        amplitude_weighting: float = 0.0,
-        passivity: float = 0.0,
-        cycle_energy: float = 0.0,
-        feedthrough: str = "yes",
-        velocity_offset: float = 0.0,
-        weight_decay: float = 0.0,
+        amplitude_weighting: float = _NSS["amplitude_weighting"],
+        passivity: float = _NSS["passivity"],
+        cycle_energy: float = _NSS["cycle_energy"],
+        feedthrough: str = _NSS["feedthrough"],
+        velocity_offset: float = _NSS["velocity_offset"],
+        weight_decay: float = _NSS["weight_decay"],
     ) -> None:
         self.n_states = n_states
         self.neurons = neurons
@@ -151,16 +152,11 @@ class NSS(Estimator):
         """The values of the hyperparameters the rule may size (the registry's
         ``sized_by_record``): the user's, checked, and the others chosen by the rule for a
         training record of ``n_samples`` samples (None: their defaults, a long record's)."""
-        mc = self.model_class
-        given = {}
-        for k in mc.sized_by_record:
-            v = getattr(self, k)
-            if v is not None:
-                # the user's values checked first: the rule reads them
-                given[k] = int(mc.hyper_named(k).check(v))
-        if n_samples is None:
-            return {k: int(mc.hyper_named(k).default) for k in mc.sized_by_record} | given
-        return {**given, **mc.size(n_samples, given)}
+        h = self.model_class.check(self._sizes_given(), n_samples=n_samples, training=False)
+        return {k: int(h[k]) for k in self.model_class.sized_by_record}
+
+    def _sizes_given(self) -> dict[str, object]:
+        return {k: getattr(self, k) for k in self.model_class.sized_by_record}
 
     def _chosen_sizes(self) -> dict[str, int]:
         sizes = {**self._sizes(), **getattr(self, "sized_", {})}
@@ -173,14 +169,12 @@ class NSS(Estimator):
         return {k: v for k, v in sizes.items() if getattr(self, k) is None}
 
     def _check_hyperparameters(self, n_samples: int | None = None) -> StateSpaceSpec:
-        mc = self.model_class
-        h = check_hyperparameters(mc, {**{x.name: getattr(self, x.name) for x in mc.hyper},
-                                       **self._sizes(n_samples)})
-        if self.input != "velocity":
-            # the coupled beam hands a model the acceleration of the previous step: a state
-            # driven by it would run one sample behind its training
-            raise ROMError("an NSS takes the tank velocity (names[0] = 'velocity'); a network "
-                           "on the acceleration is an NFIR")
+        # n_samples: the architecture of a training record of that length (its size rule's)
+        return self._spec(self.model_class.check(self._arguments(), n_samples=n_samples,
+                                                 input=self.input, training=False))
+
+    @staticmethod
+    def _spec(h: dict[str, Any]) -> StateSpaceSpec:
         return StateSpaceSpec(h["n_states"], h["neurons"], h["window"],
                               proper=h["feedthrough"] == "no")
 
@@ -242,21 +236,18 @@ class NSS(Estimator):
             A hyperparameter out of its domain, a bad record (shape, NaN, constant, too short)
             or sample rate.
         """
+        # the class's rules (the fewest samples among them) and the sizes left to the record
         n_samples = int(np.size(u))
-        spec = self._check_hyperparameters(n_samples)
-        sz = self._sizes(n_samples)
-        u, y, validation, fill = checked_records(
-            u, y, fs, validation, fill, spec.window + sz["horizon"] + 1, spec.window)
-        hv = checked_history(validation_history, validation, spec.window, "NSS")
+        h = self.check_training(n_samples)
+        spec = self._spec(h)
+        mc = self.model_class
+        sz = {k: int(h[k]) for k in mc.sized_by_record}
+        u, y, validation, fill = checked_records(u, y, fs, validation, fill, 0, spec.window)
+        hv = checked_history(validation_history, validation, spec.window, mc.class_name)
         if (self.passivity > 0 or self.cycle_energy > 0) and not (u.min() < 0.0 < u.max()):
             raise ROMError(f"the input {self.names[0]!r} does not oscillate about rest: "
                            "passivity and cycle_energy judge the energy of a motion about rest")
-        mc = self.model_class
         chosen = {k: sz[k] for k in mc.sized_by_record if getattr(self, k) is None}
-        too_big = mc.oversize(sz, n_samples)
-        if too_big is not None:
-            # only a size the user gave can be too big: the rule's is the reference
-            warnings.warn(too_big, ModelSizeWarning, stacklevel=3)
         scaler = MinMaxScaler.fit(u, y)
         band = power_band(u, fs)
         probe_band = power_band(u, fs, 0.001, 0.999)

@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
+from dataclasses import fields
 from typing import Any
 
 import jax
@@ -30,6 +31,7 @@ from sloshrom.rom.engine import AdamProblem, adam_epochs
 from sloshrom.rom.errors import ROMError
 from sloshrom.rom.losses import TRAIN_DTYPE
 from sloshrom.rom.network import MinMaxScaler
+from sloshrom.rom.nss.entry import NSS_CLASS, nss_min_samples
 from sloshrom.rom.nss.network import (
     StateSpaceSpec,
     param_shapes,
@@ -44,8 +46,11 @@ from sloshrom.rom.shooting import shooting_problem as shooting
 
 __all__ = ["NSS_SHOOTING", "fit_statespace", "init_params", "shooting_problem"]
 
-#: The state-space ROM's multiple-shooting recipe by default (its estimator passes its own)
-NSS_SHOOTING = ShootingOptions()
+#: The state-space ROM's multiple-shooting recipe by default (its estimator passes its own):
+#: its entry's defaults
+NSS_SHOOTING = ShootingOptions(**{f.name: NSS_CLASS.defaults()[f.name]
+                                  for f in fields(ShootingOptions)
+                                  if f.name in NSS_CLASS.defaults()})
 
 
 def init_params(spec: StateSpaceSpec, seed: int) -> dict[str, np.ndarray]:
@@ -92,9 +97,10 @@ def shooting_problem(
     :data:`~sloshrom.rom.tdnn.training.TRAIN_DTYPE`.
     """
     n, w, T = np.size(u), spec.window, int(options.horizon)
-    if n < w + T + 1:
+    need = nss_min_samples({"window": w, "horizon": T})
+    if n < need:
         raise ROMError(f"{n} samples are too few for an encoder window of {w} and a horizon "
-                       f"of {T} samples (need at least {w + T + 1})")
+                       f"of {T} samples (need at least {need})")
     ru, ry = float(scaler.u(0.0)), float(scaler.y(0.0))
     f32 = TRAIN_DTYPE
     u_s = jnp.asarray(scaler.u(np.asarray(u, dtype=np.float64)), f32)

@@ -27,7 +27,7 @@ from sloshrom.rom.registry import (
     neurons,
 )
 
-__all__ = ["NFIR_CLASS", "NOE_CLASS", "PARAM_NAMES", "check_delays"]
+__all__ = ["NFIR_CLASS", "NOE_CLASS", "PARAM_NAMES", "check_delays", "shooting_samples"]
 
 
 def check_delays(delays: int | Sequence[int], name: str = "delays") -> tuple[int, ...]:
@@ -78,11 +78,22 @@ def _rbf_weights(h: Mapping[str, Any]) -> int:
     return int(h["neurons"]) * _rbf_width(h)
 
 
+def shooting_samples(horizon: int) -> int:
+    """The fewest samples of a multiple-shooting training (an NOE's by Adam): one sub-sequence,
+    ``horizon`` samples after the sample it starts from."""
+    return int(horizon) + 1
+
+
 def _min_samples(h: Mapping[str, Any]) -> int:
     """The fewest training samples of a time-delay network: the delay lines and two samples
-    per hundred parameters."""
+    per hundred parameters; an NOE trained by Adam (multiple shooting) also one sub-sequence
+    (:func:`shooting_samples`)."""
     n_params = sum(math.prod(s) for s in _rbf_shapes(h).values())
-    return _max_delay(h) + int(h.get("out_delays", 0)) + 2 * n_params // 100 + 10
+    need = _max_delay(h) + int(h.get("out_delays", 0)) + 2 * n_params // 100 + 10
+    if "horizon" in h and h.get("trainer") == "adam":
+        need = max(need, shooting_samples(h["horizon"]))
+    return need
+
 
 
 NFIR_CLASS = ModelClass(
@@ -102,6 +113,8 @@ NFIR_CLASS = ModelClass(
     recipe={"amplitude_weighting": 0.05, "passivity": 1.0, "cycle_energy": 0.1},
     recipe_needs=adam_only, format_version=1, exports=frozenset({"fmu", "onnx"}),
     width=_rbf_width, weights=_rbf_weights, sizes=("neurons", "delays"),
+    weights_text=lambda h: f"{int(h['neurons'])} neurons x {_rbf_width(h)} regressor entries",
+    width_text="delays + output delays",
     paper=True, report="the paper's class, a network of the last samples of the tank velocity.",
     sweep=((50, 60, 70), (5, 10, 15, 20, 25, 30, 35, 40)),
 )
@@ -133,6 +146,8 @@ NOE_CLASS = ModelClass(
     loss_terms=LOSS_TERMS, recipe=dict.fromkeys(LOSS_TERMS, 0.0), recipe_needs=adam_only,
     format_version=1, exports=frozenset({"fmu", "onnx"}), width=_rbf_width,
     weights=_rbf_weights, sizes=("neurons", "delays", "out_delays"),
+    weights_text=lambda h: f"{int(h['neurons'])} neurons x {_rbf_width(h)} regressor entries",
+    width_text="delays + output delays",
     paper=True,
     report="the paper's recurrent class, a network of the last samples of the tank velocity "
            "and of its own last outputs.",

@@ -47,9 +47,7 @@ import numpy as np
 from sloshrom._x64 import float64
 from sloshrom.rom.base import Estimator, checked_history, checked_records, record_envelope
 from sloshrom.rom.errors import ROMError
-from sloshrom.rom.modelfile import check_file_limits
 from sloshrom.rom.network import MinMaxScaler
-from sloshrom.rom.registry import LOSS_TERMS, check_hyperparameters
 from sloshrom.rom.tdnn import training
 from sloshrom.rom.tdnn.entry import NFIR_CLASS, NOE_CLASS, check_delays
 from sloshrom.rom.tdnn.network import (
@@ -63,6 +61,10 @@ from sloshrom.rom.tdnn.network import (
 from sloshrom.signals import power_band
 
 __all__ = ["NFIR", "NOE", "TimeDelayEstimator"]
+
+#: Each class's hyperparameters by default: its registry entry's, the one place they are written
+_NFIR = NFIR_CLASS.defaults()
+_NOE = NOE_CLASS.defaults()
 
 
 
@@ -86,37 +88,26 @@ class TimeDelayEstimator(Estimator):
     cycle_energy: float = 0.0
 
     def _check_hyperparameters(self) -> NetworkSpec:
-        """Validate the constructor arguments (the domains of the class's registry entry, then
-        the rules between them); the network architecture they give.
+        """Validate the constructor arguments (the rules of the class's registry entry that
+        do not depend on a training); the network architecture they give.
 
         Raises
         ------
         ROMError
             The first argument out of its domain, named.
         """
-        mc = self.model_class
-        h = check_hyperparameters(mc, {x.name: getattr(self, x.name) for x in mc.hyper})
-        why_not = mc.recipe_needs(h)
-        for name in LOSS_TERMS:
-            if h[name] > 0 and why_not:
-                raise ROMError(f"{name} > 0 needs {why_not}, got trainer={h['trainer']!r}")
-            if h[name] > 0 and self.input == "acceleration":
-                # the weights, probes and cycle energies are written for the power F v of a
-                # velocity input
-                raise ROMError(f"{name} > 0 needs a velocity input; set it to 0 for a network "
-                               "on the tank acceleration")
-        if self.input not in mc.inputs:
-            raise ROMError(f"an {mc.class_name} takes the tank {' or '.join(mc.inputs)}; a "
-                           "network on the acceleration is an NFIR")
+        return self._spec(self.model_class.check(self._arguments(), input=self.input,
+                                                 training=False))
+
+    def _spec(self, h: dict[str, Any]) -> NetworkSpec:
+        """The architecture of checked hyperparameters ``h``, once the input's unit is the
+        acceleration's (for a network on it)."""
         # spelled out rather than io.same_unit: importing io would pull xarray into the ROMs
         if self.input == "acceleration" and \
                 str(self.units[0]).replace(" ", "").replace("^", "") != "m/s2":
             raise ROMError(f"the input 'acceleration' is in m/s^2, got units {self.units[0]!r}")
-        spec = NetworkSpec(self.arch, check_delays(h["delays"]), h["neurons"], h["hidden"],
+        return NetworkSpec(self.arch, check_delays(h["delays"]), h["neurons"], h["hidden"],
                            h.get("out_delays", 0))
-        # a network no model file can hold is refused before training, not when saved
-        check_file_limits(spec.max_delay, spec.neurons, spec.n_inputs)
-        return spec
 
     def _model(self, params: Any, scaler: MinMaxScaler, spec: Any, fs: float) -> Network:
         return self._network(dict(params), scaler, spec, self.input, fs,
@@ -186,9 +177,9 @@ class TimeDelayEstimator(Estimator):
             Levenberg-Marquardt stopped at mu_max: no step lowered the training error (why, and
             what to try: ``history_["stop_message"]``).
         """
-        spec = self._check_hyperparameters()
-        u, y, validation, fill = checked_records(u, y, fs, validation, fill,
-                                                  self._fewest_samples(spec), spec.max_delay)
+        # the class's rules (the fewest samples among them) before anything else
+        spec = self._spec(self.check_training(int(np.size(u))))
+        u, y, validation, fill = checked_records(u, y, fs, validation, fill, 0, spec.max_delay)
         hv = checked_history(validation_history, validation,
                              max(spec.max_delay, spec.out_delays), type(self).__name__)
         if (self.passivity > 0 or self.cycle_energy > 0) and not (u.min() < 0.0 < u.max()):
@@ -220,10 +211,6 @@ class TimeDelayEstimator(Estimator):
         self.envelope_ = record_envelope(u, fs, scaler, band, self.input, fill)
         self.history_ = history
         return self
-
-    def _fewest_samples(self, spec: NetworkSpec) -> int:
-        """Fewest training samples: the delay line and two samples per hundred parameters."""
-        return spec.max_delay + spec.out_delays + 2 * spec.n_params // 100 + 10
 
     def _trainer_options(self) -> dict[str, Any]:
         """Options of :func:`sloshrom.rom.tdnn.training.train` beyond the common ones (the NOE's
@@ -285,19 +272,19 @@ class NFIR(TimeDelayEstimator):
     model_class = NFIR_CLASS
     _network = NFIRNetwork
 
-    def __init__(
+    def __init__(  # the defaults: its registry entry's
         self,
-        delays: int | Sequence[int] = 70,
-        neurons: int = 35,
-        hidden: str = "matlab",
-        max_epochs: int = 1000,
-        seed: int = 0,
-        trainer: str = "adam",
+        delays: int | Sequence[int] = _NFIR["delays"],
+        neurons: int = _NFIR["neurons"],
+        hidden: str = _NFIR["hidden"],
+        max_epochs: int = _NFIR["max_epochs"],
+        seed: int = _NFIR["seed"],
+        trainer: str = _NFIR["trainer"],
         units: Sequence[str] = ("m/s", "N"),
         names: Sequence[str] = ("velocity", "dynamic_force"),
-        amplitude_weighting: float = 0.0,
-        passivity: float = 0.0,
-        cycle_energy: float = 0.0,
+        amplitude_weighting: float = _NFIR["amplitude_weighting"],
+        passivity: float = _NFIR["passivity"],
+        cycle_energy: float = _NFIR["cycle_energy"],
     ) -> None:
         self.delays = delays
         self.neurons = neurons
@@ -359,25 +346,25 @@ class NOE(TimeDelayEstimator):
     model_class = NOE_CLASS
     _network = NOENetwork
 
-    def __init__(
+    def __init__(  # the defaults: its registry entry's
         self,
-        delays: int | Sequence[int] = 2,
-        neurons: int = 10,
-        hidden: str = "matlab",
-        max_epochs: int = 1000,
-        seed: int = 0,
-        trainer: str = "lm",
-        out_delays: int = 2,
-        unstable_bound: float = 10.0,
+        delays: int | Sequence[int] = _NOE["delays"],
+        neurons: int = _NOE["neurons"],
+        hidden: str = _NOE["hidden"],
+        max_epochs: int = _NOE["max_epochs"],
+        seed: int = _NOE["seed"],
+        trainer: str = _NOE["trainer"],
+        out_delays: int = _NOE["out_delays"],
+        unstable_bound: float = _NOE["unstable_bound"],
         units: Sequence[str] = ("m/s", "N"),
         names: Sequence[str] = ("velocity", "dynamic_force"),
-        amplitude_weighting: float = 0.0,
-        passivity: float = 0.0,
-        cycle_energy: float = 0.0,
-        horizon: int = 300,
-        batch: int = 128,
-        steps_per_epoch: int = 200,
-        learning_rate: float = 3e-3,
+        amplitude_weighting: float = _NOE["amplitude_weighting"],
+        passivity: float = _NOE["passivity"],
+        cycle_energy: float = _NOE["cycle_energy"],
+        horizon: int = _NOE["horizon"],
+        batch: int = _NOE["batch"],
+        steps_per_epoch: int = _NOE["steps_per_epoch"],
+        learning_rate: float = _NOE["learning_rate"],
     ) -> None:
         self.delays = delays
         self.neurons = neurons
@@ -396,11 +383,6 @@ class NOE(TimeDelayEstimator):
         self.batch = batch
         self.steps_per_epoch = steps_per_epoch
         self.learning_rate = learning_rate
-
-    def _fewest_samples(self, spec: NetworkSpec) -> int:
-        # multiple shooting also needs one sub-sequence of `horizon` samples
-        n = super()._fewest_samples(spec)
-        return max(n, int(self.horizon) + 1) if self.trainer == "adam" else n
 
     def _trainer_options(self) -> dict[str, Any]:
         if self.trainer != "adam":

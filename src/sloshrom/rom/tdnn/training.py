@@ -81,8 +81,10 @@ from sloshrom.rom.losses import (
     window_energy_weights,
 )
 from sloshrom.rom.network import MinMaxScaler
+from sloshrom.rom.registry import model_class
 from sloshrom.rom.shooting import PyTree, Recurrence, ShootingOptions
 from sloshrom.rom.shooting import shooting_problem as shooting
+from sloshrom.rom.tdnn.entry import NOE_CLASS, shooting_samples
 from sloshrom.rom.tdnn.network import (
     NetworkSpec,
     hidden_activations,
@@ -133,8 +135,13 @@ __all__ = [
 ]
 
 FAST_MAX_ROWS = 16384
-#: The NOE's multiple-shooting recipe by default (its estimator passes its own)
-NOE_SHOOTING = ShootingOptions(horizon=300, max_epochs=40)
+#: The NOE's hyperparameters by default (its registry entry's)
+_NOE = NOE_CLASS.defaults()
+#: The NOE's multiple-shooting recipe by default (its estimator passes its own): its entry's,
+#: 40 epochs, and neither a Galilean augmentation nor a weight decay (options of the NSS)
+NOE_SHOOTING = ShootingOptions(**{k: _NOE[k] for k in ("horizon", "batch", "steps_per_epoch",
+                                                       "learning_rate")},
+                               max_epochs=40, velocity_offset=0.0, weight_decay=0.0)
 CHUNK = 4096
 
 
@@ -631,9 +638,9 @@ def noe_shooting_problem(
     d = np.asarray(delays)
     dmax, m, T = int(d.max()), int(out_delays), int(options.horizon)
     n = np.size(u)
-    if n < T + 1:
+    if n < shooting_samples(T):
         raise ROMError(f"{n} samples are too few for a horizon of {T} samples "
-                       f"(need at least {T + 1})")
+                       f"(need at least {shooting_samples(T)})")
     sc = scaler
     ru, ry = float(sc.u(0.0)), float(sc.y(0.0))
     f32 = TRAIN_DTYPE
@@ -789,10 +796,10 @@ def train(
     passivity: float = 0.0,
     frequency_band: tuple[float, float] | None = None,
     cycle_energy: float = 0.0,
-    horizon: int = 300,
-    batch: int = 128,
-    steps_per_epoch: int = 200,
-    learning_rate: float = 3e-3,
+    horizon: int = _NOE["horizon"],
+    batch: int = _NOE["batch"],
+    steps_per_epoch: int = _NOE["steps_per_epoch"],
+    learning_rate: float = _NOE["learning_rate"],
     validation_history: int = 0,
 ) -> tuple[np.ndarray, dict[str, Any]]:
     """Train the network ``spec`` on a record (physical units, scaled here by ``scaler``).
@@ -865,9 +872,15 @@ def train(
     delays, h, hidden, out_delays = spec.delays, spec.neurons, spec.hidden, spec.out_delays
     if trainer not in TRAINERS:
         raise ROMError(f"trainer must be 'fast', 'lm' or 'adam', got {trainer!r}")
+    # the class's rules (what its loss terms need among them), as its estimator's fit
+    mc = model_class(spec.arch)
+    given = {"delays": list(delays), "neurons": h, "hidden": hidden, "trainer": trainer,
+             "out_delays": out_delays, "amplitude_weighting": amplitude_weighting,
+             "passivity": passivity, "cycle_energy": cycle_energy, "horizon": horizon,
+             "batch": batch, "steps_per_epoch": steps_per_epoch,
+             "learning_rate": learning_rate}
+    mc.check({k: v for k, v in given.items() if any(p.name == k for p in mc.hyper)})
     physics = amplitude_weighting > 0 or passivity > 0 or cycle_energy > 0
-    if physics and trainer != "adam":
-        raise ROMError("amplitude_weighting, passivity and cycle_energy need trainer 'adam'")
     if physics and not (fs is not None and fs > 0):
         raise ROMError("amplitude_weighting, passivity and cycle_energy need the sample rate fs")
     n = u_s.size
@@ -895,7 +908,8 @@ def train(
             horizon=int(horizon), batch=int(batch), max_epochs=int(max_epochs),
             steps_per_epoch=int(steps_per_epoch), learning_rate=float(learning_rate),
             amplitude_weighting=float(amplitude_weighting), passivity=float(passivity),
-            cycle_energy=float(cycle_energy), frequency_band=band)
+            cycle_energy=float(cycle_energy), frequency_band=band, velocity_offset=0.0,
+            weight_decay=0.0)
         res = adam_noe(u, y, float(fs) if fs is not None else 1.0, sc, theta0, delays,
                        out_delays, h, hidden, validation, options,
                        bound=float(unstable_bound), seed=int(seed), callback=callback,
