@@ -66,6 +66,7 @@ ENTRIES: tuple[str, ...] = (
     "sloshrom.rom.tdnn.entry:NOE_CLASS",
     "sloshrom.rom.nss.entry:NSS_CLASS",
     "sloshrom.rom.lss.entry:LSS_CLASS",
+    "sloshrom.rom.grey.entry:GREY_CLASS",
     "sloshrom.rom.ball.entry:BALL_FILES",
 )
 

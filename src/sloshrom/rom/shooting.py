@@ -77,6 +77,13 @@ class Recurrence:
         ``history_run(params, u_past, y_past, u) -> y``: the scaled run (float64, NumPy) of
         ``u`` started from the measured history ``u_past``/``y_past`` (scaled, oldest first):
         a validation record that does not start at rest.
+    features : callable, optional
+        ``features(v) -> phi``: inputs beside the input that the class computes from it by a
+        fixed causal map (a grey box's physics): from physical input records ``v`` ``(B, n)``
+        the scaled features ``(B, n, m)``. With it, ``simulate`` receives ``(B, T, 1 + m)``:
+        the scaled input (shifted by the augmentation) and the features of each sample,
+        computed once for the training record and the probes (the augmentation's shift does
+        not reach them: they must not depend on the input's uniform offset).
     """
 
     offset: int
@@ -87,6 +94,7 @@ class Recurrence:
     free_run: Callable[[PyTree, np.ndarray], np.ndarray]
     bound: float = 10.0
     history_run: Callable[[PyTree, np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None
+    features: Callable[[np.ndarray], np.ndarray] | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -215,13 +223,22 @@ def shooting_problem(
     pw = jnp.asarray(probes.weight if probes is not None else np.zeros((1, T)), f32)
 
     # a physical velocity offset in scaled units (the scaling is affine)
-    shift_scale = float(sc.u(1.0) - sc.u(0.0)) * float(o.velocity_offset)
+    unit = float(sc.u(1.0) - sc.u(0.0))
+    shift_scale = unit * float(o.velocity_offset)
+    feats = None
+    if rec.features is not None:
+        # the features beside the input, once: the record's, and the probes' (from rest)
+        feats = jnp.asarray(rec.features(u[None])[0], f32)
+        pv = (np.asarray(pu, dtype=np.float64) - float(sc.u(0.0))) / unit
+        pu = jnp.concatenate([pu[..., None], jnp.asarray(rec.features(pv), f32)], axis=-1)
 
     def loss(p: PyTree, starts: jax.Array, pidx: jax.Array,
              shift: jax.Array) -> tuple[jax.Array, jax.Array]:
         state = rec.start(p, starts, shift)
         fut = starts[:, None] + off + jnp.arange(T)[None, :]
         uf = u_s[fut] + shift[:, None]
+        if feats is not None:
+            uf = jnp.concatenate([uf[..., None], feats[fut]], axis=-1)
         if n_probe:
             # the probes run from rest in the same batch
             state = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a, b]), state,
