@@ -22,7 +22,7 @@ import typer
 
 from sloshrom.cli._app import app, check_input, check_number, check_out, fail
 from sloshrom.cli.progress import progress_bars
-from sloshrom.config import FILL_TOLERANCE
+from sloshrom.config import FILL_TOLERANCE, Tank
 from sloshrom.errors import SloshromError
 from sloshrom.io import STANDARD_UNITS, Record, read_record, same_unit, write_record
 from sloshrom.limits import (
@@ -312,6 +312,9 @@ def _train(**kw: Any) -> None:
     if recipe:
         for k in mc.loss_terms:
             values.setdefault(k, choice.terms.get(k, 0.0))
+    # a class scaled by the tank (a grey box's column) takes the record's tank where it has one
+    tank_attrs = rec.attrs.get("tank")
+    values = mc.with_tank(values, Tank.from_dict(dict(tank_attrs)) if tank_attrs else None)
     try:
         model = mc.estimator_class()(**values, units=units, names=(input_name, output_name))
         with warnings.catch_warnings(record=True) as caught:

@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from sloshrom.config import Tank
 from sloshrom.energy import frame_sensitivity
 from sloshrom.fidelity import point_errors
 from sloshrom.io import read_record
@@ -167,11 +168,14 @@ def recipe_text(terms: Mapping[str, float], name: str, arch: str = "nfir") -> st
             "the maps.")
 
 
-def estimator(cfg: RomTable, arch: str | None = None) -> Any:
+def estimator(cfg: RomTable, arch: str | None = None, tank: Tank | None = None) -> Any:
     """The unfitted estimator of class ``arch`` (default: the configured one) as its table
-    ``[rom.<arch>]`` and ``rom.seed`` say (:mod:`sloshrom.rom.registry`)."""
+    ``[rom.<arch>]`` and ``rom.seed`` say (:mod:`sloshrom.rom.registry`), its tank's
+    quantities left at 0 taken from ``tank``
+    (:meth:`~sloshrom.rom.registry.ModelClass.with_tank`)."""
     arch = cfg.arch if arch is None else arch
-    return CLASSES[arch].estimator_class()(**cfg.hyper(arch))
+    mc = CLASSES[arch]
+    return mc.estimator_class()(**mc.with_tank(cfg.hyper(arch), tank))
 
 
 def _median_after_compile(history: dict[str, Any], key: str) -> float | None:
@@ -261,7 +265,8 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
     fill = train.attrs.get("fill")  # the model refuses other fills (sloshrom.rom.family)
     k_members = int(cfg.ensemble)
     recipe = recipe_text(cfg.loss_terms(), name, cfg.arch)
-    model, name, train_seconds = _train(ctx, estimator(cfg), name, epochs, k_members,
+    model, name, train_seconds = _train(ctx, estimator(cfg, tank=ctx.tank), name, epochs,
+                                        k_members,
                                         int(cfg.ensemble_workers), records, train.fs, fill)
     ctx.progress("rom", 1, 1, "validation")
     path = ctx.path("models", f"{cfg.arch}.npz")
@@ -305,7 +310,7 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
         # another class on the same records, as its own table says, for the report to set
         # beside the ROM (the paper's NFIR, the best linear model)
         hyper = cfg.hyper(arch)
-        other, other_name, seconds = _train(ctx, estimator(cfg, arch), cfg.name(arch),
+        other, other_name, seconds = _train(ctx, estimator(cfg, arch, ctx.tank), cfg.name(arch),
                                             int(hyper.get("max_epochs", 0)), 1, 1, records,
                                             train.fs, fill)
         other_path = ctx.path("models", f"{arch}.npz")

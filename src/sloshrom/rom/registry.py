@@ -380,6 +380,11 @@ class ModelClass:
     sweep_first : bool
         Its grid points train longest (a recurrent network's Levenberg-Marquardt): a sweep
         starts them first, so that its workers finish together.
+    tank_scales : tuple of str
+        Hyperparameters that are the tank's quantity of the same name (an attribute of
+        :class:`~sloshrom.config.Tank`, e.g. ``liquid_mass``): 0 means "the tank's", which
+        ``reproduce`` takes from its ``[tank]`` and ``train`` from the record's tank
+        (:meth:`with_tank`).
     """
 
     name: str
@@ -414,6 +419,7 @@ class ModelClass:
     epoch_work: EpochWork | None = None
     sweep: tuple[tuple[int, ...], tuple[int, ...]] | tuple[()] = ()
     sweep_first: bool = False
+    tank_scales: tuple[str, ...] = ()
 
     def size(self, n_samples: int, given: Mapping[str, int]) -> dict[str, int]:
         """The values the size rule chooses for a training record of ``n_samples`` samples:
@@ -593,6 +599,17 @@ class ModelClass:
                 return h
         raise ROMError(f"{self.class_name} has no hyperparameter {name!r} (valid: "
                        f"{', '.join(h.name for h in self.hyper)})")
+
+    def with_tank(self, hyper: Mapping[str, Any], tank: Any) -> dict[str, Any]:
+        """``hyper`` with each of :attr:`tank_scales` left at 0 (or absent) set to ``tank``'s
+        quantity of that name; ``tank`` None leaves them (the estimator's own fallback)."""
+        out = dict(hyper)
+        if tank is None:
+            return out
+        for k in self.tank_scales:
+            if not out.get(k):
+                out[k] = float(getattr(tank, k))
+        return out
 
     def defaults(self) -> dict[str, Any]:
         """Every hyperparameter's default by name (the one place they are written)."""

@@ -133,6 +133,7 @@ GREY_CLASS = ModelClass(
            "force the structure feels\").",
     epoch_work=EpochWork(("steps_per_epoch", "batch", ("window", "horizon"), "neurons"),
                          MAX_EPOCH_WORK, EPOCH_WORK_SECONDS),
+    tank_scales=("liquid_mass", "ullage"),
 )
 
 #: The arrays of a grey-box ROM, in file order.
