@@ -94,7 +94,7 @@ def random_force_figure(levels: Sequence[float], fs: float,
             fr, p = welch_psd(x, fs, nperseg=min(NPERSEG, x.size))
             keep = (fr > 0) & (fr <= F_MAX)
             axes[i, 0].semilogy(fr[keep], p[keep], color=colors.get(case), lw=0.8, label=case)
-            pk = np.sort(-x[impact_peaks(x, fs, thr)])
+            pk = np.sort(impact_peaks(x, fs, thr)[1])
             if pk.size:
                 axes[i, 2].plot(pk, 1.0 - np.arange(pk.size) / pk.size, color=colors.get(case),
                                 lw=0.9, drawstyle="steps-post",

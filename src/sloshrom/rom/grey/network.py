@@ -39,7 +39,7 @@ from sloshrom._x64 import float64
 from sloshrom.models import model_input
 from sloshrom.rom.errors import ROMError
 from sloshrom.rom.grey.entry import GREY_CLASS
-from sloshrom.rom.grey.physics import PHYS_NAMES, grey_features, physics_rest, physics_step
+from sloshrom.rom.grey.physics import PHYS_NAMES, grey_features, physics_step
 from sloshrom.rom.network import FittedNetwork, MinMaxScaler
 from sloshrom.rom.nss.network import ss_encode
 from sloshrom.rom.registry import ModelClass
@@ -208,8 +208,11 @@ class GreyBoxNetwork(FittedNetwork):
         """The rest state: the column at rest and the network's state at zero (NumPy float64:
         the precision of the caller's JAX configuration once traced)."""
         s = self.spec
-        ps = tuple(np.asarray(a) for a in physics_rest((), s.n_balls, s.n_substeps, s.n_past,
-                                                        np.float64))
+        zb = np.zeros(s.n_balls)
+        z = np.zeros(())
+        # NumPy, not JAX: the coupled beam calls this inside its traced function
+        ps = (zb, zb.copy(), np.ones(s.n_balls), z, z.copy(), z.copy(), z.copy(),
+              np.zeros((s.n_past - 1) * s.n_substeps), np.zeros(4))
         return ps, np.zeros(s.n_states)
 
     def step(self, state: Any, velocity: Any, acceleration: Any = None) -> tuple[Any, Any]:
