@@ -208,8 +208,10 @@ class GreyBoxNetwork(FittedNetwork):
         """The rest state: the column at rest and the network's state at zero (NumPy float64:
         the precision of the caller's JAX configuration once traced)."""
         s = self.spec
-        ps = tuple(np.asarray(a) for a in physics_rest((), s.n_balls, s.n_substeps, s.n_past,
-                                                        np.float64))
+        # concrete arrays even when called inside a trace (the coupled beam's jit)
+        with jax.ensure_compile_time_eval():
+            ps = tuple(np.asarray(a) for a in physics_rest((), s.n_balls, s.n_substeps,
+                                                            s.n_past, np.float64))
         return ps, np.zeros(s.n_states)
 
     def step(self, state: Any, velocity: Any, acceleration: Any = None) -> tuple[Any, Any]:
