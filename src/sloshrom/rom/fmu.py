@@ -145,13 +145,15 @@ def _refusal(model: Any) -> str:
 def check_fmu_exportable(model: Any) -> list[FittedNetwork]:
     """The networks of ``model`` if it can be exported, else :class:`ROMError` saying why.
 
-    Exportable: a fitted NFIR, NOE or NSS, or an ensemble of them, mapping the tank velocity
-    (m/s) or, for a network on it, the tank acceleration (m/s^2) to the dynamic force (N).
+    Exportable: a fitted model of a class that lists ``"fmu"`` among its exports (NFIR, NOE,
+    NSS, LSS, the grey box), or an ensemble of them, mapping the tank velocity (m/s) or, for a
+    network on it, the tank acceleration (m/s^2) to the dynamic force (N).
 
     Raises
     ------
     ROMError
-        An unfitted model, a fill family or blend, the bouncing ball, a model of other units.
+        An unfitted model, a fill family or blend, the bouncing ball, a model of other units,
+        a class that does not export to an FMU (with its note on why, if it has one).
     """
     nets = _networks(model)
     kind = input_of(model)
@@ -162,7 +164,9 @@ def check_fmu_exportable(model: Any) -> list[FittedNetwork]:
                        "it on records converted to SI (Record.to_si)")
     for net in nets:
         if "fmu" not in net.model_class.exports:
-            raise ROMError(f"an {net.model_class.class_name} cannot be exported to an FMU")
+            note = net.model_class.export_notes.get("fmu")
+            raise ROMError(f"the {net.describe()} cannot be exported to an FMU"
+                           + (f": {note}" if note is not None else ""))
         if net.input != kind:
             raise ROMError("the ensemble's members read different signals")
     return nets
