@@ -337,6 +337,10 @@ class ModelClass:
         take their ``file_default``).
     exports : frozenset of str
         The formats it exports to (``"fmu"``, ``"onnx"``).
+    export_notes : mapping
+        ``{format: why not}`` for formats it does not export to: the exporter's refusal says
+        it (a clause, e.g. ``"its column is a sub-stepped simulation ..."``); a format without a
+        note gets the exporter's general reason.
     width : callable
         ``width(hyper) -> int``: entries of the vector its maps read at each step (a
         time-delay network's regressor, a state-space model's state and input): a model file
@@ -404,6 +408,7 @@ class ModelClass:
     format_version: int = 1
     read_versions: tuple[int, ...] = ()
     exports: frozenset[str] = frozenset()
+    export_notes: Mapping[str, str] = field(default_factory=dict)
     width: Callable[[Mapping[str, Any]], int] = lambda h: 1
     sizes: tuple[str, ...] = ()
     weights: Callable[[Mapping[str, Any]], int] | None = None
@@ -727,6 +732,10 @@ def _add(entry: object, where: str) -> None:
         return
     if not isinstance(entry, ModelClass):
         raise ROMError(f"{where} is not a ModelClass or a FileKind, got {type(entry).__name__}")
+    both = sorted(set(entry.export_notes) & entry.exports)
+    if both:
+        raise ROMError(f"{where}: {entry.class_name} exports to {both[0]!r} and has a note on why "
+                       "it does not (export_notes are for the formats it does not list)")
     for mc in _classes.values():
         if entry.name in (mc.name, mc.class_name) or entry.class_name in (mc.name,
                                                                           mc.class_name):

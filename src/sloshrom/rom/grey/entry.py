@@ -120,7 +120,14 @@ GREY_CLASS = ModelClass(
     min_samples=grey_min_samples,
     loss_terms=LOSS_TERMS,
     recipe={"amplitude_weighting": 0.0, "passivity": 1.0, "cycle_energy": 0.1},
-    format_version=1, exports=frozenset(),
+    format_version=1, exports=frozenset({"fmu"}),
+    export_notes={"onnx": (
+        "its column is a sub-stepped simulation with contacts and a release gate: each step "
+        "runs three sample intervals of sub-steps whose branches (a ball released, in contact "
+        "with the floor or the lid, landed) turn on the column's state, which the ONNX "
+        "exporter's graphs (an RBF network over a delay line) do not express. Export it as an "
+        "FMU (`sloshrom export fmu`: the column and the network in C) or run it through "
+        "sloshrom")},
     width=lambda h: int(h["n_states"]) + 1 + _N_FEATURES,
     sizes=("neurons", "n_states", "window"),
     report="a grey box: a physical model of the impacts (the liquid that takes part in them as "

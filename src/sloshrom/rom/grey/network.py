@@ -36,10 +36,11 @@ import numpy as np
 from jax import lax
 
 from sloshrom._x64 import float64
+from sloshrom.config import G
 from sloshrom.models import model_input
 from sloshrom.rom.errors import ROMError
 from sloshrom.rom.grey.entry import GREY_CLASS
-from sloshrom.rom.grey.physics import PHYS_NAMES, grey_features, physics_step
+from sloshrom.rom.grey.physics import COHERENCE_TIME, PHYS_NAMES, grey_features, physics_step
 from sloshrom.rom.network import FittedNetwork, MinMaxScaler
 from sloshrom.rom.nss.network import ss_encode
 from sloshrom.rom.registry import ModelClass
@@ -193,13 +194,17 @@ class GreyBoxNetwork(FittedNetwork):
                                             strict=True)}
 
     def fmu_member(self) -> tuple[str, dict[str, np.ndarray], dict[str, float | int | str]]:
-        """The FMU's C data of this model: member kind, arrays and constants."""
+        """The FMU's C data of this model: member kind, arrays and constants (the column's
+        step reads the sample rate, gravity and the coherence factor's time constant as
+        :meth:`step` does; the scaler's bounds, which give the features' scale, are every
+        member's)."""
         p = {k: np.asarray(v, dtype=np.float64) for k, v in self.params.items()}
         s = self.spec
         return ("SL_GREY", {k: p[k] for k in ("A", "W1", "b1", "W2", "C", "V1", "d1", "V2",
                                                "physics", "taps")},
                 {"hidden": "SL_HIDDEN_MATLAB", "n_states": s.n_states, "neurons": s.neurons,
-                 "n_balls": s.n_balls, "n_substeps": s.n_substeps, "n_past": s.n_past})
+                 "n_balls": s.n_balls, "n_substeps": s.n_substeps, "n_past": s.n_past,
+                 "fs": float(self.fs), "g": float(G), "coherence_time": float(COHERENCE_TIME)})
 
     def _half(self) -> Any:
         return self.scaler.out_half_range
