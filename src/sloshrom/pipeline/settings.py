@@ -99,7 +99,8 @@ __all__ = [
 QUICK: dict[str, dict[str, Any]] = {
     "data": {"train_duration": 120.0, "validation_duration": 60.0, "design": "shaker"},
     "rom": {"ensemble": 2, "nfir": {"delays": 40, "neurons": 15, "max_epochs": 60},
-            "nss": {"max_epochs": 4}},
+            "nss": {"max_epochs": 4},
+            "grey": {"max_epochs": 2, "physics_generations": 4, "physics_windows": 8}},
     "map": {"n_omega": 10, "n_a": 8},
     "beam": {"free_duration": 6.0, "random_duration": 70.0},
 }

@@ -157,7 +157,9 @@ def fit_physics(
     evaluations = [0]
 
     def phys_of(x: np.ndarray) -> np.ndarray:
-        return physical_parameters(*x, liquid_mass=liquid_mass, ullage=ullage)
+        v = [float(a) for a in x]
+        return physical_parameters(v[0], v[1], v[2], v[3], v[4], v[5], v[6],
+                                   liquid_mass=liquid_mass, ullage=ullage)
 
     def objective(xs: np.ndarray) -> np.ndarray:
         xs = np.asarray(xs).T  # vectorised: (candidates, variables)
@@ -225,13 +227,13 @@ def shooting_problem(
     fs: float,
     scaler: MinMaxScaler,
     params0: Mapping[str, np.ndarray],
-    validation: tuple[np.ndarray, np.ndarray] | None = None,
-    options: ShootingOptions | None = None,
+    validation: tuple[np.ndarray, np.ndarray] | None,
+    options: ShootingOptions,
     validation_history: int = 0,
 ) -> AdamProblem:
     """The network's multiple-shooting problem on the column's features (the physics fixed:
     its parameters are carried, not trained). Call it inside ``jax.enable_x64(True)``."""
-    o = options if options is not None else ShootingOptions()
+    o = options
     n, w, t = np.size(u), spec.window, int(o.horizon)
     ru, ry = float(scaler.u(0.0)), float(scaler.y(0.0))
     half = float(scaler.out_half_range)
@@ -289,8 +291,8 @@ def fit_greybox(
     scaler: MinMaxScaler,
     physics: np.ndarray,
     taps: np.ndarray,
-    validation: tuple[np.ndarray, np.ndarray] | None = None,
-    options: ShootingOptions | None = None,
+    validation: tuple[np.ndarray, np.ndarray] | None,
+    options: ShootingOptions,
     *,
     max_fail: int = 6,
     seed: int = 0,
@@ -307,7 +309,7 @@ def fit_greybox(
     history : dict
         As :func:`sloshrom.rom.nss.training.fit_statespace`'s.
     """
-    o = options if options is not None else ShootingOptions()
+    o = options
     params0 = init_params(spec, seed, physics, taps)
     t0 = time.perf_counter()
     if int(o.max_epochs) == 0:
