@@ -140,9 +140,8 @@ def test_physics_identifies_itself():
     assert phys[4] == pytest.approx(truth[4], rel=0.15)  # gate rate
     assert phys[5] == pytest.approx(truth[5], rel=0.25)  # gate relaxation
     assert phys[0] == pytest.approx(truth[0], rel=0.3)  # mass
-    for k, v in hist["variables"].items():
-        lo, hi = PHYSICS_BOUNDS[k]
-        assert lo <= v <= hi
+    for k, (lo, hi) in PHYSICS_BOUNDS.items():
+        assert lo <= hist[k] <= hi
 
 
 @pytest.fixture(scope="module")

@@ -9,7 +9,6 @@ Each function returns ``{file stem: Figure}``; the stems are the result files' n
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -118,8 +117,8 @@ def random_force_figure(levels: Sequence[float], fs: float,
     return {"force_statistics_random": fig}
 
 
-def force_figures(free: Mapping[str, Mapping[str, Any]] | None,
-                  random: Mapping[str, Mapping[str, Any]] | None, levels: Sequence[float],
+def force_figures(free: Mapping[str, Mapping[str, np.ndarray]] | None,
+                  random: Mapping[str, Mapping[str, np.ndarray]] | None, levels: Sequence[float],
                   fs: float, free_figures: Mapping[str, Mapping[str, float]] | None = None
                   ) -> dict[str, Figure]:
     """Both figures from the beam stage's results (case -> result of ``beam.coupled``), those

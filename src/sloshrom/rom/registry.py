@@ -605,7 +605,7 @@ class ModelClass:
         raise ROMError(f"{self.class_name} has no hyperparameter {name!r} (valid: "
                        f"{', '.join(h.name for h in self.hyper)})")
 
-    def with_tank(self, hyper: Mapping[str, Any], tank: Any) -> dict[str, Any]:
+    def with_tank(self, hyper: Mapping[str, object], tank: object) -> dict[str, object]:
         """``hyper`` with each of :attr:`tank_scales` left at 0 (or absent) set to ``tank``'s
         quantity of that name; ``tank`` None leaves them (the estimator's own fallback)."""
         out = dict(hyper)

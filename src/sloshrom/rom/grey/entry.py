@@ -12,7 +12,6 @@ model in :mod:`sloshrom.rom.grey.network`, its identification in
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
 
 from sloshrom.limits import MAX_DELAY, MAX_EPOCHS
 from sloshrom.rom.nss.entry import EPOCH_WORK_SECONDS, MAX_EPOCH_WORK, MAX_STATES
@@ -36,7 +35,7 @@ N_PHYS = 7
 _N_FEATURES = 4
 
 
-def grey_shapes(h: Mapping[str, Any]) -> dict[str, tuple[int, ...]]:
+def grey_shapes(h: Mapping[str, int | float | str]) -> dict[str, tuple[int, ...]]:
     """Every array of a grey-box ROM: the network's state map ``A``, ``W1``, ``b1``, ``W2``
     (on the state, the input and the column's features), output map ``C``, ``V1``, ``d1``,
     ``V2`` (on the state and the features), encoder ``E1``, ``e1``, ``E2``; the column's
@@ -51,7 +50,7 @@ def grey_shapes(h: Mapping[str, Any]) -> dict[str, tuple[int, ...]]:
             "physics": (N_PHYS,), "taps": (taps,)}
 
 
-def grey_min_samples(h: Mapping[str, Any]) -> int:
+def grey_min_samples(h: Mapping[str, int | float | str]) -> int:
     """The fewest training samples: the network's encoder window and horizon (as an NSS's),
     and at least 2 s of the column's search windows at 500 Hz."""
     return max(int(h["window"]) + int(h["horizon"]) + 1, 1000)

@@ -12,11 +12,11 @@ rules, :meth:`sloshrom.rom.registry.ModelClass.check`), identifies the column
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
-from typing import Any
+from collections.abc import Callable, Mapping, Sequence
 
 import jax
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sloshrom._x64 import float64
 from sloshrom.config import Tank
@@ -156,11 +156,11 @@ class GreyBox(Estimator):
         return self._spec(self.check_training())
 
     @staticmethod
-    def _spec(h: dict[str, Any]) -> GreySpec:
+    def _spec(h: Mapping[str, int | float | str]) -> GreySpec:
         return GreySpec(int(h["n_states"]), int(h["neurons"]), int(h["window"]),
                         int(h["n_balls"]), int(h["n_substeps"]), int(h["n_past"]))
 
-    def _model(self, params: Any, scaler: MinMaxScaler, spec: Any,
+    def _model(self, params: Mapping[str, np.ndarray], scaler: MinMaxScaler, spec: GreySpec,
                fs: float) -> GreyBoxNetwork:
         return GreyBoxNetwork(dict(params), scaler, spec, self.input, fs)
 
@@ -181,11 +181,11 @@ class GreyBox(Estimator):
     @float64
     def fit(
         self,
-        u: Any,
-        y: Any,
+        u: ArrayLike,
+        y: ArrayLike,
         fs: float,
-        validation: tuple[Any, Any] | None = None,
-        callback: Callable[..., Any] | None = None,
+        validation: tuple[ArrayLike, ArrayLike] | None = None,
+        callback: Callable[[int, dict[str, float]], bool | None] | None = None,
         *,
         fill: float | None = None,
         validation_history: int = 0,
@@ -254,10 +254,9 @@ class GreyBox(Estimator):
             weight_decay=float(self.weight_decay))
         params, history = fit_greybox(spec, u, y, float(fs), scaler, physics, taps, validation,
                                       options, seed=int(self.seed), callback=callback)
-        history["search"] = {**phys_history.pop("variables"), **phys_history,
-                             "liquid_mass": mass, "ullage": ullage}
+        history["search"] = {**phys_history, "liquid_mass": mass, "ullage": ullage}
         history["train_seconds"] = time.perf_counter() - t0
-        self.model_ = GreyBoxNetwork(params, scaler, spec, self.input, float(fs))
+        self.model_ = GreyBoxNetwork(dict(params), scaler, spec, self.input, float(fs))
         self.envelope_ = record_envelope(u, fs, scaler, band, self.input, fill)
         self.history_ = history
         return self

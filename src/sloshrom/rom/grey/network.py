@@ -28,19 +28,25 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import partial
-from typing import Any
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jax import lax
+from numpy.typing import ArrayLike
 
 from sloshrom._x64 import float64
 from sloshrom.config import G
 from sloshrom.models import model_input
 from sloshrom.rom.errors import ROMError
 from sloshrom.rom.grey.entry import GREY_CLASS
-from sloshrom.rom.grey.physics import COHERENCE_TIME, PHYS_NAMES, grey_features, physics_step
+from sloshrom.rom.grey.physics import (
+    COHERENCE_TIME,
+    PHYS_NAMES,
+    PhysicsState,
+    grey_features,
+    physics_step,
+)
 from sloshrom.rom.network import FittedNetwork, MinMaxScaler
 from sloshrom.rom.nss.network import ss_encode
 from sloshrom.rom.registry import ModelClass
@@ -50,6 +56,11 @@ __all__ = ["N_FEATURES", "GreyBoxNetwork", "GreySpec", "grey_output", "grey_run"
 
 #: Features of the physical part the network reads.
 N_FEATURES = 4
+#: The network's parameters by name (arrays; the physics' among them, read by the step).
+Params = Mapping[str, jax.Array | np.ndarray]
+#: The model's state: the column's (:data:`~sloshrom.rom.grey.physics.PhysicsState`) and the
+#: network's state vector.
+GreyState = tuple[PhysicsState, jax.Array]
 
 
 @dataclass(frozen=True)
@@ -99,15 +110,15 @@ class GreySpec:
                 "n_balls": self.n_balls, "n_substeps": self.n_substeps, "n_past": self.n_past}
 
 
-def _f(p: Mapping[str, Any], z: Any) -> Any:
+def _f(p: Params, z: jax.Array) -> jax.Array:
     return z @ p["A"] + jnp.tanh(z @ p["W1"] + p["b1"]) @ p["W2"]
 
 
-def _h(p: Mapping[str, Any], o: Any) -> Any:
+def _h(p: Params, o: jax.Array) -> jax.Array:
     return o @ p["C"] + jnp.tanh(o @ p["V1"] + p["d1"]) @ p["V2"]
 
 
-def grey_output(p: Mapping[str, Any], x: Any, phi_s: Any, r_y: Any) -> Any:
+def grey_output(p: Params, x: jax.Array, phi_s: jax.Array, r_y: float | jax.Array) -> jax.Array:
     """The scaled output ``y_s`` (...) from the state ``x`` (..., nx) and the scaled features
     ``phi_s`` (..., 4)."""
     o = jnp.concatenate([x, phi_s], axis=-1)
@@ -115,7 +126,8 @@ def grey_output(p: Mapping[str, Any], x: Any, phi_s: Any, r_y: Any) -> Any:
     return r_y + phi_s[..., 0] + _h(p, o) - _h(p, zero)
 
 
-def grey_state_update(p: Mapping[str, Any], x: Any, du_s: Any, phi_s: Any) -> Any:
+def grey_state_update(p: Params, x: jax.Array, du_s: jax.Array, phi_s: jax.Array
+                      ) -> jax.Array:
     """``x_{k+1}`` from ``x_k`` (..., nx), the scaled input relative to rest ``du_s`` (...)
     and the scaled features (..., 4)."""
     z = jnp.concatenate([x, du_s[..., None], phi_s], axis=-1)
@@ -123,12 +135,13 @@ def grey_state_update(p: Mapping[str, Any], x: Any, du_s: Any, phi_s: Any) -> An
     return x + _f(p, z) - _f(p, zero)
 
 
-def grey_simulate(p: Mapping[str, Any], x0: Any, seq: Any, r_u: Any, r_y: Any) -> Any:
+def grey_simulate(p: Params, x0: jax.Array, seq: jax.Array, r_u: float | jax.Array,
+                  r_y: float | jax.Array) -> jax.Array:
     """The network over known features: ``seq`` (T, B, 1 + 4) holds the scaled input and the
     scaled features of each sample; returns the scaled outputs (T, B). Training runs this (the
     features precomputed from the record); the fitted model's step computes them as it goes."""
 
-    def body(x: Any, sk: Any) -> tuple[Any, Any]:
+    def body(x: jax.Array, sk: jax.Array) -> tuple[jax.Array, jax.Array]:
         phi = sk[..., 1:]
         y = grey_output(p, x, phi, r_y)
         return grey_state_update(p, x, sk[..., 0] - r_u, phi), y
@@ -137,7 +150,9 @@ def grey_simulate(p: Mapping[str, Any], x0: Any, seq: Any, r_u: Any, r_y: Any) -
 
 
 @jax.jit
-def grey_run(p: Mapping[str, Any], u_s: Any, phi_s: Any, x0: Any, r_u: Any, r_y: Any) -> Any:
+def grey_run(p: Params, u_s: jax.Array, phi_s: jax.Array, x0: jax.Array,
+             r_u: float | jax.Array,
+             r_y: float | jax.Array) -> jax.Array:
     """The network from the state ``x0`` (B, nx) over scaled inputs ``u_s`` (n, B) and scaled
     features ``phi_s`` (n, B, 4) (the column's, computed before); the scaled outputs (n, B)."""
     return grey_simulate(p, x0, jnp.concatenate([u_s[..., None], phi_s], axis=-1), r_u, r_y)
@@ -168,7 +183,7 @@ class GreyBoxNetwork(FittedNetwork):
         A run whose scaled output exceeds this magnitude (or is not finite) is unstable.
     """
 
-    params: dict[str, Any]
+    params: dict[str, jax.Array | np.ndarray]
     scaler: MinMaxScaler
     spec: GreySpec
     input: str = "velocity"
@@ -206,10 +221,10 @@ class GreyBoxNetwork(FittedNetwork):
                  "n_balls": s.n_balls, "n_substeps": s.n_substeps, "n_past": s.n_past,
                  "fs": float(self.fs), "g": float(G), "coherence_time": float(COHERENCE_TIME)})
 
-    def _half(self) -> Any:
+    def _half(self) -> float:
         return self.scaler.out_half_range
 
-    def init_state(self) -> Any:
+    def init_state(self) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
         """The rest state: the column at rest and the network's state at zero (NumPy float64:
         the precision of the caller's JAX configuration once traced)."""
         s = self.spec
@@ -220,7 +235,8 @@ class GreyBoxNetwork(FittedNetwork):
               np.zeros((s.n_past - 1) * s.n_substeps), np.zeros(4))
         return ps, np.zeros(s.n_states)
 
-    def step(self, state: Any, velocity: Any, acceleration: Any = None) -> tuple[Any, Any]:
+    def step(self, state: GreyState, velocity: ArrayLike, acceleration: ArrayLike | None = None
+             ) -> tuple[GreyState, jax.Array]:
         """One pure, jax-traceable step: ``(state, dynamic_force_k)`` from the velocity v_k
         (m/s). The force at k reads the state only (strictly proper): it is known before v_k
         is."""
@@ -230,12 +246,13 @@ class GreyBoxNetwork(FittedNetwork):
         phi = ps[-1] / self._half()
         y_s = grey_output(self.params, x, phi, ry)
         x = grey_state_update(self.params, x, self.scaler.u(v) - ru, phi)
-        ps = physics_step(self.params["physics"], self.params["taps"], ps, v, self.fs,
+        ps = physics_step(jnp.asarray(self.params["physics"]), jnp.asarray(self.params["taps"]),
+                          ps, v, self.fs,
                           self.spec.n_substeps, self.spec.n_past)
         return (ps, x), self.scaler.y_inverse(y_s)
 
     @float64
-    def free_run(self, u: Any) -> np.ndarray:
+    def free_run(self, u: ArrayLike) -> np.ndarray:
         """Free-run output from rest for an input record at ``fs`` (physical units).
 
         Parameters
@@ -292,7 +309,7 @@ class GreyBoxNetwork(FittedNetwork):
         return np.asarray(self.scaler.y_inverse(y_s))
 
     @float64
-    def encode(self, u_past: Any, y_past: Any) -> np.ndarray:
+    def encode(self, u_past: ArrayLike, y_past: ArrayLike) -> np.ndarray:
         """The network's state at the sample after measured history (physical units, oldest
         first); the physics starts at rest.
 

@@ -46,12 +46,13 @@ and C for the FMU (``rom/fmu_c/``). Parameter layout: :data:`PHYS_NAMES`.
 from __future__ import annotations
 
 import math
-from typing import Any
 
+import jax
 import jax.numpy as jnp
 import numba as nb
 import numpy as np
 from jax import lax
+from numpy.typing import ArrayLike
 
 from sloshrom._jit import njit
 from sloshrom.config import G
@@ -242,7 +243,7 @@ def physics_features(o: np.ndarray, taps: np.ndarray, n_past: int) -> np.ndarray
     return np.concatenate([(design_rows(o, n_past) @ taps)[:, None], means], axis=1)
 
 
-def interval_forces(phys: Any, u: np.ndarray, fs: float, n_balls: int,
+def interval_forces(phys: ArrayLike, u: np.ndarray, fs: float, n_balls: int,
                     n_substeps: int) -> np.ndarray:
     """:func:`causal_intervals` for one parameter set and one record: shape (n, 3, ns)."""
     return causal_intervals(np.asarray(phys, dtype=np.float64)[None], np.asarray(u)[None], fs,
@@ -299,11 +300,11 @@ def physical_parameters(beta: float, restitution: float, contact_hz: float, gap_
 #: (m/s^2) and the last velocity (m/s), each (...); the committed sub-step forces of the last
 #: ``n_past - 1`` intervals, newest first (..., (n_past - 1) * ns) (N); the features of the next
 #: output (..., 4) (N).
-PhysicsState = tuple[Any, Any, Any, Any, Any, Any, Any, Any, Any]
+PhysicsState = tuple[jax.Array, ...]
 
 
 def physics_rest(shape: tuple[int, ...], n_balls: int, n_substeps: int, n_past: int,
-                 dtype: Any = jnp.float64) -> PhysicsState:
+                 dtype: type[np.floating] = np.float64) -> PhysicsState:
     """The state at rest: every ball attached, gate closed, no force."""
     zb = jnp.zeros((*shape, n_balls), dtype)
     z = jnp.zeros(shape, dtype)
@@ -311,8 +312,8 @@ def physics_rest(shape: tuple[int, ...], n_balls: int, n_substeps: int, n_past: 
             jnp.zeros((*shape, (n_past - 1) * n_substeps), dtype), jnp.zeros((*shape, 4), dtype))
 
 
-def _interval_jax(z: Any, v: Any, att: Any, gate: Any, a: Any, phys: Any, h: float,
-                  n_sub: int) -> tuple[Any, Any, Any, Any, Any]:
+def _interval_jax(z: jax.Array, v: jax.Array, att: jax.Array, gate: jax.Array, a: jax.Array,
+                  phys: jax.Array, h: float, n_sub: int) -> tuple[jax.Array, ...]:
     """:func:`_interval` for arrays (balls on the last axis): returns the new balls and gate
     and the sub-step forces per unit ball mass (..., n_sub)."""
     n = z.shape[-1]
@@ -324,7 +325,9 @@ def _interval_jax(z: Any, v: Any, att: Any, gate: Any, a: Any, phys: Any, h: flo
     alpha = -geff[..., None]
     thresholds = (jnp.arange(n, dtype=z.dtype) + 0.5) / n
 
-    def sub(carry: tuple[Any, Any, Any, Any], _: Any) -> tuple[tuple[Any, Any, Any, Any], Any]:
+    Carry = tuple[jax.Array, jax.Array, jax.Array, jax.Array]
+
+    def sub(carry: Carry, _: None) -> tuple[Carry, jax.Array]:
         z, v, att, gate = carry
         gate = jnp.where(neg[..., 0], jnp.minimum(gate + sdot * h, 1.0), gate * decay)
         att = jnp.where((att > 0.0) & neg & (gate[..., None] >= thresholds), 0.0, att)
@@ -348,7 +351,7 @@ def _interval_jax(z: Any, v: Any, att: Any, gate: Any, a: Any, phys: Any, h: flo
     return z, v, att, gate, jnp.moveaxis(out, 0, -1)
 
 
-def physics_step(phys: Any, taps: Any, state: PhysicsState, u: Any, fs: float,
+def physics_step(phys: jax.Array, taps: jax.Array, state: PhysicsState, u: jax.Array, fs: float,
                  n_substeps: int, n_past: int) -> PhysicsState:
     """Advance the physical part with the velocity sample ``u`` (m/s, shape (...)): commit the
     interval ending now, predict the two after it, and compute the next output's features.

@@ -22,11 +22,11 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Mapping
-from typing import Any
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy import signal as sps
 from scipy.optimize import differential_evolution
 
@@ -113,7 +113,7 @@ def fit_physics(
     population: int = 8,
     windows: int = 32,
     seed: int = 0,
-) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+) -> tuple[np.ndarray, np.ndarray, dict[str, float]]:
     """Identify the column's physical parameters and its output filter (module docstring).
 
     Parameters
@@ -141,8 +141,8 @@ def fit_physics(
     taps : ndarray
         The output filter, fitted on the whole record.
     history : dict
-        ``variables`` (the search variables found, by name), ``objective``, ``generations``,
-        ``evaluations``, ``seconds``, ``windows``.
+        The search variables found, by name (:data:`PHYSICS_BOUNDS`), and ``objective``,
+        ``generations``, ``evaluations``, ``seconds``, ``windows``.
     """
     u = np.asarray(u, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
@@ -191,10 +191,10 @@ def fit_physics(
     o = causal_intervals(physics[None], u[None], fs, spec.n_balls, spec.n_substeps)[0, 0]
     skip = spec.n_past + 1
     taps = _least_squares(design_rows(o, spec.n_past)[skip:], y[skip:])
-    history = {"variables": {k: float(v) for k, v in zip(names, res.x, strict=True)},
-               "objective": float(res.fun), "generations": int(res.nit),
-               "evaluations": int(evaluations[0]), "seconds": time.perf_counter() - t0,
-               "windows": int(windows)}
+    history = {**{k: float(v) for k, v in zip(names, res.x, strict=True)},
+               "objective": float(res.fun), "generations": float(res.nit),
+               "evaluations": float(evaluations[0]), "seconds": time.perf_counter() - t0,
+               "windows": float(windows)}
     return physics, taps, history
 
 
@@ -216,7 +216,7 @@ def init_params(spec: GreySpec, seed: int, physics: np.ndarray, taps: np.ndarray
     return out
 
 
-def _as64(p: Mapping[str, Any]) -> dict[str, Any]:
+def _as64(p: Mapping[str, ArrayLike]) -> dict[str, jax.Array]:
     return {k: jnp.asarray(v, jnp.float64) for k, v in p.items()}
 
 
@@ -248,7 +248,7 @@ def shooting_problem(
         return grey_features(physics, taps, v, fs, spec.n_balls, spec.n_substeps,
                              spec.n_past) / half
 
-    def net(p: PyTree) -> dict[str, Any]:
+    def net(p: PyTree) -> dict[str, jax.Array]:
         # the physics is not trained: its arrays ride along unchanged
         return {**p, **fixed}
 
@@ -259,7 +259,7 @@ def shooting_problem(
     def simulate(p: PyTree, x0: jax.Array, seq: jax.Array) -> jax.Array:
         return grey_simulate(p, x0, jnp.swapaxes(seq, 0, 1), ru, ry).T
 
-    cache: dict[int, Any] = {}
+    cache: dict[int, tuple[np.ndarray, jax.Array]] = {}
 
     def free_run(p: PyTree, uv: np.ndarray) -> np.ndarray:
         # the validation record's features once (the physics does not train)
@@ -296,8 +296,8 @@ def fit_greybox(
     *,
     max_fail: int = 6,
     seed: int = 0,
-    callback: Callable[[int, dict], Any] | None = None,
-) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    callback: Callable[[int, dict[str, float]], bool | None] | None = None,
+) -> tuple[dict[str, np.ndarray], dict[str, object]]:
     """Train the network on the fixed column (module docstring); ``max_epochs = 0`` keeps the
     physics alone (the network's output at zero).
 
@@ -320,7 +320,7 @@ def fit_greybox(
     res = adam_epochs(problem, max_epochs=int(o.max_epochs), max_fail=max_fail,
                       min_epochs=int(o.max_epochs) // 2, rollback=10.0, seed=seed,
                       mse_scale=scaler.out_half_range**2, callback=callback)
-    history: dict[str, Any] = dict(res.history)
+    history: dict[str, object] = dict(res.history)
     history.update(stop_reason=res.stop_reason, best_epoch=res.best_epoch, trainer="shooting",
                    n_rows=int(np.size(u)), train_seconds=time.perf_counter() - t0)
     params = {k: np.asarray(v, dtype=np.float64) for k, v in res.params.items()}
