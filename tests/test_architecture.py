@@ -23,6 +23,7 @@ model it is, and no module raises a plain ``ValueError``. See ``docs/architectur
 from __future__ import annotations
 
 import ast
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -391,7 +392,9 @@ MODEL_CLASSES = {
 }
 #: Members by which a model says what kind of model it is.
 KIND_MEMBERS = {"input", "input_variable", "jax_traceable", "envelope_", "tank", "fill_range",
-                "members_", "model_", "kernel"}
+                "members_", "model_", "kernel",
+                # what a model is made of: its architecture, its registry entry
+                "spec", "model_class"}
 #: The capability checks: the only functions that dispatch on the kind of model (by
 #: ``isinstance`` on a model class or by asking for one of :data:`KIND_MEMBERS`). Each is
 #: documented where it is defined; docs/architecture.md lists them.
@@ -457,70 +460,184 @@ def test_the_capability_checks_are_few_and_documented():
     assert {(m, f) for m, names in CAPABILITIES.items() for f in names} <= sites
 
 
-# -- the registry of ROM classes: the one place that names a class ------------------------------
-#: Spec (architecture) types of the classes: nothing outside their own module asks for one.
-SPEC_TYPES = {"NetworkSpec": "sloshrom.rom.tdnn.network",
-              "StateSpaceSpec": "sloshrom.rom.nss.network",
-              "LinearSpec": "sloshrom.rom.lss.estimator"}
-#: Modules that may compare a value with a class's name, and why. Everything else reads the
-#: registry (a class's entry, its estimator, its network's methods).
+# -- the registry of ROM classes: each class one package, named nowhere else -------------------
+def _package_of(mc) -> str:
+    """The package of a class (``sloshrom.rom.nss``): its estimator's module's package."""
+    return mc.estimator.split(":")[0].rsplit(".", 1)[0]
+
+
+#: Each class's names (``nss``, ``NSS``) and the package that owns them.
+OWNERS: dict[str, str] = {n: _package_of(mc) for mc in CLASSES.values()
+                          for n in (mc.name, mc.class_name)}
+#: Spec (architecture) types of the classes and their packages: nothing outside asks for one.
+SPEC_TYPES = {"NetworkSpec": "sloshrom.rom.tdnn", "StateSpaceSpec": "sloshrom.rom.nss",
+              "LinearSpec": "sloshrom.rom.lss"}
+#: Names of a class spelled outside its package, and why: ``(module, name)``. Everything else
+#: reads the registry (a class's entry, its estimator, its fitted model's methods).
 NAMES_CLASSES = {
-    "sloshrom.rom.registry": "the registry itself",
-    # the sensitivity analysis is a study of the paper's two classes (Fig. 8): its grid is
-    # NFIR x NOE by definition
-    "sloshrom.rom.sweep": "the NFIR/NOE grid of Fig. 8",
-    "sloshrom.pipeline.rom": "the NFIR/NOE grid of Fig. 8",
-    "sloshrom.plotting.rom": "the NFIR/NOE grid of Fig. 8",
-    "sloshrom.cli.rom": "`sloshrom sweep --arch nfir|noe|both`",
-    # configurations written before the class tables: their keys are mapped to the classes'
-    "sloshrom.pipeline.settings": "former flat keys; the sweep's NFIR/NOE grid",
-    # the NFIR's and NOE's trainers, chosen by the architecture (one shooting trainer for the
-    # recurrent classes is the next step)
-    "sloshrom.rom.tdnn.training": "the trainers of the time-delay networks",
+    # the public API ``sloshrom.NFIR``, ``sloshrom.NOE``: the root re-exports them lazily by
+    # name, since the base imports nothing of the rooms above it (not even the registry)
+    ("sloshrom", "NFIR"): "the package root's lazy re-export of sloshrom.NFIR",
+    ("sloshrom", "NOE"): "the package root's lazy re-export of sloshrom.NOE",
+    # the FMU's C kernel of a state-space member (rom/fmu_c, first written for the NSS): the
+    # linear model lowers itself to it, a member without hidden units
+    ("sloshrom.rom.lss.estimator", "NSS"): "the FMU kernel SL_NSS of rom/fmu_c",
 }
 
 
-def _class_name_comparisons() -> list[tuple[str, int, str]]:
-    """``(module, line, text)`` of every comparison (``==``, ``!=``, ``in``) with a class's
-    name (``"nss"``), and every ``isinstance`` on a spec type."""
-    names = set(CLASSES) | {mc.class_name for mc in CLASSES.values()}
-    out = []
-    for mod, path in MODULES.items():
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if isinstance(node, ast.Compare):
-                consts = [c for c in (node.left, *node.comparators)
-                          for c in ([c] if not isinstance(c, ast.Tuple | ast.Set | ast.List)
-                                    else c.elts)
-                          if isinstance(c, ast.Constant) and c.value in names]
-                if consts:
-                    out.append((mod, node.lineno, f"compares with {consts[0].value!r}"))
-            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) \
-                    and node.func.id == "isinstance" and len(node.args) == 2:
-                kinds = node.args[1].elts if isinstance(node.args[1], ast.Tuple) \
-                    else [node.args[1]]
-                for k in kinds:
-                    if isinstance(k, ast.Name) and k.id in SPEC_TYPES \
-                            and SPEC_TYPES[k.id] != mod:
-                        out.append((mod, node.lineno, f"isinstance on {k.id}"))
+def _entries(tree: ast.AST) -> set[int]:
+    # the registry's list of the classes (``ENTRIES``): the one place naming every entry
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.AnnAssign | ast.Assign) and any(
+                isinstance(t, ast.Name) and t.id == "ENTRIES"
+                for t in (node.targets if isinstance(node, ast.Assign) else [node.target])):
+            out |= {id(c) for c in ast.walk(node.value)} if node.value is not None else set()
     return out
 
 
+def _inside(module: str, package: str) -> bool:
+    return module == package or module.startswith(package + ".")
+
+
+def _words(text: str) -> set[str]:
+    """The names a string spells: itself, or the words of a key (a string without spaces
+    split at ``.``, ``_`` and the like: ``"sweep_nfir_delays"``, ``"rom.nss.n_states"``); a
+    sentence is prose and not split."""
+    if any(c.isspace() for c in text):
+        return {text}
+    return {text, *re.split(r"[._:/\[\]'\"=-]+", text)}
+
+
+def class_name_uses(source: str, module: str) -> list[tuple[int, str]]:
+    """``(line, what)`` of every place of ``source`` (the module ``module``) that names a class
+    it does not own: a comparison with a class's name (``arch == "nss"``, ``in ("nfir",
+    "noe")``), a dict keyed by names (``{"nfir": NFIR, ...}``), any other string literal that
+    is a name or a key made of one (``"nfir"``, ``"sweep_nfir_delays"``; docstrings and
+    ``__all__`` aside), an ``isinstance`` on a spec type."""
+    tree = ast.parse(source)
+    skip = _docstrings(tree) | _all_lists(tree) | _entries(tree)
+
+    def foreign(c: ast.AST) -> str | None:
+        if not isinstance(c, ast.Constant) or not isinstance(c.value, str) or id(c) in skip:
+            return None
+        return next((w for w in sorted(_words(c.value))
+                     if w in OWNERS and not _inside(module, OWNERS[w])), None)
+
+    out, seen = [], set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Compare | ast.Dict):
+            parts = [node.left, *node.comparators] if isinstance(node, ast.Compare) \
+                else [k for k in node.keys if k is not None]
+            consts = [c for p in parts
+                      for c in (p.elts if isinstance(p, ast.Tuple | ast.Set | ast.List) else [p])]
+            hits = [(c, foreign(c)) for c in consts if foreign(c)]
+            seen |= {id(c) for c, _ in hits}
+            what = "compares with" if isinstance(node, ast.Compare) else "a dict keyed by"
+            out += [(node.lineno, f"{what} {name!r}") for name in dict.fromkeys(n for _, n in hits)]
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) \
+                and node.func.id == "isinstance" and len(node.args) == 2:
+            kinds = node.args[1].elts if isinstance(node.args[1], ast.Tuple) else [node.args[1]]
+            out += [(node.lineno, f"isinstance on {k.id}") for k in kinds
+                    if isinstance(k, ast.Name) and k.id in SPEC_TYPES
+                    and not _inside(module, SPEC_TYPES[k.id])]
+    for node in ast.walk(tree):
+        name = foreign(node) if id(node) not in seen else None
+        if name is not None:
+            out.append((node.lineno, f"spells {name!r} in {node.value!r}"))
+    return sorted(out)
+
+
+def _class_name_uses() -> list[str]:
+    return [f"{MODULES[m].relative_to(SRC)}:{line}: {what}" for m, path in MODULES.items()
+            for line, what in class_name_uses(path.read_text(encoding="utf-8"), m)
+            if (m, what.split("'")[1]) not in NAMES_CLASSES]
+
+
+def test_the_class_name_finder():
+    """It finds comparisons, dict dispatches, literals and keys of a class outside its
+    package; not prose, docstrings, ``__all__`` or the class's own package."""
+    src = ('"""nfir in a docstring is prose."""\n'
+           '__all__ = ["NFIR"]\n'
+           'a = arch == "nss"\n'
+           'b = {"nfir": 1, "noe": 2}[arch]\n'
+           'c = rom["nfir"]["max_epochs"]\n'
+           'd = "sweep_noe_delays"\n'
+           'e = isinstance(s, StateSpaceSpec)\n'
+           'f = "an NFIR on the velocity"\n'
+           'g = f"rom.{arch}.delays"\n'
+           'h = "lssx"\n')
+    found = class_name_uses(src, "sloshrom.pipeline.x")
+    assert [line for line, _ in found] == [3, 4, 4, 5, 6, 7], found
+    assert [w.split()[0] for _, w in found] == ["compares", "a", "a", "spells", "spells",
+                                                "isinstance"]
+    assert class_name_uses(src.replace("StateSpaceSpec", "NetworkSpec"),
+                           "sloshrom.rom.tdnn.x") == [(3, "compares with 'nss'")]
+
+
 def test_only_the_registry_names_a_class():
-    bad = [f"{MODULES[m].relative_to(SRC)}:{line}: {what}"
-           for m, line, what in _class_name_comparisons() if m not in NAMES_CLASSES]
-    assert not bad, ("a branch on a ROM class outside the registry (read its entry in "
-                     "sloshrom.rom.registry instead):\n" + "\n".join(bad))
-    # the finder finds what it should
-    assert any(m == "sloshrom.rom.sweep" for m, _, _ in _class_name_comparisons())
+    """Only the registry's list and a class's own package name it: 0 comparisons, dict
+    dispatches, literals and keys of a class's name outside its own package (and the listed
+    exceptions); and none asks for another package's spec type."""
+    bad = _class_name_uses()
+    assert not bad, ("a ROM class named outside its package (read its entry in the registry, "
+                     "or ask its fitted model):\n" + "\n".join(bad))
+    for (module, name), why in NAMES_CLASSES.items():  # each exception is still needed
+        uses = class_name_uses(MODULES[module].read_text(encoding="utf-8"), module)
+        assert any(what.split("'")[1] == name for _, what in uses), \
+            f"{module} spells {name} no more: remove its exception ({why})"
 
 
 def test_every_class_is_one_registry_entry():
-    """Each class's estimator says its entry, and its fitted model says it too."""
+    """Each class's estimator says its entry, each entry lives in its package's light module
+    ``entry``, and the registry lists each once."""
+    from sloshrom.rom.registry import ENTRIES
+
     for mc in CLASSES.values():
         est = mc.estimator_class()
         assert est.model_class is mc
         module = MODULES[est.__module__]
         assert "registry" not in module.name
+        assert f"{_package_of(mc)}.entry:" in " ".join(ENTRIES)
+    assert len(set(ENTRIES)) == len(ENTRIES)
+
+
+#: The floors of the ROM room, bottom up. The classes' packages (``rom/<class>/``) stand on the
+#: shared modules (the registry, the estimators' shell, the trainers' engine, the model files);
+#: the modules that work on any class (loading, ensembles, the sweep, the exporters) stand on
+#: both and reach a class through the registry alone. A module imports its own floor and those
+#: below it, never one above; and no class's package imports another's.
+ROM_ANY_CLASS = {"sloshrom.rom", "sloshrom.rom.loading", "sloshrom.rom.ensemble",
+                 "sloshrom.rom.sweep", "sloshrom.rom.fmu", "sloshrom.rom.fmu_runtime",
+                 "sloshrom.rom.onnx"}
+CLASS_PACKAGES = sorted({".".join(line.split(":")[0].split(".")[:3])
+                         for line in __import__("sloshrom.rom.registry",
+                                                fromlist=["ENTRIES"]).ENTRIES})
+
+
+def _rom_floor(module: str) -> tuple[int, str]:
+    """``(floor, package)`` of a module of the ROM room: 0 shared, 1 a class's package, 2 a
+    module of any class."""
+    pkg = next((p for p in CLASS_PACKAGES if _inside(module, p)), "")
+    if pkg:
+        return 1, pkg
+    return (2 if module in ROM_ANY_CLASS else 0), ""
+
+
+def test_no_import_runs_back_up_the_rom_floors():
+    assert len(CLASS_PACKAGES) >= 4 and "sloshrom.rom.nss" in CLASS_PACKAGES
+    bad = []
+    for m, v in PARSED.items():
+        if room(m) != "rom":
+            continue
+        floor, pkg = _rom_floor(m)
+        for i in v.imports:
+            if room(i.target) != "rom" or i.type_checking:
+                continue
+            f, p = _rom_floor(i.target)
+            if f > floor or (f == floor == 1 and p != pkg) or (floor == 2 and f == 1):
+                bad.append(f"{_where(m, i)} (floor {floor} -> {f})")
+    assert not bad, "imports running back up the ROM room's floors:\n" + "\n".join(bad)
 
 
 # ---------------------------------------------------------------------------------------------

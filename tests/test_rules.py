@@ -175,6 +175,9 @@ def test_defaults_are_written_once_in_the_entries():
         for key, value in shipped.get(name, {}).items():
             assert value != mc.hyper_named(key).default, (
                 f"defaults.toml repeats the entry's default of rom.{name}.{key}")
+        # the sensitivity analysis's grid: the configuration's keys, the entry's values
+        for grid, what in zip(getattr(mc, "sweep", ()), ("delays", "neurons"), strict=False):
+            assert shipped[f"sweep_{name}_{what}"] == list(grid), (name, what)
 
 
 def _rule_written(pattern: str) -> list[str]:

@@ -53,7 +53,15 @@ from sloshrom.limits import (
     Hidden,
 )
 from sloshrom.rom.errors import ROMError
-from sloshrom.rom.registry import CLASSES, LOSS_TERMS, Hyper, ModelClass, Naming
+from sloshrom.rom.registry import (
+    CLASSES,
+    LOSS_TERMS,
+    Hyper,
+    ModelClass,
+    Naming,
+    paper_class,
+    swept,
+)
 
 __all__ = [
     "BEAM_FS",
@@ -88,18 +96,16 @@ __all__ = [
     "load",
     "merge",
     "min_free_duration",
+    "sweep_key",
     "validate",
 ]
 
-# Reduced sizes for `--quick` (a smoke run of the whole chain in a few minutes). The quick ROM
-# (NFIR(40, 15), 60 epochs, 120 s) cannot represent the ~20 g structure-designed training: its
-# 6 g map error measured 88 % (14.7 % on the paper's shaker VFA), so --quick keeps the shaker.
-# An NSS (arch = "nss") keeps its sizes and trains 4 epochs: about 20 s each here (measured at
-# the default sizes, 2026-11-25).
+# Reduced sizes for `--quick` (a smoke run of the whole chain in a few minutes); each ROM
+# class's table takes its entry's quick values (``ModelClass.quick``: the paper's NFIR smaller
+# and shorter, the NSS 4 epochs).
 QUICK: dict[str, dict[str, Any]] = {
     "data": {"train_duration": 120.0, "validation_duration": 60.0, "design": "shaker"},
-    "rom": {"ensemble": 2, "nfir": {"delays": 40, "neurons": 15, "max_epochs": 60},
-            "nss": {"max_epochs": 4}},
+    "rom": {"ensemble": 2, **{mc.name: dict(mc.quick) for mc in CLASSES.values() if mc.quick}},
     "map": {"n_omega": 10, "n_a": 8},
     "beam": {"free_duration": 6.0, "random_duration": 70.0},
 }
@@ -271,39 +277,45 @@ def load(path: str | Path | None = None, quick: bool = False) -> ReproduceConfig
     return validate(cfg)
 
 
-#: The keys of ``[rom]`` before each class had its table: the class-table key each is now.
-_FORMER_NSS = {"nss_states": "n_states", **{f"nss_{k}": k for k in (
-    "neurons", "window", "horizon", "batch", "max_epochs", "steps_per_epoch", "learning_rate")}}
+#: The keys of ``[rom]`` before each class had its table: a class's own (its entry's
+#: ``former_keys``), the sizes of the paper's classes, and whether to compare with the paper's.
 _FORMER_SIZES = ("delays", "neurons", "hidden", "max_epochs")
+_FORMER_COMPARE = f"compare_{paper_class().name}"
 
 
 def renamed_keys(user: dict[str, Any], default_arch: str) -> dict[str, Any]:
     """A user's configuration with the former flat ``[rom]`` keys under their names now.
 
-    ``nss_states`` is ``rom.nss.n_states`` (each ``nss_<key>`` ``rom.nss.<key>``); the
-    network sizes ``delays``, ``neurons``, ``hidden``, ``max_epochs`` trained the ROM of
-    ``arch`` when it was an NFIR or NOE and the compared NFIR, so they are that class's (else
+    A class's own flat keys are its table's (the NSS's ``nss_states`` is ``rom.nss.n_states``,
+    each ``nss_<key>`` ``rom.nss.<key>``: its entry's ``former_keys``); the network sizes
+    ``delays``, ``neurons``, ``hidden``, ``max_epochs`` trained the ROM of ``arch`` when it was
+    one of the paper's classes and the compared paper's NFIR, so they are that class's (else
     ``rom.nfir``'s); the loss weights trained the ROM of ``arch``; ``compare_nfir = true`` is
-    ``compare = ["nfir"]`` (for an NSS; it was ignored otherwise). Each renamed key is said in
-    a :class:`~sloshrom.config.ConfigWarning` that names the new key.
+    ``compare = ["nfir"]`` (for the ROM of a class that had flat keys of its own, the NSS; it
+    was ignored otherwise). Each renamed key is said in a
+    :class:`~sloshrom.config.ConfigWarning` that names the new key.
     """
     rom = user.get("rom")
     if not isinstance(rom, dict):
         return user
     arch = rom.get("arch", default_arch)
+    mc = CLASSES.get(arch) if isinstance(arch, str) else None
+    paper = paper_class().name
+    former = {k: (c.name, v) for c in CLASSES.values() for k, v in c.former_keys.items()}
     out = {k: v for k, v in rom.items()}
     for key in list(rom):
-        if key in _FORMER_NSS:
-            new = ("nss", _FORMER_NSS[key])
+        if key in former:
+            new = former[key]
         elif key in _FORMER_SIZES:
-            new = (arch if arch in ("nfir", "noe") else "nfir", key)
+            new = (arch if mc is not None and mc.paper else paper, key)
         elif key in LOSS_TERMS:
-            new = (arch if isinstance(arch, str) and arch in CLASSES else "nfir", key)
-        elif key == "compare_nfir":
+            new = (arch if mc is not None else paper, key)
+        elif key == _FORMER_COMPARE:
             value = out.pop(key)
-            out["compare"] = ["nfir"] if value is True and arch == "nss" else []
+            out["compare"] = ([paper] if value is True and mc is not None and mc.former_keys
+                              else [])
             warnings.warn(ConfigWarning(
-                f"'rom.compare_nfir' is now 'rom.compare' (a list of classes): read as "
+                f"'rom.{_FORMER_COMPARE}' is now 'rom.compare' (a list of classes): read as "
                 f"compare = {out['compare']}"), stacklevel=2)
             continue
         else:
@@ -555,8 +567,12 @@ CLASS_TABLES: dict[str, type[_Table]] = {name: _class_table(mc) for name, mc in 
 ClassName = Literal[tuple(CLASSES)]
 
 
+def sweep_key(mc: ModelClass, what: str) -> str:
+    """The ``[rom]`` key of a swept class's grid: ``sweep_<class>_delays`` or ``_neurons``."""
+    return f"sweep_{mc.name}_{what}"
+
+
 class _RomTableBase(_Table):
-    # the order of defaults.toml (as_dict() writes the keys in field order)
     arch: ClassName
     compare: Annotated[list[ClassName], AfterValidator(_distinct),
                        _Says(f"a list of distinct ROM classes ({', '.join(CLASSES)})")]
@@ -564,14 +580,16 @@ class _RomTableBase(_Table):
     ensemble: _number(1, MAX_MEMBERS, integer=True, what="a number of ensemble members")
     ensemble_workers: _number(1, 64, integer=True, what="a number of parallel trainings")
     sweep: bool
-    sweep_nfir_delays: Grid
-    sweep_nfir_neurons: NeuronGrid
-    sweep_noe_delays: Grid
-    sweep_noe_neurons: NeuronGrid
     sweep_workers: _number(1, 64, integer=True, what="a number of parallel trainings")
 
 
-class RomTable(create_model("_RomClasses", __base__=_RomTableBase,
+#: ``[rom]``'s keys of the sensitivity analysis: the grid of each swept class
+_SWEEP_GRIDS = {key: (grid, ...) for mc in swept()
+                for key, grid in ((sweep_key(mc, "delays"), Grid),
+                                  (sweep_key(mc, "neurons"), NeuronGrid))}
+
+
+class RomTable(create_model("_RomClasses", __base__=_RomTableBase, **_SWEEP_GRIDS,
                             **{n: (t, ...) for n, t in CLASS_TABLES.items()})):
     """``[rom]``: the ROM of the report (``arch``), the classes identified beside it
     (``compare``), their training, the sensitivity sweep; ``[rom.<class>]`` the
@@ -620,13 +638,13 @@ class RomTable(create_model("_RomClasses", __base__=_RomTableBase,
         out = [RomNetwork(CLASSES[n], self.hyper(n), f"'rom.{n}'", _keys(CLASSES[n]))
                for n in (self.arch, *self.compared())]
         if self.sweep:
-            for a in ("nfir", "noe"):
-                grid = {k: f"'rom.sweep_{a}_{k}'" for k in ("delays", "neurons")}
-                hyper = {**self.hyper(a), "delays": max(getattr(self, f"sweep_{a}_delays")),
-                         "neurons": max(getattr(self, f"sweep_{a}_neurons"))}
+            for mc in swept():
+                grid = {k: f"'rom.{sweep_key(mc, k)}'" for k in ("delays", "neurons")}
+                hyper = {**self.hyper(mc.name),
+                         **{k: max(getattr(self, sweep_key(mc, k))) for k in grid}}
                 out.append(RomNetwork(
-                    CLASSES[a], hyper, f"the largest of {'/'.join(grid.values())}",
-                    lambda k, a=a, grid=grid: grid.get(k) or _keys(CLASSES[a])(k)))
+                    mc, hyper, f"the largest of {'/'.join(grid.values())}",
+                    lambda k, mc=mc, grid=grid: grid.get(k) or _keys(mc)(k)))
         return out
 
 

@@ -406,8 +406,8 @@ def _run(ctx: Context, s: MultimodeTable) -> tuple[MultimodeOutputs, list[str]]:
         for name, rec in records.items():
             batch.write(out / "data" / f"{name}.nc", lambda tmp, rec=rec: write_record(rec, tmp))
         for name, model in roms.items():
-            batch.write(out / "models" / f"nfir_{name.removesuffix('_rom')}.npz",
-                        lambda tmp, model=model: model.save(tmp))
+            stem = f"{NFIR.model_class.name}_{name.removesuffix('_rom')}"  # nfir_<case>
+            batch.write(out / "models" / f"{stem}.npz", lambda tmp, model=model: model.save(tmp))
         write_table(rows, out / "table_modal_damping", batch)
         for name, fig in figs.items():
             savefig(fig, out / f"{name}.png", batch)
