@@ -32,7 +32,7 @@ def pytest_xdist_make_scheduler(config, log):
     from xdist.scheduler import LoadFileScheduling
 
     root = config.rootpath
-    shared = {name: {p.relative_to(root).as_posix() for p in (root / "tests").glob("test_*.py")
+    shared = {name: {p.relative_to(root).as_posix() for p in (root / "tests").rglob("test_*.py")
                      if name in p.read_text(encoding="utf-8")}
               for name in SHARED_ON_ONE_WORKER}
 

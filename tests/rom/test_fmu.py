@@ -46,7 +46,7 @@ from sloshrom.rom.nss.estimator import NSS
 from sloshrom.rom.tdnn.estimators import NFIR, NOE
 
 # the validation record exceeds the short training record's input range by ~1 %: expected here;
-# the NSS's feed-through warning is tested in tests/test_fmu_fmi.py
+# the NSS's feed-through warning is tested in tests/rom/test_fmu_fmi.py
 pytestmark = [pytest.mark.filterwarnings("ignore::sloshrom.models.EnvelopeWarning"),
               pytest.mark.filterwarnings("ignore::sloshrom.rom.errors.FeedthroughWarning")]
 

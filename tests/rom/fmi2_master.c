@@ -1,4 +1,4 @@
-/* A minimal FMI 2.0 co-simulation master for tests/test_fmu.py, written against the FMI 2.0
+/* A minimal FMI 2.0 co-simulation master for tests/rom/test_fmu.py, written against the FMI 2.0
  * headers (the FMU's sources/ on the include path): the documented call sequence
  * (fmi2Instantiate, fmi2SetupExperiment, fmi2EnterInitializationMode,
  * fmi2ExitInitializationMode, then fmi2SetReal / fmi2GetReal / fmi2DoStep per communication

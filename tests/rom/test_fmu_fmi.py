@@ -1,6 +1,6 @@
 """The exported FMU under other FMI 2.0 masters and other Linux systems (issue 41).
 
-A C master written against the FMI 2.0 headers (``tests/fmi2_master.c``, compiled here with the
+A C master written against the FMI 2.0 headers (``tests/rom/fmi2_master.c``, compiled here with the
 system's ``cc``) adds up its clock over 10^6 steps, loads two FMUs into one process with
 ``RTLD_GLOBAL`` and links two source FMUs into one program; the binary exports the ``fmi2``
 functions only and needs glibc 2.17 at most; the FMI 2.0 co-simulation state machine, the log
@@ -51,7 +51,7 @@ LINUX = sys.platform.startswith("linux")
 needs_cc = pytest.mark.skipif(not LINUX or shutil.which("cc") is None,
                               reason="needs Linux and a C compiler (cc)")
 MASTER = Path(__file__).with_name("fmi2_master.c")
-PARITY = 1e-12  # as tests/test_fmu.py (measured 1e-15)
+PARITY = 1e-12  # as tests/rom/test_fmu.py (measured 1e-15)
 
 
 def _data() -> tuple[np.ndarray, np.ndarray]:
@@ -375,7 +375,7 @@ def test_a_serialized_state_has_a_header_and_another_models_is_refused(fmus, tmp
         with pytest.raises(FMICallException):
             fa.deSerializeFMUstate(data)
         assert why in ma[-1][1], (why, ma[-1][1])
-    # its own state restores the run (bit for bit: tests/test_fmu.py)
+    # its own state restores the run (bit for bit: tests/rom/test_fmu.py)
     fa.setFMUstate(fa.deSerializeFMUstate(blob))
     fa.doStep(5 * 0.002, 0.002)
     fa.freeInstance()

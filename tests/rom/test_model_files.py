@@ -25,7 +25,7 @@ from sloshrom.rom.modelfile import ModelFileError
 from sloshrom.rom.network import MinMaxScaler
 from sloshrom.rom.tdnn.estimators import NFIR, NOE
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).resolve().parents[1] / "data"
 
 
 def _model(cls, seed=0, **kw):

@@ -205,7 +205,7 @@ def test_the_defaults_fit_a_short_record():
     import importlib.util
     from pathlib import Path
 
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "short_record.py"
+    path = Path(__file__).resolve().parents[3] / "benchmarks" / "short_record.py"
     spec = importlib.util.spec_from_file_location("short_record", path)
     assert spec is not None and spec.loader is not None
     sr = importlib.util.module_from_spec(spec)

@@ -8,12 +8,12 @@ from typing import Any
 
 import jax
 import numpy as np
+from toyrom.entry import TOY_CLASS
+from toyrom.model import ToyModel, ToySpec
 
 from sloshrom.rom.base import Estimator, checked_records, record_envelope
 from sloshrom.rom.network import MinMaxScaler
 from sloshrom.signals import power_band
-from toyrom.entry import TOY_CLASS
-from toyrom.model import ToyModel, ToySpec
 
 _TOY = TOY_CLASS.defaults()
 

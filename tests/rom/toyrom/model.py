@@ -9,11 +9,11 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import numpy as np
+from toyrom.entry import TOY_CLASS
 
 from sloshrom.models import model_input
 from sloshrom.rom.network import FittedNetwork, MinMaxScaler
 from sloshrom.rom.registry import ModelClass
-from toyrom.entry import TOY_CLASS
 
 
 @dataclass(frozen=True)
