@@ -753,7 +753,7 @@ def example(
     from sloshrom.beam.labfiles import write_lab_campaign
 
     check_number(duration, "--duration", 34.0, 3600.0, unit="s",
-                 why="one 16384-sample Welch segment at 500 Hz and at most an hour")
+                 why=f"one {WELCH_NPERSEG}-sample Welch segment at 500 Hz and at most an hour")
     check_number(seed, "--seed", 0, 2**32 - 1)
     names = ["decay.uff", *(f"random_{g:g}g.uff" for g in (0.1, 0.2, 0.4)), "channels.toml"]
     check_outputs(directory, names, ())

@@ -40,6 +40,7 @@ from sloshrom.pipeline.settings import (
     MAX_BEAM_SECONDS,
     MAX_LEVEL_SECONDS,
     MIN_RANDOM_DURATION,
+    WELCH_NPERSEG,
     check_analysis_band,
     check_psd_band,
     min_free_duration,
@@ -570,7 +571,7 @@ def random(
     except ConfigError as exc:
         fail(str(exc))
     check_number(duration, "--duration", MIN_RANDOM_DURATION, MAX_BEAM_SECONDS, unit="s",
-                 why="Table 2 needs one 16384-sample Welch segment at 500 Hz")
+                 why=f"Table 2 needs one {WELCH_NPERSEG}-sample Welch segment at 500 Hz")
     if duration * len(lv) > MAX_LEVEL_SECONDS:
         fail(f"--duration {duration:g} s x {len(lv)} level(s) = {duration * len(lv):g} s is "
              f"more than {MAX_LEVEL_SECONDS:g} s (memory: the rig holds about 2.1 MB per second "
