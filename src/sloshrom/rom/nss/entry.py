@@ -140,6 +140,9 @@ NSS_CLASS = ModelClass(
                      + (", strictly proper)" if h.get("feedthrough", "yes") == "no" else ")")),
     shapes=nss_shapes, history=lambda h: int(h["window"]),
     min_samples=nss_min_samples,
+    # the coupled beam hands a model the acceleration of the previous step: a state driven by
+    # it would run one sample behind its training
+    inputs=("velocity",),
     loss_terms=LOSS_TERMS,
     recipe={"amplitude_weighting": 0.0, "passivity": 1.0, "cycle_energy": 0.1},
     # version 5 added feedthrough and velocity_offset, version 6 weight_decay; version 3 and 5
