@@ -39,7 +39,7 @@ from typing import Any
 
 import xarray as xr
 
-from sloshrom.beam.coupled import free_response
+from sloshrom.beam.simulation.coupled import free_response
 from sloshrom.energy import map_fidelity
 from sloshrom.io import read_record
 from sloshrom.pipeline import Context, run

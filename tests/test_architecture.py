@@ -221,6 +221,39 @@ def test_imports_point_one_way():
     assert not bad, "imports against the direction of the rooms:\n" + "\n".join(bad)
 
 
+#: The beam's rooms, in order: each imports only itself and the rooms before it. ``errors`` (the
+#: room's error types) is below every other; the simulation (structures, the coupled runs)
+#: knows no analysis; the damping analyses read responses, not files; the laboratory's files
+#: are read, written and analysed with both; ``results`` writes every room's result files (a
+#: measured test's names its channel map); the comparison sets them side by side.
+BEAM_ROOMS = ("errors", "simulation", "damping", "lab", "results", "compare")
+
+
+def beam_room(module: str) -> str | None:
+    """The room of a module inside ``sloshrom.beam`` (``None`` for the package itself and any
+    module outside the beam)."""
+    parts = module.split(".")
+    if len(parts) < 3 or parts[1] != "beam":
+        return None
+    if parts[2] not in BEAM_ROOMS:
+        raise AssertionError(f"{module}: in no room of the beam; add it to BEAM_ROOMS of "
+                             "tests/test_architecture")
+    return parts[2]
+
+
+def test_the_beam_rooms_import_one_way():
+    """Simulation, damping analysis, laboratory files, comparison: each beam room imports the
+    rooms before it in :data:`BEAM_ROOMS` only (``if TYPE_CHECKING`` imports included)."""
+    order = {r: i for i, r in enumerate(BEAM_ROOMS)}
+    rooms = {beam_room(m) for m in MODULES} - {None}
+    assert rooms == set(BEAM_ROOMS), rooms
+    bad = [f"{_where(m, i)} ({beam_room(m)} -> {beam_room(i.target)})"
+           for m, v in PARSED.items() if beam_room(m) is not None for i in v.imports
+           if beam_room(i.target) is not None
+           and order[beam_room(i.target)] > order[beam_room(m)]]
+    assert not bad, "imports against the order of the beam's rooms:\n" + "\n".join(bad)
+
+
 def _crosses_seam(module: str, target: str) -> bool:
     """Whether ``module`` importing ``target`` breaks the pipeline/studies seam: the pipeline
     imports the registry only, and only from :data:`RUNS_STUDIES`; a study imports only
@@ -566,13 +599,14 @@ def test_every_error_class_is_a_sloshrom_error():
 
 # -- damping estimators: one registry, no names spelled elsewhere --------------------------------
 #: Modules that may spell a registered estimator's name as a string, and why. Every other
-#: module reaches an estimator through ``sloshrom.beam.registry`` (``TABLE2``, ``REFERENCE``,
-#: ``get_estimator``, the ``estimator`` coordinate of a result dataset). An estimator's own
-#: class may spell it once, as the value of its ``name`` attribute (that is the definition).
+#: module reaches an estimator through ``sloshrom.beam.damping.registry`` (``TABLE2``,
+#: ``REFERENCE``, ``get_estimator``, the ``estimator`` coordinate of a result dataset). An
+#: estimator's own class may spell it once, as the value of its ``name`` attribute (that is the
+#: definition).
 ESTIMATOR_NAME_ALLOWED = {
     # the two-mode study's own result column "half_power" (its half-power cross-check of each
     # mode, a file contract of its tables), not the registry's Table 2 estimator
-    "sloshrom.beam.multimode": "file contract of the two-mode study's tables",
+    "sloshrom.beam.damping.multimode": "file contract of the two-mode study's tables",
 }
 
 
@@ -639,10 +673,10 @@ def test_the_estimator_name_finder():
 
 
 def test_estimator_names_are_spelled_only_in_the_registry():
-    from sloshrom.beam.registry import ESTIMATORS
+    from sloshrom.beam.damping.registry import ESTIMATORS
 
     names = set(ESTIMATORS)
     assert {"lscf_h1", "lscf_output", "half_power", "ssi_cov"} <= names
     bad = estimator_name_literals(names)
     assert not bad, ("estimator names spelled outside the registry (use "
-                     "sloshrom.beam.registry):\n" + "\n".join(bad))
+                     "sloshrom.beam.damping.registry):\n" + "\n".join(bad))

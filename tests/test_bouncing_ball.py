@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from sloshrom.beam.coupled import CoupledSimulator, free_response
-from sloshrom.beam.structure import ModalModel
+from sloshrom.beam.simulation.coupled import CoupledSimulator, free_response
+from sloshrom.beam.simulation.structure import ModalModel
 from sloshrom.config import G, Tank
 from sloshrom.models import FrozenLiquid, SloshingModel, has_kernel
 from sloshrom.pipeline.context import Context

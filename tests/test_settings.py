@@ -234,7 +234,7 @@ def test_min_free_duration_is_what_the_damping_analysis_needs():
     """At the minimum the analysis runs and keeps samples; a little shorter it cannot run."""
     import numpy as np
 
-    from sloshrom.beam.analysis import instantaneous_damping
+    from sloshrom.beam.damping.analysis import instantaneous_damping
 
     fs, f1 = settings.BEAM_FS, 10.19
     need = settings.min_free_duration(f1)

@@ -13,7 +13,7 @@ predictions beside the measurement with a verdict per level (or band) and estima
 * ``z``: the difference in units of the standard deviation of the difference of two uncertain
   numbers, ``(zeta_p - zeta_m) / sqrt(std_m^2 + std_p^2)``; ``consistent`` when ``|z| <= z_c``
   (1.96 at 95 %). For an ensemble ROM ``std_p`` is its combined standard deviation (the
-  members' estimation error and their spread, ``sloshrom.beam.members``);
+  members' estimation error and their spread, ``sloshrom.beam.simulation.members``);
 * ``reason``: why a verdict is ``n/a`` or ``no interval``, or ``z`` is missing (the
   estimates' own reasons); ``""`` otherwise.
 
@@ -31,17 +31,17 @@ import numpy as np
 import xarray as xr
 from scipy import stats
 
-from sloshrom.beam.analysis import welch_psd
-from sloshrom.beam.errors import BeamError
-from sloshrom.beam.results import (
-    MEASURED_MODES_ONLY,
+from sloshrom.beam.damping.analysis import welch_psd
+from sloshrom.beam.damping.tables import (
     Mode1Decay,
     damping_band_table,
     mode1_damping_table,
     mode1_decay,
     table2_dataset,
 )
-from sloshrom.beam.uncertainty import CONFIDENCE
+from sloshrom.beam.damping.uncertainty import CONFIDENCE
+from sloshrom.beam.errors import BeamError
+from sloshrom.beam.results import MEASURED_MODES_ONLY
 
 __all__ = ["FS_TOLERANCE", "STRUCTURE_TOLERANCE", "AnalysedTest", "CaseNameError", "analyse_test",
            "analysed_test", "check_sample_rate", "check_structures", "compare_rows",
@@ -58,7 +58,7 @@ FS_TOLERANCE = 1e-3
 #: periodogram of a 2 s decay: 0.06 Hz, at 10 Hz); a prediction's may differ from the
 #: measured by the liquid's share of the modal mass (the paper beam's f1 is 10.19 Hz with the
 #: liquid frozen, 10.85 Hz without it: 6.5 %) and by a mode's drift with level (the peaks
-#: of a test's levels count as one mode within 10 %, ``sloshrom.beam.peaks.common_modes``).
+#: of a test's levels count as one mode within 10 %, ``sloshrom.beam.damping.peaks.common_modes``).
 #: Beyond 15 % the mode-1 analyses of the two filter different bands: another structure.
 STRUCTURE_TOLERANCE = 0.15
 
@@ -85,8 +85,8 @@ class AnalysedTest:
     fs, f1 : float
         Sample rate and first-mode frequency of the analyses, Hz.
     rows : list of dict
-        Free: ``results.damping_band_table`` rows (band, method, zeta, std, low, high, ...);
-        random: ``results.mode1_damping_table`` rows (rms_g and every estimator with its
+        Free: ``tables.damping_band_table`` rows (band, method, zeta, std, low, high, ...);
+        random: ``tables.mode1_damping_table`` rows (rms_g and every estimator with its
         ``_std``, ``_low``, ``_high``).
     decay : Mode1Decay or None
         Free tests: the mode-1 analysis (Fig. 21 curves).
@@ -112,7 +112,7 @@ class AnalysedTest:
     @property
     def damping(self) -> xr.Dataset:
         """Random tests: the Table 2 estimates of :attr:`rows` over ``level`` and
-        ``estimator`` (``results.table2_dataset``: ``value``, ``std``, ``low``, ``high``)."""
+        ``estimator`` (``tables.table2_dataset``: ``value``, ``std``, ``low``, ``high``)."""
         return table2_dataset(self.rows)
 
 
@@ -300,8 +300,8 @@ def analyse_test(ds: xr.Dataset, case: str | None = None,
     """Run the first-mode damping analyses of a beam result dataset, with intervals.
 
     Free decays: modal filtering with the dataset's ``psi_stations``, Hilbert and log-decrement
-    damping per amplitude band (``results.damping_band_table``). Random tests: paper Table 2
-    (``results.mode1_damping_table``) and the Welch PSDs of the tank acceleration (8192
+    damping per amplitude band (``tables.damping_band_table``). Random tests: paper Table 2
+    (``tables.mode1_damping_table``) and the Welch PSDs of the tank acceleration (8192
     samples, as Fig. 23).
 
     Parameters
@@ -340,8 +340,8 @@ def analysed_test(case: str, kind: str, res: Mapping[str, Any], f1: float,
                   rows: list[dict[str, Any]], decay: Mode1Decay | None = None,
                   source: str = "") -> AnalysedTest:
     """An :class:`AnalysedTest` from analyses already made (``rows``: this case's rows of
-    ``results.damping_band_table`` or ``results.mode1_damping_table``; ``decay``: its
-    ``results.mode1_decay`` for a free test); random tests get their Welch PSDs here."""
+    ``tables.damping_band_table`` or ``tables.mode1_damping_table``; ``decay``: its
+    ``tables.mode1_decay`` for a free test); random tests get their Welch PSDs here."""
     if kind == "free":
         if decay is None:
             raise BeamError("a free test needs its mode-1 decay analysis")

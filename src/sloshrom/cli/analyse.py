@@ -2,12 +2,13 @@
 beam``, at every mode the data show.
 
 ``analyse free`` (a free decay) and ``analyse random`` (random base excitation, one file per
-level) read UFF 58, CSV, NetCDF or MATLAB files with a channel map (:mod:`sloshrom.beam.measured`),
-find the modes in the data (:mod:`sloshrom.beam.lab`), optionally take the stations' mode shapes
-from a structure (the built-in cantilever, ``--modal-toml`` or ``--structure`` as in ``sloshrom
-beam``) and write the NetCDF result, the damping tables and the figures, all together or none.
-``analyse campaign`` runs every test of a folder (:mod:`sloshrom.beam.campaign`) and writes one
-report page; ``analyse example`` writes a campaign to try it on.
+level) read UFF 58, CSV, NetCDF or MATLAB files with a channel map
+(:mod:`sloshrom.beam.lab.measured`), find the modes in the data
+(:mod:`sloshrom.beam.lab.every_mode`), optionally take the stations' mode shapes from a structure
+(the built-in cantilever, ``--modal-toml`` or ``--structure`` as in ``sloshrom beam``) and write the
+NetCDF result, the damping tables and the figures, all together or none. ``analyse campaign`` runs
+every test of a folder (:mod:`sloshrom.beam.lab.campaign`) and writes one report page; ``analyse
+example`` writes a campaign to try it on.
 """
 
 from __future__ import annotations
@@ -50,12 +51,12 @@ if TYPE_CHECKING:  # the heavy modules load when a command runs
     import xarray as xr
     from matplotlib.figure import Figure
 
-    from sloshrom.beam.campaign import CampaignTest
-    from sloshrom.beam.channels import ChannelMap
-    from sloshrom.beam.lab import TestModes
-    from sloshrom.beam.measured import MeasuredTest
-    from sloshrom.beam.members import Row
-    from sloshrom.beam.structure import ModalModel
+    from sloshrom.beam.lab.campaign import CampaignTest
+    from sloshrom.beam.lab.channels import ChannelMap
+    from sloshrom.beam.lab.every_mode import TestModes
+    from sloshrom.beam.lab.measured import MeasuredTest
+    from sloshrom.beam.simulation.members import Row
+    from sloshrom.beam.simulation.structure import ModalModel
     from sloshrom.cli.beam import StructureSetup
 
 analyse_app = typer.Typer(
@@ -151,7 +152,7 @@ def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml:
     station model). Without a structure option (``--builtin-beam``, ``--structure``,
     ``--modal-toml``, ``--tank-toml``, ``--fill``), the structure is known by its measured
     modes alone: setup and station model are ``None``."""
-    from sloshrom.beam.channels import ChannelMap, station_model
+    from sloshrom.beam.lab.channels import ChannelMap, station_model
 
     if not files:
         fail("give the test's file(s)")
@@ -196,7 +197,7 @@ def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml:
 
 def _with_units(cmap: ChannelMap, units: dict[str, str], channels: Path) -> ChannelMap:
     """The map with the --unit units (each a channel of the map, an acceleration unit)."""
-    from sloshrom.beam.channels import acceleration_unit
+    from sloshrom.beam.lab.channels import acceleration_unit
 
     for key, u in units.items():
         if key not in cmap.channels:
@@ -246,7 +247,7 @@ class _Given:
 def _modes(res: MeasuredTest, kind: str, frequencies: list[float] | None,
            modes: int | None) -> TestModes:
     """The modes to analyse (given or found), each inside the record's band, or a user error."""
-    from sloshrom.beam.lab import describe, modes_of_test
+    from sloshrom.beam.lab.every_mode import describe, modes_of_test
 
     found = _checked("modes", lambda: modes_of_test(res, kind, frequencies=frequencies,
                                                  max_modes=modes))
@@ -373,7 +374,7 @@ def _random_outputs(name: str) -> list[str]:
 
 def _station_model(ctx: _Setting, res: MeasuredTest) -> ModalModel | None:
     """The modal model at the stations the files hold (a campaign's map may name more)."""
-    from sloshrom.beam.channels import station_model
+    from sloshrom.beam.lab.channels import station_model
 
     setup = ctx.setup
     if setup is None or res["channel_map"].stations == ctx.cmap.stations:
@@ -399,7 +400,7 @@ def _dataset(ctx: _Setting, res: MeasuredTest, name: str, kind: str, found: Test
 def _check_stations(ctx: _Setting, res: MeasuredTest, found: TestModes,
                     modal: ModalModel | None) -> None:
     """The map's station order against the data at mode 1 (``lab.check_station_order``)."""
-    from sloshrom.beam.lab import DECAY_REL_BAND, check_station_order
+    from sloshrom.beam.lab.every_mode import DECAY_REL_BAND, check_station_order
 
     _checked(f"--channels {ctx.channels}", lambda: check_station_order(
         res, found.frequencies[0], found.rel_band(0, DECAY_REL_BAND), modal))
@@ -407,8 +408,8 @@ def _check_stations(ctx: _Setting, res: MeasuredTest, found: TestModes,
 
 def _free_test(files: list[Path], ctx: _Setting, name: str, step: _Steps) -> _Test:
     """Read and analyse a free decay at every mode (user errors end the command)."""
-    from sloshrom.beam.lab import FREE_PERIODS, free_mode_decays, free_mode_rows
-    from sloshrom.beam.measured import check_free_decay, read_free_test
+    from sloshrom.beam.lab.every_mode import FREE_PERIODS, free_mode_decays, free_mode_rows
+    from sloshrom.beam.lab.measured import check_free_decay, read_free_test
     from sloshrom.plotting.beam import free_figures, mode_decay_figure
 
     step(f"reading {files[0].name}")
@@ -470,8 +471,8 @@ def random(
              "too short to reach it.")] = None,
     estimator: Annotated[list[str] | None, typer.Option(
         "--estimator",
-        help="A damping estimator of the registry (sloshrom.beam.registry), repeatable, e.g. "
-             "--estimator lscf_output --estimator ssi_cov; default the three of paper Table "
+        help="A damping estimator of the registry (sloshrom.beam.damping.registry), repeatable, "
+             "e.g. --estimator lscf_output --estimator ssi_cov; default the three of paper Table "
              "2.")] = None,
     tank_toml: TankOpt = None,
     fill: FillOpt = None,
@@ -501,7 +502,7 @@ def random(
     Example: ``sloshrom analyse random r01.uff r02.uff r04.uff --channels channels.toml
     --levels 0.1,0.2,0.4 --out lab``
     """
-    from sloshrom.beam.registry import estimator_names
+    from sloshrom.beam.damping.registry import estimator_names
 
     try:
         names = estimator_names(estimator or None)
@@ -533,9 +534,9 @@ def _random_test(files: list[Path], ctx: _Setting, name: str, lv: list[float] | 
                  levels_from: str = "--levels") -> _Test:
     """Read and analyse a random test (one file per level) at every mode (``levels_from``:
     where ``lv`` came from, for messages)."""
-    from sloshrom.beam.lab import random_mode_rows
-    from sloshrom.beam.measured import check_levels, check_random_base, read_random_test
-    from sloshrom.beam.uncertainty import ShortRecordWarning
+    from sloshrom.beam.damping.uncertainty import ShortRecordWarning
+    from sloshrom.beam.lab.every_mode import random_mode_rows
+    from sloshrom.beam.lab.measured import check_levels, check_random_base, read_random_test
     from sloshrom.plotting.beam import mode_damping_figure, random_figures, random_window
 
     step(f"reading {len(files)} file(s)")
@@ -569,7 +570,7 @@ def _random_test(files: list[Path], ctx: _Setting, name: str, lv: list[float] | 
                  found)
 
 
-# -- a campaign folder (sloshrom.beam.campaign) -------------------------------------------------
+# -- a campaign folder (sloshrom.beam.lab.campaign) ---------------------------------------------
 _DirArg = Annotated[Path, typer.Argument(
     help="The campaign folder: data files (UFF 58, CSV, NetCDF, MATLAB) and optionally "
          "campaign.toml (which file is which test).", show_default=False)]
@@ -577,7 +578,7 @@ _DirArg = Annotated[Path, typer.Argument(
 
 def _cell(r: Row, key: str, low: str, high: str, reason: str) -> str:
     """``value [low, high] %`` with the digits the interval needs, or ``— (reason)``."""
-    from sloshrom.beam.uncertainty import format_interval
+    from sloshrom.beam.damping.uncertainty import format_interval
 
     v, lo, hi = (_num(r.get(k)) for k in (key, low, high))
     if not math.isfinite(v):
@@ -598,7 +599,7 @@ def _num(v: float | str | None) -> float:
 
 
 def _random_table(test: _Test, estimators: Sequence[str]) -> tuple[list[str], list[list[str]]]:
-    from sloshrom.beam.registry import label
+    from sloshrom.beam.damping.registry import label
 
     head = ["mode", "f (Hz)", "RMS base (g)", *(f"{label(e)} (%)" for e in estimators)]
     rows = [[str(r["mode"]), f"{r['mode_frequency_Hz']:.4g}", f"{r['rms_g']:g}",
@@ -608,7 +609,7 @@ def _random_table(test: _Test, estimators: Sequence[str]) -> tuple[list[str], li
 
 
 def _free_table(test: _Test) -> tuple[list[str], list[list[str]]]:
-    from sloshrom.beam.registry import label
+    from sloshrom.beam.damping.registry import label
 
     head = ["mode", "f (Hz)", "band", "method", "damping (%)"]
     rows = [[str(r["mode"]), f"{r['mode_frequency_Hz']:.4g}", str(r["band"]),
@@ -678,9 +679,9 @@ def campaign(
 
     Example: ``sloshrom analyse campaign lab/ --channels lab/channels.toml --out results``
     """
-    from sloshrom.beam.campaign import campaign_tests
-    from sloshrom.beam.channels import ChannelMap
-    from sloshrom.beam.registry import estimator_names
+    from sloshrom.beam.damping.registry import estimator_names
+    from sloshrom.beam.lab.campaign import campaign_tests
+    from sloshrom.beam.lab.channels import ChannelMap
 
     try:
         names = estimator_names(estimator or None)
@@ -750,7 +751,7 @@ def example(
     Example: ``sloshrom analyse example lab && sloshrom analyse campaign lab --channels
     lab/channels.toml --out results``
     """
-    from sloshrom.beam.labfiles import write_lab_campaign
+    from sloshrom.beam.lab.virtual import write_lab_campaign
 
     check_number(duration, "--duration", 34.0, 3600.0, unit="s",
                  why="one 16384-sample Welch segment at 500 Hz and at most an hour")

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from sloshrom.beam.structure import MAX_MODES
+from sloshrom.beam.simulation.structure import MAX_MODES
 from sloshrom.cli._app import (
     app,
     check_input,
@@ -49,7 +49,7 @@ from sloshrom.plotting import savefig
 if TYPE_CHECKING:
     from rich.progress import TaskID
 
-    from sloshrom.beam.structure import CantileverBeam, ModalModel
+    from sloshrom.beam.simulation.structure import CantileverBeam, ModalModel
 
 beam_app = typer.Typer(
     help="Sloshing-beam simulations (free and random responses) and damping analysis.",
@@ -192,7 +192,7 @@ def setup_structure(tank_toml: Path | None, modal_toml: Path | None, seed: int,
            structure: StructureOptions | None = None, fill: float | None = None) -> StructureSetup:
     """Tanks, modal model, the beam it comes from (``None`` for the user's own modal data) and
     the first frozen-liquid mode (Hz), or a user error."""
-    from sloshrom.beam.structure import CantileverBeam, ModalModel, coupled_frozen_modes
+    from sloshrom.beam.simulation.structure import CantileverBeam, ModalModel, coupled_frozen_modes
 
     check_number(seed, "--seed", 0, MAX_SEED)
     check_number(fill, "--fill", 0.0, 1.0, lo_open=True, hi_open=True,
@@ -259,7 +259,7 @@ class StructureOptions:
     def load(self, base: Tank) -> tuple[ModalModel, list[Tank], list[str | None]]:
         """The modal model at the tanks and outputs, each tank at its fill, each tank's own
         model (or None)."""
-        from sloshrom.beam.modal_files import read_modes
+        from sloshrom.beam.simulation.modal_files import read_modes
 
         specs = [_tank_spec(s, base) for s in self.tank_specs]
         grids = [g for g, _, _ in specs]
@@ -299,8 +299,8 @@ def _run_cases(models: dict[str, Any], label: str,
     its case is the mean of the members' responses and damping estimates."""
     from rich.progress import SpinnerColumn, TextColumn, TimeElapsedColumn
 
-    from sloshrom.beam.coupled import SimulationDivergedError, StepMismatchError
-    from sloshrom.beam.results import simulate_cases
+    from sloshrom.beam.simulation.cases import simulate_cases
+    from sloshrom.beam.simulation.coupled import SimulationDivergedError, StepMismatchError
     from sloshrom.pipeline.beam import coupled_models
 
     current: list[tuple[str, TaskID]] = []
@@ -325,7 +325,7 @@ def _run_cases(models: dict[str, Any], label: str,
 def echo_missing(rows: Sequence[Mapping[str, float | int | str]], what: str) -> None:
     """Every cell of a damping table without a value, with its reason (never a silent NaN),
     and the values a fallback attempt or part of an ensemble's members gave."""
-    from sloshrom.beam.results import missing_cells
+    from sloshrom.beam.damping.tables import missing_cells
 
     lines = missing_cells(rows)
     if lines:
@@ -338,7 +338,7 @@ def refuse_empty(rows: Sequence[Mapping[str, float | int | str]], what: str,
                  estimators: Sequence[str] | None = None) -> None:
     """A user error, before anything is written, when no cell of a damping table has a value
     (a table of NaN says nothing): its first cell's reason."""
-    from sloshrom.beam.results import no_estimate
+    from sloshrom.beam.damping.tables import no_estimate
 
     why = no_estimate(rows, estimators)
     if why is not None:
@@ -407,7 +407,7 @@ def _check_uff_nodes(enabled: bool, modal: ModalModel) -> None:
     """With ``--uff``: the structure's node numbering must fit the UFF results (before work)."""
     if not enabled:
         return
-    from sloshrom.beam.export import check_result_nodes
+    from sloshrom.beam.lab.uff58 import check_result_nodes
 
     try:
         check_result_nodes(modal)
@@ -450,17 +450,11 @@ def free(
     ``sloshrom beam free --structure wing.pch --mode-table modes.csv --tank 2001 --tank
     3001:frozen --outputs 101,102,103,2001 --sloshing rig --out results/wing``
     """
-    from sloshrom.beam.coupled import free_response
-    from sloshrom.beam.export import write_result_uff
-    from sloshrom.beam.results import (
-        damping_band_table,
-        frozen_modes_table,
-        mode1_decay,
-        reference_tank,
-        to_dataset,
-        write_dataset,
-        write_table,
-    )
+    from sloshrom.beam.damping.tables import damping_band_table, mode1_decay
+    from sloshrom.beam.lab.uff58 import write_result_uff
+    from sloshrom.beam.results import to_dataset, write_dataset, write_table
+    from sloshrom.beam.simulation.cases import frozen_modes_table, reference_tank
+    from sloshrom.beam.simulation.coupled import free_response
     from sloshrom.plotting.beam import FREE_FIGURES, free_figures
 
     check_number(tip_displacement, "--tip-displacement", -0.2, 0.2, lo_open=True, hi_open=True,
@@ -548,15 +542,11 @@ def random(
 
     Example: ``sloshrom beam random --sloshing rig --levels 0.1,0.2,0.4 --duration 90 --out res``
     """
-    from sloshrom.beam.coupled import random_response
-    from sloshrom.beam.export import write_result_uff
-    from sloshrom.beam.results import (
-        mode1_damping_table,
-        reference_tank,
-        to_dataset,
-        write_dataset,
-        write_table,
-    )
+    from sloshrom.beam.damping.tables import mode1_damping_table
+    from sloshrom.beam.lab.uff58 import write_result_uff
+    from sloshrom.beam.results import to_dataset, write_dataset, write_table
+    from sloshrom.beam.simulation.cases import reference_tank
+    from sloshrom.beam.simulation.coupled import random_response
     from sloshrom.plotting.beam import RANDOM_FIGURES, random_figures, random_window
 
     try:

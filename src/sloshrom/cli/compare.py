@@ -55,7 +55,7 @@ def _check_result(path: Path, ds: Any) -> None:
             fail(f"{path}: variable '{name}' contains NaN/inf")
     if ds.attrs.get("test") == "random" and "level" in ds.dims and "base_acceleration" in ds:
         # the levels match the predictions to the measurement: each its run's own?
-        from sloshrom.beam.measured import check_levels
+        from sloshrom.beam.lab.measured import check_levels
 
         base = ds["base_acceleration"].transpose("level", ...).values
         levels = [float(g) for g in ds["level"].values]
@@ -110,8 +110,8 @@ def compare(
         compare_rows,
         comparison_cases,
     )
+    from sloshrom.beam.damping.uncertainty import format_interval
     from sloshrom.beam.results import write_table
-    from sloshrom.beam.uncertainty import format_interval
     from sloshrom.plotting import savefig
     from sloshrom.plotting.beam import COMPARE_FIGURES, comparison_figures
 

@@ -74,7 +74,7 @@ def config_show(
 def _print_missing(console: Console, beam: Mapping[str, object]) -> None:
     """Table 2's and the damping bands' cells without a value (each with its reason), and the
     values a fallback attempt or part of an ensemble's members gave (with their note)."""
-    from sloshrom.beam.results import missing_cells
+    from sloshrom.beam.damping.tables import missing_cells
 
     for what, key in (("Table 2", "table2"), ("damping bands", "damping_bands")):
         rows = beam.get(key)

@@ -8,7 +8,7 @@ interval (``sloshrom compare``).
 
 An ensemble ROM is coupled member by member (:func:`coupled_model`): the ROM's prediction is
 the mean of its members' responses and of their damping estimates, with their spread in its
-uncertainty (``sloshrom.beam.members``).
+uncertainty (``sloshrom.beam.simulation.members``).
 """
 
 from __future__ import annotations
@@ -19,36 +19,36 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, cast
 
-from sloshrom.beam.channels import station_model
 from sloshrom.beam.compare import analysed_test, compare_rows
-from sloshrom.beam.coupled import free_response, random_response
+from sloshrom.beam.damping.registry import REFERENCE, TABLE2
+from sloshrom.beam.damping.tables import (
+    Mode1Decay,
+    damping_band_table,
+    damping_summary,
+    member_damping_tables,
+    mode1_damping_table,
+    mode1_decay,
+)
+from sloshrom.beam.damping.uncertainty import BANDS
 from sloshrom.beam.errors import BeamError
-from sloshrom.beam.labfiles import lab_test_paths, write_lab_test
-from sloshrom.beam.measured import (
+from sloshrom.beam.lab.channels import station_model
+from sloshrom.beam.lab.measured import (
     check_free_decay,
     check_random_base,
     read_free_test,
     read_random_test,
 )
-from sloshrom.beam.members import Members, Row
-from sloshrom.beam.registry import REFERENCE, TABLE2
-from sloshrom.beam.results import (
-    BANDS,
-    Mode1Decay,
+from sloshrom.beam.lab.virtual import lab_test_paths, write_lab_test
+from sloshrom.beam.results import to_dataset, write_dataset, write_table
+from sloshrom.beam.simulation.cases import (
     Simulate,
-    damping_band_table,
-    damping_summary,
     envelope_table,
     frozen_modes_table,
-    member_damping_tables,
-    mode1_damping_table,
-    mode1_decay,
     simulate_cases,
-    to_dataset,
-    write_dataset,
-    write_table,
 )
-from sloshrom.beam.structure import CantileverBeam, ModalModel, coupled_frozen_modes
+from sloshrom.beam.simulation.coupled import free_response, random_response
+from sloshrom.beam.simulation.members import Members, Row
+from sloshrom.beam.simulation.structure import CantileverBeam, ModalModel, coupled_frozen_modes
 from sloshrom.config import Tank
 from sloshrom.fileio import OutputBatch
 from sloshrom.models import FrozenLiquid
@@ -113,11 +113,11 @@ def coupled_model(model: object) -> object:
     """A beam case's model as it is coupled to the structure.
 
     An ensemble ROM (``sloshrom.rom.ensemble.Ensemble``) becomes its
-    :class:`~sloshrom.beam.members.Members`: each member coupled alone, the case's response the
-    members' mean (``sloshrom.beam.results.simulate_cases``), never the ensemble's mean force
-    in one closed loop. With one model per tank (a list), member k of every ensemble runs
-    together, the other tanks' models in every member's run; the ensembles must then have as
-    many members. Any other model is returned as it is.
+    :class:`~sloshrom.beam.simulation.members.Members`: each member coupled alone, the case's
+    response the members' mean (``sloshrom.beam.simulation.cases.simulate_cases``), never the
+    ensemble's mean force in one closed loop. With one model per tank (a list), member k of every
+    ensemble runs together, the other tanks' models in every member's run; the ensembles must then
+    have as many members. Any other model is returned as it is.
 
     Raises
     ------
@@ -149,15 +149,15 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     -------
     outputs : dict
         ``f1_frozen_hz`` (Hz), ``table1`` (rows of Table 1), ``instantaneous_damping`` (per case:
-        banded median first-mode damping, ``sloshrom.beam.results.damping_summary``),
+        banded median first-mode damping, ``sloshrom.beam.damping.tables.damping_summary``),
         ``table2`` (rows of Table 2 with 95 % intervals, the simulated cases and the
         :data:`EXPERIMENT`), ``damping_bands`` (free decays: damping per amplitude band and
-        method with intervals, ``sloshrom.beam.results.damping_band_table``), ``experiment``
+        method with intervals, ``sloshrom.beam.damping.tables.damping_band_table``), ``experiment``
         (the rig as the laboratory, :func:`laboratory`: ``noise_rms`` (m/s^2), ``files``, and
         ``free``/``random``: the rows of ``sloshrom.beam.compare.compare_rows``, each
         prediction against the experiment's intervals) and ``envelope`` (per run and case: peak
         tank acceleration against the model's training envelope,
-        ``sloshrom.beam.results.envelope_table``; ``None`` = n/a for a model without an
+        ``sloshrom.beam.simulation.cases.envelope_table``; ``None`` = n/a for a model without an
         envelope), ``waveform_fidelity`` (the random tests' forces of the ROM and of the rig's
         twin run against the rig's, per level:
         :func:`sloshrom.pipeline.waveform.random_fidelity`). An ensemble ROM (each member
@@ -272,7 +272,7 @@ def laboratory(free: Mapping[str, Any], random: Mapping[str, Any], modal: ModalM
                ) -> dict[str, Any]:
     """The rig plays the laboratory: its beam runs as a test lab's files, analysed as measured.
 
-    The free and random responses are written as UFF 58 files (``sloshrom.beam.measured.
+    The free and random responses are written as UFF 58 files (``sloshrom.beam.lab.measured.
     write_lab_test``: the station accelerometers, and the base for the random tests, each with
     white noise of ``cfg.lab_noise`` m/s^2 RMS) into ``folder``, read back with their channel
     map and analysed exactly as ``sloshrom analyse`` analyses a measurement.
@@ -326,11 +326,11 @@ def member_spread(member_rows: list[list[Row]], free_members: Sequence[Mapping[s
     ----------
     member_rows : list of list of dict
         Per member, its Table 2 rows, one per level
-        (``sloshrom.beam.results.member_damping_tables``).
+        (``sloshrom.beam.damping.tables.member_damping_tables``).
     free_members : sequence of mapping
         The members' free responses (``"members"`` of the ROM's).
     decay : Mode1Decay
-        Its mode-1 analysis (with :attr:`~sloshrom.beam.results.Mode1Decay.members`).
+        Its mode-1 analysis (with :attr:`~sloshrom.beam.damping.tables.Mode1Decay.members`).
     levels : list of float
         RMS levels, g.
 

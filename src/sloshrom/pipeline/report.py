@@ -14,8 +14,8 @@ import numpy as np
 
 from sloshrom import fidelity
 from sloshrom import studies as registry
-from sloshrom.beam.registry import TABLE2, label
-from sloshrom.beam.results import table2_dataset
+from sloshrom.beam.damping.registry import TABLE2, label
+from sloshrom.beam.damping.tables import table2_dataset
 from sloshrom.pipeline import html as report
 from sloshrom.pipeline import settings
 from sloshrom.pipeline.context import Context

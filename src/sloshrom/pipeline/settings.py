@@ -35,7 +35,7 @@ from pydantic import (
 )
 from pydantic_core import ErrorDetails, PydanticCustomError
 
-from sloshrom.beam.structure import (
+from sloshrom.beam.simulation.structure import (
     N_STATIONS,
     CantileverBeam,
     ModalModel,
@@ -753,11 +753,11 @@ RmsLevels = _list(_number(0.0, lo_open=True, what="a positive number"), "positiv
 class MultimodeTable(_Table):
     """``[multimode]``: the two-mode wing study (``sloshrom.studies.multimode``).
 
-    The wing's own checks (``sloshrom.beam.multimode.WingDesign``) run before any stage, in
+    The wing's own checks (``sloshrom.beam.simulation.wing.WingDesign``) run before any stage, in
     ``sloshrom.studies.multimode.config.wing_design``.
     """
 
-    # the wing (sloshrom.beam.multimode.WingDesign)
+    # the wing (sloshrom.beam.simulation.wing.WingDesign)
     span: float
     chord: float
     ea_chord_fraction: float

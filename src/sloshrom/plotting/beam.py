@@ -14,13 +14,13 @@ import numpy as np
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike
 
-from sloshrom.beam.analysis import welch_psd
 from sloshrom.beam.compare import AnalysedTest, match_levels
-from sloshrom.beam.members import Row
-from sloshrom.beam.registry import label
-from sloshrom.beam.results import Mode1Decay, decay_floor
-from sloshrom.beam.structure import ModalModel
-from sloshrom.beam.uncertainty import FLOOR_FACTOR
+from sloshrom.beam.damping.analysis import welch_psd
+from sloshrom.beam.damping.registry import label
+from sloshrom.beam.damping.tables import Mode1Decay, decay_floor
+from sloshrom.beam.damping.uncertainty import FLOOR_FACTOR
+from sloshrom.beam.simulation.members import Row
+from sloshrom.beam.simulation.structure import ModalModel
 from sloshrom.config import G
 
 __all__ = ["COMPARE_FIGURES", "FREE_FIGURES", "RANDOM_FIGURES", "comparison_figures",
@@ -40,12 +40,12 @@ def free_figures(res: Mapping[str, Mapping[str, Any]], modal: ModalModel | None,
     Parameters
     ----------
     res : mapping
-        Case -> free response (``sloshrom.beam.coupled.free_response``).
+        Case -> free response (``sloshrom.beam.simulation.coupled.free_response``).
     modal : ModalModel or None
         The beam's modal model (station positions, number of modes); ``None`` for a structure
         known by its measured modes alone (no Fig. 16: no modal filtering).
     decays : mapping
-        Case -> its first-mode analysis (``sloshrom.beam.results.mode1_decay``).
+        Case -> its first-mode analysis (``sloshrom.beam.damping.tables.mode1_decay``).
     labels : sequence of str, optional
         The stations' names in Fig. 14 (default their positions on ``modal``).
 
@@ -172,7 +172,8 @@ def random_figures(res: Mapping[str, Mapping[str, Any]], levels: Sequence[float]
     Parameters
     ----------
     res : mapping
-        Case -> random response (``sloshrom.beam.coupled.random_response``), one row per level.
+        Case -> random response (``sloshrom.beam.simulation.coupled.random_response``), one row per
+        level.
     levels : sequence of float
         The RMS base-acceleration levels, g.
     window : (float, float)
@@ -256,7 +257,7 @@ def mode_decay_figure(case: str, frequencies: Sequence[float],
 
 def mode_damping_figure(rows: Sequence[Row], estimators: Sequence[str]) -> Figure:
     """Table 2 at every mode: damping ratio against RMS base level, one panel per mode, each
-    estimator with its 95 % interval (rows of ``sloshrom.beam.lab.random_mode_rows``)."""
+    estimator with its 95 % interval (rows of ``sloshrom.beam.lab.every_mode.random_mode_rows``)."""
     modes = sorted({int(r["mode"]) for r in rows})
     fig = Figure(figsize=(7, 3.0 * len(modes)))
     axes = fig.subplots(len(modes), 1, squeeze=False)[:, 0]

@@ -22,20 +22,17 @@ import numpy as np
 import xarray as xr
 
 from sloshrom.beam.compare import AnalysedTest, analysed_test, compare_rows
-from sloshrom.beam.registry import REFERENCE
-from sloshrom.beam.results import (
+from sloshrom.beam.damping.registry import REFERENCE
+from sloshrom.beam.damping.tables import (
     Mode1Decay,
     damping_band_table,
     damping_summary,
-    envelope_table,
     mode1_damping_table,
     mode1_decay,
-    simulate_cases,
-    to_dataset,
-    write_dataset,
-    write_table,
 )
-from sloshrom.beam.structure import coupled_frozen_modes
+from sloshrom.beam.results import to_dataset, write_dataset, write_table
+from sloshrom.beam.simulation.cases import envelope_table, simulate_cases
+from sloshrom.beam.simulation.structure import coupled_frozen_modes
 from sloshrom.energy import DISSIPATIVE_THRESHOLD, map_fidelity, map_maximum
 from sloshrom.fileio import OutputBatch
 from sloshrom.io import Record, read_record

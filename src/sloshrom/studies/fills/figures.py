@@ -13,7 +13,7 @@ import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
 
-from sloshrom.beam.registry import REFERENCE
+from sloshrom.beam.damping.registry import REFERENCE
 from sloshrom.plotting.maps import plot_phi_d_map
 
 __all__ = ["CASE_STYLE", "damping_fill_figure", "fill_maps_figure"]

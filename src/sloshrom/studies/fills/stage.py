@@ -18,9 +18,11 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from sloshrom.beam.registry import REFERENCE
-from sloshrom.beam.results import mode1_damping_table, simulate_cases, write_table
-from sloshrom.beam.structure import coupled_frozen_modes
+from sloshrom.beam.damping.registry import REFERENCE
+from sloshrom.beam.damping.tables import mode1_damping_table
+from sloshrom.beam.results import write_table
+from sloshrom.beam.simulation.cases import simulate_cases
+from sloshrom.beam.simulation.structure import coupled_frozen_modes
 from sloshrom.config import FILL_TOLERANCE
 from sloshrom.energy import map_fidelity
 from sloshrom.fileio import OutputBatch, netcdf_writer

@@ -5,7 +5,8 @@ ROMs, the random tests and their modal damping: :func:`~sloshrom.studies.multimo
 stage_multimode`), ``outputs`` (:class:`~sloshrom.studies.multimode.outputs.MultimodeOutputs`),
 ``section`` (the report section), ``figures``, ``study`` (its declaration to the pipeline,
 ``STUDY``). The wing and its damping analysis are domain physics, in
-:mod:`sloshrom.beam.multimode`; the broadband records' signal is
+:mod:`sloshrom.beam.simulation.wing` and :mod:`sloshrom.beam.damping.multimode`; the broadband
+records' signal is
 :func:`sloshrom.signals.broadband_acceleration`.
 """
 
