@@ -680,3 +680,51 @@ def test_estimator_names_are_spelled_only_in_the_registry():
     bad = estimator_name_literals(names)
     assert not bad, ("estimator names spelled outside the registry (use "
                      "sloshrom.beam.damping.registry):\n" + "\n".join(bad))
+
+
+# -- Table 2's flat columns: made and read in one place ----------------------------------------
+#: The one module that composes (or parses) a file column from an estimator's name:
+#: ``lscf_h1_std``, ``frequency_ssi_cov``. Everywhere else a damping table is a Dataset over
+#: the dimension ``estimator``; its flat columns exist at the files' edge only.
+COLUMNS_MODULE = "sloshrom.beam.damping.columns"
+#: The suffixes of an estimator's columns (``sloshrom.beam.damping.columns.ESTIMATE_FIELDS``).
+COLUMN_SUFFIXES = {f"_{s}" for s in ("std", "low", "high", "reason", "note", "spread",
+                                      "members", "uncorrected", "iqr", "n")}
+
+
+def _composed_columns(source: str) -> list[tuple[int, str]]:
+    """``(line, text)`` of every column name composed from a name: an f-string ending in a
+    field's suffix (``f"{est}_low"``) or starting with ``frequency_`` then a name, and a
+    concatenation ``name + "_std"``."""
+    out = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.JoinedStr) and len(node.values) >= 2:
+            first, *_, last = node.values
+            second = node.values[1]
+            if (isinstance(last, ast.Constant) and last.value in COLUMN_SUFFIXES
+                    and isinstance(node.values[-2], ast.FormattedValue)) or (
+                    isinstance(first, ast.Constant) and first.value == "frequency_"
+                    and isinstance(second, ast.FormattedValue)):
+                out.append((node.lineno, ast.unparse(node)))
+        if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Add) \
+                and isinstance(node.right, ast.Constant) and node.right.value in COLUMN_SUFFIXES:
+            out.append((node.lineno, ast.unparse(node)))
+    return out
+
+
+def test_the_column_finder():
+    src = ('a = f"{est}_low"\nb = n + "_std"\nc = f"frequency_{n}"\n'
+           'd = f"{arch}_d{delays}_n{neurons}"\ne = f"{x}_lowpass"\nf = "measured_low"\n')
+    assert [line for line, _ in _composed_columns(src)] == [1, 2, 3]
+
+
+def test_table2_columns_are_composed_in_one_module():
+    """Datasets over ``estimator`` flow through the analyses, the command line and the report;
+    only :data:`COLUMNS_MODULE` turns them into the files' flat columns and back, so that a
+    copy of the column contract cannot disagree with it."""
+    assert COLUMNS_MODULE in MODULES
+    bad = [f"{MODULES[m].relative_to(SRC)}:{line}: {text}" for m, path in MODULES.items()
+           if m != COLUMNS_MODULE
+           for line, text in _composed_columns(path.read_text(encoding="utf-8"))]
+    assert not bad, ("estimator columns composed outside " + COLUMNS_MODULE + ":\n"
+                     + "\n".join(bad))

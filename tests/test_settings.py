@@ -4,6 +4,7 @@ import json
 import pytest
 
 from sloshrom import ConfigError, Tank
+from sloshrom.beam.damping.limits import WELCH_SEGMENT
 from sloshrom.pipeline import settings
 
 
@@ -249,7 +250,7 @@ def test_min_free_duration_is_what_the_damping_analysis_needs():
 
 
 def test_random_minimum_holds_one_welch_segment():
-    assert settings.MIN_RANDOM_DURATION * settings.BEAM_FS >= settings.WELCH_NPERSEG
+    assert settings.MIN_RANDOM_DURATION * settings.BEAM_FS >= WELCH_SEGMENT
 
 
 @pytest.mark.parametrize(("f0", "sigma", "ok"), [(12.0, 4.0, True), (5.0, 4.0, False),

@@ -21,6 +21,7 @@ from sloshrom.beam.compare import (
     comparison_cases,
     match_levels,
 )
+from sloshrom.beam.damping.columns import table2_dataset
 from sloshrom.beam.damping.uncertainty import format_interval
 from sloshrom.beam.errors import BeamError
 from sloshrom.beam.results import to_dataset
@@ -102,7 +103,7 @@ def test_free_verdicts_follow_the_damping(free_sets):
 def _test(kind: str, levels: list[float]) -> AnalysedTest:
     rows = [{"case": "x", "rms_g": lv, "lscf_h1": 0.01, "lscf_h1_std": 0.001,
              "lscf_h1_low": 0.008, "lscf_h1_high": 0.012} for lv in levels]
-    return AnalysedTest("x", kind, FS, 10.0, rows, levels=levels)
+    return AnalysedTest("x", kind, FS, 10.0, [], levels=levels, table2=table2_dataset(rows))
 
 
 def test_levels_match_within_ten_percent():
@@ -116,7 +117,7 @@ def test_levels_match_within_ten_percent():
 
 def test_missing_estimates_give_na():
     m, p = _test("random", [0.1]), _test("random", [0.1])
-    p.rows[0]["lscf_h1"] = float("nan")
+    p.damping["value"].loc[{"level": 0.1, "estimator": "lscf_h1"}] = float("nan")
     row = compare_rows(m, [p])[0]
     assert row["verdict"] == "n/a" and row["consistent"] == "n/a"
 

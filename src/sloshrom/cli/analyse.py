@@ -20,10 +20,11 @@ import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, TypeVar
+from typing import TYPE_CHECKING, Annotated, Any, TypeVar, cast
 
 import typer
 
+from sloshrom.beam.damping.limits import WELCH_SEGMENT
 from sloshrom.cli._app import app, check_input, check_number, fail, key_value_pairs
 from sloshrom.cli.beam import (
     DirectionOpt,
@@ -44,7 +45,6 @@ from sloshrom.cli.progress import Bars, progress_bars
 from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputBatch
 from sloshrom.io.record import MissingUnitError, UnitConflictError
-from sloshrom.pipeline.settings import WELCH_NPERSEG
 from sloshrom.plotting import savefig
 
 if TYPE_CHECKING:  # the heavy modules load when a command runs
@@ -296,7 +296,7 @@ def free(
     test = _run("analyse free", lambda step: _free_test(files, ctx, name, step))
     with OutputBatch() as batch:  # all result files or none
         test.write(out, batch)
-    echo_missing(test.rows, "damping bands")
+    echo_missing(test.damping, "damping bands")
     typer.echo(f"wrote free_{name}.nc, the damping bands and figures to {out}")
 
 
@@ -331,12 +331,13 @@ def _setting(files: list[Path], channels: Path, out: Path, name: str, f1: float 
 
 @dataclass
 class _Test:
-    """One analysed test: its result dataset, table rows and figures."""
+    """One analysed test: its result dataset, its damping (a free decay's band rows, a random
+    test's Table 2 over ``(mode, level, estimator)``) and figures."""
 
     kind: str
     name: str
     ds: xr.Dataset
-    rows: list[Row]
+    damping: list[Row] | xr.Dataset
     figs: dict[str, Figure]
     modes: TestModes
 
@@ -344,11 +345,18 @@ class _Test:
     def table(self) -> str:
         return "damping_bands" if self.kind == "free" else "table2_damping"
 
+    def rows(self) -> list[Row]:
+        """The damping as its file's rows (a random test's: the one place that makes them,
+        ``sloshrom.beam.damping.columns.table2_rows``)."""
+        from sloshrom.beam.damping.columns import table2_rows
+
+        return table2_rows(self.damping) if not isinstance(self.damping, list) else self.damping
+
     def write(self, out: Path, batch: OutputBatch) -> None:
         from sloshrom.beam.results import write_dataset, write_table
 
         write_dataset(self.ds, out / f"{self.kind}_{self.name}.nc", batch)
-        write_table(self.rows, out / self.table, batch)
+        write_table(self.rows(), out / self.table, batch)
         for stem, fig in self.figs.items():
             savefig(fig, out / f"{stem}.png", batch)
 
@@ -525,7 +533,7 @@ def random(
         files, ctx, name, lv, names, accuracy, step))
     with OutputBatch() as batch:  # all result files or none
         test.write(out, batch)
-    echo_missing(test.rows, "Table 2")
+    echo_missing(test.damping, "Table 2")
     typer.echo(f"wrote random_{name}.nc, Table 2 at every mode and figures to {out}")
 
 
@@ -535,7 +543,7 @@ def _random_test(files: list[Path], ctx: _Setting, name: str, lv: list[float] | 
     """Read and analyse a random test (one file per level) at every mode (``levels_from``:
     where ``lv`` came from, for messages)."""
     from sloshrom.beam.damping.uncertainty import ShortRecordWarning
-    from sloshrom.beam.lab.every_mode import random_mode_rows
+    from sloshrom.beam.lab.every_mode import random_mode_dataset
     from sloshrom.beam.lab.measured import check_levels, check_random_base, read_random_test
     from sloshrom.plotting.beam import mode_damping_figure, random_figures, random_window
 
@@ -544,9 +552,9 @@ def _random_test(files: list[Path], ctx: _Setting, name: str, lv: list[float] | 
                 ctx.channels)
     modal = _station_model(ctx, res)
     n = res["time"].size
-    if n < WELCH_NPERSEG:
-        fail(f"the records hold {n} samples: Table 2 needs at least {WELCH_NPERSEG} per "
-             f"level (one Welch segment, {WELCH_NPERSEG / res['fs']:g} s at "
+    if n < WELCH_SEGMENT:
+        fail(f"the records hold {n} samples: Table 2 needs at least {WELCH_SEGMENT} per "
+             f"level (one Welch segment, {WELCH_SEGMENT / res['fs']:g} s at "
              f"{res['fs']:g} Hz)")
     for p, b, g in zip(files, res["base_acceleration"], res["rms_levels_g"], strict=True):
         _checked(str(p), lambda b=b, g=g: check_random_base(b, res["fs"], f"({g:g} g)"))
@@ -557,17 +565,17 @@ def _random_test(files: list[Path], ctx: _Setting, name: str, lv: list[float] | 
     _check_stations(ctx, res, found, modal)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ShortRecordWarning)
-        rows = _checked("damping analysis", lambda: random_mode_rows(
+        damping = _checked("damping analysis", lambda: random_mode_dataset(
             res, name, found, estimators=names, accuracy=accuracy, step=step))
     for w in caught:  # once each, after the analyses
         warnings.warn_explicit(str(w.message), w.category, w.filename, w.lineno)
-    refuse_empty(rows, f"{', '.join(p.name for p in files)}: Table 2", names)
+    refuse_empty(damping, f"{', '.join(p.name for p in files)}: Table 2", names)
     duration = res["time"].size / res["fs"]
     figs = random_figures({name: res}, [float(x) for x in res["rms_levels_g"]],
                           random_window(duration))
-    figs["damping_by_mode"] = mode_damping_figure(rows, names)
-    return _Test("random", name, _dataset(ctx, res, name, "random", found, modal), rows, figs,
-                 found)
+    figs["damping_by_mode"] = mode_damping_figure(damping)
+    return _Test("random", name, _dataset(ctx, res, name, "random", found, modal), damping,
+                 figs, found)
 
 
 # -- a campaign folder (sloshrom.beam.lab.campaign) ---------------------------------------------
@@ -576,15 +584,16 @@ _DirArg = Annotated[Path, typer.Argument(
          "campaign.toml (which file is which test).", show_default=False)]
 
 
-def _cell(r: Row, key: str, low: str, high: str, reason: str) -> str:
+def _cell(v: float | str | None, lo: float | str | None, hi: float | str | None,
+          reason: object) -> str:
     """``value [low, high] %`` with the digits the interval needs, or ``— (reason)``."""
     from sloshrom.beam.damping.uncertainty import format_interval
 
-    v, lo, hi = (_num(r.get(k)) for k in (key, low, high))
+    v, lo, hi = (_num(x) for x in (v, lo, hi))
     if not math.isfinite(v):
-        return f"— ({r.get(reason) or 'no estimate'})"
+        return f"— ({reason or 'no estimate'})"
     if not (math.isfinite(lo) and math.isfinite(hi)):
-        return f"{100 * v:.3g} % (no interval: {r.get(reason) or 'no spread estimate'})"
+        return f"{100 * v:.3g} % (no interval: {reason or 'no spread estimate'})"
     a, b, c = format_interval(100 * lo, 100 * hi, 100 * v)
     return f"{c} [{a}, {b}] %"
 
@@ -601,10 +610,17 @@ def _num(v: float | str | None) -> float:
 def _random_table(test: _Test, estimators: Sequence[str]) -> tuple[list[str], list[list[str]]]:
     from sloshrom.beam.damping.registry import label
 
+    t2 = cast("xr.Dataset", test.damping)  # a random test's Table 2
     head = ["mode", "f (Hz)", "RMS base (g)", *(f"{label(e)} (%)" for e in estimators)]
-    rows = [[str(r["mode"]), f"{r['mode_frequency_Hz']:.4g}", f"{r['rms_g']:g}",
-             *(_cell(r, e, f"{e}_low", f"{e}_high", f"{e}_reason") for e in estimators)]
-            for r in test.rows]
+    rows = []
+    for k, mode in enumerate(t2.mode.values):
+        for i, level in enumerate(t2.level.values):
+            d = t2.isel(mode=k, level=i)
+            cells = [_cell(*(float(d[v].sel(estimator=e)) for v in ("value", "low", "high")),
+                           reason=str(d["reason"].sel(estimator=e).values))
+                     for e in estimators]
+            rows.append([str(int(mode)), f"{float(t2.mode_frequency_Hz[k]):.4g}",
+                         f"{float(level):g}", *cells])
     return head, rows
 
 
@@ -613,8 +629,9 @@ def _free_table(test: _Test) -> tuple[list[str], list[list[str]]]:
 
     head = ["mode", "f (Hz)", "band", "method", "damping (%)"]
     rows = [[str(r["mode"]), f"{r['mode_frequency_Hz']:.4g}", str(r["band"]),
-             label(str(r["method"])), _cell(r, "zeta", "low", "high", "reason")]
-            for r in test.rows]
+             label(str(r["method"])),
+             _cell(r.get("zeta"), r.get("low"), r.get("high"), r.get("reason"))]
+            for r in test.rows()]
     return head, rows
 
 
@@ -729,7 +746,7 @@ def campaign(
         batch.write_text(out / "campaign.md", md)
         batch.write_text(out / "campaign.html", page)
     for _, t in tests:
-        echo_missing(t.rows, f"{t.name}")
+        echo_missing(t.damping, f"{t.name}")
     typer.echo(f"wrote {len(tests)} test(s) and campaign.md / campaign.html to {out}")
 
 
@@ -754,7 +771,7 @@ def example(
     from sloshrom.beam.lab.virtual import write_lab_campaign
 
     check_number(duration, "--duration", 34.0, 3600.0, unit="s",
-                 why="one 16384-sample Welch segment at 500 Hz and at most an hour")
+                 why=f"one {WELCH_SEGMENT}-sample Welch segment at 500 Hz and at most an hour")
     check_number(seed, "--seed", 0, 2**32 - 1)
     names = ["decay.uff", *(f"random_{g:g}g.uff" for g in (0.1, 0.2, 0.4)), "channels.toml"]
     check_outputs(directory, names, ())

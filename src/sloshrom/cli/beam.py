@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
+from sloshrom.beam.damping.limits import WELCH_SEGMENT
 from sloshrom.beam.simulation.structure import MAX_MODES
 from sloshrom.cli._app import (
     app,
@@ -47,6 +48,7 @@ from sloshrom.pipeline.settings import (
 from sloshrom.plotting import savefig
 
 if TYPE_CHECKING:
+    import xarray as xr
     from rich.progress import TaskID
 
     from sloshrom.beam.simulation.structure import CantileverBeam, ModalModel
@@ -322,25 +324,28 @@ def _run_cases(models: dict[str, Any], label: str,
             fail(f"{label}: {exc}")
 
 
-def echo_missing(rows: Sequence[Mapping[str, float | int | str]], what: str) -> None:
-    """Every cell of a damping table without a value, with its reason (never a silent NaN),
-    and the values a fallback attempt or part of an ensemble's members gave."""
+def echo_missing(table: Sequence[Mapping[str, float | int | str]] | xr.Dataset,
+                 what: str) -> None:
+    """Every cell of a damping table (free-decay band rows, or a Table 2 dataset) without a
+    value, with its reason (never a silent NaN), and the values a fallback attempt or part of
+    an ensemble's members gave."""
     from sloshrom.beam.damping.tables import missing_cells
 
-    lines = missing_cells(rows)
+    lines = missing_cells(table)
     if lines:
         typer.echo(f"{what}, cells without a value or with a note:")
         for line in lines:
             typer.echo(f"  {line}")
 
 
-def refuse_empty(rows: Sequence[Mapping[str, float | int | str]], what: str,
+def refuse_empty(table: Sequence[Mapping[str, float | int | str]] | xr.Dataset, what: str,
                  estimators: Sequence[str] | None = None) -> None:
-    """A user error, before anything is written, when no cell of a damping table has a value
-    (a table of NaN says nothing): its first cell's reason."""
+    """A user error, before anything is written, when no cell of a damping table (free-decay
+    band rows, or a Table 2 dataset) has a value (a table of NaN says nothing): its first
+    cell's reason."""
     from sloshrom.beam.damping.tables import no_estimate
 
-    why = no_estimate(rows, estimators)
+    why = no_estimate(table, estimators)
     if why is not None:
         fail(f"{what}: no damping estimate at all, nothing written; the first cell: {why}")
 
@@ -542,7 +547,8 @@ def random(
 
     Example: ``sloshrom beam random --sloshing rig --levels 0.1,0.2,0.4 --duration 90 --out res``
     """
-    from sloshrom.beam.damping.tables import mode1_damping_table
+    from sloshrom.beam.damping.columns import table2_rows
+    from sloshrom.beam.damping.tables import mode1_damping_dataset
     from sloshrom.beam.lab.uff58 import write_result_uff
     from sloshrom.beam.results import to_dataset, write_dataset, write_table
     from sloshrom.beam.simulation.cases import reference_tank
@@ -560,7 +566,7 @@ def random(
     except ConfigError as exc:
         fail(str(exc))
     check_number(duration, "--duration", MIN_RANDOM_DURATION, MAX_BEAM_SECONDS, unit="s",
-                 why="Table 2 needs one 16384-sample Welch segment at 500 Hz")
+                 why=f"Table 2 needs one {WELCH_SEGMENT}-sample Welch segment at 500 Hz")
     if duration * len(lv) > MAX_LEVEL_SECONDS:
         fail(f"--duration {duration:g} s x {len(lv)} level(s) = {duration * len(lv):g} s is "
              f"more than {MAX_LEVEL_SECONDS:g} s (memory: the rig holds about 2.1 MB per second "
@@ -583,16 +589,16 @@ def random(
                      lambda m, fs: random_response(m, modal, lv, duration, seed, f0, sigma,
                                                    tank=setup.tank, output_fs=fs))
     ref = {case: reference_tank(r) for case, r in res.items()}
-    rows = _analysed("damping analysis of mode 1",
-                     lambda: mode1_damping_table(ref, lv, f1))
+    table2 = _analysed("damping analysis of mode 1",
+                       lambda: mode1_damping_dataset(ref, lv, f1))
     with OutputBatch() as batch:  # all result files or none
         for case, r in res.items():
             ds = to_dataset(r, case, "random", setup.tank, modal, seed, f1=f1)
             write_dataset(ds, out / f"random_{case}.nc", batch)
             if uff:
                 write_result_uff(ds, out / f"random_{case}.uff", batch=batch)
-        write_table(rows, out / "table2_mode1_damping", batch)
+        write_table(table2_rows(table2), out / "table2_mode1_damping", batch)
         for name, fig in random_figures(ref, lv, random_window(duration)).items():
             savefig(fig, out / f"{name}.png", batch)
-    echo_missing(rows, "Table 2")
+    echo_missing(table2, "Table 2")
     typer.echo(f"wrote {len(res)} result file(s), Table 2 and figures to {out}")

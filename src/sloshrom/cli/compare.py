@@ -173,7 +173,7 @@ def compare(
     figs = comparison_figures(tests[0], tests[1:])
     with OutputBatch() as batch:
         write_table(rows, out / "comparison", batch)
-        write_table([r for t in tests for r in t.rows], out / "analyses", batch)
+        write_table([r for t in tests for r in t.table_rows()], out / "analyses", batch)
         for stem, fig in figs.items():
             savefig(fig, out / f"{stem}.png", batch)
     head = "rms_g" if kind == "random" else "band"

@@ -14,8 +14,8 @@ import numpy as np
 
 from sloshrom import fidelity
 from sloshrom import studies as registry
-from sloshrom.beam.damping.registry import TABLE2, label
-from sloshrom.beam.damping.tables import table2_dataset
+from sloshrom.beam.damping.columns import table2_dataset
+from sloshrom.beam.damping.registry import REFERENCE, TABLE2, label
 from sloshrom.pipeline import html as report
 from sloshrom.pipeline import settings
 from sloshrom.pipeline.context import Context
@@ -488,7 +488,7 @@ def _beam_sections(ctx: Context, b: dict[str, Any],
     if isinstance(rm, dict):
         levels = list(rm.get("table2", {}))
         tables2.append(Table(
-            ["RMS [g]", "LSCF on H1, members (mean ± std)"],
+            ["RMS [g]", f"{label(REFERENCE)}, members (mean ± std)"],
             [[lv, f"{_pm(rm['table2'][lv], '{:.2f}', 100)} %"] for lv in levels],
             "The random tests with each member of the ensemble ROM coupled alone: the spread "
             "of the first-mode damping that one trained network carries; their mean is the "

@@ -35,6 +35,7 @@ from pydantic import (
 )
 from pydantic_core import ErrorDetails, PydanticCustomError
 
+from sloshrom.beam.damping.limits import WELCH_SEGMENT
 from sloshrom.beam.simulation.structure import (
     N_STATIONS,
     CantileverBeam,
@@ -67,7 +68,6 @@ __all__ = [
     "OPTIONAL_KEYS",
     "QUICK",
     "RIG_RATE",
-    "WELCH_NPERSEG",
     "BeamTable",
     "BeyondTable",
     "DataTable",
@@ -118,11 +118,9 @@ RIG_RATE = 10_000.0
 NOE_OUT_DELAYS = 2
 #: Default rate of the beam results (``sloshrom beam``); `reproduce` uses ``rig.fs``.
 BEAM_FS = 500.0
-#: Welch segment of the random-response damping estimators (``uncertainty.mode1_damping_random``).
-WELCH_NPERSEG = 16384
 #: A random response must hold at least one Welch segment (32.8 s at 500 Hz); 90 s (paper) give
 #: four half-overlapping segments, hence a much smoother estimate.
-MIN_RANDOM_DURATION = math.ceil(WELCH_NPERSEG / BEAM_FS)
+MIN_RANDOM_DURATION = math.ceil(WELCH_SEGMENT / BEAM_FS)
 #: ``analysis.instantaneous_damping`` trims 5 periods of mode 1 at each end and smooths over 4;
 #: 4 more periods leave a decay to analyse (18 periods: 1.8 s for the paper beam, f1 = 10.2 Hz).
 FREE_DAMPING_PERIODS = 2 * 5 + 4 + 4
@@ -885,11 +883,11 @@ class ReproduceConfig(_Table):
                 raise ConfigError(cost)
         check_psd_band(b.f0, b.sigma, names=("'beam.f0'", "'beam.sigma'"), error=ConfigError,
                        fs=fs)
-        if b.random_duration * fs < WELCH_NPERSEG:
+        if b.random_duration * fs < WELCH_SEGMENT:
             raise ConfigError(
                 f"'beam.random_duration' = {b.random_duration:g} s must hold at least one "
-                f"{WELCH_NPERSEG}-sample Welch segment at 'rig.fs' = {fs:g} Hz "
-                f"({WELCH_NPERSEG / fs:.3g} s) for the damping estimates of Table 2")
+                f"{WELCH_SEGMENT}-sample Welch segment at 'rig.fs' = {fs:g} Hz "
+                f"({WELCH_SEGMENT / fs:.3g} s) for the damping estimates of Table 2")
         tank = self.tank.tank()
         beam = b.structure(tank)
         f1 = first_frozen_frequency(tank, b.n_modes, b.damping[: b.n_modes], beam=beam)

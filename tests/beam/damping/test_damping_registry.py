@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
+from sloshrom.beam.damping.columns import table2_dataset
 from sloshrom.beam.damping.estimators import DampingEstimate, DampingEstimator, RandomTest
 from sloshrom.beam.damping.registry import (
     ESTIMATORS,
@@ -18,7 +19,6 @@ from sloshrom.beam.damping.registry import (
     label,
     register,
 )
-from sloshrom.beam.damping.tables import table2_dataset
 from sloshrom.beam.errors import BeamError
 
 

@@ -231,7 +231,8 @@ def test_band_coverage_100_records(f, zeta, duration):
 def test_a_missing_estimate_carries_its_reason():
     # 34 s with 1 % input and 5 % output noise: LSCF finds no stable cluster (NaN), half power
     # still a value; every NaN says why, and the dataset holds what the flat columns hold
-    from sloshrom.beam.damping.uncertainty import _simulate, estimate_random, table2_columns
+    from sloshrom.beam.damping.columns import table2_columns
+    from sloshrom.beam.damping.uncertainty import _simulate, estimate_random
 
     u, y = _simulate(F1, ZETA, FS, 17000, 1, (0.01, 0.05), np.random.default_rng(5))
     result = estimate_random(u[0], y[0], FS, F1, n_resamples=12)

@@ -12,6 +12,7 @@ import pytest
 import xarray as xr
 
 from helpers import check_cli, runner
+from sloshrom.beam.damping.columns import table2_dataset
 from sloshrom.beam.damping.tables import damping_band_table, mode1_damping_table, mode1_decay
 from sloshrom.beam.lab.virtual import lab_test_paths, write_lab_test
 from sloshrom.beam.simulation.coupled import free_response, random_response
@@ -423,11 +424,15 @@ def test_a_table_of_nan_is_never_written(lab, tmp_path, monkeypatch, kind):
         argv = [*FREE, "{tmp}/free.uff", "--channels", "{tmp}/plain.toml", *OUT]
         match = r"free\.uff: damping bands: no damping estimate at all, nothing written; " \
                 r"the first cell: measured mode 1, .* g, Hilbert: no peak inside band \(test\)"
-    else:  # the analyses replaced: rows of NaN at once
-        monkeypatch.setattr(lab_module, "random_mode_rows", lambda res, name, found, **k: [
-            {"case": name, "mode": 1, "mode_frequency_Hz": 10.2, "rms_g": g, "lscf_h1": np.nan,
-             "lscf_h1_reason": "no peak inside band (test)", "lscf_output": np.nan,
-             "half_power": np.nan} for g in LEVELS])
+    else:  # the analyses replaced: a Table 2 of NaN at once
+        def nan_table(res, name, found, **k):
+            rows = [{"case": name, "rms_g": g, "lscf_h1": np.nan,
+                     "lscf_h1_reason": "no peak inside band (test)", "lscf_output": np.nan,
+                     "half_power": np.nan} for g in LEVELS]
+            return table2_dataset(rows).expand_dims(mode=[1]).assign_coords(
+                case=name, mode_frequency_Hz=("mode", [10.2]))
+
+        monkeypatch.setattr(lab_module, "random_mode_dataset", nan_table)
         argv = [*RANDOM, *RUNS, *OUT]
         match = r"random_0\.1g\.uff, random_0\.2g\.uff: Table 2: no damping estimate at all, " \
                 r"nothing written; the first cell: measured mode 1 0\.1 g, LSCF on H1: no peak"

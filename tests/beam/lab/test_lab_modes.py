@@ -9,6 +9,7 @@ import pytest
 
 from helpers import check_cli, runner
 from sloshrom.beam.damping.analysis import AnalysisError
+from sloshrom.beam.damping.columns import table2_rows
 from sloshrom.beam.damping.peaks import common_modes, find_modes, given_modes, mode_bands
 from sloshrom.beam.damping.uncertainty import ShortRecordWarning
 from sloshrom.beam.lab.campaign import CampaignError, campaign_tests
@@ -17,7 +18,7 @@ from sloshrom.beam.lab.every_mode import (
     free_mode_decays,
     free_mode_rows,
     modes_of_test,
-    random_mode_rows,
+    random_mode_dataset,
 )
 from sloshrom.beam.lab.synthetic import LabBeam, free_decay, random_test
 from sloshrom.cli import app
@@ -103,13 +104,14 @@ def test_random_rows_at_every_mode():
     the true damping (a tolerance from the interval, not from this seed's error); a record of
     one Welch segment is said to be too short."""
     with pytest.warns(ShortRecordWarning, match=r"from 1 Welch segment\(s\) .* at least 3"):
-        random_mode_rows(_random_res(levels=(0.1,), duration=34.0), "lab",
+        random_mode_dataset(_random_res(levels=(0.1,), duration=34.0), "lab",
                          modes_of_test(_random_res(levels=(0.1,), duration=34.0), "random",
                                        frequencies=[10.3]), estimators=["half_power"])
     res = _random_res(levels=(0.2,), duration=120.0)  # 6 Welch segments, as a lab runs
     modes = modes_of_test(res, "random")
     assert modes.how == "found" and len(modes.modes) == 3
-    rows = random_mode_rows(res, "lab", modes, estimators=["lscf_h1", "half_power"])
+    rows = table2_rows(random_mode_dataset(res, "lab", modes,
+                                           estimators=["lscf_h1", "half_power"]))
     assert [r["mode"] for r in rows] == [1, 2, 3]
     for r, z in zip(rows, BEAM.damping, strict=True):
         assert abs(r["lscf_h1"] - z) <= 4 * r["lscf_h1_std"], r

@@ -14,8 +14,9 @@ from sloshrom.beam.damping.estimators import ClusterAttempt, LscfH1, RandomTest
 from sloshrom.beam.damping.tables import (
     damping_band_table,
     damping_summary,
-    member_damping_tables,
+    member_damping_datasets,
     missing_cells,
+    mode1_damping_dataset,
     mode1_damping_table,
     mode1_decay,
 )
@@ -71,8 +72,8 @@ def test_each_member_alone_and_the_rom_response_is_their_mean(runs):
 
 def test_rom_row_is_the_mean_of_the_member_rows_with_the_members_spread(runs):
     f1, r = runs["f1"], runs["random"]
-    member_rows = member_damping_tables({"rom": r["rom"]}, LEVELS, f1)
-    rows = mode1_damping_table({"rom": r["rom"]}, LEVELS, f1, member_rows=member_rows)
+    members = member_damping_datasets({"rom": r["rom"]}, LEVELS, f1)
+    rows = mode1_damping_table({"rom": r["rom"]}, LEVELS, f1, members=members)
     alone = mode1_damping_table({"a": r["a"], "b": r["b"]}, LEVELS, f1)
     assert len(rows) == 1
     row = rows[0]
@@ -113,13 +114,13 @@ def test_free_decay_bands_summary_and_member_spread_agree(runs):
         if len(ok) < 2:  # a member without a value: the row says which and why
             assert "member" in (row["note"] + row["reason"])
     summary = damping_summary(cases, decays)
-    rand_rows = member_damping_tables({"rom": runs["random"]["rom"]}, LEVELS, f1)["rom"]
-    spread = member_spread(rand_rows, fr["rom"]["members"], decays["rom"], LEVELS)
+    rand_tables = member_damping_datasets({"rom": runs["random"]["rom"]}, LEVELS, f1)["rom"]
+    spread = member_spread(rand_tables, fr["rom"]["members"], decays["rom"], LEVELS)
     for band, s in spread["instantaneous_damping"].items():
         if s["n"]:
             assert summary["rom"][band] == pytest.approx(s["mean"], rel=1e-12)
     t2 = mode1_damping_table({"rom": runs["random"]["rom"]}, LEVELS, f1,
-                             member_rows={"rom": rand_rows})[0]
+                             members={"rom": rand_tables})[0]
     assert spread["table2"]["0.1"]["mean"] == pytest.approx(t2["lscf_h1"], rel=1e-12)
     assert spread["table2"]["0.1"]["std"] == pytest.approx(t2["lscf_h1_spread"], rel=1e-12)
     assert set(spread["estimators"]) == {"lscf_h1", "lscf_output", "half_power"}
@@ -127,9 +128,10 @@ def test_free_decay_bands_summary_and_member_spread_agree(runs):
 
 def test_compare_uses_both_sigmas_with_the_rom_combined_std(runs):
     f1, r = runs["f1"], runs["random"]
+    t2 = mode1_damping_dataset({"one": r["one"], "rom": r["rom"]}, LEVELS, f1)
     rows = mode1_damping_table({"one": r["one"], "rom": r["rom"]}, LEVELS, f1)
-    meas = analysed_test("one", "random", r["one"], f1, [x for x in rows if x["case"] == "one"])
-    pred = analysed_test("rom", "random", r["rom"], f1, [x for x in rows if x["case"] == "rom"])
+    meas = analysed_test("one", "random", r["one"], f1, t2.sel(case="one"))
+    pred = analysed_test("rom", "random", r["rom"], f1, t2.sel(case="rom"))
     out = {x["estimator"]: x for x in compare_rows(meas, [pred])}
     m, p = rows[0], rows[1]
     for est, c in out.items():
@@ -183,6 +185,8 @@ def _noise_record(n: int = 20000, seed: int = 3) -> dict:
 
 
 def test_no_cluster_gives_a_reason_in_the_row_markdown_and_console(tmp_path):
+    t2 = mode1_damping_dataset({"noise": _noise_record()}, [0.1], 10.19,
+                               estimators=["lscf_h1"])
     rows = mode1_damping_table({"noise": _noise_record()}, [0.1], 10.19,
                                estimators=["lscf_h1"])
     row = rows[0]
@@ -195,7 +199,7 @@ def test_no_cluster_gives_a_reason_in_the_row_markdown_and_console(tmp_path):
         assert text in why, (text, why)
     _, md = write_table(rows, tmp_path / "t2")
     assert "no stable pole cluster" in md.read_text(encoding="utf-8")
-    assert missing_cells(rows) == [f"noise 0.1 g, LSCF on H1: — ({why})"]
+    assert missing_cells(t2) == [f"noise 0.1 g, LSCF on H1: — ({why})"]
     assert cell_text(float("nan"), float("nan"), float("nan"), why) == f"— ({why})"
 
 

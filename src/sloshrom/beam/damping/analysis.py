@@ -197,11 +197,17 @@ def instantaneous_damping(
             "frequency": omega[keep] / (2 * np.pi), "amplitude": amp[keep]}
 
 
+#: Frequency lines of a band-pass filter's gain in :func:`bandpass_noise_gain` (not a Welch
+#: segment: the integral over the whole band needs only a fine grid).
+_GAIN_LINES = 16384
+
+
 def bandpass_noise_gain(fs: float, f: float, rel_band: float = 0.35) -> float:
     """RMS of white noise of unit standard deviation after the analyses' band-pass around ``f``
     (Butterworth order 4, zero phase: ``|H|^4``), -."""
     w, h = signal.sosfreqz(signal.butter(4, [f * (1 - rel_band), f * (1 + rel_band)],
-                                         btype="bandpass", fs=fs, output="sos"), worN=16384)
+                                         btype="bandpass", fs=fs, output="sos"),
+                             worN=_GAIN_LINES)
     return float(np.sqrt(np.mean(np.abs(h) ** 4)))
 
 

@@ -48,6 +48,7 @@ from sloshrom.beam.damping.analysis import (
     output_only_damping,
     stable_pole_cluster,
 )
+from sloshrom.beam.damping.limits import WELCH_SEGMENT
 from sloshrom.beam.errors import BeamError
 
 __all__ = [
@@ -142,7 +143,7 @@ class RandomTest:
     fs: float
     f1: float
     rel_band: float = 0.5
-    nperseg: int = 16384
+    nperseg: int = WELCH_SEGMENT
     pol_order_high: int = 20
     band: tuple[float, float] | None = None
 

@@ -25,6 +25,7 @@ from sloshrom.beam.damping.analysis import (
     lscf_cluster_damping,
     modal_filter,
 )
+from sloshrom.beam.damping.limits import WELCH_SEGMENT
 from sloshrom.beam.errors import BeamError
 from sloshrom.beam.simulation.structure import ModalModel
 from sloshrom.beam.simulation.wing import frozen_station_shapes
@@ -58,7 +59,7 @@ def mode_damping_random(
     fs: float,
     frequencies: Sequence[float],
     rel_band: float = 0.3,
-    nperseg: int = 16384,
+    nperseg: int = WELCH_SEGMENT,
     pol_order_high: int = 20,
     tol_zeta: float = 0.10,
 ) -> list[dict[str, Any]]:
@@ -129,7 +130,7 @@ def modal_damping_table(
     liquid_mass: float,
     levels: Sequence[float],
     rel_band: float = 0.3,
-    nperseg: int = 16384,
+    nperseg: int = WELCH_SEGMENT,
     tol_zeta: float = 0.10,
 ) -> list[dict[str, Any]]:
     """Damping of every mode of every random response: one row per case, level and mode.

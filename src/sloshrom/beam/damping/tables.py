@@ -3,19 +3,20 @@ per amplitude band, and paper Table 2 of random responses, each estimate with it
 
 * :func:`mode1_decay`, :func:`damping_summary`, :func:`damping_band_table` - free responses:
   modal filtering, Hilbert and log-decrement damping, their medians and intervals per band.
-* :func:`mode1_damping_table`, :func:`mode1_damping_dataset` - random responses: paper
-  Table 2 by the estimators of ``sloshrom.beam.damping.registry``; :func:`table2_dataset` -
-  the rows of a case as a Dataset over (level, estimator).
+* :func:`mode1_damping_dataset` - random responses: paper Table 2 over ``(case, level,
+  estimator)`` by the estimators of ``sloshrom.beam.damping.registry`` (an ensemble's members:
+  :func:`member_damping_datasets`); :func:`mode1_damping_table` - the same as its files' rows
+  (``sloshrom.beam.damping.columns``, the one place that makes them).
 * :func:`missing_cells`, :func:`no_estimate` - every cell without a value, with its reason.
 
 A case whose result holds ``"members"`` (an ensemble ROM, each member coupled alone:
 ``sloshrom.beam.simulation.members``) gets the mean of the members' estimates with their
-combined uncertainty. Result dicts in, rows and datasets out; no files.
+combined uncertainty. Result dicts in, datasets (and the free decays' rows) out; no files.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, cast
 
@@ -29,31 +30,24 @@ from sloshrom.beam.damping.analysis import (
     modal_filter,
     noise_floor,
 )
-from sloshrom.beam.damping.registry import ESTIMATORS, TABLE2, estimator_names, label
+from sloshrom.beam.damping.columns import LEADING_COLUMNS, each_row, table2_rows
+from sloshrom.beam.damping.registry import ESTIMATORS, estimator_names, label
 from sloshrom.beam.damping.uncertainty import (
     BANDS,
     FLOOR_FACTOR,
-    RandomDamping,
     amplitude_bands,
     band_damping,
     estimate_random,
-    table2_columns,
 )
 from sloshrom.beam.errors import BeamError
-from sloshrom.beam.simulation.members import (
-    Cell,
-    Row,
-    combine_band_rows,
-    combine_estimates,
-    combine_table2_rows,
-)
+from sloshrom.beam.simulation.members import Cell, Row, combine_band_rows, combine_estimates
 from sloshrom.beam.simulation.structure import ModalModel
 from sloshrom.config import G
 
 __all__ = [
     "Mode1Decay", "damping_band_table", "damping_by_band", "damping_summary", "decay_floor",
-    "member_damping_tables", "missing_cells", "modal_accelerations", "mode1_damping_dataset",
-    "mode1_damping_table", "mode1_decay", "no_estimate", "table2_dataset",
+    "member_damping_datasets", "missing_cells", "modal_accelerations", "mode1_damping_dataset",
+    "mode1_damping_table", "mode1_decay", "no_estimate",
 ]
 
 
@@ -239,108 +233,114 @@ def damping_band_table(free: Mapping[str, Mapping[str, Any]],
     return rows
 
 
-def _random_damping(random: Mapping[str, Mapping[str, Any]], levels: Sequence[float], f1: float,
-                    estimators: Sequence[str] | None) -> list[tuple[str, int, RandomDamping]]:
-    # every case and level through the registry's estimators, each with its interval
+def _case_dataset(r: Mapping[str, Any], levels: Sequence[float], f1: float,
+                  estimators: Sequence[str] | None, max_tank_acceleration: bool) -> xr.Dataset:
+    """One response's Table 2 over ``(level, estimator)``: every level through the registry's
+    estimators, each with its interval (and its peak tank acceleration, g, if asked)."""
     names = estimator_names(estimators)
-    return [(case, i, estimate_random(r["base_acceleration"][i], r["tank_acceleration"][i],
-                                      r["fs"], f1, estimators=names))
-            for case, r in random.items() for i in range(len(levels))]
+    per = []
+    for i in range(len(levels)):
+        d = estimate_random(r["base_acceleration"][i], r["tank_acceleration"][i], r["fs"], f1,
+                            estimators=names).to_dataset()
+        if max_tank_acceleration:
+            d["max_tank_acceleration_g"] = ((), float(
+                np.max(np.abs(r["tank_acceleration"][i])) / G), {"units": "g"})
+        per.append(d)
+    return xr.concat(per, dim="level")
 
 
-def member_damping_tables(random: Mapping[str, Mapping[str, Any]], levels: Sequence[float],
-                          f1: float, max_tank_acceleration: bool = False,
-                          estimators: Sequence[str] | None = None
-                          ) -> dict[str, list[list[Row]]]:
+def member_damping_datasets(random: Mapping[str, Mapping[str, Any]], levels: Sequence[float],
+                            f1: float, max_tank_acceleration: bool = False,
+                            estimators: Sequence[str] | None = None
+                            ) -> dict[str, list[xr.Dataset]]:
     """Table 2 of each member of every ensemble case (a result with ``"members"``).
 
     Returns
     -------
     dict
-        Case -> per member (in order) its rows of :func:`mode1_damping_table` (case
-        ``member0``, ``member1``, ...), one per level. Give it to :func:`mode1_damping_table`
-        (``member_rows``) so that the members are analysed once, for the ROM's row and for
-        their own figures.
+        Case -> per member (in order) its Table 2 over ``(level, estimator)`` (the variables
+        of :func:`mode1_damping_dataset`). Give it to :func:`mode1_damping_dataset`
+        (``members``) so that the members are analysed once, for the ROM's row and for their
+        own spread.
     """
-    return {case: [mode1_damping_table({f"member{k}": m}, levels, f1, max_tank_acceleration,
-                                       estimators)
-                   for k, m in enumerate(r["members"])]
+    return {case: [_case_dataset(m, levels, f1, estimators, max_tank_acceleration)
+                   for m in r["members"]]
             for case, r in random.items() if r.get("members")}
+
+
+def mode1_damping_dataset(random: Mapping[str, Mapping[str, Any]], levels: Sequence[float],
+                          f1: float, estimators: Sequence[str] | None = None, *,
+                          max_tank_acceleration: bool = False,
+                          members: Mapping[str, Sequence[xr.Dataset]] | None = None
+                          ) -> xr.Dataset:
+    """Paper Table 2: the first-mode damping of every random response over ``case``, ``level``
+    (coordinate: RMS base acceleration, g) and ``estimator``, each estimate with its standard
+    deviation and interval.
+
+    Parameters
+    ----------
+    random : mapping
+        Case -> random response (``base_acceleration``, ``tank_acceleration`` with a leading
+        level axis, ``fs``); an ensemble's (``"members"``: each member coupled alone) gets the
+        mean of its members' estimates.
+    levels : sequence of float
+        RMS base acceleration of each level, g.
+    f1 : float
+        First-mode frequency with frozen liquid, Hz.
+    estimators : sequence of str, optional
+        Registered names (default ``registry.TABLE2``).
+    max_tank_acceleration : bool
+        Add ``max_tank_acceleration_g``, the peak tank acceleration of each run, g.
+    members : mapping, optional
+        An ensemble case's members' tables (:func:`member_damping_datasets`): not analysed
+        again.
+
+    Returns
+    -------
+    xarray.Dataset
+        The variables of ``sloshrom.beam.damping.uncertainty.damping_dataset`` (``value``,
+        ``std``, ``low``, ``high``, ``uncorrected``, ``iqr`` (-), ``frequency`` (Hz),
+        ``n_poles``, ``reason``, ``note``) over ``(case, level, estimator)``; ``noise_input``,
+        ``noise_output``, ``n_cycles`` (-), ``duration_s`` (s) and, if asked,
+        ``max_tank_acceleration_g`` (g) over ``(case, level)``. An ensemble's case
+        (``sloshrom.beam.simulation.members.combine_estimates``): every estimate the mean of
+        its members' with their combined standard deviation and interval, the other numbers
+        the members' mean; ``spread`` (-, the standard deviation over the members) and
+        ``members`` (members with a value) over ``(case, level, estimator)`` and
+        ``n_members`` over ``case`` (NaN for a single model's case). Its rows, as the files
+        hold them: ``sloshrom.beam.damping.columns.table2_rows``.
+    """
+    members = dict(members or {})
+    per = []
+    for case, r in random.items():
+        if not r.get("members"):
+            per.append(_case_dataset(r, levels, f1, estimators, max_tank_acceleration))
+            continue
+        dss = members.get(case) or member_damping_datasets(
+            {case: r}, levels, f1, max_tank_acceleration, estimators)[case]
+        combined = xr.concat([_combined_dataset([m.isel(level=i) for m in dss])
+                              for i in range(len(levels))], dim="level")
+        per.append(combined.assign(n_members=((), len(dss))))
+    cases = list(random)
+    return xr.concat(per, dim="case", coords="minimal", compat="override").assign_coords(
+        case=cases, level=("level", [float(x) for x in levels], {"units": "g"}))
 
 
 def mode1_damping_table(random: Mapping[str, Mapping[str, Any]], levels: Sequence[float],
                         f1: float, max_tank_acceleration: bool = False,
                         estimators: Sequence[str] | None = None,
-                        member_rows: Mapping[str, list[list[Row]]] | None = None
+                        members: Mapping[str, Sequence[xr.Dataset]] | None = None
                         ) -> list[dict[str, Any]]:
-    """Paper Table 2: first-mode damping of every random response, one row per case and level,
-    each estimate with its standard deviation and interval.
-
-    Columns ``case``, ``rms_g`` (g), ``max_tank_acceleration_g`` (g, only if
-    ``max_tank_acceleration``), then those of ``sloshrom.beam.damping.uncertainty.random_damping``
-    (Table 2's flat columns, ``uncertainty.table2_columns``, a file contract: every
-    estimator's value, with the bootstrapped ones corrected for their bias, the uncorrected
-    values, and ``{est}_std``, ``{est}_low``, ``{est}_high``, ``{est}_reason``,
-    ``{est}_note``). ``estimators``: registered names (default ``registry.TABLE2``). The same
-    as a Dataset: :func:`mode1_damping_dataset`; :func:`table2_dataset` turns the rows of a
-    case into one.
-
-    An ensemble's case (a result with ``"members"``): each member's rows
-    (:func:`member_damping_tables`, or ``member_rows[case]`` when given: the members are not
-    analysed again) combined level by level
-    (``sloshrom.beam.simulation.members.combine_table2_rows``): every column the mean over the
-    members, every estimate the mean of the members' estimates with the combined standard deviation
-    and interval, plus ``{est}_spread`` (-), ``{est}_members`` and ``n_members``. Rows of several
-    cases may then hold different columns (:func:`write_table` writes their union).
+    """Paper Table 2 as the rows of its files: :func:`mode1_damping_dataset` through
+    ``sloshrom.beam.damping.columns.table2_rows`` (one row per case and level: ``case``,
+    ``rms_g`` (g), ``max_tank_acceleration_g`` (g, only if ``max_tank_acceleration``), then
+    Table 2's flat columns, ``columns.table2_columns``; an ensemble's rows add
+    ``{est}_spread`` (-), ``{est}_members`` and ``n_members``, so that rows of several cases
+    may hold different columns: :func:`~sloshrom.beam.results.write_table` writes their union).
     """
-    member_rows = dict(member_rows or {})
-    rows: list[Row] = []
-    for case, r in random.items():
-        if r.get("members"):
-            per = member_rows.get(case) or member_damping_tables(
-                {case: r}, levels, f1, max_tank_acceleration, estimators)[case]
-            rows += [combine_table2_rows(case, [m[i] for m in per]) for i in range(len(levels))]
-            continue
-        for _, i, d in _random_damping({case: r}, levels, f1, estimators):
-            row: Row = {"case": case, "rms_g": levels[i]}
-            if max_tank_acceleration:
-                row["max_tank_acceleration_g"] = float(
-                    np.max(np.abs(r["tank_acceleration"][i])) / G)
-            rows.append({**row, **table2_columns(d)})
-    return rows
-
-
-def mode1_damping_dataset(random: Mapping[str, Mapping[str, Any]], levels: Sequence[float],
-                          f1: float, estimators: Sequence[str] | None = None) -> xr.Dataset:
-    """Paper Table 2 as a Dataset: the estimates of :func:`mode1_damping_table` over ``case``,
-    ``level`` (coordinate: RMS base acceleration, g) and ``estimator``.
-
-    Returns
-    -------
-    xarray.Dataset
-        The variables of ``sloshrom.beam.damping.uncertainty.damping_dataset`` (``value``, ``std``,
-        ``low``, ``high``, ``uncorrected``, ``iqr`` (-), ``frequency`` (Hz), ``n_poles``,
-        ``reason``, ``note``) with dimensions ``(case, level, estimator)``; ``noise_input``,
-        ``noise_output``, ``n_cycles`` (-) and ``duration_s`` (s) over ``(case, level)``. An
-        ensemble's case: the mean of its members' estimates with their combined uncertainty
-        (``sloshrom.beam.simulation.members``; the other variables the members' mean).
-    """
-    per: dict[tuple[str, int], xr.Dataset] = {}
-    for case, r in random.items():
-        if not r.get("members"):
-            per.update({(case, i): d.to_dataset()
-                        for _, i, d in _random_damping({case: r}, levels, f1, estimators)})
-            continue
-        members = [[d.to_dataset() for _, _, d in _random_damping({"m": m}, levels, f1,
-                                                                  estimators)]
-                   for m in r["members"]]
-        per.update({(case, i): _combined_dataset([m[i] for m in members])
-                    for i in range(len(levels))})
-    cases = list(random)
-    return xr.concat(
-        [xr.concat([per[(c, i)] for i in range(len(levels))], dim="level")
-         for c in cases], dim="case", coords="minimal", compat="override",
-    ).assign_coords(case=cases, level=("level", [float(x) for x in levels], {"units": "g"}))
+    return table2_rows(mode1_damping_dataset(random, levels, f1, estimators,
+                                             max_tank_acceleration=max_tank_acceleration,
+                                             members=members))
 
 
 def _combined_dataset(dss: Sequence[xr.Dataset]) -> xr.Dataset:
@@ -349,6 +349,7 @@ def _combined_dataset(dss: Sequence[xr.Dataset]) -> xr.Dataset:
     names = list(dss[0].estimator.values)
     out = xr.concat([d.drop_vars(["reason", "note"]) for d in dss], dim="member",
                     coords="minimal", compat="override").mean("member")
+
     def col(v: str, e: str) -> list[float]:
         return [float(d[v].sel(estimator=e)) for d in dss]
 
@@ -360,59 +361,25 @@ def _combined_dataset(dss: Sequence[xr.Dataset]) -> xr.Dataset:
         out[v] = ("estimator", np.array([getattr(c, k) for c in combined]), dss[0][v].attrs)
     for v in ("reason", "note"):
         out[v] = ("estimator", np.array([getattr(c, v) for c in combined], dtype=object))
+    out["spread"] = ("estimator", np.array([c.spread for c in combined]), {"units": "1"})
+    out["members"] = ("estimator", np.array([c.members for c in combined]))
     out.attrs = dict(dss[0].attrs)
     return out
 
 
-def table2_dataset(rows: Sequence[Mapping[str, Any]]) -> xr.Dataset:
-    """The Table 2 rows of one case (:func:`mode1_damping_table`, or a table read back) as a
-    Dataset over RMS level and estimator.
-
-    Returns
-    -------
-    xarray.Dataset
-        Dimensions ``level`` (coordinate: ``rms_g``, g) and ``estimator`` (coordinates: the
-        names, ``registry.TABLE2`` first and then every other registered estimator that a row
-        holds, and ``label``); variables ``value``, ``std``, ``low``, ``high`` (damping ratio,
-        -; NaN where a row lacks the column), ``spread`` (-: the standard deviation over an
-        ensemble's members, NaN for a single model), ``reason`` and ``note`` (str; ``""``
-        where a row lacks the column, as rows written before these columns existed).
-    """
-    keys = set().union(*(r.keys() for r in rows)) if rows else set()
-    names = [*TABLE2, *(n for n in ESTIMATORS if n not in TABLE2 and n in keys)]
-    nan = float("nan")
-
-    def column(suffix: str) -> np.ndarray:
-        return np.array([[float(r.get(n + suffix, nan)) for n in names] for r in rows],
-                        dtype=float).reshape(len(rows), len(names))
-
-    def text(suffix: str) -> np.ndarray:
-        return np.array([[str(r.get(n + suffix, "") or "") for n in names] for r in rows],
-                        dtype=object).reshape(len(rows), len(names))
-
-    dims = ("level", "estimator")
-    return xr.Dataset(
-        {"value": (dims, column(""), {"units": "1"}), "std": (dims, column("_std"), {"units": "1"}),
-         "low": (dims, column("_low"), {"units": "1"}),
-         "high": (dims, column("_high"), {"units": "1"}),
-         "spread": (dims, column("_spread"), {"units": "1"}),
-         "reason": (dims, text("_reason")), "note": (dims, text("_note"))},
-        coords={"level": ("level", [float(r["rms_g"]) for r in rows], {"units": "g"}),
-                "estimator": names, "label": ("estimator", [label(n) for n in names])})
-
-
-def missing_cells(rows: Sequence[Mapping[str, Cell]],
+def missing_cells(table: Sequence[Mapping[str, Cell]] | xr.Dataset,
                   estimators: Sequence[str] | None = None) -> list[str]:
-    """Every Table 2 or free-decay band cell without a value, with its reason, as text lines.
+    """Every damping table cell without a value, with its reason, as text lines.
 
     Parameters
     ----------
-    rows : sequence of mapping
-        Rows of :func:`mode1_damping_table` (``case``, ``rms_g``, ``{est}``, ``{est}_reason``)
-        or of :func:`damping_band_table` (``case``, ``band``, ``method``, ``zeta``,
-        ``reason``).
+    table : xarray.Dataset or sequence of mapping
+        A Table 2 dataset (:func:`mode1_damping_dataset`, or every mode's:
+        ``sloshrom.beam.lab.every_mode.random_mode_dataset``), or the rows of
+        :func:`damping_band_table` (``case``, ``band``, ``method``, ``zeta``, ``reason``).
     estimators : sequence of str, optional
-        The Table 2 columns to check (default: every registered estimator a row holds).
+        The estimators to check (default: every registered estimator the table holds, in the
+        registry's order).
 
     Returns
     -------
@@ -422,8 +389,7 @@ def missing_cells(rows: Sequence[Mapping[str, Cell]],
         when every cell has a value from the primary procedure.
     """
     out = []
-    for r in rows:
-        head, cells = _cells(r, estimators)
+    for head, cells in _cells(table, estimators):
         for what, v, bounds, reason, note in cells:
             if not _finite(v):
                 out.append(f"{head}, {what}: — ({reason or 'no estimate'})")
@@ -447,22 +413,35 @@ def _finite(v: float | str | None) -> bool:
 _CellText = tuple[str, Cell | None, tuple[Cell | None, Cell | None], str, str]
 
 
-def _cells(r: Mapping[str, Cell], estimators: Sequence[str] | None
-           ) -> tuple[str, list[_CellText]]:
-    """A damping table row's head text and its cells: (what, value, interval bounds, reason,
-    note) each (:func:`missing_cells`)."""
-    mode = f" mode {r['mode']}" if "mode" in r else ""
-    if "band" in r:
-        return f"{r.get('case', '')}{mode}", [
+def _cells(table: Sequence[Mapping[str, Cell]] | xr.Dataset, estimators: Sequence[str] | None
+           ) -> Iterator[tuple[str, list[_CellText]]]:
+    """A damping table's rows as their head text and cells: (what, value, interval bounds,
+    reason, note) each (:func:`missing_cells`)."""
+    if isinstance(table, xr.Dataset):
+        names = list(estimators or [n for n in ESTIMATORS if n in table.estimator])
+        for head, d in each_row(table):
+            e = d.sel(estimator=names)
+            yield _head(head), [
+                (label(n), float(e["value"][k]), (float(e["low"][k]), float(e["high"][k])),
+                 str(e["reason"].values[k]), str(e["note"].values[k]))
+                for k, n in enumerate(names)]
+        return
+    for r in table:
+        yield f"{r.get('case', '')}{_mode(r)}", [
             (f"{r['band']}, {label(str(r['method']))}", r.get("zeta"),
              (r.get("low"), r.get("high")), str(r.get("reason", "")), str(r.get("note", "")))]
-    names = estimators or [n for n in ESTIMATORS if n in r]
-    return f"{r.get('case', '')}{mode} {float(r['rms_g']):g} g", [
-        (label(n), r.get(n), (r.get(f"{n}_low"), r.get(f"{n}_high")),
-         str(r.get(f"{n}_reason", "")), str(r.get(f"{n}_note", ""))) for n in names]
 
 
-def no_estimate(rows: Sequence[Mapping[str, Cell]],
+def _mode(r: Mapping[str, Any]) -> str:
+    return f" mode {r['mode']}" if "mode" in r else ""
+
+
+def _head(r: Mapping[str, Any]) -> str:
+    # a Table 2 row's head: "rom 0.4 g", "lab mode 2 0.1 g"
+    return f"{r.get('case', '')}{_mode(r)} {float(r[LEADING_COLUMNS['level']]):g} g"
+
+
+def no_estimate(table: Sequence[Mapping[str, Cell]] | xr.Dataset,
                 estimators: Sequence[str] | None = None) -> str | None:
     """Why a damping table has no value at all: its first cell's reason as text (as
     :func:`missing_cells` gives it), or ``"no rows"``; ``None`` when a cell has a value.
@@ -470,11 +449,9 @@ def no_estimate(rows: Sequence[Mapping[str, Cell]],
     A table whose every cell is empty says nothing of the damping: its command refuses to
     write it, with this first cause."""
     first = None
-    for r in rows:
-        head, cells = _cells(r, estimators)
+    for head, cells in _cells(table, estimators):
         for what, v, _, reason, _ in cells:
             if _finite(v):
                 return None
             first = first or f"{head}, {what}: {reason or 'no estimate'}"
     return first or "no rows"
-

@@ -7,17 +7,19 @@ its standard deviation and confidence interval.
   with intervals (a noise-added bootstrap of the record); :func:`amplitude_bands` - the bands
   of a decay's own amplitude range.
 * :func:`estimate_random` (typed), :func:`damping_dataset` (an xarray Dataset over the
-  estimators), :func:`random_damping` (Table 2's flat columns) - random tests: every asked
-  estimator of ``sloshrom.beam.damping.registry`` through its protocol, the bias of the bootstrapped
-  ones removed (parametric bootstrap under the record's own input PSD), each with a standard
+  estimators), :func:`random_damping` (Table 2's flat columns, made by
+  ``sloshrom.beam.damping.columns``) - random tests: every asked estimator of
+  ``sloshrom.beam.damping.registry`` through its protocol, the bias of the bootstrapped ones
+  removed (parametric bootstrap under the record's own input PSD), each with a standard
   deviation and an interval (or the reason why there is none); any mode, in a band of its own
   (``band``). :func:`mode1_damping_random`: Table 2's raw estimates only.
 * :func:`noise_ratios`, :func:`input_psd` - the input and output noise of a random test, from
   its coherence, and the shape of its input spectrum.
 
 Pure numerical functions: arrays in, typed results, datasets or Table 2's columns (a file
-contract, :func:`table2_columns`) out. Intervals are two-sided at ``confidence``
-(default :data:`CONFIDENCE`); NaN where an estimate or its spread cannot be formed.
+contract, ``sloshrom.beam.damping.columns.table2_columns``) out. Intervals are two-sided at
+``confidence`` (default :data:`CONFIDENCE`); NaN where an estimate or its spread cannot be
+formed.
 """
 
 from __future__ import annotations
@@ -42,12 +44,14 @@ from sloshrom.beam.damping.analysis import (
     noise_floor,
     welch_psd,
 )
+from sloshrom.beam.damping.columns import column, table2_columns
 from sloshrom.beam.damping.estimators import (
     OUTPUT_ONLY_EFFICIENCY,
     DampingEstimate,
     RandomTest,
     bootstrap_estimator,
 )
+from sloshrom.beam.damping.limits import WELCH_SEGMENT
 from sloshrom.beam.damping.registry import TABLE2, estimator_names, get_estimator, label
 from sloshrom.beam.errors import BeamError
 from sloshrom.config import G
@@ -58,7 +62,6 @@ __all__ = [
     "damping_dataset", "estimate_random", "format_interval", "input_noise_floor", "input_psd",
     "mode_frf",
     "mode1_damping_random", "noise_ratios", "random_damping", "required_duration",
-    "table2_columns",
 ]
 
 #: Two-sided confidence level of every interval.
@@ -659,7 +662,7 @@ def estimate_random(
     seed: int = 0,
     accuracy: float | None = None,
     rel_band: float = 0.5,
-    nperseg: int = 16384,
+    nperseg: int = WELCH_SEGMENT,
     band: tuple[float, float] | None = None,
 ) -> RandomDamping:
     """Damping of the mode near ``f1`` (the first one by default) in a random test by every
@@ -925,8 +928,9 @@ class RandomDamping:
                           attrs={"confidence": self.confidence})
 
     def columns(self) -> dict[str, Any]:
-        """The flat columns of Table 2 (the file contract of ``table2_mode1_damping.csv``)."""
-        return table2_columns(self)
+        """The flat columns of Table 2 (the file contract of ``table2_mode1_damping.csv``:
+        ``sloshrom.beam.damping.columns.table2_columns``)."""
+        return table2_columns(self.to_dataset())
 
 
 #: The per-estimator variables of a damping dataset and their units.
@@ -950,51 +954,15 @@ def damping_dataset(base: Any, tank: Any, fs: float, f1: float, **kw: Any) -> xr
     return estimate_random(base, tank, fs, f1, **kw).to_dataset()
 
 
-# -- the flat columns of Table 2: file contracts ------------------------------------------------
-def table2_columns(result: RandomDamping) -> dict[str, Any]:
-    """The columns of a Table 2 row (``table2_mode1_damping.csv``, the stage records): names
-    and order are a file contract, those of the versions before the estimator registry.
-
-    Paper Table 2's three estimators first, as ever: their values, ``frequency_h1``,
-    ``frequency_output``, ``{est}_iqr`` and ``{est}_n`` of the LSCF ones, the uncorrected
-    bootstrapped values, the noise ratios, ``{est}_std``/``_low``/``_high`` (bootstrapped
-    estimators first), ``duration_s``, ``n_cycles``. Any other estimator asked follows:
-    ``{est}``, ``{est}_std``, ``{est}_low``, ``{est}_high``, ``frequency_{est}``,
-    ``{est}_uncorrected``. Last, for every estimator, ``{est}_reason`` (``""`` when the value and
-    its interval exist, else why not: a cell is never a silent NaN) and ``{est}_note`` (``""``
-    unless the value comes from a fallback attempt, which it names).
-    """
-    e = result.estimates
-    legacy = [n for n in TABLE2 if n in e]
-    h1, out_only, hp = TABLE2
-    clusters = [n for n in (h1, out_only) if n in e]
-    freq_col = {h1: "frequency_h1", out_only: "frequency_output"}
-    out: dict[str, Any] = {n: e[n].value for n in legacy}
-    out.update({freq_col[n]: e[n].frequency for n in clusters})
-    out.update({f"{n}_iqr": e[n].iqr for n in clusters})
-    out.update({f"{n}_n": e[n].n_poles for n in clusters})
-    out.update({f"{n}_uncorrected": e[n].uncorrected for n in (h1, hp) if n in e})
-    out.update(noise_input=result.noise_input, noise_output=result.noise_output)
-    for n in (h1, hp, out_only):
-        if n in e:
-            out.update({f"{n}_std": e[n].std, f"{n}_low": e[n].low, f"{n}_high": e[n].high})
-    out.update(duration_s=result.duration_s, n_cycles=result.n_cycles)
-    for n, x in e.items():
-        if n not in legacy:
-            out.update({n: x.value, f"{n}_std": x.std, f"{n}_low": x.low, f"{n}_high": x.high,
-                        f"frequency_{n}": x.frequency, f"{n}_uncorrected": x.uncorrected})
-    for n, x in e.items():
-        out.update({f"{n}_reason": x.reason, f"{n}_note": x.note})
-    return out
-
-
+# -- the flat columns of Table 2 (a file contract: sloshrom.beam.damping.columns) -----------
 def random_damping(base: Any, tank: Any, fs: float, f1: float, **kw: Any) -> dict[str, Any]:
-    """:func:`estimate_random` as the flat columns of a Table 2 row (:func:`table2_columns`):
+    """:func:`estimate_random` as the flat columns of a Table 2 row
+    (``sloshrom.beam.damping.columns.table2_columns``):
     ``lscf_h1``, ``lscf_output``, ``half_power`` (the bootstrapped ones bias-corrected),
     ``{est}_std``, ``{est}_low``, ``{est}_high``, the uncorrected values, ``frequency_h1``,
     ``frequency_output``, ``noise_input``, ``noise_output``, ``duration_s``, ``n_cycles``.
     Keyword arguments as :func:`estimate_random`."""
-    return table2_columns(estimate_random(base, tank, fs, f1, **kw))
+    return table2_columns(estimate_random(base, tank, fs, f1, **kw).to_dataset())
 
 
 def mode1_damping_random(
@@ -1003,7 +971,7 @@ def mode1_damping_random(
     fs: float,
     f1: float,
     rel_band: float = 0.5,
-    nperseg: int = 16384,
+    nperseg: int = WELCH_SEGMENT,
     pol_order_high: int = 20,
 ) -> dict[str, float]:
     """The raw first-mode damping of a random response by paper Table 2's three estimators, no
@@ -1034,9 +1002,9 @@ def mode1_damping_random(
     e = {n: get_estimator(n).estimate(test) for n in TABLE2}
     h1, out_only, hp = TABLE2
     return {h1: e[h1].value, out_only: e[out_only].value, hp: e[hp].value,
-            "frequency_h1": e[h1].frequency, "frequency_output": e[out_only].frequency,
-            f"{h1}_iqr": e[h1].iqr, f"{out_only}_iqr": e[out_only].iqr,
-            f"{h1}_n": e[h1].n_poles, f"{out_only}_n": e[out_only].n_poles}
+            **{column(n, "frequency"): e[n].frequency for n in (h1, out_only)},
+            **{column(n, "iqr"): e[n].iqr for n in (h1, out_only)},
+            **{column(n, "n_poles"): e[n].n_poles for n in (h1, out_only)}}
 
 
 def _warn_short(accuracy: float, zeta: float, frequency: float, duration: float,

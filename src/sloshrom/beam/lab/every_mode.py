@@ -3,7 +3,7 @@ analysed as the paper analyses mode 1.
 
 * :func:`modes_of_test` - the modes of a free decay or a random test: found from the data
   (:mod:`sloshrom.beam.damping.peaks`) or given, each with its analysis band.
-* :func:`random_mode_rows` - Table 2 at every mode: the damping estimators of
+* :func:`random_mode_dataset` - Table 2 at every mode: the damping estimators of
   ``sloshrom.beam.damping.registry`` with their intervals, one row per mode and level.
 * :func:`free_mode_decays`, :func:`free_mode_rows` - the free decay of every mode (Hilbert and
   log decrement against the mode's own amplitude at the tank) and its damping per amplitude band.
@@ -21,9 +21,15 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import xarray as xr
 from scipy import signal
 
-from sloshrom.beam.damping.analysis import AnalysisError, instantaneous_damping, log_decrement
+from sloshrom.beam.damping.analysis import (
+    AnalysisError,
+    instantaneous_damping,
+    log_decrement,
+)
+from sloshrom.beam.damping.limits import WELCH_SEGMENT
 from sloshrom.beam.damping.peaks import (
     FoundMode,
     band_maximum,
@@ -38,7 +44,7 @@ from sloshrom.beam.damping.uncertainty import (
     ShortRecordWarning,
     amplitude_bands,
     band_damping,
-    random_damping,
+    estimate_random,
 )
 from sloshrom.beam.lab.measured import MeasuredTest
 from sloshrom.beam.simulation.members import Row
@@ -46,14 +52,13 @@ from sloshrom.beam.simulation.structure import ModalModel
 from sloshrom.config import G
 
 __all__ = ["ModeDecay", "TestModes", "check_station_order", "describe", "free_mode_decays",
-           "free_mode_rows", "modes_of_test", "random_mode_rows"]
+           "free_mode_rows", "modes_of_test", "random_mode_dataset"]
 
 #: Periods of a mode that a free decay must hold for its damping analysis (5 trimmed at each
 #: end, 4 of smoothing, 4 left to analyse: ``analysis.instantaneous_damping``).
 FREE_PERIODS = 18
-#: Welch segment of the random tests' H1 (samples), and the fewest segments whose estimates
-#: and intervals hold (the lab coverage benchmark runs 120 s at 500 Hz: 6 segments).
-WELCH_SEGMENT = 16384
+#: The fewest Welch segments (``limits.WELCH_SEGMENT`` samples) whose estimates and
+#: intervals hold (the lab coverage benchmark runs 120 s at 500 Hz: 6 segments).
 MIN_SEGMENTS = 3
 #: Lines of those spectra a mode's band must hold (the LSCF fits' least).
 MIN_BAND_LINES = 8
@@ -246,16 +251,26 @@ def check_station_order(res: MeasuredTest, f1: float, rel_band: float,
             f"another order (reversed?) than {ref}?")
 
 
-def random_mode_rows(res: MeasuredTest, case: str, modes: TestModes, *,
-                     estimators: Sequence[str] | None = None, accuracy: float | None = None,
-                     step: Callable[[str], None] | None = None) -> list[Row]:
-    """Table 2 at every mode: one row per mode and level (``case``, ``mode`` (1-based),
-    ``mode_frequency_Hz``, ``rms_g``, then
-    :func:`sloshrom.beam.damping.uncertainty.random_damping`'s columns), the fitting band the mode's
+def random_mode_dataset(res: MeasuredTest, case: str, modes: TestModes, *,
+                        estimators: Sequence[str] | None = None, accuracy: float | None = None,
+                        step: Callable[[str], None] | None = None) -> xr.Dataset:
+    """Table 2 at every mode: the damping estimators of ``sloshrom.beam.damping.registry`` at
+    every mode and level, each with its interval, the fitting band the mode's
     (:attr:`TestModes.bands`).
 
-    ``step(text)`` is called before each analysis (progress)."""
-    rows = []
+    ``step(text)`` is called before each analysis (progress).
+
+    Returns
+    -------
+    xarray.Dataset
+        The variables of ``sloshrom.beam.damping.uncertainty.damping_dataset`` over ``(mode,
+        level, estimator)`` (``noise_input``, ``noise_output``, ``duration_s``, ``n_cycles``
+        over ``(mode, level)``); coordinates ``case`` (the test's name), ``mode`` (1-based),
+        ``mode_frequency_Hz`` (Hz, along ``mode``), ``level`` (RMS base acceleration, g) and
+        ``estimator``. Its rows, as ``table2_damping.csv`` holds them (``case``, ``mode``,
+        ``mode_frequency_Hz``, ``rms_g``, then Table 2's columns):
+        ``sloshrom.beam.damping.columns.table2_rows``.
+    """
     fs = float(res["fs"])
     n = np.asarray(res["base_acceleration"]).shape[-1]
     segments = 1 + max(n - WELCH_SEGMENT, 0) // (WELCH_SEGMENT // 2)
@@ -267,21 +282,27 @@ def random_mode_rows(res: MeasuredTest, case: str, modes: TestModes, *,
                       f"{WELCH_SEGMENT} samples: the estimates and their intervals need at "
                       f"least {MIN_SEGMENTS} ({(WELCH_SEGMENT // 2) * (MIN_SEGMENTS + 1) / fs:g}"
                       " s)", ShortRecordWarning, stacklevel=2)
+    levels = [float(g) for g in res["rms_levels_g"]]
+    per_mode = []
     for k, m in enumerate(modes.modes):
-        for i, g in enumerate(res["rms_levels_g"]):
+        per_level = []
+        for i, g in enumerate(levels):
             if step is not None:
                 step(f"damping of mode {k + 1} ({m.frequency:.4g} Hz), {g:g} g")
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always", ShortRecordWarning)
-                d = random_damping(res["base_acceleration"][i], res["tank_acceleration"][i],
-                                   fs, m.frequency, band=modes.bands[k], accuracy=accuracy,
-                                   estimators=estimators)
+                d = estimate_random(res["base_acceleration"][i], res["tank_acceleration"][i],
+                                    fs, m.frequency, band=modes.bands[k], accuracy=accuracy,
+                                    estimators=estimators)
             for w in caught:  # say which mode and level each warning is about
                 warnings.warn(f"mode {k + 1}, {g:g} g RMS: {w.message}", w.category,
                               stacklevel=2)
-            rows.append({"case": case, "mode": k + 1, "mode_frequency_Hz": m.frequency,
-                         "rms_g": float(g), **d})
-    return rows
+            per_level.append(d.to_dataset())
+        per_mode.append(xr.concat(per_level, dim="level"))
+    return xr.concat(per_mode, dim="mode").assign_coords(
+        case=case, mode=("mode", np.arange(1, len(modes.modes) + 1)),
+        mode_frequency_Hz=("mode", [float(m.frequency) for m in modes.modes], {"units": "Hz"}),
+        level=("level", levels, {"units": "g"}))
 
 
 @dataclass(frozen=True)

@@ -9,8 +9,9 @@ member in its own coupled simulation (``sloshrom.beam.simulation.cases.simulate_
 * its result dict holds the member-mean of every response array (:func:`mean_result`), with the
   members' own results under ``"members"``: the time histories, files and figures of the case;
 * its damping estimates (Table 2, the free-decay bands) are the **mean of the members'
-  estimates**, not the estimates of the mean response (:func:`combine_estimates`,
-  :func:`combine_table2_rows`, :func:`combine_band_rows`).
+  estimates**, not the estimates of the mean response (:func:`combine_estimates`: Table 2's
+  through ``sloshrom.beam.damping.tables.mode1_damping_dataset``, the bands' through
+  :func:`combine_band_rows`).
 
 **The ROM's uncertainty.** Each member's estimate has its own estimation standard deviation
 ``s_k`` (the record's statistical error, from the bootstrap, Au's law or the band's scatter);
@@ -36,7 +37,7 @@ the between-member spread is unknown: the standard deviation is that member's ow
 note says so. A member estimate without a standard deviation (a band shorter than one
 smoothing window) leaves the ROM without one too. A one-member ensemble has ``s_b = 0``.
 
-Pure functions: result dicts and table rows in, the same out.
+Pure functions: result dicts, estimates and band rows in, the same out.
 """
 
 from __future__ import annotations
@@ -51,7 +52,7 @@ import numpy as np
 from sloshrom.beam.errors import BeamError
 
 __all__ = ["ENVELOPE_KEYS", "Cell", "Combined", "Members", "Row", "combine_band_rows",
-           "combine_estimates", "combine_table2_rows", "mean_result"]
+           "combine_estimates", "mean_result"]
 
 #: A cell of a damping table: a number (damping ratio -, frequency Hz, count) or a text.
 Cell = float | int | str
@@ -231,67 +232,9 @@ def combine_estimates(values: Sequence[float], stds: Sequence[float], lows: Sequ
     return Combined(mean, std, mean - q * std, mean + q * std, spread, n, note=note)
 
 
-def _estimators_of(row: Mapping[str, Cell]) -> list[str]:
-    # the estimate columns of a Table 2 row: every `est` with an `est_std` beside it
-    return [k for k in row if f"{k}_std" in row]
-
-
 def _number(v: Cell) -> float:
     # a numeric cell as float; a text one (a reason) as NaN
     return float(v) if isinstance(v, (int, float, np.integer, np.floating)) else float("nan")
-
-
-def combine_table2_rows(case: str, rows: Sequence[Mapping[str, Cell]],
-                        names: Sequence[str] | None = None) -> Row:
-    """The Table 2 row of an ensemble ROM at one level from its members' rows at that level.
-
-    Parameters
-    ----------
-    case : str
-        The ROM's case name.
-    rows : sequence of mapping
-        Each member's row (``sloshrom.beam.damping.tables.mode1_damping_table``), the same level.
-    names : sequence of str, optional
-        The members' names.
-
-    Returns
-    -------
-    dict
-        The members' columns in their order, each numeric one the mean over the members that
-        have it (NaN ignored); every estimator ``est`` (a column with ``est_std`` beside it)
-        combined by :func:`combine_estimates`: ``est``, ``est_std``, ``est_low``,
-        ``est_high``, ``est_reason``, ``est_note``, and then ``est_spread`` (-) and
-        ``est_members`` (members with a value); last ``n_members``.
-    """
-    if not rows:
-        raise BeamError("no member rows to combine")
-    first = rows[0]
-    combined: Row = {}
-    for e in _estimators_of(first):
-        c = combine_estimates([_number(r[e]) for r in rows],
-                              [_number(r[f"{e}_std"]) for r in rows],
-                              [_number(r[f"{e}_low"]) for r in rows],
-                              [_number(r[f"{e}_high"]) for r in rows],
-                              [str(r.get(f"{e}_reason", "")) for r in rows],
-                              [str(r.get(f"{e}_note", "")) for r in rows], names)
-        combined.update({e: c.zeta, f"{e}_std": c.std, f"{e}_low": c.low,
-                         f"{e}_high": c.high, f"{e}_reason": c.reason, f"{e}_note": c.note,
-                         f"{e}_spread": c.spread, f"{e}_members": c.members})
-    out: Row = {}
-    for key, v in first.items():  # the members' column order, then the new columns
-        if key == "case":
-            out[key] = case
-        elif key in combined:
-            out[key] = combined[key]
-        elif isinstance(v, str):
-            out[key] = v
-        else:
-            col = np.array([_number(r.get(key, float("nan"))) for r in rows])
-            out[key] = float(np.mean(col[np.isfinite(col)])) if np.isfinite(col).any() \
-                else float("nan")
-    out.update({k: v for k, v in combined.items() if k not in out})
-    out["n_members"] = len(rows)
-    return out
 
 
 def combine_band_rows(case: str, member_rows: Sequence[Sequence[Mapping[str, Cell]]],
