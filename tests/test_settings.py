@@ -4,7 +4,13 @@ import json
 import pytest
 
 from sloshrom import ConfigError, Tank
-from sloshrom.beam.damping.limits import WELCH_SEGMENT
+from sloshrom.beam.damping.limits import (
+    FREE_DAMPING_PERIODS,
+    MIN_RANDOM_DURATION,
+    WELCH_SEGMENT,
+    min_free_duration,
+)
+from sloshrom.beam.simulation.limits import BEAM_FS, check_psd_band
 from sloshrom.pipeline import settings
 
 
@@ -237,9 +243,9 @@ def test_min_free_duration_is_what_the_damping_analysis_needs():
 
     from sloshrom.beam.damping.analysis import instantaneous_damping
 
-    fs, f1 = settings.BEAM_FS, 10.19
-    need = settings.min_free_duration(f1)
-    assert need == pytest.approx(settings.FREE_DAMPING_PERIODS / f1, abs=0.1)
+    fs, f1 = BEAM_FS, 10.19
+    need = min_free_duration(f1)
+    assert need == pytest.approx(FREE_DAMPING_PERIODS / f1, abs=0.1)
     t = np.arange(int(need * fs)) / fs
     x = np.exp(-0.01 * 2 * np.pi * f1 * t) * np.sin(2 * np.pi * f1 * t)
     h = instantaneous_damping(x, fs, f1)
@@ -250,17 +256,17 @@ def test_min_free_duration_is_what_the_damping_analysis_needs():
 
 
 def test_random_minimum_holds_one_welch_segment():
-    assert settings.MIN_RANDOM_DURATION * settings.BEAM_FS >= WELCH_SEGMENT
+    assert MIN_RANDOM_DURATION * BEAM_FS >= WELCH_SEGMENT
 
 
 @pytest.mark.parametrize(("f0", "sigma", "ok"), [(12.0, 4.0, True), (5.0, 4.0, False),
                                                  (240.0, 4.0, False), (12.0, 0.0, False)])
 def test_psd_band(f0, sigma, ok):
     if ok:
-        settings.check_psd_band(f0, sigma)
+        check_psd_band(f0, sigma)
     else:
         with pytest.raises(ConfigError):
-            settings.check_psd_band(f0, sigma)
+            check_psd_band(f0, sigma)
 
 
 def test_every_tank_the_rig_runs_at_is_checked_before_any_stage():

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Annotated, Any, TypeVar, cast
 
 import typer
 
-from sloshrom.beam.damping.limits import WELCH_SEGMENT
+from sloshrom.beam.damping.limits import FREE_DAMPING_PERIODS, WELCH_SEGMENT
 from sloshrom.cli._app import app, check_input, check_number, fail, key_value_pairs
 from sloshrom.cli.beam import (
     DirectionOpt,
@@ -416,7 +416,7 @@ def _check_stations(ctx: _Setting, res: MeasuredTest, found: TestModes,
 
 def _free_test(files: list[Path], ctx: _Setting, name: str, step: _Steps) -> _Test:
     """Read and analyse a free decay at every mode (user errors end the command)."""
-    from sloshrom.beam.lab.every_mode import FREE_PERIODS, free_mode_decays, free_mode_rows
+    from sloshrom.beam.lab.every_mode import free_mode_decays, free_mode_rows
     from sloshrom.beam.lab.measured import check_free_decay, read_free_test
     from sloshrom.plotting.beam import free_figures, mode_decay_figure
 
@@ -427,10 +427,10 @@ def _free_test(files: list[Path], ctx: _Setting, name: str, step: _Steps) -> _Te
     _check_stations(ctx, res, found, modal)
     n = res["time"].size
     for k, f in enumerate(found.frequencies):
-        if n < FREE_PERIODS * res["fs"] / f:
+        if n < FREE_DAMPING_PERIODS * res["fs"] / f:
             fail(f"{files[0]}: {n / res['fs']:g} s is too short for the damping analysis "
-                 f"of mode {k + 1} ({f:.4g} Hz): need {FREE_PERIODS} periods, "
-                 f"{FREE_PERIODS / f:.3g} s")
+                 f"of mode {k + 1} ({f:.4g} Hz): need {FREE_DAMPING_PERIODS} periods, "
+                 f"{FREE_DAMPING_PERIODS / f:.3g} s")
     for k, f in enumerate(found.frequencies):
         _checked(f"{files[0]}", lambda k=k, f=f: check_free_decay(
             res, f, rel_band=found.rel_band(k, 0.5), mode=k + 1))

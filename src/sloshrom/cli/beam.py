@@ -19,7 +19,19 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from sloshrom.beam.damping.limits import WELCH_SEGMENT
+from sloshrom.beam.damping.limits import (
+    FREE_DAMPING_PERIODS,
+    MIN_RANDOM_DURATION,
+    WELCH_SEGMENT,
+    check_analysis_band,
+    min_free_duration,
+)
+from sloshrom.beam.simulation.limits import (
+    BEAM_FS,
+    MAX_BEAM_SECONDS,
+    MAX_LEVEL_SECONDS,
+    check_psd_band,
+)
 from sloshrom.beam.simulation.structure import MAX_MODES
 from sloshrom.cli._app import (
     app,
@@ -35,16 +47,6 @@ from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputBatch, not_a_regular_file
 from sloshrom.limits import MAX_SEED
 from sloshrom.models import FrozenLiquid, SloshingModel
-from sloshrom.pipeline.settings import (
-    BEAM_FS,
-    FREE_DAMPING_PERIODS,
-    MAX_BEAM_SECONDS,
-    MAX_LEVEL_SECONDS,
-    MIN_RANDOM_DURATION,
-    check_analysis_band,
-    check_psd_band,
-    min_free_duration,
-)
 from sloshrom.plotting import savefig
 
 if TYPE_CHECKING:

@@ -9,10 +9,10 @@ from typing import Annotated, Any
 
 import typer
 
+from sloshrom.beam.damping.limits import check_analysis_band
 from sloshrom.cli._app import app, check_input, check_out, fail, key_value_pairs
 from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputBatch
-from sloshrom.pipeline.settings import check_analysis_band
 
 _SIGNALS = ("station_acceleration", "tank_acceleration", "base_acceleration")
 

@@ -35,13 +35,20 @@ from pydantic import (
 )
 from pydantic_core import ErrorDetails, PydanticCustomError
 
-from sloshrom.beam.damping.limits import WELCH_SEGMENT
-from sloshrom.beam.simulation.structure import (
-    N_STATIONS,
-    CantileverBeam,
-    ModalModel,
-    coupled_frozen_modes,
+from sloshrom.beam.damping.limits import (
+    FREE_DAMPING_PERIODS,
+    WELCH_SEGMENT,
+    check_analysis_band,
+    min_free_duration,
 )
+from sloshrom.beam.simulation.limits import (
+    MAX_BEAM_MODES,
+    MAX_BEAM_SECONDS,
+    MAX_LEVEL_SECONDS,
+    check_psd_band,
+    first_frozen_frequency,
+)
+from sloshrom.beam.simulation.structure import CantileverBeam
 from sloshrom.config import FILL_TOLERANCE, ConfigError, ConfigWarning, Tank, load_toml
 from sloshrom.limits import (
     MAX_DELAY,
@@ -52,22 +59,15 @@ from sloshrom.limits import (
     MAX_WEIGHTS,
     Hidden,
 )
+from sloshrom.rig.limits import MAX_FINE_SECONDS, MIN_VFA_DURATION, check_record_rate
 from sloshrom.rom.registry import CLASSES, LOSS_TERMS, Hyper, ModelClass
 
 __all__ = [
-    "BEAM_FS",
     "BaselineTable",
-    "FREE_DAMPING_PERIODS",
-    "MAX_BEAM_SECONDS",
-    "MAX_FINE_SECONDS",
-    "MAX_LEVEL_SECONDS",
     "MAX_MODEL_WEIGHTS",
-    "MIN_RANDOM_DURATION",
-    "MIN_VFA_DURATION",
     "MultimodeTable",
     "OPTIONAL_KEYS",
     "QUICK",
-    "RIG_RATE",
     "BeamTable",
     "BeyondTable",
     "DataTable",
@@ -78,14 +78,10 @@ __all__ = [
     "RomNetwork",
     "RomTable",
     "TankTable",
-    "check_analysis_band",
-    "check_psd_band",
     "default_text",
     "defaults",
-    "first_frozen_frequency",
     "load",
     "merge",
-    "min_free_duration",
     "validate",
 ]
 
@@ -106,31 +102,8 @@ QUICK: dict[str, dict[str, Any]] = {
 #: ``[rig]`` overrides of the virtual rig's physics (``sloshrom/rig/rig_params.toml``).
 OPTIONAL_KEYS: dict[str, tuple[str, ...]] = {"rig": ("restitution", "beta")}
 
-#: Shortest VFA path, s (``sloshrom.signals.vfa``: 2 s fade in and out plus the sweep).
-MIN_VFA_DURATION = 10.0
-#: Longest run at the virtual rig's fine step (10 kHz), s. A VFA record holds about 20 float64
-#: arrays per fine sample at its peak (path, derivatives, filtered sensor channels): measured
-#: 1.6 MB per second of record, so one hour needs about 6 GB of memory and a minute of CPU.
-MAX_FINE_SECONDS = 3600.0
-#: The virtual rig's integration rate (``VirtualRig.dt`` = 1e-4 s): ``rig.fs`` must divide it.
-RIG_RATE = 10_000.0
 #: Fed-back outputs of the NOE built by `reproduce` (``NOE(out_delays=2)``, the default).
 NOE_OUT_DELAYS = 2
-#: Default rate of the beam results (``sloshrom beam``); `reproduce` uses ``rig.fs``.
-BEAM_FS = 500.0
-#: A random response must hold at least one Welch segment (32.8 s at 500 Hz); 90 s (paper) give
-#: four half-overlapping segments, hence a much smoother estimate.
-MIN_RANDOM_DURATION = math.ceil(WELCH_SEGMENT / BEAM_FS)
-#: ``analysis.instantaneous_damping`` trims 5 periods of mode 1 at each end and smooths over 4;
-#: 4 more periods leave a decay to analyse (18 periods: 1.8 s for the paper beam, f1 = 10.2 Hz).
-FREE_DAMPING_PERIODS = 2 * 5 + 4 + 4
-#: Longest beam simulation, s (the rig runs at 10 kHz inside the coupled loop).
-MAX_BEAM_SECONDS = 600.0
-#: Random responses of the rig hold about 2.1 MB per second and per level at its 10 kHz step
-#: (measured): duration x number of levels is bounded to keep a run within about 4 GB.
-MAX_LEVEL_SECONDS = 1800.0
-#: Accelerometer stations of the beam: the modal filter separates at most this many modes.
-MAX_MODES = N_STATIONS
 #: Most network weights one model file holds (:data:`sloshrom.limits.MAX_WEIGHTS`): an ensemble
 #: that cannot be saved is refused here, before the rig data and the training.
 MAX_MODEL_WEIGHTS = MAX_WEIGHTS
@@ -450,11 +423,7 @@ class RigTable(_Table):
 
     @model_validator(mode="after")
     def _divides_rig_rate(self) -> RigTable:
-        if abs(RIG_RATE / self.fs - round(RIG_RATE / self.fs)) > 1e-9:
-            raise ConfigError(
-                f"'rig.fs' = {self.fs:g} Hz must divide the rig's {RIG_RATE:g} Hz integration "
-                "rate (e.g. 250, 500, 1000, 2000 Hz): the beam's random excitation is made at "
-                "fs and upsampled exactly for the rig")
+        check_record_rate(self.fs, "'rig.fs'")
         return self
 
 
@@ -634,7 +603,7 @@ class BeamTable(_Table):
     seed: Seed
     damping: _list(_number(0.0, 1.0, hi_open=True, what="a damping ratio"),
                    "modal damping ratios, each in [0, 1)")
-    n_modes: _number(1, MAX_MODES, integer=True, what="an integer",
+    n_modes: _number(1, MAX_BEAM_MODES, integer=True, what="an integer",
                      why="the modal filter separates at most as many modes as the beam has "
                          "accelerometer stations")
     lab_noise: _number(0.0, 10.0, what="an accelerometer noise RMS in m/s^2")
@@ -1000,67 +969,3 @@ def _message(error: ErrorDetails) -> str:
         item = says.item.value(f"{key}[{rest[0]}]", v)
         return f"'{key}' must be {says.what}: {item}"
     return says.value(key, v)
-
-
-def first_frozen_frequency(tank: Tank, n_modes: int = 3, damping: Any = None,
-                           modal_toml: str | Path | None = None, beam: Any = None) -> float:
-    """First mode (Hz) of the beam with frozen liquid: the mode the damping analyses follow."""
-    if modal_toml is not None:
-        modal = ModalModel.from_toml(modal_toml)
-    else:
-        modal = ModalModel.from_beam(beam, tank=tank, n_modes=n_modes, damping=damping)
-    return float(coupled_frozen_modes(modal, tank.liquid_mass)[0][0])
-
-
-def min_free_duration(f1: float) -> float:
-    """Shortest free response (s, rounded up to 0.1 s) whose mode-1 damping can be analysed."""
-    return math.ceil(10 * FREE_DAMPING_PERIODS / f1) / 10
-
-
-def check_analysis_band(f1: float, error: type[ValueError] = ConfigError,
-                        fs: float = BEAM_FS, band: tuple[float, float] | None = None) -> None:
-    """The analysed mode must lie well below the results' Nyquist frequency.
-
-    Without ``band`` (Hz) the damping analyses band-pass up to 1.5 ``f1``, which must stay below
-    0.8 of the Nyquist frequency. With ``band`` (a mode between neighbours), the band must hold
-    ``f1`` (``0 <= low < f1 < high``) and ``f1`` must lie below 0.8 of the Nyquist frequency;
-    an upper edge beyond the Nyquist frequency is clipped by the estimators.
-    """
-    nyq = 0.8 * fs / 2
-    if band is None:
-        if not 1.5 * f1 < nyq:
-            raise error(f"the first beam mode ({f1:.4g} Hz) is too high for the {fs:g} Hz "
-                        f"results: the damping analyses band-pass up to 1.5 f1, which must "
-                        f"stay below {nyq:g} Hz")
-        return
-    lo, hi = band
-    if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo < f1 < hi):
-        raise error(f"the analysis band {lo:g}-{hi:g} Hz must hold the mode ({f1:.4g} Hz)")
-    if not f1 < nyq:
-        raise error(f"the mode ({f1:.4g} Hz) is too high for the {fs:g} Hz results: it must "
-                    f"stay below {nyq:g} Hz (0.8 of the Nyquist frequency)")
-
-
-def check_psd_band(f0: float, sigma: float, names: tuple[str, str] = ("--f0", "--sigma"),
-                   error: type[ValueError] = ConfigError, fs: float = BEAM_FS) -> None:
-    """The random-excitation PSD (paper Eq. 8) must lie inside (0, Nyquist) of the signal at fs.
-
-    The base acceleration is synthesised at ``fs`` (then upsampled band-limited for the rig):
-    ``sloshrom.signals.random_base_acceleration`` needs ``f0 + 4 sigma`` below the Nyquist
-    frequency, and a band reaching below 0 Hz (``f0 - 3 sigma < 0``) would fold onto positive
-    frequencies and no longer be the Gaussian asked for.
-    """
-    n0, ns = names
-    for name, v in ((n0, f0), (ns, sigma)):
-        if not (isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-                and v > 0):
-            raise error(f"{name} must be a positive frequency in Hz, got {v!r}")
-    nyq = fs / 2
-    if f0 + 4 * sigma >= nyq:
-        raise error(f"{n0} + 4 {ns} = {f0 + 4 * sigma:g} Hz must stay below {nyq:g} Hz, the "
-                    f"Nyquist frequency of the {fs:g} Hz excitation (got f0 = {f0:g} Hz, "
-                    f"sigma = {sigma:g} Hz)")
-    if f0 - 3 * sigma < -1e-9:
-        raise error(f"{n0} - 3 {ns} = {f0 - 3 * sigma:g} Hz must not be below 0 Hz (the PSD "
-                    f"would fold onto positive frequencies; got f0 = {f0:g} Hz, "
-                    f"sigma = {sigma:g} Hz)")

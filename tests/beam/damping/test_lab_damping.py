@@ -109,8 +109,8 @@ def test_lab_coverage_mode2_band_limited() -> None:
 
 
 def test_check_analysis_band_with_a_band() -> None:
+    from sloshrom.beam.damping.limits import check_analysis_band
     from sloshrom.config import ConfigError
-    from sloshrom.pipeline.settings import check_analysis_band
 
     check_analysis_band(180.0, fs=FS, band=(107.0, 300.0))  # the upper edge is clipped later
     with pytest.raises(ConfigError, match="too high"):

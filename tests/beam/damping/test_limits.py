@@ -52,3 +52,17 @@ def test_the_multimode_default_is_the_welch_segment():
     """The ``[multimode] nperseg`` key (the two-mode study's random tests) defaults to it."""
     text = (resources.files("sloshrom.pipeline") / "defaults.toml").read_text(encoding="utf-8")
     assert tomllib.loads(text)["multimode"]["nperseg"] == WELCH_SEGMENT
+
+
+def test_a_free_decay_needs_what_the_instantaneous_damping_trims_and_smooths():
+    """The free decay a damping analysis needs (settings, ``sloshrom beam free``, ``sloshrom
+    analyse free``) is derived from the analysis's own trimming and smoothing."""
+    from sloshrom.beam.damping import limits
+    from sloshrom.beam.damping.analysis import instantaneous_damping
+    from sloshrom.beam.lab import every_mode
+
+    p = inspect.signature(instantaneous_damping).parameters
+    assert p["trim_periods"].default == limits.TRIM_PERIODS
+    assert p["smooth_periods"].default == limits.SMOOTH_PERIODS
+    assert limits.FREE_DAMPING_PERIODS == 2 * limits.TRIM_PERIODS + limits.SMOOTH_PERIODS + 4
+    assert every_mode.FREE_DAMPING_PERIODS is limits.FREE_DAMPING_PERIODS  # no copy

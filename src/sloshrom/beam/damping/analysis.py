@@ -42,6 +42,7 @@ from numpy.typing import ArrayLike
 from scipy import linalg, optimize, signal
 from scipy.ndimage import minimum_filter1d
 
+from sloshrom.beam.damping.limits import SMOOTH_PERIODS, TRIM_PERIODS
 from sloshrom.beam.errors import BeamError
 
 
@@ -136,8 +137,8 @@ def instantaneous_damping(
     fs: float,
     f1: float,
     rel_band: float = 0.35,
-    smooth_periods: float = 4.0,
-    trim_periods: float = 5.0,
+    smooth_periods: float = float(SMOOTH_PERIODS),
+    trim_periods: float = float(TRIM_PERIODS),
     reference: Any = None,
     min_relative_amplitude: float = 1e-2,
 ) -> dict[str, np.ndarray]:

@@ -29,7 +29,7 @@ from sloshrom.beam.damping.analysis import (
     instantaneous_damping,
     log_decrement,
 )
-from sloshrom.beam.damping.limits import WELCH_SEGMENT
+from sloshrom.beam.damping.limits import FREE_DAMPING_PERIODS, WELCH_SEGMENT
 from sloshrom.beam.damping.peaks import (
     FoundMode,
     band_maximum,
@@ -54,9 +54,6 @@ from sloshrom.config import G
 __all__ = ["ModeDecay", "TestModes", "check_station_order", "describe", "free_mode_decays",
            "free_mode_rows", "modes_of_test", "random_mode_dataset"]
 
-#: Periods of a mode that a free decay must hold for its damping analysis (5 trimmed at each
-#: end, 4 of smoothing, 4 left to analyse: ``analysis.instantaneous_damping``).
-FREE_PERIODS = 18
 #: The fewest Welch segments (``limits.WELCH_SEGMENT`` samples) whose estimates and
 #: intervals hold (the lab coverage benchmark runs 120 s at 500 Hz: 6 segments).
 MIN_SEGMENTS = 3
@@ -341,7 +338,7 @@ def free_mode_decays(res: MeasuredTest, modes: TestModes,
     Raises
     ------
     AnalysisError
-        A record too short for a mode (fewer than :data:`FREE_PERIODS` periods), or the
+        A record too short for a mode (fewer than ``limits.FREE_DAMPING_PERIODS`` periods), or the
         stations cannot separate the modes.
     """
     fs = float(res["fs"])
@@ -355,10 +352,10 @@ def free_mode_decays(res: MeasuredTest, modes: TestModes,
     out = []
     for k, m in enumerate(modes.modes):
         f = m.frequency
-        if n < FREE_PERIODS * fs / f:
+        if n < FREE_DAMPING_PERIODS * fs / f:
             raise AnalysisError(f"the free decay is {n / fs:g} s long: mode {k + 1} "
-                                f"({f:.4g} Hz) needs {FREE_PERIODS} periods, "
-                                f"{FREE_PERIODS / f:.3g} s")
+                                f"({f:.4g} Hz) needs {FREE_DAMPING_PERIODS} periods, "
+                                f"{FREE_DAMPING_PERIODS / f:.3g} s")
         x = rel_x if q is None else q[:, int(np.argmin(np.abs(f_struct - f)))]
         rel = modes.rel_band(k, DECAY_REL_BAND)
         out.append(ModeDecay(Mode1Decay(
