@@ -49,8 +49,8 @@ from sloshrom.pipeline.maps import compute_map
 from sloshrom.pipeline.settings import ReproduceConfig, defaults, load, merge, validate
 from sloshrom.rom.bouncing import BouncingBall
 from sloshrom.rom.estimators import load_model
-from sloshrom.studies.baseline import CASE, FREQUENCY_BANDS, frequency_band_errors
-from sloshrom.studies.baseline.stage import lowpassed_nrmse, stage_baseline
+from sloshrom.studies.baseline.config import CASE, FREQUENCY_BANDS
+from sloshrom.studies.baseline.stage import frequency_band_errors, lowpassed_nrmse, stage_baseline
 
 
 def _pct(v: Any, digits: int = 1) -> str:

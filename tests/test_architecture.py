@@ -7,15 +7,16 @@ base       ``sloshrom`` (root), ``config``, ``errors``, ``fidelity``, ``fileio``
            ``models``, ``signals``, ``_x64``, ``_jit``
 domain     ``io``, ``rig``, ``rom``, ``energy``, ``beam``, ``systems`` (each one room)
 plotting   ``plotting``: figures only
-pipeline   ``pipeline``: the reproduce chain
+pipeline   ``pipeline``: the reproduce chain, the settings and the studies' registry
 studies    ``studies``: one package per study beyond the paper
 cli        ``cli``: the command line
 ========== =======================================================================
 
-Imports point one way, ``cli -> pipeline -> plotting / domain rooms -> base``; :data:`ALLOWED`
-is the table of the rooms each room may import. ``pipeline`` and ``studies`` import each other
-at two seams only: the pipeline imports the registry ``sloshrom.studies`` and no study's module
-(:data:`RUNS_STUDIES`), a study imports the pipeline's infrastructure (:data:`FOR_STUDIES`).
+Imports point one way, ``cli -> studies -> pipeline -> plotting / domain rooms -> base``;
+:data:`ALLOWED` is the table of the rooms each room may import. The studies' registry is below
+the pipeline (:data:`REGISTRY`, in the pipeline room: it names the studies as strings), so that
+no module of the pipeline imports a study; a study imports the pipeline's infrastructure
+(:data:`FOR_STUDIES`).
 Below the rooms, only the capability checks (:data:`CAPABILITIES`) ask a model what kind of
 model it is, and no module raises a plain ``ValueError``. See ``docs/architecture.md``.
 """
@@ -50,24 +51,24 @@ ALLOWED: dict[str, set[str]] = {
     "beam": {"base", "io"},
     "systems": {"base", "io"},
     "plotting": {"base", *DOMAIN},
-    "pipeline": {"base", *DOMAIN, "plotting", "studies"},
+    "pipeline": {"base", *DOMAIN, "plotting"},
     "studies": {"base", *DOMAIN, "plotting", "pipeline"},
     "cli": {"base", *DOMAIN, "plotting", "pipeline"},
 }
 
-#: The registry of the studies (``STUDIES``, ``registered()``): the one module of the studies'
-#: room the pipeline imports.
-REGISTRY = "sloshrom.studies"
-#: The pipeline modules that import the registry: the chain runs the studies, the report shows
-#: them. Neither imports a study by name (``sloshrom.studies.<name>``).
-RUNS_STUDIES = {"sloshrom.pipeline.chain", "sloshrom.pipeline.report"}
-#: The pipeline modules a study may import: the infrastructure (settings, cache, run context,
-#: HTML, the experiment's report tables, the study protocol) and the paper's stage modules whose
-#: helpers a study reuses (records, ROM errors, beam tests, maps); never the chain or the
-#: report, which import the registry.
+#: The registry of the studies (``STUDIES``: each study's package, as a string), below the
+#: pipeline: the settings assemble the configuration from the studies' tables through it, the
+#: chain and the report run and show the studies ``sloshrom.pipeline.study.registered`` gives.
+REGISTRY = "sloshrom.pipeline.registry"
+#: The room of the studies' packages.
+STUDIES_ROOM = "sloshrom.studies"
+#: The pipeline modules a study may import: the infrastructure (the tables' schema, settings,
+#: cache, run context, HTML, the experiment's report tables, the study protocol) and the
+#: paper's stage modules whose helpers a study reuses (records, ROM errors, beam tests, maps);
+#: never the chain or the report, which run and show the studies.
 FOR_STUDIES = {f"sloshrom.pipeline.{m}" for m in
-               ("settings", "cache", "context", "html", "experiment", "study", "data", "rom",
-                "beam", "maps")}
+               ("schema", "settings", "cache", "context", "html", "experiment", "study", "data",
+                "rom", "beam", "maps")}
 
 #: Calls that change process-wide state of a library the user's process shares with us.
 FORBIDDEN_CALLS = {
@@ -254,12 +255,40 @@ def test_the_beam_rooms_import_one_way():
     assert not bad, "imports against the order of the beam's rooms:\n" + "\n".join(bad)
 
 
+#: The floors of the rooms, top down: a room imports rooms of its floor or below only
+#: (:data:`ALLOWED` says which), so that an import of a room above runs back up the floors.
+FLOORS: tuple[tuple[str, ...], ...] = (("cli",), ("studies",), ("pipeline",), ("plotting",),
+                                       DOMAIN, ("base",))
+
+
+def _floor(r: str) -> int:
+    return next(i for i, rooms in enumerate(FLOORS) if r in rooms)
+
+
+def _runs_up(module: str, target: str) -> bool:
+    """Whether ``module`` importing ``target`` runs back up the floors (to a room above)."""
+    return _floor(room(target)) < _floor(room(module))
+
+
+def test_no_import_runs_back_up_the_floors():
+    """0 imports from a floor to one above it: the studies' registry is the pipeline's, and
+    names the studies as strings (the one such import there was, from the chain and the
+    report, is gone)."""
+    assert {r for rooms in FLOORS for r in rooms} == set(ALLOWED)
+    up = [f"{_where(m, i)} ({room(m)} -> {room(i.target)})" for m, v in PARSED.items()
+          for i in v.imports if _runs_up(m, i.target)]
+    assert len(up) == 0, "imports running back up the floors:\n" + "\n".join(up)
+    # the finder finds what it should
+    assert _runs_up("sloshrom.pipeline.chain", f"{STUDIES_ROOM}.fills.study")
+    assert not _runs_up(f"{STUDIES_ROOM}.fills.study", "sloshrom.pipeline.study")
+
+
 def _crosses_seam(module: str, target: str) -> bool:
     """Whether ``module`` importing ``target`` breaks the pipeline/studies seam: the pipeline
-    imports the registry only, and only from :data:`RUNS_STUDIES`; a study imports only
+    imports no study (the registry names them as strings); a study imports only
     :data:`FOR_STUDIES` of the pipeline."""
     if room(module) == "pipeline" and room(target) == "studies":
-        return module not in RUNS_STUDIES or target != REGISTRY
+        return True
     return room(module) == "studies" and room(target) == "pipeline" \
         and target not in FOR_STUDIES
 
@@ -267,33 +296,34 @@ def _crosses_seam(module: str, target: str) -> bool:
 def test_the_seam_rule_refuses_what_it_should():
     chain, report = "sloshrom.pipeline.chain", "sloshrom.pipeline.report"
     assert not _crosses_seam(chain, REGISTRY) and not _crosses_seam(report, REGISTRY)
-    for study in _study_packages():  # a study by name, even from the chain
+    for study in _study_packages():  # a study by name, even from the chain or the settings
         assert _crosses_seam(chain, f"{study}.stage") and _crosses_seam(report, study)
-    assert _crosses_seam("sloshrom.pipeline.maps", REGISTRY)
-    assert _crosses_seam(f"{REGISTRY}.fills.stage", chain)
-    assert not _crosses_seam(f"{REGISTRY}.fills.stage", "sloshrom.pipeline.study")
+        assert _crosses_seam("sloshrom.pipeline.settings", f"{study}.table")
+    assert _crosses_seam(f"{STUDIES_ROOM}.fills.stage", chain)
+    assert not _crosses_seam(f"{STUDIES_ROOM}.fills.stage", "sloshrom.pipeline.study")
+    assert not _crosses_seam(f"{STUDIES_ROOM}.fills.table", "sloshrom.pipeline.schema")
 
 
-def test_pipeline_and_studies_meet_at_two_seams():
-    """The pipeline imports the studies' registry (the chain and the report only) and never a
-    ``sloshrom.studies.<name>`` module; a study imports only the pipeline's infrastructure and
-    the paper's stage helpers (so no study depends on the chain)."""
+def test_pipeline_and_studies_meet_at_one_seam():
+    """The pipeline imports no ``sloshrom.studies`` module; a study imports only the pipeline's
+    infrastructure and the paper's stage helpers (so no study depends on the chain)."""
     bad = [_where(m, i) for m, v in PARSED.items() for i in v.imports
            if _crosses_seam(m, i.target)]
     assert not bad, "imports across the pipeline/studies seam:\n" + "\n".join(bad)
-    # the chain and the report do reach the studies, through the registry
-    for m in RUNS_STUDIES:
+    # the settings (the studies' tables) and the protocol (their declarations) reach the
+    # studies through the registry
+    for m in ("sloshrom.pipeline.settings", "sloshrom.pipeline.study"):
         assert REGISTRY in {i.target for i in PARSED[m].imports}, m
 
 
 def _study_packages() -> list[str]:
     """The packages directly under ``sloshrom.studies``: one per study."""
-    return sorted(m for m in MODULES if m.startswith(f"{REGISTRY}.")
+    return sorted(m for m in MODULES if m.startswith(f"{STUDIES_ROOM}.")
                   and m.count(".") == 2 and MODULES[m].name == "__init__.py")
 
 
 def _registry_entries() -> list[str]:
-    """The module paths of ``STUDIES`` in the registry, read from its source."""
+    """The packages of ``STUDIES`` in the registry, read from its source."""
     tree = ast.parse(MODULES[REGISTRY].read_text(encoding="utf-8"))
     for node in tree.body:
         target = node.target if isinstance(node, ast.AnnAssign) else (
@@ -303,19 +333,28 @@ def _registry_entries() -> list[str]:
     raise AssertionError(f"{REGISTRY} has no STUDIES")
 
 
+def _assigned(module: str) -> set[str]:
+    tree = ast.parse(MODULES[module].read_text(encoding="utf-8"))
+    return {t.id for n in tree.body if isinstance(n, ast.Assign) for t in n.targets
+            if isinstance(t, ast.Name)}
+
+
 def test_every_study_is_registered_once_with_its_declaration():
-    """Each study package is one line of the registry, naming its ``study`` module, which
-    assigns ``STUDY`` (a study that is not registered would never run)."""
+    """Each study package is one line of the registry, with its declaration (``study``, which
+    assigns ``STUDY``) and its part of the configuration (``table``, which assigns ``TABLE``,
+    its defaults in ``defaults.toml`` beside it): a study that is not registered would never
+    run, one without its table could not be configured."""
     entries = _registry_entries()
     packages = _study_packages()
     assert len(packages) >= 3
-    assert sorted(entries) == sorted(f"{p}.study" for p in packages)
+    assert sorted(entries) == packages
     assert len(set(entries)) == len(entries)
     for entry in entries:
-        tree = ast.parse(MODULES[entry].read_text(encoding="utf-8"))
-        assigned = {t.id for n in tree.body if isinstance(n, ast.Assign) for t in n.targets
-                    if isinstance(t, ast.Name)}
-        assert "STUDY" in assigned, f"{entry} does not assign STUDY"
+        assert "STUDY" in _assigned(f"{entry}.study"), f"{entry}.study does not assign STUDY"
+        assert "TABLE" in _assigned(f"{entry}.table"), f"{entry}.table does not assign TABLE"
+        assert (MODULES[entry].parent / "defaults.toml").is_file(), entry
+        # the package itself imports nothing: the settings read its table when they start
+        assert not PARSED[entry].imports, entry
 
 
 def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:

@@ -27,12 +27,9 @@ from sloshrom.rom.bouncing import (
 )
 from sloshrom.rom.errors import NotFittedError, ROMError
 from sloshrom.rom.modelfile import ModelFileError
-from sloshrom.studies.baseline import (
-    FREQUENCY_BANDS,
-    baseline_section,
-    comparison_rows,
-    frequency_band_errors,
-)
+from sloshrom.studies.baseline.config import FREQUENCY_BANDS
+from sloshrom.studies.baseline.section import baseline_section
+from sloshrom.studies.baseline.stage import comparison_rows, frequency_band_errors
 
 TANK = Tank()
 M_L = TANK.liquid_mass

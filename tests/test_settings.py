@@ -50,7 +50,7 @@ def test_bad_user_config(tmp_path, text, match):
 def test_every_default_key_has_a_check():
     """defaults.toml and the schema list the same keys: a key added to one fails here."""
     cfg = settings.defaults()
-    tables = settings.ReproduceConfig.model_fields
+    tables = settings.config_model().model_fields  # the paper's tables and the studies'
     checked = {f"{t}.{k}" for t, f in tables.items() for k in f.annotation.model_fields}
     keys = {f"{t}.{k}" for t, sec in cfg.items() for k in sec}
     optional = {f"{t}.{k}" for t, ks in settings.OPTIONAL_KEYS.items() for k in ks}
@@ -225,7 +225,7 @@ def test_the_passive_recipe_has_one_set_of_defaults():
 
 def test_schema_is_the_single_source_of_bounds():
     """The interval in a message is the one pydantic enforces (both come from one call)."""
-    field = settings.ReproduceConfig.model_fields["rig"].annotation.model_fields["fs"]
+    field = settings.config_model().model_fields["rig"].annotation.model_fields["fs"]
     bounds = {type(m).__name__: m for m in field.metadata}
     assert bounds["Ge"].ge == 100.0 and bounds["Le"].le == 5000.0
 
@@ -359,3 +359,35 @@ def test_an_optional_key_given_a_boolean(tmp_path):
     with pytest.raises(ConfigError, match=r"^'rig\.restitution' must be a number, got true "
                                           r"\(a boolean\)$"):
         settings.load(p)
+
+
+def test_the_studies_own_their_part_of_the_configuration():
+    """Each registered study's table, keys of ``[beyond]``, defaults and checks are its own
+    (``sloshrom.pipeline.registry``), and the configuration is assembled from them where the
+    paper's defaults had them: the same tables, keys and order."""
+    import tomllib
+
+    from sloshrom.pipeline.registry import study_tables
+
+    tables = study_tables()
+    fields = settings.config_model().model_fields
+    own = {t.table: t.model for t in tables if t.table is not None}
+    assert own and {k: fields[k].annotation for k in own} == own
+    assert list(fields) == ["tank", "rig", "data", "rom", "map", "beam", "beyond", *own]
+    assert list(settings.BeyondTable.model_fields) == [
+        "enabled", "fills", "unseen_fills", "fill_ensemble", "beam_fills", "baseline",
+        "multimode"]
+    cfg = settings.defaults()
+    for t in tables:  # each study's defaults, as it declares them
+        for table, keys in tomllib.loads(t.defaults).items():
+            assert {k: cfg[table][k] for k in keys} == keys, table
+    assert list(cfg) == list(fields)
+    # a study's checks run on its keys: the fill family's order, the ball's bounds
+    bad = settings.defaults()
+    bad["beyond"]["fills"] = [0.5]
+    with pytest.raises(ConfigError, match=r"'beyond\.fills' needs two fill levels"):
+        settings.validate(bad)
+    bad = settings.defaults()
+    bad["baseline"]["restitution"] = [0.9, 0.1]
+    with pytest.raises(ConfigError, match=r"'baseline\.restitution' bounds out of order"):
+        settings.validate(bad)

@@ -13,11 +13,11 @@ from typing import Any
 import numpy as np
 
 from sloshrom import fidelity
-from sloshrom import studies as registry
 from sloshrom.beam.damping.columns import table2_dataset
 from sloshrom.beam.damping.registry import REFERENCE, TABLE2, label
 from sloshrom.pipeline import html as report
 from sloshrom.pipeline import settings
+from sloshrom.pipeline import study as registry
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.experiment import cell_text, experiment_tables, percent
 from sloshrom.pipeline.html import Figure, Section, Table

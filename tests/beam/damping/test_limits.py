@@ -50,8 +50,12 @@ def test_every_default_is_the_welch_segment():
 
 def test_the_multimode_default_is_the_welch_segment():
     """The ``[multimode] nperseg`` key (the two-mode study's random tests) defaults to it."""
-    text = (resources.files("sloshrom.pipeline") / "defaults.toml").read_text(encoding="utf-8")
-    assert tomllib.loads(text)["multimode"]["nperseg"] == WELCH_SEGMENT
+    from sloshrom.pipeline.settings import defaults
+
+    text = (resources.files("sloshrom.studies.multimode") / "defaults.toml").read_text(
+        encoding="utf-8")
+    assert tomllib.loads(text)["multimode"]["nperseg"] == WELCH_SEGMENT  # the study's own
+    assert defaults()["multimode"]["nperseg"] == WELCH_SEGMENT  # as the settings give it
 
 
 def test_a_free_decay_needs_what_the_instantaneous_damping_trims_and_smooths():

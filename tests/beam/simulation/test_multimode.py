@@ -32,8 +32,9 @@ from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.settings import ReproduceConfig, defaults, load
 from sloshrom.rom import load_model
 from sloshrom.signals import broadband_acceleration
-from sloshrom.studies.multimode import multimode_section, stage_multimode
 from sloshrom.studies.multimode.config import wing_design
+from sloshrom.studies.multimode.section import multimode_section
+from sloshrom.studies.multimode.stage import stage_multimode
 
 TANK = Tank()
 BETA_L = 1.8751040687119611  # first root of cos(x) cosh(x) = -1

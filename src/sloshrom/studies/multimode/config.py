@@ -1,10 +1,10 @@
 """Configuration of the two-mode wing study: the ``[multimode]`` table and the study's design.
 
-The table's keys and defaults are in ``sloshrom/pipeline/defaults.toml`` and validated, key by
-key, by :class:`sloshrom.pipeline.settings.MultimodeTable` (the wing's own checks, those of
-:class:`~sloshrom.beam.simulation.wing.WingDesign`, by :func:`wing_design` before any stage). The
-constants here are the study's design, not settings: the cases of the random tests, the signal
-each ROM reads and the records it learns.
+The table's keys, defaults and checks are the study's own
+(:class:`sloshrom.studies.multimode.table.MultimodeTable`, ``defaults.toml`` of this package;
+the wing's own checks, those of :class:`~sloshrom.beam.simulation.wing.WingDesign`, by
+:func:`wing_design` before any stage). The constants here are the study's design, not
+settings: the cases of the random tests, the signal each ROM reads and the records it learns.
 """
 
 from __future__ import annotations
@@ -14,8 +14,9 @@ from typing import Any
 from sloshrom.beam.simulation.structure import ModalDataError
 from sloshrom.beam.simulation.wing import WingDesign
 from sloshrom.config import ConfigError
-from sloshrom.pipeline.settings import MultimodeTable, ReproduceConfig
+from sloshrom.pipeline.settings import ReproduceConfig
 from sloshrom.rom.estimators import LOSS_TERMS
+from sloshrom.studies.multimode.table import MultimodeTable
 
 __all__ = ["CASES", "DATA_SETS", "JUDGED_ROM", "RECIPE_KEYS", "ROM_INPUTS", "WING_KEYS",
            "cache_config", "rom_params", "wing_design"]

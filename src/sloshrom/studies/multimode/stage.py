@@ -62,7 +62,6 @@ from sloshrom.models import FrozenLiquid
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.data import vfa_pieces
 from sloshrom.pipeline.rom import error_figures
-from sloshrom.pipeline.settings import MultimodeTable
 from sloshrom.plotting import savefig
 from sloshrom.rig.virtual import SensorParams, VirtualRig
 from sloshrom.rom.errors import EnvelopeWarning
@@ -79,6 +78,7 @@ from sloshrom.studies.multimode.config import (
 )
 from sloshrom.studies.multimode.figures import modal_damping_figure, modal_frf_figure
 from sloshrom.studies.multimode.outputs import MultimodeOutputs
+from sloshrom.studies.multimode.table import MultimodeTable, multimode_table
 
 __all__ = ["stage_multimode"]
 
@@ -191,7 +191,7 @@ def stage_multimode(ctx: Context) -> tuple[dict[str, Any], list[str]]:
         ``multimode/data/*.nc``, ``multimode/models/*.npz``,
         ``multimode/table_modal_damping.{csv,md}`` and the two figures, relative to ``ctx.out``.
     """
-    s = ctx.cfg.multimode
+    s = multimode_table(ctx.cfg)
     with warnings.catch_warnings():
         # a ROM leaving its training envelope (the VFA-only ROM in the wing's tests, the
         # validation records' peaks) is measured and reported (``envelope``, ``roms``), not
