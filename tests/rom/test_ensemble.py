@@ -108,8 +108,8 @@ def test_pytree_members_are_children(fitted):
 
 
 def test_coupled_free_response_runs_the_ensemble(fitted):
-    from sloshrom.beam.coupled import CoupledSimulator, free_response
-    from sloshrom.beam.structure import ModalModel
+    from sloshrom.beam.simulation.coupled import CoupledSimulator, free_response
+    from sloshrom.beam.simulation.structure import ModalModel
 
     modal = ModalModel.from_beam()
     assert CoupledSimulator(fitted, modal).backend == "jax"

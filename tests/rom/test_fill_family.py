@@ -12,8 +12,8 @@ import pytest
 from typer.testing import CliRunner
 
 from helpers import model_parts, smooth_io, write_model_parts
-from sloshrom.beam.coupled import free_response
-from sloshrom.beam.structure import ModalModel
+from sloshrom.beam.simulation.coupled import free_response
+from sloshrom.beam.simulation.structure import ModalModel
 from sloshrom.cli import app
 from sloshrom.energy import dissipated_energy
 from sloshrom.io import Record, read_record, write_record

@@ -27,7 +27,7 @@ from typer.testing import CliRunner
 
 import sloshrom.cli.export  # noqa: F401  (registers `sloshrom export`)
 from helpers import rig_records
-from sloshrom.beam.coupled import free_response
+from sloshrom.beam.simulation.coupled import free_response
 from sloshrom.cli import app
 from sloshrom.models import EnvelopeWarning, ModelError
 from sloshrom.rom.ensemble import Ensemble

@@ -14,8 +14,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sloshrom.beam import coupled
-from sloshrom.beam.coupled import CoupledSimulator, discretise, simulate_jax
+from sloshrom.beam.simulation import coupled
+from sloshrom.beam.simulation.coupled import CoupledSimulator, discretise, simulate_jax
 from sloshrom.config import Tank
 from sloshrom.models import SloshingModel, has_kernel, is_jax_model
 from sloshrom.rom.network import MinMaxScaler
@@ -170,8 +170,8 @@ def test_no_global_x64_switch_and_float64_results():
         import numpy as np
         import jax
         import sloshrom
-        from sloshrom.beam.coupled import free_response
-        from sloshrom.beam.structure import ModalModel
+        from sloshrom.beam.simulation.coupled import free_response
+        from sloshrom.beam.simulation.structure import ModalModel
         from sloshrom.rom.tdnn.estimators import NFIR
         from sloshrom.rom import onnx
         from sloshrom.rom.tdnn import training

@@ -35,8 +35,8 @@ SCRIPT = textwrap.dedent("""
 
     from typer.testing import CliRunner
 
-    from sloshrom.beam.coupled import free_response
-    from sloshrom.beam.structure import ModalModel
+    from sloshrom.beam.simulation.coupled import free_response
+    from sloshrom.beam.simulation.structure import ModalModel
     from sloshrom.cli import app
     from sloshrom.config import ConfigError
     from sloshrom.io import Record, write_record

@@ -13,11 +13,11 @@ from typing import Any
 import numpy as np
 
 from sloshrom import fidelity
-from sloshrom import studies as registry
-from sloshrom.beam.registry import TABLE2, label
-from sloshrom.beam.results import table2_dataset
+from sloshrom.beam.damping.columns import table2_dataset
+from sloshrom.beam.damping.registry import REFERENCE, TABLE2, label
 from sloshrom.pipeline import html as report
 from sloshrom.pipeline import settings
+from sloshrom.pipeline import study as registry
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.experiment import cell_text, experiment_tables, percent
 from sloshrom.pipeline.html import Figure, Section, Table
@@ -488,7 +488,7 @@ def _beam_sections(ctx: Context, b: dict[str, Any],
     if isinstance(rm, dict):
         levels = list(rm.get("table2", {}))
         tables2.append(Table(
-            ["RMS [g]", "LSCF on H1, members (mean ± std)"],
+            ["RMS [g]", f"{label(REFERENCE)}, members (mean ± std)"],
             [[lv, f"{_pm(rm['table2'][lv], '{:.2f}', 100)} %"] for lv in levels],
             "The random tests with each member of the ensemble ROM coupled alone: the spread "
             "of the first-mode damping that one trained network carries; their mean is the "

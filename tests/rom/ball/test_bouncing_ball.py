@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from sloshrom.beam.coupled import CoupledSimulator, free_response
-from sloshrom.beam.structure import ModalModel
+from sloshrom.beam.simulation.coupled import CoupledSimulator, free_response
+from sloshrom.beam.simulation.structure import ModalModel
 from sloshrom.config import G, Tank
 from sloshrom.models import FrozenLiquid, SloshingModel, has_kernel
 from sloshrom.pipeline.context import Context
@@ -27,12 +27,9 @@ from sloshrom.rom.ball.model import (
 )
 from sloshrom.rom.errors import NotFittedError, ROMError
 from sloshrom.rom.modelfile import ModelFileError
-from sloshrom.studies.baseline import (
-    FREQUENCY_BANDS,
-    baseline_section,
-    comparison_rows,
-    frequency_band_errors,
-)
+from sloshrom.studies.baseline.config import FREQUENCY_BANDS
+from sloshrom.studies.baseline.section import baseline_section
+from sloshrom.studies.baseline.stage import comparison_rows, frequency_band_errors
 
 TANK = Tank()
 M_L = TANK.liquid_mass

@@ -12,8 +12,8 @@ from scipy import signal
 
 from helpers import LinearDamper
 from sloshrom import Tank
-from sloshrom.beam.coupled import free_response
-from sloshrom.beam.structure import ModalModel
+from sloshrom.beam.simulation.coupled import free_response
+from sloshrom.beam.simulation.structure import ModalModel
 from sloshrom.energy import phi_d_map
 from sloshrom.models import is_jax_model
 from sloshrom.rom import LSS, load_model

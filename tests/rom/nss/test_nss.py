@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import scipy.signal as sps
 
-from sloshrom.beam.coupled import CoupledSimulator, discretise, simulate_jax
+from sloshrom.beam.simulation.coupled import CoupledSimulator, discretise, simulate_jax
 from sloshrom.config import Tank
 from sloshrom.models import SloshingModel, is_jax_model
 from sloshrom.rom import NSS, Ensemble, EnvelopeWarning, ModelFileError, ROMError, load_model
