@@ -4,7 +4,7 @@ Target: 10 s of free response in <= 5 ms after compilation with an NFIR(70, 35)-
 timed with the default ROM class of ``sloshrom reproduce``, an ensemble of two NSS (8 states, 64
 neurons; ``--nss FILE`` times a model file instead, e.g. ``results/models/nss.npz``); batched
 random responses in one ``vmap``. In the same run, for each ROM: the scan with ``unroll=8``
-(:class:`~sloshrom.beam.coupled.CoupledSimulator`'s option for many runs), the default
+(:class:`~sloshrom.beam.simulation.coupled.CoupledSimulator`'s option for many runs), the default
 ``unroll=1`` (one step per loop trip, as before the option; it compiles fastest) and the
 baseline, the same discretisation and the same (jitted) ROM step driven by a plain Python loop;
 first calls (compile + run), then the best of several runs, with the ratios. Run:
@@ -19,8 +19,8 @@ import time
 import jax
 import numpy as np
 
-from sloshrom.beam.coupled import CoupledSimulator, upsample_periodic
-from sloshrom.beam.structure import ModalModel
+from sloshrom.beam.simulation.coupled import CoupledSimulator, upsample_periodic
+from sloshrom.beam.simulation.structure import ModalModel
 from sloshrom.config import G
 from sloshrom.signals import random_base_acceleration
 

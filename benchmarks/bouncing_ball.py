@@ -39,7 +39,7 @@ from typing import Any
 
 import xarray as xr
 
-from sloshrom.beam.coupled import free_response
+from sloshrom.beam.simulation.coupled import free_response
 from sloshrom.energy import map_fidelity
 from sloshrom.io import read_record
 from sloshrom.pipeline import Context, run
@@ -49,8 +49,8 @@ from sloshrom.pipeline.maps import compute_map
 from sloshrom.pipeline.settings import ReproduceConfig, defaults, load, merge, validate
 from sloshrom.rom.ball.model import BouncingBall
 from sloshrom.rom.loading import load_model
-from sloshrom.studies.baseline import CASE, FREQUENCY_BANDS, frequency_band_errors
-from sloshrom.studies.baseline.stage import lowpassed_nrmse, stage_baseline
+from sloshrom.studies.baseline.config import CASE, FREQUENCY_BANDS
+from sloshrom.studies.baseline.stage import frequency_band_errors, lowpassed_nrmse, stage_baseline
 
 
 def _pct(v: Any, digits: int = 1) -> str:

@@ -13,8 +13,8 @@ Cases (true damping ratio 1 % in all):
   noise of 0.1 % and 1 % of the initial amplitude: Hilbert (median of the instantaneous
   damping) and log decrement (median).
 
-Random-response estimators, as :func:`sloshrom.beam.uncertainty.mode1_damping_random` (Welch Hann,
-nperseg 16384, 50 % overlap; band f1 -/+ 50 %):
+Random-response estimators, as :func:`sloshrom.beam.damping.uncertainty.mode1_damping_random` (Welch
+Hann, nperseg 16384, 50 % overlap; band f1 -/+ 50 %):
 
 * ``lscf_h1``      LSCF on H1, median of the stable-pole cluster;
 * ``lscf_output``  output-only LSCF on the window-corrected half-spectrum, cluster median;
@@ -29,9 +29,9 @@ cluster size; for the output-only estimator also the Cramer-Rao-type bound
 (Gaussian white excitation; not applicable to the random-phase excitation of ``beam``, whose
 amplitude spectrum is deterministic).
 
-Coverage (``--coverage``): the intervals of :mod:`sloshrom.beam.uncertainty` on records of known
-damping with white sensor noise (``--noise``, standard deviation as a fraction of each channel's
-RMS): ``random`` - the ``sdof`` records (``--duration``, ``--nperseg``) through
+Coverage (``--coverage``): the intervals of :mod:`sloshrom.beam.damping.uncertainty` on records of
+known damping with white sensor noise (``--noise``, standard deviation as a fraction of each
+channel's RMS): ``random`` - the ``sdof`` records (``--duration``, ``--nperseg``) through
 ``random_damping``; ``decay`` - free decays ``8 exp(-zeta w t) cos(w_d t)`` ("g"; 10 Hz,
 1.37 %, 12 s and 64 Hz, 0.62 %, 8 s, 500 Hz) plus white noise of ``--decay-noise`` g
 (each level) through ``band_damping`` (bands 0.5-1, 1-2, 2-3, 3-5 g), its intervals from the
@@ -61,13 +61,13 @@ import time
 import numpy as np
 from scipy import signal
 
-from sloshrom.beam.analysis import (
+from sloshrom.beam.damping.analysis import (
     instantaneous_damping,
     log_decrement,
     lscf_damping,
     welch_psd,
 )
-from sloshrom.beam.uncertainty import band_damping, mode1_damping_random, random_damping
+from sloshrom.beam.damping.uncertainty import band_damping, mode1_damping_random, random_damping
 
 FS, F1, ZETA = 500.0, 10.0, 0.01
 NPERSEG = 16384
@@ -152,8 +152,8 @@ def run_random(case: str, duration: float, seeds: list[int]) -> None:
             u, y = sdof_base_response(duration, s)
             collect(random_estimates(u, y, FS, f1))
     else:
-        from sloshrom.beam.coupled import random_response
-        from sloshrom.beam.structure import ModalModel, coupled_frozen_modes
+        from sloshrom.beam.simulation.coupled import random_response
+        from sloshrom.beam.simulation.structure import ModalModel, coupled_frozen_modes
         from sloshrom.config import Tank
         from sloshrom.models import FrozenLiquid
 

@@ -1,15 +1,15 @@
 """Coverage of the random-test damping intervals on a laboratory beam, every mode, two bands.
 
-The truth: :class:`sloshrom.beam.synthetic.LabBeam` (a uniform cantilever without tank, modes
+The truth: :class:`sloshrom.beam.lab.synthetic.LabBeam` (a uniform cantilever without tank, modes
 10.3 / 64.1 / 180 Hz at 1.37 / 0.62 / 0.48 % damping), random base tests
-(:func:`~sloshrom.beam.synthetic.random_test`: coloured, -3 dB/octave, 4th-order Butterworth
+(:func:`~sloshrom.beam.lab.synthetic.random_test`: coloured, -3 dB/octave, 4th-order Butterworth
 band, 0.5 % sensor noise on every channel) at 0.1 / 0.2 / 0.4 g RMS, ``--duration`` s at
 500 Hz, the tip accelerometer as the response. Two shaker bands: the wide default 3-220 Hz
 (every mode excited) and 3-40 Hz (a laboratory's shaker: mode 2 on the roll-off, mode 3 not
 excited). The beam is linear and the noise proportional to each channel's RMS, so the levels
 differ only by their seeds (level i: seeds ``1000 i + first_seed ...``): they are replicates,
 pooled in the rows ``all``. Each mode k is analysed by
-:func:`sloshrom.beam.uncertainty.estimate_random` with ``f1 = f_k`` and the band between its
+:func:`sloshrom.beam.damping.uncertainty.estimate_random` with ``f1 = f_k`` and the band between its
 neighbours (:func:`mode_band`), Welch segments of 16384 samples, seed = the record's seed.
 
 Printed per band, mode, level and estimator: the number of records with a value (``n``), of
@@ -39,8 +39,8 @@ from typing import Any
 
 import numpy as np
 
-from sloshrom.beam.synthetic import DEFAULT_BAND, LabBeam, random_test
-from sloshrom.beam.uncertainty import estimate_random
+from sloshrom.beam.damping.uncertainty import estimate_random
+from sloshrom.beam.lab.synthetic import DEFAULT_BAND, LabBeam, random_test
 
 FS = 500.0
 LEVELS = (0.1, 0.2, 0.4)

@@ -24,7 +24,8 @@ from typing import Any
 from sloshrom.config import G
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.settings import load
-from sloshrom.studies.multimode import CASES, stage_multimode
+from sloshrom.studies.multimode.config import CASES
+from sloshrom.studies.multimode.stage import stage_multimode
 
 
 def _pct(v: float | None) -> str:

@@ -5,7 +5,7 @@ Gaussian white base, exact ZOH at 500 Hz; white sensor noise of ``--noise`` time
 channel's RMS) this compares, per record and over the seeds:
 
 * sloshrom's output-only estimate ``lscf_output`` and its std (Au's law times the estimator's
-  efficiency, :func:`sloshrom.beam.uncertainty.random_damping`), and the bias-corrected
+  efficiency, :func:`sloshrom.beam.damping.uncertainty.random_damping`), and the bias-corrected
   ``lscf_h1`` with its bootstrap std;
 * pyOMA-2's covariance-driven SSI on the tank and base channels, both as outputs (output-only;
   decimated to 50 Hz), its damping ``Xi`` and the first-order (perturbation) standard deviation
@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sloshrom.beam.uncertainty import random_damping
+from sloshrom.beam.damping.uncertainty import random_damping
 
 FS, F1, ZETA = 500.0, 10.0, 0.01
 

@@ -17,8 +17,8 @@ import numpy as np
 
 from helpers import FLOOR, relative_change
 from sloshrom import FrozenLiquid, Tank
-from sloshrom.beam.coupled import free_response, random_response
-from sloshrom.beam.structure import CantileverBeam, ModalModel
+from sloshrom.beam.simulation.coupled import free_response, random_response
+from sloshrom.beam.simulation.structure import CantileverBeam, ModalModel
 from sloshrom.energy import phi_d_map
 from sloshrom.rig.virtual import SensorParams, VirtualRig
 from sloshrom.rom.tdnn.estimators import NFIR, NOE

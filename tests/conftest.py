@@ -32,7 +32,8 @@ def pytest_xdist_make_scheduler(config, log):
     from xdist.scheduler import LoadFileScheduling
 
     root = config.rootpath
-    shared = {name: {p.relative_to(root).as_posix() for p in (root / "tests").glob("test_*.py")
+    # every test module, at any depth (tests/beam/...: laid out like the package)
+    shared = {name: {p.relative_to(root).as_posix() for p in (root / "tests").rglob("test_*.py")
                      if name in p.read_text(encoding="utf-8")}
               for name in SHARED_ON_ONE_WORKER}
 
@@ -79,7 +80,7 @@ def _frozen_arrays(obj):
 @pytest.fixture(scope="session")
 def builtin_modal():
     """The built-in sloshing beam's modal model (paper tank at 50 %, 3 modes)."""
-    from sloshrom.beam.structure import ModalModel
+    from sloshrom.beam.simulation.structure import ModalModel
 
     return _frozen_arrays(ModalModel.from_beam())
 

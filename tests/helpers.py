@@ -12,7 +12,9 @@
   at the smallest sizes, stopped before its maps and resumed;
 - ``assert_bit_identical``: two results of one machine, to the last bit;
 - ``relative_change``, ``perturbation_tolerance``: compare with a stored reference written on
-  another CPU, within the change that a relative 1e-13 perturbation of the input makes.
+  another CPU, within the change that a relative 1e-13 perturbation of the input makes;
+- ``TESTS``, ``REPO``: the test folder and the repository, for a test module at any depth of
+  ``tests/`` (``tests/beam/...``).
 """
 
 from __future__ import annotations
@@ -30,6 +32,11 @@ from typer.testing import CliRunner
 from sloshrom.cli import app
 from sloshrom.io import Record
 from sloshrom.rom import modelfile
+
+#: The folder of this module (``tests/``) and the repository: paths that do not depend on
+#: where a test module sits below ``tests/``.
+TESTS = Path(__file__).resolve().parent
+REPO = TESTS.parent
 
 FS_RECORD = 100.0
 N_RECORD = 200

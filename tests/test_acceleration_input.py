@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from sloshrom.beam.coupled import CoupledSimulator
+from sloshrom.beam.simulation.coupled import CoupledSimulator
 from sloshrom.cli import app
 from sloshrom.config import Tank
 from sloshrom.energy import default_grid, phi_d_map

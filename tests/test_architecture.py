@@ -7,28 +7,32 @@ base       ``sloshrom`` (root), ``config``, ``errors``, ``fidelity``, ``fileio``
            ``models``, ``signals``, ``_x64``, ``_jit``
 domain     ``io``, ``rig``, ``rom``, ``energy``, ``beam``, ``systems`` (each one room)
 plotting   ``plotting``: figures only
-pipeline   ``pipeline``: the reproduce chain
+pipeline   ``pipeline``: the reproduce chain, the settings and the studies' registry
 studies    ``studies``: one package per study beyond the paper
 cli        ``cli``: the command line
 ========== =======================================================================
 
-Imports point one way, ``cli -> pipeline -> plotting / domain rooms -> base``; :data:`ALLOWED`
-is the table of the rooms each room may import. ``pipeline`` and ``studies`` import each other
-at two seams only: the pipeline imports the registry ``sloshrom.studies`` and no study's module
-(:data:`RUNS_STUDIES`), a study imports the pipeline's infrastructure (:data:`FOR_STUDIES`).
+Imports point one way, ``cli -> studies -> pipeline -> plotting / domain rooms -> base``;
+:data:`ALLOWED` is the table of the rooms each room may import. The studies' registry is below
+the pipeline (:data:`REGISTRY`, in the pipeline room: it names the studies as strings), so that
+no module of the pipeline imports a study; a study imports the pipeline's infrastructure
+(:data:`FOR_STUDIES`).
 Below the rooms, only the capability checks (:data:`CAPABILITIES`) ask a model what kind of
-model it is, and no module raises a plain ``ValueError``. See ``docs/architecture.md``.
+model it is, no module outside a ROM class's package names the class (:data:`OWNERS`), the ROM
+room's floors hold (:data:`ROM_ANY_CLASS`), and no module raises a plain ``ValueError``. See
+``docs/architecture.md``.
 """
 
 from __future__ import annotations
 
 import ast
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
 
-from sloshrom.rom.registry import CLASSES
+from sloshrom.rom.registry import CLASSES, packages
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 PACKAGE = "sloshrom"
@@ -50,24 +54,24 @@ ALLOWED: dict[str, set[str]] = {
     "beam": {"base", "io"},
     "systems": {"base", "io"},
     "plotting": {"base", *DOMAIN},
-    "pipeline": {"base", *DOMAIN, "plotting", "studies"},
+    "pipeline": {"base", *DOMAIN, "plotting"},
     "studies": {"base", *DOMAIN, "plotting", "pipeline"},
     "cli": {"base", *DOMAIN, "plotting", "pipeline"},
 }
 
-#: The registry of the studies (``STUDIES``, ``registered()``): the one module of the studies'
-#: room the pipeline imports.
-REGISTRY = "sloshrom.studies"
-#: The pipeline modules that import the registry: the chain runs the studies, the report shows
-#: them. Neither imports a study by name (``sloshrom.studies.<name>``).
-RUNS_STUDIES = {"sloshrom.pipeline.chain", "sloshrom.pipeline.report"}
-#: The pipeline modules a study may import: the infrastructure (settings, cache, run context,
-#: HTML, the experiment's report tables, the study protocol) and the paper's stage modules whose
-#: helpers a study reuses (records, ROM errors, beam tests, maps); never the chain or the
-#: report, which import the registry.
+#: The registry of the studies (``STUDIES``: each study's package, as a string), below the
+#: pipeline: the settings assemble the configuration from the studies' tables through it, the
+#: chain and the report run and show the studies ``sloshrom.pipeline.study.registered`` gives.
+REGISTRY = "sloshrom.pipeline.registry"
+#: The room of the studies' packages.
+STUDIES_ROOM = "sloshrom.studies"
+#: The pipeline modules a study may import: the infrastructure (the tables' schema, settings,
+#: cache, run context, HTML, the experiment's report tables, the study protocol) and the
+#: paper's stage modules whose helpers a study reuses (records, ROM errors, beam tests, maps);
+#: never the chain or the report, which run and show the studies.
 FOR_STUDIES = {f"sloshrom.pipeline.{m}" for m in
-               ("settings", "cache", "context", "html", "experiment", "study", "data", "rom",
-                "beam", "maps")}
+               ("schema", "settings", "cache", "context", "html", "experiment", "study", "data",
+                "rom", "beam", "maps")}
 
 #: Calls that change process-wide state of a library the user's process shares with us.
 FORBIDDEN_CALLS = {
@@ -221,12 +225,73 @@ def test_imports_point_one_way():
     assert not bad, "imports against the direction of the rooms:\n" + "\n".join(bad)
 
 
+#: The beam's rooms, in order: each imports only itself and the rooms before it. ``errors`` (the
+#: room's error types) is below every other; the simulation (structures, the coupled runs)
+#: knows no analysis; the damping analyses read responses, not files; the laboratory's files
+#: are read, written and analysed with both; ``results`` writes every room's result files (a
+#: measured test's names its channel map); the comparison sets them side by side.
+BEAM_ROOMS = ("errors", "simulation", "damping", "lab", "results", "compare")
+
+
+def beam_room(module: str) -> str | None:
+    """The room of a module inside ``sloshrom.beam`` (``None`` for the package itself and any
+    module outside the beam)."""
+    parts = module.split(".")
+    if len(parts) < 3 or parts[1] != "beam":
+        return None
+    if parts[2] not in BEAM_ROOMS:
+        raise AssertionError(f"{module}: in no room of the beam; add it to BEAM_ROOMS of "
+                             "tests/test_architecture")
+    return parts[2]
+
+
+def test_the_beam_rooms_import_one_way():
+    """Simulation, damping analysis, laboratory files, comparison: each beam room imports the
+    rooms before it in :data:`BEAM_ROOMS` only (``if TYPE_CHECKING`` imports included)."""
+    order = {r: i for i, r in enumerate(BEAM_ROOMS)}
+    rooms = {beam_room(m) for m in MODULES} - {None}
+    assert rooms == set(BEAM_ROOMS), rooms
+    bad = [f"{_where(m, i)} ({beam_room(m)} -> {beam_room(i.target)})"
+           for m, v in PARSED.items() if beam_room(m) is not None for i in v.imports
+           if beam_room(i.target) is not None
+           and order[beam_room(i.target)] > order[beam_room(m)]]
+    assert not bad, "imports against the order of the beam's rooms:\n" + "\n".join(bad)
+
+
+#: The floors of the rooms, top down: a room imports rooms of its floor or below only
+#: (:data:`ALLOWED` says which), so that an import of a room above runs back up the floors.
+FLOORS: tuple[tuple[str, ...], ...] = (("cli",), ("studies",), ("pipeline",), ("plotting",),
+                                       DOMAIN, ("base",))
+
+
+def _floor(r: str) -> int:
+    return next(i for i, rooms in enumerate(FLOORS) if r in rooms)
+
+
+def _runs_up(module: str, target: str) -> bool:
+    """Whether ``module`` importing ``target`` runs back up the floors (to a room above)."""
+    return _floor(room(target)) < _floor(room(module))
+
+
+def test_no_import_runs_back_up_the_floors():
+    """0 imports from a floor to one above it: the studies' registry is the pipeline's, and
+    names the studies as strings (the one such import there was, from the chain and the
+    report, is gone)."""
+    assert {r for rooms in FLOORS for r in rooms} == set(ALLOWED)
+    up = [f"{_where(m, i)} ({room(m)} -> {room(i.target)})" for m, v in PARSED.items()
+          for i in v.imports if _runs_up(m, i.target)]
+    assert len(up) == 0, "imports running back up the floors:\n" + "\n".join(up)
+    # the finder finds what it should
+    assert _runs_up("sloshrom.pipeline.chain", f"{STUDIES_ROOM}.fills.study")
+    assert not _runs_up(f"{STUDIES_ROOM}.fills.study", "sloshrom.pipeline.study")
+
+
 def _crosses_seam(module: str, target: str) -> bool:
     """Whether ``module`` importing ``target`` breaks the pipeline/studies seam: the pipeline
-    imports the registry only, and only from :data:`RUNS_STUDIES`; a study imports only
+    imports no study (the registry names them as strings); a study imports only
     :data:`FOR_STUDIES` of the pipeline."""
     if room(module) == "pipeline" and room(target) == "studies":
-        return module not in RUNS_STUDIES or target != REGISTRY
+        return True
     return room(module) == "studies" and room(target) == "pipeline" \
         and target not in FOR_STUDIES
 
@@ -234,33 +299,34 @@ def _crosses_seam(module: str, target: str) -> bool:
 def test_the_seam_rule_refuses_what_it_should():
     chain, report = "sloshrom.pipeline.chain", "sloshrom.pipeline.report"
     assert not _crosses_seam(chain, REGISTRY) and not _crosses_seam(report, REGISTRY)
-    for study in _study_packages():  # a study by name, even from the chain
+    for study in _study_packages():  # a study by name, even from the chain or the settings
         assert _crosses_seam(chain, f"{study}.stage") and _crosses_seam(report, study)
-    assert _crosses_seam("sloshrom.pipeline.maps", REGISTRY)
-    assert _crosses_seam(f"{REGISTRY}.fills.stage", chain)
-    assert not _crosses_seam(f"{REGISTRY}.fills.stage", "sloshrom.pipeline.study")
+        assert _crosses_seam("sloshrom.pipeline.settings", f"{study}.table")
+    assert _crosses_seam(f"{STUDIES_ROOM}.fills.stage", chain)
+    assert not _crosses_seam(f"{STUDIES_ROOM}.fills.stage", "sloshrom.pipeline.study")
+    assert not _crosses_seam(f"{STUDIES_ROOM}.fills.table", "sloshrom.pipeline.schema")
 
 
-def test_pipeline_and_studies_meet_at_two_seams():
-    """The pipeline imports the studies' registry (the chain and the report only) and never a
-    ``sloshrom.studies.<name>`` module; a study imports only the pipeline's infrastructure and
-    the paper's stage helpers (so no study depends on the chain)."""
+def test_pipeline_and_studies_meet_at_one_seam():
+    """The pipeline imports no ``sloshrom.studies`` module; a study imports only the pipeline's
+    infrastructure and the paper's stage helpers (so no study depends on the chain)."""
     bad = [_where(m, i) for m, v in PARSED.items() for i in v.imports
            if _crosses_seam(m, i.target)]
     assert not bad, "imports across the pipeline/studies seam:\n" + "\n".join(bad)
-    # the chain and the report do reach the studies, through the registry
-    for m in RUNS_STUDIES:
+    # the settings (the studies' tables) and the protocol (their declarations) reach the
+    # studies through the registry
+    for m in ("sloshrom.pipeline.settings", "sloshrom.pipeline.study"):
         assert REGISTRY in {i.target for i in PARSED[m].imports}, m
 
 
 def _study_packages() -> list[str]:
     """The packages directly under ``sloshrom.studies``: one per study."""
-    return sorted(m for m in MODULES if m.startswith(f"{REGISTRY}.")
+    return sorted(m for m in MODULES if m.startswith(f"{STUDIES_ROOM}.")
                   and m.count(".") == 2 and MODULES[m].name == "__init__.py")
 
 
 def _registry_entries() -> list[str]:
-    """The module paths of ``STUDIES`` in the registry, read from its source."""
+    """The packages of ``STUDIES`` in the registry, read from its source."""
     tree = ast.parse(MODULES[REGISTRY].read_text(encoding="utf-8"))
     for node in tree.body:
         target = node.target if isinstance(node, ast.AnnAssign) else (
@@ -270,19 +336,28 @@ def _registry_entries() -> list[str]:
     raise AssertionError(f"{REGISTRY} has no STUDIES")
 
 
+def _assigned(module: str) -> set[str]:
+    tree = ast.parse(MODULES[module].read_text(encoding="utf-8"))
+    return {t.id for n in tree.body if isinstance(n, ast.Assign) for t in n.targets
+            if isinstance(t, ast.Name)}
+
+
 def test_every_study_is_registered_once_with_its_declaration():
-    """Each study package is one line of the registry, naming its ``study`` module, which
-    assigns ``STUDY`` (a study that is not registered would never run)."""
+    """Each study package is one line of the registry, with its declaration (``study``, which
+    assigns ``STUDY``) and its part of the configuration (``table``, which assigns ``TABLE``,
+    its defaults in ``defaults.toml`` beside it): a study that is not registered would never
+    run, one without its table could not be configured."""
     entries = _registry_entries()
     packages = _study_packages()
     assert len(packages) >= 3
-    assert sorted(entries) == sorted(f"{p}.study" for p in packages)
+    assert sorted(entries) == packages
     assert len(set(entries)) == len(entries)
     for entry in entries:
-        tree = ast.parse(MODULES[entry].read_text(encoding="utf-8"))
-        assigned = {t.id for n in tree.body if isinstance(n, ast.Assign) for t in n.targets
-                    if isinstance(t, ast.Name)}
-        assert "STUDY" in assigned, f"{entry} does not assign STUDY"
+        assert "STUDY" in _assigned(f"{entry}.study"), f"{entry}.study does not assign STUDY"
+        assert "TABLE" in _assigned(f"{entry}.table"), f"{entry}.table does not assign TABLE"
+        assert (MODULES[entry].parent / "defaults.toml").is_file(), entry
+        # the package itself imports nothing: the settings read its table when they start
+        assert not PARSED[entry].imports, entry
 
 
 def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
@@ -391,7 +466,9 @@ MODEL_CLASSES = {
 }
 #: Members by which a model says what kind of model it is.
 KIND_MEMBERS = {"input", "input_variable", "jax_traceable", "envelope_", "tank", "fill_range",
-                "members_", "model_", "kernel"}
+                "members_", "model_", "kernel",
+                # what a model is made of: its architecture, its registry entry
+                "spec", "model_class"}
 #: The capability checks: the only functions that dispatch on the kind of model (by
 #: ``isinstance`` on a model class or by asking for one of :data:`KIND_MEMBERS`). Each is
 #: documented where it is defined; docs/architecture.md lists them.
@@ -457,70 +534,182 @@ def test_the_capability_checks_are_few_and_documented():
     assert {(m, f) for m, names in CAPABILITIES.items() for f in names} <= sites
 
 
-# -- the registry of ROM classes: the one place that names a class ------------------------------
-#: Spec (architecture) types of the classes: nothing outside their own module asks for one.
-SPEC_TYPES = {"NetworkSpec": "sloshrom.rom.tdnn.network",
-              "StateSpaceSpec": "sloshrom.rom.nss.network",
-              "LinearSpec": "sloshrom.rom.lss.estimator"}
-#: Modules that may compare a value with a class's name, and why. Everything else reads the
-#: registry (a class's entry, its estimator, its network's methods).
+# -- the registry of ROM classes: each class one package, named nowhere else -------------------
+def _package_of(mc) -> str:
+    """The package of a class (``sloshrom.rom.nss``): its estimator's module's package."""
+    return mc.estimator.split(":")[0].rsplit(".", 1)[0]
+
+
+#: Each class's names (``nss``, ``NSS``) and the package that owns them.
+OWNERS: dict[str, str] = {n: _package_of(mc) for mc in CLASSES.values()
+                          for n in (mc.name, mc.class_name)}
+#: Spec (architecture) types of the classes and their packages: nothing outside asks for one.
+SPEC_TYPES = {"NetworkSpec": "sloshrom.rom.tdnn", "StateSpaceSpec": "sloshrom.rom.nss",
+              "LinearSpec": "sloshrom.rom.lss"}
+#: Names of a class spelled outside its package, and why: ``(module, name)``. Everything else
+#: reads the registry (a class's entry, its estimator, its fitted model's methods).
 NAMES_CLASSES = {
-    "sloshrom.rom.registry": "the registry itself",
-    # the sensitivity analysis is a study of the paper's two classes (Fig. 8): its grid is
-    # NFIR x NOE by definition
-    "sloshrom.rom.sweep": "the NFIR/NOE grid of Fig. 8",
-    "sloshrom.pipeline.rom": "the NFIR/NOE grid of Fig. 8",
-    "sloshrom.plotting.rom": "the NFIR/NOE grid of Fig. 8",
-    "sloshrom.cli.rom": "`sloshrom sweep --arch nfir|noe|both`",
-    # configurations written before the class tables: their keys are mapped to the classes'
-    "sloshrom.pipeline.settings": "former flat keys; the sweep's NFIR/NOE grid",
-    # the NFIR's and NOE's trainers, chosen by the architecture (one shooting trainer for the
-    # recurrent classes is the next step)
-    "sloshrom.rom.tdnn.training": "the trainers of the time-delay networks",
+    # the public API ``sloshrom.NFIR``, ``sloshrom.NOE``: the root re-exports them lazily by
+    # name, since the base imports nothing of the rooms above it (not even the registry)
+    ("sloshrom", "NFIR"): "the package root's lazy re-export of sloshrom.NFIR",
+    ("sloshrom", "NOE"): "the package root's lazy re-export of sloshrom.NOE",
+    # the FMU's C kernel of a state-space member (rom/fmu_c, first written for the NSS): the
+    # linear model lowers itself to it, a member without hidden units
+    ("sloshrom.rom.lss.estimator", "NSS"): "the FMU kernel SL_NSS of rom/fmu_c",
 }
 
 
-def _class_name_comparisons() -> list[tuple[str, int, str]]:
-    """``(module, line, text)`` of every comparison (``==``, ``!=``, ``in``) with a class's
-    name (``"nss"``), and every ``isinstance`` on a spec type."""
-    names = set(CLASSES) | {mc.class_name for mc in CLASSES.values()}
-    out = []
-    for mod, path in MODULES.items():
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if isinstance(node, ast.Compare):
-                consts = [c for c in (node.left, *node.comparators)
-                          for c in ([c] if not isinstance(c, ast.Tuple | ast.Set | ast.List)
-                                    else c.elts)
-                          if isinstance(c, ast.Constant) and c.value in names]
-                if consts:
-                    out.append((mod, node.lineno, f"compares with {consts[0].value!r}"))
-            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) \
-                    and node.func.id == "isinstance" and len(node.args) == 2:
-                kinds = node.args[1].elts if isinstance(node.args[1], ast.Tuple) \
-                    else [node.args[1]]
-                for k in kinds:
-                    if isinstance(k, ast.Name) and k.id in SPEC_TYPES \
-                            and SPEC_TYPES[k.id] != mod:
-                        out.append((mod, node.lineno, f"isinstance on {k.id}"))
+def _entries(tree: ast.AST) -> set[int]:
+    # the registry's list of the classes (``ENTRIES``): the one place naming every entry
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.AnnAssign | ast.Assign) and any(
+                isinstance(t, ast.Name) and t.id == "ENTRIES"
+                for t in (node.targets if isinstance(node, ast.Assign) else [node.target])):
+            out |= {id(c) for c in ast.walk(node.value)} if node.value is not None else set()
     return out
 
 
+def _inside(module: str, package: str) -> bool:
+    return module == package or module.startswith(package + ".")
+
+
+def _words(text: str) -> set[str]:
+    """The names a string spells: itself, or the words of a key (a string without spaces
+    split at ``.``, ``_`` and the like: ``"sweep_nfir_delays"``, ``"rom.nss.n_states"``); a
+    sentence is prose and not split."""
+    if any(c.isspace() for c in text):
+        return {text}
+    return {text, *re.split(r"[._:/\[\]'\"=-]+", text)}
+
+
+def class_name_uses(source: str, module: str) -> list[tuple[int, str]]:
+    """``(line, what)`` of every place of ``source`` (the module ``module``) that names a class
+    it does not own: a comparison with a class's name (``arch == "nss"``, ``in ("nfir",
+    "noe")``), a dict keyed by names (``{"nfir": NFIR, ...}``), any other string literal that
+    is a name or a key made of one (``"nfir"``, ``"sweep_nfir_delays"``; docstrings and
+    ``__all__`` aside), an ``isinstance`` on a spec type."""
+    tree = ast.parse(source)
+    skip = _docstrings(tree) | _all_lists(tree) | _entries(tree)
+
+    def foreign(c: ast.AST) -> str | None:
+        if not isinstance(c, ast.Constant) or not isinstance(c.value, str) or id(c) in skip:
+            return None
+        return next((w for w in sorted(_words(c.value))
+                     if w in OWNERS and not _inside(module, OWNERS[w])), None)
+
+    out, seen = [], set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Compare | ast.Dict):
+            parts = [node.left, *node.comparators] if isinstance(node, ast.Compare) \
+                else [k for k in node.keys if k is not None]
+            consts = [c for p in parts
+                      for c in (p.elts if isinstance(p, ast.Tuple | ast.Set | ast.List) else [p])]
+            hits = [(c, foreign(c)) for c in consts if foreign(c)]
+            seen |= {id(c) for c, _ in hits}
+            what = "compares with" if isinstance(node, ast.Compare) else "a dict keyed by"
+            out += [(node.lineno, f"{what} {name!r}") for name in dict.fromkeys(n for _, n in hits)]
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) \
+                and node.func.id == "isinstance" and len(node.args) == 2:
+            kinds = node.args[1].elts if isinstance(node.args[1], ast.Tuple) else [node.args[1]]
+            out += [(node.lineno, f"isinstance on {k.id}") for k in kinds
+                    if isinstance(k, ast.Name) and k.id in SPEC_TYPES
+                    and not _inside(module, SPEC_TYPES[k.id])]
+    for node in ast.walk(tree):
+        name = foreign(node) if id(node) not in seen else None
+        if name is not None:
+            out.append((node.lineno, f"spells {name!r} in {node.value!r}"))
+    return sorted(out)
+
+
+def _class_name_uses() -> list[str]:
+    return [f"{MODULES[m].relative_to(SRC)}:{line}: {what}" for m, path in MODULES.items()
+            for line, what in class_name_uses(path.read_text(encoding="utf-8"), m)
+            if (m, what.split("'")[1]) not in NAMES_CLASSES]
+
+
+def test_the_class_name_finder():
+    """It finds comparisons, dict dispatches, literals and keys of a class outside its
+    package; not prose, docstrings, ``__all__`` or the class's own package."""
+    src = ('"""nfir in a docstring is prose."""\n'
+           '__all__ = ["NFIR"]\n'
+           'a = arch == "nss"\n'
+           'b = {"nfir": 1, "noe": 2}[arch]\n'
+           'c = rom["nfir"]["max_epochs"]\n'
+           'd = "sweep_noe_delays"\n'
+           'e = isinstance(s, StateSpaceSpec)\n'
+           'f = "an NFIR on the velocity"\n'
+           'g = f"rom.{arch}.delays"\n'
+           'h = "lssx"\n')
+    found = class_name_uses(src, "sloshrom.pipeline.x")
+    assert [line for line, _ in found] == [3, 4, 4, 5, 6, 7], found
+    assert [w.split()[0] for _, w in found] == ["compares", "a", "a", "spells", "spells",
+                                                "isinstance"]
+    assert class_name_uses(src.replace("StateSpaceSpec", "NetworkSpec"),
+                           "sloshrom.rom.tdnn.x") == [(3, "compares with 'nss'")]
+
+
 def test_only_the_registry_names_a_class():
-    bad = [f"{MODULES[m].relative_to(SRC)}:{line}: {what}"
-           for m, line, what in _class_name_comparisons() if m not in NAMES_CLASSES]
-    assert not bad, ("a branch on a ROM class outside the registry (read its entry in "
-                     "sloshrom.rom.registry instead):\n" + "\n".join(bad))
-    # the finder finds what it should
-    assert any(m == "sloshrom.rom.sweep" for m, _, _ in _class_name_comparisons())
+    """Only the registry's list and a class's own package name it: 0 comparisons, dict
+    dispatches, literals and keys of a class's name outside its own package (and the listed
+    exceptions); and none asks for another package's spec type."""
+    bad = _class_name_uses()
+    assert not bad, ("a ROM class named outside its package (read its entry in the registry, "
+                     "or ask its fitted model):\n" + "\n".join(bad))
+    for (module, name), why in NAMES_CLASSES.items():  # each exception is still needed
+        uses = class_name_uses(MODULES[module].read_text(encoding="utf-8"), module)
+        assert any(what.split("'")[1] == name for _, what in uses), \
+            f"{module} spells {name} no more: remove its exception ({why})"
 
 
 def test_every_class_is_one_registry_entry():
-    """Each class's estimator says its entry, and its fitted model says it too."""
+    """Each class's estimator says its entry, each entry lives in its package's light module
+    ``entry``, and the registry lists each once."""
+    from sloshrom.rom.registry import ENTRIES
+
     for mc in CLASSES.values():
         est = mc.estimator_class()
         assert est.model_class is mc
         module = MODULES[est.__module__]
         assert "registry" not in module.name
+        assert f"{_package_of(mc)}.entry:" in " ".join(ENTRIES)
+    assert len(set(ENTRIES)) == len(ENTRIES)
+
+
+#: The floors of the ROM room, bottom up. The classes' packages (``rom/<class>/``) stand on the
+#: shared modules (the registry, the estimators' shell, the trainers' engine, the model files);
+#: the modules that work on any class (loading, ensembles, the sweep, the exporters) stand on
+#: both and reach a class through the registry alone. A module imports its own floor and those
+#: below it, never one above; and no class's package imports another's.
+ROM_ANY_CLASS = {"sloshrom.rom", "sloshrom.rom.loading", "sloshrom.rom.ensemble",
+                 "sloshrom.rom.sweep", "sloshrom.rom.fmu", "sloshrom.rom.fmu_runtime",
+                 "sloshrom.rom.onnx"}
+CLASS_PACKAGES = sorted(packages())
+
+
+def _rom_floor(module: str) -> tuple[int, str]:
+    """``(floor, package)`` of a module of the ROM room: 0 shared, 1 a class's package, 2 a
+    module of any class."""
+    pkg = next((p for p in CLASS_PACKAGES if _inside(module, p)), "")
+    if pkg:
+        return 1, pkg
+    return (2 if module in ROM_ANY_CLASS else 0), ""
+
+
+def test_no_import_runs_back_up_the_rom_floors():
+    assert len(CLASS_PACKAGES) >= 4 and "sloshrom.rom.nss" in CLASS_PACKAGES
+    bad = []
+    for m, v in PARSED.items():
+        if room(m) != "rom":
+            continue
+        floor, pkg = _rom_floor(m)
+        for i in v.imports:
+            if room(i.target) != "rom" or i.type_checking:
+                continue
+            f, p = _rom_floor(i.target)
+            if f > floor or (f == floor == 1 and p != pkg) or (floor == 2 and f == 1):
+                bad.append(f"{_where(m, i)} (floor {floor} -> {f})")
+    assert not bad, "imports running back up the ROM room's floors:\n" + "\n".join(bad)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -568,13 +757,14 @@ def test_every_error_class_is_a_sloshrom_error():
 
 # -- damping estimators: one registry, no names spelled elsewhere --------------------------------
 #: Modules that may spell a registered estimator's name as a string, and why. Every other
-#: module reaches an estimator through ``sloshrom.beam.registry`` (``TABLE2``, ``REFERENCE``,
-#: ``get_estimator``, the ``estimator`` coordinate of a result dataset). An estimator's own
-#: class may spell it once, as the value of its ``name`` attribute (that is the definition).
+#: module reaches an estimator through ``sloshrom.beam.damping.registry`` (``TABLE2``,
+#: ``REFERENCE``, ``get_estimator``, the ``estimator`` coordinate of a result dataset). An
+#: estimator's own class may spell it once, as the value of its ``name`` attribute (that is the
+#: definition).
 ESTIMATOR_NAME_ALLOWED = {
     # the two-mode study's own result column "half_power" (its half-power cross-check of each
     # mode, a file contract of its tables), not the registry's Table 2 estimator
-    "sloshrom.beam.multimode": "file contract of the two-mode study's tables",
+    "sloshrom.beam.damping.multimode": "file contract of the two-mode study's tables",
 }
 
 
@@ -641,10 +831,58 @@ def test_the_estimator_name_finder():
 
 
 def test_estimator_names_are_spelled_only_in_the_registry():
-    from sloshrom.beam.registry import ESTIMATORS
+    from sloshrom.beam.damping.registry import ESTIMATORS
 
     names = set(ESTIMATORS)
     assert {"lscf_h1", "lscf_output", "half_power", "ssi_cov"} <= names
     bad = estimator_name_literals(names)
     assert not bad, ("estimator names spelled outside the registry (use "
-                     "sloshrom.beam.registry):\n" + "\n".join(bad))
+                     "sloshrom.beam.damping.registry):\n" + "\n".join(bad))
+
+
+# -- Table 2's flat columns: made and read in one place ----------------------------------------
+#: The one module that composes (or parses) a file column from an estimator's name:
+#: ``lscf_h1_std``, ``frequency_ssi_cov``. Everywhere else a damping table is a Dataset over
+#: the dimension ``estimator``; its flat columns exist at the files' edge only.
+COLUMNS_MODULE = "sloshrom.beam.damping.columns"
+#: The suffixes of an estimator's columns (``sloshrom.beam.damping.columns.ESTIMATE_FIELDS``).
+COLUMN_SUFFIXES = {f"_{s}" for s in ("std", "low", "high", "reason", "note", "spread",
+                                      "members", "uncorrected", "iqr", "n")}
+
+
+def _composed_columns(source: str) -> list[tuple[int, str]]:
+    """``(line, text)`` of every column name composed from a name: an f-string ending in a
+    field's suffix (``f"{est}_low"``) or starting with ``frequency_`` then a name, and a
+    concatenation ``name + "_std"``."""
+    out = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.JoinedStr) and len(node.values) >= 2:
+            first, *_, last = node.values
+            second = node.values[1]
+            if (isinstance(last, ast.Constant) and last.value in COLUMN_SUFFIXES
+                    and isinstance(node.values[-2], ast.FormattedValue)) or (
+                    isinstance(first, ast.Constant) and first.value == "frequency_"
+                    and isinstance(second, ast.FormattedValue)):
+                out.append((node.lineno, ast.unparse(node)))
+        if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Add) \
+                and isinstance(node.right, ast.Constant) and node.right.value in COLUMN_SUFFIXES:
+            out.append((node.lineno, ast.unparse(node)))
+    return out
+
+
+def test_the_column_finder():
+    src = ('a = f"{est}_low"\nb = n + "_std"\nc = f"frequency_{n}"\n'
+           'd = f"{arch}_d{delays}_n{neurons}"\ne = f"{x}_lowpass"\nf = "measured_low"\n')
+    assert [line for line, _ in _composed_columns(src)] == [1, 2, 3]
+
+
+def test_table2_columns_are_composed_in_one_module():
+    """Datasets over ``estimator`` flow through the analyses, the command line and the report;
+    only :data:`COLUMNS_MODULE` turns them into the files' flat columns and back, so that a
+    copy of the column contract cannot disagree with it."""
+    assert COLUMNS_MODULE in MODULES
+    bad = [f"{MODULES[m].relative_to(SRC)}:{line}: {text}" for m, path in MODULES.items()
+           if m != COLUMNS_MODULE
+           for line, text in _composed_columns(path.read_text(encoding="utf-8"))]
+    assert not bad, ("estimator columns composed outside " + COLUMNS_MODULE + ":\n"
+                     + "\n".join(bad))

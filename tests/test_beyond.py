@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from sloshrom import studies
 from sloshrom.pipeline import run, settings
+from sloshrom.pipeline import study as studies
 from sloshrom.pipeline.chain import RESULT_ENTRIES
 from sloshrom.pipeline.html import Section
 from sloshrom.pipeline.study import Study

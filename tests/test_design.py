@@ -14,7 +14,7 @@ from sloshrom.config import G
 from sloshrom.io.programme import read_drive_csv, resample_drive, write_drive_csv
 from sloshrom.pipeline import Context, settings
 from sloshrom.pipeline import data as data_stage
-from sloshrom.pipeline.settings import RIG_RATE
+from sloshrom.rig.limits import RIG_RATE
 from sloshrom.signals import ShakerLimits
 
 EPS = np.finfo(float).eps

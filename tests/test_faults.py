@@ -104,9 +104,9 @@ def live_pid():
 def inputs(tmp_path_factory, model_files):
     """A 500 Hz velocity/force record (6 s), the tiny NFIR model, and a 2 s free-decay lab test
     of the built-in beam (UFF + channel map)."""
-    from sloshrom.beam.coupled import free_response
-    from sloshrom.beam.labfiles import write_lab_test
-    from sloshrom.beam.structure import CantileverBeam, ModalModel
+    from sloshrom.beam.lab.virtual import write_lab_test
+    from sloshrom.beam.simulation.coupled import free_response
+    from sloshrom.beam.simulation.structure import CantileverBeam, ModalModel
     from sloshrom.config import Tank
     from sloshrom.models import FrozenLiquid
 

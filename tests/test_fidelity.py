@@ -148,7 +148,7 @@ def test_refusals_name_the_argument():
 
 # -- the twin run: gain 1 is the nominal run, exactly ---------------------------------------------
 def test_random_twin_with_gain_one_is_the_nominal_run(builtin_modal):
-    from sloshrom.beam.coupled import random_response
+    from sloshrom.beam.simulation.coupled import random_response
     from sloshrom.models import FrozenLiquid
 
     model = FrozenLiquid(1 / FS)
@@ -183,7 +183,7 @@ def test_validation_twin_with_gain_one_is_the_record(tiny_reproduce):
 def test_beam_twin_with_gain_one_is_the_stage_s_rig_run(tiny_reproduce):
     import xarray as xr
 
-    from sloshrom.beam.results import simulate_cases
+    from sloshrom.beam.simulation.cases import simulate_cases
     from sloshrom.pipeline.beam import beam_structure, beam_tests
 
     ctx = _ctx(tiny_reproduce)

@@ -115,10 +115,10 @@ def _lab(tmp: Path) -> None:
 
     import tomli_w
 
-    from sloshrom.beam.coupled import free_response
-    from sloshrom.beam.labfiles import write_lab_test
+    from sloshrom.beam.lab.virtual import write_lab_test
     from sloshrom.beam.results import to_dataset
-    from sloshrom.beam.structure import CantileverBeam, ModalModel, coupled_frozen_modes
+    from sloshrom.beam.simulation.coupled import free_response
+    from sloshrom.beam.simulation.structure import CantileverBeam, ModalModel, coupled_frozen_modes
     from sloshrom.config import Tank
     from sloshrom.models import FrozenLiquid
 
@@ -204,8 +204,8 @@ def _modal(name: str, writer: str = "csv", **change):
     def make(tmp: Path) -> None:
         import dataclasses
 
-        from sloshrom.beam import modal_files
-        from sloshrom.beam.modes import ModeSet
+        from sloshrom.beam.simulation import modal_files
+        from sloshrom.beam.simulation.modes import ModeSet
 
         ms = dataclasses.replace(ModeSet.from_cantilever(), **change)
         getattr(modal_files, f"write_modes_{writer}")(ms, tmp / name)
@@ -219,8 +219,8 @@ def _scaled_shapes(name: str, factor: float):
     def make(tmp: Path) -> None:
         import dataclasses
 
-        from sloshrom.beam.modal_files import write_modes_csv
-        from sloshrom.beam.modes import ModeSet
+        from sloshrom.beam.simulation.modal_files import write_modes_csv
+        from sloshrom.beam.simulation.modes import ModeSet
 
         ms = ModeSet.from_cantilever()
         write_modes_csv(dataclasses.replace(ms, shapes=ms.shapes * factor), tmp / name)
@@ -230,8 +230,8 @@ def _scaled_shapes(name: str, factor: float):
 
 def _many_modes(tmp: Path) -> None:
     """A modal CSV of 300 modes (the eigen-solve of more than 200 is what hung)."""
-    from sloshrom.beam.modal_files import write_modes_csv
-    from sloshrom.beam.modes import ModeSet
+    from sloshrom.beam.simulation.modal_files import write_modes_csv
+    from sloshrom.beam.simulation.modes import ModeSet
 
     n = 300
     write_modes_csv(ModeSet(10.0 * np.arange(1, n + 1), np.ones(n), np.arange(1, 6),

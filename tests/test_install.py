@@ -22,7 +22,7 @@ warnings.simplefilter("error")  # a cache warning is a failure too
 sys.path.insert(0, sys.argv[1])
 import sloshrom
 assert sloshrom.__file__.startswith(sys.argv[1]), sloshrom.__file__
-import sloshrom.beam.coupled, sloshrom.rig.physics, sloshrom.rom.ball.model
+import sloshrom.beam.simulation.coupled, sloshrom.rig.physics, sloshrom.rom.ball.model
 print(1.0)
 """
 # the rig's kernels compiled (in memory) and run on a harmonic test

@@ -12,14 +12,11 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
-from sloshrom.beam.analysis import AnalysisError, half_power_damping, modal_filter
+from sloshrom.beam.damping.analysis import AnalysisError, half_power_damping, modal_filter
+from sloshrom.beam.damping.tables import damping_by_band, mode1_damping_table
 from sloshrom.beam.errors import BeamError
-from sloshrom.beam.results import (
-    case_output_fs,
-    damping_by_band,
-    mode1_damping_table,
-    write_table,
-)
+from sloshrom.beam.results import write_table
+from sloshrom.beam.simulation.cases import case_output_fs
 from sloshrom.config import ConfigError
 from sloshrom.fileio import OutputBatch
 from sloshrom.models import FrozenLiquid
@@ -142,13 +139,13 @@ def test_run_validates_before_writing_anything(tmp_path):
 def test_beam_cli_analysis_error_is_one_line(tmp_path, monkeypatch):
     from typer.testing import CliRunner
 
-    import sloshrom.beam.results
+    import sloshrom.beam.damping.tables
     from sloshrom.cli import app
 
     def bad(*args, **kwargs):
         raise AnalysisError("mode shapes at the stations are not independent")
 
-    monkeypatch.setattr(sloshrom.beam.results, "mode1_decay", bad)
+    monkeypatch.setattr(sloshrom.beam.damping.tables, "mode1_decay", bad)
     out = tmp_path / "res"
     res = CliRunner().invoke(app, ["beam", "free", "--sloshing", "frozen", "--duration", "2",
                                    "--out", str(out)])

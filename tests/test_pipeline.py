@@ -73,7 +73,7 @@ def _check_resumed(out, s, html, cfg, map_error_max):
     b = st["beam"]
     # the first mode of the truncated coupled model is a Rayleigh-Ritz upper bound of the
     # frozen beam's exact frequency (frequency equation, liquid added to the tip mass)
-    from sloshrom.beam.structure import CantileverBeam
+    from sloshrom.beam.simulation.structure import CantileverBeam
     from sloshrom.config import Tank
 
     tank = Tank()

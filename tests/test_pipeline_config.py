@@ -102,7 +102,7 @@ def test_report_setup_follows_the_configuration():
 
 
 def test_beam_structure_follows_the_configuration():
-    from sloshrom.beam.structure import CantileverBeam
+    from sloshrom.beam.simulation.structure import CantileverBeam
     from sloshrom.pipeline.beam import beam_structure
 
     # the [beam] table alone: with 'rig.fs' = 500 Hz its mode 3 would lie above Nyquist

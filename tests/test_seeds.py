@@ -326,9 +326,9 @@ def test_the_fill_study_reports_the_spread_of_an_ensemble_member(tmp_path):
     the section, as the main ROM's is in the validation section."""
     from types import SimpleNamespace
 
-    from sloshrom.studies.fills import fills_section
     from sloshrom.studies.fills.config import FILL_TARGETS
     from sloshrom.studies.fills.outputs import FillsOutputs
+    from sloshrom.studies.fills.section import fills_section
 
     members = {"50": {"model": "m.npz", "main_rom": True},
                "25": {"model": "f.npz", "main_rom": False, "reused": False,

@@ -4,6 +4,13 @@ import json
 import pytest
 
 from sloshrom import ConfigError, Tank
+from sloshrom.beam.damping.limits import (
+    FREE_DAMPING_PERIODS,
+    MIN_RANDOM_DURATION,
+    WELCH_SEGMENT,
+    min_free_duration,
+)
+from sloshrom.beam.simulation.limits import BEAM_FS, check_psd_band
 from sloshrom.pipeline import settings
 
 
@@ -43,7 +50,7 @@ def test_bad_user_config(tmp_path, text, match):
 def test_every_default_key_has_a_check():
     """defaults.toml and the schema list the same keys: a key added to one fails here."""
     cfg = settings.defaults()
-    tables = settings.ReproduceConfig.model_fields
+    tables = settings.config_model().model_fields  # the paper's tables and the studies'
     checked = {f"{t}.{k}" for t, f in tables.items() for k in f.annotation.model_fields}
     keys = {f"{t}.{k}" for t, sec in cfg.items() for k in sec}
     optional = {f"{t}.{k}" for t, ks in settings.OPTIONAL_KEYS.items() for k in ks}
@@ -219,7 +226,7 @@ def test_the_passive_recipe_has_one_set_of_defaults():
 
 def test_schema_is_the_single_source_of_bounds():
     """The interval in a message is the one pydantic enforces (both come from one call)."""
-    field = settings.ReproduceConfig.model_fields["rig"].annotation.model_fields["fs"]
+    field = settings.config_model().model_fields["rig"].annotation.model_fields["fs"]
     bounds = {type(m).__name__: m for m in field.metadata}
     assert bounds["Ge"].ge == 100.0 and bounds["Le"].le == 5000.0
 
@@ -235,11 +242,11 @@ def test_min_free_duration_is_what_the_damping_analysis_needs():
     """At the minimum the analysis runs and keeps samples; a little shorter it cannot run."""
     import numpy as np
 
-    from sloshrom.beam.analysis import instantaneous_damping
+    from sloshrom.beam.damping.analysis import instantaneous_damping
 
-    fs, f1 = settings.BEAM_FS, 10.19
-    need = settings.min_free_duration(f1)
-    assert need == pytest.approx(settings.FREE_DAMPING_PERIODS / f1, abs=0.1)
+    fs, f1 = BEAM_FS, 10.19
+    need = min_free_duration(f1)
+    assert need == pytest.approx(FREE_DAMPING_PERIODS / f1, abs=0.1)
     t = np.arange(int(need * fs)) / fs
     x = np.exp(-0.01 * 2 * np.pi * f1 * t) * np.sin(2 * np.pi * f1 * t)
     h = instantaneous_damping(x, fs, f1)
@@ -250,17 +257,17 @@ def test_min_free_duration_is_what_the_damping_analysis_needs():
 
 
 def test_random_minimum_holds_one_welch_segment():
-    assert settings.MIN_RANDOM_DURATION * settings.BEAM_FS >= settings.WELCH_NPERSEG
+    assert MIN_RANDOM_DURATION * BEAM_FS >= WELCH_SEGMENT
 
 
 @pytest.mark.parametrize(("f0", "sigma", "ok"), [(12.0, 4.0, True), (5.0, 4.0, False),
                                                  (240.0, 4.0, False), (12.0, 0.0, False)])
 def test_psd_band(f0, sigma, ok):
     if ok:
-        settings.check_psd_band(f0, sigma)
+        check_psd_band(f0, sigma)
     else:
         with pytest.raises(ConfigError):
-            settings.check_psd_band(f0, sigma)
+            check_psd_band(f0, sigma)
 
 
 def test_every_tank_the_rig_runs_at_is_checked_before_any_stage():
@@ -353,3 +360,35 @@ def test_an_optional_key_given_a_boolean(tmp_path):
     with pytest.raises(ConfigError, match=r"^'rig\.restitution' must be a number, got true "
                                           r"\(a boolean\)$"):
         settings.load(p)
+
+
+def test_the_studies_own_their_part_of_the_configuration():
+    """Each registered study's table, keys of ``[beyond]``, defaults and checks are its own
+    (``sloshrom.pipeline.registry``), and the configuration is assembled from them where the
+    paper's defaults had them: the same tables, keys and order."""
+    import tomllib
+
+    from sloshrom.pipeline.registry import study_tables
+
+    tables = study_tables()
+    fields = settings.config_model().model_fields
+    own = {t.table: t.model for t in tables if t.table is not None}
+    assert own and {k: fields[k].annotation for k in own} == own
+    assert list(fields) == ["tank", "rig", "data", "rom", "map", "beam", "beyond", *own]
+    assert list(settings.BeyondTable.model_fields) == [
+        "enabled", "fills", "unseen_fills", "fill_ensemble", "beam_fills", "baseline",
+        "multimode"]
+    cfg = settings.defaults()
+    for t in tables:  # each study's defaults, as it declares them
+        for table, keys in tomllib.loads(t.defaults).items():
+            assert {k: cfg[table][k] for k in keys} == keys, table
+    assert list(cfg) == list(fields)
+    # a study's checks run on its keys: the fill family's order, the ball's bounds
+    bad = settings.defaults()
+    bad["beyond"]["fills"] = [0.5]
+    with pytest.raises(ConfigError, match=r"'beyond\.fills' needs two fill levels"):
+        settings.validate(bad)
+    bad = settings.defaults()
+    bad["baseline"]["restitution"] = [0.9, 0.1]
+    with pytest.raises(ConfigError, match=r"'baseline\.restitution' bounds out of order"):
+        settings.validate(bad)

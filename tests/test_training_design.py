@@ -11,10 +11,11 @@ import xarray as xr
 
 from helpers import LinearDamper
 from sloshrom import ConfigError, signals
-from sloshrom.beam.coupled import CoupledSimulator, free_response, random_response
-from sloshrom.beam.envelope import envelope_coverage, frozen_tank_motion, run_motion
-from sloshrom.beam.results import envelope_table, to_dataset
-from sloshrom.beam.structure import ModalModel
+from sloshrom.beam.results import to_dataset
+from sloshrom.beam.simulation.cases import envelope_table
+from sloshrom.beam.simulation.coupled import CoupledSimulator, free_response, random_response
+from sloshrom.beam.simulation.envelope import envelope_coverage, frozen_tank_motion, run_motion
+from sloshrom.beam.simulation.structure import ModalModel
 from sloshrom.config import G, Tank
 from sloshrom.models import FrozenLiquid
 from sloshrom.pipeline import Context, settings
@@ -59,7 +60,7 @@ def test_frozen_tank_motion_is_the_direct_frozen_simulation(modal):
     assert motion.peak_acceleration == pytest.approx(max(peaks_acc), rel=1e-12)
     assert motion.peak_velocity == pytest.approx(max(peaks_vel), rel=1e-12)
     # the tank moves at the first frozen mode, and the free response starts from 1 cm
-    from sloshrom.beam.structure import coupled_frozen_modes
+    from sloshrom.beam.simulation.structure import coupled_frozen_modes
 
     f1 = coupled_frozen_modes(modal, tank.liquid_mass)[0][0]
     assert motion.frequency == pytest.approx(f1, rel=0.05)

@@ -40,7 +40,7 @@ TRAINERS = ("fast", "lm", "adam")
 #: lowered the training error at any damping up to it.
 MU_MAX = 1e10
 #: The normalized-RBF variants of the hidden layer: MATLAB's ``radbasn`` (``W x + b``) and the
-#: distance form (``b ||x - C||``); :mod:`sloshrom.rom.network`.
+#: distance form (``b ||x - C||``); :mod:`sloshrom.rom.tdnn.network`.
 Hidden = Literal["matlab", "distance"]
 HIDDEN_KINDS: tuple[str, ...] = ("matlab", "distance")
 

@@ -13,7 +13,7 @@ predictions beside the measurement with a verdict per level (or band) and estima
 * ``z``: the difference in units of the standard deviation of the difference of two uncertain
   numbers, ``(zeta_p - zeta_m) / sqrt(std_m^2 + std_p^2)``; ``consistent`` when ``|z| <= z_c``
   (1.96 at 95 %). For an ensemble ROM ``std_p`` is its combined standard deviation (the
-  members' estimation error and their spread, ``sloshrom.beam.members``);
+  members' estimation error and their spread, ``sloshrom.beam.simulation.members``);
 * ``reason``: why a verdict is ``n/a`` or ``no interval``, or ``z`` is missing (the
   estimates' own reasons); ``""`` otherwise.
 
@@ -31,17 +31,18 @@ import numpy as np
 import xarray as xr
 from scipy import stats
 
-from sloshrom.beam.analysis import welch_psd
-from sloshrom.beam.errors import BeamError
-from sloshrom.beam.results import (
-    MEASURED_MODES_ONLY,
+from sloshrom.beam.damping.analysis import welch_psd
+from sloshrom.beam.damping.columns import table2_rows
+from sloshrom.beam.damping.tables import (
     Mode1Decay,
     damping_band_table,
-    mode1_damping_table,
+    mode1_damping_dataset,
     mode1_decay,
-    table2_dataset,
 )
-from sloshrom.beam.uncertainty import CONFIDENCE
+from sloshrom.beam.damping.uncertainty import CONFIDENCE
+from sloshrom.beam.errors import BeamError
+from sloshrom.beam.results import MEASURED_MODES_ONLY
+from sloshrom.beam.simulation.members import Row
 
 __all__ = ["FS_TOLERANCE", "STRUCTURE_TOLERANCE", "AnalysedTest", "CaseNameError", "analyse_test",
            "analysed_test", "check_sample_rate", "check_structures", "compare_rows",
@@ -58,7 +59,7 @@ FS_TOLERANCE = 1e-3
 #: periodogram of a 2 s decay: 0.06 Hz, at 10 Hz); a prediction's may differ from the
 #: measured by the liquid's share of the modal mass (the paper beam's f1 is 10.19 Hz with the
 #: liquid frozen, 10.85 Hz without it: 6.5 %) and by a mode's drift with level (the peaks
-#: of a test's levels count as one mode within 10 %, ``sloshrom.beam.peaks.common_modes``).
+#: of a test's levels count as one mode within 10 %, ``sloshrom.beam.damping.peaks.common_modes``).
 #: Beyond 15 % the mode-1 analyses of the two filter different bands: another structure.
 STRUCTURE_TOLERANCE = 0.15
 
@@ -85,9 +86,8 @@ class AnalysedTest:
     fs, f1 : float
         Sample rate and first-mode frequency of the analyses, Hz.
     rows : list of dict
-        Free: ``results.damping_band_table`` rows (band, method, zeta, std, low, high, ...);
-        random: ``results.mode1_damping_table`` rows (rms_g and every estimator with its
-        ``_std``, ``_low``, ``_high``).
+        Free tests: ``tables.damping_band_table`` rows (band, method, zeta, std, low, high,
+        ...); empty for a random test.
     decay : Mode1Decay or None
         Free tests: the mode-1 analysis (Fig. 21 curves).
     psd : tuple or None
@@ -97,6 +97,10 @@ class AnalysedTest:
         Random tests: RMS base acceleration per level, g.
     source : str
         Where the test came from (the dataset's ``source`` attribute, else its case).
+    table2 : xarray.Dataset or None
+        Random tests: paper Table 2 over ``level`` (coordinate: RMS base acceleration, g) and
+        ``estimator`` (``tables.mode1_damping_dataset`` of this case: ``value``, ``std``,
+        ``low``, ``high``, ``reason``, ...).
     """
 
     case: str
@@ -108,12 +112,20 @@ class AnalysedTest:
     psd: tuple[np.ndarray, np.ndarray] | None = None
     levels: list[float] = field(default_factory=list)
     source: str = ""
+    table2: xr.Dataset | None = None
 
     @property
     def damping(self) -> xr.Dataset:
-        """Random tests: the Table 2 estimates of :attr:`rows` over ``level`` and
-        ``estimator`` (``results.table2_dataset``: ``value``, ``std``, ``low``, ``high``)."""
-        return table2_dataset(self.rows)
+        """Random tests: the Table 2 estimates over ``level`` and ``estimator``
+        (:attr:`table2`)."""
+        if self.table2 is None:
+            raise BeamError(f"{self.case!r}: a {self.kind} test has no Table 2")
+        return self.table2
+
+    def table_rows(self) -> list[Row]:
+        """The test's damping table as its files hold it: the band rows of a free decay, the
+        Table 2 rows of a random test (``sloshrom.beam.damping.columns.table2_rows``)."""
+        return self.rows if self.table2 is None else table2_rows(self.table2)
 
 
 def test_from_dataset(ds: xr.Dataset) -> tuple[dict[str, Any], np.ndarray | None]:
@@ -300,8 +312,8 @@ def analyse_test(ds: xr.Dataset, case: str | None = None,
     """Run the first-mode damping analyses of a beam result dataset, with intervals.
 
     Free decays: modal filtering with the dataset's ``psi_stations``, Hilbert and log-decrement
-    damping per amplitude band (``results.damping_band_table``). Random tests: paper Table 2
-    (``results.mode1_damping_table``) and the Welch PSDs of the tank acceleration (8192
+    damping per amplitude band (``tables.damping_band_table``). Random tests: paper Table 2
+    (``tables.mode1_damping_dataset``) and the Welch PSDs of the tank acceleration (8192
     samples, as Fig. 23).
 
     Parameters
@@ -329,27 +341,35 @@ def analyse_test(ds: xr.Dataset, case: str | None = None,
         if bands is None and ds.attrs.get("origin") == "measured":
             # a measurement in the bands of its own amplitude range, as `analyse` gave them
             res["source"] = [str(ds.attrs.get("source", name))]
-        rows = damping_band_table({name: res}, {name: decay}, f1, bands=bands)
+        table: list[Row] | xr.Dataset = damping_band_table(
+            {name: res}, {name: decay}, f1, bands=bands)
     else:
-        decay, rows = None, mode1_damping_table({name: res}, res["rms_levels_g"], f1)
-    return analysed_test(name, kind, res, f1, rows, decay,
+        decay = None
+        table = mode1_damping_dataset({name: res}, res["rms_levels_g"], f1).sel(case=name)
+    return analysed_test(name, kind, res, f1, table, decay,
                          source=str(ds.attrs.get("source", name)))
 
 
 def analysed_test(case: str, kind: str, res: Mapping[str, Any], f1: float,
-                  rows: list[dict[str, Any]], decay: Mode1Decay | None = None,
+                  table: list[dict[str, Any]] | xr.Dataset, decay: Mode1Decay | None = None,
                   source: str = "") -> AnalysedTest:
-    """An :class:`AnalysedTest` from analyses already made (``rows``: this case's rows of
-    ``results.damping_band_table`` or ``results.mode1_damping_table``; ``decay``: its
-    ``results.mode1_decay`` for a free test); random tests get their Welch PSDs here."""
+    """An :class:`AnalysedTest` from analyses already made: ``table`` is this case's rows of
+    ``tables.damping_band_table`` (a free test, with ``decay``, its ``tables.mode1_decay``)
+    or its Table 2 over ``(level, estimator)`` (a random test: its case of
+    ``tables.mode1_damping_dataset``); random tests get their Welch PSDs here."""
     if kind == "free":
         if decay is None:
             raise BeamError("a free test needs its mode-1 decay analysis")
-        return AnalysedTest(case, kind, float(res["fs"]), f1, rows, decay=decay,
+        if isinstance(table, xr.Dataset):
+            raise BeamError("a free test's damping is its band rows, not a Table 2")
+        return AnalysedTest(case, kind, float(res["fs"]), f1, table, decay=decay,
                             source=source or case)
-    return AnalysedTest(case, kind, float(res["fs"]), f1, rows,
+    if not isinstance(table, xr.Dataset):
+        raise BeamError("a random test's damping is its Table 2 over (level, estimator)")
+    return AnalysedTest(case, kind, float(res["fs"]), f1, [],
                         psd=welch_psd(res["tank_acceleration"], res["fs"], nperseg=8192),
-                        levels=[float(x) for x in res["rms_levels_g"]], source=source or case)
+                        levels=[float(x) for x in res["rms_levels_g"]], source=source or case,
+                        table2=table)
 
 
 def match_levels(measured: Sequence[float], predicted: Sequence[float],
@@ -430,7 +450,7 @@ def compare_rows(measured: AnalysedTest, predicted: Sequence[AnalysedTest],
                     f"{', '.join(f'{x:.3g}' for x in measured.levels)} g")
         dm = measured.damping
         dp = {p.case: p.damping for p in predicted}
-        for k, m in enumerate(measured.rows):
+        for k, rms_g in enumerate(dm.level.values):
             for est in dm.estimator.values:
                 for p in predicted:
                     i = match_levels([measured.levels[k]], p.levels)[0]
@@ -439,7 +459,7 @@ def compare_rows(measured: AnalysedTest, predicted: Sequence[AnalysedTest],
                     pe = dp[p.case]
                     if est not in pe.estimator:  # a prediction without this estimator
                         continue
-                    rows.append(_row({"rms_g": m["rms_g"], "estimator": str(est)},
+                    rows.append(_row({"rms_g": float(rms_g), "estimator": str(est)},
                                      _stats(dm, k, est), p.case, _stats(pe, i, est),
                                      z_crit))
         return rows

@@ -2,12 +2,13 @@
 beam``, at every mode the data show.
 
 ``analyse free`` (a free decay) and ``analyse random`` (random base excitation, one file per
-level) read UFF 58, CSV, NetCDF or MATLAB files with a channel map (:mod:`sloshrom.beam.measured`),
-find the modes in the data (:mod:`sloshrom.beam.lab`), optionally take the stations' mode shapes
-from a structure (the built-in cantilever, ``--modal-toml`` or ``--structure`` as in ``sloshrom
-beam``) and write the NetCDF result, the damping tables and the figures, all together or none.
-``analyse campaign`` runs every test of a folder (:mod:`sloshrom.beam.campaign`) and writes one
-report page; ``analyse example`` writes a campaign to try it on.
+level) read UFF 58, CSV, NetCDF or MATLAB files with a channel map
+(:mod:`sloshrom.beam.lab.measured`), find the modes in the data
+(:mod:`sloshrom.beam.lab.every_mode`), optionally take the stations' mode shapes from a structure
+(the built-in cantilever, ``--modal-toml`` or ``--structure`` as in ``sloshrom beam``) and write the
+NetCDF result, the damping tables and the figures, all together or none. ``analyse campaign`` runs
+every test of a folder (:mod:`sloshrom.beam.lab.campaign`) and writes one report page; ``analyse
+example`` writes a campaign to try it on.
 """
 
 from __future__ import annotations
@@ -19,10 +20,11 @@ import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, TypeVar
+from typing import TYPE_CHECKING, Annotated, Any, TypeVar, cast
 
 import typer
 
+from sloshrom.beam.damping.limits import FREE_DAMPING_PERIODS, WELCH_SEGMENT
 from sloshrom.cli._app import app, check_input, check_number, fail, key_value_pairs
 from sloshrom.cli.beam import (
     DirectionOpt,
@@ -43,19 +45,18 @@ from sloshrom.cli.progress import Bars, progress_bars
 from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputBatch
 from sloshrom.io.record import MissingUnitError, UnitConflictError
-from sloshrom.pipeline.settings import WELCH_NPERSEG
 from sloshrom.plotting import savefig
 
 if TYPE_CHECKING:  # the heavy modules load when a command runs
     import xarray as xr
     from matplotlib.figure import Figure
 
-    from sloshrom.beam.campaign import CampaignTest
-    from sloshrom.beam.channels import ChannelMap
-    from sloshrom.beam.lab import TestModes
-    from sloshrom.beam.measured import MeasuredTest
-    from sloshrom.beam.members import Row
-    from sloshrom.beam.structure import ModalModel
+    from sloshrom.beam.lab.campaign import CampaignTest
+    from sloshrom.beam.lab.channels import ChannelMap
+    from sloshrom.beam.lab.every_mode import TestModes
+    from sloshrom.beam.lab.measured import MeasuredTest
+    from sloshrom.beam.simulation.members import Row
+    from sloshrom.beam.simulation.structure import ModalModel
     from sloshrom.cli.beam import StructureSetup
 
 analyse_app = typer.Typer(
@@ -151,7 +152,7 @@ def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml:
     station model). Without a structure option (``--builtin-beam``, ``--structure``,
     ``--modal-toml``, ``--tank-toml``, ``--fill``), the structure is known by its measured
     modes alone: setup and station model are ``None``."""
-    from sloshrom.beam.channels import ChannelMap, station_model
+    from sloshrom.beam.lab.channels import ChannelMap, station_model
 
     if not files:
         fail("give the test's file(s)")
@@ -196,7 +197,7 @@ def _prepare(files: list[Path], channels: Path, out: Path, name: str, tank_toml:
 
 def _with_units(cmap: ChannelMap, units: dict[str, str], channels: Path) -> ChannelMap:
     """The map with the --unit units (each a channel of the map, an acceleration unit)."""
-    from sloshrom.beam.channels import acceleration_unit
+    from sloshrom.beam.lab.channels import acceleration_unit
 
     for key, u in units.items():
         if key not in cmap.channels:
@@ -246,7 +247,7 @@ class _Given:
 def _modes(res: MeasuredTest, kind: str, frequencies: list[float] | None,
            modes: int | None) -> TestModes:
     """The modes to analyse (given or found), each inside the record's band, or a user error."""
-    from sloshrom.beam.lab import describe, modes_of_test
+    from sloshrom.beam.lab.every_mode import describe, modes_of_test
 
     found = _checked("modes", lambda: modes_of_test(res, kind, frequencies=frequencies,
                                                  max_modes=modes))
@@ -295,7 +296,7 @@ def free(
     test = _run("analyse free", lambda step: _free_test(files, ctx, name, step))
     with OutputBatch() as batch:  # all result files or none
         test.write(out, batch)
-    echo_missing(test.rows, "damping bands")
+    echo_missing(test.damping, "damping bands")
     typer.echo(f"wrote free_{name}.nc, the damping bands and figures to {out}")
 
 
@@ -330,12 +331,13 @@ def _setting(files: list[Path], channels: Path, out: Path, name: str, f1: float 
 
 @dataclass
 class _Test:
-    """One analysed test: its result dataset, table rows and figures."""
+    """One analysed test: its result dataset, its damping (a free decay's band rows, a random
+    test's Table 2 over ``(mode, level, estimator)``) and figures."""
 
     kind: str
     name: str
     ds: xr.Dataset
-    rows: list[Row]
+    damping: list[Row] | xr.Dataset
     figs: dict[str, Figure]
     modes: TestModes
 
@@ -343,11 +345,18 @@ class _Test:
     def table(self) -> str:
         return "damping_bands" if self.kind == "free" else "table2_damping"
 
+    def rows(self) -> list[Row]:
+        """The damping as its file's rows (a random test's: the one place that makes them,
+        ``sloshrom.beam.damping.columns.table2_rows``)."""
+        from sloshrom.beam.damping.columns import table2_rows
+
+        return table2_rows(self.damping) if not isinstance(self.damping, list) else self.damping
+
     def write(self, out: Path, batch: OutputBatch) -> None:
         from sloshrom.beam.results import write_dataset, write_table
 
         write_dataset(self.ds, out / f"{self.kind}_{self.name}.nc", batch)
-        write_table(self.rows, out / self.table, batch)
+        write_table(self.rows(), out / self.table, batch)
         for stem, fig in self.figs.items():
             savefig(fig, out / f"{stem}.png", batch)
 
@@ -373,7 +382,7 @@ def _random_outputs(name: str) -> list[str]:
 
 def _station_model(ctx: _Setting, res: MeasuredTest) -> ModalModel | None:
     """The modal model at the stations the files hold (a campaign's map may name more)."""
-    from sloshrom.beam.channels import station_model
+    from sloshrom.beam.lab.channels import station_model
 
     setup = ctx.setup
     if setup is None or res["channel_map"].stations == ctx.cmap.stations:
@@ -399,7 +408,7 @@ def _dataset(ctx: _Setting, res: MeasuredTest, name: str, kind: str, found: Test
 def _check_stations(ctx: _Setting, res: MeasuredTest, found: TestModes,
                     modal: ModalModel | None) -> None:
     """The map's station order against the data at mode 1 (``lab.check_station_order``)."""
-    from sloshrom.beam.lab import DECAY_REL_BAND, check_station_order
+    from sloshrom.beam.lab.every_mode import DECAY_REL_BAND, check_station_order
 
     _checked(f"--channels {ctx.channels}", lambda: check_station_order(
         res, found.frequencies[0], found.rel_band(0, DECAY_REL_BAND), modal))
@@ -407,8 +416,8 @@ def _check_stations(ctx: _Setting, res: MeasuredTest, found: TestModes,
 
 def _free_test(files: list[Path], ctx: _Setting, name: str, step: _Steps) -> _Test:
     """Read and analyse a free decay at every mode (user errors end the command)."""
-    from sloshrom.beam.lab import FREE_PERIODS, free_mode_decays, free_mode_rows
-    from sloshrom.beam.measured import check_free_decay, read_free_test
+    from sloshrom.beam.lab.every_mode import free_mode_decays, free_mode_rows
+    from sloshrom.beam.lab.measured import check_free_decay, read_free_test
     from sloshrom.plotting.beam import free_figures, mode_decay_figure
 
     step(f"reading {files[0].name}")
@@ -418,10 +427,10 @@ def _free_test(files: list[Path], ctx: _Setting, name: str, step: _Steps) -> _Te
     _check_stations(ctx, res, found, modal)
     n = res["time"].size
     for k, f in enumerate(found.frequencies):
-        if n < FREE_PERIODS * res["fs"] / f:
+        if n < FREE_DAMPING_PERIODS * res["fs"] / f:
             fail(f"{files[0]}: {n / res['fs']:g} s is too short for the damping analysis "
-                 f"of mode {k + 1} ({f:.4g} Hz): need {FREE_PERIODS} periods, "
-                 f"{FREE_PERIODS / f:.3g} s")
+                 f"of mode {k + 1} ({f:.4g} Hz): need {FREE_DAMPING_PERIODS} periods, "
+                 f"{FREE_DAMPING_PERIODS / f:.3g} s")
     for k, f in enumerate(found.frequencies):
         _checked(f"{files[0]}", lambda k=k, f=f: check_free_decay(
             res, f, rel_band=found.rel_band(k, 0.5), mode=k + 1))
@@ -470,8 +479,8 @@ def random(
              "too short to reach it.")] = None,
     estimator: Annotated[list[str] | None, typer.Option(
         "--estimator",
-        help="A damping estimator of the registry (sloshrom.beam.registry), repeatable, e.g. "
-             "--estimator lscf_output --estimator ssi_cov; default the three of paper Table "
+        help="A damping estimator of the registry (sloshrom.beam.damping.registry), repeatable, "
+             "e.g. --estimator lscf_output --estimator ssi_cov; default the three of paper Table "
              "2.")] = None,
     tank_toml: TankOpt = None,
     fill: FillOpt = None,
@@ -501,7 +510,7 @@ def random(
     Example: ``sloshrom analyse random r01.uff r02.uff r04.uff --channels channels.toml
     --levels 0.1,0.2,0.4 --out lab``
     """
-    from sloshrom.beam.registry import estimator_names
+    from sloshrom.beam.damping.registry import estimator_names
 
     try:
         names = estimator_names(estimator or None)
@@ -524,7 +533,7 @@ def random(
         files, ctx, name, lv, names, accuracy, step))
     with OutputBatch() as batch:  # all result files or none
         test.write(out, batch)
-    echo_missing(test.rows, "Table 2")
+    echo_missing(test.damping, "Table 2")
     typer.echo(f"wrote random_{name}.nc, Table 2 at every mode and figures to {out}")
 
 
@@ -533,9 +542,9 @@ def _random_test(files: list[Path], ctx: _Setting, name: str, lv: list[float] | 
                  levels_from: str = "--levels") -> _Test:
     """Read and analyse a random test (one file per level) at every mode (``levels_from``:
     where ``lv`` came from, for messages)."""
-    from sloshrom.beam.lab import random_mode_rows
-    from sloshrom.beam.measured import check_levels, check_random_base, read_random_test
-    from sloshrom.beam.uncertainty import ShortRecordWarning
+    from sloshrom.beam.damping.uncertainty import ShortRecordWarning
+    from sloshrom.beam.lab.every_mode import random_mode_dataset
+    from sloshrom.beam.lab.measured import check_levels, check_random_base, read_random_test
     from sloshrom.plotting.beam import mode_damping_figure, random_figures, random_window
 
     step(f"reading {len(files)} file(s)")
@@ -543,9 +552,9 @@ def _random_test(files: list[Path], ctx: _Setting, name: str, lv: list[float] | 
                 ctx.channels)
     modal = _station_model(ctx, res)
     n = res["time"].size
-    if n < WELCH_NPERSEG:
-        fail(f"the records hold {n} samples: Table 2 needs at least {WELCH_NPERSEG} per "
-             f"level (one Welch segment, {WELCH_NPERSEG / res['fs']:g} s at "
+    if n < WELCH_SEGMENT:
+        fail(f"the records hold {n} samples: Table 2 needs at least {WELCH_SEGMENT} per "
+             f"level (one Welch segment, {WELCH_SEGMENT / res['fs']:g} s at "
              f"{res['fs']:g} Hz)")
     for p, b, g in zip(files, res["base_acceleration"], res["rms_levels_g"], strict=True):
         _checked(str(p), lambda b=b, g=g: check_random_base(b, res["fs"], f"({g:g} g)"))
@@ -556,34 +565,35 @@ def _random_test(files: list[Path], ctx: _Setting, name: str, lv: list[float] | 
     _check_stations(ctx, res, found, modal)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ShortRecordWarning)
-        rows = _checked("damping analysis", lambda: random_mode_rows(
+        damping = _checked("damping analysis", lambda: random_mode_dataset(
             res, name, found, estimators=names, accuracy=accuracy, step=step))
     for w in caught:  # once each, after the analyses
         warnings.warn_explicit(str(w.message), w.category, w.filename, w.lineno)
-    refuse_empty(rows, f"{', '.join(p.name for p in files)}: Table 2", names)
+    refuse_empty(damping, f"{', '.join(p.name for p in files)}: Table 2", names)
     duration = res["time"].size / res["fs"]
     figs = random_figures({name: res}, [float(x) for x in res["rms_levels_g"]],
                           random_window(duration))
-    figs["damping_by_mode"] = mode_damping_figure(rows, names)
-    return _Test("random", name, _dataset(ctx, res, name, "random", found, modal), rows, figs,
-                 found)
+    figs["damping_by_mode"] = mode_damping_figure(damping)
+    return _Test("random", name, _dataset(ctx, res, name, "random", found, modal), damping,
+                 figs, found)
 
 
-# -- a campaign folder (sloshrom.beam.campaign) -------------------------------------------------
+# -- a campaign folder (sloshrom.beam.lab.campaign) ---------------------------------------------
 _DirArg = Annotated[Path, typer.Argument(
     help="The campaign folder: data files (UFF 58, CSV, NetCDF, MATLAB) and optionally "
          "campaign.toml (which file is which test).", show_default=False)]
 
 
-def _cell(r: Row, key: str, low: str, high: str, reason: str) -> str:
+def _cell(v: float | str | None, lo: float | str | None, hi: float | str | None,
+          reason: object) -> str:
     """``value [low, high] %`` with the digits the interval needs, or ``— (reason)``."""
-    from sloshrom.beam.uncertainty import format_interval
+    from sloshrom.beam.damping.uncertainty import format_interval
 
-    v, lo, hi = (_num(r.get(k)) for k in (key, low, high))
+    v, lo, hi = (_num(x) for x in (v, lo, hi))
     if not math.isfinite(v):
-        return f"— ({r.get(reason) or 'no estimate'})"
+        return f"— ({reason or 'no estimate'})"
     if not (math.isfinite(lo) and math.isfinite(hi)):
-        return f"{100 * v:.3g} % (no interval: {r.get(reason) or 'no spread estimate'})"
+        return f"{100 * v:.3g} % (no interval: {reason or 'no spread estimate'})"
     a, b, c = format_interval(100 * lo, 100 * hi, 100 * v)
     return f"{c} [{a}, {b}] %"
 
@@ -598,22 +608,30 @@ def _num(v: float | str | None) -> float:
 
 
 def _random_table(test: _Test, estimators: Sequence[str]) -> tuple[list[str], list[list[str]]]:
-    from sloshrom.beam.registry import label
+    from sloshrom.beam.damping.registry import label
 
+    t2 = cast("xr.Dataset", test.damping)  # a random test's Table 2
     head = ["mode", "f (Hz)", "RMS base (g)", *(f"{label(e)} (%)" for e in estimators)]
-    rows = [[str(r["mode"]), f"{r['mode_frequency_Hz']:.4g}", f"{r['rms_g']:g}",
-             *(_cell(r, e, f"{e}_low", f"{e}_high", f"{e}_reason") for e in estimators)]
-            for r in test.rows]
+    rows = []
+    for k, mode in enumerate(t2.mode.values):
+        for i, level in enumerate(t2.level.values):
+            d = t2.isel(mode=k, level=i)
+            cells = [_cell(*(float(d[v].sel(estimator=e)) for v in ("value", "low", "high")),
+                           reason=str(d["reason"].sel(estimator=e).values))
+                     for e in estimators]
+            rows.append([str(int(mode)), f"{float(t2.mode_frequency_Hz[k]):.4g}",
+                         f"{float(level):g}", *cells])
     return head, rows
 
 
 def _free_table(test: _Test) -> tuple[list[str], list[list[str]]]:
-    from sloshrom.beam.registry import label
+    from sloshrom.beam.damping.registry import label
 
     head = ["mode", "f (Hz)", "band", "method", "damping (%)"]
     rows = [[str(r["mode"]), f"{r['mode_frequency_Hz']:.4g}", str(r["band"]),
-             label(str(r["method"])), _cell(r, "zeta", "low", "high", "reason")]
-            for r in test.rows]
+             label(str(r["method"])),
+             _cell(r.get("zeta"), r.get("low"), r.get("high"), r.get("reason"))]
+            for r in test.rows()]
     return head, rows
 
 
@@ -678,9 +696,9 @@ def campaign(
 
     Example: ``sloshrom analyse campaign lab/ --channels lab/channels.toml --out results``
     """
-    from sloshrom.beam.campaign import campaign_tests
-    from sloshrom.beam.channels import ChannelMap
-    from sloshrom.beam.registry import estimator_names
+    from sloshrom.beam.damping.registry import estimator_names
+    from sloshrom.beam.lab.campaign import campaign_tests
+    from sloshrom.beam.lab.channels import ChannelMap
 
     try:
         names = estimator_names(estimator or None)
@@ -728,7 +746,7 @@ def campaign(
         batch.write_text(out / "campaign.md", md)
         batch.write_text(out / "campaign.html", page)
     for _, t in tests:
-        echo_missing(t.rows, f"{t.name}")
+        echo_missing(t.damping, f"{t.name}")
     typer.echo(f"wrote {len(tests)} test(s) and campaign.md / campaign.html to {out}")
 
 
@@ -750,10 +768,10 @@ def example(
     Example: ``sloshrom analyse example lab && sloshrom analyse campaign lab --channels
     lab/channels.toml --out results``
     """
-    from sloshrom.beam.labfiles import write_lab_campaign
+    from sloshrom.beam.lab.virtual import write_lab_campaign
 
     check_number(duration, "--duration", 34.0, 3600.0, unit="s",
-                 why="one 16384-sample Welch segment at 500 Hz and at most an hour")
+                 why=f"one {WELCH_SEGMENT}-sample Welch segment at 500 Hz and at most an hour")
     check_number(seed, "--seed", 0, 2**32 - 1)
     names = ["decay.uff", *(f"random_{g:g}g.uff" for g in (0.1, 0.2, 0.4)), "channels.toml"]
     check_outputs(directory, names, ())

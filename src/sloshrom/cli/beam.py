@@ -19,7 +19,20 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from sloshrom.beam.structure import MAX_MODES
+from sloshrom.beam.damping.limits import (
+    FREE_DAMPING_PERIODS,
+    MIN_RANDOM_DURATION,
+    WELCH_SEGMENT,
+    check_analysis_band,
+    min_free_duration,
+)
+from sloshrom.beam.simulation.limits import (
+    BEAM_FS,
+    MAX_BEAM_SECONDS,
+    MAX_LEVEL_SECONDS,
+    check_psd_band,
+)
+from sloshrom.beam.simulation.structure import MAX_MODES
 from sloshrom.cli._app import (
     app,
     check_input,
@@ -34,22 +47,13 @@ from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputBatch, not_a_regular_file
 from sloshrom.limits import MAX_SEED
 from sloshrom.models import FrozenLiquid, SloshingModel
-from sloshrom.pipeline.settings import (
-    BEAM_FS,
-    FREE_DAMPING_PERIODS,
-    MAX_BEAM_SECONDS,
-    MAX_LEVEL_SECONDS,
-    MIN_RANDOM_DURATION,
-    check_analysis_band,
-    check_psd_band,
-    min_free_duration,
-)
 from sloshrom.plotting import savefig
 
 if TYPE_CHECKING:
+    import xarray as xr
     from rich.progress import TaskID
 
-    from sloshrom.beam.structure import CantileverBeam, ModalModel
+    from sloshrom.beam.simulation.structure import CantileverBeam, ModalModel
 
 beam_app = typer.Typer(
     help="Sloshing-beam simulations (free and random responses) and damping analysis.",
@@ -192,7 +196,7 @@ def setup_structure(tank_toml: Path | None, modal_toml: Path | None, seed: int,
            structure: StructureOptions | None = None, fill: float | None = None) -> StructureSetup:
     """Tanks, modal model, the beam it comes from (``None`` for the user's own modal data) and
     the first frozen-liquid mode (Hz), or a user error."""
-    from sloshrom.beam.structure import CantileverBeam, ModalModel, coupled_frozen_modes
+    from sloshrom.beam.simulation.structure import CantileverBeam, ModalModel, coupled_frozen_modes
 
     check_number(seed, "--seed", 0, MAX_SEED)
     check_number(fill, "--fill", 0.0, 1.0, lo_open=True, hi_open=True,
@@ -259,7 +263,7 @@ class StructureOptions:
     def load(self, base: Tank) -> tuple[ModalModel, list[Tank], list[str | None]]:
         """The modal model at the tanks and outputs, each tank at its fill, each tank's own
         model (or None)."""
-        from sloshrom.beam.modal_files import read_modes
+        from sloshrom.beam.simulation.modal_files import read_modes
 
         specs = [_tank_spec(s, base) for s in self.tank_specs]
         grids = [g for g, _, _ in specs]
@@ -299,8 +303,8 @@ def _run_cases(models: dict[str, Any], label: str,
     its case is the mean of the members' responses and damping estimates."""
     from rich.progress import SpinnerColumn, TextColumn, TimeElapsedColumn
 
-    from sloshrom.beam.coupled import SimulationDivergedError, StepMismatchError
-    from sloshrom.beam.results import simulate_cases
+    from sloshrom.beam.simulation.cases import simulate_cases
+    from sloshrom.beam.simulation.coupled import SimulationDivergedError, StepMismatchError
     from sloshrom.pipeline.beam import coupled_models
 
     current: list[tuple[str, TaskID]] = []
@@ -322,25 +326,28 @@ def _run_cases(models: dict[str, Any], label: str,
             fail(f"{label}: {exc}")
 
 
-def echo_missing(rows: Sequence[Mapping[str, float | int | str]], what: str) -> None:
-    """Every cell of a damping table without a value, with its reason (never a silent NaN),
-    and the values a fallback attempt or part of an ensemble's members gave."""
-    from sloshrom.beam.results import missing_cells
+def echo_missing(table: Sequence[Mapping[str, float | int | str]] | xr.Dataset,
+                 what: str) -> None:
+    """Every cell of a damping table (free-decay band rows, or a Table 2 dataset) without a
+    value, with its reason (never a silent NaN), and the values a fallback attempt or part of
+    an ensemble's members gave."""
+    from sloshrom.beam.damping.tables import missing_cells
 
-    lines = missing_cells(rows)
+    lines = missing_cells(table)
     if lines:
         typer.echo(f"{what}, cells without a value or with a note:")
         for line in lines:
             typer.echo(f"  {line}")
 
 
-def refuse_empty(rows: Sequence[Mapping[str, float | int | str]], what: str,
+def refuse_empty(table: Sequence[Mapping[str, float | int | str]] | xr.Dataset, what: str,
                  estimators: Sequence[str] | None = None) -> None:
-    """A user error, before anything is written, when no cell of a damping table has a value
-    (a table of NaN says nothing): its first cell's reason."""
-    from sloshrom.beam.results import no_estimate
+    """A user error, before anything is written, when no cell of a damping table (free-decay
+    band rows, or a Table 2 dataset) has a value (a table of NaN says nothing): its first
+    cell's reason."""
+    from sloshrom.beam.damping.tables import no_estimate
 
-    why = no_estimate(rows, estimators)
+    why = no_estimate(table, estimators)
     if why is not None:
         fail(f"{what}: no damping estimate at all, nothing written; the first cell: {why}")
 
@@ -407,7 +414,7 @@ def _check_uff_nodes(enabled: bool, modal: ModalModel) -> None:
     """With ``--uff``: the structure's node numbering must fit the UFF results (before work)."""
     if not enabled:
         return
-    from sloshrom.beam.export import check_result_nodes
+    from sloshrom.beam.lab.uff58 import check_result_nodes
 
     try:
         check_result_nodes(modal)
@@ -450,17 +457,11 @@ def free(
     ``sloshrom beam free --structure wing.pch --mode-table modes.csv --tank 2001 --tank
     3001:frozen --outputs 101,102,103,2001 --sloshing rig --out results/wing``
     """
-    from sloshrom.beam.coupled import free_response
-    from sloshrom.beam.export import write_result_uff
-    from sloshrom.beam.results import (
-        damping_band_table,
-        frozen_modes_table,
-        mode1_decay,
-        reference_tank,
-        to_dataset,
-        write_dataset,
-        write_table,
-    )
+    from sloshrom.beam.damping.tables import damping_band_table, mode1_decay
+    from sloshrom.beam.lab.uff58 import write_result_uff
+    from sloshrom.beam.results import to_dataset, write_dataset, write_table
+    from sloshrom.beam.simulation.cases import frozen_modes_table, reference_tank
+    from sloshrom.beam.simulation.coupled import free_response
     from sloshrom.plotting.beam import FREE_FIGURES, free_figures
 
     check_number(tip_displacement, "--tip-displacement", -0.2, 0.2, lo_open=True, hi_open=True,
@@ -548,15 +549,12 @@ def random(
 
     Example: ``sloshrom beam random --sloshing rig --levels 0.1,0.2,0.4 --duration 90 --out res``
     """
-    from sloshrom.beam.coupled import random_response
-    from sloshrom.beam.export import write_result_uff
-    from sloshrom.beam.results import (
-        mode1_damping_table,
-        reference_tank,
-        to_dataset,
-        write_dataset,
-        write_table,
-    )
+    from sloshrom.beam.damping.columns import table2_rows
+    from sloshrom.beam.damping.tables import mode1_damping_dataset
+    from sloshrom.beam.lab.uff58 import write_result_uff
+    from sloshrom.beam.results import to_dataset, write_dataset, write_table
+    from sloshrom.beam.simulation.cases import reference_tank
+    from sloshrom.beam.simulation.coupled import random_response
     from sloshrom.plotting.beam import RANDOM_FIGURES, random_figures, random_window
 
     try:
@@ -570,7 +568,7 @@ def random(
     except ConfigError as exc:
         fail(str(exc))
     check_number(duration, "--duration", MIN_RANDOM_DURATION, MAX_BEAM_SECONDS, unit="s",
-                 why="Table 2 needs one 16384-sample Welch segment at 500 Hz")
+                 why=f"Table 2 needs one {WELCH_SEGMENT}-sample Welch segment at 500 Hz")
     if duration * len(lv) > MAX_LEVEL_SECONDS:
         fail(f"--duration {duration:g} s x {len(lv)} level(s) = {duration * len(lv):g} s is "
              f"more than {MAX_LEVEL_SECONDS:g} s (memory: the rig holds about 2.1 MB per second "
@@ -593,16 +591,16 @@ def random(
                      lambda m, fs: random_response(m, modal, lv, duration, seed, f0, sigma,
                                                    tank=setup.tank, output_fs=fs))
     ref = {case: reference_tank(r) for case, r in res.items()}
-    rows = _analysed("damping analysis of mode 1",
-                     lambda: mode1_damping_table(ref, lv, f1))
+    table2 = _analysed("damping analysis of mode 1",
+                       lambda: mode1_damping_dataset(ref, lv, f1))
     with OutputBatch() as batch:  # all result files or none
         for case, r in res.items():
             ds = to_dataset(r, case, "random", setup.tank, modal, seed, f1=f1)
             write_dataset(ds, out / f"random_{case}.nc", batch)
             if uff:
                 write_result_uff(ds, out / f"random_{case}.uff", batch=batch)
-        write_table(rows, out / "table2_mode1_damping", batch)
+        write_table(table2_rows(table2), out / "table2_mode1_damping", batch)
         for name, fig in random_figures(ref, lv, random_window(duration)).items():
             savefig(fig, out / f"{name}.png", batch)
-    echo_missing(rows, "Table 2")
+    echo_missing(table2, "Table 2")
     typer.echo(f"wrote {len(res)} result file(s), Table 2 and figures to {out}")

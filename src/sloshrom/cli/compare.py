@@ -9,10 +9,10 @@ from typing import Annotated, Any
 
 import typer
 
+from sloshrom.beam.damping.limits import check_analysis_band
 from sloshrom.cli._app import app, check_input, check_out, fail, key_value_pairs
 from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputBatch
-from sloshrom.pipeline.settings import check_analysis_band
 
 _SIGNALS = ("station_acceleration", "tank_acceleration", "base_acceleration")
 
@@ -55,7 +55,7 @@ def _check_result(path: Path, ds: Any) -> None:
             fail(f"{path}: variable '{name}' contains NaN/inf")
     if ds.attrs.get("test") == "random" and "level" in ds.dims and "base_acceleration" in ds:
         # the levels match the predictions to the measurement: each its run's own?
-        from sloshrom.beam.measured import check_levels
+        from sloshrom.beam.lab.measured import check_levels
 
         base = ds["base_acceleration"].transpose("level", ...).values
         levels = [float(g) for g in ds["level"].values]
@@ -110,8 +110,8 @@ def compare(
         compare_rows,
         comparison_cases,
     )
+    from sloshrom.beam.damping.uncertainty import format_interval
     from sloshrom.beam.results import write_table
-    from sloshrom.beam.uncertainty import format_interval
     from sloshrom.plotting import savefig
     from sloshrom.plotting.beam import COMPARE_FIGURES, comparison_figures
 
@@ -173,7 +173,7 @@ def compare(
     figs = comparison_figures(tests[0], tests[1:])
     with OutputBatch() as batch:
         write_table(rows, out / "comparison", batch)
-        write_table([r for t in tests for r in t.rows], out / "analyses", batch)
+        write_table([r for t in tests for r in t.table_rows()], out / "analyses", batch)
         for stem, fig in figs.items():
             savefig(fig, out / f"{stem}.png", batch)
     head = "rms_g" if kind == "random" else "band"

@@ -28,7 +28,7 @@ from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputBatch
 from sloshrom.io.programme import drive_uff_sets, exact_uff_step, resample_drive, write_drive_csv
 from sloshrom.io.uff import write_uff_sets
-from sloshrom.pipeline.settings import RIG_RATE
+from sloshrom.rig.limits import RIG_RATE
 from sloshrom.signals import SHAKER_LIMITS, ShakerLimits
 
 if TYPE_CHECKING:

@@ -74,11 +74,19 @@ def config_show(
 def _print_missing(console: Console, beam: Mapping[str, object]) -> None:
     """Table 2's and the damping bands' cells without a value (each with its reason), and the
     values a fallback attempt or part of an ensemble's members gave (with their note)."""
-    from sloshrom.beam.results import missing_cells
+    from sloshrom.beam.damping.columns import table2_dataset
+    from sloshrom.beam.damping.tables import missing_cells
 
     for what, key in (("Table 2", "table2"), ("damping bands", "damping_bands")):
         rows = beam.get(key)
-        lines = missing_cells(rows) if isinstance(rows, list) else []
+        if not isinstance(rows, list):
+            continue
+        if key == "table2":  # the record's rows as each case's Table 2 over the estimators
+            lines = [line for case in dict.fromkeys(r["case"] for r in rows)
+                     for line in missing_cells(table2_dataset(
+                         [r for r in rows if r["case"] == case]).assign_coords(case=case))]
+        else:
+            lines = missing_cells(rows)
         if lines:
             console.print(f"{what}, cells without a value or with a note:", markup=False)
             for line in lines:

@@ -26,7 +26,7 @@ from sloshrom.errors import SloshromError
 from sloshrom.io import Record, record_from_measurement, write_record
 from sloshrom.io.programme import read_drive_csv, resample_drive
 from sloshrom.limits import MAX_SEED
-from sloshrom.pipeline.settings import MAX_FINE_SECONDS, MIN_VFA_DURATION
+from sloshrom.rig.limits import MAX_FINE_SECONDS, MIN_VFA_DURATION
 from sloshrom.signals import SHAKER_ENVELOPE, harmonic, vfa
 from sloshrom.signals import SHAKER_LIMITS as _LIMITS
 

@@ -36,7 +36,15 @@ from sloshrom.limits import (
 )
 from sloshrom.rom.epochs import TrainingProgress
 from sloshrom.rom.errors import ModelSizeWarning
-from sloshrom.rom.registry import CLASSES, Hyper, ModelClass, Naming, model_class
+from sloshrom.rom.registry import (
+    CLASSES,
+    Hyper,
+    ModelClass,
+    Naming,
+    model_class,
+    paper_class,
+    swept,
+)
 
 if TYPE_CHECKING:  # annotations only: the CLI loads JAX when it trains
     from sloshrom.rom.base import Estimator
@@ -411,7 +419,8 @@ _COMMON: list[tuple[str, Any, Any]] = [
     ("output_name", OutputOpt, "dynamic_force"),
     ("arch", Annotated[str, typer.Option(
         "--arch", help="The ROM's class: " + "; ".join(
-            f"{mc.name} ({mc.summary})" for mc in CLASSES.values()) + ".")], "nfir"),
+            f"{mc.name} ({mc.summary})" for mc in CLASSES.values()) + ".")],
+     paper_class().name),
 ]
 _AFTER: list[tuple[str, Any, Any]] = [
     ("fill", Annotated[float | None, typer.Option(
@@ -783,7 +792,8 @@ def sweep(
     out: Annotated[Path, typer.Option("--out", "-o", help="Output directory (resumable).")],
     input_name: InputOpt = "velocity",
     output_name: OutputOpt = "dynamic_force",
-    arch: Annotated[str, typer.Option(help="nfir, noe or both.")] = "both",
+    arch: Annotated[str, typer.Option(help=f"{', '.join(mc.name for mc in swept())} or "
+                                           "both.")] = "both",
     delays: Annotated[str | None, typer.Option(help="Delays list, e.g. 50,60,70.")] = None,
     neurons: Annotated[str | None, typer.Option(help="Neurons list, e.g. 5,10,15.")] = None,
     max_epochs: Annotated[int, typer.Option(help="Training epochs at most per model.")] = 1000,
@@ -803,8 +813,8 @@ def sweep(
     Example: sloshrom sweep --data train.nc --validation validation.nc --out sweep/ --arch nfir
     --delays 50,70 --neurons 10,20,35
     """
-    if arch not in ("nfir", "noe", "both"):
-        fail(f"--arch must be nfir, noe or both, got {arch!r}")
+    if arch != "both" and arch not in [mc.name for mc in swept()]:
+        fail(f"--arch must be {', '.join(mc.name for mc in swept())} or both, got {arch!r}")
     _check_names(input_name, output_name)
     _check_common(max_epochs, seed, hidden)
     dl = _parse_ints(delays, "--delays", MAX_DELAY)

@@ -1,8 +1,8 @@
 """Drive files of a shaker programme: the CSV and UFF 58 files a shaker controller plays.
 
-A programme (:class:`sloshrom.beam.programme.Programme`) is the commanded tank acceleration at the
-virtual rig's 10 kHz integration rate. A controller takes a time history at its own rate, so
-the files hold it resampled, band-limited (:func:`resample_drive`):
+A programme (:class:`sloshrom.beam.simulation.programme.Programme`) is the commanded tank
+acceleration at the virtual rig's 10 kHz integration rate. A controller takes a time history at its
+own rate, so the files hold it resampled, band-limited (:func:`resample_drive`):
 
 * **CSV** (:func:`write_drive_csv`, :func:`read_drive_csv`): the whole programme, one row per
   sample, header ``time_s,acceleration_m_s2`` (optionally ``,segment``: the 1-based segment

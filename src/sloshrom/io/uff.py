@@ -18,7 +18,7 @@ are NOT sign-flipped: sloshrom expects the vertical tank acceleration positive u
 
 :func:`write_uff58` writes a record as ASCII dataset 58 time responses (plus dataset 164, SI),
 atomically; it is what the tests use to produce files "as pyuff writes them". Its building
-blocks are shared with the beam-result export (:mod:`sloshrom.beam.export`): :func:`dataset58`
+blocks are shared with the beam-result export (:mod:`sloshrom.beam.lab.uff58`): :func:`dataset58`
 (a complete dataset-58 dict: every field pyuff's writer needs, header widths checked, unit
 exponents from the specific data type), :func:`dataset164_si` and :func:`write_uff_sets`
 (atomic, or into an :class:`~sloshrom.fileio.OutputBatch`).

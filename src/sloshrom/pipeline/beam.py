@@ -8,7 +8,7 @@ interval (``sloshrom compare``).
 
 An ensemble ROM is coupled member by member (:func:`coupled_model`): the ROM's prediction is
 the mean of its members' responses and of their damping estimates, with their spread in its
-uncertainty (``sloshrom.beam.members``).
+uncertainty (``sloshrom.beam.simulation.members``).
 """
 
 from __future__ import annotations
@@ -19,36 +19,39 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, cast
 
-from sloshrom.beam.channels import station_model
+import xarray as xr
+
 from sloshrom.beam.compare import analysed_test, compare_rows
-from sloshrom.beam.coupled import free_response, random_response
+from sloshrom.beam.damping.columns import table2_rows
+from sloshrom.beam.damping.registry import REFERENCE, TABLE2
+from sloshrom.beam.damping.tables import (
+    Mode1Decay,
+    damping_band_table,
+    damping_summary,
+    member_damping_datasets,
+    mode1_damping_dataset,
+    mode1_decay,
+)
+from sloshrom.beam.damping.uncertainty import BANDS
 from sloshrom.beam.errors import BeamError
-from sloshrom.beam.labfiles import lab_test_paths, write_lab_test
-from sloshrom.beam.measured import (
+from sloshrom.beam.lab.channels import station_model
+from sloshrom.beam.lab.measured import (
     check_free_decay,
     check_random_base,
     read_free_test,
     read_random_test,
 )
-from sloshrom.beam.members import Members, Row
-from sloshrom.beam.registry import REFERENCE, TABLE2
-from sloshrom.beam.results import (
-    BANDS,
-    Mode1Decay,
+from sloshrom.beam.lab.virtual import lab_test_paths, write_lab_test
+from sloshrom.beam.results import to_dataset, write_dataset, write_table
+from sloshrom.beam.simulation.cases import (
     Simulate,
-    damping_band_table,
-    damping_summary,
     envelope_table,
     frozen_modes_table,
-    member_damping_tables,
-    mode1_damping_table,
-    mode1_decay,
     simulate_cases,
-    to_dataset,
-    write_dataset,
-    write_table,
 )
-from sloshrom.beam.structure import CantileverBeam, ModalModel, coupled_frozen_modes
+from sloshrom.beam.simulation.coupled import free_response, random_response
+from sloshrom.beam.simulation.members import Members
+from sloshrom.beam.simulation.structure import CantileverBeam, ModalModel, coupled_frozen_modes
 from sloshrom.config import Tank
 from sloshrom.fileio import OutputBatch
 from sloshrom.models import FrozenLiquid
@@ -114,11 +117,11 @@ def coupled_model(model: object) -> object:
     """A beam case's model as it is coupled to the structure.
 
     An ensemble ROM (``sloshrom.rom.ensemble.Ensemble``) becomes its
-    :class:`~sloshrom.beam.members.Members`: each member coupled alone, the case's response the
-    members' mean (``sloshrom.beam.results.simulate_cases``), never the ensemble's mean force
-    in one closed loop. With one model per tank (a list), member k of every ensemble runs
-    together, the other tanks' models in every member's run; the ensembles must then have as
-    many members. Any other model is returned as it is.
+    :class:`~sloshrom.beam.simulation.members.Members`: each member coupled alone, the case's
+    response the members' mean (``sloshrom.beam.simulation.cases.simulate_cases``), never the
+    ensemble's mean force in one closed loop. With one model per tank (a list), member k of every
+    ensemble runs together, the other tanks' models in every member's run; the ensembles must then
+    have as many members. Any other model is returned as it is.
 
     Raises
     ------
@@ -150,15 +153,15 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     -------
     outputs : dict
         ``f1_frozen_hz`` (Hz), ``table1`` (rows of Table 1), ``instantaneous_damping`` (per case:
-        banded median first-mode damping, ``sloshrom.beam.results.damping_summary``),
+        banded median first-mode damping, ``sloshrom.beam.damping.tables.damping_summary``),
         ``table2`` (rows of Table 2 with 95 % intervals, the simulated cases and the
         :data:`EXPERIMENT`), ``damping_bands`` (free decays: damping per amplitude band and
-        method with intervals, ``sloshrom.beam.results.damping_band_table``), ``experiment``
+        method with intervals, ``sloshrom.beam.damping.tables.damping_band_table``), ``experiment``
         (the rig as the laboratory, :func:`laboratory`: ``noise_rms`` (m/s^2), ``files``, and
         ``free``/``random``: the rows of ``sloshrom.beam.compare.compare_rows``, each
         prediction against the experiment's intervals) and ``envelope`` (per run and case: peak
         tank acceleration against the model's training envelope,
-        ``sloshrom.beam.results.envelope_table``; ``None`` = n/a for a model without an
+        ``sloshrom.beam.simulation.cases.envelope_table``; ``None`` = n/a for a model without an
         envelope), ``waveform_fidelity`` (the random tests' forces of the ROM and of the rig's
         twin run against the rig's, per level:
         :func:`sloshrom.pipeline.waveform.random_fidelity`), ``free_fidelity`` (the ROM's
@@ -214,10 +217,10 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
 
     decays = {case: mode1_decay(r, modal, f1) for case, r in free_res.items()}
     outputs["instantaneous_damping"] = damping_summary(free_res, decays)
-    # the members' Table 2 once: the ROM's row and rom_members both read it
-    member_rows = member_damping_tables(rand_res, cfg.rms_g, f1, max_tank_acceleration=True)
-    table2 = mode1_damping_table(rand_res, cfg.rms_g, f1, max_tank_acceleration=True,
-                                 member_rows=member_rows)
+    # the members' Table 2 once: the ROM's estimates and rom_members both read it
+    members = member_damping_datasets(rand_res, cfg.rms_g, f1, max_tank_acceleration=True)
+    table2 = mode1_damping_dataset(rand_res, cfg.rms_g, f1, max_tank_acceleration=True,
+                                   members=members)
     bands = damping_band_table(free_res, decays, f1)
     outputs["envelope"] = envelope_table({"free": free_res, "random": rand_res})
 
@@ -225,22 +228,23 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     with tempfile.TemporaryDirectory() as tmp:
         lab = laboratory(free_res["rig"], rand_res["rig"], modal, beam, cfg, f1, Path(tmp))
     exp_free, exp_random = lab["free"], lab["random"]
-    table2 += exp_random.rows
-    bands += exp_free.rows
-    outputs["table2"] = table2
-    outputs["damping_bands"] = bands
     predicted_free = [analysed_test(c, "free", free_res[c], f1,
                                     [r for r in bands if r["case"] == c], decays[c])
                       for c in models]
-    predicted_random = [analysed_test(c, "random", rand_res[c], f1,
-                                      [r for r in table2 if r["case"] == c]) for c in models]
+    predicted_random = [analysed_test(c, "random", rand_res[c], f1, table2.sel(case=c))
+                        for c in models]
+    # Table 2 as its file and record hold it: the simulated cases, then the experiment
+    t2_rows = [*table2_rows(table2), *exp_random.table_rows()]
+    bands += exp_free.rows
+    outputs["table2"] = t2_rows
+    outputs["damping_bands"] = bands
     outputs["experiment"] = {
         "noise_rms": cfg.lab_noise, "files": [f"lab/{n}" for n in lab["files"]],
         "free": compare_rows(exp_free, predicted_free),
         "random": compare_rows(exp_random, predicted_random)}
 
-    if "rom" in member_rows:
-        outputs["rom_members"] = member_spread(member_rows["rom"], free_res["rom"]["members"],
+    if "rom" in members:
+        outputs["rom_members"] = member_spread(members["rom"], free_res["rom"]["members"],
                                                decays["rom"], cfg.rms_g)
 
     figs = {**free_figures(free_res, modal, decays),
@@ -267,7 +271,7 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
         for name, data in lab["files"].items():
             batch.write(out / "lab" / name, lambda tmp, data=data: Path(tmp).write_bytes(data))
         write_table(rows, out / "table1_frozen_modes", batch)
-        write_table(table2, out / "table2_mode1_damping", batch)
+        write_table(t2_rows, out / "table2_mode1_damping", batch)
         write_table(bands, out / "damping_bands", batch)
         for kind in ("free", "random"):
             write_table(outputs["experiment"][kind], out / f"comparison_{kind}", batch)
@@ -282,7 +286,7 @@ def laboratory(free: Mapping[str, Any], random: Mapping[str, Any], modal: ModalM
                ) -> dict[str, Any]:
     """The rig plays the laboratory: its beam runs as a test lab's files, analysed as measured.
 
-    The free and random responses are written as UFF 58 files (``sloshrom.beam.measured.
+    The free and random responses are written as UFF 58 files (``sloshrom.beam.lab.measured.
     write_lab_test``: the station accelerometers, and the base for the random tests, each with
     white noise of ``cfg.lab_noise`` m/s^2 RMS) into ``folder``, read back with their channel
     map and analysed exactly as ``sloshrom analyse`` analyses a measurement.
@@ -314,8 +318,8 @@ def laboratory(free: Mapping[str, Any], random: Mapping[str, Any], modal: ModalM
     decay = mode1_decay(res_free, lab_modal, f1)
     # the paper's bands, as the predictions it is compared with (a lab's own decay gets its own)
     bands = damping_band_table({EXPERIMENT: res_free}, {EXPERIMENT: decay}, f1, bands=BANDS)
-    table2 = mode1_damping_table({EXPERIMENT: res_random}, cfg.rms_g, f1,
-                                 max_tank_acceleration=True)
+    table2 = mode1_damping_dataset({EXPERIMENT: res_random}, cfg.rms_g, f1,
+                                   max_tank_acceleration=True).sel(case=EXPERIMENT)
     exp_free = analysed_test(EXPERIMENT, "free", res_free, f1, bands, decay)
     exp_random = analysed_test(EXPERIMENT, "random", res_random, f1, table2)
     files = {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
@@ -323,8 +327,9 @@ def laboratory(free: Mapping[str, Any], random: Mapping[str, Any], modal: ModalM
             "random_result": res_random, "modal": lab_modal, "files": files}
 
 
-def member_spread(member_rows: list[list[Row]], free_members: Sequence[Mapping[str, object]],
-                  decay: Mode1Decay, levels: list[float]) -> dict[str, Any]:
+def member_spread(member_tables: Sequence[xr.Dataset],
+                  free_members: Sequence[Mapping[str, object]], decay: Mode1Decay,
+                  levels: list[float]) -> dict[str, Any]:
     """The beam tests of each member of an ensemble ROM alone, from the ROM's own results.
 
     The members were coupled one at a time for the ROM's case (:func:`coupled_model`); their
@@ -334,13 +339,13 @@ def member_spread(member_rows: list[list[Row]], free_members: Sequence[Mapping[s
 
     Parameters
     ----------
-    member_rows : list of list of dict
-        Per member, its Table 2 rows, one per level
-        (``sloshrom.beam.results.member_damping_tables``).
+    member_tables : sequence of xarray.Dataset
+        Per member, its Table 2 over ``(level, estimator)``
+        (``sloshrom.beam.damping.tables.member_damping_datasets``).
     free_members : sequence of mapping
         The members' free responses (``"members"`` of the ROM's).
     decay : Mode1Decay
-        Its mode-1 analysis (with :attr:`~sloshrom.beam.results.Mode1Decay.members`).
+        Its mode-1 analysis (with :attr:`~sloshrom.beam.damping.tables.Mode1Decay.members`).
     levels : list of float
         RMS levels, g.
 
@@ -353,9 +358,10 @@ def member_spread(member_rows: list[list[Row]], free_members: Sequence[Mapping[s
         estimators (name -> level -> spread); ``instantaneous_damping``: per amplitude band
         the spread of the banded median first-mode damping of the free response (-).
     """
-    by_est = {est: {f"{lv:g}": spread(rows[i][est] for rows in member_rows)
+    by_est = {est: {f"{lv:g}": spread(float(t["value"].isel(level=i).sel(estimator=est))
+                                      for t in member_tables)
                     for i, lv in enumerate(levels)}
-              for est in TABLE2 if est in member_rows[0][0]}
+              for est in TABLE2 if est in member_tables[0].estimator}
     names = [f"member{k}" for k in range(len(decay.members))]
     inst = damping_summary(dict(zip(names, free_members, strict=True)),
                            dict(zip(names, decay.members, strict=True)))

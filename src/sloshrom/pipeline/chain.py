@@ -10,7 +10,7 @@ upstream stages did not change), one module each:
 ``maps``    Phi_d maps of rig and ROM and their difference (Figs. 3, 4, 11)
 ``beam``    sloshing-beam free and random tests with rig, ROM and frozen liquid (Figs. 14–23)
 then each study beyond the paper that the configuration enables (``[beyond]``), in the order of
-the registry (:func:`sloshrom.studies.registered`; today the bouncing-ball ``baseline``, the
+the registry (:func:`sloshrom.pipeline.study.registered`; today the bouncing-ball ``baseline``, the
 ``fills`` family and the two-mode ``multimode`` wing), each a stage as its
 :class:`~sloshrom.pipeline.study.Study` declares it, and
 
@@ -33,9 +33,9 @@ from pathlib import Path
 from typing import Any
 
 from sloshrom import __version__
-from sloshrom import studies as registry
 from sloshrom.errors import Note
 from sloshrom.fileio import atomic_write_text, complete_commits, folder_lock
+from sloshrom.pipeline import study as registry
 from sloshrom.pipeline.beam import stage_beam
 from sloshrom.pipeline.cache import StageCache, StageResult
 from sloshrom.pipeline.context import (

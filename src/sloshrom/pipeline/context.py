@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from sloshrom.config import ConfigError, Tank
+from sloshrom.pipeline.registry import study_tables
 from sloshrom.pipeline.settings import ReproduceConfig, validate
 from sloshrom.rig.virtual import RigParams, SensorParams, VirtualRig
 
@@ -91,9 +92,11 @@ class Context:
 def check_rig_tanks(cfg: ReproduceConfig) -> None:
     """Build the virtual rig at every tank the configuration runs it at, before any stage.
 
-    The ``[tank]`` fill and, with ``[beyond] enabled``, every fill of ``[beyond]``: a tank the
-    rig cannot model (an extreme fill leaves none of its surface modes in its band) is refused
-    here, naming the key, rather than when its stage starts after hours of others.
+    The ``[tank]`` fill and every fill a registered study runs the rig at
+    (:attr:`~sloshrom.pipeline.schema.StudyTable.rig_fills`: the fill family's, with
+    ``[beyond] enabled``): a tank the rig cannot model (an extreme fill leaves none of its
+    surface modes in its band) is refused here, naming the key, rather than when its stage
+    starts after hours of others.
 
     Raises
     ------
@@ -102,10 +105,8 @@ def check_rig_tanks(cfg: ReproduceConfig) -> None:
     """
     ctx = Context(Path("."), cfg)
     fills = [("tank.fill", float(ctx.cfg.tank.fill))]
-    bey = ctx.cfg.beyond
-    if bey.enabled:
-        fills += [(f"beyond.{key}", float(f)) for key in ("fills", "unseen_fills", "beam_fills")
-                  for f in getattr(bey, key)]
+    for t in study_tables():
+        fills += t.rig_fills(ctx.cfg)
     for key, fill in fills:
         try:
             ctx.rig(ctx.tank.replace(fill=fill))

@@ -9,8 +9,8 @@ from typing import Any, NotRequired, TypedDict
 import numpy as np
 
 from sloshrom import __version__, signals
-from sloshrom.beam.envelope import TankMotion, frozen_tank_motion
-from sloshrom.beam.programme import (
+from sloshrom.beam.simulation.envelope import TankMotion, frozen_tank_motion
+from sloshrom.beam.simulation.programme import (
     Programme,
     Segment,
     concatenate,
@@ -30,7 +30,8 @@ __all__ = ["LAB_SETUP", "Peaks", "ProgrammeOutputs", "SegmentOutputs", "design_o
            "vfa_pieces"]
 
 #: Laboratory set-up per segment, s: loading the drive file and the controller's low-level
-#: pre-test (equalisation) before each run (:meth:`sloshrom.beam.programme.Programme.lab_time`).
+#: pre-test (equalisation) before each run
+#: (:meth:`sloshrom.beam.simulation.programme.Programme.lab_time`).
 LAB_SETUP = 60.0
 
 
@@ -170,7 +171,8 @@ def vfa_pieces(data: DataTable | None, split: str, duration: float, seed: int,
 
 
 def use_segments(cfg: ReproduceConfig, tank: Tank, split: str, fs: float) -> list[Segment]:
-    """The structure's own kinds of motion for a ``"use"`` design (:mod:`sloshrom.beam.programme`).
+    """The structure's own kinds of motion for a ``"use"`` design
+    (:mod:`sloshrom.beam.simulation.programme`).
 
     Narrow-band random segments (the frozen structure's tank motion under the ``[beam]``
     random test's PSD) at every ``[beam] rms_g`` level times every ``[data] random_factors``,

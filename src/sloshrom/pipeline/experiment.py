@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from sloshrom.beam.registry import label
+from sloshrom.beam.damping.registry import label
 from sloshrom.pipeline.html import Table
 
 __all__ = ["cell_text", "experiment_tables", "interval_text", "percent"]

@@ -13,17 +13,17 @@ from typing import Any
 import numpy as np
 
 from sloshrom import fidelity
-from sloshrom import studies as registry
-from sloshrom.beam.registry import TABLE2, label
-from sloshrom.beam.results import table2_dataset
+from sloshrom.beam.damping.columns import table2_dataset
+from sloshrom.beam.damping.registry import REFERENCE, TABLE2, label
 from sloshrom.pipeline import html as report
 from sloshrom.pipeline import settings
+from sloshrom.pipeline import study as registry
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.experiment import cell_text, experiment_tables, percent
 from sloshrom.pipeline.html import Figure, Section, Table
 from sloshrom.pipeline.maps import HYSTERESIS_FREQUENCY, HYSTERESIS_GAMMA
 from sloshrom.rom.ensemble import spread_text
-from sloshrom.rom.registry import CLASSES
+from sloshrom.rom.registry import CLASSES, paper_class
 
 __all__ = ["build_sections", "waveform_table", "write_report"]
 
@@ -104,7 +104,7 @@ def _setup_section(cfg: settings.ReproduceConfig) -> Section:
 
     tank = cfg.tank.tank()
     b = cfg.beam
-    paper_rom = defaults.rom
+    paper_rom, paper = defaults.rom, paper_class().name
     rows = [
         ["tank inner base l1 × l2", f"{tank.length * 1e3:.1f} × {tank.width * 1e3:.1f} mm",
          source("tank", "length", "width")],
@@ -124,8 +124,8 @@ def _setup_section(cfg: settings.ReproduceConfig) -> Section:
          "configuration" if (cfg.rom.arch, cfg.rom.hyper()) != (paper_rom.arch,
                                                                 paper_rom.hyper())
          # a class other than the paper's is never the paper's, even as the default
-         else f"paper: {paper_rom.name('nfir')}" if CLASSES[cfg.rom.arch].paper
-         else f"default, not the paper's {paper_rom.name('nfir')}"],
+         else f"paper: {paper_rom.name(paper)}" if CLASSES[cfg.rom.arch].paper
+         else f"default, not the paper's {paper_rom.name(paper)}"],
         ["beam length × width × thickness", f"{b.length:g} × {b.width:g} × "
          f"{b.thickness:g} m, clamped", source("beam", "length", "width", "thickness")],
         ["beam E, ρ", f"{b.youngs_modulus / 1e9:g} GPa, {b.density:g} kg/m³",
@@ -498,7 +498,7 @@ def _beam_sections(ctx: Context, b: dict[str, Any],
     if isinstance(rm, dict):
         levels = list(rm.get("table2", {}))
         tables2.append(Table(
-            ["RMS [g]", "LSCF on H1, members (mean ± std)"],
+            ["RMS [g]", f"{label(REFERENCE)}, members (mean ± std)"],
             [[lv, f"{_pm(rm['table2'][lv], '{:.2f}', 100)} %"] for lv in levels],
             "The random tests with each member of the ensemble ROM coupled alone: the spread "
             "of the first-mode damping that one trained network carries; their mean is the "

@@ -17,13 +17,13 @@ from sloshrom.io import read_record
 from sloshrom.pipeline.cache import StageResult
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.data import replay_record
-from sloshrom.pipeline.settings import RomTable
+from sloshrom.pipeline.settings import RomTable, sweep_key
 from sloshrom.pipeline.waveform import validation_fidelity
 from sloshrom.plotting import savefig
 from sloshrom.plotting.rom import plot_sweep, validation_figure
 from sloshrom.rom.ensemble import Ensemble, is_ensemble, spread
 from sloshrom.rom.epochs import TrainingProgress
-from sloshrom.rom.registry import CLASSES
+from sloshrom.rom.registry import CLASSES, paper_class, swept
 from sloshrom.rom.sweep import run_sweep
 
 __all__ = ["error_figures", "estimator", "model_class_text", "recipe_text",
@@ -37,19 +37,20 @@ def error_figures(y: np.ndarray, y_hat: np.ndarray) -> dict[str, float]:
 
 
 def sweep_points(rom: RomTable) -> list[tuple[str, int, int]]:
-    """The sensitivity-analysis grid of the ``[rom]`` configuration as (arch, delays, neurons)."""
-    return ([("nfir", d, n) for d in rom.sweep_nfir_delays for n in rom.sweep_nfir_neurons]
-            + [("noe", d, n) for d in rom.sweep_noe_delays for n in rom.sweep_noe_neurons])
+    """The sensitivity-analysis grid of the ``[rom]`` configuration as (arch, delays, neurons):
+    each swept class's ``rom.sweep_<class>_delays`` x ``rom.sweep_<class>_neurons``."""
+    return [(mc.name, d, n) for mc in swept() for d in getattr(rom, sweep_key(mc, "delays"))
+            for n in getattr(rom, sweep_key(mc, "neurons"))]
 
 
 def sweep_keys(rom: Mapping[str, Any]) -> dict[str, Any]:
     """What the sweep's result depends on (its cache key), from the ``[rom]`` dict: its grids,
-    the seed, and the epochs and hidden layer of ``[rom.nfir]``, which every grid point
-    trains with."""
-    keys = ("sweep_nfir_delays", "sweep_nfir_neurons", "sweep_noe_delays",
-            "sweep_noe_neurons", "seed")
-    return {**{k: rom[k] for k in keys}, "max_epochs": rom["nfir"]["max_epochs"],
-            "hidden": rom["nfir"]["hidden"]}
+    the seed, and the epochs and hidden layer of the first swept class's table (``[rom.nfir]``),
+    which every grid point trains with."""
+    keys = [sweep_key(mc, k) for mc in swept() for k in ("delays", "neurons")]
+    lead = rom[swept()[0].name]
+    return {**{k: rom[k] for k in [*keys, "seed"]}, "max_epochs": lead["max_epochs"],
+            "hidden": lead["hidden"]}
 
 
 def stage_sweep(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str]]:
@@ -74,10 +75,11 @@ def stage_sweep(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[s
     ctx.progress("sweep", 0, len(pts), f"{len(pts)} networks")
     t0 = time.perf_counter()
     workers = int(cfg.sweep_workers)
+    lead = cfg.hyper(swept()[0].name)  # every grid point trains with the first class's table
     rows = run_sweep((train["velocity"], train["dynamic_force"]),
                      (val["velocity"], val["dynamic_force"]), train.fs, out_dir, pts,
                      scheduler="sequential" if workers == 1 else None, n_workers=workers,
-                     options={"max_epochs": cfg.nfir.max_epochs, "hidden": cfg.nfir.hidden,
+                     options={"max_epochs": lead["max_epochs"], "hidden": lead["hidden"],
                               "seed": cfg.seed},
                      progress=prog)
     seconds = time.perf_counter() - t0
@@ -94,8 +96,8 @@ def stage_sweep(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[s
             f"configured {cfg.name()}, "
             + ("as the paper's selection, not necessarily the lowest score."
                if cfg.arch in {p[0] for p in pts}
-               else f"an {CLASSES[cfg.arch].class_name} outside this grid of NFIR/NOE "
-                    "networks."))
+               else f"an {CLASSES[cfg.arch].class_name} outside this grid of "
+                    f"{'/'.join(mc.class_name for mc in swept())} networks."))
     table = [[r["arch"].upper(), r["delays"], r["neurons"],
               r["score"] if not r["unstable"] else "unstable", "no" if r["unstable"] else "yes"]
              for r in sorted(rows, key=lambda r: (r["arch"], r["delays"], r["neurons"]))]
@@ -122,14 +124,15 @@ def model_class_text(arch: str, name: str,
     return text
 
 
-def recipe_text(terms: Mapping[str, float], name: str, arch: str = "nfir") -> str:
+def recipe_text(terms: Mapping[str, float], name: str, arch: str | None = None) -> str:
     """One paragraph for the report: how the pipeline identified its ROM, and why.
 
     ``terms``: the loss weights ``amplitude_weighting`` (m/s), ``passivity`` and
     ``cycle_energy`` (absent: 0), e.g. :meth:`sloshrom.pipeline.settings.RomTable.loss_terms`;
-    ``name``: the ROM's name; ``arch``: its class (the paper's, or another one to which the
-    NFIR's recipe is applied).
+    ``name``: the ROM's name; ``arch``: its class (default: the paper's, or another one to
+    which the NFIR's recipe is applied).
     """
+    arch = paper_class().name if arch is None else arch
     w, p = terms.get("amplitude_weighting", 0.0), terms.get("passivity", 0.0)
     c = terms.get("cycle_energy", 0.0)
     paper = CLASSES[arch].paper

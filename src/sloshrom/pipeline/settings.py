@@ -1,75 +1,81 @@
 """Configuration of `sloshrom reproduce`: the shipped defaults, merged with a user's TOML file.
 
-:func:`load` merges and then :func:`validate`\\ s against :class:`ReproduceConfig`, a pydantic
-schema with one model per TOML table: every key of ``defaults.toml`` is checked (type, bounds,
-list contents and the relations between keys) *before* any stage runs, so that a bad value costs
-one error line naming the key, not a traceback after minutes of work. Unknown keys are refused.
+:func:`load` merges and then :func:`validate`\\ s against :func:`config_model`, a pydantic
+schema with one model per TOML table: every key of the defaults is checked (type, bounds, list
+contents and the relations between keys) *before* any stage runs, so that a bad value costs one
+error line naming the key, not a traceback after minutes of work. Unknown keys are refused.
+
+The configuration is assembled from its owners: the paper's tables are declared here (their
+defaults in ``defaults.toml``), each ROM class's table ``[rom.<class>]`` from its registry entry
+(:mod:`sloshrom.rom.registry`), and each registered study's own table and keys of ``[beyond]``
+from its declaration (:class:`~sloshrom.pipeline.schema.StudyTable`, through
+:mod:`sloshrom.pipeline.registry`), with its defaults and checks. The beam's and the rig's
+limits and checks are theirs (``beam.simulation.limits``, ``beam.damping.limits``,
+``rig.limits``); the ROMs' (delays, neurons, epochs, members, weights, seeds) those of
+:mod:`sloshrom.limits`.
 
 The stages receive the validated, frozen :class:`ReproduceConfig` and read its attributes
 (``cfg.rom.delays``, ``cfg.beam.rms_g``); :meth:`ReproduceConfig.as_dict` gives the dict form,
-keys in the order of ``defaults.toml``, that is written beside the results and hashed into the
-stage cache keys. The limits shared with the command line and the model files (delays,
-neurons, epochs, members, weights, seeds) are those of :mod:`sloshrom.limits`.
+keys in the order of the defaults, that is written beside the results and hashed into the stage
+cache keys.
 """
 
 from __future__ import annotations
 
 import copy
-import math
 import tomllib
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
+from functools import cache
 from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, Literal, NamedTuple, get_args
 
-from pydantic import (
-    AfterValidator,
-    BaseModel,
-    ConfigDict,
-    Field,
-    PrivateAttr,
-    ValidationError,
-    create_model,
-    model_validator,
-)
-from pydantic_core import ErrorDetails, PydanticCustomError
+from pydantic import AfterValidator, Field, ValidationError, create_model, model_validator
+from pydantic_core import ErrorDetails
 
-from sloshrom.beam.structure import (
-    N_STATIONS,
-    CantileverBeam,
-    ModalModel,
-    coupled_frozen_modes,
+from sloshrom.beam.damping.limits import (
+    FREE_DAMPING_PERIODS,
+    WELCH_SEGMENT,
+    check_analysis_band,
+    min_free_duration,
 )
-from sloshrom.config import FILL_TOLERANCE, ConfigError, ConfigWarning, Tank, load_toml
+from sloshrom.beam.simulation.limits import (
+    MAX_BEAM_MODES,
+    MAX_BEAM_SECONDS,
+    MAX_LEVEL_SECONDS,
+    check_psd_band,
+    first_frozen_frequency,
+)
+from sloshrom.beam.simulation.structure import CantileverBeam
+from sloshrom.config import ConfigError, ConfigWarning, Tank, load_toml
 from sloshrom.limits import (
     MAX_DELAY,
-    MAX_EPOCHS,
     MAX_MEMBERS,
     MAX_NEURONS,
-    MAX_SEED,
     MAX_WEIGHTS,
-    Hidden,
 )
+from sloshrom.pipeline.registry import study_tables
+from sloshrom.pipeline.schema import Delays, Neurons, Seed, distinct_values, items, number
+from sloshrom.pipeline.schema import Says as _Says
+from sloshrom.pipeline.schema import Table as _Table
+from sloshrom.pipeline.schema import shown as _shown
+from sloshrom.rig.limits import MAX_FINE_SECONDS, MIN_VFA_DURATION, check_record_rate
 from sloshrom.rom.errors import ROMError
-from sloshrom.rom.registry import CLASSES, LOSS_TERMS, Hyper, ModelClass, Naming
+from sloshrom.rom.registry import (
+    CLASSES,
+    LOSS_TERMS,
+    Hyper,
+    ModelClass,
+    Naming,
+    paper_class,
+    swept,
+)
 
 __all__ = [
-    "BEAM_FS",
-    "BaselineTable",
-    "FREE_DAMPING_PERIODS",
-    "MAX_BEAM_SECONDS",
-    "MAX_FINE_SECONDS",
-    "MAX_LEVEL_SECONDS",
     "MAX_MODEL_WEIGHTS",
-    "MIN_RANDOM_DURATION",
-    "MIN_VFA_DURATION",
-    "MultimodeTable",
     "OPTIONAL_KEYS",
     "QUICK",
-    "RIG_RATE",
-    "WELCH_NPERSEG",
     "BeamTable",
     "BeyondTable",
     "DataTable",
@@ -80,27 +86,21 @@ __all__ = [
     "RomNetwork",
     "RomTable",
     "TankTable",
-    "check_analysis_band",
-    "check_psd_band",
+    "config_model",
     "default_text",
     "defaults",
-    "first_frozen_frequency",
     "load",
     "merge",
-    "min_free_duration",
+    "sweep_key",
     "validate",
 ]
 
-# Reduced sizes for `--quick` (a smoke run of the whole chain in a few minutes). The quick ROM
-# (NFIR(40, 15), 60 epochs, 120 s) cannot represent the ~20 g structure-designed training: its
-# 6 g map error measured 88 % (14.7 % on the paper's shaker VFA), so --quick keeps the shaker.
-# An NSS (arch = "nss") keeps its sizes and trains 4 epochs: about 20 s each here (measured at
-# the default sizes, 2026-11-25).
+# Reduced sizes for `--quick` (a smoke run of the whole chain in a few minutes); each ROM
+# class's table takes its entry's quick values (``ModelClass.quick``: the paper's NFIR smaller
+# and shorter, the NSS 4 epochs).
 QUICK: dict[str, dict[str, Any]] = {
     "data": {"train_duration": 120.0, "validation_duration": 60.0, "design": "shaker"},
-    "rom": {"ensemble": 2, "nfir": {"delays": 40, "neurons": 15, "max_epochs": 60},
-            "nss": {"max_epochs": 4},
-            "grey": {"max_epochs": 2, "physics_generations": 4, "physics_windows": 8}},
+    "rom": {"ensemble": 2, **{mc.name: dict(mc.quick) for mc in CLASSES.values() if mc.quick}},
     "map": {"n_omega": 10, "n_a": 8},
     "beam": {"free_duration": 6.0, "random_duration": 70.0},
 }
@@ -109,40 +109,57 @@ QUICK: dict[str, dict[str, Any]] = {
 #: ``[rig]`` overrides of the virtual rig's physics (``sloshrom/rig/rig_params.toml``).
 OPTIONAL_KEYS: dict[str, tuple[str, ...]] = {"rig": ("restitution", "beta")}
 
-#: Shortest VFA path, s (``sloshrom.signals.vfa``: 2 s fade in and out plus the sweep).
-MIN_VFA_DURATION = 10.0
-#: Longest run at the virtual rig's fine step (10 kHz), s. A VFA record holds about 20 float64
-#: arrays per fine sample at its peak (path, derivatives, filtered sensor channels): measured
-#: 1.6 MB per second of record, so one hour needs about 6 GB of memory and a minute of CPU.
-MAX_FINE_SECONDS = 3600.0
-#: The virtual rig's integration rate (``VirtualRig.dt`` = 1e-4 s): ``rig.fs`` must divide it.
-RIG_RATE = 10_000.0
 #: Fed-back outputs of the NOE built by `reproduce` (``NOE(out_delays=2)``, the default).
 NOE_OUT_DELAYS = 2
-#: Default rate of the beam results (``sloshrom beam``); `reproduce` uses ``rig.fs``.
-BEAM_FS = 500.0
-#: Welch segment of the random-response damping estimators (``uncertainty.mode1_damping_random``).
-WELCH_NPERSEG = 16384
-#: A random response must hold at least one Welch segment (32.8 s at 500 Hz); 90 s (paper) give
-#: four half-overlapping segments, hence a much smoother estimate.
-MIN_RANDOM_DURATION = math.ceil(WELCH_NPERSEG / BEAM_FS)
-#: ``analysis.instantaneous_damping`` trims 5 periods of mode 1 at each end and smooths over 4;
-#: 4 more periods leave a decay to analyse (18 periods: 1.8 s for the paper beam, f1 = 10.2 Hz).
-FREE_DAMPING_PERIODS = 2 * 5 + 4 + 4
-#: Longest beam simulation, s (the rig runs at 10 kHz inside the coupled loop).
-MAX_BEAM_SECONDS = 600.0
-#: Random responses of the rig hold about 2.1 MB per second and per level at its 10 kHz step
-#: (measured): duration x number of levels is bounded to keep a run within about 4 GB.
-MAX_LEVEL_SECONDS = 1800.0
-#: Accelerometer stations of the beam: the modal filter separates at most this many modes.
-MAX_MODES = N_STATIONS
 #: Most network weights one model file holds (:data:`sloshrom.limits.MAX_WEIGHTS`): an ensemble
 #: that cannot be saved is refused here, before the rig data and the training.
 MAX_MODEL_WEIGHTS = MAX_WEIGHTS
 
 
+def _sections(text: str) -> list[list[str]]:
+    """The lines of a TOML text by table, each from its header (the lines before the first table
+    first), without the blank lines that end a table."""
+    out: list[list[str]] = [[]]
+    for line in text.splitlines():
+        if line.startswith("["):
+            out.append([])
+        out[-1].append(line)
+    for lines in out:
+        while lines and not lines[-1].strip():
+            lines.pop()
+    return out
+
+
 def _shipped_text() -> str:
-    return (resources.files("sloshrom.pipeline") / "defaults.toml").read_text(encoding="utf-8")
+    """``defaults.toml`` with the registered studies' defaults in their place: their keys of
+    ``[beyond]`` after its own (the studies' switches last), their tables after it, in the
+    registry's order (:func:`sloshrom.pipeline.registry.study_tables`)."""
+    core = (resources.files("sloshrom.pipeline") / "defaults.toml").read_text(
+        encoding="utf-8").splitlines()
+    keys: list[str] = []
+    switches: list[str] = []
+    tables: list[str] = []
+    for t in study_tables():
+        for part in _sections(t.defaults)[1:]:
+            if _table_name(part[0]) == "beyond":
+                (switches if t.switch is not None else keys).extend(part[1:])
+            else:
+                tables.append("\n".join(part))
+    # the studies' keys at the end of [beyond] (its blank lines after them)
+    start = next(i for i, line in enumerate(core) if _table_name(line) == "beyond")
+    end = next((i for i in range(start + 1, len(core)) if core[i].startswith("[")), len(core))
+    while end > start + 1 and not core[end - 1].strip():
+        end -= 1
+    lines = [*core[:end], *keys, *switches, *core[end:]]
+    while lines and not lines[-1].strip():
+        lines.pop()
+    return "\n\n".join(["\n".join(lines), *tables]) + "\n"
+
+
+def _table_name(line: str) -> str | None:
+    """The table a TOML header line opens (``"[beyond]  # ..."`` -> ``"beyond"``), else None."""
+    head = line.split("#")[0].strip()
+    return head[1:-1] if head.startswith("[") and head.endswith("]") else None
 
 
 def _toml_value(v: Any) -> str:
@@ -201,14 +218,6 @@ def default_text() -> str:
 def defaults() -> dict[str, Any]:
     """The shipped defaults as a dict of tables (every ``[rom.<class>]`` key included)."""
     return tomllib.loads(default_text())
-
-
-def _shown(value: object) -> str:
-    """A configuration value as a message quotes it: TOML's ``true``/``false`` said to be
-    booleans (Python's ``True`` is also an integer, the confusion to avoid), else its repr."""
-    if isinstance(value, bool):
-        return f"{str(value).lower()} (a boolean)"
-    return repr(value)
 
 
 def merge(base: dict[str, Any], override: dict[str, Any], where: str = "") -> dict[str, Any]:
@@ -272,39 +281,45 @@ def load(path: str | Path | None = None, quick: bool = False) -> ReproduceConfig
     return validate(cfg)
 
 
-#: The keys of ``[rom]`` before each class had its table: the class-table key each is now.
-_FORMER_NSS = {"nss_states": "n_states", **{f"nss_{k}": k for k in (
-    "neurons", "window", "horizon", "batch", "max_epochs", "steps_per_epoch", "learning_rate")}}
+#: The keys of ``[rom]`` before each class had its table: a class's own (its entry's
+#: ``former_keys``), the sizes of the paper's classes, and whether to compare with the paper's.
 _FORMER_SIZES = ("delays", "neurons", "hidden", "max_epochs")
+_FORMER_COMPARE = f"compare_{paper_class().name}"
 
 
 def renamed_keys(user: dict[str, Any], default_arch: str) -> dict[str, Any]:
     """A user's configuration with the former flat ``[rom]`` keys under their names now.
 
-    ``nss_states`` is ``rom.nss.n_states`` (each ``nss_<key>`` ``rom.nss.<key>``); the
-    network sizes ``delays``, ``neurons``, ``hidden``, ``max_epochs`` trained the ROM of
-    ``arch`` when it was an NFIR or NOE and the compared NFIR, so they are that class's (else
+    A class's own flat keys are its table's (the NSS's ``nss_states`` is ``rom.nss.n_states``,
+    each ``nss_<key>`` ``rom.nss.<key>``: its entry's ``former_keys``); the network sizes
+    ``delays``, ``neurons``, ``hidden``, ``max_epochs`` trained the ROM of ``arch`` when it was
+    one of the paper's classes and the compared paper's NFIR, so they are that class's (else
     ``rom.nfir``'s); the loss weights trained the ROM of ``arch``; ``compare_nfir = true`` is
-    ``compare = ["nfir"]`` (for an NSS; it was ignored otherwise). Each renamed key is said in
-    a :class:`~sloshrom.config.ConfigWarning` that names the new key.
+    ``compare = ["nfir"]`` (for the ROM of a class that had flat keys of its own, the NSS; it
+    was ignored otherwise). Each renamed key is said in a
+    :class:`~sloshrom.config.ConfigWarning` that names the new key.
     """
     rom = user.get("rom")
     if not isinstance(rom, dict):
         return user
     arch = rom.get("arch", default_arch)
+    mc = CLASSES.get(arch) if isinstance(arch, str) else None
+    paper = paper_class().name
+    former = {k: (c.name, v) for c in CLASSES.values() for k, v in c.former_keys.items()}
     out = {k: v for k, v in rom.items()}
     for key in list(rom):
-        if key in _FORMER_NSS:
-            new = ("nss", _FORMER_NSS[key])
+        if key in former:
+            new = former[key]
         elif key in _FORMER_SIZES:
-            new = (arch if arch in ("nfir", "noe") else "nfir", key)
+            new = (arch if mc is not None and mc.paper else paper, key)
         elif key in LOSS_TERMS:
-            new = (arch if isinstance(arch, str) and arch in CLASSES else "nfir", key)
-        elif key == "compare_nfir":
+            new = (arch if mc is not None else paper, key)
+        elif key == _FORMER_COMPARE:
             value = out.pop(key)
-            out["compare"] = ["nfir"] if value is True and arch == "nss" else []
+            out["compare"] = ([paper] if value is True and mc is not None and mc.former_keys
+                              else [])
             warnings.warn(ConfigWarning(
-                f"'rom.compare_nfir' is now 'rom.compare' (a list of classes): read as "
+                f"'rom.{_FORMER_COMPARE}' is now 'rom.compare' (a list of classes): read as "
                 f"compare = {out['compare']}"), stacklevel=2)
             continue
         else:
@@ -319,88 +334,35 @@ def renamed_keys(user: dict[str, Any], default_arch: str) -> dict[str, Any]:
 
 
 # -- field types: bounds for pydantic, words for the messages -----------------------------------
-def _fmt(v: float) -> str:
-    return str(v) if isinstance(v, int) else f"{v:g}"
-
-
-@dataclass(frozen=True)
-class _Says:
-    """How a key is described in an error message: ``what`` it is and, for a list, its items."""
-
-    what: str
-    why: str = ""
-    item: _Says | None = None
-
-    def value(self, key: str, v: Any) -> str:
-        return (f"'{key}' must be {self.what}, got {_shown(v)}"
-                + (f" ({self.why})" if self.why else ""))
-
-
 def _number(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False,
             hi_open: bool = False, integer: bool = False, what: str = "a number",
             why: str = "") -> Any:
-    """A finite number (an integer if ``integer``) in [lo, hi] (open ends on request)."""
-    ends = ("-inf" if lo is None else _fmt(lo), "inf" if hi is None else _fmt(hi))
-    interval = f"{'(' if lo_open else '['}{ends[0]}, {ends[1]}{')' if hi_open else ']'}"
-    says = _Says(f"{what} in {interval}", why)
+    """A finite number (an integer if ``integer``) in [lo, hi] (open ends on request), its
+    words those of ``schema.number``."""
+    says = number(lo, hi, lo_open=lo_open, hi_open=hi_open, integer=integer, what=what, why=why)
     bounds = Field(gt=lo if lo_open else None, ge=None if lo_open else lo,
                    lt=hi if hi_open else None, le=None if hi_open else hi,
                    description=says.what, **({} if integer else {"allow_inf_nan": False}))
-    return Annotated[int if integer else float, bounds, says]
-
-
-def _distinct(v: list[Any]) -> list[Any]:
-    if len(set(v)) != len(v):
-        raise PydanticCustomError("distinct", "must not repeat a value")
-    return v
+    return Annotated[int if integer else float, bounds, _Says(says.what, says.why)]
 
 
 def _list(item: Any, what: str, distinct: bool = False) -> Any:
     """A non-empty list whose every element is an ``item``."""
-    says = _Says(f"a non-empty list of {what}", item=next(
-        m for m in get_args(item) if isinstance(m, _Says)))
-    checks = (AfterValidator(_distinct),) if distinct else ()
-    return Annotated[list[item], Field(min_length=1), says, *checks]
+    return Annotated[list[item], items(what, distinct=distinct)]
 
 
-Seed = _number(0, MAX_SEED, integer=True, what="a non-negative integer seed")
-VfaSeconds = _number(MIN_VFA_DURATION, MAX_FINE_SECONDS, what="a VFA duration in s",
-                     why="the shortest VFA path is 10 s; 1 h at the rig's 10 kHz step needs "
-                         "about 6 GB of memory")
-Delays = _number(1, MAX_DELAY, integer=True, what="an integer")
-Neurons = _number(1, MAX_NEURONS, integer=True, what="an integer")
-GridSize = _number(2, 200, integer=True, what="an integer")
-MapFrequency = _number(1.0, 200.0, what="a frequency in Hz")
-ABar = _number(0.0, 1.0, lo_open=True, what="a displacement amplitude / tank height")
-PositiveHz = _number(0.0, lo_open=True, what="a frequency in Hz")
-BeamSeconds = _number(0.0, MAX_BEAM_SECONDS, lo_open=True, what="a duration in s")
-Grid = _list(Delays, f"delays (integers in [1, {MAX_DELAY}])", distinct=True)
-NeuronGrid = _list(Neurons, f"neuron counts (integers in [1, {MAX_NEURONS}])", distinct=True)
-
-
-class _Table(BaseModel):
-    # strict: TOML types only (no "3" -> 3, no true -> 1, no 3.0 -> 3); unknown keys are refused
-    model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
-    # the keys in the order given (defaults.toml's, then the optional keys as the user wrote
-    # them): the dict form keeps it, so summary.json reads as the merged configuration did
-    _order: tuple[str, ...] = PrivateAttr(default=())
-
-    @model_validator(mode="wrap")
-    @classmethod
-    def _remember_order(cls, data: Any, handler: Any) -> Any:
-        table = handler(data)
-        if isinstance(data, dict):
-            table._order = tuple(data)
-        return table
-
-    def _given(self) -> dict[str, Any]:
-        """:meth:`ReproduceConfig.as_dict` of this table: the keys given, in their order."""
-        out = {}
-        for key in sorted(self.model_fields_set, key=lambda k: (
-                k not in self._order, self._order.index(k) if k in self._order else 0)):
-            value = getattr(self, key)
-            out[key] = value._given() if isinstance(value, _Table) else copy.deepcopy(value)
-        return out
+VfaSeconds = Annotated[float, number(
+    MIN_VFA_DURATION, MAX_FINE_SECONDS, what="a VFA duration in s",
+    why="the shortest VFA path is 10 s; 1 h at the rig's 10 kHz step needs about 6 GB of memory")]
+GridSize = Annotated[int, number(2, 200, integer=True, what="an integer")]
+MapFrequency = Annotated[float, number(1.0, 200.0, what="a frequency in Hz")]
+ABar = Annotated[float, number(0.0, 1.0, lo_open=True,
+                               what="a displacement amplitude / tank height")]
+PositiveHz = Annotated[float, number(0.0, lo_open=True, what="a frequency in Hz")]
+BeamSeconds = Annotated[float, number(0.0, MAX_BEAM_SECONDS, lo_open=True, what="a duration in s")]
+Grid = Annotated[list[Delays], items(f"delays (integers in [1, {MAX_DELAY}])", distinct=True)]
+NeuronGrid = Annotated[list[Neurons], items(f"neuron counts (integers in [1, {MAX_NEURONS}])",
+                                            distinct=True)]
 
 
 class TankTable(_Table):
@@ -455,11 +417,7 @@ class RigTable(_Table):
 
     @model_validator(mode="after")
     def _divides_rig_rate(self) -> RigTable:
-        if abs(RIG_RATE / self.fs - round(RIG_RATE / self.fs)) > 1e-9:
-            raise ConfigError(
-                f"'rig.fs' = {self.fs:g} Hz must divide the rig's {RIG_RATE:g} Hz integration "
-                "rate (e.g. 250, 500, 1000, 2000 Hz): the beam's random excitation is made at "
-                "fs and upsampled exactly for the rig")
+        check_record_rate(self.fs, "'rig.fs'")
         return self
 
 
@@ -556,23 +514,29 @@ CLASS_TABLES: dict[str, type[_Table]] = {name: _class_table(mc) for name, mc in 
 ClassName = Literal[tuple(CLASSES)]
 
 
+def sweep_key(mc: ModelClass, what: str) -> str:
+    """The ``[rom]`` key of a swept class's grid: ``sweep_<class>_delays`` or ``_neurons``."""
+    return f"sweep_{mc.name}_{what}"
+
+
 class _RomTableBase(_Table):
-    # the order of defaults.toml (as_dict() writes the keys in field order)
     arch: ClassName
-    compare: Annotated[list[ClassName], AfterValidator(_distinct),
+    compare: Annotated[list[ClassName], AfterValidator(distinct_values),
                        _Says(f"a list of distinct ROM classes ({', '.join(CLASSES)})")]
     seed: Seed
     ensemble: _number(1, MAX_MEMBERS, integer=True, what="a number of ensemble members")
     ensemble_workers: _number(1, 64, integer=True, what="a number of parallel trainings")
     sweep: bool
-    sweep_nfir_delays: Grid
-    sweep_nfir_neurons: NeuronGrid
-    sweep_noe_delays: Grid
-    sweep_noe_neurons: NeuronGrid
     sweep_workers: _number(1, 64, integer=True, what="a number of parallel trainings")
 
 
-class RomTable(create_model("_RomClasses", __base__=_RomTableBase,
+#: ``[rom]``'s keys of the sensitivity analysis: the grid of each swept class
+_SWEEP_GRIDS = {key: (grid, ...) for mc in swept()
+                for key, grid in ((sweep_key(mc, "delays"), Grid),
+                                  (sweep_key(mc, "neurons"), NeuronGrid))}
+
+
+class RomTable(create_model("_RomClasses", __base__=_RomTableBase, **_SWEEP_GRIDS,
                             **{n: (t, ...) for n, t in CLASS_TABLES.items()})):
     """``[rom]``: the ROM of the report (``arch``), the classes identified beside it
     (``compare``), their training, the sensitivity sweep; ``[rom.<class>]`` the
@@ -621,13 +585,13 @@ class RomTable(create_model("_RomClasses", __base__=_RomTableBase,
         out = [RomNetwork(CLASSES[n], self.hyper(n), f"'rom.{n}'", _keys(CLASSES[n]))
                for n in (self.arch, *self.compared())]
         if self.sweep:
-            for a in ("nfir", "noe"):
-                grid = {k: f"'rom.sweep_{a}_{k}'" for k in ("delays", "neurons")}
-                hyper = {**self.hyper(a), "delays": max(getattr(self, f"sweep_{a}_delays")),
-                         "neurons": max(getattr(self, f"sweep_{a}_neurons"))}
+            for mc in swept():
+                grid = {k: f"'rom.{sweep_key(mc, k)}'" for k in ("delays", "neurons")}
+                hyper = {**self.hyper(mc.name),
+                         **{k: max(getattr(self, sweep_key(mc, k))) for k in grid}}
                 out.append(RomNetwork(
-                    CLASSES[a], hyper, f"the largest of {'/'.join(grid.values())}",
-                    lambda k, a=a, grid=grid: grid.get(k) or _keys(CLASSES[a])(k)))
+                    mc, hyper, f"the largest of {'/'.join(grid.values())}",
+                    lambda k, mc=mc, grid=grid: grid.get(k) or _keys(mc)(k)))
         return out
 
 
@@ -673,7 +637,7 @@ class BeamTable(_Table):
     seed: Seed
     damping: _list(_number(0.0, 1.0, hi_open=True, what="a damping ratio"),
                    "modal damping ratios, each in [0, 1)")
-    n_modes: _number(1, MAX_MODES, integer=True, what="an integer",
+    n_modes: _number(1, MAX_BEAM_MODES, integer=True, what="an integer",
                      why="the modal filter separates at most as many modes as the beam has "
                          "accelerometer stations")
     lab_noise: _number(0.0, 10.0, what="an accelerometer noise RMS in m/s^2")
@@ -701,161 +665,48 @@ class BeamTable(_Table):
             raise ConfigError(f"[beam]: {exc}") from None
 
 
-Fill = _number(0.0, 1.0, lo_open=True, hi_open=True, what="a fill level d/h")
-
-
-class BeyondTable(_Table):
-    """``[beyond]``: the sections beyond the paper (``reproduce --beyond``)."""
+class _BeyondTable(_Table):
+    """``[beyond]``: the sections beyond the paper (``reproduce --beyond``): ``enabled``, then
+    the registered studies' keys (:func:`_beyond_fields`), each study's checked by its own
+    model."""
 
     enabled: bool
-    fills: _list(Fill, "fill levels d/h in (0, 1)", distinct=True)
-    unseen_fills: _list(Fill, "fill levels d/h in (0, 1)", distinct=True)
-    fill_ensemble: _number(1, 20, integer=True, what="a number of networks")
-    beam_fills: _list(Fill, "fill levels d/h in (0, 1)", distinct=True)
-    baseline: bool
-    multimode: bool
 
     @model_validator(mode="after")
-    def _inside(self) -> BeyondTable:
-        if len(self.fills) < 2:
-            raise ConfigError(f"'beyond.fills' needs two fill levels at least (a family "
-                              f"interpolates between them), got {self.fills}")
-        lo, hi = min(self.fills), max(self.fills)
-        seen = [u for u in self.unseen_fills
-                if any(abs(u - f) <= FILL_TOLERANCE for f in self.fills)]
-        if seen:
-            raise ConfigError(
-                f"'beyond.unseen_fills' {seen} {'is' if len(seen) == 1 else 'are'} also in "
-                f"'beyond.fills' (within {FILL_TOLERANCE:g}): a member is identified there, so "
-                "the report would call a trained fill unseen; give fills no member has")
-        for key in ("unseen_fills", "beam_fills"):
-            out = [f for f in getattr(self, key) if not lo <= f <= hi]
-            if out:
-                raise ConfigError(f"'beyond.{key}' {out} lie outside the trained fills "
-                                  f"[{lo:g}, {hi:g}] ('beyond.fills'): the fill family does "
-                                  "not extrapolate")
+    def _studies(self) -> _BeyondTable:
+        for t in study_tables():
+            if t.beyond is not None:  # the study's keys, by its own checks
+                t.beyond.model_validate({k: getattr(self, k) for k in t.beyond_keys()})
         return self
 
 
-Positive = _number(0.0, lo_open=True, what="a positive number")
-PositiveInt = _number(1, integer=True, what="a positive integer")
-BallFraction = _number(0.0, 1.0, lo_open=True, what="a mass fraction")
-BallRestitution = _number(0.0, 1.0, what="a coefficient of restitution")
-BallGap = _number(0.0, 10.0, lo_open=True, what="a gap / ullage factor")
+def _beyond_fields() -> dict[str, Any]:
+    """The registered studies' keys of ``[beyond]``, in the order of the defaults: each study's
+    own keys (the registry's order), then their switches."""
+    tables = study_tables()
+    order = [t for t in tables if t.switch is None] + [t for t in tables if t.switch is not None]
+    return {k: (f.annotation, f) for t in order if t.beyond is not None
+            for k, f in t.beyond.model_fields.items()}
 
 
-def _pair(item: Any, what: str) -> Any:
-    """A ``[low, high]`` search bound of the bouncing ball, each end an ``item``."""
-    says = _Says(f"a [low, high] pair of {what}", item=next(
-        m for m in get_args(item) if isinstance(m, _Says)))
-    return Annotated[list[item], Field(min_length=2, max_length=2), says]
-
-
-class BaselineTable(_Table):
-    """``[baseline]``: the bouncing ball's identification (``sloshrom.rom.ball.model``)."""
-
-    mass_fraction: _pair(BallFraction, "mass fractions in (0, 1]")
-    restitution: _pair(BallRestitution, "restitutions in [0, 1]")
-    gap_factor: _pair(BallGap, "gap factors in (0, 10]")
-    seed: Seed
-    lowpass: Annotated[str | int | float,
-                       _Says('"input", "none" or a cutoff in Hz (a number > 0)')]
-    n_substeps: Annotated[str | int, _Says('"auto" or an integer >= 1')]
-    maxiter: _number(1, 100_000, integer=True, what="an integer")
-    popsize: _number(2, 10_000, integer=True, what="an integer")
-    tol: _number(0.0, what="a relative tolerance")
-
-    @model_validator(mode="after")
-    def _choices(self) -> BaselineTable:
-        for key in ("mass_fraction", "restitution", "gap_factor"):
-            lo, hi = getattr(self, key)
-            if lo > hi:
-                raise ConfigError(f"'baseline.{key}' bounds out of order: low {lo:g} > "
-                                  f"high {hi:g}")
-        if isinstance(self.lowpass, str) and self.lowpass not in ("input", "none") or (
-                not isinstance(self.lowpass, str)
-                and not (math.isfinite(self.lowpass) and self.lowpass > 0)):
-            raise ConfigError(f"'baseline.lowpass' must be \"input\", \"none\" or a cutoff in "
-                              f"Hz (a number > 0), got {self.lowpass!r}")
-        if isinstance(self.n_substeps, str) and self.n_substeps != "auto" or (
-                not isinstance(self.n_substeps, str) and self.n_substeps < 1):
-            raise ConfigError(f"'baseline.n_substeps' must be \"auto\" or an integer >= 1, "
-                              f"got {self.n_substeps!r}")
-        return self
-
-
-RmsLevels = _list(_number(0.0, lo_open=True, what="a positive number"), "positive numbers")
-
-
-class MultimodeTable(_Table):
-    """``[multimode]``: the two-mode wing study (``sloshrom.studies.multimode``).
-
-    The wing's own checks (``sloshrom.beam.multimode.WingDesign``) run before any stage, in
-    ``sloshrom.studies.multimode.config.wing_design``.
-    """
-
-    # the wing (sloshrom.beam.multimode.WingDesign)
-    span: float
-    chord: float
-    ea_chord_fraction: float
-    mass_per_span: float
-    cg_offset: float
-    gyration_radius: float
-    tank_offset: float
-    f_bending: float
-    f_torsion: float
-    damping: list[float]
-    stations: list[float]
-    # random base excitation (the judge)
-    rms_g: RmsLevels
-    random_duration: Positive
-    f0: Positive
-    sigma: Positive
-    random_seed: Seed
-    rel_band: _number(0.0, 0.5, lo_open=True, hi_open=True, what="a relative band")
-    nperseg: PositiveInt
-    lscf_tol_zeta: _number(0.0, 1.0, lo_open=True, hi_open=True, what="a damping tolerance")
-    tolerance: Positive
-    # identification records (virtual rig)
-    vfa_train_duration: Positive
-    vfa_validation_duration: Positive
-    vfa_train_seed: Seed
-    vfa_validation_seed: Seed
-    broadband_levels: RmsLevels
-    broadband_piece_duration: Positive
-    broadband_band: _number(1.0, lo_open=True, what="a frequency factor")
-    broadband_fade: Positive
-    broadband_seed: Seed
-    margin: _number(1.0, what="a factor over the frozen tests' tank motion")
-    rig_seed: Seed
-    # the ROM recipe
-    delays: Delays
-    neurons: Neurons
-    hidden: Hidden
-    amplitude_weighting: _number(0.0, 100.0, what="an amplitude floor in m/s (0 = off)")
-    passivity: _number(0.0, 1e6, what="a penalty weight (0 = off)")
-    cycle_energy: _number(0.0, 1e6, what="a loss weight (0 = off)")
-    max_epochs: _number(1, MAX_EPOCHS, integer=True, what="an integer")
-    rom_seed: Seed
-    rom_workers: _number(1, 64, integer=True, what="a number of parallel trainings")
-
-    @model_validator(mode="after")
-    def _pieces(self) -> MultimodeTable:
-        if self.broadband_piece_duration <= 4 * self.broadband_fade:
-            raise ConfigError("'multimode.broadband_piece_duration' must exceed four "
-                              "'multimode.broadband_fade' (the validation pieces are half as "
-                              "long)")
-        return self
+class BeyondTable(create_model("_StudyKeys", __base__=_BeyondTable, **_beyond_fields())):
+    """``[beyond]``: the sections beyond the paper (``reproduce --beyond``): ``enabled``, and the
+    keys and switches of the registered studies (``sloshrom.pipeline.registry``)."""
 
 
 class ReproduceConfig(_Table):
-    """The whole configuration of `sloshrom reproduce`, one model per table of ``defaults.toml``.
+    """The whole configuration of `sloshrom reproduce`, one model per table of the defaults.
 
-    ``ReproduceConfig.model_json_schema()`` gives it as a JSON schema (for an editor).
+    The paper's tables are declared here; a registered study's own table (``[baseline]``,
+    ``[multimode]``) is added by :func:`config_model` from its declaration
+    (:class:`~sloshrom.pipeline.schema.StudyTable`), and a study reads it through its own
+    accessor. ``config_model().model_json_schema()`` gives the whole as a JSON schema (for an
+    editor).
 
     Every key is required (:func:`load` starts from the defaults); the checks between tables
     (a network's training samples, the excitation band and the beam's modes against the record
-    rate, the free response against the first mode) run once every table is valid on its own.
+    rate, the free response against the first mode, then each enabled study's) run once every
+    table is valid on its own.
     """
 
     tank: TankTable
@@ -865,8 +716,6 @@ class ReproduceConfig(_Table):
     map: MapTable
     beam: BeamTable
     beyond: BeyondTable
-    baseline: BaselineTable
-    multimode: MultimodeTable
 
     def as_dict(self) -> dict[str, Any]:
         """The configuration as a dict of tables, keys in the order of ``defaults.toml``.
@@ -880,6 +729,13 @@ class ReproduceConfig(_Table):
         """The tables ``names`` of :meth:`as_dict` (a stage's part of the configuration)."""
         whole = self.as_dict()
         return {k: whole[k] for k in names}
+
+    def study_table(self, name: str) -> _Table:
+        """The validated table ``[name]`` of a registered study (its own accessor types it)."""
+        table = getattr(self, name)
+        if not isinstance(table, _Table):
+            raise ConfigError(f"no study table [{name}] in the configuration")
+        return table
 
     def replace(self, **changes: dict[str, Any]) -> ReproduceConfig:
         """A copy with some keys changed, e.g. ``cfg.replace(rom={"sweep": True})``, validated.
@@ -899,28 +755,26 @@ class ReproduceConfig(_Table):
         samples = (f"'data.train_duration' = {self.data.train_duration:g} s at 'rig.fs' = "
                    f"{fs:g} Hz")
         rom, *others = r.networks()
-        # the ROM's members are one file (and the fill family's, each)
+        # the ROM's members are one file (a study's, e.g. the fill family's, check theirs:
+        # check_members)
         rom.check(int(n_train), samples, r.ensemble, "'rom.ensemble'")
-        if self.beyond.enabled:
-            rom.check(int(n_train), samples, self.beyond.fill_ensemble,
-                      "'beyond.fill_ensemble'")
         for net in others:
             net.check(int(n_train), samples)
         check_psd_band(b.f0, b.sigma, names=("'beam.f0'", "'beam.sigma'"), error=ConfigError,
                        fs=fs)
-        if b.random_duration * fs < WELCH_NPERSEG:
+        if b.random_duration * fs < WELCH_SEGMENT:
             raise ConfigError(
                 f"'beam.random_duration' = {b.random_duration:g} s must hold at least one "
-                f"{WELCH_NPERSEG}-sample Welch segment at 'rig.fs' = {fs:g} Hz "
-                f"({WELCH_NPERSEG / fs:.3g} s) for the damping estimates of Table 2")
+                f"{WELCH_SEGMENT}-sample Welch segment at 'rig.fs' = {fs:g} Hz "
+                f"({WELCH_SEGMENT / fs:.3g} s) for the damping estimates of Table 2")
         tank = self.tank.tank()
         beam = b.structure(tank)
         f1 = first_frozen_frequency(tank, b.n_modes, b.damping[: b.n_modes], beam=beam)
-        need = min_free_duration(f1)
-        if b.free_duration < need:
+        need_s = min_free_duration(f1)
+        if b.free_duration < need_s:
             raise ConfigError(
                 f"'beam.free_duration' = {b.free_duration:g} s is too short for the damping "
-                f"analysis of mode 1 ({f1:.3g} Hz): need at least {need:g} s "
+                f"analysis of mode 1 ({f1:.3g} Hz): need at least {need_s:g} s "
                 f"({FREE_DAMPING_PERIODS} periods)")
         check_analysis_band(f1, error=ConfigError, fs=fs)
         # the ROM and the frozen case run the structure at fs: every kept mode below Nyquist
@@ -930,7 +784,35 @@ class ReproduceConfig(_Table):
                 f"'beam.n_modes' = {b.n_modes}: mode {b.n_modes} of the beam ({top:.4g} Hz) "
                 f"lies above the Nyquist frequency of 'rig.fs' = {fs:g} Hz: raise 'rig.fs' or "
                 "keep fewer modes")
+        for t in study_tables():  # the studies' own checks across the tables
+            t.check(self)
         return self
+
+    def check_members(self, key: str, k: int) -> None:
+        """An ensemble of ``k`` members of the ROM (``key`` names them in the message): the
+        ROM class's rules for a training of that many members in one file
+        (:meth:`sloshrom.rom.registry.ModelClass.check`: at most :data:`MAX_MODEL_WEIGHTS`
+        weights among them).
+
+        Raises
+        ------
+        ConfigError
+            The first rule broken, naming the keys.
+        """
+        fs = self.rig.fs
+        samples = (f"'data.train_duration' = {self.data.train_duration:g} s at 'rig.fs' = "
+                   f"{fs:g} Hz")
+        self.rom.networks()[0].check(int(self.data.train_duration * fs), samples, k, key)
+
+
+@cache
+def config_model() -> type[ReproduceConfig]:
+    """The model that validates a whole configuration: :class:`ReproduceConfig` with the
+    registered studies' own tables (``sloshrom.pipeline.registry``), after the paper's."""
+    return create_model("ReproduceConfig", __base__=ReproduceConfig,
+                        __doc__=ReproduceConfig.__doc__,
+                        **{t.table: (t.model, ...) for t in study_tables()
+                           if t.table is not None and t.model is not None})
 
 
 # -- validation: pydantic's errors as one line naming the key ----------------------------------
@@ -969,7 +851,7 @@ def validate(cfg: dict[str, Any] | ReproduceConfig) -> ReproduceConfig:
     if not isinstance(cfg, dict):
         raise ConfigError(f"configuration must be a dict of tables, got {type(cfg).__name__}")
     try:
-        return ReproduceConfig.model_validate(cfg)
+        return config_model().model_validate(cfg)
     except ValidationError as exc:
         # missing and unknown keys first, then values, then relations between keys
         errors = exc.errors(include_url=False)
@@ -989,7 +871,7 @@ def _message(error: ErrorDetails) -> str:
     if _raised(error) is not None:  # another ValueError of a validator
         return str(_raised(error))
     # the key down the nested tables ('rom.nss.n_states'), then a list item's index, if any
-    model: Any = ReproduceConfig
+    model: Any = config_model()
     keys: list[str] = []
     field = None
     for p in loc:
@@ -1021,71 +903,16 @@ def _message(error: ErrorDetails) -> str:
         return f"'{key}' must be a number, got {_shown(v)}"
     if kind == "distinct":
         return f"'{key}' {error['msg']}, got {_shown(v)}"
-    if rest and says.item is not None:
-        item = says.item.value(f"{key}[{rest[0]}]", v)
+    item_says = says.item or _item_says(field.annotation)
+    if rest and item_says is not None:
+        item = item_says.value(f"{key}[{rest[0]}]", v)
         return f"'{key}' must be {says.what}: {item}"
     return says.value(key, v)
 
 
-def first_frozen_frequency(tank: Tank, n_modes: int = 3, damping: Any = None,
-                           modal_toml: str | Path | None = None, beam: Any = None) -> float:
-    """First mode (Hz) of the beam with frozen liquid: the mode the damping analyses follow."""
-    if modal_toml is not None:
-        modal = ModalModel.from_toml(modal_toml)
-    else:
-        modal = ModalModel.from_beam(beam, tank=tank, n_modes=n_modes, damping=damping)
-    return float(coupled_frozen_modes(modal, tank.liquid_mass)[0][0])
-
-
-def min_free_duration(f1: float) -> float:
-    """Shortest free response (s, rounded up to 0.1 s) whose mode-1 damping can be analysed."""
-    return math.ceil(10 * FREE_DAMPING_PERIODS / f1) / 10
-
-
-def check_analysis_band(f1: float, error: type[ValueError] = ConfigError,
-                        fs: float = BEAM_FS, band: tuple[float, float] | None = None) -> None:
-    """The analysed mode must lie well below the results' Nyquist frequency.
-
-    Without ``band`` (Hz) the damping analyses band-pass up to 1.5 ``f1``, which must stay below
-    0.8 of the Nyquist frequency. With ``band`` (a mode between neighbours), the band must hold
-    ``f1`` (``0 <= low < f1 < high``) and ``f1`` must lie below 0.8 of the Nyquist frequency;
-    an upper edge beyond the Nyquist frequency is clipped by the estimators.
-    """
-    nyq = 0.8 * fs / 2
-    if band is None:
-        if not 1.5 * f1 < nyq:
-            raise error(f"the first beam mode ({f1:.4g} Hz) is too high for the {fs:g} Hz "
-                        f"results: the damping analyses band-pass up to 1.5 f1, which must "
-                        f"stay below {nyq:g} Hz")
-        return
-    lo, hi = band
-    if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo < f1 < hi):
-        raise error(f"the analysis band {lo:g}-{hi:g} Hz must hold the mode ({f1:.4g} Hz)")
-    if not f1 < nyq:
-        raise error(f"the mode ({f1:.4g} Hz) is too high for the {fs:g} Hz results: it must "
-                    f"stay below {nyq:g} Hz (0.8 of the Nyquist frequency)")
-
-
-def check_psd_band(f0: float, sigma: float, names: tuple[str, str] = ("--f0", "--sigma"),
-                   error: type[ValueError] = ConfigError, fs: float = BEAM_FS) -> None:
-    """The random-excitation PSD (paper Eq. 8) must lie inside (0, Nyquist) of the signal at fs.
-
-    The base acceleration is synthesised at ``fs`` (then upsampled band-limited for the rig):
-    ``sloshrom.signals.random_base_acceleration`` needs ``f0 + 4 sigma`` below the Nyquist
-    frequency, and a band reaching below 0 Hz (``f0 - 3 sigma < 0``) would fold onto positive
-    frequencies and no longer be the Gaussian asked for.
-    """
-    n0, ns = names
-    for name, v in ((n0, f0), (ns, sigma)):
-        if not (isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-                and v > 0):
-            raise error(f"{name} must be a positive frequency in Hz, got {v!r}")
-    nyq = fs / 2
-    if f0 + 4 * sigma >= nyq:
-        raise error(f"{n0} + 4 {ns} = {f0 + 4 * sigma:g} Hz must stay below {nyq:g} Hz, the "
-                    f"Nyquist frequency of the {fs:g} Hz excitation (got f0 = {f0:g} Hz, "
-                    f"sigma = {sigma:g} Hz)")
-    if f0 - 3 * sigma < -1e-9:
-        raise error(f"{n0} - 3 {ns} = {f0 - 3 * sigma:g} Hz must not be below 0 Hz (the PSD "
-                    f"would fold onto positive frequencies; got f0 = {f0:g} Hz, "
-                    f"sigma = {sigma:g} Hz)")
+def _item_says(annotation: Any) -> _Says | None:
+    """What the items of a list key must be, as their own annotation says
+    (``list[Annotated[float, number(...)]]``); ``None`` for another key."""
+    args = get_args(annotation)
+    return next((m for m in get_args(args[0])[1:] if isinstance(m, _Says)), None) \
+        if args else None

@@ -11,16 +11,16 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
+import xarray as xr
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike
 
-from sloshrom.beam.analysis import welch_psd
 from sloshrom.beam.compare import AnalysedTest, match_levels
-from sloshrom.beam.members import Row
-from sloshrom.beam.registry import label
-from sloshrom.beam.results import Mode1Decay, decay_floor
-from sloshrom.beam.structure import ModalModel
-from sloshrom.beam.uncertainty import FLOOR_FACTOR
+from sloshrom.beam.damping.analysis import welch_psd
+from sloshrom.beam.damping.registry import label
+from sloshrom.beam.damping.tables import Mode1Decay, decay_floor
+from sloshrom.beam.damping.uncertainty import FLOOR_FACTOR
+from sloshrom.beam.simulation.structure import ModalModel
 from sloshrom.config import G
 
 __all__ = ["COMPARE_FIGURES", "FREE_FIGURES", "RANDOM_FIGURES", "comparison_figures",
@@ -40,12 +40,12 @@ def free_figures(res: Mapping[str, Mapping[str, Any]], modal: ModalModel | None,
     Parameters
     ----------
     res : mapping
-        Case -> free response (``sloshrom.beam.coupled.free_response``).
+        Case -> free response (``sloshrom.beam.simulation.coupled.free_response``).
     modal : ModalModel or None
         The beam's modal model (station positions, number of modes); ``None`` for a structure
         known by its measured modes alone (no Fig. 16: no modal filtering).
     decays : mapping
-        Case -> its first-mode analysis (``sloshrom.beam.results.mode1_decay``).
+        Case -> its first-mode analysis (``sloshrom.beam.damping.tables.mode1_decay``).
     labels : sequence of str, optional
         The stations' names in Fig. 14 (default their positions on ``modal``).
 
@@ -172,7 +172,8 @@ def random_figures(res: Mapping[str, Mapping[str, Any]], levels: Sequence[float]
     Parameters
     ----------
     res : mapping
-        Case -> random response (``sloshrom.beam.coupled.random_response``), one row per level.
+        Case -> random response (``sloshrom.beam.simulation.coupled.random_response``), one row per
+        level.
     levels : sequence of float
         The RMS base-acceleration levels, g.
     window : (float, float)
@@ -254,19 +255,24 @@ def mode_decay_figure(case: str, frequencies: Sequence[float],
     return fig
 
 
-def mode_damping_figure(rows: Sequence[Row], estimators: Sequence[str]) -> Figure:
+def mode_damping_figure(damping: xr.Dataset) -> Figure:
     """Table 2 at every mode: damping ratio against RMS base level, one panel per mode, each
-    estimator with its 95 % interval (rows of ``sloshrom.beam.lab.random_mode_rows``)."""
-    modes = sorted({int(r["mode"]) for r in rows})
+    estimator with its 95 % interval.
+
+    ``damping`` is Table 2 over ``(mode, level, estimator)`` with the coordinate
+    ``mode_frequency_Hz`` (Hz) along ``mode`` (``sloshrom.beam.lab.every_mode.
+    random_mode_dataset``; levels in g).
+    """
+    modes = [int(m) for m in damping.mode.values]
+    estimators = [str(e) for e in damping.estimator.values]
     fig = Figure(figsize=(7, 3.0 * len(modes)))
     axes = fig.subplots(len(modes), 1, squeeze=False)[:, 0]
-    for ax, m in zip(axes, modes, strict=True):
-        rs = [r for r in rows if int(r["mode"]) == m]
-        g = np.array([float(r["rms_g"]) for r in rs])
+    g = np.array([float(x) for x in damping.level.values])
+    for k, (ax, m) in enumerate(zip(axes, modes, strict=True)):
+        d = damping.isel(mode=k)
         for j, est in enumerate(estimators):
-            v = np.array([float(r.get(est, np.nan)) for r in rs])
-            lo = np.array([float(r.get(f"{est}_low", np.nan)) for r in rs])
-            hi = np.array([float(r.get(f"{est}_high", np.nan)) for r in rs])
+            v, lo, hi = (np.asarray(d[var].sel(estimator=est).values, dtype=float)
+                         for var in ("value", "low", "high"))
             x = g * (1 + 0.03 * (j - (len(estimators) - 1) / 2))
             err = np.where(np.isfinite(lo) & np.isfinite(hi),
                            np.stack([v - lo, hi - v]), 0.0)
@@ -275,7 +281,7 @@ def mode_damping_figure(rows: Sequence[Row], estimators: Sequence[str]) -> Figur
         ax.set_xscale("log")
         ax.set_xticks(g, [f"{x:g}" for x in g])
         ax.set_ylabel(f"mode {m} damping (%)")
-        ax.set_title(f"mode {m}, {float(rs[0]['mode_frequency_Hz']):.4g} Hz", fontsize=9)
+        ax.set_title(f"mode {m}, {float(d['mode_frequency_Hz']):.4g} Hz", fontsize=9)
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
     axes[-1].set_xlabel("RMS base acceleration (g)")

@@ -12,8 +12,11 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from sloshrom.plotting import savefig
+from sloshrom.rom.registry import swept
 
 __all__ = ["plot_sweep", "sweep_figure", "validation_figure"]
+
+_STYLES = ("o-", "s--", "^:", "d-.")
 
 
 def sweep_figure(rows: list[dict[str, Any]]) -> Figure:
@@ -24,6 +27,8 @@ def sweep_figure(rows: list[dict[str, Any]]) -> Figure:
     """
     fig = Figure(figsize=(6.5, 4), layout="constrained")
     ax = fig.subplots()
+    # one line style per class of the sweep, in the registry's order (the NFIR's solid)
+    order = [mc.name for mc in swept()]
     groups: dict[tuple[str, int], list[dict[str, Any]]] = {}
     for r in rows:
         groups.setdefault((r["arch"], r["delays"]), []).append(r)
@@ -31,7 +36,8 @@ def sweep_figure(rows: list[dict[str, Any]]) -> Figure:
         rs = sorted(rs, key=lambda r: r["neurons"])
         x = [r["neurons"] for r in rs if math.isfinite(r["score"])]
         y = [r["score"] for r in rs if math.isfinite(r["score"])]
-        ax.plot(x, y, "o-" if arch == "nfir" else "s--", label=f"{arch.upper()}, {d} delays")
+        style = _STYLES[order.index(arch) % len(_STYLES)] if arch in order else _STYLES[-1]
+        ax.plot(x, y, style, label=f"{arch.upper()}, {d} delays")
         bad = [r["neurons"] for r in rs if not math.isfinite(r["score"])]
         if bad and y:
             ax.plot(bad, [max(y)] * len(bad), "rx", label=f"{arch.upper()} {d}: unstable")

@@ -10,7 +10,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from sloshrom.beam.analysis import welch_psd
+from sloshrom.beam.damping.analysis import welch_psd
 from sloshrom.config import G
 from sloshrom.io import Record
 from sloshrom.signals import VFA, gaussian_psd
@@ -95,7 +95,7 @@ def base_excitation_figure(res: dict[str, Any], levels: Sequence[float], f0: flo
     Parameters
     ----------
     res : dict
-        A random response (``sloshrom.beam.coupled.random_response``): ``time`` (s) and
+        A random response (``sloshrom.beam.simulation.coupled.random_response``): ``time`` (s) and
         ``base_acceleration`` (m/s^2, one row per level).
     levels : sequence of float
         The RMS levels, g.

@@ -15,6 +15,7 @@ from scipy import signal as sps
 from sloshrom.config import Tank
 from sloshrom.models import ForceRule
 from sloshrom.rig.errors import RigError
+from sloshrom.rig.limits import RIG_RATE
 from sloshrom.rig.params import RigParams, SensorParams
 from sloshrom.rig.physics import (
     _P_HEAD,
@@ -63,7 +64,7 @@ class VirtualRig:
         params: RigParams | None = None,
         sensors: SensorParams | None = None,
         seed: int = 0,
-        dt: float = 1e-4,
+        dt: float = 1.0 / RIG_RATE,
     ) -> None:
         if not (np.isfinite(dt) and 0 < dt <= 2e-3):
             raise RigError(f"dt must be a positive step in s, at most 2e-3, got {dt!r}")

@@ -6,7 +6,8 @@ and :func:`load_model`.
 
 The names below are resolved on first use (PEP 562), so that importing a JAX-free module of
 this package (``sloshrom.rom.registry``, ``sloshrom.rom.modelfile``, a class's ``entry``) does
-not load JAX; each registered class's estimator is importable from here by its class name.
+not load JAX: each registered class's estimator by its class name, and the public names of the
+classes' packages (``sloshrom.rom.BouncingBall``, ``sloshrom.rom.pack``, ...).
 """
 
 from __future__ import annotations
@@ -14,31 +15,43 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from sloshrom.rom.registry import CLASSES
+from sloshrom.rom.registry import CLASSES, packages
 
-#: Each name and the module that defines it.
+#: Each name of the ROMs' shared modules and the module that defines it.
 _NAMES = {
     "FORMAT_VERSION": "modelfile", "ModelFileError": "modelfile",
-    "BouncingBall": "ball.model", "Ensemble": "ensemble", "FillFamily": "family",
+    "Ensemble": "ensemble", "FillFamily": "family",
     "EnvelopeWarning": "errors", "FillRangeError": "errors", "ModelSizeWarning": "errors",
     "NotFittedError": "errors", "ROMError": "errors", "UnstableModelError": "errors",
     "MinMaxScaler": "network", "load_model": "loading",
-    **dict.fromkeys(("Network", "hidden_activations", "n_params", "noe_simulate", "pack",
-                     "rbf_apply", "unpack"), "tdnn.network"),
 }
+
+
+def _package_names() -> dict[str, str]:
+    """The public names of the classes' packages (their ``__all__``) and each package."""
+    out: dict[str, str] = {}
+    for pkg in packages():
+        for name in importlib.import_module(pkg).__all__:
+            out.setdefault(name, pkg)
+    return out
 
 
 def __getattr__(name: str) -> Any:
     if name == "__all__":  # the classes' names too, once the registry is read
-        return sorted({*_NAMES, *(mc.class_name for mc in CLASSES.values())})
+        return sorted({*_NAMES, *_package_names(),
+                       *(mc.class_name for mc in CLASSES.values())})
     module = _NAMES.get(name)
     if module is not None:
         return getattr(importlib.import_module(f"{__name__}.{module}"), name)
     for mc in CLASSES.values():
         if name == mc.class_name:
             return mc.estimator_class()
+    pkg = _package_names().get(name)
+    if pkg is not None:
+        return getattr(importlib.import_module(pkg), name)
     raise AttributeError(f"module 'sloshrom.rom' has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *_NAMES, *(mc.class_name for mc in CLASSES.values())})
+    return sorted({*globals(), *_NAMES, *_package_names(),
+                   *(mc.class_name for mc in CLASSES.values())})

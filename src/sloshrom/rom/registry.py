@@ -55,7 +55,7 @@ __all__ = ["ARGUMENTS", "CLASSES", "ENTRIES", "LOSS_HYPERS", "LOSS_TERMS", "OVER
            "RECIPE_UNITS", "SEED", "SHOOTING_HYPERS", "EpochWork", "FileKind", "Hyper",
            "LossChoice", "ModelClass", "Naming", "adam_only",
            "file_kinds", "loss_recipe", "model_class", "model_class_of_file", "neurons",
-           "packages", "paper_class", "register", "required"]
+           "packages", "paper_class", "register", "required", "swept"]
 
 #: The classes, one line each: ``"module:attribute"`` of the entry that declares it (a
 #: :class:`ModelClass`, or a :class:`FileKind` for a model loaded from its own files), in the
@@ -384,6 +384,12 @@ class ModelClass:
     sweep_first : bool
         Its grid points train longest (a recurrent network's Levenberg-Marquardt): a sweep
         starts them first, so that its workers finish together.
+    quick : mapping
+        Its table's values in ``sloshrom reproduce --quick`` (a smoke run of the chain).
+    former_keys : mapping
+        The flat ``[rom]`` keys of the configuration that were this class's before each class
+        had its table, each the name of its key now (``rom.<name>.<key>``); read with a
+        warning.
     tank_scales : tuple of str
         Hyperparameters that are the tank's quantity of the same name (an attribute of
         :class:`~sloshrom.config.Tank`, e.g. ``liquid_mass``): 0 means "the tank's", which
@@ -422,8 +428,10 @@ class ModelClass:
     sized_by_record: tuple[str, ...] = ()
     size_words: Mapping[str, str] = field(default_factory=dict)
     epoch_work: EpochWork | None = None
-    sweep: tuple[tuple[int, ...], tuple[int, ...]] | tuple[()] = ()
+    sweep: tuple[tuple[int, ...], ...] = ()
     sweep_first: bool = False
+    quick: Mapping[str, int | float | str] = field(default_factory=dict)
+    former_keys: Mapping[str, str] = field(default_factory=dict)
     tank_scales: tuple[str, ...] = ()
 
     def size(self, n_samples: int, given: Mapping[str, int]) -> dict[str, int]:
@@ -824,6 +832,13 @@ def paper_class() -> ModelClass:
     """The class of the paper's ROM (its selection, Fig. 10): the first registered class of
     the paper (:attr:`ModelClass.paper`)."""
     return next(mc for mc in CLASSES.values() if mc.paper)
+
+
+def swept() -> tuple[ModelClass, ...]:
+    """The classes of the sensitivity analysis (paper Fig. 8: a grid of delays x neurons,
+    :attr:`ModelClass.sweep`), in the registry's order; the first one's table trains every
+    grid point (its epochs and hidden layer: the paper trained both classes with one set)."""
+    return tuple(mc for mc in CLASSES.values() if mc.sweep)
 
 
 def packages() -> tuple[str, ...]:

@@ -1,6 +1,8 @@
 """Sensitivity analysis over delays x neurons (paper section 3, Fig. 8).
 
-Every grid point trains one network; its score is the mean of the training and validation MSE
+The grid is each class's of the registry that declares one (:attr:`~sloshrom.rom.registry.
+ModelClass.sweep`: the paper's NFIR and NOE). Every grid point trains one network; its score is
+the mean of the training and validation MSE
 (free-run simulation, N^2). Each finished point writes its model (``<name>.npz``) and its result
 (``<name>.json``) to the output directory, so an interrupted sweep resumes where it stopped.
 Unstable NOE networks are kept in the table with ``unstable = True`` and an infinite score.
@@ -28,9 +30,9 @@ import numpy as np
 from sloshrom.fileio import atomic_write_text
 from sloshrom.rom.errors import ROMError, TrainingWarning, UnstableModelError
 from sloshrom.rom.parallel import quiet_worker, run_tasks
-from sloshrom.rom.registry import model_class
+from sloshrom.rom.registry import model_class, swept
 
-__all__ = ["SWEEP_FIGURE", "SWEEP_TABLES", "fit_point", "point_name", "run_sweep",
+__all__ = ["BOTH", "SWEEP_FIGURE", "SWEEP_TABLES", "fit_point", "point_name", "run_sweep",
            "sweep_grid", "write_table"]
 
 #: The result tables :func:`run_sweep` writes in its directory (and the figure ``sloshrom
@@ -38,31 +40,29 @@ __all__ = ["SWEEP_FIGURE", "SWEEP_TABLES", "fit_point", "point_name", "run_sweep
 SWEEP_TABLES = ("sweep.csv", "sweep.json")
 SWEEP_FIGURE = "fig8_sweep.png"
 
-NFIR_DELAYS = (50, 60, 70)
-NFIR_NEURONS = (5, 10, 15, 20, 25, 30, 35, 40)
-NOE_DELAYS = (2,)
-NOE_NEURONS = (10, 15, 20)
 COLUMNS = ("name", "arch", "delays", "neurons", "train_mse", "val_mse", "score", "unstable",
            "epochs", "stop_reason", "seconds", "model")
 
 
-def sweep_grid(arch: str = "both") -> list[tuple[str, int, int]]:
-    """The paper's grid as ``(arch, delays, neurons)``: NFIR {50,60,70} x {5..40}, NOE 2 x
-    {10,15,20}; ``arch`` = ``"nfir"``, ``"noe"`` or ``"both"``.
+#: ``arch`` of :func:`sweep_grid` for every class of the sweep.
+BOTH = "both"
+
+
+def sweep_grid(arch: str = BOTH) -> list[tuple[str, int, int]]:
+    """The paper's grid as ``(arch, delays, neurons)``: each swept class's delays x neurons
+    (:attr:`~sloshrom.rom.registry.ModelClass.sweep`; NFIR {50,60,70} x {5..40}, NOE 2 x
+    {10,15,20}); ``arch``: one class's name or ``"both"``, every class's.
 
     Raises
     ------
     ROMError
         Another ``arch``.
     """
-    pts: list[tuple[str, int, int]] = []
-    if arch in ("nfir", "both"):
-        pts += [("nfir", d, n) for d in NFIR_DELAYS for n in NFIR_NEURONS]
-    if arch in ("noe", "both"):
-        pts += [("noe", d, n) for d in NOE_DELAYS for n in NOE_NEURONS]
-    if not pts:
-        raise ROMError(f"arch must be 'nfir', 'noe' or 'both', got {arch!r}")
-    return pts
+    classes = [mc for mc in swept() if arch in (mc.name, BOTH)]
+    if not classes:
+        names = ", ".join(repr(mc.name) for mc in swept())
+        raise ROMError(f"arch must be {names} or {BOTH!r}, got {arch!r}")
+    return [(mc.name, d, n) for mc in classes for d in mc.sweep[0] for n in mc.sweep[1]]
 
 
 def point_name(arch: str, delays: int, neurons: int) -> str:
@@ -153,7 +153,7 @@ def run_sweep(
     validation = (np.asarray(validation[0], float), np.asarray(validation[1], float))
     # the longest trainings first (the NOE's Levenberg-Marquardt, then the largest NFIRs): the
     # workers then finish together instead of one waiting on the last long point
-    pts.sort(key=lambda p: (p[0] != "noe", -p[1] * p[2]))
+    pts.sort(key=lambda p: (not model_class(p[0]).sweep_first, -p[1] * p[2]))
     with warnings.catch_warnings():
         # a grid point at mu_max is a row of the table (its stop_reason), not a warning per
         # point; set in this thread, which the "threads" scheduler's workers read

@@ -140,6 +140,7 @@ GREY_CLASS = ModelClass(
     epoch_work=EpochWork(("steps_per_epoch", "batch", ("window", "horizon"), "neurons"),
                          MAX_EPOCH_WORK, EPOCH_WORK_SECONDS),
     tank_scales=("liquid_mass", "ullage"),
+    quick={"max_epochs": 2, "physics_generations": 4, "physics_windows": 8},
 )
 
 #: The arrays of a grey-box ROM, in file order.

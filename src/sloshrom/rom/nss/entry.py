@@ -140,6 +140,9 @@ NSS_CLASS = ModelClass(
                      + (", strictly proper)" if h.get("feedthrough", "yes") == "no" else ")")),
     shapes=nss_shapes, history=lambda h: int(h["window"]),
     min_samples=nss_min_samples,
+    # the coupled beam hands a model the acceleration of the previous step: a state driven by
+    # it would run one sample behind its training
+    inputs=("velocity",),
     loss_terms=LOSS_TERMS,
     recipe={"amplitude_weighting": 0.0, "passivity": 1.0, "cycle_energy": 0.1},
     # version 5 added feedthrough and velocity_offset, version 6 weight_decay; version 3 and 5
@@ -158,6 +161,12 @@ NSS_CLASS = ModelClass(
                 "horizon": "horizon {}"},
     epoch_work=EpochWork(("steps_per_epoch", "batch", ("window", "horizon"), "neurons"),
                          MAX_EPOCH_WORK, EPOCH_WORK_SECONDS),
+    # it keeps its sizes and trains 4 epochs: about 20 s each here (measured at the default
+    # sizes, 2026-11-25)
+    quick={"max_epochs": 4},
+    former_keys={"nss_states": "n_states",
+                 **{f"nss_{k}": k for k in ("neurons", "window", "horizon", "batch", "max_epochs",
+                                            "steps_per_epoch", "learning_rate")}},
 )
 
 #: The arrays of a neural state-space network, in file order.

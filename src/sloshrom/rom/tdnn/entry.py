@@ -117,6 +117,10 @@ NFIR_CLASS = ModelClass(
     width_text="delays + output delays",
     paper=True, report="the paper's class, a network of the last samples of the tank velocity.",
     sweep=((50, 60, 70), (5, 10, 15, 20, 25, 30, 35, 40)),
+    # the quick ROM (NFIR(40, 15), 60 epochs, 120 s) cannot represent the ~20 g
+    # structure-designed training: its 6 g map error measured 88 % (14.7 % on the paper's
+    # shaker VFA), so --quick keeps the shaker
+    quick={"delays": 40, "neurons": 15, "max_epochs": 60},
 )
 
 NOE_CLASS = ModelClass(

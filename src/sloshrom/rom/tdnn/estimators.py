@@ -228,7 +228,7 @@ class NFIR(TimeDelayEstimator):
     neurons : int
         Hidden normalized RBF neurons H.
     hidden : {"matlab", "distance"}
-        RBF variant (see :mod:`sloshrom.rom.network`).
+        RBF variant (see :mod:`sloshrom.rom.tdnn.network`).
     max_epochs : int
         Training epochs at most.
     seed : int

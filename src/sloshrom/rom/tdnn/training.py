@@ -43,9 +43,10 @@ weights are random unit directions scaled by the spread of the data along them (
 like), with biases putting ``n_j = 0`` at the centre; ``"distance"`` widths from the median
 centre spacing; the linear output layer is then solved by least squares.
 
-The network itself (:mod:`sloshrom.rom.network`) and its architecture (:class:`NetworkSpec`) are
-explicit arguments: this module knows nothing of the estimator classes. :func:`train` runs in
-float64 (``jax.enable_x64`` around the call) without changing the process's JAX configuration.
+The network itself (:mod:`sloshrom.rom.tdnn.network`) and its architecture
+(:class:`NetworkSpec`) are explicit arguments: this module knows nothing of the estimator
+classes (their rules come from the registry entries). :func:`train` runs in float64
+(``jax.enable_x64`` around the call) without changing the process's JAX configuration.
 """
 
 from __future__ import annotations

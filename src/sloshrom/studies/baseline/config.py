@@ -1,8 +1,8 @@
 """Configuration of the bouncing-ball baseline: the ``[baseline]`` table and the study's names.
 
-The table's keys and defaults (those of :class:`sloshrom.rom.ball.model.BouncingBall`) are in
-``sloshrom/pipeline/defaults.toml`` and validated by
-:class:`sloshrom.pipeline.settings.BaselineTable`; :func:`ball_options` turns them into the
+The table's keys, defaults and checks (those of :class:`sloshrom.rom.ball.model.BouncingBall`)
+are the study's own (:mod:`sloshrom.studies.baseline.table`, ``defaults.toml`` of this
+package); :func:`ball_options` turns them into the
 estimator's arguments (TOML has no ``None``: ``lowpass = "none"`` and ``n_substeps = "auto"``
 stand for it, as in the ball's model file).
 """
@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import Any
 
 from sloshrom.pipeline.settings import ReproduceConfig
+from sloshrom.studies.baseline.table import baseline_table
 
 __all__ = ["BALL_KEYS", "BALL_MODEL", "CASE", "FREQUENCY_BANDS", "ball_options", "cache_config"]
 
@@ -29,7 +30,7 @@ FREQUENCY_BANDS = ("low", "mid", "high")
 def ball_options(cfg: ReproduceConfig) -> dict[str, Any]:
     """The arguments of :class:`~sloshrom.rom.ball.model.BouncingBall` from ``[baseline]``:
     search bounds as pairs, ``"none"`` and ``"auto"`` as ``None``."""
-    t = cfg.baseline
+    t = baseline_table(cfg)
     out: dict[str, Any] = {k: getattr(t, k) for k in BALL_KEYS}
     for key in ("mass_fraction", "restitution", "gap_factor"):
         out[key] = tuple(out[key])

@@ -10,7 +10,13 @@ from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from typing import Any
 
-__all__ = ["BaselineOutputs"]
+from sloshrom.beam.damping.registry import REFERENCE
+
+__all__ = ["REFERENCE_KEY", "BaselineOutputs"]
+
+#: The key of a :attr:`BaselineOutputs.comparison` row that holds the reference estimator's
+#: first-mode damping by RMS level (``"table2_lscf_h1"``: a ``summary.json`` contract).
+REFERENCE_KEY = f"table2_{REFERENCE}"
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -50,7 +56,8 @@ class BaselineOutputs:
     table2_all, instantaneous_damping_all : list of dict, dict
         The same for every case (ball, ROM, rig, frozen).
     comparison : list of dict
-        :func:`~sloshrom.studies.baseline.stage.comparison_rows`.
+        :func:`~sloshrom.studies.baseline.stage.comparison_rows` (the reference estimator's
+        Table 2 by level under :data:`REFERENCE_KEY`).
     experiment : dict
         The ball beside the rig playing the laboratory
         (:func:`~sloshrom.studies.baseline.stage.ball_against_experiment`), when the ``beam``

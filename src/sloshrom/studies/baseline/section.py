@@ -12,12 +12,13 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from sloshrom.beam.damping.registry import REFERENCE, label
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.experiment import experiment_tables
 from sloshrom.pipeline.html import Figure as ReportFigure
 from sloshrom.pipeline.html import Section, Table
 from sloshrom.studies.baseline.config import CASE, FREQUENCY_BANDS
-from sloshrom.studies.baseline.outputs import BaselineOutputs
+from sloshrom.studies.baseline.outputs import REFERENCE_KEY, BaselineOutputs
 
 __all__ = ["baseline_section"]
 
@@ -90,7 +91,7 @@ def _honest_paragraph(o: BaselineOutputs) -> str:
     dev_b = [ball["table2_vs_rig"][lv] for lv in levels]
     dev_r = [rom["table2_vs_rig"].get(lv) for lv in levels]
     parts.append(
-        "In the beam's random tests (Table 2, LSCF on H1) the ball's first-mode damping "
+        f"In the beam's random tests (Table 2, {label(REFERENCE)}) the ball's first-mode damping "
         "deviates from the rig's by " + ", ".join(
             f"{_signed(d)} at {lv} g" for d, lv in zip(dev_b, levels, strict=True))
         + ", the ROM's by " + ", ".join(_signed(d) for d in dev_r) + ".")
@@ -144,7 +145,7 @@ def baseline_section(ctx: Context, outputs: BaselineOutputs | Mapping[str, Any])
                                            f"{_pct(nr.get('rom'))}"]],
         "The identified bouncing ball (docs/rom.md, \"The bouncing-ball baseline\").")
     rows = o.comparison
-    levels = list(rows[0]["table2_lscf_h1"]) if rows else []
+    levels = list(rows[0][REFERENCE_KEY]) if rows else []
     bands = list(rows[0]["instantaneous_damping"]) if rows else []
     header = (["model", "full-map L2", "dissipative L2", "non-passive points"]
               + [f"ζ1 {lv} g (vs rig)" for lv in levels]
@@ -156,13 +157,13 @@ def baseline_section(ctx: Context, outputs: BaselineOutputs | Mapping[str, Any])
         body.append(
             [r["model"], na(r["full_l2"], "{:.1%}"), na(r["dissipative_l2"], "{:.1%}"),
              na(r["n_nonpassive"], "{:d}")]
-            + [f"{_pct(r['table2_lscf_h1'].get(lv), 2)} ({_signed(r['table2_vs_rig'].get(lv))})"
+            + [f"{_pct(r[REFERENCE_KEY].get(lv), 2)} ({_signed(r['table2_vs_rig'].get(lv))})"
                for lv in levels]
             + [_pct(r["instantaneous_damping"].get(b), 2) for b in bands])
     comp = Table(header, body, "Bouncing ball beside the ROM: Φ_d map against the rig's, "
-                 "first-mode damping of the random tests (Table 2, LSCF on H1; in brackets the "
-                 "deviation from the rig), median instantaneous damping of the free response "
-                 "per band of tank acceleration.")
+                 "first-mode damping of the random tests (Table 2, "
+                 f"{label(REFERENCE)}; in brackets the deviation from the rig), median "
+                 "instantaneous damping of the free response per band of tank acceleration.")
     fb = o.frequency_bands if o.frequency_bands is not None else {}
     band_rows = [[m, b, f"{v[b]['frequency_hz'][0]:.1f}–{v[b]['frequency_hz'][1]:.1f} Hz",
                   _pct(v[b]["full_l2"]), _pct(v[b]["dissipative_l2"])]

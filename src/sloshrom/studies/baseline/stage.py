@@ -22,20 +22,18 @@ import numpy as np
 import xarray as xr
 
 from sloshrom.beam.compare import AnalysedTest, analysed_test, compare_rows
-from sloshrom.beam.registry import REFERENCE
-from sloshrom.beam.results import (
+from sloshrom.beam.damping.columns import table2_dataset, table2_rows
+from sloshrom.beam.damping.registry import REFERENCE
+from sloshrom.beam.damping.tables import (
     Mode1Decay,
     damping_band_table,
     damping_summary,
-    envelope_table,
-    mode1_damping_table,
+    mode1_damping_dataset,
     mode1_decay,
-    simulate_cases,
-    to_dataset,
-    write_dataset,
-    write_table,
 )
-from sloshrom.beam.structure import coupled_frozen_modes
+from sloshrom.beam.results import to_dataset, write_dataset, write_table
+from sloshrom.beam.simulation.cases import envelope_table, simulate_cases
+from sloshrom.beam.simulation.structure import coupled_frozen_modes
 from sloshrom.energy import DISSIPATIVE_THRESHOLD, map_fidelity, map_maximum
 from sloshrom.fileio import OutputBatch
 from sloshrom.io import Record, read_record
@@ -50,7 +48,7 @@ from sloshrom.rom.ball.model import BouncingBall, lowpass_gain
 from sloshrom.rom.loading import load_model
 from sloshrom.studies.baseline.config import BALL_MODEL, CASE, FREQUENCY_BANDS, ball_options
 from sloshrom.studies.baseline.figures import frequency_band_figure
-from sloshrom.studies.baseline.outputs import BaselineOutputs
+from sloshrom.studies.baseline.outputs import REFERENCE_KEY, BaselineOutputs
 
 __all__ = ["ball_against_experiment", "comparison_rows", "fit_ball", "frequency_band_errors",
            "lowpassed_nrmse", "stage_baseline"]
@@ -157,7 +155,11 @@ def _result_from_file(path: Path | None) -> dict[str, Any] | None:
 
 
 def _table2_by_level(rows: Sequence[Mapping[str, Any]], case: str) -> dict[str, float]:
-    return {f"{r['rms_g']:g}": float(r[REFERENCE]) for r in rows if r["case"] == case}
+    # the reference estimator's damping of one case by level (g, as text), from its records
+    t2 = table2_dataset([r for r in rows if r["case"] == case])
+    return {f"{lv:g}": float(v) for lv, v in zip(t2.level.values,
+                                                 t2["value"].sel(estimator=REFERENCE).values,
+                                                 strict=True)}
 
 
 def comparison_rows(outputs: Mapping[str, Any]) -> list[dict[str, Any]]:
@@ -179,7 +181,7 @@ def comparison_rows(outputs: Mapping[str, Any]) -> list[dict[str, Any]]:
             "full_l2": fid["full_l2"] if fid else None,
             "dissipative_l2": fid["dissipative_l2"] if fid else None,
             "n_nonpassive": fid["n_nonpassive"] if fid else None,
-            "table2_lscf_h1": z2,
+            REFERENCE_KEY: z2,
             "table2_vs_rig": {lv: z2[lv] / rig2[lv] - 1 if lv in z2 and rig2[lv] else None
                               for lv in levels},
             "instantaneous_damping": {k: v for k, v in inst[case].items() if k.endswith(" g")},
@@ -187,17 +189,20 @@ def comparison_rows(outputs: Mapping[str, Any]) -> list[dict[str, Any]]:
     return rows
 
 
-def ball_against_experiment(beam_outputs: Mapping[str, Any], table2: list[dict[str, Any]],
+def ball_against_experiment(beam_outputs: Mapping[str, Any], table2: xr.Dataset,
                             bands: list[dict[str, Any]], random: Mapping[str, Any],
                             decay: Mode1Decay, fs: float, f1: float) -> dict[str, Any]:
     """The ball's damping beside the rig playing the laboratory (the ``beam`` stage's
-    ``experiment``): ``free`` and ``random`` rows of ``sloshrom.beam.compare.compare_rows``."""
+    ``experiment``, read from its record): ``free`` and ``random`` rows of
+    ``sloshrom.beam.compare.compare_rows``; ``table2`` is the ball's Table 2 over ``(level,
+    estimator)``."""
     exp_random = [r for r in beam_outputs["table2"] if r["case"] == EXPERIMENT]
     exp_free = [r for r in beam_outputs.get("damping_bands", []) if r["case"] == EXPERIMENT]
     out: dict[str, Any] = {}
     if exp_random:
-        measured = AnalysedTest(EXPERIMENT, "random", fs, f1, exp_random,
-                                levels=[float(r["rms_g"]) for r in exp_random])
+        measured = AnalysedTest(EXPERIMENT, "random", fs, f1, [],
+                                levels=[float(r["rms_g"]) for r in exp_random],
+                                table2=table2_dataset(exp_random))
         out["random"] = compare_rows(measured, [analysed_test(CASE, "random", random, f1,
                                                               table2)])
     if exp_free:
@@ -309,8 +314,8 @@ def stage_baseline(ctx: Context, data: StageResult, rom: StageResult | None = No
     rand = simulate_cases({CASE: ball}, tests["random"], fs)
     decays = {CASE: mode1_decay(free[CASE], modal, f1)}
     outputs["instantaneous_damping"] = damping_summary(free, decays)
-    table2 = mode1_damping_table(rand, cfg.rms_g, f1, max_tank_acceleration=True)
-    outputs["table2"] = table2
+    table2 = mode1_damping_dataset(rand, cfg.rms_g, f1, max_tank_acceleration=True)
+    outputs["table2"] = table2_rows(table2)
     outputs["envelope"] = envelope_table({"free": free, "random": rand})
 
     # the other cases: the beam stage's results (files), recomputed only where absent
@@ -334,22 +339,22 @@ def stage_baseline(ctx: Context, data: StageResult, rom: StageResult | None = No
                   for c, r in free_all.items()}
     beam_outputs = beam.outputs if beam is not None else None
     if beam_outputs is not None and "table2" in beam_outputs:
-        outputs["table2_all"] = [*beam_outputs["table2"], *table2]
+        outputs["table2_all"] = [*beam_outputs["table2"], *outputs["table2"]]
         outputs["instantaneous_damping_all"] = {**beam_outputs["instantaneous_damping"],
                                                 **outputs["instantaneous_damping"]}
     else:
         others_free = {c: r for c, r in free_all.items() if c != CASE}
         others_rand = {c: r for c, r in rand_all.items() if c != CASE}
-        outputs["table2_all"] = [*mode1_damping_table(others_rand, cfg.rms_g, f1,
-                                                      max_tank_acceleration=True), *table2]
+        outputs["table2_all"] = [*table2_rows(mode1_damping_dataset(
+            others_rand, cfg.rms_g, f1, max_tank_acceleration=True)), *outputs["table2"]]
         outputs["instantaneous_damping_all"] = {
             **damping_summary(others_free, {c: decays_all[c] for c in others_free}),
             **outputs["instantaneous_damping"]}
     outputs["comparison"] = comparison_rows(outputs)
     if beam_outputs is not None and "experiment" in beam_outputs:
         outputs["experiment"] = ball_against_experiment(
-            beam_outputs, table2, damping_band_table(free, decays, f1), rand[CASE], decays[CASE],
-            fs, f1)
+            beam_outputs, table2.sel(case=CASE), damping_band_table(free, decays, f1), rand[CASE],
+            decays[CASE], fs, f1)
 
     # -- files, all together
     ctx.progress("baseline", 4, steps, "figures")
@@ -367,7 +372,7 @@ def stage_baseline(ctx: Context, data: StageResult, rom: StageResult | None = No
         for kind, res in (("free", free), ("random", rand)):
             write_dataset(to_dataset(res[CASE], CASE, kind, tank, modal, cfg.seed),
                           out / f"{kind}_{CASE}.nc", batch)
-        write_table(table2, out / "table2_mode1_damping_ball", batch)
+        write_table(outputs["table2"], out / "table2_mode1_damping_ball", batch)
         for name, fig in figs.items():
             savefig(fig, ctx.path("figures", f"{name}.png"), batch)
         files += [ctx.rel(p) for p in batch.paths]

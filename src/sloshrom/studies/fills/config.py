@@ -2,9 +2,9 @@
 configuration.
 
 The keys (``fills``, ``unseen_fills``, ``fill_ensemble``, ``beam_fills``) stay in the
-``[beyond]`` table of ``defaults.toml``, where configuration files have them, validated by
-:mod:`sloshrom.pipeline.settings`. The targets of the judgement are the study's design, not
-settings.
+``[beyond]`` table, where configuration files have them; their domains, checks and defaults
+are the study's own (:mod:`sloshrom.studies.fills.table`). The targets of the judgement are
+the study's design, not settings.
 """
 
 from __future__ import annotations
@@ -12,11 +12,10 @@ from __future__ import annotations
 from typing import Any
 
 from sloshrom.pipeline.settings import ReproduceConfig
+from sloshrom.studies.fills.table import FILL_KEYS
 
 __all__ = ["FILL_KEYS", "FILL_TARGETS", "cache_config", "label", "member_config"]
 
-#: The keys of ``[beyond]`` that configure the study.
-FILL_KEYS = ("fills", "unseen_fills", "fill_ensemble", "beam_fills")
 #: Targets of the unseen-fill judgement: full-map relative L2 error (-), passivity (points below
 #: the passivity threshold), first-mode damping within this fraction of the rig's (-).
 FILL_TARGETS = {"full_l2": 0.15, "n_nonpassive": 0, "damping": 0.15}

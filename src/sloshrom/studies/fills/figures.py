@@ -7,13 +7,12 @@ Object-oriented matplotlib (a :class:`~matplotlib.figure.Figure` made directly, 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
 
 import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
 
-from sloshrom.beam.registry import REFERENCE
+from sloshrom.beam.damping.registry import REFERENCE
 from sloshrom.plotting.maps import plot_phi_d_map
 
 __all__ = ["CASE_STYLE", "damping_fill_figure", "fill_maps_figure"]
@@ -46,19 +45,24 @@ def fill_maps_figure(rig: Mapping[float, xr.DataArray], rom: Mapping[float, xr.D
     return fig
 
 
-def damping_fill_figure(rows: Sequence[Mapping[str, Any]], levels: Sequence[float],
+def damping_fill_figure(table: xr.Dataset, levels: Sequence[float],
                         unseen: Sequence[float] = ()) -> Figure:
-    """First-mode damping (LSCF on H1) against fill level, one panel per RMS level.
+    """First-mode damping (the registry's reference estimator, LSCF on H1) against fill level,
+    one panel per RMS level.
 
-    ``rows`` have ``case``, ``fill`` (-), ``rms_g`` (g) and ``lscf_h1`` (-); fills no member
+    ``table`` is Table 2 over ``(fill, case, level, estimator)`` (fill level -, RMS base level
+    g; ``sloshrom.beam.damping.tables.mode1_damping_dataset`` at each fill); fills no member
     saw are shaded.
     """
     fig = Figure(figsize=(4.2 * len(levels), 3.6), layout="constrained")
     axes = fig.subplots(1, len(levels), squeeze=False)[0]
+    ref = table["value"].sel(estimator=REFERENCE)
     for ax, level in zip(axes, levels, strict=True):
         for case, style in CASE_STYLE.items():
-            pts = sorted((r["fill"], r[REFERENCE]) for r in rows
-                         if r["case"] == case and abs(r["rms_g"] - level) < 1e-12)
+            pts = sorted((float(f), float(ref.sel(case=case, fill=f).isel(level=k)))
+                         for f in table.fill.values if case in table.case
+                         for k in range(table.sizes["level"])
+                         if abs(float(table.level[k]) - level) < 1e-12)
             if not pts:
                 continue
             f, z = np.array(pts).T

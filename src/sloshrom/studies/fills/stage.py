@@ -18,9 +18,12 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from sloshrom.beam.registry import REFERENCE
-from sloshrom.beam.results import mode1_damping_table, simulate_cases, write_table
-from sloshrom.beam.structure import coupled_frozen_modes
+from sloshrom.beam.damping.columns import table2_rows
+from sloshrom.beam.damping.registry import REFERENCE
+from sloshrom.beam.damping.tables import mode1_damping_dataset
+from sloshrom.beam.results import write_table
+from sloshrom.beam.simulation.cases import simulate_cases
+from sloshrom.beam.simulation.structure import coupled_frozen_modes
 from sloshrom.config import FILL_TOLERANCE
 from sloshrom.energy import map_fidelity
 from sloshrom.fileio import OutputBatch, netcdf_writer
@@ -127,7 +130,7 @@ def stage_fills(ctx: Context, rom: StageResult, identify: Identify
     bcfg = cfg.beam
     fs = float(cfg.rig.fs)
     levels = list(bcfg.rms_g)
-    damping: list[dict[str, Any]] = []
+    tables: list[xr.Dataset] = []
     beam_fills = sorted(float(f) for f in bey.beam_fills)
     for k, f in enumerate(beam_fills):
         ctx.progress("fills", k, len(beam_fills), f"beam random tests at fill {_pct(f)} %")
@@ -138,11 +141,15 @@ def stage_fills(ctx: Context, rom: StageResult, identify: Identify
         # an ensemble member of the family member by member, as the beam stage couples it
         res = simulate_cases(coupled_models(models), beam_tests(bcfg, modal, tank, fs)["random"],
                              fs)
-        for row in mode1_damping_table(res, levels, f1, max_tank_acceleration=True):
-            damping.append({"fill": f, "f1_frozen_hz": f1, **row})
+        t2 = mode1_damping_dataset(res, levels, f1, max_tank_acceleration=True)
+        tables.append(t2.expand_dims(fill=[f]).assign_coords(f1_frozen_hz=("fill", [f1])))
     timings["beam"] = time.perf_counter() - t0
+    # Table 2 over (fill, case, level, estimator); its rows (fill, f1_frozen_hz, case, rms_g,
+    # ...) for the record and the file
+    table = xr.concat(tables, dim="fill")
+    damping = table2_rows(table)
     out["damping"] = damping
-    out["beam_errors"] = _beam_errors(damping, unseen)
+    out["beam_errors"] = _beam_errors(table, unseen)
     out["seconds"] = timings
 
     # -- files -------------------------------------------------------------------------------
@@ -155,7 +162,7 @@ def stage_fills(ctx: Context, rom: StageResult, identify: Identify
     figs = {
         "fills_phi_d_maps": fill_maps_figure({f: rig_maps[f] for f in shown},
                                              {f: rom_maps[f] for f in shown}, unseen),
-        "fills_damping": damping_fill_figure(damping, levels, unseen),
+        "fills_damping": damping_fill_figure(table, levels, unseen),
     }
     with OutputBatch() as batch:
         batch.write(ctx.path("fills", "phi_d_maps.nc"), netcdf_writer(maps_ds))
@@ -173,10 +180,14 @@ def _relay(ctx: Context, fill: float):
     return progress
 
 
-def _beam_errors(rows: list[dict[str, Any]], unseen: list[float]) -> list[dict[str, Any]]:
-    """Per fill (unseen fills flagged) and level: family and frozen damping relative to rig."""
+def _beam_errors(table: xr.Dataset, unseen: list[float]) -> list[dict[str, Any]]:
+    """Per fill (unseen fills flagged) and level: family and frozen damping relative to rig
+    (the reference estimator's, from Table 2 over ``(fill, case, level, estimator)``)."""
     out = []
-    by = {(r["case"], r["fill"], r["rms_g"]): r[REFERENCE] for r in rows}
+    z = table["value"].sel(estimator=REFERENCE).transpose("fill", "case", "level")
+    by = {(str(c), float(f), float(lv)): float(z.values[i, j, k])
+          for i, f in enumerate(table.fill.values) for j, c in enumerate(table.case.values)
+          for k, lv in enumerate(table.level.values)}
     for (_, f, level), rig in sorted(kv for kv in by.items() if kv[0][0] == "rig"):
         rom, frozen = by.get(("rom", f, level)), by.get(("frozen", f, level))
         rel = (rom / rig - 1.0) if rom is not None and np.isfinite(rom) and rig else float("nan")

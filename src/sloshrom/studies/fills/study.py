@@ -1,8 +1,8 @@
 """The fill-level study as the pipeline runs it: its declaration, ``STUDY``.
 
-Registered in :data:`sloshrom.studies.STUDIES`: with ``[beyond] enabled``, its stage runs after
-the paper's ``data`` and ``rom`` (the main ROM is the member at the ``[tank]`` fill), identifies
-the other members with the chain's ``identify`` in ``fills/`` and its section follows the
+Registered in :data:`sloshrom.pipeline.registry.STUDIES`: with ``[beyond] enabled``, its stage runs
+after the paper's ``data`` and ``rom`` (the main ROM is the member at the ``[tank]`` fill),
+identifies the other members with the chain's ``identify`` in ``fills/`` and its section follows the
 baseline's in the report.
 """
 
@@ -17,6 +17,7 @@ from sloshrom.pipeline.study import Identify, StageRecord, Study
 from sloshrom.studies.fills.config import cache_config
 from sloshrom.studies.fills.section import fills_section
 from sloshrom.studies.fills.stage import stage_fills
+from sloshrom.studies.fills.table import TABLE
 
 __all__ = ["STUDY"]
 
@@ -29,6 +30,6 @@ def _run(ctx: Context, upstream: Mapping[str, StageResult], identify: Identify) 
     return stage_fills(ctx, upstream["rom"], identify)
 
 
-#: The study, as :func:`sloshrom.studies.registered` gives it to the pipeline.
+#: The study, as :func:`sloshrom.pipeline.study.registered` gives it to the pipeline.
 STUDY = Study(name="fills", enabled=_enabled, cache_config=cache_config, after=("data", "rom"),
-              run=_run, section=fills_section, directories=("fills/",))
+              run=_run, section=fills_section, directories=("fills/",), table=TABLE)

@@ -1,21 +1,22 @@
 """Configuration of the two-mode wing study: the ``[multimode]`` table and the study's design.
 
-The table's keys and defaults are in ``sloshrom/pipeline/defaults.toml`` and validated, key by
-key, by :class:`sloshrom.pipeline.settings.MultimodeTable` (the wing's own checks, those of
-:class:`~sloshrom.beam.multimode.WingDesign`, by :func:`wing_design` before any stage). The
-constants here are the study's design, not settings: the cases of the random tests, the signal
-each ROM reads and the records it learns.
+The table's keys, defaults and checks are the study's own
+(:class:`sloshrom.studies.multimode.table.MultimodeTable`, ``defaults.toml`` of this package;
+the wing's own checks, those of :class:`~sloshrom.beam.simulation.wing.WingDesign`, by
+:func:`wing_design` before any stage). The constants here are the study's design, not
+settings: the cases of the random tests, the signal each ROM reads and the records it learns.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-from sloshrom.beam.multimode import WingDesign
-from sloshrom.beam.structure import ModalDataError
+from sloshrom.beam.simulation.structure import ModalDataError
+from sloshrom.beam.simulation.wing import WingDesign
 from sloshrom.config import ConfigError
-from sloshrom.pipeline.settings import MultimodeTable, ReproduceConfig
+from sloshrom.pipeline.settings import ReproduceConfig
 from sloshrom.rom.registry import LOSS_TERMS
+from sloshrom.studies.multimode.table import MultimodeTable
 
 __all__ = ["CASES", "DATA_SETS", "JUDGED_ROM", "RECIPE_KEYS", "ROM_INPUTS", "WING_KEYS",
            "cache_config", "rom_params", "wing_design"]
@@ -24,7 +25,7 @@ __all__ = ["CASES", "DATA_SETS", "JUDGED_ROM", "RECIPE_KEYS", "ROM_INPUTS", "WIN
 #: on the acceleration trains with its loss terms off
 RECIPE_KEYS = ("delays", "neurons", "hidden", "amplitude_weighting", "passivity", "cycle_energy",
                "max_epochs")
-#: the keys of :class:`~sloshrom.beam.multimode.WingDesign`
+#: the keys of :class:`~sloshrom.beam.simulation.wing.WingDesign`
 WING_KEYS = ("span", "chord", "ea_chord_fraction", "mass_per_span", "cg_offset",
              "gyration_radius", "tank_offset", "f_bending", "f_torsion", "damping", "stations")
 #: the cases of the random tests, in the order of the table

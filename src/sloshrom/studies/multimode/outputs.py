@@ -25,7 +25,7 @@ class MultimodeOutputs:
         The ``[multimode]`` table the study ran with.
     structure : dict
         The wing, ``EI_n_m2``, ``GJ_n_m2_per_rad``, ``mass_coupling``, masses (kg),
-        :func:`~sloshrom.beam.multimode.structure_summary` and the frozen tank shape.
+        :func:`~sloshrom.beam.simulation.wing.structure_summary` and the frozen tank shape.
     test : dict
         Levels (g), PSD (Hz), the frozen runs' tank motion and per-mode tank RMS (g).
     data : dict
@@ -35,7 +35,7 @@ class MultimodeOutputs:
         Per ROM: the input it reads, its loss, records, seconds of data, fit seconds, epochs,
         stop reason, validation NRMSE, training envelope.
     table : list of dict
-        :func:`~sloshrom.beam.multimode.modal_damping_table` rows.
+        :func:`~sloshrom.beam.damping.multimode.modal_damping_table` rows.
     errors : list of dict
         Per ROM (and frozen), mode and level: damping / rig damping - 1, ``within`` tolerance.
     envelope : list of dict

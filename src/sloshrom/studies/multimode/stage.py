@@ -3,7 +3,7 @@
 The paper's beam is one-mode dominated; its open problem is a sloshing model that interacts with
 structural dynamics that are not one-tone-dominant. This stage puts the paper tank on a wing
 whose bending (9 Hz) and torsion (17 Hz) modes both move it vertically inside the 5-25 Hz band
-where the liquid sloshes violently (:mod:`sloshrom.beam.multimode`), and asks whether a ROM
+where the liquid sloshes violently (:mod:`sloshrom.beam.simulation.wing`), and asks whether a ROM
 identified by the paper's recipe predicts the damping of **both** modes. Three ROMs (NFIR, the
 paper's architecture), so that the effects of the data and of the input stay apart:
 
@@ -22,11 +22,11 @@ paper's architecture), so that the effects of the data and of the input stay apa
 Judge: random base excitation at several RMS levels with the rig (reference), both ROMs and
 frozen liquid; modal filtering of the accelerometers with the frozen-liquid shapes, H1 of base
 -> modal acceleration and LSCF stable-pole-cluster damping of each mode
-(:func:`sloshrom.beam.multimode.modal_damping_table`); a ROM passes on a mode and level when its
-damping is within ``tolerance`` of the rig's. Open loop, each ROM is also fed the rig's own tank
+(:func:`sloshrom.beam.damping.multimode.modal_damping_table`); a ROM passes on a mode and level when
+its damping is within ``tolerance`` of the rig's. Open loop, each ROM is also fed the rig's own tank
 velocity of the coupled tests: the power it takes from each mode's band against the rig's
-(:func:`sloshrom.beam.multimode.band_power`) locates a damping error in the ROM itself rather
-than in the feedback of the coupled run.
+(:func:`sloshrom.beam.damping.multimode.band_power`) locates a damping error in the ROM itself
+rather than in the feedback of the coupled run.
 
 The settings are the ``[multimode]`` table (:mod:`sloshrom.studies.multimode.config`). The
 stage needs no other stage's files. Every file of the stage (records, models, table, figures)
@@ -43,19 +43,18 @@ from typing import Any
 import numpy as np
 
 from sloshrom import __version__, signals
-from sloshrom.beam.analysis import frf_h1, modal_filter
-from sloshrom.beam.coupled import random_response
-from sloshrom.beam.envelope import tank_motion
-from sloshrom.beam.multimode import (
-    band_power,
+from sloshrom.beam.damping.analysis import frf_h1, modal_filter
+from sloshrom.beam.damping.multimode import band_power, modal_damping_table, tank_mode_shares
+from sloshrom.beam.results import write_table
+from sloshrom.beam.simulation.cases import simulate_cases
+from sloshrom.beam.simulation.coupled import random_response
+from sloshrom.beam.simulation.envelope import tank_motion
+from sloshrom.beam.simulation.wing import (
     frozen_station_shapes,
-    modal_damping_table,
     structure_summary,
-    tank_mode_shares,
     two_mode_wing,
     wing_modal_model,
 )
-from sloshrom.beam.results import simulate_cases, write_table
 from sloshrom.config import ConfigError, G, Tank
 from sloshrom.fileio import OutputBatch
 from sloshrom.io import Record, record_from_measurement, velocity_from_acceleration, write_record
@@ -63,7 +62,6 @@ from sloshrom.models import FrozenLiquid
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.data import vfa_pieces
 from sloshrom.pipeline.rom import error_figures
-from sloshrom.pipeline.settings import MultimodeTable
 from sloshrom.plotting import savefig
 from sloshrom.rig.virtual import SensorParams, VirtualRig
 from sloshrom.rom.errors import EnvelopeWarning
@@ -81,6 +79,7 @@ from sloshrom.studies.multimode.config import (
 )
 from sloshrom.studies.multimode.figures import modal_damping_figure, modal_frf_figure
 from sloshrom.studies.multimode.outputs import MultimodeOutputs
+from sloshrom.studies.multimode.table import MultimodeTable, multimode_table
 
 __all__ = ["stage_multimode"]
 
@@ -144,7 +143,7 @@ def _open_loop(rig: Mapping[str, Any], roms: Mapping[str, Any], f_modes: np.ndar
                levels: list[float], rel_band: float) -> list[dict[str, Any]]:
     """Each ROM fed the rig's own tank motion of the coupled tests (velocity or acceleration,
     the signal it reads): the power it takes from each mode's band against the rig's
-    (:func:`~sloshrom.beam.multimode.band_power`)."""
+    (:func:`~sloshrom.beam.damping.multimode.band_power`)."""
     v, fs = np.asarray(rig["tank_velocity"]), float(rig["fs"])
     a = np.asarray(rig["tank_acceleration"])
     p_rig = band_power(v, rig["dynamic_force"], fs, f_modes, rel_band)
@@ -176,12 +175,12 @@ def stage_multimode(ctx: Context) -> tuple[dict[str, Any], list[str]]:
     outputs : dict
         The record of :class:`~sloshrom.studies.multimode.outputs.MultimodeOutputs`, JSON-able:
         ``settings``; ``structure`` (the wing, EI, GJ, coupling and
-        :func:`~sloshrom.beam.multimode.structure_summary`); ``test`` (levels, PSD, the frozen
+        :func:`~sloshrom.beam.simulation.wing.structure_summary`); ``test`` (levels, PSD, the frozen
         runs' tank motion and per-mode tank RMS, g); ``data`` (per record: duration, peaks; the
         broadband design: band, top RMS, levels, coverage of the frozen tank motion);
         ``roms`` (per ROM: the input it reads, its loss, records, train seconds of data, fit
         seconds, epochs, stop reason, validation NRMSE, training envelope); ``table`` (rows of
-        :func:`~sloshrom.beam.multimode.modal_damping_table`); ``errors`` (per ROM, mode and
+        :func:`~sloshrom.beam.damping.multimode.modal_damping_table`); ``errors`` (per ROM, mode and
         level: damping / rig damping - 1, ``within`` the tolerance); ``envelope`` (per case and
         level: peak tank acceleration / the ROM's training peak, fraction outside);
         ``open_loop`` (per ROM, level and mode: the power the ROM takes from the mode's band
@@ -193,7 +192,7 @@ def stage_multimode(ctx: Context) -> tuple[dict[str, Any], list[str]]:
         ``multimode/data/*.nc``, ``multimode/models/*.npz``,
         ``multimode/table_modal_damping.{csv,md}`` and the two figures, relative to ``ctx.out``.
     """
-    s = ctx.cfg.multimode
+    s = multimode_table(ctx.cfg)
     with warnings.catch_warnings():
         # a ROM leaving its training envelope (the VFA-only ROM in the wing's tests, the
         # validation records' peaks) is measured and reported (``envelope``, ``roms``), not
@@ -406,8 +405,8 @@ def _run(ctx: Context, s: MultimodeTable) -> tuple[MultimodeOutputs, list[str]]:
         for name, rec in records.items():
             batch.write(out / "data" / f"{name}.nc", lambda tmp, rec=rec: write_record(rec, tmp))
         for name, model in roms.items():
-            batch.write(out / "models" / f"nfir_{name.removesuffix('_rom')}.npz",
-                        lambda tmp, model=model: model.save(tmp))
+            stem = f"{NFIR.model_class.name}_{name.removesuffix('_rom')}"  # nfir_<case>
+            batch.write(out / "models" / f"{stem}.npz", lambda tmp, model=model: model.save(tmp))
         write_table(rows, out / "table_modal_damping", batch)
         for name, fig in figs.items():
             savefig(fig, out / f"{name}.png", batch)

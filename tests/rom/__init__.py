@@ -1,0 +1,1 @@
+"""Tests of sloshrom.rom, laid out like its package."""

@@ -1,0 +1,1 @@
+"""Tests of sloshrom.rom.ball, laid out like its package."""

@@ -1,0 +1,1 @@
+"""Tests of sloshrom.rom.lss, laid out like its package."""

@@ -1,0 +1,1 @@
+"""Tests of sloshrom.rom.nss, laid out like its package."""

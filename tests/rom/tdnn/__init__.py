@@ -1,0 +1,1 @@
+"""Tests of sloshrom.rom.tdnn, laid out like its package."""
