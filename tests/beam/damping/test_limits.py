@@ -18,7 +18,7 @@ from sloshrom.beam.damping.uncertainty import estimate_random, mode1_damping_ran
 SRC = REPO / "src" / "sloshrom"
 #: Where the number stands for something else (not a Welch segment of the damping estimates).
 OTHER_MEANINGS = {
-    "rom/training.py": "FAST_MAX_ROWS, rows of a fast training batch",
+    "rom/tdnn/training.py": "FAST_MAX_ROWS, rows of a fast training batch",
     "beam/damping/analysis.py": "_GAIN_LINES, frequency lines of a filter's gain",
 }
 
