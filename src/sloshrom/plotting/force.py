@@ -13,7 +13,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from matplotlib.figure import Figure
 
-from sloshrom.beam.analysis import welch_psd
+from sloshrom.beam.damping.analysis import welch_psd
 from sloshrom.config import G
 from sloshrom.fidelity import impact_peaks, impact_threshold
 

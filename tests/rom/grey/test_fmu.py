@@ -34,7 +34,7 @@ import numpy as np
 import pytest
 from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
-from sloshrom.beam.coupled import free_response
+from sloshrom.beam.simulation.coupled import free_response
 from typer.testing import CliRunner
 
 import sloshrom.cli.export  # noqa: F401  (registers `sloshrom export`)
