@@ -37,10 +37,13 @@ impact is spread by the sensors' zero-phase filters on both sides of its instant
 model that knows it a sample ahead can put the force where the record has it (the record's own
 physics, a causal average of the force over the last sample, fits it to 28 %, docs/rom.md).
 
-Three implementations of one step, the same arithmetic: numba for the identification
-(:func:`causal_intervals`: many candidate parameter sets and windows at once, in parallel),
-JAX for the fitted model (:func:`physics_step`, traced into the coupled beam and the maps),
-and C for the FMU (``rom/fmu_c/``). Parameter layout: :data:`PHYS_NAMES`.
+Three implementations of one step, the same operations in the same order: numba for the
+identification and for whole records (:func:`causal_intervals`: many candidate parameter sets
+and windows at once, in parallel; the fitted model's ``predict`` and the maps), JAX for the
+fitted model's step (:func:`physics_step`, traced into the coupled beam), and C for the FMU
+(``rom/fmu_c/``). The numba and C columns agree to the last bit; XLA's ``exp`` differs from
+glibc's in the last bit of some arguments, so the JAX step agrees to about 1e-10 of the force
+(the contacts are thresholds). Parameter layout: :data:`PHYS_NAMES`.
 """
 
 from __future__ import annotations
