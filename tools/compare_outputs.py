@@ -36,6 +36,10 @@ import xarray as xr
 VOLATILE = re.compile(r"(seconds|_s$|time$|elapsed|date|created|version|path|host|python|"
                       r"started|finished|duration_wall|cache|platform|machine|cpu)", re.I)
 SKIP_SUFFIXES = {".png", ".html", ".log", ".svg", ".pdf", ".npz", ".toml", ".unv", ".uff"}
+#: More volatile keys in the stage records (``.stages/*.json``): the digests and sizes of the
+#: files they list and the cache keys that hash them change with every run, since model files
+#: and NetCDF attributes hold wall-clock times; the files themselves are compared.
+STAGE_VOLATILE = re.compile(r"^(sha256|size|key)$")
 
 
 def _close(a: float, b: float, rtol: float, atol: float) -> bool:
@@ -54,23 +58,24 @@ def _worst(a: Any, b: Any) -> float:
     return float(np.nanmax(r)) if r.size else 0.0
 
 
-def compare_json(a: Any, b: Any, rtol: float, atol: float, where: str = "") -> list[str]:
-    """Differences between two JSON values (volatile keys skipped)."""
+def compare_json(a: Any, b: Any, rtol: float, atol: float, where: str = "",
+                 volatile: re.Pattern[str] | None = None) -> list[str]:
+    """Differences between two JSON values (volatile keys skipped; ``volatile`` more of them)."""
     if isinstance(a, dict) and isinstance(b, dict):
         out = []
         for k in sorted(set(a) | set(b)):
-            if VOLATILE.search(str(k)):
+            if VOLATILE.search(str(k)) or (volatile is not None and volatile.search(str(k))):
                 continue
             if k not in a or k not in b:
                 out.append(f"{where}.{k}: only in {'new' if k not in a else 'old'}")
                 continue
-            out += compare_json(a[k], b[k], rtol, atol, f"{where}.{k}")
+            out += compare_json(a[k], b[k], rtol, atol, f"{where}.{k}", volatile)
         return out
     if isinstance(a, list) and isinstance(b, list):
         if len(a) != len(b):
             return [f"{where}: {len(a)} items against {len(b)}"]
         return [d for i, (x, y) in enumerate(zip(a, b, strict=True))
-                for d in compare_json(x, y, rtol, atol, f"{where}[{i}]")]
+                for d in compare_json(x, y, rtol, atol, f"{where}[{i}]", volatile)]
     if isinstance(a, bool) or isinstance(b, bool) or not (
             isinstance(a, int | float) and isinstance(b, int | float)):
         return [] if a == b else [f"{where}: {a!r} against {b!r}"]
@@ -169,7 +174,8 @@ def main(argv: list[str] | None = None) -> int:
             diffs, worst = compare_netcdf(a, b, args.rtol, args.atol)
         elif rel.suffix == ".json":
             diffs = compare_json(json.loads(a.read_text()), json.loads(b.read_text()),
-                                 args.rtol, args.atol)
+                                 args.rtol, args.atol,
+                                 volatile=STAGE_VOLATILE if rel.parts[0] == ".stages" else None)
         elif rel.suffix in (".csv", ".md"):
             diffs = compare_table(a, b, args.rtol, args.atol)
         else:
