@@ -72,7 +72,7 @@ GREY_CLASS = ModelClass(
                  help="samples simulated from each encoded start in training",
                  what="a number of samples"),
            SHOOTING_HYPERS[0],
-           Hyper("max_epochs", 12, "int", 0, MAX_EPOCHS,
+           Hyper("max_epochs", 20, "int", 0, MAX_EPOCHS,
                  help="epochs of steps_per_epoch Adam steps at most (0: the physics alone)",
                  what="an integer"),
            SHOOTING_HYPERS[1], SHOOTING_HYPERS[2], SEED, *LOSS_HYPERS,
@@ -104,13 +104,13 @@ GREY_CLASS = ModelClass(
                  help="weight of the spectral (timing-free) term of the column's search: the "
                       "error of its force's short-time spectra beside the point-wise error "
                       "(0 = point-wise only)", what="a weight"),
-           Hyper("physics_generations", 16, "int", 1, 1000,
+           Hyper("physics_generations", 20, "int", 1, 1000,
                  help="generations of differential evolution of the column's parameters",
                  what="an integer"),
            Hyper("physics_population", 8, "int", 2, 100,
                  help="population per parameter of the differential evolution",
                  what="an integer"),
-           Hyper("physics_windows", 24, "int", 1, 1000,
+           Hyper("physics_windows", 32, "int", 1, 1000,
                  help="windows of 2 s of the training record the column's search scores "
                       "(spread over the record)", what="a number of windows")),
     label=lambda h: (f"GreyBox({h['n_balls']} balls + {h['n_states']} states, "
