@@ -292,8 +292,8 @@ def _train(**kw: Any) -> None:
     _rules(mc, given, input=reads, training=False)
     check_number(ensemble, "--ensemble", 1, MAX_MEMBERS)
     if ensemble > 1 and not mc.ensemble:
-        fail(f"--ensemble {ensemble}: an {mc.class_name} is fitted deterministically, so its "
-             "members would be one model; train it alone")
+        fail(f"--ensemble {ensemble}: {mc.article} {mc.class_name} is fitted "
+             "deterministically, so its members would be one model; train it alone")
     seed = int(given.get("seed", 0))
     if seed + ensemble - 1 > MAX_SEED:
         fail(f"--seed {seed} with --ensemble {ensemble}: the last member's seed "
@@ -481,8 +481,8 @@ def _check_seeds(seeds: int, ensemble: int, mc: ModelClass, seed: int) -> None:
         fail(f"--seeds {seeds} with --ensemble {ensemble}: --seeds keeps the best single model, "
              "--ensemble the mean of all; give one of them")
     if seeds > 1 and not mc.ensemble:
-        fail(f"--seeds {seeds}: an {mc.class_name} is fitted deterministically, so every seed "
-             "gives the same model; train it alone")
+        fail(f"--seeds {seeds}: {mc.article} {mc.class_name} is fitted deterministically, so "
+             "every seed gives the same model; train it alone")
     if seed + seeds - 1 > MAX_SEED:
         fail(f"--seed {seed} with --seeds {seeds}: the last seed {seed + seeds - 1} exceeds "
              f"{MAX_SEED}")

@@ -96,8 +96,8 @@ def stage_sweep(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[s
             f"configured {cfg.name()}, "
             + ("as the paper's selection, not necessarily the lowest score."
                if cfg.arch in {p[0] for p in pts}
-               else f"an {CLASSES[cfg.arch].class_name} outside this grid of "
-                    f"{'/'.join(mc.class_name for mc in swept())} networks."))
+               else f"{CLASSES[cfg.arch].article} {CLASSES[cfg.arch].class_name} outside this "
+                    f"grid of {'/'.join(mc.class_name for mc in swept())} networks."))
     table = [[r["arch"].upper(), r["delays"], r["neurons"],
               r["score"] if not r["unstable"] else "unstable", "no" if r["unstable"] else "yes"]
              for r in sorted(rows, key=lambda r: (r["arch"], r["delays"], r["neurons"]))]

@@ -390,6 +390,8 @@ class ModelClass:
         The flat ``[rom]`` keys of the configuration that were this class's before each class
         had its table, each the name of its key now (``rom.<name>.<key>``); read with a
         warning.
+    article : str
+        The article before its class name in a sentence (``"an"`` NSS, ``"a"`` GreyBox).
     tank_scales : tuple of str
         Hyperparameters that are the tank's quantity of the same name (an attribute of
         :class:`~sloshrom.config.Tank`, e.g. ``liquid_mass``): 0 means "the tank's", which
@@ -433,6 +435,7 @@ class ModelClass:
     quick: Mapping[str, int | float | str] = field(default_factory=dict)
     former_keys: Mapping[str, str] = field(default_factory=dict)
     tank_scales: tuple[str, ...] = ()
+    article: str = "an"
 
     def size(self, n_samples: int, given: Mapping[str, int]) -> dict[str, int]:
         """The values the size rule chooses for a training record of ``n_samples`` samples:
@@ -560,8 +563,8 @@ class ModelClass:
         if input not in self.inputs:
             readers = " or ".join(naming.arch(mc) for mc in CLASSES.values()
                                   if input in mc.inputs)
-            raise ROMError(f"{naming.input(input)}: an {self.class_name} takes the tank "
-                           f"{' or '.join(self.inputs)}"
+            raise ROMError(f"{naming.input(input)}: {self.article} {self.class_name} takes the "
+                           f"tank {' or '.join(self.inputs)}"
                            + (f"; the {input} needs {readers}" if readers else ""))
         if not training:
             return h

@@ -169,6 +169,7 @@ def shooting_problem(
     validation: tuple[np.ndarray, np.ndarray] | None,
     options: ShootingOptions,
     validation_history: int = 0,
+    dtype: type = TRAIN_DTYPE,
 ) -> AdamProblem:
     """The multiple-shooting problem of a recurrent class for the training engine
     (:func:`sloshrom.rom.engine.adam_epochs`).
@@ -193,6 +194,9 @@ def shooting_problem(
     validation_history : int
         The validation record's first samples that are measured history: its run starts from
         them (``rec.history_run``) and is scored on the rest; 0: from rest, all scored.
+    dtype : type
+        The precision of the Adam steps (:data:`~sloshrom.rom.losses.TRAIN_DTYPE`, float32, by
+        default; ``params0`` and the states of ``rec`` in it).
 
     Returns
     -------
@@ -208,7 +212,7 @@ def shooting_problem(
     y = np.asarray(y, dtype=np.float64)
     n, T, off = u.size, int(o.horizon), int(rec.offset)
     sc = scaler
-    f32 = TRAIN_DTYPE
+    f32 = dtype
     u_s, y_s = jnp.asarray(sc.u(u), f32), jnp.asarray(sc.y(y), f32)
     wts = jnp.asarray(amplitude_weights(u, fs, amplitude_weighting) if amplitude_weighting > 0
                       else np.ones(n), f32)
@@ -266,7 +270,7 @@ def shooting_problem(
         # drawn after the others: without augmentation the same draws as before
         shift = (rng.uniform(-shift_scale, shift_scale, (steps_per_epoch, batch))
                  if shift_scale > 0 else np.zeros((steps_per_epoch, batch)))
-        return starts, pidx, shift.astype(np.float32)
+        return starts, pidx, shift.astype(np.dtype(f32))
 
     # validation: the free run of the whole record from rest (or of the rest of it from its
     # measured history), scored like the training loss

@@ -84,6 +84,10 @@ GREY_CLASS = ModelClass(
            Hyper("weight_decay", 0.0, "float", 0.0, 100.0,
                  help="AdamW's decoupled weight decay per unit learning rate (0 = plain Adam)",
                  what="a decay rate (0 = off)"),
+           Hyper("precision", "float64", "choice", choices=("float64", "float32"),
+                 help="precision of the network's Adam steps: float64 makes the model the same "
+                      "on every CPU to its members' spread (float32, the NSS's, is faster)",
+                 what="'float64' or 'float32'"),
            Hyper("n_balls", 10, "int", 1, 64,
                  help="balls of the impacting column (released one after the other by the "
                       "gate)", what="a number of balls"),
@@ -139,7 +143,7 @@ GREY_CLASS = ModelClass(
            "force the structure feels\").",
     epoch_work=EpochWork(("steps_per_epoch", "batch", ("window", "horizon"), "neurons"),
                          MAX_EPOCH_WORK, EPOCH_WORK_SECONDS),
-    tank_scales=("liquid_mass", "ullage"),
+    tank_scales=("liquid_mass", "ullage"), article="a",
     quick={"max_epochs": 2, "physics_generations": 4, "physics_windows": 8},
 )
 

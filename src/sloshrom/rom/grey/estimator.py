@@ -71,6 +71,9 @@ class GreyBox(Estimator):
         acceleration and needs none).
     weight_decay : float
         AdamW's decoupled weight decay per unit learning rate (0 = plain Adam).
+    precision : {"float64", "float32"}
+        The network's Adam steps: float64 (the default) makes a fit the same on every CPU to
+        its members' spread; float32 (the NSS's) is faster and moves with the CPU's last bits.
     n_balls : int
         Balls of the column.
     n_substeps : int
@@ -116,6 +119,7 @@ class GreyBox(Estimator):
         cycle_energy: float = _G["cycle_energy"],
         velocity_offset: float = _G["velocity_offset"],
         weight_decay: float = _G["weight_decay"],
+        precision: str = _G["precision"],
         n_balls: int = _G["n_balls"],
         n_substeps: int = _G["n_substeps"],
         n_past: int = _G["n_past"],
@@ -142,6 +146,7 @@ class GreyBox(Estimator):
         self.cycle_energy = cycle_energy
         self.velocity_offset = velocity_offset
         self.weight_decay = weight_decay
+        self.precision = precision
         self.n_balls = n_balls
         self.n_substeps = n_substeps
         self.n_past = n_past
@@ -253,7 +258,8 @@ class GreyBox(Estimator):
             velocity_offset=float(self.velocity_offset),
             weight_decay=float(self.weight_decay))
         params, history = fit_greybox(spec, u, y, float(fs), scaler, physics, taps, validation,
-                                      options, seed=int(self.seed), callback=callback)
+                                      options, seed=int(self.seed), callback=callback,
+                                      precision=str(h["precision"]))
         history["search"] = {**phys_history, "liquid_mass": mass, "ullage": ullage}
         history["train_seconds"] = time.perf_counter() - t0
         self.model_ = GreyBoxNetwork(dict(params), scaler, spec, self.input, float(fs))

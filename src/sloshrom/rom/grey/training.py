@@ -230,14 +230,16 @@ def shooting_problem(
     validation: tuple[np.ndarray, np.ndarray] | None,
     options: ShootingOptions,
     validation_history: int = 0,
+    dtype: type = TRAIN_DTYPE,
 ) -> AdamProblem:
     """The network's multiple-shooting problem on the column's features (the physics fixed:
-    its parameters are carried, not trained). Call it inside ``jax.enable_x64(True)``."""
+    its parameters are carried, not trained), its Adam steps in ``dtype``. Call it inside
+    ``jax.enable_x64(True)``."""
     o = options
     n, w, t = np.size(u), spec.window, int(o.horizon)
     ru, ry = float(scaler.u(0.0)), float(scaler.y(0.0))
     half = float(scaler.out_half_range)
-    f32 = TRAIN_DTYPE
+    f32 = dtype
     u_s = jnp.asarray(scaler.u(np.asarray(u, dtype=np.float64)), f32)
     y_s = jnp.asarray(scaler.y(np.asarray(y, dtype=np.float64)), f32)
     physics = np.asarray(params0["physics"])
@@ -279,7 +281,7 @@ def shooting_problem(
                if k not in ("physics", "taps")}
     if validation_history:
         raise ROMError("a grey box's validation starts from rest (validation_history = 0)")
-    return shooting(rec, trained, u, y, fs, scaler, validation, o, 0)
+    return shooting(rec, trained, u, y, fs, scaler, validation, o, 0, dtype=dtype)
 
 
 @float64
@@ -297,9 +299,11 @@ def fit_greybox(
     max_fail: int = 6,
     seed: int = 0,
     callback: Callable[[int, dict[str, float]], bool | None] | None = None,
+    precision: str = "float32",
 ) -> tuple[dict[str, np.ndarray], dict[str, object]]:
     """Train the network on the fixed column (module docstring); ``max_epochs = 0`` keeps the
-    physics alone (the network's output at zero).
+    physics alone (the network's output at zero). ``precision``: the Adam steps' (``"float32"``,
+    the NSS's, or ``"float64"``).
 
     Returns
     -------
@@ -316,7 +320,8 @@ def fit_greybox(
         return params0, {"stop_reason": "max_epochs = 0: the physics alone", "best_epoch": 0,
                          "trainer": "shooting", "n_rows": int(np.size(u)),
                          "train_seconds": 0.0}
-    problem = shooting_problem(spec, u, y, fs, scaler, params0, validation, o)
+    dtype = jnp.float64 if precision == "float64" else TRAIN_DTYPE
+    problem = shooting_problem(spec, u, y, fs, scaler, params0, validation, o, dtype=dtype)
     res = adam_epochs(problem, max_epochs=int(o.max_epochs), max_fail=max_fail,
                       min_epochs=int(o.max_epochs) // 2, rollback=10.0, seed=seed,
                       mse_scale=scaler.out_half_range**2, callback=callback)
