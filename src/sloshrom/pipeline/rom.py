@@ -269,8 +269,8 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
     k_members = int(cfg.ensemble)
     recipe = recipe_text(cfg.loss_terms(), name, cfg.arch)
     model, name, train_seconds = _train(ctx, estimator(cfg, tank=ctx.tank), name, epochs,
-                                        k_members,
-                                        int(cfg.ensemble_workers), records, train.fs, fill)
+                                        k_members, int(cfg.ensemble_workers), records,
+                                        train.fs, fill)
     ctx.progress("rom", 1, 1, "validation")
     path = ctx.path("models", f"{cfg.arch}.npz")
     model.save(path)
