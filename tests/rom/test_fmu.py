@@ -1,6 +1,7 @@
-"""FMU export: FMPy validates and runs every exportable model class to 1e-12 of ``predict``,
-the coupled beam with the FMU equals the beam with the model, the FMI semantics (step, state,
-envelope flag, feed-through), refusals, the loader's checks and the command line.
+"""FMU export: FMPy validates and runs every exportable model class to 1e-12 of ``predict`` (the
+grey box: tests/test_grey_fmu.py), the coupled beam with the FMU equals the beam with the
+model, the FMI semantics (step, state, envelope flag, feed-through), refusals, the loader's
+checks and the command line.
 
 The tolerance 1e-12 (relative to the largest force) is the issue's; measured differences are
 1e-15 to 3e-15 on this machine for every class (the same double arithmetic in C and in XLA, in
@@ -310,7 +311,7 @@ def test_what_cannot_be_exported_is_refused_with_the_reason(models, records, tmp
     cases = [(NFIR(), "the NFIR is not fitted"),
              (Ensemble(NFIR(), n_members=2), "the ensemble is not fitted"),
              (blend, "export the member identified at your fill"),
-             (object(), r"an FMU holds fitted ROMs \(NFIR, NOE, NSS, LSS\)"),
+             (object(), r"an FMU holds fitted ROMs \(NFIR, NOE, NSS, LSS, GreyBox\)"),
              (mm, "interface is SI")]
     for model, why in cases:
         with pytest.raises(ROMError, match=why):

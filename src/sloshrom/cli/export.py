@@ -46,7 +46,8 @@ def onnx_cmd(
     out dynamic_force (batch,1) N, u_state_out [+ y_state_out] to feed back (docs/interchange.md).
 
     A state-space ROM (NSS, ``train --arch nss``) is refused: its graph would need its state as
-    input and output, which is not implemented.
+    input and output, which is not implemented. A grey box is refused too, with its reason (a
+    sub-stepped column with contacts): export these as FMUs.
 
     Example: ``sloshrom export onnx results/models/nfir.npz nfir_step.onnx``
     """
@@ -130,7 +131,7 @@ FMU_PARITY = 1e-12
 @export_app.command("fmu")
 def fmu_cmd(
     model: Annotated[Path, typer.Argument(help="ROM file written by sloshrom (.npz): NFIR, "
-                                          "NOE, NSS or an ensemble.")],
+                                          "NOE, NSS, LSS, grey box or an ensemble.")],
     out: Annotated[Path, typer.Argument(help="Output FMU (.fmu).")],
     step: Annotated[float | None, typer.Option(help="The communication step your simulator "
                                                "will use, s: checked against the model's "

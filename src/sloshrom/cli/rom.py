@@ -22,7 +22,7 @@ import typer
 
 from sloshrom.cli._app import app, check_input, check_number, check_out, fail
 from sloshrom.cli.progress import progress_bars
-from sloshrom.config import FILL_TOLERANCE
+from sloshrom.config import FILL_TOLERANCE, Tank
 from sloshrom.errors import SloshromError
 from sloshrom.io import STANDARD_UNITS, Record, read_record, same_unit, write_record
 from sloshrom.limits import (
@@ -292,8 +292,8 @@ def _train(**kw: Any) -> None:
     _rules(mc, given, input=reads, training=False)
     check_number(ensemble, "--ensemble", 1, MAX_MEMBERS)
     if ensemble > 1 and not mc.ensemble:
-        fail(f"--ensemble {ensemble}: an {mc.class_name} is fitted deterministically, so its "
-             "members would be one model; train it alone")
+        fail(f"--ensemble {ensemble}: {mc.article} {mc.class_name} is fitted "
+             "deterministically, so its members would be one model; train it alone")
     seed = int(given.get("seed", 0))
     if seed + ensemble - 1 > MAX_SEED:
         fail(f"--seed {seed} with --ensemble {ensemble}: the last member's seed "
@@ -320,6 +320,9 @@ def _train(**kw: Any) -> None:
     if recipe:
         for k in mc.loss_terms:
             values.setdefault(k, choice.terms.get(k, 0.0))
+    # a class scaled by the tank (a grey box's column) takes the record's tank where it has one
+    tank_attrs = rec.attrs.get("tank")
+    values = mc.with_tank(values, Tank.from_dict(dict(tank_attrs)) if tank_attrs else None)
     try:
         model = mc.estimator_class()(**values, units=units, names=(input_name, output_name))
         with warnings.catch_warnings(record=True) as caught:
@@ -478,8 +481,8 @@ def _check_seeds(seeds: int, ensemble: int, mc: ModelClass, seed: int) -> None:
         fail(f"--seeds {seeds} with --ensemble {ensemble}: --seeds keeps the best single model, "
              "--ensemble the mean of all; give one of them")
     if seeds > 1 and not mc.ensemble:
-        fail(f"--seeds {seeds}: an {mc.class_name} is fitted deterministically, so every seed "
-             "gives the same model; train it alone")
+        fail(f"--seeds {seeds}: {mc.article} {mc.class_name} is fitted deterministically, so "
+             "every seed gives the same model; train it alone")
     if seed + seeds - 1 > MAX_SEED:
         fail(f"--seed {seed} with --seeds {seeds}: the last seed {seed + seeds - 1} exceeds "
              f"{MAX_SEED}")

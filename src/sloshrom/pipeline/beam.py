@@ -57,7 +57,7 @@ from sloshrom.fileio import OutputBatch
 from sloshrom.models import FrozenLiquid
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.settings import BeamTable
-from sloshrom.pipeline.waveform import random_fidelity
+from sloshrom.pipeline.waveform import free_fidelity, random_fidelity
 from sloshrom.plotting import savefig
 from sloshrom.plotting.beam import (
     comparison_figures,
@@ -65,6 +65,7 @@ from sloshrom.plotting.beam import (
     random_figures,
     random_window,
 )
+from sloshrom.plotting.force import force_figures
 from sloshrom.plotting.signals import base_excitation_figure
 from sloshrom.rom.ensemble import Ensemble, is_ensemble, spread
 from sloshrom.rom.loading import load_model
@@ -163,7 +164,9 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
         ``sloshrom.beam.simulation.cases.envelope_table``; ``None`` = n/a for a model without an
         envelope), ``waveform_fidelity`` (the random tests' forces of the ROM and of the rig's
         twin run against the rig's, per level:
-        :func:`sloshrom.pipeline.waveform.random_fidelity`). An ensemble ROM (each member
+        :func:`sloshrom.pipeline.waveform.random_fidelity`), ``free_fidelity`` (the ROM's
+        free-decay force over its first seconds against the rig's, paper Fig. 20c:
+        :func:`sloshrom.pipeline.waveform.free_fidelity`). An ensemble ROM (each member
         coupled alone, :func:`coupled_model`): its rows are the mean of the members'
         estimates with the combined uncertainty, and ``rom_members`` (:func:`member_spread`)
         the members' own values.
@@ -208,6 +211,8 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
                           beam_tests(cfg, modal, tank, fs, gain=gain)["random"], fs)["twin"]
     outputs["waveform_fidelity"] = random_fidelity(rand_res, twin, cfg.rms_g, gain,
                                                    time.perf_counter() - t0)
+    # the free decay's first seconds, the violent part (paper Fig. 20c)
+    outputs["free_fidelity"] = free_fidelity(free_res)
     ctx.progress("beam", steps, steps, "analysis and figures")
 
     decays = {case: mode1_decay(r, modal, f1) for case, r in free_res.items()}
@@ -248,6 +253,11 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
             **comparison_figures(exp_random, predicted_random)}
     figs["fig17_base_excitation"] = base_excitation_figure(rand_res["frozen"], cfg.rms_g,
                                                            cfg.f0, cfg.sigma, fs)
+    ff = outputs["free_fidelity"].get("rom")
+    figs.update(force_figures(
+        {c: free_res[c] for c in ("rig", "rom") if c in free_res},
+        {**{c: rand_res[c] for c in ("rig", "rom") if c in rand_res}, "twin": twin},
+        cfg.rms_g, fs, {"rom": ff} if isinstance(ff, dict) else None))
     # every result file of the stage appears together, once everything above has succeeded
     with OutputBatch() as batch:
         for case in models:

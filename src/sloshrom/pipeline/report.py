@@ -354,12 +354,13 @@ def _design_tables(d: dict[str, Any]) -> list[Table]:
                   "Tank motion of the beam tests with frozen liquid: what the training covers.")]
 
 
-def _waveform_rows(test: str, wf: object) -> list[list[str]]:
+def _waveform_rows(test: str, wf: object, twin: bool = True) -> list[list[str]]:
     """Rows rig / ROM / twin of one test's waveform figures (``waveform_fidelity`` of a stage:
-    ``rom`` and ``twin``, each :func:`sloshrom.fidelity.waveform_fidelity`)."""
+    ``rom`` and ``twin``, each :func:`sloshrom.fidelity.waveform_fidelity`; ``twin`` False:
+    a test without a twin run, whose ``twin`` entry holds the rig's own figures only)."""
     if not isinstance(wf, dict) or not isinstance(wf.get("twin"), dict):
         return []
-    twin = wf["twin"]
+    ref = wf["twin"]
 
     def num(v: object, fmt: str) -> str:
         ok = isinstance(v, int | float) and np.isfinite(v)
@@ -368,13 +369,14 @@ def _waveform_rows(test: str, wf: object) -> list[list[str]]:
     def peaks(q: object) -> str:
         return " / ".join(num(v, "{:.3g}") for v in q) if isinstance(q, list) and q else "n/a"
 
-    rows = [[test, "rig", "", "1", num(twin["hf_ratio_reference"], "{:.3g}"),
-             num(twin["impact_rate_reference"], "{:.2f}"),
-             peaks(twin["peak_quantiles_reference"])]]
+    rows = [[test, "rig", "", "1", num(ref["hf_ratio_reference"], "{:.3g}"),
+             num(ref["impact_rate_reference"], "{:.2f}"),
+             peaks(ref["peak_quantiles_reference"])]]
     gain = wf.get("twin_gain")
-    runs = [("ROM", wf.get("rom")),
-            (f"rig, input × {gain:g} (twin)" if isinstance(gain, int | float) else "rig twin",
-             twin)]
+    runs = [("ROM", wf.get("rom"))]
+    if twin:
+        runs.append((f"rig, input × {gain:g} (twin)" if isinstance(gain, int | float)
+                     else "rig twin", wf["twin"]))
     for run, f in runs:
         if isinstance(f, dict):
             rows.append([test, run, num(f["fit"], "{:.1f}"), num(f["rms_ratio"], "{:.3f}"),
@@ -389,6 +391,14 @@ def waveform_table(rom: object, beam: object) -> list[Table]:
     empty for stages cached before the figures were recorded."""
     rows = _waveform_rows("validation record",
                           rom.get("waveform_fidelity") if isinstance(rom, dict) else None)
+    ff = beam.get("free_fidelity") if isinstance(beam, dict) else None
+    if isinstance(ff, dict) and isinstance(ff.get("rom"), dict):
+        rows += _waveform_rows(f"beam free decay, first {ff['seconds']:g} s",
+                               {"rom": ff["rom"], "twin": {
+                                   k: ff["rom"][k] for k in ("hf_ratio_reference",
+                                                             "impact_rate_reference",
+                                                             "peak_quantiles_reference")}},
+                               twin=False)
     wf = beam.get("waveform_fidelity") if isinstance(beam, dict) else None
     if isinstance(wf, dict):
         for level, per in wf.get("levels", {}).items():
@@ -515,6 +525,9 @@ def _beam_sections(ctx: Context, b: dict[str, Any],
                   "filtering: sloshing damps mode 1 most.")
             + fig("fig20_tank_interface_dynamic", "Fig. 20 — tank acceleration, interface force"
                   " and dynamic sloshing force.")
+            + fig("fig20c_dynamic_force_start", "Fig. 20c — the dynamic sloshing force in the "
+                  "first 2 s after the release, ROM against the rig (the violent impacts; the "
+                  "paper: \"in good agreement\").")
             + fig("fig21_instantaneous_damping", "Fig. 21 — first-mode instantaneous damping "
                   "against tank acceleration amplitude (Hilbert envelope, log-decrement dots).")
             + fig("fig21_comparison", "Fig. 21, as the paper sets it: the rig as the "
@@ -537,6 +550,10 @@ def _beam_sections(ctx: Context, b: dict[str, Any],
                   "window: rig, ROM and frozen.")
             + fig("fig23_psd", "Fig. 23 — Welch PSDs of the tank acceleration: sloshing lowers "
                   "the resonance peak.")
+            + fig("force_statistics_random", "The force the structure feels, per level: Welch "
+                  "spectra of the dynamic force and of the tank acceleration up to 250 Hz, and "
+                  "the distribution of the impacts' peaks (downward peaks beyond 3 times the "
+                  "rig's RMS), the ROM beside the rig and the rig's twin run.")
             + fig("table2_comparison", "Table 2 as intervals: the rig as the laboratory "
                   "(squares) and the predictions, each estimate with its 95 % interval."),
             [*tables2, *experiment_tables(b.get("experiment"), "random"),

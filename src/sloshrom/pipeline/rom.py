@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from sloshrom.config import Tank
 from sloshrom.energy import frame_sensitivity
 from sloshrom.fidelity import point_errors
 from sloshrom.io import read_record
@@ -95,8 +96,8 @@ def stage_sweep(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[s
             f"configured {cfg.name()}, "
             + ("as the paper's selection, not necessarily the lowest score."
                if cfg.arch in {p[0] for p in pts}
-               else f"an {CLASSES[cfg.arch].class_name} outside this grid of "
-                    f"{'/'.join(mc.class_name for mc in swept())} networks."))
+               else f"{CLASSES[cfg.arch].article} {CLASSES[cfg.arch].class_name} outside this "
+                    f"grid of {'/'.join(mc.class_name for mc in swept())} networks."))
     table = [[r["arch"].upper(), r["delays"], r["neurons"],
               r["score"] if not r["unstable"] else "unstable", "no" if r["unstable"] else "yes"]
              for r in sorted(rows, key=lambda r: (r["arch"], r["delays"], r["neurons"]))]
@@ -170,11 +171,14 @@ def recipe_text(terms: Mapping[str, float], name: str, arch: str | None = None) 
             "the maps.")
 
 
-def estimator(cfg: RomTable, arch: str | None = None) -> Any:
+def estimator(cfg: RomTable, arch: str | None = None, tank: Tank | None = None) -> Any:
     """The unfitted estimator of class ``arch`` (default: the configured one) as its table
-    ``[rom.<arch>]`` and ``rom.seed`` say (:mod:`sloshrom.rom.registry`)."""
+    ``[rom.<arch>]`` and ``rom.seed`` say (:mod:`sloshrom.rom.registry`), its tank's
+    quantities left at 0 taken from ``tank``
+    (:meth:`~sloshrom.rom.registry.ModelClass.with_tank`)."""
     arch = cfg.arch if arch is None else arch
-    return CLASSES[arch].estimator_class()(**cfg.hyper(arch))
+    mc = CLASSES[arch]
+    return mc.estimator_class()(**mc.with_tank(cfg.hyper(arch), tank))
 
 
 def _median_after_compile(history: dict[str, Any], key: str) -> float | None:
@@ -264,8 +268,9 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
     fill = train.attrs.get("fill")  # the model refuses other fills (sloshrom.rom.family)
     k_members = int(cfg.ensemble)
     recipe = recipe_text(cfg.loss_terms(), name, cfg.arch)
-    model, name, train_seconds = _train(ctx, estimator(cfg), name, epochs, k_members,
-                                        int(cfg.ensemble_workers), records, train.fs, fill)
+    model, name, train_seconds = _train(ctx, estimator(cfg, tank=ctx.tank), name, epochs,
+                                        k_members, int(cfg.ensemble_workers), records,
+                                        train.fs, fill)
     ctx.progress("rom", 1, 1, "validation")
     path = ctx.path("models", f"{cfg.arch}.npz")
     model.save(path)
@@ -308,7 +313,7 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
         # another class on the same records, as its own table says, for the report to set
         # beside the ROM (the paper's NFIR, the best linear model)
         hyper = cfg.hyper(arch)
-        other, other_name, seconds = _train(ctx, estimator(cfg, arch), cfg.name(arch),
+        other, other_name, seconds = _train(ctx, estimator(cfg, arch, ctx.tank), cfg.name(arch),
                                             int(hyper.get("max_epochs", 0)), 1, 1, records,
                                             train.fs, fill)
         other_path = ctx.path("models", f"{arch}.npz")

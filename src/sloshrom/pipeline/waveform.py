@@ -21,7 +21,10 @@ import numpy as np
 
 from sloshrom.fidelity import Figures, waveform_fidelity
 
-__all__ = ["random_fidelity", "validation_fidelity"]
+__all__ = ["FREE_SECONDS", "free_fidelity", "random_fidelity", "validation_fidelity"]
+
+#: The free decay's first seconds judged (paper Fig. 20c: the violent impacts after the release)
+FREE_SECONDS = 2.0
 
 
 def _forces(result: Mapping[str, object]) -> tuple[np.ndarray, float]:
@@ -90,3 +93,32 @@ def random_fidelity(results: Mapping[str, Mapping[str, object]], twin: Mapping[s
         per_level[f"{level:g}"] = {case: waveform_fidelity(ref[j], force[j], fs)
                                    for case, (force, fs) in others.items()}
     return {"twin_gain": float(gain), "twin_seconds": float(seconds), "levels": per_level}
+
+
+def free_fidelity(results: Mapping[str, Mapping[str, object]], seconds: float = FREE_SECONDS
+                  ) -> dict[str, float | Figures]:
+    """The waveform figures of the ROM's free decay over its first ``seconds`` (paper Fig.
+    20c), against the rig's.
+
+    Parameters
+    ----------
+    results : mapping
+        Case -> the free decay's result dict (``"rig"`` the reference, ``"rom"`` judged):
+        ``dynamic_force`` (N, shape (n,)) at ``fs`` (Hz).
+    seconds : float
+        The window judged, s.
+
+    Returns
+    -------
+    dict
+        ``seconds`` and, with a ROM, ``rom``: :func:`sloshrom.fidelity.waveform_fidelity`
+        against the rig over the window.
+    """
+    out: dict[str, float | Figures] = {"seconds": float(seconds)}
+    if "rom" not in results:
+        return out
+    ref, fs = _forces(results["rig"])
+    rom, _ = _forces(results["rom"])
+    n = min(ref.shape[-1], int(round(seconds * fs)) + 1)
+    out["rom"] = waveform_fidelity(ref[0, :n], rom[0, :n], fs)
+    return out

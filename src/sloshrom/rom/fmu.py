@@ -25,7 +25,8 @@ variable                  causality   meaning
 (Read-only parameters are FMI *calculated parameters*; one the model does not know is left
 out.) At a communication point ``t_k``, the inputs are the tank's signals at ``t_k`` and
 ``dynamic_force`` is the model's force at sample k: an NFIR or NOE reads past inputs only
-(no direct feed-through), a state-space ROM (NSS) also the input at ``t_k``.
+(no direct feed-through), a state-space ROM (NSS) also the input at ``t_k``; a grey box
+reads its state only (its column's step runs once ``t_k``'s input is set, in ``fmi2DoStep``).
 ``fmi2DoStep(t_k, dt)`` moves the state to ``t_{k+1}``; the state starts at rest. Another step
 size, or a communication point more than half a step from the last one plus its step (a skipped
 or repeated step; a master's clock ``t += h`` is fine however long it runs), is an
@@ -40,7 +41,8 @@ What is inside (:func:`export_fmu`):
 
 ``sources/``
     ``sloshrom_model.h``, ``sloshrom_kernels.c`` (delay lines, scaler, normalised RBF layer, the
-    NOE's and the NSS's recurrences, an ensemble's mean), ``sloshrom_fmi2.c`` (the FMI 2.0
+    NOE's and the NSS's recurrences, the grey box's column and network, an ensemble's mean),
+    ``sloshrom_fmi2.c`` (the FMI 2.0
     co-simulation functions), the generated ``sloshrom_model_data.c`` (architecture and every
     parameter, written to 17 significant digits: the doubles exactly) and the FMI 2.0 headers
     (the standard's: ``FMI2_FUNCTION_PREFIX`` prefixes the internal names too, so several
@@ -50,7 +52,8 @@ What is inside (:func:`export_fmu`):
 ``binaries/<platform>/<modelIdentifier>.so|.dll|.dylib``
     Compiled here with the machine's C compiler through CMake (FMPy's build project), unless a
     source-only FMU is asked for. It exports the ``fmi2`` functions only, and on Linux needs
-    glibc 2.17 at most (``exp`` bound to its oldest version: ``sloshrom_kernels.c``).
+    glibc 2.17 at most (``exp`` and ``pow`` bound to their oldest versions:
+    ``sloshrom_kernels.c``).
 
 :func:`load_fmu` (:mod:`sloshrom.rom.fmu_runtime`, the runtime half; re-exported here) reads
 such an FMU back as a sloshing model (:class:`FMUModel`) that steps the native code through
@@ -145,13 +148,15 @@ def _refusal(model: Any) -> str:
 def check_fmu_exportable(model: Any) -> list[FittedNetwork]:
     """The networks of ``model`` if it can be exported, else :class:`ROMError` saying why.
 
-    Exportable: a fitted NFIR, NOE or NSS, or an ensemble of them, mapping the tank velocity
-    (m/s) or, for a network on it, the tank acceleration (m/s^2) to the dynamic force (N).
+    Exportable: a fitted model of a class that lists ``"fmu"`` among its exports (NFIR, NOE,
+    NSS, LSS, the grey box), or an ensemble of them, mapping the tank velocity (m/s) or, for a
+    network on it, the tank acceleration (m/s^2) to the dynamic force (N).
 
     Raises
     ------
     ROMError
-        An unfitted model, a fill family or blend, the bouncing ball, a model of other units.
+        An unfitted model, a fill family or blend, the bouncing ball, a model of other units,
+        a class that does not export to an FMU (with its note on why, if it has one).
     """
     nets = _networks(model)
     kind = input_of(model)
@@ -162,7 +167,9 @@ def check_fmu_exportable(model: Any) -> list[FittedNetwork]:
                        "it on records converted to SI (Record.to_si)")
     for net in nets:
         if "fmu" not in net.model_class.exports:
-            raise ROMError(f"an {net.model_class.class_name} cannot be exported to an FMU")
+            note = net.model_class.export_notes.get("fmu")
+            raise ROMError(f"the {net.describe()} cannot be exported to an FMU"
+                           + (f": {note}" if note is not None else ""))
         if net.input != kind:
             raise ROMError("the ensemble's members read different signals")
     return nets
@@ -263,7 +270,7 @@ def model_data_source(model: Any, guid: str = "") -> str:
 
     Parameters
     ----------
-    model : NFIR, NOE, NSS or Ensemble
+    model : ROM or Ensemble
         Fitted (:func:`check_fmu_exportable`).
     guid : str
         The FMU's GUID, compiled in (the binary refuses a modelDescription of another export).
@@ -321,7 +328,7 @@ def model_description(model: Any, identifier: str, guid: str, sources: Sequence[
 
     Parameters
     ----------
-    model : NFIR, NOE, NSS or Ensemble
+    model : ROM or Ensemble
         Fitted.
     identifier : str
         ``modelIdentifier``: the name of the binary.
@@ -557,7 +564,7 @@ def export_fmu(model: Any, path: str | Path, *, binary: bool = True,
 
     Parameters
     ----------
-    model : NFIR, NOE, NSS or Ensemble
+    model : ROM or Ensemble
         Fitted, SI units (:func:`check_fmu_exportable`).
     path : str or Path
         Output ``.fmu``; its stem, made a C identifier, is the model identifier.

@@ -358,6 +358,10 @@ class _History(_Strict):
     trainer: Literal["fast", "lm", "adam", "shooting"] | None = None
     n_rows: Annotated[int, Field(ge=0, le=10**12)] | None = None
     train_seconds: Annotated[float, Field(allow_inf_nan=False, ge=0.0)] | None = None
+    # a class's own figures of an identification before its training (a grey box's search
+    # of its physical parameters: the values found, the score, the generations, the seconds)
+    search: Annotated[dict[Unit, Annotated[float, Field(allow_inf_nan=False)]],
+                      Field(max_length=64)] | None = None
 
 
 TwoUnits = Annotated[list[Unit], Field(min_length=2, max_length=2)]

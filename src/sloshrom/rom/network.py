@@ -126,8 +126,9 @@ class FittedNetwork:
 
     def fmu_member(self) -> tuple[str, dict[str, np.ndarray], dict[str, float | int | str]]:
         """The network as a member of an FMU's C model (``sloshrom_model.h``, ``SlMember``):
-        its kernel (``"SL_NFIR"``, ``"SL_NOE"``, ``"SL_NSS"``), its arrays by field name (int
-        arrays for delays) and its scalar fields (ints, doubles or C enumerators)."""
+        its kernel (``"SL_NFIR"``, ``"SL_NOE"``, ``"SL_NSS"``, ``"SL_GREY"``), its arrays by
+        field name (int arrays for delays) and its scalar fields (ints, doubles or C
+        enumerators)."""
         raise NotImplementedError
 
     @property

@@ -197,7 +197,8 @@ def _metadata(model: ROM, form: str, dtype: np.dtype) -> dict[str, str]:
 
 def check_exportable(model: Any) -> None:
     """ROMError unless ``model`` is one NFIR or NOE network (what an ONNX graph holds); a
-    state-space network (NSS) is refused with the reason."""
+    state-space network (NSS) is refused with the reason, and a class with a note on ONNX
+    (:attr:`~sloshrom.rom.registry.ModelClass.export_notes`) with its note."""
     if is_ensemble(model):
         raise ROMError(
             f"an ensemble ({len(model.members_)} {model.member_class} members) cannot be "
@@ -206,6 +207,9 @@ def check_exportable(model: Any) -> None:
         )
     net = network_of(model)
     if net is not None and "onnx" not in net.model_class.exports:
+        note = net.model_class.export_notes.get("onnx")
+        if note is not None:  # the class says why
+            raise ROMError(f"the {net.describe()} cannot be exported to ONNX: {note}")
         held = " or ".join(mc.class_name for mc in CLASSES.values() if "onnx" in mc.exports)
         raise ROMError(f"an {net.describe()} cannot be exported to ONNX: a graph holds one "
                        f"{held} network; a state-space ROM's step graph would need its "

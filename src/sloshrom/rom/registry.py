@@ -66,6 +66,7 @@ ENTRIES: tuple[str, ...] = (
     "sloshrom.rom.tdnn.entry:NOE_CLASS",
     "sloshrom.rom.nss.entry:NSS_CLASS",
     "sloshrom.rom.lss.entry:LSS_CLASS",
+    "sloshrom.rom.grey.entry:GREY_CLASS",
     "sloshrom.rom.ball.entry:BALL_FILES",
 )
 
@@ -336,6 +337,10 @@ class ModelClass:
         take their ``file_default``).
     exports : frozenset of str
         The formats it exports to (``"fmu"``, ``"onnx"``).
+    export_notes : mapping
+        ``{format: why not}`` for formats it does not export to: the exporter's refusal says
+        it (a clause, e.g. ``"its column is a sub-stepped simulation ..."``); a format without a
+        note gets the exporter's general reason.
     width : callable
         ``width(hyper) -> int``: entries of the vector its maps read at each step (a
         time-delay network's regressor, a state-space model's state and input): a model file
@@ -385,6 +390,13 @@ class ModelClass:
         The flat ``[rom]`` keys of the configuration that were this class's before each class
         had its table, each the name of its key now (``rom.<name>.<key>``); read with a
         warning.
+    article : str
+        The article before its class name in a sentence (``"an"`` NSS, ``"a"`` GreyBox).
+    tank_scales : tuple of str
+        Hyperparameters that are the tank's quantity of the same name (an attribute of
+        :class:`~sloshrom.config.Tank`, e.g. ``liquid_mass``): 0 means "the tank's", which
+        ``reproduce`` takes from its ``[tank]`` and ``train`` from the record's tank
+        (:meth:`with_tank`).
     """
 
     name: str
@@ -404,6 +416,7 @@ class ModelClass:
     format_version: int = 1
     read_versions: tuple[int, ...] = ()
     exports: frozenset[str] = frozenset()
+    export_notes: Mapping[str, str] = field(default_factory=dict)
     width: Callable[[Mapping[str, Any]], int] = lambda h: 1
     sizes: tuple[str, ...] = ()
     weights: Callable[[Mapping[str, Any]], int] | None = None
@@ -421,6 +434,8 @@ class ModelClass:
     sweep_first: bool = False
     quick: Mapping[str, int | float | str] = field(default_factory=dict)
     former_keys: Mapping[str, str] = field(default_factory=dict)
+    tank_scales: tuple[str, ...] = ()
+    article: str = "an"
 
     def size(self, n_samples: int, given: Mapping[str, int]) -> dict[str, int]:
         """The values the size rule chooses for a training record of ``n_samples`` samples:
@@ -548,8 +563,8 @@ class ModelClass:
         if input not in self.inputs:
             readers = " or ".join(naming.arch(mc) for mc in CLASSES.values()
                                   if input in mc.inputs)
-            raise ROMError(f"{naming.input(input)}: an {self.class_name} takes the tank "
-                           f"{' or '.join(self.inputs)}"
+            raise ROMError(f"{naming.input(input)}: {self.article} {self.class_name} takes the "
+                           f"tank {' or '.join(self.inputs)}"
                            + (f"; the {input} needs {readers}" if readers else ""))
         if not training:
             return h
@@ -600,6 +615,17 @@ class ModelClass:
                 return h
         raise ROMError(f"{self.class_name} has no hyperparameter {name!r} (valid: "
                        f"{', '.join(h.name for h in self.hyper)})")
+
+    def with_tank(self, hyper: Mapping[str, object], tank: object) -> dict[str, object]:
+        """``hyper`` with each of :attr:`tank_scales` left at 0 (or absent) set to ``tank``'s
+        quantity of that name; ``tank`` None leaves them (the estimator's own fallback)."""
+        out = dict(hyper)
+        if tank is None:
+            return out
+        for k in self.tank_scales:
+            if not out.get(k):
+                out[k] = float(getattr(tank, k))
+        return out
 
     def defaults(self) -> dict[str, Any]:
         """Every hyperparameter's default by name (the one place they are written)."""
@@ -717,6 +743,10 @@ def _add(entry: object, where: str) -> None:
         return
     if not isinstance(entry, ModelClass):
         raise ROMError(f"{where} is not a ModelClass or a FileKind, got {type(entry).__name__}")
+    both = sorted(set(entry.export_notes) & entry.exports)
+    if both:
+        raise ROMError(f"{where}: {entry.class_name} exports to {both[0]!r} and has a note on why "
+                       "it does not (export_notes are for the formats it does not list)")
     for mc in _classes.values():
         if entry.name in (mc.name, mc.class_name) or entry.class_name in (mc.name,
                                                                           mc.class_name):

@@ -77,6 +77,13 @@ class Recurrence:
         ``history_run(params, u_past, y_past, u) -> y``: the scaled run (float64, NumPy) of
         ``u`` started from the measured history ``u_past``/``y_past`` (scaled, oldest first):
         a validation record that does not start at rest.
+    features : callable, optional
+        ``features(v) -> phi``: inputs beside the input that the class computes from it by a
+        fixed causal map (a grey box's physics): from physical input records ``v`` ``(B, n)``
+        the scaled features ``(B, n, m)``. With it, ``simulate`` receives ``(B, T, 1 + m)``:
+        the scaled input (shifted by the augmentation) and the features of each sample,
+        computed once for the training record and the probes (the augmentation's shift does
+        not reach them: they must not depend on the input's uniform offset).
     """
 
     offset: int
@@ -87,6 +94,7 @@ class Recurrence:
     free_run: Callable[[PyTree, np.ndarray], np.ndarray]
     bound: float = 10.0
     history_run: Callable[[PyTree, np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None
+    features: Callable[[np.ndarray], np.ndarray] | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -161,6 +169,7 @@ def shooting_problem(
     validation: tuple[np.ndarray, np.ndarray] | None,
     options: ShootingOptions,
     validation_history: int = 0,
+    dtype: type = TRAIN_DTYPE,
 ) -> AdamProblem:
     """The multiple-shooting problem of a recurrent class for the training engine
     (:func:`sloshrom.rom.engine.adam_epochs`).
@@ -185,6 +194,9 @@ def shooting_problem(
     validation_history : int
         The validation record's first samples that are measured history: its run starts from
         them (``rec.history_run``) and is scored on the rest; 0: from rest, all scored.
+    dtype : type
+        The precision of the Adam steps (:data:`~sloshrom.rom.losses.TRAIN_DTYPE`, float32, by
+        default; ``params0`` and the states of ``rec`` in it).
 
     Returns
     -------
@@ -200,7 +212,7 @@ def shooting_problem(
     y = np.asarray(y, dtype=np.float64)
     n, T, off = u.size, int(o.horizon), int(rec.offset)
     sc = scaler
-    f32 = TRAIN_DTYPE
+    f32 = dtype
     u_s, y_s = jnp.asarray(sc.u(u), f32), jnp.asarray(sc.y(y), f32)
     wts = jnp.asarray(amplitude_weights(u, fs, amplitude_weighting) if amplitude_weighting > 0
                       else np.ones(n), f32)
@@ -215,13 +227,22 @@ def shooting_problem(
     pw = jnp.asarray(probes.weight if probes is not None else np.zeros((1, T)), f32)
 
     # a physical velocity offset in scaled units (the scaling is affine)
-    shift_scale = float(sc.u(1.0) - sc.u(0.0)) * float(o.velocity_offset)
+    unit = float(sc.u(1.0) - sc.u(0.0))
+    shift_scale = unit * float(o.velocity_offset)
+    feats = None
+    if rec.features is not None:
+        # the features beside the input, once: the record's, and the probes' (from rest)
+        feats = jnp.asarray(rec.features(u[None])[0], f32)
+        pv = (np.asarray(pu, dtype=np.float64) - float(sc.u(0.0))) / unit
+        pu = jnp.concatenate([pu[..., None], jnp.asarray(rec.features(pv), f32)], axis=-1)
 
     def loss(p: PyTree, starts: jax.Array, pidx: jax.Array,
              shift: jax.Array) -> tuple[jax.Array, jax.Array]:
         state = rec.start(p, starts, shift)
         fut = starts[:, None] + off + jnp.arange(T)[None, :]
         uf = u_s[fut] + shift[:, None]
+        if feats is not None:
+            uf = jnp.concatenate([uf[..., None], feats[fut]], axis=-1)
         if n_probe:
             # the probes run from rest in the same batch
             state = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a, b]), state,
@@ -249,7 +270,7 @@ def shooting_problem(
         # drawn after the others: without augmentation the same draws as before
         shift = (rng.uniform(-shift_scale, shift_scale, (steps_per_epoch, batch))
                  if shift_scale > 0 else np.zeros((steps_per_epoch, batch)))
-        return starts, pidx, shift.astype(np.float32)
+        return starts, pidx, shift.astype(np.dtype(f32))
 
     # validation: the free run of the whole record from rest (or of the rest of it from its
     # measured history), scored like the training loss

@@ -14,10 +14,11 @@
  *
  * Semantics at a communication point t_k = t_0 + k dt: the inputs are the tank's signals at t_k;
  * dynamic_force is the model's force at sample k (NFIR, NOE: from the past inputs only; NSS:
- * also from the input at t_k); fmi2DoStep(t_k, dt) moves the state to t_{k+1}. The state starts
- * at rest. The only communication step is the model's dt (fmi2DoStep refuses any other). The
- * next communication point is the last one plus its step (FMI 2.0), within half a step: a
- * master that adds up its clock (t += h) runs for ever, a skipped or repeated step is refused.
+ * also from the input at t_k; GREY: from its state only); fmi2DoStep(t_k, dt) moves the state
+ * (a grey box's column with it) to t_{k+1}. The state starts at rest. The only communication
+ * step is the model's dt (fmi2DoStep refuses any other). The next communication point is the
+ * last one plus its step (FMI 2.0), within half a step: a master that adds up its clock
+ * (t += h) runs for ever, a skipped or repeated step is refused.
  *
  * The calls follow the FMI 2.0 co-simulation state machine (instantiated, initialization mode,
  * stepping, terminated, error); a call its state does not allow is an fmi2Error with a logged

@@ -10,11 +10,28 @@
  *   NSS   y_k = H(x_k, s(u_k)) - H(0, r_u) + r_y,
  *         x_{k+1} = x_k + F(x_k, s(u_k)) - F(0, r_u),  r_u = s(0), r_y = s_y(0)
  *
+ *   GREY  y_k = r_y + phi_k[0] + H(o_k) - H(0),   o_k = [x_k, phi_k]
+ *         x_{k+1} = x_k + F(z_k) - F(0),          z_k = [x_k, s(u_k) - r_u, phi_k]
+ *         then the column's step with u_k gives phi_{k+1}
+ *
  * with the normalised radial-basis layer rbf(x) = sum_j c_j softmax(-n^2)_j + c_0,
  * n_j = W_j . x + b_j ("matlab") or n_j^2 = b_j^2 |x - W_j|^2 ("distance"), and
  * F(z) = z A + tanh(z W1 + b1) W2, H(z) = z C + tanh(z V1 + d1) V2 (row-major matrices).
  * The state of a member is its delay lines (NFIR, NOE) or x (NSS), in scaled units; the rest
  * state gives zero force with the tank at rest.
+ *
+ * The grey box (GREY) is a network of that form beside a physical model, an impacting liquid
+ * column (sloshrom.rom.grey.physics): n_balls point masses released one after the other by a
+ * Rayleigh-Taylor gate while the tank pulls the liquid down faster than gravity, flying through
+ * the ullage and landing on compressive-only spring-dashpot contacts. Each sample interval is
+ * n_substeps semi-implicit Euler sub-steps with the tank acceleration held. At each step the
+ * interval that ends at t_k is committed with a = (u_k - u_{k-1}) fs, the two after it are
+ * predicted with 2 a - a_prev and 3 a - 2 a_prev, and phi_{k+1} (N, divided by the output's half
+ * range) is the filtered force (taps on the predicted sub-step forces and the committed ones of
+ * the last n_past - 1 intervals, newest first) and the three intervals' mean forces. The output
+ * at t_k reads the state only (strictly proper). Its state: x, the balls' positions, velocities
+ * and attachments, the gate, the low-passed acceleration level, a_prev, u_{k-1}, the committed
+ * sub-step forces and phi, all doubles.
  *
  * This file is part of the sources that sloshrom writes into every FMU it exports.
  */
@@ -53,12 +70,13 @@
 #define SL_NFIR 0
 #define SL_NOE 1
 #define SL_NSS 2
+#define SL_GREY 3
 
 #define SL_HIDDEN_MATLAB 0
 #define SL_HIDDEN_DISTANCE 1
 
 typedef struct {
-    int arch;             /* SL_NFIR, SL_NOE or SL_NSS */
+    int arch;             /* SL_NFIR, SL_NOE, SL_NSS or SL_GREY */
     int hidden;           /* SL_HIDDEN_MATLAB or SL_HIDDEN_DISTANCE (NFIR, NOE) */
     int n_delays;         /* input delays (NFIR, NOE) */
     const int *delays;    /* samples, each >= 1 */
@@ -69,9 +87,18 @@ typedef struct {
     const double *b;      /* (neurons) */
     const double *c;      /* (neurons) */
     double c0;
-    int n_states;         /* NSS: dimension of x */
-    const double *A, *W1, *b1, *W2;   /* (nz, nx), (nz, H), (H), (H, nx); nz = nx + 1 */
-    const double *C, *V1, *d1, *V2;   /* (nz), (nz, H), (H), (H) */
+    int n_states;         /* NSS, GREY: dimension of x */
+    /* NSS: nz = no = nx + 1; GREY: nz = nx + 5 (state, input, features), no = nx + 4 */
+    const double *A, *W1, *b1, *W2;   /* (nz, nx), (nz, H), (H), (H, nx) */
+    const double *C, *V1, *d1, *V2;   /* (no), (no, H), (H), (H) */
+    /* GREY: the column */
+    int n_balls, n_substeps, n_past;
+    const double *physics;  /* mass (kg), stiffness (1/s^2), damping (1/s), gap (m),
+                               gate_rate (1/s), gate_relaxation (s), coherence_g (g) */
+    const double *taps;     /* ((n_past + 1) n_substeps): the output filter */
+    double fs;              /* Hz: the sample rate the column's step reads */
+    double g;               /* m/s^2: standard gravity */
+    double coherence_time;  /* s: time constant of the coherence factor's acceleration level */
     double in_min, in_max, out_min, out_max;  /* scaler bounds, physical units */
     double unstable_bound;  /* |scaled output| beyond this (or not finite): unstable */
 } SlMember;
@@ -91,7 +118,8 @@ typedef struct {
 
 extern SL_INTERNAL const SlModel SL_MODEL;
 
-/* doubles of state, of rest terms (constants of the NSS) and of scratch one member needs */
+/* doubles of state, of rest terms (constants of the NSS and GREY) and of scratch one member
+ * needs */
 SL_INTERNAL size_t sl_state_size(const SlMember *m);
 SL_INTERNAL size_t sl_rest_size(const SlMember *m);
 SL_INTERNAL size_t sl_scratch_size(const SlMember *m);
@@ -102,7 +130,7 @@ SL_INTERNAL double sl_output(const SlMember *m, const double *state, const doubl
                              double u, double *scratch);
 /* advance the state by one sample, given the current input u (physical) and the scaled output
  * y_s that sl_output gave for it; call it right after that sl_output, with the same scratch
- * (the NSS reuses its map F from there) */
+ * (the NSS reuses its map F from there; GREY recomputes what it needs) */
 SL_INTERNAL void sl_advance(const SlMember *m, double *state, const double *rest, double u,
                             double y_s, double *scratch);
 /* physical output from the scaled one */

@@ -1,0 +1,379 @@
+"""The physical part of the grey-box ROM: an impacting liquid column behind a release gate.
+
+The liquid that takes part in the impacts is ``n_balls`` equal point masses ("balls") of total
+mass ``mass`` (kg), each moving vertically in the gap between the liquid surface at rest
+(``z = 0``) and the lid (``z = gap``, m), relative to the tank, up positive; the rest of the
+liquid moves with the tank. ``g_eff = g + w''`` (``w''`` the tank's vertical acceleration):
+
+* **Release gate** (Rayleigh-Taylor): a bubble-front fraction ``s`` in [0, 1] grows while the
+  tank pulls the liquid down faster than gravity (``g_eff < 0``) as
+  ``s' = gate_rate (|g_eff| / g)^(1/4)`` (the growth of the fastest capillary-gravity
+  wavelength scales so) and relaxes as ``s' = -s / gate_relaxation`` otherwise; ball ``i`` is
+  released while ``g_eff < 0`` once ``s >= (i + 1/2) / n_balls``. This finite detachment time is
+  what makes the dissipation depend on frequency (a single ball released at once is the
+  classical bouncing-ball model, which fits one frequency only).
+* **Flight and contacts**: a released ball flies with ``z'' = -g_eff``; against the floor
+  (``z < 0``) or the lid (``z > gap``) a compressive-only spring-dashpot acts (per unit mass:
+  ``stiffness`` 1/s^2, ``damping`` 1/s); a ball that lands on the floor and starts to rebound
+  while ``g_eff > 0`` re-attaches (the rest of its energy is lost).
+* **Coherence**: above a few g the fragmented column transmits less momentum: the force is
+  multiplied by ``chi = 1 / (1 + (Gamma_lp / coherence_g)^2)``, ``Gamma_lp`` the acceleration
+  level ``(pi / 2) |w''| / g`` low-passed with a 0.2 s time constant.
+* **Force**: ``dF = -chi m_b sum(z_i'')``: minus the balls' mass times their acceleration
+  relative to the tank (N, the package's dynamic force).
+
+Time: each sample interval is ``n_substeps`` semi-implicit Euler sub-steps with the tank
+acceleration held (a contact lasts a few ms; the sub-steps resolve it, and the gate's release
+instants to a sub-step).
+
+**Strictly proper, with a look-ahead.** The output at sample ``k`` may not read the input at
+``k``. After the input ``u_k`` arrives, the interval ``[t_{k-1}, t_k]`` is *committed* with its
+exact mean acceleration ``a = (u_k - u_{k-1}) fs`` (the state goes on from there), and the two
+next intervals are *predicted* from the committed state with the acceleration extrapolated
+linearly (``2 a - a_prev`` and ``3 a - 2 a_prev``). The output at ``k + 1`` is a linear filter
+(``taps``, fitted by least squares) of the sub-step forces of the predicted interval around
+``t_{k+1}``, the one after it, and the ``n_past - 1`` committed intervals before: a measured
+impact is spread by the sensors' zero-phase filters on both sides of its instant, and only a
+model that knows it a sample ahead can put the force where the record has it (the record's own
+physics, a causal average of the force over the last sample, fits it to 28 %, docs/rom.md).
+
+Three implementations of one step, the same operations in the same order: numba for the
+identification and for whole records (:func:`causal_intervals`: many candidate parameter sets
+and windows at once, in parallel; the fitted model's ``predict`` and the maps), JAX for the
+fitted model's step (:func:`physics_step`, traced into the coupled beam), and C for the FMU
+(``rom/fmu_c/``). The numba and C columns agree to the last bit; XLA's ``exp`` differs from
+glibc's in the last bit of some arguments, so the JAX step agrees to about 1e-10 of the force
+(the contacts are thresholds). Parameter layout: :data:`PHYS_NAMES`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numba as nb
+import numpy as np
+from jax import lax
+from numpy.typing import ArrayLike
+
+from sloshrom._jit import njit
+from sloshrom.config import G
+
+__all__ = ["COHERENCE_TIME", "PHYS_NAMES", "PhysicsState", "causal_intervals", "design_rows",
+           "grey_features", "interval_forces", "physical_parameters", "physics_features",
+           "physics_rest", "physics_step"]
+
+#: The physical parameters, in the order of their array: mass of the balls (kg), contact
+#: stiffness and damping per unit mass (1/s^2, 1/s), gap (m), gate rate at |g_eff| = g (1/s),
+#: gate relaxation time (s), coherence level (g).
+PHYS_NAMES = ("mass", "stiffness", "damping", "gap", "gate_rate", "gate_relaxation",
+              "coherence_g")
+#: Time constant of the low-passed acceleration level of the coherence factor, s.
+COHERENCE_TIME = 0.2
+
+
+@njit(inline="always")
+def _interval(z: np.ndarray, v: np.ndarray, att: np.ndarray, gate: np.ndarray, a: float,
+              phys: np.ndarray, h: float, n_sub: int, out: np.ndarray) -> None:
+    """One sample interval with the tank acceleration ``a`` held: ``n_sub`` sub-steps of
+    length ``h``; updates the balls (``z``, ``v``, ``att``) and ``gate[0]`` in place and writes
+    each sub-step's force per unit ball mass (m/s^2, before chi and the mass) into ``out``."""
+    n = z.size
+    stiff = phys[1]
+    damp = phys[2]
+    gap = phys[3]
+    geff = G + a
+    neg = geff < 0.0
+    sdot = phys[4] * (abs(geff) / G) ** 0.25
+    decay = math.exp(-h / phys[5])
+    alpha = -geff
+    s = gate[0]
+    for j in range(n_sub):
+        if neg:
+            s = min(s + sdot * h, 1.0)
+        else:
+            s *= decay
+        dv_sum = 0.0
+        for i in range(n):
+            if att[i] > 0.0:
+                if neg and s >= (i + 0.5) / n:
+                    att[i] = 0.0
+                else:
+                    continue
+            zi = z[i]
+            vi = v[i]
+            f = 0.0
+            if zi < 0.0:
+                f = max(-stiff * zi - damp * vi, 0.0)
+            elif zi > gap:
+                f = min(-stiff * (zi - gap) - damp * vi, 0.0)
+            vn = vi + h * (alpha + f)
+            zn = zi + h * vn
+            if zn <= 0.0 and vn >= 0.0 and alpha < 0.0:
+                vn = 0.0
+                zn = 0.0
+                att[i] = 1.0
+            dv_sum += vn - vi
+            z[i] = zn
+            v[i] = vn
+        out[j] = -dv_sum / (n * h)
+    gate[0] = s
+
+
+@njit(parallel=True)
+def _causal_batch(phys: np.ndarray, u: np.ndarray, fs: float, n_balls: int, n_sub: int,
+                  from_rest: bool, out: np.ndarray) -> None:
+    n_p = phys.shape[0]
+    n_w = u.shape[0]
+    n = u.shape[1]
+    dt = 1.0 / fs
+    h = dt / n_sub
+    k1 = 1.0 - math.exp(-dt / COHERENCE_TIME)
+    for q in nb.prange(n_p * n_w):
+        p = q // n_w
+        w = q % n_w
+        ph = phys[p]
+        z = np.zeros(n_balls)
+        v = np.zeros(n_balls)
+        att = np.ones(n_balls)
+        gate = np.zeros(1)
+        zp = np.zeros(n_balls)
+        vp = np.zeros(n_balls)
+        attp = np.ones(n_balls)
+        gatep = np.zeros(1)
+        fc = np.zeros(n_sub)
+        f1 = np.zeros(n_sub)
+        f2 = np.zeros(n_sub)
+        glp = 0.0
+        a_prev = 0.0
+        u_prev = 0.0 if from_rest else u[w, 0]
+        for k in range(n):
+            a = (u[w, k] - u_prev) * fs
+            _interval(z, v, att, gate, a, ph, h, n_sub, fc)
+            glp += (0.5 * math.pi * abs(a) / G - glp) * k1
+            scale = ph[0] / (1.0 + (glp / ph[6]) ** 2)
+            for i in range(n_balls):
+                zp[i] = z[i]
+                vp[i] = v[i]
+                attp[i] = att[i]
+            gatep[0] = gate[0]
+            _interval(zp, vp, attp, gatep, 2.0 * a - a_prev, ph, h, n_sub, f1)
+            _interval(zp, vp, attp, gatep, 3.0 * a - 2.0 * a_prev, ph, h, n_sub, f2)
+            for j in range(n_sub):
+                out[p, w, k, 0, j] = scale * fc[j]
+                out[p, w, k, 1, j] = scale * f1[j]
+                out[p, w, k, 2, j] = scale * f2[j]
+            a_prev = a
+            u_prev = u[w, k]
+
+
+def causal_intervals(phys: np.ndarray, u: np.ndarray, fs: float, n_balls: int,
+                     n_substeps: int, from_rest: bool = True) -> np.ndarray:
+    """The sub-step forces each step knows, for parameter sets ``phys`` and velocity records.
+
+    Parameters
+    ----------
+    phys : ndarray, shape (P, 7)
+        Physical parameter sets (:data:`PHYS_NAMES`).
+    u : ndarray, shape (W, n)
+        Tank velocity records at ``fs``, m/s, each starting at rest.
+    fs : float
+        Sample rate, Hz.
+    n_balls, n_substeps : int
+        Balls of the column; sub-steps per sample interval.
+    from_rest : bool
+        The velocity before each record is zero (a run from rest, as the fitted model's);
+        False: the record's first sample (a window cut out of a record).
+
+    Returns
+    -------
+    ndarray, shape (P, W, n, 3, n_substeps)
+        At step ``k``: the committed interval ``[t_{k-1}, t_k]`` and the two predicted ones
+        after it, each sub-step's force (N, with chi and the mass).
+    """
+    phys = np.ascontiguousarray(phys, dtype=np.float64)
+    u = np.ascontiguousarray(u, dtype=np.float64)
+    out = np.empty((phys.shape[0], u.shape[0], u.shape[1], 3, int(n_substeps)))
+    _causal_batch(phys, u, float(fs), int(n_balls), int(n_substeps), bool(from_rest), out)
+    return out
+
+
+def design_rows(o: np.ndarray, n_past: int) -> np.ndarray:
+    """The rows of the output filter: for each output sample ``k`` (shape (n, 3, ns) from
+    :func:`causal_intervals` for one record), the sub-step forces (newest first) of the
+    predicted interval after ``t_k``, the one ending at ``t_k`` and ``n_past - 1`` committed
+    intervals before; row 0 (no step before it) is zero.
+
+    Returns
+    -------
+    ndarray, shape (n, (n_past + 1) * ns)
+    """
+    com = o[:, 0, ::-1]
+    blocks = [o[:, 2, ::-1], o[:, 1, ::-1], com]
+    blocks += [_delayed(com, j) for j in range(1, n_past - 1)]
+    d = np.concatenate(blocks, axis=-1)
+    # the rows of step k serve the output at k + 1
+    return _delayed(d, 1)
+
+
+def _delayed(x: np.ndarray, j: int) -> np.ndarray:
+    """``x`` delayed by ``j`` rows along axis 0, zeros (rest) before the first."""
+    out = np.zeros_like(x)
+    out[j:] = x[: x.shape[0] - j]
+    return out
+
+
+def physics_features(o: np.ndarray, taps: np.ndarray, n_past: int) -> np.ndarray:
+    """The physical part's output and features at each output sample ``k`` (N): the filtered
+    force (``taps`` on :func:`design_rows`) and the mean force of the committed interval and of
+    the two predicted ones (as step ``k - 1`` knows them; zero at ``k = 0``).
+
+    Parameters
+    ----------
+    o : ndarray, shape (n, 3, ns)
+        :func:`causal_intervals` of one record.
+    taps : ndarray, shape ((n_past + 1) * ns,)
+        The output filter.
+    n_past : int
+        Intervals the filter reads at and before the output sample.
+
+    Returns
+    -------
+    ndarray, shape (n, 4)
+    """
+    means = np.concatenate([np.zeros((1, 3)), o[:-1].mean(axis=-1)])
+    return np.concatenate([(design_rows(o, n_past) @ taps)[:, None], means], axis=1)
+
+
+def interval_forces(phys: ArrayLike, u: np.ndarray, fs: float, n_balls: int,
+                    n_substeps: int) -> np.ndarray:
+    """:func:`causal_intervals` for one parameter set and one record: shape (n, 3, ns)."""
+    return causal_intervals(np.asarray(phys, dtype=np.float64)[None], np.asarray(u)[None], fs,
+                            n_balls, n_substeps)[0, 0]
+
+
+def grey_features(physics: np.ndarray, taps: np.ndarray, u: np.ndarray, fs: float,
+                  n_balls: int, n_substeps: int, n_past: int) -> np.ndarray:
+    """The column's features at each output sample of velocity records ``u`` (B, n), each
+    from rest: shape (B, n, 4), N (:func:`physics_features`)."""
+    u2 = np.atleast_2d(np.asarray(u, dtype=np.float64))
+    o = causal_intervals(np.asarray(physics)[None], u2, fs, n_balls, n_substeps)[0]
+    return np.stack([physics_features(o[b], taps, n_past) for b in range(u2.shape[0])])
+
+
+def physical_parameters(beta: float, restitution: float, contact_hz: float, gap_factor: float,
+                        log_gate_rate: float, gate_relaxation: float, coherence_g: float,
+                        liquid_mass: float, ullage: float) -> np.ndarray:
+    """The array of :data:`PHYS_NAMES` from the search's variables.
+
+    Parameters
+    ----------
+    beta : float
+        Share of the liquid mass in the balls, -.
+    restitution : float
+        Coefficient of restitution of a contact, in [0, 1) (its damping ratio
+        ``zeta = -ln e / sqrt(pi^2 + ln^2 e)``).
+    contact_hz : float
+        Contact frequency, Hz.
+    gap_factor : float
+        Gap over the ullage, -.
+    log_gate_rate : float
+        Natural logarithm of the gate rate at ``|g_eff| = g`` (1/s).
+    gate_relaxation : float
+        Relaxation time of the gate, s.
+    coherence_g : float
+        Acceleration level of the coherence loss, g.
+    liquid_mass, ullage : float
+        The tank's liquid mass (kg) and ullage (m).
+    """
+    wc = 2.0 * math.pi * contact_hz
+    le = math.log(max(restitution, 1e-9))
+    zeta = -le / math.sqrt(math.pi**2 + le * le)
+    return np.array([beta * liquid_mass, wc * wc, 2.0 * zeta * wc, gap_factor * ullage,
+                     math.exp(log_gate_rate), gate_relaxation, coherence_g])
+
+
+# --------------------------------------------------------------------------------------------
+# JAX: the fitted model's step (the same arithmetic as _interval and _causal_batch)
+# --------------------------------------------------------------------------------------------
+
+#: The physical part's state: balls' position (m), velocity (m/s) and attachment (1/0), each
+#: (..., n_balls); gate, low-passed acceleration level (g), the last interval's acceleration
+#: (m/s^2) and the last velocity (m/s), each (...); the committed sub-step forces of the last
+#: ``n_past - 1`` intervals, newest first (..., (n_past - 1) * ns) (N); the features of the next
+#: output (..., 4) (N).
+PhysicsState = tuple[jax.Array, ...]
+
+
+def physics_rest(shape: tuple[int, ...], n_balls: int, n_substeps: int, n_past: int,
+                 dtype: type[np.floating] = np.float64) -> PhysicsState:
+    """The state at rest: every ball attached, gate closed, no force."""
+    zb = jnp.zeros((*shape, n_balls), dtype)
+    z = jnp.zeros(shape, dtype)
+    return (zb, zb, jnp.ones((*shape, n_balls), dtype), z, z, z, z,
+            jnp.zeros((*shape, (n_past - 1) * n_substeps), dtype), jnp.zeros((*shape, 4), dtype))
+
+
+def _interval_jax(z: jax.Array, v: jax.Array, att: jax.Array, gate: jax.Array, a: jax.Array,
+                  phys: jax.Array, h: float, n_sub: int) -> tuple[jax.Array, ...]:
+    """:func:`_interval` for arrays (balls on the last axis): returns the new balls and gate
+    and the sub-step forces per unit ball mass (..., n_sub)."""
+    n = z.shape[-1]
+    stiff, damp, gap = phys[1], phys[2], phys[3]
+    geff = G + a
+    neg = (geff < 0.0)[..., None]
+    sdot = phys[4] * (jnp.abs(geff) / G) ** 0.25
+    decay = jnp.exp(-h / phys[5])
+    alpha = -geff[..., None]
+    thresholds = (jnp.arange(n, dtype=z.dtype) + 0.5) / n
+
+    Carry = tuple[jax.Array, jax.Array, jax.Array, jax.Array]
+
+    def sub(carry: Carry, _: None) -> tuple[Carry, jax.Array]:
+        z, v, att, gate = carry
+        gate = jnp.where(neg[..., 0], jnp.minimum(gate + sdot * h, 1.0), gate * decay)
+        att = jnp.where((att > 0.0) & neg & (gate[..., None] >= thresholds), 0.0, att)
+        free = att == 0.0
+        f = jnp.where(z < 0.0, jnp.maximum(-stiff * z - damp * v, 0.0),
+                      jnp.where(z > gap, jnp.minimum(-stiff * (z - gap) - damp * v, 0.0), 0.0))
+        vn = v + h * (alpha + f)
+        zn = z + h * vn
+        land = free & (zn <= 0.0) & (vn >= 0.0) & (alpha < 0.0)
+        vn = jnp.where(land, 0.0, vn)
+        zn = jnp.where(land, 0.0, zn)
+        att = jnp.where(land, 1.0, att)
+        dv = jnp.where(free, vn - v, 0.0)
+        v = jnp.where(free, vn, v)
+        z = jnp.where(free, zn, z)
+        return (z, v, att, gate), -jnp.sum(dv, axis=-1) / (n * h)
+
+    # a compiled loop over the sub-steps (an unrolled one makes the coupled beam's program
+    # minutes to compile)
+    (z, v, att, gate), out = lax.scan(sub, (z, v, att, gate), None, length=n_sub)
+    return z, v, att, gate, jnp.moveaxis(out, 0, -1)
+
+
+def physics_step(phys: jax.Array, taps: jax.Array, state: PhysicsState, u: jax.Array, fs: float,
+                 n_substeps: int, n_past: int) -> PhysicsState:
+    """Advance the physical part with the velocity sample ``u`` (m/s, shape (...)): commit the
+    interval ending now, predict the two after it, and compute the next output's features.
+
+    The output of the current sample is ``state[-1]`` *before* this call (strictly proper).
+    """
+    z, v, att, gate, glp, a_prev, u_prev, hist, _ = state
+    dt = 1.0 / fs
+    h = dt / n_substeps
+    a = (u - u_prev) * fs
+    z, v, att, gate, fc = _interval_jax(z, v, att, gate, a, phys, h, n_substeps)
+    glp = glp + (0.5 * math.pi * jnp.abs(a) / G - glp) * (1.0 - math.exp(-dt / COHERENCE_TIME))
+    scale = (phys[0] / (1.0 + (glp / phys[6]) ** 2))[..., None]
+    fc = scale * fc
+    zp, vp, ap, gp, f1 = _interval_jax(z, v, att, gate, 2.0 * a - a_prev, phys, h, n_substeps)
+    _, _, _, _, f2 = _interval_jax(zp, vp, ap, gp, 3.0 * a - 2.0 * a_prev, phys, h, n_substeps)
+    f1 = scale * f1
+    f2 = scale * f2
+    hist = jnp.concatenate([fc[..., ::-1], hist[..., :(n_past - 2) * n_substeps]], axis=-1)
+    rows = jnp.concatenate([f2[..., ::-1], f1[..., ::-1], hist], axis=-1)
+    feat = jnp.stack([rows @ taps, jnp.mean(fc, -1), jnp.mean(f1, -1), jnp.mean(f2, -1)], -1)
+    return z, v, att, gate, glp, a, u, hist, feat

@@ -1,0 +1,335 @@
+"""Identification of the grey-box ROM: the column's physics first, then the network on it.
+
+1. **The column** (:func:`fit_physics`): its seven physical parameters (the search variables
+   of :func:`sloshrom.rom.grey.physics.physical_parameters`, inside physical bounds) by
+   differential evolution (``scipy.optimize.differential_evolution``, seeded, no gradient: the
+   force is not smooth in the parameters through the releases and landings) on windows of the
+   training record spread over it, each simulated from rest after a half-second warm-up. For
+   each candidate the output filter (:func:`~sloshrom.rom.grey.physics.design_rows`) is the
+   least-squares fit, and the score is the mean squared error plus ``spectral`` times the
+   error of the force's short-time spectral magnitudes (three resolutions, 32-128 ms; a
+   timing-free term: a point-wise score alone prefers a column too light to make impacts,
+   since an impact a sub-step late is punished twice). The filter is then fitted on the
+   whole record.
+2. **The network** (:func:`fit_greybox`): the column's features computed over the record once,
+   the network trained by multiple shooting (:func:`sloshrom.rom.shooting.shooting_problem`,
+   the NSS's recipe: encoder, Adam, early stopping on the validation free run), its output
+   layer starting at zero so that the model starts as the physics.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Mapping
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy import signal as sps
+from scipy.optimize import differential_evolution
+
+from sloshrom._x64 import float64
+from sloshrom.rom.engine import AdamProblem, adam_epochs
+from sloshrom.rom.errors import ROMError
+from sloshrom.rom.grey.entry import grey_shapes
+from sloshrom.rom.grey.network import GreySpec, grey_run, grey_simulate
+from sloshrom.rom.grey.physics import (
+    causal_intervals,
+    design_rows,
+    grey_features,
+    physical_parameters,
+)
+from sloshrom.rom.losses import TRAIN_DTYPE
+from sloshrom.rom.network import MinMaxScaler
+from sloshrom.rom.nss.network import ss_encode
+from sloshrom.rom.shooting import PyTree, Recurrence, ShootingOptions
+from sloshrom.rom.shooting import shooting_problem as shooting
+
+__all__ = ["PHYSICS_BOUNDS", "fit_greybox", "fit_physics", "init_params", "shooting_problem"]
+
+#: The column's search variables and their bounds: share of the liquid in the balls (-),
+#: restitution (-), contact frequency (Hz), gap over the ullage (-), ln of the gate rate at
+#: |g_eff| = g (ln 1/s), gate relaxation (s), coherence level (g).
+PHYSICS_BOUNDS: dict[str, tuple[float, float]] = {
+    "beta": (0.1, 1.0), "restitution": (0.0, 0.9), "contact_hz": (60.0, 400.0),
+    "gap_factor": (0.5, 1.5), "log_gate_rate": (math.log(3.0), math.log(40.0)),
+    "gate_relaxation": (0.002, 0.05), "coherence_g": (2.0, 20.0)}
+#: Length and warm-up of a search window, s.
+WINDOW_S, WARM_S = 2.0, 0.5
+#: Short-time spectra of the spectral term: (segment, hop) in samples at 500 Hz, scaled to the
+#: record's rate.
+_STFT = ((16, 4), (32, 8), (64, 16))
+
+
+def _windows(n: int, fs: float, count: int, seed: int) -> np.ndarray:
+    """Start samples of ``count`` search windows, one drawn in each of ``count`` equal parts
+    of the record."""
+    length = int(round((WINDOW_S + WARM_S) * fs))
+    if n < length + 1:
+        raise ROMError(f"the column's search needs at least {WINDOW_S + WARM_S:g} s of record "
+                       f"({length + 1} samples), got {n}")
+    rng = np.random.default_rng([seed, 11])
+    edges = np.linspace(0, n - length, count + 1).astype(int)
+    return np.array([rng.integers(edges[i], max(edges[i] + 1, edges[i + 1]))
+                     for i in range(count)])
+
+
+def _filter_rows(o: np.ndarray, n_past: int, skip: int) -> np.ndarray:
+    """The design rows of several windows (W, n, 3, ns) after their first ``skip`` samples."""
+    return np.concatenate([design_rows(o[w], n_past)[skip:] for w in range(o.shape[0])])
+
+
+def _least_squares(a: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Taps minimising ``|a taps - y|``, slightly regularised (a sub-step with no force in any
+    window leaves a column of zeros)."""
+    ata = a.T @ a
+    ridge = 1e-9 * np.trace(ata) / max(1, ata.shape[0])
+    return np.linalg.solve(ata + ridge * np.eye(ata.shape[0]), a.T @ y)
+
+
+def _spectra(x: np.ndarray, fs: float) -> list[np.ndarray]:
+    out = []
+    for seg, hop in _STFT:
+        s = max(4, int(round(seg * fs / 500.0)))
+        h = max(1, int(round(hop * fs / 500.0)))
+        if x.shape[-1] >= s:
+            out.append(np.abs(sps.stft(x, nperseg=s, noverlap=s - h, axis=-1, boundary=None,
+                                       padded=False)[2]))
+    return out
+
+
+def fit_physics(
+    u: np.ndarray,
+    y: np.ndarray,
+    fs: float,
+    spec: GreySpec,
+    liquid_mass: float,
+    ullage: float,
+    *,
+    spectral: float = 1.0,
+    generations: int = 20,
+    population: int = 8,
+    windows: int = 32,
+    seed: int = 0,
+) -> tuple[np.ndarray, np.ndarray, dict[str, float]]:
+    """Identify the column's physical parameters and its output filter (module docstring).
+
+    Parameters
+    ----------
+    u, y : ndarray, shape (n,)
+        Tank velocity (m/s) and dynamic force (N) at ``fs``, starting at rest.
+    fs : float
+        Sample rate, Hz.
+    spec : GreySpec
+        The column's balls, sub-steps and filter reach.
+    liquid_mass, ullage : float
+        The tank's liquid mass (kg) and ullage (m): the scales of the search's bounds.
+    spectral : float
+        Weight of the spectral term (0: the point-wise error only).
+    generations, population, windows : int
+        Differential evolution's generations at most and population per variable; the search
+        windows of 2 s.
+    seed : int
+        Seeds the windows and the search.
+
+    Returns
+    -------
+    physics : ndarray, shape (7,)
+        :data:`~sloshrom.rom.grey.physics.PHYS_NAMES`, SI units.
+    taps : ndarray
+        The output filter, fitted on the whole record.
+    history : dict
+        The search variables found, by name (:data:`PHYSICS_BOUNDS`), and ``objective``,
+        ``generations``, ``evaluations``, ``seconds``, ``windows``.
+    """
+    u = np.asarray(u, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    starts = _windows(u.size, fs, int(windows), int(seed))
+    warm = int(round(WARM_S * fs))
+    length = int(round((WINDOW_S + WARM_S) * fs))
+    idx = starts[:, None] + np.arange(length)[None, :]
+    uw, yw = u[idx], y[idx][:, warm:]
+    target = yw.reshape(-1)
+    target_spectra = _spectra(yw, fs) if spectral > 0 else []
+    names = list(PHYSICS_BOUNDS)
+    evaluations = [0]
+
+    def phys_of(x: np.ndarray) -> np.ndarray:
+        v = [float(a) for a in x]
+        return physical_parameters(v[0], v[1], v[2], v[3], v[4], v[5], v[6],
+                                   liquid_mass=liquid_mass, ullage=ullage)
+
+    def objective(xs: np.ndarray) -> np.ndarray:
+        xs = np.asarray(xs).T  # vectorised: (candidates, variables)
+        evaluations[0] += xs.shape[0]
+        o = causal_intervals(np.stack([phys_of(x) for x in xs]), uw, fs, spec.n_balls,
+                             spec.n_substeps, from_rest=False)
+        out = np.empty(xs.shape[0])
+        for i in range(xs.shape[0]):
+            if not np.all(np.isfinite(o[i])):
+                out[i] = np.inf
+                continue
+            a = _filter_rows(o[i], spec.n_past, warm)
+            taps = _least_squares(a, target)
+            fit = a @ taps
+            score = float(np.mean((fit - target) ** 2))
+            if spectral > 0:
+                model = _spectra(fit.reshape(yw.shape), fs)
+                score += spectral * sum(float(np.mean((m - t) ** 2))
+                                        for m, t in zip(model, target_spectra, strict=True))
+            out[i] = score
+        return out
+
+    t0 = time.perf_counter()
+    res = differential_evolution(objective, list(PHYSICS_BOUNDS.values()), seed=int(seed),
+                                 maxiter=int(generations), popsize=int(population), tol=1e-4,
+                                 polish=False, init="latinhypercube", updating="deferred",
+                                 vectorized=True)
+    physics = phys_of(res.x)
+    o = causal_intervals(physics[None], u[None], fs, spec.n_balls, spec.n_substeps)[0, 0]
+    skip = spec.n_past + 1
+    taps = _least_squares(design_rows(o, spec.n_past)[skip:], y[skip:])
+    history = {**{k: float(v) for k, v in zip(names, res.x, strict=True)},
+               "objective": float(res.fun), "generations": float(res.nit),
+               "evaluations": float(evaluations[0]), "seconds": time.perf_counter() - t0,
+               "windows": float(windows)}
+    return physics, taps, history
+
+
+def init_params(spec: GreySpec, seed: int, physics: np.ndarray, taps: np.ndarray
+                ) -> dict[str, np.ndarray]:
+    """Seeded initial parameters: the network's tanh layers scaled by 1/sqrt(fan-in), its
+    linear parts and output layer at zero (the model starts as the physics)."""
+    rng = np.random.default_rng(seed)
+    out: dict[str, np.ndarray] = {}
+    for k, shp in grey_shapes(spec.hyper()).items():
+        if k in ("W1", "V1", "E1"):
+            out[k] = rng.standard_normal(shp) / math.sqrt(shp[0])
+        elif k in ("W2", "E2"):
+            out[k] = 0.1 * rng.standard_normal(shp) / math.sqrt(shp[0])
+        else:
+            out[k] = np.zeros(shp)
+    out["physics"] = np.asarray(physics, dtype=np.float64)
+    out["taps"] = np.asarray(taps, dtype=np.float64)
+    return out
+
+
+def _as64(p: Mapping[str, ArrayLike]) -> dict[str, jax.Array]:
+    return {k: jnp.asarray(v, jnp.float64) for k, v in p.items()}
+
+
+def shooting_problem(
+    spec: GreySpec,
+    u: np.ndarray,
+    y: np.ndarray,
+    fs: float,
+    scaler: MinMaxScaler,
+    params0: Mapping[str, np.ndarray],
+    validation: tuple[np.ndarray, np.ndarray] | None,
+    options: ShootingOptions,
+    validation_history: int = 0,
+    dtype: type = TRAIN_DTYPE,
+) -> AdamProblem:
+    """The network's multiple-shooting problem on the column's features (the physics fixed:
+    its parameters are carried, not trained), its Adam steps in ``dtype``. Call it inside
+    ``jax.enable_x64(True)``."""
+    o = options
+    n, w, t = np.size(u), spec.window, int(o.horizon)
+    ru, ry = float(scaler.u(0.0)), float(scaler.y(0.0))
+    half = float(scaler.out_half_range)
+    f32 = dtype
+    u_s = jnp.asarray(scaler.u(np.asarray(u, dtype=np.float64)), f32)
+    y_s = jnp.asarray(scaler.y(np.asarray(y, dtype=np.float64)), f32)
+    physics = np.asarray(params0["physics"])
+    taps = np.asarray(params0["taps"])
+    fixed = {"physics": jnp.asarray(physics, f32), "taps": jnp.asarray(taps, f32)}
+
+    def features(v: np.ndarray) -> np.ndarray:
+        return grey_features(physics, taps, v, fs, spec.n_balls, spec.n_substeps,
+                             spec.n_past) / half
+
+    def net(p: PyTree) -> dict[str, jax.Array]:
+        # the physics is not trained: its arrays ride along unchanged
+        return {**p, **fixed}
+
+    def start(p: PyTree, starts: jax.Array, shift: jax.Array) -> jax.Array:
+        past = starts[:, None] + jnp.arange(w)[None, :]
+        return ss_encode(p, u_s[past] + shift[:, None], y_s[past], ru, ry)
+
+    def simulate(p: PyTree, x0: jax.Array, seq: jax.Array) -> jax.Array:
+        return grey_simulate(p, x0, jnp.swapaxes(seq, 0, 1), ru, ry).T
+
+    cache: dict[int, tuple[np.ndarray, jax.Array]] = {}
+
+    def free_run(p: PyTree, uv: np.ndarray) -> np.ndarray:
+        # the validation record's features once (the physics does not train)
+        if id(uv) not in cache:
+            v = (np.asarray(uv, dtype=np.float64) - ru) / (float(scaler.u(1.0)) - ru)
+            cache.clear()
+            cache[id(uv)] = (uv, jnp.asarray(np.swapaxes(features(v[None]), 0, 1)))
+        phi = cache[id(uv)][1]
+        x0 = jnp.zeros((1, spec.n_states), jnp.float64)
+        return np.asarray(grey_run(_as64(net(p)), jnp.asarray(uv, jnp.float64)[:, None], phi,
+                                   x0, ru, ry))[:, 0]
+
+    rec = Recurrence(offset=w, n_starts=n - w - t, start=start,
+                     rest=lambda k: jnp.zeros((k, spec.n_states), f32), simulate=simulate,
+                     free_run=free_run, features=features)
+    trained = {k: jnp.asarray(v, f32) for k, v in params0.items()
+               if k not in ("physics", "taps")}
+    if validation_history:
+        raise ROMError("a grey box's validation starts from rest (validation_history = 0)")
+    return shooting(rec, trained, u, y, fs, scaler, validation, o, 0, dtype=dtype)
+
+
+@float64
+def fit_greybox(
+    spec: GreySpec,
+    u: np.ndarray,
+    y: np.ndarray,
+    fs: float,
+    scaler: MinMaxScaler,
+    physics: np.ndarray,
+    taps: np.ndarray,
+    validation: tuple[np.ndarray, np.ndarray] | None,
+    options: ShootingOptions,
+    *,
+    max_fail: int = 6,
+    seed: int = 0,
+    callback: Callable[[int, dict[str, float]], bool | None] | None = None,
+    precision: str = "float32",
+) -> tuple[dict[str, np.ndarray], dict[str, object]]:
+    """Train the network on the fixed column (module docstring); ``max_epochs = 0`` keeps the
+    physics alone (the network's output at zero). ``precision``: the Adam steps' (``"float32"``,
+    the NSS's, or ``"float64"``).
+
+    Returns
+    -------
+    params : dict of ndarray
+        Every array of :func:`~sloshrom.rom.grey.entry.grey_shapes` (scaled units for the
+        network's; the physics' in SI units).
+    history : dict
+        As :func:`sloshrom.rom.nss.training.fit_statespace`'s.
+    """
+    o = options
+    params0 = init_params(spec, seed, physics, taps)
+    t0 = time.perf_counter()
+    if int(o.max_epochs) == 0:
+        return params0, {"stop_reason": "max_epochs = 0: the physics alone", "best_epoch": 0,
+                         "trainer": "shooting", "n_rows": int(np.size(u)),
+                         "train_seconds": 0.0}
+    dtype = jnp.float64 if precision == "float64" else TRAIN_DTYPE
+    problem = shooting_problem(spec, u, y, fs, scaler, params0, validation, o, dtype=dtype)
+    res = adam_epochs(problem, max_epochs=int(o.max_epochs), max_fail=max_fail,
+                      min_epochs=int(o.max_epochs) // 2, rollback=10.0, seed=seed,
+                      mse_scale=scaler.out_half_range**2, callback=callback)
+    history: dict[str, object] = dict(res.history)
+    history.update(stop_reason=res.stop_reason, best_epoch=res.best_epoch, trainer="shooting",
+                   n_rows=int(np.size(u)), train_seconds=time.perf_counter() - t0)
+    params = {k: np.asarray(v, dtype=np.float64) for k, v in res.params.items()}
+    params.update(physics=np.asarray(physics, dtype=np.float64),
+                  taps=np.asarray(taps, dtype=np.float64))
+    return params, history
+

@@ -1,0 +1,1 @@
+"""Tests of sloshrom.rom.grey, laid out like its package."""

@@ -1,0 +1,226 @@
+"""The grey-box ROM: its column's physics (limits, invariants, its two implementations), its
+identification (a column recovers its own parameters) and its estimator (strictly proper, the
+step contract, files)."""
+
+from __future__ import annotations
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from helpers import perturbation_tolerance
+from sloshrom.config import G, Tank
+from sloshrom.rom import GreyBox, load_model
+from sloshrom.rom.grey.network import GreySpec
+from sloshrom.rom.grey.physics import (
+    causal_intervals,
+    grey_features,
+    physical_parameters,
+    physics_rest,
+    physics_step,
+)
+from sloshrom.rom.grey.training import PHYSICS_BOUNDS, fit_physics
+from sloshrom.rom.registry import CLASSES
+
+FS = 500.0
+TANK = Tank(fill=0.5)
+#: the virtual rig's calibrated physics, as the column's variables (beta, restitution, contact
+#: Hz, gap factor, ln gate rate, gate relaxation s, coherence g)
+RIG_LIKE = (0.8, 0.15, 200.0, 1.0, math.log(11.9), 0.00988, 7.16)
+N_BALLS, N_SUB, N_PAST = 10, 8, 6
+
+
+def _phys(*x: float) -> np.ndarray:
+    return physical_parameters(*x, liquid_mass=TANK.liquid_mass, ullage=TANK.ullage)
+
+
+def _harmonic(f_hz: float, accel_g: float, seconds: float = 3.0) -> np.ndarray:
+    """Tank velocity (m/s) of a ramped harmonic motion of acceleration amplitude ``accel_g``."""
+    t = np.arange(int(seconds * FS)) / FS
+    ramp = np.minimum(1.0, t / 0.5)
+    om = 2 * np.pi * f_hz
+    return ramp * accel_g * G / om * np.sin(om * t)
+
+
+def _unit_taps() -> np.ndarray:
+    """The filter that outputs the mean force of the interval ending at the sample."""
+    taps = np.zeros((N_PAST + 1) * N_SUB)
+    taps[N_SUB:2 * N_SUB] = 1.0 / N_SUB
+    return taps
+
+
+def test_no_force_below_one_g():
+    """Below 1 g the liquid is never pulled off the floor: no release, no force (the physics'
+    limit, as the rig's)."""
+    u = _harmonic(12.0, 0.9)
+    o = causal_intervals(_phys(*RIG_LIKE)[None], u[None], FS, N_BALLS, N_SUB)
+    assert np.all(o == 0.0)
+    u = _harmonic(12.0, 3.0)
+    o = causal_intervals(_phys(*RIG_LIKE)[None], u[None], FS, N_BALLS, N_SUB)
+    assert np.max(np.abs(o)) > 1.0  # impacts of several N above 1 g
+
+
+def test_galilean_invariance():
+    """The column reads the acceleration: a uniform velocity changes nothing (a record whose
+    first sample is its own rest; from rest at 0 m/s, 0.3 m/s would be a jump, a real
+    shock)."""
+    u = _harmonic(10.0, 4.0)
+    phys = _phys(*RIG_LIKE)[None]
+    a = causal_intervals(phys, u[None], FS, N_BALLS, N_SUB, from_rest=False)
+    b = causal_intervals(phys, u[None] + 0.3, FS, N_BALLS, N_SUB, from_rest=False)
+    assert np.max(np.abs(a)) > 1.0
+    np.testing.assert_allclose(a, b, rtol=0, atol=1e-9 * np.max(np.abs(a)))
+
+
+def test_column_dissipates():
+    """The column's physical force (unit filter) takes energy from a harmonic motion: the work
+    of the tank on the liquid over the steady cycles is positive, and zero below 1 g."""
+    for f_hz, acc in ((8.0, 2.0), (12.0, 4.0), (20.0, 6.0)):
+        u = _harmonic(f_hz, acc, seconds=4.0)
+        force = grey_features(_phys(*RIG_LIKE), _unit_taps(), u, FS, N_BALLS, N_SUB,
+                              N_PAST)[0, :, 0]
+        # the force at k is the mean over [t_{k-1}, t_k]; the tank's velocity there is the mean
+        k = np.arange(int(FS), u.size)
+        work = -np.sum(force[k] * 0.5 * (u[k] + u[k - 1])) / FS
+        assert work > 0, (f_hz, acc, work)
+
+
+def test_numba_and_jax_steps_agree():
+    """The fitted model's JAX step and the identification's numba kernel are one arithmetic:
+    their features agree to round-off on a record with impacts (the column's contacts are
+    thresholds, so the tolerance is the features' own sensitivity to a 1e-13 change of the
+    input, measured here)."""
+    u = _harmonic(11.0, 5.0, seconds=1.5)
+    phys = _phys(*RIG_LIKE)
+    taps = np.random.default_rng(0).uniform(0.0, 0.05, (N_PAST + 1) * N_SUB)
+
+    def nb_feats(v: np.ndarray) -> np.ndarray:
+        return grey_features(phys, taps, v, FS, N_BALLS, N_SUB, N_PAST)[0]
+
+    with jax.enable_x64(True):
+        def body(st, v):
+            st2 = physics_step(jnp.asarray(phys), jnp.asarray(taps), st, v, FS, N_SUB, N_PAST)
+            return st2, st[-1]
+
+        _, out = jax.lax.scan(body, physics_rest((), N_BALLS, N_SUB, N_PAST), jnp.asarray(u))
+        jx = np.asarray(out)
+    ref = nb_feats(u)
+    tol = perturbation_tolerance(nb_feats, u) + 1e-12
+    scale = np.max(np.abs(ref))
+    assert scale > 1.0
+    assert np.max(np.abs(jx - ref)) <= tol * scale
+
+
+@pytest.mark.slow
+def test_physics_identifies_itself():
+    """A force made by the column with known parameters identifies them again (as a linear
+    system its linear model): the gap and the gate, which set *when* the liquid lands, within
+    a few per cent; the mass and the contact, which the point-wise error trades against the
+    timing, looser; and the identified column fits the force."""
+    t = np.arange(int(40 * FS)) / FS
+    # a slow sweep of frequency and amplitude over the column's regimes (2-7 g, 7-18 Hz)
+    f = 7.0 + 11.0 * t / t[-1]
+    acc = G * (2.0 + 5.0 * (0.5 - 0.5 * np.cos(2 * np.pi * t / 13.0)))
+    a = acc * np.sin(2 * np.pi * np.cumsum(f) / FS) * np.minimum(1.0, t / 0.5)
+    u = np.cumsum(a) / FS
+    u -= np.mean(u)
+    u[0] = 0.0
+    truth = _phys(*RIG_LIKE)
+    spec = GreySpec(2, 4, 4, N_BALLS, N_SUB, N_PAST)
+    y = grey_features(truth, _unit_taps(), u, FS, N_BALLS, N_SUB, N_PAST)[0, :, 0]
+    phys, taps, hist = fit_physics(u, y, FS, spec, TANK.liquid_mass, TANK.ullage,
+                                   generations=20, population=8, windows=24, seed=0)
+    y_hat = grey_features(phys, taps, u, FS, N_BALLS, N_SUB, N_PAST)[0, :, 0]
+    fit = 1.0 - np.linalg.norm(y_hat - y) / np.linalg.norm(y - y.mean())
+    assert fit > 0.5
+    assert phys[3] == pytest.approx(truth[3], rel=0.05)  # gap
+    assert phys[4] == pytest.approx(truth[4], rel=0.15)  # gate rate
+    assert phys[5] == pytest.approx(truth[5], rel=0.25)  # gate relaxation
+    assert phys[0] == pytest.approx(truth[0], rel=0.3)  # mass
+    for k, (lo, hi) in PHYSICS_BOUNDS.items():
+        assert lo <= hist[k] <= hi
+
+
+@pytest.fixture(scope="module")
+def tiny_grey(tmp_path_factory):
+    """A grey box fitted in seconds on a short harmonic-sweep record of the virtual rig."""
+    from sloshrom.io import record_from_measurement
+    from sloshrom.rig import VirtualRig
+    from sloshrom.signals import vfa
+
+    rig = VirtualRig(TANK)
+    rec = {}
+    for split, seed in (("train", 1), ("validation", 2)):
+        path = vfa(1 / rig.dt, split, duration=24.0, tank=TANK, seed=seed)
+        rec[split] = record_from_measurement(rig.measure(path.acceleration), TANK)
+    tr, va = rec["train"], rec["validation"]
+    model = GreyBox(n_states=3, neurons=8, window=10, horizon=40, batch=16, max_epochs=2,
+                    steps_per_epoch=5, physics_generations=2, physics_population=3,
+                    physics_windows=4, passivity=1.0, cycle_energy=0.1, velocity_offset=0.5)
+    model.fit(tr["velocity"], tr["dynamic_force"], fs=tr.fs,
+              validation=(va["velocity"], va["dynamic_force"]), fill=0.5)
+    path = model.save(tmp_path_factory.mktemp("grey") / "grey.npz")
+    return model, path, va
+
+
+def test_strictly_proper(tiny_grey):
+    """The force at sample k does not read the velocity at k: changing it changes the force
+    from k + 1 on only."""
+    model, _, va = tiny_grey
+    u = np.asarray(va["velocity"][:3000], dtype=float)
+    base = model.predict(u)
+    k = 2000
+    moved = u.copy()
+    moved[k] += 0.05
+    out = model.predict(moved)
+    np.testing.assert_array_equal(out[: k + 1], base[: k + 1])
+    assert np.max(np.abs(out[k + 1:] - base[k + 1:])) > 0
+    assert not model.model_.feedthrough
+
+
+def test_step_contract_equals_predict(tiny_grey):
+    """The coupled beam's step (the JAX column) gives predict's force (the numba column)."""
+    model, _, va = tiny_grey
+    u = np.asarray(va["velocity"][:2500], dtype=float)
+    with jax.enable_x64(True):
+        st = jax.tree_util.tree_map(jnp.asarray, model.init_state())
+        _, ys = jax.lax.scan(lambda s, v: model.step(s, v), st, jnp.asarray(u))
+    ref = model.predict(u)
+    tol = perturbation_tolerance(model.predict, u) + 1e-12
+    assert np.max(np.abs(np.asarray(ys) - ref)) <= tol * np.max(np.abs(ref))
+
+
+def test_file_round_trip(tiny_grey):
+    """Saved and loaded (no pickle), the model predicts the same force, with its physics."""
+    model, path, va = tiny_grey
+    again = load_model(path)
+    u = np.asarray(va["velocity"][:4000], dtype=float)
+    np.testing.assert_array_equal(again.predict(u), model.predict(u))
+    assert again.physics_ == model.physics_
+    assert set(again.physics_) == {"mass", "stiffness", "damping", "gap", "gate_rate",
+                                   "gate_relaxation", "coherence_g"}
+    assert again.history_["search"]["generations"] >= 1
+
+
+def test_rest_is_zero_force(tiny_grey):
+    """At rest the model gives no force (physics at rest, network at its equilibrium), to the
+    round-off of the output's affine scaling."""
+    model, _, _ = tiny_grey
+    half = model.scaler_.out_half_range
+    assert np.max(np.abs(model.predict(np.zeros(500)))) <= 1e-13 * half
+
+
+def test_units_other_than_velocity_and_force_refused():
+    with pytest.raises(Exception, match="velocity in m/s"):
+        GreyBox(units=("V", "m")).fit(np.zeros(2000), np.ones(2000), fs=FS)
+
+
+def test_registered_with_the_tank_scales():
+    mc = CLASSES["grey"]
+    assert mc.class_name == "GreyBox"
+    h = mc.with_tank({"liquid_mass": 0.0, "ullage": 0.0}, Tank(fill=0.25))
+    assert h == {"liquid_mass": Tank(fill=0.25).liquid_mass, "ullage": Tank(fill=0.25).ullage}
+    assert mc.with_tank({"liquid_mass": 2.0}, Tank())["liquid_mass"] == 2.0
