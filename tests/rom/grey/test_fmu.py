@@ -34,11 +34,11 @@ import numpy as np
 import pytest
 from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
-from sloshrom.beam.simulation.coupled import free_response
 from typer.testing import CliRunner
 
 import sloshrom.cli.export  # noqa: F401  (registers `sloshrom export`)
 from helpers import check_cli, perturbation_tolerance, rig_records
+from sloshrom.beam.simulation.coupled import free_response
 from sloshrom.cli import app
 from sloshrom.rom.errors import FeedthroughWarning, ROMError
 from sloshrom.rom.fmu import VR, check_fmu_exportable, export_fmu, load_fmu
