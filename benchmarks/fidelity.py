@@ -120,17 +120,22 @@ def waveform(st: dict[str, Any], levels: list[float]) -> None:
             need = 60.0 if kind == "validation" else 70.0
             marks["fit"] = (f" [{_mark(fit >= need) if fit is not None else 'n/a '} "
                             f">= {need:g} %]")
-        print(f"  {test:>12}: force RMS / rig's {_num(rms, '{:.3f}')} "
-              f"[{_num(tw.get('rms_ratio'), '{:.3f}')}]"
-              f"{marks['rms']}; power >60 Hz / 5-20 Hz {_num(ro.get('hf_ratio'))} "
-              f"[{_num(tw.get('hf_ratio'))}], rig {_num(ro.get('hf_ratio_reference'))}: "
-              f"x {_num(hf)} [{_num(tw.get('hf_factor'))}]{marks['hf']}")
-        print(f"  {'':>12}  fit {_num(fit, '{:.1f}')} % "
-              f"[{_num(tw.get('fit'), '{:.1f}')} %]{marks['fit']}, NRMSE "
-              f"{_num(ro.get('nrmse'), '{:.3f}')} [{_num(tw.get('nrmse'), '{:.3f}')}]; impacts "
-              f"{_num(rate, '{:.2f}')} [{_num(tw.get('impact_rate'), '{:.2f}')}]"
+        def twin(v: Any, fmt: str = "{:.3g}", unit: str = "", has: bool = bool(tw)) -> str:
+            # the free decay has no twin run: no bracket rather than an n/a
+            return f" [{_num(v, fmt)}{unit}]" if has else ""
+
+        tq = f" [{_quantiles(tw.get('peak_quantiles'))}]" if tw else ""
+        print(f"  {test:>12}: force RMS / rig's {_num(rms, '{:.3f}')}"
+              f"{twin(tw.get('rms_ratio'), '{:.3f}')}"
+              f"{marks['rms']}; power >60 Hz / 5-20 Hz {_num(ro.get('hf_ratio'))}"
+              f"{twin(tw.get('hf_ratio'))}, rig {_num(ro.get('hf_ratio_reference'))}: "
+              f"x {_num(hf)}{twin(tw.get('hf_factor'))}{marks['hf']}")
+        print(f"  {'':>12}  fit {_num(fit, '{:.1f}')} %"
+              f"{twin(tw.get('fit'), '{:.1f}', ' %')}{marks['fit']}, NRMSE "
+              f"{_num(ro.get('nrmse'), '{:.3f}')}{twin(tw.get('nrmse'), '{:.3f}')}; impacts "
+              f"{_num(rate, '{:.2f}')}{twin(tw.get('impact_rate'), '{:.2f}')}"
               f" /s, rig {_num(ref_rate, '{:.2f}')} /s{marks['rate']}; peak force "
-              f"1/50/99 % {_quantiles(q)} [{_quantiles(tw.get('peak_quantiles'))}] N, rig "
+              f"1/50/99 % {_quantiles(q)}{tq} N, rig "
               f"{_quantiles(q_ref)} N{marks['q99']}")
 
 

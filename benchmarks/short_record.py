@@ -42,6 +42,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from sloshrom.rom import NSS
+from sloshrom.rom import shooting as sh
 from sloshrom.rom.engine import adam_epochs
 from sloshrom.rom.network import MinMaxScaler
 from sloshrom.rom.nss import network as ss
@@ -77,7 +78,7 @@ def encoded_run(model: Any, u: np.ndarray, y: np.ndarray, window: int) -> np.nda
         sc = model.scaler
         ru, ry = float(sc.u(0.0)), float(sc.y(0.0))
         p = {k: jnp.asarray(v, jnp.float64) for k, v in model.params.items()}
-        x0 = ss.ss_encode(p, jnp.asarray(sc.u(u[:window])), jnp.asarray(sc.y(y[:window])),
+        x0 = sh.ss_encode(p, jnp.asarray(sc.u(u[:window])), jnp.asarray(sc.y(y[:window])),
                           ru, ry)
         y_s = _run_from(p, x0, jnp.asarray(sc.u(u[window:])), ru, ry)
         return np.asarray(sc.y_inverse(np.asarray(y_s)))
@@ -116,7 +117,7 @@ def fit_here(hyper: Mapping[str, Any], u: np.ndarray, y: np.ndarray, fs: float,
 
         def validate(p: Any) -> tuple[float, float]:
             p64 = {k: jnp.asarray(v, jnp.float64) for k, v in p.items()}
-            x0 = ss.ss_encode(p64, uvs[:w], jnp.asarray(yvs[:w]), ru, ry)
+            x0 = sh.ss_encode(p64, uvs[:w], jnp.asarray(yvs[:w]), ru, ry)
             yhat = np.asarray(_run_from(p64, x0, uvs[w:], ru, ry))
             if not np.all(np.isfinite(yhat)) or np.max(np.abs(yhat)) > 10.0:
                 return math.inf, math.inf

@@ -491,7 +491,7 @@ HOSTILE_CASES = [
     ("train-seed-2**40", None, [*TRO, "--seed", str(2**40)],
      rf"--seed must be an integer in {SEED_MAX}"),
     ("train-arch-lstm", None, [*TRO, "--arch", "lstm"],
-     r"--arch must be one of nfir, noe, nss, lss, got 'lstm'"),
+     r"--arch must be one of nfir, noe, nss, lss, grey, got 'lstm'"),
     ("train-nss-delays", None, [*TRO, "--arch", "nss"],
      r"--delays does not apply to --arch nss \(NSS: .*\); its options are --n-states"),
     ("train-nss-states-0", None, [*NSO, "--states", "0"],
@@ -729,12 +729,14 @@ HOSTILE_CASES = [
      r"'rom\.nss\.n_states' must be an integer, got true \(a boolean\)$"),
     ("config-former-nss-states-true", _cfg("[rom]\nnss_states = true\n"), CS,
      r"'rom\.nss\.n_states' must be an integer, got true \(a boolean\)$"),
-    ("config-nss-epoch-cost", _cfg("[rom.nss]\nwindow = 9000\nhorizon = 9000\n"), CS,
+    ("config-nss-epoch-cost",
+     _cfg("[rom]\narch = \"nss\"\n[rom.nss]\nwindow = 9000\nhorizon = 9000\n"), CS,
      r"one training epoch of NSS\(8 states, 64 neurons, strictly proper\), "
      r"'rom\.nss\.steps_per_epoch' x 'rom\.nss\.batch' x \('rom\.nss\.window' \+ "
      r"'rom\.nss\.horizon'\) x 'rom\.nss\.neurons' = 200 x 128 x \(9000 \+ 9000\) x 64 = "
      r"2\.95e\+10 neuron-samples, more than 1\.5e\+10"),
-    ("reproduce-quick-nss-epoch-cost", _cfg("[rom.nss]\nwindow = 9000\nhorizon = 9000\n"),
+    ("reproduce-quick-nss-epoch-cost",
+     _cfg("[rom]\narch = \"nss\"\n[rom.nss]\nwindow = 9000\nhorizon = 9000\n"),
      ["reproduce", "--quick", "--config", "{tmp}/c.toml", "--out", "{tmp}/res"],
      r"'rom\.nss\.window' \+ 'rom\.nss\.horizon'\) x 'rom\.nss\.neurons' = .* more than "
      r"1\.5e\+10"),

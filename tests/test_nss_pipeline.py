@@ -60,10 +60,10 @@ def test_config_show_lists_every_class_key_with_a_comment():
     ({"nss": {"batch": 10**6}}, r"'rom\.nss\.batch' must be an integer in \[1, 65536\]"),
     ({"compare": "nfir"}, r"'rom\.compare' must be a list"),
     ({"compare": ["nfir", "nfir"]}, r"'rom\.compare' must not repeat a value"),
-    ({"compare": ["rnn"]}, r"'rom\.compare' must be \"nfir\" or \"noe\" or \"nss\" or \"lss\", "
-                           r"got 'rnn'"),
-    ({"arch": "lstm"}, r"'rom\.arch' must be \"nfir\" or \"noe\" or \"nss\" or \"lss\", "
-                       r"got 'lstm'"),
+    ({"compare": ["rnn"]}, r"'rom\.compare' must be \"nfir\" or \"noe\" or \"nss\" or \"lss\" "
+                           r"or \"grey\", got 'rnn'"),
+    ({"arch": "lstm"}, r"'rom\.arch' must be \"nfir\" or \"noe\" or \"nss\" or \"lss\" "
+                       r"or \"grey\", got 'lstm'"),
     ({"arch": "nss", "nss": {"window": 400_000}}, r"'rom\.nss\.window'"),
     ({"arch": "nss", "nss": {"neurons": 2000, "window": 2000}, "ensemble": 2},
      r"'rom\.ensemble' = 2 members of NSS\(8 states, 2000 neurons, strictly proper\) have "

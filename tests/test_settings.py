@@ -216,8 +216,8 @@ def test_the_passive_recipe_has_one_set_of_defaults():
     from sloshrom.rom.registry import CLASSES
 
     cfg = settings.load()
-    assert cfg.rom.arch == "nss"
-    for name in ("nfir", "nss"):
+    assert cfg.rom.arch == "grey"
+    for name in ("nfir", "nss", "grey"):
         assert cfg.rom.loss_terms(name) == dict(CLASSES[name].recipe)
     nfir = Path(__file__).parents[1] / "docs" / "examples" / "nfir_rom.toml"
     assert tomllib.loads(nfir.read_text()) == {"rom": {"arch": "nfir"}}

@@ -223,7 +223,7 @@ def test_bad_ensemble_arguments():
         (Ensemble(t, n_members=2, seeds=[-1, 2]), "seeds must be integers >= 0"),
         (Ensemble("nfir", n_members=2),
          r"template must be an unfitted estimator whose members differ by their seed "
-         r"\(NFIR, NOE, NSS\)"),
+         r"\(NFIR, NOE, NSS, GreyBox\)"),
         (Ensemble(NFIR(delays=0), n_members=2), "delays"),
     ]:
         with pytest.raises(ROMError, match=match):

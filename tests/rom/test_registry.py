@@ -14,8 +14,7 @@ from sloshrom.cli import app
 from sloshrom.config import ConfigError
 from sloshrom.io import Record, write_record
 from sloshrom.pipeline import settings
-from sloshrom.rom.nss.entry import MAX_EPOCH_WORK
-from sloshrom.rom.registry import CLASSES, LOSS_TERMS
+from sloshrom.rom.registry import CLASSES, LOSS_TERMS, MAX_EPOCH_WORK
 
 FS = 200.0
 
@@ -90,7 +89,8 @@ def test_the_model_file_schema_takes_the_registry_bounds(tmp_path):
 
 def test_recipe_defaults_are_those_of_the_configuration():
     cfg = settings.load()
-    assert cfg.rom.arch == "nss" and cfg.rom.loss_terms() == dict(CLASSES["nss"].recipe)
+    assert cfg.rom.arch == "grey" and cfg.rom.loss_terms() == dict(CLASSES["grey"].recipe)
+    assert cfg.rom.loss_terms("nss") == dict(CLASSES["nss"].recipe)
     assert cfg.rom.loss_terms("nfir") == dict(CLASSES["nfir"].recipe)
     assert CLASSES["nfir"].recipe["amplitude_weighting"] == 0.05
 
@@ -211,6 +211,14 @@ def test_one_epoch_of_an_nss_is_bounded_as_the_product_of_its_options():
 def test_the_settings_bound_an_nss_epoch_of_the_rom_and_of_the_compared_classes():
     cfg = settings.defaults()
     settings.validate(cfg)
+    # the default class is bounded too (its 32 neurons let 9000 + 9000 through: 1.47e10)
+    cfg["rom"]["grey"].update(window=9000, horizon=9000, neurons=64)
+    with pytest.raises(ConfigError, match=r"\('rom\.grey\.window' \+ 'rom\.grey\.horizon'\) x "
+                                          r"'rom\.grey\.neurons' = 200 x 128 x \(9000 \+ 9000\) x "
+                                          r"64 = 2\.95e\+10 neuron-samples"):
+        settings.validate(cfg)
+    cfg = settings.defaults()
+    cfg["rom"].update(arch="nss")
     cfg["rom"]["nss"].update(window=9000, horizon=9000)
     with pytest.raises(ConfigError, match=r"\('rom\.nss\.window' \+ 'rom\.nss\.horizon'\) x "
                                           r"'rom\.nss\.neurons' = 200 x 128 x \(9000 \+ 9000\) x "

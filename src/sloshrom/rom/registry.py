@@ -51,11 +51,12 @@ from sloshrom.limits import (
 )
 from sloshrom.rom.errors import ROMError
 
-__all__ = ["ARGUMENTS", "CLASSES", "ENTRIES", "LOSS_HYPERS", "LOSS_TERMS", "OVERSIZE",
-           "RECIPE_UNITS", "SEED", "SHOOTING_HYPERS", "EpochWork", "FileKind", "Hyper",
-           "LossChoice", "ModelClass", "Naming", "adam_only",
+__all__ = ["ARGUMENTS", "CLASSES", "ENTRIES", "EPOCH_WORK_SECONDS", "LOSS_HYPERS", "LOSS_TERMS",
+           "MAX_EPOCH_WORK", "MAX_STATES", "OVERSIZE", "RECIPE_UNITS", "SEED", "SHOOTING_HYPERS",
+           "EpochWork", "FileKind", "Hyper", "LossChoice", "ModelClass", "Naming", "adam_only",
            "file_kinds", "loss_recipe", "model_class", "model_class_of_file", "neurons",
-           "packages", "paper_class", "register", "required", "swept"]
+           "packages", "paper_class", "register", "required", "state_space_min_samples",
+           "swept"]
 
 #: The classes, one line each: ``"module:attribute"`` of the entry that declares it (a
 #: :class:`ModelClass`, or a :class:`FileKind` for a model loaded from its own files), in the
@@ -871,6 +872,28 @@ LOSS_HYPERS = (
 #: The seed of a class whose training draws.
 SEED = Hyper("seed", 0, "int", 0, MAX_SEED, help="seeds the initialisation and the draws",
              what="a seed")
+#: Largest state of a state-space ROM (its network part).
+MAX_STATES = 1024
+#: Most work of one training epoch, in neuron-samples: steps_per_epoch x batch x (window +
+#: horizon) x neurons, the samples an epoch's Adam steps read times the width of the maps that
+#: run on each. Each bound alone let window = horizon = 9000 through (quick reproduce still
+#: training after 300 s). Measured (2026-11-28, 2 cores shared, load 3): an Adam step of the
+#: default NSS (128 x (50 + 200) samples, 64 neurons) takes 27 ms, 13 ns per neuron-sample; 4x
+#: the horizon, batch or neurons 2.0-2.4x, 16x 13-22x (the cost grows about as the product).
+#: 1.5e10 keeps an epoch's steps within about 3 min (up to 5 at the larger sizes' rates), 37
+#: times the default's 4.1e8.
+MAX_EPOCH_WORK = 15_000_000_000
+#: Measured cost of one neuron-sample of an epoch, s (see MAX_EPOCH_WORK).
+EPOCH_WORK_SECONDS = 13e-9
+
+
+def state_space_min_samples(h: Mapping[str, Any]) -> int:
+    """The fewest training samples of a state-space network trained by multiple shooting:
+    one encoder window and one horizon of samples after it,
+    and the sample it starts from (``window + horizon + 1``)."""
+    return int(h["window"]) + int(h["horizon"]) + 1
+
+
 #: The Adam (multiple shooting) options of a recurrent class: its batch, its steps per
 #: epoch and its learning rate (a model file of before them reads these defaults).
 SHOOTING_HYPERS = (

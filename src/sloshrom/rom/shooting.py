@@ -40,7 +40,8 @@ from sloshrom.rom.losses import (
 )
 from sloshrom.rom.network import MinMaxScaler
 
-__all__ = ["PyTree", "Recurrence", "ShootingOptions", "adam_optimizer", "shooting_problem"]
+__all__ = ["PyTree", "Recurrence", "ShootingOptions", "adam_optimizer", "shooting_problem",
+           "ss_encode"]
 
 #: A JAX pytree (a model's parameters, a batch of its states): a dict of arrays, a tuple of
 #: arrays or an array.
@@ -322,3 +323,12 @@ def shooting_problem(
             return mse, obj
 
     return AdamProblem(loss, params0, opt, draw, val)
+
+
+def ss_encode(p: dict[str, Any], u_past: Any, y_past: Any, r_u: Any, r_y: Any) -> Any:
+    """State (..., nx) from the scaled past ``window`` inputs and outputs (..., window), oldest
+    first; a window at rest gives the rest state 0. The encoder of every state-space network
+    trained from encoded starts (its arrays ``E1``, ``e1``, ``E2``)."""
+    q = jnp.concatenate([u_past - r_u, y_past - r_y], axis=-1)
+    e0 = jnp.tanh(p["e1"]) @ p["E2"]
+    return jnp.tanh(q @ p["E1"] + p["e1"]) @ p["E2"] - e0

@@ -14,16 +14,19 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from sloshrom.limits import MAX_DELAY, MAX_EPOCHS
-from sloshrom.rom.nss.entry import EPOCH_WORK_SECONDS, MAX_EPOCH_WORK, MAX_STATES
 from sloshrom.rom.registry import (
+    EPOCH_WORK_SECONDS,
     LOSS_HYPERS,
     LOSS_TERMS,
+    MAX_EPOCH_WORK,
+    MAX_STATES,
     SEED,
     SHOOTING_HYPERS,
     EpochWork,
     Hyper,
     ModelClass,
     neurons,
+    state_space_min_samples,
 )
 
 __all__ = ["GREY_CLASS", "GREY_PARAM_NAMES", "N_PHYS", "grey_min_samples", "grey_shapes"]
@@ -53,7 +56,7 @@ def grey_shapes(h: Mapping[str, int | float | str]) -> dict[str, tuple[int, ...]
 def grey_min_samples(h: Mapping[str, int | float | str]) -> int:
     """The fewest training samples: the network's encoder window and horizon (as an NSS's),
     and at least 2 s of the column's search windows at 500 Hz."""
-    return max(int(h["window"]) + int(h["horizon"]) + 1, 1000)
+    return max(state_space_min_samples(h), 1000)
 
 
 GREY_CLASS = ModelClass(

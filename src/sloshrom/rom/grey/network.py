@@ -19,7 +19,7 @@ features) to do it. The output reads the state and the features, never ``u_k``: 
 strictly proper. The state ``x = 0`` with the physics at rest is an equilibrium of zero force.
 
 An encoder starts the network's state from the measured past, as the NSS's
-(:func:`sloshrom.rom.nss.network.ss_encode`); the physics starts from rest at the start of a
+(:func:`sloshrom.rom.shooting.ss_encode`); the physics starts from rest at the start of a
 run (its memory is short: a ball that lands under gravity re-attaches).
 """
 
@@ -48,8 +48,8 @@ from sloshrom.rom.grey.physics import (
     physics_step,
 )
 from sloshrom.rom.network import FittedNetwork, MinMaxScaler
-from sloshrom.rom.nss.network import ss_encode
 from sloshrom.rom.registry import ModelClass
+from sloshrom.rom.shooting import ss_encode
 
 __all__ = ["N_FEATURES", "GreyBoxNetwork", "GreySpec", "grey_output", "grey_run",
            "grey_simulate", "grey_state_update"]

@@ -43,8 +43,7 @@ from sloshrom.rom.grey.physics import (
 )
 from sloshrom.rom.losses import TRAIN_DTYPE
 from sloshrom.rom.network import MinMaxScaler
-from sloshrom.rom.nss.network import ss_encode
-from sloshrom.rom.shooting import PyTree, Recurrence, ShootingOptions
+from sloshrom.rom.shooting import PyTree, Recurrence, ShootingOptions, ss_encode
 from sloshrom.rom.shooting import shooting_problem as shooting
 
 __all__ = ["PHYSICS_BOUNDS", "fit_greybox", "fit_physics", "init_params", "shooting_problem"]

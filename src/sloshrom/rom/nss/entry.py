@@ -16,8 +16,11 @@ from typing import Any
 
 from sloshrom.limits import MAX_DELAY, MAX_EPOCHS
 from sloshrom.rom.registry import (
+    EPOCH_WORK_SECONDS,
     LOSS_HYPERS,
     LOSS_TERMS,
+    MAX_EPOCH_WORK,
+    MAX_STATES,
     SEED,
     SHOOTING_HYPERS,
     EpochWork,
@@ -25,25 +28,12 @@ from sloshrom.rom.registry import (
     ModelClass,
     neurons,
     required,
+    state_space_min_samples,
 )
 
-__all__ = ["EPOCH_WORK_SECONDS", "MAX_EPOCH_WORK", "MAX_STATES", "NSS_CLASS",
+__all__ = ["NSS_CLASS",
            "NSS_FULL_SIZE_SAMPLES", "NSS_PARAM_NAMES", "NSS_SHORT_SAMPLES", "NSS_SHORT_SIZE",
-           "nss_min_samples", "nss_shapes", "nss_size"]
-
-#: Largest state of a neural state-space ROM.
-MAX_STATES = 1024
-#: Most work of one training epoch, in neuron-samples: steps_per_epoch x batch x (window +
-#: horizon) x neurons, the samples an epoch's Adam steps read times the width of the maps that
-#: run on each. Each bound alone let window = horizon = 9000 through (quick reproduce still
-#: training after 300 s). Measured (2026-11-28, 2 cores shared, load 3): an Adam step of the
-#: default NSS (128 x (50 + 200) samples, 64 neurons) takes 27 ms, 13 ns per neuron-sample; 4x
-#: the horizon, batch or neurons 2.0-2.4x, 16x 13-22x (the cost grows about as the product).
-#: 1.5e10 keeps an epoch's steps within about 3 min (up to 5 at the larger sizes' rates), 37
-#: times the default's 4.1e8.
-MAX_EPOCH_WORK = 15_000_000_000
-#: Measured cost of one neuron-sample of an epoch, s (see MAX_EPOCH_WORK).
-EPOCH_WORK_SECONDS = 13e-9
+           "nss_shapes", "nss_size"]
 
 #: Training samples from which an NSS keeps the size of its defaults exactly (8 states, 64
 #: neurons, window 50): the sloshing records they were sized for have 240,000.
@@ -66,12 +56,6 @@ def nss_shapes(h: Mapping[str, Any]) -> dict[str, tuple[int, ...]]:
     return {"A": (nz, nx), "W1": (nz, n), "b1": (n,), "W2": (n, nx),
             "C": (nz,), "V1": (nz, n), "d1": (n,), "V2": (n,),
             "E1": (2 * w, n), "e1": (n,), "E2": (n, nx)}
-
-
-def nss_min_samples(h: Mapping[str, Any]) -> int:
-    """The fewest training samples: one encoder window and one horizon of samples after it,
-    and the sample it starts from (``window + horizon + 1``)."""
-    return int(h["window"]) + int(h["horizon"]) + 1
 
 
 def nss_size(n_samples: int, given: Mapping[str, int]) -> dict[str, int]:
@@ -139,7 +123,7 @@ NSS_CLASS = ModelClass(
     label=lambda h: (f"NSS({h['n_states']} states, {h['neurons']} neurons"
                      + (", strictly proper)" if h.get("feedthrough", "yes") == "no" else ")")),
     shapes=nss_shapes, history=lambda h: int(h["window"]),
-    min_samples=nss_min_samples,
+    min_samples=state_space_min_samples,
     # the coupled beam hands a model the acceleration of the previous step: a state driven by
     # it would run one sample behind its training
     inputs=("velocity",),

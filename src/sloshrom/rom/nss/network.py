@@ -45,13 +45,13 @@ from sloshrom.rom.errors import ROMError
 from sloshrom.rom.network import FittedNetwork, MinMaxScaler
 from sloshrom.rom.nss.entry import NSS_CLASS, NSS_PARAM_NAMES, nss_shapes
 from sloshrom.rom.registry import ModelClass
+from sloshrom.rom.shooting import ss_encode
 
 __all__ = [
     "NSS_PARAM_NAMES",
     "StateSpaceNetwork",
     "StateSpaceSpec",
     "param_shapes",
-    "ss_encode",
     "ss_free_run",
     "ss_history_run",
     "ss_simulate",
@@ -160,14 +160,6 @@ def ss_free_run(p: dict[str, Any], u_s: Any, r_u: Any, r_y: Any) -> Any:
     # unrolled by 8: 1.5x faster for one long record (a validation run), as measured; no gain
     # for the batches of training
     return ss_simulate(p, x0, u_s, r_u, r_y, unroll=8)[1]
-
-
-def ss_encode(p: dict[str, Any], u_past: Any, y_past: Any, r_u: Any, r_y: Any) -> Any:
-    """State (..., nx) from the scaled past ``window`` inputs and outputs (..., window), oldest
-    first; a window at rest gives the rest state 0."""
-    q = jnp.concatenate([u_past - r_u, y_past - r_y], axis=-1)
-    e0 = jnp.tanh(p["e1"]) @ p["E2"]
-    return jnp.tanh(q @ p["E1"] + p["e1"]) @ p["E2"] - e0
 
 
 @jax.jit

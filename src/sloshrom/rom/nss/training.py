@@ -31,17 +31,17 @@ from sloshrom.rom.engine import AdamProblem, adam_epochs
 from sloshrom.rom.errors import ROMError
 from sloshrom.rom.losses import TRAIN_DTYPE
 from sloshrom.rom.network import MinMaxScaler
-from sloshrom.rom.nss.entry import NSS_CLASS, nss_min_samples
+from sloshrom.rom.nss.entry import NSS_CLASS
 from sloshrom.rom.nss.network import (
     StateSpaceSpec,
     param_shapes,
-    ss_encode,
     ss_free_run,
     ss_history_run,
     ss_simulate,
     strictly_proper,
 )
-from sloshrom.rom.shooting import PyTree, Recurrence, ShootingOptions
+from sloshrom.rom.registry import state_space_min_samples
+from sloshrom.rom.shooting import PyTree, Recurrence, ShootingOptions, ss_encode
 from sloshrom.rom.shooting import shooting_problem as shooting
 
 __all__ = ["NSS_SHOOTING", "fit_statespace", "init_params", "shooting_problem"]
@@ -97,7 +97,7 @@ def shooting_problem(
     :data:`~sloshrom.rom.tdnn.training.TRAIN_DTYPE`.
     """
     n, w, T = np.size(u), spec.window, int(options.horizon)
-    need = nss_min_samples({"window": w, "horizon": T})
+    need = state_space_min_samples({"window": w, "horizon": T})
     if n < need:
         raise ROMError(f"{n} samples are too few for an encoder window of {w} and a horizon "
                        f"of {T} samples (need at least {need})")
