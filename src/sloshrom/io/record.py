@@ -42,6 +42,7 @@ __all__ = [
     "MAX_ABS_VALUE",
     "AbsentUnitNamesError",
     "MissingUnitError",
+    "NoTimeAxisError",
     "Record",
     "RecordError",
     "UnitConflictError",
@@ -74,6 +75,19 @@ class MissingUnitError(RecordError):
         hint = f" (SI: {si!r})" if si else ""
         super().__init__(f"{path}: {kind} {channel!r} has no unit in the file ({detail}); give "
                          f"it with units={{{channel!r}: ...}}{hint}")
+
+
+class NoTimeAxisError(RecordError):
+    """A CSV or MATLAB file without a time column or variable, read without ``fs=``.
+
+    Attribute ``source`` (the file) lets a caller say how to give the time axis in its own
+    words (a command has no ``fs=``).
+    """
+
+    def __init__(self, source: str, ignored: str = "") -> None:
+        self.source = source
+        super().__init__(f"{source}: no 'time' column/variable; pass fs= (Hz) to read it"
+                         f"{ignored}")
 
 
 class UnitConflictError(RecordError):
@@ -797,10 +811,7 @@ def _build(
             raise RecordError(f"{source}: variable {empty[0]!r} is empty (0 samples)")
         time = np.arange(max(lengths.values())) / fs
     else:
-        raise RecordError(
-            f"{source}: no 'time' column/variable; pass fs= (Hz) to read it"
-            + _ignored_note(ignored)
-        )
+        raise NoTimeAxisError(source, _ignored_note(ignored))
     if time.size < 2:
         raise RecordError(f"{source}: a record needs at least 2 samples, got {time.size}")
     if not cols:
