@@ -29,8 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from sloshrom.config import G
-from sloshrom.fileio import OutputBatch, atomic_write, not_a_regular_file
-from sloshrom.io.record import RecordError
+from sloshrom.fileio import OutputBatch, atomic_write
+from sloshrom.io.record import RecordError, require_file
 from sloshrom.io.uff import (
     DIR_PLUS_Z,
     SPEC_ACCELERATION,
@@ -293,17 +293,13 @@ def read_drive_csv(path: str | Path) -> DriveFile:
     Raises
     ------
     RecordError
-        Naming the file and the problem: not a file, no or unknown columns (the accepted ones
-        listed), a non-numeric field (its line), NaN or infinite values (the first line),
-        fewer than 2 rows, a time column that is not increasing or not uniform (the first
-        line that is off, the step found and the one expected).
+        Naming the file and the problem: not a file or empty, not UTF-8 text (binary, UTF-16,
+        a line in another encoding: its line and byte), no or unknown columns (the accepted
+        ones listed), a non-numeric field (its line), NaN or infinite values (the first line),
+        fewer than 2 rows, a time column that is not increasing or not uniform (the line of a
+        jump, the step found and the file's; else the first line off the mean grid).
     """
-    p = Path(path)
-    why = not_a_regular_file(p)
-    if why is not None:
-        raise RecordError(f"{p}: {why}")
-    if not p.is_file():
-        raise RecordError(f"{p}: no such file")
+    p = require_file(path)
     first, names = _header(p)
     accepted = (f"a time column ({' or '.join(TIME_COLUMNS)}) and an acceleration column "
                 f"({', '.join(ACCELERATION_COLUMNS)})")
@@ -395,14 +391,7 @@ def read_drive_uff(path: str | Path) -> DriveFile:
         Naming the file and the problem: not a file, not a readable UFF file, no time-response
         dataset, a dataset whose unit is not an acceleration, segments at different rates.
     """
-    p = Path(path)
-    why = not_a_regular_file(p)
-    if why is not None:
-        raise RecordError(f"{p}: {why}")
-    if not p.is_file():
-        raise RecordError(f"{p}: no such file")
-    if p.stat().st_size == 0:
-        raise RecordError(f"{p}: file is empty")
+    p = require_file(path)
     uff, types = open_uff(p)
     parts: list[np.ndarray] = []
     steps: list[float] = []

@@ -24,12 +24,14 @@ import math
 import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from sloshrom.config import FILL_TOLERANCE, ConfigError, Tank
 from sloshrom.errors import SloshromError
+from sloshrom.fileio import not_a_regular_file
 from sloshrom.io.units import (
     STANDARD_UNITS,
     _time_unit,
@@ -47,6 +49,7 @@ __all__ = [
     "RecordError",
     "UnitConflictError",
     "require",
+    "require_file",
     "require_unit",
 ]
 
@@ -646,6 +649,29 @@ def _merge_units(
             raise UnitConflictError(source, name, unit, have)
         out.setdefault(name, unit)
     return out
+
+
+def require_file(path: str | Path) -> Path:
+    """``path`` as a file a reader can open, or a :class:`RecordError` that says why not: not
+    a regular file (a directory, a named pipe, ...), no such file, or an empty file.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    Path
+    """
+    p = Path(path)
+    why = not_a_regular_file(p)
+    if why is not None:
+        raise RecordError(f"{p}: {why}")
+    if not p.is_file():
+        raise RecordError(f"{p}: no such file")
+    if p.stat().st_size == 0:
+        raise RecordError(f"{p}: file is empty")
+    return p
 
 
 def require(record: Record, names: Iterable[str]) -> None:
