@@ -17,7 +17,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from helpers import check_cli, good_record, make_model_files, model_parts, runner, write_model_parts
+from helpers import (
+    TINY_DESIGN_TOML,
+    check_cli,
+    good_record,
+    make_model_files,
+    model_parts,
+    runner,
+    write_model_parts,
+)
 from sloshrom.cli import app
 from sloshrom.io import Record, write_record
 from sloshrom.io.uff import write_uff58
@@ -209,22 +217,6 @@ def _design_drive(folder: str, uff: bool = False):
     return make
 
 
-#: A tiny programme of `sloshrom design` (the tests' own; docs/reproduce.md, [data]).
-TINY_DESIGN = """[data]
-design = "use"
-train_duration = 12.0
-validation_duration = 12.0
-extension_duration = 20.0
-random_factors = [1.0]
-random_duration = 10.0
-decay_factors = [1.0]
-decay_duration = 3.0
-
-[beam]
-free_duration = 3.0
-random_duration = 40.0
-rms_g = [0.1, 0.3]
-"""
 
 
 TOO_LONG = "y" * 300 + ".nc"
@@ -1577,7 +1569,7 @@ HOSTILE_CASES = [
     # -- a folder that holds files the command did not write: refused, named ---------------
     ("design-into-a-folder-with-the-users-train-csv",
      _all(_text("lab/train.csv", "time [s],velocity [m/s]\n0,0\n0.002,0.1\n"),
-          _text("tiny.toml", TINY_DESIGN)),
+          _text("tiny.toml", TINY_DESIGN_TOML)),
      ["design", "--out", "{tmp}/lab", "--config", "{tmp}/tiny.toml", "--split", "train"],
      r"--out .*lab: holds train\.csv, which sloshrom design did not write \(or that changed "
      r"since\): refusing to replace it \(--overwrite replaces it; or choose another folder\)"),
@@ -1587,6 +1579,10 @@ HOSTILE_CASES = [
      ["analyse", "example", "{tmp}/lab", "--duration", "34"],
      r"DIRECTORY .*lab: holds decay\.uff, channels\.toml, which sloshrom analyse example did "
      r"not write \(or that changed since\): refusing to replace them \(--overwrite"),
+    ("system-into-a-folder-with-the-users-train-nc", _text("bw/train.nc", "my own record\n"),
+     ["system", "bouc-wen", "--out", "{tmp}/bw"],
+     r"--out .*bw: holds train\.nc, which sloshrom system did not write \(or that changed "
+     r"since\): refusing to replace it"),
     # -- a given mode read from noise ------------------------------------------------------------
     ("analyse-free-f1-in-the-noise",
      None, ["analyse", "free", "{tmp}/noisy.uff", "--channels", "{tmp}/ch.toml", "--out",
