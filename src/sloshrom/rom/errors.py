@@ -78,7 +78,8 @@ class FeedthroughWarning(UserWarning):
     """An exported model (an FMU) has direct feed-through: its force at a communication point
     reads the input of that point. A co-simulation master that reads the outputs before it
     sets the inputs gets the force one input late, and a feedback coupling through it is an
-    algebraic loop. The command line prints it as one ``warning: ...`` line."""
+    algebraic loop; exported strictly proper it has neither (its force one step late). The
+    command line prints it as one ``warning: ...`` line."""
 
 
 class ModelSizeWarning(UserWarning):
