@@ -281,3 +281,22 @@ def reproduce_interrupted_then_resumed(out, cfg, argv, logs=None):
     if logs is not None:
         logs.append(res.output)
     return json.loads((out / "summary.json").read_text())
+
+
+#: A "use" programme of `sloshrom design` (and the data stage) in seconds: five short segments
+#: (two VFA pieces, two random levels, one decay).
+TINY_DESIGN_TOML = """[data]
+design = "use"
+train_duration = 12.0
+validation_duration = 12.0
+extension_duration = 20.0
+random_factors = [1.0]
+random_duration = 10.0
+decay_factors = [1.0]
+decay_duration = 3.0
+
+[beam]
+free_duration = 3.0
+random_duration = 40.0
+rms_g = [0.1, 0.3]
+"""

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from helpers import TINY_DESIGN_TOML
 from sloshrom.cli import app
 from sloshrom.config import G
 from sloshrom.io.programme import read_drive_csv, resample_drive, write_drive_csv
@@ -23,21 +24,6 @@ TINY = {"data": {"design": "use", "train_duration": 12.0, "validation_duration":
                  "extension_duration": 20.0, "random_factors": [1.0],
                  "random_duration": 10.0, "decay_factors": [1.0], "decay_duration": 3.0},
         "beam": {"free_duration": 3.0, "random_duration": 40.0, "rms_g": [0.1, 0.3]}}
-TINY_TOML = """[data]
-design = "use"
-train_duration = 12.0
-validation_duration = 12.0
-extension_duration = 20.0
-random_factors = [1.0]
-random_duration = 10.0
-decay_factors = [1.0]
-decay_duration = 3.0
-
-[beam]
-free_duration = 3.0
-random_duration = 40.0
-rms_g = [0.1, 0.3]
-"""
 
 
 @pytest.fixture(scope="module")
@@ -54,7 +40,7 @@ def prog(cfg):
 def written(tmp_path_factory):
     """`sloshrom design` at the programme's own rate (no resampling), train split."""
     d = tmp_path_factory.mktemp("design")
-    (d / "tiny.toml").write_text(TINY_TOML)
+    (d / "tiny.toml").write_text(TINY_DESIGN_TOML)
     res = CliRunner().invoke(app, ["design", "--out", str(d / "out"), "--config",
                                    str(d / "tiny.toml"), "--split", "train", "--fs",
                                    str(int(RIG_RATE)), "--segment-column"])
@@ -248,7 +234,7 @@ def test_design_refuses_bad_options(tmp_path, args, msg):
 
 
 def test_design_strict_writes_nothing(tmp_path):
-    (tmp_path / "tiny.toml").write_text(TINY_TOML)
+    (tmp_path / "tiny.toml").write_text(TINY_DESIGN_TOML)
     res = CliRunner().invoke(app, ["design", "--out", str(tmp_path / "o"), "--config",
                                    str(tmp_path / "tiny.toml"), "--split", "validation",
                                    "--strict", "--format", "csv"])

@@ -191,3 +191,37 @@ def test_not_a_regular_file_says_what_it_is(tmp_path):
     assert not_a_regular_file(tmp_path / "pipe").startswith("is a named pipe (FIFO)")
     assert not_a_regular_file(tmp_path / "dangling") == "a broken symbolic link"
     assert not_a_regular_file("/dev/null").startswith("is a device")
+
+
+def test_a_command_replaces_only_the_files_it_wrote(tmp_path):
+    """``OutputBatch(owner=)`` records what it wrote (name, size, SHA-256) in the folder's
+    ``WRITTEN`` file, in the same commit; ``check_output(owner=)`` then lets the command
+    replace those, and refuses, by name, a file it did not write or one changed since."""
+    from sloshrom.fileio import WRITTEN, OutputBatch, OutputPathError, check_output
+
+    d = tmp_path / "lab"
+    d.mkdir()
+    (d / "decay.uff").write_text("a laboratory's own data")
+    (d / "notes.txt").write_text("not among what the command writes: never in question")
+    names = ("decay.uff", "channels.toml")
+    with pytest.raises(OutputPathError, match=r"holds decay\.uff, which cmd did not write"):
+        check_output(d, directory=True, contents=names, owner="cmd")
+    assert check_output(d, directory=True, contents=names, owner="cmd", overwrite=True) == d
+    with OutputBatch(owner="cmd") as batch:
+        for n in names:
+            batch.write_text(d / n, f"{n} by cmd")
+    assert sorted(p.name for p in d.iterdir()) == [WRITTEN, "channels.toml", "decay.uff",
+                                                   "notes.txt"]
+    check_output(d, directory=True, contents=names, owner="cmd")  # its own: replaced
+    with pytest.raises(OutputPathError, match=r"which other did not write"):
+        check_output(d, directory=True, contents=names, owner="other")  # not another's
+    (d / "channels.toml").write_text("edited by hand")
+    with pytest.raises(OutputPathError, match=r"holds channels\.toml, which cmd did not write "
+                                              r"\(or that changed since\)"):
+        check_output(d, directory=True, contents=names, owner="cmd")
+    # a batch that fails records nothing: the previous record stands
+    with pytest.raises(RuntimeError), OutputBatch(owner="cmd") as batch:
+        batch.write_text(d / "channels.toml", "new")
+        raise RuntimeError
+    with pytest.raises(OutputPathError, match=r"channels\.toml"):
+        check_output(d, directory=True, contents=names, owner="cmd")

@@ -17,7 +17,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from helpers import check_cli, good_record, make_model_files, model_parts, runner, write_model_parts
+from helpers import (
+    TINY_DESIGN_TOML,
+    check_cli,
+    good_record,
+    make_model_files,
+    model_parts,
+    runner,
+    write_model_parts,
+)
 from sloshrom.cli import app
 from sloshrom.io import Record, write_record
 from sloshrom.io.uff import write_uff58
@@ -136,6 +144,9 @@ def _lab(tmp: Path) -> None:
     ds = to_dataset(free, "measured", "free", tank, modal, f1=f1)
     ds.to_netcdf(tmp / "free_m.nc", engine="h5netcdf")
     ds.assign_attrs(case="frozen").to_netcdf(tmp / "free_p.nc", engine="h5netcdf")
+    # an 8 s decay into sensor noise: the spectrum between the modes is a noise floor
+    long = free_response(FrozenLiquid(1 / 500.0), modal, 0.0146, 8.0, tank)
+    write_lab_test(long, modal, tmp / "noisy.uff", kind="free", noise_rms=0.1)
 
 
 def _copy(src: str, dst: str):
@@ -155,6 +166,57 @@ def _text(name: str, text: str):
         (tmp / name).write_text(text)
 
     return make
+
+
+def _bytes(name: str, data: bytes):
+    """A file of ``data`` under ``name`` (text in another encoding, or not text at all)."""
+
+    def make(tmp: Path) -> None:
+        (tmp / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp / name).write_bytes(data)
+
+    return make
+
+
+def _drive_jump(name: str, n: int = 6000, row: int = 5000, jump: float = 3e-4):
+    """A 2000 Hz drive CSV of ``n`` rows whose time column jumps by ``jump`` s at data row
+    ``row`` (line ``row + 2``: the header is line 1) and keeps the step after it."""
+
+    def make(tmp: Path) -> None:
+        from sloshrom.io.programme import write_drive_csv
+
+        t = np.arange(n) / 2000.0
+        a = np.sin(2 * np.pi * 10 * t) * np.sin(np.pi * t / t[-1]) ** 2
+        write_drive_csv(tmp / name, a, 2000.0)
+        lines = (tmp / name).read_text().splitlines()
+        for k in range(row, n):
+            tk, ak = lines[k + 1].split(",")
+            lines[k + 1] = f"{float(tk) + jump:.9f},{ak}"
+        (tmp / name).write_text("\n".join(lines) + "\n")
+
+    return make
+
+
+def _design_drive(folder: str, uff: bool = False):
+    """The drive files of a two-segment programme at 2000 Hz as `sloshrom design` writes them
+    (``train.csv``; with ``uff`` also ``train.uff``) in ``folder``."""
+
+    def make(tmp: Path) -> None:
+        from sloshrom.io.programme import drive_uff_sets, write_drive_csv
+        from sloshrom.io.uff import write_uff_sets
+
+        d = tmp / folder
+        d.mkdir(parents=True, exist_ok=True)
+        t = np.arange(2001) / 2000.0
+        seg = 5.0 * np.sin(2 * np.pi * 12 * t) * np.sin(np.pi * t / t[-1]) ** 2
+        write_drive_csv(d / "train.csv", np.concatenate([seg, seg]), 2000.0)  # back to back
+        if uff:
+            write_uff_sets(drive_uff_sets([("vfa", seg), ("vfa 2", seg)], 2000.0,
+                                          "sloshrom design: train programme"), d / "train.uff")
+
+    return make
+
+
 
 
 TOO_LONG = "y" * 300 + ".nc"
@@ -1467,6 +1529,88 @@ HOSTILE_CASES = [
      r"--name rom=a: no input has the case 'rom' \(their cases: 'measured', 'frozen'\)"),
     ("compare-name-clashes", None, [*CMPO, "--name", "frozen=measured"],
      r"free_m\.nc and .*free_p\.nc both have the case name 'measured'"),
+
+    # == the new surfaces of the last round (issue 55) =========================================
+    # -- rig play: a drive file that is not UTF-8 text was a UnicodeDecodeError ----------------
+    ("play-drive-binary", _png("png.csv"),
+     ["rig", "play", "{tmp}/png.csv", "--out", "{tmp}/p.nc"],
+     r"png\.csv: binary data \(NUL bytes.*not a text CSV file: a drive file is plain text"),
+    ("play-drive-utf16", _bytes("u16.csv", "time_s,acceleration_m_s2\n0,0\n0.001,0\n"
+                                .encode("utf-16")),
+     ["rig", "play", "{tmp}/u16.csv", "--out", "{tmp}/p.nc"],
+     r"u16\.csv: UTF-16 text, not a text CSV file"),
+    ("play-drive-latin1-before-header",
+     _bytes("lat.csv", "Messung Düse 3\ntime_s,acceleration_m_s2\n0,0\n0.001,0\n"
+            .encode("latin-1")),
+     ["rig", "play", "{tmp}/lat.csv", "--out", "{tmp}/p.nc"],
+     r"lat\.csv: line 1 is not UTF-8 text \(byte 0xfc at column 10\)"),
+    ("play-drive-latin1-after-header",
+     _bytes("lat2.csv", "time_s,acceleration_m_s2\n0,0\n# Düse\n0.001,0\n"
+            .encode("latin-1")),
+     ["rig", "play", "{tmp}/lat2.csv", "--out", "{tmp}/p.nc"],
+     r"lat2\.csv: line 3 is not UTF-8 text \(byte 0xfc at column 4\)"),
+    # ... and a jump in time was reported where its drift crossed the tolerance (line 3),
+    # printed as np.float64(...)
+    ("play-drive-time-jump-at-its-line", _drive_jump("jump.csv"),
+     ["rig", "play", "{tmp}/jump.csv", "--out", "{tmp}/p.nc"],
+     r"jump\.csv: line 5002: time 2\.5003 s follows 2\.4995 s after 0\.0008 s, but the "
+     r"file's step is 0\.0005 s: a drive file needs a uniform time column$"),
+    # -- train / predict --history N at the record's length - 1 --------------------------------
+    # (train: NumPy's "too small to calculate a numerical gradient" from the cycle-energy loss)
+    ("train-history-length-1", None, [*TRO, "--history", "1499"],
+     r"--history must be in \[0, 1498\], got 1499 \(samples of the validation record "
+     r".*good\.nc \(1500\), leaving 2 to score\)"),
+    ("train-history-leaves-no-cycle", None, [*TRO, "--history", "1497"],
+     r"--history 1497: the 3 sample\(s\) of the validation record after it hold no whole "
+     r"input cycle for the cycle-energy term; take fewer samples of history"),
+    # (predict: "a record needs at least 2 samples, got 1", which never named --history)
+    ("predict-history-length-1", None,
+     [*P, "--data", "{tmp}/good.nc", "--out", "{tmp}/p.nc", "--history", "1499"],
+     r"--history must be in \[0, 1498\], got 1499 \(samples of .*good\.nc \(1500\), "
+     r"leaving 2 to predict\)"),
+    # -- a folder that holds files the command did not write: refused, named ---------------
+    ("design-into-a-folder-with-the-users-train-csv",
+     _all(_text("lab/train.csv", "time [s],velocity [m/s]\n0,0\n0.002,0.1\n"),
+          _text("tiny.toml", TINY_DESIGN_TOML)),
+     ["design", "--out", "{tmp}/lab", "--config", "{tmp}/tiny.toml", "--split", "train"],
+     r"--out .*lab: holds train\.csv, which sloshrom design did not write \(or that changed "
+     r"since\): refusing to replace it \(--overwrite replaces it; or choose another folder\)"),
+    ("example-into-a-laboratorys-folder",
+     _all(_text("lab/decay.uff", "a laboratory's real decay\n"),
+          _text("lab/channels.toml", "[channels]\nstations = [\"Acc 1\"]\n")),
+     ["analyse", "example", "{tmp}/lab", "--duration", "34"],
+     r"DIRECTORY .*lab: holds decay\.uff, channels\.toml, which sloshrom analyse example did "
+     r"not write \(or that changed since\): refusing to replace them \(--overwrite"),
+    ("system-into-a-folder-with-the-users-train-nc", _text("bw/train.nc", "my own record\n"),
+     ["system", "bouc-wen", "--out", "{tmp}/bw"],
+     r"--out .*bw: holds train\.nc, which sloshrom system did not write \(or that changed "
+     r"since\): refusing to replace it"),
+    # -- a given mode read from noise ------------------------------------------------------------
+    ("analyse-free-f1-in-the-noise",
+     None, ["analyse", "free", "{tmp}/noisy.uff", "--channels", "{tmp}/ch.toml", "--out",
+            "{tmp}/res", "--f1", "20"],
+     r"the mode given at 20 Hz is not a resonance of the data: the tank channel's spectrum "
+     r"has no peak in 13-27 Hz, the band its analyses filter, that stands 10 dB above its "
+     r"surroundings and 20 dB above the spectrum's median .*strongest peak is at 10\.\d+ Hz"),
+    # -- a file without time axis said in a laboratory's words, not read_record's fs= --------
+    ("analyse-free-csv-without-time", _text("notime.csv", "Acc 5 [g]\n0.1\n0.2\n0.1\n"),
+     ["analyse", "free", "{tmp}/notime.csv", "--channels", "{tmp}/ch.toml", "--out",
+      "{tmp}/res"],
+     r"notime\.csv: no time axis: a test's file needs a 'time' column"),
+    ("analyse-campaign-design-drives-only", _design_drive("dr", uff=True),
+     ["analyse", "campaign", "{tmp}/dr", "--channels", "{tmp}/ch.toml", "--out", "{tmp}/res"],
+     r"dr holds no data file"),
+    # -- a campaign is its folder --------------------------------------------------------------
+    ("analyse-campaign-manifest-outside-the-folder",
+     _all(_text("cdir/campaign.toml", '[[test]]\nfile = "../ch.toml"\nkind = "free"\n'),
+          _text("cdir/a.uff", "x\n")),
+     ["analyse", "campaign", "{tmp}/cdir", "--channels", "{tmp}/ch.toml", "--out", "{tmp}/res"],
+     r"campaign\.toml: test 1: file '\.\./ch\.toml' is outside the campaign folder .*cdir: "
+     r"name its files relative to it, without '\.\.'"),
+    ("analyse-campaign-manifest-absolute-path",
+     _text("cdir/campaign.toml", '[[test]]\nfile = "/etc/passwd"\nkind = "free"\n'),
+     ["analyse", "campaign", "{tmp}/cdir", "--channels", "{tmp}/ch.toml", "--out", "{tmp}/res"],
+     r"campaign\.toml: test 1: file '/etc/passwd' is outside the campaign folder"),
 ]
 
 
@@ -1645,3 +1789,78 @@ def test_bad_config_fails_in_the_library():
     cfg["beam"]["rms_g"] = []
     with pytest.raises(ConfigError, match=r"'beam\.rms_g' must be a non-empty list"):
         settings.validate(cfg)
+
+
+# -- the new surfaces of the last round (issue 55), beyond single refusals -----------------------
+def test_rig_play_plays_the_uff_that_design_writes(tmp_path):
+    """`rig play` on design's UFF 58 read it as a CSV ("columns ['-1']: expected a time
+    column"): it plays its segments back to back, as the CSV of the same programme."""
+    from sloshrom.io import read_record
+
+    _design_drive("lab", uff=True)(tmp_path)
+    for name in ("train.csv", "train.uff"):
+        res = runner.invoke(app, ["rig", "play", str(tmp_path / "lab" / name), "--out",
+                                  str(tmp_path / f"{name}.nc"), "--no-truth"])
+        assert res.exit_code == 0, res.output
+    csv, uff = (read_record(tmp_path / f"train.{s}.nc") for s in ("csv", "uff"))
+    assert len(csv) == len(uff) and uff.duration == pytest.approx(2.0, abs=2e-3)
+    assert uff.attrs["provenance"]["signal"]["file_fs"] == 2000.0
+    # the UFF holds 12 significant digits, the CSV 10: the same drive, the same rig noise
+    peak = np.max(np.abs(csv["force"]))
+    assert np.max(np.abs(uff["force"] - csv["force"])) <= 1e-6 * peak
+
+
+def test_rig_play_help_states_the_rate_rule_it_applies(tmp_path):
+    """The help said a rate that is not a whole number of Hz is refused, and 2000.5 Hz was
+    accepted (and resampled correctly): the help now states the rule the resampler applies,
+    and its own examples behave as it says."""
+    from sloshrom.io.programme import MAX_DENOMINATOR, write_drive_csv
+
+    res = runner.invoke(app, ["rig", "play", "--help"], terminal_width=200)
+    help_text = " ".join(res.output.split())
+    assert f"a fraction with a denominator up to {MAX_DENOMINATOR:,}" in help_text
+    assert "2000.5 Hz is too, 2000.3 Hz is not" in help_text
+    for fs, ok in ((2000.5, True), (2000.3, False)):
+        t = np.arange(int(fs) + 1) / fs
+        p = write_drive_csv(tmp_path / f"{fs}.csv", np.sin(2 * np.pi * 12 * t) *
+                            np.sin(np.pi * t / t[-1]) ** 2, fs)
+        res = runner.invoke(app, ["rig", "play", str(p), "--out", str(tmp_path / f"{fs}.nc"),
+                                  "--no-truth"])
+        assert (res.exit_code == 0) == ok, res.output
+        if not ok:
+            assert f"no fraction with a denominator up to {MAX_DENOMINATOR:,}" in res.output
+            assert not (tmp_path / f"{fs}.nc").exists()
+
+
+def test_a_campaign_leaves_out_the_drives_design_wrote_beside_its_tests(world, tmp_path):
+    """`analyse campaign` on a folder where `design` also wrote read train.csv as a test ("pass
+    fs= (Hz)"): a drive file is a shaker's command, left out with a note."""
+    from sloshrom.beam.lab.campaign import campaign_tests
+    from sloshrom.beam.lab.channels import ChannelMap
+    from sloshrom.errors import Note
+
+    shutil.copyfile(world / "lab.uff", tmp_path / "decay.uff")
+    _design_drive(".", uff=True)(tmp_path)
+    with pytest.warns(Note, match=r"train\.csv, train\.uff: drive file\(s\) of a shaker "
+                                  r"programme \(`sloshrom design`\), not measured tests: left out"):
+        tests = campaign_tests(tmp_path, ChannelMap.from_toml(world / "ch.toml"))
+    assert [(t.kind, [p.name for p in t.files]) for t in tests] == [("free", ["decay.uff"])]
+
+
+def test_analyse_example_replaces_its_own_files_and_no_others(tmp_path):
+    """`analyse example DIR` replaced a laboratory's decay.uff and channels.toml without a word
+    (refused now: test_hostile_cli_rejects); its own files of an earlier run it replaces, an
+    edited one it refuses by name, and --overwrite replaces it."""
+    d = tmp_path / "ex"
+    argv = ["analyse", "example", str(d), "--duration", "34"]
+    assert runner.invoke(app, argv).exit_code == 0
+    res = runner.invoke(app, argv)
+    assert res.exit_code == 0, res.output
+    (d / "channels.toml").write_text((d / "channels.toml").read_text() + "# edited\n")
+    res = runner.invoke(app, argv)
+    assert res.exit_code == 2 and "holds channels.toml, which sloshrom analyse example did " \
+        "not write" in " ".join(res.output.split()), res.output
+    assert (d / "channels.toml").read_text().endswith("# edited\n")
+    res = runner.invoke(app, [*argv, "--overwrite"])
+    assert res.exit_code == 0, res.output
+    assert not (d / "channels.toml").read_text().endswith("# edited\n")

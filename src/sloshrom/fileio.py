@@ -30,6 +30,16 @@ Failures and kills
   not a power loss (nothing is ``fsync``-ed).
 - :func:`folder_lock`: one run at a time in an output folder (``reproduce``).
 
+Files a command did not write
+-----------------------------
+A command that writes fixed names into a folder the user names (``sloshrom design``'s
+``train.csv``, ``analyse example``'s ``decay.uff``) must not replace a file of the same name
+that it did not write (a laboratory's own data). A batch made with ``OutputBatch(owner=...)``
+records what it wrote in the folder's :data:`WRITTEN` file (name, command, size and SHA-256 of
+each file), in the same commit as the files; :func:`check_output` with ``owner`` refuses a
+folder where one of the command's files exists but is not recorded as that command's, or has
+changed since (:func:`foreign_files`), unless ``overwrite``.
+
 Tests stop a write at a named step: :data:`FAULT_ENV` (``SLOSHROM_FAULT_KILL``, a glob of step
 names) kills the process with ``SIGKILL`` at the first matching step, and ``_fault_hook`` is
 called with every step name (an in-process test raises from it). Steps: ``written:{name}`` (a
@@ -43,6 +53,7 @@ from __future__ import annotations
 import errno
 import fcntl
 import fnmatch
+import hashlib
 import json
 import os
 import re
@@ -61,9 +72,10 @@ if TYPE_CHECKING:
     import xarray as xr
 
 __all__ = [
-    "FAULT_ENV", "FolderBusyError", "OutputBatch", "OutputPathError", "OutputWriteError",
-    "atomic_write", "atomic_write_text", "check_output", "complete_commits", "folder_lock",
-    "netcdf_writer", "not_a_regular_file", "pid_alive", "same_file",
+    "FAULT_ENV", "WRITTEN", "FolderBusyError", "OutputBatch", "OutputPathError",
+    "OutputWriteError", "atomic_write", "atomic_write_text", "check_output", "complete_commits",
+    "folder_lock", "foreign_files", "netcdf_writer", "not_a_regular_file", "pid_alive",
+    "same_file",
 ]
 
 # Bytes of a temporary name beyond the (possibly shortened) target name: "." + name + "." +
@@ -72,6 +84,10 @@ __all__ = [
 _TMP_EXTRA = 2 + 8 + 8
 _NAME_MAX = 255
 _JOURNAL = re.compile(r"^\.sloshrom-commit\.(\d+)\.[^.]+\.(commit|tmp)$")
+
+#: The record, in an output folder, of the files that sloshrom commands wrote there (JSON:
+#: ``{"files": {name: {"command", "size", "sha256"}}}``; :func:`foreign_files`).
+WRITTEN = ".sloshrom-written.json"
 
 #: Environment variable naming (a glob of) the step at which a test kills the writing process.
 FAULT_ENV = "SLOSHROM_FAULT_KILL"
@@ -330,6 +346,13 @@ class OutputBatch:
     and leaves every target as it was. A command that writes a result directory uses one batch,
     so that a failure half-way leaves no partial set of results.
 
+    Parameters
+    ----------
+    owner : str, optional
+        The command that writes the batch (``"sloshrom design"``): the commit also records
+        its files in each folder's :data:`WRITTEN` file, so that a later run of the command
+        may replace them and another file of the same name is refused (:func:`check_output`).
+
     Examples
     --------
     >>> with OutputBatch() as batch:                                    # doctest: +SKIP
@@ -337,7 +360,8 @@ class OutputBatch:
     ...     batch.write_text("out/a.md", "| table |")
     """
 
-    def __init__(self) -> None:
+    def __init__(self, owner: str | None = None) -> None:
+        self.owner = owner
         self._pending: list[tuple[str, Path]] = []
         self._made: list[Path] = []  # directories this batch created, outermost first
         self._seen: set[Path] = set()  # folders whose unfinished commits were completed
@@ -405,6 +429,15 @@ class OutputBatch:
         if not self._pending:
             self.discard()
             return
+        if self.owner is not None:
+            try:
+                self._record_written(self.owner)
+            except BaseException as exc:
+                self.discard()
+                if isinstance(exc, OSError):
+                    raise _write_error(exc, self._pending[0][1],
+                                       "the previous results are intact") from exc
+                raise
         targets = [p for _, p in self._pending]
         try:
             journal = self._write_journal()
@@ -431,6 +464,21 @@ class OutputBatch:
         self._made.clear()  # committed: the directories hold results now
         for p in targets:
             _remove_stale(p)
+
+    def _record_written(self, owner: str) -> None:
+        """Add the updated :data:`WRITTEN` record of each folder of the batch to the batch:
+        its files as ``owner``'s, with the size and digest of their complete temporaries (the
+        record commits with them, all or nothing)."""
+        folders: dict[Path, list[tuple[str, Path]]] = {}
+        for tmp, p in self._pending:
+            folders.setdefault(p.parent, []).append((tmp, p))
+        for folder, files in folders.items():
+            record = {name: entry for name, entry in _read_written(folder).items()
+                      if (folder / name).exists()}  # a file removed since is forgotten
+            for tmp, p in files:
+                record[p.name] = {"command": owner, "size": os.path.getsize(tmp),
+                                  "sha256": _digest(tmp)}
+            self.write_text(folder / WRITTEN, json.dumps({"files": record}, indent=1) + "\n")
 
     def _write_journal(self) -> Path:
         """Write the commit journal (atomically) in the folder common to every target."""
@@ -535,6 +583,64 @@ def _inside(path: str | Path, root: str | Path) -> bool:
     return rp == rr or rp.startswith(rr.rstrip(os.sep) + os.sep)
 
 
+def _digest(path: str | Path) -> str:
+    """SHA-256 of a file's bytes (hex), read in chunks."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def _read_written(folder: Path) -> dict[str, dict[str, object]]:
+    """A folder's :data:`WRITTEN` record (empty when missing or unreadable: then nothing in
+    the folder counts as written by sloshrom)."""
+    try:
+        files = json.loads((folder / WRITTEN).read_text(encoding="utf-8"))["files"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return {}
+    if not isinstance(files, dict):
+        return {}
+    return {str(k): v for k, v in files.items() if isinstance(v, dict)}
+
+
+def foreign_files(folder: str | Path, names: Sequence[str], owner: str) -> list[str]:
+    """The entries among ``names`` that exist in ``folder`` and that ``owner`` did not write.
+
+    A file is ``owner``'s when the folder's :data:`WRITTEN` record lists it as written by
+    ``owner`` with its present size and SHA-256 (a file edited or replaced since is not); a
+    directory where a file goes is never.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The output folder.
+    names : sequence of str
+        What the command writes there (relative names; a trailing ``/`` is ignored).
+    owner : str
+        The command, as its :class:`OutputBatch` records it (``"sloshrom design"``).
+
+    Returns
+    -------
+    list of str
+        The names of the files the command would replace without having written them.
+    """
+    d = Path(folder)
+    record = _read_written(d) if d.is_dir() else {}
+    out = []
+    for name in names:
+        f = d / name.rstrip("/")
+        if not (f.exists() or f.is_symlink()):
+            continue
+        entry = record.get(name.rstrip("/"))
+        mine = (entry is not None and entry.get("command") == owner and f.is_file()
+                and not f.is_symlink() and entry.get("size") == f.stat().st_size
+                and entry.get("sha256") == _digest(f))
+        if not mine:
+            out.append(name.rstrip("/"))
+    return out
+
+
 def same_file(a: str | Path, b: str | Path) -> bool:
     """True if ``a`` and ``b`` name the same file (existing: same inode; else same real path)."""
     pa, pb = Path(a), Path(b)
@@ -554,6 +660,8 @@ def check_output(
     directory: bool = False,
     what: str = "output",
     contents: Sequence[str] = (),
+    owner: str | None = None,
+    overwrite: bool = False,
 ) -> Path:
     """Check that ``path`` can be written, before any work is done.
 
@@ -573,6 +681,12 @@ def check_output(
         With ``directory``: what the command writes in it, relative names; a name ending in
         ``/`` is a directory whose whole tree the command owns. No input may be one of these
         files or lie in one of these directories.
+    owner : str, optional
+        With ``directory``: the command, as its :class:`OutputBatch` records its files. A file
+        of ``contents`` that exists and that it did not write (:func:`foreign_files`) is
+        refused, named, unless ``overwrite``.
+    overwrite : bool
+        Replace such files (the command line's ``--overwrite``).
 
     Returns
     -------
@@ -583,7 +697,8 @@ def check_output(
     OutputPathError
         Unknown suffix, a name too long for the file system, a directory where a file is
         expected (or the reverse), a parent that is a file or not writable, or an input file
-        (the output itself or, for a directory, anything the command writes in it).
+        (the output itself or, for a directory, anything the command writes in it), or files
+        of ``contents`` that ``owner`` did not write.
     """
     p = Path(path)
     if not str(path).strip():
@@ -616,6 +731,14 @@ def check_output(
                 )
     if directory and p.exists() and not p.is_dir():
         raise OutputPathError(f"{what} {p}: exists and is not a directory")
+    if directory and owner is not None and not overwrite:
+        foreign = foreign_files(p, contents, owner)
+        if foreign:
+            them = "it" if len(foreign) == 1 else "them"
+            raise OutputPathError(
+                f"{what} {p}: holds {', '.join(foreign)}, which {owner} did not write (or "
+                f"that changed since): refusing to replace {them} (--overwrite replaces "
+                f"{them}; or choose another folder)")
     # the nearest existing ancestor must be a directory we can create entries in
     anc = p if directory and p.exists() else p.parent
     while not anc.exists() and anc != anc.parent:

@@ -26,6 +26,7 @@ __all__ = [
     "MAX_OUT_DELAYS",
     "MAX_REGRESSOR",
     "MAX_SEED",
+    "MIN_SCORED",
     "MAX_WEIGHTS",
     "TRAINERS",
     "MU_MAX",
@@ -70,3 +71,6 @@ MAX_WEIGHTS = 2**22
 MAX_BATCH = 65536
 #: Largest seed: JAX PRNG keys take 32-bit seeds.
 MAX_SEED = 2**32 - 1
+#: Samples of a record that a start from measured history must leave to score or predict (a
+#: run of one sample has no slope: the amplitude weights and the energy cycles need two).
+MIN_SCORED = 2

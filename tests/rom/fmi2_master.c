@@ -13,6 +13,13 @@
  *       velocities read from stdin; prints their forces, one line per sample
  *   (compiled with -DSTATIC_PAIR, the two FMUs' sources linked in with FMI2_FUNCTION_PREFIX
  *    a_ and b_: "pair - GUID_A - GUID_B N" runs them the same way)
+ *   master state SO GUID VR N
+ *       one FMU on the N values of its input VR read from stdin, every output and parameter
+ *       read at each point (as an observer does, in initialisation mode too); after N/2 steps
+ *       its FMU state is saved, serialised and read back, the run goes on to N, then the
+ *       state is restored and the second half run again: prints the forces of the run, then
+ *       "repeat ok" if the second half came out the same bit for bit (under valgrind: every
+ *       call of the FMI 2.0 co-simulation API an FMU of sloshrom implements for a master)
  */
 #include <dlfcn.h>
 #include <stdarg.h>
@@ -25,6 +32,8 @@
 #define VR_VELOCITY 0u
 #define VR_FORCE 2u
 #define VR_TIME_STEP 10u
+#define VR_OUTSIDE 3u
+#define VR_N_OUTSIDE 4u
 
 typedef struct {
     fmi2InstantiateTYPE *instantiate;
@@ -102,6 +111,79 @@ static Fmu linked(int which) {
 }
 #endif
 
+static int state_run(const char *so, const char *guid, unsigned vr_in, long n) {
+    void *lib = dlopen(so, RTLD_NOW | RTLD_LOCAL);
+    const Fmu f = load(so);
+    fmi2GetFMUstateTYPE *get_state;
+    fmi2SetFMUstateTYPE *set_state;
+    fmi2FreeFMUstateTYPE *free_state;
+    fmi2SerializedFMUstateSizeTYPE *ser_size;
+    fmi2SerializeFMUstateTYPE *serialize;
+    fmi2DeSerializeFMUstateTYPE *deserialize;
+    fmi2GetBooleanTYPE *get_bool;
+    fmi2GetIntegerTYPE *get_int;
+    const fmi2ValueReference vin = vr_in, vf = VR_FORCE, vo = VR_OUTSIDE, vn = VR_N_OUTSIDE;
+    const fmi2ValueReference all[] = {vin, VR_FORCE, VR_TIME_STEP};
+    fmi2Component c;
+    fmi2FMUstate saved = NULL, back = NULL;
+    fmi2Byte *bytes;
+    size_t size = 0;
+    double *u = calloc((size_t)n, sizeof(double)), *y = calloc((size_t)n, sizeof(double));
+    double h, v[3], again;
+    fmi2Boolean out;
+    fmi2Integer count;
+    long k, half = n / 2, same = 1;
+    if (lib == NULL || u == NULL || y == NULL) return 2;
+    get_state = (fmi2GetFMUstateTYPE *)symbol(lib, "fmi2GetFMUstate");
+    set_state = (fmi2SetFMUstateTYPE *)symbol(lib, "fmi2SetFMUstate");
+    free_state = (fmi2FreeFMUstateTYPE *)symbol(lib, "fmi2FreeFMUstate");
+    ser_size = (fmi2SerializedFMUstateSizeTYPE *)symbol(lib, "fmi2SerializedFMUstateSize");
+    serialize = (fmi2SerializeFMUstateTYPE *)symbol(lib, "fmi2SerializeFMUstate");
+    deserialize = (fmi2DeSerializeFMUstateTYPE *)symbol(lib, "fmi2DeSerializeFMUstate");
+    get_bool = (fmi2GetBooleanTYPE *)symbol(lib, "fmi2GetBoolean");
+    get_int = (fmi2GetIntegerTYPE *)symbol(lib, "fmi2GetInteger");
+    for (k = 0; k < n; k++)
+        if (scanf("%lf", &u[k]) != 1) return 2;
+    c = f.instantiate("state", fmi2CoSimulation, guid, "", &CALLBACKS, fmi2False, fmi2False);
+    if (c == NULL || f.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0) != fmi2OK
+        || f.enter(c) != fmi2OK || f.get_real(c, all, 3, v) != fmi2OK  /* the observer's read */
+        || f.exit_init(c) != fmi2OK)
+        return 3;
+    h = v[2];
+    for (k = 0; k < n; k++) {
+        if (k == half) {
+            if (get_state(c, &saved) != fmi2OK || ser_size(c, saved, &size) != fmi2OK) return 4;
+            bytes = malloc(size);
+            if (bytes == NULL || serialize(c, saved, bytes, size) != fmi2OK
+                || deserialize(c, bytes, size, &back) != fmi2OK)
+                return 4;
+            free(bytes);
+        }
+        if (f.set_real(c, &vin, 1, &u[k]) > fmi2Warning || f.get_real(c, all, 3, v) != fmi2OK
+            || get_bool(c, &vo, 1, &out) != fmi2OK || get_int(c, &vn, 1, &count) != fmi2OK
+            || f.do_step(c, (double)k * h, h, fmi2True) > fmi2Warning)
+            return 5;
+        y[k] = v[1];
+        printf("%.17g\n", y[k]);
+    }
+    if (set_state(c, back) != fmi2OK) return 6;  /* the deserialised copy of the saved state */
+    for (k = half; k < n; k++) {
+        if (f.set_real(c, &vin, 1, &u[k]) > fmi2Warning || f.get_real(c, &vf, 1, &again) != fmi2OK
+            || f.do_step(c, (double)k * h, h, fmi2True) > fmi2Warning)
+            return 7;
+        same = same && again == y[k];
+    }
+    printf(same ? "repeat ok\n" : "repeat differs\n");
+    free_state(c, &saved);
+    free_state(c, &back);
+    f.terminate(c);
+    f.free_instance(c);
+    free(u);
+    free(y);
+    dlclose(lib);
+    return 0;
+}
+
 static fmi2Component start(const Fmu *f, const char *name, const char *guid, double t0) {
     fmi2Component c = f->instantiate(name, fmi2CoSimulation, guid, "", &CALLBACKS, fmi2False,
                                      fmi2False);
@@ -178,6 +260,9 @@ int main(int argc, char **argv) {
 #endif
         return pair_run(&fa, argv[3], &fb, argv[5], atol(argv[6]));
     }
-    fprintf(stderr, "usage: master clock SO GUID T0 N | master pair SO_A GUID_A SO_B GUID_B N\n");
+    if (argc == 6 && strcmp(argv[1], "state") == 0)
+        return state_run(argv[2], argv[3], (unsigned)atol(argv[4]), atol(argv[5]));
+    fprintf(stderr, "usage: master clock SO GUID T0 N | master pair SO_A GUID_A SO_B GUID_B N | "
+                    "master state SO GUID VR N\n");
     return 2;
 }

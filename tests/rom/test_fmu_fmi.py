@@ -36,7 +36,7 @@ from typer.testing import CliRunner
 
 from helpers import check_cli
 from sloshrom.cli import app
-from sloshrom.rom.errors import FeedthroughWarning
+from sloshrom.rom.errors import FeedthroughWarning, ROMError
 from sloshrom.rom.fmu import VR, export_fmu, load_fmu, remove_stale_builds
 from sloshrom.rom.fmu_runtime import _callbacks
 from sloshrom.rom.nss.estimator import NSS
@@ -254,9 +254,6 @@ STATE_MACHINE = [  # (id, state, what to do first, the refused call, the message
     ("getinteger-before-initialisation", "instantiated", None,
      lambda f: f.getInteger([VR["samples_outside_envelope"]]),
      "fmi2GetInteger is not allowed when the FMU is instantiated"),
-    ("getreal-of-an-input-in-initialization-mode", "init", None,
-     lambda f: f.getReal([VR["velocity"]]),
-     "fmi2GetReal of an input is not allowed in initialization mode"),
     ("exit-initialization-twice", "step", None, lambda f: f.exitInitializationMode(),
      "fmi2ExitInitializationMode is not allowed when the FMU is stepping"),
     ("setup-after-initialisation", "step", None, lambda f: f.setupExperiment(startTime=0.0),
@@ -288,6 +285,13 @@ def test_what_the_state_machine_allows_still_works(fmus, models, tmp_path):
     f.enterInitializationMode()
     rest = f.getReal([VR["dynamic_force"], VR["time_step"]])  # initial unknowns
     assert rest == [pytest.approx(float(models["a"].predict(np.zeros(4))[0]), abs=1e-15), 0.002]
+    # an input's current value too, as the FMI reference FMUs answer: libcosim's last-value
+    # observer reads every variable in initialisation mode, and an fmi2Error there aborted
+    # the whole process (tests/rom/test_fmu_masters.py runs it)
+    assert f.getReal([VR["velocity"]]) == [0.0]
+    f.setReal([VR["velocity"]], [0.02])
+    assert f.getReal([VR["velocity"]]) == [0.02]
+    f.setReal([VR["velocity"]], [0.0])
     f.exitInitializationMode()
     f.doStep(0.0, 0.002)
     f.terminate()
@@ -414,6 +418,61 @@ def test_feed_through_is_declared_and_warned(tmp_path):
     assert r.exit_code == 0, r.output
     lines = [ln for ln in r.output.splitlines() if ln.startswith("warning:")]
     assert len(lines) == 1 and "direct feed-through" in lines[0]
+    assert "--strictly-proper" in lines[0]
+
+
+def test_a_feed_through_model_exports_strictly_proper(tmp_path):
+    """A model with feed-through was one input late in every master that reads the outputs
+    before it sets the inputs (FMPy's simulate_fmu, libcosim): exported strictly proper, its
+    force at t_k is the model's of t_(k-1), no output depends on an input of its own point
+    (ModelStructure), the description says so, and no feed-through warning is given. A
+    strictly proper model has nothing to gain and is refused, with the reason."""
+    u, y = _data()
+    nss = _nss().fit(u, y, 500.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", FeedthroughWarning)
+        path = export_fmu(nss, tmp_path / "sp.fmu", binary=False, strictly_proper=True)
+    md = fmpy.read_model_description(str(path))
+    force = next(o for o in md.outputs if o.variable.name == "dynamic_force")
+    assert force.dependencies == [] and "direct feed-through" not in md.description
+    assert "exported strictly proper: the force at t_k is the model's force of t_(k-1)" \
+        in md.description
+    assert "strictly proper export: one step, 0.002 s, late" in force.variable.description
+    with pytest.raises(ROMError, match=r"has no direct feed-through .*strictly proper as it "
+                                       r"is"):
+        export_fmu(_nss(feedthrough="no").fit(u, y, 500.0), tmp_path / "no.fmu",
+                   binary=False, strictly_proper=True)
+
+
+def test_a_dimensionless_parameter_reads_as_a_number(tmp_path):
+    """fill_min and fill_max read "... of the training (0.5 1)": the unit "1" is no word."""
+    u, y = _data()
+    m = NFIR(delays=4, neurons=3, max_epochs=2, seed=0).fit(u, y, 500.0, fill=0.5)
+    md = fmpy.read_model_description(str(export_fmu(m, tmp_path / "f.fmu", binary=False)))
+    text = {v.name: v.description for v in md.modelVariables}
+    assert text["fill_min"] == "lowest fill level d/h of the training (0.5)"
+    assert text["fill_max"] == "highest fill level d/h of the training (0.5)"
+    assert text["time_step"] == "the model's time step: the only communication step (0.002 s)"
+
+
+@needs_cc
+def test_the_cli_exports_strictly_proper_and_checks_the_step_late_force(tmp_path):
+    """`export fmu --strictly-proper` runs its check against the model's force one step
+    late; on a model without feed-through it is one error line and nothing written."""
+    u, y = _data()
+    model = _nss().fit(u, y, 500.0).save(tmp_path / "nss.npz")
+    r = CliRunner().invoke(app, ["export", "fmu", str(model), str(tmp_path / "sp.fmu"),
+                                 "--strictly-proper"])
+    assert r.exit_code == 0, r.output
+    assert "strictly proper (its force one step late)" in r.output
+    assert not [ln for ln in r.output.splitlines() if ln.startswith("warning:")]
+    rel = float(re.search(r"max rel\. difference ([0-9.e+-]+)", r.output).group(1))
+    assert rel <= PARITY
+    nfir = NFIR(delays=4, neurons=3, max_epochs=2, seed=0).fit(u, y, 500.0)
+    check_cli(tmp_path, tmp_path, None, ["export", "fmu", str(nfir.save(tmp_path / "n.npz")),
+                                         str(tmp_path / "n.fmu"), "--strictly-proper"],
+              r"the NFIR \(4 delays up to 4, 3 neurons\) has no direct feed-through .*"
+              r"export it without that option")
 
 
 # -- hostile input of the export command ----------------------------------------------------------

@@ -16,6 +16,7 @@ from typer.testing import CliRunner
 from sloshrom.cli import app
 from sloshrom.io import Record, read_record, write_record
 from sloshrom.rom import NFIR, NOE, NSS, Ensemble, MinMaxScaler, ROMError
+from sloshrom.rom.errors import HistoryError
 from sloshrom.rom.lss import LSS
 from sloshrom.rom.nss.network import StateSpaceSpec
 from sloshrom.rom.nss.training import init_params
@@ -141,8 +142,10 @@ def test_validation_history_is_checked():
         m.fit(u, y, FS, validation_history=20)
     with pytest.raises(ROMError, match="reads 10 samples"):
         m.fit(u, y, FS, validation=(u[:100], y[:100]), validation_history=5)
-    with pytest.raises(ROMError, match="nothing to score"):
-        m.fit(u, y, FS, validation=(u[:100], y[:100]), validation_history=100)
+    for h in (100, 99):  # a score needs 2 samples (a free run of 1 sample has no slope)
+        with pytest.raises(HistoryError, match=rf"validation_history {h}: leaves {100 - h} "
+                                               r"sample\(s\) .*at most 98 samples"):
+            m.fit(u, y, FS, validation=(u[:100], y[:100]), validation_history=h)
 
 
 def test_an_ensemble_from_history_is_the_mean_of_its_members():

@@ -27,7 +27,7 @@ import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Annotated, Any, NoReturn
 
 import typer
 from typer.core import TyperGroup
@@ -39,9 +39,15 @@ from sloshrom.io import same_unit
 from sloshrom.models import INPUT_UNITS, input_of
 
 __all__ = [
-    "app", "check_input", "check_number", "check_out", "check_sloshing_rom", "fail",
-    "key_value_pairs", "route_warnings", "warn",
+    "OverwriteOpt", "app", "check_input", "check_number", "check_out", "check_sloshing_rom",
+    "fail", "key_value_pairs", "route_warnings", "warn",
 ]
+
+#: ``--overwrite`` of a command that writes fixed names into a folder the user names: without
+#: it, a file there that the command did not write is refused (``check_out``'s ``owner``).
+OverwriteOpt = Annotated[bool, typer.Option(
+    "--overwrite", help="Replace files of the same names in the folder that this command did "
+                        "not write (without it they are refused, named).")]
 
 
 def _click_exceptions() -> Any:
@@ -178,14 +184,19 @@ def check_out(
     directory: bool = False,
     what: str = "--out",
     contents: tuple[str, ...] = (),
+    owner: str | None = None,
+    overwrite: bool = False,
 ) -> Path:
     """:func:`sloshrom.fileio.check_output` before any work; a user error if it fails.
 
     ``contents``: what a command writes inside the directory ``path`` (names; ``dir/`` for a
-    whole tree): no input may be among it."""
+    whole tree): no input may be among it. ``owner``: the command (as its ``OutputBatch``
+    records its files), which may replace only its own files there unless ``overwrite``
+    (``--overwrite``)."""
     try:
         return check_output(path, suffixes=suffixes, inputs=tuple(i for i in inputs if i),
-                            directory=directory, what=what, contents=contents)
+                            directory=directory, what=what, contents=contents, owner=owner,
+                            overwrite=overwrite)
     except OutputPathError as exc:
         fail(str(exc))
 

@@ -25,7 +25,15 @@ from typing import TYPE_CHECKING, Annotated, Any, TypeVar, cast
 import typer
 
 from sloshrom.beam.damping.limits import FREE_DAMPING_PERIODS, WELCH_SEGMENT
-from sloshrom.cli._app import app, check_input, check_number, fail, key_value_pairs
+from sloshrom.cli._app import (
+    OverwriteOpt,
+    app,
+    check_input,
+    check_number,
+    check_out,
+    fail,
+    key_value_pairs,
+)
 from sloshrom.cli.beam import (
     DirectionOpt,
     FillOpt,
@@ -759,11 +767,13 @@ def example(
                               "--unit or the map's [units]).")] = False,
     duration: Annotated[float, typer.Option(help="Length of each random run, s.")] = 120.0,
     seed: Annotated[int, typer.Option(help="Seed of the excitation and noise.")] = 0,
+    overwrite: OverwriteOpt = False,
 ) -> None:
     """Write a laboratory's campaign to try `analyse` on: a three-mode cantilever without tank
     (10.3 / 64.1 / 180 Hz, damping 1.37 / 0.62 / 0.48 %), five accelerometers alternately in g
     and m/s^2, a free decay and random tests at 0.1 / 0.2 / 0.4 g, as UFF 58, and its channel
-    map ``channels.toml``.
+    map ``channels.toml``. A file of these names in DIRECTORY that this command did not write
+    (a laboratory's real decay.uff or channels.toml) is refused, named, unless --overwrite.
 
     Example: ``sloshrom analyse example lab && sloshrom analyse campaign lab --channels
     lab/channels.toml --out results``
@@ -774,8 +784,11 @@ def example(
                  why=f"one {WELCH_SEGMENT}-sample Welch segment at 500 Hz and at most an hour")
     check_number(seed, "--seed", 0, 2**32 - 1)
     names = ["decay.uff", *(f"random_{g:g}g.uff" for g in (0.1, 0.2, 0.4)), "channels.toml"]
+    owner = "sloshrom analyse example"  # it replaces only its own files (check_out's owner)
     check_outputs(directory, names, ())
-    with OutputBatch() as batch:
+    check_out(directory, directory=True, what="DIRECTORY", contents=tuple(names), owner=owner,
+              overwrite=overwrite)
+    with OutputBatch(owner=owner) as batch:
         cmap = write_lab_campaign(directory, duration=duration, unit_labels=not empty_units,
                                   seed=seed, batch=batch)
         cmap.write_toml(directory / "channels.toml", batch)

@@ -21,7 +21,7 @@ import numpy as np
 import typer
 
 from sloshrom import __version__
-from sloshrom.cli._app import app, check_number, check_out, fail, warn
+from sloshrom.cli._app import OverwriteOpt, app, check_number, check_out, fail, warn
 from sloshrom.cli.pipeline import load_config
 from sloshrom.config import G
 from sloshrom.errors import SloshromError
@@ -47,6 +47,8 @@ MIN_DRIVE_FS = 500
 SHORT = {"vfa": "g peak", "random": "g rms", "decay": "x tip"}
 #: Longest pause between segments, s.
 MAX_PAUSE = 3600.0
+#: How the command records its files in OUT (it replaces only those: ``check_out``'s owner).
+OWNER = "sloshrom design"
 
 
 def _formats(text: str) -> list[str]:
@@ -146,6 +148,7 @@ def design_cmd(
     strict: Annotated[bool, typer.Option(
         help="Exit with code 1, writing nothing, if the programme exceeds a shaker limit.")
     ] = False,
+    overwrite: OverwriteOpt = False,
 ) -> None:
     """Write the identification test as drive files, check them against a shaker and say how
     long the laboratory will take.
@@ -163,7 +166,9 @@ def design_cmd(
     250 Hz), divides 10 kHz exactly, gives an exact UFF time step and 10 samples per cycle at
     200 Hz.
 
-    A limit exceeded is said in a sentence; the exit code is 0 unless --strict.
+    A limit exceeded is said in a sentence; the exit code is 0 unless --strict. A file of
+    these names in OUT that `sloshrom design` did not write (a laboratory's own train.csv) is
+    refused, named, unless --overwrite.
 
     Example: sloshrom design --out lab --config my.toml --max-acceleration 20 --max-stroke 25
     """
@@ -181,7 +186,8 @@ def design_cmd(
                      "made at the rig's 10 kHz")
     splits = list(SPLITS) if split == "both" else [split]
     names = [f"{s}.{f}" for s in splits for f in fmts] + ["programme.json"]
-    check_out(out, directory=True, inputs=(config,), contents=tuple(names))
+    check_out(out, directory=True, inputs=(config,), contents=tuple(names), owner=OWNER,
+              overwrite=overwrite)
     limits = ShakerLimits(max_stroke * 1e-3, max_velocity, max_acceleration * G)
 
     from rich.console import Console
@@ -258,7 +264,7 @@ def design_cmd(
         "exceeds": [f"{s}: {t}" for s, t in exceeded],
     }
     try:
-        with OutputBatch() as batch:
+        with OutputBatch(owner=OWNER) as batch:
             for s in splits:
                 segs, whole = drives[s]
                 files: dict[str, str] = {}

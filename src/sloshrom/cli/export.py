@@ -143,12 +143,22 @@ def fmu_cmd(
     check: Annotated[bool, typer.Option("--check/--no-check", help="Validate the FMU with "
                                         "FMPy and run its binary against the ROM (a relative "
                                         "difference above 1e-12 writes nothing).")] = True,
+    strictly_proper: Annotated[bool, typer.Option(
+        "--strictly-proper", help="For a ROM with direct feed-through (an LSS, an NSS with "
+                                  "--feedthrough yes): the FMU's force at t_k is the model's "
+                                  "force of t_(k-1), read before the input of t_k enters it, so "
+                                  "that every co-simulation master gets the model's force one "
+                                  "step late, whatever its order of calls (docs/interchange.md)."
+    )] = False,
 ) -> None:
     """Export a ROM as an FMI 2.0 co-simulation FMU: native C, no Python at run time.
 
-    Inputs velocity (m/s) and acceleration (m/s2) of the tank, output dynamic_force (N); the
-    communication step is the model's own; outside_envelope flags inputs beyond the training
-    range (docs/interchange.md). The C sources are inside, for other platforms.
+    Input the tank signal the model reads (velocity in m/s, or acceleration in m/s2 for a
+    network on it), output dynamic_force (N); the communication step is the model's own;
+    outside_envelope flags inputs beyond the training range (docs/interchange.md). The C
+    sources are inside, for other platforms. A ROM with direct feed-through is one input late
+    in a master that reads the outputs before it sets the inputs (FMPy's simulate_fmu,
+    libcosim): export it with --strictly-proper for those.
 
     Example: ``sloshrom export fmu results/models/nss.npz slosh.fmu``
     """
@@ -199,19 +209,23 @@ def fmu_cmd(
                      "written")
             finally:
                 fmu.close()
-            ref = np.asarray(rom.predict(u))
+            # strictly proper: the force of the sample before (at rest before the first)
+            ref = (np.asarray(rom.predict(np.concatenate([[0.0], u])))[:-1] if strictly_proper
+                   else np.asarray(rom.predict(u)))
             rel[0] = float(np.max(np.abs(y - ref)) / max(np.max(np.abs(ref)), 1e-300))
             if not rel[0] <= FMU_PARITY:
                 fail(f"the FMU differs from the ROM by {rel[0]:.2e} (> {FMU_PARITY:g}); "
                      f"{out} not written")
 
-        export_fmu(rom, out, binary=not source_only, verify=verify if check else None)
+        export_fmu(rom, out, binary=not source_only, verify=verify if check else None,
+                   strictly_proper=strictly_proper)
     except SloshromError as exc:
         fail(str(exc))
     except OSError as exc:  # the disk: full, a file-size limit (EFBIG), ...; OUT as it was
         fail(f"OUT {out}: not written ({exc.strerror or exc}); a previous {out.name} is left "
              "as it was")
     what = (f"{len(nets)} x {rom.member_class}" if len(nets) > 1 else type(rom).__name__)
+    what += ", strictly proper (its force one step late)" if strictly_proper else ""
     msg = (f"wrote {out}: {what}, {1 / dt:g} Hz (communication step {dt:.10g} s), "
            + ("sources only" if source_only else f"binary for {fmu_platform()} + sources"))
     if check:

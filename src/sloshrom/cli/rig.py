@@ -24,7 +24,7 @@ from sloshrom.cli.progress import progress_bars
 from sloshrom.config import G, Tank
 from sloshrom.errors import SloshromError
 from sloshrom.io import Record, record_from_measurement, write_record
-from sloshrom.io.programme import read_drive_csv, resample_drive
+from sloshrom.io.programme import read_drive, resample_drive
 from sloshrom.limits import MAX_SEED
 from sloshrom.rig.limits import MAX_FINE_SECONDS, MIN_VFA_DURATION
 from sloshrom.signals import SHAKER_ENVELOPE, harmonic, vfa
@@ -285,8 +285,9 @@ def harmonic_cmd(
 @rig_app.command("play")
 def play_cmd(
     drive: Annotated[Path, typer.Argument(
-        help="Drive CSV: time_s and acceleration_m_s2 (or acceleration_g) columns, as "
-             "`sloshrom design` writes it.")],
+        help="Drive file as `sloshrom design` writes it: the CSV (time_s and "
+             "acceleration_m_s2 or acceleration_g columns) or the UFF 58 (.uff/.unv: its "
+             "segments played back to back).")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Output record (.nc, .csv or .mat).")],
     seed: Annotated[int, typer.Option("--seed", help="Seed of the rig noise (>= 0).")] = 0,
     tank_toml: TankOpt = None,
@@ -297,10 +298,13 @@ def play_cmd(
 
     The time column must be uniform and the values finite; a drive at another rate than the
     rig's 10 kHz integration step is resampled to it, band-limited (80 dB anti-alias filter,
-    pass band 80 % of the lower Nyquist frequency). Refused: NaN, a non-uniform time, unknown
-    columns or units, a rate that is not a whole number of Hz or below 50 Hz, drives longer than
-    1 h (memory) and accelerations beyond ten times the shaker's limit (60 g). Recorded with a
-    warning: a drive that does not start and end at rest, or beyond the shaker's limits.
+    pass band 80 % of the lower Nyquist frequency). A UFF 58 drive plays its segments back to
+    back (the pauses of a CSV are not in it). Refused: NaN, a non-uniform time, unknown columns
+    or units, a file that is not text (CSV) or not UFF, a rate below 50 Hz or one whose ratio
+    to 10 kHz is not a fraction with a denominator up to 10,000 (a whole number of Hz always
+    is; 2000.5 Hz is too, 2000.3 Hz is not), drives longer than 1 h (memory) and accelerations
+    beyond ten times the shaker's limit (60 g). Recorded with a warning: a drive that does not
+    start and end at rest, or beyond the shaker's limits.
 
     Example: sloshrom design --out lab --split train; sloshrom rig play lab/train.csv --out
     train.nc
@@ -309,7 +313,7 @@ def play_cmd(
     tank = _check_common(out, seed, fill, tank_toml)
     check_out(out, suffixes=RECORD_SUFFIXES, inputs=(drive, tank_toml))
     try:
-        d = read_drive_csv(drive)
+        d = read_drive(drive)
     except SloshromError as exc:
         fail(str(exc))
     if d.fs < 2 * CALIBRATED_BAND[1]:

@@ -32,10 +32,11 @@ from sloshrom.limits import (
     MAX_MEMBERS,
     MAX_NEURONS,
     MAX_SEED,
+    MIN_SCORED,
     MU_MAX,
 )
 from sloshrom.rom.epochs import TrainingProgress
-from sloshrom.rom.errors import ModelSizeWarning
+from sloshrom.rom.errors import HistoryError, ModelSizeWarning
 from sloshrom.rom.registry import (
     CLASSES,
     Hyper,
@@ -353,8 +354,9 @@ def _train(**kw: Any) -> None:
         fail(f"{validation}: {len(val)} samples are too few for {n_past} samples of history "
              f"({label})")
     start = max(n_past, int(mc.start_history(hyper)))
-    check_number(history, "--history", 0, len(val) - 1,
-                 why=f"samples of the validation record {validation} ({len(val)})")
+    check_number(history, "--history", 0, len(val) - MIN_SCORED,
+                 why=f"samples of the validation record {validation} ({len(val)}), leaving "
+                     f"{MIN_SCORED} to score")
     if 0 < history < start:
         fail(f"--history {history}: a start from history reads {start} samples ({label}); "
              f"give at least {start}")
@@ -391,6 +393,8 @@ def _train(**kw: Any) -> None:
                 model.fit(rec[input_name], rec[output_name], fs=rec.fs,
                           validation=(val[input_name], val[output_name]), callback=cb,
                           fill=fill, validation_history=history)
+        except HistoryError as exc:  # the validation history, in the option's words
+            fail(f"--history {exc.samples}: {exc.reason}")
         except SloshromError as exc:  # ROMError (a constant record, ...), UnstableModelError
             fail(str(exc))
     try:
@@ -541,6 +545,8 @@ def _fit_members(template: Estimator, k: int, rec: Record, val: Record, input_na
                         validation=(val[input_name], val[output_name]), scheduler=scheduler,
                         n_workers=workers, progress=cb, epoch_progress=epoch_cb, fill=fill,
                         validation_history=history)
+        except HistoryError as exc:  # the validation history, in the option's words
+            fail(f"--history {exc.samples}: {exc.reason}")
         except SloshromError as exc:  # ROMError (a constant record, ...), UnstableModelError
             fail(str(exc))
     return ens
@@ -737,8 +743,8 @@ def _history_of(model: Any, rec: Record, history: int, data: Path
     need = getattr(model, "history_samples", None)
     if need is None:
         fail(f"--history: a {type(model).__name__} starts from rest only")
-    check_number(history, "--history", 0, len(rec) - 1,
-                 why=f"samples of {data} ({len(rec)})")
+    check_number(history, "--history", 0, len(rec) - MIN_SCORED,
+                 why=f"samples of {data} ({len(rec)}), leaving {MIN_SCORED} to predict")
     if history < need:
         fail(f"--history {history}: the model reads {need} samples of measured history; "
              f"give at least {need}")

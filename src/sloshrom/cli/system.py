@@ -16,7 +16,7 @@ from typing import Annotated
 
 import typer
 
-from sloshrom.cli._app import app, check_number, check_out, fail
+from sloshrom.cli._app import OverwriteOpt, app, check_number, check_out, fail
 from sloshrom.errors import SloshromError
 from sloshrom.fileio import OutputBatch
 from sloshrom.io import Record, write_record
@@ -24,6 +24,9 @@ from sloshrom.limits import MAX_SEED
 from sloshrom.systems import SYSTEMS, Option, System
 
 __all__ = ["system"]
+
+#: How the command records its records in OUT (it replaces only those: ``check_out``'s owner).
+OWNER = "sloshrom system"
 
 
 def _options() -> list[inspect.Parameter]:
@@ -69,13 +72,15 @@ def _system(**kw: object) -> None:
     history (train with --history 50), test.nc 1,024 samples that start away from rest
     (predict with --history).
 
-    The same --seed gives the same records.
+    The same --seed gives the same records. A record of these names in OUT that this command
+    did not write (your own train.nc) is refused, named, unless --overwrite.
 
     Example: sloshrom system bouc-wen --out bw/ then sloshrom train --data bw/train.nc
     --validation bw/validation.nc --arch nss --input force --output displacement --out
     bw/nss.npz and sloshrom predict --model bw/nss.npz --data bw/test.nc --out bw/pred.nc
     """
     name, out, seed = str(kw.pop("name")), Path(str(kw.pop("out"))), kw.pop("seed")
+    overwrite = bool(kw.pop("overwrite"))
     assert isinstance(seed, int)  # typer's conversion of --seed
     if name not in SYSTEMS:
         fail(f"no system {name!r}; the systems are {', '.join(SYSTEMS)}")
@@ -90,12 +95,13 @@ def _system(**kw: object) -> None:
             fail(f"{opt} does not apply to the system {name}; its options are "
                  f"{', '.join('--' + o.replace('_', '-') for o in own)}")
         check_number(value, opt, own[key].lo, own[key].hi)
-    check_out(out, directory=True, contents=tuple(f"{stem}.nc" for stem in sysm.records))
+    check_out(out, directory=True, contents=tuple(f"{stem}.nc" for stem in sysm.records),
+              owner=OWNER, overwrite=overwrite)
     try:
         records = sysm.generate(seed=seed, **given)
     except SloshromError as exc:
         fail(str(exc))
-    with OutputBatch() as batch:  # all the records or none
+    with OutputBatch(owner=OWNER) as batch:  # all the records or none
         for stem, rec in records.items():
             batch.write(out / f"{stem}.nc", functools.partial(_write, rec), suffix=".nc")
     for stem, rec in records.items():
@@ -117,6 +123,8 @@ def _command() -> Callable[..., None]:
                                                    "missing).")]),
         inspect.Parameter("seed", inspect.Parameter.KEYWORD_ONLY, default=0, annotation=Annotated[
             int, typer.Option(help="Seeds the excitations and the noise.")]),
+        inspect.Parameter("overwrite", inspect.Parameter.KEYWORD_ONLY, default=False,
+                          annotation=OverwriteOpt),
         *_options(),
     ]
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
-from sloshrom.fileio import atomic_write, not_a_regular_file
+from sloshrom.fileio import atomic_write
 from sloshrom.io import csv, matlab, netcdf, uff
 from sloshrom.io.record import (
     AbsentUnitNamesError,
@@ -21,6 +21,7 @@ from sloshrom.io.record import (
     _show,
     _unit_text,
     _why,
+    require_file,
 )
 
 __all__ = ["read_record", "write_record"]
@@ -71,13 +72,7 @@ def read_record(
     if fs is not None:
         fs = _check_fs(fs, str(p))
     given = _check_units_arg(p, units)
-    why = not_a_regular_file(p)
-    if why is not None:
-        raise RecordError(f"{p}: {why}")
-    if not p.is_file():
-        raise RecordError(f"{p}: no such file")
-    if p.stat().st_size == 0:
-        raise RecordError(f"{p}: file is empty")
+    require_file(p)
     suffix = p.suffix.lower()
     if suffix not in (".nc", ".nc4", ".netcdf", ".h5", ".csv", ".txt", ".mat", ".uff", ".unv"):
         raise RecordError(

@@ -24,12 +24,14 @@ import math
 import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from sloshrom.config import FILL_TOLERANCE, ConfigError, Tank
 from sloshrom.errors import SloshromError
+from sloshrom.fileio import not_a_regular_file
 from sloshrom.io.units import (
     STANDARD_UNITS,
     _time_unit,
@@ -42,10 +44,12 @@ __all__ = [
     "MAX_ABS_VALUE",
     "AbsentUnitNamesError",
     "MissingUnitError",
+    "NoTimeAxisError",
     "Record",
     "RecordError",
     "UnitConflictError",
     "require",
+    "require_file",
     "require_unit",
 ]
 
@@ -74,6 +78,19 @@ class MissingUnitError(RecordError):
         hint = f" (SI: {si!r})" if si else ""
         super().__init__(f"{path}: {kind} {channel!r} has no unit in the file ({detail}); give "
                          f"it with units={{{channel!r}: ...}}{hint}")
+
+
+class NoTimeAxisError(RecordError):
+    """A CSV or MATLAB file without a time column or variable, read without ``fs=``.
+
+    Attribute ``source`` (the file) lets a caller say how to give the time axis in its own
+    words (a command has no ``fs=``).
+    """
+
+    def __init__(self, source: str, ignored: str = "") -> None:
+        self.source = source
+        super().__init__(f"{source}: no 'time' column/variable; pass fs= (Hz) to read it"
+                         f"{ignored}")
 
 
 class UnitConflictError(RecordError):
@@ -634,6 +651,29 @@ def _merge_units(
     return out
 
 
+def require_file(path: str | Path) -> Path:
+    """``path`` as a file a reader can open, or a :class:`RecordError` that says why not: not
+    a regular file (a directory, a named pipe, ...), no such file, or an empty file.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    Path
+    """
+    p = Path(path)
+    why = not_a_regular_file(p)
+    if why is not None:
+        raise RecordError(f"{p}: {why}")
+    if not p.is_file():
+        raise RecordError(f"{p}: no such file")
+    if p.stat().st_size == 0:
+        raise RecordError(f"{p}: file is empty")
+    return p
+
+
 def require(record: Record, names: Iterable[str]) -> None:
     """Raise a clear :class:`RecordError` if any of ``names`` is missing from ``record``.
 
@@ -797,10 +837,7 @@ def _build(
             raise RecordError(f"{source}: variable {empty[0]!r} is empty (0 samples)")
         time = np.arange(max(lengths.values())) / fs
     else:
-        raise RecordError(
-            f"{source}: no 'time' column/variable; pass fs= (Hz) to read it"
-            + _ignored_note(ignored)
-        )
+        raise NoTimeAxisError(source, _ignored_note(ignored))
     if time.size < 2:
         raise RecordError(f"{source}: a record needs at least 2 samples, got {time.size}")
     if not cols:

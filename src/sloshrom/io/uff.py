@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from sloshrom.fileio import OutputBatch, atomic_write, not_a_regular_file
+from sloshrom.fileio import OutputBatch, atomic_write
 from sloshrom.io.record import (
     MissingUnitError,
     Record,
@@ -43,6 +43,7 @@ from sloshrom.io.record import (
     _show,
     _unit_text,
     _why,
+    require_file,
 )
 from sloshrom.io.units import STANDARD_UNITS, _time_unit, is_known_unit, same_unit
 
@@ -135,13 +136,7 @@ def read_uff58(
     p = Path(path)
     names = dict(names or {})
     units = {k: _given_unit(p, k, v) for k, v in dict(units or {}).items()}
-    why = not_a_regular_file(p)
-    if why is not None:
-        raise RecordError(f"{p}: {why}")
-    if not p.is_file():
-        raise RecordError(f"{p}: no such file")
-    if p.stat().st_size == 0:
-        raise RecordError(f"{p}: file is empty")
+    require_file(p)
     uff, types = open_uff(p)
     sets: list[tuple[int, dict[str, Any]]] = []
     for i, typ in enumerate(types):

@@ -29,8 +29,9 @@ from numpy.typing import ArrayLike
 
 from sloshrom import __version__
 from sloshrom._x64 import float64
+from sloshrom.limits import MIN_SCORED
 from sloshrom.models import check_envelope, model_input
-from sloshrom.rom.errors import ModelSizeWarning, NotFittedError, ROMError
+from sloshrom.rom.errors import HistoryError, ModelSizeWarning, NotFittedError, ROMError
 from sloshrom.rom.family import check_training_fill
 from sloshrom.rom.modelfile import model_file_path, write_model_file
 from sloshrom.rom.network import MinMaxScaler
@@ -134,12 +135,14 @@ def checked_history(history: object, validation: tuple[np.ndarray, np.ndarray] |
                     need: int, label: str) -> int:
     """``validation_history`` of a fit, checked: 0, or the validation record's first samples
     taken as measured history (at least ``need``, the samples the class ``label`` reads, and
-    fewer than the record, so that something is scored).
+    leaving at least :data:`MIN_SCORED` samples, so that something is scored).
 
     Raises
     ------
     ROMError
-        Not an integer >= 0, given without a validation record, too short or too long.
+        Not an integer >= 0, or given without a validation record.
+    HistoryError
+        Too short for the class, or too long for the record.
     """
     if isinstance(history, bool) or not isinstance(history, int | np.integer) or history < 0:
         raise ROMError(f"validation_history must be an integer >= 0 (samples), got {history!r}")
@@ -149,11 +152,12 @@ def checked_history(history: object, validation: tuple[np.ndarray, np.ndarray] |
     if validation is None:
         raise ROMError("validation_history needs a validation record")
     if h < need:
-        raise ROMError(f"validation_history {h}: a start from history reads {need} samples "
-                       f"({label})")
-    if h >= validation[0].size:
-        raise ROMError(f"validation_history {h} leaves nothing to score in a validation record "
-                       f"of {validation[0].size} samples")
+        raise HistoryError(h, f"a start from history reads {need} samples ({label})")
+    n = validation[0].size
+    if h > n - MIN_SCORED:
+        raise HistoryError(h, f"leaves {n - h} sample(s) of the validation record of {n} to "
+                              f"score; a score needs {MIN_SCORED} (at most {n - MIN_SCORED} "
+                              "samples of history)")
     return h
 
 

@@ -14,8 +14,9 @@ from sloshrom.errors import SloshromError
 # defined once, beside the model contract, for every sloshing model; re-exported here
 from sloshrom.models import EnvelopeWarning
 
-__all__ = ["EnvelopeWarning", "FeedthroughWarning", "FillRangeError", "ModelSizeWarning",
-           "NotFittedError", "ROMError", "TrainingWarning", "UnstableModelError"]
+__all__ = ["EnvelopeWarning", "FeedthroughWarning", "FillRangeError", "HistoryError",
+           "ModelSizeWarning", "NotFittedError", "ROMError", "TrainingWarning",
+           "UnstableModelError"]
 
 
 class ROMError(SloshromError):
@@ -24,6 +25,24 @@ class ROMError(SloshromError):
 
 class FillRangeError(ROMError):
     """A model was asked to run at a fill level outside the range it was identified on."""
+
+
+class HistoryError(ROMError):
+    """A fit's validation history (its first samples taken as measured history) that the fit
+    cannot take: fewer samples than the class reads, or so many that too little is left to
+    score.
+
+    The message names the estimator's argument ``validation_history``; :attr:`samples` and
+    :attr:`reason` let a caller name it in its own words (the command line's ``--history``).
+    """
+
+    def __init__(self, samples: int, reason: str) -> None:
+        super().__init__(f"validation_history {samples}: {reason}")
+        self.samples, self.reason = samples, reason
+
+    def __reduce__(self) -> tuple[type[HistoryError], tuple[int, str]]:
+        # rebuilt from its two fields (an ensemble's member raises it in a worker process)
+        return type(self), (self.samples, self.reason)
 
 
 class UnstableModelError(ROMError):
@@ -59,7 +78,8 @@ class FeedthroughWarning(UserWarning):
     """An exported model (an FMU) has direct feed-through: its force at a communication point
     reads the input of that point. A co-simulation master that reads the outputs before it
     sets the inputs gets the force one input late, and a feedback coupling through it is an
-    algebraic loop. The command line prints it as one ``warning: ...`` line."""
+    algebraic loop; exported strictly proper it has neither (its force one step late). The
+    command line prints it as one ``warning: ...`` line."""
 
 
 class ModelSizeWarning(UserWarning):

@@ -8,7 +8,9 @@ a time-marching code of one's own):
 variable                  causality   meaning
 ========================  ==========  ==================================================
 ``velocity``              input       tank vertical velocity at the communication point, m/s
-``acceleration``          input       tank vertical acceleration there, m/s2
+                                      (a model on the velocity)
+``acceleration``          input       tank vertical acceleration there, m/s2 (a network on
+                                      the acceleration)
 ``dynamic_force``         output      dynamic sloshing force, N (``f_S + m_l * acc``, up +)
 ``outside_envelope``      output      the signal the model reads lies outside its training
                                       range at this communication point (Boolean)
@@ -23,19 +25,24 @@ variable                  causality   meaning
 ========================  ==========  ==================================================
 
 (Read-only parameters are FMI *calculated parameters*; one the model does not know is left
-out.) At a communication point ``t_k``, the inputs are the tank's signals at ``t_k`` and
-``dynamic_force`` is the model's force at sample k: an NFIR or NOE reads past inputs only
-(no direct feed-through), a state-space ROM (NSS) also the input at ``t_k``; a grey box
-reads its state only (its column's step runs once ``t_k``'s input is set, in ``fmi2DoStep``).
+out, and so is the input it does not read.) At a communication point ``t_k``, the input is the
+tank's signal at ``t_k`` and ``dynamic_force`` is the model's force at sample k: an NFIR, an
+NOE or a strictly proper NSS reads past inputs only (no direct feed-through), an NSS with
+feed-through and an LSS also the input at ``t_k``; a grey box reads its state only (its
+column's step runs once ``t_k``'s input is set, in ``fmi2DoStep``). A model with feed-through
+exported *strictly proper* (``export_fmu(..., strictly_proper=True)``, ``sloshrom export fmu
+--strictly-proper``) gives at ``t_k`` the model's force of ``t_{k-1}``, held from the last step
+(its description says so): no output reads an input of its own point, so every master gets the
+model's force, one step late, whatever order it calls in.
 ``fmi2DoStep(t_k, dt)`` moves the state to ``t_{k+1}``; the state starts at rest. Another step
 size, or a communication point more than half a step from the last one plus its step (a skipped
 or repeated step; a master's clock ``t += h`` is fine however long it runs), is an
 ``fmi2Error`` with a message that says so; so is a call the FMI 2.0 co-simulation state machine
 does not allow. A step outside the training envelope returns ``fmi2Warning``. A model with direct
-feed-through (an NSS) says so in its description and :func:`export_fmu` warns
+feed-through exported as it is says so in its description and :func:`export_fmu` warns
 (:class:`~sloshrom.rom.errors.FeedthroughWarning`). A network on the acceleration reads
-``acceleration``, every other model ``velocity``; the other input is ignored (both are there
-so that one FMU block fits every ROM).
+``acceleration``, every other model ``velocity``: the FMU declares that input only (an unused
+input declared made masters report it missing on every run).
 
 What is inside (:func:`export_fmu`):
 
@@ -235,14 +242,19 @@ def _envelope_values(model: Any) -> dict[str, float]:
     }
 
 
-def _description(model: Any, nets: Sequence[FittedNetwork]) -> str:
+def _description(model: Any, nets: Sequence[FittedNetwork], strictly_proper: bool = False
+                 ) -> str:
     net = nets[0]
     arch = net.describe()
     what = f"ensemble of {len(nets)} {arch}" if len(nets) > 1 else arch
     kind = input_of(model)
     text = (f"sloshrom sloshing ROM, {what}, at {net.fs:.10g} Hz: tank vertical {kind} "
             f"({INPUT_UNITS[kind].replace('^', '')}, up +) -> dynamic sloshing force (N, up +)")
-    if _feedthrough(nets):
+    if strictly_proper:
+        text += (f"; exported strictly proper: the force at t_k is the model's force of "
+                 f"t_(k-1) (one step, {net.dt:.10g} s, late), read before the {kind} of t_k "
+                 "enters it, so no output depends on an input of its own point")
+    elif _feedthrough(nets):
         text += (f"; direct feed-through: the force at t_k reads the {kind} at t_k (set the "
                  "inputs before reading the outputs; an algebraic loop in a feedback coupling)")
     return text
@@ -253,6 +265,16 @@ def _feedthrough(nets: Sequence[FittedNetwork]) -> bool:
     return any(n.feedthrough for n in nets)
 
 
+def _check_strictly_proper(nets: Sequence[FittedNetwork], strictly_proper: bool) -> None:
+    """A strictly proper export is for a model with feed-through: another would only be
+    delayed by a step for nothing."""
+    if strictly_proper and not _feedthrough(nets):
+        raise ROMError(f"the {nets[0].describe()} has no direct feed-through (its force at t_k "
+                       "reads no input of t_k): it is strictly proper as it is, and a strictly "
+                       "proper export would only delay its force by one step; export it "
+                       "without that option")
+
+
 def _warn_feedthrough(model: object, nets: Sequence[FittedNetwork]) -> None:
     if _feedthrough(nets):
         warnings.warn(FeedthroughWarning(
@@ -260,12 +282,13 @@ def _warn_feedthrough(model: object, nets: Sequence[FittedNetwork]) -> None:
             f"{input_of(model)} at t_k): a co-simulation master that reads the outputs before "
             "it sets the inputs of the same point (FMPy's simulate_fmu, libcosim) gets the "
             "force one input late, and a feedback coupling through the FMU is an algebraic "
-            "loop; a strictly proper model has neither (an NSS: train --arch nss "
-            "--feedthrough no)"),
+            "loop; a strictly proper export has neither (sloshrom export fmu "
+            "--strictly-proper: the model's force one step late, in every master), nor has a "
+            "strictly proper model (an NSS: train --arch nss --feedthrough no)"),
             stacklevel=3)
 
 
-def model_data_source(model: Any, guid: str = "") -> str:
+def model_data_source(model: Any, guid: str = "", strictly_proper: bool = False) -> str:
     """The generated C file of ``model``: its architecture and parameters as constant data.
 
     Parameters
@@ -274,6 +297,8 @@ def model_data_source(model: Any, guid: str = "") -> str:
         Fitted (:func:`check_fmu_exportable`).
     guid : str
         The FMU's GUID, compiled in (the binary refuses a modelDescription of another export).
+    strictly_proper : bool
+        Export a model with feed-through strictly proper (:func:`export_fmu`).
 
     Returns
     -------
@@ -281,6 +306,7 @@ def model_data_source(model: Any, guid: str = "") -> str:
         C99 source defining ``SL_MODEL`` (``sloshrom_model.h``).
     """
     nets = check_fmu_exportable(model)
+    _check_strictly_proper(nets, strictly_proper)
     arrays, inits = [], []
     for j, net in enumerate(nets):
         a, i = _member_source(j, net)
@@ -288,14 +314,16 @@ def model_data_source(model: Any, guid: str = "") -> str:
         inits.append(i)
     env = _envelope_values(model)
     has_env = not np.isnan(env["input_min"])
-    head = (f"/* Generated by sloshrom {__version__}: {_description(model, nets)}.\n"
+    text = _description(model, nets, strictly_proper)
+    head = (f"/* Generated by sloshrom {__version__}: {text}.\n"
             " * Every parameter is written to 17 significant digits (the doubles exactly). */\n"
             "#include <math.h>\n#include \"sloshrom_model.h\"\n\n")
     members = "static const SlMember members[] = {\n" + ",\n".join(inits) + "\n};\n\n"
     fields = {
-        "guid": f"\"{guid}\"", "description": _c_string(_description(model, nets)),
+        "guid": f"\"{guid}\"", "description": _c_string(text),
         "n_members": str(len(nets)), "members": "members", "dt": _num(nets[0].dt),
         "reads_acceleration": "1" if input_of(model) == "acceleration" else "0",
+        "strictly_proper": "1" if strictly_proper else "0",
         "has_envelope": "1" if has_env else "0",
         **{k: _num(env[k] if has_env or k not in ("input_min", "input_max") else 0.0)
            for k in ("input_min", "input_max", "acceleration_max", "frequency_min",
@@ -323,7 +351,8 @@ def model_identifier(path: str | Path) -> str:
     return stem if re.match(r"[A-Za-z_]", stem or "0") else f"sloshrom_{stem}"
 
 
-def model_description(model: Any, identifier: str, guid: str, sources: Sequence[str]) -> str:
+def model_description(model: Any, identifier: str, guid: str, sources: Sequence[str],
+                      strictly_proper: bool = False) -> str:
     """The ``modelDescription.xml`` (FMI 2.0, co-simulation) of ``model`` (module docstring).
 
     Parameters
@@ -336,31 +365,37 @@ def model_description(model: Any, identifier: str, guid: str, sources: Sequence[
         The GUID compiled into the binary.
     sources : sequence of str
         The C files under ``sources/`` that build the binary.
+    strictly_proper : bool
+        A model with feed-through exported strictly proper (:func:`export_fmu`): its force
+        depends on no input of its own point (``ModelStructure``), and the description says so.
     """
     nets = check_fmu_exportable(model)
+    _check_strictly_proper(nets, strictly_proper)
     kind = input_of(model)
-    feedthrough = _feedthrough(nets)
+    feedthrough = _feedthrough(nets) and not strictly_proper
     dt = nets[0].dt
     env = _envelope_values(model)
     in_unit = INPUT_UNITS[kind].replace("^", "")
-    used = {"velocity": kind == "velocity", "acceleration": kind == "acceleration"}
-
-    def note(name: str) -> str:
-        return "" if used[name] else " (not read by this model)"
-
+    # the input the model reads, only: an unused input declared is one a master must feed
+    # (FMPy's simulate_fmu said "missing input" on every run that gave the velocity alone)
+    inputs = {
+        "velocity": f'<ScalarVariable name="velocity" valueReference="{VR["velocity"]}" '
+                    'causality="input" variability="continuous" '
+                    'description="tank vertical velocity, up positive">'
+                    '<Real unit="m/s" start="0"/></ScalarVariable>',
+        "acceleration": f'<ScalarVariable name="acceleration" '
+                        f'valueReference="{VR["acceleration"]}" causality="input" '
+                        'variability="continuous" description="tank vertical acceleration, up '
+                        'positive"><Real unit="m/s2" start="0"/></ScalarVariable>',
+    }
+    force_text = ("dynamic sloshing force f_S + m_l * acceleration, up positive"
+                  + (f": the model's force of the previous communication point (strictly "
+                     f"proper export: one step, {dt:.10g} s, late)" if strictly_proper else ""))
     variables: list[tuple[str, str]] = [
-        ("velocity", f'<ScalarVariable name="velocity" valueReference="{VR["velocity"]}" '
-         f'causality="input" variability="continuous" description='
-         f'{quoteattr("tank vertical velocity, up positive" + note("velocity"))}>'
-         '<Real unit="m/s" start="0"/></ScalarVariable>'),
-        ("acceleration", f'<ScalarVariable name="acceleration" '
-         f'valueReference="{VR["acceleration"]}" causality="input" variability="continuous" '
-         f'description={quoteattr("tank vertical acceleration, up positive" + note("acceleration"))}>'  # noqa: E501
-         '<Real unit="m/s2" start="0"/></ScalarVariable>'),
+        (kind, inputs[kind]),
         ("dynamic_force", f'<ScalarVariable name="dynamic_force" '
          f'valueReference="{VR["dynamic_force"]}" causality="output" variability="continuous" '
-         'initial="calculated" description="dynamic sloshing force f_S + m_l * acceleration, '
-         'up positive">'
+         f'initial="calculated" description={quoteattr(force_text)}>'
          '<Real unit="N"/></ScalarVariable>'),
         ("outside_envelope", f'<ScalarVariable name="outside_envelope" '
          f'valueReference="{VR["outside_envelope"]}" causality="output" '
@@ -384,17 +419,20 @@ def model_description(model: Any, identifier: str, guid: str, sources: Sequence[
                "excitation"),
               ("fill_min", env["fill_min"], "1", "lowest fill level d/h of the training"),
               ("fill_max", env["fill_max"], "1", "highest fill level d/h of the training")]
+    reads = (f"true if the model reads the tank acceleration, false if it reads the velocity "
+             f"(this model: {'true' if kind == 'acceleration' else 'false'}, the {kind})")
     variables.append(("reads_acceleration", '<ScalarVariable name="reads_acceleration" '
                       f'valueReference="{VR["reads_acceleration"]}" '
                       'causality="calculatedParameter" variability="fixed" initial="calculated" '
-                      f'description="the model reads the {kind} input">'
-                      '<Boolean/></ScalarVariable>'))
+                      f'description={quoteattr(reads)}><Boolean/></ScalarVariable>'))
     for name, value, unit, text in params:
         if np.isnan(value):
             continue
+        # a dimensionless value is a number alone ("(0.5)", not "(0.5 1)")
+        shown = f"{value:.6g}" if unit == "1" else f"{value:.6g} {unit}"
         variables.append((name, f'<ScalarVariable name="{name}" valueReference="{VR[name]}" '
                           'causality="calculatedParameter" variability="fixed" '
-                          f'initial="calculated" description={quoteattr(f"{text} ({value:.6g} {unit})")}>'  # noqa: E501
+                          f'initial="calculated" description={quoteattr(f"{text} ({shown})")}>'
                           f'<Real unit="{unit}"/></ScalarVariable>'))
     index = {name: i + 1 for i, (name, _) in enumerate(variables)}
     read = str(index[kind])
@@ -407,14 +445,14 @@ def model_description(model: Any, identifier: str, guid: str, sources: Sequence[
     initial = outputs + [f'<Unknown index="{index[n]}" dependencies=""/>'
                          for n in ("reads_acceleration", *(q[0] for q in params))
                          if n in index]
-    used_units = sorted({u for *_, u, _ in params} | {"m/s", "m/s2", "N"})
+    used_units = sorted({u for *_, u, _ in params} | {in_unit, "N"})
     units = "\n".join(f'    <Unit name="{u}"><BaseUnit {_UNITS[u]}/></Unit>'
                       if _UNITS[u] else f'    <Unit name="{u}"/>' for u in used_units)
     files = "".join(f'<File name="{escape(s)}"/>' for s in sources)
     n = "\n    "
     return f"""<?xml version="1.0" encoding="UTF-8"?>
 <fmiModelDescription fmiVersion="2.0" modelName="{escape(identifier)}" guid="{guid}"
-  description={quoteattr(_description(model, nets))}
+  description={quoteattr(_description(model, nets, strictly_proper))}
   generationTool="{GENERATOR} {escape(__version__)}" variableNamingConvention="flat"
   numberOfEventIndicators="0">
   <CoSimulation modelIdentifier="{escape(identifier)}" needsExecutionTool="false"
@@ -555,7 +593,8 @@ def _write_zip(root: Path, path: str) -> None:
 
 
 def export_fmu(model: Any, path: str | Path, *, binary: bool = True,
-               verify: Callable[[Path], None] | None = None) -> Path:
+               verify: Callable[[Path], None] | None = None,
+               strictly_proper: bool = False) -> Path:
     """Write ``model`` as an FMI 2.0 co-simulation FMU, atomically.
 
     The sources are generated and (``binary``) compiled in a temporary folder, zipped to a
@@ -573,6 +612,14 @@ def export_fmu(model: Any, path: str | Path, *, binary: bool = True,
     verify : callable, optional
         ``verify(tmp_path)`` is called with the complete temporary ``.fmu``; raising rejects
         the export (e.g. a parity check against the model that fails).
+    strictly_proper : bool
+        For a model with direct feed-through (an LSS, an NSS with feed-through): the FMU's
+        force at ``t_k`` is the model's force of ``t_{k-1}``, held from the last step, so that
+        no output depends on an input of its own point (declared so in ``ModelStructure``
+        and said in the description). Every master then gets the model's force one step
+        late, whatever its order of calls; without it, a master that reads the outputs
+        before it sets the inputs gets a force one input late, which is no force of the
+        model's. A model without feed-through is refused (it is strictly proper as it is).
 
     Returns
     -------
@@ -581,24 +628,28 @@ def export_fmu(model: Any, path: str | Path, *, binary: bool = True,
     Warns
     -----
     FeedthroughWarning
-        A model with direct feed-through (an NSS whose force reads the current input).
+        A model with direct feed-through exported as it is (an LSS; an NSS whose force reads
+        the current input).
 
     Raises
     ------
     ROMError
-        A model that cannot be exported (says why).
+        A model that cannot be exported (says why); ``strictly_proper`` for a model without
+        feed-through.
     OSError
         The disk refused a file (full, a file-size limit): nothing written.
     FMUError
         No C compiler or CMake, or the build failed (the compiler's last lines).
     """
     nets = check_fmu_exportable(model)
-    _warn_feedthrough(model, nets)
+    _check_strictly_proper(nets, strictly_proper)
+    if not strictly_proper:
+        _warn_feedthrough(model, nets)
     p = Path(path)
     if p.suffix.lower() != ".fmu":
         raise FMUError(f"an FMU file ends in .fmu, got {p.name}")
     identifier = model_identifier(p)
-    guid = _guid(model_data_source(model), identifier)
+    guid = _guid(model_data_source(model, strictly_proper=strictly_proper), identifier)
     sources = [*(n for n in FMU_SOURCES if n.endswith(".c")), _DATA_SOURCE]
     here = resources.files("sloshrom.rom") / "fmu_c"
     remove_stale_builds()
@@ -609,11 +660,13 @@ def export_fmu(model: Any, path: str | Path, *, binary: bool = True,
         src.mkdir(parents=True)
         for name in FMU_SOURCES:
             (src / name).write_text((here / name).read_text(encoding="utf-8"), encoding="utf-8")
-        (src / _DATA_SOURCE).write_text(model_data_source(model, guid), encoding="utf-8")
+        (src / _DATA_SOURCE).write_text(model_data_source(model, guid, strictly_proper),
+                                        encoding="utf-8")
         for name in _FMI_HEADERS:  # the standard's, honouring FMI2_FUNCTION_PREFIX
             (src / name).write_bytes((here / name).read_bytes())
         (root / "modelDescription.xml").write_text(
-            model_description(model, identifier, guid, sources), encoding="utf-8")
+            model_description(model, identifier, guid, sources, strictly_proper),
+            encoding="utf-8")
         if binary:
             _build_binary(root)
 

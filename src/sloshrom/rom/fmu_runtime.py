@@ -144,10 +144,12 @@ class FMUModel:
                            f"{self.path.name}) or export it on this machine")
         self._md = md
         self._vr = {v.name: v.valueReference for v in md.modelVariables}
-        needed = ("velocity", "acceleration", "dynamic_force", "time_step", "reads_acceleration")
-        if any(n not in self._vr for n in needed):
-            raise FMUError(f"{self.path}: not a sloshing model (no acceleration input or "
-                           "dynamic_force output)")
+        needed = ("dynamic_force", "time_step", "reads_acceleration")
+        # the input the model reads (earlier exports declared both, the other unused)
+        if any(n not in self._vr for n in needed) or not {"velocity", "acceleration"} & {
+                v.name for v in md.modelVariables if v.causality == "input"}:
+            raise FMUError(f"{self.path}: not a sloshing model (no velocity or acceleration "
+                           "input, or no dynamic_force output)")
         self._dir = fmpy.extract(str(self.path))
         self._finalizer = weakref.finalize(self, shutil.rmtree, self._dir, True)
         self._fmu = FMU2Slave(guid=md.guid, unzipDirectory=self._dir,
@@ -161,8 +163,7 @@ class FMUModel:
             raise FMUError(f"{self.path}: the FMU's binary refused to instantiate "
                            f"({self._last_error() or exc})") from exc
         self._fmu_free = weakref.finalize(self, _free, self._fmu)
-        self._vel, self._acc, self._force = (self._vr["velocity"], self._vr["acceleration"],
-                                             self._vr["dynamic_force"])
+        self._force = self._vr["dynamic_force"]
         self._fmu.setupExperiment(startTime=0.0)
         self._fmu.enterInitializationMode()
         self._fmu.exitInitializationMode()
@@ -173,6 +174,10 @@ class FMUModel:
         self.fs_ = 1.0 / self.dt
         reads_acc = self._fmu.getBoolean([self._vr["reads_acceleration"]])[0]
         self.input = "acceleration" if reads_acc else "velocity"
+        if self.input not in self._vr:
+            raise FMUError(f"{self.path}: its model reads the {self.input}, which it does not "
+                           "declare as an input")
+        self._in = self._vr[self.input]  # the input's value reference
         self.names = (self.input, "dynamic_force")
         self.units = (INPUT_UNITS[self.input], "N")
         env: dict[str, Any] | None = None
@@ -242,11 +247,11 @@ class FMUModel:
                              "one simulation at a time (call init_state to start another)")
         f, call = self._fmu, self._call
         if self.input == "acceleration":
-            call(f.setReal, [self._acc], [float(0.0 if acceleration is None else acceleration)])
+            call(f.setReal, [self._in], [float(0.0 if acceleration is None else acceleration)])
             self._advance()
             force = call(f.getReal, [self._force])[0]
         else:
-            call(f.setReal, [self._vel], [float(velocity)])
+            call(f.setReal, [self._in], [float(velocity)])
             force = call(f.getReal, [self._force])[0]
             self._advance()
         return (self._run, self._k), float(force)
@@ -259,7 +264,7 @@ class FMUModel:
             raise ModelError(f"the tank {self.input} must be finite (no NaN or inf)")
         flat = u.reshape(-1, u.shape[-1]) if u.ndim else u.reshape(1, 1)
         out = np.empty_like(flat)
-        vr = self._acc if self.input == "acceleration" else self._vel
+        vr = self._in
         f, call = self._fmu, self._call
         for r, row in enumerate(flat):
             self.init_state()

@@ -13,21 +13,26 @@ test, from a small manifest or from the files' content.
 
 Without a manifest, a file whose channels include the map's ``base`` and whose base is random
 (:func:`sloshrom.beam.lab.measured.check_random_base`) is a level of the random test; any other file
-is a free decay. Reads files, analyses nothing.
+is a free decay, except a shaker's drive file (:func:`sloshrom.io.programme.is_drive_file`: the
+files `sloshrom design` writes), which is left out with a note. A manifest names files of the
+folder only (relative names without ``..``). Reads files, analyses nothing.
 """
 
 from __future__ import annotations
 
 import re
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
-from pathlib import Path
+from pathlib import Path, PurePath
 
 from sloshrom.beam.damping.analysis import AnalysisError
 from sloshrom.beam.errors import BeamError
 from sloshrom.beam.lab.channels import ChannelMap
 from sloshrom.beam.lab.measured import check_random_base, read_random_test
 from sloshrom.config import ConfigError, load_toml_table
+from sloshrom.errors import Note
+from sloshrom.io.programme import is_drive_file
 from sloshrom.io.record import RecordError
 
 __all__ = ["DATA_SUFFIXES", "MANIFEST", "CampaignError", "CampaignTest", "campaign_tests"]
@@ -93,6 +98,12 @@ def _from_manifest(directory: Path, table: object) -> list[CampaignTest]:
         if not isinstance(names, list) or not names or not all(
                 isinstance(n, str) and n for n in names):
             raise CampaignError(f"{where}: test {i}: 'files' must be a list of file names")
+        for n in names:  # a campaign is its folder: no file outside it
+            rel = PurePath(n)
+            if rel.is_absolute() or ".." in rel.parts:
+                raise CampaignError(f"{where}: test {i}: file {n!r} is outside the campaign "
+                                    f"folder {directory}: name its files relative to it, "
+                                    "without '..'")
         if kind == "free" and len(names) != 1:
             raise CampaignError(f"{where}: test {i}: a free decay is one file")
         files = tuple(directory / n for n in names)
@@ -164,6 +175,14 @@ def campaign_tests(directory: str | Path, channels: ChannelMap,
     else:
         files = sorted(p for p in d.iterdir()
                        if p.is_file() and p.suffix.lower() in DATA_SUFFIXES)
+        # a shaker's drive files (`sloshrom design`'s, written beside the tests) are commands,
+        # not measurements: left out, and said
+        drives = [p for p in files if is_drive_file(p)]
+        if drives:
+            warnings.warn(Note(f"{d}: {', '.join(p.name for p in drives)}: drive file(s) of "
+                               "a shaker programme (`sloshrom design`), not measured tests: "
+                               "left out"), stacklevel=2)
+            files = [p for p in files if p not in drives]
         if not files:
             raise CampaignError(f"{d} holds no data file ({', '.join(DATA_SUFFIXES)}) and no "
                                 f"{MANIFEST}")

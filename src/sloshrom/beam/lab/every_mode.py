@@ -31,6 +31,7 @@ from sloshrom.beam.damping.analysis import (
 )
 from sloshrom.beam.damping.limits import FREE_DAMPING_PERIODS, WELCH_SEGMENT
 from sloshrom.beam.damping.peaks import (
+    MIN_PROMINENCE_DB,
     FoundMode,
     band_maximum,
     common_modes,
@@ -168,7 +169,9 @@ def _check_given_mode(f: float, band: tuple[float, float], tank: np.ndarray, bas
                       fs: float, kind: str) -> None:
     """A mode the user names must be a resonance of the data: the spectrum's maximum in the
     band its analyses filter (``f`` -/+ :data:`DECAY_REL_BAND`, inside its band between its
-    neighbours) lies inside it, not at an edge (the skirt of a resonance beside it)."""
+    neighbours) lies inside it, not at an edge (the skirt of a resonance beside it); for a
+    free decay, a peak there stands out of the noise as :func:`find_modes` requires of the
+    modes it finds."""
     rel = min(DECAY_REL_BAND, (f - band[0]) / f, (band[1] - f) / f)
     lo, hi = f * (1 - rel), f * (1 + rel)
     found = (band_maximum(tank, fs, (lo, hi), base) if kind == "random"
@@ -176,13 +179,22 @@ def _check_given_mode(f: float, band: tuple[float, float], tank: np.ndarray, bas
     if found is None:
         return
     at, top, line = found
-    if lo + 2 * line < at < hi - 2 * line:  # inside: more than two lines from an edge
-        return
     where = "H1 (base -> tank)" if kind == "random" else "the tank channel's spectrum"
-    raise AnalysisError(
-        f"the mode given at {f:.4g} Hz is not a resonance of the data: {where} has no peak "
-        f"in {lo:.3g}-{hi:.3g} Hz, the band its analyses filter (it is largest at the edge, "
-        f"{at:.4g} Hz); the data's strongest peak is at {top:.4g} Hz")
+    if not lo + 2 * line < at < hi - 2 * line:  # at an edge: the skirt of a resonance beside
+        raise AnalysisError(
+            f"the mode given at {f:.4g} Hz is not a resonance of the data: {where} has no peak "
+            f"in {lo:.3g}-{hi:.3g} Hz, the band its analyses filter (it is largest at the "
+            f"edge, {at:.4g} Hz); the data's strongest peak is at {top:.4g} Hz")
+    # a decay has no coherence to tell a mode from the noise (a random test's estimators
+    # refuse a mode its input does not excite): the maximum inside the band must stand out of
+    # the noise as a mode the search finds does (find_modes' criteria, in that band)
+    if kind == "free" and not find_modes(tank - base, fs, f_range=(lo, hi)):
+        raise AnalysisError(
+            f"the mode given at {f:.4g} Hz is not a resonance of the data: {where} has no peak "
+            f"in {lo:.3g}-{hi:.3g} Hz, the band its analyses filter, that stands "
+            f"{MIN_PROMINENCE_DB:g} dB above its surroundings and {2 * MIN_PROMINENCE_DB:g} dB "
+            f"above the spectrum's median (its largest value there, at {at:.4g} Hz, is "
+            f"noise); the data's strongest peak is at {top:.4g} Hz")
 
 
 def check_station_order(res: MeasuredTest, f1: float, rel_band: float,

@@ -39,7 +39,7 @@ from sloshrom.beam.simulation.structure import ModalModel
 from sloshrom.config import G
 from sloshrom.errors import Note
 from sloshrom.io.read import read_record
-from sloshrom.io.record import Record, RecordError
+from sloshrom.io.record import NoTimeAxisError, Record, RecordError
 from sloshrom.io.units import canonical_unit
 
 __all__ = [
@@ -92,7 +92,11 @@ def _read_channels(path: Path, names: Sequence[str], fs: float | None,
                    ) -> tuple[Record, dict[str, np.ndarray], dict[str, str]]:
     """One file's channels among ``names`` as accelerations in m/s^2 (the file's units
     checked), and their units as read; the channels the file lacks are left out."""
-    rec = read_record(path, fs=fs, units=units, si=False, shared_units=True)
+    try:
+        rec = read_record(path, fs=fs, units=units, si=False, shared_units=True)
+    except NoTimeAxisError as exc:  # said in a laboratory's words, not read_record's fs=
+        raise RecordError(f"{exc.source}: no time axis: a test's file needs a 'time' column "
+                          "(e.g. 'time [s]') or variable beside its channels") from None
     out, read_units = {}, {}
     uff = {c["variable"]: c for c in uff_channels(rec, path) or ()}
     for name in names:

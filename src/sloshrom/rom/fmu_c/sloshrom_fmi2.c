@@ -1,6 +1,7 @@
 /* sloshrom sloshing ROM: FMI 2.0 for Co-Simulation around the kernels of sloshrom_model.h.
  *
- * Value references (the modelDescription.xml that sloshrom writes beside these sources):
+ * Value references (the modelDescription.xml that sloshrom writes beside these sources; it
+ * declares the one input the model reads, velocity or acceleration):
  *   Real     0 velocity (input, m/s)   1 acceleration (input, m/s2)   2 dynamic_force (output, N)
  *            10 time_step (s)  11 sample_rate (Hz)  12 input_min  13 input_max
  *            14 acceleration_max (m/s2)  15 frequency_min (Hz)  16 frequency_max (Hz)
@@ -13,16 +14,21 @@
  *            the velocity
  *
  * Semantics at a communication point t_k = t_0 + k dt: the inputs are the tank's signals at t_k;
- * dynamic_force is the model's force at sample k (NFIR, NOE: from the past inputs only; NSS:
- * also from the input at t_k; GREY: from its state only); fmi2DoStep(t_k, dt) moves the state
- * (a grey box's column with it) to t_{k+1}. The state starts at rest. The only communication
+ * dynamic_force is the model's force at sample k (NFIR, NOE, a strictly proper NSS: from the
+ * past inputs only; an NSS with feed-through, an LSS: also from the input at t_k; GREY: from
+ * its state only); fmi2DoStep(t_k, dt) moves the state (a grey box's column with it) to
+ * t_{k+1}. A feed-through model exported strictly proper (SL_MODEL.strictly_proper) gives at
+ * t_k the model's force of t_{k-1}, held from the last step: no output reads an input of its own
+ * point, so a master that reads the outputs before it sets the inputs gets the model's force,
+ * one step late. The state starts at rest. The only communication
  * step is the model's dt (fmi2DoStep refuses any other). The next communication point is the
  * last one plus its step (FMI 2.0), within half a step: a master that adds up its clock
  * (t += h) runs for ever, a skipped or repeated step is refused.
  *
  * The calls follow the FMI 2.0 co-simulation state machine (instantiated, initialization mode,
  * stepping, terminated, error); a call its state does not allow is an fmi2Error with a logged
- * message. Log categories: logStatusError, logStatusWarning and logAll (both), all on unless
+ * message. In initialization mode fmi2GetReal answers the inputs too (their current values, as
+ * the FMI reference FMUs do: a master's observer reads every variable there). Log categories: logStatusError, logStatusWarning and logAll (both), all on unless
  * fmi2SetDebugLogging switches them off.
  *
  * This file is part of the sources that sloshrom writes into every FMU it exports.
@@ -161,6 +167,11 @@ static fmi2Status check_mode(Instance *c, int allowed, const char *function) {
     return fail(c, "%s (FMI 2.0 co-simulation state machine)", d);
 }
 
+/* a strictly proper export's output, held from the last step: the last double of the state */
+static double *held_force(Instance *c) { return c->mem + c->n_state - 1; }
+
+static fmi2Status compute_outputs(Instance *c);
+
 static void reset_state(Instance *c) {
     int j;
     for (j = 0; j < SL_MODEL.n_members; j++)
@@ -172,6 +183,11 @@ static void reset_state(Instance *c) {
     c->outputs_valid = 0;
     c->n_outside = 0;
     c->warned_envelope = 0;
+    if (SL_MODEL.strictly_proper) {
+        /* the force of t_{-1}: the model at rest with the tank at rest (finite at rest) */
+        *held_force(c) = compute_outputs(c) == fmi2OK ? c->force : 0.0;
+        c->outputs_valid = 0;
+    }
 }
 
 /* the force at the current communication point (each member's scaled output is kept as the
@@ -265,6 +281,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         n_rest += sl_rest_size(&SL_MODEL.members[j]);
         n_scratch += sl_scratch_size(&SL_MODEL.members[j]) + 1;
     }
+    if (SL_MODEL.strictly_proper) n_state += 1;  /* the held force: saved with the state */
     c->n_state = n_state;
     c->n_mem = n_state + n_rest + n_scratch;
     c->mem = (double *)functions->allocateMemory(c->n_mem, sizeof(double));
@@ -336,7 +353,7 @@ fmi2Status fmi2Reset(fmi2Component comp) {
 /* ---------------------------------------------------------------------------------------------
  * Variables
  * ------------------------------------------------------------------------------------------- */
-/* the modes fmi2Get* is allowed in (in initialization mode: the initial unknowns only) */
+/* the modes fmi2Get* is allowed in (in initialization mode: the initial unknowns and the inputs) */
 #define GETTABLE (IN(MODE_INIT) | IN(MODE_STEP) | IN(MODE_TERMINATED) | IN(MODE_ERROR))
 
 static int known_parameter(fmi2ValueReference vr, double *value) {
@@ -365,14 +382,15 @@ fmi2Status fmi2GetReal(fmi2Component comp, const fmi2ValueReference vr[], size_t
         switch (vr[i]) {
         case VR_VELOCITY:
         case VR_ACCELERATION:
-            /* initialization mode: the initial unknowns only (outputs, calculated
-             * parameters) */
-            if (c->mode == MODE_INIT)
-                return fail(c, "%s", "fmi2GetReal of an input is not allowed in initialization "
-                                     "mode (FMI 2.0 co-simulation state machine)");
+            /* the input's current value in every mode fmi2Get* is allowed in, initialization
+             * mode included (as the FMI reference FMUs: a master's observer reads them there) */
             value[i] = vr[i] == VR_VELOCITY ? c->velocity : c->acceleration;
             break;
         case VR_FORCE:
+            if (SL_MODEL.strictly_proper) {
+                value[i] = *held_force(c);
+                break;
+            }
             if (compute_outputs(c) != fmi2OK) return fmi2Error;
             value[i] = c->force;
             break;
@@ -687,6 +705,7 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real t, fmi2Real h,
         double *s = scratch_of(c, j);
         sl_advance(m, member_state(c, j), member_rest(c, j), u, s[sl_scratch_size(m)], s);
     }
+    if (SL_MODEL.strictly_proper) *held_force(c) = c->force;  /* the output of t_{k+1} */
     c->k++;
     c->t_next = t + h;
     c->outputs_valid = 0;

@@ -110,6 +110,9 @@ typedef struct {
     const SlMember *members;
     double dt;                /* s: the model's step, the only communication step */
     int reads_acceleration;   /* 0: the members read the velocity; 1: the acceleration */
+    int strictly_proper;      /* 1: dynamic_force at t_k is the model's force of t_{k-1}, held
+                                 from the last step (a feed-through model exported strictly
+                                 proper: no output reads an input of its own point) */
     int has_envelope;
     double input_min, input_max;        /* training range of the signal read */
     /* read-only parameters: NaN where the model does not know them */

@@ -66,7 +66,7 @@ import optax
 from sloshrom._x64 import float64
 from sloshrom.limits import TRAINERS
 from sloshrom.rom.engine import AdamProblem, adam_epochs
-from sloshrom.rom.errors import ROMError, TrainingWarning, UnstableModelError
+from sloshrom.rom.errors import HistoryError, ROMError, TrainingWarning, UnstableModelError
 from sloshrom.rom.lm import LMProblem, LMResult, levenberg_marquardt, stop_message
 from sloshrom.rom.losses import (
     MAX_CYCLE,
@@ -935,7 +935,16 @@ def train(
         if cycle_energy > 0:
             cycles = energy_cycles(u, fs, band)
             if validation is not None and val is not None:
-                cv = energy_cycles(validation[0][hv:], fs, band)
+                try:
+                    cv = energy_cycles(validation[0][hv:], fs, band)
+                except ROMError:
+                    if not hv:
+                        raise
+                    # the history left too short a record to score: say so in its words
+                    raise HistoryError(hv, f"the {validation[0].size - hv} sample(s) of the "
+                                           "validation record after it hold no whole input "
+                                           "cycle for the cycle-energy term; take fewer "
+                                           "samples of history") from None
                 upv = jnp.asarray(val[0][hv - dmax:] if hv else
                                   np.concatenate([np.full(dmax, rest_u), val[0]]))
                 yvj = jnp.asarray(val[1][hv:])
