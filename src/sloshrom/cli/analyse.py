@@ -636,8 +636,10 @@ def _free_table(test: _Test) -> tuple[list[str], list[list[str]]]:
 
 
 def _markdown(head: list[str], rows: list[list[str]]) -> str:
+    from sloshrom.beam.results import markdown_cell
+
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    lines += ["| " + " | ".join(c.replace("|", "/") for c in r) + " |" for r in rows]
+    lines += ["| " + " | ".join(markdown_cell(c) for c in r) + " |" for r in rows]
     return "\n".join(lines) + "\n"
 
 

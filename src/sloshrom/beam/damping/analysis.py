@@ -437,6 +437,13 @@ def _frf_h1_one_pass(base: np.ndarray, tank: np.ndarray, fs: float, nperseg: int
         return fft.rfftfreq(nperseg, 1 / fs), sxy / sxx, np.abs(sxy)**2 / (sxx * syy)
 
 
+def band_text(band: tuple[float, float]) -> str:
+    """A frequency band as messages print it, ``"143.1-225 Hz"``: four significant digits (a
+    band's edges are computed, e.g. geometric means of two modes; their 16 digits say
+    nothing)."""
+    return f"{float(band[0]):.4g}-{float(band[1]):.4g} Hz"
+
+
 def _check_band_lines(f: np.ndarray, band: tuple[float, float], need: int) -> None:
     """An :class:`AnalysisError` when the spectrum's lines ``f`` (Hz, evenly spaced) put fewer
     than ``need`` in ``band``: its spacing is the sample rate over the segment length, so a
@@ -446,7 +453,7 @@ def _check_band_lines(f: np.ndarray, band: tuple[float, float], need: int) -> No
         return
     df = float(f[1] - f[0]) if f.size > 1 else float("nan")
     raise AnalysisError(
-        f"too few frequency points in band {band[0]:.4g}-{band[1]:.4g} Hz: {n} line(s) "
+        f"too few frequency points in band {band_text(band)}: {n} line(s) "
         f"{df:.3g} Hz apart, the fit needs {need}; the spacing is the sample rate (fs) over "
         "the Welch segment's samples: is the record's fs (its time axis) right?")
 
@@ -465,11 +472,11 @@ def half_power_damping(f: Any, spectrum: Any, band: tuple[float, float]) -> dict
     _check_band_lines(f, band, 5)
     ip = sel[np.argmax(s[sel])]
     if not (sel[0] < ip < sel[-1] and s[ip] > 0):
-        raise AnalysisError(f"no peak inside band {band} Hz (maximum at its edge)")
+        raise AnalysisError(f"no peak inside band {band_text(band)} (maximum at its edge)")
     # parabolic refinement of the peak on the log magnitude
     y0, y1, y2 = np.log(s[ip - 1 : ip + 2])
     if not y0 - 2 * y1 + y2 < 0:
-        raise AnalysisError(f"no peak inside band {band} Hz (flat maximum)")
+        raise AnalysisError(f"no peak inside band {band_text(band)} (flat maximum)")
     off = 0.5 * (y0 - y2) / (y0 - 2 * y1 + y2)
     fn = f[ip] + off * (f[1] - f[0])
     peak = math.exp(y1 - 0.25 * (y0 - y2) * off)

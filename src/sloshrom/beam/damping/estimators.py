@@ -41,6 +41,7 @@ import numpy as np
 
 from sloshrom.beam.damping.analysis import (
     AnalysisError,
+    band_text,
     frf_h1,
     half_power_damping,
     lscf_poles,
@@ -287,7 +288,7 @@ LSCF_H1_ATTEMPTS: tuple[ClusterAttempt, ...] = (
 def _no_cluster_reason(band: tuple[float, float], pol_order_high: int,
                        tried: list[tuple[ClusterAttempt, str]]) -> str:
     # what was tried, attempt by attempt, with what each found
-    return (f"no stable pole cluster in {band[0]:.3g}-{band[1]:.3g} Hz (LSCF model orders "
+    return (f"no stable pole cluster in {band_text(band)} (LSCF model orders "
             f"2-{2 * pol_order_high} poles): "
             + "; ".join(f"{a.describe()}: {why}" for a, why in tried))
 

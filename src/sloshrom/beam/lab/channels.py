@@ -58,6 +58,11 @@ def acceleration_unit(unit: object) -> str | None:
     accepted = ", ".join(ACCELERATION_UNITS)
     if not isinstance(unit, str) or not unit.strip():
         return f"{unit!r} is not a unit (use one of {accepted})"
+    if unit.strip() == "G":
+        # the unit table reads spellings case-insensitively, but a capital G is giga- in SI
+        # (and a gravity unit in some software): the user means one of the two, say which
+        return (f"{unit!r} is ambiguous (the SI prefix giga-, or a gravity unit): write 'g' for "
+                f"the standard gravity (accepted: {accepted})")
     if not is_known_unit(unit):
         return (f"unknown unit {unit!r} (use one of {accepted}; docs/formats.md lists every "
                 "spelling)")
