@@ -17,10 +17,11 @@ cantilever without tank of known modes and damping, tested as a laboratory would
 
 Random tests (default): ``--duration`` s at 500 Hz, the tip accelerometer as the response,
 levels 0.1 / 0.2 / 0.4 g RMS (level i: seeds ``1000 i + first_seed ...``). Each mode k is
-analysed by :func:`sloshrom.beam.damping.uncertainty.estimate_random` with ``f1 = f_k`` and
-the band between its neighbours (:func:`sloshrom.beam.damping.peaks.mode_bands`), Welch
-segments of 16384 samples, the base given (output-only LSCF divides by its spectrum), seed =
-the record's seed.
+analysed by :func:`sloshrom.beam.damping.uncertainty.estimate_random` with ``f1 = f_k``, the
+band between its neighbours (:func:`sloshrom.beam.damping.peaks.mode_bands`) and the other
+modes as its neighbours (as ``sloshrom analyse`` passes the modes it found), Welch segments of
+16384 samples, the base given (output-only LSCF divides by its spectrum), seed = the record's
+seed.
 
 Free decays (``--decay``): :func:`~sloshrom.beam.lab.synthetic.free_decay` from ``--peak-g``
 at the tip, ``--decay-duration`` s, 2 mg sensor noise, analysed as ``sloshrom analyse free``
@@ -98,7 +99,7 @@ def one_record(args: tuple[str, float, int, float]) -> list[dict[str, Any]]:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             e = estimate_random(r["base"], r["stations"][:, -1], FS, fk, seed=seed,
-                                band=mode_band(beam, k))
+                                band=mode_band(beam, k), neighbours=beam.frequencies)
         dt = time.perf_counter() - t0
         for est, x in e.estimates.items():
             rows.append({"band": name, "level": level, "seed": seed, "mode": k + 1,

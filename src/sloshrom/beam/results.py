@@ -13,7 +13,6 @@ attributes and columns are contracts.
 from __future__ import annotations
 
 import csv
-
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast

@@ -4,7 +4,6 @@ input as one clear error (exit 2, one line, nothing written: ``helpers.check_cli
 from __future__ import annotations
 
 import csv
-
 import dataclasses
 import shutil
 from pathlib import Path
