@@ -291,7 +291,7 @@ CLI_CASES = [
      r"'rig\.fs' must be a record rate in Hz in \[100, 5000\], got nan"),
     ("reproduce-unknown-arch", _write_text("c.toml", "[rom]\narch = \"lstm\"\n"),
      ["reproduce", "--config", "{tmp}/c.toml", "--out", "{tmp}/res"],
-     r"'rom\.arch' must be \"nfir\" or \"noe\" or \"nss\" or \"lss\", got 'lstm'"),
+     r"'rom\.arch' must be \"nfir\" or \"noe\" or \"nss\" or \"lss\" or \"grey\", got 'lstm'"),
     ("map-neither-rig-nor-model", None, ["map", "--out", "{tmp}/m.nc"],
      r"exactly one of --rig or --model"),
     ("map-tiny-grid", None, ["map", "--rig", "--n-omega", "1", "--out", "{tmp}/m.nc"],
