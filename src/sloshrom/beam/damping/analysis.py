@@ -6,6 +6,8 @@
   ``zeta = -(d ln A/dt) / omega`` with a local-regression slope over a few periods.
 * :func:`log_decrement` - the same from successive peaks (cross-check).
 * :func:`noise_floor` - the band-passed noise amplitude of a decay record (its floor);
+  :func:`spectral_noise_floor` - the same from the record's spectrum (a decay that stops above
+  its floor);
   :func:`bandpass_noise_gain`, :func:`decay_copy` - for the bootstrap of the band intervals.
 * :func:`welch_psd`, :func:`frf_h1` - Welch estimates (Hann window, 50 % overlap, explicit
   ``nperseg``).
@@ -282,6 +284,34 @@ def noise_floor(x: ArrayLike, fs: float, f: float, rel_band: float = 0.35,
         # the decay still dominates the last window: the noise is below what the record shows
         return float("nan")
     return float(math.sqrt(2 * c))
+
+
+#: The noise floor of a record's spectrum: this percentile of its lines (in dB, or as
+#: powers: the same line) over the band searched. A decay's or a response's spectrum is mostly
+#: noise, the modes a few narrow peaks; the median rises with every mode's skirt (four modes of
+#: a 20 s decay put it up to 4 dB above the floor), a low percentile does not
+#: (``sloshrom.beam.damping.peaks`` finds a decay's modes 10 dB above it).
+FLOOR_PERCENTILE = 25.0
+
+
+def spectral_noise_floor(x: ArrayLike, fs: float, f: float, rel_band: float = 0.35) -> float:
+    """Noise amplitude of a record in the analyses' band around ``f`` (Hz), from its spectrum:
+    the record's white noise PSD is the :data:`FLOOR_PERCENTILE` percentile of its Welch PSD
+    (Hann, segments of an eighth of the record) up to 0.9 Nyquist, and its band-passed RMS
+    envelope (as :func:`noise_floor` gives it) ``sqrt(2 N fs / 2)`` times the band-pass's noise
+    gain (:func:`bandpass_noise_gain`).
+
+    For a decay that stops above its floor (:func:`noise_floor` NaN): its sensor noise still
+    shows where no mode is. An upper bound where the record has no line free of response.
+    """
+    x = np.asarray(x, dtype=float)
+    if x.ndim != 1 or x.size < 64:
+        raise BeamError("x must be 1-D with at least 64 samples")
+    nper = 2 ** int(math.log2(max(x.size // 8, 64)))
+    fr, p = welch_psd(x, fs, nper)
+    sel = (fr > 0) & (fr <= 0.9 * fs / 2)
+    n_psd = float(np.percentile(p[sel], FLOOR_PERCENTILE))
+    return math.sqrt(2 * n_psd * fs / 2) * bandpass_noise_gain(fs, f, rel_band)
 
 
 def _peak_interpolation(xb: np.ndarray, peaks: np.ndarray, fs: float

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal
 
-from sloshrom.beam.damping.analysis import AnalysisError
+from sloshrom.beam.damping.analysis import FLOOR_PERCENTILE, AnalysisError
 
 __all__ = [
     "FLOOR_PERCENTILE", "FREQUENCY_RESOLUTION", "MIN_COHERENCE", "MIN_PROMINENCE_DB",
@@ -39,12 +39,9 @@ MIN_COHERENCE = 0.5
 #: Target spectral resolution of the search, Hz (the Welch segment is the power of two that
 #: gives it, or the record's length / 8).
 FREQUENCY_RESOLUTION = 0.05
-#: The noise floor of a decay's spectrum: this percentile of its (smoothed) lines in dB over
-#: the search band. A decay's spectrum is mostly noise, the modes a few narrow peaks; the
-#: median rises with every mode's skirt (four modes of a 20 s decay put it up to 4 dB above
-#: the floor), a low percentile does not. A mode must stand :data:`MIN_PROMINENCE_DB` above
-#: it (a fast-decaying mode stands 10-16 dB above the median and was lost at 20 dB).
-FLOOR_PERCENTILE = 25.0
+# A decay's mode must stand MIN_PROMINENCE_DB above the noise floor of its spectrum
+# (analysis.FLOOR_PERCENTILE): a fast-decaying mode stands 10-16 dB above the median and was
+# lost at 20 dB above it.
 
 
 @dataclass(frozen=True)

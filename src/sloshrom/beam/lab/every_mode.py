@@ -30,6 +30,8 @@ from sloshrom.beam.damping.analysis import (
     AnalysisError,
     instantaneous_damping,
     log_decrement,
+    noise_floor,
+    spectral_noise_floor,
 )
 from sloshrom.beam.damping.limits import FREE_DAMPING_PERIODS, WELCH_SEGMENT
 from sloshrom.beam.damping.peaks import (
@@ -521,9 +523,18 @@ def free_mode_rows(res: MeasuredTest, case: str, modes: TestModes,
         ok = bool(np.isfinite(floor))
         bands = amplitude_bands(d.decay.hilbert["amplitude"] / G,
                                 FLOOR_FACTOR * floor / G if ok else None)
+        # the bootstrap's noise: the decay's floor, or where the record stops above it (a
+        # slow mode in a short record) the noise its spectrum shows away from the modes, so
+        # that every band, a short one too, has the scatter of its estimate
+        try:
+            noise = noise_floor(d.record, fs, m.frequency, d.rel_band)
+        except AnalysisError:  # too short for the tail's fit
+            noise = float("nan")
+        if not np.isfinite(noise):
+            noise = spectral_noise_floor(d.record, fs, m.frequency, d.rel_band)
         rows += [{"case": case, "mode": modes.number(k), "mode_frequency_Hz": m.frequency, **row}
                  for row in band_damping(d.decay.hilbert, d.decay.log_decrement, m.frequency,
-                                         bands=bands, record=d.record, fs=fs,
+                                         bands=bands, record=d.record, fs=fs, noise=noise,
                                          floor=floor if ok else None, rel_band=d.rel_band,
                                          seed=seed)]
     return rows
