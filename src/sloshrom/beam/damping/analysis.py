@@ -926,7 +926,7 @@ def half_spectrum(
 INPUT_SHAPE_RANGE_DB = 20.0
 
 
-def input_shape(base: Any, fs: float, f_mode: float) -> tuple[np.ndarray, np.ndarray] | None:
+def input_shape(base: ArrayLike, fs: float, f_mode: float) -> tuple[np.ndarray, np.ndarray] | None:
     """The measured input's spectral shape, to divide an output spectrum by: the smooth input
     PSD (:func:`input_psd`) over its value at the mode ``f_mode`` (Hz), at least
     :data:`INPUT_SHAPE_RANGE_DB` below it (1 at the mode). ``None`` where the base holds no
@@ -950,7 +950,7 @@ def output_only_damping(
     max_lag_periods: float = 30.0,
     window_end: float = 0.01,
     pol_order_high: int = 20,
-    base: Any = None,
+    base: ArrayLike | None = None,
     **cluster: Any,
 ) -> dict[str, Any]:
     """Output-only modal frequency and damping: LSCF on the half-spectrum, window corrected.
