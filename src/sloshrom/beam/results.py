@@ -12,6 +12,7 @@ attributes and columns are contracts.
 
 from __future__ import annotations
 
+import csv
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
@@ -29,8 +30,8 @@ from sloshrom.fileio import OutputBatch, atomic_write, netcdf_writer
 if TYPE_CHECKING:  # the readers import this module's writers' neighbours
     from sloshrom.beam.lab.measured import MeasuredTest
 
-__all__ = ["BUILT_IN_STRUCTURE", "MEASURED_MODES_ONLY", "RESULT_FORMAT_VERSION", "to_dataset",
-           "write_dataset", "write_table"]
+__all__ = ["BUILT_IN_STRUCTURE", "MEASURED_MODES_ONLY", "RESULT_FORMAT_VERSION",
+           "markdown_cell", "to_dataset", "write_dataset", "write_table"]
 
 
 # -- result files --------------------------------------------------------------------------------
@@ -267,31 +268,37 @@ def write_dataset(ds: xr.Dataset, path: str | Path, batch: OutputBatch | None = 
     return write(path, netcdf_writer(ds))
 
 
+def markdown_cell(text: object) -> str:
+    """``text`` as one cell of a Markdown table: a ``|`` escaped (``\\|``, so that ``|H1|``
+    stays ``|H1|`` on the page instead of splitting the cell), line breaks as spaces."""
+    return " ".join(str(text).split()).replace("|", "\\|")
+
+
 def write_table(rows: Sequence[Mapping[str, Any]], path_stem: str | Path,
                 batch: OutputBatch | None = None) -> tuple[Path, Path]:
     """Write ``rows`` (dicts) as ``<stem>.csv`` and ``<stem>.md``.
 
     The columns are the union of the rows' keys, in the order they first appear (an ensemble's
     rows add columns to Table 2); a row without a column has an empty cell. The CSV holds the
-    values as Python prints them, unquoted (a comma in a text, e.g. a reason, is written as a
-    semicolon, so that every line splits at its commas); the Markdown table rounds floats to
-    four significant digits. Returns both paths.
+    values as Python prints them, quoted where a text (a reason) holds a comma or a quote
+    (RFC 4180, Python's ``csv`` module: every reader splits it right and the reason keeps its
+    commas); line breaks in a text are written as spaces. The Markdown table rounds floats to
+    four significant digits and escapes ``|`` (:func:`markdown_cell`). Returns both paths.
     """
     keys = list(dict.fromkeys(k for r in rows for k in r))
 
     def cell(v: object) -> str:
-        # a text (a reason) keeps the file one value per comma: its commas become semicolons
-        return f"{v}".replace(",", ";").replace("\n", " ")
+        return " ".join(f"{v}".splitlines())
 
-    def csv(tmp: str) -> None:
-        with open(tmp, "w", encoding="utf-8") as fh:
-            fh.write(",".join(keys) + "\n")
-            for r in rows:
-                fh.write(",".join(cell(r[k]) if k in r else "" for k in keys) + "\n")
+    def csv_file(tmp: str) -> None:
+        with open(tmp, "w", encoding="utf-8", newline="") as fh:
+            out = csv.writer(fh, lineterminator="\n")
+            out.writerow(keys)
+            out.writerows([cell(r[k]) if k in r else "" for k in keys] for r in rows)
 
     def md(tmp: str) -> None:
         def fmt(v: Any) -> str:
-            return f"{v:.4g}" if isinstance(v, float) else str(v).replace("|", "/")
+            return f"{v:.4g}" if isinstance(v, float) else markdown_cell(v)
 
         with open(tmp, "w", encoding="utf-8") as fh:
             fh.write("| " + " | ".join(keys) + " |\n|" + "---|" * len(keys) + "\n")
@@ -301,5 +308,5 @@ def write_table(rows: Sequence[Mapping[str, Any]], path_stem: str | Path,
 
     write = batch.write if batch is not None else atomic_write
     stem = Path(path_stem)
-    return write(stem.with_suffix(".csv"), csv), write(stem.with_suffix(".md"), md)
+    return write(stem.with_suffix(".csv"), csv_file), write(stem.with_suffix(".md"), md)
 

@@ -24,7 +24,7 @@ import re
 import signal
 import sys
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated, Any, NoReturn
@@ -165,9 +165,14 @@ def _error_line(msg: str) -> None:
     typer.secho(f"error: {' '.join(str(msg).split())}", fg=typer.colors.RED, err=True)
 
 
-def fail(msg: str) -> NoReturn:
-    """Report a user error in one red line on stderr and exit with code 2 (no traceback)."""
+def fail(msg: str, paste: Sequence[str] = ()) -> NoReturn:
+    """Report a user error in one red line on stderr and exit with code 2 (no traceback).
+
+    ``paste``: lines printed verbatim after it (options or a table to copy into the command
+    or a file), each indented by two spaces."""
     _error_line(msg)
+    for line in paste:
+        typer.echo(f"  {line}", err=True)
     raise typer.Exit(code=2)
 
 

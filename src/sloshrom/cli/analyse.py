@@ -18,9 +18,9 @@ import math
 import shlex
 import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, TypeVar, cast
+from typing import TYPE_CHECKING, Annotated, Any, NoReturn, TypeVar, cast
 
 import typer
 
@@ -63,6 +63,7 @@ if TYPE_CHECKING:  # the heavy modules load when a command runs
     from sloshrom.beam.lab.channels import ChannelMap
     from sloshrom.beam.lab.every_mode import TestModes
     from sloshrom.beam.lab.measured import MeasuredTest
+    from sloshrom.beam.lab.uff58 import ChannelIdentity
     from sloshrom.beam.simulation.members import Row
     from sloshrom.beam.simulation.structure import ModalModel
     from sloshrom.cli.beam import StructureSetup
@@ -217,15 +218,38 @@ def _with_units(cmap: ChannelMap, units: dict[str, str], channels: Path) -> Chan
     return cmap.with_units(units)
 
 
+def _missing_units(e: MissingUnitError) -> NoReturn:
+    """Every channel of a file without a unit in one error, with the options and the [units]
+    table to paste (``UNIT`` to replace: a placeholder that no run accepts, so that a channel
+    is never read in a unit nobody chose)."""
+    from sloshrom.beam.lab.channels import ACCELERATION_UNITS
+
+    if len(e.channels) == 1:
+        fail(f"{e.path}: channel {e.channel!r} has no unit in the file ({e.detail}); give it "
+             f"with --unit {shlex.quote(e.channel + '=g')} (or m/s^2), or in the channel map's "
+             "[units] table")
+    names = ", ".join(repr(c) for c in e.channels)
+    fail(f"{e.path}: {len(e.channels)} channels have no unit in the file ({e.detail}): "
+         f"{names}; give each its unit (UNIT: {', '.join(ACCELERATION_UNITS)}) with the "
+         "options below, or in the channel map's [units] table below it",
+         [" ".join(f"--unit {shlex.quote(c + '=UNIT')}" for c in e.channels), "[units]",
+          *(f'{_toml_key(c)} = "UNIT"' for c in e.channels)])
+
+
+def _toml_key(name: str) -> str:
+    """A channel name as a TOML key (quoted unless bare)."""
+    import tomli_w
+
+    return tomli_w.dumps({name: 0}).split(" = ")[0]
+
+
 def _read(fn: Callable[[], _T], cli: dict[str, str], channels: Path) -> _T:
     """``fn()`` (a reader of the test's files); a unit missing or contradicting the file is a
     user error naming --unit (``cli``: its units) and the map's [units]."""
     try:
         return fn()
     except MissingUnitError as e:
-        fail(f"{e.path}: channel {e.channel!r} has no unit in the file ({e.detail}); give it "
-             f"with --unit {shlex.quote(e.channel + '=g')} (or m/s^2), or in the channel map's "
-             "[units] table")
+        _missing_units(e)
     except UnitConflictError as e:
         who = (f"--unit {e.channel}={e.given}" if e.channel in cli
                else f"the [units] table of --channels {channels} ({e.channel} = {e.given!r})")
@@ -252,13 +276,16 @@ class _Given:
         return cls(st, " ".join(t for t in tk if t) or None)
 
 
-def _modes(res: MeasuredTest, kind: str, frequencies: list[float] | None,
-           modes: int | None) -> TestModes:
-    """The modes to analyse (given or found), each inside the record's band, or a user error."""
-    from sloshrom.beam.lab.every_mode import describe, modes_of_test
+def _modes(res: MeasuredTest, kind: str, ctx: _Setting, modal: ModalModel | None
+           ) -> TestModes:
+    """The modes to analyse (given or found), each inside the record's band, numbered as the
+    structure (``modal``) has them, or a user error."""
+    from sloshrom.beam.lab.every_mode import describe, modes_of_test, number_modes
 
-    found = _checked("modes", lambda: modes_of_test(res, kind, frequencies=frequencies,
-                                                 max_modes=modes))
+    found = _checked("modes", lambda: modes_of_test(res, kind, frequencies=ctx.frequencies,
+                                                 max_modes=ctx.modes))
+    if modal is not None:
+        found = number_modes([found], modal)[0]
     typer.echo(describe(found))
     return found
 
@@ -320,6 +347,18 @@ class _Setting:
     given: _Given
     frequencies: list[float] | None  # the modes named by the user, Hz
     modes: int | None  # --modes
+    # the UFF channels the map's names found in every file read so far (a campaign's tests
+    # too): a map by node numbers must find the same accelerometers in all of them
+    identities: list[ChannelIdentity] = field(default_factory=list)
+
+    def check_identity(self, res: MeasuredTest) -> None:
+        """Add the test's files to :attr:`identities`; a user error if the map's node numbers
+        find other channels in them than in the files before."""
+        from sloshrom.beam.lab.uff58 import check_channel_identity
+
+        self.identities.extend(res.get("channel_identity", []))
+        _checked(f"--channels {self.channels}",
+                 lambda: check_channel_identity(self.identities))
 
 
 def _setting(files: list[Path], channels: Path, out: Path, name: str, f1: float | None,
@@ -415,33 +454,66 @@ def _dataset(ctx: _Setting, res: MeasuredTest, name: str, kind: str, found: Test
 
 def _check_stations(ctx: _Setting, res: MeasuredTest, found: TestModes,
                     modal: ModalModel | None) -> None:
-    """The map's station order against the data at mode 1 (``lab.check_station_order``)."""
-    from sloshrom.beam.lab.every_mode import DECAY_REL_BAND, check_station_order
+    """The map's station order against the data at mode 1 (``lab.check_station_order``), then
+    every station's amplitude against the others' at each mode
+    (``lab.check_station_amplitudes``: a channel read in another unit)."""
+    from sloshrom.beam.lab.every_mode import (
+        DECAY_REL_BAND,
+        check_station_amplitudes,
+        check_station_order,
+    )
 
     _checked(f"--channels {ctx.channels}", lambda: check_station_order(
         res, found.frequencies[0], found.rel_band(0, DECAY_REL_BAND), modal))
+    _checked(", ".join(res["source"]), lambda: check_station_amplitudes(res, found, modal))
+
+
+@dataclass
+class _Read:
+    """A test read and its modes found, before its analysis (a campaign numbers the modes of
+    all its tests first)."""
+
+    kind: str
+    files: list[Path]
+    name: str
+    res: MeasuredTest
+    modal: ModalModel | None
+    found: TestModes
+
+
+def _read_free(files: list[Path], ctx: _Setting, name: str, step: _Steps) -> _Read:
+    """Read a free decay and find its modes (user errors end the command)."""
+    from sloshrom.beam.lab.measured import read_free_test
+
+    step(f"reading {files[0].name}")
+    res = _read(lambda: read_free_test(files, ctx.cmap, ctx.modal), ctx.units, ctx.channels)
+    ctx.check_identity(res)
+    modal = _station_model(ctx, res)
+    return _Read("free", files, name, res, modal, _modes(res, "free", ctx, modal))
 
 
 def _free_test(files: list[Path], ctx: _Setting, name: str, step: _Steps) -> _Test:
     """Read and analyse a free decay at every mode (user errors end the command)."""
+    return _analyse_free(_read_free(files, ctx, name, step), ctx, step)
+
+
+def _analyse_free(r: _Read, ctx: _Setting, step: _Steps) -> _Test:
+    """Analyse a free decay read by :func:`_read_free` at every mode."""
     from sloshrom.beam.lab.every_mode import free_mode_decays, free_mode_rows
-    from sloshrom.beam.lab.measured import check_free_decay, read_free_test
+    from sloshrom.beam.lab.measured import check_free_decay
     from sloshrom.plotting.beam import free_figures, mode_decay_figure
 
-    step(f"reading {files[0].name}")
-    res = _read(lambda: read_free_test(files, ctx.cmap, ctx.modal), ctx.units, ctx.channels)
-    modal = _station_model(ctx, res)
-    found = _modes(res, "free", ctx.frequencies, ctx.modes)
+    files, name, res, modal, found = r.files, r.name, r.res, r.modal, r.found
     _check_stations(ctx, res, found, modal)
     n = res["time"].size
     for k, f in enumerate(found.frequencies):
         if n < FREE_DAMPING_PERIODS * res["fs"] / f:
             fail(f"{files[0]}: {n / res['fs']:g} s is too short for the damping analysis "
-                 f"of mode {k + 1} ({f:.4g} Hz): need {FREE_DAMPING_PERIODS} periods, "
-                 f"{FREE_DAMPING_PERIODS / f:.3g} s")
+                 f"of mode {found.number(k)} ({f:.4g} Hz): need {FREE_DAMPING_PERIODS} "
+                 f"periods, {FREE_DAMPING_PERIODS / f:.3g} s")
     for k, f in enumerate(found.frequencies):
         _checked(f"{files[0]}", lambda k=k, f=f: check_free_decay(
-            res, f, rel_band=found.rel_band(k, 0.5), mode=k + 1))
+            res, f, rel_band=found.rel_band(k, 0.5), mode=found.number(k)))
     step(f"{name}: damping analysis of every mode")
     decays = _checked("damping analysis", lambda: free_mode_decays(res, found, modal))
     rows = free_mode_rows(res, name, found, decays)
@@ -550,14 +622,19 @@ def _random_test(files: list[Path], ctx: _Setting, name: str, lv: list[float] | 
                  levels_from: str = "--levels") -> _Test:
     """Read and analyse a random test (one file per level) at every mode (``levels_from``:
     where ``lv`` came from, for messages)."""
-    from sloshrom.beam.damping.uncertainty import ShortRecordWarning
-    from sloshrom.beam.lab.every_mode import random_mode_dataset
+    return _analyse_random(_read_random(files, ctx, name, lv, step, levels_from), ctx, names,
+                           accuracy, step)
+
+
+def _read_random(files: list[Path], ctx: _Setting, name: str, lv: list[float] | None,
+                 step: _Steps, levels_from: str = "--levels") -> _Read:
+    """Read a random test (one file per level), check it and find its modes."""
     from sloshrom.beam.lab.measured import check_levels, check_random_base, read_random_test
-    from sloshrom.plotting.beam import mode_damping_figure, random_figures, random_window
 
     step(f"reading {len(files)} file(s)")
     res = _read(lambda: read_random_test(files, ctx.cmap, ctx.modal, levels=lv), ctx.units,
                 ctx.channels)
+    ctx.check_identity(res)
     modal = _station_model(ctx, res)
     n = res["time"].size
     if n < WELCH_SEGMENT:
@@ -569,7 +646,17 @@ def _random_test(files: list[Path], ctx: _Setting, name: str, lv: list[float] | 
     if lv is not None:  # nominal levels label Table 2 and match the predictions: theirs?
         _checked(levels_from, lambda: check_levels(res["base_acceleration"], lv,
                                                    [p.name for p in files]))
-    found = _modes(res, "random", ctx.frequencies, ctx.modes)
+    return _Read("random", files, name, res, modal, _modes(res, "random", ctx, modal))
+
+
+def _analyse_random(r: _Read, ctx: _Setting, names: Sequence[str], accuracy: float | None,
+                    step: _Steps) -> _Test:
+    """Analyse a random test read by :func:`_read_random`: Table 2 at every mode."""
+    from sloshrom.beam.damping.uncertainty import ShortRecordWarning
+    from sloshrom.beam.lab.every_mode import random_mode_dataset
+    from sloshrom.plotting.beam import mode_damping_figure, random_figures, random_window
+
+    files, name, res, modal, found = r.files, r.name, r.res, r.modal, r.found
     _check_stations(ctx, res, found, modal)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ShortRecordWarning)
@@ -644,8 +731,10 @@ def _free_table(test: _Test) -> tuple[list[str], list[list[str]]]:
 
 
 def _markdown(head: list[str], rows: list[list[str]]) -> str:
+    from sloshrom.beam.results import markdown_cell
+
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    lines += ["| " + " | ".join(c.replace("|", "/") for c in r) + " |" for r in rows]
+    lines += ["| " + " | ".join(markdown_cell(c) for c in r) + " |" for r in rows]
     return "\n".join(lines) + "\n"
 
 
@@ -735,16 +824,24 @@ def campaign(
         f"{s.name} ({s.kind}: {', '.join(p.name for p in s.files)})" for s in specs))
 
     def work(step: _Steps) -> list[tuple[CampaignTest, _Test]]:
-        done = []
-        for s in specs:
+        from sloshrom.beam.lab.every_mode import number_modes
+
+        read = []
+        for s in specs:  # every test read, its modes found ...
             if s.kind == "free":
-                t = _free_test(list(s.files), ctx, s.name, step)
+                read.append(_read_free(list(s.files), ctx, s.name, step))
             else:
                 lv = list(s.levels) if s.levels is not None else None
-                t = _random_test(list(s.files), ctx, s.name, lv, names, None, step,
-                                 f"{directory / 'campaign.toml'}: test {s.name!r}: levels")
-            done.append((s, t))
-        return done
+                read.append(_read_random(list(s.files), ctx, s.name, lv, step,
+                                         f"{directory / 'campaign.toml'}: test {s.name!r}: "
+                                         "levels"))
+        # ... then numbered as the campaign's structure has them: a decay that misses mode 2
+        # calls the random test's mode 3 mode 3 too
+        for r, m in zip(read, number_modes([r.found for r in read]), strict=True):
+            r.found = m
+        return [(s, _analyse_free(r, ctx, step) if r.kind == "free"
+                 else _analyse_random(r, ctx, names, None, step))
+                for s, r in zip(specs, read, strict=True)]
 
     tests = _run("analyse campaign", work)
     md, page = _report(directory, tests, names)

@@ -22,7 +22,7 @@ from __future__ import annotations
 import json
 import math
 import re
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -65,19 +65,27 @@ class RecordError(SloshromError):
 
 
 class MissingUnitError(RecordError):
-    """A channel has no unit in its file and the caller gave none.
+    """Channels have no unit in their file and the caller gave none.
 
-    Attributes ``path`` (the file), ``channel`` (its label), ``detail`` (where the file would
-    say it, e.g. ``"UFF 58 dataset 1, ordinate unit label empty"``) and ``si`` (the SI unit of
-    a standard variable name, else ``None``) let a caller say how to give it.
+    Attributes ``path`` (the file), ``channel`` (the first channel's label), ``channels``
+    (every such channel of the file, so that one message can ask for all of them), ``detail``
+    (where the file would say it, e.g. ``"UFF 58 dataset 1, ordinate unit label empty"``) and
+    ``si`` (the SI unit of a standard variable name, else ``None``) let a caller say how to
+    give them.
     """
 
     def __init__(self, path: object, channel: str, detail: str, si: str | None = None,
-                 kind: str = "channel") -> None:
+                 kind: str = "channel", channels: Sequence[str] | None = None) -> None:
         self.path, self.channel, self.detail, self.si = str(path), channel, detail, si
+        self.channels = list(channels) if channels else [channel]
         hint = f" (SI: {si!r})" if si else ""
-        super().__init__(f"{path}: {kind} {channel!r} has no unit in the file ({detail}); give "
-                         f"it with units={{{channel!r}: ...}}{hint}")
+        if len(self.channels) == 1:
+            super().__init__(f"{path}: {kind} {channel!r} has no unit in the file ({detail}); "
+                             f"give it with units={{{channel!r}: ...}}{hint}")
+        else:
+            names = ", ".join(repr(c) for c in self.channels)
+            super().__init__(f"{path}: {kind}s {names} have no unit in the file ({detail}); "
+                             "give them with units={...}")
 
 
 class NoTimeAxisError(RecordError):
@@ -848,7 +856,7 @@ def _build(
         where = ("no [unit] in the CSV header" if source.lower().endswith((".csv", ".txt"))
                  else "no entry in the units struct")
         raise MissingUnitError(source, unitless[0], where, STANDARD_UNITS.get(unitless[0]),
-                               kind="variable")
+                               kind="variable", channels=unitless)
     try:
         return Record(time, fs, cols, var_units, attrs)
     except RecordError as exc:

@@ -176,6 +176,7 @@ def read_uff58(
     variables: dict[str, np.ndarray] = {}
     var_units: dict[str, str] = {}
     channels = []
+    unitless: list[tuple[int, str, str]] = []  # dataset number, label, variable
     time_ref: np.ndarray | None = None
     ref_label = ""
     for k, ((i, s), label) in enumerate(zip(time_sets, labels, strict=True)):
@@ -235,8 +236,9 @@ def read_uff58(
         elif si_file and std:
             unit, how = std[1], "dataset 164 (SI) + specific data type"
         else:
-            raise MissingUnitError(p, label, f"UFF 58 dataset {i + 1}, ordinate unit label "
-                                   "empty", STANDARD_UNITS.get(name))
+            # every channel without a unit is named in one error (below), not one per run
+            unitless.append((i + 1, label, name))
+            unit, how = "", ""
         variables[name] = data
         var_units[name] = str(unit)
         channels.append({
@@ -244,6 +246,13 @@ def read_uff58(
             "node": node, "direction": direction,
             "spec_data_type": spec, "unit": str(unit), "unit_from": how,
         })
+    if unitless:
+        sets_text = ", ".join(str(i) for i, _, _ in unitless)
+        raise MissingUnitError(
+            p, unitless[0][1], f"UFF 58 dataset{'s' if len(unitless) > 1 else ''} {sets_text}, "
+            f"ordinate unit label{'s' if len(unitless) > 1 else ''} empty",
+            STANDARD_UNITS.get(unitless[0][2]) if len(unitless) == 1 else None,
+            channels=[label for _, label, _ in unitless])
     stray = [u for u in units if u not in variables and u not in labels]
     if stray and not shared_units:
         raise RecordError(

@@ -3,6 +3,7 @@ input as one clear error (exit 2, one line, nothing written: ``helpers.check_cli
 
 from __future__ import annotations
 
+import csv
 import dataclasses
 import shutil
 from pathlib import Path
@@ -48,9 +49,8 @@ def lab(tmp_path_factory):
 
 
 def _csv_rows(path: Path) -> list[dict[str, str]]:
-    lines = path.read_text().splitlines()
-    keys = lines[0].split(",")
-    return [dict(zip(keys, ln.split(","), strict=True)) for ln in lines[1:]]
+    with path.open(newline="") as fh:  # a reason with commas is a quoted cell
+        return list(csv.DictReader(fh))
 
 
 def test_analyse_free_end_to_end(lab, tmp_path):

@@ -112,7 +112,16 @@ def _same_rows(a, b):
             est = next((e for e in ("lscf_h1", "lscf_output", "half_power")
                         if k.startswith(e)), None)
             rtol = 1e-4 if est and ra.get(f"{est}_note") else 1e-6
-            np.testing.assert_allclose(rb[k], v, rtol=rtol, atol=1e-9, equal_nan=True,
+            atol = 1e-9
+            if est == "lscf_output" and k == f"{est}_iqr":
+                # the output-only IQR (the spread of the cluster's poles over model orders, read
+                # against the damping ratio, not an estimate) follows the round-off of the base
+                # whose spectrum divides the output's: a pole at a stability tolerance's edge
+                # enters or leaves the cluster. The files' 1e-12 moved it by 2.5e-8 = 2.7e-6 of
+                # the damping ratio (7e-4 of itself; measured, the estimate by less than 1e-6):
+                # compared to 1e-5 of the damping ratio
+                rtol, atol = 0.0, 1e-5 * abs(ra[est])
+            np.testing.assert_allclose(rb[k], v, rtol=rtol, atol=atol, equal_nan=True,
                                        err_msg=k)
 
 

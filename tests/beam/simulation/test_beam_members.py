@@ -193,7 +193,7 @@ def test_no_cluster_gives_a_reason_in_the_row_markdown_and_console(tmp_path):
     assert math.isnan(row["lscf_h1"])
     why = row["lscf_h1_reason"]
     # what was tried: band, model orders and each tolerance of the documented sequence
-    for text in ("no stable pole cluster in 5.09-15.3 Hz", "model orders 2-40 poles",
+    for text in ("no stable pole cluster in 5.095-15.29 Hz", "model orders 2-40 poles",
                  "damping tolerance 5 %", "damping tolerance 10 %", "damping tolerance 20 %",
                  "at least 10 poles"):
         assert text in why, (text, why)

@@ -6,6 +6,8 @@
   ``zeta = -(d ln A/dt) / omega`` with a local-regression slope over a few periods.
 * :func:`log_decrement` - the same from successive peaks (cross-check).
 * :func:`noise_floor` - the band-passed noise amplitude of a decay record (its floor);
+  :func:`spectral_noise_floor` - the same from the record's spectrum (a decay that stops above
+  its floor);
   :func:`bandpass_noise_gain`, :func:`decay_copy` - for the bootstrap of the band intervals.
 * :func:`welch_psd`, :func:`frf_h1` - Welch estimates (Hann window, 50 % overlap, explicit
   ``nperseg``).
@@ -284,6 +286,34 @@ def noise_floor(x: ArrayLike, fs: float, f: float, rel_band: float = 0.35,
     return float(math.sqrt(2 * c))
 
 
+#: The noise floor of a record's spectrum: this percentile of its lines (in dB, or as
+#: powers: the same line) over the band searched. A decay's or a response's spectrum is mostly
+#: noise, the modes a few narrow peaks; the median rises with every mode's skirt (four modes of
+#: a 20 s decay put it up to 4 dB above the floor), a low percentile does not
+#: (``sloshrom.beam.damping.peaks`` finds a decay's modes 10 dB above it).
+FLOOR_PERCENTILE = 25.0
+
+
+def spectral_noise_floor(x: ArrayLike, fs: float, f: float, rel_band: float = 0.35) -> float:
+    """Noise amplitude of a record in the analyses' band around ``f`` (Hz), from its spectrum:
+    the record's white noise PSD is the :data:`FLOOR_PERCENTILE` percentile of its Welch PSD
+    (Hann, segments of an eighth of the record) up to 0.9 Nyquist, and its band-passed RMS
+    envelope (as :func:`noise_floor` gives it) ``sqrt(2 N fs / 2)`` times the band-pass's noise
+    gain (:func:`bandpass_noise_gain`).
+
+    For a decay that stops above its floor (:func:`noise_floor` NaN): its sensor noise still
+    shows where no mode is. An upper bound where the record has no line free of response.
+    """
+    x = np.asarray(x, dtype=float)
+    if x.ndim != 1 or x.size < 64:
+        raise BeamError("x must be 1-D with at least 64 samples")
+    nper = 2 ** int(math.log2(max(x.size // 8, 64)))
+    fr, p = welch_psd(x, fs, nper)
+    sel = (fr > 0) & (fr <= 0.9 * fs / 2)
+    n_psd = float(np.percentile(p[sel], FLOOR_PERCENTILE))
+    return math.sqrt(2 * n_psd * fs / 2) * bandpass_noise_gain(fs, f, rel_band)
+
+
 def _peak_interpolation(xb: np.ndarray, peaks: np.ndarray, fs: float
                         ) -> tuple[np.ndarray, np.ndarray]:
     # the sinusoid through the three samples around each peak (exact for a sinusoid of the
@@ -375,6 +405,19 @@ def welch_psd(x: Any, fs: float, nperseg: int = 4096) -> tuple[np.ndarray, np.nd
                         detrend="constant", axis=-1)
 
 
+def input_psd(base: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray]:
+    """The input PSD of a record, smooth: Welch over segments of 1/32 of the record (at least
+    256 samples; about 60 averages, +/- 13 % per line), for the shape of a coloured input.
+
+    Returns
+    -------
+    (ndarray, ndarray)
+        Frequencies (Hz) and one-sided PSD (the record's unit squared per Hz).
+    """
+    nps = int(min(base.size, max(256, base.size // 32)))
+    return welch_psd(base, fs, nps)
+
+
 def frf_h1(
     base: Any, response: Any, fs: float, nperseg: int = 4096, *, one_pass: bool = False
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -437,6 +480,13 @@ def _frf_h1_one_pass(base: np.ndarray, tank: np.ndarray, fs: float, nperseg: int
         return fft.rfftfreq(nperseg, 1 / fs), sxy / sxx, np.abs(sxy)**2 / (sxx * syy)
 
 
+def band_text(band: tuple[float, float]) -> str:
+    """A frequency band as messages print it, ``"143.1-225 Hz"``: four significant digits (a
+    band's edges are computed, e.g. geometric means of two modes; their 16 digits say
+    nothing)."""
+    return f"{float(band[0]):.4g}-{float(band[1]):.4g} Hz"
+
+
 def _check_band_lines(f: np.ndarray, band: tuple[float, float], need: int) -> None:
     """An :class:`AnalysisError` when the spectrum's lines ``f`` (Hz, evenly spaced) put fewer
     than ``need`` in ``band``: its spacing is the sample rate over the segment length, so a
@@ -446,7 +496,7 @@ def _check_band_lines(f: np.ndarray, band: tuple[float, float], need: int) -> No
         return
     df = float(f[1] - f[0]) if f.size > 1 else float("nan")
     raise AnalysisError(
-        f"too few frequency points in band {band[0]:.4g}-{band[1]:.4g} Hz: {n} line(s) "
+        f"too few frequency points in band {band_text(band)}: {n} line(s) "
         f"{df:.3g} Hz apart, the fit needs {need}; the spacing is the sample rate (fs) over "
         "the Welch segment's samples: is the record's fs (its time axis) right?")
 
@@ -465,11 +515,11 @@ def half_power_damping(f: Any, spectrum: Any, band: tuple[float, float]) -> dict
     _check_band_lines(f, band, 5)
     ip = sel[np.argmax(s[sel])]
     if not (sel[0] < ip < sel[-1] and s[ip] > 0):
-        raise AnalysisError(f"no peak inside band {band} Hz (maximum at its edge)")
+        raise AnalysisError(f"no peak inside band {band_text(band)} (maximum at its edge)")
     # parabolic refinement of the peak on the log magnitude
     y0, y1, y2 = np.log(s[ip - 1 : ip + 2])
     if not y0 - 2 * y1 + y2 < 0:
-        raise AnalysisError(f"no peak inside band {band} Hz (flat maximum)")
+        raise AnalysisError(f"no peak inside band {band_text(band)} (flat maximum)")
     off = 0.5 * (y0 - y2) / (y0 - 2 * y1 + y2)
     fn = f[ip] + off * (f[1] - f[0])
     peak = math.exp(y1 - 0.25 * (y0 - y2) * off)
@@ -783,11 +833,17 @@ def lscf_cluster_damping(
                                **cluster)
 
 
-def correlation(x: Any, fs: float, max_lag: float) -> tuple[np.ndarray, np.ndarray]:
+def correlation(x: Any, fs: float, max_lag: float,
+                divide: tuple[np.ndarray, np.ndarray] | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
     """Unbiased auto-correlation ``R(k) = sum_n x_n x_{n+k} / (N - k)``, ``0 <= k dt <= max_lag``.
 
     The mean is removed first; the sum is one zero-padded FFT of the whole record (no segment
-    window, hence no window-shaped bias on ``R``). Returns ``(lag (s), R (units^2))``.
+    window, hence no window-shaped bias on ``R``). With ``divide = (f (Hz), S)``, a smooth
+    positive spectrum, the record's spectrum is divided by ``S`` (interpolated) line by line
+    first: the correlation of the record as if filtered by ``1 / sqrt(S)`` (an
+    auto-correlation depends on the spectrum's magnitude alone, so no phase is needed).
+    Returns ``(lag (s), R (units^2, over S's unit with divide))``.
     """
     from scipy import fft
 
@@ -801,7 +857,10 @@ def correlation(x: Any, fs: float, max_lag: float) -> tuple[np.ndarray, np.ndarr
     x = x - x.mean()
     m = fft.next_fast_len(2 * x.size, real=True)
     xf = fft.rfft(x, m)
-    r = fft.irfft(xf.real**2 + xf.imag**2, m)[:n_lag] / (x.size - np.arange(n_lag))
+    p = xf.real**2 + xf.imag**2
+    if divide is not None:
+        p = p / np.interp(fft.rfftfreq(m, 1 / fs), *divide)
+    r = fft.irfft(p, m)[:n_lag] / (x.size - np.arange(n_lag))
     return np.arange(n_lag) / fs, r
 
 
@@ -857,6 +916,32 @@ def half_spectrum(
     return {"f": fft.rfftfreq(nfft, 1 / fs), "spectrum": fft.rfft(rw, nfft) / fs, "beta": beta}
 
 
+#: How far (dB below its value at the mode) the input spectrum divides the output's
+#: (:func:`input_shape`): beyond a shaker's band (24 dB/octave roll-off) the input is its
+#: noise, and dividing by it there would raise the output's noise into the correlation. The
+#: whole spectrum is divided, not only the fitting band: the lag window spreads every line
+#: over its neighbours, and the other modes' lines, left coloured, biased mode 3 of a
+#: four-mode beam under a -6 dB/octave input by -15 % (divided over the band alone), +2 %
+#: divided everywhere (6 records of 120 s; 40 and 60 dB gave the same).
+INPUT_SHAPE_RANGE_DB = 20.0
+
+
+def input_shape(base: ArrayLike, fs: float, f_mode: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """The measured input's spectral shape, to divide an output spectrum by: the smooth input
+    PSD (:func:`input_psd`) over its value at the mode ``f_mode`` (Hz), at least
+    :data:`INPUT_SHAPE_RANGE_DB` below it (1 at the mode). ``None`` where the base holds no
+    power (not measured).
+    """
+    b = np.asarray(base, dtype=float)
+    if b.ndim != 1 or not np.all(np.isfinite(b)) or not np.std(b) > 0:
+        return None
+    f, s = input_psd(b, fs)
+    at = float(np.interp(f_mode, f, s))
+    if not at > 0:
+        return None
+    return f, np.maximum(s / at, 10 ** (-INPUT_SHAPE_RANGE_DB / 10))
+
+
 def output_only_damping(
     x: Any,
     fs: float,
@@ -865,6 +950,7 @@ def output_only_damping(
     max_lag_periods: float = 30.0,
     window_end: float = 0.01,
     pol_order_high: int = 20,
+    base: ArrayLike | None = None,
     **cluster: Any,
 ) -> dict[str, Any]:
     """Output-only modal frequency and damping: LSCF on the half-spectrum, window corrected.
@@ -873,7 +959,11 @@ def output_only_damping(
     (exponential window), LSCF poles of every order on ``band`` (:func:`lscf_poles`), then the
     stable-pole cluster (:func:`stable_pole_cluster`), whose poles are moved back by the window's
     decay (``lambda = lambda_w + beta``, exact) before the median. Assumes a broadband (white
-    over the mode's bandwidth) excitation, the usual operational-modal-analysis hypothesis.
+    over the mode's bandwidth) excitation, the usual operational-modal-analysis hypothesis;
+    with a measured ``base`` (its input), the output spectrum is first divided by the input's
+    shape (:func:`input_shape`), so that a coloured input (a shaker's tilt and roll-off) is
+    the white one the fit assumes. Only the base's power spectrum is used, not its phase: the
+    estimate stays output-only in its fit.
 
     The defaults (30 periods, window 1 % at the end: ``beta / omega_n = ln(100) / (2 pi 30) =
     0.024``) balance two biases measured on a 1 %, 10 Hz mode: shorter lags need a stronger
@@ -899,22 +989,27 @@ def output_only_damping(
         Exponential window value at the largest lag (-).
     pol_order_high : int
         Models with 2 to ``2 pol_order_high`` poles.
+    base : array (n,), optional
+        The measured input (base acceleration) of the record; ``None``: the input is taken
+        as white.
     **cluster
         Tolerances passed to :func:`stable_pole_cluster`.
 
     Returns
     -------
     dict
-        As :func:`stable_pole_cluster`, plus ``beta`` (1/s, window decay) and
-        ``zeta_window`` (-, the first-order correction ``beta / (2 pi frequency)`` that was
-        removed).
+        As :func:`stable_pole_cluster`, plus ``beta`` (1/s, window decay), ``zeta_window``
+        (-, the first-order correction ``beta / (2 pi frequency)`` that was removed) and
+        ``input_divided`` (bool: the output was divided by the measured input's shape).
     """
-    _, r = correlation(x, fs, max_lag_periods / f_approx)
+    shape = input_shape(base, fs, f_approx) if base is not None else None
+    _, r = correlation(x, fs, max_lag_periods / f_approx, divide=shape)
     hs = half_spectrum(r, fs, window_end)
     p = lscf_poles(hs["f"], hs["spectrum"], band, pol_order_high)
     out = stable_pole_cluster(p, f_approx, decay_correction=hs["beta"], **cluster)
     out["beta"] = hs["beta"]
     out["zeta_window"] = hs["beta"] / (2 * np.pi * out["frequency"])
+    out["input_divided"] = shape is not None
     return out
 
 

@@ -41,6 +41,7 @@ import numpy as np
 
 from sloshrom.beam.damping.analysis import (
     AnalysisError,
+    band_text,
     frf_h1,
     half_power_damping,
     lscf_poles,
@@ -52,7 +53,8 @@ from sloshrom.beam.damping.limits import WELCH_SEGMENT
 from sloshrom.beam.errors import BeamError
 
 __all__ = [
-    "LSCF_H1_ATTEMPTS", "OUTPUT_ONLY_EFFICIENCY", "ClusterAttempt", "DampingEstimate",
+    "LSCF_H1_ATTEMPTS", "OUTPUT_ONLY_EFFICIENCY", "UNCORRECTED_INPUT_NOTE", "ClusterAttempt",
+    "DampingEstimate",
     "DampingEstimator", "HalfPower", "LscfH1", "LscfOutput", "RandomTest", "Uncertainty",
     "bootstrap_estimator",
 ]
@@ -287,7 +289,7 @@ LSCF_H1_ATTEMPTS: tuple[ClusterAttempt, ...] = (
 def _no_cluster_reason(band: tuple[float, float], pol_order_high: int,
                        tried: list[tuple[ClusterAttempt, str]]) -> str:
     # what was tried, attempt by attempt, with what each found
-    return (f"no stable pole cluster in {band[0]:.3g}-{band[1]:.3g} Hz (LSCF model orders "
+    return (f"no stable pole cluster in {band_text(band)} (LSCF model orders "
             f"2-{2 * pol_order_high} poles): "
             + "; ".join(f"{a.describe()}: {why}" for a, why in tried))
 
@@ -355,10 +357,18 @@ def bootstrap_estimator(est: DampingEstimator, estimate: DampingEstimate) -> Dam
     return at(estimate.attempt) if at is not None else est
 
 
+#: The note of an output-only estimate whose record has no measured base to divide by.
+UNCORRECTED_INPUT_NOTE = ("the base is not measured (no power in its channel): the output "
+                          "spectrum is taken as the response to a white input, not corrected "
+                          "for the input's colour")
+
+
 @dataclass(frozen=True)
 class LscfOutput:
     """Output-only LSCF on the half-spectrum of the tank acceleration, window corrected
-    (``analysis.output_only_damping``); intervals from Au's law."""
+    (``analysis.output_only_damping``), the output spectrum divided by the measured base's
+    (a coloured input made white; where the base is not measured, uncorrected, with a note);
+    intervals from Au's law."""
 
     name: str = "lscf_output"
     label: str = "output-only LSCF"
@@ -367,19 +377,21 @@ class LscfOutput:
 
     def estimate(self, test: RandomTest) -> DampingEstimate:
         """The raw first-mode damping of one record (the protocol's ``estimate``)."""
-        e = _cluster_estimate(output_only_damping(test.response, test.fs, test.f1, test.fit_band,
-                                                  pol_order_high=test.pol_order_high))
+        r = output_only_damping(test.response, test.fs, test.f1, test.fit_band,
+                                pol_order_high=test.pol_order_high, base=test.base)
+        e = _cluster_estimate(r)
         if e.reason:  # say what was tried, as LSCF on H1 does
             e = replace(e, reason=_no_cluster_reason(test.fit_band, test.pol_order_high,
                                                      [(ClusterAttempt(), e.reason)]))
-        return e
+        return e if r["input_divided"] else replace(e, note=UNCORRECTED_INPUT_NOTE)
 
     def estimate_records(self, records: RandomTest) -> np.ndarray:
         """Damping ratio (-) of each record of a stack, NaN where none (the protocol's
         ``estimate_records``)."""
         return np.array([output_only_damping(y, records.fs, records.f1, records.fit_band,
-                                             pol_order_high=records.pol_order_high)["zeta"]
-                         for y in records.response])
+                                             pol_order_high=records.pol_order_high,
+                                             base=u)["zeta"]
+                         for u, y in zip(records.base, records.response, strict=True)])
 
 
 @dataclass(frozen=True)

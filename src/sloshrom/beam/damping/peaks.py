@@ -2,7 +2,8 @@
 or on the output spectrum of a free decay, and the analysis band of each mode.
 
 * :func:`find_modes` - the resonances of one record (:class:`FoundMode`: frequency, prominence,
-  coherence, how it was found).
+  coherence, how it was found); :func:`station_modes` - those of every station of a test,
+  each confirmed by other stations (an antiresonance of one channel is no mode).
 * :func:`common_modes` - the modes that the records of one test (its levels) share.
 * :func:`mode_bands` - each mode's analysis band, between its neighbours and below Nyquist.
 * :func:`given_modes` - modes named by the user (``--f1``, ``--frequencies``).
@@ -20,11 +21,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal
 
-from sloshrom.beam.damping.analysis import AnalysisError
+from sloshrom.beam.damping.analysis import FLOOR_PERCENTILE, AnalysisError
 
 __all__ = [
-    "FREQUENCY_RESOLUTION", "MIN_COHERENCE", "MIN_PROMINENCE_DB", "FoundMode", "band_maximum",
-    "common_modes", "find_modes", "given_modes", "mode_bands",
+    "FLOOR_PERCENTILE", "FREQUENCY_RESOLUTION", "MIN_COHERENCE", "MIN_PROMINENCE_DB",
+    "FoundMode", "band_maximum", "common_modes", "find_modes", "given_modes", "mode_bands",
+    "station_modes",
 ]
 
 #: A resonance must stand this far (dB) above the spectrum on both sides of it (scipy's
@@ -37,6 +39,9 @@ MIN_COHERENCE = 0.5
 #: Target spectral resolution of the search, Hz (the Welch segment is the power of two that
 #: gives it, or the record's length / 8).
 FREQUENCY_RESOLUTION = 0.05
+# A decay's mode must stand MIN_PROMINENCE_DB above the noise floor of its spectrum
+# (analysis.FLOOR_PERCENTILE): a fast-decaying mode stands 10-16 dB above the median and was
+# lost at 20 dB above it.
 
 
 @dataclass(frozen=True)
@@ -76,11 +81,11 @@ def find_modes(response: Sequence[float] | np.ndarray, fs: float,
     With ``base`` (a random test): peaks of ``|H1|`` (base -> response, Welch, Hann, segments
     for :data:`FREQUENCY_RESOLUTION` or an eighth of the record) where the coherence is at
     least ``min_coherence``. Without (a free decay): peaks of the response's Welch spectrum
-    (segments of half of the record) that stand ``2 min_prominence_db`` above its median
-    line (the noise floor), each located on the whole record's periodogram (Hann, zero-padded
-    four times). The log spectrum is smoothed over 5 lines (3 for a decay: a Welch estimate's
-    scatter) before the peaks are picked; a peak must stand ``min_prominence_db`` above its
-    surroundings.
+    (segments of half of the record) that stand ``min_prominence_db`` above its noise floor
+    (the :data:`FLOOR_PERCENTILE` percentile of the band's lines), each located on the whole
+    record's periodogram (Hann, zero-padded four times). The log spectrum is smoothed over 5
+    lines (3 for a decay: a Welch estimate's scatter) before the peaks are picked; a peak must
+    stand ``min_prominence_db`` above its surroundings.
 
     Parameters
     ----------
@@ -132,8 +137,10 @@ def find_modes(response: Sequence[float] | np.ndarray, fs: float,
     w = 5 if base is not None else 3
     smooth = np.convolve(db, np.ones(w) / w, mode="same")
     peaks, props = signal.find_peaks(smooth, prominence=min_prominence_db)
-    # a decay's resonance also stands well above the noise floor (the median line)
-    high = np.median(db) + 2 * min_prominence_db
+    # a decay's resonance also stands above the noise floor
+    in_range = (f >= lo) & (f <= hi)
+    high = float(np.percentile(smooth[in_range] if in_range.any() else smooth,
+                               FLOOR_PERCENTILE)) + min_prominence_db
     fine = None
     out = []
     for p, prom in zip(peaks, props["prominences"], strict=True):
@@ -155,6 +162,41 @@ def find_modes(response: Sequence[float] | np.ndarray, fs: float,
             fj = float(fine[0][near][np.argmax(fine[1][near])])
         out.append(FoundMode(fj, float(prom), c, source))
     return out
+
+
+def station_modes(stations: np.ndarray, fs: float, base: np.ndarray | None = None, *,
+                  min_stations: int = 2, rel_tol: float = 0.01) -> list[FoundMode]:
+    """The resonances of a test's stations, lowest first: :func:`find_modes` of each station
+    (``stations``: ``(n, n_stations)``; with ``base``, a random test's H1 of each), the peaks
+    within ``rel_tol`` (or two lines) of one another one mode, kept when at least
+    ``min_stations`` stations (all of them, if fewer) show it.
+
+    Why more than one station: a channel's antiresonance is its own (the other stations' lie
+    elsewhere), and in it the noise of H1 can raise a peak that stands 10 dB above its
+    surroundings; a mode shows at every station but its nodes. And a mode that one channel
+    barely shows (two close modes of opposite signs there, a node) stands out at others.
+
+    Returns
+    -------
+    list of FoundMode
+        Frequency: that of the station with the most prominent peak; prominence and coherence
+        that station's.
+    """
+    y = np.atleast_2d(np.asarray(stations, dtype=float).T).T  # (n, n_stations)
+    peaks = sorted(((m, k) for k in range(y.shape[1]) for m in find_modes(y[:, k], fs, base)),
+                   key=lambda mk: mk[0].frequency)
+    line = fs / _nperseg(y.shape[0], fs)
+    groups: list[list[tuple[FoundMode, int]]] = []
+    for m, k in peaks:
+        g = groups[-1] if groups else None
+        if g is not None and m.frequency - g[-1][0].frequency <= max(rel_tol * m.frequency,
+                                                                       2 * line):
+            g.append((m, k))
+        else:
+            groups.append([(m, k)])
+    need = min(min_stations, y.shape[1])
+    return [max((m for m, _ in g), key=lambda m: m.prominence_db) for g in groups
+            if len({k for _, k in g}) >= need]
 
 
 def band_maximum(response: Sequence[float] | np.ndarray, fs: float, band: tuple[float, float],
@@ -209,9 +251,10 @@ def band_maximum(response: Sequence[float] | np.ndarray, fs: float, band: tuple[
             float(f[1] - f[0]))
 
 
-def common_modes(per_record: Sequence[Sequence[FoundMode]], rel_tol: float = 0.1
-                 ) -> list[FoundMode]:
-    """The modes that at least half of a test's records (its levels) show, lowest first.
+def common_modes(per_record: Sequence[Sequence[FoundMode]], rel_tol: float = 0.1,
+                 share: float = 0.5) -> list[FoundMode]:
+    """The modes that at least ``share`` of a test's records (its levels) show, lowest first
+    (``share`` 0: every mode any record shows, e.g. the modes of a campaign's tests).
 
     Peaks within ``rel_tol`` of each other are one mode (a mode moves with the level when the
     structure is nonlinear); its frequency is the median over the records that show it, its
@@ -227,7 +270,7 @@ def common_modes(per_record: Sequence[Sequence[FoundMode]], rel_tol: float = 0.1
                 groups.append([m])
             else:
                 g.append(m)
-    need = max(1, math.ceil(len(per_record) / 2))
+    need = max(1, math.ceil(share * len(per_record)))
     out = [FoundMode(float(np.median([m.frequency for m in g])),
                      float(min(m.prominence_db for m in g)),
                      float(min(m.coherence for m in g)), g[0].source)

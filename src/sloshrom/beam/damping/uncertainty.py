@@ -41,8 +41,8 @@ from sloshrom.beam.damping.analysis import (
     AnalysisError,
     bandpass_noise_gain,
     decay_copy,
+    input_psd,
     noise_floor,
-    welch_psd,
 )
 from sloshrom.beam.damping.columns import column, table2_columns
 from sloshrom.beam.damping.estimators import (
@@ -60,7 +60,7 @@ __all__ = [
     "BANDS", "CONFIDENCE", "FLOOR_FACTOR", "MIN_COHERENCE", "OUTPUT_ONLY_EFFICIENCY",
     "RandomDamping", "ShortRecordWarning", "amplitude_bands", "au_damping_cov", "band_damping",
     "damping_dataset", "estimate_random", "format_interval", "input_noise_floor", "input_psd",
-    "mode_frf",
+    "mode_frf", "near_modes",
     "mode1_damping_random", "noise_ratios", "random_damping", "required_duration",
 ]
 
@@ -505,19 +505,6 @@ def noise_ratios(f: np.ndarray, h: np.ndarray, coh: np.ndarray, leakage: np.ndar
     return float(n_u / sxx[i]), float(n_y / (np.abs(h[i]) ** 2 * sxx[i]))
 
 
-def input_psd(base: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray]:
-    """The input PSD of a record, smooth: Welch over segments of 1/32 of the record (at least
-    256 samples; about 60 averages, +/- 13 % per line), for the shape of a coloured input.
-
-    Returns
-    -------
-    (ndarray, ndarray)
-        Frequencies (Hz) and one-sided PSD (the record's unit squared per Hz).
-    """
-    nps = int(min(base.size, max(256, base.size // 32)))
-    return welch_psd(base, fs, nps)
-
-
 def input_noise_floor(psd: np.ndarray) -> float:
     """The floor of a smooth input PSD (:func:`input_psd`): the median of its lines within a
     factor 2 of its smallest positive one, the record's unit squared per Hz. Beyond a shaker's
@@ -529,30 +516,51 @@ def input_noise_floor(psd: np.ndarray) -> float:
     return float(np.median(p[p <= 2 * p.min()]))
 
 
-def _mode_terms(f: np.ndarray, frequency: float, zeta: float) -> np.ndarray:
-    # the columns of mode_frf's model at f (Hz): the mode's term and its neighbours' tails
+#: Neighbouring modes within this factor of a mode's frequency enter its model
+#: (:func:`mode_frf`) as resonances of their own; farther ones are smooth in its band, which
+#: the tail terms hold.
+NEIGHBOUR_FACTOR = 2.0
+
+
+def _resonance(w: np.ndarray, wn: float, zeta: float) -> np.ndarray:
+    # a base-excited mode's term of the absolute acceleration FRF, unit residue
+    return w**2 / (wn**2 - w**2 + 2j * zeta * wn * w)
+
+
+def _mode_terms(f: np.ndarray, frequency: float, zeta: float,
+                neighbours: Sequence[float] = ()) -> np.ndarray:
+    # the columns of mode_frf's model at f (Hz): the constant and the tail terms, the
+    # neighbouring modes' resonances (damped as the mode: their tails in its band hardly
+    # depend on it), then the mode's own term (last)
     w = 2 * math.pi * np.asarray(f, dtype=float)
     wn = 2 * math.pi * frequency
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.stack([np.ones(w.size), (wn / w) ** 2, (wn / w) ** 4, (w / wn) ** 2,
-                         (w / wn) ** 4, w**2 / (wn**2 - w**2 + 2j * zeta * wn * w)], axis=-1)
+                         (w / wn) ** 4,
+                         *(_resonance(w, 2 * math.pi * fj, zeta) for fj in neighbours),
+                         _resonance(w, wn, zeta)], axis=-1)
 
 
 def mode_frf(f: np.ndarray, h: np.ndarray, frequency: float, zeta: float,
-             band: tuple[float, float], weight: np.ndarray | None = None) -> np.ndarray:
+             band: tuple[float, float], weight: np.ndarray | None = None,
+             neighbours: Sequence[float] = ()) -> np.ndarray:
     """The FRF base -> absolute acceleration of a mode among others, fitted to a record's H1.
 
     ``H(w) = c0 + c1 (w_n/w)^2 + c2 (w_n/w)^4 + c3 (w/w_n)^2 + c4 (w/w_n)^4
-    + R w^2 / (w_n^2 - w^2 + 2 i zeta w_n w)``: the mode of residue ``R`` (a base-excited
-    oscillator has ``c0 = R = 1``, the others 0), the modes below as a mass line (a constant,
-    ``c1``, ``c2``: the first terms of their tails' expansion in ``w_k / w``), those above as a
-    stiffness line (``c3``, ``c4``: in ``w / w_k``); ``R`` and the ``c`` real (light,
-    proportional damping), fitted by weighted least squares on the lines of ``band`` with
-    ``frequency`` and ``zeta`` held; the tails (``c1`` to ``c4``) only if they reduce the
-    residual significantly (F-test at 1 %), else ``c0`` and ``R`` alone. A tip accelerometer sees
-    mode 2 of a cantilever with ``R = -0.87`` over a background near -0.5: the bias of LSCF on
-    H1 there differs from that of a lone oscillator by 2.4 % of the damping (noise-free 120 s
-    records at 500 Hz), more than its scatter.
+    + sum_j R_j w^2 / (w_j^2 - w^2 + 2 i zeta w_j w) + R w^2 / (w_n^2 - w^2 + 2 i zeta w_n w)``:
+    the mode of residue ``R`` (a base-excited oscillator has ``c0 = R = 1``, the others 0), the
+    neighbouring modes ``neighbours`` (Hz) as resonances of residue ``R_j``, the farther modes
+    below as a mass line (a constant, ``c1``, ``c2``: the first terms of their tails'
+    expansion in ``w_k / w``), those above as a stiffness line (``c3``, ``c4``: in
+    ``w / w_k``); ``R``, ``R_j`` and the ``c`` real (light, proportional damping), fitted by
+    weighted least squares on the lines of ``band`` with ``frequency`` and ``zeta`` held; the
+    tails (``c1`` to ``c4``) only if they reduce the residual significantly (F-test at 1 %),
+    else ``c0``, the ``R_j`` and ``R`` alone. A tip accelerometer sees mode 2 of a cantilever
+    with ``R = -0.87`` over a background near -0.5: the bias of LSCF on H1 there differs from
+    that of a lone oscillator by 2.4 % of the damping (noise-free 120 s records at 500 Hz),
+    more than its scatter. A neighbour 15 % away (closely spaced modes) is no smooth tail: the
+    four tail terms took the values -300 to +300 to follow it, and the simulated records biased
+    the correction by 7 %.
 
     Parameters
     ----------
@@ -565,19 +573,25 @@ def mode_frf(f: np.ndarray, h: np.ndarray, frequency: float, zeta: float,
     weight : array (n_f,), optional
         Weight of each line's squared residual (default 1), e.g. the inverse of H1's
         variance.
+    neighbours : sequence of float
+        Frequencies of the neighbouring modes, Hz (those within :data:`NEIGHBOUR_FACTOR` of
+        ``frequency``; :func:`near_modes`).
 
     Returns
     -------
-    ndarray (6,)
-        ``c0, c1, c2, c3, c4, R``, -; those of the lone oscillator (1, 0, 0, 0, 0, 1) if the
-        band holds fewer than 8 lines.
+    ndarray (6 + len(neighbours),)
+        ``c0, c1, c2, c3, c4``, the ``R_j``, ``R``, -; those of the lone oscillator (1, 0, ...,
+        0, 1) if the band holds fewer than 8 lines.
     """
+    n_col = 6 + len(neighbours)
     w = np.ones(f.size) if weight is None else np.asarray(weight, dtype=float)
     sel = (f >= band[0]) & (f <= band[1]) & (f > 0) & np.isfinite(h) & (w > 0)
     if np.count_nonzero(sel) < 8:
-        return np.array([1.0, 0.0, 0.0, 0.0, 0.0, 1.0])
+        lone = np.zeros(n_col)
+        lone[[0, -1]] = 1.0
+        return lone
     sw = np.sqrt(np.concatenate([w[sel], w[sel]]))[:, None]
-    a = _mode_terms(f[sel], frequency, zeta)
+    a = _mode_terms(f[sel], frequency, zeta, neighbours)
     a_ri = np.concatenate([a.real, a.imag]) * sw
     rhs = np.concatenate([h[sel].real, h[sel].imag]) * sw[:, 0]
 
@@ -590,28 +604,37 @@ def mode_frf(f: np.ndarray, h: np.ndarray, frequency: float, zeta: float,
         out[cols] = x
         return out, float(np.sum((rhs - m @ x) ** 2))
 
-    full, rss_full = fit(list(range(a.shape[1])))
-    # the neighbours' tails only where the record shows them (F-test at 1 %): on a noisy
+    full, rss_full = fit(list(range(n_col)))
+    # the far modes' tails only where the record shows them (F-test at 1 %): on a noisy
     # record of a lone mode the four collinear tail terms fit the noise, and moved the
     # background by +/-5 % from record to record
-    reduced, rss_red = fit([0, a.shape[1] - 1])
-    dof = rhs.size - a.shape[1]
+    reduced, rss_red = fit([0, *range(5, n_col)])
+    dof = rhs.size - n_col
     if dof <= 0 or rss_full <= 0:
         return full
-    f_stat = (rss_red - rss_full) / (a.shape[1] - 2) / (rss_full / dof)
-    return full if stats.f.sf(f_stat, a.shape[1] - 2, dof) < 0.01 else reduced
+    f_stat = (rss_red - rss_full) / 4 / (rss_full / dof)
+    return full if stats.f.sf(f_stat, 4, dof) < 0.01 else reduced
+
+
+def near_modes(frequency: float, others: Sequence[float]) -> tuple[float, ...]:
+    """The modes of ``others`` (Hz) within :data:`NEIGHBOUR_FACTOR` of ``frequency`` (Hz),
+    the mode itself left out: those :func:`mode_frf` models as resonances."""
+    return tuple(float(v) for v in others if v != frequency
+                 and 1 / NEIGHBOUR_FACTOR < v / frequency < NEIGHBOUR_FACTOR
+                 and abs(v / frequency - 1) > 1e-3)
 
 
 def _simulate(frequency: float, zeta: float, fs: float, n: int, n_records: int,
               noise: tuple[float, float], rng: np.random.Generator,
               psd: tuple[np.ndarray, np.ndarray] | None = None,
-              frf: tuple[np.ndarray, tuple[float, float]] | None = None,
+              frf: tuple[np.ndarray, tuple[float, float], Sequence[float]] | None = None,
               ) -> tuple[np.ndarray, np.ndarray]:
     # The fitted mode, base -> absolute acceleration; start-up of 20 time constants discarded.
     # Input: white, or Gaussian of the one-sided PSD psd = (f (Hz), S) (the noise-free part of
     # the record's input), white noise shaped in the frequency domain (periodic over n + n0
     # samples). Response: a lone oscillator (exact zero-order-hold discretisation), or with
-    # frf = (mode_frf coefficients, band) the mode among its neighbours, line by line in the
+    # frf = (mode_frf coefficients, band, neighbours) the mode among its neighbours, line by
+    # line in the
     # frequency domain over the band widened by a tenth on each side (zero outside: only the
     # band is analysed). Noise: white, noise = (input, output) noise-to-signal ratios at the
     # resonance.
@@ -626,14 +649,15 @@ def _simulate(frequency: float, zeta: float, fs: float, n: int, n_records: int,
         u = np.fft.irfft(spec, n + n0, axis=1)
         s_n = float(np.interp(frequency, *psd))
     if frf is not None:
-        coef, (lo, hi) = frf
+        coef, (lo, hi), near = frf
         pad = 0.1 * (hi - lo)
         on = (fl >= lo - pad) & (fl <= hi + pad) & (fl > 0)
         h = np.zeros(fl.size, dtype=complex)
-        h[on] = _mode_terms(fl[on], frequency, zeta) @ coef
+        h[on] = _mode_terms(fl[on], frequency, zeta, near) @ coef
         spec = np.fft.rfft(u, axis=1) if spec is None else spec
         y = np.fft.irfft(spec * h, n + n0, axis=1)[:, n0:]
-        gain2 = float(abs(_mode_terms(np.array([frequency]), frequency, zeta)[0] @ coef)) ** 2
+        gain2 = float(abs(_mode_terms(np.array([frequency]), frequency, zeta, near)[0]
+                          @ coef)) ** 2
     else:
         b, a, _ = signal.cont2discrete(([2 * zeta * wn, wn**2], [1, 2 * zeta * wn, wn**2]),
                                        1 / fs, method="zoh")
@@ -664,6 +688,7 @@ def estimate_random(
     rel_band: float = 0.5,
     nperseg: int = WELCH_SEGMENT,
     band: tuple[float, float] | None = None,
+    neighbours: Sequence[float] = (),
 ) -> RandomDamping:
     """Damping of the mode near ``f1`` (the first one by default) in a random test by every
     asked estimator, each with its standard deviation and interval (the estimators of
@@ -671,7 +696,8 @@ def estimate_random(
 
     * A mode the input does not excite (coherence below :data:`MIN_COHERENCE` at the peak of
       ``|H1|`` near ``f1``: e.g. above a shaker's band) gets NaN for every estimator, with
-      that reason; the raw values are kept in ``uncorrected``.
+      that reason, its raw value (``uncorrected``) and frequency too: what a fit gives there
+      is not the mode's.
     * Estimators of ``uncertainty == "bootstrap"`` (``lscf_h1``, ``half_power``): a parametric
       bootstrap. ``n_resamples`` records of the record's length are simulated from the fitted
       mode (a base-excited oscillator driven by Gaussian noise of the record's input PSD,
@@ -714,6 +740,9 @@ def estimate_random(
     band : (float, float), optional
         Fitting band (low, high), Hz, overriding ``rel_band``: for a mode between neighbours,
         the band between them. Must hold ``f1``; clipped to the Nyquist frequency.
+    neighbours : sequence of float
+        The test's other modes, Hz: those near ``f1`` (:func:`near_modes`) enter the
+        bootstrap's model of the record as resonances (:func:`mode_frf`).
 
     Returns
     -------
@@ -736,8 +765,9 @@ def estimate_random(
     unexcited = _unexcited(test)
     if unexcited:
         # the input does not reach the mode above the noise: whatever an estimator fitted there
-        # is not the mode's damping, and no interval can say how far it is
-        raw = {n: replace(r, value=nan, uncorrected=r.value, reason=unexcited)
+        # is not the mode's damping (a raw half-power value of 42 % at a phantom peak), and
+        # no interval can say how far it is: no value is written, raw or corrected
+        raw = {n: replace(r, value=nan, uncorrected=nan, frequency=nan, reason=unexcited)
                for n, r in raw.items()}
     boot = [n for n in names if ests[n].uncertainty == "bootstrap"]
     # the simulated records are analysed by the procedure (attempt) that gave the value
@@ -763,7 +793,7 @@ def estimate_random(
             u, y = _simulate(f_mode, zeta_model, fs, test.base.size, n_resamples,
                              (noise[0] / clean, noise[1] / clean), rng,
                              psd=(f_in, np.clip(s_in - noise[0] * s_mode, 0, None)),
-                             frf=(coef, test.fit_band))
+                             frf=(coef, test.fit_band, near))
             sims = RandomTest(u, y, fs, f1, rel_band=rel_band, nperseg=test.nperseg,
                               band=test.band)
             for n in boot:
@@ -790,7 +820,8 @@ def estimate_random(
         a_s = ndimage.median_filter(np.abs(np.nan_to_num(h)), size=11, mode="nearest")
         with np.errstate(divide="ignore", invalid="ignore"):
             w_h1 = np.nan_to_num(c_s / (1 - c_s) / a_s**2, nan=0.0, posinf=0.0)
-        coef = mode_frf(f, h, f_mode, zeta_model, test.fit_band, w_h1)
+        near = near_modes(f_mode, neighbours)
+        coef = mode_frf(f, h, f_mode, zeta_model, test.fit_band, w_h1, near)
         # round 1, noise-free: the leakage bias and the incoherence the leakage causes; the
         # rest of the record's incoherence is noise, which biases LSCF strongly (1 % RMS on the
         # input moved a 90 s estimate by -5 %): round 2 simulates it
@@ -806,7 +837,7 @@ def estimate_random(
         # half the input or more are left out
         keep = 1 - noise[0] * s_mode / np.where(s_f > 0, s_f, np.inf)
         coef = mode_frf(f, h / np.clip(keep, 0.5, 1), f_mode, zeta_model, test.fit_band,
-                        np.where(keep > 0.5, w_h1, 0.0))
+                        np.where(keep > 0.5, w_h1, 0.0), near)
         if max(noise) > 0:
             bootstrap(noise)
     # the spread is estimated from n_resamples records: Student's t, not the normal quantile

@@ -3,7 +3,8 @@ accelerometer, and the structure those accelerometers see.
 
 * :class:`ChannelMap` - the map, a small TOML file (``[channels]``: ``stations`` with their
   ``positions`` on the built-in cantilever or ``ids`` on the user's structure, ``base``,
-  ``tank``; ``[units]``: units of channels whose files give none), validated on construction;
+  ``tank``; ``[units]``: units of channels whose files give none, and ``[units."PATTERN"]``
+  those of the files whose names match a pattern), validated on construction;
   read and written by :meth:`ChannelMap.from_toml` and :meth:`ChannelMap.write_toml`.
 * :func:`acceleration_unit` - a unit the user gives for an accelerometer channel, checked.
 * :func:`station_model` - the modal model seen by the map's stations (modal filtering).
@@ -15,6 +16,7 @@ A bad map is a :class:`ChannelMapError`. The readers of the files the map names 
 from __future__ import annotations
 
 import dataclasses
+import fnmatch
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -58,6 +60,11 @@ def acceleration_unit(unit: object) -> str | None:
     accepted = ", ".join(ACCELERATION_UNITS)
     if not isinstance(unit, str) or not unit.strip():
         return f"{unit!r} is not a unit (use one of {accepted})"
+    if unit.strip() == "G":
+        # the unit table reads spellings case-insensitively, but a capital G is giga- in SI
+        # (and a gravity unit in some software): the user means one of the two, say which
+        return (f"{unit!r} is ambiguous (the SI prefix giga-, or a gravity unit): write 'g' for "
+                f"the standard gravity (accepted: {accepted})")
     if not is_known_unit(unit):
         return (f"unknown unit {unit!r} (use one of {accepted}; docs/formats.md lists every "
                 "spelling)")
@@ -90,6 +97,11 @@ class ChannelMap:
         Units of channels of the map whose files give none (the ``[units]`` table), e.g.
         ``{"acc1": "g"}``: known acceleration units (:func:`acceleration_unit`). A file's own
         non-empty unit that contradicts one is an error.
+    file_units : dict of str to dict, optional
+        Units of the files whose names match a pattern (``fnmatch``, e.g. ``"random_*.uff"``;
+        the ``[units."PATTERN"]`` tables), over ``units``: a laboratory changes sensor set-ups
+        between tests (a channel in g in the random runs, in m/s^2 in the decay). Where
+        several patterns match a file, the later one wins.
     """
 
     stations: tuple[str, ...]
@@ -98,6 +110,7 @@ class ChannelMap:
     base: str | None = None
     tank: str | None = None
     units: Mapping[str, str] = field(default_factory=dict)
+    file_units: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         st = self.stations
@@ -153,15 +166,37 @@ class ChannelMap:
         if not isinstance(self.units, Mapping):
             raise ChannelMapError(f"[units] must be a table of channel = unit, got "
                                   f"{self.units!r}")
+        object.__setattr__(self, "units", self._checked_units(self.units, "[units]"))
+        if not isinstance(self.file_units, Mapping):
+            raise ChannelMapError(f"[units.\"PATTERN\"] must be tables of channel = unit, got "
+                                  f"{self.file_units!r}")
+        object.__setattr__(self, "file_units", {
+            str(pat): self._checked_units(u, f"[units.{pat!r}]".replace("'", '"'))
+            for pat, u in self.file_units.items()})
+
+    def _checked_units(self, units: object, where: str) -> dict[str, str]:
+        """A table of channel = unit, each a channel of the map and an acceleration unit."""
+        if not isinstance(units, Mapping):
+            raise ChannelMapError(f"{where} must be a table of channel = unit, got {units!r}")
         names = self.channels
-        for key, unit in self.units.items():
+        for key, unit in units.items():
             if key not in names:
-                raise ChannelMapError(f"[units]: {key!r} is not a channel of the map (its "
+                raise ChannelMapError(f"{where}: {key!r} is not a channel of the map (its "
                                       f"channels: {', '.join(map(repr, names))})")
             why = acceleration_unit(unit)
             if why is not None:
-                raise ChannelMapError(f"[units] {key!r}: {why}")
-        object.__setattr__(self, "units", {k: str(v).strip() for k, v in self.units.items()})
+                raise ChannelMapError(f"{where} {key!r}: {why}")
+        return {k: str(v).strip() for k, v in units.items()}
+
+    def units_for(self, path: str | Path) -> dict[str, str]:
+        """The units of the file ``path``: ``units`` with those of every ``file_units``
+        pattern its name matches over them (later patterns win)."""
+        name = Path(path).name
+        out = dict(self.units)
+        for pattern, units in self.file_units.items():
+            if fnmatch.fnmatchcase(name, pattern):
+                out.update(units)
+        return out
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -178,21 +213,28 @@ class ChannelMap:
         ids = None if self.ids is None else tuple(self.ids[i] for i in keep)
         out = dataclasses.replace(self, stations=tuple(self.stations[i] for i in keep),
                                   positions=pos, ids=ids, base=self.base if base else None,
-                                  units={})
-        return dataclasses.replace(out, units={k: v for k, v in self.units.items()
-                                               if k in out.channels})
+                                  units={}, file_units={})
+        return dataclasses.replace(
+            out, units={k: v for k, v in self.units.items() if k in out.channels},
+            file_units={p: {k: v for k, v in u.items() if k in out.channels}
+                        for p, u in self.file_units.items()})
 
     def with_units(self, units: Mapping[str, str]) -> ChannelMap:
-        """The map with ``units`` added (they win over the map's own ``[units]``)."""
-        return dataclasses.replace(self, units={**self.units, **units})
+        """The map with ``units`` added (they win over the map's own ``[units]`` and its
+        file patterns' units)."""
+        return dataclasses.replace(
+            self, units={**self.units, **units},
+            file_units={p: {k: v for k, v in u.items() if k not in units}
+                        for p, u in self.file_units.items()})
 
     # -- files ------------------------------------------------------------------------------
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], where: str = "channels",
                   units: Mapping[str, str] | None = None) -> ChannelMap:
         """From the ``[channels]`` table (keys ``stations``, ``positions`` or ``ids``,
-        ``base``, ``tank``) and the ``[units]`` table (channel = unit); unknown or missing
-        keys are errors naming them."""
+        ``base``, ``tank``) and the ``[units]`` table (channel = unit, and per file pattern
+        ``[units."PATTERN"]`` tables of channel = unit); unknown or missing keys are errors
+        naming them."""
         if not isinstance(data, Mapping):
             raise ChannelMapError(f"{where}: [channels] must be a table")
         if units is not None and not isinstance(units, Mapping):
@@ -207,7 +249,11 @@ class ChannelMap:
         try:
             kwargs: dict[str, Any] = {k: (tuple(v) if isinstance(v, list) else v)
                                       for k, v in data.items()}
-            return cls(**kwargs, units=dict(units or {}))
+            table = dict(units or {})
+            # a sub-table is a file pattern's units; a string is one channel's unit
+            per_file = {k: v for k, v in table.items() if isinstance(v, Mapping)}
+            return cls(**kwargs, units={k: v for k, v in table.items() if k not in per_file},
+                       file_units=per_file)
         except ChannelMapError as exc:
             raise ChannelMapError(f"{where}: {exc}") from None
 
@@ -240,8 +286,8 @@ class ChannelMap:
         else:
             d["ids"] = list(self.ids or ())
         doc: dict[str, dict[str, object]] = {"channels": d}
-        if self.units:
-            doc["units"] = dict(self.units)
+        if self.units or self.file_units:
+            doc["units"] = {**self.units, **{p: dict(u) for p, u in self.file_units.items()}}
         return tomli_w.dumps(doc)
 
     def write_toml(self, path: str | Path, batch: OutputBatch | None = None) -> Path:

@@ -16,6 +16,8 @@ the structural mode nearest in frequency (modal filtering). Pure functions on th
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -28,6 +30,8 @@ from sloshrom.beam.damping.analysis import (
     AnalysisError,
     instantaneous_damping,
     log_decrement,
+    noise_floor,
+    spectral_noise_floor,
 )
 from sloshrom.beam.damping.limits import FREE_DAMPING_PERIODS, WELCH_SEGMENT
 from sloshrom.beam.damping.peaks import (
@@ -35,9 +39,9 @@ from sloshrom.beam.damping.peaks import (
     FoundMode,
     band_maximum,
     common_modes,
-    find_modes,
     given_modes,
     mode_bands,
+    station_modes,
 )
 from sloshrom.beam.damping.tables import Mode1Decay, decay_floor, modal_accelerations
 from sloshrom.beam.damping.uncertainty import (
@@ -49,10 +53,12 @@ from sloshrom.beam.damping.uncertainty import (
 )
 from sloshrom.beam.lab.measured import MeasuredTest
 from sloshrom.beam.simulation.members import Row
-from sloshrom.beam.simulation.structure import ModalModel
+from sloshrom.beam.simulation.structure import CantileverBeam, ModalModel
 from sloshrom.config import G
 
-__all__ = ["ModeDecay", "TestModes", "check_station_order", "describe", "free_mode_decays",
+__all__ = ["UNIT_FACTORS", "ModeDecay", "TestModes", "check_station_amplitudes",
+           "check_station_order", "number_modes",
+           "describe", "free_mode_decays",
            "free_mode_rows", "modes_of_test", "random_mode_dataset"]
 
 #: The fewest Welch segments (``limits.WELCH_SEGMENT`` samples) whose estimates and
@@ -77,17 +83,26 @@ class TestModes:
         Each mode's analysis band, Hz (:func:`sloshrom.beam.damping.peaks.mode_bands`).
     how : str
         ``"found"`` (from the data) or ``"given"``.
+    numbers : tuple of int, optional
+        The modes' numbers, as the structure has them (:func:`number_modes`): a mode the test
+        does not show leaves its number out, so that the next one keeps its own (default 1,
+        2, ...: the modes found are the structure's first ones).
     """
 
     __test__ = False  # not a pytest class
     modes: list[FoundMode]
     bands: list[tuple[float, float]]
     how: str
+    numbers: tuple[int, ...] | None = None
 
     @property
     def frequencies(self) -> list[float]:
         """The modes' frequencies, Hz."""
         return [m.frequency for m in self.modes]
+
+    def number(self, k: int) -> int:
+        """The number of mode ``k`` (0-based index), as the structure has it."""
+        return self.numbers[k] if self.numbers is not None else k + 1
 
     def rel_band(self, k: int, rel: float) -> float:
         """A symmetric half-width (relative) around mode ``k`` that stays in its band, at
@@ -97,14 +112,39 @@ class TestModes:
         return min(rel, (f - lo) / f, (hi - f) / f)
 
 
+def number_modes(tests: Sequence[TestModes], modal: ModalModel | None = None
+                 ) -> list[TestModes]:
+    """The tests' modes numbered as the structure has them, not by their order in each test.
+
+    With ``modal``: a mode is the structure's mode nearest in frequency. Without: the modes
+    any of the tests shows (peaks within 10 % one mode,
+    :func:`~sloshrom.beam.damping.peaks.common_modes`), in order of frequency - a campaign
+    whose decay misses mode 2 calls the random test's third mode 3 in the decay too. Numbers
+    that two modes of one test would share leave that test numbered 1, 2, ...
+    """
+    if modal is not None:
+        ref = np.asarray(modal.frequencies, dtype=float)
+    else:
+        ref = np.asarray([m.frequency for m in common_modes([t.modes for t in tests],
+                                                             share=0.0)])
+    out = []
+    for t in tests:
+        nums = tuple(int(np.argmin(np.abs(ref - f))) + 1 for f in t.frequencies) if ref.size \
+            else None
+        ok = nums is not None and len(set(nums)) == len(nums)
+        out.append(dataclasses.replace(t, numbers=nums if ok else None))
+    return out
+
+
 def modes_of_test(res: MeasuredTest, kind: str, *,
                   frequencies: Sequence[float] | None = None,
                   max_modes: int | None = None) -> TestModes:
     """The modes of a measured test: ``frequencies`` if given, else the resonances its data
     show.
 
-    A random test: peaks of each level's H1 (base -> tank) that at least half of the levels
-    share. A free decay: peaks of the tank's output spectrum.
+    A random test: peaks of each level's H1 (base -> station) shown by two stations at least
+    (:func:`~sloshrom.beam.damping.peaks.station_modes`) that at least half of the levels
+    share. A free decay: peaks of any station's output spectrum.
 
     Parameters
     ----------
@@ -130,12 +170,16 @@ def modes_of_test(res: MeasuredTest, kind: str, *,
         for m, b in zip(modes, bands, strict=True):
             _check_given_mode(m.frequency, b, tank, base, fs, kind)
     else:
+        st = np.asarray(res["station_acceleration"], dtype=float)
         if kind == "random":
-            modes = common_modes([find_modes(t, fs, b)
-                                  for b, t in zip(np.atleast_2d(base), np.atleast_2d(tank),
-                                                  strict=True)])
+            # each level's peaks of H1 at every station (two stations at least: an
+            # antiresonance of one channel is no mode), those half of the levels share
+            modes = common_modes([station_modes(s, fs, b) for b, s in zip(
+                np.atleast_2d(base), st.reshape(-1, *st.shape[-2:]), strict=True)])
         else:
-            modes = find_modes(tank - base, fs)
+            # a decay's output spectrum has no antiresonance peaks: a mode is a peak of any
+            # station (a fast-decaying mode may stand out at the tip alone)
+            modes = station_modes(st - base[:, None], fs, min_stations=1)
         how = "found"
         if not modes:
             where = ("H1 (base -> tank) of the levels" if kind == "random"
@@ -229,13 +273,10 @@ def check_station_order(res: MeasuredTest, f1: float, rel_band: float,
         another station order than the data's.
     """
     cmap = res["channel_map"]
-    st = np.asarray(res["station_acceleration"], dtype=float)
-    base = np.asarray(res["base_acceleration"], dtype=float)
-    if st.ndim == 3:  # a random test: its last level
-        st, base = st[-1], base[-1]
-    if st.shape[-1] < 2:
+    n_st = np.asarray(res["station_acceleration"]).shape[-1]
+    if n_st < 2:
         return
-    if modal is not None and modal.psi_stations.shape[0] == st.shape[-1]:
+    if modal is not None and modal.psi_stations.shape[0] == n_st:
         # the structure's mode nearest in frequency (as the modal filter takes it)
         k = int(np.argmin(np.abs(np.asarray(modal.frequencies) - f1)))
         expect = np.abs(np.asarray(modal.psi_stations, dtype=float)[:, k])
@@ -245,11 +286,7 @@ def check_station_order(res: MeasuredTest, f1: float, rel_band: float,
         what, ref = [f"at {x:g} m" for x in expect], "their positions"
     else:
         return
-    fs = float(res["fs"])
-    sos = signal.butter(4, [(1 - rel_band) * f1, (1 + rel_band) * f1], btype="bandpass",
-                        fs=fs, output="sos")
-    y = signal.sosfiltfilt(sos, st - base[:, None], axis=0)
-    rms = np.sqrt(np.mean(y**2, axis=0))
+    rms = _station_rms(res, f1, rel_band)
     hi, lo = int(np.argmax(expect)), int(np.argmin(expect))
     if rms[hi] < rms[lo]:
         names = cmap.stations
@@ -258,6 +295,113 @@ def check_station_order(res: MeasuredTest, f1: float, rel_band: float,
             f"{names[hi]!r} ({what[hi]}) moves {rms[hi] / rms[lo]:.2g} x as much as "
             f"{names[lo]!r} ({what[lo]}), and should move most; are the stations listed in "
             f"another order (reversed?) than {ref}?")
+
+
+def _station_rms(res: MeasuredTest, f: float, rel_band: float, relative: bool = True
+                 ) -> np.ndarray:
+    """Each station's motion at the mode ``f`` (Hz): its acceleration relative to the base
+    (``relative``; else absolute, which a channel's wrong unit scales exactly), band-passed
+    ``f (1 -/+ rel_band)`` (4th-order Butterworth, zero phase), RMS over the record (a random
+    test's last level), ``(n_stations,)``, m/s^2."""
+    st = np.asarray(res["station_acceleration"], dtype=float)
+    base = np.asarray(res["base_acceleration"], dtype=float)
+    if st.ndim == 3:  # a random test: its last level
+        st, base = st[-1], base[-1]
+    sos = signal.butter(4, [(1 - rel_band) * f, (1 + rel_band) * f], btype="bandpass",
+                        fs=float(res["fs"]), output="sos")
+    y = signal.sosfiltfilt(sos, st - base[:, None] if relative else st, axis=0)
+    return np.sqrt(np.mean(y**2, axis=0))
+
+
+#: The factors a unit mix-up puts on a channel, and what each means: a channel whose motion
+#: is one of them times what its mode shape and the other stations say is named.
+UNIT_FACTORS: tuple[tuple[float, str], ...] = (
+    (G, "data in m/s^2 read as g"), (1 / G, "data in g read as m/s^2"),
+    (1000.0, "data in mm/s^2 read as m/s^2"), (1e-3, "data in m/s^2 read as mm/s^2"))
+#: How close (a factor) a station's scale must be to one of :data:`UNIT_FACTORS`: the uniform
+#: cantilever's first mode, which stands in for an unknown cantilever's, is within 15 % of a
+#: tip-loaded one's (its static deflection shape) at 20-100 % of the length.
+FACTOR_TOLERANCE = 1.3
+#: Stations whose expected motion is below this fraction of the largest are not checked at a
+#: mode: near a node of a structure's higher mode, a small error of its model's shape is a large
+#: factor. A cantilever's first mode has no node but its root: there every station from 0.05 of
+#: the tip's motion is checked (:data:`MIN_FIRST_SHAPE`).
+MIN_SHAPE = 0.25
+MIN_FIRST_SHAPE = 0.05
+
+
+def check_station_amplitudes(res: MeasuredTest, modes: TestModes,
+                             modal: ModalModel | None = None) -> None:
+    """Whether every station's amplitude agrees with the others' at each mode: a channel read
+    in the wrong unit (another file's sensor set-up, g taken for m/s^2) is 9.81 times off at
+    every mode, which a mode shape never is.
+
+    At each mode with a known shape - the structure's mode nearest in frequency (``modal``),
+    else, for the lowest mode, a cantilever's first mode at the map's ``positions`` (root at
+    0, tip at the outermost station) - each station's absolute motion (:func:`_station_rms`:
+    a wrong unit scales it exactly; the mode's resonant motion dominates the base's) over its
+    shape value is its scale. The stations that agree (within a factor 1.5 of one another; the
+    largest such group, at least three and half of the stations: else the shape is not the
+    data's, e.g. the lowest mode found is not the first, and the mode is not checked) set the
+    reference; a station whose scale is one of
+    :data:`UNIT_FACTORS` (within :data:`FACTOR_TOLERANCE`) times it, the same at every mode
+    checked, is named. Stations whose shape value is below :data:`MIN_SHAPE`
+    (:data:`MIN_FIRST_SHAPE` for a cantilever's first mode) of the largest are left out.
+
+    Raises
+    ------
+    AnalysisError
+        A mis-scaled station: its name, the factor and the unit mix-up it suggests, the modes.
+    """
+    cmap = res["channel_map"]
+    n_st = np.asarray(res["station_acceleration"]).shape[-1]
+    shapes: list[tuple[int, np.ndarray, float]] = []
+    if modal is not None and modal.psi_stations.shape[0] == n_st:
+        f_struct = np.asarray(modal.frequencies)
+        shapes = [(k, np.abs(np.asarray(modal.psi_stations, dtype=float)[
+            :, int(np.argmin(np.abs(f_struct - f)))]), MIN_SHAPE)
+            for k, f in enumerate(modes.frequencies)]
+    elif cmap.positions is not None and n_st >= 3:
+        x = np.asarray(cmap.positions, dtype=float)
+        psi = np.abs(CantileverBeam(length=float(x.max())).mode_shapes(x, 1)[:, 0])
+        # (if the lowest mode found is not the first - one below the shaker's band - its shape
+        # differs, few stations agree, and nothing is checked)
+        shapes = [(0, psi, MIN_FIRST_SHAPE)]
+    found: dict[int, list[tuple[float, str]]] = {}
+    checked: list[int] = []
+    for k, psi, least in shapes:
+        use = np.flatnonzero(psi >= least * psi.max())
+        if use.size < 3:
+            continue
+        # absolute: a wrong unit scales it exactly (the relative motion keeps the base's part)
+        rms = _station_rms(res, modes.frequencies[k], modes.rel_band(k, DECAY_REL_BAND),
+                           relative=False)
+        scale = rms[use] / psi[use]
+        if not np.all(scale > 0):
+            continue
+        # the largest group of stations that agree, ties to the one that moves most
+        groups = [np.abs(np.log(scale / c)) <= math.log(1.5) for c in scale]
+        agree = max(groups, key=lambda g: (int(np.count_nonzero(g)), float(psi[use][g].sum())))
+        if np.count_nonzero(agree) < max(3, use.size / 2):  # no shape the stations show
+            continue
+        ref = float(np.median(scale[agree]))
+        checked.append(k)
+        for s, r in zip(use, scale / ref, strict=True):
+            hit = next(((f, what) for f, what in UNIT_FACTORS
+                        if abs(math.log(r / f)) <= math.log(FACTOR_TOLERANCE)), None)
+            found.setdefault(int(s), []).append((float(r), hit[1] if hit else ""))
+    bad = [(s, rs) for s, rs in found.items() if len(rs) == len(checked)
+           and rs[0][1] and all(w == rs[0][1] for _, w in rs)]
+    if not bad:
+        return
+    at = ", ".join(f"mode {modes.number(k)} ({modes.frequencies[k]:.4g} Hz)" for k in checked)
+    each = "; ".join(
+        f"{cmap.stations[s]!r} moves {np.exp(np.mean(np.log([r for r, _ in rs]))):.3g} x as "
+        f"much as its mode shape and the other stations say ({rs[0][1]}?)" for s, rs in bad)
+    raise AnalysisError(
+        f"a station looks mis-scaled: {each}, at {at}; is its unit right (--unit, the map's "
+        "[units] and, for files of another sensor set-up, [units.\"PATTERN\"] tables, the "
+        "file's own)?")
 
 
 def random_mode_dataset(res: MeasuredTest, case: str, modes: TestModes, *,
@@ -297,19 +441,19 @@ def random_mode_dataset(res: MeasuredTest, case: str, modes: TestModes, *,
         per_level = []
         for i, g in enumerate(levels):
             if step is not None:
-                step(f"damping of mode {k + 1} ({m.frequency:.4g} Hz), {g:g} g")
+                step(f"damping of mode {modes.number(k)} ({m.frequency:.4g} Hz), {g:g} g")
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always", ShortRecordWarning)
                 d = estimate_random(res["base_acceleration"][i], res["tank_acceleration"][i],
                                     fs, m.frequency, band=modes.bands[k], accuracy=accuracy,
-                                    estimators=estimators)
+                                    estimators=estimators, neighbours=modes.frequencies)
             for w in caught:  # say which mode and level each warning is about
-                warnings.warn(f"mode {k + 1}, {g:g} g RMS: {w.message}", w.category,
+                warnings.warn(f"mode {modes.number(k)}, {g:g} g RMS: {w.message}", w.category,
                               stacklevel=2)
             per_level.append(d.to_dataset())
         per_mode.append(xr.concat(per_level, dim="level"))
     return xr.concat(per_mode, dim="mode").assign_coords(
-        case=case, mode=("mode", np.arange(1, len(modes.modes) + 1)),
+        case=case, mode=("mode", [modes.number(k) for k in range(len(modes.modes))]),
         mode_frequency_Hz=("mode", [float(m.frequency) for m in modes.modes], {"units": "Hz"}),
         level=("level", levels, {"units": "g"}))
 
@@ -365,7 +509,7 @@ def free_mode_decays(res: MeasuredTest, modes: TestModes,
     for k, m in enumerate(modes.modes):
         f = m.frequency
         if n < FREE_DAMPING_PERIODS * fs / f:
-            raise AnalysisError(f"the free decay is {n / fs:g} s long: mode {k + 1} "
+            raise AnalysisError(f"the free decay is {n / fs:g} s long: mode {modes.number(k)} "
                                 f"({f:.4g} Hz) needs {FREE_DAMPING_PERIODS} periods, "
                                 f"{FREE_DAMPING_PERIODS / f:.3g} s")
         x = rel_x if q is None else q[:, int(np.argmin(np.abs(f_struct - f)))]
@@ -391,9 +535,18 @@ def free_mode_rows(res: MeasuredTest, case: str, modes: TestModes,
         ok = bool(np.isfinite(floor))
         bands = amplitude_bands(d.decay.hilbert["amplitude"] / G,
                                 FLOOR_FACTOR * floor / G if ok else None)
-        rows += [{"case": case, "mode": k + 1, "mode_frequency_Hz": m.frequency, **row}
+        # the bootstrap's noise: the decay's floor, or where the record stops above it (a
+        # slow mode in a short record) the noise its spectrum shows away from the modes, so
+        # that every band, a short one too, has the scatter of its estimate
+        try:
+            noise = noise_floor(d.record, fs, m.frequency, d.rel_band)
+        except AnalysisError:  # too short for the tail's fit
+            noise = float("nan")
+        if not np.isfinite(noise):
+            noise = spectral_noise_floor(d.record, fs, m.frequency, d.rel_band)
+        rows += [{"case": case, "mode": modes.number(k), "mode_frequency_Hz": m.frequency, **row}
                  for row in band_damping(d.decay.hilbert, d.decay.log_decrement, m.frequency,
-                                         bands=bands, record=d.record, fs=fs,
+                                         bands=bands, record=d.record, fs=fs, noise=noise,
                                          floor=floor if ok else None, rel_band=d.rel_band,
                                          seed=seed)]
     return rows

@@ -33,7 +33,14 @@ from scipy import signal
 from sloshrom.beam.damping.analysis import AnalysisError
 from sloshrom.beam.errors import BeamError
 from sloshrom.beam.lab.channels import ChannelMap, ChannelMapError, station_model
-from sloshrom.beam.lab.uff58 import channel_labels, channel_variable, uff_channels
+from sloshrom.beam.lab.uff58 import (
+    ChannelIdentity,
+    channel_identity,
+    channel_labels,
+    channel_variable,
+    check_channel_identity,
+    uff_channels,
+)
 from sloshrom.beam.lab.virtual import lab_test_paths, write_lab_test
 from sloshrom.beam.simulation.structure import ModalModel
 from sloshrom.config import G
@@ -162,9 +169,11 @@ def _units_as_read(paths: Sequence[Path], units: Sequence[Mapping[str, str]]) ->
     return "; ".join(f"{p.name}: {t}" for p, t in zip(paths, texts, strict=True))
 
 
-def _units_of(channels: ChannelMap, units: Mapping[str, str] | None) -> dict[str, str]:
-    """The map's ``[units]`` with the caller's ``units`` over them."""
-    return {**channels.units, **dict(units or {})}
+def _units_of(channels: ChannelMap, units: Mapping[str, str] | None,
+              path: Path) -> dict[str, str]:
+    """The map's units of the file ``path`` (its ``[units]`` and the file patterns' tables)
+    with the caller's ``units`` over them."""
+    return {**channels.units_for(path), **dict(units or {})}
 
 
 def _as_paths(paths: str | Path | Sequence[str | Path]) -> list[Path]:
@@ -190,6 +199,7 @@ class MeasuredTest(TypedDict, total=False):
     channel_map: ChannelMap  # the map's channels the files held
     channel_units: str  # the channels' units as read
     rms_levels_g: np.ndarray  # random tests: RMS base levels, g
+    channel_identity: list[ChannelIdentity]  # UFF files: the channels the map's names found
 
 
 def _test_dict(time: np.ndarray, fs: float, base: np.ndarray, stations: np.ndarray,
@@ -247,7 +257,7 @@ def read_free_test(paths: str | Path | Sequence[str | Path], channels: ChannelMa
         raise BeamError(f"a free decay is one file, got {len(ps)}")
     tank = channels.tank_channel(modal)
     rec, ch, read_units = _read_channels(ps[0], _channels_of(channels, tank, True), fs,
-                                         _units_of(channels, units))
+                                         _units_of(channels, units, ps[0]))
     kept = _stations_left(channels, tank, modal, [(ps[0], rec, ch)])
     n = rec.time.size
     has_base = channels.base is not None and channels.base in ch
@@ -260,6 +270,8 @@ def read_free_test(paths: str | Path | Sequence[str | Path], channels: ChannelMa
     out = _test_dict(rec.time - rec.time[0], float(rec.fs), base, st, ch[tank], [ps[0].name])
     out["channel_map"] = channels.only(kept, base=has_base)
     out["channel_units"] = _units_as_read(ps, [read_units])
+    ident = channel_identity(rec, ps[0], _channels_of(channels, tank, True))
+    out["channel_identity"] = [ident] if ident is not None else []
     return out
 
 
@@ -310,10 +322,13 @@ def read_random_test(paths: str | Path | Sequence[str | Path], channels: Channel
         raise BeamError(f"{len(levels)} level(s) for {len(ps)} file(s): one level per file")
     tank = channels.tank_channel(modal)
     names = _channels_of(channels, tank, True)
-    given = _units_of(channels, units)
-    runs, read_units = [], []
+    runs, read_units, idents = [], [], []
     for p in ps:
-        rec, ch, ru = _read_channels(p, names, fs, given)
+        rec, ch, ru = _read_channels(p, names, fs, _units_of(channels, units, p))
+        ident = channel_identity(rec, p, names)
+        if ident is not None:
+            idents.append(ident)
+            check_channel_identity(idents)
         if channels.base not in ch:
             raise _no_channel(rec, p, [channels.base], ": a random test needs the base, the "
                                                        "input of H1")
@@ -348,6 +363,7 @@ def read_random_test(paths: str | Path | Sequence[str | Path], channels: Channel
     out["rms_levels_g"] = np.asarray(lv)
     out["channel_map"] = channels.only(kept)
     out["channel_units"] = _units_as_read(ps, read_units)
+    out["channel_identity"] = idents
     return out
 
 

@@ -169,6 +169,7 @@ def random_test(
     band: tuple[float, float] = DEFAULT_BAND,
     tilt: float = DEFAULT_TILT,
     noise: float = 0.005,
+    noise_g: float = 0.0,
     seed: int = 0,
 ) -> dict[str, Any]:
     """A random base-excitation test of ``beam``: stationary records of the base and stations.
@@ -182,7 +183,9 @@ def random_test(
     (:meth:`LabBeam.frf`), exact for the band-limited input; a start-up of 20 time constants of
     the slowest-decaying mode (at most 60 s) plus 20 periods of the band's lower edge is
     simulated and discarded, so that the records are stationary. White sensor noise of
-    ``noise`` times each channel's RMS is added to every channel, base included.
+    ``noise`` times each channel's RMS is added to every channel, base included, and white
+    noise of ``noise_g`` RMS (a sensor's own floor, the same at every level: the
+    signal-to-noise ratio then grows with the level, as in a laboratory).
 
     Parameters
     ----------
@@ -200,6 +203,8 @@ def random_test(
         Spectral tilt of the base acceleration, dB/octave (0: flat in the band).
     noise : float
         Sensor noise RMS over each channel's RMS, -.
+    noise_g : float
+        Sensor noise RMS of every channel, g (independent of the level).
     seed : int
         Seed of the input and the noise.
 
@@ -209,8 +214,9 @@ def random_test(
         ``time`` (s, ``(n,)``), ``fs`` (Hz), ``base`` (m/s^2, ``(n,)``), ``stations``
         (absolute accelerations, m/s^2, ``(n, n_stations)``), ``band`` (Hz), ``rms_g`` (g).
     """
-    if not (rms_g > 0 and duration > 0 and fs > 0 and noise >= 0):
-        raise BeamError("rms_g, duration and fs must be positive, noise non-negative")
+    if not (rms_g > 0 and duration > 0 and fs > 0 and noise >= 0 and noise_g >= 0):
+        raise BeamError("rms_g, duration and fs must be positive, noise and noise_g "
+                        "non-negative")
     n = int(round(duration * fs))
     if n < 16:
         raise BeamError(f"a {duration:g} s record at {fs:g} Hz has fewer than 16 samples")
@@ -224,6 +230,9 @@ def random_test(
     u, y = u[n0:], y[n0:]
     u = u + noise * float(np.std(u)) * rng.standard_normal(u.shape)
     y = y + noise * np.std(y, axis=0) * rng.standard_normal(y.shape)
+    if noise_g > 0:  # drawn after the proportional noise: records without it are unchanged
+        u = u + noise_g * G * rng.standard_normal(u.shape)
+        y = y + noise_g * G * rng.standard_normal(y.shape)
     return {"time": np.arange(n) / fs, "fs": float(fs), "base": u, "stations": y,
             "band": (float(band[0]), float(band[1])), "rms_g": float(rms_g)}
 

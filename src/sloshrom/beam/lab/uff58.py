@@ -48,7 +48,7 @@ from sloshrom.beam.damping.analysis import frf_h1
 from sloshrom.beam.errors import BeamError
 from sloshrom.beam.simulation.structure import ModalDataError, ModalModel
 from sloshrom.fileio import OutputBatch
-from sloshrom.io.record import Record
+from sloshrom.io.record import Record, RecordError
 from sloshrom.io.uff import (
     DIR_PLUS_Z,
     SPEC_ACCELERATION,
@@ -65,7 +65,8 @@ from sloshrom.io.uff import (
 )
 from sloshrom.io.units import canonical_unit
 
-__all__ = ["BASE_NODE", "FIRST_TANK_NODE", "channel_labels", "channel_variable",
+__all__ = ["BASE_NODE", "FIRST_TANK_NODE", "ChannelIdentity", "channel_identity",
+           "channel_labels", "channel_variable", "check_channel_identity",
            "check_result_nodes", "uff_channels", "write_result_uff"]
 
 #: Node of the base (beam root on the shaker): the response node of the base acceleration and
@@ -447,3 +448,70 @@ def channel_labels(rec: Record, path: Path) -> list[str]:
     uff = uff_channels(rec, path)
     return ([f"{c['label']} ({c['node']}:{c['direction']})" for c in uff] if uff
             else list(rec.variables))
+
+
+@dataclass(frozen=True)
+class ChannelIdentity:
+    """Which UFF 58 channel of one file a map's names found.
+
+    Attributes
+    ----------
+    file : str
+        The file's name.
+    nodes : dict of str to str
+        Every time-response channel of the file: label -> ``node:dir``.
+    matched : dict of str to str
+        The map's names the file holds -> the label of the channel each found.
+    """
+
+    file: str
+    nodes: dict[str, str]
+    matched: dict[str, str]
+
+
+def channel_identity(rec: Record, path: Path, names: list[str] | tuple[str, ...]
+                     ) -> ChannelIdentity | None:
+    """The channels of a UFF 58 file that the map's ``names`` found (:class:`ChannelIdentity`);
+    ``None`` for another format (a column or variable name is its only identity)."""
+    uff = uff_channels(rec, path)
+    if not uff:
+        return None
+    nodes = {str(c["label"]): f"{c['node']}:{c['direction']}" for c in uff}
+    by_var = {str(c["variable"]): str(c["label"]) for c in uff}
+    matched = {}
+    for name in names:
+        var = channel_variable(rec, name, path)
+        if var is not None:
+            matched[name] = by_var[var]
+    return ChannelIdentity(path.name, nodes, matched)
+
+
+def check_channel_identity(files: list[ChannelIdentity]) -> None:
+    """Whether a map's ``node:dir`` names find the same channel (by label) in every file of a
+    test or campaign: laboratories renumber nodes between set-ups, and a map by node numbers
+    then reads another accelerometer in another file, or misses it.
+
+    Raises
+    ------
+    RecordError
+        A name that finds channels of different labels in two files, or a channel in one file
+        that another file holds at another node; the message names both files and both nodes
+        in one line and recommends naming the channels by their labels.
+    """
+    for i, b in enumerate(files):
+        for a in files[:i]:
+            for name, label in a.matched.items():
+                other = b.matched.get(name)
+                if node_dir(name) is None or other == label:
+                    continue  # a label, or the same channel in both files
+                if other is None and label not in b.nodes:
+                    continue  # a sensor the other file does not have
+                where = (f"is {other!r} in {b.file}" if other is not None
+                         else f"finds no channel in {b.file}")
+                moved = (f", where {label!r} is {b.nodes[label]}" if label in b.nodes
+                         else "")
+                raise RecordError(
+                    f"the channel map's {name!r} is {label!r} in {a.file} but {where}{moved}: "
+                    "the node numbers change between the files, so a map by node numbers fits "
+                    f"one file only; name the channels by their labels ({label!r}, ...) in the "
+                    "map")

@@ -148,12 +148,15 @@ def write_lab_campaign(directory: str | Path, beam: LabBeam | None = None, *,
                        levels: Sequence[float] = (0.1, 0.2, 0.4), duration: float = 120.0,
                        decay_duration: float = 20.0, decay_peak_g: float = 8.5,
                        fs: float = 500.0, units: Sequence[str] | None = None,
+                       decay_units: Sequence[str] | None = None,
+                       decay_nodes: Sequence[int] | None = None,
                        unit_labels: bool = True, seed: int = 0,
                        batch: OutputBatch | None = None) -> ChannelMap:
     """A laboratory's campaign on ``beam`` as UFF 58 files: ``decay.uff`` (a free decay, no
     base channel) and ``random_<level>g.uff`` (random base excitation).
 
-    Channels ``acc1``... at ``beam.positions`` (nodes 1, 2, ..., +Z) and ``base`` (node
+    Channels ``acc1``... at ``beam.positions`` (nodes 1, 2, ..., +Z, unless ``decay_nodes``)
+    and ``base`` (node
     :data:`~sloshrom.beam.lab.uff58.BASE_NODE`) on the random runs; each station in its unit of
     ``units`` (default alternately g and m/s^2, the base in g).
 
@@ -173,6 +176,10 @@ def write_lab_campaign(directory: str | Path, beam: LabBeam | None = None, *,
         Sample rate, Hz.
     units : sequence of str, optional
         ``"g"`` or ``"m/s^2"`` per station.
+    decay_units, decay_nodes : sequence, optional
+        The decay's sensor set-up where it differs from the random runs' (a laboratory
+        changes it between tests): units (as ``units``) and node numbers of its stations;
+        default those of the random runs.
     unit_labels : bool
         Write the ordinate unit labels (``False``: empty labels and no units dataset 164, so
         that a reader needs the units from the user).
@@ -190,12 +197,22 @@ def write_lab_campaign(directory: str | Path, beam: LabBeam | None = None, *,
                                                for k in range(n_st)]
     if len(u) != n_st or any(x not in ("g", "m/s^2") for x in u):
         raise BeamError(f"units: 'g' or 'm/s^2' for each of the {n_st} stations, got {u}")
+    du = list(decay_units) if decay_units is not None else u
+    nodes = list(range(1, n_st + 1))
+    dn = [int(v) for v in decay_nodes] if decay_nodes is not None else nodes
+    if len(du) != n_st or any(x not in ("g", "m/s^2") for x in du):
+        raise BeamError(f"decay_units: 'g' or 'm/s^2' for each of the {n_st} stations, got "
+                        f"{du}")
+    if len(dn) != n_st or len(set(dn)) != n_st or any(v <= 0 or v == BASE_NODE for v in dn):
+        raise BeamError(f"decay_nodes: {n_st} distinct positive node numbers other than "
+                        f"{BASE_NODE}, got {dn}")
     names = [f"acc{k + 1}" for k in range(n_st)]
     d = Path(directory)
 
-    def write(path: Path, res: Mapping[str, np.ndarray], run: str, base: bool) -> None:
-        chans = [(n, k + 1, res["stations"][:, k], unit)
-                 for k, (n, unit) in enumerate(zip(names, u, strict=True))]
+    def write(path: Path, res: Mapping[str, np.ndarray], run: str, base: bool,
+              u: list[str], nodes: list[int]) -> None:
+        chans = [(n, node, res["stations"][:, k], unit)
+                 for k, (n, unit, node) in enumerate(zip(names, u, nodes, strict=True))]
         if base:
             chans.insert(0, ("base", BASE_NODE, res["base"], "g"))
         sets = [dataset164_si()] if unit_labels else []
@@ -209,7 +226,8 @@ def write_lab_campaign(directory: str | Path, beam: LabBeam | None = None, *,
 
     for i, g in enumerate(levels):
         res = random_test(beam, g, duration, fs, seed=seed + i)
-        write(d / f"random_{g:g}g.uff", res, f"random base excitation, {g:g} g RMS", True)
+        write(d / f"random_{g:g}g.uff", res, f"random base excitation, {g:g} g RMS", True, u,
+              nodes)
     write(d / "decay.uff", free_decay(beam, decay_peak_g, decay_duration, fs,
-                                      seed=seed + len(levels)), "free decay", False)
+                                      seed=seed + len(levels)), "free decay", False, du, dn)
     return ChannelMap(stations=tuple(names), positions=tuple(beam.positions), base="base")
