@@ -27,3 +27,43 @@ def test_help_is_wrapped_by_paragraph_not_by_source_line():
 ])
 def test_help_paragraphs(text, expected):
     assert help_paragraphs(text) == expected
+
+
+def _commands():
+    """Every command's path under the root (``[]`` the root), from typer's command tree."""
+    import typer.main
+
+    import sloshrom.cli.export  # noqa: F401  (registers `sloshrom export` and `import`)
+
+    def walk(c, path):
+        yield path, c
+        if hasattr(c, "list_commands"):
+            ctx = type(c).context_class(c)
+            for n in c.list_commands(ctx):
+                yield from walk(c.get_command(ctx, n), [*path, n])
+
+    return list(walk(typer.main.get_command(app), []))
+
+
+def test_every_help_prints_its_table_names_and_no_rst_literals():
+    """rich's markup printed nothing for "[data]" or "[units]" in a help text, and the
+    docstrings' ``x`` came out with both pairs of backticks: each help prints the table names
+    its source holds, and no double backticks."""
+    import re
+
+    paths = [p for p, _ in _commands()]
+    assert len(paths) > 20, paths
+    seen_tables = 0
+    for path in paths:
+        res = CliRunner().invoke(app, [*path, "--help"], env={"COLUMNS": "400"},
+                                 terminal_width=400)
+        assert res.exit_code == 0, (path, res.output)
+        out = " ".join(res.output.replace("│", " ").split())
+        assert "``" not in out, (path, re.findall(r".{30}``.{30}", out))
+        cmd = dict((tuple(p), c) for p, c in _commands())[tuple(path)]
+        texts = [cmd.help or ""] + [getattr(q, "help", None) or "" for q in cmd.params]
+        for t in texts:
+            for name in re.findall(r"\[[A-Za-z_][\w.]*\]", t):
+                seen_tables += 1
+                assert name in out, (path, name)
+    assert seen_tables >= 10, seen_tables

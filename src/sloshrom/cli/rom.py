@@ -316,7 +316,11 @@ def _train(**kw: Any) -> None:
     choice = mc.passive_recipe(*units, same=same_unit)
     set_by = [k for k in mc.loss_terms if k in given]
     values = dict(given)
-    recipe = bool(mc.loss_terms) and mc.recipe_needs({**mc.defaults(), **given}) is None
+    # on sloshing records (m/s in, N out) the class's other choices of `reproduce` too
+    tuned = _sloshing_recipe(mc.name)
+    taken = {k: v for k, v in tuned.items() if k not in given} if choice.passive else {}
+    values.update(taken)
+    recipe = bool(mc.loss_terms) and mc.recipe_needs({**mc.defaults(), **values}) is None
     if recipe:
         for k in mc.loss_terms:
             values.setdefault(k, choice.terms.get(k, 0.0))
@@ -341,6 +345,13 @@ def _train(**kw: Any) -> None:
     for w in caught:  # a size too big for the record: said before the training
         if issubclass(w.category, ModelSizeWarning):
             typer.echo(f"warning: {w.message}")
+    if taken:
+        typer.echo("recipe: as `sloshrom reproduce` trains it on sloshing records (m/s in, N "
+                   "out): " + ", ".join(f"{k} {v}" for k, v in taken.items())
+                   + f" (its [rom.{mc.name}] table; an option given wins)")
+    elif tuned and not choice.passive:
+        typer.echo(f"recipe: the class's defaults (`sloshrom reproduce`'s [rom.{mc.name}] "
+                   "choices are for m/s in and N out)")
     if recipe:
         typer.echo(str(choice) if not set_by else
                    f"loss: {', '.join(f'{k} {hyper[k]:g}' for k in mc.loss_terms)}: "
@@ -869,3 +880,11 @@ def sweep(
                f"{best['score']:.4g}; {n_bad} unstable"
                + (f"; {stuck} stopped at Levenberg-Marquardt's mu_max (no step lowered the "
                   "training error: stop_reason in sweep.csv)" if stuck else ""))
+
+
+def _sloshing_recipe(name: str) -> dict[str, Any]:
+    """:func:`sloshrom.pipeline.settings.sloshing_recipe`, imported when `train` needs it (the
+    settings load pydantic)."""
+    from sloshrom.pipeline.settings import sloshing_recipe
+
+    return sloshing_recipe(name)

@@ -20,6 +20,7 @@ from sloshrom.pipeline import settings
 from sloshrom.pipeline import study as registry
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.experiment import cell_text, experiment_tables, percent
+from sloshrom.pipeline.glance import glance_section, glossary_section, link_terms
 from sloshrom.pipeline.html import Figure, Section, Table
 from sloshrom.pipeline.maps import HYSTERESIS_FREQUENCY, HYSTERESIS_GAMMA
 from sloshrom.rom.ensemble import spread_text
@@ -117,8 +118,8 @@ def _setup_section(cfg: settings.ReproduceConfig) -> Section:
          source("tank", "structure_mass", paper="")],
         ["record rate (rig sensors and beam accelerometers)", f"{cfg.rig.fs:g} Hz",
          source("rig", "fs", paper="")],
-        ["VFA train / validation", f"{cfg.data.train_duration:.0f} / "
-         f"{cfg.data.validation_duration:.0f} s",
+        ["VFA train / validation (the records' first segment; section 2 lists the rest)",
+         f"{cfg.data.train_duration:.0f} / {cfg.data.validation_duration:.0f} s",
          source("data", "train_duration", "validation_duration")],
         ["ROM", cfg.rom.name(),
          "configuration" if (cfg.rom.arch, cfg.rom.hyper()) != (paper_rom.arch,
@@ -148,6 +149,29 @@ def _setup_section(cfg: settings.ReproduceConfig) -> Section:
                    tables=[Table(["quantity", "value", "source"], rows)])
 
 
+def _programme_text(d: dict[str, Any]) -> str:
+    """What each record holds, segment kind by kind (the VFA durations of the set-up table
+    are the first segment's): ``", each ..."``, or "" for a record without a programme."""
+    prog = (d.get("design") or {}).get("programme") or {}
+    parts = []
+    for rec in ("train", "validation"):
+        segs = (prog.get(rec) or {}).get("segments") or []
+        if not segs:
+            continue
+        groups: dict[str, list[float]] = {}
+        for sg in segs:
+            name = str(sg.get("name", ""))
+            kind = "VFA extension" if name == "vfa extension" else {
+                "vfa": "VFA", "random": "random", "decay": "decay"}.get(str(sg.get("kind")),
+                                                                     name)
+            groups.setdefault(kind, []).append(float(sg.get("duration_s", 0.0)))
+        words = [f"{kind} {ds[0]:.0f} s" if len(ds) == 1 else
+                 f"{len(ds)} {kind} segments of {ds[0]:.3g} s"
+                 for kind, ds in groups.items()]
+        parts.append(f"{rec} = " + " + ".join(words))
+    return " (" + "; ".join(parts) + ")" if parts else ""
+
+
 def _compare_text(compared: dict[str, Any] | None) -> str:
     """The classes identified beside the ROM (``stages.rom.compare``, by class), as a
     paragraph; "" without."""
@@ -169,12 +193,13 @@ def _compare_text(compared: dict[str, Any] | None) -> str:
 def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
     """The report's sections, from the run's stage summaries."""
     st = summary["stages"]
-    secs = [_setup_section(ctx.cfg)]
+    secs = [glance_section(summary, _rom_sentence(st["rom"])), _setup_section(ctx.cfg)]
     d = st.get("data", {})
     secs.append(Section(
         "2. Identification data (paper Figs. 5–7)",
-        f"<p>VFA tests on the virtual rig: train {_num(d, 'train', 'duration_s')} s, validation "
-        f"{_num(d, 'validation', 'duration_s')} s at {_num(d, 'train', 'fs_hz')} Hz; peak tank "
+        f"<p>Records of the virtual rig: train {_num(d, 'train', 'duration_s', fmt='{:.0f}')} "
+        f"s, validation {_num(d, 'validation', 'duration_s', fmt='{:.0f}')} s at "
+        f"{_num(d, 'train', 'fs_hz')} Hz{_programme_text(d)}; peak tank "
         f"acceleration {_num(d, 'train', 'max_acceleration_g')} g, peak tank velocity "
         f"{_num(d, 'train', 'max_velocity_m_s')} m/s (train), peak dynamic force "
         f"{_num(d, 'train', 'max_dynamic_force_n')} N. Input = tank velocity integrated from the "
@@ -258,7 +283,21 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
            + ", ".join(k for k, v in st.items() if v.get("reused")) + ")"
            if any(v.get("reused") for v in st.values()) else "") + "</p>",
     ))
-    return secs
+    secs.append(glossary_section())
+    return link_terms(secs)
+
+
+def _rom_sentence(r: dict[str, Any]) -> str:
+    """What the ROM is, in one sentence (HTML): its name, its class in words, its ensemble and
+    its training time."""
+    mc = CLASSES.get(str(r.get("arch", "")))
+    what = f" ({html.escape(mc.summary)})" if mc is not None else ""
+    n = r.get("n_members", 1)
+    ens = (f", an ensemble of {n} networks that differ by their seed (the ROM's force is "
+           "their mean)") if isinstance(n, int) and n > 1 else ""
+    return (f"The ROM is <b>{html.escape(str(r.get('name', 'ROM')))}</b>{what}{ens}, "
+            f"trained on the virtual rig's VFA records in {_num(r, 'train_seconds', fmt='{:.0f}')}"
+            " s.")
 
 
 def _fidelity_text(m: dict[str, Any]) -> str:
