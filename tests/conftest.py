@@ -109,12 +109,11 @@ def tiny_reproduce(tmp_path_factory) -> dict:
     """
     import json
 
+    from matplotlib.figure import Figure
     from typer.testing import CliRunner
 
     from sloshrom.cli import app
     from sloshrom.pipeline import settings
-
-    from matplotlib.figure import Figure
 
     d = tmp_path_factory.mktemp("tiny")
     config = d / "tiny.toml"
