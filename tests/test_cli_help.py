@@ -67,3 +67,37 @@ def test_every_help_prints_its_table_names_and_no_rst_literals():
                 seen_tables += 1
                 assert name in out, (path, name)
     assert seen_tables >= 10, seen_tables
+
+
+@pytest.mark.parametrize("empty", [False, True])
+def test_analyse_example_says_what_to_run_next_and_where_the_units_are(tmp_path, empty):
+    """The example campaign's command printed neither the next command nor the units; with
+    empty unit labels its channel map now carries them, so the next command runs as printed."""
+    import tomllib
+
+    d = tmp_path / "lab"
+    res = CliRunner().invoke(app, ["analyse", "example", str(d), "--duration", "34",
+                                   *(["--empty-units"] if empty else [])])
+    assert res.exit_code == 0, res.output
+    out = " ".join(res.output.split())
+    assert (f"next: sloshrom analyse campaign {d} --channels {d / 'channels.toml'} --out "
+            f"{d / 'results'}") in out
+    units = tomllib.loads((d / "channels.toml").read_text()).get("units", {})
+    if empty:
+        assert units == {"base": "g", "acc1": "g", "acc2": "m/s^2", "acc3": "g",
+                         "acc4": "m/s^2", "acc5": "g"}
+        assert "channels.toml's [units] table gives them (base g, acc1 g, acc2 m/s^2" in out
+    else:
+        assert units == {} and "units are in the UFF files' labels" in out
+
+
+def test_an_option_shared_by_two_systems_gives_each_its_meaning():
+    """`system --help` gave --noise one meaning, in m, for both systems (the tanks' is in V)."""
+    res = CliRunner().invoke(app, ["system", "--help"], env={"COLUMNS": "400"},
+                             terminal_width=400)
+    assert res.exit_code == 0, res.output
+    out = " ".join(res.output.replace("│", " ").split())
+    noise = out.split("--noise <float>")[1].split(" --")[0]
+    assert "bouc-wen: RMS of the output noise" in noise and ", m (" in noise
+    assert "cascaded-tanks: standard deviation of the measurement noise, V" in noise
+    assert "hysteretic oscillator in and" not in out

@@ -780,3 +780,10 @@ def example(
                                   seed=seed, batch=batch)
         cmap.write_toml(directory / "channels.toml", batch)
     typer.echo(f"wrote {', '.join(names)} to {directory}")
+    # what to run next, and what the files leave to the user
+    units = ("the accelerometers' units are in the UFF files' labels" if not empty_units else
+             "the UFF unit labels are empty: channels.toml's [units] table gives them ("
+             + ", ".join(f"{k} {v}" for k, v in cmap.units.items())
+             + "; --unit NAME=UNIT would win over it)")
+    typer.echo(f"{units}; next: sloshrom analyse campaign {directory} --channels "
+               f"{directory / 'channels.toml'} --out {directory / 'results'}")

@@ -72,8 +72,8 @@ GLOSSARY: dict[str, tuple[str, str]] = {
                  "and velocity); outside it the ROM extrapolates."),
     "passivity": ("passivity", "A sloshing load can only take energy out of the structure on "
                   "average: Φ_d ≥ 0 everywhere."),
-    "w": ("w", "In Fig. 3, w = v / v_max, the tank's velocity over its peak (the hysteresis "
-          "loop's abscissa)."),
+    "w": ("w", "In Fig. 3, w is the tank's vertical displacement and a its amplitude: the "
+          "hysteresis loop's abscissa is w / a, its ordinate the force over m_l a Ω²."),
 }
 
 

@@ -262,15 +262,16 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
     secs.append(Section(
         "5. Dissipation maps (paper Figs. 3, 4, 11)", text,
         _fig(ctx, "fig03_hysteresis.png", "Fig. 3 — normalised sloshing force and hysteresis "
-             f"loop at {HYSTERESIS_GAMMA:g} g, {HYSTERESIS_FREQUENCY:g} Hz; the enclosed area is "
-             "the dissipated energy per cycle.")
+             f"loop at {HYSTERESIS_GAMMA:g} g, {HYSTERESIS_FREQUENCY:g} Hz (<a href='#g-w'>w</a>: "
+             "the tank's displacement, a its amplitude); the enclosed area is the dissipated "
+             "energy per cycle.")
         + _fig(ctx, "maps/phi_d_rig.png", "Fig. 4 — Φ_d(ω̄, ā) of the virtual rig.")
-        + _fig(ctx, "maps/phi_d_rom.png", "Fig. 11 — Φ_d(ω̄, ā) predicted by the ROM; orange "
-               "(outlined) where it is below the passivity threshold, i.e. where the ROM gives "
-               "energy back to the tank.")
+        + _fig(ctx, "maps/phi_d_rom.png", "Fig. 11 — Φ_d(ω̄, ā) predicted by the ROM, on the "
+               "colour scale of Fig. 4; orange (outlined) where it is below the passivity "
+               "threshold, i.e. where the ROM gives energy back to the tank.")
         + _fig(ctx, "maps/phi_d_difference.png", "ROM minus rig, on colours centred on zero: "
                "red where the ROM over-predicts dissipation, blue where it under-predicts, "
-               "white where they agree."),
+               "white where they agree to within one colour band."),
     ))
     secs.extend(_beam_sections(ctx, st["beam"], r))
     # the studies that ran, in the registry's order, after the beam's sections
@@ -552,7 +553,9 @@ def _beam_sections(ctx: Context, b: dict[str, Any],
         f"{inst.get('frozen', {}).get('initial_tank_acceleration_g', float('nan')):.1f} g). "
         "The rig plays the experiment; the ROM runs in the same coupled model; the frozen case "
         "has Δf = 0. First-mode frequency with frozen liquid: "
-        f"{b['f1_frozen_hz']:.2f} Hz.</p>"
+        f"{b['f1_frozen_hz']:.2f} Hz. The tables' <a href='#g-experiment'>experiment</a> "
+        "column is the rig replayed through a laboratory's files, with sensor noise, and "
+        "analysed as measured data.</p>"
     )
     return [
         Section("6. Sloshing beam: modes (paper Table 1)", "", tables=[t1]),

@@ -45,26 +45,34 @@ def plot_vfa_paths(paths: VFA | Sequence[VFA], ax: Axes | None = None,
     wmax = max(float(np.max(p.omega_bar)) for p in paths) * 1.05
     amax = max(float(np.max(p.a_bar)) for p in paths) * 1.1
     ob = np.linspace(0.3, wmax, 400)
-    for gm in gammas:
+    last = -np.inf
+    for gm in sorted(gammas):
         ax.plot(ob, gm / ob**2, color="0.6", lw=0.7, ls="--")
         ob_lab = np.sqrt(gm / (0.85 * amax))
-        if ob_lab < wmax:
-            ax.text(ob_lab, 0.85 * amax, f"{gm:g} g", color="0.4", fontsize=8)
+        # a label only where it clears the last one: close iso-lines share a label
+        if ob_lab < wmax and ob_lab - last > 0.06 * wmax:
+            ax.text(ob_lab, 0.85 * amax, f" {gm:g} g", color="0.4", fontsize=8)
+            last = ob_lab
     colors = {"train": "tab:blue", "validation": "tab:orange"}
+    # one legend entry per record, with the lengths of its paths
+    lengths: dict[str, list[str]] = {}
+    for p in paths:
+        lengths.setdefault(p.split, []).append(f"{p.time[-1]:.0f}")
     for p in paths:
         step = max(1, len(p.time) // max_points)
+        first = p is next(q for q in paths if q.split == p.split)
         ax.plot(
             p.omega_bar[::step],
             p.a_bar[::step],
             lw=0.6,
             color=colors.get(p.split),
-            label=f"{p.split} ({p.time[-1]:.0f} s)",
+            label=f"{p.split} ({' + '.join(lengths[p.split])} s)" if first else None,
         )
     ax.set_xlim(0, wmax)
     ax.set_ylim(0, amax)
     ax.set_xlabel(r"$\bar\omega = \Omega/\sqrt{g/h}$")
     ax.set_ylabel(r"$\bar a = a/h$")
-    ax.legend(loc="upper right")
+    ax.legend(loc="best", fontsize=8)
     return ax
 
 

@@ -175,14 +175,15 @@ def write_lab_campaign(directory: str | Path, beam: LabBeam | None = None, *,
         ``"g"`` or ``"m/s^2"`` per station.
     unit_labels : bool
         Write the ordinate unit labels (``False``: empty labels and no units dataset 164, so
-        that a reader needs the units from the user).
+        that a reader needs the units from the user: the returned map's ``units``).
     seed : int
         Seed of the excitation and the sensor noise.
 
     Returns
     -------
     ChannelMap
-        The map of the campaign (stations, positions, base).
+        The map of the campaign (stations, positions, base; with ``unit_labels=False`` each
+        channel's unit, its ``[units]`` table).
     """
     beam = beam or LabBeam()
     n_st = len(beam.positions)
@@ -212,4 +213,8 @@ def write_lab_campaign(directory: str | Path, beam: LabBeam | None = None, *,
         write(d / f"random_{g:g}g.uff", res, f"random base excitation, {g:g} g RMS", True)
     write(d / "decay.uff", free_decay(beam, decay_peak_g, decay_duration, fs,
                                       seed=seed + len(levels)), "free decay", False)
-    return ChannelMap(stations=tuple(names), positions=tuple(beam.positions), base="base")
+    # files without unit labels: the map carries the units (its [units] table), as a
+    # laboratory's would
+    return ChannelMap(stations=tuple(names), positions=tuple(beam.positions), base="base",
+                      units={} if unit_labels else {"base": "g", **dict(zip(names, u,
+                                                                             strict=True))})
