@@ -343,8 +343,11 @@ def comparison_figures(measured: AnalysedTest, predicted: Sequence[AnalysedTest]
             colour = "k" if k == 0 else f"C{k - 1}"
             assert t.decay is not None
             h = t.decay.hilbert
-            ax.plot(h["amplitude"] / G, 100 * h["zeta"], lw=1.2 if k == 0 else 0.9,
-                    color=colour, label=f"{t.case} (Hilbert)")
+            # the measurement wide and on top, dashed predictions under it: a prediction that
+            # agrees does not hide it
+            ax.plot(h["amplitude"] / G, 100 * h["zeta"], lw=2.2 if k == 0 else 1.0,
+                    ls="-" if k == 0 else "--", color=colour, alpha=0.6 if k == 0 else 1.0,
+                    zorder=3 if k == 0 else 2, label=f"{t.case} (Hilbert)")
             for r in t.rows:
                 lo_g, hi_g = (float(x) for x in r["band"].removesuffix(" g").split("-"))
                 mid = 0.5 * (lo_g + hi_g) * (1 + 0.03 * (k - len(tests) / 2))
