@@ -561,8 +561,8 @@ def _beam_sections(ctx: Context, b: dict[str, Any],
         Section("6. Sloshing beam: modes (paper Table 1)", "", tables=[t1]),
         Section(
             "7. Free response (paper Figs. 14, 16, 20, 21)", free_text,
-            fig("fig14_station_accelerations", "Fig. 14 — virtual accelerometers along the beam,"
-                " frozen vs sloshing.")
+            fig("fig14_station_accelerations", "Fig. 14 — virtual accelerometers along the beam, "
+                "one panel per station, frozen and sloshing overlaid.")
             + fig("fig16_modal_accelerations", "Fig. 16 — modal accelerations from modal "
                   "filtering: sloshing damps mode 1 most.")
             + fig("fig20_tank_interface_dynamic", "Fig. 20 — tank acceleration, interface force"

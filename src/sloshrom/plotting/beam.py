@@ -71,19 +71,24 @@ def free_figures(res: Mapping[str, Mapping[str, Any]], modal: ModalModel | None,
     """
     figs = {}
     cases = list(res)
-    fig = Figure(figsize=(8, 2.6 * len(cases)), layout="constrained")
-    axes = fig.subplots(len(cases), 1, sharex=True, squeeze=False)
-    for ax, case in zip(axes[:, 0], cases, strict=True):
-        r = res[case]
-        names = (list(labels) if labels is not None else
-                 [f"x={x:.3f} m" for x in modal.stations] if modal is not None else
-                 [f"station {j + 1}" for j in range(r["station_acceleration"].shape[-1])])
-        for j, lab in enumerate(names):
-            ax.plot(r["time"], r["station_acceleration"][:, j] / G, lw=0.6, label=lab)
-        ax.set_ylabel("acceleration [g]")
-        ax.set_title(f"{case}: station accelerations")
-    axes[0, 0].legend(fontsize=7, ncol=3)
+    # one panel per station, the cases overlaid: the difference sloshing makes is then seen
+    # (a panel per case showed the same picture three times)
+    n_st = min(res[c]["station_acceleration"].shape[-1] for c in cases)
+    names = (list(labels) if labels is not None else
+             [f"x = {x:.3f} m" for x in modal.stations] if modal is not None else
+             [f"station {j + 1}" for j in range(n_st)])
+    fig = Figure(figsize=(8, 1.7 * n_st + 0.8), layout="constrained")
+    axes = fig.subplots(n_st, 1, sharex=True, squeeze=False)
+    for j in range(n_st):
+        ax = axes[j, 0]
+        for k, case in enumerate(cases):
+            r = res[case]
+            ax.plot(r["time"], r["station_acceleration"][:, j] / G, lw=1.0 if k == 0 else 0.7,
+                    alpha=0.9, ls=("-", "--", ":", "-.")[k % 4], label=case)
+        ax.set_ylabel(f"{names[j]}\n[g]")
+    axes[0, 0].legend(fontsize=7, ncol=len(cases), loc="upper right")
     axes[-1, 0].set_xlabel("time [s]")
+    fig.suptitle("Station accelerations of the free response, the cases overlaid")
     figs["fig14_station_accelerations"] = fig
 
     if modal is not None:
