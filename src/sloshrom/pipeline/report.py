@@ -93,6 +93,11 @@ def _num(d: dict[str, Any], *keys: str, fmt: str = "{:.3g}", default: str = "n/a
         return html.escape(str(cur))
 
 
+def _mm(metres: object) -> str:
+    """A displacement in m as mm, the one unit of displacements on the page ("n/a" if none)."""
+    return f"{1e3 * metres:.3g}" if isinstance(metres, int | float) else "n/a"
+
+
 def _setup_section(cfg: settings.ReproduceConfig) -> Section:
     defaults = settings.load()
 
@@ -358,7 +363,7 @@ def _design_text(d: dict[str, Any]) -> str:
                 + ", ".join(f"{html.escape(str(k))} = {v:g}" for k, v in rig.items())
                 + " (configuration overrides)")
     env = (f"Γ ≤ {_num(des, 'gamma_max_g')} g, velocity ≤ {_num(des, 'max_velocity_m_s')} m/s, "
-           f"displacement ≤ {_num(des, 'max_displacement_m', fmt='{:.3g}')} m "
+           f"displacement ≤ {_mm(des.get('max_displacement_m'))} mm "
            f"(ā ≤ {_num(des, 'a_bar_max')})")
     if des.get("rule") != "structure":
         return (f"<p>Training designed for the paper's shaker: {env}; {rig_text}.</p>")
@@ -368,7 +373,7 @@ def _design_text(d: dict[str, Any]) -> str:
         f"first with frozen liquid (linear, the least-damped case: sloshing only adds damping, "
         f"so the rig and ROM runs stay below it). Their tank motion peaks at "
         f"{_num(fz, 'peak_acceleration_g')} g, {_num(fz, 'peak_velocity_m_s')} m/s "
-        f"(displacement {_num(fz, 'peak_displacement_m', fmt='{:.3g}')} m, "
+        f"(displacement {_mm(fz.get('peak_displacement_m'))} mm, "
         f"{_num(fz, 'frequency_hz')} Hz); the VFA covers {_num(des, 'margin')} × that: {env}. "
         f"The training record reaches {_num(d, 'train', 'covers_acceleration')} × the frozen "
         f"peak acceleration and {_num(d, 'train', 'covers_velocity')} × its velocity; "
@@ -548,7 +553,7 @@ def _beam_sections(ctx: Context, b: dict[str, Any],
             t_inst.rows.append([f"{band}, ROM members (mean ± std)"]
                                + [pm if c == "rom" else "" for c in cases])
     free_text = (
-        f"<p>Free response from a {ctx.cfg.beam.tip_displacement * 100:.2f} cm static tip "
+        f"<p>Free response from a {ctx.cfg.beam.tip_displacement * 1e3:.1f} mm static tip "
         f"deflection (initial tank acceleration "
         f"{inst.get('frozen', {}).get('initial_tank_acceleration_g', float('nan')):.1f} g). "
         "The rig plays the experiment; the ROM runs in the same coupled model; the frozen case "
