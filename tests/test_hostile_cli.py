@@ -503,7 +503,7 @@ HOSTILE_CASES = [
     # each option bounded alone, their product ran for hours: one epoch's work is bounded
     ("train-nss-epoch-cost-window-horizon", None,
      [*NSO, "--neurons", "64", "--window", "9000", "--horizon", "9000"],
-     r"one training epoch of NSS\(\d+ states, 64 neurons\), --steps-per-epoch x --batch x "
+     r"one training epoch of NSS\(\d+ states, 64 neurons, strictly proper\), --steps-per-epoch x --batch x "
      r"\(--window \+ --horizon\) x --neurons = 200 x 128 x \(9000 \+ 9000\) x 64 = "
      r"2\.95e\+10 neuron-samples, more than 1\.5e\+10 \(about 6 min per epoch"),
     ("train-nss-epoch-cost-steps", None, [*NSO, "--steps-per-epoch", "10000000"],

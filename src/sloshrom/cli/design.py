@@ -16,7 +16,7 @@ import sys
 from collections.abc import Sequence
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 import numpy as np
 import typer
@@ -234,8 +234,8 @@ def design_cmd(
                   f"[bold red]{len(exceeded)} limit(s) exceeded[/]"))
     console.print(f"total {total:.0f} s of shaking ({_hms(total)}); laboratory time "
                   f"{_hms(lab)} ({n_seg} runs with {setup:g} s set-up each)")
-    for line in _beyond_the_shaker(summaries, splits, max_acceleration, max_velocity,
-                                   max_stroke):
+    segments = [(sg["name"], sg["peaks"]) for s in splits for sg in summaries[s]["segments"]]
+    for line in _beyond_the_shaker(segments, max_acceleration, max_velocity, max_stroke):
         console.print(line, markup=False, highlight=False)
     if strict and exceeded:
         typer.secho("error: the programme exceeds the shaker's limits (--strict): nothing "
@@ -282,19 +282,21 @@ def design_cmd(
     console.print(f"wrote {', '.join(str(out / n) for n in names)}")
 
 
-def _beyond_the_shaker(summaries: dict[str, Any], splits: Sequence[str], max_acceleration: float,
-                       max_velocity: float, max_stroke: float) -> list[str]:
-    """The segments beyond each shaker limit, by name, and the two ways out: a programme the
-    shaker can play, or the options of a larger shaker; [] when the programme fits."""
+def _beyond_the_shaker(segments: Sequence[tuple[str, Peaks]],
+                       max_acceleration: float, max_velocity: float,
+                       max_stroke: float) -> list[str]:
+    """The segments (name, peaks) beyond each shaker limit, by name, and the two ways out: a
+    programme the shaker can play, or the options of a larger shaker; [] when it fits."""
     limits = (("acceleration_g", max_acceleration, "acceleration", "g", "--max-acceleration"),
               ("velocity_m_s", max_velocity, "velocity", "m/s", "--max-velocity"),
               ("stroke_mm", max_stroke, "stroke", "mm", "--max-stroke"))
+    values = [(name, {"acceleration_g": p["acceleration_g"], "velocity_m_s": p["velocity_m_s"],
+                      "stroke_mm": p["stroke_mm"]}) for name, p in segments]
     lines, need = [], []
     for key, lim, word, unit, option in limits:
-        over = dict.fromkeys(sg["name"] for s in splits for sg in summaries[s]["segments"]
-                             if sg["peaks"][key] > lim * (1 + 1e-9))
+        over = dict.fromkeys(name for name, peaks in values if peaks[key] > lim * (1 + 1e-9))
         if over:
-            top = max(summaries[s]["peaks"][key] for s in splits)
+            top = max(peaks[key] for _, peaks in values)
             lines.append(f"beyond {lim:g} {unit} of {word}: {', '.join(over)}")
             need.append(f"{option} {_ceil(top)}")
     if lines:

@@ -34,6 +34,7 @@ from sloshrom.limits import (
     MAX_SEED,
     MU_MAX,
 )
+from sloshrom.pipeline.settings import sloshing_recipe
 from sloshrom.rom.epochs import TrainingProgress
 from sloshrom.rom.errors import ModelSizeWarning
 from sloshrom.rom.registry import (
@@ -317,7 +318,7 @@ def _train(**kw: Any) -> None:
     set_by = [k for k in mc.loss_terms if k in given]
     values = dict(given)
     # on sloshing records (m/s in, N out) the class's other choices of `reproduce` too
-    tuned = _sloshing_recipe(mc.name)
+    tuned = sloshing_recipe(mc.name)
     taken = {k: v for k, v in tuned.items() if k not in given} if choice.passive else {}
     values.update(taken)
     recipe = bool(mc.loss_terms) and mc.recipe_needs({**mc.defaults(), **values}) is None
@@ -880,11 +881,3 @@ def sweep(
                f"{best['score']:.4g}; {n_bad} unstable"
                + (f"; {stuck} stopped at Levenberg-Marquardt's mu_max (no step lowered the "
                   "training error: stop_reason in sweep.csv)" if stuck else ""))
-
-
-def _sloshing_recipe(name: str) -> dict[str, Any]:
-    """:func:`sloshrom.pipeline.settings.sloshing_recipe`, imported when `train` needs it (the
-    settings load pydantic)."""
-    from sloshrom.pipeline.settings import sloshing_recipe
-
-    return sloshing_recipe(name)

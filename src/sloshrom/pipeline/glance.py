@@ -6,13 +6,14 @@ from __future__ import annotations
 
 import html
 import re
-from collections.abc import Mapping, Sequence
-from typing import Any
+from collections.abc import Sequence
 
 from sloshrom.pipeline.html import Markup, Section, Table
-from sloshrom.pipeline.targets import Verdict, verdicts
+from sloshrom.pipeline.targets import Row, Verdict, verdicts
+from sloshrom.rom.registry import CLASSES
 
-__all__ = ["GLOSSARY", "NOT_LINKED", "glance_section", "glossary_section", "link_terms"]
+__all__ = ["GLOSSARY", "NOT_LINKED", "glance_section", "glossary", "glossary_section",
+           "link_terms"]
 
 #: Term -> (anchor, definition in HTML). The terms are matched case-sensitively, as written.
 GLOSSARY: dict[str, tuple[str, str]] = {
@@ -32,18 +33,6 @@ GLOSSARY: dict[str, tuple[str, str]] = {
     "ā": ("a-bar", "Non-dimensional amplitude: the tank's displacement amplitude over its "
           "height."),
     "Γ": ("gamma", "Peak tank acceleration of a harmonic test, in g."),
-    "NFIR": ("nfir", "Nonlinear finite impulse response network: the force from a delay line "
-             "of past inputs only (the paper's class)."),
-    "NOE": ("noe", "Nonlinear output-error network: the force from past inputs and its own "
-            "past outputs (recurrent)."),
-    "NSS": ("nss", "Neural state-space model: a network with a state x (x_{k+1} = f(x_k, u_k), "
-            "y_k = g(x_k)), started by an encoder from past inputs and outputs."),
-    "LSS": ("lss", "Linear state-space model (the best linear model, N4SID and output-error "
-            "refinement): a baseline, not a candidate ROM."),
-    "grey box": ("grey-box", "A model that joins physics and a network: here an impacting "
-                 "liquid column (balls released by a Rayleigh–Taylor gate, landing on soft "
-                 "contacts, seven physical parameters) and a state-space network that corrects "
-                 "its force."),
     "RT release gate": ("rt-gate", "Rayleigh–Taylor release gate: the liquid leaves the "
                         "tank's floor only when the tank accelerates downward faster than "
                         "gravity (the interface is then unstable)."),
@@ -77,6 +66,15 @@ GLOSSARY: dict[str, tuple[str, str]] = {
 }
 
 
+def glossary() -> dict[str, tuple[str, str]]:
+    """:data:`GLOSSARY` and one entry per ROM class of the registry (its class name, its
+    summary), so that a class added to the registry is defined on the page too."""
+    classes = {mc.class_name: (f"class-{mc.name}", html.escape(mc.summary[:1].upper()
+                                                               + mc.summary[1:]) + ".")
+               for mc in CLASSES.values()}
+    return {**GLOSSARY, **classes}
+
+
 def _verdict_rows(vs: Sequence[Verdict]) -> list[list[str]]:
     def word(v: Verdict) -> str:
         return Markup(f"<b class='miss'>{v.word}</b>") if v.met is False else v.word
@@ -85,7 +83,7 @@ def _verdict_rows(vs: Sequence[Verdict]) -> list[list[str]]:
              v.section if v.section == "Run" else f"§ {v.section}"] for v in vs]
 
 
-def glance_section(summary: Mapping[str, Any], rom_text: str) -> Section:
+def glance_section(summary: Row, rom_text: str) -> Section:
     """The report's first section.
 
     Parameters
@@ -119,7 +117,7 @@ def glance_section(summary: Mapping[str, Any], rom_text: str) -> Section:
 def glossary_section() -> Section:
     """The glossary, one anchored entry per term."""
     items = "".join(f"<dt id='g-{a}'>{html.escape(t)}</dt><dd>{d}</dd>"
-                    for t, (a, d) in sorted(GLOSSARY.items(), key=lambda kv: kv[0].lower()))
+                    for t, (a, d) in sorted(glossary().items(), key=lambda kv: kv[0].lower()))
     return Section("Glossary", f"<dl>{items}</dl>")
 
 
@@ -159,7 +157,7 @@ def link_terms(sections: Sequence[Section]) -> list[Section]:
     entry (outside tags, links and code; the glossary itself untouched). Terms that are also
     everyday words in this report (:data:`NOT_LINKED`) are linked where they are introduced,
     not here."""
-    todo = {t: a for t, (a, _) in GLOSSARY.items() if t not in NOT_LINKED}
+    todo = {t: a for t, (a, _) in glossary().items() if t not in NOT_LINKED}
     out = []
     for s in sections:
         text = s.text

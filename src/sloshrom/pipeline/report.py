@@ -154,7 +154,7 @@ def _setup_section(cfg: settings.ReproduceConfig) -> Section:
                    tables=[Table(["quantity", "value", "source"], rows)])
 
 
-def _programme_text(d: dict[str, Any]) -> str:
+def _programme_text(d: dict[str, object]) -> str:
     """What each record holds, segment kind by kind (the VFA durations of the set-up table
     are the first segment's): ``", each ..."``, or "" for a record without a programme."""
     prog = (d.get("design") or {}).get("programme") or {}
@@ -293,7 +293,7 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
     return link_terms(secs)
 
 
-def _rom_sentence(r: dict[str, Any]) -> str:
+def _rom_sentence(r: dict[str, object]) -> str:
     """What the ROM is, in one sentence (HTML): its name, its class in words, its ensemble and
     its training time."""
     mc = CLASSES.get(str(r.get("arch", "")))

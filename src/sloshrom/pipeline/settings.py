@@ -216,7 +216,7 @@ def default_text() -> str:
     return "\n".join(out) + "\n"
 
 
-def sloshing_recipe(name: str) -> dict[str, Any]:
+def sloshing_recipe(name: str) -> dict[str, object]:
     """What `reproduce` chooses for the class ``name`` beyond its defaults: the keys its
     shipped ``[rom.<name>]`` table sets (an NSS's ``feedthrough = "no"`` and
     ``velocity_offset = 0.5``, say). `train` takes them for records of a velocity in m/s and a

@@ -9,13 +9,14 @@ summary written before the figure existed); a target is never left out because i
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+
+from sloshrom.beam.damping.registry import label
 
 __all__ = ["ENVELOPE_RATIO", "FIT_FREE", "FIT_VALIDATION", "FROZEN_MARGIN", "HF_FACTOR",
            "IMPACTS_WITHIN", "MAP_DISSIPATIVE", "MAP_FULL", "Q99_WITHIN", "RMS_WITHIN",
-           "ROM_STAGE_SECONDS", "Verdict", "verdicts"]
+           "ROM_STAGE_SECONDS", "Row", "Verdict", "verdicts"]
 
 #: Fit (%) of the ROM's free run over the whole validation record.
 FIT_VALIDATION = 60.0
@@ -79,6 +80,15 @@ def _finite(v: object) -> float | None:
     return float(v) if isinstance(v, int | float) and math.isfinite(v) else None
 
 
+#: A table of a run's summary (JSON: values of any kind, narrowed where read).
+Row = Mapping[str, object]
+
+
+def _map(v: object) -> Row:
+    """``v`` if it is a table, else an empty one."""
+    return v if isinstance(v, Mapping) else {}
+
+
 def _get(d: object, *keys: str) -> object:
     for k in keys:
         if not isinstance(d, Mapping):
@@ -87,31 +97,33 @@ def _get(d: object, *keys: str) -> object:
     return d
 
 
-def _levels(beam: Mapping[str, Any]) -> list[tuple[str, Mapping[str, Any]]]:
+def _levels(beam: Row) -> list[tuple[str, Row]]:
     """(level, the ROM's waveform figures) of each random test, in the run's order."""
     lv = _get(beam, "waveform_fidelity", "levels")
     if not isinstance(lv, Mapping):
         return []
-    return [(k, v["rom"]) for k, v in lv.items()
+    return [(str(k), _map(v.get("rom"))) for k, v in lv.items()
             if isinstance(v, Mapping) and isinstance(v.get("rom"), Mapping)]
 
 
-def _per_level(what: str, goal: str, section: str, levels: Sequence[tuple[str, Any]],
-               value: Any, ok: Any, fmt: str) -> Verdict:
+def _per_level(what: str, goal: str, section: str, levels: Sequence[tuple[str, Row]],
+               value: Callable[[Row], float | None], ok: Callable[[float], bool],
+               fmt: str) -> Verdict:
     """One verdict over every level: met when met at each; the figures level by level."""
     vals = [(k, value(r)) for k, r in levels]
-    if not vals or any(v is None for _, v in vals):
+    got = [(k, v) for k, v in vals if v is not None]
+    if not vals or len(got) < len(vals):
         return Verdict(what, goal, "n/a", None, section)
-    figure = ", ".join(f"{fmt.format(v)} at {k} g" for k, v in vals)
-    return Verdict(what, goal, figure, all(ok(v) for _, v in vals), section)
+    figure = ", ".join(f"{fmt.format(v)} at {k} g" for k, v in got)
+    return Verdict(what, goal, figure, all(ok(v) for _, v in got), section)
 
 
-def _ratio(r: Mapping[str, Any], key: str, ref: str) -> float | None:
+def _ratio(r: Row, key: str, ref: str) -> float | None:
     a, b = _finite(r.get(key)), _finite(r.get(ref))
     return a / b if a is not None and b else None
 
 
-def _q99(r: Mapping[str, Any]) -> float | None:
+def _q99(r: Row) -> float | None:
     q, q_ref = r.get("peak_quantiles"), r.get("peak_quantiles_reference")
     if not (isinstance(q, list) and isinstance(q_ref, list) and len(q) == len(q_ref) == 3):
         return None
@@ -121,19 +133,25 @@ def _q99(r: Mapping[str, Any]) -> float | None:
 def _consistent(rows: object, what: str, goal: str, section: str) -> Verdict:
     """The ROM's rows of an experiment table: met when each is consistent with the
     experiment (inside its interval, or the two intervals agree)."""
-    rom = [r for r in rows if r.get("case") == "rom"] if isinstance(rows, list) else []
+    rom = [_map(r) for r in rows if _map(r).get("case") == "rom"] if isinstance(rows, list) \
+        else []
     judged = [r for r in rom if r.get("consistent") in ("yes", "no")]
     if not judged:
         return Verdict(what, goal, "n/a", None, section)
     ok = sum(r["consistent"] == "yes" for r in judged)
     miss = [f"{r.get('band', '')}{r.get('rms_g', '')}{' g' if 'rms_g' in r else ''} "
-            f"{(r.get('method') or r.get('estimator') or '').replace('_', ' ')}".strip()
+            f"{_method(r)}".strip()
             for r in judged if r["consistent"] != "yes"]
     figure = f"{ok} of {len(judged)} cells" + (f" (not: {'; '.join(miss)})" if miss else "")
     return Verdict(what, goal, figure, ok == len(judged), section)
 
 
-def verdicts(summary: Mapping[str, Any]) -> list[Verdict]:
+def _method(r: Row) -> str:
+    """An experiment row's method or estimator, in the report's words ("LSCF on H1")."""
+    return label(str(r.get("method") or r.get("estimator") or ""))
+
+
+def verdicts(summary: Row) -> list[Verdict]:
     """Every target of the ROM and the run's verdict on it, in the report's order.
 
     Parameters
@@ -147,8 +165,8 @@ def verdicts(summary: Mapping[str, Any]) -> list[Verdict]:
         Waveform (validation, random tests, free decay), energy (Phi_d map, passivity),
         damping against the experiment, envelope and cost.
     """
-    st = summary.get("stages") or {}
-    rom, maps, beam = st.get("rom") or {}, st.get("maps") or {}, st.get("beam") or {}
+    st = _map(summary.get("stages"))
+    rom, maps, beam = _map(st.get("rom")), _map(st.get("maps")), _map(st.get("beam"))
     out = []
     fit = _finite(_get(rom, "waveform_fidelity", "rom", "fit"))
     if fit is None:
@@ -156,7 +174,7 @@ def verdicts(summary: Mapping[str, Any]) -> list[Verdict]:
     out.append(Verdict("fit of the free run on the validation record",
                        f"≥ {FIT_VALIDATION:g} %", "n/a" if fit is None else f"{fit:.1f} %",
                        None if fit is None else fit >= FIT_VALIDATION, "4"))
-    f = maps.get("rom_fidelity") or {}
+    f = _map(maps.get("rom_fidelity"))
     full, diss = _finite(f.get("full_l2")), _finite(f.get("dissipative_l2"))
     npas = _finite(f.get("n_nonpassive"))
     out += [
@@ -184,8 +202,8 @@ def verdicts(summary: Mapping[str, Any]) -> list[Verdict]:
         _per_level("random tests: 99 % force peak / the rig's", f"1 ± {_pct(Q99_WITHIN)}", "8",
                    lv, _q99, lambda v: abs(v - 1) <= Q99_WITHIN, "{:.2f}"),
     ]
-    ff = beam.get("free_fidelity") or {}
-    fr = ff.get("rom") if isinstance(ff.get("rom"), Mapping) else {}
+    ff = _map(beam.get("free_fidelity"))
+    fr = _map(ff.get("rom"))
     secs = _finite(ff.get("seconds"))
     head = f"free decay, first {secs:g} s" if secs is not None else "free decay"
     rms, ffit = _finite(fr.get("rms_ratio")), _finite(fr.get("fit"))
@@ -197,7 +215,7 @@ def verdicts(summary: Mapping[str, Any]) -> list[Verdict]:
                 "n/a" if ffit is None else f"{ffit:.1f} %",
                 None if ffit is None else ffit >= FIT_FREE, "7"),
     ]
-    exp = beam.get("experiment") or {}
+    exp = _map(beam.get("experiment"))
     out += [
         _consistent(exp.get("random"), "first-mode damping of the random tests (Table 2) "
                     "against the experiment", "every cell consistent", "8"),
@@ -206,7 +224,7 @@ def verdicts(summary: Mapping[str, Any]) -> list[Verdict]:
     ]
     out.append(_above_frozen(beam.get("instantaneous_damping")))
     out.append(_envelope(beam.get("envelope")))
-    t = _finite((summary.get("timings_s") or {}).get("rom"))
+    t = _finite(_map(summary.get("timings_s")).get("rom"))
     reused = bool(rom.get("reused"))
     out.append(Verdict("time of the ROM stage (2 cores)", f"≤ {ROM_STAGE_SECONDS:g} s",
                        "n/a (reused from the cache)" if reused or t is None else f"{t:.0f} s",
@@ -219,9 +237,12 @@ def _above_frozen(inst: object) -> Verdict:
     goal = f"at most {_pct(FROZEN_MARGIN)} below, in every band"
     if not isinstance(inst, Mapping) or "rom" not in inst or "frozen" not in inst:
         return Verdict(what, goal, "n/a", None, "7")
-    rom, frozen = inst["rom"], inst["frozen"]
-    rel = {b: rom[b] / frozen[b] - 1 for b in rom if b.endswith(" g") and b in frozen
-           and _finite(rom[b]) is not None and _finite(frozen[b])}
+    rom, frozen = _map(inst["rom"]), _map(inst["frozen"])
+    rel: dict[str, float] = {}
+    for b, v in rom.items():
+        z, z0 = _finite(v), _finite(frozen.get(b))
+        if str(b).endswith(" g") and z is not None and z0:
+            rel[str(b)] = z / z0 - 1
     if not rel:
         return Verdict(what, goal, "n/a", None, "7")
     worst = min(rel, key=lambda b: rel[b])
@@ -232,9 +253,10 @@ def _above_frozen(inst: object) -> Verdict:
 def _envelope(rows: object) -> Verdict:
     what = "the beam's runs inside the ROM's training envelope (peak tank acceleration)"
     goal = f"≤ {ENVELOPE_RATIO:g} × the training record's"
-    ratios = [(r.get("run", ""), _finite(r.get("acceleration_ratio")))
-              for r in rows if r.get("case") == "rom"] if isinstance(rows, list) else []
-    ratios = [(k, v) for k, v in ratios if v is not None]
+    rom = [_map(r) for r in rows if _map(r).get("case") == "rom"] if isinstance(rows, list) \
+        else []
+    ratios = [(str(r.get("run", "")), v) for r in rom
+              if (v := _finite(r.get("acceleration_ratio"))) is not None]
     if not ratios:
         return Verdict(what, goal, "n/a", None, "8")
     run, worst = max(ratios, key=lambda kv: kv[1])

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
+from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike
 
@@ -33,11 +34,13 @@ RANDOM_FIGURES = ("fig18_tank_acceleration", "fig22_tank_acceleration_window", "
 
 
 
-def _psd_axes(ax: Any, title: str, f_max: float = 40.0) -> None:
+def _psd_axes(ax: Axes, title: str, f_max: float = 40.0) -> None:
     """A tank-acceleration PSD panel: 0-``f_max`` Hz, the y range from the lowest curve's
     floor inside it to above the peak (no curve clipped), labelled."""
-    lines = ax.get_lines()
-    inside = [ln.get_ydata()[(ln.get_xdata() > 0) & (ln.get_xdata() <= f_max)] for ln in lines]
+    inside = []
+    for ln in ax.get_lines():
+        x, y = np.asarray(ln.get_xdata(), float), np.asarray(ln.get_ydata(), float)
+        inside.append(y[(x > 0) & (x <= f_max)])
     top = max(float(np.max(y)) for y in inside if y.size)
     floor = min(float(np.min(y[y > 0])) for y in inside if np.any(y > 0))
     ax.set_ylim(max(floor / 2, top * 1e-9), top * 3)
@@ -45,6 +48,7 @@ def _psd_axes(ax: Any, title: str, f_max: float = 40.0) -> None:
     ax.set_title(title)
     ax.set_xlabel("frequency [Hz]")
     ax.set_ylabel("PSD tank acc. [g²/Hz]")
+
 
 def free_figures(res: Mapping[str, Mapping[str, Any]], modal: ModalModel | None,
                  decays: Mapping[str, Mode1Decay],
