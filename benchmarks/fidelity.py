@@ -53,6 +53,7 @@ from pathlib import Path
 from typing import Any
 
 from sloshrom.pipeline import run
+from sloshrom.pipeline import targets as T
 from sloshrom.pipeline.settings import load
 
 HERE = Path(__file__).resolve().parent
@@ -107,17 +108,20 @@ def waveform(st: dict[str, Any], levels: list[float]) -> None:
         q, q_ref = ro.get("peak_quantiles") or [], ro.get("peak_quantiles_reference") or []
         marks = {"rms": "", "hf": "", "fit": "", "rate": "", "q99": ""}
         if kind in ("random", "free"):
-            marks["rms"] = (f" [{_mark(abs(rms - 1) <= 0.10) if rms is not None else 'n/a '} "
+            rms_ok = rms is not None and abs(rms - 1) <= T.RMS_WITHIN
+            marks["rms"] = (f" [{_mark(rms_ok) if rms is not None else 'n/a '} "
                             "within 10 %]")
         if kind == "random":
-            marks["hf"] = (f" [{_mark(0.5 <= hf <= 2.0) if hf is not None else 'n/a '} "
+            hf_ok = hf is not None and 1 / T.HF_FACTOR <= hf <= T.HF_FACTOR
+            marks["hf"] = (f" [{_mark(hf_ok) if hf is not None else 'n/a '} "
                            "within x 2]")
-            ok = rate is not None and ref_rate and abs(rate / ref_rate - 1) <= 0.25
+            ok = rate is not None and ref_rate and abs(rate / ref_rate - 1) <= T.IMPACTS_WITHIN
             marks["rate"] = f" [{_mark(bool(ok))} within 25 %]"
-            ok = len(q) == 3 and len(q_ref) == 3 and q_ref[2] and abs(q[2] / q_ref[2] - 1) <= 0.15
+            ok = (len(q) == 3 and len(q_ref) == 3 and q_ref[2]
+                  and abs(q[2] / q_ref[2] - 1) <= T.Q99_WITHIN)
             marks["q99"] = f" [{_mark(bool(ok))} 99 % within 15 %]"
         if kind in ("validation", "free"):
-            need = 60.0 if kind == "validation" else 70.0
+            need = T.FIT_VALIDATION if kind == "validation" else T.FIT_FREE
             marks["fit"] = (f" [{_mark(fit >= need) if fit is not None else 'n/a '} "
                             f">= {need:g} %]")
         def twin(v: Any, fmt: str = "{:.3g}", unit: str = "", has: bool = bool(tw)) -> str:
@@ -177,9 +181,11 @@ def report(name: str, s: dict[str, Any], seconds: float | None) -> None:
         print(f"compared {c['name']}: fit {c['val_fit']:.2f} %, train {c['train_seconds']:.0f} s;"
               f" training time ratio {ratio:.2f}{mark}")
     f = st["maps"]["rom_fidelity"]
-    print(f"map  full-map L2 {_pct(f['full_l2'])} %  [{_mark(f['full_l2'] <= 0.06)} <= 6 %]")
+    print(f"map  full-map L2 {_pct(f['full_l2'])} %  "
+          f"[{_mark(f['full_l2'] <= T.MAP_FULL)} <= {100 * T.MAP_FULL:g} %]")
     print(f"map  dissipative L2 {_pct(f['dissipative_l2'])} %  "
-          f"[{_mark(f['dissipative_l2'] <= 0.05)} <= 5 %]")
+          f"[{_mark(f['dissipative_l2'] <= T.MAP_DISSIPATIVE)} "
+          f"<= {100 * T.MAP_DISSIPATIVE:g} %]")
     print(f"map  non-passive {f['n_nonpassive']}/{f['n_points']} = "
           f"{_pct(f['nonpassive_fraction'])} %  [{_mark(f['n_nonpassive'] == 0)} "
           f"0], min Phi_d {f['min_phi_d']:.4f} (threshold {f['passivity_threshold']:.4f})")
@@ -227,8 +233,8 @@ def report(name: str, s: dict[str, Any], seconds: float | None) -> None:
             ratio = e["acceleration_ratio"]
             print(f"  {e['run']:>12} {e['case']:>6}: peak {e['peak_tank_acceleration_g']:5.2f} g"
                   f" / training {e['training_peak_acceleration_g']:5.2f} g = {ratio:.3f} "
-                  f"[{_mark(ratio <= 1.05)} <= 1.05], outside {_pct(e['outside_fraction'])} %"
-                  " of samples")
+                  f"[{_mark(ratio <= T.ENVELOPE_RATIO)} <= {T.ENVELOPE_RATIO:g}], "
+                  f"outside {_pct(e['outside_fraction'])} % of samples")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -12,7 +12,12 @@ import dataclasses
 import numpy as np
 import pytest
 
-from helpers import TINY_REPRODUCE, make_model_files, reproduce_interrupted_then_resumed
+from helpers import (
+    TINY_REPRODUCE,
+    figure_axes,
+    make_model_files,
+    reproduce_interrupted_then_resumed,
+)
 
 #: session fixtures too costly to build once per pytest-xdist worker
 SHARED_ON_ONE_WORKER = ("tiny_reproduce",)
@@ -98,11 +103,13 @@ def tiny_reproduce(tmp_path_factory) -> dict:
 
     ``out`` (results folder), ``config`` (its TOML file), ``cfg`` (validated), ``resumed`` and
     ``rerun`` (the two summaries), ``html`` (the resumed run's report), ``resumed_log`` and
-    ``rerun_log`` (the two commands' output: CliRunner is not a terminal). Read only: copy
-    ``out`` to run more stages in it.
+    ``rerun_log`` (the two commands' output: CliRunner is not a terminal), ``figures`` (each
+    figure the runs wrote, as :func:`helpers.figure_axes` reads it). Read only: copy ``out`` to
+    run more stages in it.
     """
     import json
 
+    from matplotlib.figure import Figure
     from typer.testing import CliRunner
 
     from sloshrom.cli import app
@@ -114,11 +121,20 @@ def tiny_reproduce(tmp_path_factory) -> dict:
     cfg = settings.load(config)
     out = d / "results"
     logs: list[str] = []
-    resumed = reproduce_interrupted_then_resumed(out, cfg, ["--config", str(config), "--sweep"],
-                                                 logs)
+    figures: list[dict] = []
+    save = Figure.savefig
+
+    def recorded(fig, *args, **kwargs):  # what each written figure shows on its axes
+        figures.append(figure_axes(fig))
+        return save(fig, *args, **kwargs)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(Figure, "savefig", recorded)
+        resumed = reproduce_interrupted_then_resumed(
+            out, cfg, ["--config", str(config), "--sweep"], logs)
     html = (out / "report.html").read_text()
     res = CliRunner().invoke(app, ["reproduce", "--config", str(config), "--out", str(out)])
     assert res.exit_code == 0, res.output
     rerun = json.loads((out / "summary.json").read_text())
     return {"out": out, "config": config, "cfg": cfg, "resumed": resumed, "rerun": rerun,
-            "html": html, "resumed_log": logs[0], "rerun_log": res.output}
+            "html": html, "resumed_log": logs[0], "rerun_log": res.output, "figures": figures}

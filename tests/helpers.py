@@ -300,3 +300,23 @@ free_duration = 3.0
 random_duration = 40.0
 rms_g = [0.1, 0.3]
 """
+
+
+def figure_axes(fig) -> dict:
+    """What a matplotlib figure shows, for tests of its labels: its title (the suptitle, or its
+    first axes' title) and, for each axes that holds data (not a colour bar), its labels, its
+    position in its grid and whether its x axis is shared."""
+    axes = []
+    for ax in fig.get_axes():
+        if ax.get_label() == "<colorbar>" or not ax.has_data():
+            continue
+        spec = ax.get_subplotspec()
+        axes.append({"title": ax.get_title(), "xlabel": ax.get_xlabel(),
+                     "ylabel": ax.get_ylabel(),
+                     "last_row": spec is None or spec.is_last_row(),
+                     "first_col": spec is None or spec.is_first_col(),
+                     "sharex": len(ax.get_shared_x_axes().get_siblings(ax)) > 1,
+                     "legend_texts": [t.get_text() for t in ax.get_legend().get_texts()]
+                     if ax.get_legend() else []})
+    title = fig.get_suptitle() or next((a["title"] for a in axes if a["title"]), "")
+    return {"title": title, "axes": axes}

@@ -4,6 +4,7 @@ its shaker check, and `sloshrom rig play` of a drive file."""
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -187,6 +188,14 @@ def test_design_summary_and_console(written, prog):
     assert s["exceeds"] and all(t.startswith("train: peak") for t in s["exceeds"])
     assert "vfa extension" in console and "laboratory time" in console
     assert "exceeds the shaker's 6 g" in console
+    # the segments beyond each limit by name, and the two ways out (said once)
+    flat = " ".join(console.split())
+    over = [g["name"] for g in tr["segments"] if g["peaks"]["acceleration_g"] > 6.0]
+    assert over and f"beyond 6 g of acceleration: {', '.join(over)}" in flat, flat
+    assert 'to fit this shaker: [data] design = "shaker"' in flat
+    need = max(g["peaks"]["acceleration_g"] for g in tr["segments"])
+    larger = float(re.search(r"--max-acceleration (\S+)", flat).group(1))
+    assert need <= larger <= 1.1 * need, (need, larger)
 
 
 def test_resampling_keeps_the_band_and_the_rest():

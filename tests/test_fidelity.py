@@ -232,7 +232,9 @@ def test_reproduce_records_the_waveform_figures(tiny_reproduce):
         assert per["twin"]["rms_ratio"] == pytest.approx(1.0, abs=0.01)
     html = (tiny_reproduce["out"] / "report.html").read_text()
     assert "Waveform fidelity" in html and "rig, input × 1.001 (twin)" in html
-    # rows rig, ROM and twin for the validation record and for each level
+    # rows rig, ROM and twin for the validation record and for each level (in the paper's
+    # sections: "At a glance" names the record too)
+    html = html.split("<h2>1. Setup")[1]
     assert html.count("validation record</td>") == 3
     assert html.count("beam random, ") == 3 * len(cfg.beam.rms_g)
 

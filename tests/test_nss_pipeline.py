@@ -169,7 +169,8 @@ def test_rom_stage_with_an_nss_and_the_compared_nfir(tiny_reproduce, tmp_path):
     assert fr["offsets_m_s"] == [0.1, 0.3] and len(fr["energy_change"]) == 2
     assert all(np.isfinite(fr["energy_change"] + fr["force_change"]))
     assert f"{100 * fr['energy_change'][0]:.1f} % for 0.1 m/s" in validation.text
-    setup = sections[0].tables[0].rows
+    assert sections[0].title == "At a glance"
+    setup = sections[1].tables[0].rows
     assert ["ROM", "NSS(2 states, 4 neurons, strictly proper)", "configuration"] in setup
 
 

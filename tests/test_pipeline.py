@@ -67,7 +67,8 @@ def _check_resumed(out, s, html, cfg, map_error_max):
     assert fid["full_l2"] == pytest.approx(full, rel=1e-12)
     assert fid["n_nonpassive"] == np.sum(rom_map[both] < -0.02 * np.nanmax(rig_map))
     assert fid["min_phi_d"] == np.min(rom_map[both])
-    at = [html.index(k) for k in ("full map: relative L2 error", "dissipative region",
+    maps = html.split("<h2>5. Dissipation maps")[1]  # "At a glance" names them too
+    at = [maps.index(k) for k in ("full map: relative L2 error", "dissipative region",
                                   "passivity:")]
     assert at == sorted(at)
     b = st["beam"]
@@ -150,3 +151,84 @@ def test_reproduce_quick_interrupted_then_resumed(tmp_path):
     assert res.exit_code == 0, res.output
     s = json.loads((out / "summary.json").read_text())
     assert all(v["reused"] for v in s["stages"].values())
+
+
+# ---------------------------------------------------------------------------------------------
+# The report as a newcomer reads it
+# ---------------------------------------------------------------------------------------------
+
+def _visible(html_text: str) -> str:
+    """The page's text as a reader sees it (tags and embedded images removed)."""
+    import html
+    import re
+
+    inline = re.sub(r"</?(a|b|i|code|span)\b[^>]*>", "", re.sub(r"<img[^>]*>", "", html_text))
+    return " ".join(html.unescape(re.sub(r"<[^>]*>", " ", inline)).split())
+
+
+def test_the_report_opens_with_what_it_found(tiny_reproduce):
+    """"At a glance" comes first: the ROM in a sentence, and every target with its figure and
+    a verdict (met, missed or not measured), the missed ones named with their figures."""
+    import re
+
+    from sloshrom.pipeline.targets import verdicts
+
+    page = tiny_reproduce["html"]
+    titles = re.findall(r"<h2>(.*?)</h2>", page)
+    assert titles[0] == "At a glance" and titles[-1] == "Glossary", titles
+    glance = page.split("<h2>At a glance</h2>")[1].split("<h2>")[0]
+    assert "The <a href='#g-rom'>ROM</a> is <b>" in glance
+    vs = verdicts(tiny_reproduce["resumed"])
+    rows = re.findall(r"<tr>(.*?)</tr>", glance.split("<tbody>")[1])
+    assert len(rows) == len(vs) >= 15
+    for v, row in zip(vs, rows, strict=True):
+        cells = [_visible(c).strip() for c in re.findall(r"<td[^>]*>(.*?)</td>", row)]
+        assert cells[:4] == [v.what, v.goal, v.figure, v.word], (cells, v)
+    missed = [v for v in vs if v.met is False]
+    assert missed, "the tiny run's NFIR(6, 3) misses targets: the section must say which"
+    short = _visible(glance.split("Where it falls short:")[1])
+    for v in missed:
+        assert f"{v.what}: {v.figure} against {v.goal}" in short, v
+
+
+def test_the_report_reads_cleanly(tiny_reproduce):
+    """No literal backticks, no reason that repeats its prefix, every glossary link leads to
+    an entry, text columns aligned left and figures right."""
+    import re
+
+    page = tiny_reproduce["html"]
+    text = _visible(page)
+    assert "`" not in text, re.findall(r".{40}`.{40}", text)
+    assert not re.search(r"no interval: measured: no interval", text)
+    assert not re.search(r"(\b[\w ]+: )\1", text), re.search(r"(\b[\w ]+: )\1", text)
+    ids = set(re.findall(r"id='(g-[\w-]+)'", page))
+    links = set(re.findall(r"href='#(g-[\w-]+)'", page))
+    assert links and links <= ids, links - ids
+    assert len(links) >= 10, links  # the terms a newcomer meets are linked at first use
+    for cell in re.findall(r"<td class='num'>(.*?)</td>", page):
+        assert re.match(r"^[−+\-]?(\d|\.\d)", _visible(cell).strip()), cell
+    for cell in re.findall(r"<td>(.*?)</td>", page):
+        assert not re.match(r"^[−+\-]?\d+(\.\d+)?$", _visible(cell).strip()), cell
+
+
+def test_every_figure_labels_its_axes_with_units_in_one_style(tiny_reproduce):
+    """Each panel that holds data has a y label, each bottom panel (and each panel whose x
+    axis is its own) an x label; units in brackets as in the tables ("[g]", never "(g)"); no
+    raw text where a formula is meant (q''_1)."""
+    import re
+
+    figs = tiny_reproduce["figures"]
+    assert len(figs) >= 10, len(figs)
+    paren_unit = re.compile(r"\((g|s|Hz|N|%|m|mm|cm|m/s|m/s²|N²/Hz|g²/Hz|\(m/s²\)²/Hz)\)")
+    bad = []
+    for f in figs:
+        for ax in f["axes"]:
+            where = f"{f['title']!r} / {ax['title']!r}"
+            if not ax["ylabel"]:
+                bad.append(f"{where}: no y label")
+            if not ax["xlabel"] and (ax["last_row"] or not ax["sharex"]):
+                bad.append(f"{where}: no x label")
+            for lab in (ax["xlabel"], ax["ylabel"]):
+                if paren_unit.search(lab) or "''" in lab:
+                    bad.append(f"{where}: label {lab!r}")
+    assert not bad, "\n".join(bad)

@@ -226,3 +226,30 @@ def test_the_settings_bound_an_nss_epoch_of_the_rom_and_of_the_compared_classes(
         settings.validate(cfg)
     cfg["rom"].update(arch="nfir", compare=["lss"])  # an NSS no stage trains: not bounded
     settings.validate(cfg)
+
+
+@pytest.mark.parametrize(("units", "recipe"), [(("m/s", "N"), True), (("N", "m"), False)])
+def test_train_on_sloshing_records_takes_the_reproduce_recipe(tmp_path, units, recipe):
+    """`train --arch nss` on m/s in and N out built a model with feed-through and no Galilean
+    augmentation, not the one `reproduce` builds: on such records it takes reproduce's
+    [rom.nss] choices and says so; on other records the class's defaults, also said."""
+    from sloshrom.rom.loading import load_model
+
+    names = ("velocity", "dynamic_force") if recipe else ("force", "displacement")
+    data, val = _records(tmp_path, names, units)
+    out = tmp_path / "nss.npz"
+    res = CliRunner().invoke(app, [
+        "train", "--data", str(data), "--validation", str(val), "--input", names[0],
+        "--output", names[1], "--arch", "nss", "--n-states", "2", "--neurons", "4",
+        "--window", "5", "--horizon", "20", "--max-epochs", "0", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    m = load_model(out)
+    shipped = settings.sloshing_recipe("nss")
+    assert shipped == {"feedthrough": "no", "velocity_offset": 0.5}
+    if recipe:
+        assert (m.feedthrough, m.velocity_offset) == ("no", 0.5)
+        assert ("recipe: as `sloshrom reproduce` trains it on sloshing records (m/s in, N out): "
+                "feedthrough no, velocity_offset 0.5") in res.output
+    else:
+        assert (m.feedthrough, m.velocity_offset) == ("yes", 0.0)
+        assert "recipe: the class's defaults" in res.output

@@ -396,7 +396,9 @@ def _verdict(zm: float, lo: float, hi: float, sm: float, zp: float, sp: float,
                 "reason": "; ".join(missing)}
     no_interval = not (np.isfinite(lo) and np.isfinite(hi))
     verdict = "no interval" if no_interval else "inside" if lo <= zp <= hi else "outside"
-    reason = f"measured: {why_m or 'no interval'}" if no_interval else ""
+    # the verdict already says "no interval": the reason says why, once
+    reason = (f"measured: {why_m.removeprefix('no interval: ') or 'no spread estimate'}"
+              if no_interval else "")
     var = sum(s**2 for s in (sm, sp) if np.isfinite(s))
     if var == 0:  # neither estimate states its uncertainty
         return {"verdict": verdict, "z": float("nan"), "consistent": "n/a",

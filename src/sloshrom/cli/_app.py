@@ -76,10 +76,29 @@ def help_paragraphs(text: str | None) -> str | None:
     return "\n\n".join(out)
 
 
+#: ``x`` (reStructuredText in the docstrings) printed as `x`; a table name such as [data]
+#: escaped from rich's markup, which would print nothing for it (an escaped one left alone).
+_RST_LITERAL = re.compile(r"``(.+?)``")
+_TABLE_NAME = re.compile(r"(?<!\\)\[(?=[A-Za-z_][\w.]*\])")
+
+
+def help_markup(text: str | None) -> str | None:
+    """A help text as typer's rich help should get it: reStructuredText literals as `x`, and
+    every ``[table]`` escaped so that rich's markup prints it (idempotent)."""
+    if not text:
+        return text
+    return _TABLE_NAME.sub(r"\\[", _RST_LITERAL.sub(r"`\1`", text))
+
+
 def _paragraph_help(group: Any) -> None:
-    """:func:`help_paragraphs` on the help of every command and group under ``group``."""
+    """:func:`help_paragraphs` and :func:`help_markup` on the help of every command, group and
+    parameter under ``group``."""
     for cmd in getattr(group, "commands", {}).values():
-        cmd.help = help_paragraphs(cmd.help)
+        cmd.help = help_markup(help_paragraphs(cmd.help))
+        cmd.short_help = help_markup(cmd.short_help)
+        for p in getattr(cmd, "params", []):
+            if getattr(p, "help", None):
+                p.help = help_markup(p.help)
         _paragraph_help(cmd)
 
 
@@ -95,7 +114,7 @@ class _OneLineErrors(TyperGroup):
     def main(self, args: Any = None, prog_name: str | None = None,
              complete_var: str | None = None, standalone_mode: bool = True,
              **extra: Any) -> Any:
-        self.help = help_paragraphs(self.help)
+        self.help = help_markup(help_paragraphs(self.help))
         _paragraph_help(self)
         _ignore_file_size_signal()
         if not standalone_mode:

@@ -875,7 +875,7 @@ def example(
     Example: ``sloshrom analyse example lab && sloshrom analyse campaign lab --channels
     lab/channels.toml --out results``
     """
-    from sloshrom.beam.lab.virtual import write_lab_campaign
+    from sloshrom.beam.lab.virtual import station_units, write_lab_campaign
 
     check_number(duration, "--duration", 34.0, 3600.0, unit="s",
                  why=f"one {WELCH_SEGMENT}-sample Welch segment at 500 Hz and at most an hour")
@@ -888,5 +888,15 @@ def example(
     with OutputBatch(owner=owner) as batch:
         cmap = write_lab_campaign(directory, duration=duration, unit_labels=not empty_units,
                                   seed=seed, batch=batch)
+        if empty_units:  # the map carries the units the files leave out, as a laboratory's
+            cmap = cmap.with_units({"base": "g", **dict(zip(
+                cmap.stations, station_units(len(cmap.stations)), strict=True))})
         cmap.write_toml(directory / "channels.toml", batch)
     typer.echo(f"wrote {', '.join(names)} to {directory}")
+    # what to run next, and what the files leave to the user
+    units = ("the accelerometers' units are in the UFF files' labels" if not empty_units else
+             "the UFF unit labels are empty: channels.toml's [units] table gives them ("
+             + ", ".join(f"{k} {v}" for k, v in cmap.units.items())
+             + "; --unit NAME=UNIT would win over it)")
+    typer.echo(f"{units}; next: sloshrom analyse campaign {directory} --channels "
+               f"{directory / 'channels.toml'} --out {directory / 'results'}")

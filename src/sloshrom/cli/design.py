@@ -13,6 +13,7 @@ import dataclasses
 import json
 import shlex
 import sys
+from collections.abc import Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Literal
@@ -239,6 +240,9 @@ def design_cmd(
                   f"[bold red]{len(exceeded)} limit(s) exceeded[/]"))
     console.print(f"total {total:.0f} s of shaking ({_hms(total)}); laboratory time "
                   f"{_hms(lab)} ({n_seg} runs with {setup:g} s set-up each)")
+    segments = [(sg["name"], sg["peaks"]) for s in splits for sg in summaries[s]["segments"]]
+    for line in _beyond_the_shaker(segments, max_acceleration, max_velocity, max_stroke):
+        console.print(line, markup=False, highlight=False)
     if strict and exceeded:
         typer.secho("error: the programme exceeds the shaker's limits (--strict): nothing "
                     "written", fg=typer.colors.RED, err=True)
@@ -282,3 +286,35 @@ def design_cmd(
     except (SloshromError, OSError) as exc:
         fail(f"--out {out}: {exc}")
     console.print(f"wrote {', '.join(str(out / n) for n in names)}")
+
+
+def _beyond_the_shaker(segments: Sequence[tuple[str, Peaks]],
+                       max_acceleration: float, max_velocity: float,
+                       max_stroke: float) -> list[str]:
+    """The segments (name, peaks) beyond each shaker limit, by name, and the two ways out: a
+    programme the shaker can play, or the options of a larger shaker; [] when it fits."""
+    limits = (("acceleration_g", max_acceleration, "acceleration", "g", "--max-acceleration"),
+              ("velocity_m_s", max_velocity, "velocity", "m/s", "--max-velocity"),
+              ("stroke_mm", max_stroke, "stroke", "mm", "--max-stroke"))
+    values = [(name, {"acceleration_g": p["acceleration_g"], "velocity_m_s": p["velocity_m_s"],
+                      "stroke_mm": p["stroke_mm"]}) for name, p in segments]
+    lines, need = [], []
+    for key, lim, word, unit, option in limits:
+        over = dict.fromkeys(name for name, peaks in values if peaks[key] > lim * (1 + 1e-9))
+        if over:
+            top = max(peaks[key] for _, peaks in values)
+            lines.append(f"beyond {lim:g} {unit} of {word}: {', '.join(over)}")
+            need.append(f"{option} {_ceil(top)}")
+    if lines:
+        lines.append("to fit this shaker: [data] design = \"shaker\" in a --config file (the "
+                     "paper's VFA alone, within the shaker; no extension, random or decay "
+                     "segments); for a larger shaker: " + " ".join(need))
+    return lines
+
+
+def _ceil(x: float) -> str:
+    """``x`` rounded up to 2 significant figures (a limit that holds the peak)."""
+    import math
+
+    e = math.floor(math.log10(abs(x))) - 1 if x else 0
+    return f"{math.ceil(x / 10**e) * 10**e:g}"

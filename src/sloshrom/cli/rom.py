@@ -35,6 +35,7 @@ from sloshrom.limits import (
     MIN_SCORED,
     MU_MAX,
 )
+from sloshrom.pipeline.settings import sloshing_recipe
 from sloshrom.rom.epochs import TrainingProgress
 from sloshrom.rom.errors import HistoryError, ModelSizeWarning
 from sloshrom.rom.registry import (
@@ -317,7 +318,11 @@ def _train(**kw: Any) -> None:
     choice = mc.passive_recipe(*units, same=same_unit)
     set_by = [k for k in mc.loss_terms if k in given]
     values = dict(given)
-    recipe = bool(mc.loss_terms) and mc.recipe_needs({**mc.defaults(), **given}) is None
+    # on sloshing records (m/s in, N out) the class's other choices of `reproduce` too
+    tuned = sloshing_recipe(mc.name)
+    taken = {k: v for k, v in tuned.items() if k not in given} if choice.passive else {}
+    values.update(taken)
+    recipe = bool(mc.loss_terms) and mc.recipe_needs({**mc.defaults(), **values}) is None
     if recipe:
         for k in mc.loss_terms:
             values.setdefault(k, choice.terms.get(k, 0.0))
@@ -342,6 +347,13 @@ def _train(**kw: Any) -> None:
     for w in caught:  # a size too big for the record: said before the training
         if issubclass(w.category, ModelSizeWarning):
             typer.echo(f"warning: {w.message}")
+    if taken:
+        typer.echo("recipe: as `sloshrom reproduce` trains it on sloshing records (m/s in, N "
+                   "out): " + ", ".join(f"{k} {v}" for k, v in taken.items())
+                   + f" (its [rom.{mc.name}] table; an option given wins)")
+    elif tuned and not choice.passive:
+        typer.echo(f"recipe: the class's defaults (`sloshrom reproduce`'s [rom.{mc.name}] "
+                   "choices are for m/s in and N out)")
     if recipe:
         typer.echo(str(choice) if not set_by else
                    f"loss: {', '.join(f'{k} {hyper[k]:g}' for k in mc.loss_terms)}: "

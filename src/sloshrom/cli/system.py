@@ -39,9 +39,13 @@ def _options() -> list[inspect.Parameter]:
     out = []
     for name, pairs in by_name.items():
         o0 = pairs[0][1]
-        defaults = ", ".join(f"{s.name} {o.default:g}" for s, o in pairs)
         kind = int if all(isinstance(o.default, int) for _, o in pairs) else float
-        text = f"{o0.help[:1].upper()}{o0.help[1:]} (default: {defaults})."
+        if len({o.help for _, o in pairs}) == 1:
+            defaults = ", ".join(f"{s.name} {o.default:g}" for s, o in pairs)
+            text = f"{o0.help[:1].upper()}{o0.help[1:]} (default: {defaults})."
+        else:  # one meaning (and unit) per system: each said
+            text = "; ".join(f"{s.name}: {o.help} (default {o.default:g})"
+                             for s, o in pairs) + "."
         out.append(inspect.Parameter(
             name, inspect.Parameter.KEYWORD_ONLY, default=None,
             annotation=Annotated[kind | None, typer.Option("--" + name.replace("_", "-"),
@@ -57,8 +61,9 @@ def _system(**kw: object) -> None:
     """Write the records of a benchmark system: training, validation and test records of its
     input and output, ready for `sloshrom train` and `sloshrom predict`.
 
-    bouc-wen: the Bouc–Wen hysteretic benchmark of Noël & Schoukens (2016), a force (N) on a
-    hysteretic oscillator in and its displacement (m) out, at 750 Hz, simulated at 15 kHz.
+    bouc-wen: the Bouc–Wen hysteretic benchmark of Noël & Schoukens (2016), a hysteretic
+    oscillator: the force on it (N) in, its displacement (m) out, at 750 Hz, simulated at 15
+    kHz.
     train.nc holds 5 periods of a random-phase multisine (40 960 samples, 50 N RMS, 5-150 Hz)
     from rest with the benchmark's output noise (8e-3 mm RMS); validation.nc 2 periods of
     another; test.nc one period of a third, from rest, noiseless; test_steady.nc the same

@@ -76,4 +76,4 @@ def experiment_tables(exp: Any, kind: str) -> list[Table]:
                   "lab's UFF 58 files (station and base accelerometers with sensor noise) and "
                   "analysed as a measurement, its estimates with their 95 % intervals; beside "
                   "them each prediction and whether it lies inside that interval "
-                  "(`sloshrom compare`).")]
+                  "(the command sloshrom compare does the same with real files).")]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import base64
 import html
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,6 +19,10 @@ class Figure:
     path: Path
     caption: str
     data: bytes | None = None
+
+
+class Markup(str):
+    """A table cell written by the pipeline as HTML (not escaped): a verdict in bold, say."""
 
 
 @dataclass
@@ -44,22 +49,36 @@ h1{border-bottom:2px solid #345}h2{margin-top:2em;border-bottom:1px solid #ccc}
 figure{margin:1.2em 0}figure img{max-width:100%;border:1px solid #ddd}
 figcaption{font-size:.92em;color:#444}
 table{border-collapse:collapse;margin:1em 0;font-size:.92em}
-td,th{border:1px solid #bbb;padding:.25em .6em;text-align:right}th{background:#eef}
+td,th{border:1px solid #bbb;padding:.25em .6em;text-align:left;vertical-align:top}
+th{background:#eef}td.num{text-align:right}.miss{color:#b00020}
 .note{background:#fff8e0;border-left:4px solid #e0b000;padding:.5em 1em}
 code{background:#f3f3f3;padding:0 .2em}
 """
 
 
 def _fmt(v: object) -> str:
+    if isinstance(v, Markup):
+        return str(v)
     if isinstance(v, float):
         return f"{v:.4g}"
     return html.escape(str(v))
 
 
+#: A cell that reads as a number (a figure, with its unit or interval after it): aligned right.
+_NUMBER = re.compile(r"^[−+\-]?(\d|\.\d)")
+
+
+def _cell(v: object) -> str:
+    num = isinstance(v, int | float) and not isinstance(v, bool) or (
+        isinstance(v, str) and not isinstance(v, Markup) and _NUMBER.match(v) is not None)
+    return f"<td class='num'>{_fmt(v)}</td>" if num else f"<td>{_fmt(v)}</td>"
+
+
 def render_table(t: Table) -> str:
-    """The HTML ``<table>`` of ``t`` (cells escaped)."""
+    """The HTML ``<table>`` of ``t`` (cells escaped, but :class:`Markup`; numbers aligned
+    right, text left)."""
     head = "".join(f"<th>{html.escape(str(h))}</th>" for h in t.header)
-    body = "".join("<tr>" + "".join(f"<td>{_fmt(c)}</td>" for c in r) + "</tr>" for r in t.rows)
+    body = "".join("<tr>" + "".join(_cell(c) for c in r) + "</tr>" for r in t.rows)
     cap = f"<caption>{html.escape(t.caption)}</caption>" if t.caption else ""
     return f"<table>{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
 

@@ -103,14 +103,15 @@ def fidelity_lines(fid: dict[str, Any], against: str = "the reference") -> list[
 
 
 def write_map(da: xr.DataArray, path: Path, title: str, kind: str = "map",
-              negative_below: float | None = None) -> list[Path]:
+              negative_below: float | None = None, top: float | None = None) -> list[Path]:
     """NetCDF + PNG beside it, both or neither (one :class:`~sloshrom.fileio.OutputBatch`).
 
-    ``kind`` and ``negative_below`` go to :func:`sloshrom.plotting.maps.phi_d_map_figure`:
-    ``"map"`` (Phi_d, non-passive values below ``negative_below`` marked) or ``"difference"``
-    (diverging colours centred on zero).
+    ``kind``, ``negative_below`` and ``top`` go to
+    :func:`sloshrom.plotting.maps.phi_d_map_figure`: ``"map"`` (Phi_d, non-passive values
+    below ``negative_below`` marked, colours up to ``top``) or ``"difference"`` (diverging
+    colours centred on zero).
     """
-    fig = phi_d_map_figure(da, title, kind=kind, negative_below=negative_below)
+    fig = phi_d_map_figure(da, title, kind=kind, negative_below=negative_below, top=top)
     with OutputBatch() as batch:
         batch.write(path, netcdf_writer(da.to_dataset()))
         png = savefig(fig, path.with_suffix(".png"), batch)
@@ -192,7 +193,9 @@ def stage_maps(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
         # the ROM figure marks exactly the points counted as non-passive
         files += [ctx.rel(p) for p in write_map(
             rom_map, ctx.path("maps", "phi_d_rom.nc"), "ROM (paper Fig. 11)",
-            negative_below=fid["passivity_threshold"])]
+            negative_below=fid["passivity_threshold"],
+            # on the rig's colour scale (Fig. 4's): one colour, one Phi_d in both figures
+            top=float(rig_map.max()))]
         diff = (rom_map - rig_map).rename("phi_d")
         diff.attrs = {"units": "1", "long_name": "Phi_d(ROM) - Phi_d(rig)"}
         files += [ctx.rel(p) for p in write_map(diff, ctx.path("maps", "phi_d_difference.nc"),

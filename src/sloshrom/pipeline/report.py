@@ -20,6 +20,7 @@ from sloshrom.pipeline import settings
 from sloshrom.pipeline import study as registry
 from sloshrom.pipeline.context import Context
 from sloshrom.pipeline.experiment import cell_text, experiment_tables, percent
+from sloshrom.pipeline.glance import glance_section, glossary_section, link_terms
 from sloshrom.pipeline.html import Figure, Section, Table
 from sloshrom.pipeline.maps import HYSTERESIS_FREQUENCY, HYSTERESIS_GAMMA
 from sloshrom.rom.ensemble import spread_text
@@ -92,6 +93,11 @@ def _num(d: dict[str, Any], *keys: str, fmt: str = "{:.3g}", default: str = "n/a
         return html.escape(str(cur))
 
 
+def _mm(metres: object) -> str:
+    """A displacement in m as mm, the one unit of displacements on the page ("n/a" if none)."""
+    return f"{1e3 * metres:.3g}" if isinstance(metres, int | float) else "n/a"
+
+
 def _setup_section(cfg: settings.ReproduceConfig) -> Section:
     defaults = settings.load()
 
@@ -117,8 +123,8 @@ def _setup_section(cfg: settings.ReproduceConfig) -> Section:
          source("tank", "structure_mass", paper="")],
         ["record rate (rig sensors and beam accelerometers)", f"{cfg.rig.fs:g} Hz",
          source("rig", "fs", paper="")],
-        ["VFA train / validation", f"{cfg.data.train_duration:.0f} / "
-         f"{cfg.data.validation_duration:.0f} s",
+        ["VFA train / validation (the records' first segment; section 2 lists the rest)",
+         f"{cfg.data.train_duration:.0f} / {cfg.data.validation_duration:.0f} s",
          source("data", "train_duration", "validation_duration")],
         ["ROM", cfg.rom.name(),
          "configuration" if (cfg.rom.arch, cfg.rom.hyper()) != (paper_rom.arch,
@@ -148,6 +154,29 @@ def _setup_section(cfg: settings.ReproduceConfig) -> Section:
                    tables=[Table(["quantity", "value", "source"], rows)])
 
 
+def _programme_text(d: dict[str, object]) -> str:
+    """What each record holds, segment kind by kind (the VFA durations of the set-up table
+    are the first segment's): ``", each ..."``, or "" for a record without a programme."""
+    prog = (d.get("design") or {}).get("programme") or {}
+    parts = []
+    for rec in ("train", "validation"):
+        segs = (prog.get(rec) or {}).get("segments") or []
+        if not segs:
+            continue
+        groups: dict[str, list[float]] = {}
+        for sg in segs:
+            name = str(sg.get("name", ""))
+            kind = "VFA extension" if name == "vfa extension" else {
+                "vfa": "VFA", "random": "random", "decay": "decay"}.get(str(sg.get("kind")),
+                                                                     name)
+            groups.setdefault(kind, []).append(float(sg.get("duration_s", 0.0)))
+        words = [f"{kind} {ds[0]:.0f} s" if len(ds) == 1 else
+                 f"{len(ds)} {kind} segments of {ds[0]:.3g} s"
+                 for kind, ds in groups.items()]
+        parts.append(f"{rec} = " + " + ".join(words))
+    return " (" + "; ".join(parts) + ")" if parts else ""
+
+
 def _compare_text(compared: dict[str, Any] | None) -> str:
     """The classes identified beside the ROM (``stages.rom.compare``, by class), as a
     paragraph; "" without."""
@@ -169,12 +198,13 @@ def _compare_text(compared: dict[str, Any] | None) -> str:
 def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
     """The report's sections, from the run's stage summaries."""
     st = summary["stages"]
-    secs = [_setup_section(ctx.cfg)]
+    secs = [glance_section(summary, _rom_sentence(st["rom"])), _setup_section(ctx.cfg)]
     d = st.get("data", {})
     secs.append(Section(
         "2. Identification data (paper Figs. 5–7)",
-        f"<p>VFA tests on the virtual rig: train {_num(d, 'train', 'duration_s')} s, validation "
-        f"{_num(d, 'validation', 'duration_s')} s at {_num(d, 'train', 'fs_hz')} Hz; peak tank "
+        f"<p>Records of the virtual rig: train {_num(d, 'train', 'duration_s', fmt='{:.0f}')} "
+        f"s, validation {_num(d, 'validation', 'duration_s', fmt='{:.0f}')} s at "
+        f"{_num(d, 'train', 'fs_hz')} Hz{_programme_text(d)}; peak tank "
         f"acceleration {_num(d, 'train', 'max_acceleration_g')} g, peak tank velocity "
         f"{_num(d, 'train', 'max_velocity_m_s')} m/s (train), peak dynamic force "
         f"{_num(d, 'train', 'max_dynamic_force_n')} N. Input = tank velocity integrated from the "
@@ -237,15 +267,16 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
     secs.append(Section(
         "5. Dissipation maps (paper Figs. 3, 4, 11)", text,
         _fig(ctx, "fig03_hysteresis.png", "Fig. 3 — normalised sloshing force and hysteresis "
-             f"loop at {HYSTERESIS_GAMMA:g} g, {HYSTERESIS_FREQUENCY:g} Hz; the enclosed area is "
-             "the dissipated energy per cycle.")
+             f"loop at {HYSTERESIS_GAMMA:g} g, {HYSTERESIS_FREQUENCY:g} Hz (<a href='#g-w'>w</a>: "
+             "the tank's displacement, a its amplitude); the enclosed area is the dissipated "
+             "energy per cycle.")
         + _fig(ctx, "maps/phi_d_rig.png", "Fig. 4 — Φ_d(ω̄, ā) of the virtual rig.")
-        + _fig(ctx, "maps/phi_d_rom.png", "Fig. 11 — Φ_d(ω̄, ā) predicted by the ROM; orange "
-               "(outlined) where it is below the passivity threshold, i.e. where the ROM gives "
-               "energy back to the tank.")
+        + _fig(ctx, "maps/phi_d_rom.png", "Fig. 11 — Φ_d(ω̄, ā) predicted by the ROM, on the "
+               "colour scale of Fig. 4; orange (outlined) where it is below the passivity "
+               "threshold, i.e. where the ROM gives energy back to the tank.")
         + _fig(ctx, "maps/phi_d_difference.png", "ROM minus rig, on colours centred on zero: "
                "red where the ROM over-predicts dissipation, blue where it under-predicts, "
-               "white where they agree."),
+               "white where they agree to within one colour band."),
     ))
     secs.extend(_beam_sections(ctx, st["beam"], r))
     # the studies that ran, in the registry's order, after the beam's sections
@@ -258,7 +289,21 @@ def build_sections(ctx: Context, summary: dict[str, Any]) -> list[Section]:
            + ", ".join(k for k, v in st.items() if v.get("reused")) + ")"
            if any(v.get("reused") for v in st.values()) else "") + "</p>",
     ))
-    return secs
+    secs.append(glossary_section())
+    return link_terms(secs)
+
+
+def _rom_sentence(r: dict[str, object]) -> str:
+    """What the ROM is, in one sentence (HTML): its name, its class in words, its ensemble and
+    its training time."""
+    mc = CLASSES.get(str(r.get("arch", "")))
+    what = f" ({html.escape(mc.summary)})" if mc is not None else ""
+    n = r.get("n_members", 1)
+    ens = (f", an ensemble of {n} networks that differ by their seed (the ROM's force is "
+           "their mean)") if isinstance(n, int) and n > 1 else ""
+    return (f"The ROM is <b>{html.escape(str(r.get('name', 'ROM')))}</b>{what}{ens}, "
+            f"trained on the virtual rig's VFA records in {_num(r, 'train_seconds', fmt='{:.0f}')}"
+            " s.")
 
 
 def _fidelity_text(m: dict[str, Any]) -> str:
@@ -318,7 +363,7 @@ def _design_text(d: dict[str, Any]) -> str:
                 + ", ".join(f"{html.escape(str(k))} = {v:g}" for k, v in rig.items())
                 + " (configuration overrides)")
     env = (f"Γ ≤ {_num(des, 'gamma_max_g')} g, velocity ≤ {_num(des, 'max_velocity_m_s')} m/s, "
-           f"displacement ≤ {_num(des, 'max_displacement_m', fmt='{:.3g}')} m "
+           f"displacement ≤ {_mm(des.get('max_displacement_m'))} mm "
            f"(ā ≤ {_num(des, 'a_bar_max')})")
     if des.get("rule") != "structure":
         return (f"<p>Training designed for the paper's shaker: {env}; {rig_text}.</p>")
@@ -328,7 +373,7 @@ def _design_text(d: dict[str, Any]) -> str:
         f"first with frozen liquid (linear, the least-damped case: sloshing only adds damping, "
         f"so the rig and ROM runs stay below it). Their tank motion peaks at "
         f"{_num(fz, 'peak_acceleration_g')} g, {_num(fz, 'peak_velocity_m_s')} m/s "
-        f"(displacement {_num(fz, 'peak_displacement_m', fmt='{:.3g}')} m, "
+        f"(displacement {_mm(fz.get('peak_displacement_m'))} mm, "
         f"{_num(fz, 'frequency_hz')} Hz); the VFA covers {_num(des, 'margin')} × that: {env}. "
         f"The training record reaches {_num(d, 'train', 'covers_acceleration')} × the frozen "
         f"peak acceleration and {_num(d, 'train', 'covers_velocity')} × its velocity; "
@@ -508,19 +553,21 @@ def _beam_sections(ctx: Context, b: dict[str, Any],
             t_inst.rows.append([f"{band}, ROM members (mean ± std)"]
                                + [pm if c == "rom" else "" for c in cases])
     free_text = (
-        f"<p>Free response from a {ctx.cfg.beam.tip_displacement * 100:.2f} cm static tip "
+        f"<p>Free response from a {ctx.cfg.beam.tip_displacement * 1e3:.1f} mm static tip "
         f"deflection (initial tank acceleration "
         f"{inst.get('frozen', {}).get('initial_tank_acceleration_g', float('nan')):.1f} g). "
         "The rig plays the experiment; the ROM runs in the same coupled model; the frozen case "
         "has Δf = 0. First-mode frequency with frozen liquid: "
-        f"{b['f1_frozen_hz']:.2f} Hz.</p>"
+        f"{b['f1_frozen_hz']:.2f} Hz. The tables' <a href='#g-experiment'>experiment</a> "
+        "column is the rig replayed through a laboratory's files, with sensor noise, and "
+        "analysed as measured data.</p>"
     )
     return [
         Section("6. Sloshing beam: modes (paper Table 1)", "", tables=[t1]),
         Section(
             "7. Free response (paper Figs. 14, 16, 20, 21)", free_text,
-            fig("fig14_station_accelerations", "Fig. 14 — virtual accelerometers along the beam,"
-                " frozen vs sloshing.")
+            fig("fig14_station_accelerations", "Fig. 14 — virtual accelerometers along the beam, "
+                "one panel per station, frozen and sloshing overlaid.")
             + fig("fig16_modal_accelerations", "Fig. 16 — modal accelerations from modal "
                   "filtering: sloshing damps mode 1 most.")
             + fig("fig20_tank_interface_dynamic", "Fig. 20 — tank acceleration, interface force"

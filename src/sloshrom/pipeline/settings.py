@@ -91,6 +91,7 @@ __all__ = [
     "defaults",
     "load",
     "merge",
+    "sloshing_recipe",
     "sweep_key",
     "validate",
 ]
@@ -213,6 +214,15 @@ def default_text() -> str:
                 if name not in given:
                     out += [f"[rom.{name}]", *filled(name), ""]
     return "\n".join(out) + "\n"
+
+
+def sloshing_recipe(name: str) -> dict[str, object]:
+    """What `reproduce` chooses for the class ``name`` beyond its defaults: the keys its
+    shipped ``[rom.<name>]`` table sets (an NSS's ``feedthrough = "no"`` and
+    ``velocity_offset = 0.5``, say). `train` takes them for records of a velocity in m/s and a
+    force in N, the sloshing records they were chosen for; ``{}`` for a class the table does
+    not tune."""
+    return dict(tomllib.loads(_shipped_text())["rom"].get(name, {}))
 
 
 def defaults() -> dict[str, Any]:

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
+from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike
 
@@ -30,6 +31,23 @@ __all__ = ["COMPARE_FIGURES", "FREE_FIGURES", "RANDOM_FIGURES", "comparison_figu
 FREE_FIGURES = ("fig14_station_accelerations", "fig16_modal_accelerations",
                 "fig20_tank_interface_dynamic", "fig21_instantaneous_damping")
 RANDOM_FIGURES = ("fig18_tank_acceleration", "fig22_tank_acceleration_window", "fig23_psd")
+
+
+
+def _psd_axes(ax: Axes, title: str, f_max: float = 40.0) -> None:
+    """A tank-acceleration PSD panel: 0-``f_max`` Hz, the y range from the lowest curve's
+    floor inside it to above the peak (no curve clipped), labelled."""
+    inside = []
+    for ln in ax.get_lines():
+        x, y = np.asarray(ln.get_xdata(), float), np.asarray(ln.get_ydata(), float)
+        inside.append(y[(x > 0) & (x <= f_max)])
+    top = max(float(np.max(y)) for y in inside if y.size)
+    floor = min(float(np.min(y[y > 0])) for y in inside if np.any(y > 0))
+    ax.set_ylim(max(floor / 2, top * 1e-9), top * 3)
+    ax.set_xlim(0, f_max)
+    ax.set_title(title)
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel("PSD tank acc. [g²/Hz]")
 
 
 def free_figures(res: Mapping[str, Mapping[str, Any]], modal: ModalModel | None,
@@ -57,54 +75,62 @@ def free_figures(res: Mapping[str, Mapping[str, Any]], modal: ModalModel | None,
     """
     figs = {}
     cases = list(res)
-    fig = Figure(figsize=(8, 2.6 * len(cases)))
-    axes = fig.subplots(len(cases), 1, sharex=True, squeeze=False)
-    for ax, case in zip(axes[:, 0], cases, strict=True):
-        r = res[case]
-        names = (list(labels) if labels is not None else
-                 [f"x={x:.3f} m" for x in modal.stations] if modal is not None else
-                 [f"station {j + 1}" for j in range(r["station_acceleration"].shape[-1])])
-        for j, lab in enumerate(names):
-            ax.plot(r["time"], r["station_acceleration"][:, j] / G, lw=0.6, label=lab)
-        ax.set_ylabel("acceleration (g)")
-        ax.set_title(f"{case}: station accelerations")
-    axes[0, 0].legend(fontsize=7, ncol=3)
-    axes[-1, 0].set_xlabel("time (s)")
+    # one panel per station, the cases overlaid: the difference sloshing makes is then seen
+    # (a panel per case showed the same picture three times)
+    n_st = min(res[c]["station_acceleration"].shape[-1] for c in cases)
+    names = (list(labels) if labels is not None else
+             [f"x = {x:.3f} m" for x in modal.stations] if modal is not None else
+             [f"station {j + 1}" for j in range(n_st)])
+    fig = Figure(figsize=(8, 1.7 * n_st + 0.8), layout="constrained")
+    axes = fig.subplots(n_st, 1, sharex=True, squeeze=False)
+    for j in range(n_st):
+        ax = axes[j, 0]
+        for k, case in enumerate(cases):
+            r = res[case]
+            ax.plot(r["time"], r["station_acceleration"][:, j] / G, lw=1.0 if k == 0 else 0.7,
+                    alpha=0.9, ls=("-", "--", ":", "-.")[k % 4], label=case)
+        ax.set_ylabel(f"{names[j]}\n[g]")
+    axes[0, 0].legend(fontsize=7, ncol=len(cases), loc="upper right")
+    axes[-1, 0].set_xlabel("time [s]")
+    fig.suptitle("Station accelerations of the free response, the cases overlaid")
     figs["fig14_station_accelerations"] = fig
 
     if modal is not None:
         # fewer stations than modes: no modal filtering, one band-passed record per case
         n_q = min(modal.n_modes, *(decays[c].modal.shape[-1] for c in cases))
-        fig = Figure(figsize=(8, 2.2 * n_q))
+        fig = Figure(figsize=(8, 2.2 * n_q), layout="constrained")
         axes = fig.subplots(n_q, 1, sharex=True, squeeze=False)
         for n in range(n_q):
-            for case in cases:
-                axes[n, 0].plot(res[case]["time"], decays[case].modal[:, n], lw=0.6,
-                                label=case)
-            axes[n, 0].set_ylabel(f"q''_{n + 1} (m/s²)")
+            # drawn so that none hides another: the rig solid and wide, the others thinner
+            # and dashed on top
+            for k, case in enumerate(cases):
+                axes[n, 0].plot(res[case]["time"], decays[case].modal[:, n],
+                                lw=1.4 if k == 0 else 0.8, alpha=0.9,
+                                ls=("-", "--", ":", "-.")[k % 4], label=case)
+            axes[n, 0].set_ylabel(rf"$\ddot q_{{{n + 1}}}$ [m/s²]")
         axes[0, 0].legend(fontsize=8)
-        axes[-1, 0].set_xlabel("time (s)")
+        axes[-1, 0].set_xlabel("time [s]")
         fig.suptitle("Modal accelerations (modal filtering of the station accelerations)")
         figs["fig16_modal_accelerations"] = fig
 
     if all("interface_force" in res[c] for c in cases):  # a measured test has no forces
-        fig = Figure(figsize=(8, 7))
+        fig = Figure(figsize=(8, 7), layout="constrained")
         axes = fig.subplots(3, 1, sharex=True)
         for case in cases:
             r = res[case]
             axes[0].plot(r["time"], r["tank_acceleration"] / G, lw=0.6, label=case)
             axes[1].plot(r["time"], r["interface_force"], lw=0.6, label=case)
             axes[2].plot(r["time"], r["dynamic_force"], lw=0.6, label=case)
-        for ax, lab in zip(axes, ("tank acc. (g)", "interface force (N)", "dynamic force (N)"),
+        for ax, lab in zip(axes, ("tank acc. [g]", "interface force [N]", "dynamic force [N]"),
                            strict=True):
             ax.set_ylabel(lab)
         axes[0].legend(fontsize=8)
-        axes[-1].set_xlabel("time (s)")
+        axes[-1].set_xlabel("time [s]")
         figs["fig20_tank_interface_dynamic"] = fig
 
-    fig = Figure(figsize=(7, 4.5))
+    fig = Figure(figsize=(7, 4.5), layout="constrained")
     ax = fig.subplots()
-    zs, amps = [], []
+    zs, amps, floors, n_faint = [], [], [], 0
     for case in cases:
         h, ld = decays[case].hilbert, decays[case].log_decrement
         f = float(np.median(h["frequency"])) if len(h["frequency"]) else float("nan")
@@ -117,19 +143,26 @@ def free_figures(res: Mapping[str, Mapping[str, Any]], modal: ModalModel | None,
                 label=f"{case} (log decrement)")
         # below the noise floor: drawn faintly, no part of the scale
         ax.plot(al[al < least], zl[al < least], "o", ms=2, color=line.get_color(), alpha=0.25)
+        n_faint += int(np.count_nonzero(al < least))
         zs += [zh, np.where(al >= least, zl, np.nan)]
         amps += [ah, al]
         if np.isfinite(floor):
             ax.axvline(least, color=line.get_color(), lw=0.6, ls=":")
+            floors.append(least)
     lim = damping_ylim(zs, amps, None)
     if lim is not None:
         ax.set_ylim(*lim)
-    ax.set_xlabel("tank acceleration amplitude (g)")
-    ax.set_ylabel("first-mode damping ratio (%)")
+    ax.set_xlabel("tank acceleration amplitude [g]")
+    ax.set_ylabel("first-mode damping ratio [%]")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
-    ax.set_title(f"dotted: {FLOOR_FACTOR:g} x noise floor (faint points below it do not set "
-                 "the scale)", fontsize=8)
+    # the title names only what the axes show
+    lo, hi = ax.get_xlim()
+    shown = [f"dotted: {FLOOR_FACTOR:g} × the noise floor"] if any(
+        lo <= x <= hi for x in floors) else []
+    if n_faint and shown:
+        shown.append("faint points below it do not set the scale")
+    ax.set_title("; ".join(shown) or "first-mode instantaneous damping", fontsize=8)
     figs["fig21_instantaneous_damping"] = fig
     return figs
 
@@ -188,17 +221,17 @@ def random_figures(res: Mapping[str, Mapping[str, Any]], levels: Sequence[float]
     figs = {}
     cases = list(res)
     slosh = [c for c in cases if c != "frozen"] or cases
-    fig = Figure(figsize=(8, 2.3 * len(levels)))
+    fig = Figure(figsize=(8, 2.3 * len(levels)), layout="constrained")
     axes = fig.subplots(len(levels), 1, sharex=True, squeeze=False)
     r = res[slosh[0]]
     for i, lv in enumerate(levels):
         axes[i, 0].plot(r["time"], r["tank_acceleration"][i] / G, lw=0.4)
-        axes[i, 0].set_ylabel(f"{lv:g} g RMS\ntank acc. (g)")
-    axes[-1, 0].set_xlabel("time (s)")
+        axes[i, 0].set_ylabel(f"{lv:g} g RMS\ntank acc. [g]")
+    axes[-1, 0].set_xlabel("time [s]")
     fig.suptitle(f"Tank acceleration, {slosh[0]}")
     figs["fig18_tank_acceleration"] = fig
 
-    fig = Figure(figsize=(8, 2.3 * len(levels)))
+    fig = Figure(figsize=(8, 2.3 * len(levels)), layout="constrained")
     axes = fig.subplots(len(levels), 1, sharex=True, squeeze=False)
     for case in cases:
         r = res[case]
@@ -207,25 +240,21 @@ def random_figures(res: Mapping[str, Mapping[str, Any]], levels: Sequence[float]
             axes[i, 0].plot(r["time"][sel], r["tank_acceleration"][i][sel] / G, lw=0.8,
                             label=case)
     for i, lv in enumerate(levels):
-        axes[i, 0].set_ylabel(f"{lv:g} g RMS (g)")
+        axes[i, 0].set_ylabel(f"{lv:g} g RMS [g]")
     axes[0, 0].legend(fontsize=8)
-    axes[-1, 0].set_xlabel("time (s)")
+    axes[-1, 0].set_xlabel("time [s]")
     figs["fig22_tank_acceleration_window"] = fig
 
-    fig = Figure(figsize=(4 * len(levels), 3.8))
+    fig = Figure(figsize=(4 * len(levels), 3.8), layout="constrained")
     axes = fig.subplots(1, len(levels), squeeze=False)
     for case in cases:
         r = res[case]
-        f, p = welch_psd(r["tank_acceleration"], r["fs"], nperseg=8192)
+        # in g, as every time plot of the tank acceleration
+        f, p = welch_psd(r["tank_acceleration"] / G, r["fs"], nperseg=8192)
         for i in range(len(levels)):
             axes[0, i].semilogy(f, p[i], lw=0.8, label=case)
     for i, lv in enumerate(levels):
-        top = max(ln.get_ydata().max() for ln in axes[0, i].get_lines())
-        axes[0, i].set_ylim(top * 1e-6, top * 3)  # six decades around the peak
-        axes[0, i].set_xlim(0, 40)
-        axes[0, i].set_title(f"{lv:g} g RMS")
-        axes[0, i].set_xlabel("frequency (Hz)")
-    axes[0, 0].set_ylabel("PSD tank acc. ((m/s²)²/Hz)")
+        _psd_axes(axes[0, i], f"{lv:g} g RMS")
     axes[0, 0].legend(fontsize=8)
     figs["fig23_psd"] = fig
     return figs
@@ -236,7 +265,7 @@ def mode_decay_figure(case: str, frequencies: Sequence[float],
     """Fig. 21 at every mode of a free decay: each mode's instantaneous damping (Hilbert, line;
     log decrement, dots) against its own amplitude at the tank, one panel per mode."""
     n = len(decays)
-    fig = Figure(figsize=(7, 3.2 * n))
+    fig = Figure(figsize=(7, 3.2 * n), layout="constrained")
     axes = fig.subplots(n, 1, squeeze=False)[:, 0]
     for k, (ax, f, d) in enumerate(zip(axes, frequencies, decays, strict=True)):
         h, ld = d.hilbert, d.log_decrement
@@ -247,11 +276,11 @@ def mode_decay_figure(case: str, frequencies: Sequence[float],
                            [h["amplitude"], ld["amplitude"]])
         if lim is not None:  # Fig. 21's scale: scattered points in the noise do not set it
             ax.set_ylim(*lim)
-        ax.set_ylabel(f"mode {k + 1} damping (%)")
+        ax.set_ylabel(f"mode {k + 1} damping [%]")
         ax.set_title(f"{case}: mode {k + 1}, {f:.4g} Hz", fontsize=9)
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
-    axes[-1].set_xlabel("the mode's amplitude at the tank (g)")
+    axes[-1].set_xlabel("the mode's amplitude at the tank [g]")
     return fig
 
 
@@ -265,7 +294,7 @@ def mode_damping_figure(damping: xr.Dataset) -> Figure:
     """
     modes = [int(m) for m in damping.mode.values]
     estimators = [str(e) for e in damping.estimator.values]
-    fig = Figure(figsize=(7, 3.0 * len(modes)))
+    fig = Figure(figsize=(7, 3.0 * len(modes)), layout="constrained")
     axes = fig.subplots(len(modes), 1, squeeze=False)[:, 0]
     g = np.array([float(x) for x in damping.level.values])
     for k, (ax, m) in enumerate(zip(axes, modes, strict=True)):
@@ -280,11 +309,11 @@ def mode_damping_figure(damping: xr.Dataset) -> Figure:
                         label=label(est))
         ax.set_xscale("log")
         ax.set_xticks(g, [f"{x:g}" for x in g])
-        ax.set_ylabel(f"mode {m} damping (%)")
+        ax.set_ylabel(f"mode {m} damping [%]")
         ax.set_title(f"mode {m}, {float(d['mode_frequency_Hz']):.4g} Hz", fontsize=9)
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
-    axes[-1].set_xlabel("RMS base acceleration (g)")
+    axes[-1].set_xlabel("RMS base acceleration [g]")
     return fig
 
 
@@ -316,15 +345,18 @@ def comparison_figures(measured: AnalysedTest, predicted: Sequence[AnalysedTest]
     """
     tests = [measured, *predicted]
     if measured.kind == "free":
-        fig = Figure(figsize=(7.5, 4.8))
+        fig = Figure(figsize=(7.5, 4.8), layout="constrained")
         ax = fig.subplots()
         bands = {r["band"]: r for r in measured.rows if r["method"] == "hilbert"}
         for k, t in enumerate(tests):
             colour = "k" if k == 0 else f"C{k - 1}"
             assert t.decay is not None
             h = t.decay.hilbert
-            ax.plot(h["amplitude"] / G, 100 * h["zeta"], lw=1.2 if k == 0 else 0.9,
-                    color=colour, label=f"{t.case} (Hilbert)")
+            # the measurement wide and on top, dashed predictions under it: a prediction that
+            # agrees does not hide it
+            ax.plot(h["amplitude"] / G, 100 * h["zeta"], lw=2.2 if k == 0 else 1.0,
+                    ls="-" if k == 0 else "--", color=colour, alpha=0.6 if k == 0 else 1.0,
+                    zorder=3 if k == 0 else 2, label=f"{t.case} (Hilbert)")
             for r in t.rows:
                 lo_g, hi_g = (float(x) for x in r["band"].removesuffix(" g").split("-"))
                 mid = 0.5 * (lo_g + hi_g) * (1 + 0.03 * (k - len(tests) / 2))
@@ -344,8 +376,8 @@ def comparison_figures(measured: AnalysedTest, predicted: Sequence[AnalysedTest]
                            + [t.decay.log_decrement["amplitude"] for t in tests if t.decay])
         if lim is not None:
             ax.set_ylim(*lim)
-        ax.set_xlabel("tank acceleration amplitude (g)")
-        ax.set_ylabel("first-mode damping ratio (%)")
+        ax.set_xlabel("tank acceleration amplitude [g]")
+        ax.set_ylabel("first-mode damping ratio [%]")
         ax.set_title(f"{measured.case}: grey boxes = 95 % intervals per band (Hilbert); "
                      "dots = log decrement", fontsize=9)
         ax.legend(fontsize=8)
@@ -353,7 +385,7 @@ def comparison_figures(measured: AnalysedTest, predicted: Sequence[AnalysedTest]
         return {"fig21_comparison": fig}
 
     levels = measured.levels
-    fig = Figure(figsize=(4 * len(levels), 3.8))
+    fig = Figure(figsize=(4 * len(levels), 3.8), layout="constrained")
     axes = fig.subplots(1, len(levels), squeeze=False)
     for k, t in enumerate(tests):
         assert t.psd is not None
@@ -361,21 +393,16 @@ def comparison_figures(measured: AnalysedTest, predicted: Sequence[AnalysedTest]
         for i, lv in enumerate(levels):
             j = match_levels([lv], t.levels)[0]
             if j is not None:
-                axes[0, i].semilogy(f, p[j], lw=1.2 if k == 0 else 0.8,
+                axes[0, i].semilogy(f, p[j] / G**2, lw=1.2 if k == 0 else 0.8,
                                     color="k" if k == 0 else f"C{k - 1}", label=t.case)
     for i, lv in enumerate(levels):
-        top = max(ln.get_ydata().max() for ln in axes[0, i].get_lines())
-        axes[0, i].set_ylim(top * 1e-6, top * 3)
-        axes[0, i].set_xlim(0, 40)
-        axes[0, i].set_title(f"{lv:.3g} g RMS")
-        axes[0, i].set_xlabel("frequency (Hz)")
-    axes[0, 0].set_ylabel("PSD tank acc. ((m/s²)²/Hz)")
+        _psd_axes(axes[0, i], f"{lv:.3g} g RMS")
     axes[0, 0].legend(fontsize=8)
     figs = {"fig23_comparison": fig}
 
     damping = [t.damping for t in tests]  # (level, estimator) datasets
     names = list(damping[0].estimator.values)
-    fig = Figure(figsize=(4 * len(names), 3.8))
+    fig = Figure(figsize=(4 * len(names), 3.8), layout="constrained")
     axes = fig.subplots(1, len(names), squeeze=False, sharey=True)
     width = 0.6 / max(len(tests), 1)
     for col, est in enumerate(names):
@@ -397,8 +424,10 @@ def comparison_figures(measured: AnalysedTest, predicted: Sequence[AnalysedTest]
                             label=t.case if i == 0 else None)
         ax.set_xticks(range(len(levels)), [f"{lv:.3g} g" for lv in levels])
         ax.set_title(str(damping[0].label.sel(estimator=est).values))
+        ax.set_xlabel("RMS base acceleration [g]")
+        ax.set_ylabel("first-mode damping [%]")
         ax.grid(alpha=0.3)
-    axes[0, 0].set_ylabel("first-mode damping ratio (%), 95 % intervals")
+    fig.suptitle("First-mode damping with 95 % intervals")
     axes[0, 0].legend(fontsize=8)
     figs["table2_comparison"] = fig
     return figs

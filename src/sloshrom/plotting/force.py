@@ -58,8 +58,8 @@ def free_force_figure(time: np.ndarray, forces: Mapping[str, np.ndarray], fs: fl
             fg = figures[case]
             lab = f"{case} (RMS {fg['rms_ratio']:.2f} of the rig's, fit {fg['fit']:.0f} %)"
         ax.plot(time[:n], np.asarray(f)[:n], color=color, lw=lw, label=lab)
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("dynamic force (N)")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("dynamic force [N]")
     ax.set_title(f"Free decay: dynamic sloshing force, first {seconds:g} s (paper Fig. 20c)")
     ax.legend(fontsize=8, loc="lower right")
     return {"fig20c_dynamic_force_start": fig}
@@ -103,14 +103,14 @@ def random_force_figure(levels: Sequence[float], fs: float,
             fr, p = welch_psd(x, fs, nperseg=min(NPERSEG, x.size))
             keep = (fr > 0) & (fr <= F_MAX)
             axes[i, 1].semilogy(fr[keep], p[keep], color=colors.get(case), lw=0.8, label=case)
-        axes[i, 0].set_ylabel(f"{lv:g} g: force PSD (N²/Hz)")
-        axes[i, 1].set_ylabel("tank acc. PSD (g²/Hz)")
+        axes[i, 0].set_ylabel(f"{lv:g} g: force PSD [N²/Hz]")
+        axes[i, 1].set_ylabel("tank acc. PSD [g²/Hz]")
         axes[i, 2].set_ylabel("fraction of impacts ≥ peak")
         axes[i, 2].set_yscale("log")
         for ax in axes[i]:
             ax.legend(fontsize=7)
-    for ax, lab in zip(axes[-1], ("frequency (Hz)", "frequency (Hz)",
-                                  "impact peak, downward (N)"), strict=True):
+    for ax, lab in zip(axes[-1], ("frequency [Hz]", "frequency [Hz]",
+                                  "impact peak, downward [N]"), strict=True):
         ax.set_xlabel(lab)
     fig.suptitle("Random tests: the force the structure feels (ROM beside the rig and its "
                  "twin run, input × 1.001)")

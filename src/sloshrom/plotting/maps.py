@@ -29,7 +29,8 @@ MAP_KINDS = ("map", "difference")
 
 
 def plot_phi_d_map(da: xr.DataArray, ax: Axes | None = None, levels: int = 15,
-                   kind: str = "map", negative_below: float | None = None) -> Axes:
+                   kind: str = "map", negative_below: float | None = None,
+                   top: float | None = None) -> Axes:
     """Contour map of Phi_d(omega_bar, a_bar) with the Gamma = 1 and Gamma = 4 iso-lines.
 
     Parameters
@@ -52,6 +53,9 @@ def plot_phi_d_map(da: xr.DataArray, ax: Axes | None = None, levels: int = 15,
         ``-sloshrom.energy.PASSIVITY_TOLERANCE`` times the map's maximum, so that round-off
         around Phi_d = 0 (the rig's non-dissipative region) is not painted; pass
         ``map_fidelity(...)["passivity_threshold"]`` to match a comparison's count, or 0.
+    top : float, optional
+        Top of a ``"map"``'s colour scale (-): give two maps the same one to compare them by
+        colour (the ROM's on the rig's). Default: the map's own maximum.
 
     Returns
     -------
@@ -73,18 +77,23 @@ def plot_phi_d_map(da: xr.DataArray, ax: Axes | None = None, levels: int = 15,
         # symmetric limits and a norm centred on 0: the colour tells over (red) from under (blue)
         m = max(abs(zmin), abs(zmax)) or 1.0
         norm = TwoSlopeNorm(vcenter=0.0, vmin=-m, vmax=m)
-        cs = ax.contourf(ob, ab, z, levels=np.linspace(-m, m, levels), cmap="RdBu_r", norm=norm)
+        # an odd number of bands: the middle one straddles 0 and takes the colour map's white
+        n_bands = levels if levels % 2 else levels + 1
+        cs = ax.contourf(ob, ab, z, levels=np.linspace(-m, m, n_bands + 1), cmap="RdBu_r",
+                         norm=norm)
         ax.figure.colorbar(cs, ax=ax, label=r"$\Delta\Phi_d$ (red: more, blue: less)")
     else:
         floor = (-PASSIVITY_TOLERANCE * max(zmax, 0.0) if negative_below is None
                  else float(negative_below))
-        top = zmax if zmax > 0 else 1.0
+        if top is None or not top > 0:
+            top = zmax if zmax > 0 else 1.0
         # the lowest band reaches down to the floor (round-off around 0 stays the colour of
         # 0); anything below is "under", a colour no band uses
         bounds = np.linspace(0.0, top, levels)
         bounds[0] = floor
         cmap = colormaps["Blues"].with_extremes(under=NEGATIVE_COLOR)
-        cs = ax.contourf(ob, ab, z, levels=bounds, cmap=cmap, extend="min")
+        cs = ax.contourf(ob, ab, z, levels=bounds, cmap=cmap,
+                         extend="both" if zmax > top else "min")
         ax.figure.colorbar(cs, ax=ax, label=r"$\Phi_d$")
         if zmin < floor:  # outline the non-passive patches, which may be single cells
             ax.contour(ob, ab, z, levels=[floor], colors=NEGATIVE_COLOR, linewidths=1.0)
@@ -103,11 +112,12 @@ def plot_phi_d_map(da: xr.DataArray, ax: Axes | None = None, levels: int = 15,
 
 
 def phi_d_map_figure(da: xr.DataArray, title: str, kind: str = "map",
-                     negative_below: float | None = None) -> Figure:
-    """A Phi_d map or difference (:func:`plot_phi_d_map`: ``kind``, ``negative_below``) with a
-    title, on its own 6.4 x 4.6 in figure."""
+                     negative_below: float | None = None, top: float | None = None) -> Figure:
+    """A Phi_d map or difference (:func:`plot_phi_d_map`: ``kind``, ``negative_below``,
+    ``top``) with a title, on its own 6.4 x 4.6 in figure."""
     fig = Figure(figsize=(6.4, 4.6), layout="constrained")
-    ax = plot_phi_d_map(da, ax=fig.subplots(), kind=kind, negative_below=negative_below)
+    ax = plot_phi_d_map(da, ax=fig.subplots(), kind=kind, negative_below=negative_below,
+                        top=top)
     ax.set_title(title)
     return fig
 

@@ -59,24 +59,35 @@ def validation_figure(time: np.ndarray, y: np.ndarray, y_hat: np.ndarray, name: 
                       compare: Sequence[tuple[np.ndarray, str, float]] = ()) -> Figure:
     """Paper Fig. 10: free-run prediction against the measured dynamic force (N).
 
-    Top: the whole validation record; bottom: one second around its largest force.
+    Top: the whole validation record as the force's RMS over 1 s windows; bottom: the
+    waveform over one second around its largest force.
     ``fit`` (%) and ``nrmse`` (-) go into the title; ``fs`` (Hz) is the record's rate.
     ``compare``: other models' predictions (N), each with its name and its fit (%), drawn as
     thin traces labelled with their fits (the paper's NFIR and the best linear model beside a
     state-space ROM).
     """
-    fig = Figure(figsize=(9, 5.5), layout="constrained")
-    axs = fig.subplots(2, 1)
-    axs[0].plot(time, y, "k", lw=0.4, label="rig (validation)")
-    axs[0].plot(time, y_hat, "r", lw=0.4, alpha=0.8, label=name)
+    fig = Figure(figsize=(9, 6), layout="constrained")
+    axs = fig.subplots(2, 1, height_ratios=(1, 1.3))
     labels = [f"{other_name} (fit {other_fit:.1f} %)" for _, other_name, other_fit in compare]
+    # the whole record as the force's RMS over 1 s windows: the raw traces of 500 s are a
+    # solid blob at this width; the bottom panel shows the waveform
+    n = max(1, int(round(fs)))
+    t_rms = time[: len(time) // n * n].reshape(-1, n).mean(axis=1)
+
+    def rms(x: np.ndarray) -> np.ndarray:
+        return np.sqrt((x[: len(x) // n * n].reshape(-1, n) ** 2).mean(axis=1))
+
+    axs[0].plot(t_rms, rms(y), "k", lw=1.2, label="rig (validation)")
+    axs[0].plot(t_rms, rms(y_hat), "r--", lw=1.0, label=name)
     for k, ((other, _, _), label) in enumerate(zip(compare, labels, strict=True)):
-        axs[0].plot(time, other, color=f"C{k}", lw=0.25, alpha=0.7, label=label)
-    axs[0].set_ylabel(r"$\Delta f$ [N]")
-    axs[0].legend(loc="upper right")
+        axs[0].plot(t_rms, rms(other), color=f"C{k}", lw=0.8, label=label)
+    axs[0].set_xlabel("time [s]")
+    axs[0].set_ylabel(r"$\Delta f$ RMS over 1 s [N]")
     # beside other models, the title says whose fit it gives
     axs[0].set_title(f"validation{f' of {name}' if compare else ''}: fit {fit:.1f} %, "
                      f"NRMSE {nrmse:.3f}")
+    fig.legend(*axs[0].get_legend_handles_labels(), loc="outside lower center",
+               ncol=min(4, 2 + len(compare)), fontsize=8)
     i0 = int(np.argmax(np.abs(y)))
     sl = slice(max(0, i0 - int(0.5 * fs)), i0 + int(0.5 * fs))
     axs[1].plot(time[sl], y[sl], "k", lw=1, label="rig")

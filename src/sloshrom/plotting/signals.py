@@ -45,26 +45,34 @@ def plot_vfa_paths(paths: VFA | Sequence[VFA], ax: Axes | None = None,
     wmax = max(float(np.max(p.omega_bar)) for p in paths) * 1.05
     amax = max(float(np.max(p.a_bar)) for p in paths) * 1.1
     ob = np.linspace(0.3, wmax, 400)
-    for gm in gammas:
+    last = -np.inf
+    for gm in sorted(gammas):
         ax.plot(ob, gm / ob**2, color="0.6", lw=0.7, ls="--")
         ob_lab = np.sqrt(gm / (0.85 * amax))
-        if ob_lab < wmax:
-            ax.text(ob_lab, 0.85 * amax, f"{gm:g} g", color="0.4", fontsize=8)
+        # a label only where it clears the last one: close iso-lines share a label
+        if ob_lab < wmax and ob_lab - last > 0.06 * wmax:
+            ax.text(ob_lab, 0.85 * amax, f" {gm:g} g", color="0.4", fontsize=8)
+            last = ob_lab
     colors = {"train": "tab:blue", "validation": "tab:orange"}
+    # one legend entry per record, with the lengths of its paths
+    lengths: dict[str, list[str]] = {}
+    for p in paths:
+        lengths.setdefault(p.split, []).append(f"{p.time[-1]:.0f}")
     for p in paths:
         step = max(1, len(p.time) // max_points)
+        first = p is next(q for q in paths if q.split == p.split)
         ax.plot(
             p.omega_bar[::step],
             p.a_bar[::step],
             lw=0.6,
             color=colors.get(p.split),
-            label=f"{p.split} ({p.time[-1]:.0f} s)",
+            label=f"{p.split} ({' + '.join(lengths[p.split])} s)" if first else None,
         )
     ax.set_xlim(0, wmax)
     ax.set_ylim(0, amax)
     ax.set_xlabel(r"$\bar\omega = \Omega/\sqrt{g/h}$")
     ax.set_ylabel(r"$\bar a = a/h$")
-    ax.legend(loc="upper right")
+    ax.legend(loc="best", fontsize=8)
     return ax
 
 
@@ -106,8 +114,9 @@ def base_excitation_figure(res: dict[str, Any], levels: Sequence[float], f0: flo
 
     Notes
     -----
-    The dashed curves are the target spectrum of Eq. (8) scaled to each RMS level; the inset
-    zooms on the lowest level, as in the paper.
+    The dashed curves are the target spectrum of Eq. (8) scaled to each RMS level. The PSD axis
+    is logarithmic, so that the lowest level reads as well as the others (the paper zooms on it
+    in an inset).
     """
     a = np.asarray(res["base_acceleration"])
     t = np.asarray(res["time"])
@@ -124,20 +133,17 @@ def base_excitation_figure(res: dict[str, Any], levels: Sequence[float], f0: flo
     ax_t.legend(fontsize=8)
     f, p = welch_psd(a / G, fs, nperseg=min(4096, a.shape[-1]))
     fmax = f0 + 5 * sigma
-    lines = []
     for i, lv in enumerate(levels):
-        (ln,) = ax_f.plot(f, p[i], lw=0.8, label=f"{lv:g} g RMS")
-        lines.append(ln)
+        ax_f.plot(f, p[i], lw=0.8, label=f"{lv:g} g RMS")
         ax_f.plot(f, gaussian_psd(f, f0, sigma, lv**2), "k--", lw=0.8)
     ax_f.set_xlim(0, fmax)
     ax_f.set_xlabel("frequency [Hz]")
     ax_f.set_ylabel("PSD [g²/Hz]")
     ax_f.set_title("(b) Welch PSD (Hann, 4096 samples); dashed: Eq. (8)")
     ax_f.legend(fontsize=8, loc="upper left")
-    ins = ax_f.inset_axes([0.64, 0.45, 0.34, 0.4])
-    ins.plot(f, p[0], lw=0.8, color=lines[0].get_color())
-    ins.plot(f, gaussian_psd(f, f0, sigma, levels[0] ** 2), "k--", lw=0.8)
-    ins.set_xlim(0, fmax)
-    ins.set_title(f"{levels[0]:g} g RMS", fontsize=7)
-    ins.tick_params(labelsize=6)
+    # on a log scale every level reads as well as the largest (the paper zooms on the lowest
+    # in an inset, too small to read here)
+    ax_f.set_yscale("log")
+    top = float(np.max(p[:, f <= fmax]))
+    ax_f.set_ylim(top * 1e-4, top * 3)
     return fig

@@ -88,8 +88,8 @@ class System:
 
 _BOUC_WEN = System(
     name="bouc-wen",
-    summary="the Bouc–Wen hysteretic benchmark (Noël & Schoukens 2016): force (N) on a "
-            "hysteretic oscillator in, its displacement (m) out, at 750 Hz",
+    summary="the Bouc–Wen hysteretic benchmark (Noël & Schoukens 2016): a hysteretic "
+            "oscillator, the force on it (N) in, its displacement (m) out, at 750 Hz",
     generator="sloshrom.systems.boucwen:benchmark_records",
     options=(
         Option("periods", 5, "multisine periods of the training record, from rest", 1, 100),

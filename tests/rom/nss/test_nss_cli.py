@@ -47,7 +47,7 @@ def trained(tmp_path_factory):
 
 def test_train_nss_writes_a_model_that_loads_as_an_nss(trained):
     out = trained["output"]
-    assert "wrote" in out and "NSS(2 states, 4 neurons)" in out
+    assert "wrote" in out and "NSS(2 states, 4 neurons, strictly proper)" in out
     # the recipe by units is the NSS's (no amplitude weighting), said on one line
     assert ("loss: the passive recipe (amplitude weighting 0 m/s, passivity 1, cycle energy "
             "0.1)") in out
@@ -96,7 +96,7 @@ def test_loss_options_set_the_nss_terms(tmp_path):
                               "--out", str(tmp_path / "ens.npz")])
     assert res.exit_code == 0, res.output
     assert "amplitude_weighting 0.05, passivity 1, cycle_energy 0.1" in res.output
-    assert "ensemble of 2 NSS(2 states, 4 neurons)" in res.output
+    assert "ensemble of 2 NSS(2 states, 4 neurons, strictly proper)" in res.output
     ens = load_model(tmp_path / "ens.npz")
     assert [m.amplitude_weighting for m in ens.members_] == [0.05, 0.05]
     assert [m.seed for m in ens.members_] == [0, 1]
@@ -149,15 +149,17 @@ TR = ["train", "--data", "{tmp}/train.nc", "--validation", "{tmp}/validation.nc"
     ([*TR, "--n-states", "3"], r"--n-states does not apply to --arch nfir \(NFIR: .*\); its "
                                r"options are --delays, --neurons"),
     ([*TR, "--arch", "noe", "--window", "3"], r"--window does not apply to --arch noe"),
-    # (the size not given is the size rule's for 1200 samples: 4 states, 17 neurons)
+    # (the size not given is the size rule's for 1200 samples: 4 states, 17 neurons; m/s in
+    # and N out: reproduce's recipe, strictly proper)
     ([*TR, "--arch", "nss", "--window", "1000", "--horizon", "200"],
-     r"train\.nc: 1200 samples are too few for NSS\(4 states, 17 neurons\) \(training "
+     r"train\.nc: 1200 samples are too few for NSS\(4 states, 17 neurons, strictly proper\) "
+     r"\(training "
      r"needs at least 1201\)"),
     ([*TR, "--arch", "nss", "--window", "500", "--horizon", "20"],
      r"validation\.nc: 400 samples are too few for 500 samples of history \(NSS\(4 states, "
-     r"17 neurons\)\)"),
+     r"17 neurons, strictly proper\)\)"),
     ([*TR, "--arch", "nss", "--n-states", "8", "--neurons", "4096", "--window", "4096"],
-     r"NSS\(8 states, 4096 neurons\) has \d+ weights, more than 4194304"),
+     r"NSS\(8 states, 4096 neurons, strictly proper\) has \d+ weights, more than 4194304"),
     ([*TR, "--arch", "nss", "--passivity", "-1"],
      r"--passivity must be a number in \[0, 1e\+12\], got -1"),
 ])

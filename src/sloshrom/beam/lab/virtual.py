@@ -39,7 +39,7 @@ from sloshrom.io.uff import (
     write_uff_sets,
 )
 
-__all__ = ["lab_test_paths", "write_lab_campaign", "write_lab_test"]
+__all__ = ["lab_test_paths", "station_units", "write_lab_campaign", "write_lab_test"]
 
 
 def lab_test_paths(path: str | Path, kind: str, levels: Sequence[float] | None = None
@@ -144,6 +144,12 @@ def write_lab_test(res: Mapping[str, Any], modal: ModalModel, path: str | Path, 
     return cmap
 
 
+def station_units(n_stations: int) -> list[str]:
+    """The default units of :func:`write_lab_campaign`'s stations: alternately g and m/s^2 (the
+    base is in g)."""
+    return ["g" if k % 2 == 0 else "m/s^2" for k in range(n_stations)]
+
+
 def write_lab_campaign(directory: str | Path, beam: LabBeam | None = None, *,
                        levels: Sequence[float] = (0.1, 0.2, 0.4), duration: float = 120.0,
                        decay_duration: float = 20.0, decay_peak_g: float = 8.5,
@@ -182,7 +188,7 @@ def write_lab_campaign(directory: str | Path, beam: LabBeam | None = None, *,
         default those of the random runs.
     unit_labels : bool
         Write the ordinate unit labels (``False``: empty labels and no units dataset 164, so
-        that a reader needs the units from the user).
+        that a reader needs the units from the user; :func:`station_units` gives them).
     seed : int
         Seed of the excitation and the sensor noise.
 
@@ -193,8 +199,7 @@ def write_lab_campaign(directory: str | Path, beam: LabBeam | None = None, *,
     """
     beam = beam or LabBeam()
     n_st = len(beam.positions)
-    u = list(units) if units is not None else ["g" if k % 2 == 0 else "m/s^2"
-                                               for k in range(n_st)]
+    u = list(units) if units is not None else station_units(n_st)
     if len(u) != n_st or any(x not in ("g", "m/s^2") for x in u):
         raise BeamError(f"units: 'g' or 'm/s^2' for each of the {n_st} stations, got {u}")
     du = list(decay_units) if decay_units is not None else u

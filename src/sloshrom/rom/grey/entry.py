@@ -141,9 +141,10 @@ GREY_CLASS = ModelClass(
            "flying through the ullage and landing on soft contacts; its seven parameters "
            "identified by differential evolution) and a neural state-space network that "
            "corrects its force and reads its state. Why: a network alone learns the force's "
-           "conditional mean and leaves the impacts out; the column puts each impact where "
-           "the motion puts it, and carries the load the structure feels (docs/rom.md, \"The "
-           "force the structure feels\").",
+           "conditional mean and leaves most impacts out; the column adds impacts timed by "
+           "the motion and raises the load the structure feels, though not yet to the rig's "
+           "(the figures are in \"At a glance\"; docs/rom.md, \"The force the structure "
+           "feels\").",
     epoch_work=EpochWork(("steps_per_epoch", "batch", ("window", "horizon"), "neurons"),
                          MAX_EPOCH_WORK, EPOCH_WORK_SECONDS),
     tank_scales=("liquid_mass", "ullage"), article="a",

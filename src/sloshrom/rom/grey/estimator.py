@@ -45,8 +45,8 @@ class GreyBox(Estimator):
     down faster than gravity, flying through the ullage and landing on soft contacts
     (:mod:`sloshrom.rom.grey.physics`); its seven parameters (mass, contact, gap, gate,
     coherence) are identified from the record by differential evolution, scaled by the tank's
-    ``liquid_mass`` and ``ullage``. It puts each impact where the motion puts it, which a
-    network of the velocity alone cannot learn (it learns the force's conditional mean). The
+    ``liquid_mass`` and ``ullage``. It times its impacts by the motion, which a network of
+    the velocity alone cannot learn (it learns the force's conditional mean). The
     network is an NSS that reads the column's force and state; it starts at zero output, so the
     model starts as the physics, and corrects what the column does not hold.
 

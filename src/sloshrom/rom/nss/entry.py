@@ -137,9 +137,10 @@ NSS_CLASS = ModelClass(
     report="a neural state-space model, not the paper's NFIR class. Why: the force depends "
            "on where the liquid is, how fast it moves and when it lands, a state that a "
            "finite-memory NFIR (70 samples, 0.14 s) cannot carry; the state-space model "
-           "does, and with it predicts the impacts the NFIR misses while its dissipation map "
-           "stays at least as close to the rig's (docs/rom.md, \"A ROM with state\", with the "
-           "figures of both classes).",
+           "does, and with it predicts some of the impacts the NFIR misses (not their size: "
+           "the waveform figures say how many) while its dissipation map stays at least as "
+           "close to the rig's (docs/rom.md, \"A ROM with state\", with the figures of both "
+           "classes).",
     size_rule=nss_size, sized_by_record=(*NSS_SHORT_SIZE, "horizon"),
     size_words={"n_states": "{} states", "neurons": "{} neurons", "window": "window {}",
                 "horizon": "horizon {}"},

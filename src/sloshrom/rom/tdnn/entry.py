@@ -98,7 +98,7 @@ def _min_samples(h: Mapping[str, Any]) -> int:
 
 NFIR_CLASS = ModelClass(
     name="nfir", class_name="NFIR", estimator="sloshrom.rom.tdnn.estimators:NFIR",
-    summary="the paper's time-delay network: the force from the last `delays` inputs "
+    summary="the paper's time-delay network: the force from a delay line of past inputs "
             "through a normalized radial-basis layer",
     hyper=(_delays(70, "input delays: n for 1..n (MATLAB timedelaynet) or a list"),
            neurons(35, "hidden normalized-RBF neurons"), _HIDDEN,

@@ -37,6 +37,6 @@ def frequency_band_figure(errors: Mapping[str, Mapping[str, Mapping[str, Any]]])
                           f"{some[b]['frequency_hz'][1]:.1f} Hz" if b in some else b
                           for b in FREQUENCY_BANDS])
         ax.set_title(f"Phi_d error vs rig: {title}")
-    axes[0].set_ylabel("relative L2 error (%)")
+    axes[0].set_ylabel("relative L2 error [%]")
     axes[0].legend()
     return fig

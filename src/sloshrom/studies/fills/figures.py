@@ -70,8 +70,8 @@ def damping_fill_figure(table: xr.Dataset, levels: Sequence[float],
         for u in unseen:
             ax.axvline(100 * u, color="0.8", linewidth=6, zorder=0)
         ax.set_title(f"{level:g} g RMS base excitation", fontsize=10)
-        ax.set_xlabel("fill level d/h (%)")
+        ax.set_xlabel("fill level d/h [%]")
         ax.grid(alpha=0.3)
-    axes[0].set_ylabel("first-mode damping ratio (%)")
+    axes[0].set_ylabel("first-mode damping ratio [%]")
     axes[0].legend(fontsize=8)
     return fig

@@ -82,9 +82,9 @@ def fills_section(ctx: Context, outputs: FillsOutputs | Mapping[str, Any]) -> Se
                  Figure(ctx.out / "figures" / "fills_damping.png",
                         "First-mode damping ratio (LSCF on H1) of the sloshing beam against "
                         "fill level: rig, fill family, frozen liquid; shaded: unseen fills.")],
-        tables=[Table(["fill", "full-map error (%)", "dissipative-region error (%)",
+        tables=[Table(["fill", "full-map error [%]", "dissipative-region error [%]",
                        "non-passive points", "target"], map_rows,
                       "Phi_d map of the fill family against the rig's at each fill."),
-                Table(["fill", "RMS (g)", "rig (%)", "family (%)", "frozen (%)",
-                       "family vs rig (%)", "target"], beam_rows,
+                Table(["fill", "RMS [g]", "rig [%]", "family [%]", "frozen [%]",
+                       "family vs rig [%]", "target"], beam_rows,
                       "First-mode damping ratio of the sloshing beam, LSCF on H1.")])

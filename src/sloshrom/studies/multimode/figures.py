@@ -37,9 +37,9 @@ def modal_frf_figure(h1: Mapping[str, Any], levels: list[float], f_modes: np.nda
                 ax.semilogy(f[sel], np.abs(hs[i][k][sel]), color=_COLOURS[case], lw=1.0,
                             label=CASE_LABELS[case])
             ax.set_title(f"mode {k + 1} ({fk:.2f} Hz frozen), base {level:g} g RMS", fontsize=9)
-            ax.set_ylabel("|H1| (-)")
+            ax.set_ylabel("|H1| [-]")
     for ax in axes[-1]:
-        ax.set_xlabel("frequency (Hz)")
+        ax.set_xlabel("frequency [Hz]")
     axes[0, 0].legend(fontsize=7)
     fig.tight_layout()
     return fig
@@ -61,8 +61,8 @@ def modal_damping_figure(rows: list[dict[str, Any]], levels: list[float], n_mode
                 ax.fill_between(levels, zr * (1 - tolerance), zr * (1 + tolerance), color="k",
                                 alpha=0.1, label=f"rig ± {100 * tolerance:g} %")
         ax.set_title(f"mode {k + 1}")
-        ax.set_xlabel("base acceleration (g RMS)")
-        ax.set_ylabel("damping ratio (%)")
+        ax.set_xlabel("base acceleration [g RMS]")
+        ax.set_ylabel("damping ratio [%]")
     axes[0].legend(fontsize=7)
     fig.tight_layout()
     return fig

@@ -133,15 +133,15 @@ def multimode_section(ctx: Context, outputs: MultimodeOutputs | Mapping[str, Any
                  "ratio far from 1 is an error of the ROM itself, before any feedback of the "
                  "coupled run.</p>")
     tables = [
-        Table(["mode", "f dry (Hz)", "f frozen (Hz)", "ζ (%)", "modal mass (kg)", "ψ tank",
-               "m_l ψ²/m", "ψ Γ / m", "tank RMS per g base (g)"], struct_rows,
+        Table(["mode", "f dry [Hz]", "f frozen [Hz]", "ζ [%]", "modal mass [kg]", "ψ tank",
+               "m_l ψ²/m", "ψ Γ / m", "tank RMS per g base [g]"], struct_rows,
               "The wing's modes (unit maximum displacement): ψ Γ/m is the mode's share of the "
               "tank's quasi-static base-following motion; the last column is the tank RMS "
               "acceleration the mode contributes in the frozen random test, per g of base RMS."),
-        Table(["record", "duration (s)", "RMS (g)", "peak (g)", "peak velocity (m/s)",
+        Table(["record", "duration [s]", "RMS [g]", "peak [g]", "peak velocity [m/s]",
                "content"], data_rows, "Identification records (virtual rig)."),
-        Table(["mode", "base (g RMS)", "rig tank peak (g)", "rig ζ (%)",
-               *(f"{CASE_LABELS[c]} ζ (%)" for c in rom_cases), "frozen ζ (%)"], table_rows,
+        Table(["mode", "base [g RMS]", "rig tank peak [g]", "rig ζ [%]",
+               *(f"{CASE_LABELS[c]} ζ [%]" for c in rom_cases), "frozen ζ [%]"], table_rows,
               f"Modal damping (LSCF on H1, stable-pole cluster median) and error against the "
               f"rig; ✓ within {100 * tol:g} %."),
     ]
