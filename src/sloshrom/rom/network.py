@@ -15,6 +15,7 @@ functions inside ``jax.enable_x64(True)`` (:mod:`sloshrom._x64`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 from typing import Any
@@ -163,6 +164,17 @@ class FittedNetwork:
         """Output from rest (physical units) for an input record at ``fs``, shape (n,) or
         (batch, n)."""
         raise NotImplementedError
+
+    def _checked_free_run(self, u: ArrayLike,
+                          run: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+        """:meth:`free_run` of a model with a state: ``run(u2)`` gives the scaled outputs
+        (batch, n) of the records ``u2`` (batch, n, physical units); they are checked against
+        the stability bound and returned in physical units, in the shape of ``u``."""
+        u = np.asarray(u, dtype=np.float64)
+        y_s = run(np.atleast_2d(u))
+        self._check_stable(y_s)
+        out = np.asarray(self.scaler.y_inverse(y_s))
+        return out if u.ndim == 2 else out[0]
 
     @float64
     def run_from_history(self, u_past: ArrayLike, y_past: ArrayLike, u: ArrayLike

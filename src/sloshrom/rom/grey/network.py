@@ -270,12 +270,8 @@ class GreyBoxNetwork(FittedNetwork):
         UnstableModelError
             The run left the stability bound.
         """
-        u = np.asarray(u, dtype=np.float64)
-        u2 = np.atleast_2d(u)
-        y_s = self._run(u2, np.zeros((u2.shape[0], self.spec.n_states))).T
-        self._check_stable(y_s)
-        out = np.asarray(self.scaler.y_inverse(y_s))
-        return out if u.ndim == 2 else out[0]
+        return self._checked_free_run(
+            u, lambda u2: self._run(u2, np.zeros((u2.shape[0], self.spec.n_states))).T)
 
     @property
     def history_samples(self) -> int:

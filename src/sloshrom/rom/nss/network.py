@@ -264,13 +264,9 @@ class StateSpaceNetwork(FittedNetwork):
         UnstableModelError
             The run left the stability bound.
         """
-        u = np.asarray(u, dtype=np.float64)
-        u2 = np.atleast_2d(u)
         ru, ry = (float(r) for r in self._rest())
-        y_s = np.asarray(ss_free_run(self.params, jnp.asarray(self.scaler.u(u2).T), ru, ry)).T
-        self._check_stable(y_s)
-        out = np.asarray(self.scaler.y_inverse(y_s))
-        return out if u.ndim == 2 else out[0]
+        return self._checked_free_run(u, lambda u2: np.asarray(
+            ss_free_run(self.params, jnp.asarray(self.scaler.u(u2).T), ru, ry)).T)
 
     @property
     def history_samples(self) -> int:
