@@ -276,13 +276,13 @@ def programme_outputs(prog: Programme, limits: signals.ShakerLimits = signals.SH
         shaker can play it, and what a shaker that can must reach).
     """
     segs: list[SegmentOutputs] = []
-    start = 0.0
+    start = 0  # the segment's first sample in the programme
     for k, s in enumerate(prog.segments):
         one = concatenate(prog.fs, [s])
         segs.append({"index": k + 1, "name": s.name, "kind": s.kind, "level": s.level,
-                     "level_unit": LEVEL_UNITS[s.kind], "start_s": start,
+                     "level_unit": LEVEL_UNITS[s.kind], "start_s": start / prog.fs,
                      "duration_s": one.duration, "peaks": _peaks(one.motion())})
-        start += one.duration + round(prog.pause * prog.fs) / prog.fs
+        start += np.size(s.acceleration) + round(prog.pause * prog.fs)
     exceeds = prog.check(limits, max_duration)
     peaks = _peaks(prog.motion())
     shaker = (f"{limits.max_acceleration / G:.3g} g, {limits.max_velocity:.3g} m/s, "
