@@ -223,7 +223,7 @@ def design_cmd(
             whole = np.concatenate([x for k, (_, a) in enumerate(segs)
                                     for x in ((np.zeros(gap),) if k else ()) + (a,)])
             summ["drive"] = {"fs_hz": float(fs), "samples": int(whole.size),
-                             "duration_s": (whole.size - 1) / fs,
+                             "duration_s": round((whole.size - 1) / fs, 3),
                              "peak_acceleration_g": float(np.max(np.abs(whole))) / G}
             summaries[s] = summ
             drives[s] = (segs, whole)

@@ -104,13 +104,11 @@ class Programme:
 
     @property
     def duration(self) -> float:
-        """Span of :meth:`acceleration`, s: the time of its last sample, its first at 0 s
-        (from the segments' lengths: nothing is concatenated). A segment of ``duration`` s
-        holds ``duration * fs + 1`` samples (it starts and ends at rest), so two of 480 s and
-        240 s back to back span 720 s and one step, the step between them."""
+        """Length of :meth:`acceleration`, s (from the segments' lengths: nothing is
+        concatenated)."""
         n_gap = int(round(self.pause * self.fs))
         n = sum(np.size(s.acceleration) for s in self.segments)
-        return max(n + n_gap * max(len(self.segments) - 1, 0) - 1, 0) / self.fs
+        return (n + n_gap * max(len(self.segments) - 1, 0)) / self.fs
 
     def motion(self) -> dict[str, float]:
         """Peaks of the programme: ``acceleration`` (m/s^2), ``velocity`` (m/s) and
