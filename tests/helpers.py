@@ -302,10 +302,55 @@ rms_g = [0.1, 0.3]
 """
 
 
+def _data_points(ax) -> np.ndarray:
+    """The display coordinates (n, 2) of what an axes plots as points: its lines' vertices and
+    its scatters' offsets (what matplotlib's ``loc="best"`` counts too)."""
+    pts = [ln.get_transform().transform(ln.get_xydata()) for ln in ax.get_lines()
+           if ln.get_visible() and len(ln.get_xydata())]
+    for c in ax.collections:
+        off = c.get_offsets()
+        if c.get_visible() and len(off) and c.get_offset_transform() is not None:
+            pts.append(c.get_offset_transform().transform(off))
+    pts = [p for p in pts if p.ndim == 2 and p.shape[1] == 2]
+    return np.concatenate(pts) if pts else np.zeros((0, 2))
+
+
+def legend_placement(ax, renderer) -> dict | None:
+    """Where an axes' legend lies over its data: ``over`` (the data points under the legend),
+    ``best`` (the fewest under a legend of its size at any of the nine places ``loc`` names,
+    inside the axes) and ``inside`` (whether it overlaps the axes at all); None without a
+    legend."""
+    leg = ax.get_legend()
+    if leg is None or not leg.get_visible():
+        return None
+    box, frame = leg.get_window_extent(renderer), ax.get_window_extent(renderer)
+    pts = _data_points(ax)
+    pts = pts[np.all(np.isfinite(pts), axis=1)]
+
+    def under(x0: float, y0: float) -> int:
+        x, y = pts[:, 0], pts[:, 1]
+        return int(np.count_nonzero((x >= x0) & (x <= x0 + box.width)
+                                    & (y >= y0) & (y <= y0 + box.height)))
+
+    inside = box.overlaps(frame)
+    pad = 0.5 * leg.prop.get_size_in_points() * renderer.points_to_pixels(1.0)
+    xs = np.linspace(frame.x0 + pad, frame.x1 - pad - box.width, 3)
+    ys = np.linspace(frame.y0 + pad, frame.y1 - pad - box.height, 3)
+    return {"over": under(box.x0, box.y0) if inside else 0, "inside": bool(inside),
+            "best": min(under(x, y) for x in xs for y in ys), "points": int(len(pts))}
+
+
 def figure_axes(fig) -> dict:
     """What a matplotlib figure shows, for tests of its labels: its title (the suptitle, or its
     first axes' title) and, for each axes that holds data (not a colour bar), its labels, its
-    position in its grid and whether its x axis is shared."""
+    position in its grid, whether its x axis is shared, and where its legend lies over its data
+    (:func:`legend_placement`; the figure drawn, as it is saved)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    # the figures are made without pyplot (no canvas with a renderer): Agg's, as savefig's
+    renderer = (fig.canvas if isinstance(fig.canvas, FigureCanvasAgg)
+                else FigureCanvasAgg(fig)).get_renderer()
+    fig.draw(renderer)
     axes = []
     for ax in fig.get_axes():
         if ax.get_label() == "<colorbar>" or not ax.has_data():
@@ -317,6 +362,7 @@ def figure_axes(fig) -> dict:
                      "first_col": spec is None or spec.is_first_col(),
                      "sharex": len(ax.get_shared_x_axes().get_siblings(ax)) > 1,
                      "legend_texts": [t.get_text() for t in ax.get_legend().get_texts()]
-                     if ax.get_legend() else []})
+                     if ax.get_legend() else [],
+                     "legend": legend_placement(ax, renderer)})
     title = fig.get_suptitle() or next((a["title"] for a in axes if a["title"]), "")
     return {"title": title, "axes": axes}

@@ -13,7 +13,13 @@ from typer.testing import CliRunner
 from helpers import TINY_DESIGN_TOML
 from sloshrom.cli import app
 from sloshrom.config import G
-from sloshrom.io.programme import read_drive_csv, resample_drive, write_drive_csv
+from sloshrom.io.programme import (
+    CSV_DECIMALS,
+    read_drive_csv,
+    resample_drive,
+    time_decimals,
+    write_drive_csv,
+)
 from sloshrom.pipeline import Context, settings
 from sloshrom.pipeline import data as data_stage
 from sloshrom.rig.limits import RIG_RATE
@@ -44,7 +50,8 @@ def written(tmp_path_factory):
     (d / "tiny.toml").write_text(TINY_DESIGN_TOML)
     res = CliRunner().invoke(app, ["design", "--out", str(d / "out"), "--config",
                                    str(d / "tiny.toml"), "--split", "train", "--fs",
-                                   str(int(RIG_RATE)), "--segment-column"])
+                                   str(int(RIG_RATE)), "--segment-column",
+                                   "--format", "csv,uff"])
     assert res.exit_code == 0, res.output
     return d / "out", res.output
 
@@ -105,13 +112,13 @@ def test_check_names_the_limit_exceeded(prog):
 def test_programme_outputs(prog):
     out = data_stage.programme_outputs(prog, setup=30.0)
     assert [s["name"] for s in out["segments"]] == [s.name for s in prog.segments]
-    assert out["duration_s"] == pytest.approx(prog.duration)
-    assert out["lab_time_s"] == pytest.approx(prog.duration + 30.0 * 5)
+    assert out["duration_s"] == pytest.approx(prog.duration, abs=5e-4)  # to the ms
+    assert out["lab_time_s"] == pytest.approx(prog.duration + 30.0 * 5, abs=5e-4)
     assert out["peaks"]["acceleration_g"] == pytest.approx(prog.motion()["acceleration"] / G)
     assert max(s["peaks"]["stroke_mm"] for s in out["segments"]) == pytest.approx(
         out["peaks"]["stroke_mm"], rel=1e-5)  # the VFAs' sampling leaves ~0.1 um
     ends = [s["start_s"] + s["duration_s"] for s in out["segments"]]
-    assert ends[-1] == pytest.approx(out["duration_s"])
+    assert ends[-1] == pytest.approx(out["duration_s"], abs=1e-3)
     # the "use" design is beyond the paper's shaker, and says so
     assert not out["fits"] and "acceleration" in " ".join(out["exceeds"])
     json.dumps(out)
@@ -153,13 +160,19 @@ def test_design_csv_reads_back_as_the_programme(written, prog):
     assert d.fs == RIG_RATE and d.column == "acceleration_m_s2"
     a = prog.acceleration()
     assert d.acceleration.size == a.size
-    # 10 significant digits written: half a unit of the 10th digit
-    np.testing.assert_allclose(d.acceleration, a, rtol=5.1e-10, atol=1e-300)
+    # CSV_DECIMALS written: half a unit of the last decimal (with the decimal's round-off)
+    half = 0.5 * 10.0**-CSV_DECIMALS
+    np.testing.assert_allclose(d.acceleration, a, rtol=0, atol=half * (1 + 1e-9))
+    assert np.max(np.abs(d.acceleration - a)) > 0.1 * half  # it is rounded, not exact
     sizes = [s.acceleration.size for s in prog.segments]
     np.testing.assert_array_equal(d.segment, np.repeat(np.arange(1, 6), sizes))
     t = np.loadtxt(out / "train.csv", delimiter=",", skiprows=1, usecols=0)
     np.testing.assert_allclose(t, np.arange(a.size) / RIG_RATE, rtol=0, atol=5.1e-10)
-    assert (out / "train.csv").read_text().splitlines()[0] == "time_s,acceleration_m_s2,segment"
+    lines = (out / "train.csv").read_text().splitlines()
+    assert lines[0] == "time_s,acceleration_m_s2,segment"
+    # 10 kHz: the step 0.0001 s written with 4 decimals, a rest as 0 (never -0)
+    assert lines[1] == "0.0000,0.000000,1" and lines[2].startswith("0.0001,")
+    assert not any(",-0.000000," in ln for ln in lines[1:])
 
 
 def test_design_uff_has_the_unit_rate_and_samples(written, prog):
@@ -183,8 +196,25 @@ def test_design_summary_and_console(written, prog):
     s = json.loads((out / "programme.json").read_text())
     tr = s["splits"]["train"]
     assert [g["name"] for g in tr["segments"]] == [g.name for g in prog.segments]
-    assert tr["duration_s"] == pytest.approx(prog.duration)
+    assert tr["duration_s"] == pytest.approx(prog.duration, abs=5e-4)
     assert tr["files"] == {"csv": "train.csv", "uff": "train.uff"}
+    # times to the millisecond (the segments as configured: 12 s, not 12.0001 s), samples
+    # exact
+    cfg_data = TINY["data"]
+    assert [g["duration_s"] for g in tr["segments"]] == [
+        cfg_data["train_duration"], cfg_data["extension_duration"],
+        cfg_data["random_duration"], cfg_data["random_duration"], cfg_data["decay_duration"]]
+    n = np.cumsum([0] + [g.acceleration.size for g in prog.segments])
+    assert [g["first_sample"] for g in tr["segments"]] == list(n[:-1])
+    assert [g["samples"] for g in tr["segments"]] == list(np.diff(n))
+    assert [g["start_s"] for g in tr["segments"]] == [round(k / RIG_RATE, 3) for k in n[:-1]]
+    assert tr["duration_s"] == round(n[-1] / RIG_RATE, 3)
+    # the sizes: estimated before writing, said after
+    flat = " ".join(console.split())
+    est = float(re.search(r"as csv and uff: about (\S+) MB", flat).group(1))
+    real = sum((out / f).stat().st_size for f in ("train.csv", "train.uff")) / 1e6
+    assert 0.7 * real <= est <= 1.3 * real, (est, real)
+    assert re.search(r"train\.csv \((\S+) [kM]B\)", flat), flat
     assert s["exceeds"] and all(t.startswith("train: peak") for t in s["exceeds"])
     assert "vfa extension" in console and "laboratory time" in console
     assert "exceeds the shaker's 6 g" in console
@@ -220,10 +250,32 @@ def test_drive_csv_round_trip_in_g(tmp_path):
     p = write_drive_csv(tmp_path / "d.csv", a, 2048.0)
     d = read_drive_csv(p)
     assert d.fs == 2048.0
-    np.testing.assert_allclose(d.acceleration, a, rtol=5.1e-10)
+    np.testing.assert_allclose(d.acceleration, a, rtol=0, atol=0.5 * 10.0**-CSV_DECIMALS)
+    # 1/2048 s needs 11 decimals: written to 9, within the reader's 1e-6 of a step
+    assert p.read_text().splitlines()[2].startswith("0.000488281,")
     (tmp_path / "g.csv").write_text("time [s],acceleration [g]\n0,0\n0.001,1\n0.002,0\n")
     d = read_drive_csv(tmp_path / "g.csv")
     assert d.fs == 1000.0 and d.acceleration[1] == pytest.approx(G)
+
+
+def test_time_decimals_write_each_step_exactly():
+    assert [time_decimals(f) for f in (1.0, 10.0, 500.0, 2000.0, 10000.0, 2500.0)] == [
+        0, 1, 3, 4, 4, 4]
+    assert time_decimals(2048.0) == 9 and time_decimals(3.0) == 9
+
+
+def test_design_writes_the_csv_alone_by_default(tmp_path):
+    (tmp_path / "tiny.toml").write_text(TINY_DESIGN_TOML)
+    res = CliRunner().invoke(app, ["design", "--out", str(tmp_path / "out"), "--config",
+                                   str(tmp_path / "tiny.toml"), "--split", "train"])
+    assert res.exit_code == 0, res.output
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [
+        ".sloshrom-written.json", "programme.json", "train.csv"]
+    # about 20 bytes a sample at 2000 Hz, as the help says
+    d = json.loads((tmp_path / "out" / "programme.json").read_text())
+    n = d["splits"]["train"]["drive"]["samples"]
+    per = (tmp_path / "out" / "train.csv").stat().st_size / n
+    assert 14.0 <= per <= 22.0, per
 
 
 # -- bad input -------------------------------------------------------------------------------------

@@ -211,6 +211,19 @@ def test_the_report_reads_cleanly(tiny_reproduce):
         assert not re.match(r"^[−+\-]?\d+(\.\d+)?$", _visible(cell).strip()), cell
 
 
+def test_no_legend_hides_data_where_it_could_lie_elsewhere(tiny_reproduce):
+    """A legend inside a panel covers no more of its data than one of its size would at the
+    best of the nine places ``loc`` names (what ``loc="best"`` looks for), give or take 5
+    points and 2 % of the panel's points (a legend's place is chosen on the figure as it is
+    drawn, in pixels, and the counts move by a few points with the fonts)."""
+    figs = tiny_reproduce["figures"]
+    placed = [(f["title"], ax) for f in figs for ax in f["axes"] if ax["legend"]]
+    assert len(placed) >= 5, len(placed)  # the check reads legends at all
+    bad = [f"{t!r} / {ax['title']!r}: {ax['legend']}" for t, ax in placed
+           if ax["legend"]["over"] > ax["legend"]["best"] + max(5, 0.02 * ax["legend"]["points"])]
+    assert not bad, "\n".join(bad)
+
+
 def test_every_figure_labels_its_axes_with_units_in_one_style(tiny_reproduce):
     """Each panel that holds data has a y label, each bottom panel (and each panel whose x
     axis is its own) an x label; units in brackets as in the tables ("[g]", never "(g)"); no
@@ -232,3 +245,42 @@ def test_every_figure_labels_its_axes_with_units_in_one_style(tiny_reproduce):
                 if paren_unit.search(lab) or "''" in lab:
                     bad.append(f"{where}: label {lab!r}")
     assert not bad, "\n".join(bad)
+
+
+def test_one_unit_per_quantity_across_the_figures(tiny_reproduce):
+    """An axis label ``quantity [unit]`` gives the same quantity one unit in every figure (the
+    tip displacement in mm everywhere, never m in one and cm in another)."""
+    import re
+
+    units: dict[str, set[str]] = {}
+    for f in tiny_reproduce["figures"]:
+        for ax in f["axes"]:
+            for lab in (ax["xlabel"], ax["ylabel"]):
+                m = re.fullmatch(r"\s*(.*?)\s*\[([^\]]+)\]\s*", lab.replace("\n", " "))
+                if m:
+                    units.setdefault(m.group(1).lower(), set()).add(m.group(2))
+    assert len(units) >= 10, units  # the check reads the labels at all
+    mixed = {q: u for q, u in units.items() if len(u) > 1}
+    assert not mixed, mixed
+
+
+def test_the_legend_check_sees_a_legend_over_data():
+    """:func:`helpers.legend_placement` on a panel whose data fill its upper right: a legend put
+    there is over the data, one placed by ``loc="best"`` is not, and the best place is free."""
+    from matplotlib.figure import Figure
+
+    from helpers import figure_axes
+
+    def panel(loc):
+        fig = Figure(figsize=(6.4, 4.4))
+        ax = fig.add_subplot()
+        x = np.linspace(0.0, 1.0, 400)
+        ax.plot(x, x**4, label="rising")
+        ax.plot(x, 0.9 + 0.1 * x, label="high")
+        ax.legend(loc=loc)
+        return figure_axes(fig)["axes"][0]["legend"]
+
+    upper = panel("upper left")
+    best = panel("best")
+    assert upper["inside"] and upper["over"] > 20, upper
+    assert best["over"] <= best["best"] + 5 and best["best"] < 0.1 * upper["over"], best

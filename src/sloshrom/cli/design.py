@@ -142,7 +142,9 @@ def design_cmd(
                      f"{RIG_RATE:g}); e.g. 2048 or 5120 for a controller that wants them.")
     ] = DRIVE_FS,
     formats: Annotated[str, typer.Option(
-        "--format", help="Files to write: a comma-separated list of csv, uff.")] = "csv,uff",
+        "--format", help="Files to write: a comma-separated list of csv, uff (e.g. "
+                         "csv,uff for both; each is the whole programme: about 20 bytes a "
+                         "sample in CSV, 20 in UFF).")] = "csv",
     segment_column: Annotated[bool, typer.Option(
         "--segment-column/--no-segment-column",
         help="Add a 'segment' column to the CSV (1, 2, ...; 0 in a pause).")] = False,
@@ -159,13 +161,15 @@ def design_cmd(
     VFA, and with "use" the structure's own motion (narrow-band random and decay segments);
     every segment starts and ends at rest.
 
-    Files in OUT: <split>.csv (time_s,acceleration_m_s2: the whole programme), <split>.uff
-    (UFF 58, m/s^2, one dataset per segment, each from 0 s) and programme.json (segments,
-    peaks, the shaker check, laboratory time); see docs/formats.md. They are resampled from
-    the rig's 10 kHz to --fs with an 80 dB anti-alias filter whose pass band is 80 % of the
-    Nyquist frequency: the default 2000 Hz keeps all of the programme (its content ends at
-    250 Hz), divides 10 kHz exactly, gives an exact UFF time step and 10 samples per cycle at
-    200 Hz.
+    Files in OUT: <split>.csv (time_s,acceleration_m_s2: the whole programme; the default
+    format), with --format uff or csv,uff <split>.uff (UFF 58, m/s^2, one dataset per
+    segment, each from 0 s), and programme.json (segments, peaks, the shaker check,
+    laboratory time); see docs/formats.md. The console says about how large the files will be
+    before it writes them, and their sizes after (the default programme: about 60 MB of CSV
+    at 2000 Hz). They are resampled from the rig's 10 kHz to --fs with an 80 dB anti-alias
+    filter whose pass band is 80 % of the Nyquist frequency: the default 2000 Hz keeps all of
+    the programme (its content ends at 250 Hz), divides 10 kHz exactly, gives an exact UFF
+    time step and 10 samples per cycle at 200 Hz.
 
     A limit exceeded is said in a sentence; the exit code is 0 unless --strict. A file of
     these names in OUT that `sloshrom design` did not write (a laboratory's own train.csv) is
@@ -219,7 +223,7 @@ def design_cmd(
             whole = np.concatenate([x for k, (_, a) in enumerate(segs)
                                     for x in ((np.zeros(gap),) if k else ()) + (a,)])
             summ["drive"] = {"fs_hz": float(fs), "samples": int(whole.size),
-                             "duration_s": (whole.size - 1) / fs,
+                             "duration_s": round((whole.size - 1) / fs, 3),
                              "peak_acceleration_g": float(np.max(np.abs(whole))) / G}
             summaries[s] = summ
             drives[s] = (segs, whole)
@@ -248,6 +252,10 @@ def design_cmd(
                     "written", fg=typer.colors.RED, err=True)
         raise typer.Exit(code=1)
 
+    samples = sum(drives[s][1].size for s in splits)
+    per_sample = {"csv": CSV_BYTES_PER_SAMPLE, "uff": UFF_BYTES_PER_SAMPLE}
+    console.print(f"writing {samples:,} samples at {fs} Hz as {' and '.join(fmts)}: about "
+                  f"{samples * sum(per_sample[f] for f in fmts) / 1e6:.3g} MB", highlight=False)
     summary = {
         "generator": "sloshrom design",
         "sloshrom_version": __version__,
@@ -285,7 +293,8 @@ def design_cmd(
             batch.write_text(out / "programme.json", json.dumps(summary, indent=1) + "\n")
     except (SloshromError, OSError) as exc:
         fail(f"--out {out}: {exc}")
-    console.print(f"wrote {', '.join(str(out / n) for n in names)}")
+    console.print("wrote " + ", ".join(f"{out / n} ({_size(out / n)})" for n in names),
+                  highlight=False)
 
 
 def _beyond_the_shaker(segments: Sequence[tuple[str, Peaks]],
@@ -310,6 +319,21 @@ def _beyond_the_shaker(segments: Sequence[tuple[str, Peaks]],
                      "paper's VFA alone, within the shaker; no extension, random or decay "
                      "segments); for a larger shaker: " + " ".join(need))
     return lines
+
+
+#: Bytes a sample takes in each file, about (the estimate printed before writing): the CSV's
+#: ``1234.5678,-12.345678`` line, UFF 58's four 20-character values a line.
+CSV_BYTES_PER_SAMPLE, UFF_BYTES_PER_SAMPLE = 20.0, 20.25
+
+
+def _size(path: Path) -> str:
+    """A file's size for a person: ``12 kB``, ``59 MB``."""
+    n = float(path.stat().st_size)
+    for unit in ("B", "kB", "MB"):
+        if n < 1000.0:
+            return f"{n:.3g} {unit}"
+        n /= 1000.0
+    return f"{n:.3g} GB"
 
 
 def _ceil(x: float) -> str:

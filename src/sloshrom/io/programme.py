@@ -44,9 +44,9 @@ from sloshrom.io.uff import (
 from sloshrom.io.units import canonical_unit
 
 __all__ = [
-    "ACCELERATION_COLUMNS", "CSV_HEADER", "DRIVE_MARK", "UFF_SUFFIXES", "DriveFile",
+    "ACCELERATION_COLUMNS", "CSV_DECIMALS", "CSV_HEADER", "DRIVE_MARK", "UFF_SUFFIXES", "DriveFile",
     "drive_uff_sets", "exact_uff_step", "is_drive_file", "read_drive", "read_drive_csv",
-    "read_drive_uff", "resample_drive", "write_drive_csv",
+    "read_drive_uff", "resample_drive", "time_decimals", "write_drive_csv",
 ]
 
 #: Header of a drive CSV (the names carry the units: no brackets a controller might refuse).
@@ -128,6 +128,22 @@ def exact_uff_step(fs: float) -> bool:
     return abs(1.0 / step - fs) <= 1e-9 * fs
 
 
+#: Decimals of the drive CSV's acceleration (m/s^2): a resolution of 1e-6 m/s^2 (1e-7 g), below
+#: the least step of a 24-bit output at +-20 g (2.4e-6 g); fixed point keeps the rests short
+#: (``0.000000``), where an exponent format writes 16 characters of round-off.
+CSV_DECIMALS = 6
+
+
+def time_decimals(fs: float) -> int:
+    """Decimals that write every time ``k / fs`` exactly (4 at 2000 Hz), 9 at most (a step
+    such as 1/2048 s, written to 1e-9 s)."""
+    step = 1.0 / fs
+    for d in range(10):
+        if abs(round(step * 10**d) - step * 10**d) <= 1e-6:
+            return d
+    return 9
+
+
 def _csv_rows(acceleration: np.ndarray, fs: float, start: int,
               segment: np.ndarray | None) -> np.ndarray:
     time = np.arange(start, start + acceleration.size) / fs
@@ -163,7 +179,8 @@ def write_drive_csv(path: str | Path, acceleration: np.ndarray, fs: float,
     if segment is not None and np.shape(segment) != a.shape:
         raise RecordError(f"{path}: one segment number per sample, got {np.shape(segment)}")
     header = ",".join(CSV_HEADER + (("segment",) if segment is not None else ()))
-    fmt = "%.9f,%.9e" + (",%d" if segment is not None else "")
+    fmt = (f"%.{time_decimals(fs)}f,%.{CSV_DECIMALS}f"
+           + (",%d" if segment is not None else ""))
 
     def write(tmp: str) -> None:
         with open(tmp, "w", encoding="ascii", newline="\n") as fh:
@@ -171,7 +188,9 @@ def write_drive_csv(path: str | Path, acceleration: np.ndarray, fs: float,
             step = 1 << 18  # rows per chunk: a 2 h programme never holds its text in memory
             for k in range(0, a.size, step):
                 sl = slice(k, k + step)
-                rows = _csv_rows(a[sl], fs, k, None if segment is None else segment[sl])
+                # + 0.0: a value that rounds to -0 is written 0
+                rows = _csv_rows(np.round(a[sl], CSV_DECIMALS) + 0.0, fs, k,
+                                 None if segment is None else segment[sl])
                 np.savetxt(fh, rows, fmt=fmt)
 
     return (batch.write if batch is not None else atomic_write)(Path(path), write, ".csv")

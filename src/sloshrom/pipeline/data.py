@@ -44,7 +44,8 @@ class Peaks(TypedDict):
 
 
 class SegmentOutputs(TypedDict):
-    """One segment of :class:`ProgrammeOutputs` (``start_s``, ``duration_s`` in s)."""
+    """One segment of :class:`ProgrammeOutputs` (``start_s``, ``duration_s`` in s, to the
+    millisecond; ``first_sample`` and ``samples`` exact, at the programme's rate)."""
 
     index: int
     name: str
@@ -53,6 +54,8 @@ class SegmentOutputs(TypedDict):
     level_unit: str
     start_s: float
     duration_s: float
+    first_sample: int
+    samples: int
     peaks: Peaks
 
 
@@ -249,6 +252,11 @@ def _peaks(m: Mapping[str, float]) -> Peaks:
             "stroke_mm": m["displacement"] * 1e3}
 
 
+def _ms(t: float) -> float:
+    """A time in s to the millisecond (what the programme's outputs show a person)."""
+    return round(float(t), 3)
+
+
 def programme_outputs(prog: Programme, limits: signals.ShakerLimits = signals.SHAKER_LIMITS,
                       setup: float = LAB_SETUP, max_duration: float | None = None
                       ) -> ProgrammeOutputs:
@@ -276,13 +284,17 @@ def programme_outputs(prog: Programme, limits: signals.ShakerLimits = signals.SH
         shaker can play it, and what a shaker that can must reach).
     """
     segs: list[SegmentOutputs] = []
-    start = 0.0
+    start = 0  # the segment's first sample in the programme
     for k, s in enumerate(prog.segments):
         one = concatenate(prog.fs, [s])
+        n = int(np.size(s.acceleration))
+        # to the millisecond: a VFA of 480 s holds 480 fs + 1 samples (at rest at both
+        # ends), a random test of 25 s 25 fs; a person reads 480 s, not 480.0001 s
         segs.append({"index": k + 1, "name": s.name, "kind": s.kind, "level": s.level,
-                     "level_unit": LEVEL_UNITS[s.kind], "start_s": start,
-                     "duration_s": one.duration, "peaks": _peaks(one.motion())})
-        start += one.duration + round(prog.pause * prog.fs) / prog.fs
+                     "level_unit": LEVEL_UNITS[s.kind], "start_s": _ms(start / prog.fs),
+                     "duration_s": _ms(one.duration), "first_sample": start, "samples": n,
+                     "peaks": _peaks(one.motion())})
+        start += n + round(prog.pause * prog.fs)
     exceeds = prog.check(limits, max_duration)
     peaks = _peaks(prog.motion())
     shaker = (f"{limits.max_acceleration / G:.3g} g, {limits.max_velocity:.3g} m/s, "
@@ -294,10 +306,10 @@ def programme_outputs(prog: Programme, limits: signals.ShakerLimits = signals.SH
     return {
         "segments": segs,
         "peaks": peaks,
-        "duration_s": prog.duration,
+        "duration_s": _ms(prog.duration),
         "pause_s": prog.pause,
         "fs_hz": prog.fs,
-        "lab_time_s": prog.lab_time(setup),
+        "lab_time_s": _ms(prog.lab_time(setup)),
         "setup_s": setup,
         "limits": {"acceleration_g": limits.max_acceleration / G,
                    "velocity_m_s": limits.max_velocity,
