@@ -78,8 +78,8 @@ def test_random_damping_keys_and_raw_values(one_record):
     assert d["lscf_h1_uncorrected"] == raw["lscf_h1"]
     assert d["half_power_uncorrected"] == raw["half_power"]
     assert d["lscf_output"] == raw["lscf_output"]
-    t_boot = stats.t.ppf(0.975, 9)  # the H1 spreads are estimated from 10 simulated records
-    for est, q in (("lscf_h1", t_boot), ("lscf_output", 1.959964), ("half_power", t_boot)):
+    t_boot = stats.t.ppf(0.975, 9)  # the spreads are estimated from 10 simulated records
+    for est, q in (("lscf_h1", t_boot), ("lscf_output", t_boot), ("half_power", t_boot)):
         assert d[f"{est}_low"] < d[est] < d[f"{est}_high"]
         assert d[f"{est}_std"] > 0
         assert d[f"{est}_high"] - d[f"{est}_low"] == pytest.approx(2 * q * d[f"{est}_std"])
@@ -87,6 +87,26 @@ def test_random_damping_keys_and_raw_values(one_record):
     assert d["n_cycles"] == pytest.approx(900.0, rel=0.01)
     # the noise fit sees the 5 % input noise: ratio 0.0025
     assert 0.001 < d["noise_input"] < 0.005
+
+
+def test_output_only_takes_the_bootstrap_spread_or_else_au_s_law(one_record, monkeypatch):
+    """Output-only LSCF's std is the spread of the simulated records' output-only estimates
+    (not Au's law, which overstates it once the base's colour is divided out); where the
+    simulated records give none, Au's law times the efficiency, with the normal quantile."""
+    from sloshrom.beam.damping.estimators import OUTPUT_ONLY_EFFICIENCY, LscfOutput
+
+    u, y, d = one_record
+    au = OUTPUT_ONLY_EFFICIENCY * d["lscf_output"] * au_damping_cov(
+        d["lscf_output"], d["frequency_output"], 90.0)
+    assert d["lscf_output_std"] != pytest.approx(au, rel=0.05)
+    monkeypatch.setattr(LscfOutput, "estimate_records",
+                        lambda self, records: np.full(records.base.shape[0], np.nan))
+    e = random_damping(u, y, FS, F1, n_resamples=10)
+    assert e["lscf_output"] == d["lscf_output"]  # the raw value either way
+    assert e["lscf_output_std"] == pytest.approx(au, rel=1e-12)
+    assert e["lscf_output_high"] - e["lscf_output_low"] == pytest.approx(
+        2 * 1.959964 * au, rel=1e-6)
+    assert e["lscf_h1_std"] == d["lscf_h1_std"]  # the others' bootstrap as before
 
 
 def test_short_record_warning(one_record):

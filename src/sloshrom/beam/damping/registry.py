@@ -41,8 +41,8 @@ def register(estimator: DampingEstimator) -> DampingEstimator:
         raise BeamError(f"an estimator name must be a lower-case identifier, got {name!r}")
     if not isinstance(estimator, DampingEstimator):
         raise BeamError(f"{name!r} does not follow the DampingEstimator protocol")
-    if estimator.uncertainty not in ("bootstrap", "au"):
-        raise BeamError(f"{name!r}: uncertainty must be 'bootstrap' or 'au', got "
+    if estimator.uncertainty not in ("bootstrap", "spread", "au"):
+        raise BeamError(f"{name!r}: uncertainty must be 'bootstrap', 'spread' or 'au', got "
                         f"{estimator.uncertainty!r}")
     if name in ESTIMATORS or name in FREE_DECAY_METHODS:
         raise BeamError(f"an estimator named {name!r} is already registered")

@@ -711,7 +711,12 @@ def estimate_random(
       simulated mode: the damping ratio of the first bootstrapped estimator (in the order
       asked) that gives one in (0, 0.5), the frequency of the first bootstrapped estimator
       (``f1`` if it has none).
-    * Estimators of ``uncertainty == "au"`` (``lscf_output``): ``std = efficiency * zeta *
+    * Estimators of ``uncertainty == "spread"`` (``lscf_output``): the same simulated records,
+      their spread only: ``std`` their standard deviation, the interval ``value +/- t std``
+      around the raw value (no bias correction). Where there is no bootstrap (no damping ratio
+      to simulate, or fewer than half of the simulated records gave an estimate), Au's law as
+      below.
+    * Estimators of ``uncertainty == "au"``: ``std = efficiency * zeta *
       au_damping_cov(zeta, frequency, duration)`` (Au's law times the estimator's measured
       efficiency), interval ``zeta +/- z std``; no bias correction.
 
@@ -769,7 +774,9 @@ def estimate_random(
         # no interval can say how far it is: no value is written, raw or corrected
         raw = {n: replace(r, value=nan, uncorrected=nan, frequency=nan, reason=unexcited)
                for n, r in raw.items()}
-    boot = [n for n in names if ests[n].uncertainty == "bootstrap"]
+    # those whose bias the bootstrap removes first: the simulated mode is theirs
+    boot = ([n for n in names if ests[n].uncertainty == "bootstrap"]
+            + [n for n in names if ests[n].uncertainty == "spread"])
     # the simulated records are analysed by the procedure (attempt) that gave the value
     boot_ests = {n: bootstrap_estimator(ests[n], raw[n]) for n in boot}
     duration = test.duration
@@ -847,6 +854,9 @@ def estimate_random(
         if ests[n].uncertainty == "bootstrap":
             value, std, q = float(r.value - bias[n]), float(spread[n]), t_boot
             why = _bootstrap_reason(r, zeta_model, value, std, n_resamples)
+        elif ests[n].uncertainty == "spread" and np.isfinite(spread[n]):
+            value, std, q = r.value, float(spread[n]), t_boot
+            why = r.reason or ("" if np.isfinite(value) else "no estimate")
         else:
             value, q = r.value, z
             ok = np.isfinite(value) and value > 0 and np.isfinite(r.frequency)
@@ -858,7 +868,7 @@ def estimate_random(
                          else why or "no estimate")
     # Au's law speaks of output-only estimates: the first such estimator asked gives the record's
     # cycles and the length a precision needs
-    au_name = next((n for n in names if ests[n].uncertainty == "au"), None)
+    au_name = next((n for n in names if ests[n].uncertainty in ("spread", "au")), None)
     au = out[au_name] if au_name is not None else None
     f_cyc = au.frequency if au is not None and np.isfinite(au.frequency) else f_mode
     result = RandomDamping(out, noise_input=noise[0], noise_output=noise[1],
