@@ -379,10 +379,10 @@ class LscfOutput:
     Its interval is the parametric bootstrap's spread around the raw value (``"spread"``), not
     Au's law: once the base's colour is divided out, the estimate scatters 0.2-0.3 times the
     law's bound times :data:`OUTPUT_ONLY_EFFICIENCY` at the higher modes of a laboratory beam
-    (the law's intervals covered 100 %, the bootstrap's spread is within 0.6-1.2 of the
-    scatter; ``benchmarks/lab_coverage.py``). No bias correction: the simulated records hold
-    one mode and its near neighbours, and their output-only bias is not the record's (it
-    moved an unbiased third mode +3.8 %)."""
+    (the law's intervals covered 100 %; the scatter is 0.8-1.45 times the bootstrap's spread;
+    ``benchmarks/lab_coverage.py``, docs/beam.md). No bias correction: the simulated records
+    hold one mode and its near neighbours, and their output-only bias is not the record's (it
+    moved an unbiased third mode +3.6 %)."""
 
     name: str = "lscf_output"
     label: str = "output-only LSCF"
