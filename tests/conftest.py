@@ -16,9 +16,10 @@ import tempfile
 #: the end): a computation compiled once is loaded by the other xdist worker, by the same
 #: worker's next identical computation under a new ``jax.jit`` (each ``fit`` traces its own), and
 #: by the ``sloshrom`` subprocesses the tests start (they inherit the environment). JAX keys an
-#: entry on the computation itself (its HLO), the compile options, the XLA flags, JAX's version
-#: and the CPU, so an entry is never used for another computation; and the folder is new each
-#: run, so nothing of an earlier run (another checkout, another package version) is read.
+#: entry on the computation itself (its canonical IR), jaxlib's version, the backend, the XLA
+#: flags (``XLA_FLAGS``) and the compile options, so an entry is never used for another
+#: computation; and the folder is new each run, so nothing of an earlier run (another checkout,
+#: package version or machine) is read.
 #: Set before JAX is imported (``helpers`` imports it); the xdist workers inherit it.
 JAX_CACHE = "JAX_COMPILATION_CACHE_DIR"
 _OWN_JAX_CACHE = JAX_CACHE not in os.environ and "PYTEST_XDIST_WORKER" not in os.environ
