@@ -8,11 +8,30 @@ would change one for the others fails where it writes; a test that needs its own
 from __future__ import annotations
 
 import dataclasses
+import os
+import shutil
+import tempfile
 
-import numpy as np
-import pytest
+#: XLA's persistent compilation cache, one temporary folder a run (outside the tree, removed at
+#: the end): a computation compiled once is loaded by the other xdist worker, by the same
+#: worker's next identical computation under a new ``jax.jit`` (each ``fit`` traces its own), and
+#: by the ``sloshrom`` subprocesses the tests start (they inherit the environment). JAX keys an
+#: entry on the computation itself (its canonical IR), jaxlib's version, the backend, the XLA
+#: flags (``XLA_FLAGS``) and the compile options, so an entry is never used for another
+#: computation; and the folder is new each run, so nothing of an earlier run (another checkout,
+#: package version or machine) is read.
+#: Set before JAX is imported (``helpers`` imports it); the xdist workers inherit it.
+JAX_CACHE = "JAX_COMPILATION_CACHE_DIR"
+_OWN_JAX_CACHE = JAX_CACHE not in os.environ and "PYTEST_XDIST_WORKER" not in os.environ
+if _OWN_JAX_CACHE:
+    os.environ[JAX_CACHE] = tempfile.mkdtemp(prefix="sloshrom-tests-jax-")
+    os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] = "0"
+    os.environ["JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES"] = "0"
 
-from helpers import (
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+from helpers import (  # noqa: E402
     TINY_REPRODUCE,
     figure_axes,
     make_model_files,
@@ -138,3 +157,8 @@ def tiny_reproduce(tmp_path_factory) -> dict:
     rerun = json.loads((out / "summary.json").read_text())
     return {"out": out, "config": config, "cfg": cfg, "resumed": resumed, "rerun": rerun,
             "html": html, "resumed_log": logs[0], "rerun_log": res.output, "figures": figures}
+
+
+def pytest_unconfigure(config):
+    if _OWN_JAX_CACHE:
+        shutil.rmtree(os.environ.pop(JAX_CACHE), ignore_errors=True)

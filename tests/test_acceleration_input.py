@@ -74,12 +74,15 @@ def test_step_fed_the_previous_acceleration_reproduces_predict():
     assert model_input(NFIR(), "v", "a") == "v" and model_input(m, "v", "a") == "a"
 
 
-@pytest.mark.parametrize("backend", ["jax", "python"])
-def test_coupled_beam_feeds_the_network_its_own_signal(modal, backend):
+@pytest.mark.parametrize("backend, n", [
+    ("jax", 1500), ("python", 300),
+    # the Python loop calls the step once a sample: 1500 of them in the slow tier
+    pytest.param("python", 1500, marks=pytest.mark.slow)])
+def test_coupled_beam_feeds_the_network_its_own_signal(modal, backend, n):
     """Replayed open loop on the closed loop's own tank acceleration, the network gives the
     closed loop's force sample by sample: the loop feeds the right signal with the right lag."""
     m = _random(seed=3)
-    base = 0.3 * 9.80665 * _acc(1500, seed=1, rms=1.0)
+    base = 0.3 * 9.80665 * _acc(n, seed=1, rms=1.0)
     out = CoupledSimulator(m, modal, backend=backend).run(base)
     assert np.max(np.abs(out["dynamic_force"])) > 0.05  # the network is not idle
     np.testing.assert_allclose(out["dynamic_force"], m.predict(out["tank_acceleration"]),

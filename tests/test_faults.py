@@ -407,7 +407,11 @@ def test_a_disk_error_at_a_commands_write_leaves_its_results(command_inputs, tmp
     assert_refused_cleanly(res.exit_code, res.output, before, [tmp_path], reason)
 
 
-@pytest.mark.parametrize("command", ["compare", "export fmu", "train --ensemble"])
+@pytest.mark.parametrize("command", [
+    "compare", "export fmu",
+    # two trainings, one in a new process: slow tier (the fast tier kills the two commands above
+    # at their write, and fails the ensemble's write with a disk error)
+    pytest.param("train --ensemble", marks=pytest.mark.slow)])
 def test_a_kill_at_a_commands_write_leaves_its_results(command_inputs, tmp_path, command):
     """SIGKILL as the command's first file is complete: every previous file as it was; the
     next run succeeds and removes the killed run's temporaries."""
@@ -527,6 +531,8 @@ def test_reproduce_killed_then_resumed(finished, tmp_path):
     assert temporaries(out) == []
 
 
+@pytest.mark.slow  # two `reproduce` processes (the maps stage redone); the fast tier keeps a
+# kill at every step of a batch's commit (above) and a killed `reproduce` resumed (before)
 def test_reproduce_killed_in_a_stages_commit_then_resumed(finished, tmp_path):
     """Killed between the two renames of a map's batch (NetCDF + PNG): a reader finishing the
     commit sees both new files; the next run redoes the maps stage (its record was not written)

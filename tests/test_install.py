@@ -66,7 +66,8 @@ def test_read_only_install_without_a_writable_home(script, tmp_path):
     """numba cannot cache anywhere: the kernels compile in memory, with no warning or error."""
     site = _read_only_copy(tmp_path)
     env = {k: v for k, v in os.environ.items()
-           if not k.startswith(("NUMBA_CACHE", "HOME", "XDG_CACHE"))}
+           if not k.startswith(("NUMBA_CACHE", "HOME", "XDG_CACHE",
+                                "JAX_COMPILATION_CACHE", "JAX_PERSISTENT_CACHE"))}  # conftest.py
     env["HOME"] = str(site / "home")  # does not exist and cannot be made
     try:
         res = subprocess.run(_read_only_command(site, [sys.executable, "-c", script, str(site)]),

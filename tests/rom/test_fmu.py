@@ -164,14 +164,14 @@ def fmu_input(name: str) -> str:
 
 
 @pytest.fixture(scope="module")
-def feedthrough(records):
+def feedthrough(records, models):
     """The two classes with direct feed-through, on the training record: the NSS (the
-    default --feedthrough yes) and the LSS."""
+    default --feedthrough yes: the one of ``models``, read only) and the LSS."""
     from sloshrom.rom.lss import LSS
 
     tr, _ = records
     u, y, fs = tr["velocity"], tr["dynamic_force"], tr.fs
-    return {"nss": _nss(max_epochs=3, seed=0).fit(u, y, fs), "lss": LSS().fit(u, y, fs)}
+    return {"nss": models["nss"], "lss": LSS().fit(u, y, fs)}
 
 
 @pytest.mark.parametrize("name", ["nss", "lss"])

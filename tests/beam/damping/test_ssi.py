@@ -42,6 +42,20 @@ def test_poles_of_a_clean_oscillator():
         ssi_cov_poles(y, FS, 10, 10)
 
 
+def test_the_interval_of_a_short_record_comes_from_the_bootstrap():
+    """The fast version of the next test (slow tier): the estimator runs through
+    ``damping_dataset`` and gives a value inside an interval of positive width, and the
+    frequency, on 90 s with a few resamples."""
+    u, y = _sdof(90.0, 200)
+    d = damping_dataset(u, y, FS, F1, estimators=["ssi_cov"], n_resamples=4).sel(
+        estimator="ssi_cov")
+    value, low, high = float(d.value), float(d.low), float(d.high)
+    assert str(d.reason.values) == ""
+    assert low < value < high and float(d["std"]) > 0
+    assert abs(float(d.frequency) / F1 - 1) < 0.005
+
+
+@pytest.mark.slow  # 600 s and 20 resamples: a statistical benchmark of the estimator
 def test_sdof_white_noise_within_its_own_interval():
     # 600 s of a 1 %, 10 Hz oscillator: Au's bound is 5 %, the estimate must land within its
     # own 95 % interval of the truth and the frequency within 0.5 %
