@@ -19,6 +19,7 @@
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from collections.abc import Callable, Mapping
@@ -34,6 +35,7 @@ from sloshrom._x64 import float64
 from sloshrom.rom.engine import AdamProblem, adam_epochs
 from sloshrom.rom.errors import ROMError
 from sloshrom.rom.grey.entry import grey_shapes
+from sloshrom.rom.grey.kernel import grey_window, kernel_available, kernel_note
 from sloshrom.rom.grey.network import GreySpec, grey_run, grey_simulate
 from sloshrom.rom.grey.physics import (
     causal_intervals,
@@ -215,6 +217,17 @@ def init_params(spec: GreySpec, seed: int, physics: np.ndarray, taps: np.ndarray
     return out
 
 
+_NOTED: list[bool] = []
+
+
+def _note_path() -> None:
+    """Say once a process that the grey box trains without its C kernel, and why."""
+    note = kernel_note()
+    if note is not None and not _NOTED:
+        _NOTED.append(True)
+        logging.getLogger("sloshrom").warning(note)
+
+
 def _as64(p: Mapping[str, ArrayLike]) -> dict[str, jax.Array]:
     return {k: jnp.asarray(v, jnp.float64) for k, v in p.items()}
 
@@ -230,10 +243,12 @@ def shooting_problem(
     options: ShootingOptions,
     validation_history: int = 0,
     dtype: type = TRAIN_DTYPE,
+    kernel: bool | None = None,
 ) -> AdamProblem:
     """The network's multiple-shooting problem on the column's features (the physics fixed:
-    its parameters are carried, not trained), its Adam steps in ``dtype``. Call it inside
-    ``jax.enable_x64(True)``."""
+    its parameters are carried, not trained), its Adam steps in ``dtype``; ``kernel``: the
+    shooting window by the C kernel (:mod:`sloshrom.rom.grey.kernel`; None: where it was
+    built) or by ``lax.scan``. Call it inside ``jax.enable_x64(True)``."""
     o = options
     n, w, t = np.size(u), spec.window, int(o.horizon)
     ru, ry = float(scaler.u(0.0)), float(scaler.y(0.0))
@@ -257,7 +272,11 @@ def shooting_problem(
         past = starts[:, None] + jnp.arange(w)[None, :]
         return ss_encode(p, u_s[past] + shift[:, None], y_s[past], ru, ry)
 
+    use_kernel = kernel_available() if kernel is None else bool(kernel)
+
     def simulate(p: PyTree, x0: jax.Array, seq: jax.Array) -> jax.Array:
+        if use_kernel:
+            return grey_window(p, x0, seq, ru, ry)
         return grey_simulate(p, x0, jnp.swapaxes(seq, 0, 1), ru, ry).T
 
     cache: dict[int, tuple[np.ndarray, jax.Array]] = {}
@@ -320,6 +339,7 @@ def fit_greybox(
                          "trainer": "shooting", "n_rows": int(np.size(u)),
                          "train_seconds": 0.0}
     dtype = jnp.float64 if precision == "float64" else TRAIN_DTYPE
+    _note_path()
     problem = shooting_problem(spec, u, y, fs, scaler, params0, validation, o, dtype=dtype)
     res = adam_epochs(problem, max_epochs=int(o.max_epochs), max_fail=max_fail,
                       min_epochs=int(o.max_epochs) // 2, rollback=10.0, seed=seed,
