@@ -57,6 +57,8 @@ template <> struct Vec<float> {
   static constexpr float kClamp = 20.0f;  // tanh(10) rounds to 1
 };
 template <typename T> using V = typename Vec<T>::type;
+// Samples of a block whose weight gradients are summed at once (their rows stay in L1).
+constexpr int64_t kChunk = 8;
 
 template <typename T> SL_INLINE V<T> load(const T* p) {
   V<T> v;
@@ -122,35 +124,61 @@ template <typename T> struct Net {
   int64_t no() const { return nx + nf - 1; }
 };
 
-// out[i, j] += sum_t sum_lanes a[t, i] b[t, j] for one block: a's rows advance by (sa_t, sa_i)
-// and b's by (sb_t, sb_j) elements, each row a block of lanes.
+// acc[i, j] += sum_t a[t, i] b[t, j], lane by lane (acc: a block of lanes per (i, j), ld
+// blocks a row), for t in [t0, t1): a's rows advance by (sa_t, sa_i) and b's by (sb_t, sb_j)
+// elements, each row a block of lanes. Called on a few samples at a time (their rows are in
+// the first-level cache), 2 x 4 accumulators in registers.
 template <typename T>
-SL_INLINE void outer_sum(T* out, int64_t ld, const T* a, int64_t ni, int64_t sa_t, int64_t sa_i,
-                         const T* b, int64_t nj, int64_t sb_t, int64_t sb_j, int64_t nt) {
-  for (int64_t i = 0; i < ni; ++i) {
+SL_INLINE void outer_acc(T* acc, int64_t ld, const T* a, int64_t ni, int64_t sa_t, int64_t sa_i,
+                         const T* b, int64_t nj, int64_t sb_t, int64_t sb_j, int64_t t0,
+                         int64_t t1) {
+  constexpr int L = kLanes<T>;
+  int64_t i = 0;
+  for (; i + 2 <= ni; i += 2) {
     int64_t j = 0;
     for (; j + 4 <= nj; j += 4) {
-      V<T> c0{}, c1{}, c2{}, c3{};
-      for (int64_t t = 0; t < nt; ++t) {
-        const V<T> ai = load(a + t * sa_t + i * sa_i);
-        const T* bj = b + t * sb_t + j * sb_j;
-        c0 += ai * load(bj);
-        c1 += ai * load(bj + sb_j);
-        c2 += ai * load(bj + 2 * sb_j);
-        c3 += ai * load(bj + 3 * sb_j);
+      T* r0 = acc + (i * ld + j) * L;
+      T* r1 = r0 + ld * L;
+      V<T> c00 = load(r0), c01 = load(r0 + L), c02 = load(r0 + 2 * L), c03 = load(r0 + 3 * L);
+      V<T> c10 = load(r1), c11 = load(r1 + L), c12 = load(r1 + 2 * L), c13 = load(r1 + 3 * L);
+      for (int64_t t = t0; t < t1; ++t) {
+        const T* at = a + t * sa_t + i * sa_i;
+        const T* bt = b + t * sb_t + j * sb_j;
+        const V<T> a0 = load(at), a1 = load(at + sa_i);
+        const V<T> b0 = load(bt), b1 = load(bt + sb_j), b2 = load(bt + 2 * sb_j),
+                   b3 = load(bt + 3 * sb_j);
+        c00 += a0 * b0;
+        c01 += a0 * b1;
+        c02 += a0 * b2;
+        c03 += a0 * b3;
+        c10 += a1 * b0;
+        c11 += a1 * b1;
+        c12 += a1 * b2;
+        c13 += a1 * b3;
       }
-      out[i * ld + j] += hsum<T>(c0);
-      out[i * ld + j + 1] += hsum<T>(c1);
-      out[i * ld + j + 2] += hsum<T>(c2);
-      out[i * ld + j + 3] += hsum<T>(c3);
+      store(r0, c00), store(r0 + L, c01), store(r0 + 2 * L, c02), store(r0 + 3 * L, c03);
+      store(r1, c10), store(r1 + L, c11), store(r1 + 2 * L, c12), store(r1 + 3 * L, c13);
     }
     for (; j < nj; ++j) {
-      V<T> c{};
-      for (int64_t t = 0; t < nt; ++t)
-        c += load(a + t * sa_t + i * sa_i) * load(b + t * sb_t + j * sb_j);
-      out[i * ld + j] += hsum<T>(c);
+      T* r0 = acc + (i * ld + j) * L;
+      T* r1 = r0 + ld * L;
+      V<T> c0 = load(r0), c1 = load(r1);
+      for (int64_t t = t0; t < t1; ++t) {
+        const V<T> bv = load(b + t * sb_t + j * sb_j);
+        c0 += load(a + t * sa_t + i * sa_i) * bv;
+        c1 += load(a + t * sa_t + (i + 1) * sa_i) * bv;
+      }
+      store(r0, c0), store(r1, c1);
     }
   }
+  for (; i < ni; ++i)
+    for (int64_t j = 0; j < nj; ++j) {
+      T* r = acc + (i * ld + j) * L;
+      V<T> c = load(r);
+      for (int64_t t = t0; t < t1; ++t)
+        c += load(a + t * sa_t + i * sa_i) * load(b + t * sb_t + j * sb_j);
+      store(r, c);
+    }
 }
 
 // act[j] = tanh(bias[j] + sum_i in_i W[i, j]), in_i the rows of two sets (ni0 rows at p0,
@@ -238,16 +266,18 @@ SL_INLINE void backward(const Net<T>& m, const T* seq, const T* xs, const T* hs,
   constexpr int L = kLanes<T>;
   const int64_t nx = m.nx, nf = m.nf, n = m.n, B = m.B, TT = m.T_;
   const int64_t nz = m.nz(), no = m.no();
-  for (int64_t i = 0; i < nz * nx; ++i) dA[i] = 0;
-  for (int64_t i = 0; i < nz * n; ++i) dW1[i] = 0;
-  for (int64_t i = 0; i < n * nx; ++i) dW2[i] = 0;
-  for (int64_t i = 0; i < no; ++i) dC[i] = 0;
-  for (int64_t i = 0; i < no * n; ++i) dV1[i] = 0;
-  for (int64_t j = 0; j < n; ++j) db1[j] = dd1[j] = dV2[j] = 0;
   // per block: the gradients at each sample of the next state (dxn), of the state map's and
   // the output map's pre-activations (da, dg), and dy, one block of lanes a row
   std::vector<T> dxn(TT * nx * L), da(TT * n * L), dg(TT * n * L), dyb(TT * L);
   std::vector<T> sq(TT * nf * L);  // the block's inputs and features
+  // the weights' gradients lane by lane (summed across lanes at the end)
+  std::vector<T> lanes((nz * nx + nz * n + n * nx + no * n + no + n) * L, T(0));
+  T* gA = lanes.data();
+  T* gW1 = gA + nz * nx * L;
+  T* gW2 = gW1 + nz * n * L;
+  T* gV1 = gW2 + n * nx * L;
+  T* gC = gV1 + no * n * L;
+  T* gV2 = gC + no * L;
   // the running gradient of the state, and the sums of da, dg, dxn and dy (the biases' and
   // the rest terms' gradients), one block of lanes a row
   std::vector<T> dxbuf(nx * L), sums((2 * n + nx + 1) * L, T(0));
@@ -296,24 +326,35 @@ SL_INLINE void backward(const Net<T>& m, const T* seq, const T* xs, const T* hs,
           c += load(dat + j * L) * m.W1[k * n + j] + load(dgt + j * L) * m.V1[k * n + j];
         store(dx + k * L, c);
       }
+      // the weights' gradients of the last few samples, while their rows are in the cache
+      if (t % kChunk == 0) {
+        const int64_t t1 = t + kChunk < TT ? t + kChunk : TT;
+        const T* xb = xs + blk * TT * nx * L;
+        const T* hb = hs + blk * TT * n * L;
+        const T* gb = gs + blk * TT * n * L;
+        const T* sb = sq.data();
+        const T* dn = dxn.data();
+        outer_acc<T>(gA, nx, xb, nx, nx * L, L, dn, nx, nx * L, L, t, t1);
+        outer_acc<T>(gA + nx * nx * L, nx, sb, nf, nf * L, L, dn, nx, nx * L, L, t, t1);
+        outer_acc<T>(gW1, n, xb, nx, nx * L, L, da.data(), n, n * L, L, t, t1);
+        outer_acc<T>(gW1 + nx * n * L, n, sb, nf, nf * L, L, da.data(), n, n * L, L, t, t1);
+        outer_acc<T>(gW2, nx, hb, n, n * L, L, dn, nx, nx * L, L, t, t1);
+        outer_acc<T>(gV1, n, xb, nx, nx * L, L, dg.data(), n, n * L, L, t, t1);
+        outer_acc<T>(gV1 + nx * n * L, n, sb + L, nf - 1, nf * L, L, dg.data(), n, n * L, L,
+                     t, t1);
+        outer_acc<T>(gC, 1, xb, nx, nx * L, L, dyb.data(), 1, L, L, t, t1);
+        outer_acc<T>(gC + nx * L, 1, sb + L, nf - 1, nf * L, L, dyb.data(), 1, L, L, t, t1);
+        outer_acc<T>(gV2, 1, gb, n, n * L, L, dyb.data(), 1, L, L, t, t1);
+      }
     }
     for (int64_t k = 0; k < nx; ++k) store(dx0 + k * B + b0, load(dx + k * L));
-    // the weights' gradients of this block: sums over its samples and lanes
-    const T* xb = xs + blk * TT * nx * L;
-    const T* hb = hs + blk * TT * n * L;
-    const T* gb = gs + blk * TT * n * L;
-    const T* sb = sq.data();
-    outer_sum<T>(dA, nx, xb, nx, nx * L, L, dxn.data(), nx, nx * L, L, TT);
-    outer_sum<T>(dA + nx * nx, nx, sb, nf, nf * L, L, dxn.data(), nx, nx * L, L, TT);
-    outer_sum<T>(dW1, n, xb, nx, nx * L, L, da.data(), n, n * L, L, TT);
-    outer_sum<T>(dW1 + nx * n, n, sb, nf, nf * L, L, da.data(), n, n * L, L, TT);
-    outer_sum<T>(dW2, nx, hb, n, n * L, L, dxn.data(), nx, nx * L, L, TT);
-    outer_sum<T>(dV1, n, xb, nx, nx * L, L, dg.data(), n, n * L, L, TT);
-    outer_sum<T>(dV1 + nx * n, n, sb + L, nf - 1, nf * L, L, dg.data(), n, n * L, L, TT);
-    outer_sum<T>(dC, 1, xb, nx, nx * L, L, dyb.data(), 1, L, L, TT);
-    outer_sum<T>(dC + nx, 1, sb + L, nf - 1, nf * L, L, dyb.data(), 1, L, L, TT);
-    outer_sum<T>(dV2, 1, gb, n, n * L, L, dyb.data(), 1, L, L, TT);
   }
+  for (int64_t i = 0; i < nz * nx; ++i) dA[i] = hsum<T>(load(gA + i * L));
+  for (int64_t i = 0; i < nz * n; ++i) dW1[i] = hsum<T>(load(gW1 + i * L));
+  for (int64_t i = 0; i < n * nx; ++i) dW2[i] = hsum<T>(load(gW2 + i * L));
+  for (int64_t i = 0; i < no * n; ++i) dV1[i] = hsum<T>(load(gV1 + i * L));
+  for (int64_t i = 0; i < no; ++i) dC[i] = hsum<T>(load(gC + i * L));
+  for (int64_t j = 0; j < n; ++j) dV2[j] = hsum<T>(load(gV2 + j * L));
   // the biases, and the rest terms -tanh(b1) W2 and -tanh(d1) V2 of every sample
   const T sum_dy = hsum<T>(load(s_dy));
   std::vector<T> sum_dxn(nx);
