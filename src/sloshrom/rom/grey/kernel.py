@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import importlib
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from types import ModuleType
 
 import jax
@@ -30,6 +30,8 @@ __all__ = ["KERNEL_ENV", "WEIGHTS", "grey_window", "kernel_available", "kernel_n
 KERNEL_ENV = "SLOSHROM_GREY_KERNEL"
 #: The network's arrays the window reads, in the kernel's order.
 WEIGHTS = ("A", "W1", "b1", "W2", "C", "V1", "d1", "V2")
+#: jax.ShapeDtypeStruct (untyped in jax) as the typed constructor the kernel's results use
+_Struct: Callable[[tuple[int, ...], np.dtype], jax.ShapeDtypeStruct] = jax.ShapeDtypeStruct
 #: The batch is padded to a multiple of this (64 bytes of float32 rows: the kernel's blocks).
 _LANES = 16
 
@@ -78,8 +80,8 @@ def _forward(w: Sequence[jax.Array], x0: jax.Array, seq: jax.Array
     t, _, b = seq.shape
     nx, n = w[0].shape[1], w[1].shape[1]
     dt = seq.dtype
-    out = (jax.ShapeDtypeStruct((t, b), dt), jax.ShapeDtypeStruct((t, nx, b), dt),
-           jax.ShapeDtypeStruct((t, n, b), dt), jax.ShapeDtypeStruct((t, n, b), dt))
+    out = (_Struct((t, b), dt), _Struct((t, nx, b), dt),
+           _Struct((t, n, b), dt), _Struct((t, n, b), dt))
     call = jax.ffi.ffi_call(f"sloshrom_grey_forward_{_suffix(dt)}", out,
                             vmap_method="sequential")
     y, xs, hs, gs = call(*w, x0, seq)
@@ -101,8 +103,7 @@ def _window_bwd(res: tuple[jax.Array, ...], dy: jax.Array
                 ) -> tuple[tuple[jax.Array, ...], jax.Array, jax.Array]:
     w, (seq, xs, hs, gs) = res[:8], res[8:]
     dt = seq.dtype
-    out = (*(jax.ShapeDtypeStruct(a.shape, dt) for a in w),
-           jax.ShapeDtypeStruct((xs.shape[1], seq.shape[2]), dt))
+    out = (*(_Struct(a.shape, dt) for a in w), _Struct((xs.shape[1], seq.shape[2]), dt))
     call = jax.ffi.ffi_call(f"sloshrom_grey_backward_{_suffix(dt)}", out,
                             vmap_method="sequential")
     grads = call(*w, seq, xs, hs, gs, dy)
