@@ -11,6 +11,9 @@ import numpy as np
 import pytest
 from dask.distributed import Client, LocalCluster
 
+from sloshrom.config import Tank
+from sloshrom.io import record_from_measurement
+from sloshrom.rig import VirtualRig
 from sloshrom.rom import GreyBox
 from sloshrom.rom.ensemble import Ensemble
 from sloshrom.rom.grey.kernel import kernel_available
@@ -28,13 +31,9 @@ def _worker_state() -> tuple[str, bool]:
 @pytest.mark.timeout(1800)
 @pytest.mark.skipif(not kernel_available(), reason="the grey kernel is not built here")
 def test_ensemble_trains_20_times_in_single_threaded_workers():
-    from sloshrom.config import Tank
-    from sloshrom.io import record_from_measurement
-    from sloshrom.rig import VirtualRig
-
     tank = Tank(fill=0.5)
     rig = VirtualRig(tank)
-    path = vfa(1 / rig.dt, "train", duration=6.0, tank=tank, seed=1)
+    path = vfa(1 / rig.dt, "train", duration=12.0, tank=tank, seed=1)
     rec = record_from_measurement(rig.measure(path.acceleration), tank)
     u, y = rec["velocity"], rec["dynamic_force"]
     n = u.size // 2
@@ -53,4 +52,7 @@ def test_ensemble_trains_20_times_in_single_threaded_workers():
             ens = Ensemble(template, n_members=2, seeds=[2 * k, 2 * k + 1]).fit(
                 u[:n], y[:n], rec.fs, validation=(u[n:], y[n:]),
                 scheduler=cluster.scheduler_address, fill=0.5)
-            assert all(np.isfinite(h["val_mse"][-1]) for h in ens.history_), k
+            # every epoch of both members ran (a tiny model on 6 s may leave its start for the
+            # worse: the best epoch is kept, and it predicts)
+            assert [len(h["val_mse"]) for h in ens.history_] == [3, 3], k
+            assert np.all(np.isfinite(ens.predict(u[n:]))), k
