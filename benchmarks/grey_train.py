@@ -23,6 +23,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from sloshrom.rom import GreyBox  # noqa: E402
 from sloshrom.rom.grey import kernel as gk  # noqa: E402
 from sloshrom.rom.grey import training as gt  # noqa: E402
+from sloshrom.rom.grey.entry import GREY_CLASS  # noqa: E402
 from train_speed import records  # noqa: E402
 
 
@@ -49,7 +50,8 @@ def main() -> None:
         cpu["search"] = time.process_time() - c0
         return out
 
-    est = GreyBox(seed=a.seed, velocity_offset=0.5)
+    # the recipe of `reproduce` ([rom.grey] and the class's passive recipe)
+    est = GreyBox(seed=a.seed, velocity_offset=0.5, **GREY_CLASS.recipe)
     sys.modules["sloshrom.rom.grey.estimator"].fit_physics = timed_search
     c0, t0 = time.process_time(), time.perf_counter()
     est.fit(u, y, fs, validation=(uv, yv), fill=0.5)
