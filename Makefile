@@ -23,7 +23,8 @@ XDIST      := -n $(WORKERS) --dist loadfile
 .PHONY: reproduce test test-other-isa test-slow test-all test-latest lint bench beyond fidelity \
 	peers pyoma lock clean
 
-$(STAMP): $(LOCK) pyproject.toml
+# setup.py and window.cc: the grey box's training kernel, compiled by the editable install
+$(STAMP): $(LOCK) pyproject.toml setup.py src/sloshrom/rom/grey/window.cc
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --require-hashes --no-deps -r $(LOCK)
 	$(BIN)/python -m pip install --quiet --no-deps --no-build-isolation -e .

@@ -189,3 +189,29 @@ def test_same_seed_same_result_other_seed_other_draws():
         c = adam_epochs(problem, max_epochs=3, seed=5)
     np.testing.assert_array_equal(np.asarray(a.params), np.asarray(b.params))
     assert not np.array_equal(np.asarray(a.params), np.asarray(c.params))
+
+
+def test_a_validation_plateau_stops_the_training():
+    # the objective falls by 10 % an epoch up to epoch 6, then by 0.2 %: with plateau (3, 1 %)
+    # the run stops at the first epoch whose best is within 1 % of the best 3 epochs before
+    # (epoch 9), from min_epochs on, and returns its best epoch; without, it runs to the end
+    def objective(k):
+        return 0.9 ** min(k, 6) * 0.998 ** max(0, k - 6)
+
+    def run(**kw):
+        calls = []
+
+        def validate(w):
+            calls.append(len(calls))
+            return 1.0, objective(calls[-1])
+
+        with jax.enable_x64(True):
+            problem, *_ = _linear_problem(validate)
+            return adam_epochs(problem, max_epochs=20, max_fail=4, **kw)
+
+    res = run(plateau=(3, 0.01), min_epochs=2)
+    assert res.stop_reason == "validation_plateau" and res.best_epoch == 9
+    assert len(res.history["val_objective"]) == 10
+    late = run(plateau=(3, 0.01), min_epochs=12)
+    assert late.stop_reason == "validation_plateau" and late.best_epoch == 12
+    assert run(min_epochs=2).stop_reason == "max_epochs"

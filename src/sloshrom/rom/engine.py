@@ -80,7 +80,8 @@ class EngineResult:
     params : pytree
         The best parameters (lowest objective), as the trainer's arrays.
     stop_reason : str
-        ``"max_epochs"``, ``"validation_stop"``, ``"diverged"`` or ``"callback"``.
+        ``"max_epochs"``, ``"validation_stop"``, ``"validation_plateau"``, ``"diverged"`` or
+        ``"callback"``.
     history : dict of list
         Per epoch (epoch 0 = the initial parameters): ``train_mse``, ``val_mse`` (times
         ``mse_scale``), ``val_objective``, any ``constant_history`` key, ``seconds`` (since
@@ -128,6 +129,7 @@ def adam_epochs(
     patience_without_validation: bool = False,
     constant_history: dict[str, float] | None = None,
     callback: Callable[[int, dict], Any] | None = None,
+    plateau: tuple[int, float] | None = None,
 ) -> EngineResult:
     """Train by epochs of compiled Adam steps with early stopping (module docstring).
 
@@ -157,6 +159,10 @@ def adam_epochs(
         that must have the keys of the Levenberg-Marquardt trainer).
     callback : callable, optional
         ``callback(epoch, info)`` after every epoch; True stops the training.
+    plateau : (int, float), optional
+        ``(epochs, gain)``: stop (from ``min_epochs`` on) when the best objective has fallen by
+        less than the fraction ``gain`` over the last ``epochs`` epochs (a validation
+        plateau: the epochs left would buy less than it). None: only ``max_fail`` stops.
 
     Returns
     -------
@@ -172,6 +178,7 @@ def adam_epochs(
     hist: dict[str, list] = {k: [] for k in keys}
     best, best_obj, best_epoch, fail, reason = params, math.inf, 0, 0, "max_epochs"
     patient = validate is not None or patience_without_validation
+    bests: list[float] = []  # the best objective after each epoch
     t0 = time.perf_counter()
     for epoch in range(int(max_epochs) + 1):
         step_mse = math.nan
@@ -206,5 +213,11 @@ def adam_epochs(
             break
         if patient and fail >= max_fail and epoch >= min_epochs:
             reason = "validation_stop"
+            break
+        bests.append(best_obj)
+        if (plateau is not None and patient and epoch >= max(min_epochs, plateau[0])
+                and math.isfinite(bests[-1 - plateau[0]])
+                and bests[-1] > (1.0 - plateau[1]) * bests[-1 - plateau[0]]):
+            reason = "validation_plateau"
             break
     return EngineResult(best, reason, hist, best_epoch)

@@ -1,0 +1,150 @@
+"""The grey box's training step in C: its network's shooting window as an XLA FFI kernel.
+
+:func:`grey_window` is :func:`sloshrom.rom.grey.network.grey_simulate` over a batch of
+sub-sequences (the state steps and the output map, the column's features given), with its
+gradient by a custom VJP whose reverse pass (backpropagation through time) is a second
+kernel. Both are C++ (``window.cc``, built with the package as the extension
+``sloshrom.rom.grey._window``, float64 and float32), registered with JAX when this module is
+imported; they run inside the compiled epoch like any XLA operation, on XLA's thread, with no
+Python (a Dask worker with one thread cannot deadlock on them).
+
+Where the extension was not built (no C++ compiler, or a build without jaxlib's headers), or
+with ``SLOSHROM_GREY_KERNEL=jax`` in the environment, :func:`kernel_available` is False and the
+grey box trains by the pure-JAX path, which stays the reference.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+from collections.abc import Callable, Mapping, Sequence
+from types import ModuleType
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+__all__ = ["KERNEL_ENV", "WEIGHTS", "grey_window", "kernel_available", "kernel_note"]
+
+#: The environment variable that turns the kernel off (``jax``) for a comparison.
+KERNEL_ENV = "SLOSHROM_GREY_KERNEL"
+#: The network's arrays the window reads, in the kernel's order.
+WEIGHTS = ("A", "W1", "b1", "W2", "C", "V1", "d1", "V2")
+#: jax.ShapeDtypeStruct (untyped in jax) as the typed constructor the kernel's results use
+_Struct: Callable[[tuple[int, ...], np.dtype], jax.ShapeDtypeStruct] = jax.ShapeDtypeStruct
+#: The batch is padded to a multiple of this (64 bytes of float32 rows: the kernel's blocks).
+_LANES = 16
+
+
+def _load() -> ModuleType | None:
+    try:
+        mod = importlib.import_module("sloshrom.rom.grey._window")
+    except ImportError:
+        return None
+    for name, capsule in mod.handlers().items():
+        jax.ffi.register_ffi_target(name, capsule, platform="cpu")
+    return mod
+
+
+_MODULE = _load()
+
+
+def kernel_available() -> bool:
+    """Whether the grey box trains with the C kernel (built, and not turned off by
+    ``SLOSHROM_GREY_KERNEL=jax``)."""
+    return _MODULE is not None and os.environ.get(KERNEL_ENV, "").lower() != "jax"
+
+
+def kernel_note() -> str | None:
+    """One line on why the pure-JAX path trains, or None when the kernel does (logged once a
+    training by :func:`sloshrom.rom.grey.training.fit_greybox`)."""
+    if _MODULE is None:
+        return ("the grey box's compiled training kernel was not built (no C++ compiler or "
+                "no jaxlib headers when sloshrom was installed): training by the pure-JAX "
+                "path (slower, same model)")
+    if not kernel_available():
+        return f"{KERNEL_ENV}=jax: the grey box trains by the pure-JAX path"
+    return None
+
+
+def _suffix(dtype: np.dtype) -> str:
+    if dtype == np.float64:
+        return "f64"
+    if dtype == np.float32:
+        return "f32"
+    raise TypeError(f"the grey window's kernel runs float64 or float32, not {dtype}")
+
+
+def _forward(w: Sequence[jax.Array], x0: jax.Array, seq: jax.Array
+             ) -> tuple[jax.Array, jax.Array, jax.Array, jax.Array]:
+    t, _, b = seq.shape
+    nx, n = w[0].shape[1], w[1].shape[1]
+    dt = seq.dtype
+    out = (_Struct((t, b), dt), _Struct((t, nx, b), dt),
+           _Struct((t, n, b), dt), _Struct((t, n, b), dt))
+    call = jax.ffi.ffi_call(f"sloshrom_grey_forward_{_suffix(dt)}", out,
+                            vmap_method="sequential")
+    y, xs, hs, gs = call(*w, x0, seq)
+    return y, xs, hs, gs
+
+
+@jax.custom_vjp
+def _window(w: tuple[jax.Array, ...], x0: jax.Array, seq: jax.Array) -> jax.Array:
+    return _forward(w, x0, seq)[0]
+
+
+def _window_fwd(w: tuple[jax.Array, ...], x0: jax.Array, seq: jax.Array
+                ) -> tuple[jax.Array, tuple[jax.Array, ...]]:
+    y, xs, hs, gs = _forward(w, x0, seq)
+    return y, (*w, seq, xs, hs, gs)
+
+
+def _window_bwd(res: tuple[jax.Array, ...], dy: jax.Array
+                ) -> tuple[tuple[jax.Array, ...], jax.Array, jax.Array]:
+    w, (seq, xs, hs, gs) = res[:8], res[8:]
+    dt = seq.dtype
+    out = (*(_Struct(a.shape, dt) for a in w), _Struct((xs.shape[1], seq.shape[2]), dt))
+    call = jax.ffi.ffi_call(f"sloshrom_grey_backward_{_suffix(dt)}", out,
+                            vmap_method="sequential")
+    grads = call(*w, seq, xs, hs, gs, dy)
+    # the inputs and the features are data, not trained: their cotangent is not computed
+    return tuple(grads[:8]), grads[8], jnp.zeros_like(seq)
+
+
+_window.defvjp(_window_fwd, _window_bwd)
+
+
+def grey_window(p: Mapping[str, jax.Array], x0: jax.Array, seq: jax.Array,
+                r_u: float | jax.Array, r_y: float | jax.Array) -> jax.Array:
+    """:func:`~sloshrom.rom.grey.network.grey_simulate` by the C kernel, batch first.
+
+    Parameters
+    ----------
+    p : mapping
+        The network's arrays (:data:`WEIGHTS`; others are ignored), float64 or float32.
+    x0 : jax.Array, shape (B, nx)
+        The states at the window's start.
+    seq : jax.Array, shape (B, T, 1 + 4)
+        The scaled input and the scaled features of each sample.
+    r_u, r_y : float
+        The scaled rest input and output.
+
+    Returns
+    -------
+    jax.Array, shape (B, T)
+        The scaled outputs. Differentiable in ``p`` and ``x0`` (not in ``seq``: its cotangent
+        is zero).
+    """
+    dt = seq.dtype
+    w = tuple(jnp.asarray(p[k], dt) for k in WEIGHTS)
+    b = seq.shape[0]
+    pad = -b % _LANES
+    s = jnp.transpose(seq, (1, 2, 0))  # (T, 1 + 4, B): the batch is the kernel's vector axis
+    s = s.at[:, 0].add(-jnp.asarray(r_u, dt))
+    x = jnp.asarray(x0, dt).T
+    if pad:
+        # rows of zeros: at rest, output phi[0] = 0, no gradient from them (their dy is 0)
+        s = jnp.pad(s, ((0, 0), (0, 0), (0, pad)))
+        x = jnp.pad(x, ((0, 0), (0, pad)))
+    y = _window(w, x, s)
+    return (y[:, :b] + jnp.asarray(r_y, dt)).T

@@ -1,0 +1,526 @@
+// The grey box's shooting window as two XLA FFI handlers: the network's free run over a batch
+// of sub-sequences (state steps and output map) and its reverse pass (backpropagation through
+// time), float64 and float32. Python side: sloshrom/rom/grey/kernel.py.
+//
+//   z_t = [x_t, seq_t]                       seq_t = [du_t, phi_t] (1 + nf features)
+//   o_t = [x_t, phi_t]
+//   y_t = phi_t[0] + o_t C + tanh(o_t V1 + d1) V2 - tanh(d1) V2
+//   x_{t+1} = x_t + z_t A + tanh(z_t W1 + b1) W2 - tanh(b1) W2
+//
+// Layout: the batch is the last (contiguous) axis of every per-sample array, so that the
+// innermost loops run over LANES batch rows with no dependence between them and the compiler
+// vectorises them for any SIMD width. The rows of a block of LANES run through the whole window
+// before the next block (their state stays in the first-level cache). Weight gradients are
+// summed per lane first and across lanes at the end of a block: no floating-point reduction
+// has to be reordered for the vector units (the build needs no -ffast-math).
+//
+// x86-64: the two entry points are compiled for the baseline ISA, x86-64-v3 (AVX2, FMA) and
+// x86-64-v4 (AVX-512), and the loader picks the best the CPU has (GCC's function multiversioning);
+// other compilers and CPUs get the baseline build.
+
+#include <Python.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <vector>
+
+#include "xla/ffi/api/ffi.h"
+
+namespace ffi = xla::ffi;
+
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && __GNUC__ >= 12
+#define SL_CLONES __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
+#else
+#define SL_CLONES
+#endif
+#define SL_INLINE inline __attribute__((always_inline))
+
+namespace {
+
+// A block of batch rows: 64 bytes (one AVX-512 register, two AVX2 or four SSE2 ones; GCC's
+// vector extension lowers it to what the target has).
+template <typename T> constexpr int kLanes = 64 / sizeof(T);
+template <typename T> struct Vec;
+template <> struct Vec<double> {
+  typedef double type __attribute__((vector_size(64)));
+  typedef std::int64_t itype __attribute__((vector_size(64)));
+  typedef std::int64_t I;
+  static constexpr int kMant = 52, kBias = 1023, kDegree = 13;
+  static constexpr double kClamp = 40.0;  // tanh(20) rounds to 1
+};
+template <> struct Vec<float> {
+  typedef float type __attribute__((vector_size(64)));
+  typedef std::int32_t itype __attribute__((vector_size(64)));
+  typedef std::int32_t I;
+  static constexpr int kMant = 23, kBias = 127, kDegree = 8;
+  static constexpr float kClamp = 20.0f;  // tanh(10) rounds to 1
+};
+template <typename T> using V = typename Vec<T>::type;
+// Samples of a block whose weight gradients are summed at once (their rows stay in L1).
+constexpr int64_t kChunk = 8;
+
+template <typename T> SL_INLINE V<T> load(const T* p) {
+  V<T> v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+template <typename T> SL_INLINE void store(T* p, V<T> v) { std::memcpy(p, &v, sizeof v); }
+template <typename T> SL_INLINE V<T> splat(T x) { return V<T>{} + x; }
+template <typename T> SL_INLINE T hsum(V<T> v) {
+  T s = 0;
+  for (int l = 0; l < kLanes<T>; ++l) s += v[l];
+  return s;
+}
+
+// 1 / d!
+constexpr double kInvFactorial[14] = {
+    1.0, 1.0, 1.0 / 2, 1.0 / 6, 1.0 / 24, 1.0 / 120, 1.0 / 720, 1.0 / 5040, 1.0 / 40320,
+    1.0 / 362880, 1.0 / 3628800, 1.0 / 39916800, 1.0 / 479001600, 1.0 / 6227020800};
+
+// tanh(x) = e / (e + 2), e = expm1(2|x|), with the sign of x: no cancellation near 0, a few
+// ulp everywhere, branch-free on a block (libm's tanh is one call a row).
+template <typename T> SL_INLINE V<T> tanh_v(V<T> x) {
+  using W = Vec<T>;
+  using IV = typename W::itype;
+  using I = typename W::I;
+  const IV sign_bit = IV{} + (I(1) << (8 * sizeof(T) - 1));
+  const IV xb = reinterpret_cast<IV&>(x);
+  const IV sgn = xb & sign_bit;
+  IV ab = xb & ~sign_bit;
+  const V<T> ax = reinterpret_cast<V<T>&>(ab);
+  const V<T> a2 = ax + ax;
+  const V<T> clamp = splat<T>(T(W::kClamp));
+  const V<T> a = a2 < clamp ? a2 : clamp;
+  const T shifter = T(1.5) * T(I(1) << W::kMant);  // rounds to an integer in the low bits
+  const V<T> kd = a * T(1.4426950408889634) + shifter;
+  const V<T> k = kd - shifter;
+  // a - k ln2, ln2 in two parts (Cody-Waite): r exact to the last bits
+  V<T> r = a - k * T(0.693145751953125);
+  r = r - k * T(1.4286068203094173e-06);
+  // expm1(r) on |r| <= ln2 / 2 by its Taylor series (terms beyond the degree below ulp/4),
+  // r + r^2 (1/2! + r (1/3! + ...)) by Horner's rule
+  V<T> q = splat<T>(T(kInvFactorial[W::kDegree]));
+  for (int d = W::kDegree - 1; d >= 2; --d) q = q * r + T(kInvFactorial[d]);
+  const V<T> p = r + (r * r) * q;
+  T sh = shifter;
+  I shb;
+  std::memcpy(&shb, &sh, sizeof(T));
+  const IV kb = reinterpret_cast<const IV&>(kd);
+  IV e2 = (kb - shb + I(W::kBias)) << W::kMant;
+  const V<T> sc = reinterpret_cast<V<T>&>(e2);
+  const V<T> em1 = sc * p + (sc - T(1));  // 2^k expm1(r) + 2^k - 1: exact at k = 0
+  V<T> t = em1 / (em1 + T(2));
+  IV tb = reinterpret_cast<IV&>(t) | sgn;
+  return reinterpret_cast<V<T>&>(tb);
+}
+template <typename T> SL_INLINE T tanh_s(T x) { return tanh_v<T>(splat<T>(x))[0]; }
+
+// The weights and sizes of a window.
+template <typename T> struct Net {
+  const T *A, *W1, *b1, *W2, *C, *V1, *d1, *V2;
+  int64_t nx, nf, n, T_, B;  // states, 1 + features, neurons, samples, batch (multiple of L)
+  int64_t nz() const { return nx + nf; }
+  int64_t no() const { return nx + nf - 1; }
+};
+
+// acc[i, j] += sum_t a[t, i] b[t, j], lane by lane (acc: a block of lanes per (i, j), ld
+// blocks a row), for t in [t0, t1): a's rows advance by (sa_t, sa_i) and b's by (sb_t, sb_j)
+// elements, each row a block of lanes. Called on a few samples at a time (their rows are in
+// the first-level cache), 2 x 4 accumulators in registers.
+template <typename T>
+SL_INLINE void outer_acc(T* acc, int64_t ld, const T* a, int64_t ni, int64_t sa_t, int64_t sa_i,
+                         const T* b, int64_t nj, int64_t sb_t, int64_t sb_j, int64_t t0,
+                         int64_t t1) {
+  constexpr int L = kLanes<T>;
+  int64_t i = 0;
+  for (; i + 2 <= ni; i += 2) {
+    int64_t j = 0;
+    for (; j + 4 <= nj; j += 4) {
+      T* r0 = acc + (i * ld + j) * L;
+      T* r1 = r0 + ld * L;
+      V<T> c00 = load(r0), c01 = load(r0 + L), c02 = load(r0 + 2 * L), c03 = load(r0 + 3 * L);
+      V<T> c10 = load(r1), c11 = load(r1 + L), c12 = load(r1 + 2 * L), c13 = load(r1 + 3 * L);
+      for (int64_t t = t0; t < t1; ++t) {
+        const T* at = a + t * sa_t + i * sa_i;
+        const T* bt = b + t * sb_t + j * sb_j;
+        const V<T> a0 = load(at), a1 = load(at + sa_i);
+        const V<T> b0 = load(bt), b1 = load(bt + sb_j), b2 = load(bt + 2 * sb_j),
+                   b3 = load(bt + 3 * sb_j);
+        c00 += a0 * b0;
+        c01 += a0 * b1;
+        c02 += a0 * b2;
+        c03 += a0 * b3;
+        c10 += a1 * b0;
+        c11 += a1 * b1;
+        c12 += a1 * b2;
+        c13 += a1 * b3;
+      }
+      store(r0, c00), store(r0 + L, c01), store(r0 + 2 * L, c02), store(r0 + 3 * L, c03);
+      store(r1, c10), store(r1 + L, c11), store(r1 + 2 * L, c12), store(r1 + 3 * L, c13);
+    }
+    for (; j < nj; ++j) {
+      T* r0 = acc + (i * ld + j) * L;
+      T* r1 = r0 + ld * L;
+      V<T> c0 = load(r0), c1 = load(r1);
+      for (int64_t t = t0; t < t1; ++t) {
+        const V<T> bv = load(b + t * sb_t + j * sb_j);
+        c0 += load(a + t * sa_t + i * sa_i) * bv;
+        c1 += load(a + t * sa_t + (i + 1) * sa_i) * bv;
+      }
+      store(r0, c0), store(r1, c1);
+    }
+  }
+  for (; i < ni; ++i)
+    for (int64_t j = 0; j < nj; ++j) {
+      T* r = acc + (i * ld + j) * L;
+      V<T> c = load(r);
+      for (int64_t t = t0; t < t1; ++t)
+        c += load(a + t * sa_t + i * sa_i) * load(b + t * sb_t + j * sb_j);
+      store(r, c);
+    }
+}
+
+// act[j] = tanh(bias[j] + sum_i in_i W[i, j]), in_i the rows of two sets (ni0 rows at p0,
+// ni1 at p1, s0 and s1 elements apart); act's rows act_ld apart.
+template <typename T>
+SL_INLINE void dense_tanh(T* act, int64_t act_ld, const T* W, const T* bias, int64_t n,
+                          const T* p0, int64_t ni0, int64_t s0, const T* p1, int64_t ni1,
+                          int64_t s1) {
+  int64_t j = 0;
+  for (; j + 4 <= n; j += 4) {
+    V<T> c0 = splat(bias[j]), c1 = splat(bias[j + 1]), c2 = splat(bias[j + 2]),
+         c3 = splat(bias[j + 3]);
+    for (int64_t i = 0; i < ni0 + ni1; ++i) {
+      const T* row = i < ni0 ? p0 + i * s0 : p1 + (i - ni0) * s1;
+      const V<T> v = load(row);
+      const T* w = W + i * n + j;
+      c0 += v * w[0];
+      c1 += v * w[1];
+      c2 += v * w[2];
+      c3 += v * w[3];
+    }
+    store(act + j * act_ld, tanh_v<T>(c0));
+    store(act + (j + 1) * act_ld, tanh_v<T>(c1));
+    store(act + (j + 2) * act_ld, tanh_v<T>(c2));
+    store(act + (j + 3) * act_ld, tanh_v<T>(c3));
+  }
+  for (; j < n; ++j) {
+    V<T> c = splat(bias[j]);
+    for (int64_t i = 0; i < ni0 + ni1; ++i)
+      c += load(i < ni0 ? p0 + i * s0 : p1 + (i - ni0) * s1) * W[i * n + j];
+    store(act + j * act_ld, tanh_v<T>(c));
+  }
+}
+
+// The free run: y (T, B), and the states xs and activations hs, gs the reverse pass reads,
+// block by block ((B / L, T, nx or n, L): a block's are contiguous, read back in one sweep).
+template <typename T>
+SL_INLINE void forward(const Net<T>& m, const T* x0, const T* seq, T* y, T* xs, T* hs, T* gs) {
+  constexpr int L = kLanes<T>;
+  const int64_t nx = m.nx, nf = m.nf, n = m.n, B = m.B;
+  std::vector<T> f0(nx, T(0));
+  T h0 = 0;
+  for (int64_t j = 0; j < n; ++j) {
+    const T tb = tanh_s(m.b1[j]);
+    for (int64_t k = 0; k < nx; ++k) f0[k] += tb * m.W2[j * nx + k];
+    h0 += tanh_s(m.d1[j]) * m.V2[j];
+  }
+  std::vector<T> xbuf(nx * L);  // the blocks' state (a vector of V<T> would need aligned new)
+  T* xv = xbuf.data();
+  for (int64_t b0 = 0; b0 < B; b0 += L) {
+    for (int64_t k = 0; k < nx; ++k) store(xv + k * L, load(x0 + k * B + b0));
+    const int64_t blk = b0 / L;
+    for (int64_t t = 0; t < m.T_; ++t) {
+      const T* s = seq + t * nf * B + b0;
+      T* xt = xs + (blk * m.T_ + t) * nx * L;
+      T* h = hs + (blk * m.T_ + t) * n * L;
+      T* g = gs + (blk * m.T_ + t) * n * L;
+      for (int64_t k = 0; k < nx; ++k) store(xt + k * L, load(xv + k * L));
+      // output map on o = [x, phi]
+      dense_tanh<T>(g, L, m.V1, m.d1, n, xt, nx, L, s + B, nf - 1, B);
+      V<T> yv = load(s + B) - h0;
+      for (int64_t i = 0; i < nx; ++i) yv += load(xt + i * L) * m.C[i];
+      for (int64_t i = 0; i < nf - 1; ++i) yv += load(s + (1 + i) * B) * m.C[nx + i];
+      for (int64_t j = 0; j < n; ++j) yv += load(g + j * L) * m.V2[j];
+      store(y + t * B + b0, yv);
+      // state map on z = [x, du, phi]
+      dense_tanh<T>(h, L, m.W1, m.b1, n, xt, nx, L, s, nf, B);
+      for (int64_t k = 0; k < nx; ++k) {
+        V<T> c = load(xt + k * L) - f0[k];
+        for (int64_t i = 0; i < nx; ++i) c += load(xt + i * L) * m.A[i * nx + k];
+        for (int64_t i = 0; i < nf; ++i) c += load(s + i * B) * m.A[(nx + i) * nx + k];
+        for (int64_t j = 0; j < n; ++j) c += load(h + j * L) * m.W2[j * nx + k];
+        store(xv + k * L, c);
+      }
+    }
+  }
+}
+
+// The reverse pass from dy (T, B): the gradients of the eight weights and of the initial state
+// dx0 (nx, B).
+template <typename T>
+SL_INLINE void backward(const Net<T>& m, const T* seq, const T* xs, const T* hs, const T* gs,
+                        const T* dy, T* dA, T* dW1, T* db1, T* dW2, T* dC, T* dV1, T* dd1,
+                        T* dV2, T* dx0) {
+  constexpr int L = kLanes<T>;
+  const int64_t nx = m.nx, nf = m.nf, n = m.n, B = m.B, TT = m.T_;
+  const int64_t nz = m.nz(), no = m.no();
+  // per block: the gradients at each sample of the next state (dxn), of the state map's and
+  // the output map's pre-activations (da, dg), and dy, one block of lanes a row
+  std::vector<T> dxn(TT * nx * L), da(TT * n * L), dg(TT * n * L), dyb(TT * L);
+  std::vector<T> sq(TT * nf * L);  // the block's inputs and features
+  // the weights' gradients lane by lane (summed across lanes at the end)
+  std::vector<T> lanes((nz * nx + nz * n + n * nx + no * n + no + n) * L, T(0));
+  T* gA = lanes.data();
+  T* gW1 = gA + nz * nx * L;
+  T* gW2 = gW1 + nz * n * L;
+  T* gV1 = gW2 + n * nx * L;
+  T* gC = gV1 + no * n * L;
+  T* gV2 = gC + no * L;
+  // the running gradient of the state, and the sums of da, dg, dxn and dy (the biases' and
+  // the rest terms' gradients), one block of lanes a row
+  std::vector<T> dxbuf(nx * L), sums((2 * n + nx + 1) * L, T(0));
+  T* dx = dxbuf.data();
+  T* s_da = sums.data();
+  T* s_dg = s_da + n * L;
+  T* s_dxn = s_dg + n * L;
+  T* s_dy = s_dxn + nx * L;
+  for (int64_t b0 = 0; b0 < B; b0 += L) {
+    const int64_t blk = b0 / L;
+    for (int64_t t = 0; t < TT; ++t)
+      for (int64_t i = 0; i < nf; ++i) store(sq.data() + (t * nf + i) * L, load(seq + (t * nf + i) * B + b0));
+    for (int64_t k = 0; k < nx * L; ++k) dx[k] = 0;
+    for (int64_t t = TT - 1; t >= 0; --t) {
+      const T* h = hs + (blk * TT + t) * n * L;
+      const T* g = gs + (blk * TT + t) * n * L;
+      T* dxt = dxn.data() + t * nx * L;
+      T* dat = da.data() + t * n * L;
+      T* dgt = dg.data() + t * n * L;
+      const V<T> dyt = load(dy + t * B + b0);
+      store(dyb.data() + t * L, dyt);
+      store(s_dy, load(s_dy) + dyt);
+      for (int64_t k = 0; k < nx; ++k) {
+        const V<T> d = load(dx + k * L);
+        store(dxt + k * L, d);
+        store(s_dxn + k * L, load(s_dxn + k * L) + d);
+      }
+      // state map: da = (dxn W2^T) (1 - h^2); output map: dg = dy V2 (1 - g^2)
+      for (int64_t j = 0; j < n; ++j) {
+        V<T> c{};
+        for (int64_t k = 0; k < nx; ++k) c += load(dxt + k * L) * m.W2[j * nx + k];
+        const V<T> hv = load(h + j * L);
+        const V<T> gv = load(g + j * L);
+        const V<T> daj = c * (T(1) - hv * hv);
+        const V<T> dgj = dyt * m.V2[j] * (T(1) - gv * gv);
+        store(dat + j * L, daj);
+        store(dgt + j * L, dgj);
+        store(s_da + j * L, load(s_da + j * L) + daj);
+        store(s_dg + j * L, load(s_dg + j * L) + dgj);
+      }
+      // dx_t = dx_{t+1} + dz[:nx] + do[:nx]
+      for (int64_t k = 0; k < nx; ++k) {
+        V<T> c = load(dxt + k * L) + dyt * m.C[k];
+        for (int64_t i = 0; i < nx; ++i) c += load(dxt + i * L) * m.A[k * nx + i];
+        for (int64_t j = 0; j < n; ++j)
+          c += load(dat + j * L) * m.W1[k * n + j] + load(dgt + j * L) * m.V1[k * n + j];
+        store(dx + k * L, c);
+      }
+      // the weights' gradients of the last few samples, while their rows are in the cache
+      if (t % kChunk == 0) {
+        const int64_t t1 = t + kChunk < TT ? t + kChunk : TT;
+        const T* xb = xs + blk * TT * nx * L;
+        const T* hb = hs + blk * TT * n * L;
+        const T* gb = gs + blk * TT * n * L;
+        const T* sb = sq.data();
+        const T* dn = dxn.data();
+        outer_acc<T>(gA, nx, xb, nx, nx * L, L, dn, nx, nx * L, L, t, t1);
+        outer_acc<T>(gA + nx * nx * L, nx, sb, nf, nf * L, L, dn, nx, nx * L, L, t, t1);
+        outer_acc<T>(gW1, n, xb, nx, nx * L, L, da.data(), n, n * L, L, t, t1);
+        outer_acc<T>(gW1 + nx * n * L, n, sb, nf, nf * L, L, da.data(), n, n * L, L, t, t1);
+        outer_acc<T>(gW2, nx, hb, n, n * L, L, dn, nx, nx * L, L, t, t1);
+        outer_acc<T>(gV1, n, xb, nx, nx * L, L, dg.data(), n, n * L, L, t, t1);
+        outer_acc<T>(gV1 + nx * n * L, n, sb + L, nf - 1, nf * L, L, dg.data(), n, n * L, L,
+                     t, t1);
+        outer_acc<T>(gC, 1, xb, nx, nx * L, L, dyb.data(), 1, L, L, t, t1);
+        outer_acc<T>(gC + nx * L, 1, sb + L, nf - 1, nf * L, L, dyb.data(), 1, L, L, t, t1);
+        outer_acc<T>(gV2, 1, gb, n, n * L, L, dyb.data(), 1, L, L, t, t1);
+      }
+    }
+    for (int64_t k = 0; k < nx; ++k) store(dx0 + k * B + b0, load(dx + k * L));
+  }
+  for (int64_t i = 0; i < nz * nx; ++i) dA[i] = hsum<T>(load(gA + i * L));
+  for (int64_t i = 0; i < nz * n; ++i) dW1[i] = hsum<T>(load(gW1 + i * L));
+  for (int64_t i = 0; i < n * nx; ++i) dW2[i] = hsum<T>(load(gW2 + i * L));
+  for (int64_t i = 0; i < no * n; ++i) dV1[i] = hsum<T>(load(gV1 + i * L));
+  for (int64_t i = 0; i < no; ++i) dC[i] = hsum<T>(load(gC + i * L));
+  for (int64_t j = 0; j < n; ++j) dV2[j] = hsum<T>(load(gV2 + j * L));
+  // the biases, and the rest terms -tanh(b1) W2 and -tanh(d1) V2 of every sample
+  const T sum_dy = hsum<T>(load(s_dy));
+  std::vector<T> sum_dxn(nx);
+  for (int64_t k = 0; k < nx; ++k) sum_dxn[k] = hsum<T>(load(s_dxn + k * L));
+  for (int64_t j = 0; j < n; ++j) {
+    db1[j] = hsum<T>(load(s_da + j * L));
+    dd1[j] = hsum<T>(load(s_dg + j * L));
+    const T tb = tanh_s(m.b1[j]);
+    T w = 0;
+    for (int64_t k = 0; k < nx; ++k) {
+      dW2[j * nx + k] -= tb * sum_dxn[k];
+      w += m.W2[j * nx + k] * sum_dxn[k];
+    }
+    db1[j] -= (T(1) - tb * tb) * w;
+    const T td = tanh_s(m.d1[j]);
+    dV2[j] -= td * sum_dy;
+    dd1[j] -= (T(1) - td * td) * m.V2[j] * sum_dy;
+  }
+}
+
+SL_CLONES void forward_f64(const Net<double>& m, const double* x0, const double* seq, double* y,
+                           double* xs, double* hs, double* gs) {
+  forward<double>(m, x0, seq, y, xs, hs, gs);
+}
+SL_CLONES void forward_f32(const Net<float>& m, const float* x0, const float* seq, float* y,
+                           float* xs, float* hs, float* gs) {
+  forward<float>(m, x0, seq, y, xs, hs, gs);
+}
+SL_CLONES void backward_f64(const Net<double>& m, const double* seq, const double* xs,
+                            const double* hs, const double* gs, const double* dy, double* dA,
+                            double* dW1, double* db1, double* dW2, double* dC, double* dV1,
+                            double* dd1, double* dV2, double* dx0) {
+  backward<double>(m, seq, xs, hs, gs, dy, dA, dW1, db1, dW2, dC, dV1, dd1, dV2, dx0);
+}
+SL_CLONES void backward_f32(const Net<float>& m, const float* seq, const float* xs,
+                            const float* hs, const float* gs, const float* dy, float* dA,
+                            float* dW1, float* db1, float* dW2, float* dC, float* dV1,
+                            float* dd1, float* dV2, float* dx0) {
+  backward<float>(m, seq, xs, hs, gs, dy, dA, dW1, db1, dW2, dC, dV1, dd1, dV2, dx0);
+}
+
+template <typename T> SL_INLINE void run_forward(const Net<T>& m, const T* x0, const T* seq,
+                                                 T* y, T* xs, T* hs, T* gs) {
+  if constexpr (sizeof(T) == 8) forward_f64(m, x0, seq, y, xs, hs, gs);
+  else forward_f32(m, x0, seq, y, xs, hs, gs);
+}
+template <typename T>
+SL_INLINE void run_backward(const Net<T>& m, const T* seq, const T* xs, const T* hs,
+                            const T* gs, const T* dy, T* dA, T* dW1, T* db1, T* dW2, T* dC,
+                            T* dV1, T* dd1, T* dV2, T* dx0) {
+  if constexpr (sizeof(T) == 8)
+    backward_f64(m, seq, xs, hs, gs, dy, dA, dW1, db1, dW2, dC, dV1, dd1, dV2, dx0);
+  else
+    backward_f32(m, seq, xs, hs, gs, dy, dA, dW1, db1, dW2, dC, dV1, dd1, dV2, dx0);
+}
+
+template <ffi::DataType DT> using Buf = ffi::Buffer<DT>;
+template <ffi::DataType DT> using Out = ffi::ResultBuffer<DT>;
+
+// The sizes from the arrays' shapes, checked against each other.
+template <ffi::DataType DT>
+ffi::Error net_of(Net<ffi::NativeType<DT>>& m, Buf<DT> A, Buf<DT> W1, Buf<DT> b1, Buf<DT> W2,
+                                               Buf<DT> C, Buf<DT> V1, Buf<DT> d1, Buf<DT> V2,
+                                               Buf<DT> seq) {
+  using T = ffi::NativeType<DT>;
+  auto da = A.dimensions(), dw1 = W1.dimensions(), ds = seq.dimensions();
+  if (da.size() != 2 || dw1.size() != 2 || ds.size() != 3)
+    return ffi::Error::InvalidArgument("grey window: A, W1 of rank 2 and seq of rank 3");
+  m = Net<T>{A.typed_data(), W1.typed_data(), b1.typed_data(), W2.typed_data(),
+           C.typed_data(), V1.typed_data(), d1.typed_data(), V2.typed_data(),
+           da[1], ds[1], dw1[1], ds[0], ds[2]};
+  if (da[0] != m.nz() || dw1[0] != m.nz() || int64_t(b1.element_count()) != m.n ||
+      int64_t(W2.element_count()) != m.n * m.nx || int64_t(C.element_count()) != m.no() ||
+      int64_t(V1.element_count()) != m.no() * m.n || int64_t(d1.element_count()) != m.n ||
+      int64_t(V2.element_count()) != m.n || m.nf < 2)
+    return ffi::Error::InvalidArgument("grey window: inconsistent weight shapes");
+  if (m.B % kLanes<T> != 0)
+    return ffi::Error::InvalidArgument("grey window: batch not a multiple of 16");
+  return ffi::Error::Success();
+}
+
+template <ffi::DataType DT>
+ffi::Error forward_impl(Buf<DT> A, Buf<DT> W1, Buf<DT> b1, Buf<DT> W2, Buf<DT> C, Buf<DT> V1,
+                        Buf<DT> d1, Buf<DT> V2, Buf<DT> x0, Buf<DT> seq, Out<DT> y, Out<DT> xs,
+                        Out<DT> hs, Out<DT> gs) {
+  Net<ffi::NativeType<DT>> m;
+  ffi::Error err = net_of<DT>(m, A, W1, b1, W2, C, V1, d1, V2, seq);
+  if (err.failure()) return err;
+  run_forward(m, x0.typed_data(), seq.typed_data(), y->typed_data(), xs->typed_data(),
+              hs->typed_data(), gs->typed_data());
+  return ffi::Error::Success();
+}
+
+template <ffi::DataType DT>
+ffi::Error backward_impl(Buf<DT> A, Buf<DT> W1, Buf<DT> b1, Buf<DT> W2, Buf<DT> C, Buf<DT> V1,
+                         Buf<DT> d1, Buf<DT> V2, Buf<DT> seq, Buf<DT> xs, Buf<DT> hs,
+                         Buf<DT> gs, Buf<DT> dy, Out<DT> dA, Out<DT> dW1, Out<DT> db1,
+                         Out<DT> dW2, Out<DT> dC, Out<DT> dV1, Out<DT> dd1, Out<DT> dV2,
+                         Out<DT> dx0) {
+  Net<ffi::NativeType<DT>> m;
+  ffi::Error err = net_of<DT>(m, A, W1, b1, W2, C, V1, d1, V2, seq);
+  if (err.failure()) return err;
+  run_backward(m, seq.typed_data(), xs.typed_data(), hs.typed_data(), gs.typed_data(),
+               dy.typed_data(), dA->typed_data(), dW1->typed_data(), db1->typed_data(),
+               dW2->typed_data(), dC->typed_data(), dV1->typed_data(), dd1->typed_data(),
+               dV2->typed_data(), dx0->typed_data());
+  return ffi::Error::Success();
+}
+
+#define SL_ARG(DT) .Arg<ffi::Buffer<DT>>()
+#define SL_RET(DT) .Ret<ffi::Buffer<DT>>()
+#define SL_FORWARD_BINDING(DT)                                                           \
+  ffi::Ffi::Bind() SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT)     \
+      SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_RET(DT) SL_RET(DT) SL_RET(DT)       \
+          SL_RET(DT)
+#define SL_BACKWARD_BINDING(DT)                                                          \
+  ffi::Ffi::Bind() SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT)     \
+      SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT)       \
+          SL_RET(DT) SL_RET(DT) SL_RET(DT) SL_RET(DT) SL_RET(DT) SL_RET(DT) SL_RET(DT)   \
+              SL_RET(DT) SL_RET(DT)
+
+}  // namespace
+
+XLA_FFI_DEFINE_HANDLER_SYMBOL(SlGreyForwardF64, forward_impl<ffi::F64>,
+                              SL_FORWARD_BINDING(ffi::F64));
+XLA_FFI_DEFINE_HANDLER_SYMBOL(SlGreyForwardF32, forward_impl<ffi::F32>,
+                              SL_FORWARD_BINDING(ffi::F32));
+XLA_FFI_DEFINE_HANDLER_SYMBOL(SlGreyBackwardF64, backward_impl<ffi::F64>,
+                              SL_BACKWARD_BINDING(ffi::F64));
+XLA_FFI_DEFINE_HANDLER_SYMBOL(SlGreyBackwardF32, backward_impl<ffi::F32>,
+                              SL_BACKWARD_BINDING(ffi::F32));
+
+// The module: handlers() -> {target name: capsule}, for jax.ffi.register_ffi_target.
+namespace {
+PyObject* capsule(XLA_FFI_Error* (*fn)(XLA_FFI_CallFrame*)) {
+  return PyCapsule_New(reinterpret_cast<void*>(fn), nullptr, nullptr);
+}
+
+PyObject* handlers(PyObject*, PyObject*) {
+  PyObject* d = PyDict_New();
+  if (d == nullptr) return nullptr;
+  const struct {
+    const char* name;
+    XLA_FFI_Error* (*fn)(XLA_FFI_CallFrame*);
+  } table[] = {{"sloshrom_grey_forward_f64", SlGreyForwardF64},
+               {"sloshrom_grey_forward_f32", SlGreyForwardF32},
+               {"sloshrom_grey_backward_f64", SlGreyBackwardF64},
+               {"sloshrom_grey_backward_f32", SlGreyBackwardF32}};
+  for (const auto& e : table) {
+    PyObject* c = capsule(e.fn);
+    if (c == nullptr || PyDict_SetItemString(d, e.name, c) != 0) {
+      Py_XDECREF(c);
+      Py_DECREF(d);
+      return nullptr;
+    }
+    Py_DECREF(c);
+  }
+  return d;
+}
+
+PyMethodDef methods[] = {
+    {"handlers", handlers, METH_NOARGS, "The XLA FFI handlers by target name (capsules)."},
+    {nullptr, nullptr, 0, nullptr}};
+
+PyModuleDef module = {PyModuleDef_HEAD_INIT, "_window",
+                      "The grey box's shooting window as XLA FFI handlers.", -1, methods};
+}  // namespace
+
+PyMODINIT_FUNC PyInit__window(void) { return PyModule_Create(&module); }

@@ -1,0 +1,108 @@
+"""The grey box's training kernel in C (sloshrom.rom.grey.kernel) against the pure-JAX path,
+the reference: the same loss and gradient over random shapes, in float64 and float32; and the
+trainer's choice of path."""
+
+from __future__ import annotations
+
+import logging
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from sloshrom.rom.grey import kernel as gk
+from sloshrom.rom.grey import training as gt
+from sloshrom.rom.grey.network import N_FEATURES, grey_simulate
+
+needs_kernel = pytest.mark.skipif(not gk.kernel_available(),
+                                  reason="the grey kernel is not built here")
+
+#: (states, neurons, batch, samples): odd sizes reach the kernel's remainder loops (neurons
+#: not a multiple of 4, batches padded to a multiple of 16, odd numbers of z rows)
+SHAPES = [(3, 16, 17, 7), (16, 33, 40, 9)]
+
+
+def _problem(nx, n, b, t, dtype, seed):
+    rng = np.random.default_rng(seed)
+    nz, no = nx + 1 + N_FEATURES, nx + N_FEATURES
+    shapes = {"A": (nz, nx), "W1": (nz, n), "b1": (n,), "W2": (n, nx), "C": (no,),
+              "V1": (no, n), "d1": (n,), "V2": (n,)}
+    # weights of 1/sqrt(fan-in) scaled by 0.5: a contracting map, so that the round-off of one
+    # step is not amplified along the window (the bound below assumes it)
+    p = {k: jnp.asarray(0.5 * rng.standard_normal(s) / np.sqrt(s[0]), dtype)
+         for k, s in shapes.items()}
+    x0 = jnp.asarray(0.3 * rng.standard_normal((b, nx)), dtype)
+    seq = jnp.asarray(rng.uniform(-1, 1, (b, t, 1 + N_FEATURES)), dtype)
+    target = jnp.asarray(rng.uniform(-1, 1, (b, t)), dtype)
+    return p, x0, seq, target
+
+
+def _loss(simulate, seq, target):
+    def loss(p, x0):
+        return jnp.mean((simulate(p, x0, seq) - target) ** 2)
+    return jax.jit(jax.value_and_grad(loss, argnums=(0, 1)))
+
+
+def _tolerance(nx, n, t, dtype):
+    """Round-off bound of the difference of the two paths, relative to the largest value.
+
+    The paths do the same arithmetic in another order (sums reordered and fused multiply-adds
+    in C; XLA's own order) and with different tanh implementations (a few ulp each). A sum of
+    K products carries a relative error of at most K eps (gamma_K, Higham ch. 3) of the sum of
+    the magnitudes, which the scaled weights keep of the order of the result; a tanh adds at
+    most 4 eps. One step of the window is K = nz + n + 4 deep; with a contracting map the
+    errors of the T steps add up at most linearly, and the reverse pass goes through as many
+    again: 2 T (nz + n + 4) eps, times 4 for the cancellation of differences of like terms.
+    """
+    eps = float(jnp.finfo(dtype).eps)
+    nz = nx + 1 + N_FEATURES
+    return 4.0 * 2.0 * t * (nz + n + 4) * eps
+
+
+@needs_kernel
+@pytest.mark.parametrize("dtype", [jnp.float64, jnp.float32])
+@pytest.mark.parametrize("shape", SHAPES)
+def test_kernel_matches_pure_jax(shape, dtype):
+    nx, n, b, t = shape
+    ru, ry = 0.05, -0.1
+    with jax.enable_x64(True):
+        p, x0, seq, target = _problem(nx, n, b, t, dtype, seed=sum(shape))
+        ref = _loss(lambda p, x, s: grey_simulate(p, x, jnp.swapaxes(s, 0, 1), ru, ry).T,
+                    seq, target)
+        ker = _loss(lambda p, x, s: gk.grey_window(p, x, s, ru, ry), seq, target)
+        (v0, (g0, d0)), (v1, (g1, d1)) = ref(p, x0), ker(p, x0)
+        tol = _tolerance(nx, n, t, dtype)
+        assert abs(float(v1) - float(v0)) <= tol * abs(float(v0))
+        for k in gk.WEIGHTS:
+            scale = float(jnp.max(jnp.abs(g0[k])))
+            assert g1[k].shape == g0[k].shape and g1[k].dtype == g0[k].dtype
+            assert float(jnp.max(jnp.abs(g1[k] - g0[k]))) <= tol * scale, k
+        assert float(jnp.max(jnp.abs(d1 - d0))) <= tol * float(jnp.max(jnp.abs(d0)))
+
+
+@needs_kernel
+def test_a_wrong_kernel_would_fail_the_comparison():
+    """The tolerance is far below a real error: the gradient of a model whose one weight is
+    off by 1e-6 differs by more (the comparison above can fail)."""
+    nx, n, b, t = SHAPES[1]
+    with jax.enable_x64(True):
+        p, x0, seq, target = _problem(nx, n, b, t, jnp.float64, seed=3)
+        ker = _loss(lambda p, x, s: gk.grey_window(p, x, s, 0.0, 0.0), seq, target)
+        g0 = ker(p, x0)[1][0]
+        q = dict(p, W2=p["W2"].at[0, 0].add(1e-6))
+        g1 = ker(q, x0)[1][0]
+        tol = _tolerance(nx, n, t, jnp.float64)
+        assert float(jnp.max(jnp.abs(g1["W1"] - g0["W1"]))) > 10 * tol * float(
+            jnp.max(jnp.abs(g0["W1"])))
+
+
+def test_the_pure_jax_path_is_said_once(monkeypatch, caplog):
+    monkeypatch.setenv(gk.KERNEL_ENV, "jax")
+    monkeypatch.setattr(gt, "_NOTED", [])
+    assert not gk.kernel_available()
+    with caplog.at_level(logging.WARNING, logger="sloshrom"):
+        gt._note_path()
+        gt._note_path()
+    lines = [r.getMessage() for r in caplog.records if r.name == "sloshrom"]
+    assert len(lines) == 1 and "pure-JAX path" in lines[0]
