@@ -113,7 +113,7 @@ pyoma: $(PYOMA)/.installed
 lock:
 	test -x $(TOOLS)/bin/uv || ($(PYTHON) -m venv $(TOOLS) && \
 		$(TOOLS)/bin/python -m pip install --quiet uv==$(UV_VERSION))
-	$(TOOLS)/bin/uv pip compile pyproject.toml tools/build-requirements.in --extra dev \
+	$(TOOLS)/bin/uv pip compile pyproject.toml tools/build-requirements.in --extra dev --extra docs \
 		--generate-hashes --universal --fork-strategy fewest --python-version 3.11 \
 		--quiet -o $(LOCK)
 	@echo "wrote $(LOCK); run 'make test' to install and test it"
