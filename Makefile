@@ -21,7 +21,7 @@ WORKERS    ?= 2
 XDIST      := -n $(WORKERS) --dist loadfile
 
 .PHONY: reproduce test test-other-isa test-slow test-all test-latest lint bench beyond fidelity \
-	peers pyoma lock clean
+	peers pyoma lock clean docs
 
 $(STAMP): $(LOCK) pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -47,6 +47,13 @@ test: $(STAMP)
 test-other-isa: $(STAMP)
 	$(BIN)/python tools/other_isa.py check
 	$(BIN)/python tools/other_isa.py run -- $(BIN)/python -m pytest -m "reference and not slow" -q
+
+# The documentation site into docs/_build/html (git-ignored), offline, warnings as errors: the
+# pages of docs/, the API reference written from the docstrings, the command-line reference and
+# the example gallery of examples/ (every script runs; rerun only when changed).
+docs: $(STAMP)
+	MPLBACKEND=Agg $(BIN)/python -m sphinx -b html -W --keep-going -q docs docs/_build/html
+	@echo "the site: docs/_build/html/index.html"
 
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -m slow -q
@@ -130,4 +137,5 @@ test-latest:
 	$(LATEST)/bin/python -m pytest -m "not slow" -q $(XDIST)
 
 clean:
-	rm -rf $(VENV) $(TOOLS) $(LATEST) $(PYOMA) results .pytest_cache .mypy_cache
+	rm -rf $(VENV) $(TOOLS) $(LATEST) $(PYOMA) results .pytest_cache .mypy_cache \
+		docs/_build docs/api docs/auto_examples docs/sg_execution_times.rst build dist
