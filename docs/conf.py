@@ -73,9 +73,47 @@ def _absolute_values(app, what, name, obj, options, lines):
         lines[i] = "".join(parts)
 
 
+def _attribute_types(app, what, name, obj, options, lines):
+    """An attribute's type as text, the way napoleon shows a parameter's.
+
+    Napoleon writes the Attributes section as ``:ivar x:`` and ``:vartype x: T`` fields, whose
+    type Sphinx reads as cross-references by a fuzzy search: ``ndarray (n,)`` would point at
+    whichever attribute of the package is called ``n``. The type goes into the description.
+    """
+    types = {}
+    for line in lines:
+        m = re.match(r"\s*:vartype ([^:]+): (.*)$", line)
+        if m:
+            types[m.group(1)] = m.group(2)
+    if not types:
+        return
+    out: list[str] = []
+    i = 0
+    while i < len(lines):
+        line = lines[i]
+        i += 1
+        if re.match(r"\s*:vartype [^:]+: ", line):
+            continue
+        m = re.match(r"(\s*):ivar ([^:]+):(.*)$", line)
+        if not m:
+            out.append(line)
+            continue
+        indent, names, text = m.groups()
+        body = []  # the field's continuation lines
+        while i < len(lines) and lines[i].startswith(indent + " ") and lines[i].strip():
+            body.append(lines[i])
+            i += 1
+        kind = f" (*{types[names]}*)" if names in types else ""
+        # ``a, b : T`` is one field for each name (a field's name may not hold a space)
+        for one in names.split(", "):
+            out += [f"{indent}:ivar {one}:{kind}{text}", *body]
+    lines[:] = out
+
+
 def setup(app):
     """Connect the docstring filter (see :func:`_absolute_values`)."""
     app.connect("autodoc-process-docstring", _absolute_values)
+    app.connect("autodoc-process-docstring", _attribute_types, priority=600)  # after napoleon
     # docs/architecture.md draws its diagrams in Mermaid: shown as their source (no JavaScript
     # renderer from a CDN: the site reads offline)
     from pygments.lexers.special import TextLexer

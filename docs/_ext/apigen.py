@@ -21,6 +21,7 @@ the others are documented on their module's page.
 from __future__ import annotations
 
 import ast
+import functools
 import importlib
 import inspect
 import pkgutil
@@ -195,7 +196,8 @@ def _object_block(directive: str, full: str) -> str:
 
 def write_pages(out: Path) -> list[str]:
     """Write the API reference into ``out`` (``index.rst`` and one page a module or object)."""
-    homes = Homes()
+    global _HOMES
+    homes = _HOMES = Homes()
     out.mkdir(parents=True, exist_ok=True)
     wanted: dict[str, str] = {}
     for m in homes.modules.values():
@@ -268,9 +270,53 @@ def cli_page() -> str:
         "every command, its arguments and options with their defaults.\n", body.strip(), ""])
 
 
+_HOMES: Homes | None = None
+
+
+@functools.cache
+def _module_names(module: str) -> tuple[set[str], dict[str, str]]:
+    """What a module's source assigns and imports (see :func:`_assigned_and_imported`)."""
+    try:
+        mod = importlib.import_module(module)
+    except ImportError:
+        return set(), {}
+    path = getattr(mod, "__file__", None)
+    if not path or not path.endswith(".py"):
+        return set(), {}
+    return _assigned_and_imported(Path(path), module, hasattr(mod, "__path__"))
+
+
+def qualify_annotations(app, doctree) -> None:
+    """A bare name in a type annotation names what the annotated module means by it.
+
+    Sphinx looks up every name of an annotation by a fuzzy search over the whole package
+    (``refspecific``), so that ``Row`` in ``list[Row]`` is ambiguous when two modules define a
+    ``Row``. The name is qualified here as Python reads it: the module it is imported from
+    (``if TYPE_CHECKING:`` imports too), or the annotated module when it assigns the name.
+    """
+    from sphinx import addnodes
+
+    for node in doctree.findall(addnodes.pending_xref):
+        target = node.get("reftarget", "")
+        module = node.get("py:module")
+        if (node.get("refdomain") != "py" or node.get("refspecific") is not False
+                or "." in target or not module or not module.startswith(PACKAGE)):
+            continue
+        assigned, imported = _module_names(module)
+        if target in imported and imported[target].startswith(PACKAGE):
+            where = imported[target]
+        elif target in assigned:
+            where = module
+        else:
+            continue
+        home = _HOMES.home.get((where, target)) if _HOMES is not None else None
+        node["reftarget"] = home or f"{where}.{target}"
+
+
 def setup(app):  # noqa: D103 - the Sphinx extension's entry point
     def generate(app):
         write_pages(Path(app.srcdir) / "api")
 
     app.connect("builder-inited", generate)
+    app.connect("doctree-read", qualify_annotations)
     return {"parallel_read_safe": True, "parallel_write_safe": True}
