@@ -37,7 +37,7 @@ reproduce: $(STAMP)
 # modules pyproject.toml lists; cache in .mypy_cache/, git-ignored) and the type-debt counts,
 # which may only fall
 test: $(STAMP)
-	$(BIN)/ruff check src tests benchmarks tools
+	$(BIN)/ruff check src tests benchmarks tools docs examples
 	$(BIN)/python -m pytest -m "not slow" -q $(XDIST)
 	$(BIN)/python -m mypy
 	$(BIN)/python tools/type_debt.py
@@ -61,7 +61,7 @@ test-slow: $(STAMP)
 test-all: test test-slow
 
 lint: $(STAMP)
-	$(BIN)/ruff check src tests benchmarks tools
+	$(BIN)/ruff check src tests benchmarks tools docs examples
 	$(BIN)/python -m mypy
 	$(BIN)/python tools/type_debt.py
 

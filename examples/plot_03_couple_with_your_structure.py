@@ -31,7 +31,7 @@ write_modes_uff(cantilever, folder / "structure.unv")
 write_mode_table(cantilever, folder / "modes.csv")
 
 modes = read_modes(folder / "structure.unv", mode_table=folder / "modes.csv")
-print(f"{len(modes.frequencies)} modes at {len(modes.node_ids)} nodes from {modes.source}")
+print(f"{len(modes.frequencies)} modes at {len(modes.nodes)} nodes from {modes.source}")
 modal = modes.to_modal_model(tanks=5, outputs=[1, 2, 3, 4, 5], direction="+Z")
 print("natural frequencies [Hz]:", np.round(modal.frequencies, 2))
 

@@ -61,7 +61,8 @@ result = fmpy.simulate_fmu(str(fmu), start_time=0.0, stop_time=(n - 1) * rom.dt,
                            output=["dynamic_force"])
 reference = rom.predict(u)
 m = min(len(result), n)
-print(f"largest difference FMU - Python: {np.max(np.abs(result['dynamic_force'][:m] - reference[:m])):.2e} N")
+difference = np.max(np.abs(result["dynamic_force"][:m] - reference[:m]))
+print(f"largest difference FMU - Python: {difference:.2e} N")
 
 fig, ax = plt.subplots(figsize=(7, 3), layout="constrained")
 ax.plot(result["time"][:m], reference[:m], lw=2, alpha=0.5, label="ROM in Python")
