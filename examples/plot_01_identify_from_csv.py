@@ -32,7 +32,7 @@ tank = sloshrom.Tank(fill=0.5)  # the paper's tank, SI units
 rig = VirtualRig(tank)
 folder = Path(tempfile.mkdtemp())
 for split, seed in (("train", 1), ("validation", 2)):
-    path = signals.vfa(1 / rig.dt, split, duration=30.0, tank=tank, seed=seed)
+    path = signals.vfa(1 / rig.dt, split, duration=20.0, tank=tank, seed=seed)
     m = rig.measure(path.acceleration)
     lines = ["time [s],acceleration [g],force [kN]"]
     lines += [f"{t:.6f},{a / sloshrom.G:.8g},{f / 1000:.8g}"
@@ -60,7 +60,7 @@ print(f"{len(train['velocity'])} samples at {train.fs:g} Hz:", train.units)
 # trained. Its input is the tank velocity, its output the dynamic force.
 from sloshrom.rom import NFIR, load_model
 
-rom = NFIR(delays=20, neurons=8, max_epochs=40, seed=0).fit(
+rom = NFIR(delays=20, neurons=8, max_epochs=30, seed=0).fit(
     train["velocity"], train["dynamic_force"], fs=train.fs,
     validation=(val["velocity"], val["dynamic_force"]))
 predicted = rom.predict(val["velocity"])  # free run, N

@@ -37,7 +37,7 @@ train, val = rec["train"], rec["validation"]
 from sloshrom.rom import LSS, NFIR, NSS
 
 models = {
-    "NFIR": NFIR(delays=20, neurons=8, max_epochs=40, seed=0),
+    "NFIR": NFIR(delays=20, neurons=8, max_epochs=30, seed=0),
     "NSS": NSS(max_epochs=3, seed=0),
     "LSS": LSS(),
 }

@@ -46,9 +46,9 @@ from sloshrom.rom import NFIR
 
 tank = sloshrom.Tank(fill=0.5)
 rig = VirtualRig(tank)
-vfa = signals.vfa(1 / rig.dt, "train", duration=30.0, tank=tank, seed=1)
+vfa = signals.vfa(1 / rig.dt, "train", duration=20.0, tank=tank, seed=1)
 train = record_from_measurement(rig.measure(vfa.acceleration), tank)
-rom = NFIR(delays=20, neurons=8, max_epochs=40, seed=0).fit(
+rom = NFIR(delays=20, neurons=8, max_epochs=30, seed=0).fit(
     train["velocity"], train["dynamic_force"], fs=train.fs)
 
 # %%

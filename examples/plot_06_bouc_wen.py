@@ -30,7 +30,7 @@ from sloshrom.rom import LSS, NSS
 
 u, y = train["force"], train["displacement"]
 fits = {}
-for name, model in {"NSS": NSS(max_epochs=6, seed=0), "LSS": LSS()}.items():
+for name, model in {"NSS": NSS(max_epochs=3, seed=0), "LSS": LSS()}.items():
     model.fit(u, y, fs=train.fs, validation=(val["force"], val["displacement"]))
     pred = model.predict(val["force"])
     rmse = np.sqrt(np.mean((pred - val["displacement"]) ** 2))
