@@ -52,7 +52,7 @@ test-other-isa: $(STAMP)
 # pages of docs/, the API reference written from the docstrings, the command-line reference and
 # the example gallery of examples/ (every script runs; rerun only when changed).
 docs: $(STAMP)
-	MPLBACKEND=Agg $(BIN)/python -m sphinx -b html -j auto -W --keep-going -q docs docs/_build/html
+	MPLBACKEND=Agg $(BIN)/python -m sphinx -b html -W --keep-going -q docs docs/_build/html
 	@echo "the site: docs/_build/html/index.html"
 
 test-slow: $(STAMP)

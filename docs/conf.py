@@ -29,8 +29,10 @@ source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "deflist"]
 myst_heading_anchors = 4
 root_doc = "index"
-exclude_patterns = ["_build", "examples", "auto_examples/*.ipynb", "auto_examples/*.py",
-                    "auto_examples/*.zip", "auto_examples/*.json", "**.codeobj.json"]
+exclude_patterns = ["_build", "examples", "sg_execution_times.rst",
+                    "auto_examples/sg_execution_times.rst", "auto_examples/*.ipynb",
+                    "auto_examples/*.py", "auto_examples/*.zip", "auto_examples/*.json",
+                    "**.codeobj.json"]
 templates_path = ["_templates"]
 
 # the API reference (docs/_ext/apigen.py writes docs/api/ before the build reads it)
@@ -139,6 +141,8 @@ sphinx_gallery_conf = {
     "only_warn_on_example_error": False,
     "backreferences_dir": None,
     "doc_module": (),
+    # no page of execution times: sphinx-gallery's loads jQuery and DataTables from a CDN
+    "write_computation_times": False,
 }
 
 # the site: the PyData theme and its search box; nothing is fetched from the network, neither
