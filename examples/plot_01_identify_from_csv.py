@@ -87,5 +87,7 @@ from sloshrom.plotting.maps import plot_phi_d_map
 
 phi = phi_d_map(rom, *default_grid(6), tank=tank)
 print(phi.sizes)
-plot_phi_d_map(phi)
+fig, ax = plt.subplots(figsize=(6, 4.5), layout="constrained")
+plot_phi_d_map(phi, ax=ax)
+ax.set_title("Φ_d of the identified ROM")
 plt.show()

@@ -188,9 +188,17 @@ def _documenter(obj: object) -> str:
     return "autodata"
 
 
-def _object_block(directive: str, full: str) -> str:
+# A class on a page of its own shows what it inherits from the package's bases (an estimator's
+# ``predict`` and ``save``), not what Python's or pydantic's bases give every such class.
+NOT_INHERITED = ("object, BaseException, Exception, ValueError, TypeError, RuntimeError, "
+                 "KeyError, OSError, Warning, UserWarning, RuntimeWarning, BaseModel, dict, "
+                 "tuple, list, str, int, float, Protocol, Generic, NamedTuple, Enum")
+
+
+def _object_block(directive: str, full: str, inherited: bool = False) -> str:
     if directive == "autoclass":
-        return f".. autoclass:: {full}\n   :members:\n   :show-inheritance:\n"
+        extra = f"   :inherited-members: {NOT_INHERITED}\n" if inherited else ""
+        return f".. autoclass:: {full}\n   :members:\n{extra}   :show-inheritance:\n"
     return f".. {directive}:: {full}\n"
 
 
@@ -221,7 +229,7 @@ def write_pages(out: Path) -> list[str]:
             for n in subpages:
                 full = f"{m.name}.{n}"
                 text = [_title(f"``{full}``"), f".. currentmodule:: {m.name}\n",
-                        _object_block(_documenter(getattr(mod, n)), n)]
+                        _object_block(_documenter(getattr(mod, n)), n, inherited=True)]
                 wanted[f"{full}.rst"] = "\n".join(text)
         if inline:
             lines.append(".. rubric:: Contents\n")
