@@ -38,7 +38,7 @@ for split, seed in (("train", 1), ("validation", 2)):
     lines += [f"{t:.6f},{a / sloshrom.G:.8g},{f / 1000:.8g}"
               for t, a, f in zip(m["time"], m["acceleration"], m["force"], strict=True)]
     (folder / f"{split}.csv").write_text("\n".join(lines) + "\n")
-print((folder / "train.csv").read_text().splitlines()[:3])
+print("\n".join((folder / "train.csv").read_text().splitlines()[:4]))
 
 # %%
 # Read and preprocess
