@@ -27,7 +27,9 @@ import pytest
 
 import sloshrom
 
-pytestmark = pytest.mark.slow
+# building the site (the gallery's examples run when changed) takes minutes, more on a loaded
+# machine than pytest-timeout's 300 s that the build fixture shares with the first test
+pytestmark = [pytest.mark.slow, pytest.mark.timeout(1800)]
 
 ROOT = Path(__file__).resolve().parents[1]
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
