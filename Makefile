@@ -21,7 +21,7 @@ WORKERS    ?= 2
 XDIST      := -n $(WORKERS) --dist loadfile
 
 .PHONY: reproduce test test-other-isa test-slow test-all test-latest lint bench beyond fidelity \
-	peers pyoma lock clean
+	peers pyoma lock clean docs
 
 # setup.py and window.cc: the grey box's training kernel, compiled by the editable install
 $(STAMP): $(LOCK) pyproject.toml setup.py src/sloshrom/rom/grey/window.cc
@@ -38,7 +38,7 @@ reproduce: $(STAMP)
 # modules pyproject.toml lists; cache in .mypy_cache/, git-ignored) and the type-debt counts,
 # which may only fall
 test: $(STAMP)
-	$(BIN)/ruff check src tests benchmarks tools
+	$(BIN)/ruff check src tests benchmarks tools docs examples
 	$(BIN)/python -m pytest -m "not slow" -q $(XDIST)
 	$(BIN)/python -m mypy
 	$(BIN)/python tools/type_debt.py
@@ -49,13 +49,20 @@ test-other-isa: $(STAMP)
 	$(BIN)/python tools/other_isa.py check
 	$(BIN)/python tools/other_isa.py run -- $(BIN)/python -m pytest -m "reference and not slow" -q
 
+# The documentation site into docs/_build/html (git-ignored), offline, warnings as errors: the
+# pages of docs/, the API reference written from the docstrings, the command-line reference and
+# the example gallery of examples/ (every script runs; rerun only when changed).
+docs: $(STAMP)
+	MPLBACKEND=Agg $(BIN)/python -m sphinx -b html -W --keep-going -q docs docs/_build/html
+	@echo "the site: docs/_build/html/index.html"
+
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -m slow -q
 
 test-all: test test-slow
 
 lint: $(STAMP)
-	$(BIN)/ruff check src tests benchmarks tools
+	$(BIN)/ruff check src tests benchmarks tools docs examples
 	$(BIN)/python -m mypy
 	$(BIN)/python tools/type_debt.py
 
@@ -114,7 +121,7 @@ pyoma: $(PYOMA)/.installed
 lock:
 	test -x $(TOOLS)/bin/uv || ($(PYTHON) -m venv $(TOOLS) && \
 		$(TOOLS)/bin/python -m pip install --quiet uv==$(UV_VERSION))
-	$(TOOLS)/bin/uv pip compile pyproject.toml tools/build-requirements.in --extra dev \
+	$(TOOLS)/bin/uv pip compile pyproject.toml tools/build-requirements.in --extra dev --extra docs \
 		--generate-hashes --universal --fork-strategy fewest --python-version 3.11 \
 		--quiet -o $(LOCK)
 	@echo "wrote $(LOCK); run 'make test' to install and test it"
@@ -131,4 +138,5 @@ test-latest:
 	$(LATEST)/bin/python -m pytest -m "not slow" -q $(XDIST)
 
 clean:
-	rm -rf $(VENV) $(TOOLS) $(LATEST) $(PYOMA) results .pytest_cache .mypy_cache
+	rm -rf $(VENV) $(TOOLS) $(LATEST) $(PYOMA) results .pytest_cache .mypy_cache \
+		docs/_build docs/api docs/auto_examples docs/sg_execution_times.rst build dist

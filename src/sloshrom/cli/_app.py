@@ -164,8 +164,18 @@ app = typer.Typer(
 )
 
 
+def _print_version(value: bool) -> None:
+    """``--version``: print the package version (pyproject.toml's, as installed) and stop."""
+    if value:
+        typer.echo(__version__)
+        raise typer.Exit()
+
+
 @app.callback()
-def _main(ctx: typer.Context) -> None:
+def _main(ctx: typer.Context,
+          version: Annotated[bool, typer.Option(
+              "--version", callback=_print_version, is_eager=True,
+              help="Print the package version and exit.")] = False) -> None:
     """Identify sloshing ROMs from shaker data and couple them with a flexible beam."""
     # for the whole command: closed (filters restored) when the command ends, however it ends
     ctx.with_resource(route_warnings())

@@ -267,6 +267,7 @@ def _unsaid(stage: str, event: str, seconds: float) -> None:
 
 
 def stage_events(bars: Bars) -> Callable[[str, str, float], None]:
-    """The stage events of ``sloshrom reproduce`` (:data:`sloshrom.pipeline.context.
-    StageEvents`): lines of a :class:`PlainProgress`, nothing beside rich's bars."""
+    """The stage events of ``sloshrom reproduce``
+    (:data:`~sloshrom.pipeline.context.StageEvents`): lines of a :class:`PlainProgress`, nothing
+    beside rich's bars."""
     return bars.stage if isinstance(bars, PlainProgress) else _unsaid

@@ -3,12 +3,15 @@
 Stages (each cached in ``OUT/.stages``; a rerun reuses a finished stage whose configuration and
 upstream stages did not change), one module each:
 
+==========  ===========================================================================
 ``data``    VFA training/validation records from the virtual rig (paper Figs. 5–7), designed
             from the ``[beam]`` tests (``[data] design = "structure"``)
 ``sweep``   sensitivity analysis over delays x neurons (Fig. 8), on request (``[rom] sweep``)
 ``rom``     ROM identification (Fig. 10 validation)
 ``maps``    Phi_d maps of rig and ROM and their difference (Figs. 3, 4, 11)
 ``beam``    sloshing-beam free and random tests with rig, ROM and frozen liquid (Figs. 14–23)
+==========  ===========================================================================
+
 then each study beyond the paper that the configuration enables (``[beyond]``), in the order of
 the registry (:func:`sloshrom.pipeline.study.registered`; today the bouncing-ball ``baseline``, the
 ``fills`` family and the two-mode ``multimode`` wing), each a stage as its

@@ -407,7 +407,7 @@ class Estimator:
     # -- prediction ---------------------------------------------------------------------------
     @property
     def dt(self) -> float:
-        """Model time step = 1/fs_, s."""
+        """Model time step = ``1/fs_``, s."""
         self._check_fitted()
         return cast(float, self.model_.dt)
 

@@ -227,6 +227,8 @@ class Ensemble:
     history_ : list of dict
         Each member's training history.
 
+    Notes
+    -----
     Parameters are checked by :meth:`fit`, not by the constructor (scikit-learn convention).
     """
 
@@ -507,7 +509,7 @@ class Ensemble:
 
     @property
     def dt(self) -> float:
-        """Model time step = 1/fs_, s."""
+        """Model time step = ``1/fs_``, s."""
         self._check_fitted()
         return 1.0 / self.fs_
 

@@ -4,25 +4,25 @@ The FMU implements the sloshing-model contract of :mod:`sloshrom.models` for any
 imports FMUs (Simulink's FMU Import block, Dymola/OpenModelica, Simcenter Amesim, MSC Adams, FMPy,
 a time-marching code of one's own):
 
-========================  ==========  ==================================================
-variable                  causality   meaning
-========================  ==========  ==================================================
-``velocity``              input       tank vertical velocity at the communication point, m/s
-                                      (a model on the velocity)
-``acceleration``          input       tank vertical acceleration there, m/s2 (a network on
-                                      the acceleration)
-``dynamic_force``         output      dynamic sloshing force, N (``f_S + m_l * acc``, up +)
-``outside_envelope``      output      the signal the model reads lies outside its training
-                                      range at this communication point (Boolean)
-``samples_outside_envelope`` output   communication points so far with that flag (Integer)
-``time_step``             read-only   the model's step ``dt``, s: the only communication step
-``sample_rate``           read-only   ``1/dt``, Hz
-``input_min``/``_max``    read-only   training range of the signal read (m/s or m/s2)
-``acceleration_max``      read-only   peak |tank acceleration| of the training, m/s2
-``frequency_min``/``_max``  read-only band of the training excitation, Hz
-``fill_min``/``fill_max`` read-only   fill levels d/h of the training records (-)
-``reads_acceleration``    read-only   the model reads ``acceleration``, not ``velocity``
-========================  ==========  ==================================================
+============================  ==========  ==================================================
+variable                      causality   meaning
+============================  ==========  ==================================================
+``velocity``                  input       tank vertical velocity at the communication point, m/s
+                                          (a model on the velocity)
+``acceleration``              input       tank vertical acceleration there, m/s2 (a network on
+                                          the acceleration)
+``dynamic_force``             output      dynamic sloshing force, N (``f_S + m_l * acc``, up +)
+``outside_envelope``          output      the signal the model reads lies outside its training
+                                          range at this communication point (Boolean)
+``samples_outside_envelope``  output      communication points so far with that flag (Integer)
+``time_step``                 read-only   the model's step ``dt``, s: the only communication step
+``sample_rate``               read-only   ``1/dt``, Hz
+``input_min``/``_max``        read-only   training range of the signal read (m/s or m/s2)
+``acceleration_max``          read-only   peak |tank acceleration| of the training, m/s2
+``frequency_min``/``_max``    read-only   band of the training excitation, Hz
+``fill_min``/``fill_max``     read-only   fill levels d/h of the training records (-)
+``reads_acceleration``        read-only   the model reads ``acceleration``, not ``velocity``
+============================  ==========  ==================================================
 
 (Read-only parameters are FMI *calculated parameters*; one the model does not know is left
 out, and so is the input it does not read.) At a communication point ``t_k``, the input is the

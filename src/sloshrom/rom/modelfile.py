@@ -9,12 +9,12 @@ single model (class ``"NFIR"``, ``"NOE"``, ``"NSS"``, ... of the registry)
     an NFIR's ``W`` (H, D), ``b`` (H,), ``c`` (H,), ``c0`` ()), written with the format
     version of its class's entry (``ModelClass.format_version``: 1 for the time-delay
     networks).
-ensemble (format version 2, or its class's version, class ``"Ensemble"``,
-:class:`sloshrom.rom.ensemble.Ensemble`)
-    K networks of one class and the same hyperparameters but their seeds: the same four arrays
-    with a leading member axis, ``W`` (K, H, D), ``b`` (K, H), ``c`` (K, H), ``c0`` (K,); the
-    metadata holds the member class, the shared hyperparameters and per member its seed, scaler,
-    envelope and training history.
+ensemble (class ``"Ensemble"``, :class:`sloshrom.rom.ensemble.Ensemble`)
+    Format version 2, or its class's version. K networks of one class and the same hyperparameters
+    but their seeds: the same four arrays with a leading member axis, ``W`` (K, H, D), ``b`` (K, H),
+    ``c`` (K, H), ``c0`` (K,); the metadata holds the member class, the shared hyperparameters and
+    per member its seed, scaler, envelope and training history.
+
 
 This module reads it defensively, in an order that never lets the content choose how much work
 is done:

@@ -19,6 +19,7 @@
   exponential window), the window's damping removed exactly.
 * :func:`half_power_damping` - half-power bandwidth; :func:`lscf_damping` - the single-pole LSCF
   pick, kept as a baseline.
+
 The estimators of paper Table 2 built from these functions, behind one protocol, are in
 ``sloshrom.beam.damping.estimators`` (registered in ``sloshrom.beam.damping.registry``); their
 intervals in ``sloshrom.beam.damping.uncertainty``.

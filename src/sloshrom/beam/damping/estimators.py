@@ -142,6 +142,8 @@ class RandomTest:
         Fitting band (low, high), Hz, overriding ``rel_band``: a mode between neighbours needs
         a band between them, not a symmetric one. Must hold ``f1``.
 
+    Notes
+    -----
     The band the estimators fit is :attr:`fit_band`, clipped to the Nyquist frequency.
     """
 

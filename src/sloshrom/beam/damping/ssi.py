@@ -39,7 +39,7 @@ __all__ = ["SsiCov", "ssi_cov_damping", "ssi_cov_poles"]
 
 
 def ssi_cov_poles(y: Any, fs: float, block_rows: int, max_order: int) -> dict[str, np.ndarray]:
-    """Poles of SSI-cov state-space models of one output channel, orders ``2 ... max_order``.
+    """Poles of SSI-cov state-space models of one output channel, orders 2 to ``max_order``.
 
     Parameters
     ----------

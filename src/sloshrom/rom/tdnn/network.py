@@ -166,7 +166,7 @@ def hidden_activations(params: dict[str, Any], X: Any, hidden: str = "matlab", *
 
 def rbf_apply(params: dict[str, Any], X: Any, hidden: str = "matlab", *,
               single: bool = False) -> jnp.ndarray:
-    """Network output (scaled) ``y = a(X) . c + c0`` for regressors ``X`` of shape ``(..., D)``
+    """Network output (scaled) ``y = a(X) @ c + c0`` for regressors ``X`` of shape ``(..., D)``
     (``single``: see :func:`hidden_activations`)."""
     return hidden_activations(params, X, hidden, single=single) @ params["c"] + params["c0"]
 

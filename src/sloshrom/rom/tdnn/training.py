@@ -3,11 +3,11 @@
 Algorithm (as ``trainlm``): at each epoch the Jacobian ``J = d y^/d theta`` and the error
 ``e = y^ - y`` (scaled units) give ``J^T J`` and ``J^T e``; the step
 ``d theta = -(J^T J + mu I)^{-1} J^T e`` (Cholesky) is tried with mu = 1e-3 initially; if the
-training error falls the step is taken and mu *= 0.1, otherwise mu *= 10 and the step is retried
-within the epoch until success or mu > mu_max = 1e10. Training stops at ``max_epochs``, when the
-gradient norm ``||d MSE/d theta|| = 2 ||J^T e|| / N`` < 1e-7, when mu > mu_max, or when the
-validation error has been above its best for ``max_fail = 6`` consecutive epochs; the
-best-validation parameters are returned.
+training error falls the step is taken and ``mu *= 0.1``, otherwise ``mu *= 10`` and the step
+is retried within the epoch until success or mu > mu_max = 1e10. Training stops at
+``max_epochs``, when the gradient norm ``||d MSE/d theta|| = 2 ||J^T e|| / N`` < 1e-7, when
+mu > mu_max, or when the validation error has been above its best for ``max_fail = 6``
+consecutive epochs; the best-validation parameters are returned.
 
 ``J^T J`` and ``J^T e`` are accumulated over chunks of samples (memory bounded, float64); each
 chunk's Jacobian comes from ``jax.vmap(jax.grad)`` (NFIR, per-sample reverse mode) or from
