@@ -30,7 +30,9 @@ from sloshrom.rom import LSS, NSS
 
 u, y = train["force"], train["displacement"]
 fits = {}
-for name, model in {"NSS": NSS(max_epochs=3, seed=0), "LSS": LSS()}.items():
+# the units and names of this system (the defaults are the sloshing ROM's: m/s in, N out)
+io = {"units": ("N", "m"), "names": ("force", "displacement")}
+for name, model in {"NSS": NSS(max_epochs=3, seed=0, **io), "LSS": LSS(**io)}.items():
     model.fit(u, y, fs=train.fs, validation=(val["force"], val["displacement"]))
     pred = model.predict(val["force"])
     rmse = np.sqrt(np.mean((pred - val["displacement"]) ** 2))
