@@ -197,7 +197,7 @@ def design_cmd(
 
     from rich.console import Console
 
-    from sloshrom.pipeline.data import programme, programme_outputs, training_design
+    from sloshrom.pipeline.data import programme, programme_outputs, to_ms, training_design
 
     cfg = load_config(config, quick)
     if "uff" in fmts and not exact_uff_step(fs):
@@ -223,7 +223,7 @@ def design_cmd(
             whole = np.concatenate([x for k, (_, a) in enumerate(segs)
                                     for x in ((np.zeros(gap),) if k else ()) + (a,)])
             summ["drive"] = {"fs_hz": float(fs), "samples": int(whole.size),
-                             "duration_s": round((whole.size - 1) / fs, 3),
+                             "duration_s": to_ms((whole.size - 1) / fs),
                              "peak_acceleration_g": float(np.max(np.abs(whole))) / G}
             summaries[s] = summ
             drives[s] = (segs, whole)

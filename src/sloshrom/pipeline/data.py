@@ -27,7 +27,7 @@ from sloshrom.plotting.signals import record_io_figure, vfa_paths_figure
 __all__ = ["LAB_SETUP", "Peaks", "ProgrammeOutputs", "SegmentOutputs", "design_outputs",
            "programme", "programme_outputs", "record_acceleration", "replay_record",
            "SPLITS", "split_settings", "stage_data", "training_design", "use_segments",
-           "vfa_pieces"]
+           "to_ms", "vfa_pieces"]
 
 #: Laboratory set-up per segment, s: loading the drive file and the controller's low-level
 #: pre-test (equalisation) before each run
@@ -252,7 +252,7 @@ def _peaks(m: Mapping[str, float]) -> Peaks:
             "stroke_mm": m["displacement"] * 1e3}
 
 
-def _ms(t: float) -> float:
+def to_ms(t: float) -> float:
     """A time in s to the millisecond (what the programme's outputs show a person)."""
     return round(float(t), 3)
 
@@ -291,8 +291,8 @@ def programme_outputs(prog: Programme, limits: signals.ShakerLimits = signals.SH
         # to the millisecond: a VFA of 480 s holds 480 fs + 1 samples (at rest at both
         # ends), a random test of 25 s 25 fs; a person reads 480 s, not 480.0001 s
         segs.append({"index": k + 1, "name": s.name, "kind": s.kind, "level": s.level,
-                     "level_unit": LEVEL_UNITS[s.kind], "start_s": _ms(start / prog.fs),
-                     "duration_s": _ms(one.duration), "first_sample": start, "samples": n,
+                     "level_unit": LEVEL_UNITS[s.kind], "start_s": to_ms(start / prog.fs),
+                     "duration_s": to_ms(one.duration), "first_sample": start, "samples": n,
                      "peaks": _peaks(one.motion())})
         start += n + round(prog.pause * prog.fs)
     exceeds = prog.check(limits, max_duration)
@@ -306,10 +306,10 @@ def programme_outputs(prog: Programme, limits: signals.ShakerLimits = signals.SH
     return {
         "segments": segs,
         "peaks": peaks,
-        "duration_s": _ms(prog.duration),
+        "duration_s": to_ms(prog.duration),
         "pause_s": prog.pause,
         "fs_hz": prog.fs,
-        "lab_time_s": _ms(prog.lab_time(setup)),
+        "lab_time_s": to_ms(prog.lab_time(setup)),
         "setup_s": setup,
         "limits": {"acceleration_g": limits.max_acceleration / G,
                    "velocity_m_s": limits.max_velocity,

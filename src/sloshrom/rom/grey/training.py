@@ -19,6 +19,7 @@
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import time
@@ -223,14 +224,11 @@ def init_params(spec: GreySpec, seed: int, physics: np.ndarray, taps: np.ndarray
     return out
 
 
-_NOTED: list[bool] = []
-
-
+@functools.cache
 def _note_path() -> None:
     """Say once a process that the grey box trains without its C kernel, and why."""
     note = kernel_note()
-    if note is not None and not _NOTED:
-        _NOTED.append(True)
+    if note is not None:
         logging.getLogger("sloshrom").warning(note)
 
 
