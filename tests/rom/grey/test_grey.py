@@ -17,6 +17,7 @@ from sloshrom.rom import GreyBox, load_model
 from sloshrom.rom.grey.network import GreySpec
 from sloshrom.rom.grey.physics import (
     causal_intervals,
+    design_rows,
     grey_features,
     physical_parameters,
     physics_rest,
@@ -112,6 +113,34 @@ def test_numba_and_jax_steps_agree():
     scale = np.max(np.abs(ref))
     assert scale > 1.0
     assert np.max(np.abs(jx - ref)) <= tol * scale
+
+
+def test_design_rows_of_several_records_and_a_warm_up():
+    """The search's two shortcuts change none of its numbers: the output filter's rows of a
+    batch of windows are each window's rows (as written out, row by row, below), and the
+    predictions left out of a warm-up leave the committed forces and the later predictions
+    as they were."""
+    u = np.stack([_harmonic(f, a, seconds=1.0) for f, a in ((9.0, 3.0), (14.0, 5.0))])
+    phys = _phys(*RIG_LIKE)[None]
+    full = causal_intervals(phys, u, FS, N_BALLS, N_SUB, from_rest=False)[0]
+    part = causal_intervals(phys, u, FS, N_BALLS, N_SUB, from_rest=False, predict_from=200)[0]
+    assert np.max(np.abs(full[:, 200:])) > 1.0
+    np.testing.assert_array_equal(part[..., 0, :], full[..., 0, :])
+    np.testing.assert_array_equal(part[:, 200:], full[:, 200:])
+    assert np.all(part[:, :200, 1:] == 0.0)
+    rows = design_rows(full, N_PAST)
+    assert rows.shape == (2, u.shape[1], (N_PAST + 1) * N_SUB)
+    for w in range(2):
+        np.testing.assert_array_equal(rows[w], design_rows(full[w], N_PAST))
+        o = full[w]
+        for k in (0, 1, 3, 250, u.shape[1] - 1):
+            want = np.zeros((N_PAST + 1, N_SUB))
+            if k >= 1:
+                want[0], want[1] = o[k - 1, 2, ::-1], o[k - 1, 1, ::-1]
+            for j in range(N_PAST - 1):
+                if k - 1 - j >= 0:
+                    want[2 + j] = o[k - 1 - j, 0, ::-1]
+            np.testing.assert_array_equal(rows[w, k], want.reshape(-1))
 
 
 @pytest.mark.slow

@@ -123,7 +123,7 @@ def _interval(z: np.ndarray, v: np.ndarray, att: np.ndarray, gate: np.ndarray, a
 
 @njit(parallel=True)
 def _causal_batch(phys: np.ndarray, u: np.ndarray, fs: float, n_balls: int, n_sub: int,
-                  from_rest: bool, out: np.ndarray) -> None:
+                  from_rest: bool, predict_from: int, out: np.ndarray) -> None:
     n_p = phys.shape[0]
     n_w = u.shape[0]
     n = u.shape[1]
@@ -153,6 +153,14 @@ def _causal_batch(phys: np.ndarray, u: np.ndarray, fs: float, n_balls: int, n_su
             _interval(z, v, att, gate, a, ph, h, n_sub, fc)
             glp += (0.5 * math.pi * abs(a) / G - glp) * k1
             scale = ph[0] / (1.0 + (glp / ph[6]) ** 2)
+            if k < predict_from:
+                for j in range(n_sub):
+                    out[p, w, k, 0, j] = scale * fc[j]
+                    out[p, w, k, 1, j] = 0.0
+                    out[p, w, k, 2, j] = 0.0
+                a_prev = a
+                u_prev = u[w, k]
+                continue
             for i in range(n_balls):
                 zp[i] = z[i]
                 vp[i] = v[i]
@@ -169,7 +177,8 @@ def _causal_batch(phys: np.ndarray, u: np.ndarray, fs: float, n_balls: int, n_su
 
 
 def causal_intervals(phys: np.ndarray, u: np.ndarray, fs: float, n_balls: int,
-                     n_substeps: int, from_rest: bool = True) -> np.ndarray:
+                     n_substeps: int, from_rest: bool = True, predict_from: int = 0
+                     ) -> np.ndarray:
     """The sub-step forces each step knows, for parameter sets ``phys`` and velocity records.
 
     Parameters
@@ -185,6 +194,9 @@ def causal_intervals(phys: np.ndarray, u: np.ndarray, fs: float, n_balls: int,
     from_rest : bool
         The velocity before each record is zero (a run from rest, as the fitted model's);
         False: the record's first sample (a window cut out of a record).
+    predict_from : int
+        The first step whose predicted intervals are computed; before it they are zero (a
+        warm-up whose outputs are not used: the predictions are two thirds of the work).
 
     Returns
     -------
@@ -195,33 +207,50 @@ def causal_intervals(phys: np.ndarray, u: np.ndarray, fs: float, n_balls: int,
     phys = np.ascontiguousarray(phys, dtype=np.float64)
     u = np.ascontiguousarray(u, dtype=np.float64)
     out = np.empty((phys.shape[0], u.shape[0], u.shape[1], 3, int(n_substeps)))
-    _causal_batch(phys, u, float(fs), int(n_balls), int(n_substeps), bool(from_rest), out)
+    _causal_batch(phys, u, float(fs), int(n_balls), int(n_substeps), bool(from_rest),
+                  int(predict_from), out)
     return out
 
 
-def design_rows(o: np.ndarray, n_past: int) -> np.ndarray:
-    """The rows of the output filter: for each output sample ``k`` (shape (n, 3, ns) from
-    :func:`causal_intervals` for one record), the sub-step forces (newest first) of the
-    predicted interval after ``t_k``, the one ending at ``t_k`` and ``n_past - 1`` committed
-    intervals before; row 0 (no step before it) is zero.
+def design_rows(o: np.ndarray, n_past: int, skip: int = 0,
+                out: np.ndarray | None = None) -> np.ndarray:
+    """The rows of the output filter: for each output sample ``k`` (``o`` of shape
+    (..., n, 3, ns) from :func:`causal_intervals`: one record or several), the sub-step forces
+    (newest first) of the predicted interval after ``t_k``, the one ending at ``t_k`` and
+    ``n_past - 1`` committed intervals before; row 0 (no step before it) is zero.
+
+    ``skip``: the rows from sample ``skip`` on only; ``out``: an array of the result's shape
+    to write them into (a search that builds them for many candidates reuses one).
 
     Returns
     -------
-    ndarray, shape (n, (n_past + 1) * ns)
+    ndarray, shape (..., n - skip, (n_past + 1) * ns)
     """
-    com = o[:, 0, ::-1]
-    blocks = [o[:, 2, ::-1], o[:, 1, ::-1], com]
-    blocks += [_delayed(com, j) for j in range(1, n_past - 1)]
-    d = np.concatenate(blocks, axis=-1)
-    # the rows of step k serve the output at k + 1
-    return _delayed(d, 1)
+    n, ns = o.shape[-3], o.shape[-1]
+    shape = (*o.shape[:-3], n - skip, (n_past + 1) * ns)
+    d = np.empty(shape) if out is None else out
+    if d.shape != shape or not d.flags.c_contiguous:
+        raise ValueError(f"out must be a C-contiguous array of shape {shape}, got {d.shape}")
+    _rows_into(np.ascontiguousarray(o, dtype=np.float64).reshape(-1, n, 3, ns), int(n_past),
+               int(skip), d.reshape(-1, n - skip, shape[-1]))
+    return d
 
 
-def _delayed(x: np.ndarray, j: int) -> np.ndarray:
-    """``x`` delayed by ``j`` rows along axis 0, zeros (rest) before the first."""
-    out = np.zeros_like(x)
-    out[j:] = x[: x.shape[0] - j]
-    return out
+@njit
+def _rows_into(o: np.ndarray, n_past: int, skip: int, d: np.ndarray) -> None:
+    """:func:`design_rows` of records ``o`` (B, n, 3, ns) into ``d`` (B, n - skip, taps) (a
+    gather of short reversed runs: numpy's strided copies took ten times as long)."""
+    n_b, n, _, ns = o.shape
+    for b in range(n_b):
+        for r in range(n - skip):
+            k = r + skip
+            # the rows of step k serve the output at k + 1: the predictions one step late,
+            # committed interval j one more step each
+            for blk in range(n_past + 1):
+                kind = 2 if blk == 0 else (1 if blk == 1 else 0)
+                src = k - (1 if blk < 2 else blk - 1)
+                for j in range(ns):
+                    d[b, r, blk * ns + j] = o[b, src, kind, ns - 1 - j] if src >= 0 else 0.0
 
 
 def physics_features(o: np.ndarray, taps: np.ndarray, n_past: int) -> np.ndarray:

@@ -84,9 +84,15 @@ def _windows(n: int, fs: float, count: int, seed: int) -> np.ndarray:
                      for i in range(count)])
 
 
-def _filter_rows(o: np.ndarray, n_past: int, skip: int) -> np.ndarray:
-    """The design rows of several windows (W, n, 3, ns) after their first ``skip`` samples."""
-    return np.concatenate([design_rows(o[w], n_past)[skip:] for w in range(o.shape[0])])
+def _filter_rows(o: np.ndarray, n_past: int, skip: int, out: np.ndarray | None = None
+                 ) -> np.ndarray:
+    """The design rows of several windows (W, n, 3, ns) after their first ``skip`` samples,
+    as one matrix (written into ``out`` if given)."""
+    w, n, _, ns = o.shape
+    if out is not None:
+        out = out.reshape(w, n - skip, (n_past + 1) * ns)
+    d = design_rows(o, n_past, skip, out)
+    return d.reshape(-1, d.shape[-1])
 
 
 def _least_squares(a: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -172,14 +178,16 @@ def fit_physics(
     def objective(xs: np.ndarray) -> np.ndarray:
         xs = np.asarray(xs).T  # vectorised: (candidates, variables)
         evaluations[0] += xs.shape[0]
+        # the rows after the warm-up read the predictions from the step before it on
         o = causal_intervals(np.stack([phys_of(x) for x in xs]), uw, fs, spec.n_balls,
-                             spec.n_substeps, from_rest=False)
+                             spec.n_substeps, from_rest=False, predict_from=warm - 1)
         out = np.empty(xs.shape[0])
+        rows = np.empty((target.size, spec.n_taps))  # one buffer: no page faults a candidate
         for i in range(xs.shape[0]):
             if not np.all(np.isfinite(o[i])):
                 out[i] = np.inf
                 continue
-            a = _filter_rows(o[i], spec.n_past, warm)
+            a = _filter_rows(o[i], spec.n_past, warm, rows)
             taps = _least_squares(a, target)
             fit = a @ taps
             score = float(np.mean((fit - target) ** 2))
@@ -198,7 +206,7 @@ def fit_physics(
     physics = phys_of(res.x)
     o = causal_intervals(physics[None], u[None], fs, spec.n_balls, spec.n_substeps)[0, 0]
     skip = spec.n_past + 1
-    taps = _least_squares(design_rows(o, spec.n_past)[skip:], y[skip:])
+    taps = _least_squares(design_rows(o, spec.n_past, skip), y[skip:])
     history = {**{k: float(v) for k, v in zip(names, res.x, strict=True)},
                "objective": float(res.fun), "generations": float(res.nit),
                "evaluations": float(evaluations[0]), "seconds": time.perf_counter() - t0,
