@@ -4,8 +4,10 @@ then identify the configured ROM (any class of the registry) and the classes com
 
 from __future__ import annotations
 
+import threading
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -188,22 +190,53 @@ def _median_after_compile(history: dict[str, Any], key: str) -> float | None:
     return float(np.median(v[2:])) if len(v) > 2 else None
 
 
+class _Beside:
+    """The progress of the classes compared with the ROM while they train in a thread beside
+    its members: their line is added to the members' until these finish, then shown alone."""
+
+    def __init__(self, ctx: Context) -> None:
+        self.ctx = ctx
+        self.text = ""
+        self.alone = False
+        self.stop = threading.Event()  # the members failed: the comparison ends at its epoch
+
+    def suffix(self) -> str:
+        return f"; beside it, {self.text}" if self.text else ""
+
+    def report(self, done: int, total: int, text: str) -> None:
+        self.text = text
+        if self.alone:
+            self.ctx.progress("rom", done, total, text)
+
+
 def _train(ctx: Context, model: Any, name: str, epochs: int, k_members: int, workers: int,
-           records: tuple[np.ndarray, ...], fs: float, fill: float | None
+           records: tuple[np.ndarray, ...], fs: float, fill: float | None,
+           beside: _Beside | None = None, started: Callable[[], Any] | None = None,
            ) -> tuple[Any, str, float]:
     """Fit ``model`` (an ensemble of ``k_members`` of it if > 1) on ``records`` = (u, y, u
-    validation, y validation); the fitted model, its name and the training time, s."""
+    validation, y validation); the fitted model, its name and the training time, s.
+
+    ``beside``: an ensemble's progress line carries its text; a single model trained by a
+    thread beside the members reports into it (and stops when it is told to). ``started``:
+    called once an ensemble's members are on their workers (or at once for one model)."""
     u, y, uv, yv = records
     # epoch, errors and time left of the training (of every member of an ensemble)
     pace = TrainingProgress(epochs, members=k_members, concurrent=workers, unit="N^2")
     what = f"training {name}" if k_members == 1 else f"training {k_members} x {name}"
+    in_thread = beside is not None and k_members == 1
 
     def show() -> None:
-        ctx.progress("rom", pace.done, max(pace.total, 1), f"{what}: {pace.text()}")
+        text = f"{what}: {pace.text()}"
+        if in_thread and beside is not None:
+            beside.report(pace.done, max(pace.total, 1), text)
+        else:
+            ctx.progress("rom", pace.done, max(pace.total, 1),
+                         text + (beside.suffix() if beside is not None else ""))
 
-    def cb(epoch: int, info: Mapping[str, float]) -> None:
+    def cb(epoch: int, info: Mapping[str, float]) -> bool:
         pace.epoch(epoch, info)
         show()
+        return in_thread and beside is not None and beside.stop.is_set()
 
     def member_epoch(k: int, epoch: int, info: Mapping[str, float]) -> None:
         if pace.epoch(epoch, info, member=k):  # (not a late file of a finished member)
@@ -214,16 +247,39 @@ def _train(ctx: Context, model: Any, name: str, epochs: int, k_members: int, wor
         show()
 
     t0 = time.perf_counter()
-    ctx.progress("rom", 0, max(pace.total, 1), what)
+    if in_thread and beside is not None:
+        beside.report(0, max(pace.total, 1), what)
+    else:
+        ctx.progress("rom", 0, max(pace.total, 1), what)
     if k_members > 1:
         model = Ensemble(model, n_members=k_members).fit(
             u, y, fs=fs, validation=(uv, yv),
             scheduler="sequential" if workers == 1 else None, n_workers=workers,
-            progress=member_done, epoch_progress=member_epoch, fill=fill)
+            progress=member_done, epoch_progress=member_epoch, fill=fill, started=started)
         name = f"{name} x {k_members}"
     else:
+        if started is not None:
+            started()
         model.fit(u, y, fs=fs, validation=(uv, yv), callback=cb, fill=fill)
     return model, name, time.perf_counter() - t0
+
+
+def _train_compared(ctx: Context, records: tuple[np.ndarray, ...], fs: float,
+                    fill: float | None, beside: _Beside | None = None
+                    ) -> list[tuple[str, Any, str, float]]:
+    """Train each class of ``rom.compare`` (one model each, as its table says): (class, model,
+    name, training time in s) each."""
+    cfg = ctx.cfg.rom
+    out = []
+    for arch in cfg.compared():
+        if beside is not None and beside.stop.is_set():
+            break
+        hyper = cfg.hyper(arch)
+        other, other_name, seconds = _train(ctx, estimator(cfg, arch, ctx.tank), cfg.name(arch),
+                                            int(hyper.get("max_epochs", 0)), 1, 1, records,
+                                            fs, fill, beside)
+        out.append((arch, other, other_name, seconds))
+    return out
 
 
 def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str]]:
@@ -268,9 +324,32 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
     fill = train.attrs.get("fill")  # the model refuses other fills (sloshrom.rom.family)
     k_members = int(cfg.ensemble)
     recipe = recipe_text(cfg.loss_terms(), name, cfg.arch)
-    model, name, train_seconds = _train(ctx, estimator(cfg, tank=ctx.tank), name, epochs,
-                                        k_members, int(cfg.ensemble_workers), records,
-                                        train.fs, fill)
+    workers = int(cfg.ensemble_workers)
+    # the members train in worker processes, one a core, while this process waits: the
+    # compared classes train meanwhile in a thread of it (the cores shared with the members)
+    beside = _Beside(ctx) if k_members > 1 and workers > 1 and cfg.compared() else None
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        future: list[Future[list[tuple[str, Any, str, float]]]] = []
+
+        def start_compared() -> None:
+            if beside is not None and not future:
+                future.append(pool.submit(_train_compared, ctx, records, train.fs, fill,
+                                          beside))
+
+        try:
+            model, name, train_seconds = _train(ctx, estimator(cfg, tank=ctx.tank), name,
+                                                epochs, k_members, workers, records, train.fs,
+                                                fill, beside, start_compared)
+        except BaseException:
+            if beside is not None:
+                beside.stop.set()
+            raise
+        if beside is not None:
+            start_compared()  # (a scheduler that never said it started)
+            beside.alone = True
+            others = future[0].result()
+        else:
+            others = _train_compared(ctx, records, train.fs, fill)
     ctx.progress("rom", 1, 1, "validation")
     path = ctx.path("models", f"{cfg.arch}.npz")
     model.save(path)
@@ -309,13 +388,9 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
             error_figures(yv, yh)["mse"] for yh in np.asarray(model.member_predictions(uv)))
     compared = []
     outputs["compare"] = {}
-    for arch in cfg.compared():
+    for arch, other, other_name, seconds in others:
         # another class on the same records, as its own table says, for the report to set
         # beside the ROM (the paper's NFIR, the best linear model)
-        hyper = cfg.hyper(arch)
-        other, other_name, seconds = _train(ctx, estimator(cfg, arch, ctx.tank), cfg.name(arch),
-                                            int(hyper.get("max_epochs", 0)), 1, 1, records,
-                                            train.fs, fill)
         other_path = ctx.path("models", f"{arch}.npz")
         other.save(other_path)
         files.append(ctx.rel(other_path))

@@ -25,6 +25,7 @@ ensemble variant) and loaded by :func:`sloshrom.rom.load_model`.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import warnings
@@ -317,6 +318,7 @@ class Ensemble:
         fill: float | None = None,
         epoch_progress: EpochReport | None = None,
         validation_history: int = 0,
+        started: Callable[[], Any] | None = None,
     ) -> Ensemble:
         """Train the K members on the same record, in parallel.
 
@@ -348,6 +350,9 @@ class Ensemble:
         validation_history : int
             The validation record's first samples taken as measured history by every member
             (:meth:`sloshrom.rom.NSS.fit`); 0: from rest.
+        started : callable, optional
+            ``started()`` once the members are handed to the workers (a new LocalCluster's
+            placed on their cores): :func:`sloshrom.rom.parallel.run_tasks`.
 
         Returns
         -------
@@ -384,16 +389,20 @@ class Ensemble:
             if vu.size == 0:
                 raise ROMError("validation record is empty")
         fill = check_training_fill(fill)
-        with epoch_reports(epoch_progress) as epochs_dir, warnings.catch_warnings():
-            # said once below for all the members; set in this thread only, which the
-            # "threads" scheduler's workers read (a filter set in each of them would race)
-            warnings.simplefilter("ignore", TrainingWarning)
+        with epoch_reports(epoch_progress) as epochs_dir, contextlib.ExitStack() as quiet:
+            if scheduler in ("threads", "sequential"):
+                # said once below for all the members; set in this thread only, which the
+                # "threads" scheduler's workers read (a filter set in each of them would
+                # race). Members in other processes are quiet there (_fit_member): no filter
+                # here, where a thread of the caller may be training a model of its own
+                quiet.enter_context(warnings.catch_warnings())
+                warnings.simplefilter("ignore", TrainingWarning)
             members = run_tasks(
                 _fit_member, list(enumerate(seeds)), shared=(u, y, vu, vy),
                 args=(type(self.template), self.template.get_params(), float(fs), fill,
                       epochs_dir, int(validation_history), os.getpid()),
                 scheduler=scheduler, n_workers=n_workers,
-                done=None if progress is None else progress,
+                done=None if progress is None else progress, started=started,
             )
         self._set_members(members)
         stuck = [k for k, h in enumerate(self.history_) if h.get("stop_reason") == "mu_max"]

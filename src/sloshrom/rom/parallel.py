@@ -555,6 +555,7 @@ def run_tasks(
     scheduler: str | None = None,
     n_workers: int = 2,
     done: Callable[[int, R], Any] | None = None,
+    started: Callable[[], Any] | None = None,
 ) -> list[R]:
     """Call ``fn(item, *shared, *args)`` for every item, in parallel.
 
@@ -575,6 +576,10 @@ def run_tasks(
         Processes of the LocalCluster, threads of ``"threads"``.
     done : callable, optional
         ``done(index, result)`` as each task finishes (in the order they finish).
+    started : callable, optional
+        ``started()`` once, as the tasks are submitted: after a new LocalCluster's workers
+        are placed on their cores (work the caller starts beside them from then on does not
+        make the cores look busy to the placement).
 
     Returns
     -------
@@ -599,7 +604,12 @@ def run_tasks(
         if done is not None:
             done(i, r)
 
+    def start() -> None:
+        if started is not None:
+            started()
+
     if scheduler == "sequential":
+        start()
         for i, it in enumerate(todo):
             finish(i, fn(it, *shared, *args))
     elif scheduler == "threads":
@@ -607,6 +617,7 @@ def run_tasks(
 
         with ThreadPoolExecutor(max_workers=n_workers) as ex:
             index = {ex.submit(fn, it, *shared, *args): i for i, it in enumerate(todo)}
+            start()
             for f in as_completed(index):
                 finish(index[f], f.result())
     else:
@@ -616,6 +627,7 @@ def run_tasks(
             client = stack.enter_context(_client(scheduler, n_workers))
             data = client.scatter(list(shared), broadcast=True) if shared else []
             futs = [client.submit(fn, it, *data, *args, pure=False) for it in todo]
+            start()
             index = {f.key: i for i, f in enumerate(futs)}
             for f in as_completed(futs):
                 finish(index[f.key], f.result())

@@ -1,0 +1,98 @@
+"""The rom stage trains the compared classes in a thread beside the ROM's members (which train
+in worker processes while the stage's process waits): the same models as trained alone,
+one progress line that says both, and a failure of the members that stops the comparison."""
+
+from __future__ import annotations
+
+import shutil
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from sloshrom.io import read_record
+from sloshrom.pipeline import Context
+from sloshrom.pipeline import rom as rom_stage
+from sloshrom.pipeline.chain import identify
+from sloshrom.rom.ensemble import Ensemble
+
+#: two NOE members and the compared NFIR, the smallest that train in a few seconds
+TINY = {"arch": "noe", "ensemble": 2, "compare": ["nfir"],
+        "noe": {"delays": 2, "neurons": 2, "max_epochs": 2},
+        "nfir": {"max_epochs": 3}}
+
+
+class InProcess(Ensemble):
+    """The members in two threads of this process (no cluster for a test), as the stage's
+    LocalCluster would: the stage's thread waits meanwhile."""
+
+    def fit(self, *args, **kw):  # type: ignore[override]
+        kw["scheduler"] = "threads"
+        return super().fit(*args, **kw)
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+def test_compared_classes_beside_the_members_are_the_ones_trained_alone(
+        tiny_reproduce, tmp_path, monkeypatch):
+    monkeypatch.setattr(rom_stage, "Ensemble", InProcess)
+    lines: list[str] = []
+    out = tmp_path / "beside"
+    shutil.copytree(tiny_reproduce["out"], out)
+    cfg = tiny_reproduce["cfg"].replace(rom={**TINY, "ensemble_workers": 2})
+    ctx = Context(out, cfg, progress=lambda stage, done, total, text: lines.append(text))
+    beside = identify(ctx)["rom"].outputs
+    assert any("training 2 x NOE" in t and "; beside it, training NFIR" in t for t in lines), \
+        lines
+    # one arithmetic, whichever thread runs it: the same weights, so the same errors
+    train, val = (read_record(out / "data" / f"{k}.nc") for k in ("train", "validation"))
+    alone = rom_stage.estimator(cfg.rom, "nfir", ctx.tank).fit(
+        train["velocity"], train["dynamic_force"], fs=train.fs,
+        validation=(val["velocity"], val["dynamic_force"]), fill=train.attrs.get("fill"))
+    mse = rom_stage.error_figures(val["dynamic_force"], alone.predict(val["velocity"]))["mse"]
+    assert beside["compare"]["nfir"]["val_mse"] == mse
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+def test_a_failure_of_the_members_stops_the_comparison(tiny_reproduce, tmp_path, monkeypatch):
+    """The members' error reaches the caller, and the compared class stops at its next epoch
+    instead of training on to its max_epochs (an interrupted run does not hang)."""
+    epochs: list[int] = []
+    running = threading.Event()
+
+    class Failing(Ensemble):
+        def fit(self, *args, started=None, epoch_progress=None, **kw):  # type: ignore[override]
+            started()
+            t = time.perf_counter()
+            while not running.is_set() and time.perf_counter() - t < 60:
+                epoch_progress(0, 1, {"seconds": 0.1})  # the line shows what trains beside
+                time.sleep(0.05)
+            raise RuntimeError("a member failed")
+
+    def progress(stage, done, total, text):
+        beside = text.partition("; beside it, ")[2]
+        if beside.startswith("training NFIR") and "epoch" in beside:
+            epochs.append(int(beside.split("epoch ")[1].split("/")[0]))
+            running.set()
+
+    made = []
+    real = rom_stage.estimator
+
+    def spied(*args, **kw):
+        made.append(real(*args, **kw))
+        return made[-1]
+
+    monkeypatch.setattr(rom_stage, "Ensemble", Failing)
+    monkeypatch.setattr(rom_stage, "estimator", spied)
+    many = {**TINY, "nfir": {"max_epochs": 5000}}
+    out = tmp_path / "failing"
+    shutil.copytree(tiny_reproduce["out"], out)
+    cfg = tiny_reproduce["cfg"].replace(rom={**many, "ensemble_workers": 2})
+    t0 = time.perf_counter()
+    with pytest.raises(RuntimeError, match="a member failed"):
+        identify(Context(out, cfg, progress=progress))
+    assert running.is_set() and time.perf_counter() - t0 < 120
+    nfir = made[-1]
+    assert type(nfir).__name__ == "NFIR"
+    assert nfir.history_["stop_reason"] == "callback", nfir.history_["stop_reason"]
+    assert 0 < len(epochs) and np.all(np.diff(epochs) >= 0)
