@@ -89,11 +89,20 @@ def _interval(z: np.ndarray, v: np.ndarray, att: np.ndarray, gate: np.ndarray, a
     decay = math.exp(-h / phys[5])
     alpha = -geff
     s = gate[0]
+    first = 0.5 / n  # the gate's level that releases ball 0
+    resting = True  # every ball attached (at rest on the floor: no force)
+    for i in range(n):
+        if att[i] == 0.0:
+            resting = False
     for j in range(n_sub):
         if neg:
             s = min(s + sdot * h, 1.0)
         else:
             s *= decay
+        if resting and not (neg and s >= first):
+            out[j] = -0.0 / (n * h)  # the loop below would find each ball attached
+            continue
+        resting = True
         dv_sum = 0.0
         for i in range(n):
             if att[i] > 0.0:
@@ -117,6 +126,8 @@ def _interval(z: np.ndarray, v: np.ndarray, att: np.ndarray, gate: np.ndarray, a
             dv_sum += vn - vi
             z[i] = zn
             v[i] = vn
+            if att[i] == 0.0:
+                resting = False
         out[j] = -dv_sum / (n * h)
     gate[0] = s
 
