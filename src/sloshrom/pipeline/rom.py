@@ -199,6 +199,8 @@ class _Beside:
         self.text = ""
         self.alone = False
         self.stop = threading.Event()  # the members failed: the comparison ends at its epoch
+        # the members' line, shown again with this text (their search reports no epochs)
+        self.members: Callable[[], None] | None = None
 
     def suffix(self) -> str:
         return f"; beside it, {self.text}" if self.text else ""
@@ -207,6 +209,8 @@ class _Beside:
         self.text = text
         if self.alone:
             self.ctx.progress("rom", done, total, text)
+        elif self.members is not None:
+            self.members()
 
 
 def _train(ctx: Context, model: Any, name: str, epochs: int, k_members: int, workers: int,
@@ -250,6 +254,8 @@ def _train(ctx: Context, model: Any, name: str, epochs: int, k_members: int, wor
     if in_thread and beside is not None:
         beside.report(0, max(pace.total, 1), what)
     else:
+        if beside is not None:
+            beside.members = show
         ctx.progress("rom", 0, max(pace.total, 1), what)
     if k_members > 1:
         model = Ensemble(model, n_members=k_members).fit(
