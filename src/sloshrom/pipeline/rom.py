@@ -270,6 +270,27 @@ def _train(ctx: Context, model: Any, name: str, epochs: int, k_members: int, wor
     return model, name, time.perf_counter() - t0
 
 
+def _timed(fn: Callable[..., Any], *args: Any) -> tuple[Any, float]:
+    """``fn(*args)`` and the seconds it took."""
+    t0 = time.perf_counter()
+    return fn(*args), time.perf_counter() - t0
+
+
+def _in_thread(fn: Callable[..., Any], *args: Any) -> Future[Any]:
+    """``fn(*args)`` started in a daemon thread: its result (or error) in the future. Work
+    that writes nothing: a failure of the caller leaves it to end on its own."""
+    future: Future[Any] = Future()
+
+    def run() -> None:
+        try:
+            future.set_result(fn(*args))
+        except BaseException as exc:
+            future.set_exception(exc)
+
+    threading.Thread(target=run, name="sloshrom-rom-side", daemon=True).start()
+    return future
+
+
 def _train_compared(ctx: Context, records: tuple[np.ndarray, ...], fs: float,
                     fill: float | None, beside: _Beside | None = None
                     ) -> list[tuple[str, Any, str, float]]:
@@ -357,6 +378,10 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
         else:
             others = _train_compared(ctx, records, train.fs, fill)
     ctx.progress("rom", 1, 1, "validation")
+    # the rig's twin run of the validation record needs no model: it runs in a thread while
+    # this one validates the ROM (each on a core)
+    gain = float(ctx.cfg.rig.twin_gain)
+    twin_run = _in_thread(_timed, replay_record, ctx, "validation", gain)
     path = ctx.path("models", f"{cfg.arch}.npz")
     model.save(path)
     files.append(ctx.rel(path))
@@ -383,11 +408,9 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
     # the force as a physicist judges it, beside the rig's own twin run (docs/rom.md,
     # "Waveform fidelity"): what a point-wise fit cannot say of a chaotic rig
     ctx.progress("rom", 1, 1, "the rig's twin run of the validation record")
-    gain = float(ctx.cfg.rig.twin_gain)
-    t0 = time.perf_counter()
-    twin = replay_record(ctx, "validation", gain)
+    twin, twin_seconds = twin_run.result()
     outputs["waveform_fidelity"] = validation_fidelity(yv, yv_hat, twin, val.fs, gain,
-                                                       time.perf_counter() - t0)
+                                                       twin_seconds)
     if is_ensemble(model):
         outputs["seeds"] = [int(s) for s in model.seeds_]
         outputs["val_mse_members"] = spread(
