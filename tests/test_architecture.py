@@ -26,6 +26,7 @@ room's floors hold (:data:`ROM_ANY_CLASS`), and no module raises a plain ``Value
 from __future__ import annotations
 
 import ast
+import functools
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -90,6 +91,13 @@ class Import:
     line: int
     in_function: bool
     type_checking: bool
+
+
+@functools.cache
+def _tree(source: str) -> ast.Module:
+    """The syntax tree of a source, parsed once a process: the package's ~170 modules take
+    seconds to parse, and most tests below walk all of them (read only)."""
+    return ast.parse(source)
 
 
 def _module_name(path: Path) -> str:
@@ -194,7 +202,7 @@ class _Visitor(ast.NodeVisitor):
 
 def _parse(module: str) -> _Visitor:
     v = _Visitor(module)
-    v.visit(ast.parse(MODULES[module].read_text(encoding="utf-8"), str(MODULES[module])))
+    v.visit(_tree(MODULES[module].read_text(encoding="utf-8")))
     return v
 
 
@@ -327,7 +335,7 @@ def _study_packages() -> list[str]:
 
 def _registry_entries() -> list[str]:
     """The packages of ``STUDIES`` in the registry, read from its source."""
-    tree = ast.parse(MODULES[REGISTRY].read_text(encoding="utf-8"))
+    tree = _tree(MODULES[REGISTRY].read_text(encoding="utf-8"))
     for node in tree.body:
         target = node.target if isinstance(node, ast.AnnAssign) else (
             node.targets[0] if isinstance(node, ast.Assign) else None)
@@ -337,7 +345,7 @@ def _registry_entries() -> list[str]:
 
 
 def _assigned(module: str) -> set[str]:
-    tree = ast.parse(MODULES[module].read_text(encoding="utf-8"))
+    tree = _tree(MODULES[module].read_text(encoding="utf-8"))
     return {t.id for n in tree.body if isinstance(n, ast.Assign) for t in n.targets
             if isinstance(t, ast.Name)}
 
@@ -486,7 +494,7 @@ def _dispatch_sites() -> list[tuple[str, str, int, str]]:
     every getattr/hasattr of a kind member on something other than ``self``/``cls``."""
     out = []
     for mod, path in MODULES.items():
-        tree = ast.parse(path.read_text(encoding="utf-8"))
+        tree = _tree(path.read_text(encoding="utf-8"))
 
         def visit(node: ast.AST, func: str, mod: str = mod) -> None:
             for child in ast.iter_child_nodes(node):
@@ -524,7 +532,7 @@ def test_the_capability_checks_are_few_and_documented():
     n = sum(len(v) for v in CAPABILITIES.values())
     assert n <= 10, f"{n} capability checks: the contract is splitting again"
     for mod, names in CAPABILITIES.items():
-        tree = ast.parse(MODULES[mod].read_text(encoding="utf-8"))
+        tree = _tree(MODULES[mod].read_text(encoding="utf-8"))
         defs = {f.name: f for f in tree.body if isinstance(f, ast.FunctionDef)}
         for name in names:
             assert name in defs, f"{mod}.{name} is not a module-level function"
@@ -589,7 +597,7 @@ def class_name_uses(source: str, module: str) -> list[tuple[int, str]]:
     "noe")``), a dict keyed by names (``{"nfir": NFIR, ...}``), any other string literal that
     is a name or a key made of one (``"nfir"``, ``"sweep_nfir_delays"``; docstrings and
     ``__all__`` aside), an ``isinstance`` on a spec type."""
-    tree = ast.parse(source)
+    tree = _tree(source)
     skip = _docstrings(tree) | _all_lists(tree) | _entries(tree)
 
     def foreign(c: ast.AST) -> str | None:
@@ -721,7 +729,7 @@ def test_no_plain_value_error_is_raised():
     """``raise ValueError(...)`` (or ``raise ValueError``) nowhere: each room raises its type."""
     bad = []
     for path in MODULES.values():
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+        for node in ast.walk(_tree(path.read_text(encoding="utf-8"))):
             if not isinstance(node, ast.Raise) or node.exc is None:
                 continue
             exc = node.exc.func if isinstance(node.exc, ast.Call) else node.exc
@@ -804,7 +812,7 @@ def _all_lists(tree: ast.AST) -> set[int]:
 
 
 def _literals_in(source: str, names: set[str]) -> list[tuple[int, str]]:
-    tree = ast.parse(source)
+    tree = _tree(source)
     skip = _docstrings(tree) | _name_definitions(tree) | _all_lists(tree)
     return [(node.lineno, node.value) for node in ast.walk(tree)
             if isinstance(node, ast.Constant) and isinstance(node.value, str)
@@ -855,7 +863,7 @@ def _composed_columns(source: str) -> list[tuple[int, str]]:
     field's suffix (``f"{est}_low"``) or starting with ``frequency_`` then a name, and a
     concatenation ``name + "_std"``."""
     out = []
-    for node in ast.walk(ast.parse(source)):
+    for node in ast.walk(_tree(source)):
         if isinstance(node, ast.JoinedStr) and len(node.values) >= 2:
             first, *_, last = node.values
             second = node.values[1]

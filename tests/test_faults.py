@@ -383,11 +383,40 @@ def _command(name: str, ins: dict, out: Path) -> list[str]:
 COMMANDS = ["predict", "analyse", "compare", "export fmu", "export onnx", "train --ensemble"]
 
 
+@pytest.fixture(scope="module")
+def first_results(command_inputs, tmp_path_factory):
+    """Each command's first, successful run, once a module (the tests below copy its results
+    into their own folder): ``(folder, the steps it wrote)`` by command, made when first asked.
+    """
+    done: dict[str, tuple[Path, list[str]]] = {}
+
+    def get(command: str) -> tuple[Path, list[str]]:
+        if command not in done:
+            out = tmp_path_factory.mktemp("first_run") / "res"
+            steps: list[str] = []
+            with pytest.MonkeyPatch.context() as mp:
+                mp.setattr(fileio, "_fault_hook", steps.append)
+                first_run(_command(command, command_inputs, out))
+            done[command] = (out, steps)
+        return done[command]
+
+    return get
+
+
+def first_run_in(first_results, command: str, out: Path) -> list[str]:
+    """The command's first run, as if it had written ``out``: a copy of its results there; the
+    steps it wrote."""
+    done, steps = first_results(command)
+    shutil.copytree(done, out)
+    return steps
+
+
 @pytest.mark.parametrize("err, reason", [(errno.ENOSPC, "no space left on device"),
                                          (errno.EROFS, "read-only file system")])
 @pytest.mark.parametrize("command", COMMANDS)
-def test_a_disk_error_at_a_commands_write_leaves_its_results(command_inputs, tmp_path,
-                                                             monkeypatch, command, err, reason):
+def test_a_disk_error_at_a_commands_write_leaves_its_results(command_inputs, first_results,
+                                                             tmp_path, monkeypatch, command, err,
+                                                             reason):
     """The error as the command's last file is complete (for a batch: after the others):
     exit 2, one line, every previous file byte-identical, no temporary."""
     out = tmp_path / "res"
@@ -396,10 +425,8 @@ def test_a_disk_error_at_a_commands_write_leaves_its_results(command_inputs, tmp
         out.mkdir()
         (out / "ens.npz").write_bytes(b"the previous model")
         last = "written:ens.npz"
-    else:
-        steps: list[str] = []
-        monkeypatch.setattr(fileio, "_fault_hook", steps.append)
-        first_run(argv)
+    else:  # the first run's results (one run for both errors)
+        steps = first_run_in(first_results, command, out)
         last = [st for st in steps if st.startswith("written:")][-1]
     before = snapshot(tmp_path)
     monkeypatch.setattr(fileio, "_fault_hook", raise_at(last, err))
@@ -412,7 +439,8 @@ def test_a_disk_error_at_a_commands_write_leaves_its_results(command_inputs, tmp
     # two trainings, one in a new process: slow tier (the fast tier kills the two commands above
     # at their write, and fails the ensemble's write with a disk error)
     pytest.param("train --ensemble", marks=pytest.mark.slow)])
-def test_a_kill_at_a_commands_write_leaves_its_results(command_inputs, tmp_path, command):
+def test_a_kill_at_a_commands_write_leaves_its_results(command_inputs, first_results, tmp_path,
+                                                       command):
     """SIGKILL as the command's first file is complete: every previous file as it was; the
     next run succeeds and removes the killed run's temporaries."""
     out = tmp_path / "res"
@@ -421,7 +449,7 @@ def test_a_kill_at_a_commands_write_leaves_its_results(command_inputs, tmp_path,
         out.mkdir()
         (out / "ens.npz").write_bytes(b"the previous model")
     else:
-        first_run(argv)
+        first_run_in(first_results, command, out)
     before = snapshot(tmp_path)
     res = sloshrom(argv, kill_at="written:*")
     assert res.returncode == -9, res.stderr

@@ -4,6 +4,7 @@ beam results and analysis errors shared by the CLI and the pipeline."""
 from __future__ import annotations
 
 import ast
+import functools
 import subprocess
 import sys
 from pathlib import Path
@@ -26,9 +27,12 @@ from sloshrom.plotting import savefig
 SRC = Path(__file__).parents[1] / "src" / "sloshrom"
 
 
-def _modules() -> list[tuple[str, ast.Module]]:
-    return [(str(p.relative_to(SRC)), ast.parse(p.read_text(encoding="utf-8")))
-            for p in sorted(SRC.rglob("*.py"))]
+@functools.cache
+def _modules() -> tuple[tuple[str, ast.Module], ...]:
+    """Every module of the package and its syntax tree, parsed once (seconds) for the tests
+    below, which only walk them."""
+    return tuple((str(p.relative_to(SRC)), ast.parse(p.read_text(encoding="utf-8")))
+                 for p in sorted(SRC.rglob("*.py")))
 
 
 def _imports(tree: ast.Module) -> list[tuple[str, list[str]]]:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import shutil
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -394,9 +395,25 @@ CASES = [
 ]
 
 
+@pytest.fixture(scope="module")
+def world(lab, tmp_path_factory) -> Path:
+    """What every case reads (``_world``), written once; each case gets its own copy."""
+    d = tmp_path_factory.mktemp("world")
+    _world(d, lab["dir"])
+    return d
+
+
+def _copy_of(world: Path) -> Callable[[Path], None]:
+    """A case's setup: a copy of the world in its folder."""
+    def setup(tmp: Path) -> None:
+        shutil.copytree(world, tmp, dirs_exist_ok=True)
+
+    return setup
+
+
 @pytest.mark.parametrize(("argv", "match"), [c[1:] for c in CASES], ids=[c[0] for c in CASES])
-def test_analyse_rejects(tmp_path, lab, argv, match):
-    check_cli(tmp_path, lab["dir"], lambda tmp: _world(tmp, lab["dir"]), argv, match)
+def test_analyse_rejects(tmp_path, lab, world, argv, match):
+    check_cli(tmp_path, lab["dir"], _copy_of(world), argv, match)
 
 
 def _nan_rows(rows):
@@ -412,7 +429,7 @@ def _nan_rows(rows):
 
 
 @pytest.mark.parametrize("kind", ["free", "random"])
-def test_a_table_of_nan_is_never_written(lab, tmp_path, monkeypatch, kind):
+def test_a_table_of_nan_is_never_written(lab, world, tmp_path, monkeypatch, kind):
     """Every estimate NaN: exit 2 with the first cell's reason, nothing written."""
     from sloshrom.beam.lab import every_mode as lab_module
 
@@ -436,7 +453,7 @@ def test_a_table_of_nan_is_never_written(lab, tmp_path, monkeypatch, kind):
         argv = [*RANDOM, *RUNS, *OUT]
         match = r"random_0\.1g\.uff, random_0\.2g\.uff: Table 2: no damping estimate at all, " \
                 r"nothing written; the first cell: measured mode 1 0\.1 g, LSCF on H1: no peak"
-    check_cli(tmp_path, d, lambda tmp: _world(tmp, d), argv, match)
+    check_cli(tmp_path, d, _copy_of(world), argv, match)
 
 
 def test_fewer_stations_than_the_structures_modes(lab, tmp_path):

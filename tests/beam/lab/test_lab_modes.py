@@ -99,6 +99,22 @@ def test_common_modes_and_bands():
 
 
 # -- analysis at every mode ----------------------------------------------------------------------
+def test_random_rows_at_every_found_mode_of_a_short_record():
+    """The fast tier's version of the next test: a 34 s record (one Welch segment, said to be
+    too short) is analysed at each of the three modes it finds, one row a mode, each value
+    inside its interval (the calibration against the true damping needs the lab's 120 s)."""
+    res = _random_res(levels=(0.2,), duration=34.0)
+    modes = modes_of_test(res, "random")
+    assert modes.how == "found" and len(modes.modes) == 3
+    with pytest.warns(ShortRecordWarning, match=r"from 1 Welch segment\(s\) .* at least 3"):
+        rows = table2_rows(random_mode_dataset(res, "lab", modes, estimators=["half_power"]))
+    assert [r["mode"] for r in rows] == [1, 2, 3]
+    for r in rows:
+        assert r["half_power_low"] < r["half_power"] < r["half_power_high"], r
+
+
+@pytest.mark.slow  # 120 s of record analysed at three modes with the bootstrap (~10 s); the fast
+# tier: test_random_rows_at_every_found_mode_of_a_short_record
 def test_random_rows_at_every_mode():
     """Table 2 at each mode of the three-mode beam: LSCF on H1 within 4 of its stated std of
     the true damping (a tolerance from the interval, not from this seed's error); a record of

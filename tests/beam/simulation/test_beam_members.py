@@ -10,6 +10,7 @@ import pytest
 
 from helpers import LinearDamper, smooth_io
 from sloshrom.beam.compare import analysed_test, compare_rows
+from sloshrom.beam.damping.columns import table2_rows
 from sloshrom.beam.damping.estimators import ClusterAttempt, LscfH1, RandomTest
 from sloshrom.beam.damping.tables import (
     damping_band_table,
@@ -56,6 +57,13 @@ def runs(builtin_modal):
             "free": simulate_cases(models, free, FS)}
 
 
+@pytest.fixture(scope="module")
+def member_tables(runs) -> dict:
+    """Table 2 of each member of the 'ensemble' case (its random response), analysed once for
+    the tests that need them (``mode1_damping_table`` without them: in the first test below)."""
+    return member_damping_datasets({"rom": runs["random"]["rom"]}, LEVELS, runs["f1"])
+
+
 def test_each_member_alone_and_the_rom_response_is_their_mean(runs):
     r = runs["random"]
     rom = r["rom"]
@@ -70,9 +78,9 @@ def test_each_member_alone_and_the_rom_response_is_their_mean(runs):
     assert "members" not in r["one"]  # a single model: as before
 
 
-def test_rom_row_is_the_mean_of_the_member_rows_with_the_members_spread(runs):
+def test_rom_row_is_the_mean_of_the_member_rows_with_the_members_spread(runs, member_tables):
     f1, r = runs["f1"], runs["random"]
-    members = member_damping_datasets({"rom": r["rom"]}, LEVELS, f1)
+    members = member_tables
     rows = mode1_damping_table({"rom": r["rom"]}, LEVELS, f1, members=members)
     alone = mode1_damping_table({"a": r["a"], "b": r["b"]}, LEVELS, f1)
     assert len(rows) == 1
@@ -97,7 +105,7 @@ def test_rom_row_is_the_mean_of_the_member_rows_with_the_members_spread(runs):
     assert again["lscf_h1"] == row["lscf_h1"] and again["lscf_h1_std"] == row["lscf_h1_std"]
 
 
-def test_free_decay_bands_summary_and_member_spread_agree(runs):
+def test_free_decay_bands_summary_and_member_spread_agree(runs, member_tables):
     f1, modal, fr = runs["f1"], runs["modal"], runs["free"]
     cases = {c: fr[c] for c in ("rom", "a", "b")}
     decays = {c: mode1_decay(x, modal, f1) for c, x in cases.items()}
@@ -114,7 +122,7 @@ def test_free_decay_bands_summary_and_member_spread_agree(runs):
         if len(ok) < 2:  # a member without a value: the row says which and why
             assert "member" in (row["note"] + row["reason"])
     summary = damping_summary(cases, decays)
-    rand_tables = member_damping_datasets({"rom": runs["random"]["rom"]}, LEVELS, f1)["rom"]
+    rand_tables = member_tables["rom"]
     spread = member_spread(rand_tables, fr["rom"]["members"], decays["rom"], LEVELS)
     for band, s in spread["instantaneous_damping"].items():
         if s["n"]:
@@ -126,10 +134,11 @@ def test_free_decay_bands_summary_and_member_spread_agree(runs):
     assert set(spread["estimators"]) == {"lscf_h1", "lscf_output", "half_power"}
 
 
-def test_compare_uses_both_sigmas_with_the_rom_combined_std(runs):
+def test_compare_uses_both_sigmas_with_the_rom_combined_std(runs, member_tables):
     f1, r = runs["f1"], runs["random"]
-    t2 = mode1_damping_dataset({"one": r["one"], "rom": r["rom"]}, LEVELS, f1)
-    rows = mode1_damping_table({"one": r["one"], "rom": r["rom"]}, LEVELS, f1)
+    t2 = mode1_damping_dataset({"one": r["one"], "rom": r["rom"]}, LEVELS, f1,
+                               members=member_tables)
+    rows = table2_rows(t2)  # what mode1_damping_table returns for these arguments
     meas = analysed_test("one", "random", r["one"], f1, t2.sel(case="one"))
     pred = analysed_test("rom", "random", r["rom"], f1, t2.sel(case="rom"))
     out = {x["estimator"]: x for x in compare_rows(meas, [pred])}
