@@ -8,7 +8,7 @@ import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -23,6 +23,7 @@ from sloshrom.pipeline.settings import RomTable, sweep_key
 from sloshrom.pipeline.waveform import validation_fidelity
 from sloshrom.plotting import savefig
 from sloshrom.plotting.rom import plot_sweep, validation_figure
+from sloshrom.rom.base import Estimator
 from sloshrom.rom.ensemble import Ensemble, is_ensemble, spread
 from sloshrom.rom.epochs import TrainingProgress
 from sloshrom.rom.registry import CLASSES, paper_class, swept
@@ -183,6 +184,12 @@ def estimator(cfg: RomTable, arch: str | None = None, tank: Tank | None = None) 
     return mc.estimator_class()(**mc.with_tank(cfg.hyper(arch), tank))
 
 
+R = TypeVar("R")
+#: A class compared with the ROM, trained: its name in the registry, the model, its name and its
+#: training time (s)
+Compared = tuple[str, Estimator, str, float]
+
+
 def _median_after_compile(history: dict[str, Any], key: str) -> float | None:
     """Median of a per-epoch timing over the epochs after the first (which compiles), s;
     None for a trainer that does not record it (Levenberg-Marquardt)."""
@@ -215,7 +222,7 @@ class _Beside:
 
 def _train(ctx: Context, model: Any, name: str, epochs: int, k_members: int, workers: int,
            records: tuple[np.ndarray, ...], fs: float, fill: float | None,
-           beside: _Beside | None = None, started: Callable[[], Any] | None = None,
+           beside: _Beside | None = None, started: Callable[[], object] | None = None,
            ) -> tuple[Any, str, float]:
     """Fit ``model`` (an ensemble of ``k_members`` of it if > 1) on ``records`` = (u, y, u
     validation, y validation); the fitted model, its name and the training time, s.
@@ -270,20 +277,20 @@ def _train(ctx: Context, model: Any, name: str, epochs: int, k_members: int, wor
     return model, name, time.perf_counter() - t0
 
 
-def _timed(fn: Callable[..., Any], *args: Any) -> tuple[Any, float]:
-    """``fn(*args)`` and the seconds it took."""
+def _timed(fn: Callable[[], R]) -> tuple[R, float]:
+    """``fn()`` and the seconds it took."""
     t0 = time.perf_counter()
-    return fn(*args), time.perf_counter() - t0
+    return fn(), time.perf_counter() - t0
 
 
-def _in_thread(fn: Callable[..., Any], *args: Any) -> Future[Any]:
-    """``fn(*args)`` started in a daemon thread: its result (or error) in the future. Work
-    that writes nothing: a failure of the caller leaves it to end on its own."""
-    future: Future[Any] = Future()
+def _in_thread(fn: Callable[[], R]) -> Future[R]:
+    """``fn()`` started in a daemon thread: its result (or error) in the future. Work that
+    writes nothing: a failure of the caller leaves it to end on its own."""
+    future: Future[R] = Future()
 
     def run() -> None:
         try:
-            future.set_result(fn(*args))
+            future.set_result(fn())
         except BaseException as exc:
             future.set_exception(exc)
 
@@ -293,7 +300,7 @@ def _in_thread(fn: Callable[..., Any], *args: Any) -> Future[Any]:
 
 def _train_compared(ctx: Context, records: tuple[np.ndarray, ...], fs: float,
                     fill: float | None, beside: _Beside | None = None
-                    ) -> list[tuple[str, Any, str, float]]:
+                    ) -> list[Compared]:
     """Train each class of ``rom.compare`` (one model each, as its table says): (class, model,
     name, training time in s) each."""
     cfg = ctx.cfg.rom
@@ -356,7 +363,7 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
     # compared classes train meanwhile in a thread of it (the cores shared with the members)
     beside = _Beside(ctx) if k_members > 1 and workers > 1 and cfg.compared() else None
     with ThreadPoolExecutor(max_workers=1) as pool:
-        future: list[Future[list[tuple[str, Any, str, float]]]] = []
+        future: list[Future[list[Compared]]] = []
 
         def start_compared() -> None:
             if beside is not None and not future:
@@ -381,7 +388,7 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
     # the rig's twin run of the validation record needs no model: it runs in a thread while
     # this one validates the ROM (each on a core)
     gain = float(ctx.cfg.rig.twin_gain)
-    twin_run = _in_thread(_timed, replay_record, ctx, "validation", gain)
+    twin_run = _in_thread(lambda: _timed(lambda: replay_record(ctx, "validation", gain)))
     path = ctx.path("models", f"{cfg.arch}.npz")
     model.save(path)
     files.append(ctx.rel(path))

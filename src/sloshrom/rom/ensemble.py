@@ -318,7 +318,7 @@ class Ensemble:
         fill: float | None = None,
         epoch_progress: EpochReport | None = None,
         validation_history: int = 0,
-        started: Callable[[], Any] | None = None,
+        started: Callable[[], object] | None = None,
     ) -> Ensemble:
         """Train the K members on the same record, in parallel.
 

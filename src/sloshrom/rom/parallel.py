@@ -555,7 +555,7 @@ def run_tasks(
     scheduler: str | None = None,
     n_workers: int = 2,
     done: Callable[[int, R], Any] | None = None,
-    started: Callable[[], Any] | None = None,
+    started: Callable[[], object] | None = None,
 ) -> list[R]:
     """Call ``fn(item, *shared, *args)`` for every item, in parallel.
 

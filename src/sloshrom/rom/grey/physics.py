@@ -59,6 +59,7 @@ from numpy.typing import ArrayLike
 
 from sloshrom._jit import njit
 from sloshrom.config import G
+from sloshrom.rom.errors import ROMError
 
 __all__ = ["COHERENCE_TIME", "PHYS_NAMES", "PhysicsState", "causal_intervals", "design_rows",
            "grey_features", "interval_forces", "physical_parameters", "physics_features",
@@ -241,7 +242,7 @@ def design_rows(o: np.ndarray, n_past: int, skip: int = 0,
     shape = (*o.shape[:-3], n - skip, (n_past + 1) * ns)
     d = np.empty(shape) if out is None else out
     if d.shape != shape or not d.flags.c_contiguous:
-        raise ValueError(f"out must be a C-contiguous array of shape {shape}, got {d.shape}")
+        raise ROMError(f"out must be a C-contiguous array of shape {shape}, got {d.shape}")
     _rows_into(np.ascontiguousarray(o, dtype=np.float64).reshape(-1, n, 3, ns), int(n_past),
                int(skip), d.reshape(-1, n - skip, shape[-1]))
     return d
