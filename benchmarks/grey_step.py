@@ -42,7 +42,7 @@ from sloshrom.rom.grey.physics import physical_parameters  # noqa: E402
 from sloshrom.rom.network import MinMaxScaler  # noqa: E402
 from sloshrom.rom.shooting import ShootingOptions  # noqa: E402
 from sloshrom.signals import power_band  # noqa: E402
-from train_speed import peak_rate, records  # noqa: E402
+from train_speed import peak_rate, records, step_report  # noqa: E402
 
 
 def step_flops(spec: GreySpec, batch: int, probes: int, horizon: int) -> float:
@@ -116,15 +116,7 @@ def main() -> None:
                     jax.block_until_ready(ep(pr.params0, pr.optimizer.init(pr.params0), d)[2])
                     wall = time.perf_counter() - t0
                     times[name].append(min(wall, time.process_time() - c0) / a.steps)
-            med = {k: float(np.median(v)) for k, v in times.items()}
-            for name, t in med.items():
-                print(f"  {name:15s} {t * 1e3:7.2f} ms/step  {flops / t / 1e9:6.1f} GFLOP/s  "
-                      f"{t / (flops / peak):5.1f}x the float32 peak's time  "
-                      f"[{', '.join(f'{x * 1e3:.1f}' for x in times[name])}]")
-            ratios = np.asarray(times["JAX (lax.scan)"]) / np.asarray(times["C kernel (FFI)"])
-            print(f"  speed-up of the kernel (JAX / kernel, per interleaved pair): median "
-                  f"{np.median(ratios):.2f} [{', '.join(f'{r:.2f}' for r in ratios)}]",
-                  flush=True)
+            step_report(times, flops, peak, "JAX (lax.scan)", "C kernel (FFI)")
 
 
 if __name__ == "__main__":

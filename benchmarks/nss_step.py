@@ -40,7 +40,7 @@ from sloshrom.rom.network import MinMaxScaler  # noqa: E402
 from sloshrom.rom.nss import network as ss  # noqa: E402
 from sloshrom.rom.nss import training as sst  # noqa: E402
 from sloshrom.signals import power_band  # noqa: E402
-from train_speed import nss_flops, peak_rate, records  # noqa: E402
+from train_speed import nss_flops, peak_rate, records, step_report  # noqa: E402
 
 
 def loops_simulate(p, x0, u_s, r_u, r_y, unroll=1):
@@ -106,14 +106,7 @@ def main() -> None:
     peak = peak_rate(np.float32)
     print(f"one Adam step: {flops / 1e9:.3f} GFLOP; float32 peak here {peak / 1e9:.0f} GFLOP/s "
           f"(a 2048^2 product on the cores this process may use)")
-    med = {k: float(np.median(v)) for k, v in times.items()}
-    for name, t in med.items():
-        print(f"  {name:15s} {t * 1e3:7.2f} ms/step  {flops / t / 1e9:6.1f} GFLOP/s  "
-              f"{t / (flops / peak):5.1f}x the peak's time  "
-              f"[{', '.join(f'{x * 1e3:.1f}' for x in times[name])}]")
-    ratios = np.asarray(times["XLA (trainer)"]) / np.asarray(times["compiled loops"])
-    print(f"speed-up of the compiled loops (XLA / loops, per interleaved pair): median "
-          f"{np.median(ratios):.2f} [{', '.join(f'{r:.2f}' for r in ratios)}]")
+    step_report(times, flops, peak, "XLA (trainer)", "compiled loops")
 
 
 if __name__ == "__main__":

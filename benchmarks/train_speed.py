@@ -115,6 +115,21 @@ def peak_rate(dtype: np.dtype, size: int = 2048, repeat: int = 3) -> float:
     return 2.0 * size**3 / best
 
 
+def step_report(times: dict[str, list[float]], flops: float, peak: float, reference: str,
+                candidate: str, indent: str = "  ") -> None:
+    """Print each path's median time a step (from ``times``, s a step per interleaved run), its
+    GFLOP/s and its time over the ``flops``' time at the float32 ``peak`` (FLOP/s); then the
+    speed-up of ``candidate`` over ``reference``, per interleaved pair."""
+    for name, v in times.items():
+        t = float(np.median(v))
+        print(f"{indent}{name:15s} {t * 1e3:7.2f} ms/step  {flops / t / 1e9:6.1f} GFLOP/s  "
+              f"{t / (flops / peak):5.1f}x the float32 peak's time  "
+              f"[{', '.join(f'{x * 1e3:.1f}' for x in v)}]")
+    ratios = np.asarray(times[reference]) / np.asarray(times[candidate])
+    print(f"{indent}speed-up of {candidate} ({reference} / it, per interleaved pair): median "
+          f"{np.median(ratios):.2f} [{', '.join(f'{r:.2f}' for r in ratios)}]", flush=True)
+
+
 def steady(h: dict, key: str) -> float:
     """Median of an epoch timing over epochs 2.. (epoch 1 compiles)."""
     v = np.asarray(h[key][2:], dtype=float)

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import shutil
 import threading
-import time
 
 import numpy as np
 import pytest
@@ -88,10 +87,9 @@ def test_a_failure_of_the_members_stops_the_comparison(tiny_reproduce, tmp_path,
     out = tmp_path / "failing"
     shutil.copytree(tiny_reproduce["out"], out)
     cfg = tiny_reproduce["cfg"].replace(rom={**many, "ensemble_workers": 2})
-    t0 = time.perf_counter()
     with pytest.raises(RuntimeError, match="a member failed"):
         identify(Context(out, cfg, progress=progress))
-    assert running.is_set() and time.perf_counter() - t0 < 120
+    assert running.is_set()
     nfir = made[-1]
     assert type(nfir).__name__ == "NFIR"
     assert nfir.history_["stop_reason"] == "callback", nfir.history_["stop_reason"]
