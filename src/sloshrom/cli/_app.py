@@ -33,6 +33,7 @@ import typer
 from typer.core import TyperGroup
 
 from sloshrom import __version__
+from sloshrom._memory import without_huge_pages
 from sloshrom.errors import Note, SloshromError
 from sloshrom.fileio import OutputPathError, check_output, not_a_regular_file
 from sloshrom.io import same_unit
@@ -117,6 +118,7 @@ class _OneLineErrors(TyperGroup):
         self.help = help_markup(help_paragraphs(self.help))
         _paragraph_help(self)
         _ignore_file_size_signal()
+        without_huge_pages()  # (sloshrom._memory: seconds where the kernel compacts memory)
         if not standalone_mode:
             return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         exc = _click_exceptions()

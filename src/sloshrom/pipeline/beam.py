@@ -13,9 +13,13 @@ uncertainty (``sloshrom.beam.simulation.members``).
 
 from __future__ import annotations
 
+import importlib
+import multiprocessing
 import tempfile
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
+from concurrent.futures import Executor, ProcessPoolExecutor
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, cast
 
@@ -55,7 +59,7 @@ from sloshrom.beam.simulation.structure import CantileverBeam, ModalModel, coupl
 from sloshrom.config import Tank
 from sloshrom.fileio import OutputBatch
 from sloshrom.models import FrozenLiquid
-from sloshrom.pipeline.context import Context
+from sloshrom.pipeline.context import Context, StageRecord, in_thread
 from sloshrom.pipeline.settings import BeamTable
 from sloshrom.pipeline.waveform import free_fidelity, random_fidelity
 from sloshrom.plotting import savefig
@@ -69,9 +73,11 @@ from sloshrom.plotting.force import force_figures
 from sloshrom.plotting.signals import base_excitation_figure
 from sloshrom.rom.ensemble import Ensemble, is_ensemble, spread
 from sloshrom.rom.loading import load_model
+from sloshrom.rom.parallel import usable_cores
 
-__all__ = ["BEAM_KEYS", "EXPERIMENT", "beam_structure", "beam_tests", "coupled_model",
-           "coupled_models", "laboratory", "member_spread", "stage_beam"]
+__all__ = ["ANALYSIS_WORKERS", "BEAM_KEYS", "EXPERIMENT", "analysis_pool", "beam_structure",
+           "beam_tests", "coupled_model", "coupled_models", "laboratory", "member_spread",
+           "stage_beam"]
 
 #: Case name of the rig playing the laboratory (its runs read back from the lab's files).
 EXPERIMENT = "experiment"
@@ -146,7 +152,47 @@ def coupled_models(models: Mapping[str, object]) -> dict[str, object]:
     return {case: coupled_model(m) for case, m in models.items()}
 
 
-def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], list[str]]:
+#: Processes of the random tests' damping analyses at most: the cases and levels of one table
+#: (rig and frozen liquid, or the ROM's two members, at three levels).
+ANALYSIS_WORKERS = 6
+
+
+@contextmanager
+def analysis_pool(workers: int | None = None) -> Iterator[Executor | None]:
+    """Processes that run the damping analyses of the random tests (Table 2), one a core.
+
+    The bootstrap of each interval (~1.6 s a case and level, NumPy and SciPy: threads share one
+    core under the GIL) runs in a process of its own; the processes start at once and import
+    the analysis while the caller simulates. ``None`` (the analyses run in the caller) with one
+    core. The results are those of the caller's own run, to the bit.
+
+    Parameters
+    ----------
+    workers : int, optional
+        Processes; default: the usable cores, at most :data:`ANALYSIS_WORKERS`.
+    """
+    n = min(len(usable_cores()), ANALYSIS_WORKERS) if workers is None else int(workers)
+    if n < 2:
+        yield None
+        return
+    # spawn, not fork: the caller runs XLA's and numba's threads. Each worker imports the
+    # analysis as it starts; a process starts per task submitted while none is idle, so n
+    # empty tasks start them all now
+    pool = ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("spawn"),
+                               initializer=importlib.import_module,
+                               initargs=("sloshrom.beam.damping.tables",))
+    try:
+        for _ in range(n):
+            pool.submit(time.sleep, 0.0)
+        yield pool
+    except BaseException:
+        pool.shutdown(wait=True, cancel_futures=True)  # the caller failed: no analysis more
+        raise
+    finally:
+        pool.shutdown(wait=True)
+
+
+def stage_beam(ctx: Context, rom_path: Path | None) -> StageRecord:
     """Free and random responses of the beam with frozen liquid, the rig and the ROM.
 
     Returns
@@ -176,6 +222,12 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
         ``beam/lab/*.uff`` and their channel maps, the tables and the figures, relative to
         ``ctx.out``; they appear together once everything has succeeded.
     """
+    with analysis_pool() as pool:
+        return _stage_beam(ctx, rom_path, pool)
+
+
+def _stage_beam(ctx: Context, rom_path: Path | None, pool: Executor | None
+                ) -> StageRecord:
     cfg = ctx.cfg.beam
     fs = float(ctx.cfg.rig.fs)  # the beam's sensors record at the rig's record rate
     tank = ctx.tank
@@ -201,8 +253,20 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
         return on_case
 
     tests = beam_tests(cfg, modal, tank, fs)
-    free_res = simulate_cases(models, tests["free"], fs, report("free"))
     rand_res = simulate_cases(models, tests["random"], fs, report("random"))
+
+    def tables() -> tuple[dict[str, list[xr.Dataset]], xr.Dataset]:
+        # the members' Table 2 once: the ROM's estimates and rom_members both read it
+        members = member_damping_datasets(rand_res, cfg.rms_g, f1, max_tank_acceleration=True,
+                                          pool=pool)
+        return members, mode1_damping_dataset(rand_res, cfg.rms_g, f1,
+                                              max_tank_acceleration=True, members=members,
+                                              pool=pool)
+
+    # Table 2's analyses run in the pool's processes while this one goes on (a thread waits
+    # for them); in this process alone, after the rest (warnings' filters are process-wide)
+    table_work = in_thread(tables, "sloshrom-beam-tables") if pool is not None else None
+    free_res = simulate_cases(models, tests["free"], fs, report("free"))
     # the rig's twin run of the random tests, the scale of the ROM's waveform figures
     # (docs/rom.md, "Waveform fidelity"); measured 1.4-3.7 s for 3 x 90 s
     ctx.progress("beam", steps, steps, "the rig's twin run of the random tests")
@@ -217,10 +281,6 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
 
     decays = {case: mode1_decay(r, modal, f1) for case, r in free_res.items()}
     outputs["instantaneous_damping"] = damping_summary(free_res, decays)
-    # the members' Table 2 once: the ROM's estimates and rom_members both read it
-    members = member_damping_datasets(rand_res, cfg.rms_g, f1, max_tank_acceleration=True)
-    table2 = mode1_damping_dataset(rand_res, cfg.rms_g, f1, max_tank_acceleration=True,
-                                   members=members)
     bands = damping_band_table(free_res, decays, f1)
     outputs["envelope"] = envelope_table({"free": free_res, "random": rand_res})
 
@@ -228,6 +288,7 @@ def stage_beam(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], lis
     with tempfile.TemporaryDirectory() as tmp:
         lab = laboratory(free_res["rig"], rand_res["rig"], modal, beam, cfg, f1, Path(tmp))
     exp_free, exp_random = lab["free"], lab["random"]
+    members, table2 = table_work.result() if table_work is not None else tables()
     predicted_free = [analysed_test(c, "free", free_res[c], f1,
                                     [r for r in bands if r["case"] == c], decays[c])
                       for c in models]

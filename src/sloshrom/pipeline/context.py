@@ -3,24 +3,50 @@ the progress callback (:class:`Context`)."""
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, TypeVar
 
 from sloshrom.config import ConfigError, Tank
 from sloshrom.pipeline.registry import study_tables
 from sloshrom.pipeline.settings import ReproduceConfig, validate
 from sloshrom.rig.virtual import RigParams, SensorParams, VirtualRig
 
-__all__ = ["Context", "Progress", "StageEvents", "check_rig_tanks", "no_events", "quiet"]
+__all__ = ["Context", "Progress", "StageEvents", "StageRecord", "check_rig_tanks", "in_thread",
+           "no_events", "quiet"]
+
+R = TypeVar("R")
 
 #: Called as ``progress(stage, done, total, text)``; the CLI turns it into progress bars.
 Progress = Callable[[str, float, float, str], None]
+
+#: What a stage returns: its JSON-able outputs (its part of ``summary.json``) and the files it
+#: wrote, relative to the output directory.
+StageRecord = tuple[dict[str, Any], list[str]]
 
 #: Called as ``on_stage(stage, event, seconds)``: ``event`` is ``"start"`` (the stage runs;
 #: seconds 0), ``"done"`` (it finished; its wall time) or ``"reused"`` (found in the cache;
 #: the time to check it). The CLI logs them when its output is not a terminal.
 StageEvents = Callable[[str, str, float], None]
+
+
+def in_thread(fn: Callable[[], R], name: str = "sloshrom-side") -> Future[R]:
+    """``fn()`` started in a daemon thread: its result (or error) in the future. For a stage's
+    work beside its own that writes nothing: a failure of the caller leaves it to end on its
+    own."""
+    future: Future[R] = Future()
+
+    def run() -> None:
+        try:
+            future.set_result(fn())
+        except BaseException as exc:
+            future.set_exception(exc)
+
+    threading.Thread(target=run, name=name, daemon=True).start()
+    return future
 
 
 def quiet(stage: str, done: float, total: float, text: str) -> None:

@@ -19,7 +19,7 @@ from sloshrom.beam.simulation.programme import (
 from sloshrom.config import ConfigError, G, Tank
 from sloshrom.io import record_from_measurement, write_record
 from sloshrom.pipeline.beam import beam_structure, beam_tests
-from sloshrom.pipeline.context import Context
+from sloshrom.pipeline.context import Context, StageRecord
 from sloshrom.pipeline.settings import DataTable, ReproduceConfig
 from sloshrom.plotting import savefig
 from sloshrom.plotting.signals import record_io_figure, vfa_paths_figure
@@ -345,7 +345,7 @@ def replay_record(ctx: Context, split: str, gain: float) -> np.ndarray:
     return np.asarray(rec["dynamic_force"])
 
 
-def stage_data(ctx: Context) -> tuple[dict[str, Any], list[str]]:
+def stage_data(ctx: Context) -> StageRecord:
     """Record the training and validation VFA tests on the rig; write records and figures.
 
     Both records share one amplitude design (:func:`training_design`); each plays the split's

@@ -26,7 +26,7 @@ from sloshrom.energy import (
 )
 from sloshrom.fileio import OutputBatch, netcdf_writer
 from sloshrom.models import SloshingModel
-from sloshrom.pipeline.context import Context
+from sloshrom.pipeline.context import Context, StageRecord
 from sloshrom.pipeline.settings import ReproduceConfig
 from sloshrom.plotting import savefig
 from sloshrom.plotting.maps import Loop, hysteresis_figure, phi_d_map_figure
@@ -139,7 +139,7 @@ def hysteresis_loops(models: dict[str, SloshingModel], tank: Tank,
     return loops
 
 
-def stage_maps(ctx: Context, rom_path: Path | None) -> tuple[dict[str, Any], list[str]]:
+def stage_maps(ctx: Context, rom_path: Path | None) -> StageRecord:
     """Fig. 3 and the Phi_d maps of the rig, the ROM (if ``rom_path``) and their difference.
 
     Returns

@@ -17,7 +17,7 @@ from sloshrom.energy import frame_sensitivity
 from sloshrom.fidelity import point_errors
 from sloshrom.io import read_record
 from sloshrom.pipeline.cache import StageResult
-from sloshrom.pipeline.context import Context
+from sloshrom.pipeline.context import Context, StageRecord, in_thread
 from sloshrom.pipeline.data import replay_record
 from sloshrom.pipeline.settings import RomTable, sweep_key
 from sloshrom.pipeline.waveform import validation_fidelity
@@ -56,7 +56,7 @@ def sweep_keys(rom: Mapping[str, Any]) -> dict[str, Any]:
             "hidden": lead["hidden"]}
 
 
-def stage_sweep(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str]]:
+def stage_sweep(ctx: Context, data: StageResult) -> StageRecord:
     """Paper Fig. 8: train every grid point, score = mean of train and validation MSE.
 
     ``data`` is the data stage's result: the records it recorded are the ones trained on.
@@ -234,11 +234,11 @@ def _train(ctx: Context, model: Any, name: str, epochs: int, k_members: int, wor
     # epoch, errors and time left of the training (of every member of an ensemble)
     pace = TrainingProgress(epochs, members=k_members, concurrent=workers, unit="N^2")
     what = f"training {name}" if k_members == 1 else f"training {k_members} x {name}"
-    in_thread = beside is not None and k_members == 1
+    beside_thread = beside is not None and k_members == 1
 
     def show() -> None:
         text = f"{what}: {pace.text()}"
-        if in_thread and beside is not None:
+        if beside_thread and beside is not None:
             beside.report(pace.done, max(pace.total, 1), text)
         else:
             ctx.progress("rom", pace.done, max(pace.total, 1),
@@ -247,7 +247,7 @@ def _train(ctx: Context, model: Any, name: str, epochs: int, k_members: int, wor
     def cb(epoch: int, info: Mapping[str, float]) -> bool:
         pace.epoch(epoch, info)
         show()
-        return in_thread and beside is not None and beside.stop.is_set()
+        return beside_thread and beside is not None and beside.stop.is_set()
 
     def member_epoch(k: int, epoch: int, info: Mapping[str, float]) -> None:
         if pace.epoch(epoch, info, member=k):  # (not a late file of a finished member)
@@ -258,7 +258,7 @@ def _train(ctx: Context, model: Any, name: str, epochs: int, k_members: int, wor
         show()
 
     t0 = time.perf_counter()
-    if in_thread and beside is not None:
+    if beside_thread and beside is not None:
         beside.report(0, max(pace.total, 1), what)
     else:
         if beside is not None:
@@ -283,21 +283,6 @@ def _timed(fn: Callable[[], R]) -> tuple[R, float]:
     return fn(), time.perf_counter() - t0
 
 
-def _in_thread(fn: Callable[[], R]) -> Future[R]:
-    """``fn()`` started in a daemon thread: its result (or error) in the future. Work that
-    writes nothing: a failure of the caller leaves it to end on its own."""
-    future: Future[R] = Future()
-
-    def run() -> None:
-        try:
-            future.set_result(fn())
-        except BaseException as exc:
-            future.set_exception(exc)
-
-    threading.Thread(target=run, name="sloshrom-rom-side", daemon=True).start()
-    return future
-
-
 def _train_compared(ctx: Context, records: tuple[np.ndarray, ...], fs: float,
                     fill: float | None, beside: _Beside | None = None
                     ) -> list[Compared]:
@@ -316,7 +301,7 @@ def _train_compared(ctx: Context, records: tuple[np.ndarray, ...], fs: float,
     return out
 
 
-def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str]]:
+def stage_rom(ctx: Context, data: StageResult) -> StageRecord:
     """Train the configured ROM on the training record, validate it (paper Fig. 10).
 
     ``data`` is the data stage's result: the records it recorded are the ones trained on. Each
@@ -388,7 +373,7 @@ def stage_rom(ctx: Context, data: StageResult) -> tuple[dict[str, Any], list[str
     # the rig's twin run of the validation record needs no model: it runs in a thread while
     # this one validates the ROM (each on a core)
     gain = float(ctx.cfg.rig.twin_gain)
-    twin_run = _in_thread(lambda: _timed(lambda: replay_record(ctx, "validation", gain)))
+    twin_run = in_thread(lambda: _timed(lambda: replay_record(ctx, "validation", gain)))
     path = ctx.path("models", f"{cfg.arch}.npz")
     model.save(path)
     files.append(ctx.rel(path))

@@ -21,7 +21,7 @@ from functools import cache
 from typing import Any
 
 from sloshrom.pipeline.cache import StageResult
-from sloshrom.pipeline.context import Context
+from sloshrom.pipeline.context import Context, StageRecord
 from sloshrom.pipeline.html import Section
 from sloshrom.pipeline.registry import STUDIES, study_tables
 from sloshrom.pipeline.schema import StudyTable
@@ -37,11 +37,6 @@ PAPER_STAGES = ("data", "rom", "maps", "beam")
 #: ``ctx.out`` (:func:`sloshrom.pipeline.chain.identify`), for a study that identifies ROMs of
 #: its own (at other fill levels).
 Identify = Callable[[Context], dict[str, StageResult]]
-
-#: What a stage returns: its JSON-able outputs (its part of ``summary.json``) and the files it
-#: wrote, relative to the output directory.
-StageRecord = tuple[dict[str, Any], list[str]]
-
 
 def no_check(cfg: ReproduceConfig) -> None:
     """A study without checks of its own beyond the settings' validation."""

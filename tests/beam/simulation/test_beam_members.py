@@ -257,3 +257,24 @@ def test_the_fallbacks_leave_values_of_the_primary_attempt_unchanged():
         registry.ESTIMATORS["lscf_h1"] = old
     r = ref.estimates["lscf_h1"]
     assert (e.value, e.std, e.low, e.high) == (r.value, r.std, r.low, r.high)
+
+
+def test_table2_with_the_analysis_pool_is_the_table_without_it(runs, member_tables):
+    """The beam stage's processes (one a core, spawned) give Table 2 and the members' tables to
+    the bit, the single cases and the ensemble's members all started before one is awaited."""
+    from sloshrom.pipeline.beam import analysis_pool
+
+    f1, r = runs["f1"], runs["random"]
+    cases = {"one": r["one"], "rom": r["rom"]}
+    alone = mode1_damping_dataset(cases, LEVELS, f1, members=member_tables)
+    with analysis_pool(2) as pool:
+        assert pool is not None
+        members = member_damping_datasets({"rom": r["rom"]}, LEVELS, f1, pool=pool)
+        pooled = mode1_damping_dataset(cases, LEVELS, f1, members=members, pool=pool)
+        recomputed = mode1_damping_dataset(cases, LEVELS, f1, pool=pool)
+    for a, b in zip(members["rom"], member_tables["rom"], strict=True):
+        assert a.identical(b)
+    assert pooled.identical(alone)
+    assert recomputed.identical(alone)  # the members analysed inside, in the pool too
+    with analysis_pool(1) as pool:
+        assert pool is None  # one core: the caller's own process

@@ -16,8 +16,10 @@ combined uncertainty. Result dicts in, datasets (and the free decays' rows) out;
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from concurrent.futures import Executor
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any, cast
 
 import numpy as np
@@ -35,6 +37,7 @@ from sloshrom.beam.damping.registry import ESTIMATORS, estimator_names, label
 from sloshrom.beam.damping.uncertainty import (
     BANDS,
     FLOOR_FACTOR,
+    RandomDamping,
     amplitude_bands,
     band_damping,
     estimate_random,
@@ -233,15 +236,29 @@ def damping_band_table(free: Mapping[str, Mapping[str, Any]],
     return rows
 
 
+def _estimates(r: Mapping[str, np.ndarray | float], levels: Sequence[float], f1: float,
+               names: Sequence[str], pool: Executor | None
+               ) -> list[Callable[[], RandomDamping]]:
+    """Each level's :func:`estimate_random` of a random response, in order, as a call that
+    returns it: started in ``pool`` at once (the caller starts every response's before it
+    waits for one), else run when called."""
+    base, tank = np.asarray(r["base_acceleration"]), np.asarray(r["tank_acceleration"])
+    args = [(base[i], tank[i], float(r["fs"]), f1) for i in range(len(levels))]
+    if pool is None:
+        return [partial(estimate_random, *a, estimators=names) for a in args]
+    return [pool.submit(estimate_random, *a, estimators=names).result for a in args]
+
+
 def _case_dataset(r: Mapping[str, Any], levels: Sequence[float], f1: float,
-                  estimators: Sequence[str] | None, max_tank_acceleration: bool) -> xr.Dataset:
+                  estimators: Sequence[str] | None, max_tank_acceleration: bool,
+                  pending: Sequence[Callable[[], RandomDamping]] | None = None) -> xr.Dataset:
     """One response's Table 2 over ``(level, estimator)``: every level through the registry's
-    estimators, each with its interval (and its peak tank acceleration, g, if asked)."""
+    estimators, each with its interval (and its peak tank acceleration, g, if asked);
+    ``pending``: the levels' estimates already started (:func:`_estimates`)."""
     names = estimator_names(estimators)
     per = []
-    for i in range(len(levels)):
-        d = estimate_random(r["base_acceleration"][i], r["tank_acceleration"][i], r["fs"], f1,
-                            estimators=names).to_dataset()
+    for i, estimate in enumerate(pending or _estimates(r, levels, f1, names, None)):
+        d = estimate().to_dataset()
         if max_tank_acceleration:
             d["max_tank_acceleration_g"] = ((), float(
                 np.max(np.abs(r["tank_acceleration"][i])) / G), {"units": "g"})
@@ -251,9 +268,12 @@ def _case_dataset(r: Mapping[str, Any], levels: Sequence[float], f1: float,
 
 def member_damping_datasets(random: Mapping[str, Mapping[str, Any]], levels: Sequence[float],
                             f1: float, max_tank_acceleration: bool = False,
-                            estimators: Sequence[str] | None = None
-                            ) -> dict[str, list[xr.Dataset]]:
+                            estimators: Sequence[str] | None = None, *,
+                            pool: Executor | None = None) -> dict[str, list[xr.Dataset]]:
     """Table 2 of each member of every ensemble case (a result with ``"members"``).
+
+    ``pool``: an executor (:class:`concurrent.futures.ProcessPoolExecutor`) that runs the
+    levels' estimates, every member's at once; the same results as without it.
 
     Returns
     -------
@@ -263,16 +283,19 @@ def member_damping_datasets(random: Mapping[str, Mapping[str, Any]], levels: Seq
         (``members``) so that the members are analysed once, for the ROM's row and for their
         own spread.
     """
-    return {case: [_case_dataset(m, levels, f1, estimators, max_tank_acceleration)
-                   for m in r["members"]]
-            for case, r in random.items() if r.get("members")}
+    names = estimator_names(estimators)
+    pending = {case: [_estimates(m, levels, f1, names, pool) for m in r["members"]]
+               for case, r in random.items() if r.get("members")}
+    return {case: [_case_dataset(m, levels, f1, names, max_tank_acceleration, p)
+                   for m, p in zip(random[case]["members"], ps, strict=True)]
+            for case, ps in pending.items()}
 
 
 def mode1_damping_dataset(random: Mapping[str, Mapping[str, Any]], levels: Sequence[float],
                           f1: float, estimators: Sequence[str] | None = None, *,
                           max_tank_acceleration: bool = False,
-                          members: Mapping[str, Sequence[xr.Dataset]] | None = None
-                          ) -> xr.Dataset:
+                          members: Mapping[str, Sequence[xr.Dataset]] | None = None,
+                          pool: Executor | None = None) -> xr.Dataset:
     """Paper Table 2: the first-mode damping of every random response over ``case``, ``level``
     (coordinate: RMS base acceleration, g) and ``estimator``, each estimate with its standard
     deviation and interval.
@@ -294,6 +317,10 @@ def mode1_damping_dataset(random: Mapping[str, Mapping[str, Any]], levels: Seque
     members : mapping, optional
         An ensemble case's members' tables (:func:`member_damping_datasets`): not analysed
         again.
+    pool : concurrent.futures.Executor, optional
+        Runs the estimates of every case and level, all started before the first is awaited
+        (a :class:`~concurrent.futures.ProcessPoolExecutor`: one process a core); the same
+        results as without it.
 
     Returns
     -------
@@ -311,13 +338,18 @@ def mode1_damping_dataset(random: Mapping[str, Mapping[str, Any]], levels: Seque
         hold them: ``sloshrom.beam.damping.columns.table2_rows``.
     """
     members = dict(members or {})
+    names = estimator_names(estimators)
+    # every single model's levels started before any is awaited (with a pool)
+    pending = {case: _estimates(r, levels, f1, names, pool)
+               for case, r in random.items() if not r.get("members")}
     per = []
     for case, r in random.items():
         if not r.get("members"):
-            per.append(_case_dataset(r, levels, f1, estimators, max_tank_acceleration))
+            per.append(_case_dataset(r, levels, f1, names, max_tank_acceleration,
+                                     pending[case]))
             continue
         dss = members.get(case) or member_damping_datasets(
-            {case: r}, levels, f1, max_tank_acceleration, estimators)[case]
+            {case: r}, levels, f1, max_tank_acceleration, names, pool=pool)[case]
         combined = xr.concat([_combined_dataset([m.isel(level=i) for m in dss])
                               for i in range(len(levels))], dim="level")
         per.append(combined.assign(n_members=((), len(dss))))
