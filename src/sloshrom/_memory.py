@@ -1,13 +1,14 @@
 """NumPy's transparent huge pages, off for the processes the command line owns.
 
 On Linux, NumPy asks the kernel for transparent huge pages (``madvise``) on every array of
-4 MB or more. Where the kernel's policy is ``madvise`` (the default of Debian and Ubuntu) and
-memory is fragmented (a host whose page cache fills it), each new 2 MB page may wait for the
-kernel to compact memory. A process that grows by a few hundred MB at once then waits for
-seconds: four 312 MB arrays took 7.0 s against 0.64 s without the advice, and the rig's data
-stage of ``sloshrom reproduce`` 27.5 s against 13.0 s, with the same bits (docs/performance.md,
-"Huge pages"). NumPy reads ``NUMPY_MADVISE_HUGEPAGE`` once, at its import; a user who sets it
-keeps their choice.
+4 MB or more. Where the kernel's policy is ``madvise`` (the default of Debian and Ubuntu) and a
+new 2 MB page is slow to come (memory to compact; on our 2-core virtual machine, whose kernel
+counts no compaction stall, the host backing the memory), a process that grows by hundreds of
+MB at once waits for seconds: the rig's sensors on the default training record took 10.0 s
+against 3.9 s without the advice, and the data stage of ``sloshrom reproduce`` 26.8 s against
+14.4 s, with the same bits; the column search of the grey box ran as fast either way
+(``benchmarks/huge_pages.py``). NumPy reads ``NUMPY_MADVISE_HUGEPAGE`` once, at its import; a
+user who sets it keeps their choice.
 """
 
 from __future__ import annotations

@@ -118,7 +118,7 @@ class _OneLineErrors(TyperGroup):
         self.help = help_markup(help_paragraphs(self.help))
         _paragraph_help(self)
         _ignore_file_size_signal()
-        without_huge_pages()  # (sloshrom._memory: seconds where the kernel compacts memory)
+        without_huge_pages()  # (sloshrom._memory: seconds where huge pages are slow to come)
         if not standalone_mode:
             return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         exc = _click_exceptions()

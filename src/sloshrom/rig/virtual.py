@@ -195,8 +195,8 @@ def _lowpass(x: np.ndarray, fs_in: float, fs_next: float, sp: SensorParams) -> n
     wn = sp.anti_alias_fraction * 0.5 * fs_next / (0.5 * fs_in)
     sos = sps.butter(int(sp.filter_order), wn, output="sos")
     # row by row: the same arithmetic as axis=-1 (bit for bit), with a quarter of the
-    # temporaries; growing the process by a few hundred MB at once cost seconds where the
-    # kernel compacts memory for NumPy's huge pages (docs/performance.md)
+    # temporaries; growing the process by a few hundred MB at once cost seconds where huge
+    # pages are slow to come (sloshrom._memory)
     out = np.empty_like(x)
     for i in range(x.shape[0]):
         out[i] = sps.sosfiltfilt(sos, x[i])

@@ -14,6 +14,7 @@ import pytest
 from helpers import perturbation_tolerance
 from sloshrom.config import G, Tank
 from sloshrom.rom import GreyBox, load_model
+from sloshrom.rom.errors import ROMError
 from sloshrom.rom.grey.network import GreySpec
 from sloshrom.rom.grey.physics import (
     causal_intervals,
@@ -62,6 +63,19 @@ def test_no_force_below_one_g():
     u = _harmonic(12.0, 3.0)
     o = causal_intervals(_phys(*RIG_LIKE)[None], u[None], FS, N_BALLS, N_SUB)
     assert np.max(np.abs(o)) > 1.0  # impacts of several N above 1 g
+
+
+def test_search_of_a_record_below_one_g_finds_no_force():
+    """A record that never lifts the liquid: every candidate column gives no force, its filter
+    zero taps (not a singular least-squares system inside the search)."""
+    rng = np.random.default_rng(5)
+    u = _harmonic(12.0, 0.6, seconds=6.0)
+    y = 0.01 * rng.standard_normal(u.size)
+    spec = GreySpec(2, 4, 10, N_BALLS, N_SUB, N_PAST)
+    physics, taps, history = fit_physics(u, y, FS, spec, TANK.liquid_mass, TANK.ullage,
+                                         generations=1, population=2, windows=2)
+    assert np.all(taps == 0.0)
+    assert np.all(np.isfinite(physics)) and np.isfinite(history["objective"])
 
 
 def test_galilean_invariance():
@@ -128,6 +142,15 @@ def test_design_rows_of_several_records_and_a_warm_up():
     np.testing.assert_array_equal(part[..., 0, :], full[..., 0, :])
     np.testing.assert_array_equal(part[:, 200:], full[:, 200:])
     assert np.all(part[:, :200, 1:] == 0.0)
+    # the search's one buffer, full of an earlier generation's numbers: every one written again
+    buf = np.full((1, *u.shape, 3, N_SUB), np.nan)
+    causal_intervals(phys, u, FS, N_BALLS, N_SUB, from_rest=False, out=buf)
+    again = causal_intervals(phys, u, FS, N_BALLS, N_SUB, from_rest=False, predict_from=200,
+                             out=buf)
+    assert again is buf
+    np.testing.assert_array_equal(again[0], part)
+    with pytest.raises(ROMError, match="C-contiguous float64 array of shape"):
+        causal_intervals(phys, u, FS, N_BALLS, N_SUB, out=buf[..., :4])
     rows = design_rows(full, N_PAST)
     assert rows.shape == (2, u.shape[1], (N_PAST + 1) * N_SUB)
     for w in range(2):

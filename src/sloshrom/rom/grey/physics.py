@@ -189,8 +189,8 @@ def _causal_batch(phys: np.ndarray, u: np.ndarray, fs: float, n_balls: int, n_su
 
 
 def causal_intervals(phys: np.ndarray, u: np.ndarray, fs: float, n_balls: int,
-                     n_substeps: int, from_rest: bool = True, predict_from: int = 0
-                     ) -> np.ndarray:
+                     n_substeps: int, from_rest: bool = True, predict_from: int = 0,
+                     out: np.ndarray | None = None) -> np.ndarray:
     """The sub-step forces each step knows, for parameter sets ``phys`` and velocity records.
 
     Parameters
@@ -209,6 +209,10 @@ def causal_intervals(phys: np.ndarray, u: np.ndarray, fs: float, n_balls: int,
     predict_from : int
         The first step whose predicted intervals are computed; before it they are zero (a
         warm-up whose outputs are not used: the predictions are two thirds of the work).
+    out : ndarray, optional
+        A C-contiguous float64 array of the result's shape to write it into: a search that
+        simulates many generations reuses one (430 MB for the default search: a new one each
+        generation made the kernel find fresh pages for it each time).
 
     Returns
     -------
@@ -218,7 +222,12 @@ def causal_intervals(phys: np.ndarray, u: np.ndarray, fs: float, n_balls: int,
     """
     phys = np.ascontiguousarray(phys, dtype=np.float64)
     u = np.ascontiguousarray(u, dtype=np.float64)
-    out = np.empty((phys.shape[0], u.shape[0], u.shape[1], 3, int(n_substeps)))
+    shape = (phys.shape[0], u.shape[0], u.shape[1], 3, int(n_substeps))
+    if out is None:
+        out = np.empty(shape)
+    elif out.shape != shape or out.dtype != np.float64 or not out.flags.c_contiguous:
+        raise ROMError(f"out must be a C-contiguous float64 array of shape {shape}, got "
+                       f"{out.dtype} {out.shape}")
     _causal_batch(phys, u, float(fs), int(n_balls), int(n_substeps), bool(from_rest),
                   int(predict_from), out)
     return out

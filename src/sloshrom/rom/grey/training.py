@@ -97,9 +97,12 @@ def _filter_rows(o: np.ndarray, n_past: int, skip: int, out: np.ndarray | None =
 
 def _least_squares(a: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Taps minimising ``|a taps - y|``, slightly regularised (a sub-step with no force in any
-    window leaves a column of zeros)."""
+    window leaves a column of zeros); zero where the column gives no force at all (a candidate
+    that releases no ball in any window: no taps can fit it)."""
     ata = a.T @ a
     ridge = 1e-9 * np.trace(ata) / max(1, ata.shape[0])
+    if ridge == 0.0:
+        return np.zeros(a.shape[1])
     return np.linalg.solve(ata + ridge * np.eye(ata.shape[0]), a.T @ y)
 
 
@@ -169,6 +172,7 @@ def fit_physics(
     target_spectra = _spectra(yw, fs) if spectral > 0 else []
     names = list(PHYSICS_BOUNDS)
     evaluations = [0]
+    sims: dict[int, np.ndarray] = {}  # one buffer of the simulations per population size
 
     def phys_of(x: np.ndarray) -> np.ndarray:
         v = [float(a) for a in x]
@@ -179,8 +183,12 @@ def fit_physics(
         xs = np.asarray(xs).T  # vectorised: (candidates, variables)
         evaluations[0] += xs.shape[0]
         # the rows after the warm-up read the predictions from the step before it on
+        n = xs.shape[0]
+        if n not in sims:
+            sims[n] = np.empty((n, *uw.shape, 3, spec.n_substeps))
         o = causal_intervals(np.stack([phys_of(x) for x in xs]), uw, fs, spec.n_balls,
-                             spec.n_substeps, from_rest=False, predict_from=warm - 1)
+                             spec.n_substeps, from_rest=False, predict_from=warm - 1,
+                             out=sims[n])
         out = np.empty(xs.shape[0])
         rows = np.empty((target.size, spec.n_taps))  # one buffer: no page faults a candidate
         for i in range(xs.shape[0]):
