@@ -1,8 +1,9 @@
 # Every target creates .venv from the project's files when it is missing or out of date:
 # requirements.lock pins every package (hashes included), so a fresh machine installs exactly
 # what the tests passed with. uv installs it (pinned and hashed in tools/uv-requirements.txt):
-# 3-4 s where pip took 55 s for the same 137 packages. `make lock` refreshes the lock from the ranges in pyproject.toml;
-# `make test-latest` runs the tests against the newest releases those ranges allow.
+# 3-4 s where pip took 55 s for the same 137 packages. `make lock` refreshes the lock from the
+# ranges in pyproject.toml; `make test-latest` runs the tests against the newest releases those
+# ranges allow.
 PYTHON     ?= python3
 VENV       := .venv
 BIN        := $(VENV)/bin
