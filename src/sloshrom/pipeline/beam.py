@@ -17,11 +17,13 @@ import importlib
 import multiprocessing
 import tempfile
 import time
-from collections.abc import Iterator, Mapping, Sequence
-from concurrent.futures import Executor, ProcessPoolExecutor
+import warnings
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from concurrent.futures import Executor, Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, cast
+from typing import Any, TypeVar, cast
 
 import xarray as xr
 
@@ -57,6 +59,7 @@ from sloshrom.beam.simulation.coupled import free_response, random_response
 from sloshrom.beam.simulation.members import Members
 from sloshrom.beam.simulation.structure import CantileverBeam, ModalModel, coupled_frozen_modes
 from sloshrom.config import Tank
+from sloshrom.errors import Note
 from sloshrom.fileio import OutputBatch
 from sloshrom.models import FrozenLiquid
 from sloshrom.pipeline.context import Context, StageRecord, in_thread
@@ -76,8 +79,10 @@ from sloshrom.rom.loading import load_model
 from sloshrom.rom.parallel import usable_cores
 
 __all__ = ["ANALYSIS_WORKERS", "BEAM_KEYS", "EXPERIMENT", "analysis_pool", "beam_structure",
-           "beam_tests", "coupled_model", "coupled_models", "laboratory", "member_spread",
-           "stage_beam"]
+           "beam_tests", "collected", "coupled_model", "coupled_models", "laboratory",
+           "member_spread", "stage_beam"]
+
+R = TypeVar("R")
 
 #: Case name of the rig playing the laboratory (its runs read back from the lab's files).
 EXPERIMENT = "experiment"
@@ -164,7 +169,10 @@ def analysis_pool(workers: int | None = None) -> Iterator[Executor | None]:
     The bootstrap of each interval (~1.6 s a case and level, NumPy and SciPy: threads share one
     core under the GIL) runs in a process of its own; the processes start at once and import
     the analysis while the caller simulates. ``None`` (the analyses run in the caller) with one
-    core. The results are those of the caller's own run, to the bit.
+    core. The results are those of the caller's own run, to the bit. A script that runs the
+    stage from Python needs the ``if __name__ == "__main__":`` guard, as for the ROM's Dask
+    workers (a spawned process imports the script again); without it the pool breaks and the
+    stage analyses in its own process (:func:`collected`).
 
     Parameters
     ----------
@@ -190,6 +198,22 @@ def analysis_pool(workers: int | None = None) -> Iterator[Executor | None]:
         raise
     finally:
         pool.shutdown(wait=True)
+
+
+def collected(work: Future[R] | None, analyses: Callable[[Executor | None], R]) -> R:
+    """The result of ``work`` (``analyses(pool)`` started in a thread), or ``analyses(None)``
+    run here: without ``work``, or when the pool's processes failed. A process that cannot
+    start (a script run without ``if __name__ == "__main__":``, which a spawned process
+    imports again) or that died breaks the pool; the same analyses then run in this process,
+    and a :class:`~sloshrom.errors.Note` says so."""
+    if work is None:
+        return analyses(None)
+    try:
+        return work.result()
+    except BrokenProcessPool as exc:
+        warnings.warn(Note(f"the damping analyses ran in this process: their worker processes "
+                           f"failed ({exc})"), stacklevel=2)
+        return analyses(None)
 
 
 def stage_beam(ctx: Context, rom_path: Path | None) -> StageRecord:
@@ -255,7 +279,7 @@ def _stage_beam(ctx: Context, rom_path: Path | None, pool: Executor | None
     tests = beam_tests(cfg, modal, tank, fs)
     rand_res = simulate_cases(models, tests["random"], fs, report("random"))
 
-    def tables() -> tuple[dict[str, list[xr.Dataset]], xr.Dataset]:
+    def tables(pool: Executor | None) -> tuple[dict[str, list[xr.Dataset]], xr.Dataset]:
         # the members' Table 2 once: the ROM's estimates and rom_members both read it
         members = member_damping_datasets(rand_res, cfg.rms_g, f1, max_tank_acceleration=True,
                                           pool=pool)
@@ -265,7 +289,8 @@ def _stage_beam(ctx: Context, rom_path: Path | None, pool: Executor | None
 
     # Table 2's analyses run in the pool's processes while this one goes on (a thread waits
     # for them); in this process alone, after the rest (warnings' filters are process-wide)
-    table_work = in_thread(tables, "sloshrom-beam-tables") if pool is not None else None
+    table_work = (in_thread(lambda: tables(pool), "sloshrom-beam-tables") if pool is not None
+                  else None)
     free_res = simulate_cases(models, tests["free"], fs, report("free"))
     # the rig's twin run of the random tests, the scale of the ROM's waveform figures
     # (docs/rom.md, "Waveform fidelity"); measured 1.4-3.7 s for 3 x 90 s
@@ -288,7 +313,7 @@ def _stage_beam(ctx: Context, rom_path: Path | None, pool: Executor | None
     with tempfile.TemporaryDirectory() as tmp:
         lab = laboratory(free_res["rig"], rand_res["rig"], modal, beam, cfg, f1, Path(tmp))
     exp_free, exp_random = lab["free"], lab["random"]
-    members, table2 = table_work.result() if table_work is not None else tables()
+    members, table2 = collected(table_work, tables)
     predicted_free = [analysed_test(c, "free", free_res[c], f1,
                                     [r for r in bands if r["case"] == c], decays[c])
                       for c in models]

@@ -278,3 +278,32 @@ def test_table2_with_the_analysis_pool_is_the_table_without_it(runs, member_tabl
     assert recomputed.identical(alone)  # the members analysed inside, in the pool too
     with analysis_pool(1) as pool:
         assert pool is None  # one core: the caller's own process
+
+
+def test_broken_analysis_processes_leave_the_analyses_to_the_stage():
+    """Worker processes that cannot start (here: each exits in its initializer, as a script
+    without the ``__main__`` guard makes them) break the pool; the analyses then run in the
+    stage's process, with a note, and give what they give there."""
+    import multiprocessing
+    import sys
+    import warnings
+    from concurrent.futures import ProcessPoolExecutor
+
+    from sloshrom.errors import Note
+    from sloshrom.pipeline.beam import collected
+    from sloshrom.pipeline.context import in_thread
+
+    def analyses(pool):
+        if pool is None:
+            return "here"
+        return pool.submit(abs, -1).result()
+
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
+                             initializer=sys.exit, initargs=(3,)) as pool:
+        with pytest.warns(Note, match="damping analyses ran in this process"):
+            assert collected(in_thread(lambda: analyses(pool)), analyses) == "here"
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool, \
+            warnings.catch_warnings():
+        warnings.simplefilter("error", Note)  # a pool that works: no note
+        assert collected(in_thread(lambda: analyses(pool)), analyses) == 1
+    assert collected(None, analyses) == "here"
