@@ -189,15 +189,14 @@ def analysis_pool(workers: int | None = None) -> Iterator[Executor | None]:
     pool = ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("spawn"),
                                initializer=importlib.import_module,
                                initargs=("sloshrom.beam.damping.tables",))
+    failed = True
     try:
         for _ in range(n):
             pool.submit(time.sleep, 0.0)
         yield pool
-    except BaseException:
-        pool.shutdown(wait=True, cancel_futures=True)  # the caller failed: no analysis more
-        raise
+        failed = False
     finally:
-        pool.shutdown(wait=True)
+        pool.shutdown(wait=True, cancel_futures=failed)  # the caller failed: no analysis more
 
 
 def collected(work: Future[R] | None, analyses: Callable[[Executor | None], R]) -> R:
@@ -279,13 +278,13 @@ def _stage_beam(ctx: Context, rom_path: Path | None, pool: Executor | None
     tests = beam_tests(cfg, modal, tank, fs)
     rand_res = simulate_cases(models, tests["random"], fs, report("random"))
 
-    def tables(pool: Executor | None) -> tuple[dict[str, list[xr.Dataset]], xr.Dataset]:
+    def tables(runner: Executor | None) -> tuple[dict[str, list[xr.Dataset]], xr.Dataset]:
         # the members' Table 2 once: the ROM's estimates and rom_members both read it
         members = member_damping_datasets(rand_res, cfg.rms_g, f1, max_tank_acceleration=True,
-                                          pool=pool)
+                                          pool=runner)
         return members, mode1_damping_dataset(rand_res, cfg.rms_g, f1,
                                               max_tank_acceleration=True, members=members,
-                                              pool=pool)
+                                              pool=runner)
 
     # Table 2's analyses run in the pool's processes while this one goes on (a thread waits
     # for them); in this process alone, after the rest (warnings' filters are process-wide)

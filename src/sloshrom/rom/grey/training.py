@@ -172,7 +172,10 @@ def fit_physics(
     target_spectra = _spectra(yw, fs) if spectral > 0 else []
     names = list(PHYSICS_BOUNDS)
     evaluations = [0]
-    sims: dict[int, np.ndarray] = {}  # one buffer of the simulations per population size
+    # one buffer of the simulations per population size, one of the filter's rows: the search
+    # allocates them once, not every generation (or candidate)
+    sims: dict[int, np.ndarray] = {}
+    rows = np.empty((target.size, spec.n_taps))
 
     def phys_of(x: np.ndarray) -> np.ndarray:
         v = [float(a) for a in x]
@@ -182,16 +185,15 @@ def fit_physics(
     def objective(xs: np.ndarray) -> np.ndarray:
         xs = np.asarray(xs).T  # vectorised: (candidates, variables)
         evaluations[0] += xs.shape[0]
-        # the rows after the warm-up read the predictions from the step before it on
         n = xs.shape[0]
         if n not in sims:
             sims[n] = np.empty((n, *uw.shape, 3, spec.n_substeps))
+        # the rows after the warm-up read the predictions from the step before it on
         o = causal_intervals(np.stack([phys_of(x) for x in xs]), uw, fs, spec.n_balls,
                              spec.n_substeps, from_rest=False, predict_from=warm - 1,
                              out=sims[n])
-        out = np.empty(xs.shape[0])
-        rows = np.empty((target.size, spec.n_taps))  # one buffer: no page faults a candidate
-        for i in range(xs.shape[0]):
+        out = np.empty(n)
+        for i in range(n):
             if not np.all(np.isfinite(o[i])):
                 out[i] = np.inf
                 continue
