@@ -18,7 +18,7 @@ from sloshrom.rig.virtual import SensorParams, VirtualRig
 from sloshrom.rom.errors import ROMError
 from sloshrom.rom.tdnn import training
 from sloshrom.rom.tdnn.estimators import NFIR
-from sloshrom.rom.tdnn.network import pack
+from sloshrom.rom.tdnn.network import nfir_free_run, pack
 
 FS = 500.0
 
@@ -177,3 +177,40 @@ def test_cycle_energy_term_fits_the_energy_of_unseen_cycles(rig_records):
     assert with_term.get_params()["cycle_energy"] == 1.0
     e0, e1 = _cycle_error(without, uv, yv), _cycle_error(with_term, uv, yv)
     assert e1 < 0.8 * e0, (e0, e1)
+
+
+@pytest.mark.parametrize("hidden", ["matlab", "distance"])
+def test_cycle_error_of_a_run_is_the_networks_on_the_cycles(hidden):
+    """The validation's cycle-energy term read from the NFIR's run over the record equals the
+    network evaluated again on the padded cycles (``cycle_energy_error``, chunk by chunk, the
+    last chunk wrapped around), to round-off (float64, as the trainer validates)."""
+    with jax.enable_x64(True):
+        _check_cycle_error_of_a_run(hidden)
+
+
+def _check_cycle_error_of_a_run(hidden: str) -> None:
+    rng = np.random.default_rng(5)
+    t = np.arange(int(6 * FS)) / FS
+    u_s = np.sin(2 * np.pi * (6 + 2 * t) * t) * (0.3 + 0.1 * t)  # 6-30 Hz, growing
+    y_s = 0.5 * np.roll(u_s, 3) + 0.05 * rng.standard_normal(u_s.size)
+    delays, neurons, rest = (1, 2, 3, 4, 5, 6), 4, 0.0
+    theta = pack({"W": rng.standard_normal((neurons, len(delays))),
+                  "b": rng.standard_normal(neurons), "c": rng.standard_normal(neurons),
+                  "c0": np.array(0.1)})
+    cyc = training.energy_cycles(u_s, FS, (5.0, 40.0))
+    chunk = 8
+    assert cyc.n % chunk  # the last chunk wraps around
+    run = nfir_free_run(theta, jnp.asarray(u_s), rest, delays, neurons, hidden)
+    got = training.run_cycle_error(np.asarray(run) - y_s, cyc, chunk=chunk)
+    up = jnp.asarray(np.concatenate([np.full(max(delays), rest), u_s]))
+    idx = np.arange(-(-cyc.n // chunk) * chunk) % cyc.n
+    want = np.mean([float(training.cycle_energy_error(
+        theta, up, jnp.asarray(y_s), cyc, jnp.asarray(idx[k:k + chunk]), delays, neurons,
+        hidden)) for k in range(0, idx.size, chunk)])
+    assert got > 0 and got == pytest.approx(want, rel=1e-12, abs=0)
+    # another error is another value: the comparison is not vacuous
+    assert training.run_cycle_error(np.asarray(run) - 1.01 * y_s, cyc, chunk=chunk) != \
+        pytest.approx(want, rel=1e-6)
+    bad = np.asarray(run) - y_s
+    bad[np.asarray(cyc.rows)[0, 1]] = np.nan
+    assert training.run_cycle_error(bad, cyc, chunk=chunk) == math.inf

@@ -377,7 +377,9 @@ def stage_rom(ctx: Context, data: StageResult) -> StageRecord:
     path = ctx.path("models", f"{cfg.arch}.npz")
     model.save(path)
     files.append(ctx.rel(path))
-    yv_hat = np.asarray(model.predict(uv))
+    # an ensemble's prediction is its members' mean: their runs once, for both
+    yv_members = np.asarray(model.member_predictions(uv)) if is_ensemble(model) else None
+    yv_hat = np.asarray(model.predict(uv) if yv_members is None else yv_members.mean(axis=0))
     y_hat = np.asarray(model.predict(u))
     ev, et = error_figures(yv, yv_hat), error_figures(y, y_hat)
     hists = model.history_ if is_ensemble(model) else [model.history_]
@@ -406,7 +408,7 @@ def stage_rom(ctx: Context, data: StageResult) -> StageRecord:
     if is_ensemble(model):
         outputs["seeds"] = [int(s) for s in model.seeds_]
         outputs["val_mse_members"] = spread(
-            error_figures(yv, yh)["mse"] for yh in np.asarray(model.member_predictions(uv)))
+            error_figures(yv, yh)["mse"] for yh in np.asarray(yv_members))
     compared = []
     outputs["compare"] = {}
     for arch, other, other_name, seconds in others:

@@ -276,3 +276,24 @@ def test_registered_with_the_tank_scales():
     h = mc.with_tank({"liquid_mass": 0.0, "ullage": 0.0}, Tank(fill=0.25))
     assert h == {"liquid_mass": Tank(fill=0.25).liquid_mass, "ullage": Tank(fill=0.25).ullage}
     assert mc.with_tank({"liquid_mass": 2.0}, Tank())["liquid_mass"] == 2.0
+
+
+@pytest.mark.parametrize("fs", [500.0, 1000.0, 250.0, 37.0])
+def test_search_spectra_are_scipys_stft_to_the_bit(fs):
+    """The search's spectral term, in real arithmetic, is the magnitude of
+    ``scipy.signal.stft`` (complex window) to the bit, at every resolution the rate gives."""
+    from scipy import signal as sps
+
+    from sloshrom.rom.grey.training import _STFT, _spectra
+
+    x = np.random.default_rng(3).standard_normal((3, int(2 * fs))) * 4.0
+    got = _spectra(x, fs)
+    want = []
+    for seg, hop in _STFT:
+        s, h = max(4, int(round(seg * fs / 500.0))), max(1, int(round(hop * fs / 500.0)))
+        want.append(np.abs(sps.stft(x, nperseg=s, noverlap=s - h, axis=-1, boundary=None,
+                                    padded=False)[2]))
+    assert len(got) == len(want) == 3
+    for g, w in zip(got, want, strict=True):
+        assert g.shape == w.shape and g.strides == w.strides
+        np.testing.assert_array_equal(g, w)

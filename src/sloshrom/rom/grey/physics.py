@@ -86,8 +86,9 @@ def _interval(z: np.ndarray, v: np.ndarray, att: np.ndarray, gate: np.ndarray, a
     gap = phys[3]
     geff = G + a
     neg = geff < 0.0
-    sdot = phys[4] * (abs(geff) / G) ** 0.25
-    decay = math.exp(-h / phys[5])
+    # the gate grows or relaxes: only one of the two rates is needed (the power is costly)
+    sdot = phys[4] * (abs(geff) / G) ** 0.25 if neg else 0.0
+    decay = 1.0 if neg else math.exp(-h / phys[5])
     alpha = -geff
     s = gate[0]
     first = 0.5 / n  # the gate's level that releases ball 0

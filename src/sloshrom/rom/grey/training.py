@@ -29,6 +29,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from numpy.typing import ArrayLike
+from scipy import fft as sp_fft
 from scipy import signal as sps
 from scipy.optimize import differential_evolution
 
@@ -106,14 +107,29 @@ def _least_squares(a: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.linalg.solve(ata + ridge * np.eye(ata.shape[0]), a.T @ y)
 
 
+@functools.cache
+def _hann(s: int) -> tuple[np.ndarray, float]:
+    """``scipy.signal.stft``'s Hann window and "spectrum" scale for segments of ``s`` samples
+    (it computes them in complex arithmetic; their imaginary parts are zero)."""
+    win = sps.get_window("hann", s).astype(np.complex128)
+    return win.real.copy(), float(np.sqrt(1.0 / win.sum() ** 2).real)
+
+
 def _spectra(x: np.ndarray, fs: float) -> list[np.ndarray]:
+    """Short-time spectral magnitudes of ``x`` (..., n) at the :data:`_STFT` resolutions:
+    ``abs(scipy.signal.stft(x, nperseg=s, noverlap=s - hop, boundary=None, padded=False))``
+    to the bit, in real arithmetic (scipy windows the real segments with a complex window: half
+    the search's spectra time)."""
     out = []
     for seg, hop in _STFT:
         s = max(4, int(round(seg * fs / 500.0)))
         h = max(1, int(round(hop * fs / 500.0)))
         if x.shape[-1] >= s:
-            out.append(np.abs(sps.stft(x, nperseg=s, noverlap=s - h, axis=-1, boundary=None,
-                                       padded=False)[2]))
+            win, scale = _hann(s)
+            frames = np.lib.stride_tricks.sliding_window_view(x, s, axis=-1)[..., ::h, :]
+            r = sp_fft.rfft(win * frames, n=s, axis=-1)
+            r *= scale
+            out.append(np.abs(np.moveaxis(r, -1, -2)))
     return out
 
 

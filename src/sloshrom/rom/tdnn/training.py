@@ -132,6 +132,7 @@ __all__ = [
     "noe_validation_run",
     "passivity_penalty",
     "probe_dissipation",
+    "run_cycle_error",
     "train",
 ]
 
@@ -427,6 +428,35 @@ def cycle_energy_error(theta: Any, up: Any, ys: Any, cycles: EnergyCycles, idx: 
     return jnp.mean(jnp.sum((e - ys[r]) * cycles.weight[idx], axis=-1) ** 2)
 
 
+def run_cycle_error(e: np.ndarray, cycles: EnergyCycles, chunk: int = 256) -> float:
+    """:func:`cycle_energy_error` of every cycle of a record, from an NFIR's run over it.
+
+    An NFIR's output at a sample is its run's at that sample, so each cycle's energy error is
+    read from the run's error instead of evaluating the network again on the cycles (padded to
+    the longest: three times the samples of the run).
+
+    Parameters
+    ----------
+    e : ndarray, shape (n,)
+        The run's error (output - measured), scaled units, at the samples ``cycles`` index.
+    cycles : EnergyCycles
+        The record's cycles.
+    chunk : int
+        The mean is over chunks of ``chunk`` cycles, the last one wrapped around to the first
+        cycles (their repeats weigh a little), as the term was first evaluated chunk by chunk.
+
+    Returns
+    -------
+    float
+        The mean squared normalised energy error; inf if it is not finite.
+    """
+    rows, weight = np.asarray(cycles.rows), np.asarray(cycles.weight)
+    per = np.sum(np.asarray(e)[rows] * weight, axis=-1) ** 2
+    idx = np.arange(-(-cycles.n // chunk) * chunk) % cycles.n
+    value = float(np.mean(per[idx].reshape(-1, chunk).mean(axis=1)))
+    return value if math.isfinite(value) else math.inf
+
+
 # ---------------------------------------------------------------------------------------------
 # First-order alternative (NFIR): minibatch Adam with the same stopping rules
 # ---------------------------------------------------------------------------------------------
@@ -515,8 +545,8 @@ def nfir_adam_problem(
             vmse = float(np.mean(e**2))
             value = vmse if wv is None else float(np.mean(wv * e**2))
             vmse, value = (v if math.isfinite(v) else math.inf for v in (vmse, value))
-        if c_draw and val_cycle_error is not None:
-            value += cycle_energy * val_cycle_error(np.asarray(th))
+            if c_draw and val_cycle_error is not None:
+                value += cycle_energy * val_cycle_error(e)
         return vmse, value + (passivity * float(penalty_all(th)) if n_draw else 0.0)
 
     return AdamProblem(loss, jnp.asarray(theta0), opt, draw, validate, train_mse)
@@ -565,12 +595,13 @@ def adam_nfir(
     best objective (best parameters returned): the MSE of the free run of the scaled
     ``validation`` record (input, output), each sample weighted by ``val_weights`` if given
     (one run scores both), or without validation the training MSE; plus the passivity term
-    on every probe, plus ``cycle_energy * val_cycle_error(theta)`` (the cycle-energy error of
-    the validation record) if given. ``problem`` supplies the training SSE (on its ``n_rows``
-    rows) reported in the history. ``lr``, ``b1``, ``b2``, ``eps`` as :func:`optax.adam`
-    (``eps`` outside the square root). ``val_lead``: the validation run's first outputs not
-    scored (its input starts with measured history: :func:`nfir_validation`). The epochs run
-    in the training engine (:func:`sloshrom.rom.engine.adam_epochs`).
+    on every probe, plus ``cycle_energy * val_cycle_error(e)`` (the cycle-energy error of
+    the validation record, from ``e``, the validation run's scored error) if given.
+    ``problem`` supplies the training SSE (on its ``n_rows`` rows) reported in the history.
+    ``lr``, ``b1``, ``b2``, ``eps`` as :func:`optax.adam` (``eps`` outside the square root).
+    ``val_lead``: the validation run's first outputs not scored (its input starts with measured
+    history: :func:`nfir_validation`). The epochs run in the training engine
+    (:func:`sloshrom.rom.engine.adam_epochs`).
     """
     adam_problem = nfir_adam_problem(
         u_s, y_s, theta0, delays, neurons, hidden, rest_u, problem, n_rows,
@@ -945,22 +976,7 @@ def train(
                                            "validation record after it hold no whole input "
                                            "cycle for the cycle-energy term; take fewer "
                                            "samples of history") from None
-                upv = jnp.asarray(val[0][hv - dmax:] if hv else
-                                  np.concatenate([np.full(dmax, rest_u), val[0]]))
-                yvj = jnp.asarray(val[1][hv:])
-                # fixed-size chunks of cycles: one compilation, bounded memory
-                chunk = 256
-                idx = np.arange(-(-cv.n // chunk) * chunk) % cv.n
-                chunk_err = jax.jit(lambda th, i: cycle_energy_error(th, upv, yvj, cv, i,
-                                                                     delays, h, hidden))
-
-                def val_cycle_error(theta: np.ndarray) -> float:
-                    th = jnp.asarray(theta)
-                    sq = [float(chunk_err(th, jnp.asarray(idx[k:k + chunk])))
-                          for k in range(0, idx.size, chunk)]
-                    # the wrapped-around repeats weigh a little in the last chunk only
-                    value = float(np.mean(sq))
-                    return value if math.isfinite(value) else math.inf
+                val_cycle_error = partial(run_cycle_error, cycles=cv)
         # minibatches from every sample; the reported training MSE on the decimated rows
         res = adam_nfir(u_s, y_s, theta0, delays, h, hidden, rest_u, problem, int(rows.size),
                         max_epochs=int(max_epochs), seed=int(seed),
