@@ -118,8 +118,8 @@ def _hann(s: int) -> tuple[np.ndarray, float]:
 def _spectra(x: np.ndarray, fs: float) -> list[np.ndarray]:
     """Short-time spectral magnitudes of ``x`` (..., n) at the :data:`_STFT` resolutions:
     ``abs(scipy.signal.stft(x, nperseg=s, noverlap=s - hop, boundary=None, padded=False))``
-    to the bit, in real arithmetic (scipy windows the real segments with a complex window: half
-    the search's spectra time)."""
+    to the bit, in real arithmetic (scipy windows the real segments with a complex window:
+    twice the arithmetic and memory)."""
     out = []
     for seg, hop in _STFT:
         s = max(4, int(round(seg * fs / 500.0)))
