@@ -22,7 +22,7 @@ PYOMA_LOCK := benchmarks/pyoma-requirements.txt
 WORKERS    ?= 2
 XDIST      := -n $(WORKERS) --dist loadfile
 
-.PHONY: reproduce test test-other-isa test-slow test-all test-latest lint bench beyond fidelity \
+.PHONY: reproduce test test-long test-other-isa test-slow test-all test-latest lint bench beyond fidelity \
 	peers pyoma lock clean docs
 
 # setup.py and window.cc: the grey box's training kernel, compiled by the editable install
@@ -38,14 +38,19 @@ $(STAMP): $(LOCK) $(UV_LOCK) pyproject.toml setup.py src/sloshrom/rom/grey/windo
 reproduce: $(STAMP)
 	$(BIN)/sloshrom reproduce --out results
 
-# ruff, the fast tier (in WORKERS processes), then mypy (gradual for the package, strict for the
+# ruff, the fast tier (in WORKERS processes; neither the long nor the slow tests), then mypy (gradual for the package, strict for the
 # modules pyproject.toml lists; cache in .mypy_cache/, git-ignored) and the type-debt counts,
 # which may only fall
 test: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks tools docs examples
-	$(BIN)/python -m pytest -m "not slow" -q $(XDIST)
+	$(BIN)/python -m pytest -m "not slow and not long" -q $(XDIST)
 	$(BIN)/python -m mypy
 	$(BIN)/python tools/type_debt.py
+
+# The long tier: tests of 3 s or more each and the tiny `reproduce` run's (the marker `long`,
+# pyproject.toml); CI runs it after `make test`
+test-long: $(STAMP)
+	$(BIN)/python -m pytest -m "long and not slow" -q $(XDIST)
 
 # The tests against stored references, as if on another CPU: NumPy, glibc, XLA, OpenBLAS and numba
 # limited to an older instruction set (tools/other_isa.py checks that each one took notice).
@@ -63,7 +68,7 @@ docs: $(STAMP)
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -m slow -q
 
-test-all: test test-slow
+test-all: test test-long test-slow
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks tools docs examples

@@ -40,6 +40,18 @@ from helpers import (  # noqa: E402
 
 #: session fixtures too costly to build once per pytest-xdist worker
 SHARED_ON_ONE_WORKER = ("tiny_reproduce",)
+#: fixtures whose build alone takes tens of seconds: every test that needs one is a ``long``
+#: test (`make test-long`), so that the fast tier never builds them
+LONG_FIXTURES = ("tiny_reproduce",)
+
+
+@pytest.hookimpl(tryfirst=True)  # before ``-m`` selects by the marks
+def pytest_collection_modifyitems(config, items):
+    """Mark ``long`` every test that needs one of ``LONG_FIXTURES`` (directly or through
+    another fixture)."""
+    for item in items:
+        if any(name in getattr(item, "fixturenames", ()) for name in LONG_FIXTURES):
+            item.add_marker(pytest.mark.long)
 
 
 @pytest.hookimpl(optionalhook=True)  # a pytest-xdist hook: without xdist it is never called

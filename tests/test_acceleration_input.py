@@ -172,6 +172,7 @@ def test_energy_map_drives_the_network_with_the_acceleration():
     assert np.nanmax(np.abs(ours)) > 0
 
 
+@pytest.mark.long
 def test_cli_trains_a_network_on_the_acceleration(tmp_path):
     paths = []
     for name, seed, n in (("train", 1, 2000), ("validation", 2, 600)):

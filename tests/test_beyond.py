@@ -19,6 +19,8 @@ from sloshrom.rom.errors import FillRangeError
 from sloshrom.rom.family import FillFamily, training_fills
 from sloshrom.rom.loading import load_model
 
+pytestmark = pytest.mark.long  # a reproduce --beyond run
+
 
 def tiny_config(config) -> settings.ReproduceConfig:
     """The session's tiny configuration with the studies beyond the paper switched on."""

@@ -36,6 +36,8 @@ SRC = str(Path(__file__).resolve().parents[1] / "src")
 CLI = "from sloshrom.cli import app; app(prog_name='sloshrom')"
 FS = 500.0
 
+pytestmark = pytest.mark.long  # real kills and commands in new processes
+
 
 def _env(**extra: str) -> dict[str, str]:
     # the sloshrom this test imports (PYTHONPATH first), else this checkout's

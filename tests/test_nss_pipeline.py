@@ -130,6 +130,7 @@ def test_the_report_texts_describe_each_class():
 
 
 @pytest.mark.filterwarnings("ignore::UserWarning")
+@pytest.mark.long
 def test_rom_stage_with_an_nss_and_the_compared_nfir(tiny_reproduce, tmp_path):
     """The tiny run's data reused, the rom stage trains the NSS and the NFIR beside it."""
     out = tmp_path / "results"

@@ -26,6 +26,7 @@ def test_readme_starts_with_make():
 
 
 @pytest.mark.filterwarnings("ignore::UserWarning")
+@pytest.mark.long
 def test_python_example_runs(tmp_path, monkeypatch, capsys):
     """Every ``python`` block, in order, in one namespace, in an empty directory."""
     blocks = _blocks("python")

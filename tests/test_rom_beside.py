@@ -32,6 +32,7 @@ class InProcess(Ensemble):
 
 
 @pytest.mark.filterwarnings("ignore::UserWarning")
+@pytest.mark.long
 def test_compared_classes_beside_the_members_are_the_ones_trained_alone(
         tiny_reproduce, tmp_path, monkeypatch):
     monkeypatch.setattr(rom_stage, "Ensemble", InProcess)

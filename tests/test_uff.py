@@ -50,6 +50,7 @@ def rig_measurement():
     return rig.measure(h.acceleration)
 
 
+@pytest.mark.long
 def test_pyuff_file_read_preprocessed_and_trained(tmp_path, rig_measurement):
     """Accelerometer in g (labelled), load cell force with no unit label (units= mapping)."""
     m = rig_measurement

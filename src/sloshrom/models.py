@@ -326,6 +326,17 @@ class FrozenLiquid:
             raise ModelError(f"dt must be a finite positive time step in s, got {dt!r}")
         self.dt = float(dt)
 
+    # a value: two frozen liquids of one step are the same model, so that a coupled simulation
+    # compiled for one (it is compiled in, not an argument) serves the other
+    def __eq__(self, other: object) -> bool:
+        return type(other) is FrozenLiquid and other.dt == self.dt
+
+    def __hash__(self) -> int:
+        return hash((FrozenLiquid, self.dt))
+
+    def __repr__(self) -> str:
+        return f"FrozenLiquid(dt={self.dt!r})"
+
     def init_state(self) -> np.ndarray:
         """No state: an empty array."""
         return np.zeros(0)

@@ -74,6 +74,7 @@ def free_sets() -> dict[str, xr.Dataset]:
             "stiff": _dataset("free", 0.02, "stiff")}
 
 
+@pytest.mark.long
 def test_random_verdicts_follow_the_damping(random_sets):
     tests = {k: analyse_test(ds) for k, ds in random_sets.items()}
     rows = compare_rows(tests["measured"], [tests["frozen"], tests["stiff"]])
@@ -128,6 +129,7 @@ def _write(ds: xr.Dataset, path: Path) -> Path:
     return path
 
 
+@pytest.mark.long
 def test_cli_compare_random(tmp_path, random_sets):
     files = [_write(ds, tmp_path / f"random_{k}.nc") for k, ds in random_sets.items()]
     out = tmp_path / "cmp"

@@ -274,6 +274,7 @@ def test_cli_max_members_matches_the_format():
     assert cli_rom.MAX_MEMBERS == modelfile.MAX_MEMBERS
 
 
+@pytest.mark.long
 def test_cli_train_ensemble_writes_a_loadable_ensemble(tmp_path):
     paths = []
     for name, seed, n in (("train", 1, 2000), ("validation", 2, 600)):

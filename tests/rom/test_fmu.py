@@ -48,7 +48,8 @@ from sloshrom.rom.tdnn.estimators import NFIR, NOE
 
 # the validation record exceeds the short training record's input range by ~1 %: expected here;
 # the NSS's feed-through warning is tested in tests/rom/test_fmu_fmi.py
-pytestmark = [pytest.mark.filterwarnings("ignore::sloshrom.models.EnvelopeWarning"),
+pytestmark = [pytest.mark.long,  # a model of every class, compiled to C
+              pytest.mark.filterwarnings("ignore::sloshrom.models.EnvelopeWarning"),
               pytest.mark.filterwarnings("ignore::sloshrom.rom.errors.FeedthroughWarning")]
 
 ACC = {"units": ("m/s^2", "N"), "names": ("acceleration", "dynamic_force")}

@@ -43,6 +43,7 @@ from sloshrom.rom.nss.estimator import NSS
 from sloshrom.rom.tdnn.estimators import NFIR, NOE
 
 pytestmark = [
+    pytest.mark.long,  # C masters and compilers, 1e6-step runs
     pytest.mark.filterwarnings("ignore::sloshrom.models.EnvelopeWarning"),
     pytest.mark.filterwarnings("ignore::sloshrom.rom.errors.FeedthroughWarning"),
 ]

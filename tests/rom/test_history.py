@@ -124,6 +124,7 @@ def test_history_needs_the_samples_the_model_reads():
         m.predict(u, history=(np.full(10, np.nan), u[:10]))
 
 
+@pytest.mark.long
 def test_nss_validation_from_history_is_the_prediction_from_history():
     u, y = oscillator(1500, 6)
     uv, yv = oscillator(600, 7, x0=(3e-3, -0.2))

@@ -217,6 +217,7 @@ def _worker_state(_: object) -> dict[str, object]:
 
 @pytest.mark.skipif(not parallel.can_pin() or len(usable_cores()) < 2,
                     reason="pinning needs Linux and two cores")
+@pytest.mark.long
 def test_local_cluster_workers_are_pinned_with_one_thread_each(monkeypatch, tmp_path):
     """One real cluster, on a machine said to be quiet: every thread of each worker on a core of
     its own, every pool of one thread, the user's XLA flags kept; this process unchanged."""

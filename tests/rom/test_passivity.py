@@ -53,6 +53,7 @@ def _small(**kw) -> NFIR:
     return NFIR(delays=20, neurons=10, max_epochs=12, seed=1, **kw)
 
 
+@pytest.mark.long
 def test_probe_dissipation_equals_the_energy_of_a_simulated_harmonic_test(rig_records):
     # the probe's one-period sum must be the dissipated energy of the steady response, computed
     # independently by free-running the model on a long sine and integrating -dF dw
@@ -180,6 +181,7 @@ def test_cycle_energy_term_fits_the_energy_of_unseen_cycles(rig_records):
 
 
 @pytest.mark.parametrize("hidden", ["matlab", "distance"])
+@pytest.mark.long
 def test_cycle_error_of_a_run_is_the_networks_on_the_cycles(hidden):
     """The validation's cycle-energy term read from the NFIR's run over the record equals the
     network evaluated again on the padded cycles (``cycle_energy_error``, chunk by chunk, the

@@ -304,6 +304,7 @@ def _record(n, seed, fs=100.0):
 
 
 @pytest.mark.filterwarnings("ignore::sloshrom.rom.EnvelopeWarning")
+@pytest.mark.long
 def test_cli_train_predict(tmp_path):
     from typer.testing import CliRunner
 

@@ -88,6 +88,7 @@ def test_one_compilation_per_architecture_and_shape(modal):
     assert one._cache_size() == n0 + 2
 
 
+@pytest.mark.long
 def test_grad_of_coupled_response_matches_finite_differences(modal):
     m = _model(seed=3, scale=5.0)  # forces of a few N: a visible effect on the beam
     tank = Tank()
@@ -164,6 +165,7 @@ def test_backend_by_protocol(modal):
     assert not has_kernel(_model())
 
 
+@pytest.mark.long
 def test_no_global_x64_switch_and_float64_results():
     code = textwrap.dedent("""
         import warnings

@@ -35,6 +35,7 @@ def test_sweep_grid_is_the_paper_grid():
 
 
 @pytest.mark.filterwarnings("ignore::sloshrom.rom.EnvelopeWarning")
+@pytest.mark.long
 def test_sweep_scores_table_resume_and_plot(tmp_path, monkeypatch):
     tr, va = _data(1200, 1), _data(600, 2)
     pts = [("nfir", 3, 2), ("nfir", 5, 3), ("noe", 2, 2)]

@@ -73,6 +73,7 @@ def test_table2_rows_as_a_dataset():
     assert float(ds["value"].sel(level=0.1, estimator="ssi_cov")) == pytest.approx(0.011)
 
 
+@pytest.mark.long
 def test_table2_as_a_dataset_over_case_level_estimator():
     # output-only LSCF alone (Au's law, no bootstrap: fast); the dataset holds what the rows do
     from sloshrom.beam.damping.tables import mode1_damping_dataset, mode1_damping_table

@@ -161,6 +161,7 @@ def _assert_coverage(c: dict, n: int, k_min: int) -> None:
     assert 0.5 <= c["stated_std"] / c["scatter"] <= 2.0, c
 
 
+@pytest.mark.long
 def test_random_coverage_fast():
     # 10 records (each 21 LSCF fits): >= 8 covered has probability 0.99 for a correct interval
     seeds = list(range(100, 110))
@@ -173,6 +174,7 @@ def test_random_coverage_fast():
     assert abs(table["lscf_h1"]["bias"]) < table["lscf_h1"]["scatter"]
 
 
+@pytest.mark.long
 def test_band_coverage_fast():
     # 12 s: the decay reaches the noise floor, which the bootstrap's noise is measured from
     # (an 8 s record ends at 0.05 g, 5 times the floor, and the floor is then an upper bound)

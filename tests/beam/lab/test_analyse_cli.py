@@ -122,6 +122,7 @@ def test_analyse_free_finds_the_modes(lab, tmp_path):
         assert ds.attrs["modes_from"] == "found"
 
 
+@pytest.mark.long
 def test_analyse_random_end_to_end(lab, tmp_path):
     d = lab["dir"]
     files = [str(p) for p in lab_test_paths(d / "random.uff", "random", LEVELS)]

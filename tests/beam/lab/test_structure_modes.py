@@ -100,6 +100,7 @@ def test_output_only_lscf_under_a_coloured_base_within_3_percent():
     assert np.mean(white) / beam.damping[1] - 1 > 0.06  # the bias it removes
 
 
+@pytest.mark.long
 def test_lscf_h1_beside_a_close_neighbour_has_a_calibrated_interval():
     """Mode 2 of two modes 15 % apart: the bootstrap's model of the record holds the
     neighbour as a resonance (its four tail terms took values of +/-300 and lost the mode in

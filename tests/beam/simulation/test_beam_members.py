@@ -78,6 +78,7 @@ def test_each_member_alone_and_the_rom_response_is_their_mean(runs):
     assert "members" not in r["one"]  # a single model: as before
 
 
+@pytest.mark.long
 def test_rom_row_is_the_mean_of_the_member_rows_with_the_members_spread(runs, member_tables):
     f1, r = runs["f1"], runs["random"]
     members = member_tables
@@ -259,6 +260,7 @@ def test_the_fallbacks_leave_values_of_the_primary_attempt_unchanged():
     assert (e.value, e.std, e.low, e.high) == (r.value, r.std, r.low, r.high)
 
 
+@pytest.mark.long
 def test_table2_with_the_analysis_pool_is_the_table_without_it(runs, member_tables):
     """The beam stage's processes (one a core, spawned) give Table 2 and the members' tables to
     the bit, the single cases and the ensemble's members all started before one is awaited."""

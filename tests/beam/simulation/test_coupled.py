@@ -193,6 +193,21 @@ def test_numba_loop_compiles_once_for_every_kernel(modal):
     assert len(_numba_loop().signatures) == 1
 
 
+
+def test_frozen_liquids_of_one_step_share_one_compiled_simulation(modal):
+    # compiled in (not a pytree): equal frozen liquids must find the first one's program again
+    from sloshrom.beam.simulation.coupled import _jitted
+
+    assert FrozenLiquid(1 / 500) == FrozenLiquid(1 / 500) != FrozenLiquid(1 / 1000)
+    assert len({FrozenLiquid(1 / 500), FrozenLiquid(1 / 500)}) == 1
+    row = np.zeros(37)  # a length no other test simulates
+    CoupledSimulator(FrozenLiquid(1 / 500), modal).run_raw(row)
+    compiled = _jitted(1, False)._cache_size()
+    CoupledSimulator(FrozenLiquid(1 / 500), modal).run_raw(row)
+    assert _jitted(1, False)._cache_size() == compiled
+    CoupledSimulator(FrozenLiquid(1 / 1000), modal).run_raw(row)
+    assert _jitted(1, False)._cache_size() == compiled + 1
+
 @pytest.mark.slow
 def test_rig_more_damping_than_frozen_at_high_amplitude(modal):
     from sloshrom.rig.virtual import VirtualRig
@@ -236,6 +251,7 @@ def test_random_frozen_mode1_damping_estimators(modal):
     assert d["lscf_h1_n"] >= 10 and d["lscf_output_n"] >= 10
 
 
+@pytest.mark.long
 def test_cli_beam_free_and_random(tmp_path):
     import xarray as xr
     from typer.testing import CliRunner
@@ -280,6 +296,7 @@ def test_cli_beam_free_and_random(tmp_path):
 
 
 @pytest.mark.filterwarnings("ignore:tank velocity left")
+@pytest.mark.long
 def test_rom_in_the_loop_and_cli(modal, tmp_path):
     from typer.testing import CliRunner
 

@@ -238,6 +238,7 @@ TINY = {"random_duration": 12.0, "rms_g": [0.2], "nperseg": 2048,
         "passivity": 0.0, "cycle_energy": 0.0, "rom_workers": 1}
 
 
+@pytest.mark.long
 def test_stage_runs_end_to_end_on_tiny_settings(tmp_path):
     ctx = Context(tmp_path, configured(TINY))
     outputs, files = stage_multimode(ctx)

@@ -75,6 +75,7 @@ def duffing_nss():
     return m, (u, y)
 
 
+@pytest.mark.long
 def test_identifies_a_duffing_oscillator(duffing_nss):
     """A hardening oscillator the NSS has the structure for: a record it never saw is simulated
     from rest to NRMSE <= 5 % (measured 1-2 %), where the best linear FIR model of the same
@@ -190,6 +191,7 @@ def test_runs_in_the_coupled_beam(builtin_modal):
     assert np.all(np.isfinite(out["dynamic_force"])) and np.std(out["dynamic_force"]) > 0
 
 
+@pytest.mark.long
 def test_model_file_round_trip_and_tampering(duffing_nss, tmp_path):
     m, (u, _) = duffing_nss
     p = m.save(tmp_path / "nss")
@@ -213,6 +215,7 @@ def test_model_file_round_trip_and_tampering(duffing_nss, tmp_path):
         load_model(bad)
 
 
+@pytest.mark.long
 def test_ensemble_of_nss(tmp_path):
     u, y = record(1200, 1)
     uv, yv = record(600, 2)
@@ -249,6 +252,7 @@ def test_bad_records():
         NSS(window=5, horizon=20).fit(np.where(np.arange(400) == 7, np.nan, u), y, FS)
 
 
+@pytest.mark.long
 def test_strictly_proper_nss_reads_the_state_alone(tmp_path):
     """feedthrough='no': the force at step k does not change with the input at k (the output
     map's input rows stay exactly zero through training), the model file keeps the choice, and
@@ -271,6 +275,7 @@ def test_strictly_proper_nss_reads_the_state_alone(tmp_path):
         NSS(feedthrough="maybe").fit(u, y, FS)
 
 
+@pytest.mark.long
 def test_velocity_offset_teaches_galilean_invariance():
     """The Duffing force depends on the mass's velocity relative to the tank: a uniform tank
     velocity changes nothing once the start's jump to it has decayed (checked on the reference

@@ -47,6 +47,7 @@ def records():
 
 
 @pytest.mark.filterwarnings("ignore::sloshrom.rom.EnvelopeWarning")
+@pytest.mark.long
 def test_adam_identifies_a_second_order_system(records):
     u, y, uv, yv = records
     m = rom.NOE(max_epochs=20, **QUICK).fit(u, y, FS, validation=(uv, yv))
@@ -63,6 +64,7 @@ def test_adam_identifies_a_second_order_system(records):
 
 
 @pytest.mark.filterwarnings("ignore::sloshrom.rom.EnvelopeWarning")
+@pytest.mark.long
 def test_early_stopping_keeps_the_best_validation_epoch(records):
     # validation targets of the opposite sign: the better the fit to the training record, the
     # worse the validation error, so the stop after 6 epochs without a new best must happen

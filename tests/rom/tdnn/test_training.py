@@ -217,6 +217,7 @@ def test_callback_returning_true_stops():
 
 
 @pytest.mark.filterwarnings("ignore::sloshrom.rom.EnvelopeWarning")
+@pytest.mark.long
 def test_adam_trainer_early_stopping_and_best_network():
     u, uv = _signal(3000, 7), _signal(1500, 8)
     y, yv = _system(u), _system(uv)

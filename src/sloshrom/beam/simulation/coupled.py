@@ -254,7 +254,7 @@ class _Constant:
         self.model = model
 
     def tree_flatten(self) -> tuple[tuple[()], SloshingModel]:
-        return (), self.model  # hashed by identity: one compilation per such model
+        return (), self.model  # compared by ==: one compilation per equal model
 
     @classmethod
     def tree_unflatten(cls, model: SloshingModel, children: tuple[()]) -> _Constant:
