@@ -25,6 +25,22 @@ def test_readme_starts_with_make():
     assert lines[1].startswith("make reproduce") and lines[2].startswith("make test")
 
 
+def test_ci_runs_the_fast_and_the_long_tier():
+    # `make test` leaves the long tests out: CI must run them, or 160 tests would run nowhere
+    root = README.parent
+    make = (root / "Makefile").read_text(encoding="utf-8")
+
+    def pytest_marks(target: str) -> str:
+        recipe = re.search(rf"^{target}:.*\n((?:\t.*\n)+)", make, flags=re.MULTILINE)
+        assert recipe, f"no target {target} in the Makefile"
+        return re.search(r'pytest -m "([^"]+)"', recipe.group(1)).group(1)
+
+    assert pytest_marks("test") == "not slow and not long"
+    assert pytest_marks("test-long") == "long and not slow"
+    ci = [ln.strip() for ln in (root / ".ci" / "run").read_text(encoding="utf-8").splitlines()]
+    assert "make test" in ci and "make test-long" in ci
+
+
 @pytest.mark.filterwarnings("ignore::UserWarning")
 @pytest.mark.long
 def test_python_example_runs(tmp_path, monkeypatch, capsys):

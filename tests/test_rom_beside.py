@@ -95,3 +95,59 @@ def test_a_failure_of_the_members_stops_the_comparison(tiny_reproduce, tmp_path,
     assert type(nfir).__name__ == "NFIR"
     assert nfir.history_["stop_reason"] == "callback", nfir.history_["stop_reason"]
     assert 0 < len(epochs) and np.all(np.diff(epochs) >= 0)
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+def test_the_rom_is_validated_while_the_compared_classes_train(tiny_reproduce, tmp_path,
+                                                                monkeypatch):
+    """The stage validates its ROM (files, predictions, the frame test, the rig's twin run)
+    without waiting for the compared classes, which go on in their thread: here they cannot
+    end before the ROM is validated."""
+    monkeypatch.setattr(rom_stage, "Ensemble", InProcess)
+    validated = threading.Event()
+    train_compared, validate = rom_stage._train_compared, rom_stage._validate
+
+    def compared_after_the_validation(*args, **kw):
+        trained = train_compared(*args, **kw)
+        assert validated.wait(60), "the stage waited for the compared classes before the ROM"
+        return trained
+
+    def validating(*args, **kw):
+        done = validate(*args, **kw)
+        validated.set()
+        return done
+
+    monkeypatch.setattr(rom_stage, "_train_compared", compared_after_the_validation)
+    monkeypatch.setattr(rom_stage, "_validate", validating)
+    out = tmp_path / "validated"
+    shutil.copytree(tiny_reproduce["out"], out)
+    cfg = tiny_reproduce["cfg"].replace(rom={**TINY, "ensemble_workers": 2})
+    outputs = identify(Context(out, cfg))["rom"].outputs
+    assert np.isfinite(outputs["val_fit"]) and np.isfinite(outputs["compare"]["nfir"]["val_fit"])
+    assert (out / outputs["model"]).is_file() and (out / "models" / "nfir.npz").is_file()
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+def test_a_failed_validation_stops_the_comparison(tiny_reproduce, tmp_path, monkeypatch):
+    made = []
+    real = rom_stage.estimator
+
+    def spied(*args, **kw):
+        made.append(real(*args, **kw))
+        return made[-1]
+
+    def failing(*args, **kw):
+        raise RuntimeError("the validation failed")
+
+    monkeypatch.setattr(rom_stage, "Ensemble", InProcess)
+    monkeypatch.setattr(rom_stage, "estimator", spied)
+    monkeypatch.setattr(rom_stage, "_validate", failing)
+    out = tmp_path / "failing"
+    shutil.copytree(tiny_reproduce["out"], out)
+    cfg = tiny_reproduce["cfg"].replace(rom={**TINY, "nfir": {"max_epochs": 5000},
+                                             "ensemble_workers": 2})
+    with pytest.raises(RuntimeError, match="the validation failed"):
+        identify(Context(out, cfg))
+    nfir = made[-1]
+    assert type(nfir).__name__ == "NFIR"
+    assert nfir.history_["stop_reason"] == "callback", nfir.history_["stop_reason"]

@@ -301,6 +301,57 @@ def _train_compared(ctx: Context, records: tuple[np.ndarray, ...], fs: float,
     return out
 
 
+def _validate(ctx: Context, model: Any, name: str, train_seconds: float, recipe: str,
+              k_members: int, records: tuple[np.ndarray, ...], fs: float
+              ) -> tuple[dict[str, object], np.ndarray, dict[str, float]]:
+    """Save the trained ROM and validate it on ``records`` (u, y, u validation, y validation;
+    the validation record's rate ``fs``, Hz): the stage's outputs of the ROM itself (its file
+    as ``model``), its prediction of the validation record and that prediction's error
+    figures."""
+    cfg = ctx.cfg.rom
+    u, y, uv, yv = records
+    ctx.progress("rom", 1, 1, "validation")
+    # the rig's twin run of the validation record needs no model: it runs in a thread while
+    # this one validates the ROM (each on a core)
+    gain = float(ctx.cfg.rig.twin_gain)
+    twin_run = in_thread(lambda: _timed(lambda: replay_record(ctx, "validation", gain)))
+    path = ctx.path("models", f"{cfg.arch}.npz")
+    model.save(path)
+    # an ensemble's prediction is its members' mean: their runs once, for both
+    yv_members = np.asarray(model.member_predictions(uv)) if is_ensemble(model) else None
+    yv_hat = np.asarray(model.predict(uv) if yv_members is None else yv_members.mean(axis=0))
+    y_hat = np.asarray(model.predict(u))
+    ev, et = error_figures(yv, yv_hat), error_figures(y, y_hat)
+    hists = model.history_ if is_ensemble(model) else [model.history_]
+    outputs: dict[str, object] = dict(
+        model=ctx.rel(path), arch=cfg.arch, name=name, train_seconds=train_seconds,
+        recipe_text=recipe, n_members=k_members,
+        val_mse=ev["mse"], val_nrmse=ev["nrmse"], val_fit=ev["fit"],
+        train_mse=et["mse"], train_nrmse=et["nrmse"], train_fit=et["fit"],
+        epochs=[len(h.get("train_mse", [])) for h in hists],
+        stop_reason=[h.get("stop_reason") for h in hists],
+        # why a training stopped where its result is probably poor (LM at mu_max), else None
+        stop_message=[h.get("stop_message") for h in hists],
+        # where each member's training went: its median epoch of Adam steps and of validation
+        epoch_seconds=[_median_after_compile(h, "step_seconds") for h in hists],
+        validation_seconds=[_median_after_compile(h, "validation_seconds") for h in hists],
+    )
+    # the force must not depend on the frame: a drift of the tank's velocity (a beam under
+    # random base excitation has one) must not change the dissipation
+    outputs["frame_sensitivity"] = frame_sensitivity(model, uv, fs)
+    # the force as a physicist judges it, beside the rig's own twin run (docs/rom.md,
+    # "Waveform fidelity"): what a point-wise fit cannot say of a chaotic rig
+    ctx.progress("rom", 1, 1, "the rig's twin run of the validation record")
+    twin, twin_seconds = twin_run.result()
+    outputs["waveform_fidelity"] = validation_fidelity(yv, yv_hat, twin, fs, gain,
+                                                       twin_seconds)
+    if is_ensemble(model):
+        outputs["seeds"] = [int(s) for s in model.seeds_]
+        outputs["val_mse_members"] = spread(
+            error_figures(yv, yh)["mse"] for yh in np.asarray(yv_members))
+    return outputs, yv_hat, ev
+
+
 def stage_rom(ctx: Context, data: StageResult) -> StageRecord:
     """Train the configured ROM on the training record, validate it (paper Fig. 10).
 
@@ -336,8 +387,6 @@ def stage_rom(ctx: Context, data: StageResult) -> StageRecord:
     u, y = train["velocity"], train["dynamic_force"]
     uv, yv = val["velocity"], val["dynamic_force"]
     records = (u, y, uv, yv)
-    files: list[str] = []
-    outputs: dict[str, Any] = {}
     name = cfg.name()
     epochs = int(cfg.hyper().get("max_epochs", 0))
     fill = train.attrs.get("fill")  # the model refuses other fills (sloshrom.rom.family)
@@ -366,51 +415,23 @@ def stage_rom(ctx: Context, data: StageResult) -> StageRecord:
         if beside is not None:
             start_compared()  # (a scheduler that never said it started)
             beside.alone = True
-            others = future[0].result()
         else:
             others = _train_compared(ctx, records, train.fs, fill)
-    ctx.progress("rom", 1, 1, "validation")
-    # the rig's twin run of the validation record needs no model: it runs in a thread while
-    # this one validates the ROM (each on a core)
-    gain = float(ctx.cfg.rig.twin_gain)
-    twin_run = in_thread(lambda: _timed(lambda: replay_record(ctx, "validation", gain)))
-    path = ctx.path("models", f"{cfg.arch}.npz")
-    model.save(path)
-    files.append(ctx.rel(path))
-    # an ensemble's prediction is its members' mean: their runs once, for both
-    yv_members = np.asarray(model.member_predictions(uv)) if is_ensemble(model) else None
-    yv_hat = np.asarray(model.predict(uv) if yv_members is None else yv_members.mean(axis=0))
-    y_hat = np.asarray(model.predict(u))
-    ev, et = error_figures(yv, yv_hat), error_figures(y, y_hat)
-    hists = model.history_ if is_ensemble(model) else [model.history_]
-    outputs.update(
-        model=ctx.rel(path), arch=cfg.arch, name=name, train_seconds=train_seconds,
-        recipe_text=recipe, n_members=k_members,
-        val_mse=ev["mse"], val_nrmse=ev["nrmse"], val_fit=ev["fit"],
-        train_mse=et["mse"], train_nrmse=et["nrmse"], train_fit=et["fit"],
-        epochs=[len(h.get("train_mse", [])) for h in hists],
-        stop_reason=[h.get("stop_reason") for h in hists],
-        # why a training stopped where its result is probably poor (LM at mu_max), else None
-        stop_message=[h.get("stop_message") for h in hists],
-        # where each member's training went: its median epoch of Adam steps and of validation
-        epoch_seconds=[_median_after_compile(h, "step_seconds") for h in hists],
-        validation_seconds=[_median_after_compile(h, "validation_seconds") for h in hists],
-    )
-    # the force must not depend on the frame: a drift of the tank's velocity (a beam under
-    # random base excitation has one) must not change the dissipation
-    outputs["frame_sensitivity"] = frame_sensitivity(model, uv, float(val.fs))
-    # the force as a physicist judges it, beside the rig's own twin run (docs/rom.md,
-    # "Waveform fidelity"): what a point-wise fit cannot say of a chaotic rig
-    ctx.progress("rom", 1, 1, "the rig's twin run of the validation record")
-    twin, twin_seconds = twin_run.result()
-    outputs["waveform_fidelity"] = validation_fidelity(yv, yv_hat, twin, val.fs, gain,
-                                                       twin_seconds)
-    if is_ensemble(model):
-        outputs["seeds"] = [int(s) for s in model.seeds_]
-        outputs["val_mse_members"] = spread(
-            error_figures(yv, yh)["mse"] for yh in np.asarray(yv_members))
+        # the ROM is validated while the compared classes finish in their thread: its work
+        # takes the core the members left
+        try:
+            outputs, yv_hat, ev = _validate(ctx, model, name, train_seconds, recipe,
+                                            k_members, records, float(val.fs))
+        except BaseException:
+            if beside is not None:
+                beside.stop.set()
+            raise
+        if beside is not None:
+            others = future[0].result()
+    files = [str(outputs["model"])]
     compared = []
-    outputs["compare"] = {}
+    compare: dict[str, dict[str, object]] = {}
+    outputs["compare"] = compare
     for arch, other, other_name, seconds in others:
         # another class on the same records, as its own table says, for the report to set
         # beside the ROM (the paper's NFIR, the best linear model)
@@ -419,9 +440,9 @@ def stage_rom(ctx: Context, data: StageResult) -> StageRecord:
         files.append(ctx.rel(other_path))
         other_hat = np.asarray(other.predict(uv))
         eo = error_figures(yv, other_hat)
-        outputs["compare"][arch] = {"name": other_name, "val_mse": eo["mse"],
-                                    "val_nrmse": eo["nrmse"], "val_fit": eo["fit"],
-                                    "train_seconds": seconds, "model": ctx.rel(other_path)}
+        compare[arch] = {"name": other_name, "val_mse": eo["mse"], "val_nrmse": eo["nrmse"],
+                         "val_fit": eo["fit"], "train_seconds": seconds,
+                         "model": ctx.rel(other_path)}
         compared.append((other_hat, other_name, eo["fit"]))
     outputs["model_class_text"] = model_class_text(
         cfg.arch, name, [(n, f) for _, n, f in compared], ev["fit"])

@@ -18,6 +18,23 @@ def test_bare_cantilever_roots():
     np.testing.assert_allclose(CantileverBeam().beta_l(3), [1.8751, 4.6941, 7.8548], atol=1e-4)
 
 
+def test_a_beams_roots_are_solved_once_and_handed_out_as_copies():
+    from sloshrom.beam.simulation.structure import _beta_l
+
+    beam = CantileverBeam(length=0.6173, tip_mass=0.25)  # no other test solves this beam
+    before = _beta_l.cache_info()
+    roots = beam.beta_l(3)
+    ModalModel.from_beam(beam)  # frequencies, shapes, integrals: all from the same roots
+    after = _beta_l.cache_info()
+    assert after.misses == before.misses + 1 and after.hits > before.hits
+    roots[:] = 0.0  # the caller's copy
+    np.testing.assert_array_equal(CantileverBeam(length=0.6173, tip_mass=0.25).beta_l(3),
+                                  _beta_l(beam, 3))
+    assert np.all(beam.beta_l(3) > 1.0)
+    assert not np.allclose(CantileverBeam(length=0.6173, tip_mass=0.3).beta_l(3),
+                           beam.beta_l(3))
+
+
 def _fe_frequencies(beam: CantileverBeam, n_el: int = 60, n_modes: int = 3) -> np.ndarray:
     """Hermite cubic beam elements, clamped at x = 0, lumped tip mass + rotary inertia."""
     le = beam.length / n_el
