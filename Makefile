@@ -38,9 +38,9 @@ $(STAMP): $(LOCK) $(UV_LOCK) pyproject.toml setup.py src/sloshrom/rom/grey/windo
 reproduce: $(STAMP)
 	$(BIN)/sloshrom reproduce --out results
 
-# ruff, the fast tier (in WORKERS processes; neither the long nor the slow tests), then mypy (gradual for the package, strict for the
-# modules pyproject.toml lists; cache in .mypy_cache/, git-ignored) and the type-debt counts,
-# which may only fall
+# ruff, the fast tier (in WORKERS processes; neither the long nor the slow tests), then mypy
+# (gradual for the package, strict for the modules pyproject.toml lists; cache in .mypy_cache/,
+# git-ignored) and the type-debt counts, which may only fall
 test: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks tools docs examples
 	$(BIN)/python -m pytest -m "not slow and not long" -q $(XDIST)
