@@ -31,6 +31,20 @@ class InProcess(Ensemble):
         return super().fit(*args, **kw)
 
 
+@pytest.fixture
+def made(monkeypatch) -> list:
+    """Every estimator the rom stage makes, in order (the compared NFIR is the last)."""
+    made: list = []
+    real = rom_stage.estimator
+
+    def spied(*args, **kw):
+        made.append(real(*args, **kw))
+        return made[-1]
+
+    monkeypatch.setattr(rom_stage, "estimator", spied)
+    return made
+
+
 @pytest.mark.filterwarnings("ignore::UserWarning")
 @pytest.mark.long
 def test_compared_classes_beside_the_members_are_the_ones_trained_alone(
@@ -54,7 +68,8 @@ def test_compared_classes_beside_the_members_are_the_ones_trained_alone(
 
 
 @pytest.mark.filterwarnings("ignore::UserWarning")
-def test_a_failure_of_the_members_stops_the_comparison(tiny_reproduce, tmp_path, monkeypatch):
+def test_a_failure_of_the_members_stops_the_comparison(tiny_reproduce, tmp_path, monkeypatch,
+                                                       made):
     """The members' error reaches the caller, and the compared class stops at its next epoch
     instead of training on to its max_epochs (an interrupted run does not hang); while the
     members say nothing, the progress line shows the compared class's epochs."""
@@ -75,15 +90,7 @@ def test_a_failure_of_the_members_stops_the_comparison(tiny_reproduce, tmp_path,
             epochs.append(int(beside.split("epoch ")[1].split("/")[0]))
             running.set()
 
-    made = []
-    real = rom_stage.estimator
-
-    def spied(*args, **kw):
-        made.append(real(*args, **kw))
-        return made[-1]
-
     monkeypatch.setattr(rom_stage, "Ensemble", Failing)
-    monkeypatch.setattr(rom_stage, "estimator", spied)
     many = {**TINY, "nfir": {"max_epochs": 5000}}
     out = tmp_path / "failing"
     shutil.copytree(tiny_reproduce["out"], out)
@@ -128,19 +135,11 @@ def test_the_rom_is_validated_while_the_compared_classes_train(tiny_reproduce, t
 
 
 @pytest.mark.filterwarnings("ignore::UserWarning")
-def test_a_failed_validation_stops_the_comparison(tiny_reproduce, tmp_path, monkeypatch):
-    made = []
-    real = rom_stage.estimator
-
-    def spied(*args, **kw):
-        made.append(real(*args, **kw))
-        return made[-1]
-
+def test_a_failed_validation_stops_the_comparison(tiny_reproduce, tmp_path, monkeypatch, made):
     def failing(*args, **kw):
         raise RuntimeError("the validation failed")
 
     monkeypatch.setattr(rom_stage, "Ensemble", InProcess)
-    monkeypatch.setattr(rom_stage, "estimator", spied)
     monkeypatch.setattr(rom_stage, "_validate", failing)
     out = tmp_path / "failing"
     shutil.copytree(tiny_reproduce["out"], out)
