@@ -4,7 +4,7 @@ Every module under ``src/sloshrom`` is parsed (nothing is imported) and put in a
 
 ========== =======================================================================
 base       ``sloshrom`` (root), ``config``, ``errors``, ``fidelity``, ``fileio``, ``limits``,
-           ``models``, ``signals``, ``_x64``, ``_jit``, ``_memory``
+           ``models``, ``signals``, ``_x64``, ``_jit``, ``_memory``, ``_workers``
 domain     ``io``, ``rig``, ``rom``, ``energy``, ``beam``, ``systems`` (each one room)
 plotting   ``plotting``: figures only
 pipeline   ``pipeline``: the reproduce chain, the settings and the studies' registry
@@ -38,7 +38,7 @@ from sloshrom.rom.registry import CLASSES, packages
 SRC = Path(__file__).resolve().parents[1] / "src"
 PACKAGE = "sloshrom"
 
-BASE = {"_jit", "_memory", "_x64", "config", "errors", "fidelity", "fileio", "limits",
+BASE = {"_jit", "_memory", "_workers", "_x64", "config", "errors", "fidelity", "fileio", "limits",
         "models", "signals"}
 DOMAIN = ("io", "rig", "rom", "energy", "beam", "systems")
 

@@ -13,8 +13,8 @@ uncertainty (``sloshrom.beam.simulation.members``).
 
 from __future__ import annotations
 
-import importlib
 import multiprocessing
+import os
 import tempfile
 import time
 import warnings
@@ -27,6 +27,7 @@ from typing import Any, TypeVar, cast
 
 import xarray as xr
 
+from sloshrom._workers import worker_init
 from sloshrom.beam.compare import analysed_test, compare_rows
 from sloshrom.beam.damping.columns import table2_rows
 from sloshrom.beam.damping.registry import REFERENCE, TABLE2
@@ -186,9 +187,10 @@ def analysis_pool(workers: int | None = None) -> Iterator[Executor | None]:
     # spawn, not fork: the caller runs XLA's and numba's threads. Each worker imports the
     # analysis as it starts; a process starts per task submitted while none is idle, so n
     # empty tasks start them all now
+    # the workers end with this process, however it ends (a pool's workers would stay)
     pool = ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("spawn"),
-                               initializer=importlib.import_module,
-                               initargs=("sloshrom.beam.damping.tables",))
+                               initializer=worker_init,
+                               initargs=(os.getpid(), "sloshrom.beam.damping.tables"))
     failed = True
     try:
         for _ in range(n):
