@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import importlib.util
 import re
 import shlex
+import sys
 from pathlib import Path
 
 import pytest
@@ -45,12 +47,18 @@ def test_ci_runs_the_fast_and_the_long_tier():
 def test_the_environment_is_installed_with_its_bytecode():
     # uv leaves the .pyc to the first import; where PYTHONDONTWRITEBYTECODE is set none is
     # ever written, and every process compiled JAX, SciPy and the rest again (7.5 s, not 2.8 s)
-    make = (README.parent / "Makefile").read_text(encoding="utf-8")
+    root = README.parent
+    make = (root / "Makefile").read_text(encoding="utf-8")
     recipe = re.search(r"^\$\(STAMP\):.*\n((?:\t.*\n)+)", make, flags=re.MULTILINE)
     assert recipe, "no recipe of the environment in the Makefile"
     lock_install = re.search(r"uv pip install ([^\n]|\\\n)*-r \$\(LOCK\)", recipe.group(1))
     assert lock_install, "the lock is not installed by uv"
     assert "--compile-bytecode" in lock_install.group(0)
+    # and, in the environment `make` made, the bytecode is there
+    if Path(sys.prefix).resolve() == (root / ".venv").resolve():
+        import jax
+        assert Path(importlib.util.cache_from_source(jax.__file__)).is_file()
+
 
 @pytest.mark.filterwarnings("ignore::UserWarning")
 @pytest.mark.long
