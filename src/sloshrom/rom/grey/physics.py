@@ -185,7 +185,7 @@ def _causal_one(ph: np.ndarray, u: np.ndarray, fs: float, n_balls: int, n_sub: i
 
 
 # the loop over (set, record) pairs alone is parallel: numba's parfor passes on the whole
-# column (three inlined intervals) took twice the compilation (6.5 s against 3.2 s)
+# column (three inlined intervals) took twice the compilation (6.5 s against 3.6 s)
 @njit(parallel=True)
 def _causal_batch(phys: np.ndarray, u: np.ndarray, fs: float, n_balls: int, n_sub: int,
                   from_rest: bool, predict_from: int, out: np.ndarray) -> None:
@@ -219,8 +219,8 @@ def causal_intervals(phys: np.ndarray, u: np.ndarray, fs: float, n_balls: int,
         warm-up whose outputs are not used: the predictions are two thirds of the work).
     out : ndarray, optional
         A C-contiguous float64 array of the result's shape to write it into: a search that
-        simulates many generations reuses one (430 MB for the default search: a new one each
-        generation made the kernel find fresh pages for it each time).
+        simulates thousands of candidates reuses one (a new one each time made the kernel
+        find fresh pages for it).
 
     Returns
     -------

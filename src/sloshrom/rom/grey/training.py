@@ -188,9 +188,9 @@ def fit_physics(
     target_spectra = _spectra(yw, fs) if spectral > 0 else []
     names = list(PHYSICS_BOUNDS)
     evaluations = [0]
-    # one buffer of the simulations per population size, one of the filter's rows: the search
-    # allocates them once, not every generation (or candidate)
-    sims: dict[int, np.ndarray] = {}
+    # one buffer of a candidate's simulations, one of the filter's rows: the search allocates
+    # them once, not every candidate
+    sim = np.empty((1, *uw.shape, 3, spec.n_substeps))
     rows = np.empty((target.size, spec.n_taps))
 
     def phys_of(x: np.ndarray) -> np.ndarray:
@@ -202,18 +202,18 @@ def fit_physics(
         xs = np.asarray(xs).T  # vectorised: (candidates, variables)
         evaluations[0] += xs.shape[0]
         n = xs.shape[0]
-        if n not in sims:
-            sims[n] = np.empty((n, *uw.shape, 3, spec.n_substeps))
-        # the rows after the warm-up read the predictions from the step before it on
-        o = causal_intervals(np.stack([phys_of(x) for x in xs]), uw, fs, spec.n_balls,
-                             spec.n_substeps, from_rest=False, predict_from=warm - 1,
-                             out=sims[n])
         out = np.empty(n)
         for i in range(n):
-            if not np.all(np.isfinite(o[i])):
+            # a candidate at a time: its simulations (8 MB) and rows stay in the cache, where
+            # the generation's (430 MB) went through memory; each (set, window) pair is
+            # simulated alone either way, so the numbers are the same
+            # the rows after the warm-up read the predictions from the step before it on
+            o = causal_intervals(phys_of(xs[i])[None], uw, fs, spec.n_balls, spec.n_substeps,
+                                 from_rest=False, predict_from=warm - 1, out=sim)[0]
+            if not np.all(np.isfinite(o)):
                 out[i] = np.inf
                 continue
-            a = _filter_rows(o[i], spec.n_past, warm, rows)
+            a = _filter_rows(o, spec.n_past, warm, rows)
             taps = _least_squares(a, target)
             fit = a @ taps
             score = float(np.mean((fit - target) ** 2))
