@@ -86,15 +86,18 @@ def mode_band(beam: LabBeam, k: int, fs: float = FS) -> tuple[float, float]:
     return mode_bands(beam.frequencies, fs)[k]
 
 
-def one_record(args: tuple[str, float, int, float]) -> list[dict[str, Any]]:
-    """The estimates of every mode in one record: rows of (campaign, level, seed, mode,
-    estimator)."""
+def one_record(args: tuple[str, float, int, float],
+               modes: tuple[int, ...] | None = None) -> list[dict[str, Any]]:
+    """The estimates of every mode (or of ``modes``, numbered from 1) in one record: rows of
+    (campaign, level, seed, mode, estimator)."""
     name, level, seed, duration = args
     spec = dict(CAMPAIGNS[name])
     beam = spec.pop("beam")
     r = random_test(beam, level, duration, FS, seed=seed, **spec)
     rows = []
     for k, (fk, zk) in enumerate(zip(beam.frequencies, beam.damping, strict=True)):
+        if modes is not None and k + 1 not in modes:
+            continue
         t0 = time.perf_counter()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
