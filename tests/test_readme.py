@@ -27,35 +27,35 @@ def test_readme_starts_with_make():
     assert lines[1].startswith("make reproduce") and lines[2].startswith("make test")
 
 
+def _make_recipe(target: str) -> str:
+    """The recipe (its tab-indented lines) of ``target`` in the Makefile."""
+    make = (README.parent / "Makefile").read_text(encoding="utf-8")
+    recipe = re.search(rf"^{re.escape(target)}:.*\n((?:\t.*\n)+)", make, flags=re.MULTILINE)
+    assert recipe, f"no target {target} in the Makefile"
+    return recipe.group(1)
+
+
 def test_ci_runs_the_fast_and_the_long_tier():
     # `make test` leaves the long tests out: CI must run them, or 160 tests would run nowhere
-    root = README.parent
-    make = (root / "Makefile").read_text(encoding="utf-8")
-
     def pytest_marks(target: str) -> str:
-        recipe = re.search(rf"^{target}:.*\n((?:\t.*\n)+)", make, flags=re.MULTILINE)
-        assert recipe, f"no target {target} in the Makefile"
-        return re.search(r'pytest -m "([^"]+)"', recipe.group(1)).group(1)
+        return re.search(r'pytest -m "([^"]+)"', _make_recipe(target)).group(1)
 
     assert pytest_marks("test") == "not slow and not long"
     assert pytest_marks("test-long") == "long and not slow"
-    ci = [ln.strip() for ln in (root / ".ci" / "run").read_text(encoding="utf-8").splitlines()]
+    ci = [ln.strip() for ln in
+          (README.parent / ".ci" / "run").read_text(encoding="utf-8").splitlines()]
     assert "make test" in ci and "make test-long" in ci
-
 
 
 def test_the_environment_is_installed_with_its_bytecode():
     # uv leaves the .pyc to the first import; where PYTHONDONTWRITEBYTECODE is set none is
     # ever written, and every process compiled JAX, SciPy and the rest again (7.5 s, not 2.8 s)
-    root = README.parent
-    make = (root / "Makefile").read_text(encoding="utf-8")
-    recipe = re.search(r"^\$\(STAMP\):.*\n((?:\t.*\n)+)", make, flags=re.MULTILINE)
-    assert recipe, "no recipe of the environment in the Makefile"
-    lock_install = re.search(r"uv pip install ([^\n]|\\\n)*-r \$\(LOCK\)", recipe.group(1))
+    lock_install = re.search(r"uv pip install ([^\n]|\\\n)*-r \$\(LOCK\)",
+                             _make_recipe("$(STAMP)"))
     assert lock_install, "the lock is not installed by uv"
     assert "--compile-bytecode" in lock_install.group(0)
     # and, in the environment `make` made, the bytecode is there
-    if Path(sys.prefix).resolve() == (root / ".venv").resolve():
+    if Path(sys.prefix).resolve() == (README.parent / ".venv").resolve():
         import jax
         assert Path(importlib.util.cache_from_source(jax.__file__)).is_file()
 

@@ -138,7 +138,6 @@ def test_a_watch_whose_parent_has_already_gone_ends_the_process_at_once() -> Non
     a daemon, which never keeps a finished worker alive."""
     code = ("import os, time\nfrom sloshrom._workers import exit_with_parent\n"
             "assert exit_with_parent(os.getppid() + 10**7).daemon\ntime.sleep(30)\n")
-    t0 = time.monotonic()
+    # without the watch the script sleeps its 30 s and exits 0
     out = subprocess.run([sys.executable, "-c", code], timeout=60)
     assert out.returncode == ORPHAN_EXIT
-    assert time.monotonic() - t0 < 15

@@ -193,7 +193,6 @@ def test_numba_loop_compiles_once_for_every_kernel(modal):
     assert len(_numba_loop().signatures) == 1
 
 
-
 def test_frozen_liquids_of_one_step_share_one_compiled_simulation(modal):
     # compiled in (not a pytree): equal frozen liquids must find the first one's program again
     from sloshrom.beam.simulation.coupled import _jitted
@@ -207,6 +206,7 @@ def test_frozen_liquids_of_one_step_share_one_compiled_simulation(modal):
     assert _jitted(1, False)._cache_size() == compiled
     CoupledSimulator(FrozenLiquid(1 / 1000), modal).run_raw(row)
     assert _jitted(1, False)._cache_size() == compiled + 1
+
 
 @pytest.mark.slow
 def test_rig_more_damping_than_frozen_at_high_amplitude(modal):

@@ -206,8 +206,8 @@ def fit_physics(
         for i in range(n):
             # a candidate at a time: its simulations (8 MB) and rows stay in the cache, where
             # the generation's (430 MB) went through memory; each (set, window) pair is
-            # simulated alone either way, so the numbers are the same
-            # the rows after the warm-up read the predictions from the step before it on
+            # simulated alone either way, so the numbers are the same. The rows after the
+            # warm-up read the predictions from the step before it on
             o = causal_intervals(phys_of(xs[i])[None], uw, fs, spec.n_balls, spec.n_substeps,
                                  from_rest=False, predict_from=warm - 1, out=sim)[0]
             if not np.all(np.isfinite(o)):
