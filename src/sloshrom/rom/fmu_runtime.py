@@ -11,7 +11,9 @@ the FMU's own message.
 from __future__ import annotations
 
 import ctypes
+import itertools
 import shutil
+import threading
 import warnings
 import weakref
 import zipfile
@@ -204,6 +206,8 @@ class FMUModel:
         f.setupExperiment(startTime=0.0)
         f.enterInitializationMode()
         f.exitInitializationMode()
+        # FMPy's proxy may have been pointed at another logger since (simulate_fmu with one)
+        _point_logger_proxy()
         self._run += 1
         self._k = 0
         return (self._run, 0)
@@ -286,26 +290,77 @@ class FMUModel:
                 int(f.getInteger([self._vr["samples_outside_envelope"]])[0]))
 
 
+#: componentEnvironment -> the list the messages of the FMU instance given it go to
+_LOGS: dict[int, list[tuple[int, str]]] = {}
+_ENVS = itertools.count(1)
+#: the one logger FMPy's proxy calls for our instances: never freed (_point_logger_proxy)
+_LOGGER: object = None
+_LOGGER_LOCK = threading.Lock()
+
+
+def _route(env: int | None, name: bytes, status: int, category: bytes,
+           message: bytes) -> None:
+    """Append a message to the list of the instance whose ``componentEnvironment`` is ``env``;
+    another FMU's (FMPy's default callbacks: no environment) is printed, as FMPy does."""
+    messages = _LOGS.get(env or 0)
+    if messages is None:
+        from fmpy.fmi1 import printLogMessage
+
+        printLogMessage(env, name, status, category, message)
+    else:
+        messages.append((int(status), message.decode("utf-8", "replace")))
+
+
+def _point_logger_proxy(cb: ctypes.Structure | None = None) -> None:
+    """Put the process's one logger behind FMPy's logger proxy, and the proxy in ``cb.logger``.
+
+    The proxy (``fmpy.logging.addLoggerProxy``: it formats the variadic message in C, which
+    ctypes cannot) keeps one global pointer, for every FMU of the process, to the logger of the
+    callbacks it was given last; FMPy's default callbacks (``fmpy.simulate_fmu``) log through it
+    too. So that pointer must be a ctypes function that lives as long as the process: one freed
+    with a closed :class:`FMUModel`'s callbacks made the next FMU to log (FMU Manipulation
+    Toolbox's container, instantiated by ``simulate_fmu``) jump into freed memory, and one per
+    instance sent each instance's messages to the last one made.
+
+    Parameters
+    ----------
+    cb : fmpy.fmi2.fmi2CallbackFunctions, optional
+        Callbacks whose ``logger`` becomes the proxy (default: the proxy is pointed only).
+    """
+    global _LOGGER
+    from fmpy.fmi2 import fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+    from fmpy.logging import addLoggerProxy
+
+    with _LOGGER_LOCK:  # two made at once: the one dropped could be the one pointed at
+        if _LOGGER is None:
+            _LOGGER = fmi2CallbackLoggerTYPE(_route)
+    cb = fmi2CallbackFunctions() if cb is None else cb
+    cb.logger = _LOGGER
+    addLoggerProxy(ctypes.byref(cb))
+
+
 def _callbacks(messages: list[tuple[int, str]]) -> Any:
-    """FMI 2.0 callbacks whose logger appends ``(status, message)`` to ``messages``."""
+    """FMI 2.0 callbacks whose logger appends ``(status, message)`` to ``messages``.
+
+    The instance's messages find their list by the ``componentEnvironment`` the FMU passes back
+    (:func:`_route`); the list is let go when the callbacks are collected. Keep the callbacks as
+    long as the instance: its memory functions are theirs.
+    """
     from fmpy import calloc, free
     from fmpy.fmi2 import (
         fmi2CallbackAllocateMemoryTYPE,
         fmi2CallbackFreeMemoryTYPE,
         fmi2CallbackFunctions,
-        fmi2CallbackLoggerTYPE,
     )
-    from fmpy.logging import addLoggerProxy
-
-    def log(env: Any, name: bytes, status: int, category: bytes, message: bytes) -> None:
-        messages.append((int(status), message.decode("utf-8", "replace")))
 
     cb = fmi2CallbackFunctions()
-    cb.logger = fmi2CallbackLoggerTYPE(log)
+    _point_logger_proxy(cb)
     cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
     cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-    # the proxy formats the variadic message in C (ctypes cannot) and calls `log`
-    addLoggerProxy(ctypes.byref(cb))
+    env = next(_ENVS)
+    cb.componentEnvironment = env
+    _LOGS[env] = messages
+    weakref.finalize(cb, _LOGS.pop, env, None)
     return cb
 
 
