@@ -345,20 +345,17 @@ def map_times(run: Path) -> dict:
 
 
 def sweep_time(data) -> float:
-    from sloshrom.pipeline.rom import sweep_points
+    from sloshrom.pipeline.rom import sweep_options, sweep_points
     from sloshrom.pipeline.settings import load
-    from sloshrom.rom.registry import swept
     from sloshrom.rom.sweep import run_sweep
 
     u, y, uv, yv, fs = data
     cfg = load().rom
     pts = sweep_points(cfg)
-    lead = cfg.hyper(swept()[0].name)  # as the sweep stage: every point trains with its table
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
-        run_sweep((u, y), (uv, yv), fs, tmp, pts, n_workers=2,
-                  options={"max_epochs": lead["max_epochs"], "hidden": lead["hidden"],
-                           "seed": cfg.seed})
+        # as the sweep stage: every point trains with [rom.nfir]'s table
+        run_sweep((u, y), (uv, yv), fs, tmp, pts, n_workers=2, options=sweep_options(cfg))
         t = time.perf_counter() - t0
     print(f"sweep of {len(pts)} networks on 2 workers: {t:.0f} s (target <= 300 s)", flush=True)
     return t

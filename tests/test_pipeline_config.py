@@ -129,3 +129,18 @@ def test_recipe_text_names_the_terms_in_use():
     paper = recipe_text({"amplitude_weighting": 0.0, "passivity": 0.0, "cycle_energy": 0.0},
                         "NFIR(70, 35)")
     assert "plain MSE" in paper and "physics" not in paper
+
+
+def test_the_sweep_trains_and_keys_with_the_nfir_table_s_precision():
+    # the sweep's NFIRs train as the compared NFIR: [rom.nfir]'s epochs, hidden layer and
+    # float32 steps; a change of the precision is a new sweep (its cache key)
+    from sloshrom.pipeline.rom import sweep_keys, sweep_options
+
+    cfg = settings.load()
+    assert sweep_options(cfg.rom) == {"max_epochs": 90, "hidden": "matlab",
+                                      "precision": "float32", "seed": 0}
+    keys = sweep_keys(cfg.tables("rom")["rom"])
+    assert keys["precision"] == "float32"
+    other = settings.config_model().model_validate(
+        settings.merge(settings.defaults(), {"rom": {"nfir": {"precision": "float64"}}}))
+    assert sweep_keys(other.tables("rom")["rom"])["precision"] == "float64"

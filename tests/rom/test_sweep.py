@@ -99,3 +99,28 @@ def test_sweep_starts_the_longest_trainings_first(tmp_path, monkeypatch):
     sweep.run_sweep(_data(300, 1), _data(300, 2), 100.0, tmp_path, pts)
     assert seen == [("noe", 2, 20), ("noe", 2, 10), ("nfir", 70, 40), ("nfir", 60, 20),
                     ("nfir", 50, 5)]
+
+
+def test_an_option_of_one_class_reaches_that_class_alone(tmp_path, monkeypatch):
+    # [rom.nfir]'s precision trains the sweep's NFIRs; the NOE, which has none, is built
+    # without it (a TypeError before)
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    def fit(self, *a, **k):
+        seen[type(self).__name__] = self.get_params()
+        raise Stop
+
+    for cls in (rom.NFIR, rom.NOE):
+        monkeypatch.setattr(cls, "fit", fit)
+    tr, va = _data(600, 1), _data(300, 2)
+    for point in (("nfir", 3, 2), ("noe", 2, 2)):
+        with pytest.raises(Stop):
+            sweep.fit_point(point, tr, va, 100.0, str(tmp_path),
+                            {"max_epochs": 3, "precision": "float32"})
+    assert seen["NFIR"]["precision"] == "float32" and seen["NFIR"]["max_epochs"] == 3
+    assert "precision" not in seen["NOE"] and seen["NOE"]["max_epochs"] == 3
+    with pytest.raises(TypeError):  # any other option stays every class's
+        sweep.fit_point(("noe", 2, 2), tr, va, 100.0, str(tmp_path), {"delay_s": 1})

@@ -30,13 +30,25 @@ from sloshrom.rom.registry import CLASSES, paper_class, swept
 from sloshrom.rom.sweep import run_sweep
 
 __all__ = ["error_figures", "estimator", "model_class_text", "recipe_text",
-           "stage_rom", "stage_sweep", "sweep_keys", "sweep_points"]
+           "stage_rom", "stage_sweep", "sweep_keys", "sweep_options", "sweep_points"]
 
 
 def error_figures(y: np.ndarray, y_hat: np.ndarray) -> dict[str, float]:
     """MSE (N^2), NRMSE (RMS error / RMS of y) and MATLAB-style fit % (100 (1 - |e|/|y - ȳ|))
     (:func:`sloshrom.fidelity.point_errors`)."""
     return point_errors(y, y_hat)
+
+
+#: The keys of the first swept class's table (``[rom.nfir]``) every grid point trains with.
+_SWEEP_OPTIONS = ("max_epochs", "hidden", "precision")
+
+
+def sweep_options(rom: RomTable) -> dict[str, Any]:
+    """The estimator arguments every grid point of the sweep trains with: the seed, and the
+    epochs, hidden layer and precision of the first swept class's table (``[rom.nfir]``; the
+    precision reaches the classes that have one, :func:`sloshrom.rom.sweep.run_sweep`)."""
+    lead = rom.hyper(swept()[0].name)
+    return {**{k: lead[k] for k in _SWEEP_OPTIONS}, "seed": rom.seed}
 
 
 def sweep_points(rom: RomTable) -> list[tuple[str, int, int]]:
@@ -48,12 +60,13 @@ def sweep_points(rom: RomTable) -> list[tuple[str, int, int]]:
 
 def sweep_keys(rom: Mapping[str, Any]) -> dict[str, Any]:
     """What the sweep's result depends on (its cache key), from the ``[rom]`` dict: its grids,
-    the seed, and the epochs and hidden layer of the first swept class's table (``[rom.nfir]``),
-    which every grid point trains with."""
+    the seed, and the epochs, hidden layer and precision of the first swept class's table
+    (``[rom.nfir]``), which every grid point trains with (the precision: each class that has
+    one)."""
     keys = [sweep_key(mc, k) for mc in swept() for k in ("delays", "neurons")]
     lead = rom[swept()[0].name]
-    return {**{k: rom[k] for k in [*keys, "seed"]}, "max_epochs": lead["max_epochs"],
-            "hidden": lead["hidden"]}
+    return {**{k: rom[k] for k in [*keys, "seed"]},
+            **{k: lead[k] for k in _SWEEP_OPTIONS}}
 
 
 def stage_sweep(ctx: Context, data: StageResult) -> StageRecord:
@@ -78,12 +91,10 @@ def stage_sweep(ctx: Context, data: StageResult) -> StageRecord:
     ctx.progress("sweep", 0, len(pts), f"{len(pts)} networks")
     t0 = time.perf_counter()
     workers = int(cfg.sweep_workers)
-    lead = cfg.hyper(swept()[0].name)  # every grid point trains with the first class's table
     rows = run_sweep((train["velocity"], train["dynamic_force"]),
                      (val["velocity"], val["dynamic_force"]), train.fs, out_dir, pts,
                      scheduler="sequential" if workers == 1 else None, n_workers=workers,
-                     options={"max_epochs": lead["max_epochs"], "hidden": lead["hidden"],
-                              "seed": cfg.seed},
+                     options=sweep_options(cfg),
                      progress=prog)
     seconds = time.perf_counter() - t0
     fig = plot_sweep(rows, ctx.path("figures", "fig08_sensitivity.png"))

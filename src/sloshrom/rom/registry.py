@@ -55,8 +55,8 @@ __all__ = ["ARGUMENTS", "CLASSES", "ENTRIES", "EPOCH_WORK_SECONDS", "LOSS_HYPERS
            "MAX_EPOCH_WORK", "MAX_STATES", "OVERSIZE", "RECIPE_UNITS", "SEED", "SHOOTING_HYPERS",
            "EpochWork", "FileKind", "Hyper", "LossChoice", "ModelClass", "Naming", "adam_only",
            "file_kinds", "loss_recipe", "model_class", "model_class_of_file", "neurons",
-           "packages", "paper_class", "register", "required", "state_space_min_samples",
-           "swept"]
+           "packages", "paper_class", "precision", "register", "required",
+           "state_space_min_samples", "swept"]
 
 #: The classes, one line each: ``"module:attribute"`` of the entry that declares it (a
 #: :class:`ModelClass`, or a :class:`FileKind` for a model loaded from its own files), in the
@@ -911,6 +911,13 @@ def neurons(default: int, help: str) -> Hyper:
     """The hidden units of a network class, up to :data:`~sloshrom.limits.MAX_NEURONS`."""
     return Hyper("neurons", default, "int", 1, MAX_NEURONS, help=help,
                  what="a number of neurons")
+
+
+def precision(help: str) -> Hyper:
+    """The precision of a class's Adam steps, float64 by default (its validation and its
+    parameters stay float64); a model file of before it was trained in float64."""
+    return Hyper("precision", "float64", "choice", choices=("float64", "float32"), help=help,
+                 what="'float64' or 'float32'", file_default="float64")
 
 
 def required(h: Hyper) -> Hyper:

@@ -70,6 +70,10 @@ def point_name(arch: str, delays: int, neurons: int) -> str:
     return f"{arch}_d{delays}_n{neurons}"
 
 
+#: Options of :func:`run_sweep` that only some classes have: given to those alone.
+_ONE_CLASS_OPTIONS = frozenset({"precision"})
+
+
 def fit_point(
     point: tuple[str, int, int],
     train: tuple[np.ndarray, np.ndarray],
@@ -90,7 +94,12 @@ def fit_point(
     res_path = out / f"{name}.json"
     if res_path.is_file():  # finished before: resume
         return json.loads(res_path.read_text(encoding="utf-8"))
-    model = model_class(arch).estimator_class()(delays=delays, neurons=neurons, **options)
+    mc = model_class(arch)
+    # an option of one class only (the NFIR's precision) is not the other's to refuse
+    names = {h.name for h in mc.hyper}
+    model = mc.estimator_class()(delays=delays, neurons=neurons,
+                                 **{k: v for k, v in options.items()
+                                    if k not in _ONE_CLASS_OPTIONS or k in names})
     row: dict[str, Any] = {"name": name, "arch": arch, "delays": delays, "neurons": neurons}
     t0 = time.perf_counter()
     try:
@@ -136,7 +145,8 @@ def run_sweep(
         None: a new ``LocalCluster(n_workers)``; ``"threads"`` or ``"sequential"``: no cluster;
         anything else: the address of an existing Dask scheduler.
     options : dict, optional
-        Extra estimator arguments (``max_epochs``, ``hidden``, ``seed``, ``trainer``).
+        Extra estimator arguments (``max_epochs``, ``hidden``, ``seed``, ``trainer``; and
+        ``precision``, given to the classes that have it: the NFIR's).
     progress : callable, optional
         Called with each finished row.
 

@@ -285,3 +285,38 @@ def test_train_takes_the_architecture_explicitly():
     with pytest.raises(rom.ROMError, match="needs trainer 'adam'"):
         training.train(network.NetworkSpec("noe", (1, 2), 3, out_delays=2), u, y, sc,
                        trainer="lm", fs=100.0, passivity=1.0)
+
+
+@pytest.mark.filterwarnings("ignore::sloshrom.rom.EnvelopeWarning")
+@pytest.mark.long
+def test_float32_adam_steps_train_the_float64_network(tmp_path):
+    # the two precisions follow one trajectory: float32 round-off (6e-8 a step) moves the
+    # network by 1.2e-4 of the force's peak on the default run (and by 9e-5 from one CPU to
+    # another); 1e-3 here. More than 1e-9: the float32 path is taken (two float64 runs agree
+    # to 1e-12 across CPUs), so the option is not a no-op
+    u, uv = _signal(3000, 7), _signal(1500, 8)
+    y, yv = _system(u), _system(uv)
+    runs = {p: rom.NFIR(delays=15, neurons=6, max_epochs=4, trainer="adam", precision=p).fit(
+        u, y, fs=100.0, validation=(uv, yv)) for p in ("float64", "float32")}
+    p64, p32 = (np.asarray(runs[p].predict(uv)) for p in ("float64", "float32"))
+    moved = np.max(np.abs(p32 - p64)) / np.max(np.abs(p64))
+    assert 1e-9 < moved < 1e-3, moved
+    assert runs["float32"].history_["best_epoch"] == runs["float64"].history_["best_epoch"]
+    assert all(v.dtype == np.float64 for v in runs["float32"].params_.values())
+    back = rom.load_model(runs["float32"].save(tmp_path / "nfir32.npz"))
+    assert back.precision == "float32"
+    np.testing.assert_array_equal(back.predict(uv), p32)
+
+
+@pytest.mark.filterwarnings("ignore::sloshrom.rom.EnvelopeWarning")
+def test_levenberg_marquardt_runs_float64_whatever_the_precision():
+    # precision is the Adam steps': a configuration's float32 ([rom.nfir] of reproduce and
+    # train) leaves an LM training as it was, to the bit
+    u, uv = _signal(1500, 7), _signal(600, 8)
+    for trainer in ("lm", "fast"):
+        p = [rom.NFIR(delays=5, neurons=3, max_epochs=2, trainer=trainer, precision=prec).fit(
+             u, _system(u), fs=100.0, validation=(uv, _system(uv))).predict(uv)
+             for prec in ("float64", "float32")]
+        np.testing.assert_array_equal(p[0], p[1])
+    with pytest.raises(rom.ROMError, match="precision"):
+        rom.NFIR(delays=15, neurons=6, precision="float16").fit(u, _system(u), fs=100.0)

@@ -26,6 +26,8 @@ from sloshrom.rom.registry import (
     Hyper,
     ModelClass,
     neurons,
+    precision,
+    required,
     state_space_min_samples,
 )
 
@@ -87,10 +89,9 @@ GREY_CLASS = ModelClass(
            Hyper("weight_decay", 0.0, "float", 0.0, 100.0,
                  help="AdamW's decoupled weight decay per unit learning rate (0 = plain Adam)",
                  what="a decay rate (0 = off)"),
-           Hyper("precision", "float64", "choice", choices=("float64", "float32"),
-                 help="precision of the network's Adam steps: float64 makes the model the same "
-                      "on every CPU to its members' spread (float32, the NSS's, is faster)",
-                 what="'float64' or 'float32'"),
+           required(precision("precision of the network's Adam steps: float64 makes the "
+                              "model the same on every CPU to its members' spread (float32, "
+                              "the NSS's, is faster)")),
            Hyper("n_balls", 10, "int", 1, 64,
                  help="balls of the impacting column (released one after the other by the "
                       "gate)", what="a number of balls"),

@@ -86,6 +86,8 @@ class TimeDelayEstimator(Estimator):
     amplitude_weighting: float = 0.0
     passivity: float = 0.0
     cycle_energy: float = 0.0
+    #: precision of the Adam steps (an NFIR constructor parameter; the NOE's are its own)
+    precision: str = "float64"
 
     def _check_hyperparameters(self) -> NetworkSpec:
         """Validate the constructor arguments (the rules of the class's registry entry that
@@ -203,7 +205,7 @@ class TimeDelayEstimator(Estimator):
             amplitude_weighting=float(self.amplitude_weighting),
             passivity=float(self.passivity), frequency_band=(probe_band[0], probe_band[1]),
             cycle_energy=float(self.cycle_energy), validation_history=hv,
-            **self._trainer_options(),
+            precision=str(self.precision), **self._trainer_options(),
         )
         self.model_ = self._model({k: np.asarray(v) for k, v in
                                    unpack(theta, spec.n_inputs, spec.neurons).items()},
@@ -262,6 +264,11 @@ class NFIR(TimeDelayEstimator):
         training record exchanges with the liquid, over the cycle's squared amplitude
         (:func:`sloshrom.rom.tdnn.training.energy_cycles`): the part of the error that changes the
         damping. 0 (default) = none, as the paper. Adam only.
+    precision : {"float64", "float32"}
+        Precision of the Adam steps (their validation and the parameters stay float64).
+        ``"float32"`` trains about 1.7x faster and moves the model from one CPU to another by
+        about 1e-4 of its output's peak (``"float64"``, the default: about 1e-12). Adam only
+        (the Levenberg-Marquardt trainers run float64).
 
     ``sloshrom reproduce`` and ``sloshrom train`` use ``amplitude_weighting = 0.05`` m/s,
     ``passivity = 1`` and ``cycle_energy = 0.1`` (docs/rom.md, "A passive ROM").
@@ -285,6 +292,7 @@ class NFIR(TimeDelayEstimator):
         amplitude_weighting: float = _NFIR["amplitude_weighting"],
         passivity: float = _NFIR["passivity"],
         cycle_energy: float = _NFIR["cycle_energy"],
+        precision: str = _NFIR["precision"],
     ) -> None:
         self.delays = delays
         self.neurons = neurons
@@ -297,6 +305,7 @@ class NFIR(TimeDelayEstimator):
         self.amplitude_weighting = amplitude_weighting
         self.passivity = passivity
         self.cycle_energy = cycle_energy
+        self.precision = precision
 
 
 @jax.tree_util.register_pytree_node_class

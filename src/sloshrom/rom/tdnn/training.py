@@ -51,6 +51,7 @@ classes (their rules come from the registry entries). :func:`train` runs in floa
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 import warnings
@@ -145,6 +146,10 @@ NOE_SHOOTING = ShootingOptions(**{k: _NOE[k] for k in ("horizon", "batch", "step
                                                        "learning_rate")},
                                max_epochs=40, velocity_offset=0.0, weight_decay=0.0)
 CHUNK = 4096
+
+
+#: The NFIR's Adam steps' precisions (``precision``) and their dtypes.
+_STEP_DTYPES = {"float64": np.float64, "float32": np.float32}
 
 
 def init_theta(
@@ -490,14 +495,25 @@ def nfir_adam_problem(
     cycles_per_step: int = 32,
     val_cycle_error: Callable[[np.ndarray], float] | None = None,
     val_lead: int = 0,
+    precision: str = "float64",
 ) -> AdamProblem:
     """The minibatch-Adam problem of :func:`adam_nfir` for the training engine; the parameters
     are :func:`adam_nfir`'s."""
     d = np.asarray(delays)
-    up = jnp.asarray(np.concatenate([np.full(int(d.max()), rest_u), u_s]))
-    ysj = jnp.asarray(y_s)
+    # the steps' data in the steps' precision (a float64 array would promote them back); the
+    # validation runs in float64 whatever it is
+    dt = _STEP_DTYPES[precision]
+    theta0 = np.asarray(theta0, dt)
+    up = jnp.asarray(np.concatenate([np.full(int(d.max()), rest_u), u_s]), dt)
+    ysj = jnp.asarray(y_s, dt)
     n = u_s.size
-    wj = jnp.ones(n) if weights is None else jnp.asarray(weights)
+    wj = jnp.ones(n, dt) if weights is None else jnp.asarray(weights, dt)
+    probes64 = probes
+    if probes is not None:
+        probes = dataclasses.replace(probes, windows=jnp.asarray(probes.windows, dt),
+                                     weight=jnp.asarray(probes.weight, dt))
+    if cycles is not None:
+        cycles = dataclasses.replace(cycles, weight=jnp.asarray(cycles.weight, dt))
     opt = optax.adam(lr, b1=b1, b2=b2, eps=eps)
     n_probes = 0 if probes is None or passivity <= 0 else probes.n
     n_draw = min(probes_per_step, n_probes)
@@ -526,10 +542,11 @@ def nfir_adam_problem(
 
     @jax.jit
     def penalty_all(th: Any) -> Any:
-        return passivity_penalty(th, probes, every_probe, d, neurons, hidden)
+        return passivity_penalty(jnp.asarray(th, jnp.float64), probes64, every_probe, d,
+                                 neurons, hidden)
 
     def train_mse(th: Any) -> float:
-        return problem.sse(np.asarray(th)) / n_rows
+        return problem.sse(np.asarray(th, np.float64)) / n_rows
 
     if validation is not None:
         uvj, yv = jnp.asarray(validation[0]), np.asarray(validation[1])
@@ -540,7 +557,7 @@ def nfir_adam_problem(
         if validation is None:
             vmse = value = train_mse(th)
         else:
-            e = np.asarray(nfir_free_run(jnp.asarray(th), uvj, rest_u, delays, neurons,
+            e = np.asarray(nfir_free_run(jnp.asarray(th, jnp.float64), uvj, rest_u, delays, neurons,
                                          hidden))[val_lead:] - yv
             vmse = float(np.mean(e**2))
             value = vmse if wv is None else float(np.mean(wv * e**2))
@@ -584,6 +601,7 @@ def adam_nfir(
     cycles_per_step: int = 32,
     val_cycle_error: Callable[[np.ndarray], float] | None = None,
     val_lead: int = 0,
+    precision: str = "float64",
 ) -> LMResult:
     """Minibatch Adam (``optax.adam``) on the NFIR MSE (scaled units); an "epoch" is
     ``steps_per_epoch`` steps of ``batch`` samples drawn (seeded) from every sample.
@@ -600,7 +618,9 @@ def adam_nfir(
     ``problem`` supplies the training SSE (on its ``n_rows`` rows) reported in the history.
     ``lr``, ``b1``, ``b2``, ``eps`` as :func:`optax.adam` (``eps`` outside the square root).
     ``val_lead``: the validation run's first outputs not scored (its input starts with measured
-    history: :func:`nfir_validation`). The epochs run in the training engine
+    history: :func:`nfir_validation`). ``precision``: the steps' (``"float64"`` or
+    ``"float32"``: the parameters, Adam's moments and the steps' data); the validation and the
+    parameters returned are float64. The epochs run in the training engine
     (:func:`sloshrom.rom.engine.adam_epochs`).
     """
     adam_problem = nfir_adam_problem(
@@ -609,11 +629,12 @@ def adam_nfir(
         weights=weights, validation=validation, val_weights=val_weights, probes=probes,
         passivity=passivity, probes_per_step=probes_per_step, cycles=cycles,
         cycle_energy=cycle_energy, cycles_per_step=cycles_per_step,
-        val_cycle_error=val_cycle_error, val_lead=val_lead)
+        val_cycle_error=val_cycle_error, val_lead=val_lead, precision=precision)
     res = adam_epochs(adam_problem, max_epochs=int(max_epochs), max_fail=max_fail, seed=seed,
                       mse_scale=mse_scale, patience_without_validation=True,
                       constant_history={"mu": math.nan, "grad": math.nan}, callback=callback)
-    return LMResult(np.asarray(res.params), res.stop_reason, res.history, res.best_epoch)
+    return LMResult(np.asarray(res.params, np.float64), res.stop_reason, res.history,
+                    res.best_epoch)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -833,6 +854,7 @@ def train(
     steps_per_epoch: int = _NOE["steps_per_epoch"],
     learning_rate: float = _NOE["learning_rate"],
     validation_history: int = 0,
+    precision: str = "float64",
 ) -> tuple[np.ndarray, dict[str, Any]]:
     """Train the network ``spec`` on a record (physical units, scaled here by ``scaler``).
 
@@ -874,6 +896,9 @@ def train(
     horizon, batch, steps_per_epoch, learning_rate
         NOE trained by Adam only (:func:`adam_noe`): samples simulated from each start,
         sub-sequences per step, steps per epoch, initial step size.
+    precision : {"float64", "float32"}
+        NFIR trained by Adam only: the precision of its steps (:func:`adam_nfir`); the other
+        trainers run float64.
 
     Returns
     -------
@@ -910,7 +935,7 @@ def train(
              "out_delays": out_delays, "amplitude_weighting": amplitude_weighting,
              "passivity": passivity, "cycle_energy": cycle_energy, "horizon": horizon,
              "batch": batch, "steps_per_epoch": steps_per_epoch,
-             "learning_rate": learning_rate}
+             "learning_rate": learning_rate, "precision": precision}
     mc.check({k: v for k, v in given.items() if any(p.name == k for p in mc.hyper)})
     physics = amplitude_weighting > 0 or passivity > 0 or cycle_energy > 0
     if physics and not (fs is not None and fs > 0):
@@ -984,7 +1009,8 @@ def train(
                         validation=val_run, val_weights=val_weights, probes=probes,
                         passivity=float(passivity),
                         cycles=cycles, cycle_energy=float(cycle_energy),
-                        val_cycle_error=val_cycle_error, val_lead=int(lead or 0))
+                        val_cycle_error=val_cycle_error, val_lead=int(lead or 0),
+                        precision=precision)
     else:
         res = levenberg_marquardt(problem, theta0, max_epochs=int(max_epochs),
                                   callback=callback, mse_scale=sc.out_half_range**2)
