@@ -159,6 +159,33 @@ def test_noe_jacobian_through_time_matches_finite_differences_across_chunks():
     np.testing.assert_allclose(jtj, fd.T @ fd, rtol=1e-6, atol=1e-8)
 
 
+@jax.enable_x64(True)
+@pytest.mark.long
+@pytest.mark.parametrize("delays, m, hidden", [((1, 3), 1, "distance"), ((2,), 3, "matlab")])
+def test_noe_normal_equations_are_those_of_forward_mode_through_the_free_run(delays, m, hidden):
+    # the partial derivatives at every sample and the recurrence through the fed-back outputs
+    # give the Jacobian of the whole closed loop (jax.jacfwd of the free run), across chunks
+    # (97 not dividing 300) and delay lines: to round-off (measured 1.3e-15 of the largest
+    # entry; 1e-12 is a thousand roundings of it)
+    rng = np.random.default_rng(6)
+    h, n = 4, 300
+    p = network.n_params(len(delays) + m, h)
+    theta = 0.5 * rng.standard_normal(p)
+    u = np.cumsum(rng.standard_normal(n)) * 0.05
+    y = np.tanh(u) + 0.1 * rng.standard_normal(n)
+    prob = training.noe_problem(u, y, delays, m, h, hidden, 0.1, -0.2, 1e6, chunk=97)
+    jtj, jte, sse, _ = prob.normal_eq(theta)
+
+    def run(th):
+        return network.noe_free_run(th, jnp.asarray(u), 0.1, -0.2, delays, m, h, hidden)
+
+    J = np.asarray(jax.jacfwd(run)(jnp.asarray(theta)))
+    e = np.asarray(run(jnp.asarray(theta))) - y
+    np.testing.assert_allclose(sse, e @ e, rtol=1e-12)
+    np.testing.assert_allclose(jtj, J.T @ J, rtol=0, atol=1e-12 * np.max(np.abs(J.T @ J)))
+    np.testing.assert_allclose(jte, J.T @ e, rtol=0, atol=1e-12 * np.max(np.abs(J.T @ e)))
+
+
 def _system(u):
     """A nonlinear FIR test system (saturating + quadratic on a decaying impulse response)."""
     h = np.exp(-np.arange(1, 16) / 4.0)
