@@ -79,10 +79,16 @@ def test_random_damping_keys_and_raw_values(one_record):
     assert d["half_power_uncorrected"] == raw["half_power"]
     assert d["lscf_output"] == raw["lscf_output"]
     t_boot = stats.t.ppf(0.975, 9)  # the spreads are estimated from 10 simulated records
-    for est, q in (("lscf_h1", t_boot), ("lscf_output", t_boot), ("half_power", t_boot)):
+    for est in ("lscf_h1", "lscf_output", "half_power"):
         assert d[f"{est}_low"] < d[est] < d[f"{est}_high"]
         assert d[f"{est}_std"] > 0
-        assert d[f"{est}_high"] - d[f"{est}_low"] == pytest.approx(2 * q * d[f"{est}_std"])
+        below, above = d[est] - d[f"{est}_low"], d[f"{est}_high"] - d[est]
+        if est == "lscf_output":
+            # widened on one side by the bootstrap's bias (the bias-corrected value's interval)
+            assert min(below, above) == pytest.approx(t_boot * d[f"{est}_std"])
+            assert max(below, above) > t_boot * d[f"{est}_std"]
+        else:
+            assert below == pytest.approx(above) == pytest.approx(t_boot * d[f"{est}_std"])
     assert d["duration_s"] == pytest.approx(90.0)
     assert d["n_cycles"] == pytest.approx(900.0, rel=0.01)
     # the noise fit sees the 5 % input noise: ratio 0.0025
@@ -107,6 +113,30 @@ def test_output_only_takes_the_bootstrap_spread_or_else_au_s_law(one_record, mon
     assert e["lscf_output_high"] - e["lscf_output_low"] == pytest.approx(
         2 * 1.959964 * au, rel=1e-6)
     assert e["lscf_h1_std"] == d["lscf_h1_std"]  # the others' bootstrap as before
+
+
+def test_output_only_interval_holds_the_raw_and_the_bias_corrected_value(one_record,
+                                                                         monkeypatch):
+    """The output-only interval is the union of t std around the raw value and around the
+    value less the bootstrap's bias (mean of the simulated estimates less the simulated
+    damping, the raw LSCF H1 value): the bias is the record's on a lone mode, not always among
+    other modes."""
+    from sloshrom.beam.damping.estimators import LscfOutput
+
+    u, y, d = one_record
+    zeta_sim = d["lscf_h1_uncorrected"]  # the simulated mode's damping
+    spread = 0.01 * np.linspace(-1.0, 1.0, 10)  # std 0.0067 of zeta_sim
+    t_boot = stats.t.ppf(0.975, 9)
+    for rel_bias in (-0.1, 0.2):
+        monkeypatch.setattr(LscfOutput, "estimate_records", lambda self, records, b=rel_bias:
+                            zeta_sim * (1 + b + spread[:records.base.shape[0]]))
+        e = random_damping(u, y, FS, F1, n_resamples=10)
+        v, std, corrected = e["lscf_output"], e["lscf_output_std"], d["lscf_output"] - (
+            rel_bias * zeta_sim)
+        assert v == d["lscf_output"]  # the raw value: not corrected
+        assert std == pytest.approx(zeta_sim * spread.std(ddof=1), rel=1e-9)
+        assert e["lscf_output_low"] == pytest.approx(min(v, corrected) - t_boot * std)
+        assert e["lscf_output_high"] == pytest.approx(max(v, corrected) + t_boot * std)
 
 
 def test_short_record_warning(one_record):

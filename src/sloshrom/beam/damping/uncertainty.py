@@ -712,10 +712,13 @@ def estimate_random(
       asked) that gives one in (0, 0.5), the frequency of the first bootstrapped estimator
       (``f1`` if it has none).
     * Estimators of ``uncertainty == "spread"`` (``lscf_output``): the same simulated records,
-      their spread only: ``std`` their standard deviation, the interval ``value +/- t std``
-      around the raw value (no bias correction). Where there is no bootstrap (no damping ratio
-      to simulate, or fewer than half of the simulated records gave an estimate), Au's law as
-      below.
+      analysed by the estimator too. ``value`` is the raw value (the simulated bias ``b`` is
+      not removed: on a lone mode it is the record's, among other modes it need not be),
+      ``std`` the simulated estimates' standard deviation, and the interval the union of
+      ``value +/- t std`` and ``value - b +/- t std``, the intervals around the raw and the
+      bias-corrected value: ``[min(value, value - b) - t std, max(value, value - b) + t std]``.
+      Where there is no bootstrap (no damping ratio to simulate, or fewer than half of the
+      simulated records gave an estimate), Au's law as below.
     * Estimators of ``uncertainty == "au"``: ``std = efficiency * zeta *
       au_damping_cov(zeta, frequency, duration)`` (Au's law times the estimator's measured
       efficiency), interval ``zeta +/- z std``; no bias correction.
@@ -851,11 +854,16 @@ def estimate_random(
     t_boot = _t(confidence, n_resamples - 1)
     for n in names:
         r = raw[n]
+        # the interval is [value + lo_shift - q std, value + hi_shift + q std]
+        lo_shift = hi_shift = 0.0
         if ests[n].uncertainty == "bootstrap":
             value, std, q = float(r.value - bias[n]), float(spread[n]), t_boot
             why = _bootstrap_reason(r, zeta_model, value, std, n_resamples)
         elif ests[n].uncertainty == "spread" and np.isfinite(spread[n]):
             value, std, q = r.value, float(spread[n]), t_boot
+            # the simulated bias is the record's on a lone mode, not among other modes: the
+            # union of the intervals around the raw and the bias-corrected value covers both
+            lo_shift, hi_shift = min(0.0, -float(bias[n])), max(0.0, -float(bias[n]))
             why = r.reason or ("" if np.isfinite(value) else "no estimate")
         else:
             value, q = r.value, z
@@ -863,7 +871,8 @@ def estimate_random(
             std = (ests[n].efficiency * value * au_damping_cov(value, r.frequency, duration)
                    if ok else nan)
             why = r.reason or ("" if ok else f"no positive damping ratio ({value:.3g})")
-        out[n] = replace(r, value=value, std=std, low=value - q * std, high=value + q * std,
+        out[n] = replace(r, value=value, std=std, low=value + lo_shift - q * std,
+                         high=value + hi_shift + q * std,
                          reason="" if np.isfinite(value) and np.isfinite(std)
                          else why or "no estimate")
     # Au's law speaks of output-only estimates: the first such estimator asked gives the record's
