@@ -43,7 +43,7 @@ def error_figures(y: np.ndarray, y_hat: np.ndarray) -> dict[str, float]:
 _SWEEP_OPTIONS = ("max_epochs", "hidden", "precision")
 
 
-def sweep_options(rom: RomTable) -> dict[str, Any]:
+def sweep_options(rom: RomTable) -> dict[str, object]:
     """The estimator arguments every grid point of the sweep trains with: the seed, and the
     epochs, hidden layer and precision of the first swept class's table (``[rom.nfir]``; the
     precision reaches the classes that have one, :func:`sloshrom.rom.sweep.run_sweep`)."""
