@@ -253,3 +253,20 @@ def test_train_on_sloshing_records_takes_the_reproduce_recipe(tmp_path, units, r
     else:
         assert (m.feedthrough, m.velocity_offset) == ("yes", 0.0)
         assert "recipe: the class's defaults" in res.output
+
+
+def test_train_says_when_its_precision_is_not_what_the_trainer_runs(tmp_path):
+    # --precision float32 is Adam's: asked with Levenberg-Marquardt, said, not silently
+    # dropped; the shipped table's float32 (not asked) says nothing beyond the recipe line
+    data, val = _records(tmp_path, ("velocity", "dynamic_force"), ("m/s", "N"))
+    base = ["train", "--data", str(data), "--validation", str(val), "--arch", "nfir",
+            "--delays", "3", "--neurons", "2", "--max-epochs", "1", "--trainer", "lm",
+            "--amplitude-weighting", "0", "--passivity", "0", "--cycle-energy", "0"]
+    res = CliRunner().invoke(app, [*base, "--precision", "float32",
+                                   "--out", str(tmp_path / "a.npz")])
+    assert res.exit_code == 0, res.output
+    assert ("note: --precision float32 is the precision of Adam's steps; --trainer lm trains "
+            "in float64") in res.output
+    res = CliRunner().invoke(app, [*base, "--out", str(tmp_path / "b.npz")])
+    assert res.exit_code == 0, res.output
+    assert "note: --precision" not in res.output

@@ -347,6 +347,10 @@ def _train(**kw: Any) -> None:
     for w in caught:  # a size too big for the record: said before the training
         if issubclass(w.category, ModelSizeWarning):
             typer.echo(f"warning: {w.message}")
+    if given.get("precision") == "float32" and hyper.get("trainer", "adam") != "adam":
+        # asked for, and not what the training does: said (the table's float32 is not asked)
+        typer.echo(f"note: --precision float32 is the precision of Adam's steps; --trainer "
+                   f"{hyper['trainer']} trains in float64")
     if taken:
         typer.echo("recipe: as `sloshrom reproduce` trains it on sloshing records (m/s in, N "
                    "out): " + ", ".join(f"{k} {v}" for k, v in taken.items())
