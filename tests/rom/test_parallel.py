@@ -211,8 +211,11 @@ def _worker_state(_: object) -> dict[str, object]:
         except OSError:  # a thread that ended meanwhile
             pass
     keys = (*parallel.THREAD_VARIABLES, "XLA_FLAGS", "MALLOC_TRIM_THRESHOLD_")
+    from dask.distributed import get_worker
+
     return {"env": {k: os.environ.get(k) for k in keys}, "cores": sorted(cores),
-            "xla_pool": sum(n.endswith("XLAEigen") for n in names)}
+            "xla_pool": sum(n.endswith("XLAEigen") for n in names),
+            "profiler": "profile" in get_worker().periodic_callbacks}
 
 
 @pytest.mark.skipif(not parallel.can_pin() or len(usable_cores()) < 2,
@@ -220,7 +223,8 @@ def _worker_state(_: object) -> dict[str, object]:
 @pytest.mark.long
 def test_local_cluster_workers_are_pinned_with_one_thread_each(monkeypatch, tmp_path):
     """One real cluster, on a machine said to be quiet: every thread of each worker on a core of
-    its own, every pool of one thread, the user's XLA flags kept; this process unchanged."""
+    its own, every pool of one thread, the user's XLA flags kept, no sampling profiler; this
+    process unchanged."""
     monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))  # apart from the real runs' locks
     monkeypatch.setattr(parallel, "measure_busy", lambda: {})
     monkeypatch.setenv("XLA_FLAGS", "--xla_cpu_enable_fast_math=false")
@@ -231,6 +235,7 @@ def test_local_cluster_workers_are_pinned_with_one_thread_each(monkeypatch, tmp_
     assert sorted(s["cores"] for s in seen) == [[c] for c in usable_cores()[:2]]
     for s in seen:
         assert s["xla_pool"] == 1
+        assert not s["profiler"]  # Dask's sampling profiler off: it takes the task's GIL
         assert s["env"] == {**dict.fromkeys(parallel.THREAD_VARIABLES, "1"),
                             "XLA_FLAGS": f"--xla_cpu_enable_fast_math=false {XLA_ONE_THREAD}",
                             # glibc's allocator as this process has it, not Dask's 65536

@@ -19,6 +19,8 @@ from sloshrom.rom.grey.network import GreySpec
 from sloshrom.rom.grey.physics import (
     causal_intervals,
     design_rows,
+    filter_normal_equations,
+    filter_output,
     grey_features,
     physical_parameters,
     physics_rest,
@@ -164,6 +166,41 @@ def test_design_rows_of_several_records_and_a_warm_up():
                 if k - 1 - j >= 0:
                     want[2 + j] = o[k - 1 - j, 0, ::-1]
             np.testing.assert_array_equal(rows[w, k], want.reshape(-1))
+
+
+@pytest.mark.parametrize(("windows", "n", "ns", "n_past", "skip"),
+                         [(3, 40, 8, 6, 10), (2, 30, 4, 2, 0), (1, 20, 3, 5, 1),
+                          (4, 50, 8, 6, 3), (2, 25, 2, 9, 5), (5, 60, 8, 6, 25)])
+def test_filter_sums_without_the_rows_equal_the_rows(windows, n, ns, n_past, skip):
+    """The search's normal equations and filter output, summed from the simulations, are those
+    of :func:`design_rows` to round-off: every skip against the lags (rows before the record
+    zero, a warm-up longer or shorter than the filter's reach). A sum reordered errs by at most
+    (terms) eps times the sum of its terms' magnitudes, which the largest diagonal entry
+    bounds (Cauchy-Schwarz): tolerance (rows + 2 n_past) eps of it, x4."""
+    rng = np.random.default_rng(n + 7 * skip)
+    o = rng.standard_normal((windows, n, 3, ns))
+    o[..., 1:, :] *= 3.0  # the predictions larger than the committed forces, as impacts are
+    y = rng.standard_normal((windows, n - skip))
+    taps = rng.standard_normal((n_past + 1) * ns)
+    a = design_rows(o, n_past, skip).reshape(-1, taps.size)
+    gram, rhs = filter_normal_equations(o, y, n_past, skip)
+    out = filter_output(o, taps, n_past, skip)
+    eps = np.finfo(float).eps * 4 * (a.shape[0] + 2 * n_past)
+    ata = a.T @ a
+    big = np.max(np.diag(ata))
+    np.testing.assert_allclose(gram, ata, rtol=0, atol=eps * big)
+    np.testing.assert_allclose(rhs, a.T @ y.reshape(-1), rtol=0,
+                               atol=eps * np.sqrt(big * np.sum(y**2)))
+    np.testing.assert_allclose(out.reshape(-1), a @ taps, rtol=0,
+                               atol=eps * np.max(np.abs(a)) * np.sum(np.abs(taps)))
+    assert out.shape == (windows, n - skip)
+    # too short for the sums' shared range, or not a simulation's layout: said, not guessed
+    with pytest.raises(ROMError, match="more than skip \\+ n_past"):
+        filter_output(np.ascontiguousarray(o[:, :skip + n_past]), taps, n_past, skip)
+    with pytest.raises(ROMError, match="C-contiguous float64"):
+        filter_normal_equations(o[..., ::-1], y, n_past, skip)
+    with pytest.raises(ROMError, match="y must have shape"):
+        filter_normal_equations(o, y[:, 1:], n_past, skip)
 
 
 @pytest.mark.slow

@@ -62,8 +62,8 @@ from sloshrom.config import G
 from sloshrom.rom.errors import ROMError
 
 __all__ = ["COHERENCE_TIME", "PHYS_NAMES", "PhysicsState", "causal_intervals", "design_rows",
-           "grey_features", "interval_forces", "physical_parameters", "physics_features",
-           "physics_rest", "physics_step"]
+           "filter_normal_equations", "filter_output", "grey_features", "interval_forces",
+           "physical_parameters", "physics_features", "physics_rest", "physics_step"]
 
 #: The physical parameters, in the order of their array: mass of the balls (kg), contact
 #: stiffness and damping per unit mass (1/s^2, 1/s), gap (m), gate rate at |g_eff| = g (1/s),
@@ -273,6 +273,127 @@ def design_rows(o: np.ndarray, n_past: int, skip: int = 0,
         block[..., :first, :] = 0.0
         block[..., first:, :] = rev[..., skip + first - lag:n - lag, kind, :]
     return d
+
+
+def _filter_blocks(n_past: int) -> list[tuple[int, int]]:
+    """(kind, lag) of each block of :func:`design_rows`: kind 2 and 1 (the predicted
+    intervals) one step late, then the committed ones (kind 0) at lags 1 .. ``n_past - 1``."""
+    return [(2, 1), (1, 1)] + [(0, lag) for lag in range(1, n_past)]
+
+
+def _check_filter_input(o: np.ndarray, n_past: int, skip: int) -> tuple[int, int, int]:
+    if o.ndim != 4 or o.shape[2] != 3 or o.dtype != np.float64 or not o.flags.c_contiguous:
+        raise ROMError(f"o must be a C-contiguous float64 array of shape (W, n, 3, ns), got "
+                       f"{o.dtype} {o.shape}")
+    w, n, _, ns = o.shape
+    if not 0 <= skip or n <= skip + n_past:
+        raise ROMError(f"the filter's sums need more than skip + n_past = {skip + n_past} "
+                       f"samples, got {n}")
+    return w, n, ns
+
+
+def filter_normal_equations(o: np.ndarray, y: np.ndarray, n_past: int, skip: int
+                            ) -> tuple[np.ndarray, np.ndarray]:
+    """``A.T @ A`` and ``A.T @ y`` of ``A = design_rows(o, n_past, skip)`` over windows,
+    without ``A`` (equal to round-off: the sums are taken in another order).
+
+    The blocks of a row are lagged copies of three signals, so their products are a few
+    lagged products of ``o`` with itself: one per lag difference over a common range of
+    samples, then the few samples where a pair's range differs from it added or taken away.
+    That is fewer operations than ``A.T @ A`` and none of the memory ``A`` fills (a search
+    forms them for every candidate).
+
+    Parameters
+    ----------
+    o : ndarray, shape (W, n, 3, ns)
+        :func:`causal_intervals` of ``W`` windows (C-contiguous float64).
+    y : ndarray, shape (W, n - skip)
+        The outputs the rows are fitted to.
+    n_past, skip : int
+        As :func:`design_rows`; ``n > skip + n_past``.
+
+    Returns
+    -------
+    gram : ndarray, shape ((n_past + 1) ns, (n_past + 1) ns)
+    rhs : ndarray, shape ((n_past + 1) ns,)
+    """
+    w, n, ns = _check_filter_input(o, n_past, skip)
+    y = np.asarray(y, dtype=np.float64)
+    if y.shape != (w, n - skip):
+        raise ROMError(f"y must have shape {(w, n - skip)}, got {y.shape}")
+    z = o.reshape(w, n, 3 * ns)  # the three kinds side by side, oldest sub-step first
+    zt = z.transpose(0, 2, 1)
+
+    def lagged(a: int, b: int, d: int, width: int, height: int = 3 * ns) -> np.ndarray:
+        """sum over windows and j in [a, b] of z[j] (x) z[j - d], the first ``height`` and the
+        last ``width`` columns of z (kind 0 first)."""
+        if b < a:
+            return np.zeros((height, width))
+        return np.matmul(zt[:, :height, a:b + 1], z[:, a - d:b + 1 - d, :width]).sum(axis=0)
+
+    # the master product of lag difference d: the pairs whose first block is at lag 1
+    master = {d: lagged(max(skip, 1 + d) - 1, n - 2, d, 3 * ns if d == 0 else ns)
+              for d in range(max(1, n_past - 1))}
+    blocks = _filter_blocks(n_past)
+    nb_ = len(blocks)
+    g = np.empty((nb_ * ns, nb_ * ns))
+    for i, (k1, l1) in enumerate(blocks):
+        for j in range(i, nb_):
+            k2, l2 = blocks[j]
+            d = l2 - l1  # >= 0: the blocks' lags do not fall
+            a, e = max(skip, 1 + d) - 1, n - 2  # the master's range
+            a1, e1 = max(skip, l2) - l1, n - 1 - l1  # the pair's own range (j index)
+            width = 3 * ns if d == 0 else ns
+            # from lag 2 on the blocks are of kind 0 alone (k1 = 0): their rows of the master
+            p = master[d] if l1 == 1 else (master[d][:ns] + lagged(a1, a - 1, d, width, ns)
+                                            - lagged(e1 + 1, e, d, width, ns))
+            blk = p[k1 * ns:(k1 + 1) * ns, k2 * ns:(k2 + 1) * ns] if d == 0 else \
+                p[k1 * ns:(k1 + 1) * ns, :]
+            g[i * ns:(i + 1) * ns, j * ns:(j + 1) * ns] = blk[::-1, ::-1]
+            g[j * ns:(j + 1) * ns, i * ns:(i + 1) * ns] = blk[::-1, ::-1].T
+    # A.T @ y: the samples of every kind against the outputs one to n_past - 1 steps later,
+    # in one product (the outputs before ``skip`` are zeros: no row)
+    lags = n_past - 1
+    s0 = max(0, skip - lags)
+    yl = np.zeros((w, n - 1 - s0, lags))
+    for lag in range(1, lags + 1):
+        j0 = max(s0, skip - lag)  # the first sample whose output lag steps later is fitted
+        yl[:, j0 - s0:n - lag - s0, lag - 1] = y[:, j0 + lag - skip:]
+    p = np.matmul(zt[:, :, s0:n - 1], yl).sum(axis=0)
+    rhs = np.empty(nb_ * ns)
+    for i, (kind, lag) in enumerate(blocks):
+        rhs[i * ns:(i + 1) * ns] = p[kind * ns:(kind + 1) * ns, lag - 1][::-1]
+    return g, rhs
+
+
+def filter_output(o: np.ndarray, taps: np.ndarray, n_past: int, skip: int) -> np.ndarray:
+    """``design_rows(o, n_past, skip) @ taps`` without the rows (equal to round-off).
+
+    Parameters
+    ----------
+    o : ndarray, shape (W, n, 3, ns)
+        :func:`causal_intervals` of ``W`` windows (C-contiguous float64).
+    taps : ndarray, shape ((n_past + 1) ns,)
+    n_past, skip : int
+        As :func:`design_rows`; ``n > skip + n_past``.
+
+    Returns
+    -------
+    ndarray, shape (W, n - skip)
+    """
+    w, n, ns = _check_filter_input(o, n_past, skip)
+    blocks = _filter_blocks(n_past)
+    # every block's taps on its kind's columns, oldest sub-step first: one product gives each
+    # block's contribution at every sample, then shifted by its lag
+    t = np.zeros((3 * ns, len(blocks)))
+    for i, (kind, _) in enumerate(blocks):
+        t[kind * ns:(kind + 1) * ns, i] = taps[i * ns:(i + 1) * ns][::-1]
+    c = (o.reshape(w * n, 3 * ns) @ t).reshape(w, n, len(blocks))
+    out = np.zeros((w, n - skip))
+    for i, (_, lag) in enumerate(blocks):
+        first = max(skip, lag)
+        out[:, first - skip:] += c[:, first - lag:n - lag, i]
+    return out
 
 
 def physics_features(o: np.ndarray, taps: np.ndarray, n_past: int) -> np.ndarray:

@@ -42,6 +42,8 @@ from sloshrom.rom.grey.network import GreySpec, grey_run, grey_simulate
 from sloshrom.rom.grey.physics import (
     causal_intervals,
     design_rows,
+    filter_normal_equations,
+    filter_output,
     grey_features,
     physical_parameters,
 )
@@ -85,26 +87,20 @@ def _windows(n: int, fs: float, count: int, seed: int) -> np.ndarray:
                      for i in range(count)])
 
 
-def _filter_rows(o: np.ndarray, n_past: int, skip: int, out: np.ndarray | None = None
-                 ) -> np.ndarray:
-    """The design rows of several windows (W, n, 3, ns) after their first ``skip`` samples,
-    as one matrix (written into ``out`` if given)."""
-    w, n, _, ns = o.shape
-    if out is not None:
-        out = out.reshape(w, n - skip, (n_past + 1) * ns)
-    d = design_rows(o, n_past, skip, out)
-    return d.reshape(-1, d.shape[-1])
-
-
 def _least_squares(a: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Taps minimising ``|a taps - y|``, slightly regularised (a sub-step with no force in any
-    window leaves a column of zeros); zero where the column gives no force at all (a candidate
-    that releases no ball in any window: no taps can fit it)."""
-    ata = a.T @ a
+    """Taps minimising ``|a taps - y|`` (:func:`_solve_normal`)."""
+    return _solve_normal(a.T @ a, a.T @ y)
+
+
+def _solve_normal(ata: np.ndarray, aty: np.ndarray) -> np.ndarray:
+    """The least-squares taps from the normal equations ``ata taps = aty``, slightly
+    regularised (a sub-step with no force in any window leaves a column of zeros); zero where
+    the column gives no force at all (a candidate that releases no ball in any window: no taps
+    can fit it)."""
     ridge = 1e-9 * np.trace(ata) / max(1, ata.shape[0])
     if ridge == 0.0:
-        return np.zeros(a.shape[1])
-    return np.linalg.solve(ata + ridge * np.eye(ata.shape[0]), a.T @ y)
+        return np.zeros(ata.shape[1])
+    return np.linalg.solve(ata + ridge * np.eye(ata.shape[0]), aty)
 
 
 @functools.cache
@@ -188,10 +184,9 @@ def fit_physics(
     target_spectra = _spectra(yw, fs) if spectral > 0 else []
     names = list(PHYSICS_BOUNDS)
     evaluations = [0]
-    # one buffer of a candidate's simulations, one of the filter's rows: the search allocates
-    # them once, not every candidate
+    # one buffer of a candidate's simulations: the search allocates it once, not every
+    # candidate
     sim = np.empty((1, *uw.shape, 3, spec.n_substeps))
-    rows = np.empty((target.size, spec.n_taps))
 
     def phys_of(x: np.ndarray) -> np.ndarray:
         v = [float(a) for a in x]
@@ -204,18 +199,18 @@ def fit_physics(
         n = xs.shape[0]
         out = np.empty(n)
         for i in range(n):
-            # a candidate at a time: its simulations (8 MB) and rows stay in the cache, where
-            # the generation's (430 MB) went through memory; each (set, window) pair is
-            # simulated alone either way, so the numbers are the same. The rows after the
-            # warm-up read the predictions from the step before it on
+            # a candidate at a time: its simulations (8 MB) stay in the cache, where the
+            # generation's (430 MB) went through memory; each (set, window) pair is simulated
+            # alone either way, so the numbers are the same. The filter's rows after the
+            # warm-up read the predictions from the step before it on; its normal equations
+            # and output are summed from the simulations, without the rows (14 MB)
             o = causal_intervals(phys_of(xs[i])[None], uw, fs, spec.n_balls, spec.n_substeps,
                                  from_rest=False, predict_from=warm - 1, out=sim)[0]
             if not np.all(np.isfinite(o)):
                 out[i] = np.inf
                 continue
-            a = _filter_rows(o, spec.n_past, warm, rows)
-            taps = _least_squares(a, target)
-            fit = a @ taps
+            taps = _solve_normal(*filter_normal_equations(o, yw, spec.n_past, warm))
+            fit = filter_output(o, taps, spec.n_past, warm).reshape(-1)
             score = float(np.mean((fit - target) ** 2))
             if spectral > 0:
                 model = _spectra(fit.reshape(yw.shape), fs)
