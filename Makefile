@@ -30,13 +30,16 @@ XDIST      := -n $(WORKERS) --dist loadfile
 # --compile-bytecode: the packages' .pyc written once, here, as pip does; uv would leave them to
 # the first import, and where PYTHONDONTWRITEBYTECODE is set every process would compile JAX,
 # SciPy and the rest again (the package's import 7.5 s instead of 2.8 s, in each test worker,
-# each command the tests run, each Dask or pool worker)
+# each command the tests run, each Dask or pool worker). The numba kernels of a default run
+# compile into numba's cache while the C++ kernel builds (tools/warm_kernels.py; one core each)
 $(STAMP): $(LOCK) $(UV_LOCK) pyproject.toml setup.py src/sloshrom/rom/grey/window.cc
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --require-hashes --no-deps -r $(UV_LOCK)
 	$(BIN)/uv pip install --quiet --python $(BIN)/python --require-hashes --no-deps \
 		--compile-bytecode -r $(LOCK)
-	$(BIN)/uv pip install --quiet --python $(BIN)/python --no-deps --no-build-isolation -e .
+	PYTHONPATH=src $(BIN)/python tools/warm_kernels.py & warm=$$!; \
+	$(BIN)/uv pip install --quiet --python $(BIN)/python --no-deps --no-build-isolation -e . \
+		&& wait $$warm
 	$(BIN)/python -m pip check
 	touch $(STAMP)
 
