@@ -69,7 +69,7 @@ __all__ = ["BUSY_ABOVE", "BUSY_INTERVAL", "BusyCoresNote", "CoreReservation", "P
            "THREAD_VARIABLES", "busy_fractions", "can_pin", "held_cores", "measure_busy",
            "pin_workers", "place_workers", "plan_workers", "quiet_worker", "reserve_cores",
            "run_tasks",
-           "runtime_dir", "stat_times", "usable_cores", "worker_environ"]
+           "runtime_dir", "stat_times", "usable_cores", "WORKER_QUIET", "worker_environ"]
 
 T = TypeVar("T")
 R = TypeVar("R")

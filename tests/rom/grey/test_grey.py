@@ -201,6 +201,8 @@ def test_filter_sums_without_the_rows_equal_the_rows(windows, n, ns, n_past, ski
         filter_normal_equations(o[..., ::-1], y, n_past, skip)
     with pytest.raises(ROMError, match="y must have shape"):
         filter_normal_equations(o, y[:, 1:], n_past, skip)
+    with pytest.raises(ROMError, match="skip must be >= 0"):
+        filter_output(o, taps, n_past, -1)
 
 
 @pytest.mark.slow

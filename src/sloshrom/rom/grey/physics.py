@@ -282,11 +282,14 @@ def _filter_blocks(n_past: int) -> list[tuple[int, int]]:
 
 
 def _check_filter_input(o: np.ndarray, n_past: int, skip: int) -> tuple[int, int, int]:
+    """``W, n, ns`` of simulations ``o`` whose filter sums can be taken, or a ROMError."""
     if o.ndim != 4 or o.shape[2] != 3 or o.dtype != np.float64 or not o.flags.c_contiguous:
         raise ROMError(f"o must be a C-contiguous float64 array of shape (W, n, 3, ns), got "
                        f"{o.dtype} {o.shape}")
     w, n, _, ns = o.shape
-    if not 0 <= skip or n <= skip + n_past:
+    if skip < 0:
+        raise ROMError(f"skip must be >= 0, got {skip}")
+    if n <= skip + n_past:
         raise ROMError(f"the filter's sums need more than skip + n_past = {skip + n_past} "
                        f"samples, got {n}")
     return w, n, ns
@@ -300,8 +303,8 @@ def filter_normal_equations(o: np.ndarray, y: np.ndarray, n_past: int, skip: int
     The blocks of a row are lagged copies of three signals, so their products are a few
     lagged products of ``o`` with itself: one per lag difference over a common range of
     samples, then the few samples where a pair's range differs from it added or taken away.
-    That is fewer operations than ``A.T @ A`` and none of the memory ``A`` fills (a search
-    forms them for every candidate).
+    That is about the operations of ``A.T @ A`` (a little fewer) without the memory ``A``
+    fills, which a search would write and read again for every candidate.
 
     Parameters
     ----------
