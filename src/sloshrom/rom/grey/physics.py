@@ -350,10 +350,10 @@ def filter_normal_equations(o: np.ndarray, y: np.ndarray, n_past: int, skip: int
             # from lag 2 on the blocks are of kind 0 alone (k1 = 0): their rows of the master
             p = master[d] if l1 == 1 else (master[d][:ns] + lagged(a1, a - 1, d, width, ns)
                                             - lagged(e1 + 1, e, d, width, ns))
-            blk = p[k1 * ns:(k1 + 1) * ns, k2 * ns:(k2 + 1) * ns] if d == 0 else \
-                p[k1 * ns:(k1 + 1) * ns, :]
-            g[i * ns:(i + 1) * ns, j * ns:(j + 1) * ns] = blk[::-1, ::-1]
-            g[j * ns:(j + 1) * ns, i * ns:(i + 1) * ns] = blk[::-1, ::-1].T
+            # (k2 = 0 whenever d > 0: p's columns are then kind 0's alone); newest first
+            blk = p[k1 * ns:(k1 + 1) * ns, k2 * ns:(k2 + 1) * ns][::-1, ::-1]
+            g[i * ns:(i + 1) * ns, j * ns:(j + 1) * ns] = blk
+            g[j * ns:(j + 1) * ns, i * ns:(i + 1) * ns] = blk.T
     # A.T @ y: the samples of every kind against the outputs one to n_past - 1 steps later,
     # in one product (the outputs before ``skip`` are zeros: no row)
     lags = n_past - 1
