@@ -38,8 +38,8 @@ from sloshrom.rom.registry import CLASSES, packages
 SRC = Path(__file__).resolve().parents[1] / "src"
 PACKAGE = "sloshrom"
 
-BASE = {"_jit", "_memory", "_workers", "_x64", "config", "errors", "fidelity", "fileio", "limits",
-        "models", "signals"}
+BASE = {"_jit", "_memory", "_threads", "_workers", "_x64", "config", "errors", "fidelity",
+        "fileio", "limits", "models", "signals"}
 DOMAIN = ("io", "rig", "rom", "energy", "beam", "systems")
 
 #: The rooms each room may import (its own room is always allowed). Domain rooms see the base

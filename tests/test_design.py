@@ -129,13 +129,12 @@ class _Stop(Exception):
 
 
 def test_stage_data_plays_the_programme_function(cfg, tmp_path, monkeypatch):
-    calls, played = [], []
+    calls, played = {}, []
     real = data_stage.programme
 
     def spy(*args, **kw):
-        calls.append(args)
         p = real(*args, **kw)
-        calls.append(p)
+        calls[args[2]] = (args, p)
         return p
 
     def measure(self, acceleration):
@@ -148,9 +147,11 @@ def test_stage_data_plays_the_programme_function(cfg, tmp_path, monkeypatch):
     monkeypatch.setattr(VirtualRig, "measure", measure)
     with pytest.raises(_Stop):
         data_stage.stage_data(Context(tmp_path, cfg))
-    (c, tank, split, fs), prog = calls
-    assert split == "train" and fs == RIG_RATE
-    np.testing.assert_array_equal(played[0], prog.acceleration())
+    # both records (in threads), each played as its programme makes it
+    assert sorted(calls) == ["train", "validation"] and len(played) == 2
+    for (*_, fs), prog in calls.values():
+        assert fs == RIG_RATE
+        assert any(np.array_equal(a, prog.acceleration()) for a in played)
 
 
 # -- drive files -----------------------------------------------------------------------------------

@@ -210,3 +210,25 @@ def test_frame_sensitivity_separates_invariant_models():
     assert drag["energy_change"][1] > drag["energy_change"][0] > 0.01
     with pytest.raises(EnergyError, match="dissipates no energy"):
         frame_sensitivity(_Drag(True), np.zeros(100), fs)
+
+
+def test_frame_change_of_runs_made_elsewhere_is_frame_sensitivity():
+    from sloshrom.energy import frame_change, frame_probes, frame_sensitivity
+
+    fs = 500.0
+    t = np.arange(3000) / fs
+    v = 0.4 * np.sin(2 * np.pi * 8 * t) + 0.1 * np.sin(2 * np.pi * 13 * t)
+    probes, acc = frame_probes(v, fs, offsets=(0.05, 0.2, 0.3))
+    assert probes.shape == (7, v.size)
+    np.testing.assert_array_equal(probes[0], v)
+    np.testing.assert_array_equal(probes[5], v + 0.3)
+    np.testing.assert_array_equal(probes[6], v - 0.3)
+    np.testing.assert_array_equal(acc, np.gradient(v) * fs)
+    model = _Drag(False)
+    forces = [model.simulate(p, acc) for p in probes]
+    assert frame_change(probes, fs, forces, offsets=(0.05, 0.2, 0.3)) == frame_sensitivity(
+        model, v, fs, offsets=(0.05, 0.2, 0.3))
+    with pytest.raises(EnergyError, match="6 forces for 7 probes of 3 offsets"):
+        frame_change(probes, fs, forces[:-1], offsets=(0.05, 0.2, 0.3))
+    with pytest.raises(EnergyError, match="dissipates no energy"):
+        frame_change(probes, fs, [np.zeros_like(v)] + forces[1:], offsets=(0.05, 0.2, 0.3))

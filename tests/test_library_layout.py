@@ -22,7 +22,7 @@ from sloshrom.config import ConfigError
 from sloshrom.fileio import OutputBatch
 from sloshrom.models import FrozenLiquid
 from sloshrom.pipeline import settings
-from sloshrom.plotting import savefig
+from sloshrom.plotting import render_png, savefig
 
 SRC = Path(__file__).parents[1] / "src" / "sloshrom"
 
@@ -88,6 +88,12 @@ def test_savefig_is_atomic_and_joins_a_batch(tmp_path):
         assert not (tmp_path / "b.png").exists()  # not before the batch commits
         raise OSError("disk full")
     assert sorted(f.name for f in tmp_path.rglob("*") if f.is_file()) == ["a.png"]
+    # drawn now, written later (in a batch or not): the same file
+    png = render_png(fig)
+    assert savefig(png, tmp_path / "c.png").read_bytes() == png == p.read_bytes()
+    with OutputBatch() as batch:
+        savefig(png, tmp_path / "d.png", batch)
+    assert (tmp_path / "d.png").read_bytes() == png
 
 
 def test_analysis_errors_are_package_errors():

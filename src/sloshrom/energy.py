@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import math
 import time
-import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -27,7 +26,7 @@ import xarray as xr
 from sloshrom import __version__
 from sloshrom.config import Tank
 from sloshrom.errors import SloshromError
-from sloshrom.models import EnvelopeWarning, SloshingModel, is_jax_model, tank_of
+from sloshrom.models import SloshingModel, envelope_quiet, is_jax_model, tank_of
 from sloshrom.signals import DEFAULT_A_BAR_MIN, SHAKER_ENVELOPE, harmonic
 
 __all__ = [
@@ -37,6 +36,8 @@ __all__ = [
     "EnergyError",
     "default_grid",
     "dissipated_energy",
+    "frame_change",
+    "frame_probes",
     "frame_sensitivity",
     "hysteresis_loop",
     "map_fidelity",
@@ -96,6 +97,61 @@ def dissipated_energy(
     return -np.sum(fm * dw, axis=-1) / n_cycles
 
 
+def frame_probes(velocity: npt.ArrayLike, fs: float, offsets: Sequence[float] = (0.1, 0.3)
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """The inputs :func:`frame_sensitivity` drives a model with (its parameters).
+
+    Returns
+    -------
+    probes : ndarray, shape (1 + 2 len(offsets), n)
+        The velocity (m/s), then for each offset ``c`` the velocity plus ``c`` and minus ``c``.
+    acceleration : ndarray, shape (n,)
+        Their common acceleration (m/s^2): a uniform velocity has none.
+    """
+    v = np.asarray(velocity, dtype=float)
+    acc = np.gradient(v) * fs
+    return np.stack([v, *(v + s * c for c in offsets for s in (1.0, -1.0))]), acc
+
+
+def frame_change(probes: np.ndarray, fs: float, forces: Sequence[npt.ArrayLike],
+                 offsets: Sequence[float] = (0.1, 0.3)) -> dict[str, list[float]]:
+    """:func:`frame_sensitivity`'s figures from a model's forces for :func:`frame_probes`.
+
+    For a caller that runs the model itself (e.g. an ensemble's members, each on a core as it
+    becomes free): ``forces[i]`` is the dynamic force (N) for ``probes[i]``, as
+    ``model.simulate(probes[i], acceleration)`` gives it.
+
+    Raises
+    ------
+    EnergyError
+        The unshifted record dissipates no energy with this model, or ``forces`` does not
+        match ``probes``.
+    """
+    v = np.asarray(probes[0], dtype=float)
+    if not len(forces) == len(probes) == 1 + 2 * len(offsets):
+        raise EnergyError(f"{len(forces)} forces for {len(probes)} probes of "
+                          f"{len(offsets)} offsets: one a probe, 1 + 2 per offset")
+    f0 = _dissipating(forces[0], v, fs)
+    e0 = -float(np.sum(f0 * v)) / fs
+    rms = float(np.std(f0))
+    energy, force = [], []
+    for i, _ in enumerate(offsets):
+        runs = [np.asarray(forces[1 + 2 * i + j], dtype=float) for j in (0, 1)]
+        energy.append(max(abs(-float(np.sum(f * v)) / fs / e0 - 1) for f in runs))
+        force.append(max(float(np.std(f - f0)) for f in runs) / rms)
+    return {"offsets_m_s": [float(c) for c in offsets], "energy_change": energy,
+            "force_change": force}
+
+
+def _dissipating(force: npt.ArrayLike, velocity: np.ndarray, fs: float) -> np.ndarray:
+    """``force`` as floats, if the record dissipates energy with it."""
+    f0 = np.asarray(force, dtype=float)
+    e0 = -float(np.sum(f0 * velocity)) / fs
+    if not (np.isfinite(e0) and e0 != 0 and float(np.std(f0)) > 0):
+        raise EnergyError("the record dissipates no energy with this model: nothing to compare")
+    return f0
+
+
 def frame_sensitivity(model: SloshingModel, velocity: npt.ArrayLike, fs: float,
                       offsets: Sequence[float] = (0.1, 0.3)) -> dict[str, list[float]]:
     """How much a model's force and dissipation depend on the frame it is driven in.
@@ -127,24 +183,13 @@ def frame_sensitivity(model: SloshingModel, velocity: npt.ArrayLike, fs: float,
         ``+offset`` and ``-offset`` (-; 0 for an invariant model); ``force_change``: per offset
         the largest RMS change of the force over the force's RMS (-).
     """
-    v = np.asarray(velocity, dtype=float)
-    acc = np.gradient(v) * fs
-    f0 = np.asarray(model.simulate(v, acc), dtype=float)
-    e0 = -float(np.sum(f0 * v)) / fs
-    rms = float(np.std(f0))
-    if not (np.isfinite(e0) and e0 != 0 and rms > 0):
-        raise EnergyError("the record dissipates no energy with this model: nothing to compare")
-    energy, force = [], []
-    for c in offsets:
-        with warnings.catch_warnings():
-            # the record's peaks leave a model's envelope by the offset: a deliberate probe
-            warnings.simplefilter("ignore", EnvelopeWarning)
-            runs = [np.asarray(model.simulate(v + s * c, acc), dtype=float)
-                    for s in (1.0, -1.0)]
-        energy.append(max(abs(-float(np.sum(f * v)) / fs / e0 - 1) for f in runs))
-        force.append(max(float(np.std(f - f0)) for f in runs) / rms)
-    return {"offsets_m_s": [float(c) for c in offsets], "energy_change": energy,
-            "force_change": force}
+    probes, acc = frame_probes(velocity, fs, offsets)
+    # the record itself first: no shifted run for a model that dissipates nothing
+    f0 = _dissipating(model.simulate(probes[0], acc), probes[0], fs)
+    # the record's peaks leave a model's envelope by the offset: a deliberate probe
+    with envelope_quiet():
+        runs = [np.asarray(model.simulate(p, acc), dtype=float) for p in probes[1:]]
+    return frame_change(probes, fs, [f0, *runs], offsets)
 
 
 def phi_d(l_d: Any, amplitude: Any, omega: Any, liquid_mass: float) -> np.ndarray:

@@ -48,8 +48,10 @@ model what it is), with the default a model without the member gets:
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import warnings
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any, Literal, Protocol, runtime_checkable
 
@@ -69,6 +71,7 @@ __all__ = [
     "SloshingModel",
     "check_envelope",
     "envelope_of",
+    "envelope_quiet",
     "envelope_union",
     "has_kernel",
     "has_no_force",
@@ -271,12 +274,34 @@ def envelope_union(models: Any) -> dict[str, Any] | None:
     return out
 
 
+#: True inside :func:`envelope_quiet` (this thread or task, and the calls it hands to
+#: :func:`sloshrom.rom.parallel.map_threads`)
+_ENVELOPE_QUIET: contextvars.ContextVar[bool] = contextvars.ContextVar(
+    "sloshrom_envelope_quiet", default=False)
+
+
+@contextlib.contextmanager
+def envelope_quiet() -> Iterator[None]:
+    """No :class:`EnvelopeWarning` from :func:`check_envelope` in this block: for a deliberate
+    probe outside a model's envelope, or a caller that has checked the union of its models'.
+
+    Unlike a warnings filter, it holds for this thread (or asyncio task) only, and for the
+    calls it hands to :func:`sloshrom.rom.parallel.map_threads`: other threads' warnings stay
+    as they were (Python's filters are one list for the whole process).
+    """
+    token = _ENVELOPE_QUIET.set(True)
+    try:
+        yield
+    finally:
+        _ENVELOPE_QUIET.reset(token)
+
+
 def check_envelope(model: Any, u: Any, *, what: str = "input", unit: str | None = None,
                    stacklevel: int = 2) -> None:
     """Warn (:class:`EnvelopeWarning`) when ``u`` leaves ``model``'s training input range.
 
-    Every call warns; the warnings filters decide what is shown (once per place by default), so
-    that checking leaves the model as it was.
+    Every call warns, but inside :func:`envelope_quiet`; the warnings filters decide what is
+    shown (once per place by default), so that checking leaves the model as it was.
 
     Parameters
     ----------
@@ -293,7 +318,7 @@ def check_envelope(model: Any, u: Any, *, what: str = "input", unit: str | None 
         As :func:`warnings.warn`, counted from the caller of this function.
     """
     env = envelope_of(model)
-    if env is None:
+    if env is None or _ENVELOPE_QUIET.get():
         return
     over = env.excess(u)
     if over > 0:

@@ -128,6 +128,46 @@ def test_envelope_warning_once_for_the_union(fitted):
     assert rec[0].filename == __file__  # points at the caller
 
 
+def test_envelope_quiet_silences_this_thread_only():
+    import threading
+    import warnings
+
+    from sloshrom.models import check_envelope, envelope_quiet
+
+    class Model:
+        envelope_ = {"input_min": -1.0, "input_max": 1.0, "unit": "m/s"}
+
+    assert envelope_of(Model()) is not None
+    outside = np.array([0.0, 2.0])
+    with pytest.warns(EnvelopeWarning, match="outside the training envelope"):
+        check_envelope(Model(), outside)
+    other: list[list[warnings.WarningMessage]] = []
+    inside = threading.Event()
+    checked = threading.Event()
+
+    def in_other_thread():
+        inside.wait()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            check_envelope(Model(), outside)
+        other.append(caught)
+        checked.set()
+
+    t = threading.Thread(target=in_other_thread)
+    t.start()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", EnvelopeWarning)
+        with envelope_quiet():
+            check_envelope(Model(), outside)  # no warning: an error here
+            inside.set()
+            checked.wait(10)
+    t.join()
+    # the other thread, while this one was quiet: warned
+    assert [w.category for w in other[0]] == [EnvelopeWarning]
+    with pytest.warns(EnvelopeWarning):  # quiet no more
+        check_envelope(Model(), outside)
+
+
 def test_one_member_ensemble_equals_the_member(fitted):
     m = fitted.members_[0]
     one = Ensemble.from_members([m])

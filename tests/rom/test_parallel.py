@@ -11,6 +11,7 @@ import warnings
 
 import pytest
 
+from sloshrom._threads import map_threads
 from sloshrom.rom import parallel
 from sloshrom.rom.parallel import (
     XLA_ONE_THREAD,
@@ -257,3 +258,56 @@ def test_a_busy_machine_says_so_and_does_not_pin(monkeypatch, tmp_path):
         seen = run_tasks(os.sched_getaffinity, [0], n_workers=2)
     assert rec[0].filename == __file__  # the caller of run_tasks
     assert seen == [set(usable_cores())]
+
+
+# -- map_threads ------------------------------------------------------------------------------
+def test_map_threads_gives_the_loops_results_in_order_from_threads():
+    import threading
+
+    seen = []
+
+    def fn(x):
+        seen.append(threading.current_thread().name)
+        return x * x
+
+    items = list(range(7))
+    assert map_threads(fn, items, workers=2) == [x * x for x in items]
+    assert all(name.startswith("sloshrom-map") for name in seen)
+    seen.clear()
+    # one thread or one item: the plain loop, in the caller's thread
+    assert map_threads(fn, items, workers=1) == [x * x for x in items]
+    assert map_threads(fn, [3], workers=2) == [9]
+    assert set(seen) == {threading.current_thread().name}
+    assert map_threads(fn, [], workers=2) == []
+
+
+def test_map_threads_raises_the_first_error_once_every_call_has_ended():
+    ran = []
+
+    def fn(x):
+        ran.append(x)
+        if x in (1, 3):
+            raise ValueError(f"item {x}")
+        return x
+
+    with pytest.raises(ValueError, match="item 1"):
+        map_threads(fn, [0, 1, 2, 3, 4], workers=2)
+    assert sorted(ran) == [0, 1, 2, 3, 4]
+
+
+def test_map_threads_runs_each_call_in_the_callers_context():
+    import contextvars
+
+    var = contextvars.ContextVar("var", default="unset")
+    token = var.set("caller's")
+    try:
+        assert map_threads(lambda _: var.get(), range(4), workers=2) == ["caller's"] * 4
+    finally:
+        var.reset(token)
+    # a call's own change stays in its copy
+    def change(_):
+        var.set("changed")
+        return var.get()
+
+    assert map_threads(change, range(3), workers=2) == ["changed"] * 3
+    assert var.get() == "unset"

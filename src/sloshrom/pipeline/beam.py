@@ -23,7 +23,7 @@ from concurrent.futures import Executor, Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, TypeVar, cast
+from typing import TYPE_CHECKING, Any, TypeVar, cast
 
 import xarray as xr
 
@@ -66,7 +66,7 @@ from sloshrom.models import FrozenLiquid
 from sloshrom.pipeline.context import Context, StageRecord, in_thread
 from sloshrom.pipeline.settings import BeamTable
 from sloshrom.pipeline.waveform import free_fidelity, random_fidelity
-from sloshrom.plotting import savefig
+from sloshrom.plotting import render_png, savefig
 from sloshrom.plotting.beam import (
     comparison_figures,
     free_figures,
@@ -78,6 +78,9 @@ from sloshrom.plotting.signals import base_excitation_figure
 from sloshrom.rom.ensemble import Ensemble, is_ensemble, spread
 from sloshrom.rom.loading import load_model
 from sloshrom.rom.parallel import usable_cores
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ["ANALYSIS_WORKERS", "BEAM_KEYS", "EXPERIMENT", "analysis_pool", "beam_structure",
            "beam_tests", "collected", "coupled_model", "coupled_models", "laboratory",
@@ -314,10 +317,25 @@ def _stage_beam(ctx: Context, rom_path: Path | None, pool: Executor | None
     with tempfile.TemporaryDirectory() as tmp:
         lab = laboratory(free_res["rig"], rand_res["rig"], modal, beam, cfg, f1, Path(tmp))
     exp_free, exp_random = lab["free"], lab["random"]
-    members, table2 = collected(table_work, tables)
     predicted_free = [analysed_test(c, "free", free_res[c], f1,
                                     [r for r in bands if r["case"] == c], decays[c])
                       for c in models]
+    # the figures that need no Table 2, drawn while its analyses end in the pool's processes
+    # (this process would wait for them, then draw on one core)
+    ff = outputs["free_fidelity"].get("rom")
+    figs: dict[str, Figure | bytes] = {
+        **free_figures(free_res, modal, decays),
+        **random_figures(rand_res, cfg.rms_g, random_window(cfg.random_duration)),
+        **comparison_figures(exp_free, predicted_free)}
+    figs["fig17_base_excitation"] = base_excitation_figure(rand_res["frozen"], cfg.rms_g,
+                                                           cfg.f0, cfg.sigma, fs)
+    figs.update(force_figures(
+        {c: free_res[c] for c in ("rig", "rom") if c in free_res},
+        {**{c: rand_res[c] for c in ("rig", "rom") if c in rand_res}, "twin": twin},
+        cfg.rms_g, fs, {"rom": ff} if isinstance(ff, dict) else None))
+    if table_work is not None:
+        figs = {name: render_png(fig) for name, fig in figs.items()}
+    members, table2 = collected(table_work, tables)
     predicted_random = [analysed_test(c, "random", rand_res[c], f1, table2.sel(case=c))
                         for c in models]
     # Table 2 as its file and record hold it: the simulated cases, then the experiment
@@ -334,17 +352,7 @@ def _stage_beam(ctx: Context, rom_path: Path | None, pool: Executor | None
         outputs["rom_members"] = member_spread(members["rom"], free_res["rom"]["members"],
                                                decays["rom"], cfg.rms_g)
 
-    figs = {**free_figures(free_res, modal, decays),
-            **random_figures(rand_res, cfg.rms_g, random_window(cfg.random_duration)),
-            **comparison_figures(exp_free, predicted_free),
-            **comparison_figures(exp_random, predicted_random)}
-    figs["fig17_base_excitation"] = base_excitation_figure(rand_res["frozen"], cfg.rms_g,
-                                                           cfg.f0, cfg.sigma, fs)
-    ff = outputs["free_fidelity"].get("rom")
-    figs.update(force_figures(
-        {c: free_res[c] for c in ("rig", "rom") if c in free_res},
-        {**{c: rand_res[c] for c in ("rig", "rom") if c in rand_res}, "twin": twin},
-        cfg.rms_g, fs, {"rom": ff} if isinstance(ff, dict) else None))
+    figs.update(comparison_figures(exp_random, predicted_random))
     # every result file of the stage appears together, once everything above has succeeded
     with OutputBatch() as batch:
         for case in models:

@@ -4,11 +4,13 @@ virtual rig (paper Figs. 5-7), their amplitudes designed from the beam tests the
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any, NotRequired, TypedDict
 
 import numpy as np
 
 from sloshrom import __version__, signals
+from sloshrom._threads import map_threads
 from sloshrom.beam.simulation.envelope import TankMotion, frozen_tank_motion
 from sloshrom.beam.simulation.programme import (
     Programme,
@@ -17,7 +19,7 @@ from sloshrom.beam.simulation.programme import (
     structure_segments,
 )
 from sloshrom.config import ConfigError, G, Tank
-from sloshrom.io import record_from_measurement, write_record
+from sloshrom.io import Record, record_from_measurement, write_record
 from sloshrom.pipeline.beam import beam_structure, beam_tests
 from sloshrom.pipeline.context import Context, StageRecord
 from sloshrom.pipeline.settings import DataTable, ReproduceConfig
@@ -367,17 +369,13 @@ def stage_data(ctx: Context) -> StageRecord:
     rig = ctx.rig()
     ctx.progress("data", 0, 3, "training design (frozen beam tests)")
     design, motion = training_design(cfg, tank)
-    files, paths, records = [], [], {}
-    outputs: dict[str, Any] = {"rig": cfg.rig.overrides()}
-    programmes: dict[str, ProgrammeOutputs] = {}
-    splits = SPLITS
     fs_rig = 1.0 / rig.dt
-    for k, split in enumerate(splits):
+
+    def record(split: str) -> tuple[Record, ProgrammeOutputs, list[signals.VFA], Path]:
         duration, seed = split_settings(cfg.data, split)
-        ctx.progress("data", k + 1, len(splits) + 1, f"rig VFA {split} ({duration:.0f} s)")
         prog = programme(cfg, tank, split, fs_rig, training=(design, motion))
-        programmes[split] = programme_outputs(prog)
         meas = rig.measure(prog.acceleration())
+        played = programme_outputs(prog)
         del prog  # ~80 MB per 1000 s at the rig's 10 kHz
         rec = record_from_measurement(
             meas, tank, truth=True, split=split, seed=int(seed),
@@ -385,12 +383,25 @@ def stage_data(ctx: Context) -> StageRecord:
             provenance=f"sloshrom {__version__} reproduce: virtual rig VFA {split} "
                        f"({design.rule} design, {design.gamma_max:.3g} g)",
         )
+        del meas
         p = ctx.path("data", f"{split}.nc")
         write_record(rec, p)
-        files.append(ctx.rel(p))
         # the paths of Fig. 5 at the record rate: the same path, 20 times fewer samples
-        paths.extend(vfa_pieces(cfg.data, split, duration, seed, design, motion,
-                                float(cfg.rig.fs), tank))
+        paths = vfa_pieces(cfg.data, split, duration, seed, design, motion,
+                           float(cfg.rig.fs), tank)
+        return rec, played, paths, p
+
+    ctx.progress("data", 1, 3, "rig VFA " + ", ".join(
+        f"{split} ({split_settings(cfg.data, split)[0]:.0f} s)" for split in SPLITS))
+    # the records in threads, a core each: the rig's and the filters' loops release the GIL
+    done = map_threads(record, SPLITS)
+    files, paths, records = [], [], {}
+    outputs: dict[str, Any] = {"rig": cfg.rig.overrides()}
+    programmes: dict[str, ProgrammeOutputs] = {}
+    for split, (rec, played, pieces, p) in zip(SPLITS, done, strict=True):
+        programmes[split] = played
+        files.append(ctx.rel(p))
+        paths.extend(pieces)
         records[split] = rec
         peak_acc = float(np.max(np.abs(rec["acceleration"])))
         peak_vel = float(np.max(np.abs(rec["velocity"])))
@@ -405,9 +416,8 @@ def stage_data(ctx: Context) -> StageRecord:
         if motion is not None:
             outputs[split]["covers_acceleration"] = peak_acc / motion.peak_acceleration
             outputs[split]["covers_velocity"] = peak_vel / motion.peak_velocity
-        del meas
     outputs = {"design": design_outputs(design, motion, programmes), **outputs}
-    ctx.progress("data", len(splits) + 1, len(splits) + 1, "figures")
+    ctx.progress("data", 2, 3, "figures")
     p = savefig(vfa_paths_figure(paths), ctx.path("figures", "fig05_vfa_paths.png"))
     files.append(ctx.rel(p))
     for split, name in (("train", "fig06_train_io.png"), ("validation", "fig07_validation_io.png")):

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from sloshrom._threads import map_threads
 from sloshrom.config import G, Tank
 from sloshrom.energy import (
     DISSIPATIVE_THRESHOLD,
@@ -184,10 +185,11 @@ def stage_maps(ctx: Context, rom_path: Path | None) -> StageRecord:
         outputs["rom_relative_l2_error"] = fid["dissipative_l2"]
         if is_ensemble(rom):
             # one map per member: the spread a single network's map carries
-            fids = []
-            for k, member in enumerate(rom.members_):
-                ctx.progress("maps", k, len(rom.members_), f"Phi_d map of member {k}")
-                fids.append(map_fidelity(rig_map, compute_map(member, ctx.cfg, tank)))
+            n = len(rom.members_)
+            ctx.progress("maps", 0, n, f"Phi_d maps of the {n} members")
+            # each member's map alone, a core each
+            fids = map_threads(lambda m: map_fidelity(rig_map, compute_map(m, ctx.cfg, tank)),
+                               rom.members_)
             outputs["rom_fidelity_members"] = {
                 key: spread(f[key] for f in fids) for key in MEMBER_FIGURES}
         # the ROM figure marks exactly the points counted as non-passive

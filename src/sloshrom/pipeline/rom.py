@@ -4,6 +4,8 @@ then identify the configured ROM (any class of the registry) and the classes com
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -12,10 +14,12 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from sloshrom._threads import map_threads
 from sloshrom.config import Tank
-from sloshrom.energy import frame_sensitivity
+from sloshrom.energy import frame_change, frame_probes
 from sloshrom.fidelity import point_errors
 from sloshrom.io import read_record
+from sloshrom.models import check_envelope, envelope_quiet, input_of
 from sloshrom.pipeline.cache import StageResult
 from sloshrom.pipeline.context import Context, StageRecord, in_thread
 from sloshrom.pipeline.data import replay_record
@@ -231,16 +235,95 @@ class _Beside:
             self.members()
 
 
+class _ValidationRuns:
+    """The runs the validation makes of each member of the ROM (or of the ROM alone): on the
+    validation and training records and on the frame probes
+    (:func:`sloshrom.energy.frame_probes`).
+
+    A member's runs are queued to a thread of this process as soon as it has trained
+    (:meth:`start`), for the core it leaves while the other members still train; the rig's
+    twin run of the validation record starts in a thread of its own with the first. At the
+    validation (:meth:`results`) the runs not yet begun are shared among the cores. Each run
+    is the call the model's own ``predict``/``simulate`` would make, so the ROM's outputs are
+    its own to the bit; the ensemble's are the mean of its members' runs, as its ``predict``."""
+
+    def __init__(self, records: tuple[np.ndarray, ...], fs: float,
+                 twin: Callable[[], tuple[np.ndarray, float]]) -> None:
+        u, _, uv, _ = records
+        self.probes, self.acc = frame_probes(uv, fs)
+        # (name, input, whether a frame probe): a record's velocity, or a probe's
+        self.jobs: list[tuple[str, np.ndarray, bool]] = [
+            ("validation", uv, False), ("training", u, False),
+            *((f"frame {i}", p, True) for i, p in enumerate(self.probes))]
+        self._twin = twin
+        self.twin_run: Future[tuple[np.ndarray, float]] | None = None
+        self.pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="sloshrom-validation")
+        self.queued: dict[tuple[int, str], Future[np.ndarray]] = {}
+
+    def todo(self, model: Estimator) -> list[tuple[str, np.ndarray, bool]]:
+        # a model of the velocity: the record's run is its first probe's
+        same = input_of(model) == "velocity"
+        return [j for j in self.jobs if not (same and j[0] == "frame 0")]
+
+    def run(self, model: Estimator, job: tuple[str, np.ndarray, bool]) -> np.ndarray:
+        """One run of ``model``, without the envelope's warning (the caller checks the
+        ensemble's envelope; the frame probes leave it on purpose)."""
+        _, x, probe = job
+        with envelope_quiet():
+            if probe:
+                return np.asarray(model.simulate(x, self.acc), dtype=float)
+            return np.asarray(model.predict(x))
+
+    def start(self, k: int, member: Estimator) -> None:
+        """Member ``k`` has trained: its runs are queued; the twin run starts with the
+        first."""
+        self.start_twin()
+        for job in self.todo(member):
+            self.queued[k, job[0]] = self.pool.submit(contextvars.copy_context().run,
+                                                      self.run, member, job)
+
+    def start_twin(self) -> None:
+        if self.twin_run is None:
+            self.twin_run = in_thread(self._twin, "sloshrom-twin-run")
+
+    def twin(self) -> tuple[np.ndarray, float]:
+        """The twin run's force (N) and its time (s), once it has ended."""
+        self.start_twin()
+        assert self.twin_run is not None  # (for the type checker)
+        return self.twin_run.result()
+
+    def results(self, models: Sequence[Estimator]) -> list[dict[str, np.ndarray]]:
+        """Every model's runs: the queued ones that have begun, as they end; the others here,
+        a core each."""
+        begun = {key: f for key, f in self.queued.items() if not f.cancel()}
+        here = [(k, job) for k, m in enumerate(models) for job in self.todo(m)
+                if (k, job[0]) not in begun]
+        done = map_threads(lambda kj: self.run(models[kj[0]], kj[1]), here)
+        out: list[dict[str, np.ndarray]] = [{} for _ in models]
+        for (k, job), y in zip(here, done, strict=True):
+            out[k][job[0]] = y
+        for (k, key), f in begun.items():
+            out[k][key] = f.result()
+        for r in out:
+            r.setdefault("frame 0", r["validation"])
+        return out
+
+    def close(self) -> None:
+        self.pool.shutdown(wait=False, cancel_futures=True)
+
+
 def _train(ctx: Context, model: Any, name: str, epochs: int, k_members: int, workers: int,
            records: tuple[np.ndarray, ...], fs: float, fill: float | None,
            beside: _Beside | None = None, started: Callable[[], object] | None = None,
+           on_member: Callable[[int, Estimator], None] | None = None,
            ) -> tuple[Any, str, float]:
     """Fit ``model`` (an ensemble of ``k_members`` of it if > 1) on ``records`` = (u, y, u
     validation, y validation); the fitted model, its name and the training time, s.
 
     ``beside``: an ensemble's progress line carries its text; a single model trained by a
     thread beside the members reports into it (and stops when it is told to). ``started``:
-    called once an ensemble's members are on their workers (or at once for one model)."""
+    called once an ensemble's members are on their workers (or at once for one model).
+    ``on_member(k, member)``: as member k of an ensemble has trained."""
     u, y, uv, yv = records
     # epoch, errors and time left of the training (of every member of an ensemble)
     pace = TrainingProgress(epochs, members=k_members, concurrent=workers, unit="N^2")
@@ -264,9 +347,11 @@ def _train(ctx: Context, model: Any, name: str, epochs: int, k_members: int, wor
         if pace.epoch(epoch, info, member=k):  # (not a late file of a finished member)
             show()
 
-    def member_done(k: int, member: object) -> None:
+    def member_done(k: int, member: Estimator) -> None:
         pace.finished(k)
         show()
+        if on_member is not None:
+            on_member(k, member)
 
     t0 = time.perf_counter()
     if beside_thread and beside is not None:
@@ -313,27 +398,33 @@ def _train_compared(ctx: Context, records: tuple[np.ndarray, ...], fs: float,
 
 
 def _validate(ctx: Context, model: Any, name: str, train_seconds: float, recipe: str,
-              k_members: int, records: tuple[np.ndarray, ...], fs: float
-              ) -> tuple[dict[str, object], np.ndarray, dict[str, float]]:
+              k_members: int, records: tuple[np.ndarray, ...], fs: float,
+              runs: _ValidationRuns) -> tuple[dict[str, object], np.ndarray, dict[str, float]]:
     """Save the trained ROM and validate it on ``records`` (u, y, u validation, y validation;
-    the validation record's rate ``fs``, Hz): the stage's outputs of the ROM itself (its file
-    as ``model``), its prediction of the validation record and that prediction's error
-    figures."""
+    the validation record's rate ``fs``, Hz) from ``runs`` (those of its members already
+    started): the stage's outputs of the ROM itself (its file as ``model``), its prediction of
+    the validation record and that prediction's error figures."""
     cfg = ctx.cfg.rom
     u, y, uv, yv = records
     ctx.progress("rom", 1, 1, "validation")
     # the rig's twin run of the validation record needs no model: it runs in a thread while
     # this one validates the ROM (each on a core)
-    gain = float(ctx.cfg.rig.twin_gain)
-    twin_run = in_thread(lambda: _timed(lambda: replay_record(ctx, "validation", gain)))
+    runs.start_twin()
     path = ctx.path("models", f"{cfg.arch}.npz")
     model.save(path)
-    # an ensemble's prediction is its members' mean: their runs once, for both
-    yv_members = np.asarray(model.member_predictions(uv)) if is_ensemble(model) else None
-    yv_hat = np.asarray(model.predict(uv) if yv_members is None else yv_members.mean(axis=0))
-    y_hat = np.asarray(model.predict(u))
+    ensemble = is_ensemble(model)
+    # the runs are quiet: the ROM's envelope (an ensemble's: its members' union) is checked
+    # here, once a record
+    check_envelope(model, uv)
+    check_envelope(model, u)
+    res = runs.results(model.members_ if ensemble else [model])
+
+    def mean(key: str) -> np.ndarray:  # an ensemble's output is its members' mean
+        return np.stack([r[key] for r in res]).mean(axis=0) if ensemble else res[0][key]
+
+    yv_hat, y_hat = mean("validation"), mean("training")
     ev, et = error_figures(yv, yv_hat), error_figures(y, y_hat)
-    hists = model.history_ if is_ensemble(model) else [model.history_]
+    hists = model.history_ if ensemble else [model.history_]
     outputs: dict[str, object] = dict(
         model=ctx.rel(path), arch=cfg.arch, name=name, train_seconds=train_seconds,
         recipe_text=recipe, n_members=k_members,
@@ -349,17 +440,19 @@ def _validate(ctx: Context, model: Any, name: str, train_seconds: float, recipe:
     )
     # the force must not depend on the frame: a drift of the tank's velocity (a beam under
     # random base excitation has one) must not change the dissipation
-    outputs["frame_sensitivity"] = frame_sensitivity(model, uv, fs)
+    outputs["frame_sensitivity"] = frame_change(
+        runs.probes, fs, [mean(f"frame {i}") for i in range(len(runs.probes))])
     # the force as a physicist judges it, beside the rig's own twin run (docs/rom.md,
     # "Waveform fidelity"): what a point-wise fit cannot say of a chaotic rig
     ctx.progress("rom", 1, 1, "the rig's twin run of the validation record")
-    twin, twin_seconds = twin_run.result()
-    outputs["waveform_fidelity"] = validation_fidelity(yv, yv_hat, twin, fs, gain,
+    twin, twin_seconds = runs.twin()
+    outputs["waveform_fidelity"] = validation_fidelity(yv, yv_hat, twin, fs,
+                                                       float(ctx.cfg.rig.twin_gain),
                                                        twin_seconds)
-    if is_ensemble(model):
+    if ensemble:
         outputs["seeds"] = [int(s) for s in model.seeds_]
         outputs["val_mse_members"] = spread(
-            error_figures(yv, yh)["mse"] for yh in np.asarray(yv_members))
+            error_figures(yv, r["validation"])["mse"] for r in res)
     return outputs, yv_hat, ev
 
 
@@ -407,7 +500,10 @@ def stage_rom(ctx: Context, data: StageResult) -> StageRecord:
     # the members train in worker processes, one a core, while this process waits: the
     # compared classes train meanwhile in a thread of it (the cores shared with the members)
     beside = _Beside(ctx) if k_members > 1 and workers > 1 and cfg.compared() else None
-    with ThreadPoolExecutor(max_workers=1) as pool:
+    gain = float(ctx.cfg.rig.twin_gain)
+    runs = _ValidationRuns(records, float(val.fs),
+                           lambda: _timed(lambda: replay_record(ctx, "validation", gain)))
+    with ThreadPoolExecutor(max_workers=1) as pool, contextlib.closing(runs):
         future: list[Future[list[Compared]]] = []
 
         def start_compared() -> None:
@@ -418,7 +514,7 @@ def stage_rom(ctx: Context, data: StageResult) -> StageRecord:
         try:
             model, name, train_seconds = _train(ctx, estimator(cfg, tank=ctx.tank), name,
                                                 epochs, k_members, workers, records, train.fs,
-                                                fill, beside, start_compared)
+                                                fill, beside, start_compared, runs.start)
         except BaseException:
             if beside is not None:
                 beside.stop.set()
@@ -432,7 +528,7 @@ def stage_rom(ctx: Context, data: StageResult) -> StageRecord:
         # takes the core the members left
         try:
             outputs, yv_hat, ev = _validate(ctx, model, name, train_seconds, recipe,
-                                            k_members, records, float(val.fs))
+                                            k_members, records, float(val.fs), runs)
         except BaseException:
             if beside is not None:
                 beside.stop.set()

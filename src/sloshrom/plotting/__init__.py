@@ -14,6 +14,7 @@ matplotlib.
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -22,19 +23,28 @@ from sloshrom.fileio import OutputBatch, atomic_write
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["DPI", "savefig"]
+__all__ = ["DPI", "render_png", "savefig"]
 
 #: Resolution of every saved figure, dots per inch.
 DPI = 120
 
 
-def savefig(fig: Figure, path: str | Path, batch: OutputBatch | None = None) -> Path:
+def render_png(fig: Figure) -> bytes:
+    """``fig`` rendered as a PNG file's bytes (at :data:`DPI` dots per inch), for
+    :func:`savefig` to write later: the drawing done while the work it waits for goes on."""
+    buf = io.BytesIO()
+    fig.savefig(buf, dpi=DPI, format="png")
+    return buf.getvalue()
+
+
+def savefig(fig: Figure | bytes, path: str | Path, batch: OutputBatch | None = None) -> Path:
     """Write ``fig`` as a PNG file, atomically.
 
     Parameters
     ----------
-    fig : matplotlib.figure.Figure
-        The figure to render (at :data:`DPI` dots per inch).
+    fig : matplotlib.figure.Figure or bytes
+        The figure to render (at :data:`DPI` dots per inch), or one :func:`render_png` has
+        rendered.
     path : str or Path
         The PNG file to write; its directory is created if needed.
     batch : OutputBatch, optional
@@ -48,5 +58,12 @@ def savefig(fig: Figure, path: str | Path, batch: OutputBatch | None = None) -> 
         ``path``.
     """
     write = batch.write if batch is not None else atomic_write
+    if isinstance(fig, bytes):
+        data = fig
+
+        def copy(tmp: str) -> None:
+            Path(tmp).write_bytes(data)
+
+        return write(path, copy)
     # format given explicitly: the temporary file's name does not end in .png
     return write(path, lambda tmp: fig.savefig(tmp, dpi=DPI, format="png"))

@@ -39,8 +39,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from sloshrom import __version__
+from sloshrom._threads import map_threads
 from sloshrom.config import FILL_TOLERANCE
-from sloshrom.models import EnvelopeWarning, check_envelope, envelope_union, model_input
+from sloshrom.models import check_envelope, envelope_quiet, envelope_union, model_input
 from sloshrom.rom.base import Estimator, History, checked_past
 from sloshrom.rom.epochs import EpochFile, EpochReport, epoch_reports
 from sloshrom.rom.errors import NotFittedError, ROMError, TrainingWarning, UnstableModelError
@@ -562,9 +563,10 @@ class Ensemble:
                            stacklevel=stacklevel)
         else:
             check_envelope(self, u, unit=str(self.units[0]), stacklevel=stacklevel)
-        with warnings.catch_warnings():  # warned once above, for the union of the envelopes
-            warnings.simplefilter("ignore", EnvelopeWarning)
-            return np.stack([np.asarray(m.predict(u, history=history)) for m in self.members_])
+        with envelope_quiet():  # warned once above, for the union of the envelopes
+            # each member's run alone, a core each
+            return np.stack(map_threads(lambda m: np.asarray(m.predict(u, history=history)),
+                                        self.members_))
 
     def member_predictions(self, u: Any, history: History | None = None) -> np.ndarray:
         """Every member's output from rest, or from measured history (for spread bands).
@@ -658,16 +660,16 @@ class Ensemble:
                            f"{u.shape} and {y.shape}")
         seen = u if history is None else np.concatenate([checked_past(history)[0], u])
         check_envelope(self, seen, unit=str(self.units[0]), stacklevel=stacklevel)
-        errors = []
-        with warnings.catch_warnings():  # warned once above, for the union of the envelopes
-            warnings.simplefilter("ignore", EnvelopeWarning)
-            for m in self.members_:
-                try:
-                    yh = np.asarray(m.predict(u, history=history))
-                    errors.append(float(np.mean((yh - y) ** 2)))
-                except UnstableModelError:  # no error to rank: never the best
-                    errors.append(math.nan)
-        return np.asarray(errors, dtype=np.float64)
+
+        def error(m: Estimator) -> float:
+            try:
+                yh = np.asarray(m.predict(u, history=history))
+                return float(np.mean((yh - y) ** 2))
+            except UnstableModelError:  # no error to rank: never the best
+                return math.nan
+
+        with envelope_quiet():  # warned once above, for the union of the envelopes
+            return np.asarray(map_threads(error, self.members_), dtype=np.float64)
 
     def best_member(self, u: ArrayLike, y: ArrayLike, history: History | None = None
                     ) -> Estimator:

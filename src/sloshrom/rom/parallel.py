@@ -60,6 +60,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
+from sloshrom._threads import usable_cores
 from sloshrom.errors import Note
 
 if TYPE_CHECKING:
@@ -93,13 +94,6 @@ WORKER_QUIET: dict[str, object] = {"distributed.worker.profile.enabled": False}
 class BusyCoresNote(Note):
     """A LocalCluster's workers are not pinned: too few cores are free (busy or reserved by
     another sloshrom run). Changes no result, only how the workers share the cores."""
-
-
-def usable_cores() -> list[int]:
-    """The cores this process may run on (all of them where the OS does not say)."""
-    if hasattr(os, "sched_getaffinity"):
-        return sorted(os.sched_getaffinity(0))
-    return list(range(os.cpu_count() or 1))
 
 
 def can_pin() -> bool:

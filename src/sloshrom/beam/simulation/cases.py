@@ -13,11 +13,13 @@ simulate the same way. Result dicts in, result dicts and table rows out; no file
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, cast
 
 import numpy as np
 
+from sloshrom._threads import map_threads
 from sloshrom.beam.simulation.members import Members, mean_result
 from sloshrom.beam.simulation.structure import (
     TANK_KEYS,
@@ -54,6 +56,11 @@ def case_output_fs(model: SloshingModel | Sequence[SloshingModel], fs: float) ->
     return fs if max(1.0 / m.dt for m in models) > fs else None
 
 
+def _simulate_at(simulate: Simulate, output_fs: float | None, model: object
+                 ) -> dict[str, object]:
+    return simulate(model, output_fs)
+
+
 def simulate_cases(models: Mapping[str, Any], simulate: Simulate, fs: float,
                    on_case: Callable[[str], None] | None = None) -> dict[str, dict[str, Any]]:
     """Run ``simulate`` for every case, in order; results at :func:`case_output_fs`.
@@ -62,10 +69,10 @@ def simulate_cases(models: Mapping[str, Any], simulate: Simulate, fs: float,
     ----------
     models : mapping
         Case name -> sloshing model, or a list of them (one per tank), or a
-        :class:`~sloshrom.beam.simulation.members.Members`: each member simulated alone (one at a
-        time, each as fast as a single model), the case's result their
-        :func:`~sloshrom.beam.simulation.members.mean_result` (the members' results under
-        ``"members"``).
+        :class:`~sloshrom.beam.simulation.members.Members`: each member simulated alone (in
+        threads, a usable core each: :func:`sloshrom.rom.parallel.map_threads`), the case's
+        result their :func:`~sloshrom.beam.simulation.members.mean_result` (the members'
+        results under ``"members"``).
     simulate : callable
         ``simulate(model, output_fs)`` -> result dict.
     fs : float
@@ -84,7 +91,9 @@ def simulate_cases(models: Mapping[str, Any], simulate: Simulate, fs: float,
             on_case(case)
         out_fs = case_output_fs(model, fs)
         if isinstance(model, Members):
-            results[case] = mean_result([simulate(m, out_fs) for m in model.models])
+            # each member's run alone, a core each (their results as the loop's)
+            results[case] = mean_result(map_threads(
+                functools.partial(_simulate_at, simulate, out_fs), model.models))
         else:
             results[case] = simulate(model, out_fs)
     return results

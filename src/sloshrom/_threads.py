@@ -1,0 +1,55 @@
+"""Work that releases the GIL, in threads of this process: one a usable core.
+
+JAX's compiled runs, numba's kernels and NumPy's large operations release the GIL, so the
+members of an ensemble (or the records of a stage) run alone each, side by side, in threads of
+the caller's process: nothing to start, send or import, unlike worker processes.
+"""
+
+from __future__ import annotations
+
+import contextvars
+import os
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from typing import TypeVar
+
+__all__ = ["map_threads", "usable_cores"]
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+
+def usable_cores() -> list[int]:
+    """The cores this process may run on (all of them where the OS does not say)."""
+    if hasattr(os, "sched_getaffinity"):
+        return sorted(os.sched_getaffinity(0))
+    return list(range(os.cpu_count() or 1))
+
+
+def map_threads(fn: Callable[[T], R], items: Sequence[T], workers: int | None = None
+                ) -> list[R]:
+    """``[fn(x) for x in items]``, the calls in threads of this process, one a usable core.
+
+    For work that releases the GIL (JAX's and numba's compiled runs, NumPy's large
+    operations): an ensemble's members, each run alone. Each call is the one the loop would
+    make, so the results are the loop's to the bit; the first error (in the items' order) is
+    raised once every call has ended. Each call runs in a copy of the caller's context
+    (:mod:`contextvars`: e.g. :func:`sloshrom.models.envelope_quiet`). One usable core, or one
+    item: the plain loop, here.
+
+    Parameters
+    ----------
+    fn : callable
+        Called once per item; safe to call from several threads at once.
+    items : sequence
+        The arguments, in the order of the results.
+    workers : int, optional
+        Threads at most; default: the usable cores (:func:`usable_cores`).
+    """
+    n = min(len(items), len(usable_cores()) if workers is None else int(workers))
+    if n < 2:
+        return [fn(x) for x in items]
+    with ThreadPoolExecutor(max_workers=n, thread_name_prefix="sloshrom-map") as ex:
+        # each call in a copy of the caller's context (its sloshrom.models.envelope_quiet)
+        futures = [ex.submit(contextvars.copy_context().run, fn, x) for x in items]
+    return [f.result() for f in futures]
