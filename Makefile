@@ -31,16 +31,20 @@ XDIST      := -n $(WORKERS) --dist loadfile
 # the first import, and where PYTHONDONTWRITEBYTECODE is set every process would compile JAX,
 # SciPy and the rest again (the package's import 7.5 s instead of 2.8 s, in each test worker,
 # each command the tests run, each Dask or pool worker). The numba kernels of a default run
-# compile into numba's cache while the C++ kernel builds (tools/warm_kernels.py; one core each)
+# compile into numba's cache while the C++ kernel builds (tools/warm_kernels.py; one core each).
+# The venv is made without pip (ensurepip's copy took 2.8 s): the system's pip installs uv into
+# it (pip >= 22.3's --python); a Python without such a pip bootstraps the venv's own instead
 $(STAMP): $(LOCK) $(UV_LOCK) pyproject.toml setup.py src/sloshrom/rom/grey/window.cc
-	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --require-hashes --no-deps -r $(UV_LOCK)
+	test -x $(BIN)/python || $(PYTHON) -m venv --without-pip $(VENV)
+	$(PYTHON) -m pip --python $(BIN)/python install --quiet --require-hashes --no-deps \
+		-r $(UV_LOCK) 2>/dev/null || { $(BIN)/python -m ensurepip --default-pip >/dev/null \
+		&& $(BIN)/python -m pip install --quiet --require-hashes --no-deps -r $(UV_LOCK); }
 	$(BIN)/uv pip install --quiet --python $(BIN)/python --require-hashes --no-deps \
 		--compile-bytecode -r $(LOCK)
 	PYTHONPATH=src $(BIN)/python tools/warm_kernels.py & warm=$$!; \
 	$(BIN)/uv pip install --quiet --python $(BIN)/python --no-deps --no-build-isolation -e . \
 		&& wait $$warm
-	$(BIN)/python -m pip check
+	$(BIN)/uv pip check --quiet --python $(BIN)/python
 	touch $(STAMP)
 
 reproduce: $(STAMP)
