@@ -275,7 +275,7 @@ def envelope_union(models: Any) -> dict[str, Any] | None:
 
 
 #: True inside :func:`envelope_quiet` (this thread or task, and the calls it hands to
-#: :func:`sloshrom.rom.parallel.map_threads`)
+#: :func:`sloshrom._threads.map_threads`)
 _ENVELOPE_QUIET: contextvars.ContextVar[bool] = contextvars.ContextVar(
     "sloshrom_envelope_quiet", default=False)
 
@@ -286,7 +286,7 @@ def envelope_quiet() -> Iterator[None]:
     probe outside a model's envelope, or a caller that has checked the union of its models'.
 
     Unlike a warnings filter, it holds for this thread (or asyncio task) only, and for the
-    calls it hands to :func:`sloshrom.rom.parallel.map_threads`: other threads' warnings stay
+    calls it hands to :func:`sloshrom._threads.map_threads`: other threads' warnings stay
     as they were (Python's filters are one list for the whole process).
     """
     token = _ENVELOPE_QUIET.set(True)

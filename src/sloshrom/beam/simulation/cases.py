@@ -70,7 +70,7 @@ def simulate_cases(models: Mapping[str, Any], simulate: Simulate, fs: float,
     models : mapping
         Case name -> sloshing model, or a list of them (one per tank), or a
         :class:`~sloshrom.beam.simulation.members.Members`: each member simulated alone (in
-        threads, a usable core each: :func:`sloshrom.rom.parallel.map_threads`), the case's
+        threads, a usable core each: :func:`sloshrom._threads.map_threads`), the case's
         result their :func:`~sloshrom.beam.simulation.members.mean_result` (the members'
         results under ``"members"``).
     simulate : callable
