@@ -103,6 +103,18 @@ def test_numba_backend_matches_jax(modal):
                                np.abs(raw_nb["tank_acceleration"]).max())
 
 
+def test_numba_batch_in_threads_equals_each_run_alone(modal):
+    dt = 1 / 1000
+    sim = CoupledSimulator(NumbaDamper(20.0, dt), modal)
+    assert sim.backend == "numba"
+    a = np.random.default_rng(3).standard_normal((3, 2000))
+    batch = sim.run_raw(a)  # three runs, in threads
+    for i in range(3):
+        alone = sim.run_raw(a[i])
+        for k in ("q", "tank_acceleration", "dynamic_force"):
+            np.testing.assert_array_equal(batch[k][i], alone[k])
+
+
 def test_vmap_batch_equals_single(modal):
     dt = 1 / 500
     sim = CoupledSimulator(LinearDamper(5.0, dt), modal)

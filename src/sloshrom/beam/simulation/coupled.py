@@ -56,6 +56,7 @@ from scipy.linalg import eigh, expm
 from scipy.signal import resample_poly
 
 from sloshrom._jit import njit
+from sloshrom._threads import map_threads
 from sloshrom._x64 import float64
 from sloshrom.beam.errors import BeamError
 from sloshrom.beam.simulation.envelope import envelope_coverage
@@ -345,8 +346,9 @@ _LOOP_SIGNATURE = nb_types.Tuple((_M,) * 5)(_STEP, _M, _M, nb_types.int64[::1], 
 
 @functools.cache
 def _numba_loop() -> Any:
-    """The numba backend's loop, compiled (or loaded from numba's cache) on first use."""
-    return njit(_numba_loop_py, signature_or_function=[_LOOP_SIGNATURE])
+    """The numba backend's loop, compiled (or loaded from numba's cache) on first use; without
+    the GIL, so that a batch's runs share the cores (:meth:`CoupledSimulator.run_raw`)."""
+    return njit(_numba_loop_py, nogil=True, signature_or_function=[_LOOP_SIGNATURE])
 
 
 def _python_loop(models: Sequence[SloshingModel], d: Discretisation, a_s: np.ndarray,
@@ -526,8 +528,11 @@ class CoupledSimulator:
                        _jitted(self.unroll, False)(m, d, jnp.asarray(flat[0]), zj).items()}
             out = {k: np.asarray(v) for k, v in res.items()}
         else:
-            outs = [self._numba(row, z0) if self.backend == "numba"
-                    else _python_loop(self.models, self.disc, row, z0) for row in flat]
+            if self.backend == "numba":
+                # the batch's runs (e.g. a random test's levels) in threads, a core each
+                outs = map_threads(lambda row: self._numba(row, z0), list(flat))
+            else:
+                outs = [_python_loop(self.models, self.disc, row, z0) for row in flat]
             out = {k: np.stack([o[k] for o in outs]) for k in outs[0]}
         self._check_divergence(out["q"])
         out = {k: v.reshape(lead + v.shape[1:]) for k, v in out.items()}
