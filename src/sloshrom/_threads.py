@@ -3,17 +3,24 @@
 JAX's compiled runs, numba's kernels and NumPy's large operations release the GIL, so the
 members of an ensemble (or the records of a stage) run alone each, side by side, in threads of
 the caller's process: nothing to start, send or import, unlike worker processes.
+
+numba's ``parallel=True`` kernels (the virtual rig's, the grey box's column) may run in two
+threads at once only with its tbb or omp threading layer: its workqueue layer, the one left
+where neither TBB nor the OpenMP runtime loads (e.g. a slim container without ``libgomp``),
+terminates the process on a concurrent launch. There the calls run one after the other
+(:func:`numba_threadsafe`).
 """
 
 from __future__ import annotations
 
 import contextvars
+import functools
 import os
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import TypeVar
 
-__all__ = ["map_threads", "usable_cores"]
+__all__ = ["map_threads", "numba_threadsafe", "usable_cores"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -26,6 +33,18 @@ def usable_cores() -> list[int]:
     return list(range(os.cpu_count() or 1))
 
 
+@functools.cache
+def numba_threadsafe() -> bool:
+    """Whether numba's ``parallel=True`` kernels may be called from two threads at once: its
+    threading layer is tbb or omp, not workqueue. Starts numba's threads if they are not yet
+    (as its first parallel kernel would): the layer is then the one the process keeps."""
+    import numba
+    from numba.np.ufunc import parallel
+
+    parallel._launch_threads()
+    return bool(numba.threading_layer() != "workqueue")
+
+
 def map_threads(fn: Callable[[T], R], items: Sequence[T], workers: int | None = None
                 ) -> list[R]:
     """``[fn(x) for x in items]``, the calls in threads of this process, one a usable core.
@@ -34,8 +53,8 @@ def map_threads(fn: Callable[[T], R], items: Sequence[T], workers: int | None = 
     operations): an ensemble's members, each run alone. Each call is the one the loop would
     make, so the results are the loop's to the bit; the first error (in the items' order) is
     raised once every call has ended. Each call runs in a copy of the caller's context
-    (:mod:`contextvars`: e.g. :func:`sloshrom.models.envelope_quiet`). One usable core, or one
-    item: the plain loop, here.
+    (:mod:`contextvars`: e.g. :func:`sloshrom.models.envelope_quiet`). One usable core, one
+    item, or numba's workqueue layer (:func:`numba_threadsafe`): the plain loop, here.
 
     Parameters
     ----------
@@ -47,7 +66,7 @@ def map_threads(fn: Callable[[T], R], items: Sequence[T], workers: int | None = 
         Threads at most; default: the usable cores (:func:`usable_cores`).
     """
     n = min(len(items), len(usable_cores()) if workers is None else int(workers))
-    if n < 2:
+    if n < 2 or not numba_threadsafe():
         return [fn(x) for x in items]
     with ThreadPoolExecutor(max_workers=n, thread_name_prefix="sloshrom-map") as ex:
         # each call in a copy of the caller's context (its sloshrom.models.envelope_quiet)

@@ -311,3 +311,31 @@ def test_map_threads_runs_each_call_in_the_callers_context():
 
     assert map_threads(change, range(3), workers=2) == ["changed"] * 3
     assert var.get() == "unset"
+
+
+@pytest.mark.long
+def test_map_threads_runs_numbas_parallel_kernels_in_turn_on_its_workqueue_layer():
+    """numba's workqueue layer ends the process when two threads launch a parallel kernel at
+    once: there the calls run one after the other (with tbb or omp, in threads)."""
+    code = (
+        "import numpy as np, threading\n"
+        "from sloshrom._threads import map_threads, numba_threadsafe\n"
+        "from sloshrom.rom.grey.physics import causal_intervals\n"
+        "phys = np.array([[0.01, 1e6, 100.0, 0.01, 10.0, 0.01, 7.0]])\n"
+        "u = np.sin(np.linspace(0, 60, 4000))[None].repeat(2, 0)\n"
+        "seen = set()\n"
+        "def run(i):\n"
+        "    seen.add(threading.current_thread().name)\n"
+        "    return causal_intervals(phys, u * (1 + i), 500.0, 10, 8)\n"
+        "out = map_threads(run, range(4), workers=2)\n"
+        "ref = [run(i) for i in range(4)]\n"
+        "same = all(np.array_equal(a, b) for x, y in zip(out, ref) for a, b in zip(x, y))\n"
+        "print(numba_threadsafe(), sorted(seen) == ['MainThread'], same)\n")
+    for layer, expected in (("workqueue", "False True True"), ("omp", "True False True")):
+        env = {**os.environ, "NUMBA_THREADING_LAYER": layer}
+        res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                             env=env, timeout=300)
+        if layer == "omp" and "could not be loaded" in res.stderr + res.stdout:
+            continue  # no OpenMP runtime on this machine: the workqueue case is the one
+        assert res.returncode == 0, res.stderr[-2000:]
+        assert res.stdout.split("\n")[-2] == expected, (layer, res.stdout, res.stderr[-500:])

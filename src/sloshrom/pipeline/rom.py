@@ -14,7 +14,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from sloshrom._threads import map_threads
+from sloshrom._threads import map_threads, numba_threadsafe
 from sloshrom.config import Tank
 from sloshrom.energy import frame_change, frame_probes
 from sloshrom.fidelity import point_errors
@@ -276,21 +276,23 @@ class _ValidationRuns:
 
     def start(self, k: int, member: Estimator) -> None:
         """Member ``k`` has trained: its runs are queued; the twin run starts with the
-        first."""
+        first. (Not with numba's workqueue layer: the runs then wait for the validation.)"""
+        if not numba_threadsafe():
+            return
         self.start_twin()
         for job in self.todo(member):
             self.queued[k, job[0]] = self.pool.submit(contextvars.copy_context().run,
                                                       self.run, member, job)
 
     def start_twin(self) -> None:
-        if self.twin_run is None:
+        if self.twin_run is None and numba_threadsafe():
             self.twin_run = in_thread(self._twin, "sloshrom-twin-run")
 
     def twin(self) -> tuple[np.ndarray, float]:
-        """The twin run's force (N) and its time (s), once it has ended."""
+        """The twin run's force (N) and its time (s), once it has ended (run here where it
+        could not run beside the others)."""
         self.start_twin()
-        assert self.twin_run is not None  # (for the type checker)
-        return self.twin_run.result()
+        return self._twin() if self.twin_run is None else self.twin_run.result()
 
     def results(self, models: Sequence[Estimator]) -> list[dict[str, np.ndarray]]:
         """Every model's runs: the queued ones that have begun, as they end; the others here,
