@@ -147,8 +147,10 @@ def test_stage_data_plays_the_programme_function(cfg, tmp_path, monkeypatch):
     monkeypatch.setattr(VirtualRig, "measure", measure)
     with pytest.raises(_Stop):
         data_stage.stage_data(Context(tmp_path, cfg))
-    # both records (in threads), each played as its programme makes it
-    assert sorted(calls) == ["train", "validation"] and len(played) == 2
+    # each record played as its programme makes it (both, in threads; only the first where
+    # numba's threading layer makes them run in turn)
+    assert "train" in calls and set(calls) <= {"train", "validation"}
+    assert len(played) == len(calls)
     for (*_, fs), prog in calls.values():
         assert fs == RIG_RATE
         assert any(np.array_equal(a, prog.acceleration()) for a in played)
