@@ -66,9 +66,10 @@ def map_threads(fn: Callable[[T], R], items: Sequence[T], workers: int | None = 
         Threads at most; default: the usable cores (:func:`usable_cores`).
     """
     n = min(len(items), len(usable_cores()) if workers is None else int(workers))
+    # each call in a copy of the caller's context (its sloshrom.models.envelope_quiet), in
+    # threads or not: what a call sets stays in its copy
     if n < 2 or not numba_threadsafe():
-        return [fn(x) for x in items]
+        return [contextvars.copy_context().run(fn, x) for x in items]
     with ThreadPoolExecutor(max_workers=n, thread_name_prefix="sloshrom-map") as ex:
-        # each call in a copy of the caller's context (its sloshrom.models.envelope_quiet)
         futures = [ex.submit(contextvars.copy_context().run, fn, x) for x in items]
     return [f.result() for f in futures]

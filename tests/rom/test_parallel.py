@@ -11,7 +11,7 @@ import warnings
 
 import pytest
 
-from sloshrom._threads import map_threads
+from sloshrom._threads import map_threads, numba_threadsafe
 from sloshrom.rom import parallel
 from sloshrom.rom.parallel import (
     XLA_ONE_THREAD,
@@ -272,7 +272,10 @@ def test_map_threads_gives_the_loops_results_in_order_from_threads():
 
     items = list(range(7))
     assert map_threads(fn, items, workers=2) == [x * x for x in items]
-    assert all(name.startswith("sloshrom-map") for name in seen)
+    if numba_threadsafe():
+        assert all(name.startswith("sloshrom-map") for name in seen)
+    else:  # numba's workqueue layer: the loop
+        assert set(seen) == {threading.current_thread().name}
     seen.clear()
     # one thread or one item: the plain loop, in the caller's thread
     assert map_threads(fn, items, workers=1) == [x * x for x in items]
@@ -292,7 +295,8 @@ def test_map_threads_raises_the_first_error_once_every_call_has_ended():
 
     with pytest.raises(ValueError, match="item 1"):
         map_threads(fn, [0, 1, 2, 3, 4], workers=2)
-    assert sorted(ran) == [0, 1, 2, 3, 4]
+    # in threads every call has ended; the loop (numba's workqueue layer) stops at the error
+    assert sorted(ran) == ([0, 1, 2, 3, 4] if numba_threadsafe() else [0, 1])
 
 
 def test_map_threads_runs_each_call_in_the_callers_context():
