@@ -131,8 +131,7 @@ def frame_change(probes: np.ndarray, fs: float, forces: Sequence[npt.ArrayLike],
     if not len(forces) == len(probes) == 1 + 2 * len(offsets):
         raise EnergyError(f"{len(forces)} forces for {len(probes)} probes of "
                           f"{len(offsets)} offsets: one a probe, 1 + 2 per offset")
-    f0 = _dissipating(forces[0], v, fs)
-    e0 = -float(np.sum(f0 * v)) / fs
+    f0, e0 = _dissipating(forces[0], v, fs)
     rms = float(np.std(f0))
     energy, force = [], []
     for i, _ in enumerate(offsets):
@@ -143,13 +142,14 @@ def frame_change(probes: np.ndarray, fs: float, forces: Sequence[npt.ArrayLike],
             "force_change": force}
 
 
-def _dissipating(force: npt.ArrayLike, velocity: np.ndarray, fs: float) -> np.ndarray:
-    """``force`` as floats, if the record dissipates energy with it."""
+def _dissipating(force: npt.ArrayLike, velocity: np.ndarray, fs: float
+                 ) -> tuple[np.ndarray, float]:
+    """``force`` as floats and the energy the record dissipates with it (J), if any."""
     f0 = np.asarray(force, dtype=float)
     e0 = -float(np.sum(f0 * velocity)) / fs
     if not (np.isfinite(e0) and e0 != 0 and float(np.std(f0)) > 0):
         raise EnergyError("the record dissipates no energy with this model: nothing to compare")
-    return f0
+    return f0, e0
 
 
 def frame_sensitivity(model: SloshingModel, velocity: npt.ArrayLike, fs: float,
@@ -185,7 +185,7 @@ def frame_sensitivity(model: SloshingModel, velocity: npt.ArrayLike, fs: float,
     """
     probes, acc = frame_probes(velocity, fs, offsets)
     # the record itself first: no shifted run for a model that dissipates nothing
-    f0 = _dissipating(model.simulate(probes[0], acc), probes[0], fs)
+    f0, _ = _dissipating(model.simulate(probes[0], acc), probes[0], fs)
     # the record's peaks leave a model's envelope by the offset: a deliberate probe
     with envelope_quiet():
         runs = [np.asarray(model.simulate(p, acc), dtype=float) for p in probes[1:]]
