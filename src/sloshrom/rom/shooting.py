@@ -37,6 +37,7 @@ from sloshrom.rom.losses import (
     cycles_per_window,
     shooting_probes,
     window_energy_weights,
+    windows,
 )
 from sloshrom.rom.network import MinMaxScaler
 
@@ -240,21 +241,21 @@ def shooting_problem(
     def loss(p: PyTree, starts: jax.Array, pidx: jax.Array,
              shift: jax.Array) -> tuple[jax.Array, jax.Array]:
         state = rec.start(p, starts, shift)
-        fut = starts[:, None] + off + jnp.arange(T)[None, :]
-        uf = u_s[fut] + shift[:, None]
+        fut = starts + off
+        uf = windows(u_s, fut, T) + shift[:, None]
         if feats is not None:
-            uf = jnp.concatenate([uf[..., None], feats[fut]], axis=-1)
+            uf = jnp.concatenate([uf[..., None], windows(feats, fut, T)], axis=-1)
         if n_probe:
             # the probes run from rest in the same batch
             state = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a, b]), state,
                                            rec.rest(n_probe))
             uf = jnp.concatenate([uf, pu[pidx]])
         yh = rec.simulate(p, state, uf)
-        e = yh[: starts.size] - y_s[fut]
+        e = yh[: starts.size] - windows(y_s, fut, T)
         mse = jnp.mean(e**2)
-        value = jnp.mean(wts[fut] * e**2)
+        value = jnp.mean(windows(wts, fut, T) * e**2)
         if cycle_energy > 0:
-            vw = vj[fut]
+            vw = windows(vj, fut, T)
             peak = jnp.maximum(jnp.max(jnp.abs(vw), axis=1), v_floor)
             de = jnp.sum(e * vw, axis=1) * a_max / (fs * peak**2) / ncyc[starts]
             value += cycle_energy * jnp.mean(de**2)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import jax
 import jax.numpy as jnp
@@ -104,6 +105,47 @@ def test_lm_early_stopping_after_6_validation_failures_returns_best():
     np.testing.assert_array_equal(res.theta, xs[3])
 
 
+@pytest.mark.parametrize("delays", [(1, 2, 3, 4, 5), (5, 4, 3, 2, 1), (1, 3, 7), (6, 2, 4), (3,),
+                                    (2, 3)])
+def test_regressors_read_as_windows_are_the_index_form_s(delays):
+    # increasing (the usual, reversed windows), decreasing (windows as read), gaps and any order
+    # (a static take), one delay, and delays that do not start at 1
+    rng = np.random.default_rng(9)
+    up = jnp.asarray(rng.standard_normal(60 + max(delays)))
+    rows = jnp.asarray(np.concatenate([[0, 59], rng.integers(0, 60, 25)]))
+    want = np.asarray(up[network.row_index(rows, delays)])
+    got = np.asarray(network.regressors(up, rows, delays))
+    assert got.shape == (rows.size, len(delays))
+    np.testing.assert_array_equal(got, want)
+
+
+@jax.enable_x64(True)
+@pytest.mark.parametrize("shape", [(9,), (3, 5)])
+def test_rbf_rows_is_rbf_apply_with_its_gradient_in_closed_form(shape):
+    # a batch (the NFIR's steps) and a batch of windows (its passivity probes)
+    rng = np.random.default_rng(11)
+    dim, h = 4, 6
+    params = {"W": jnp.asarray(rng.standard_normal((h, dim))),
+              "b": jnp.asarray(rng.standard_normal(h)),
+              "c": jnp.asarray(rng.standard_normal(h)), "c0": jnp.asarray(0.3)}
+    X = jnp.asarray(rng.uniform(-1, 1, (*shape, dim)))
+    g = jnp.asarray(rng.standard_normal(shape))
+    for hidden in ("matlab", "distance"):
+        np.testing.assert_array_equal(np.asarray(network.rbf_rows(params, X, hidden)),
+                                      np.asarray(network.rbf_apply(params, X, hidden)))
+
+        def dot(f, p, x, hidden=hidden):
+            return jnp.sum(g * f(p, x, hidden))
+
+        want = jax.jit(jax.grad(partial(dot, network.rbf_apply), (0, 1)))(params, X)
+        got = jax.jit(jax.grad(partial(dot, network.rbf_rows), (0, 1)))(params, X)
+        for a, b in zip(jax.tree.leaves(want), jax.tree.leaves(got), strict=True):
+            # the same function rounded otherwise: a few float64 ulps of the largest entry
+            scale = float(np.max(np.abs(a)))
+            np.testing.assert_allclose(np.asarray(b), np.asarray(a), rtol=0,
+                                       atol=1e-13 * scale)
+
+
 @jax.enable_x64(True)  # the trainers' internals follow the caller's precision
 def test_nfir_jacobian_matches_finite_differences():
     rng = np.random.default_rng(4)
@@ -184,6 +226,44 @@ def test_noe_normal_equations_are_those_of_forward_mode_through_the_free_run(del
     np.testing.assert_allclose(sse, e @ e, rtol=1e-12)
     np.testing.assert_allclose(jtj, J.T @ J, rtol=0, atol=1e-12 * np.max(np.abs(J.T @ J)))
     np.testing.assert_allclose(jte, J.T @ e, rtol=0, atol=1e-12 * np.max(np.abs(J.T @ e)))
+
+
+@jax.enable_x64(True)
+@pytest.mark.parametrize("n", [300, 291])
+def test_noe_normal_equations_at_a_trial_step_reuse_its_run(n, monkeypatch):
+    # Levenberg-Marquardt asks for the normal equations where its last trial run was: the
+    # chunks take that run's outputs (a padded last chunk (300 = 3 x 97 + 9) still simulates;
+    # 291 = 3 x 97 fills every chunk) and give the simulating chunks' normal equations, to
+    # round-off (the same arithmetic on the same values: bit for bit on this machine)
+    rng = np.random.default_rng(13)
+    delays, m, h = (1, 3), 2, 4
+    theta = 0.5 * rng.standard_normal(network.n_params(len(delays) + m, h))
+    u = np.cumsum(rng.standard_normal(n)) * 0.05
+    y = np.tanh(u) + 0.1 * rng.standard_normal(n)
+    reused = []
+    chunk_fn = training._noe_jac_chunk
+
+    def spy(*args, y_sim=None, **kw):
+        reused.append(y_sim is not None)
+        return chunk_fn(*args, y_sim=y_sim, **kw)
+
+    monkeypatch.setattr(training, "_noe_jac_chunk", spy)
+    prob = training.noe_problem(u, y, delays, m, h, "matlab", 0.1, -0.2, 1e6, chunk=97)
+    simulated = prob.normal_eq(theta)
+    assert reused == [False] * -(-n // 97)
+    reused.clear()
+    prob.sse(theta)
+    from_run = prob.normal_eq(theta)
+    assert reused == [True, True, True] + [False] * (n == 300)
+    reused.clear()
+    prob.sse(theta + 1e-3)  # another step's run is not taken for this one
+    again = prob.normal_eq(theta)
+    assert not any(reused)
+    for a, b, c in zip(simulated, from_run, again, strict=True):
+        a = np.asarray(a)
+        tol = 1e-14 * max(float(np.max(np.abs(a))), 1e-300)
+        np.testing.assert_allclose(np.asarray(b), a, rtol=0, atol=tol)
+        np.testing.assert_array_equal(np.asarray(c), a)
 
 
 def _system(u):

@@ -47,7 +47,7 @@ from sloshrom.rom.grey.physics import (
     grey_features,
     physical_parameters,
 )
-from sloshrom.rom.losses import TRAIN_DTYPE
+from sloshrom.rom.losses import TRAIN_DTYPE, windows
 from sloshrom.rom.network import MinMaxScaler
 from sloshrom.rom.shooting import PyTree, Recurrence, ShootingOptions, ss_encode
 from sloshrom.rom.shooting import shooting_problem as shooting
@@ -302,8 +302,8 @@ def shooting_problem(
         return {**p, **fixed}
 
     def start(p: PyTree, starts: jax.Array, shift: jax.Array) -> jax.Array:
-        past = starts[:, None] + jnp.arange(w)[None, :]
-        return ss_encode(p, u_s[past] + shift[:, None], y_s[past], ru, ry)
+        return ss_encode(p, windows(u_s, starts, w) + shift[:, None], windows(y_s, starts, w),
+                         ru, ry)
 
     use_kernel = kernel_available() if kernel is None else bool(kernel)
 

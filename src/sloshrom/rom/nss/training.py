@@ -29,7 +29,7 @@ import numpy as np
 from sloshrom._x64 import float64
 from sloshrom.rom.engine import AdamProblem, adam_epochs
 from sloshrom.rom.errors import ROMError
-from sloshrom.rom.losses import TRAIN_DTYPE
+from sloshrom.rom.losses import TRAIN_DTYPE, windows
 from sloshrom.rom.network import MinMaxScaler
 from sloshrom.rom.nss.entry import NSS_CLASS
 from sloshrom.rom.nss.network import (
@@ -108,8 +108,8 @@ def shooting_problem(
 
     def start(p: PyTree, starts: jax.Array, shift: jax.Array) -> jax.Array:
         # the state encoded from the window of measured input and output before the start
-        past = starts[:, None] + jnp.arange(w)[None, :]
-        return ss_encode(p, u_s[past] + shift[:, None], y_s[past], ru, ry)
+        return ss_encode(p, windows(u_s, starts, w) + shift[:, None], windows(y_s, starts, w),
+                         ru, ry)
 
     out_map = strictly_proper if spec.proper else (lambda p: p)
 

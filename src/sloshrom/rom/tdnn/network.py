@@ -38,6 +38,7 @@ from sloshrom._x64 import float64
 from sloshrom.limits import HIDDEN_KINDS
 from sloshrom.models import model_input
 from sloshrom.rom.errors import ROMError
+from sloshrom.rom.losses import windows
 from sloshrom.rom.network import FittedNetwork, MinMaxScaler
 from sloshrom.rom.registry import ModelClass
 from sloshrom.rom.tdnn.entry import NFIR_CLASS, NOE_CLASS, PARAM_NAMES, check_delays
@@ -62,6 +63,8 @@ __all__ = [
     "pack",
     "past_lines",
     "rbf_apply",
+    "rbf_rows",
+    "regressors",
     "row_index",
     "unpack",
 ]
@@ -171,6 +174,48 @@ def rbf_apply(params: dict[str, Any], X: Any, hidden: str = "matlab", *,
     return hidden_activations(params, X, hidden, single=single) @ params["c"] + params["c0"]
 
 
+def rbf_rows(params: dict[str, jax.Array], X: jax.Array, hidden: str = "matlab") -> jax.Array:
+    """:func:`rbf_apply` for a trainer's loss: the same values (the same operations), and for
+    ``"matlab"`` its gradient in closed form.
+
+    With ``y = a . c + c0``, ``a = softmax(-n^2)``: ``dy/dn_k = -2 n_k a_k (c_k - a . c)``, one
+    pass over the activations where the differentiated softmax makes several (an NFIR(70, 40)
+    epoch of plain Adam steps 0.24 -> 0.19 s). The gradient is the same function rounded
+    otherwise (relative 5e-8 in float32). Reverse mode only (a ``jax.custom_vjp``): the
+    networks' runs use :func:`rbf_apply`, which any transformation differentiates.
+    """
+    if hidden != "matlab":
+        return rbf_apply(params, X, hidden)
+    return _matlab_rbf(params["W"], params["b"], params["c"], params["c0"], X)
+
+
+@jax.custom_vjp
+def _matlab_rbf(W: jax.Array, b: jax.Array, c: jax.Array, c0: jax.Array,
+                X: jax.Array) -> jax.Array:
+    return rbf_apply({"W": W, "b": b, "c": c, "c0": c0}, X, "matlab")
+
+
+def _matlab_rbf_fwd(W: jax.Array, b: jax.Array, c: jax.Array, c0: jax.Array,
+                    X: jax.Array) -> tuple[jax.Array, tuple[jax.Array, ...]]:
+    n = X @ W.T + b  # as hidden_activations: the primal's bits
+    a = jax.nn.softmax(-(n**2), axis=-1)
+    y = a @ c
+    return y + c0, (W, X, n, a, c, y)
+
+
+def _matlab_rbf_bwd(res: tuple[jax.Array, ...], g: jax.Array) -> tuple[jax.Array, ...]:
+    W, X, n, a, c, y = res
+    dn = (-2.0 * g)[..., None] * n * a * (c - y[..., None])
+    h, dim = W.shape
+    flat = dn.reshape(-1, h)
+    # the cotangent of X is dropped (compiled away) where X is data, as in an NFIR
+    return (flat.T @ X.reshape(-1, dim), jnp.sum(flat, axis=0),
+            a.reshape(-1, h).T @ g.reshape(-1), jnp.sum(g), dn @ W)
+
+
+_matlab_rbf.defvjp(_matlab_rbf_fwd, _matlab_rbf_bwd)
+
+
 def row_index(rows: Any, delays: Sequence[int]) -> jnp.ndarray:
     """Indices into the rest-padded input ``up`` (``up[dmax + k] = u_k``) of the regressor rows
     at time indices ``rows``: shape ``(len(rows), len(delays))``."""
@@ -179,10 +224,31 @@ def row_index(rows: Any, delays: Sequence[int]) -> jnp.ndarray:
     return rows[:, None] + (dmax - d)[None, :]
 
 
+def regressors(up: jax.Array, rows: jax.Array, delays: Sequence[int]) -> jax.Array:
+    """The regressors at time indices ``rows`` (1-D) from the rest-padded input ``up``:
+    ``up[row_index(rows, delays)]``, shape ``(len(rows), len(delays))``, the same values.
+
+    Each row is read as one window of ``up`` (:func:`sloshrom.rom.losses.windows`), then its
+    columns are put in the order of ``delays`` (reversed, for the usual increasing delays):
+    XLA reads the windows 8x faster than it gathers the ``rows x delays`` single elements of
+    the index form (an NFIR(70, 40)'s plain Adam epoch 0.29 -> 0.27 s, its validation run
+    1.5x faster).
+    """
+    d = np.asarray(delays)
+    off = int(d.max()) - d
+    span = int(off.max()) + 1
+    win = windows(up, rows, span)
+    if np.array_equal(off, np.arange(span)[::-1]):
+        return lax.rev(win, (1,))
+    if np.array_equal(off, np.arange(span)):
+        return win
+    return win[:, off]
+
+
 def nfir_rows(theta: Any, up: Any, rows: Any, delays: Sequence[int], neurons: int,
               hidden: str) -> jnp.ndarray:
     """NFIR scaled outputs at time indices ``rows`` from the rest-padded scaled input ``up``."""
-    X = up[row_index(rows, delays)]
+    X = regressors(up, rows, delays)
     return rbf_apply(unpack(theta, len(delays), neurons), X, hidden)
 
 
