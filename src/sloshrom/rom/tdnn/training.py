@@ -445,8 +445,8 @@ def noe_validation_run(validation: tuple[np.ndarray, np.ndarray], rest_u: float,
 
 def _loss_rows(theta: jax.Array, up: jax.Array, rows: jax.Array, delays: Sequence[int],
                neurons: int, hidden: str) -> jax.Array:
-    """:func:`sloshrom.rom.tdnn.network.nfir_rows` with the gradient of :func:`rbf_rows`: the
-    rows of an Adam step's loss terms."""
+    """:func:`sloshrom.rom.tdnn.network.nfir_rows` computed for reverse mode (:func:`rbf_rows`):
+    the rows of an Adam step's loss terms."""
     return rbf_rows(unpack(theta, len(delays), neurons), regressors(up, rows, delays), hidden)
 
 
