@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any, TypeVar, cast
 
 import xarray as xr
 
+from sloshrom._threads import usable_cores
 from sloshrom._workers import worker_init
 from sloshrom.beam.compare import analysed_test, compare_rows
 from sloshrom.beam.damping.columns import table2_rows
@@ -77,7 +78,6 @@ from sloshrom.plotting.force import force_figures
 from sloshrom.plotting.signals import base_excitation_figure
 from sloshrom.rom.ensemble import Ensemble, is_ensemble, spread
 from sloshrom.rom.loading import load_model
-from sloshrom.rom.parallel import usable_cores
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

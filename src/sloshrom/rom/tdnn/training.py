@@ -317,9 +317,8 @@ def _noe_jac_chunk(theta, state, lines, u_chunk, y_chunk, w, delays, out_delays,
     if y_sim is not None:  # the delay lines as noe_step leaves them: most recent first
         st_end = (jnp.flip(u_ext[-dmax:]), jnp.flip(y_ext[-out_delays:]))
     k = jnp.arange(u_chunk.shape[0])
-    X = jnp.concatenate([u_ext[k[:, None] + dmax - d[None, :]],
-                         y_ext[k[:, None] + out_delays - 1 - np.arange(out_delays)[None, :]]],
-                        axis=1)
+    X = jnp.concatenate([regressors(u_ext, k, delays),
+                         regressors(y_ext, k, tuple(range(1, out_delays + 1)))], axis=1)
 
     def f(th, x):
         return rbf_apply(unpack(th, n_in + out_delays, neurons), x, hidden, single=True)
