@@ -16,6 +16,7 @@ from sloshrom.energy import dissipated_energy, map_fidelity, phi_d_map
 from sloshrom.io import record_from_measurement
 from sloshrom.rig.virtual import SensorParams, VirtualRig
 from sloshrom.rom.errors import ROMError
+from sloshrom.rom.losses import pack_cycles
 from sloshrom.rom.tdnn import training
 from sloshrom.rom.tdnn.estimators import NFIR
 from sloshrom.rom.tdnn.network import nfir_free_run, pack
@@ -184,8 +185,9 @@ def test_cycle_energy_term_fits_the_energy_of_unseen_cycles(rig_records):
 @pytest.mark.long
 def test_cycle_error_of_a_run_is_the_networks_on_the_cycles(hidden):
     """The validation's cycle-energy term read from the NFIR's run over the record equals the
-    network evaluated again on the padded cycles (``cycle_energy_error``, chunk by chunk, the
-    last chunk wrapped around), to round-off (float64, as the trainer validates)."""
+    network evaluated again on the cycles (``cycle_energy_error`` on their packed samples,
+    chunk by chunk, the last chunk wrapped around), to round-off (float64, as the trainer
+    validates)."""
     with jax.enable_x64(True):
         _check_cycle_error_of_a_run(hidden)
 
@@ -206,9 +208,10 @@ def _check_cycle_error_of_a_run(hidden: str) -> None:
     got = training.run_cycle_error(np.asarray(run) - y_s, cyc, chunk=chunk)
     up = jnp.asarray(np.concatenate([np.full(max(delays), rest), u_s]))
     idx = np.arange(-(-cyc.n // chunk) * chunk) % cyc.n
+    packed = [pack_cycles(cyc, idx[None, k:k + chunk], 0) for k in range(0, idx.size, chunk)]
     want = np.mean([float(training.cycle_energy_error(
-        theta, up, jnp.asarray(y_s), cyc, jnp.asarray(idx[k:k + chunk]), delays, neurons,
-        hidden)) for k in range(0, idx.size, chunk)])
+        theta, up, jnp.asarray(y_s), c.rows[0], c.weight[0], c.segment[0], chunk, delays,
+        neurons, hidden)) for c in packed])
     assert got > 0 and got == pytest.approx(want, rel=1e-12, abs=0)
     # another error is another value: the comparison is not vacuous
     assert training.run_cycle_error(np.asarray(run) - 1.01 * y_s, cyc, chunk=chunk) != \

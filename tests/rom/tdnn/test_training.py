@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from sloshrom import rom
+from sloshrom.rom import losses
 from sloshrom.rom.tdnn import network, training
 from sloshrom.rom.tdnn.training import LMProblem, levenberg_marquardt
 
@@ -145,6 +146,46 @@ def test_rbf_rows_is_rbf_apply_with_its_gradient_in_closed_form(shape):
             scale = float(np.max(np.abs(a)))
             np.testing.assert_allclose(np.asarray(b), np.asarray(a), rtol=0,
                                        atol=1e-13 * scale)
+
+
+@jax.enable_x64(True)
+def test_cycle_energy_of_packed_cycles_is_the_padded_cycles_with_its_gradient():
+    # the term on cycles packed one after the other against its first form (each cycle padded
+    # to the longest, the network evaluated on every padded row): the same sums in another
+    # order, float64
+    rng = np.random.default_rng(4)
+    fs = 200.0
+    t = np.arange(int(6 * fs)) / fs
+    u_s = np.sin(2 * np.pi * (5 + 2 * t) * t) * (0.3 + 0.1 * t)
+    y_s = 0.5 * np.roll(u_s, 2) + 0.05 * rng.standard_normal(u_s.size)
+    delays, neurons = (1, 2, 3, 4), 5
+    theta = network.pack({"W": rng.standard_normal((neurons, len(delays))),
+                          "b": rng.standard_normal(neurons), "c": rng.standard_normal(neurons),
+                          "c0": np.array(0.1)})
+    cyc = training.energy_cycles(u_s, fs, (4.0, 40.0))
+    idx = rng.integers(0, cyc.n, 7)
+    packed = losses.pack_cycles(cyc, idx[None], losses.cycle_slots(cyc, 7))
+    up = jnp.asarray(np.concatenate([np.zeros(max(delays)), u_s]))
+    ys = jnp.asarray(y_s)
+
+    def padded(th):
+        r = cyc.rows[idx]
+        e = network.nfir_rows(th, up, r.reshape(-1), delays, neurons, "matlab").reshape(r.shape)
+        return jnp.mean(jnp.sum((e - ys[r]) * cyc.weight[idx], axis=-1) ** 2)
+
+    def packed_term(th):
+        return training.cycle_energy_error(th, up, ys, packed.rows[0], packed.weight[0],
+                                           packed.segment[0], 7, delays, neurons, "matlab")
+
+    want, got = float(padded(theta)), float(packed_term(theta))
+    assert want > 0 and got == pytest.approx(want, rel=1e-12, abs=0)
+    gw, gg = np.asarray(jax.grad(padded)(theta)), np.asarray(jax.grad(packed_term)(theta))
+    np.testing.assert_allclose(gg, gw, rtol=0, atol=1e-12 * np.max(np.abs(gw)))
+    # another draw is another value: the comparison is not vacuous
+    other = losses.pack_cycles(cyc, (idx[None] + 1) % cyc.n, 0)
+    assert float(training.cycle_energy_error(
+        theta, up, ys, other.rows[0], other.weight[0], other.segment[0], 7, delays, neurons,
+        "matlab")) != pytest.approx(want, rel=1e-6)
 
 
 @jax.enable_x64(True)  # the trainers' internals follow the caller's precision

@@ -77,9 +77,11 @@ from sloshrom.rom.losses import (
     HarmonicProbes,
     ShootingProbes,
     amplitude_weights,
+    cycle_slots,
     cycles_per_window,
     energy_cycles,
     harmonic_probes,
+    pack_cycles,
     shooting_probes,
     window_energy_weights,
 )
@@ -470,17 +472,20 @@ def passivity_penalty(theta: Any, probes: HarmonicProbes, idx: Any, delays: Any,
     return jnp.mean(jnp.minimum(phi, 0.0) ** 2)
 
 
-def cycle_energy_error(theta: Any, up: Any, ys: Any, cycles: EnergyCycles, idx: Any,
-                       delays: Any, neurons: int, hidden: str) -> jnp.ndarray:
-    """Mean squared error of the normalised energy of the cycles ``idx`` (NFIR ``theta``).
+def cycle_energy_error(theta: Any, up: Any, ys: Any, rows: Any, weight: Any, segment: Any,
+                       k: int, delays: Any, neurons: int, hidden: str) -> jnp.ndarray:
+    """Mean squared error of the normalised energy of ``k`` cycles (NFIR ``theta``), their
+    samples packed one cycle after the other (``rows``, ``weight``, ``segment`` of a step of
+    :func:`sloshrom.rom.losses.pack_cycles`: the network runs on the cycles' samples alone,
+    not on each cycle padded to the longest).
 
     ``up``: scaled input padded in front with ``max(delays)`` rest samples; ``ys``: scaled
     output. Only the part of the error in phase with the velocity counts: the part that
     changes the damping the liquid adds.
     """
-    r = cycles.rows[idx]
-    e = _loss_rows(theta, up, r.reshape(-1), np.asarray(delays), neurons, hidden).reshape(r.shape)
-    return jnp.mean(jnp.sum((e - ys[r]) * cycles.weight[idx], axis=-1) ** 2)
+    e = _loss_rows(theta, up, rows, np.asarray(delays), neurons, hidden)
+    per = jax.ops.segment_sum((e - ys[rows]) * weight, segment, num_segments=k + 1)
+    return jnp.mean(per[:k] ** 2)
 
 
 def run_cycle_error(e: np.ndarray, cycles: EnergyCycles, chunk: int = 256) -> float:
@@ -562,31 +567,35 @@ def nfir_adam_problem(
     if probes is not None:
         probes = dataclasses.replace(probes, windows=jnp.asarray(probes.windows, dt),
                                      weight=jnp.asarray(probes.weight, dt))
-    if cycles is not None:
-        cycles = dataclasses.replace(cycles, weight=jnp.asarray(cycles.weight, dt))
     opt = optax.adam(lr, b1=b1, b2=b2, eps=eps)
     n_probes = 0 if probes is None or passivity <= 0 else probes.n
     n_draw = min(probes_per_step, n_probes)
     n_cycles = 0 if cycles is None or cycle_energy <= 0 else cycles.n
     c_draw = min(cycles_per_step, n_cycles)
 
-    def loss(th: Any, rows: Any, pidx: Any, cidx: Any) -> tuple[Any, Any]:
+    slots = cycle_slots(cycles, c_draw) if c_draw else 0
+
+    def loss(th: Any, rows: Any, pidx: Any, crows: Any, cweight: Any, cseg: Any
+             ) -> tuple[Any, Any]:
         e = _loss_rows(th, up, rows, d, neurons, hidden) - ysj[rows]
         value = jnp.mean(wj[rows] * e**2)
         if n_draw:
             value += passivity * passivity_penalty(th, probes, pidx, d, neurons, hidden)
         if c_draw:
-            value += cycle_energy * cycle_energy_error(th, up, ysj, cycles, cidx, d, neurons,
-                                                       hidden)
+            value += cycle_energy * cycle_energy_error(th, up, ysj, crows, cweight, cseg,
+                                                       c_draw, d, neurons, hidden)
         return value, jnp.mean(e**2)
 
     def draw(rng: np.random.Generator) -> tuple[np.ndarray, ...]:
         rows = rng.integers(0, n, (steps_per_epoch, batch))
         pidx = rng.integers(0, max(n_probes, 1), (steps_per_epoch, n_draw))
-        # no draw when the term is off: the minibatch sequence stays that of the paper
-        cidx = (rng.integers(0, n_cycles, (steps_per_epoch, c_draw)) if c_draw
-                else np.zeros((steps_per_epoch, 0), dtype=np.int32))
-        return rows, pidx, cidx
+        if not c_draw:
+            # no draw when the term is off: the minibatch sequence stays that of the paper
+            none = np.zeros((steps_per_epoch, 0), dtype=np.int32)
+            return rows, pidx, none, none.astype(dt), none
+        c = pack_cycles(cycles, rng.integers(0, n_cycles, (steps_per_epoch, c_draw)), slots,
+                        dt)
+        return rows, pidx, c.rows, c.weight, c.segment
 
     every_probe = jnp.arange(n_probes)
 
