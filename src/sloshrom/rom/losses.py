@@ -162,7 +162,7 @@ class EnergyCycles:
 
     rows: Any
     weight: Any
-    length: Any
+    length: np.ndarray
 
     @property
     def n(self) -> int:
@@ -253,8 +253,8 @@ def cycle_slots(cycles: EnergyCycles, k: int) -> int:
     return min(most, -(-int(math.ceil(likely)) // _SLOT_QUANTUM) * _SLOT_QUANTUM)
 
 
-def pack_cycles(cycles: EnergyCycles, idx: np.ndarray, slots: int, dtype: Any = np.float64
-                ) -> PackedCycles:
+def pack_cycles(cycles: EnergyCycles, idx: np.ndarray, slots: int,
+                dtype: type[np.floating] = np.float64) -> PackedCycles:
     """The samples of the cycles ``idx`` (steps, k) packed in ``slots`` places a step
     (:class:`PackedCycles`; a step whose cycles need more places makes every step of the
     call take as many, rounded up to a multiple of 128: the draw is never truncated)."""

@@ -472,8 +472,9 @@ def passivity_penalty(theta: Any, probes: HarmonicProbes, idx: Any, delays: Any,
     return jnp.mean(jnp.minimum(phi, 0.0) ** 2)
 
 
-def cycle_energy_error(theta: Any, up: Any, ys: Any, rows: Any, weight: Any, segment: Any,
-                       k: int, delays: Any, neurons: int, hidden: str) -> jnp.ndarray:
+def cycle_energy_error(theta: jax.Array, up: jax.Array, ys: jax.Array, rows: jax.Array,
+                       weight: jax.Array, segment: jax.Array, k: int, delays: Sequence[int],
+                       neurons: int, hidden: str) -> jax.Array:
     """Mean squared error of the normalised energy of ``k`` cycles (NFIR ``theta``), their
     samples packed one cycle after the other (``rows``, ``weight``, ``segment`` of a step of
     :func:`sloshrom.rom.losses.pack_cycles`: the network runs on the cycles' samples alone,
@@ -575,8 +576,8 @@ def nfir_adam_problem(
 
     slots = cycle_slots(cycles, c_draw) if c_draw else 0
 
-    def loss(th: Any, rows: Any, pidx: Any, crows: Any, cweight: Any, cseg: Any
-             ) -> tuple[Any, Any]:
+    def loss(th: jax.Array, rows: jax.Array, pidx: jax.Array, crows: jax.Array,
+             cweight: jax.Array, cseg: jax.Array) -> tuple[jax.Array, jax.Array]:
         e = _loss_rows(th, up, rows, d, neurons, hidden) - ysj[rows]
         value = jnp.mean(wj[rows] * e**2)
         if n_draw:
