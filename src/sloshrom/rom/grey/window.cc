@@ -12,7 +12,10 @@
 // vectorises them for any SIMD width. The rows of a block of LANES run through the whole window
 // before the next block (their state stays in the first-level cache). Weight gradients are
 // summed per lane first and across lanes at the end of a block: no floating-point reduction
-// has to be reordered for the vector units (the build needs no -ffast-math).
+// has to be reordered for the vector units (the build needs no -ffast-math). The sums of a
+// layer's outputs run several at once (8 neurons, 4 states), each over its terms in the same
+// order as alone: independent chains keep the FMA units busy, and the results are those of
+// one sum at a time to the bit.
 //
 // x86-64: the two entry points are compiled for the baseline ISA, x86-64-v3 (AVX2, FMA) and
 // x86-64-v4 (AVX-512), and the loader picks the best the CPU has (GCC's function multiversioning);
@@ -181,36 +184,59 @@ SL_INLINE void outer_acc(T* acc, int64_t ld, const T* a, int64_t ni, int64_t sa_
     }
 }
 
-// act[j] = tanh(bias[j] + sum_i in_i W[i, j]), in_i the rows of two sets (ni0 rows at p0,
-// ni1 at p1, s0 and s1 elements apart); act's rows act_ld apart.
+// act[j] = tanh(bias[j] + sum_i in_i W[i, j]) for the K neurons from j on, in_i the rows of
+// two sets (ni0 rows at p0, ni1 at p1, s0 and s1 elements apart); act's rows act_ld apart. K
+// sums at once, each in the order of i: K independent chains for the FMA units, the same
+// arithmetic whatever K.
+template <typename T, int K>
+SL_INLINE void dense_tanh_block(T* act, int64_t act_ld, const T* W, const T* bias, int64_t n,
+                                int64_t j, const T* p0, int64_t ni0, int64_t s0, const T* p1,
+                                int64_t ni1, int64_t s1) {
+  V<T> c[K];
+  for (int q = 0; q < K; ++q) c[q] = splat(bias[j + q]);
+  for (int64_t i = 0; i < ni0 + ni1; ++i) {
+    const V<T> v = load(i < ni0 ? p0 + i * s0 : p1 + (i - ni0) * s1);
+    const T* w = W + i * n + j;
+    for (int q = 0; q < K; ++q) c[q] += v * w[q];
+  }
+  for (int q = 0; q < K; ++q) store(act + (j + q) * act_ld, tanh_v<T>(c[q]));
+}
+
 template <typename T>
 SL_INLINE void dense_tanh(T* act, int64_t act_ld, const T* W, const T* bias, int64_t n,
                           const T* p0, int64_t ni0, int64_t s0, const T* p1, int64_t ni1,
                           int64_t s1) {
   int64_t j = 0;
-  for (; j + 4 <= n; j += 4) {
-    V<T> c0 = splat(bias[j]), c1 = splat(bias[j + 1]), c2 = splat(bias[j + 2]),
-         c3 = splat(bias[j + 3]);
-    for (int64_t i = 0; i < ni0 + ni1; ++i) {
-      const T* row = i < ni0 ? p0 + i * s0 : p1 + (i - ni0) * s1;
-      const V<T> v = load(row);
-      const T* w = W + i * n + j;
-      c0 += v * w[0];
-      c1 += v * w[1];
-      c2 += v * w[2];
-      c3 += v * w[3];
-    }
-    store(act + j * act_ld, tanh_v<T>(c0));
-    store(act + (j + 1) * act_ld, tanh_v<T>(c1));
-    store(act + (j + 2) * act_ld, tanh_v<T>(c2));
-    store(act + (j + 3) * act_ld, tanh_v<T>(c3));
+  for (; j + 8 <= n; j += 8)
+    dense_tanh_block<T, 8>(act, act_ld, W, bias, n, j, p0, ni0, s0, p1, ni1, s1);
+  for (; j + 4 <= n; j += 4)
+    dense_tanh_block<T, 4>(act, act_ld, W, bias, n, j, p0, ni0, s0, p1, ni1, s1);
+  for (; j < n; ++j)
+    dense_tanh_block<T, 1>(act, act_ld, W, bias, n, j, p0, ni0, s0, p1, ni1, s1);
+}
+
+// The next state of the K states from k on: x_k - f0_k + sum_i z_i A[i, k] + sum_j h_j W2[j, k]
+// (K sums at once, each in the order of its terms).
+template <typename T, int K>
+SL_INLINE void next_state(const Net<T>& m, int64_t k, const T* xt, const T* s, const T* h,
+                          const T* f0, T* xv) {
+  constexpr int L = kLanes<T>;
+  const int64_t nx = m.nx, B = m.B;
+  V<T> c[K];
+  for (int q = 0; q < K; ++q) c[q] = load(xt + (k + q) * L) - f0[k + q];
+  for (int64_t i = 0; i < nx; ++i) {
+    const V<T> v = load(xt + i * L);
+    for (int q = 0; q < K; ++q) c[q] += v * m.A[i * nx + k + q];
   }
-  for (; j < n; ++j) {
-    V<T> c = splat(bias[j]);
-    for (int64_t i = 0; i < ni0 + ni1; ++i)
-      c += load(i < ni0 ? p0 + i * s0 : p1 + (i - ni0) * s1) * W[i * n + j];
-    store(act + j * act_ld, tanh_v<T>(c));
+  for (int64_t i = 0; i < m.nf; ++i) {
+    const V<T> v = load(s + i * B);
+    for (int q = 0; q < K; ++q) c[q] += v * m.A[(nx + i) * nx + k + q];
   }
+  for (int64_t j = 0; j < m.n; ++j) {
+    const V<T> v = load(h + j * L);
+    for (int q = 0; q < K; ++q) c[q] += v * m.W2[j * nx + k + q];
+  }
+  for (int q = 0; q < K; ++q) store(xv + (k + q) * L, c[q]);
 }
 
 // The free run: y (T, B), and the states xs and activations hs, gs the reverse pass reads,
@@ -246,15 +272,56 @@ SL_INLINE void forward(const Net<T>& m, const T* x0, const T* seq, T* y, T* xs, 
       store(y + t * B + b0, yv);
       // state map on z = [x, du, phi]
       dense_tanh<T>(h, L, m.W1, m.b1, n, xt, nx, L, s, nf, B);
-      for (int64_t k = 0; k < nx; ++k) {
-        V<T> c = load(xt + k * L) - f0[k];
-        for (int64_t i = 0; i < nx; ++i) c += load(xt + i * L) * m.A[i * nx + k];
-        for (int64_t i = 0; i < nf; ++i) c += load(s + i * B) * m.A[(nx + i) * nx + k];
-        for (int64_t j = 0; j < n; ++j) c += load(h + j * L) * m.W2[j * nx + k];
-        store(xv + k * L, c);
-      }
+      int64_t k = 0;
+      for (; k + 4 <= nx; k += 4) next_state<T, 4>(m, k, xt, s, h, f0.data(), xv);
+      for (; k < nx; ++k) next_state<T, 1>(m, k, xt, s, h, f0.data(), xv);
     }
   }
+}
+
+// The reverse pass's gradients of the K pre-activations from neuron j on: the state map's
+// da = (dxn W2^T)(1 - h^2) and the output map's dg = dy V2 (1 - g^2), with their running sums
+// (K sums at once, each in the order of its terms).
+template <typename T, int K>
+SL_INLINE void pre_gradients(const Net<T>& m, int64_t j, const T* dxt, const T* h, const T* g,
+                             V<T> dyt, T* dat, T* dgt, T* s_da, T* s_dg) {
+  constexpr int L = kLanes<T>;
+  V<T> c[K] = {};
+  for (int64_t k = 0; k < m.nx; ++k) {
+    const V<T> v = load(dxt + k * L);
+    for (int q = 0; q < K; ++q) c[q] += v * m.W2[(j + q) * m.nx + k];
+  }
+  for (int q = 0; q < K; ++q) {
+    const int64_t jq = j + q;
+    const V<T> hv = load(h + jq * L);
+    const V<T> gv = load(g + jq * L);
+    const V<T> daj = c[q] * (T(1) - hv * hv);
+    const V<T> dgj = dyt * m.V2[jq] * (T(1) - gv * gv);
+    store(dat + jq * L, daj);
+    store(dgt + jq * L, dgj);
+    store(s_da + jq * L, load(s_da + jq * L) + daj);
+    store(s_dg + jq * L, load(s_dg + jq * L) + dgj);
+  }
+}
+
+// The gradient of the K states from k on at the step before: dx_{t+1} + dy C + dxn A^T +
+// da W1^T + dg V1^T (K sums at once, each in the order of its terms).
+template <typename T, int K>
+SL_INLINE void state_gradient(const Net<T>& m, int64_t k, const T* dxt, const T* dat,
+                              const T* dgt, V<T> dyt, T* dx) {
+  constexpr int L = kLanes<T>;
+  const int64_t nx = m.nx, n = m.n;
+  V<T> c[K];
+  for (int q = 0; q < K; ++q) c[q] = load(dxt + (k + q) * L) + dyt * m.C[k + q];
+  for (int64_t i = 0; i < nx; ++i) {
+    const V<T> v = load(dxt + i * L);
+    for (int q = 0; q < K; ++q) c[q] += v * m.A[(k + q) * nx + i];
+  }
+  for (int64_t j = 0; j < n; ++j) {
+    const V<T> a = load(dat + j * L), d = load(dgt + j * L);
+    for (int q = 0; q < K; ++q) c[q] += a * m.W1[(k + q) * n + j] + d * m.V1[(k + q) * n + j];
+  }
+  for (int q = 0; q < K; ++q) store(dx + (k + q) * L, c[q]);
 }
 
 // The reverse pass from dy (T, B): the gradients of the eight weights and of the initial state
@@ -306,26 +373,13 @@ SL_INLINE void backward(const Net<T>& m, const T* seq, const T* xs, const T* hs,
         store(s_dxn + k * L, load(s_dxn + k * L) + d);
       }
       // state map: da = (dxn W2^T) (1 - h^2); output map: dg = dy V2 (1 - g^2)
-      for (int64_t j = 0; j < n; ++j) {
-        V<T> c{};
-        for (int64_t k = 0; k < nx; ++k) c += load(dxt + k * L) * m.W2[j * nx + k];
-        const V<T> hv = load(h + j * L);
-        const V<T> gv = load(g + j * L);
-        const V<T> daj = c * (T(1) - hv * hv);
-        const V<T> dgj = dyt * m.V2[j] * (T(1) - gv * gv);
-        store(dat + j * L, daj);
-        store(dgt + j * L, dgj);
-        store(s_da + j * L, load(s_da + j * L) + daj);
-        store(s_dg + j * L, load(s_dg + j * L) + dgj);
-      }
+      int64_t j = 0;
+      for (; j + 4 <= n; j += 4) pre_gradients<T, 4>(m, j, dxt, h, g, dyt, dat, dgt, s_da, s_dg);
+      for (; j < n; ++j) pre_gradients<T, 1>(m, j, dxt, h, g, dyt, dat, dgt, s_da, s_dg);
       // dx_t = dx_{t+1} + dz[:nx] + do[:nx]
-      for (int64_t k = 0; k < nx; ++k) {
-        V<T> c = load(dxt + k * L) + dyt * m.C[k];
-        for (int64_t i = 0; i < nx; ++i) c += load(dxt + i * L) * m.A[k * nx + i];
-        for (int64_t j = 0; j < n; ++j)
-          c += load(dat + j * L) * m.W1[k * n + j] + load(dgt + j * L) * m.V1[k * n + j];
-        store(dx + k * L, c);
-      }
+      int64_t k = 0;
+      for (; k + 4 <= nx; k += 4) state_gradient<T, 4>(m, k, dxt, dat, dgt, dyt, dx);
+      for (; k < nx; ++k) state_gradient<T, 1>(m, k, dxt, dat, dgt, dyt, dx);
       // the weights' gradients of the last few samples, while their rows are in the cache
       if (t % kChunk == 0) {
         const int64_t t1 = t + kChunk < TT ? t + kChunk : TT;
