@@ -34,9 +34,8 @@ from sloshrom.rom.network import MinMaxScaler
 
 __all__ = ["MAX_CYCLE", "TRAIN_DTYPE", "EnergyCycles", "HarmonicProbes", "PackedCycles",
            "ShootingProbes", "amplitude_weights", "cycle_slots", "cycles_per_window",
-           "energy_cycles",
-           "harmonic_probes", "pack_cycles", "shooting_probes", "window_energy_weights",
-           "windows"]
+           "energy_cycles", "harmonic_probes", "pack_cycles", "shooting_probes",
+           "window_energy_weights", "windows"]
 
 #: longest input cycle of the cycle-energy term, samples (the cycles are padded to the longest)
 MAX_CYCLE = 2048
@@ -260,23 +259,23 @@ def pack_cycles(cycles: EnergyCycles, idx: np.ndarray, slots: int,
     call take as many, rounded up to a multiple of 128: the draw is never truncated)."""
     idx = np.asarray(idx)
     steps, k = idx.shape
-    rows, weight = np.asarray(cycles.rows), np.asarray(cycles.weight)
     length = np.asarray(cycles.length)[idx]
     need = int(length.sum(axis=1).max()) if k else 0
     if need > slots:
         slots = -(-need // _SLOT_QUANTUM) * _SLOT_QUANTUM
-    valid = (np.arange(rows.shape[1]) < length[..., None]).reshape(steps, -1)
-    place = np.cumsum(valid, axis=1) - 1  # each sample's place in its step, cycle after cycle
-    step = np.broadcast_to(np.arange(steps)[:, None], valid.shape)[valid]
-    place = place[valid]
-    out_rows = np.zeros((steps, slots), dtype=rows.dtype)
+    # one entry per drawn sample, cycle after cycle: (its step, its cycle's draw, the cycle,
+    # its sample in the cycle, its place in the step); no (steps, k, longest) temporary
+    n = length.ravel()
+    within = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+    cycle = np.repeat(idx.ravel(), n)
+    step = np.repeat(np.repeat(np.arange(steps), k), n)
+    place = np.repeat((np.cumsum(length, axis=1) - length).ravel(), n) + within
+    out_rows = np.zeros((steps, slots), dtype=np.asarray(cycles.rows).dtype)
     out_weight = np.zeros((steps, slots), dtype=dtype)
     segment = np.full((steps, slots), k, dtype=np.int32)
-    out_rows[step, place] = rows[idx].reshape(steps, -1)[valid]
-    out_weight[step, place] = weight[idx].reshape(steps, -1)[valid]
-    segment[step, place] = np.broadcast_to(
-        np.arange(k, dtype=np.int32)[None, :, None], (steps, k, rows.shape[1])
-    ).reshape(steps, -1)[valid]
+    out_rows[step, place] = np.asarray(cycles.rows)[cycle, within]
+    out_weight[step, place] = np.asarray(cycles.weight)[cycle, within]
+    segment[step, place] = np.repeat(np.tile(np.arange(k, dtype=np.int32), steps), n)
     return PackedCycles(out_rows, out_weight, segment, k)
 
 
