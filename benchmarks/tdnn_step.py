@@ -50,14 +50,21 @@ def _timed(f, *args) -> float:
     return time.perf_counter() - t0
 
 
-def nfir_epochs(u: np.ndarray, y: np.ndarray, delays: int, neurons: int,
-                repeats: int) -> None:
-    d = tuple(range(1, delays + 1))
-    rng = np.random.default_rng(0)
+def _nfir_data(u: np.ndarray, y: np.ndarray, delays: int, neurons: int,
+               rng: np.random.Generator) -> tuple:
+    """The delays, the rest-padded scaled input, the scaled output and random parameters of
+    an NFIR(delays, neurons), float32."""
     scale = max(float(np.max(np.abs(u))), 1e-12)
     up = jnp.asarray(np.concatenate([np.zeros(delays), u / scale]), jnp.float32)
     ys = jnp.asarray(y / max(float(np.max(np.abs(y))), 1e-12), jnp.float32)
     theta = jnp.asarray(0.1 * rng.standard_normal(n_params(delays, neurons)), jnp.float32)
+    return tuple(range(1, delays + 1)), up, ys, theta
+
+
+def nfir_epochs(u: np.ndarray, y: np.ndarray, delays: int, neurons: int,
+                repeats: int) -> None:
+    rng = np.random.default_rng(0)
+    d, up, ys, theta = _nfir_data(u, y, delays, neurons, rng)
     rows = jnp.asarray(rng.integers(0, u.size, (200, 4096)))
 
     def baseline(th, r):
@@ -88,12 +95,8 @@ def nfir_epochs(u: np.ndarray, y: np.ndarray, delays: int, neurons: int,
 
 def cycle_energy_epochs(u: np.ndarray, y: np.ndarray, fs: float, delays: int, neurons: int,
                         repeats: int) -> None:
-    d = tuple(range(1, delays + 1))
     rng = np.random.default_rng(1)
-    scale = max(float(np.max(np.abs(u))), 1e-12)
-    up = jnp.asarray(np.concatenate([np.zeros(delays), u / scale]), jnp.float32)
-    ys = jnp.asarray(y / max(float(np.max(np.abs(y))), 1e-12), jnp.float32)
-    theta = jnp.asarray(0.1 * rng.standard_normal(n_params(delays, neurons)), jnp.float32)
+    d, up, ys, theta = _nfir_data(u, y, delays, neurons, rng)
     cyc = energy_cycles(u, fs, power_band(u, fs))
     rows, weight = cyc.rows, jnp.asarray(cyc.weight, jnp.float32)
     slots = cycle_slots(cyc, 32)

@@ -270,10 +270,11 @@ def pack_cycles(cycles: EnergyCycles, idx: np.ndarray, slots: int,
     cycle = np.repeat(idx.ravel(), n)
     step = np.repeat(np.repeat(np.arange(steps), k), n)
     place = np.repeat((np.cumsum(length, axis=1) - length).ravel(), n) + within
-    out_rows = np.zeros((steps, slots), dtype=np.asarray(cycles.rows).dtype)
+    rows = np.asarray(cycles.rows)
+    out_rows = np.zeros((steps, slots), dtype=rows.dtype)
     out_weight = np.zeros((steps, slots), dtype=dtype)
     segment = np.full((steps, slots), k, dtype=np.int32)
-    out_rows[step, place] = np.asarray(cycles.rows)[cycle, within]
+    out_rows[step, place] = rows[cycle, within]
     out_weight[step, place] = np.asarray(cycles.weight)[cycle, within]
     segment[step, place] = np.repeat(np.tile(np.arange(k, dtype=np.int32), steps), n)
     return PackedCycles(out_rows, out_weight, segment, k)
