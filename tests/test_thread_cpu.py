@@ -47,6 +47,13 @@ def test_a_busy_thread_is_found_with_its_cpu_and_the_exit_status_kept():
     assert float(proc.split()[2]) >= used
 
 
+def test_a_command_killed_by_a_signal_exits_as_a_shell_says():
+    out = _run("--", sys.executable, "-c",
+               "import os, signal; os.kill(os.getpid(), signal.SIGTERM)")
+    assert out.returncode == 128 + 15, out.stderr
+    assert "CPU seconds from" in out.stderr
+
+
 def test_no_command_or_a_bad_one_is_a_clear_error():
     out = _run("--")
     assert out.returncode == 2 and "no command" in out.stderr

@@ -20,13 +20,15 @@ Example: the ROM stage of a results folder, rerun::
     rm r/.stages/rom.json && python tools/thread_cpu.py --window 0 100 -- \\
         .venv/bin/sloshrom reproduce --out r
 
-The exit status is the command's.
+The exit status is the command's (128 + N when signal N killed it). Ctrl-C stops the command
+and prints what was sampled until then.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -163,9 +165,18 @@ def main(argv: list[str] | None = None) -> int:
         proc = subprocess.Popen(cmd)
     except OSError as err:
         ap.error(f"cannot run {cmd[0]!r}: {err}")
-    while proc.poll() is None:
-        sample(proc.pid, threads, time.perf_counter() - t0)
-        time.sleep(a.interval)
+    try:
+        while proc.poll() is None:
+            sample(proc.pid, threads, time.perf_counter() - t0)
+            time.sleep(a.interval)
+    except KeyboardInterrupt:
+        # Ctrl-C at a terminal reaches the command too (one process group); an interrupt
+        # sent to this process alone is passed on
+        try:
+            proc.wait(timeout=2)
+        except subprocess.TimeoutExpired:
+            proc.send_signal(signal.SIGINT)
+            proc.wait()
     elapsed = time.perf_counter() - t0
     start, end = a.window if a.window else (0.0, elapsed)
     if start >= elapsed:
@@ -174,7 +185,8 @@ def main(argv: list[str] | None = None) -> int:
     else:
         print(report(threads, start, min(end, elapsed), a.buckets, a.minimum, tick),
               file=sys.stderr)
-    return proc.returncode
+    # a command killed by signal N exits as a shell reports it: 128 + N
+    return proc.returncode if proc.returncode >= 0 else 128 - proc.returncode
 
 
 if __name__ == "__main__":
