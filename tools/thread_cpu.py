@@ -4,12 +4,14 @@ A stage that keeps both cores busy can still spend its time on the wrong work: a
 threads, a second XLA thread, a worker's imports. This runs ``CMD`` and reads, every
 ``--interval`` seconds, the CPU time of every thread of it and of its descendants
 (``/proc/PID/task/TID/stat``: user + system), then prints one line per thread that used at
-least ``--min`` CPU seconds: its process and thread ids, its name, its CPU seconds in all,
-and in each of ``--buckets`` equal slices of the run (or of ``--window START END``, seconds
-after the start). A process's line sums its threads.
+least ``--min`` CPU seconds (on standard error: the command keeps its own output): its
+process and thread ids, its name, its CPU seconds in all, and in each of ``--buckets`` equal
+slices of the run (or of ``--window START END``, seconds after the start). A process's line
+sums its threads.
 
 Linux only (``/proc``). Threads that live shorter than an interval are not seen; CPU time is
-counted in the kernel's clock ticks (10 ms on most systems).
+counted in the kernel's clock ticks (10 ms on most systems). The sampling itself costs well
+under 1 % of a core (0.07 CPU s in a 10 s run, a few hundred processes on the machine).
 
 Usage::
 
