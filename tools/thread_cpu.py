@@ -119,18 +119,19 @@ def report(threads: dict[tuple[int, int], Thread], start: float, end: float, buc
     edges = [start + k * width for k in range(buckets + 1)]
     lines = [f"CPU seconds from {start:.1f} to {end:.1f} s of the run, in {buckets} slices of "
              f"{width:.1f} s"]
+    used = {key: th.used(start, end, tick) for key, th in threads.items()}
     by_pid: dict[int, list[Thread]] = {}
-    for th in threads.values():
+    for th in sorted(threads.values(), key=lambda t: -used[t.pid, t.tid]):
         by_pid.setdefault(th.pid, []).append(th)
+    per_pid = {pid: sum(used[t.pid, t.tid] for t in ths) for pid, ths in by_pid.items()}
     total = 0.0
-    for pid in sorted(by_pid, key=lambda p: -sum(t.used(start, end, tick) for t in by_pid[p])):
-        used = sum(t.used(start, end, tick) for t in by_pid[pid])
-        if used < minimum:
+    for pid in sorted(per_pid, key=lambda p: -per_pid[p]):
+        if per_pid[pid] < minimum:
             continue
-        total += used
-        lines.append(f"process {pid}: {used:.1f} s  {by_pid[pid][0].command[:100]}")
-        for th in sorted(by_pid[pid], key=lambda t: -t.used(start, end, tick)):
-            u = th.used(start, end, tick)
+        total += per_pid[pid]
+        lines.append(f"process {pid}: {per_pid[pid]:.1f} s  {by_pid[pid][0].command[:100]}")
+        for th in by_pid[pid]:
+            u = used[th.pid, th.tid]
             if u < minimum:
                 continue
             slices = " ".join(f"{th.used(a, b, tick):4.1f}"
