@@ -13,6 +13,8 @@ uncertainty (``sloshrom.beam.simulation.members``).
 
 from __future__ import annotations
 
+import contextvars
+import functools
 import multiprocessing
 import os
 import tempfile
@@ -27,7 +29,7 @@ from typing import TYPE_CHECKING, Any, TypeVar, cast
 
 import xarray as xr
 
-from sloshrom._threads import usable_cores
+from sloshrom._threads import numba_threadsafe, usable_cores
 from sloshrom._workers import worker_init
 from sloshrom.beam.compare import analysed_test, compare_rows
 from sloshrom.beam.damping.columns import table2_rows
@@ -67,7 +69,7 @@ from sloshrom.models import FrozenLiquid
 from sloshrom.pipeline.context import Context, StageRecord, in_thread
 from sloshrom.pipeline.settings import BeamTable
 from sloshrom.pipeline.waveform import free_fidelity, random_fidelity
-from sloshrom.plotting import render_png, savefig
+from sloshrom.plotting import savefig
 from sloshrom.plotting.beam import (
     comparison_figures,
     free_figures,
@@ -281,6 +283,23 @@ def _stage_beam(ctx: Context, rom_path: Path | None, pool: Executor | None
         return on_case
 
     tests = beam_tests(cfg, modal, tank, fs)
+    gain = float(ctx.cfg.rig.twin_gain)
+
+    def free_and_twin() -> tuple[dict[str, Any], dict[str, Any], float]:
+        free = simulate_cases(models, tests["free"], fs, report("free"))
+        # the rig's twin run of the random tests, the scale of the ROM's waveform figures
+        # (docs/rom.md, "Waveform fidelity"); measured 1.4-3.7 s for 3 x 90 s
+        t0 = time.perf_counter()
+        twin = simulate_cases({"twin": models["rig"]},
+                              beam_tests(cfg, modal, tank, fs, gain=gain)["random"], fs)
+        return free, twin["twin"], time.perf_counter() - t0
+
+    # the free decays and the twin run in a thread beside the random tests (every run is
+    # independent and its own to the bit): the frozen liquid's and the rig's runs are one
+    # core's work each, and the analysis pool's processes are still starting
+    side = (in_thread(functools.partial(contextvars.copy_context().run, free_and_twin),
+                      "sloshrom-beam-free")
+            if pool is not None and numba_threadsafe() else None)
     rand_res = simulate_cases(models, tests["random"], fs, report("random"))
 
     def tables(runner: Executor | None) -> tuple[dict[str, list[xr.Dataset]], xr.Dataset]:
@@ -295,15 +314,9 @@ def _stage_beam(ctx: Context, rom_path: Path | None, pool: Executor | None
     # for them); in this process alone, after the rest (warnings' filters are process-wide)
     table_work = (in_thread(lambda: tables(pool), "sloshrom-beam-tables") if pool is not None
                   else None)
-    free_res = simulate_cases(models, tests["free"], fs, report("free"))
-    # the rig's twin run of the random tests, the scale of the ROM's waveform figures
-    # (docs/rom.md, "Waveform fidelity"); measured 1.4-3.7 s for 3 x 90 s
-    ctx.progress("beam", steps, steps, "the rig's twin run of the random tests")
-    gain, t0 = float(ctx.cfg.rig.twin_gain), time.perf_counter()
-    twin = simulate_cases({"twin": models["rig"]},
-                          beam_tests(cfg, modal, tank, fs, gain=gain)["random"], fs)["twin"]
+    free_res, twin, twin_seconds = side.result() if side is not None else free_and_twin()
     outputs["waveform_fidelity"] = random_fidelity(rand_res, twin, cfg.rms_g, gain,
-                                                   time.perf_counter() - t0)
+                                                   twin_seconds)
     # the free decay's first seconds, the violent part (paper Fig. 20c)
     outputs["free_fidelity"] = free_fidelity(free_res)
     ctx.progress("beam", steps, steps, "analysis and figures")
@@ -313,78 +326,82 @@ def _stage_beam(ctx: Context, rom_path: Path | None, pool: Executor | None
     bands = damping_band_table(free_res, decays, f1)
     outputs["envelope"] = envelope_table({"free": free_res, "random": rand_res})
 
-    ctx.progress("beam", steps, steps, "the rig as the laboratory: files, analyses, comparison")
-    with tempfile.TemporaryDirectory() as tmp:
-        lab = laboratory(free_res["rig"], rand_res["rig"], modal, beam, cfg, f1, Path(tmp))
-    exp_free, exp_random = lab["free"], lab["random"]
     predicted_free = [analysed_test(c, "free", free_res[c], f1,
                                     [r for r in bands if r["case"] == c], decays[c])
                       for c in models]
-    # the figures that need no Table 2, drawn while its analyses end in the pool's processes
+    # the figures that need no Table 2, drawn while its analyses run in the pool's processes
     # (this process would wait for them, then draw on one core)
     ff = outputs["free_fidelity"].get("rom")
     figs: dict[str, Figure | bytes] = {
         **free_figures(free_res, modal, decays),
-        **random_figures(rand_res, cfg.rms_g, random_window(cfg.random_duration)),
-        **comparison_figures(exp_free, predicted_free)}
+        **random_figures(rand_res, cfg.rms_g, random_window(cfg.random_duration))}
     figs["fig17_base_excitation"] = base_excitation_figure(rand_res["frozen"], cfg.rms_g,
                                                            cfg.f0, cfg.sigma, fs)
     figs.update(force_figures(
         {c: free_res[c] for c in ("rig", "rom") if c in free_res},
         {**{c: rand_res[c] for c in ("rig", "rom") if c in rand_res}, "twin": twin},
         cfg.rms_g, fs, {"rom": ff} if isinstance(ff, dict) else None))
-    if table_work is not None:
-        figs = {name: render_png(fig) for name, fig in figs.items()}
-    members, table2 = collected(table_work, tables)
-    predicted_random = [analysed_test(c, "random", rand_res[c], f1, table2.sel(case=c))
-                        for c in models]
-    # Table 2 as its file and record hold it: the simulated cases, then the experiment
-    t2_rows = [*table2_rows(table2), *exp_random.table_rows()]
-    bands += exp_free.rows
-    outputs["table2"] = t2_rows
-    outputs["damping_bands"] = bands
-    outputs["experiment"] = {
-        "noise_rms": cfg.lab_noise, "files": [f"lab/{n}" for n in lab["files"]],
-        "free": compare_rows(exp_free, predicted_free),
-        "random": compare_rows(exp_random, predicted_random)}
-
-    if "rom" in members:
-        outputs["rom_members"] = member_spread(members["rom"], free_res["rom"]["members"],
-                                               decays["rom"], cfg.rms_g)
-
-    figs.update(comparison_figures(exp_random, predicted_random))
-    # every result file of the stage appears together, once everything above has succeeded
+    # every result file of the stage appears together, once everything has succeeded; those
+    # that need no analysis of the pool are written while its processes work
     with OutputBatch() as batch:
         for case in models:
             for kind, res in (("free", free_res), ("random", rand_res)):
                 write_dataset(to_dataset(res[case], case, kind, tank, modal, cfg.seed, f1=f1),
                               out / f"{kind}_{case}.nc", batch)
+        write_table(rows, out / "table1_frozen_modes", batch)
+        for name, fig in figs.items():
+            savefig(fig, ctx.path("figures", f"{name}.png"), batch)
+
+        ctx.progress("beam", steps, steps,
+                     "the rig as the laboratory: files, analyses, comparison")
+        with tempfile.TemporaryDirectory() as tmp:
+            lab = laboratory(free_res["rig"], rand_res["rig"], modal, beam, cfg, f1, Path(tmp),
+                             pool)
+        exp_free, exp_random = lab["free"], lab["random"]
         for kind in ("free", "random"):
             write_dataset(to_dataset(lab[f"{kind}_result"], EXPERIMENT, kind, tank,
                                      lab["modal"], cfg.seed, f1=f1),
                           out / f"{kind}_{EXPERIMENT}.nc", batch)
         for name, data in lab["files"].items():
             batch.write(out / "lab" / name, lambda tmp, data=data: Path(tmp).write_bytes(data))
-        write_table(rows, out / "table1_frozen_modes", batch)
+
+        members, table2 = collected(table_work, tables)
+        predicted_random = [analysed_test(c, "random", rand_res[c], f1, table2.sel(case=c))
+                            for c in models]
+        # Table 2 as its file and record hold it: the simulated cases, then the experiment
+        t2_rows = [*table2_rows(table2), *exp_random.table_rows()]
+        bands += exp_free.rows
+        outputs["table2"] = t2_rows
+        outputs["damping_bands"] = bands
+        outputs["experiment"] = {
+            "noise_rms": cfg.lab_noise, "files": [f"lab/{n}" for n in lab["files"]],
+            "free": compare_rows(exp_free, predicted_free),
+            "random": compare_rows(exp_random, predicted_random)}
+        if "rom" in members:
+            outputs["rom_members"] = member_spread(members["rom"], free_res["rom"]["members"],
+                                                   decays["rom"], cfg.rms_g)
         write_table(t2_rows, out / "table2_mode1_damping", batch)
         write_table(bands, out / "damping_bands", batch)
         for kind in ("free", "random"):
             write_table(outputs["experiment"][kind], out / f"comparison_{kind}", batch)
-        for name, fig in figs.items():
+        for name, fig in {**comparison_figures(exp_free, predicted_free),
+                          **comparison_figures(exp_random, predicted_random)}.items():
             savefig(fig, ctx.path("figures", f"{name}.png"), batch)
         files = [ctx.rel(p) for p in batch.paths]
     return outputs, files
 
 
 def laboratory(free: Mapping[str, Any], random: Mapping[str, Any], modal: ModalModel,
-               beam: CantileverBeam, cfg: BeamTable, f1: float, folder: Path
-               ) -> dict[str, Any]:
+               beam: CantileverBeam, cfg: BeamTable, f1: float, folder: Path,
+               pool: Executor | None = None) -> dict[str, Any]:
     """The rig plays the laboratory: its beam runs as a test lab's files, analysed as measured.
 
     The free and random responses are written as UFF 58 files (``sloshrom.beam.lab.measured.
     write_lab_test``: the station accelerometers, and the base for the random tests, each with
     white noise of ``cfg.lab_noise`` m/s^2 RMS) into ``folder``, read back with their channel
-    map and analysed exactly as ``sloshrom analyse`` analyses a measurement.
+    map and analysed exactly as ``sloshrom analyse`` analyses a measurement. ``pool``: the
+    processes of :func:`analysis_pool` that run the random tests' analyses (the same results to
+    the bit; in this process when the pool's processes failed, as :func:`collected`).
 
     Returns
     -------
@@ -413,8 +430,13 @@ def laboratory(free: Mapping[str, Any], random: Mapping[str, Any], modal: ModalM
     decay = mode1_decay(res_free, lab_modal, f1)
     # the paper's bands, as the predictions it is compared with (a lab's own decay gets its own)
     bands = damping_band_table({EXPERIMENT: res_free}, {EXPERIMENT: decay}, f1, bands=BANDS)
-    table2 = mode1_damping_dataset({EXPERIMENT: res_random}, cfg.rms_g, f1,
-                                   max_tank_acceleration=True).sel(case=EXPERIMENT)
+
+    def table2_of(runner: Executor | None) -> xr.Dataset:
+        return mode1_damping_dataset({EXPERIMENT: res_random}, cfg.rms_g, f1,
+                                     max_tank_acceleration=True, pool=runner)
+
+    table2 = collected(None if pool is None else in_thread(lambda: table2_of(pool)),
+                       table2_of).sel(case=EXPERIMENT)
     exp_free = analysed_test(EXPERIMENT, "free", res_free, f1, bands, decay)
     exp_random = analysed_test(EXPERIMENT, "random", res_random, f1, table2)
     files = {p.name: p.read_bytes() for p in sorted(folder.iterdir())}

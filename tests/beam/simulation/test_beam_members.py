@@ -3,6 +3,7 @@ Table 2 cells that carry a value or the reason they have none (LSCF fallbacks in
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -309,3 +310,31 @@ def test_broken_analysis_processes_leave_the_analyses_to_the_stage():
         warnings.simplefilter("error", Note)  # a pool that works: no note
         assert collected(in_thread(lambda: analyses(pool)), analyses) == 1
     assert collected(None, analyses) == "here"
+
+
+@pytest.mark.long
+def test_laboratory_with_the_analysis_pool_is_the_laboratory_without_it(runs, tmp_path):
+    """The rig as the laboratory (the beam stage runs it in a thread, its random tests'
+    analyses in the pool's processes): the experiment's Table 2, bands and files to the bit."""
+    from sloshrom.beam.simulation.structure import CantileverBeam
+    from sloshrom.pipeline.beam import analysis_pool, laboratory
+    from sloshrom.pipeline.settings import load
+
+    cfg = load(None).beam.model_copy(update={"rms_g": LEVELS})
+    beam = CantileverBeam.with_tank(Tank())
+    f1, modal = runs["f1"], runs["modal"]
+    free, rand = runs["free"]["one"], runs["random"]["one"]
+    (tmp_path / "alone").mkdir()
+    (tmp_path / "pooled").mkdir()
+    alone = laboratory(free, rand, modal, beam, cfg, f1, tmp_path / "alone")
+    with analysis_pool(2) as pool:
+        assert pool is not None
+        pooled = laboratory(free, rand, modal, beam, cfg, f1, tmp_path / "pooled", pool)
+    assert pooled["files"] == alone["files"]
+
+    def same(a, b):  # row lists, NaN equal to NaN
+        return json.dumps(a, sort_keys=True) == json.dumps(b, sort_keys=True)
+
+    assert same(pooled["random"].table_rows(), alone["random"].table_rows())
+    assert same(pooled["free"].rows, alone["free"].rows)
+    assert math.isfinite(pooled["random"].table_rows()[0]["lscf_h1"])

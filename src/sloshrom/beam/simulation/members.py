@@ -43,7 +43,6 @@ Pure functions: result dicts, estimates and band rows in, the same out.
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -123,9 +122,9 @@ def mean_result(results: Sequence[Mapping[str, object]]) -> dict[str, object]:
             out[key] = v
         elif key in ENVELOPE_KEYS:
             stack = np.stack([np.asarray(r[key], dtype=float) for r in results])
-            with warnings.catch_warnings():  # all-NaN: no member has an envelope
-                warnings.simplefilter("ignore", RuntimeWarning)
-                out[key] = np.nanmax(stack, axis=0)
+            # the largest number (NaN where no member has one), without nanmax's all-NaN
+            # warning: no warnings filter to change, which threads would share
+            out[key] = np.fmax.reduce(stack, axis=0)
         elif isinstance(v, np.ndarray) and np.issubdtype(v.dtype, np.floating):
             out[key] = np.mean(np.stack([np.asarray(r[key]) for r in results]), axis=0)
         else:
