@@ -80,6 +80,39 @@ def test_search_of_a_record_below_one_g_finds_no_force():
     assert np.all(np.isfinite(physics)) and np.isfinite(history["objective"])
 
 
+def test_search_in_threads_is_the_search_in_order(monkeypatch):
+    """The candidates of a generation scored side by side, one a thread (the column's kernel
+    on one numba thread each), give the search of one core to the bit: the same parameters,
+    taps and objective."""
+    import sloshrom.rom.grey.training as gt
+
+    u = _harmonic(12.0, 4.0, seconds=6.0)
+    y = grey_features(_phys(*RIG_LIKE), _unit_taps(), u, FS, N_BALLS, N_SUB, N_PAST)[0, :, 0]
+    spec = GreySpec(2, 4, 10, N_BALLS, N_SUB, N_PAST)
+    args = (u, y, FS, spec, TANK.liquid_mass, TANK.ullage)
+    kw = {"generations": 2, "population": 3, "windows": 3}
+    used = []
+    pool_class = gt.ThreadPoolExecutor
+
+    def counted(n, **k):
+        used.append(n)
+        return pool_class(n, **k)
+
+    monkeypatch.setattr(gt, "usable_cores", lambda: [0, 1, 2])
+    monkeypatch.setattr(gt.numba, "get_num_threads", lambda: 2)  # (numba's own: the cores)
+    monkeypatch.setattr(gt, "ThreadPoolExecutor", counted)
+    threaded = fit_physics(*args, **kw)
+    assert used == [2]  # the pool was used, as many threads as numba allows
+    monkeypatch.setattr(gt, "usable_cores", lambda: [0])
+    alone = fit_physics(*args, **kw)
+    assert used == [2]  # one core: no pool
+    np.testing.assert_array_equal(threaded[0], alone[0])
+    np.testing.assert_array_equal(threaded[1], alone[1])
+    assert threaded[2]["objective"] == alone[2]["objective"]
+    assert threaded[2]["evaluations"] == alone[2]["evaluations"]
+    assert np.max(np.abs(threaded[1])) > 0  # a column that makes a force: a real search
+
+
 def test_galilean_invariance():
     """The column reads the acceleration: a uniform velocity changes nothing (a record whose
     first sample is its own rest; from rest at 0 m/s, 0.3 m/s would be a jump, a real

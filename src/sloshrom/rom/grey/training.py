@@ -22,17 +22,23 @@ from __future__ import annotations
 import functools
 import logging
 import math
+import threading
 import time
 from collections.abc import Callable, Mapping
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numba
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy import fft as sp_fft
 from scipy import signal as sps
 from scipy.optimize import differential_evolution
+from threadpoolctl import threadpool_limits
 
+from sloshrom._threads import numba_threadsafe, usable_cores
 from sloshrom._x64 import float64
 from sloshrom.rom.engine import AdamProblem, adam_epochs
 from sloshrom.rom.errors import ROMError
@@ -184,46 +190,74 @@ def fit_physics(
     target_spectra = _spectra(yw, fs) if spectral > 0 else []
     names = list(PHYSICS_BOUNDS)
     evaluations = [0]
-    # one buffer of a candidate's simulations: the search allocates it once, not every
-    # candidate
-    sim = np.empty((1, *uw.shape, 3, spec.n_substeps))
+    shape = (1, *uw.shape, 3, spec.n_substeps)
 
     def phys_of(x: np.ndarray) -> np.ndarray:
         v = [float(a) for a in x]
         return physical_parameters(v[0], v[1], v[2], v[3], v[4], v[5], v[6],
                                    liquid_mass=liquid_mass, ullage=ullage)
 
-    def objective(xs: np.ndarray) -> np.ndarray:
-        xs = np.asarray(xs).T  # vectorised: (candidates, variables)
-        evaluations[0] += xs.shape[0]
-        n = xs.shape[0]
-        out = np.empty(n)
-        for i in range(n):
-            # a candidate at a time: its simulations (8 MB) stay in the cache, where the
-            # generation's (430 MB) went through memory; each (set, window) pair is simulated
-            # alone either way, so the numbers are the same. The filter's rows after the
-            # warm-up read the predictions from the step before it on; its normal equations
-            # and output are summed from the simulations, without the rows (14 MB)
-            o = causal_intervals(phys_of(xs[i])[None], uw, fs, spec.n_balls, spec.n_substeps,
-                                 from_rest=False, predict_from=warm - 1, out=sim)[0]
-            if not np.all(np.isfinite(o)):
-                out[i] = np.inf
-                continue
-            taps = _solve_normal(*filter_normal_equations(o, yw, spec.n_past, warm))
-            fit = filter_output(o, taps, spec.n_past, warm).reshape(-1)
-            score = float(np.mean((fit - target) ** 2))
-            if spectral > 0:
-                model = _spectra(fit.reshape(yw.shape), fs)
-                score += spectral * sum(float(np.mean((m - t) ** 2))
-                                        for m, t in zip(model, target_spectra, strict=True))
-            out[i] = score
+    def score(x: np.ndarray, sim: np.ndarray) -> float:
+        # a candidate at a time: its simulations (8 MB, in ``sim``) stay in the cache, where
+        # the generation's (430 MB) went through memory; each (set, window) pair is simulated
+        # alone either way, so the numbers are the same. The filter's rows after the warm-up
+        # read the predictions from the step before it on; its normal equations and output
+        # are summed from the simulations, without the rows (14 MB)
+        o = causal_intervals(phys_of(x)[None], uw, fs, spec.n_balls, spec.n_substeps,
+                             from_rest=False, predict_from=warm - 1, out=sim)[0]
+        if not np.all(np.isfinite(o)):
+            return math.inf
+        taps = _solve_normal(*filter_normal_equations(o, yw, spec.n_past, warm))
+        fit = filter_output(o, taps, spec.n_past, warm).reshape(-1)
+        out = float(np.mean((fit - target) ** 2))
+        if spectral > 0:
+            model = _spectra(fit.reshape(yw.shape), fs)
+            out += spectral * sum(float(np.mean((m - t) ** 2))
+                                  for m, t in zip(model, target_spectra, strict=True))
         return out
 
+    # the candidates of a generation side by side, one a usable core (each scored alone: the
+    # same numbers in any order); one buffer of simulations a thread, allocated once
+    local = threading.local()
+
+    def score_here(x: np.ndarray) -> float:
+        if not hasattr(local, "sim"):
+            local.sim = np.empty(shape)
+            # the candidates are the parallel axis: the column's kernel on one thread each
+            # (numba's count is the calling thread's own)
+            numba.set_num_threads(1)
+        return score(x, local.sim)
+
+    # as many as the cores this process may use and numba's threads allow (a Dask worker's
+    # are limited to the cores it owns)
+    n_threads = min(len(usable_cores()), numba.get_num_threads(), int(population) * len(names))
+    if n_threads > 1 and not numba_threadsafe():
+        n_threads = 1  # numba's workqueue layer: its kernels from one thread at a time
+
+    sim = np.empty(shape if n_threads == 1 else (0,))
+
+    def search(pool: ThreadPoolExecutor | None) -> Any:
+        def objective(xs: np.ndarray) -> np.ndarray:
+            xs = np.asarray(xs).T  # vectorised: (candidates, variables)
+            evaluations[0] += xs.shape[0]
+            if pool is None:  # (the column's kernel on numba's threads, window by window)
+                return np.array([score(x, sim) for x in xs])
+            return np.fromiter(pool.map(score_here, xs), float, count=xs.shape[0])
+
+        return differential_evolution(objective, list(PHYSICS_BOUNDS.values()), seed=int(seed),
+                                      maxiter=int(generations), popsize=int(population),
+                                      tol=1e-4, polish=False, init="latinhypercube",
+                                      updating="deferred", vectorized=True)
+
     t0 = time.perf_counter()
-    res = differential_evolution(objective, list(PHYSICS_BOUNDS.values()), seed=int(seed),
-                                 maxiter=int(generations), popsize=int(population), tol=1e-4,
-                                 polish=False, init="latinhypercube", updating="deferred",
-                                 vectorized=True)
+    # the filter's products are small: BLAS's own threads only wait for each other (a core
+    # spent for a search 1.6 times slower, measured)
+    with threadpool_limits(limits=1, user_api="blas"):
+        if n_threads > 1:
+            with ThreadPoolExecutor(n_threads, thread_name_prefix="sloshrom-search") as pool:
+                res = search(pool)
+        else:
+            res = search(None)
     physics = phys_of(res.x)
     o = causal_intervals(physics[None], u[None], fs, spec.n_balls, spec.n_substeps)[0, 0]
     skip = spec.n_past + 1
