@@ -54,6 +54,7 @@ from sloshrom.beam.lab.measured import (
 from sloshrom.beam.lab.virtual import lab_test_paths, write_lab_test
 from sloshrom.beam.results import to_dataset, write_dataset, write_table
 from sloshrom.beam.simulation.cases import (
+    CaseResults,
     Simulate,
     envelope_table,
     frozen_modes_table,
@@ -285,14 +286,14 @@ def _stage_beam(ctx: Context, rom_path: Path | None, pool: Executor | None
     tests = beam_tests(cfg, modal, tank, fs)
     gain = float(ctx.cfg.rig.twin_gain)
 
-    def free_and_twin() -> tuple[dict[str, Any], dict[str, Any], float]:
+    def free_and_twin() -> tuple[CaseResults, CaseResults, float]:
         free = simulate_cases(models, tests["free"], fs, report("free"))
         # the rig's twin run of the random tests, the scale of the ROM's waveform figures
         # (docs/rom.md, "Waveform fidelity"); measured 1.4-3.7 s for 3 x 90 s
         t0 = time.perf_counter()
         twin = simulate_cases({"twin": models["rig"]},
                               beam_tests(cfg, modal, tank, fs, gain=gain)["random"], fs)
-        return free, twin["twin"], time.perf_counter() - t0
+        return free, twin, time.perf_counter() - t0
 
     # the free decays and the twin run in a thread beside the random tests (every run is
     # independent and its own to the bit): the frozen liquid's and the rig's runs are one
@@ -314,7 +315,8 @@ def _stage_beam(ctx: Context, rom_path: Path | None, pool: Executor | None
     # for them); in this process alone, after the rest (warnings' filters are process-wide)
     table_work = (in_thread(lambda: tables(pool), "sloshrom-beam-tables") if pool is not None
                   else None)
-    free_res, twin, twin_seconds = side.result() if side is not None else free_and_twin()
+    free_res, twins, twin_seconds = side.result() if side is not None else free_and_twin()
+    twin = twins["twin"]
     outputs["waveform_fidelity"] = random_fidelity(rand_res, twin, cfg.rms_g, gain,
                                                    twin_seconds)
     # the free decay's first seconds, the violent part (paper Fig. 20c)

@@ -107,3 +107,61 @@ def test_the_pure_jax_path_is_said_once(monkeypatch, caplog, request):
         gt._note_path()
     lines = [r.getMessage() for r in caplog.records if r.name == "sloshrom"]
     assert len(lines) == 1 and "pure-JAX path" in lines[0]
+
+
+#: Run by a process with one XLA thread (the environment a Dask worker on one core gets):
+#: the kernel's results of every case and the threads it used, written to the file argv[1].
+_ONE_THREAD_RUN = """
+import sys
+import numpy as np
+import jax
+sys.path.insert(0, sys.argv[2])
+from test_kernel import _threaded_cases
+with jax.enable_x64(True):
+    out, used = _threaded_cases()
+np.savez(sys.argv[1], used=np.array(used), **out)
+"""
+
+
+def _threaded_cases():
+    """Outputs and gradients of windows of several shapes (float64 and float32, batches of 6
+    to 20 blocks of rows) by the kernel, and the threads each call used."""
+    out, used = {}, []
+    for i, (nx, n, b, t) in enumerate([(8, 32, 160, 120), (4, 17, 96, 60)]):
+        for dtype in (jnp.float64, jnp.float32):
+            p, x0, seq, target = _problem(nx, n, b, t, dtype, 10 + i)
+            y = gk.grey_window(p, x0, seq, 0.1, -0.2)
+            used.append(gk._MODULE.threads_used())
+            loss, (gp, gx) = _loss(lambda p, x, s: gk.grey_window(p, x, s, 0.1, -0.2), seq,
+                                   target)(p, x0)
+            used.append(gk._MODULE.threads_used())
+            key = f"{i}{np.dtype(dtype).name}"
+            out[key + "y"], out[key + "x"] = np.asarray(y), np.asarray(gx)
+            out |= {key + k: np.asarray(v) for k, v in gp.items()}
+    return out, used
+
+
+@needs_kernel
+@pytest.mark.long
+@pytest.mark.skipif(len(gt.usable_cores()) < 2, reason="one core: one thread")
+def test_blocks_on_several_threads_give_the_one_thread_results(tmp_path):
+    """The blocks of rows shared among XLA's threads: the same outputs and gradients to the
+    bit as one thread (a process limited to one, as a worker on one core), and more than one
+    thread really ran them here."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    with jax.enable_x64(True):
+        threaded, used = _threaded_cases()
+    assert max(used) >= 2, used
+    env = {**os.environ, "NPROC": "1", "XLA_FLAGS": "--xla_cpu_multi_thread_eigen=false"}
+    f = tmp_path / "one.npz"
+    subprocess.run([sys.executable, "-c", _ONE_THREAD_RUN, str(f), str(Path(__file__).parent)],
+                   env=env, check=True, timeout=300)
+    with np.load(f) as one:
+        assert set(one["used"].tolist()) == {1}
+        assert set(one.files) - {"used"} == set(threaded)
+        for k, v in threaded.items():
+            np.testing.assert_array_equal(one[k], v, err_msg=k)

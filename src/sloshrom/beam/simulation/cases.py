@@ -31,7 +31,7 @@ from sloshrom.beam.simulation.structure import (
 from sloshrom.config import G, Tank
 from sloshrom.models import SloshingModel
 
-__all__ = ["Simulate", "case_output_fs", "envelope_table", "frozen_modes_table",
+__all__ = ["CaseResults", "Simulate", "case_output_fs", "envelope_table", "frozen_modes_table",
            "reference_tank", "simulate_cases"]
 
 #: A simulation of one case: ``simulate(model, output_fs)`` returns the result dict of
@@ -39,6 +39,8 @@ __all__ = ["Simulate", "case_output_fs", "envelope_table", "frozen_modes_table",
 #: model or one per tank (a member of a :class:`~sloshrom.beam.simulation.members.Members` is
 #: either).
 Simulate = Callable[[Any, float | None], dict[str, Any]]
+#: What :func:`simulate_cases` returns: case name -> its result dict.
+CaseResults = dict[str, dict[str, Any]]
 
 
 # -- simulation ----------------------------------------------------------------------------------
@@ -62,7 +64,7 @@ def _simulate_at(simulate: Simulate, output_fs: float | None, model: object
 
 
 def simulate_cases(models: Mapping[str, Any], simulate: Simulate, fs: float,
-                   on_case: Callable[[str], None] | None = None) -> dict[str, dict[str, Any]]:
+                   on_case: Callable[[str], None] | None = None) -> CaseResults:
     """Run ``simulate`` for every case, in order; results at :func:`case_output_fs`.
 
     Parameters

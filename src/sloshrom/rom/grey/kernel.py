@@ -5,8 +5,10 @@ sub-sequences (the state steps and the output map, the column's features given),
 gradient by a custom VJP whose reverse pass (backpropagation through time) is a second
 kernel. Both are C++ (``window.cc``, built with the package as the extension
 ``sloshrom.rom.grey._window``, float64 and float32), registered with JAX when this module is
-imported; they run inside the compiled epoch like any XLA operation, on XLA's thread, with no
-Python (a Dask worker with one thread cannot deadlock on them).
+imported; they run inside the compiled epoch like any XLA operation, on XLA's threads, with no
+Python (a Dask worker with one thread cannot deadlock on them). The batch's blocks of rows are
+shared among XLA's intra-op threads (as many as the process's cores; one in a worker that owns
+one core), with the same results to the bit on any number of them.
 
 Where the extension was not built (no C++ compiler, or a build without jaxlib's headers), or
 with ``SLOSHROM_GREY_KERNEL=jax`` in the environment, :func:`kernel_available` is False and the

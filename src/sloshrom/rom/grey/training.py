@@ -26,7 +26,6 @@ import threading
 import time
 from collections.abc import Callable, Mapping
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -35,7 +34,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy import fft as sp_fft
 from scipy import signal as sps
-from scipy.optimize import differential_evolution
+from scipy.optimize import OptimizeResult, differential_evolution
 from threadpoolctl import threadpool_limits
 
 from sloshrom._threads import numba_threadsafe, usable_cores
@@ -236,7 +235,7 @@ def fit_physics(
 
     sim = np.empty(shape if n_threads == 1 else (0,))
 
-    def search(pool: ThreadPoolExecutor | None) -> Any:
+    def search(pool: ThreadPoolExecutor | None) -> OptimizeResult:
         def objective(xs: np.ndarray) -> np.ndarray:
             xs = np.asarray(xs).T  # vectorised: (candidates, variables)
             evaluations[0] += xs.shape[0]

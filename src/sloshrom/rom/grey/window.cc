@@ -10,22 +10,27 @@
 // Layout: the batch is the last (contiguous) axis of every per-sample array, so that the
 // innermost loops run over LANES batch rows with no dependence between them and the compiler
 // vectorises them for any SIMD width. The rows of a block of LANES run through the whole window
-// before the next block (their state stays in the first-level cache). Weight gradients are
-// summed per lane first and across lanes at the end of a block: no floating-point reduction
-// has to be reordered for the vector units (the build needs no -ffast-math). The sums of a
-// layer's outputs run several at once (8 neurons, 4 states), each over its terms in the same
-// order as alone: independent chains keep the FMA units busy, and the results are those of
-// one sum at a time to the bit.
+// at once (their state stays in the first-level cache), and the blocks are shared among XLA's
+// intra-op threads (run_blocks). Weight gradients are summed per lane first, across lanes at
+// the end of a block, then over the blocks in their order: no floating-point reduction has to
+// be reordered for the vector units (the build needs no -ffast-math), and the results are the
+// same whatever the threads. The sums of a layer's outputs run several at once (8 neurons,
+// 4 states), each over its terms in the same order as alone: independent chains keep the FMA
+// units busy, and the results are those of one sum at a time to the bit.
 //
-// x86-64: the two entry points are compiled for the baseline ISA, x86-64-v3 (AVX2, FMA) and
-// x86-64-v4 (AVX-512), and the loader picks the best the CPU has (GCC's function multiversioning);
-// other compilers and CPUs get the baseline build.
+// x86-64: the work of a block, forward and reverse, is compiled for the baseline ISA,
+// x86-64-v3 (AVX2, FMA) and x86-64-v4 (AVX-512), and the loader picks the best the CPU has
+// (GCC's function multiversioning); other compilers and CPUs get the baseline build.
 
 #include <Python.h>
 
+#include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <memory>
+#include <thread>
 #include <vector>
 
 #include "xla/ffi/api/ffi.h"
@@ -239,44 +244,54 @@ SL_INLINE void next_state(const Net<T>& m, int64_t k, const T* xt, const T* s, c
   for (int q = 0; q < K; ++q) store(xv + (k + q) * L, c[q]);
 }
 
-// The free run: y (T, B), and the states xs and activations hs, gs the reverse pass reads,
-// block by block ((B / L, T, nx or n, L): a block's are contiguous, read back in one sweep).
+// The free run's constant terms: f0 = tanh(b1) W2 (nx) and h0 = tanh(d1) V2.
+template <typename T> struct Forward {
+  Net<T> m;
+  const T *x0, *seq;
+  T *y, *xs, *hs, *gs;
+  std::vector<T> f0;
+  T h0;
+};
+
+// The free run of block blk of LANES rows: y (T, B), and the states xs and activations hs, gs
+// the reverse pass reads ((B / L, T, nx or n, L): a block's are contiguous, read back in one
+// sweep); xv: the block's state (nx L).
 template <typename T>
-SL_INLINE void forward(const Net<T>& m, const T* x0, const T* seq, T* y, T* xs, T* hs, T* gs) {
+SL_INLINE void forward_block(const Forward<T>& f, T* xv, int64_t blk) {
   constexpr int L = kLanes<T>;
-  const int64_t nx = m.nx, nf = m.nf, n = m.n, B = m.B;
-  std::vector<T> f0(nx, T(0));
-  T h0 = 0;
-  for (int64_t j = 0; j < n; ++j) {
+  const Net<T>& m = f.m;
+  const int64_t nx = m.nx, nf = m.nf, n = m.n, B = m.B, b0 = blk * L;
+  for (int64_t k = 0; k < nx; ++k) store(xv + k * L, load(f.x0 + k * B + b0));
+  for (int64_t t = 0; t < m.T_; ++t) {
+    const T* s = f.seq + t * nf * B + b0;
+    T* xt = f.xs + (blk * m.T_ + t) * nx * L;
+    T* h = f.hs + (blk * m.T_ + t) * n * L;
+    T* g = f.gs + (blk * m.T_ + t) * n * L;
+    for (int64_t k = 0; k < nx; ++k) store(xt + k * L, load(xv + k * L));
+    // output map on o = [x, phi]
+    dense_tanh<T>(g, L, m.V1, m.d1, n, xt, nx, L, s + B, nf - 1, B);
+    V<T> yv = load(s + B) - f.h0;
+    for (int64_t i = 0; i < nx; ++i) yv += load(xt + i * L) * m.C[i];
+    for (int64_t i = 0; i < nf - 1; ++i) yv += load(s + (1 + i) * B) * m.C[nx + i];
+    for (int64_t j = 0; j < n; ++j) yv += load(g + j * L) * m.V2[j];
+    store(f.y + t * B + b0, yv);
+    // state map on z = [x, du, phi]
+    dense_tanh<T>(h, L, m.W1, m.b1, n, xt, nx, L, s, nf, B);
+    int64_t k = 0;
+    for (; k + 4 <= nx; k += 4) next_state<T, 4>(m, k, xt, s, h, f.f0.data(), xv);
+    for (; k < nx; ++k) next_state<T, 1>(m, k, xt, s, h, f.f0.data(), xv);
+  }
+}
+
+template <typename T> Forward<T> forward_of(const Net<T>& m, const T* x0, const T* seq, T* y,
+                                            T* xs, T* hs, T* gs) {
+  Forward<T> f{m, x0, seq, y, xs, hs, gs, std::vector<T>(m.nx, T(0)), T(0)};
+  for (int64_t j = 0; j < m.n; ++j) {
     const T tb = tanh_s(m.b1[j]);
-    for (int64_t k = 0; k < nx; ++k) f0[k] += tb * m.W2[j * nx + k];
-    h0 += tanh_s(m.d1[j]) * m.V2[j];
+    for (int64_t k = 0; k < m.nx; ++k) f.f0[k] += tb * m.W2[j * m.nx + k];
+    f.h0 += tanh_s(m.d1[j]) * m.V2[j];
   }
-  std::vector<T> xbuf(nx * L);  // the blocks' state (a vector of V<T> would need aligned new)
-  T* xv = xbuf.data();
-  for (int64_t b0 = 0; b0 < B; b0 += L) {
-    for (int64_t k = 0; k < nx; ++k) store(xv + k * L, load(x0 + k * B + b0));
-    const int64_t blk = b0 / L;
-    for (int64_t t = 0; t < m.T_; ++t) {
-      const T* s = seq + t * nf * B + b0;
-      T* xt = xs + (blk * m.T_ + t) * nx * L;
-      T* h = hs + (blk * m.T_ + t) * n * L;
-      T* g = gs + (blk * m.T_ + t) * n * L;
-      for (int64_t k = 0; k < nx; ++k) store(xt + k * L, load(xv + k * L));
-      // output map on o = [x, phi]
-      dense_tanh<T>(g, L, m.V1, m.d1, n, xt, nx, L, s + B, nf - 1, B);
-      V<T> yv = load(s + B) - h0;
-      for (int64_t i = 0; i < nx; ++i) yv += load(xt + i * L) * m.C[i];
-      for (int64_t i = 0; i < nf - 1; ++i) yv += load(s + (1 + i) * B) * m.C[nx + i];
-      for (int64_t j = 0; j < n; ++j) yv += load(g + j * L) * m.V2[j];
-      store(y + t * B + b0, yv);
-      // state map on z = [x, du, phi]
-      dense_tanh<T>(h, L, m.W1, m.b1, n, xt, nx, L, s, nf, B);
-      int64_t k = 0;
-      for (; k + 4 <= nx; k += 4) next_state<T, 4>(m, k, xt, s, h, f0.data(), xv);
-      for (; k < nx; ++k) next_state<T, 1>(m, k, xt, s, h, f0.data(), xv);
-    }
-  }
+  return f;
 }
 
 // The reverse pass's gradients of the K pre-activations from neuron j on: the state map's
@@ -324,22 +339,51 @@ SL_INLINE void state_gradient(const Net<T>& m, int64_t k, const T* dxt, const T*
   for (int q = 0; q < K; ++q) store(dx + (k + q) * L, c[q]);
 }
 
-// The reverse pass from dy (T, B): the gradients of the eight weights and of the initial state
-// dx0 (nx, B).
+// The reverse pass's inputs and its per-block results: the weights' gradients and the sums
+// the biases' gradients and the rest terms need, one row of P per block (summed over the
+// blocks in their order at the end: the same numbers whichever thread ran a block).
+template <typename T> struct Backward {
+  Net<T> m;
+  const T *seq, *xs, *hs, *gs, *dy;
+  T* dx0;
+  T* totals;  // (B / L, P)
+  int64_t P() const {
+    const int64_t nx = m.nx, n = m.n, nz = m.nz(), no = m.no();
+    return nz * nx + nz * n + n * nx + no * n + no + n + 2 * n + nx + 1;
+  }
+};
+
+// A thread's working memory for the reverse pass of a block.
+template <typename T> struct BackwardScratch {
+  std::vector<T> dxn, da, dg, dyb, sq, lanes, dxbuf, sums;
+  explicit BackwardScratch(const Net<T>& m) {
+    constexpr int L = kLanes<T>;
+    const int64_t nx = m.nx, nf = m.nf, n = m.n, TT = m.T_, nz = m.nz(), no = m.no();
+    dxn.resize(TT * nx * L);
+    da.resize(TT * n * L);
+    dg.resize(TT * n * L);
+    dyb.resize(TT * L);
+    sq.resize(TT * nf * L);
+    lanes.resize((nz * nx + nz * n + n * nx + no * n + no + n) * L);
+    dxbuf.resize(nx * L);
+    sums.resize((2 * n + nx + 1) * L);
+  }
+};
+
+// The reverse pass of block blk from dy (T, B): its rows of dx0 (nx, B), and its row of
+// totals: the weights' gradients (A, W1, W2, V1, C, V2), then the sums of da, dg, dxn and dy.
 template <typename T>
-SL_INLINE void backward(const Net<T>& m, const T* seq, const T* xs, const T* hs, const T* gs,
-                        const T* dy, T* dA, T* dW1, T* db1, T* dW2, T* dC, T* dV1, T* dd1,
-                        T* dV2, T* dx0) {
+SL_INLINE void backward_block(const Backward<T>& r, BackwardScratch<T>& w, int64_t blk) {
   constexpr int L = kLanes<T>;
-  const int64_t nx = m.nx, nf = m.nf, n = m.n, B = m.B, TT = m.T_;
+  const Net<T>& m = r.m;
+  const int64_t nx = m.nx, nf = m.nf, n = m.n, B = m.B, TT = m.T_, b0 = blk * L;
   const int64_t nz = m.nz(), no = m.no();
-  // per block: the gradients at each sample of the next state (dxn), of the state map's and
-  // the output map's pre-activations (da, dg), and dy, one block of lanes a row
-  std::vector<T> dxn(TT * nx * L), da(TT * n * L), dg(TT * n * L), dyb(TT * L);
-  std::vector<T> sq(TT * nf * L);  // the block's inputs and features
-  // the weights' gradients lane by lane (summed across lanes at the end)
-  std::vector<T> lanes((nz * nx + nz * n + n * nx + no * n + no + n) * L, T(0));
-  T* gA = lanes.data();
+  // the gradients at each sample of the next state (dxn), of the state map's and the output
+  // map's pre-activations (da, dg), and dy, one block of lanes a row; the block's inputs and
+  // features; the weights' gradients lane by lane (summed across lanes at the end)
+  std::fill(w.lanes.begin(), w.lanes.end(), T(0));
+  std::fill(w.sums.begin(), w.sums.end(), T(0));
+  T* gA = w.lanes.data();
   T* gW1 = gA + nz * nx * L;
   T* gW2 = gW1 + nz * n * L;
   T* gV1 = gW2 + n * nx * L;
@@ -347,122 +391,182 @@ SL_INLINE void backward(const Net<T>& m, const T* seq, const T* xs, const T* hs,
   T* gV2 = gC + no * L;
   // the running gradient of the state, and the sums of da, dg, dxn and dy (the biases' and
   // the rest terms' gradients), one block of lanes a row
-  std::vector<T> dxbuf(nx * L), sums((2 * n + nx + 1) * L, T(0));
-  T* dx = dxbuf.data();
-  T* s_da = sums.data();
+  T* dx = w.dxbuf.data();
+  T* s_da = w.sums.data();
   T* s_dg = s_da + n * L;
   T* s_dxn = s_dg + n * L;
   T* s_dy = s_dxn + nx * L;
-  for (int64_t b0 = 0; b0 < B; b0 += L) {
-    const int64_t blk = b0 / L;
-    for (int64_t t = 0; t < TT; ++t)
-      for (int64_t i = 0; i < nf; ++i) store(sq.data() + (t * nf + i) * L, load(seq + (t * nf + i) * B + b0));
-    for (int64_t k = 0; k < nx * L; ++k) dx[k] = 0;
-    for (int64_t t = TT - 1; t >= 0; --t) {
-      const T* h = hs + (blk * TT + t) * n * L;
-      const T* g = gs + (blk * TT + t) * n * L;
-      T* dxt = dxn.data() + t * nx * L;
-      T* dat = da.data() + t * n * L;
-      T* dgt = dg.data() + t * n * L;
-      const V<T> dyt = load(dy + t * B + b0);
-      store(dyb.data() + t * L, dyt);
-      store(s_dy, load(s_dy) + dyt);
-      for (int64_t k = 0; k < nx; ++k) {
-        const V<T> d = load(dx + k * L);
-        store(dxt + k * L, d);
-        store(s_dxn + k * L, load(s_dxn + k * L) + d);
-      }
-      // state map: da = (dxn W2^T) (1 - h^2); output map: dg = dy V2 (1 - g^2)
-      int64_t j = 0;
-      for (; j + 4 <= n; j += 4) pre_gradients<T, 4>(m, j, dxt, h, g, dyt, dat, dgt, s_da, s_dg);
-      for (; j < n; ++j) pre_gradients<T, 1>(m, j, dxt, h, g, dyt, dat, dgt, s_da, s_dg);
-      // dx_t = dx_{t+1} + dz[:nx] + do[:nx]
-      int64_t k = 0;
-      for (; k + 4 <= nx; k += 4) state_gradient<T, 4>(m, k, dxt, dat, dgt, dyt, dx);
-      for (; k < nx; ++k) state_gradient<T, 1>(m, k, dxt, dat, dgt, dyt, dx);
-      // the weights' gradients of the last few samples, while their rows are in the cache
-      if (t % kChunk == 0) {
-        const int64_t t1 = t + kChunk < TT ? t + kChunk : TT;
-        const T* xb = xs + blk * TT * nx * L;
-        const T* hb = hs + blk * TT * n * L;
-        const T* gb = gs + blk * TT * n * L;
-        const T* sb = sq.data();
-        const T* dn = dxn.data();
-        outer_acc<T>(gA, nx, xb, nx, nx * L, L, dn, nx, nx * L, L, t, t1);
-        outer_acc<T>(gA + nx * nx * L, nx, sb, nf, nf * L, L, dn, nx, nx * L, L, t, t1);
-        outer_acc<T>(gW1, n, xb, nx, nx * L, L, da.data(), n, n * L, L, t, t1);
-        outer_acc<T>(gW1 + nx * n * L, n, sb, nf, nf * L, L, da.data(), n, n * L, L, t, t1);
-        outer_acc<T>(gW2, nx, hb, n, n * L, L, dn, nx, nx * L, L, t, t1);
-        outer_acc<T>(gV1, n, xb, nx, nx * L, L, dg.data(), n, n * L, L, t, t1);
-        outer_acc<T>(gV1 + nx * n * L, n, sb + L, nf - 1, nf * L, L, dg.data(), n, n * L, L,
-                     t, t1);
-        outer_acc<T>(gC, 1, xb, nx, nx * L, L, dyb.data(), 1, L, L, t, t1);
-        outer_acc<T>(gC + nx * L, 1, sb + L, nf - 1, nf * L, L, dyb.data(), 1, L, L, t, t1);
-        outer_acc<T>(gV2, 1, gb, n, n * L, L, dyb.data(), 1, L, L, t, t1);
-      }
+  for (int64_t t = 0; t < TT; ++t)
+    for (int64_t i = 0; i < nf; ++i)
+      store(w.sq.data() + (t * nf + i) * L, load(r.seq + (t * nf + i) * B + b0));
+  for (int64_t k = 0; k < nx * L; ++k) dx[k] = 0;
+  for (int64_t t = TT - 1; t >= 0; --t) {
+    const T* h = r.hs + (blk * TT + t) * n * L;
+    const T* g = r.gs + (blk * TT + t) * n * L;
+    T* dxt = w.dxn.data() + t * nx * L;
+    T* dat = w.da.data() + t * n * L;
+    T* dgt = w.dg.data() + t * n * L;
+    const V<T> dyt = load(r.dy + t * B + b0);
+    store(w.dyb.data() + t * L, dyt);
+    store(s_dy, load(s_dy) + dyt);
+    for (int64_t k = 0; k < nx; ++k) {
+      const V<T> d = load(dx + k * L);
+      store(dxt + k * L, d);
+      store(s_dxn + k * L, load(s_dxn + k * L) + d);
     }
-    for (int64_t k = 0; k < nx; ++k) store(dx0 + k * B + b0, load(dx + k * L));
+    // state map: da = (dxn W2^T) (1 - h^2); output map: dg = dy V2 (1 - g^2)
+    int64_t j = 0;
+    for (; j + 4 <= n; j += 4) pre_gradients<T, 4>(m, j, dxt, h, g, dyt, dat, dgt, s_da, s_dg);
+    for (; j < n; ++j) pre_gradients<T, 1>(m, j, dxt, h, g, dyt, dat, dgt, s_da, s_dg);
+    // dx_t = dx_{t+1} + dz[:nx] + do[:nx]
+    int64_t k = 0;
+    for (; k + 4 <= nx; k += 4) state_gradient<T, 4>(m, k, dxt, dat, dgt, dyt, dx);
+    for (; k < nx; ++k) state_gradient<T, 1>(m, k, dxt, dat, dgt, dyt, dx);
+    // the weights' gradients of the last few samples, while their rows are in the cache
+    if (t % kChunk == 0) {
+      const int64_t t1 = t + kChunk < TT ? t + kChunk : TT;
+      const T* xb = r.xs + blk * TT * nx * L;
+      const T* hb = r.hs + blk * TT * n * L;
+      const T* gb = r.gs + blk * TT * n * L;
+      const T* sb = w.sq.data();
+      const T* dn = w.dxn.data();
+      const T* dab = w.da.data();
+      const T* dgb = w.dg.data();
+      const T* dyb = w.dyb.data();
+      outer_acc<T>(gA, nx, xb, nx, nx * L, L, dn, nx, nx * L, L, t, t1);
+      outer_acc<T>(gA + nx * nx * L, nx, sb, nf, nf * L, L, dn, nx, nx * L, L, t, t1);
+      outer_acc<T>(gW1, n, xb, nx, nx * L, L, dab, n, n * L, L, t, t1);
+      outer_acc<T>(gW1 + nx * n * L, n, sb, nf, nf * L, L, dab, n, n * L, L, t, t1);
+      outer_acc<T>(gW2, nx, hb, n, n * L, L, dn, nx, nx * L, L, t, t1);
+      outer_acc<T>(gV1, n, xb, nx, nx * L, L, dgb, n, n * L, L, t, t1);
+      outer_acc<T>(gV1 + nx * n * L, n, sb + L, nf - 1, nf * L, L, dgb, n, n * L, L, t, t1);
+      outer_acc<T>(gC, 1, xb, nx, nx * L, L, dyb, 1, L, L, t, t1);
+      outer_acc<T>(gC + nx * L, 1, sb + L, nf - 1, nf * L, L, dyb, 1, L, L, t, t1);
+      outer_acc<T>(gV2, 1, gb, n, n * L, L, dyb, 1, L, L, t, t1);
+    }
   }
-  for (int64_t i = 0; i < nz * nx; ++i) dA[i] = hsum<T>(load(gA + i * L));
-  for (int64_t i = 0; i < nz * n; ++i) dW1[i] = hsum<T>(load(gW1 + i * L));
-  for (int64_t i = 0; i < n * nx; ++i) dW2[i] = hsum<T>(load(gW2 + i * L));
-  for (int64_t i = 0; i < no * n; ++i) dV1[i] = hsum<T>(load(gV1 + i * L));
-  for (int64_t i = 0; i < no; ++i) dC[i] = hsum<T>(load(gC + i * L));
-  for (int64_t j = 0; j < n; ++j) dV2[j] = hsum<T>(load(gV2 + j * L));
-  // the biases, and the rest terms -tanh(b1) W2 and -tanh(d1) V2 of every sample
-  const T sum_dy = hsum<T>(load(s_dy));
-  std::vector<T> sum_dxn(nx);
-  for (int64_t k = 0; k < nx; ++k) sum_dxn[k] = hsum<T>(load(s_dxn + k * L));
+  for (int64_t k = 0; k < nx; ++k) store(r.dx0 + k * B + b0, load(dx + k * L));
+  // the lanes' sums: the weights' gradients, then da, dg, dxn and dy (the layout of P)
+  T* tot = r.totals + blk * r.P();
+  const int64_t nw = nz * nx + nz * n + n * nx + no * n + no + n;
+  for (int64_t i = 0; i < nw; ++i) tot[i] = hsum<T>(load(w.lanes.data() + i * L));
+  for (int64_t i = 0; i < 2 * n + nx + 1; ++i) tot[nw + i] = hsum<T>(load(s_da + i * L));
+}
+
+// The blocks' totals summed in their order into the eight weights' gradients, with the rest
+// terms -tanh(b1) W2 and -tanh(d1) V2 of every sample.
+template <typename T>
+void backward_totals(const Backward<T>& r, T* dA, T* dW1, T* db1, T* dW2, T* dC, T* dV1,
+                     T* dd1, T* dV2) {
+  const Net<T>& m = r.m;
+  const int64_t nx = m.nx, n = m.n, nz = m.nz(), no = m.no(), P = r.P();
+  const int64_t blocks = m.B / kLanes<T>;
+  std::vector<T> sum(P, T(0));
+  for (int64_t blk = 0; blk < blocks; ++blk)
+    for (int64_t i = 0; i < P; ++i) sum[i] += r.totals[blk * P + i];
+  const T* s = sum.data();
+  for (int64_t i = 0; i < nz * nx; ++i) dA[i] = *s++;
+  for (int64_t i = 0; i < nz * n; ++i) dW1[i] = *s++;
+  for (int64_t i = 0; i < n * nx; ++i) dW2[i] = *s++;
+  for (int64_t i = 0; i < no * n; ++i) dV1[i] = *s++;
+  for (int64_t i = 0; i < no; ++i) dC[i] = *s++;
+  for (int64_t j = 0; j < n; ++j) dV2[j] = *s++;
+  const T* s_da = s;
+  const T* s_dg = s_da + n;
+  const T* sum_dxn = s_dg + n;
+  const T sum_dy = sum_dxn[nx];
   for (int64_t j = 0; j < n; ++j) {
-    db1[j] = hsum<T>(load(s_da + j * L));
-    dd1[j] = hsum<T>(load(s_dg + j * L));
+    db1[j] = s_da[j];
+    dd1[j] = s_dg[j];
     const T tb = tanh_s(m.b1[j]);
-    T w = 0;
+    T v = 0;
     for (int64_t k = 0; k < nx; ++k) {
       dW2[j * nx + k] -= tb * sum_dxn[k];
-      w += m.W2[j * nx + k] * sum_dxn[k];
+      v += m.W2[j * nx + k] * sum_dxn[k];
     }
-    db1[j] -= (T(1) - tb * tb) * w;
+    db1[j] -= (T(1) - tb * tb) * v;
     const T td = tanh_s(m.d1[j]);
     dV2[j] -= td * sum_dy;
     dd1[j] -= (T(1) - td * td) * m.V2[j] * sum_dy;
   }
 }
 
-SL_CLONES void forward_f64(const Net<double>& m, const double* x0, const double* seq, double* y,
-                           double* xs, double* hs, double* gs) {
-  forward<double>(m, x0, seq, y, xs, hs, gs);
+// The blocks' work compiled for each ISA (the loader picks the best the CPU has); the
+// threads that run it are not
+SL_CLONES void forward_block_f64(const Forward<double>& f, double* xv, int64_t blk) {
+  forward_block<double>(f, xv, blk);
 }
-SL_CLONES void forward_f32(const Net<float>& m, const float* x0, const float* seq, float* y,
-                           float* xs, float* hs, float* gs) {
-  forward<float>(m, x0, seq, y, xs, hs, gs);
+SL_CLONES void forward_block_f32(const Forward<float>& f, float* xv, int64_t blk) {
+  forward_block<float>(f, xv, blk);
 }
-SL_CLONES void backward_f64(const Net<double>& m, const double* seq, const double* xs,
-                            const double* hs, const double* gs, const double* dy, double* dA,
-                            double* dW1, double* db1, double* dW2, double* dC, double* dV1,
-                            double* dd1, double* dV2, double* dx0) {
-  backward<double>(m, seq, xs, hs, gs, dy, dA, dW1, db1, dW2, dC, dV1, dd1, dV2, dx0);
+SL_CLONES void backward_block_f64(const Backward<double>& r, BackwardScratch<double>& w,
+                                  int64_t blk) {
+  backward_block<double>(r, w, blk);
 }
-SL_CLONES void backward_f32(const Net<float>& m, const float* seq, const float* xs,
-                            const float* hs, const float* gs, const float* dy, float* dA,
-                            float* dW1, float* db1, float* dW2, float* dC, float* dV1,
-                            float* dd1, float* dV2, float* dx0) {
-  backward<float>(m, seq, xs, hs, gs, dy, dA, dW1, db1, dW2, dC, dV1, dd1, dV2, dx0);
+SL_CLONES void backward_block_f32(const Backward<float>& r, BackwardScratch<float>& w,
+                                  int64_t blk) {
+  backward_block<float>(r, w, blk);
 }
 
-template <typename T> SL_INLINE void run_forward(const Net<T>& m, const T* x0, const T* seq,
-                                                 T* y, T* xs, T* hs, T* gs) {
-  if constexpr (sizeof(T) == 8) forward_f64(m, x0, seq, y, xs, hs, gs);
-  else forward_f32(m, x0, seq, y, xs, hs, gs);
+template <typename T> void run_block(const Forward<T>& f, std::vector<T>& xv, int64_t blk) {
+  if constexpr (sizeof(T) == 8) forward_block_f64(f, xv.data(), blk);
+  else forward_block_f32(f, xv.data(), blk);
 }
-template <typename T>
-SL_INLINE void run_backward(const Net<T>& m, const T* seq, const T* xs, const T* hs,
-                            const T* gs, const T* dy, T* dA, T* dW1, T* db1, T* dW2, T* dC,
-                            T* dV1, T* dd1, T* dV2, T* dx0) {
-  if constexpr (sizeof(T) == 8)
-    backward_f64(m, seq, xs, hs, gs, dy, dA, dW1, db1, dW2, dC, dV1, dd1, dV2, dx0);
-  else
-    backward_f32(m, seq, xs, hs, gs, dy, dA, dW1, db1, dW2, dC, dV1, dd1, dV2, dx0);
+template <typename T> void run_block(const Backward<T>& r, BackwardScratch<T>& w, int64_t blk) {
+  if constexpr (sizeof(T) == 8) backward_block_f64(r, w, blk);
+  else backward_block_f32(r, w, blk);
+}
+template <typename T> std::vector<T> scratch_of(const Forward<T>& f) {
+  return std::vector<T>(f.m.nx * kLanes<T>);
+}
+template <typename T> BackwardScratch<T> scratch_of(const Backward<T>& r) {
+  return BackwardScratch<T>(r.m);
+}
+
+// The blocks handed out one at a time: the next unclaimed one to whichever thread asks, and
+// how many are done. Shared by the tasks (a task that starts after the call has returned
+// finds none left and touches nothing else).
+struct Claims {
+  std::atomic<int64_t> next{0}, done{0}, threads{0};
+  int64_t n = 0;
+};
+// The threads that ran blocks in the last call (threads_used(): what the tests check).
+std::atomic<int64_t> g_threads_used{0};
+
+// Runs block b of job from b on, then every block it claims, with its own working memory. It
+// claims the next block before it says the current one is done: while it holds a claim the
+// caller waits, so the job is alive whenever a block runs.
+template <typename Job> void drain(Claims& c, const Job& job, int64_t b) {
+  c.threads.fetch_add(1, std::memory_order_relaxed);
+  auto scratch = scratch_of(job);
+  for (;;) {
+    run_block(job, scratch, b);
+    const int64_t next = c.next.fetch_add(1, std::memory_order_relaxed);
+    c.done.fetch_add(1, std::memory_order_release);
+    if (next >= c.n) return;
+    b = next;
+  }
+}
+
+// Every block of job, on this thread and on as many of XLA's intra-op threads as there are
+// (its CPU client's pool: one thread in a worker limited to one core). Each block's results
+// are its own, so they do not depend on the threads. The caller never waits for a task that
+// has not started (it runs the unclaimed blocks itself), so a pool busy elsewhere or a single
+// thread cannot deadlock it.
+template <typename Job> void run_blocks(ffi::ThreadPool& pool, int64_t n, const Job& job) {
+  auto c = std::make_shared<Claims>();
+  c->n = n;
+  const int64_t helpers = std::min<int64_t>(pool.num_threads(), n) - 1;
+  const Job* jp = &job;
+  for (int64_t h = 0; h < helpers; ++h)
+    pool.Schedule([c, jp] {
+      const int64_t b = c->next.fetch_add(1, std::memory_order_relaxed);
+      if (b < c->n) drain(*c, *jp, b);
+    });
+  const int64_t b = c->next.fetch_add(1, std::memory_order_relaxed);
+  if (b < n) drain(*c, job, b);
+  while (c->done.load(std::memory_order_acquire) < n) std::this_thread::yield();
+  g_threads_used.store(c->threads.load(std::memory_order_relaxed), std::memory_order_relaxed);
 }
 
 template <ffi::DataType DT> using Buf = ffi::Buffer<DT>;
@@ -491,41 +595,48 @@ ffi::Error net_of(Net<ffi::NativeType<DT>>& m, Buf<DT> A, Buf<DT> W1, Buf<DT> b1
 }
 
 template <ffi::DataType DT>
-ffi::Error forward_impl(Buf<DT> A, Buf<DT> W1, Buf<DT> b1, Buf<DT> W2, Buf<DT> C, Buf<DT> V1,
-                        Buf<DT> d1, Buf<DT> V2, Buf<DT> x0, Buf<DT> seq, Out<DT> y, Out<DT> xs,
-                        Out<DT> hs, Out<DT> gs) {
-  Net<ffi::NativeType<DT>> m;
+ffi::Error forward_impl(ffi::ThreadPool pool, Buf<DT> A, Buf<DT> W1, Buf<DT> b1, Buf<DT> W2,
+                        Buf<DT> C, Buf<DT> V1, Buf<DT> d1, Buf<DT> V2, Buf<DT> x0, Buf<DT> seq,
+                        Out<DT> y, Out<DT> xs, Out<DT> hs, Out<DT> gs) {
+  using T = ffi::NativeType<DT>;
+  Net<T> m;
   ffi::Error err = net_of<DT>(m, A, W1, b1, W2, C, V1, d1, V2, seq);
   if (err.failure()) return err;
-  run_forward(m, x0.typed_data(), seq.typed_data(), y->typed_data(), xs->typed_data(),
-              hs->typed_data(), gs->typed_data());
+  const Forward<T> f = forward_of<T>(m, x0.typed_data(), seq.typed_data(), y->typed_data(),
+                                     xs->typed_data(), hs->typed_data(), gs->typed_data());
+  run_blocks(pool, m.B / kLanes<T>, f);
   return ffi::Error::Success();
 }
 
 template <ffi::DataType DT>
-ffi::Error backward_impl(Buf<DT> A, Buf<DT> W1, Buf<DT> b1, Buf<DT> W2, Buf<DT> C, Buf<DT> V1,
-                         Buf<DT> d1, Buf<DT> V2, Buf<DT> seq, Buf<DT> xs, Buf<DT> hs,
-                         Buf<DT> gs, Buf<DT> dy, Out<DT> dA, Out<DT> dW1, Out<DT> db1,
-                         Out<DT> dW2, Out<DT> dC, Out<DT> dV1, Out<DT> dd1, Out<DT> dV2,
-                         Out<DT> dx0) {
-  Net<ffi::NativeType<DT>> m;
+ffi::Error backward_impl(ffi::ThreadPool pool, Buf<DT> A, Buf<DT> W1, Buf<DT> b1, Buf<DT> W2,
+                         Buf<DT> C, Buf<DT> V1, Buf<DT> d1, Buf<DT> V2, Buf<DT> seq,
+                         Buf<DT> xs, Buf<DT> hs, Buf<DT> gs, Buf<DT> dy, Out<DT> dA,
+                         Out<DT> dW1, Out<DT> db1, Out<DT> dW2, Out<DT> dC, Out<DT> dV1,
+                         Out<DT> dd1, Out<DT> dV2, Out<DT> dx0) {
+  using T = ffi::NativeType<DT>;
+  Net<T> m;
   ffi::Error err = net_of<DT>(m, A, W1, b1, W2, C, V1, d1, V2, seq);
   if (err.failure()) return err;
-  run_backward(m, seq.typed_data(), xs.typed_data(), hs.typed_data(), gs.typed_data(),
-               dy.typed_data(), dA->typed_data(), dW1->typed_data(), db1->typed_data(),
-               dW2->typed_data(), dC->typed_data(), dV1->typed_data(), dd1->typed_data(),
-               dV2->typed_data(), dx0->typed_data());
+  Backward<T> r{m, seq.typed_data(), xs.typed_data(), hs.typed_data(), gs.typed_data(),
+                dy.typed_data(), dx0->typed_data(), nullptr};
+  const int64_t blocks = m.B / kLanes<T>;
+  std::vector<T> totals(blocks * r.P());
+  r.totals = totals.data();
+  run_blocks(pool, blocks, r);
+  backward_totals(r, dA->typed_data(), dW1->typed_data(), db1->typed_data(), dW2->typed_data(),
+                  dC->typed_data(), dV1->typed_data(), dd1->typed_data(), dV2->typed_data());
   return ffi::Error::Success();
 }
 
 #define SL_ARG(DT) .Arg<ffi::Buffer<DT>>()
 #define SL_RET(DT) .Ret<ffi::Buffer<DT>>()
 #define SL_FORWARD_BINDING(DT)                                                           \
-  ffi::Ffi::Bind() SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT)     \
+  ffi::Ffi::Bind().Ctx<ffi::ThreadPool>() SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT)     \
       SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_RET(DT) SL_RET(DT) SL_RET(DT)       \
           SL_RET(DT)
 #define SL_BACKWARD_BINDING(DT)                                                          \
-  ffi::Ffi::Bind() SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT)     \
+  ffi::Ffi::Bind().Ctx<ffi::ThreadPool>() SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT)     \
       SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT) SL_ARG(DT)       \
           SL_RET(DT) SL_RET(DT) SL_RET(DT) SL_RET(DT) SL_RET(DT) SL_RET(DT) SL_RET(DT)   \
               SL_RET(DT) SL_RET(DT)
@@ -569,8 +680,14 @@ PyObject* handlers(PyObject*, PyObject*) {
   return d;
 }
 
+PyObject* threads_used(PyObject*, PyObject*) {
+  return PyLong_FromLongLong(g_threads_used.load(std::memory_order_relaxed));
+}
+
 PyMethodDef methods[] = {
     {"handlers", handlers, METH_NOARGS, "The XLA FFI handlers by target name (capsules)."},
+    {"threads_used", threads_used, METH_NOARGS,
+     "The threads that ran the blocks of rows in the last call of a handler."},
     {nullptr, nullptr, 0, nullptr}};
 
 PyModuleDef module = {PyModuleDef_HEAD_INIT, "_window",
