@@ -1,6 +1,7 @@
 """The rom stage trains the compared classes in a thread beside the ROM's members (which train
-in worker processes while the stage's process waits): the same models as trained alone,
-one progress line that says both, and a failure of the members that stops the comparison."""
+one after the other in the stage's process, or in worker processes while it waits): the same
+models as trained alone, one progress line that says both, and a failure of the members that
+stops the comparison."""
 
 from __future__ import annotations
 
@@ -65,6 +66,23 @@ def test_compared_classes_beside_the_members_are_the_ones_trained_alone(
         validation=(val["velocity"], val["dynamic_force"]), fill=train.attrs.get("fill"))
     mse = rom_stage.error_figures(val["dynamic_force"], alone.predict(val["velocity"]))["mse"]
     assert beside["compare"]["nfir"]["val_mse"] == mse
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+@pytest.mark.long
+def test_members_one_after_the_other_in_this_process_have_the_compared_classes_beside(
+        tiny_reproduce, tmp_path):
+    """``ensemble_workers = 1`` (the default): the members train one after the other in the
+    stage's process, and the compared classes in a thread beside them, not after them."""
+    lines: list[str] = []
+    out = tmp_path / "sequential"
+    shutil.copytree(tiny_reproduce["out"], out)
+    cfg = tiny_reproduce["cfg"].replace(rom={**TINY, "ensemble_workers": 1})
+    ctx = Context(out, cfg, progress=lambda stage, done, total, text: lines.append(text))
+    r = identify(ctx)["rom"].outputs
+    assert r["n_members"] == 2 and set(r["compare"]) == {"nfir"}
+    assert any("training 2 x NOE" in t and "; beside it, training NFIR" in t for t in lines), \
+        lines
 
 
 @pytest.mark.filterwarnings("ignore::UserWarning")

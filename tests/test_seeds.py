@@ -179,6 +179,36 @@ def test_an_ensemble_warns_once_for_its_members_stuck_at_mu_max(scheduler):
     assert text.startswith(f"{len(stuck)} of 2 members (seed") and str(STUCK_SEED) in text
 
 
+def test_members_quiet_is_the_ensembles_context_only():
+    """An ensemble training its members in this process quiets their TrainingWarning through a
+    context variable, not the process's warnings filter: a model stuck at mu_max that another
+    thread trains meanwhile (as the rom stage trains its compared classes beside the members)
+    still says so."""
+    import threading
+
+    from sloshrom.rom.errors import members_quiet
+
+    u, y = resonant_io(1000, 1)
+    val = resonant_io(600, 2)
+
+    def fit():
+        return NOE(seed=STUCK_SEED, max_epochs=50).fit(u, y, FS, validation=val)
+
+    beside = []
+    with pytest.warns(TrainingWarning) as rec:
+        token = members_quiet.set(True)
+        try:
+            quiet = fit()  # a member: quiet in this context
+            t = threading.Thread(target=lambda: beside.append(fit()))
+            t.start()
+            t.join()
+        finally:
+            members_quiet.reset(token)
+    ours = [w for w in rec if w.category is TrainingWarning]
+    assert len(ours) == 1, [str(w.message) for w in ours]  # the thread's model's
+    assert quiet.history_["stop_reason"] == beside[0].history_["stop_reason"] == "mu_max"
+
+
 # -- the best of N seeds -------------------------------------------------------------------------
 
 

@@ -499,9 +499,10 @@ def stage_rom(ctx: Context, data: StageResult) -> StageRecord:
     k_members = int(cfg.ensemble)
     recipe = recipe_text(cfg.loss_terms(), name, cfg.arch)
     workers = int(cfg.ensemble_workers)
-    # the members train in worker processes, one a core, while this process waits: the
-    # compared classes train meanwhile in a thread of it (the cores shared with the members)
-    beside = _Beside(ctx) if k_members > 1 and workers > 1 and cfg.compared() else None
+    # the compared classes train in a thread of this process beside the members: the members
+    # one after the other in this process, each on every core (ensemble_workers = 1), or in
+    # worker processes, one a core, while this process waits
+    beside = _Beside(ctx) if k_members > 1 and cfg.compared() else None
     gain = float(ctx.cfg.rig.twin_gain)
     runs = _ValidationRuns(records, float(val.fs),
                            lambda: _timed(lambda: replay_record(ctx, "validation", gain)))

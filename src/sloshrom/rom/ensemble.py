@@ -25,7 +25,6 @@ ensemble variant) and loaded by :func:`sloshrom.rom.load_model`.
 
 from __future__ import annotations
 
-import contextlib
 import math
 import os
 import warnings
@@ -44,7 +43,13 @@ from sloshrom.config import FILL_TOLERANCE
 from sloshrom.models import check_envelope, envelope_quiet, envelope_union, model_input
 from sloshrom.rom.base import Estimator, History, checked_past
 from sloshrom.rom.epochs import EpochFile, EpochReport, epoch_reports
-from sloshrom.rom.errors import NotFittedError, ROMError, TrainingWarning, UnstableModelError
+from sloshrom.rom.errors import (
+    NotFittedError,
+    ROMError,
+    TrainingWarning,
+    UnstableModelError,
+    members_quiet,
+)
 from sloshrom.rom.family import check_training_fill, training_fills
 from sloshrom.rom.modelfile import (
     MAX_MEMBERS,
@@ -390,21 +395,22 @@ class Ensemble:
             if vu.size == 0:
                 raise ROMError("validation record is empty")
         fill = check_training_fill(fill)
-        with epoch_reports(epoch_progress) as epochs_dir, contextlib.ExitStack() as quiet:
-            if scheduler in ("threads", "sequential"):
-                # said once below for all the members; set in this thread only, which the
-                # "threads" scheduler's workers read (a filter set in each of them would
-                # race). Members in other processes are quiet there (_fit_member): no filter
-                # here, where a thread of the caller may be training a model of its own
-                quiet.enter_context(warnings.catch_warnings())
-                warnings.simplefilter("ignore", TrainingWarning)
-            members = run_tasks(
-                _fit_member, list(enumerate(seeds)), shared=(u, y, vu, vy),
-                args=(type(self.template), self.template.get_params(), float(fs), fill,
-                      epochs_dir, int(validation_history), os.getpid()),
-                scheduler=scheduler, n_workers=n_workers,
-                done=None if progress is None else progress, started=started,
-            )
+        # said once below for all the members: in this process through a context variable
+        # (the "threads" scheduler's threads run in a copy of this context), not a warnings
+        # filter, which is the whole process's and would silence a model that a thread of the
+        # caller trains beside them; members in other processes are quiet there (_fit_member)
+        token = members_quiet.set(True)
+        try:
+            with epoch_reports(epoch_progress) as epochs_dir:
+                members = run_tasks(
+                    _fit_member, list(enumerate(seeds)), shared=(u, y, vu, vy),
+                    args=(type(self.template), self.template.get_params(), float(fs), fill,
+                          epochs_dir, int(validation_history), os.getpid()),
+                    scheduler=scheduler, n_workers=n_workers,
+                    done=None if progress is None else progress, started=started,
+                )
+        finally:
+            members_quiet.reset(token)
         self._set_members(members)
         stuck = [k for k, h in enumerate(self.history_) if h.get("stop_reason") == "mu_max"]
         if stuck:

@@ -9,6 +9,8 @@ tools catch and print in one line. A plain ``ValueError`` from inside is a progr
 
 from __future__ import annotations
 
+from contextvars import ContextVar
+
 from sloshrom.errors import SloshromError
 
 # defined once, beside the model contract, for every sloshing model; re-exported here
@@ -16,7 +18,7 @@ from sloshrom.models import EnvelopeWarning
 
 __all__ = ["EnvelopeWarning", "FeedthroughWarning", "FillRangeError", "HistoryError",
            "ModelSizeWarning", "NotFittedError", "ROMError", "TrainingWarning",
-           "UnstableModelError"]
+           "UnstableModelError", "members_quiet"]
 
 
 class ROMError(SloshromError):
@@ -70,8 +72,15 @@ class TrainingWarning(UserWarning):
     The model is still fitted (the best parameters on validation so far); the message says at
     which epoch, why no step was taken and what to try. The reason is also in the model's
     ``history_`` (``stop_reason``, ``stop_message``). The command line prints it as one
-    ``warning: ...`` line.
+    ``warning: ...`` line. Not issued while :data:`members_quiet` is set: an ensemble training
+    its members in this process says it once for all of them.
     """
+
+
+#: True while an ensemble trains its members in this process (in this context only: a thread
+#: training another model beside it still warns, where a process-wide warnings filter would
+#: silence it): a member's :class:`TrainingWarning` is then left to the ensemble.
+members_quiet: ContextVar[bool] = ContextVar("sloshrom_members_quiet", default=False)
 
 
 class FeedthroughWarning(UserWarning):

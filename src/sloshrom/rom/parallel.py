@@ -49,6 +49,7 @@ both use it without importing each other.
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import fcntl
 import os
 import stat
@@ -612,7 +613,9 @@ def run_tasks(
         from concurrent.futures import ThreadPoolExecutor, as_completed
 
         with ThreadPoolExecutor(max_workers=n_workers) as ex:
-            index = {ex.submit(fn, it, *shared, *args): i for i, it in enumerate(todo)}
+            # each task in a copy of the caller's context (its context variables)
+            index = {ex.submit(contextvars.copy_context().run, fn, it, *shared, *args): i
+                     for i, it in enumerate(todo)}
             start()
             for f in as_completed(index):
                 finish(index[f], f.result())

@@ -68,7 +68,13 @@ import optax
 from sloshrom._x64 import float64
 from sloshrom.limits import TRAINERS
 from sloshrom.rom.engine import AdamProblem, adam_epochs
-from sloshrom.rom.errors import HistoryError, ROMError, TrainingWarning, UnstableModelError
+from sloshrom.rom.errors import (
+    HistoryError,
+    ROMError,
+    TrainingWarning,
+    UnstableModelError,
+    members_quiet,
+)
 from sloshrom.rom.lm import LMProblem, LMResult, levenberg_marquardt, stop_message
 from sloshrom.rom.losses import (
     MAX_CYCLE,
@@ -1085,7 +1091,8 @@ def train(
     if res.stop_reason == "mu_max":
         # not silent: the network kept may be no better than its initialisation
         history["stop_message"] = mu_max_message(res.stop_info, spec.arch)
-        warnings.warn(TrainingWarning(history["stop_message"]), stacklevel=3)
+        if not members_quiet.get():  # (an ensemble's member: the ensemble says it)
+            warnings.warn(TrainingWarning(history["stop_message"]), stacklevel=3)
     return res.theta, history
 
 
