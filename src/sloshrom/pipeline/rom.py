@@ -13,6 +13,7 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any, TypeVar
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from sloshrom._threads import map_threads, numba_threadsafe
 from sloshrom.config import Tank
@@ -506,7 +507,13 @@ def stage_rom(ctx: Context, data: StageResult) -> StageRecord:
     gain = float(ctx.cfg.rig.twin_gain)
     runs = _ValidationRuns(records, float(val.fs),
                            lambda: _timed(lambda: replay_record(ctx, "validation", gain)))
-    with ThreadPoolExecutor(max_workers=1) as pool, contextlib.closing(runs):
+    # BLAS on one thread for the whole stage, as in a one-core worker: the members and the
+    # compared classes train side by side in this process, and BLAS's thread count is the
+    # process's (a limit one of them set and another restored would change another's products
+    # in their last bits, from run to run); their BLAS products are small, and a thread more
+    # only waited (docs/performance.md)
+    with ThreadPoolExecutor(max_workers=1) as pool, contextlib.closing(runs), \
+            threadpool_limits(limits=1, user_api="blas"):
         future: list[Future[list[Compared]]] = []
 
         def start_compared() -> None:

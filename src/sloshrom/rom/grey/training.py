@@ -177,6 +177,13 @@ def fit_physics(
     history : dict
         The search variables found, by name (:data:`PHYSICS_BOUNDS`), and ``objective``,
         ``generations``, ``evaluations``, ``seconds``, ``windows``.
+
+    Notes
+    -----
+    The candidates of a generation are scored side by side, one a thread, as many threads as
+    the usable cores and numba's thread count allow (one in a Dask worker that owns one core),
+    and BLAS runs on one thread meanwhile; each candidate is scored alone, so the result is the
+    same on any number of threads.
     """
     u = np.asarray(u, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
