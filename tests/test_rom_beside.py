@@ -46,17 +46,23 @@ def made(monkeypatch) -> list:
     return made
 
 
+def _rom_stage(tiny_reproduce, out, ensemble_workers):
+    """The rom stage of :data:`TINY` rerun on a copy of the tiny run in ``out``: its context,
+    outputs and every progress text."""
+    lines: list[str] = []
+    shutil.copytree(tiny_reproduce["out"], out)
+    cfg = tiny_reproduce["cfg"].replace(rom={**TINY, "ensemble_workers": ensemble_workers})
+    ctx = Context(out, cfg, progress=lambda stage, done, total, text: lines.append(text))
+    return ctx, identify(ctx)["rom"].outputs, lines
+
+
 @pytest.mark.filterwarnings("ignore::UserWarning")
 @pytest.mark.long
 def test_compared_classes_beside_the_members_are_the_ones_trained_alone(
         tiny_reproduce, tmp_path, monkeypatch):
     monkeypatch.setattr(rom_stage, "Ensemble", InProcess)
-    lines: list[str] = []
-    out = tmp_path / "beside"
-    shutil.copytree(tiny_reproduce["out"], out)
-    cfg = tiny_reproduce["cfg"].replace(rom={**TINY, "ensemble_workers": 2})
-    ctx = Context(out, cfg, progress=lambda stage, done, total, text: lines.append(text))
-    beside = identify(ctx)["rom"].outputs
+    ctx, beside, lines = _rom_stage(tiny_reproduce, tmp_path / "beside", ensemble_workers=2)
+    out, cfg = ctx.out, ctx.cfg
     assert any("training 2 x NOE" in t and "; beside it, training NFIR" in t for t in lines), \
         lines
     # one arithmetic, whichever thread runs it: the same weights, so the same errors
@@ -74,12 +80,7 @@ def test_members_one_after_the_other_in_this_process_have_the_compared_classes_b
         tiny_reproduce, tmp_path):
     """``ensemble_workers = 1`` (the default): the members train one after the other in the
     stage's process, and the compared classes in a thread beside them, not after them."""
-    lines: list[str] = []
-    out = tmp_path / "sequential"
-    shutil.copytree(tiny_reproduce["out"], out)
-    cfg = tiny_reproduce["cfg"].replace(rom={**TINY, "ensemble_workers": 1})
-    ctx = Context(out, cfg, progress=lambda stage, done, total, text: lines.append(text))
-    r = identify(ctx)["rom"].outputs
+    _, r, lines = _rom_stage(tiny_reproduce, tmp_path / "sequential", ensemble_workers=1)
     assert r["n_members"] == 2 and set(r["compare"]) == {"nfir"}
     assert any("training 2 x NOE" in t and "; beside it, training NFIR" in t for t in lines), \
         lines
