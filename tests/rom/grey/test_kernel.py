@@ -11,9 +11,10 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from sloshrom.rom.errors import ROMError
 from sloshrom.rom.grey import kernel as gk
 from sloshrom.rom.grey import training as gt
-from sloshrom.rom.grey.network import N_FEATURES, grey_simulate
+from sloshrom.rom.grey.network import N_FEATURES, grey_free_run, grey_run, grey_simulate
 
 needs_kernel = pytest.mark.skipif(not gk.kernel_available(),
                                   reason="the grey kernel is not built here")
@@ -95,6 +96,82 @@ def test_a_wrong_kernel_would_fail_the_comparison():
         tol = _tolerance(nx, n, t, jnp.float64)
         assert float(jnp.max(jnp.abs(g1["W1"] - g0["W1"]))) > 10 * tol * float(
             jnp.max(jnp.abs(g0["W1"])))
+
+
+#: (states, neurons, rows, samples) of free runs: neurons and states not whole vectors of the
+#: row kernel (8 float64), one row and a few
+RUN_SHAPES = [(8, 32, 1, 3000), (3, 7, 2, 500), (16, 65, 4, 800), (5, 9, 3, 1)]
+
+
+def _free_run_case(nx, n, b, t, seed):
+    with jax.enable_x64(True):
+        p, x0, seq, _ = _problem(nx, n, b, t, jnp.float64, seed)
+    p = {k: np.array(v, dtype=np.float64) for k, v in p.items()}
+    # x_{t+1} = x_t + x_t A_x + ...: A_x near -I/2 makes the long run contract (the bound
+    # assumes it)
+    p["A"][:nx] = 0.3 * p["A"][:nx] - 0.5 * np.eye(nx)
+    seq = np.asarray(seq, dtype=np.float64)
+    return (p, np.asarray(x0, dtype=np.float64), np.swapaxes(seq[..., 0], 0, 1),
+            np.swapaxes(seq[..., 1:], 0, 1))
+
+
+@needs_kernel
+@pytest.mark.parametrize("shape", RUN_SHAPES)
+def test_free_run_by_rows_is_grey_run(shape):
+    """The validation's and the predictions' free run in C, a row at a time, against
+    ``lax.scan``: the forward half of the window's bound (T (nz + n + 4) eps, x4)."""
+    nx, n, b, t = shape
+    with jax.enable_x64(True):
+        p, x0, u, phi = _free_run_case(nx, n, b, t, seed=sum(shape))
+        ref = np.asarray(grey_run({k: jnp.asarray(v) for k, v in p.items()}, jnp.asarray(u),
+                                  jnp.asarray(phi), jnp.asarray(x0), 0.05, -0.1))
+    got = gk.free_run_rows(p, u, phi, x0, 0.05, -0.1)
+    assert got.shape == ref.shape == (t, b) and got.dtype == np.float64
+    assert np.max(np.abs(got - ref)) <= _tolerance(nx, n, t, jnp.float64) / 2 * np.max(
+        np.abs(ref))
+    # and a weight off by 1e-6 is far outside it (the comparison can fail)
+    q = dict(p, W2=p["W2"] + np.eye(*p["W2"].shape) * 1e-6)
+    if t > 1:
+        off = gk.free_run_rows(q, u, phi, x0, 0.05, -0.1)
+        assert np.max(np.abs(off - got)) > 10 * _tolerance(nx, n, t, jnp.float64) / 2 * np.max(
+            np.abs(ref))
+
+
+def test_free_run_takes_a_few_rows_and_says_none_otherwise(monkeypatch):
+    p, x0, u, phi = _free_run_case(4, 9, gk.FREE_RUN_ROWS + 1, 20, seed=5)
+    # more rows than FREE_RUN_ROWS: lax.scan's products over the rows are as fast
+    assert gk.free_run_rows(p, u, phi, x0, 0.0, 0.0) is None
+    with jax.enable_x64(True):
+        ref = np.asarray(grey_run({k: jnp.asarray(v) for k, v in p.items()}, jnp.asarray(u),
+                                  jnp.asarray(phi), jnp.asarray(x0), 0.0, 0.0))
+        assert np.array_equal(grey_free_run(p, u, phi, x0, 0.0, 0.0), ref)
+        # the kernel turned off: lax.scan for one row too
+        monkeypatch.setenv(gk.KERNEL_ENV, "jax")
+        one = (u[:, :1], phi[:, :1], x0[:1], 0.0, 0.0)
+        assert gk.free_run_rows(p, *one) is None
+        ref1 = np.asarray(grey_run({k: jnp.asarray(v) for k, v in p.items()},
+                                   *(jnp.asarray(a) for a in one[:3]), 0.0, 0.0))
+        assert np.array_equal(grey_free_run(p, *one), ref1)
+
+
+@needs_kernel
+def test_free_run_refuses_arrays_that_do_not_match():
+    p, x0, u, phi = _free_run_case(4, 9, 2, 20, seed=6)
+    with pytest.raises(ROMError, match="do not match"):
+        gk.free_run_rows(p, u, phi[:-1], x0, 0.0, 0.0)
+    with pytest.raises(ROMError, match="do not match"):
+        gk.free_run_rows(p, u, phi, x0[:, :3], 0.0, 0.0)
+    with pytest.raises(ROMError, match="W2 has shape"):
+        gk.free_run_rows(dict(p, W2=p["W2"][:-1]), u, phi, x0, 0.0, 0.0)
+    # the extension checks the byte counts itself: a caller that skips the wrapper
+    w = [np.ascontiguousarray(p[k]) for k in gk.WEIGHTS]
+    seq = np.zeros((2, 20, 5))
+    with pytest.raises(ValueError, match="sizes do not match"):
+        gk._MODULE.free_run(*w, x0, seq, np.empty((2, 19)), 4, 5, 9, 20, 2)
+    with pytest.raises(ValueError, match="contiguous"):  # no copy behind the caller's back
+        gk._MODULE.free_run(*w, x0, seq[:, ::2], np.empty((2, 10)), 4, 5, 9, 10, 2)
+    out = gk.free_run_rows(p, u[:0], phi[:0], x0, 0.0, 0.0)  # no samples: no outputs
+    assert out.shape == (0, 2)
 
 
 def test_the_pure_jax_path_is_said_once(monkeypatch, caplog, request):

@@ -40,6 +40,7 @@ from sloshrom.config import G
 from sloshrom.models import model_input
 from sloshrom.rom.errors import ROMError
 from sloshrom.rom.grey.entry import GREY_CLASS
+from sloshrom.rom.grey.kernel import free_run_rows
 from sloshrom.rom.grey.physics import (
     COHERENCE_TIME,
     PHYS_NAMES,
@@ -156,6 +157,21 @@ def grey_run(p: Params, u_s: jax.Array, phi_s: jax.Array, x0: jax.Array,
     """The network from the state ``x0`` (B, nx) over scaled inputs ``u_s`` (n, B) and scaled
     features ``phi_s`` (n, B, 4) (the column's, computed before); the scaled outputs (n, B)."""
     return grey_simulate(p, x0, jnp.concatenate([u_s[..., None], phi_s], axis=-1), r_u, r_y)
+
+
+@float64
+def grey_free_run(p: Mapping[str, ArrayLike], u_s: ArrayLike, phi_s: ArrayLike,
+                  x0: ArrayLike, r_u: float, r_y: float) -> np.ndarray:
+    """:func:`grey_run` evaluated, in float64 (NumPy out): by the C kernel one row at a time
+    (:func:`sloshrom.rom.grey.kernel.free_run_rows`: a validation run or a prediction of a few
+    rows; one row 5.7x faster than ``lax.scan``, 32 rows 1.2x) where it was built, else by
+    ``lax.scan``. The two agree to round-off (tested)."""
+    y = free_run_rows(p, u_s, phi_s, x0, r_u, r_y)
+    if y is None:
+        y = np.asarray(grey_run({k: jnp.asarray(v, jnp.float64) for k, v in p.items()},
+                                jnp.asarray(u_s, jnp.float64), jnp.asarray(phi_s, jnp.float64),
+                                jnp.asarray(x0, jnp.float64), r_u, r_y))
+    return y
 
 
 @partial(jax.tree_util.register_dataclass,
@@ -286,11 +302,9 @@ class GreyBoxNetwork(FittedNetwork):
         ru, ry = (float(r) for r in self._rest())
         phi = grey_features(np.asarray(self.params["physics"]), np.asarray(self.params["taps"]),
                             u2, self.fs, s.n_balls, s.n_substeps, s.n_past) / self._half()
-        p = {k: jnp.asarray(v, jnp.float64) for k, v in self.params.items()}
         u_s = np.asarray(self.scaler.u(u2), dtype=np.float64)
-        return np.asarray(grey_run(p, jnp.asarray(u_s[:, skip:].T),
-                                   jnp.asarray(np.swapaxes(phi[:, skip:], 0, 1)),
-                                   jnp.asarray(x0), ru, ry))
+        return grey_free_run(self.params, u_s[:, skip:].T, np.swapaxes(phi[:, skip:], 0, 1),
+                             x0, ru, ry)
 
     def _history_run(self, u_past: np.ndarray, y_past: np.ndarray, u: np.ndarray
                      ) -> np.ndarray:

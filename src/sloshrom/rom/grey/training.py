@@ -31,7 +31,6 @@ import jax
 import jax.numpy as jnp
 import numba
 import numpy as np
-from numpy.typing import ArrayLike
 from scipy import fft as sp_fft
 from scipy import signal as sps
 from scipy.optimize import OptimizeResult, differential_evolution
@@ -43,7 +42,7 @@ from sloshrom.rom.engine import AdamProblem, adam_epochs
 from sloshrom.rom.errors import ROMError
 from sloshrom.rom.grey.entry import grey_shapes
 from sloshrom.rom.grey.kernel import grey_window, kernel_available, kernel_note
-from sloshrom.rom.grey.network import GreySpec, grey_run, grey_simulate
+from sloshrom.rom.grey.network import GreySpec, grey_free_run, grey_simulate
 from sloshrom.rom.grey.physics import (
     causal_intervals,
     design_rows,
@@ -301,10 +300,6 @@ def _note_path() -> None:
         logging.getLogger("sloshrom").warning(note)
 
 
-def _as64(p: Mapping[str, ArrayLike]) -> dict[str, jax.Array]:
-    return {k: jnp.asarray(v, jnp.float64) for k, v in p.items()}
-
-
 def shooting_problem(
     spec: GreySpec,
     u: np.ndarray,
@@ -352,18 +347,18 @@ def shooting_problem(
             return grey_window(p, x0, seq, ru, ry)
         return grey_simulate(p, x0, jnp.swapaxes(seq, 0, 1), ru, ry).T
 
-    cache: dict[int, tuple[np.ndarray, jax.Array]] = {}
+    cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
     def free_run(p: PyTree, uv: np.ndarray) -> np.ndarray:
         # the validation record's features once (the physics does not train)
         if id(uv) not in cache:
             v = (np.asarray(uv, dtype=np.float64) - ru) / (float(scaler.u(1.0)) - ru)
             cache.clear()
-            cache[id(uv)] = (uv, jnp.asarray(np.swapaxes(features(v[None]), 0, 1)))
+            cache[id(uv)] = (uv, np.swapaxes(features(v[None]), 0, 1))
         phi = cache[id(uv)][1]
-        x0 = jnp.zeros((1, spec.n_states), jnp.float64)
-        return np.asarray(grey_run(_as64(net(p)), jnp.asarray(uv, jnp.float64)[:, None], phi,
-                                   x0, ru, ry))[:, 0]
+        x0 = np.zeros((1, spec.n_states))
+        return grey_free_run(net(p), np.asarray(uv, dtype=np.float64)[:, None], phi, x0, ru,
+                             ry)[:, 0]
 
     rec = Recurrence(offset=w, n_starts=n - w - t, start=start,
                      rest=lambda k: jnp.zeros((k, spec.n_states), f32), simulate=simulate,

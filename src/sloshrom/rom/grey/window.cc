@@ -1,6 +1,7 @@
 // The grey box's shooting window as two XLA FFI handlers: the network's free run over a batch
 // of sub-sequences (state steps and output map) and its reverse pass (backpropagation through
-// time), float64 and float32. Python side: sloshrom/rom/grey/kernel.py.
+// time), float64 and float32; and, called from Python, the free run of a few long rows (a
+// validation run, a prediction) one row at a time. Python side: sloshrom/rom/grey/kernel.py.
 //
 //   z_t = [x_t, seq_t]                       seq_t = [du_t, phi_t] (1 + nf features)
 //   o_t = [x_t, phi_t]
@@ -30,6 +31,7 @@
 #include <cstdint>
 #include <cstring>
 #include <memory>
+#include <new>
 #include <thread>
 #include <vector>
 
@@ -491,6 +493,118 @@ void backward_totals(const Backward<T>& r, T* dA, T* dW1, T* db1, T* dW2, T* dC,
   }
 }
 
+// The free run of a few long rows (a validation run, a prediction): one row at a time, the
+// neurons as the vector axis (a block of LANES rows would run one row in LANES lanes). Not
+// differentiated, and called from Python (free_run below), not inside an XLA computation. The
+// weights are copied, padded with zeros to whole vectors of neurons (np) and of states (npx):
+// a padded neuron's tanh(0) = 0 reaches no state and no output, a padded state stays zero.
+template <typename T> struct RowNet {
+  int64_t nx, nf, n, np, npx;
+  std::vector<T> W1, b1, V1, d1, V2, A, W2, C, f0;
+  T h0 = 0;
+  explicit RowNet(const Net<T>& m)
+      : nx(m.nx), nf(m.nf), n(m.n),
+        np((m.n + kLanes<T> - 1) / kLanes<T> * kLanes<T>),
+        npx((m.nx + kLanes<T> - 1) / kLanes<T> * kLanes<T>) {
+    const int64_t nz = m.nz(), no = m.no();
+    W1.assign(nz * np, T(0));
+    V1.assign(no * np, T(0));
+    b1.assign(np, T(0));
+    d1.assign(np, T(0));
+    V2.assign(np, T(0));
+    A.assign(nz * npx, T(0));
+    W2.assign(np * npx, T(0));
+    f0.assign(npx, T(0));
+    C.assign(m.C, m.C + no);
+    for (int64_t i = 0; i < nz; ++i)
+      for (int64_t j = 0; j < n; ++j) W1[i * np + j] = m.W1[i * n + j];
+    for (int64_t i = 0; i < no; ++i)
+      for (int64_t j = 0; j < n; ++j) V1[i * np + j] = m.V1[i * n + j];
+    for (int64_t i = 0; i < nz; ++i)
+      for (int64_t k = 0; k < nx; ++k) A[i * npx + k] = m.A[i * nx + k];
+    for (int64_t j = 0; j < n; ++j) {
+      b1[j] = m.b1[j];
+      d1[j] = m.d1[j];
+      V2[j] = m.V2[j];
+      for (int64_t k = 0; k < nx; ++k) W2[j * npx + k] = m.W2[j * nx + k];
+      // the free run's constant terms: f0 = tanh(b1) W2 and h0 = tanh(d1) V2
+      const T tb = tanh_s(m.b1[j]);
+      for (int64_t k = 0; k < nx; ++k) f0[k] += tb * m.W2[j * nx + k];
+      h0 += tanh_s(m.d1[j]) * m.V2[j];
+    }
+  }
+};
+
+// out = tanh(bias + sum_i in_i W[i, :]) for the K vectors of neurons from v on, in_ the n0
+// values at p0 then the n1 at p1 (K independent sums)
+template <typename T, int K>
+SL_INLINE void row_dense_tanh_block(T* out, const T* W, const T* bias, int64_t np, int64_t v,
+                                    const T* p0, int64_t n0, const T* p1, int64_t n1) {
+  constexpr int L = kLanes<T>;
+  V<T> c[K];
+  for (int q = 0; q < K; ++q) c[q] = load(bias + v + q * L);
+  for (int64_t i = 0; i < n0 + n1; ++i) {
+    const T zi = i < n0 ? p0[i] : p1[i - n0];
+    const T* w = W + i * np + v;
+    for (int q = 0; q < K; ++q) c[q] += zi * load(w + q * L);
+  }
+  for (int q = 0; q < K; ++q) store(out + v + q * L, tanh_v<T>(c[q]));
+}
+
+template <typename T>
+SL_INLINE void row_dense_tanh(T* out, const T* W, const T* bias, int64_t np, const T* p0,
+                              int64_t n0, const T* p1, int64_t n1) {
+  constexpr int L = kLanes<T>;
+  int64_t v = 0;
+  for (; v + 4 * L <= np; v += 4 * L)
+    row_dense_tanh_block<T, 4>(out, W, bias, np, v, p0, n0, p1, n1);
+  for (; v < np; v += L) row_dense_tanh_block<T, 1>(out, W, bias, np, v, p0, n0, p1, n1);
+}
+
+// The free run of one row from x0 (nx) over seq (T, nf: [du, phi] a sample) into y (T);
+// scratch: 2 npx + 2 np values.
+template <typename T>
+SL_INLINE void row_run(const RowNet<T>& r, const T* x0, const T* seq, int64_t TT, T* y,
+                       T* scratch) {
+  constexpr int L = kLanes<T>;
+  const int64_t nx = r.nx, nf = r.nf, np = r.np, npx = r.npx;
+  T* x = scratch;
+  T* xn = x + npx;
+  T* h = xn + npx;
+  T* g = h + np;
+  std::fill(x, x + npx, T(0));
+  std::copy(x0, x0 + nx, x);
+  for (int64_t t = 0; t < TT; ++t) {
+    const T* s = seq + t * nf;
+    // output map on o = [x, phi]
+    row_dense_tanh<T>(g, r.V1.data(), r.d1.data(), np, x, nx, s + 1, nf - 1);
+    V<T> yv{};
+    for (int64_t v = 0; v < np; v += L) yv += load(g + v) * load(r.V2.data() + v);
+    T ys = hsum<T>(yv);
+    for (int64_t i = 0; i < nx; ++i) ys += x[i] * r.C[i];
+    for (int64_t i = 0; i < nf - 1; ++i) ys += s[1 + i] * r.C[nx + i];
+    y[t] = (s[1] - r.h0) + ys;
+    // state map on z = [x, du, phi]; the next state in four partial sums (short chains)
+    row_dense_tanh<T>(h, r.W1.data(), r.b1.data(), np, x, nx, s, nf);
+    for (int64_t u = 0; u < npx; u += L) {
+      V<T> c0 = load(x + u) - load(r.f0.data() + u), c1{}, c2{}, c3{};
+      for (int64_t i = 0; i < nx; ++i) c1 += x[i] * load(r.A.data() + i * npx + u);
+      for (int64_t i = 0; i < nf; ++i) c1 += s[i] * load(r.A.data() + (nx + i) * npx + u);
+      for (int64_t j = 0; j < np; j += 2) {
+        c2 += h[j] * load(r.W2.data() + j * npx + u);
+        c3 += h[j + 1] * load(r.W2.data() + (j + 1) * npx + u);
+      }
+      store(xn + u, (c0 + c1) + (c2 + c3));
+    }
+    std::swap(x, xn);
+  }
+}
+
+SL_CLONES void row_run_f64(const RowNet<double>& r, const double* x0, const double* seq,
+                           int64_t TT, double* y, double* scratch) {
+  row_run<double>(r, x0, seq, TT, y, scratch);
+}
+
 // The blocks' work compiled for each ISA (the loader picks the best the CPU has); the
 // threads that run it are not
 SL_CLONES void forward_block_f64(const Forward<double>& f, double* xv, int64_t blk) {
@@ -680,12 +794,60 @@ PyObject* handlers(PyObject*, PyObject*) {
   return d;
 }
 
+// free_run(A, W1, b1, W2, C, V1, d1, V2, x0, seq, y, nx, nf, n, T, B): the float64 free run
+// of B rows (row_run), seq (B, T, nf) with du = the scaled input minus its rest, y (B, T)
+// written; every array C-contiguous float64 of its size (checked here by byte count, by
+// shape in kernel.py). The GIL is released while it runs.
+PyObject* free_run(PyObject*, PyObject* args) {
+  constexpr int kBufs = 11;
+  Py_buffer b[kBufs] = {};
+  long long nx, nf, n, TT, B;
+  if (!PyArg_ParseTuple(args, "y*y*y*y*y*y*y*y*y*y*w*LLLLL", &b[0], &b[1], &b[2], &b[3],
+                        &b[4], &b[5], &b[6], &b[7], &b[8], &b[9], &b[10], &nx, &nf, &n, &TT,
+                        &B))
+    return nullptr;
+  auto release = [&b] {
+    for (auto& v : b)
+      if (v.obj != nullptr) PyBuffer_Release(&v);
+  };
+  const long long nz = nx + nf, no = nx + nf - 1;
+  const long long want[kBufs] = {nz * nx, nz * n, n, n * nx, no, no * n, n, n, B * nx,
+                                 B * TT * nf, B * TT};
+  bool ok = nx > 0 && nf >= 2 && n > 0 && TT >= 0 && B >= 0;
+  for (int i = 0; ok && i < kBufs; ++i)
+    ok = b[i].len == Py_ssize_t(want[i] * sizeof(double));
+  if (!ok) {
+    release();
+    PyErr_SetString(PyExc_ValueError, "free_run: array sizes do not match the shapes");
+    return nullptr;
+  }
+  auto d = [&b](int i) { return static_cast<const double*>(b[i].buf); };
+  Net<double> m{d(0), d(1), d(2), d(3), d(4), d(5), d(6), d(7), nx, nf, n, TT, B};
+  double* y = static_cast<double*>(b[10].buf);
+  bool no_memory = false;
+  Py_BEGIN_ALLOW_THREADS
+  try {
+    const RowNet<double> r(m);
+    std::vector<double> scratch(2 * r.npx + 2 * r.np);
+    for (long long row = 0; row < B; ++row)
+      row_run_f64(r, d(8) + row * nx, d(9) + row * TT * nf, TT, y + row * TT, scratch.data());
+  } catch (const std::bad_alloc&) {
+    no_memory = true;
+  }
+  Py_END_ALLOW_THREADS
+  release();
+  if (no_memory) return PyErr_NoMemory();
+  Py_RETURN_NONE;
+}
+
 PyObject* threads_used(PyObject*, PyObject*) {
   return PyLong_FromLongLong(g_threads_used.load(std::memory_order_relaxed));
 }
 
 PyMethodDef methods[] = {
     {"handlers", handlers, METH_NOARGS, "The XLA FFI handlers by target name (capsules)."},
+    {"free_run", free_run, METH_VARARGS,
+     "The float64 free run of a few rows, one at a time (neurons as the vector axis)."},
     {"threads_used", threads_used, METH_NOARGS,
      "The threads that ran the blocks of rows in the last call of a handler."},
     {nullptr, nullptr, 0, nullptr}};
