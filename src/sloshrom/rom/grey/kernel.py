@@ -46,8 +46,8 @@ _Struct: Callable[[tuple[int, ...], np.dtype], jax.ShapeDtypeStruct] = jax.Shape
 #: The batch is padded to a multiple of this (64 bytes of float32 rows: the kernel's blocks).
 _LANES = 16
 #: The most rows a free run takes by :func:`free_run_rows`; more go by ``lax.scan``, whose
-#: products over the rows are then as fast (one core, 20,000 samples: 1 row 5.7x faster than
-#: ``lax.scan``, 4 rows 3.6x, 32 rows 1.2x, 64 rows 1.1x).
+#: products over the rows are then as fast (one core, 20,000 samples: 1 row 5.8x faster than
+#: ``lax.scan``, 4 rows 3.8x, 32 rows 1.2x, 64 rows 1.1x; ``benchmarks/grey_free_run.py``).
 FREE_RUN_ROWS = 32
 
 
