@@ -285,14 +285,22 @@ SL_INLINE void forward_block(const Forward<T>& f, T* xv, int64_t blk) {
   }
 }
 
+// The free run's constant terms: f0 = tanh(b1) W2 added into f0 (nx, zeros), h0 = tanh(d1) V2
+// returned
+template <typename T> T rest_terms(const Net<T>& m, T* f0) {
+  T h0 = 0;
+  for (int64_t j = 0; j < m.n; ++j) {
+    const T tb = tanh_s(m.b1[j]);
+    for (int64_t k = 0; k < m.nx; ++k) f0[k] += tb * m.W2[j * m.nx + k];
+    h0 += tanh_s(m.d1[j]) * m.V2[j];
+  }
+  return h0;
+}
+
 template <typename T> Forward<T> forward_of(const Net<T>& m, const T* x0, const T* seq, T* y,
                                             T* xs, T* hs, T* gs) {
   Forward<T> f{m, x0, seq, y, xs, hs, gs, std::vector<T>(m.nx, T(0)), T(0)};
-  for (int64_t j = 0; j < m.n; ++j) {
-    const T tb = tanh_s(m.b1[j]);
-    for (int64_t k = 0; k < m.nx; ++k) f.f0[k] += tb * m.W2[j * m.nx + k];
-    f.h0 += tanh_s(m.d1[j]) * m.V2[j];
-  }
+  f.h0 = rest_terms(m, f.f0.data());
   return f;
 }
 
@@ -501,7 +509,7 @@ void backward_totals(const Backward<T>& r, T* dA, T* dW1, T* db1, T* dW2, T* dC,
 template <typename T> struct RowNet {
   int64_t nx, nf, n, np, npx;
   std::vector<T> W1, b1, V1, d1, V2, A, W2, C, f0;
-  T h0 = 0;
+  T h0;
   explicit RowNet(const Net<T>& m)
       : nx(m.nx), nf(m.nf), n(m.n),
         np((m.n + kLanes<T> - 1) / kLanes<T> * kLanes<T>),
@@ -527,11 +535,8 @@ template <typename T> struct RowNet {
       d1[j] = m.d1[j];
       V2[j] = m.V2[j];
       for (int64_t k = 0; k < nx; ++k) W2[j * npx + k] = m.W2[j * nx + k];
-      // the free run's constant terms: f0 = tanh(b1) W2 and h0 = tanh(d1) V2
-      const T tb = tanh_s(m.b1[j]);
-      for (int64_t k = 0; k < nx; ++k) f0[k] += tb * m.W2[j * nx + k];
-      h0 += tanh_s(m.d1[j]) * m.V2[j];
     }
+    h0 = rest_terms(m, f0.data());
   }
 };
 
