@@ -18,17 +18,18 @@ import json
 import numpy as np
 from sloshrom.rig import VirtualRig
 from sloshrom.rig.physics import _simulate_batch
-from sloshrom.rom.grey.physics import _causal_batch, causal_intervals
+from sloshrom.rom.grey.physics import _causal_batch, _causal_lanes, causal_intervals
 from sloshrom.beam.simulation.coupled import _numba_loop
 rig = VirtualRig(seed=3)
 rig.measure(np.cos(np.arange(3000) * 0.02) * 25.0)
 phys = np.array([[0.02, 2e6, 50.0, 0.012, 12.0, 0.02, 5.0]])
 out = np.empty((1, 3, 40, 3, 8))
 causal_intervals(phys, np.ones((3, 40)), 1000.0, 4, 8, from_rest=False, predict_from=9, out=out)
+causal_intervals(phys, np.ones((20, 30)), 1000.0, 4, 8, from_rest=False, predict_from=9)
 loop = _numba_loop()
 print(json.dumps({name: [sum(k.stats.cache_hits.values()), sum(k.stats.cache_misses.values())]
                   for name, k in (("rig", _simulate_batch), ("column", _causal_batch),
-                                  ("beam", loop))}))
+                                  ("lanes", _causal_lanes), ("beam", loop))}))
 """
 
 

@@ -129,14 +129,15 @@ def report(threads: dict[tuple[int, int], Thread], start: float, end: float, buc
         if per_pid[pid] < minimum:
             continue
         total += per_pid[pid]
-        lines.append(f"process {pid}: {per_pid[pid]:.1f} s  {by_pid[pid][0].command[:100]}")
+        lines.append(f"process {pid}: {per_pid[pid]:.2f} s  {by_pid[pid][0].command[:100]}")
         for th in by_pid[pid]:
             u = used[th.pid, th.tid]
             if u < minimum:
                 continue
-            slices = " ".join(f"{th.used(a, b, tick):4.1f}"
+            # to the clock's tick (10 ms), so that the slices add up to the thread's total
+            slices = " ".join(f"{th.used(a, b, tick):5.2f}"
                               for a, b in zip(edges[:-1], edges[1:], strict=True))
-            lines.append(f"  {th.tid:>8} {th.name[:15]:15s} {u:7.1f}  [{slices}]")
+            lines.append(f"  {th.tid:>8} {th.name[:15]:15s} {u:7.2f}  [{slices}]")
     lines.append(f"all processes shown: {total:.1f} CPU s in {end - start:.1f} s "
                  f"({os.cpu_count()} CPUs)")
     return "\n".join(lines)

@@ -1,11 +1,13 @@
 """Compile the numba kernels of a default run into numba's on-disk cache, once per machine.
 
 `make` runs this while the grey box's C++ kernel builds (one core each), so that the first
-`sloshrom reproduce` of a fresh clone loads the virtual rig's, the column's and the coupled
-beam's kernels from the cache instead of compiling them in its stages (about 8 s of
-compilation: the data stage 16.5 -> 12.1 s, the ROM stage's two workers and the beam stage
-a few seconds each, measured on the 2-core machine). Each kernel is called once on a tiny
-input of the types the run gives it, which compiles exactly the signature the run uses.
+`sloshrom reproduce` of a fresh clone loads the virtual rig's, the column's (window by window,
+and the search's with the windows as lanes) and the coupled beam's kernels from the cache
+instead of compiling them in its stages (about 8 s of compilation: the data stage
+16.5 -> 12.1 s, the ROM stage's workers and the beam stage a few seconds each, measured on the
+2-core machine, before the lanes' kernel added about 10 s of its own). Each kernel is called
+once on a tiny input of the types the run gives it, which compiles exactly the signature the
+run uses.
 
 Run: ``.venv/bin/python tools/warm_kernels.py`` (``-v``: the time of each). A kernel whose cache
 cannot be written (a read-only install) compiles in memory and is lost: harmless, and said.
@@ -40,6 +42,16 @@ def _column() -> object:
     return _causal_batch
 
 
+def _column_lanes() -> object:
+    import numpy as np
+
+    from sloshrom.rom.grey.physics import LANES_FROM, _causal_lanes, causal_intervals
+
+    phys = np.array([[0.01, 1e6, 100.0, 0.01, 10.0, 0.01, 7.0]])
+    causal_intervals(phys, np.zeros((LANES_FROM, 50)), 500.0, 10, 8)
+    return _causal_lanes
+
+
 def _beam() -> object:
     from sloshrom.beam.simulation.coupled import _numba_loop
 
@@ -48,7 +60,8 @@ def _beam() -> object:
 
 #: The kernels of a default run: (name, a call that compiles it and returns its dispatcher).
 KERNELS: tuple[tuple[str, Callable[[], object]], ...] = (
-    ("virtual rig", _rig), ("grey box's column", _column), ("coupled beam loop", _beam))
+    ("virtual rig", _rig), ("grey box's column", _column),
+    ("grey box's column, windows as lanes", _column_lanes), ("coupled beam loop", _beam))
 
 
 def main() -> None:

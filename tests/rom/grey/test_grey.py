@@ -17,6 +17,9 @@ from sloshrom.rom import GreyBox, load_model
 from sloshrom.rom.errors import ROMError
 from sloshrom.rom.grey.network import GreySpec
 from sloshrom.rom.grey.physics import (
+    LANES_FROM,
+    _causal_batch,
+    _causal_lanes,
     causal_intervals,
     design_rows,
     filter_normal_equations,
@@ -162,6 +165,34 @@ def test_numba_and_jax_steps_agree():
     scale = np.max(np.abs(ref))
     assert scale > 1.0
     assert np.max(np.abs(jx - ref)) <= tol * scale
+
+
+@pytest.mark.parametrize("windows, n_balls, n_sub", [(16, 10, 8), (17, 4, 8), (40, 10, 6)])
+def test_windows_as_lanes_are_the_windows_one_by_one(windows, n_balls, n_sub):
+    """The search's kernel (the windows as the vector axis, in blocks) gives each window's
+    column to the bit: random parameter sets, windows of violent random motion (every
+    regime: at rest, released, flying, against the lid, landing), from rest or not, a warm-up or
+    not, blocks that are not whole (17 and 40 windows)."""
+    rng = np.random.default_rng(windows)
+    lo, hi = np.array(list(PHYSICS_BOUNDS.values())).T
+    phys = np.stack([_phys(*(lo + (hi - lo) * rng.random(lo.size))) for _ in range(2)]
+                    + [_phys(*RIG_LIKE)])
+    n = 400
+    accel = rng.standard_normal((windows, n)) * rng.uniform(0.5, 6.0, (windows, 1)) * G
+    u = np.cumsum(accel, axis=1) / FS * np.linspace(0.0, 1.0, n)  # ramped from rest
+    assert windows >= LANES_FROM
+    for from_rest, predict_from in ((True, 0), (False, 99)):
+        want = np.empty((3, windows, n, 3, n_sub))
+        _causal_batch(phys, u, FS, n_balls, n_sub, from_rest, predict_from, want)
+        got = causal_intervals(phys, u, FS, n_balls, n_sub, from_rest=from_rest,
+                               predict_from=predict_from)
+        assert np.max(np.abs(want)) > 1.0  # impacts
+        assert np.any(want[..., 1:, :] != want[..., :1, :])  # the predictions differ
+        np.testing.assert_array_equal(got.view(np.int64), want.view(np.int64))
+        # blocks of another size (the last one short), as numba's threads may get them
+        got = np.full_like(want, np.nan)
+        _causal_lanes(phys, u, FS, n_balls, n_sub, from_rest, predict_from, got, 7)
+        np.testing.assert_array_equal(got.view(np.int64), want.view(np.int64))
 
 
 def test_design_rows_of_several_records_and_a_warm_up():

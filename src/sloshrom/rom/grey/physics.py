@@ -39,7 +39,9 @@ physics, a causal average of the force over the last sample, fits it to 28 %, do
 
 Three implementations of one step, the same operations in the same order: numba for the
 identification and for whole records (:func:`causal_intervals`: many candidate parameter sets
-and windows at once, in parallel; the fitted model's ``predict`` and the maps), JAX for the
+and windows at once, in parallel; the fitted model's ``predict`` and the maps; from
+:data:`LANES_FROM` windows on, the windows are the vector axis of one loop, with the same bits
+as window by window), JAX for the
 fitted model's step (:func:`physics_step`, traced into the coupled beam), and C for the FMU
 (``rom/fmu_c/``). The numba and C columns agree to the last bit; XLA's ``exp`` differs from
 glibc's in the last bit of some arguments, so the JAX step agrees to about 1e-10 of the force
@@ -196,6 +198,182 @@ def _causal_batch(phys: np.ndarray, u: np.ndarray, fs: float, n_balls: int, n_su
         _causal_one(phys[p], u[w], fs, n_balls, n_sub, from_rest, predict_from, out[p, w])
 
 
+#: Windows a block of :func:`_causal_lanes` (its vector axis): 32 windows of a search's candidate
+#: in one block.
+LANES = 32
+#: Fewer windows than this go window by window (:func:`_causal_batch`): LLVM vectorises the lane
+#: loops 16 lanes at a time, and a block of 8 ran its lanes one by one, 1.3 times slower than
+#: the windows alone (measured on the default search's windows).
+LANES_FROM = 16
+
+
+@njit(inline="always")
+def _interval_lanes(z: np.ndarray, v: np.ndarray, att: np.ndarray, s: np.ndarray, a: np.ndarray,
+                    phys: np.ndarray, h: float, n_sub: int, decay: float, out: np.ndarray,
+                    nfree: np.ndarray, neg: np.ndarray, sdot: np.ndarray, alpha: np.ndarray,
+                    dv: np.ndarray, level: np.ndarray) -> None:
+    """:func:`_interval` for ``L`` windows at once, the windows as the vector axis: ``z``,
+    ``v``, ``att`` of shape (n_balls, L), the gate ``s`` and acceleration ``a`` (L,), the forces
+    into ``out`` (n_sub, L); ``nfree[i]``: the windows in which ball ``i`` flies (kept between
+    calls). Every lane takes the same operations, in the same order, as :func:`_interval`;
+    a ball is skipped only where no window needs it, so the results are the same bits.
+    ``neg`` to ``level`` are scratch arrays of length L."""
+    n = z.shape[0]
+    n_l = a.shape[0]
+    stiff = phys[1]
+    damp = phys[2]
+    gap = phys[3]
+    for m in range(n_l):
+        geff = G + a[m]
+        is_neg = geff < 0.0
+        neg[m] = is_neg
+        sdot[m] = phys[4] * (abs(geff) / G) ** 0.25 if is_neg else 0.0
+        alpha[m] = -geff
+    first = 0.5 / n
+    nh = n * h
+    flying = 0
+    for i in range(n):
+        flying += nfree[i]
+    for j in range(n_sub):
+        top = -1.0  # the highest gate level that may release a ball (-1: none may)
+        for m in range(n_l):
+            s[m] = min(s[m] + sdot[m] * h, 1.0) if neg[m] else s[m] * decay
+        for m in range(n_l):
+            level[m] = s[m] if neg[m] else -1.0
+            top = max(top, level[m])
+        if flying == 0 and not top >= first:
+            for m in range(n_l):
+                out[j, m] = -0.0 / nh
+            continue
+        for m in range(n_l):
+            dv[m] = 0.0
+        flying = 0
+        for i in range(n):
+            release = (i + 0.5) / n
+            if nfree[i] == 0 and not top >= release:
+                continue  # attached in every window
+            count = 0
+            # branch-free, so that LLVM vectorises it: a lane whose ball stays attached
+            # computes and keeps its old values
+            for m in range(n_l):
+                at = att[i, m]
+                free = (at == 0.0) | (level[m] >= release)
+                zi = z[i, m]
+                vi = v[i, m]
+                am = alpha[m]
+                low = -stiff * zi - damp * vi
+                high = -stiff * (zi - gap) - damp * vi
+                # max(low, 0.0) and min(high, 0.0) as Python's (signed zeros included), both
+                # computed: selects, not branches
+                floor = 0.0 if 0.0 > low else low
+                lid = 0.0 if 0.0 < high else high
+                f = floor if zi < 0.0 else (lid if zi > gap else 0.0)
+                vn = vi + h * (am + f)
+                zn = zi + h * vn
+                lands = (zn <= 0.0) & (vn >= 0.0) & (am < 0.0)
+                vn = 0.0 if lands else vn
+                zn = 0.0 if lands else zn
+                z[i, m] = zn if free else zi
+                v[i, m] = vn if free else vi
+                att[i, m] = (1.0 if lands else 0.0) if free else at
+                dv[m] = dv[m] + (vn - vi) if free else dv[m]
+                count += 1 if (free and not lands) else 0
+            nfree[i] = count
+            flying += count
+        for m in range(n_l):
+            out[j, m] = -dv[m] / nh
+
+
+@njit
+def _causal_block(ph: np.ndarray, u: np.ndarray, fs: float, n_balls: int, n_sub: int,
+                  from_rest: bool, predict_from: int, out: np.ndarray) -> None:
+    """:func:`_causal_one` for one parameter set on the L records ``u`` (L, n) at once:
+    ``out`` of shape (L, n, 3, n_sub)."""
+    n_l, n = u.shape
+    dt = 1.0 / fs
+    h = dt / n_sub
+    k1 = 1.0 - math.exp(-dt / COHERENCE_TIME)
+    decay = math.exp(-h / ph[5])  # the value _interval computes for every relaxing interval
+    z = np.zeros((n_balls, n_l))
+    v = np.zeros((n_balls, n_l))
+    att = np.ones((n_balls, n_l))
+    s = np.zeros(n_l)
+    nfree = np.zeros(n_balls, np.int64)
+    zp = np.zeros((n_balls, n_l))
+    vp = np.zeros((n_balls, n_l))
+    attp = np.ones((n_balls, n_l))
+    sp = np.zeros(n_l)
+    nfreep = np.zeros(n_balls, np.int64)
+    fc = np.zeros((n_sub, n_l))
+    f1 = np.zeros((n_sub, n_l))
+    f2 = np.zeros((n_sub, n_l))
+    neg = np.zeros(n_l, np.bool_)
+    sdot = np.zeros(n_l)
+    alpha = np.zeros(n_l)
+    dv = np.zeros(n_l)
+    level = np.zeros(n_l)
+    a = np.zeros(n_l)
+    ap = np.zeros(n_l)
+    a_prev = np.zeros(n_l)
+    u_prev = np.zeros(n_l)
+    glp = np.zeros(n_l)
+    scale = np.zeros(n_l)
+    if not from_rest:
+        for m in range(n_l):
+            u_prev[m] = u[m, 0]
+    for k in range(n):
+        for m in range(n_l):
+            a[m] = (u[m, k] - u_prev[m]) * fs
+        _interval_lanes(z, v, att, s, a, ph, h, n_sub, decay, fc, nfree, neg, sdot, alpha, dv,
+                        level)
+        for m in range(n_l):
+            glp[m] += (0.5 * math.pi * abs(a[m]) / G - glp[m]) * k1
+            scale[m] = ph[0] / (1.0 + (glp[m] / ph[6]) ** 2)
+        if k < predict_from:
+            for m in range(n_l):
+                for j in range(n_sub):
+                    out[m, k, 0, j] = scale[m] * fc[j, m]
+                    out[m, k, 1, j] = 0.0
+                    out[m, k, 2, j] = 0.0
+                a_prev[m] = a[m]
+                u_prev[m] = u[m, k]
+            continue
+        zp[:] = z
+        vp[:] = v
+        attp[:] = att
+        sp[:] = s
+        nfreep[:] = nfree
+        for m in range(n_l):
+            ap[m] = 2.0 * a[m] - a_prev[m]
+        _interval_lanes(zp, vp, attp, sp, ap, ph, h, n_sub, decay, f1, nfreep, neg, sdot, alpha, dv,
+                        level)
+        for m in range(n_l):
+            ap[m] = 3.0 * a[m] - 2.0 * a_prev[m]
+        _interval_lanes(zp, vp, attp, sp, ap, ph, h, n_sub, decay, f2, nfreep, neg, sdot, alpha, dv,
+                        level)
+        for m in range(n_l):
+            for j in range(n_sub):
+                out[m, k, 0, j] = scale[m] * fc[j, m]
+                out[m, k, 1, j] = scale[m] * f1[j, m]
+                out[m, k, 2, j] = scale[m] * f2[j, m]
+            a_prev[m] = a[m]
+            u_prev[m] = u[m, k]
+
+
+@njit(parallel=True)
+def _causal_lanes(phys: np.ndarray, u: np.ndarray, fs: float, n_balls: int, n_sub: int,
+                  from_rest: bool, predict_from: int, out: np.ndarray, block: int) -> None:
+    """:func:`_causal_batch` by blocks of ``block`` windows (the same bits)."""
+    n_w = u.shape[0]
+    n_b = (n_w + block - 1) // block
+    for q in nb.prange(phys.shape[0] * n_b):
+        p = q // n_b
+        w0 = (q % n_b) * block
+        w1 = min(n_w, w0 + block)
+        _causal_block(phys[p], u[w0:w1], fs, n_balls, n_sub, from_rest, predict_from,
+                      out[p, w0:w1])
+
+
 def causal_intervals(phys: np.ndarray, u: np.ndarray, fs: float, n_balls: int,
                      n_substeps: int, from_rest: bool = True, predict_from: int = 0,
                      out: np.ndarray | None = None) -> np.ndarray:
@@ -236,8 +414,17 @@ def causal_intervals(phys: np.ndarray, u: np.ndarray, fs: float, n_balls: int,
     elif out.shape != shape or out.dtype != np.float64 or not out.flags.c_contiguous:
         raise ROMError(f"out must be a C-contiguous float64 array of shape {shape}, got "
                        f"{out.dtype} {out.shape}")
-    _causal_batch(phys, u, float(fs), int(n_balls), int(n_substeps), bool(from_rest),
-                  int(predict_from), out)
+    args = (phys, u, float(fs), int(n_balls), int(n_substeps), bool(from_rest),
+            int(predict_from), out)
+    n_w = u.shape[0]
+    if n_w < LANES_FROM:
+        _causal_batch(*args)
+    else:
+        # blocks of at most LANES windows, and one for each of numba's threads where the
+        # parameter sets alone leave some idle (a search on one thread: one block)
+        blocks = max(-(-n_w // LANES), min(nb.get_num_threads() // phys.shape[0],
+                                          n_w // LANES_FROM))
+        _causal_lanes(*args, -(-n_w // blocks))
     return out
 
 

@@ -1,0 +1,100 @@
+"""The grey box's column with the windows as the vector axis, against window by window.
+
+The column's search simulates every candidate on its 32 windows. ``causal_intervals`` runs
+them as the lanes of one block (``_causal_lanes``) from ``LANES_FROM`` windows on, window by
+window (``_causal_batch``) below. This script times, on one core, in the same run, alternated:
+
+- ``kernel``: both kernels on the default search's 32 windows, 40 random candidates of the
+  search's bounds, and checks that the two give the same bits;
+- ``search``: the column's differential evolution, ``--generations`` generations of the
+  default recipe, one thread, with the lanes and with them turned off (``LANES_FROM`` above
+  the windows' count); the objectives must be equal to the bit.
+
+Usage: ``taskset -c 1 .venv/bin/python benchmarks/grey_lanes.py --run results`` (a
+``make reproduce`` folder; about 1 min).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+from grey_threads import _search  # noqa: E402
+from sloshrom.config import Tank  # noqa: E402
+from sloshrom.io import read_record  # noqa: E402
+from sloshrom.rom.grey import physics as ph  # noqa: E402
+from sloshrom.rom.grey.training import PHYSICS_BOUNDS, WARM_S, WINDOW_S, _windows  # noqa: E402
+
+
+def _kernels(run: Path, repeats: int = 2) -> None:
+    rec = read_record(run / "data" / "train.nc")
+    u = np.asarray(rec["velocity"], dtype=np.float64)
+    fs = rec.fs
+    length, warm = int(round((WINDOW_S + WARM_S) * fs)), int(round(WARM_S * fs))
+    starts = _windows(u.size, fs, 32, 0)
+    uw = np.ascontiguousarray(u[starts[:, None] + np.arange(length)])
+    tank = Tank(fill=0.5)
+    rng = np.random.default_rng(0)
+    lo, hi = np.array(list(PHYSICS_BOUNDS.values())).T
+    phys = [ph.physical_parameters(*(lo + (hi - lo) * rng.random(lo.size)),
+                                   liquid_mass=tank.liquid_mass, ullage=tank.ullage)[None]
+            for _ in range(40)]
+    one, lanes = np.empty((2, 1, 32, length, 3, 8))
+    args = (fs, 10, 8, False, warm - 1)
+    ph._causal_batch(phys[0], uw, *args, one)  # compiled or loaded before the clock
+    ph._causal_lanes(phys[0], uw, *args, lanes, 32)
+    times: dict[str, list[float]] = {"window by window": [], "lanes": []}
+    for _ in range(repeats):
+        for name, kernel, out in (("window by window", ph._causal_batch, one),
+                                  ("lanes", lambda *x: ph._causal_lanes(*x, 32), lanes),
+                                  ("lanes", lambda *x: ph._causal_lanes(*x, 32), lanes),
+                                  ("window by window", ph._causal_batch, one)):
+            t0 = time.perf_counter()
+            for p in phys:
+                kernel(p, uw, *args, out)
+            times[name].append((time.perf_counter() - t0) / len(phys) * 1e3)
+    same = 0
+    for p in phys:
+        ph._causal_batch(p, uw, *args, one)
+        ph._causal_lanes(p, uw, *args, lanes, 32)
+        same += np.array_equal(one.view(np.int64), lanes.view(np.int64))
+    a, b = np.median(times["window by window"]), np.median(times["lanes"])
+    print(f"kernel, 32 windows of {length} samples, a candidate: window by window "
+          f"{a:.2f} ms, lanes {b:.2f} ms: {a / b:.2f}x; the same bits for {same} of "
+          f"{len(phys)} candidates")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--run", type=Path, default=Path("results"))
+    ap.add_argument("--generations", type=int, default=6)
+    a = ap.parse_args()
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+    _kernels(a.run)
+    import numba
+
+    numba.set_num_threads(1)
+    from threadpoolctl import threadpool_limits
+
+    res: dict[str, list[dict[str, float]]] = {"window by window": [], "lanes": []}
+    with threadpool_limits(1):
+        for name in ("window by window", "lanes", "lanes", "window by window"):
+            ph.LANES_FROM = 10**9 if name == "window by window" else 16
+            res[name].append(_search(a.run, a.generations))
+    for name, runs in res.items():
+        print(f"search, {a.generations} generations, one thread, {name}: "
+              + ", ".join(f"{r['search s']:.2f} s" for r in runs)
+              + f"; objective {runs[0]['objective']!r}")
+    objectives = {r["objective"] for runs in res.values() for r in runs}
+    print("the same objective in all four: " + ("yes" if len(objectives) == 1 else "NO"))
+
+
+if __name__ == "__main__":
+    main()
