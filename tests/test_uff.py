@@ -169,6 +169,7 @@ def test_nan_and_truncated_files(tmp_path):
         read_record(p)
 
 
+@pytest.mark.long  # 3.2-3.5 s in the fast tier under load
 def test_cli_train_on_uff(tmp_path, rig_measurement):
     """`sloshrom train` on UFF58 files (velocity and dynamic force channels)."""
     from typer.testing import CliRunner

@@ -143,6 +143,7 @@ def test_train_uses_the_plain_mse_on_a_system_that_is_not_a_tank(tmp_path):
             "(m/s) in and a force (N) out") in output
 
 
+@pytest.mark.long  # 3.2-3.5 s in the fast tier under load
 def test_train_keeps_the_passive_recipe_for_a_velocity_and_a_force(tmp_path):
     output, terms = _train(tmp_path, ("velocity", "dynamic_force"), ("m/s", "N"))
     assert terms == (0.05, 1.0, 0.1)

@@ -167,6 +167,7 @@ def test_random_round_trip_equals_the_simulation(rig, lab, suffix):
                                                  rig["f1"]))
 
 
+@pytest.mark.long  # 3.2-3.5 s in the fast tier under load
 def test_with_noise_the_analyses_stay_near(rig, tmp_path):
     modal, f1 = rig["modal"], rig["f1"]
     cmap = write_lab_test(rig["free"], modal, tmp_path / "f.uff", kind="free", noise_rms=0.05,

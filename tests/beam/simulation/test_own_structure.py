@@ -101,6 +101,7 @@ def cantilever_files(tmp_path_factory):
     return (write_modes_punch(ms, d / "cantilever.pch"), write_mode_table(ms, d / "modes.csv"))
 
 
+@pytest.mark.long  # 3.2-3.5 s in the fast tier under load
 def test_cli_structure_file_reproduces_the_builtin_beam(tmp_path, cantilever_files):
     pch, table = cantilever_files
     common = ["beam", "free", "--sloshing", "frozen", "--duration", "2", "--tip-displacement",
@@ -127,6 +128,7 @@ def test_cli_structure_file_reproduces_the_builtin_beam(tmp_path, cantilever_fil
     assert (tmp_path / "own" / "table1_frozen_modes.md").is_file()
 
 
+@pytest.mark.long  # 3.2-3.5 s in the fast tier under load
 def test_cli_two_tanks_with_their_own_models_and_fills(tmp_path, cantilever_files):
     pch, table = cantilever_files
     res = _cli("beam", "free", "--structure", str(pch), "--mode-table", str(table),

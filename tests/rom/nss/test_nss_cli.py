@@ -88,6 +88,7 @@ def test_beam_with_an_nss_file(trained, tmp_path):
     assert list((tmp_path / "beam").glob("*.nc"))
 
 
+@pytest.mark.long  # 3.2-3.5 s in the fast tier under load
 def test_loss_options_set_the_nss_terms(tmp_path):
     train, val = _records(tmp_path, 100.0)
     res = runner.invoke(app, ["train", "--data", str(train), "--validation", str(val),
