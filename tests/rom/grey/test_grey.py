@@ -193,6 +193,8 @@ def test_windows_as_lanes_are_the_windows_one_by_one(windows, n_balls, n_sub):
         got = np.full_like(want, np.nan)
         _causal_lanes(phys, u, FS, n_balls, n_sub, from_rest, predict_from, got, 7)
         np.testing.assert_array_equal(got.view(np.int64), want.view(np.int64))
+    # no parameter set: nothing to simulate, as window by window
+    assert causal_intervals(phys[:0], u, FS, n_balls, n_sub).shape == (0, windows, n, 3, n_sub)
 
 
 def test_design_rows_of_several_records_and_a_warm_up():

@@ -422,7 +422,7 @@ def causal_intervals(phys: np.ndarray, u: np.ndarray, fs: float, n_balls: int,
     else:
         # blocks of at most LANES windows, and one for each of numba's threads where the
         # parameter sets alone leave some idle (a search on one thread: one block)
-        blocks = max(-(-n_w // LANES), min(nb.get_num_threads() // phys.shape[0],
+        blocks = max(-(-n_w // LANES), min(nb.get_num_threads() // max(1, phys.shape[0]),
                                           n_w // LANES_FROM))
         _causal_lanes(*args, -(-n_w // blocks))
     return out
