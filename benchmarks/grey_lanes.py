@@ -17,7 +17,6 @@ Usage: ``taskset -c 1 .venv/bin/python benchmarks/grey_lanes.py --run results`` 
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 from pathlib import Path
@@ -26,17 +25,19 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
+import numba  # noqa: E402
+from threadpoolctl import threadpool_limits  # noqa: E402
+
 from grey_threads import _search  # noqa: E402
 from sloshrom.config import Tank  # noqa: E402
-from sloshrom.io import read_record  # noqa: E402
 from sloshrom.rom.grey import physics as ph  # noqa: E402
 from sloshrom.rom.grey.training import PHYSICS_BOUNDS, WARM_S, WINDOW_S, _windows  # noqa: E402
+from train_speed import records  # noqa: E402
 
 
 def _kernels(run: Path, repeats: int = 2) -> None:
-    rec = read_record(run / "data" / "train.nc")
-    u = np.asarray(rec["velocity"], dtype=np.float64)
-    fs = rec.fs
+    (u, _, _, _, fs), _ = records(run)
+    u = np.asarray(u, dtype=np.float64)
     length, warm = int(round((WINDOW_S + WARM_S) * fs)), int(round(WARM_S * fs))
     starts = _windows(u.size, fs, 32, 0)
     uw = np.ascontiguousarray(u[starts[:, None] + np.arange(length)])
@@ -49,12 +50,16 @@ def _kernels(run: Path, repeats: int = 2) -> None:
     one, lanes = np.empty((2, 1, 32, length, 3, 8))
     args = (fs, 10, 8, False, warm - 1)
     ph._causal_batch(phys[0], uw, *args, one)  # compiled or loaded before the clock
-    ph._causal_lanes(phys[0], uw, *args, lanes, 32)
+
+    def by_lanes(*x: object) -> None:
+        ph._causal_lanes(*x, ph.LANES)
+
+    by_lanes(phys[0], uw, *args, lanes)
     times: dict[str, list[float]] = {"window by window": [], "lanes": []}
     for _ in range(repeats):
         for name, kernel, out in (("window by window", ph._causal_batch, one),
-                                  ("lanes", lambda *x: ph._causal_lanes(*x, 32), lanes),
-                                  ("lanes", lambda *x: ph._causal_lanes(*x, 32), lanes),
+                                  ("lanes", by_lanes, lanes),
+                                  ("lanes", by_lanes, lanes),
                                   ("window by window", ph._causal_batch, one)):
             t0 = time.perf_counter()
             for p in phys:
@@ -63,7 +68,7 @@ def _kernels(run: Path, repeats: int = 2) -> None:
     same = 0
     for p in phys:
         ph._causal_batch(p, uw, *args, one)
-        ph._causal_lanes(p, uw, *args, lanes, 32)
+        by_lanes(p, uw, *args, lanes)
         same += np.array_equal(one.view(np.int64), lanes.view(np.int64))
     a, b = np.median(times["window by window"]), np.median(times["lanes"])
     print(f"kernel, 32 windows of {length} samples, a candidate: window by window "
@@ -76,17 +81,15 @@ def main() -> None:
     ap.add_argument("--run", type=Path, default=Path("results"))
     ap.add_argument("--generations", type=int, default=6)
     a = ap.parse_args()
-    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
-    _kernels(a.run)
-    import numba
-
+    # one thread: the window-by-window kernel would otherwise share its windows among numba's
+    # threads on the one core
     numba.set_num_threads(1)
-    from threadpoolctl import threadpool_limits
-
+    _kernels(a.run)
+    default = ph.LANES_FROM
     res: dict[str, list[dict[str, float]]] = {"window by window": [], "lanes": []}
     with threadpool_limits(1):
         for name in ("window by window", "lanes", "lanes", "window by window"):
-            ph.LANES_FROM = 10**9 if name == "window by window" else 16
+            ph.LANES_FROM = 10**9 if name == "window by window" else default
             res[name].append(_search(a.run, a.generations))
     for name, runs in res.items():
         print(f"search, {a.generations} generations, one thread, {name}: "

@@ -32,24 +32,19 @@ def _rig() -> object:
     return _simulate_batch
 
 
-def _column() -> object:
+def _column(lanes: bool) -> object:
     import numpy as np
 
-    from sloshrom.rom.grey.physics import _causal_batch, causal_intervals
+    from sloshrom.rom.grey.physics import (
+        LANES_FROM,
+        _causal_batch,
+        _causal_lanes,
+        causal_intervals,
+    )
 
     phys = np.array([[0.01, 1e6, 100.0, 0.01, 10.0, 0.01, 7.0]])
-    causal_intervals(phys, np.zeros((2, 50)), 500.0, 10, 8)
-    return _causal_batch
-
-
-def _column_lanes() -> object:
-    import numpy as np
-
-    from sloshrom.rom.grey.physics import LANES_FROM, _causal_lanes, causal_intervals
-
-    phys = np.array([[0.01, 1e6, 100.0, 0.01, 10.0, 0.01, 7.0]])
-    causal_intervals(phys, np.zeros((LANES_FROM, 50)), 500.0, 10, 8)
-    return _causal_lanes
+    causal_intervals(phys, np.zeros((LANES_FROM if lanes else 2, 50)), 500.0, 10, 8)
+    return _causal_lanes if lanes else _causal_batch
 
 
 def _beam() -> object:
@@ -60,8 +55,9 @@ def _beam() -> object:
 
 #: The kernels of a default run: (name, a call that compiles it and returns its dispatcher).
 KERNELS: tuple[tuple[str, Callable[[], object]], ...] = (
-    ("virtual rig", _rig), ("grey box's column", _column),
-    ("grey box's column, windows as lanes", _column_lanes), ("coupled beam loop", _beam))
+    ("virtual rig", _rig), ("grey box's column", lambda: _column(lanes=False)),
+    ("grey box's column, windows as lanes", lambda: _column(lanes=True)),
+    ("coupled beam loop", _beam))
 
 
 def main() -> None:
