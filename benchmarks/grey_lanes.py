@@ -8,7 +8,10 @@ window (``_causal_batch``) below. This script times, on one core, in the same ru
   search's bounds, and checks that the two give the same bits;
 - ``search``: the column's differential evolution, ``--generations`` generations of the
   default recipe, one thread, with the lanes and with them turned off (``LANES_FROM`` above
-  the windows' count); the objectives must be equal to the bit.
+  the windows' count); the objectives must be equal to the bit;
+- ``score``: where a candidate's score spends its time after the kernel (the search's
+  ``score``, piece by piece, on the same 40 candidates): the filter's normal equations, their
+  solution, the filter's output, the error and the short-time spectra.
 
 Usage: ``taskset -c 1 .venv/bin/python benchmarks/grey_lanes.py --run results`` (a
 ``make reproduce`` folder; about 1 min).
@@ -19,6 +22,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -30,13 +34,21 @@ from threadpoolctl import threadpool_limits  # noqa: E402
 
 from grey_threads import _search  # noqa: E402
 from sloshrom.config import Tank  # noqa: E402
+from sloshrom.rom import GreyBox  # noqa: E402
 from sloshrom.rom.grey import physics as ph  # noqa: E402
-from sloshrom.rom.grey.training import PHYSICS_BOUNDS, WARM_S, WINDOW_S, _windows  # noqa: E402
+from sloshrom.rom.grey.training import (  # noqa: E402
+    PHYSICS_BOUNDS,
+    WARM_S,
+    WINDOW_S,
+    _solve_normal,
+    _spectra,
+    _windows,
+)
 from train_speed import records  # noqa: E402
 
 
 def _kernels(run: Path, repeats: int = 2) -> None:
-    (u, _, _, _, fs), _ = records(run)
+    (u, y, _, _, fs), _ = records(run)
     u = np.asarray(u, dtype=np.float64)
     length, warm = int(round((WINDOW_S + WARM_S) * fs)), int(round(WARM_S * fs))
     starts = _windows(u.size, fs, 32, 0)
@@ -74,6 +86,40 @@ def _kernels(run: Path, repeats: int = 2) -> None:
     print(f"kernel, 32 windows of {length} samples, a candidate: window by window "
           f"{a:.2f} ms, lanes {b:.2f} ms: {a / b:.2f}x; the same bits for {same} of "
           f"{len(phys)} candidates")
+    _score_parts(phys, uw, np.asarray(y, dtype=np.float64)[starts[:, None]
+                                                            + np.arange(length)][:, warm:],
+                 args, by_lanes, lanes, repeats)
+
+
+def _score_parts(phys: list[np.ndarray], uw: np.ndarray, yw: np.ndarray, args: tuple,
+                 by_lanes: Callable[..., None], out: np.ndarray, repeats: int) -> None:
+    """A candidate's score piece by piece, as ``fit_physics``'s ``score`` computes it."""
+    fs, warm = args[0], args[4] + 1
+    n_past = int(GreyBox().effective_params()["n_past"])  # the default recipe's
+    target, target_spectra = yw.reshape(-1), _spectra(yw, fs)
+    names = ("kernel", "normal equations", "their solution", "filter output",
+             "error and spectra")
+    t = np.zeros((repeats, len(names)))
+    for r in range(repeats):
+        for p in phys:
+            t0 = time.perf_counter()
+            by_lanes(p, uw, *args, out)
+            t1 = time.perf_counter()
+            ne = ph.filter_normal_equations(out[0], yw, n_past, warm)
+            t2 = time.perf_counter()
+            taps = _solve_normal(*ne)
+            t3 = time.perf_counter()
+            fit = ph.filter_output(out[0], taps, n_past, warm)
+            t4 = time.perf_counter()
+            score = float(np.mean((fit.reshape(-1) - target) ** 2))
+            score += sum(float(np.mean((m - s) ** 2))
+                         for m, s in zip(_spectra(fit, fs), target_spectra, strict=True))
+            t5 = time.perf_counter()
+            t[r] += np.diff([t0, t1, t2, t3, t4, t5])
+    ms = np.median(t, axis=0) / len(phys) * 1e3
+    print(f"a candidate's score, {ms.sum():.2f} ms: "
+          + ", ".join(f"{n} {v:.2f} ms ({v / ms.sum():.0%})" for n, v in zip(names, ms,
+                                                                               strict=True)))
 
 
 def main() -> None:
