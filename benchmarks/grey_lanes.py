@@ -51,8 +51,8 @@ def _kernels(run: Path, repeats: int = 2) -> None:
     (u, y, _, _, fs), _ = records(run)
     u = np.asarray(u, dtype=np.float64)
     length, warm = int(round((WINDOW_S + WARM_S) * fs)), int(round(WARM_S * fs))
-    starts = _windows(u.size, fs, 32, 0)
-    uw = np.ascontiguousarray(u[starts[:, None] + np.arange(length)])
+    idx = _windows(u.size, fs, 32, 0)[:, None] + np.arange(length)
+    uw = np.ascontiguousarray(u[idx])
     tank = Tank(fill=0.5)
     rng = np.random.default_rng(0)
     lo, hi = np.array(list(PHYSICS_BOUNDS.values())).T
@@ -86,15 +86,14 @@ def _kernels(run: Path, repeats: int = 2) -> None:
     print(f"kernel, 32 windows of {length} samples, a candidate: window by window "
           f"{a:.2f} ms, lanes {b:.2f} ms: {a / b:.2f}x; the same bits for {same} of "
           f"{len(phys)} candidates")
-    _score_parts(phys, uw, np.asarray(y, dtype=np.float64)[starts[:, None]
-                                                            + np.arange(length)][:, warm:],
-                 args, by_lanes, lanes, repeats)
+    _score_parts(phys, np.asarray(y, dtype=np.float64)[idx][:, warm:], fs, warm,
+                 lambda p: by_lanes(p, uw, *args, lanes), lanes[0], repeats)
 
 
-def _score_parts(phys: list[np.ndarray], uw: np.ndarray, yw: np.ndarray, args: tuple,
-                 by_lanes: Callable[..., None], out: np.ndarray, repeats: int) -> None:
-    """A candidate's score piece by piece, as ``fit_physics``'s ``score`` computes it."""
-    fs, warm = args[0], args[4] + 1
+def _score_parts(phys: list[np.ndarray], yw: np.ndarray, fs: float, warm: int,
+                 column: Callable[[np.ndarray], None], out: np.ndarray, repeats: int) -> None:
+    """A candidate's score piece by piece, as ``fit_physics``'s ``score`` computes it:
+    ``column(p)`` simulates candidate ``p`` into ``out`` (its windows' column)."""
     n_past = int(GreyBox().effective_params()["n_past"])  # the default recipe's
     target, target_spectra = yw.reshape(-1), _spectra(yw, fs)
     names = ("kernel", "normal equations", "their solution", "filter output",
@@ -103,13 +102,13 @@ def _score_parts(phys: list[np.ndarray], uw: np.ndarray, yw: np.ndarray, args: t
     for r in range(repeats):
         for p in phys:
             t0 = time.perf_counter()
-            by_lanes(p, uw, *args, out)
+            column(p)
             t1 = time.perf_counter()
-            ne = ph.filter_normal_equations(out[0], yw, n_past, warm)
+            ne = ph.filter_normal_equations(out, yw, n_past, warm)
             t2 = time.perf_counter()
             taps = _solve_normal(*ne)
             t3 = time.perf_counter()
-            fit = ph.filter_output(out[0], taps, n_past, warm)
+            fit = ph.filter_output(out, taps, n_past, warm)
             t4 = time.perf_counter()
             score = float(np.mean((fit.reshape(-1) - target) ** 2))
             score += sum(float(np.mean((m - s) ** 2))
