@@ -67,6 +67,21 @@ template <> struct Vec<float> {
   static constexpr float kClamp = 20.0f;  // tanh(10) rounds to 1
 };
 template <typename T> using V = typename Vec<T>::type;
+// Working memory on whole cache lines. malloc aligns to 16 bytes: a block of lanes (64 bytes)
+// then straddles two lines, and every vector load and store of it is split in two (the
+// reverse pass ran 1.3-1.4x slower in processes whose working memory fell so).
+template <typename T> struct LineAllocator {
+  typedef T value_type;
+  LineAllocator() = default;
+  template <typename U> LineAllocator(const LineAllocator<U>&) {}
+  T* allocate(std::size_t n) {
+    return static_cast<T*>(::operator new(n * sizeof(T), std::align_val_t(64)));
+  }
+  void deallocate(T* p, std::size_t) { ::operator delete(p, std::align_val_t(64)); }
+  template <typename U> bool operator==(const LineAllocator<U>&) const { return true; }
+  template <typename U> bool operator!=(const LineAllocator<U>&) const { return false; }
+};
+template <typename T> using Lines = std::vector<T, LineAllocator<T>>;
 // Samples of a block whose weight gradients are summed at once (their rows stay in L1).
 constexpr int64_t kChunk = 8;
 
@@ -134,61 +149,59 @@ template <typename T> struct Net {
   int64_t no() const { return nx + nf - 1; }
 };
 
+// One tile of TI x TJ accumulators of outer_acc, in registers over the samples [t0, t1): each
+// sums its terms in the order of t, whatever the tile's shape.
+template <typename T, int TI, int TJ>
+SL_INLINE void outer_tile(T* acc, int64_t ld, const T* a, int64_t sa_t, int64_t sa_i,
+                          const T* b, int64_t sb_t, int64_t sb_j, int64_t i, int64_t j,
+                          int64_t t0, int64_t t1) {
+  constexpr int L = kLanes<T>;
+  V<T> c[TI][TJ];
+  for (int p = 0; p < TI; ++p)
+    for (int q = 0; q < TJ; ++q) c[p][q] = load(acc + ((i + p) * ld + j + q) * L);
+  for (int64_t t = t0; t < t1; ++t) {
+    const T* at = a + t * sa_t + i * sa_i;
+    const T* bt = b + t * sb_t + j * sb_j;
+    V<T> av[TI], bv[TJ];
+    for (int p = 0; p < TI; ++p) av[p] = load(at + p * sa_i);
+    for (int q = 0; q < TJ; ++q) bv[q] = load(bt + q * sb_j);
+    for (int p = 0; p < TI; ++p)
+      for (int q = 0; q < TJ; ++q) c[p][q] += av[p] * bv[q];
+  }
+  for (int p = 0; p < TI; ++p)
+    for (int q = 0; q < TJ; ++q) store(acc + ((i + p) * ld + j + q) * L, c[p][q]);
+}
+
+// The tiles of TI rows of a from row i on.
+template <typename T, int TI>
+SL_INLINE void outer_rows(T* acc, int64_t ld, const T* a, int64_t sa_t, int64_t sa_i,
+                          const T* b, int64_t nj, int64_t sb_t, int64_t sb_j, int64_t i,
+                          int64_t t0, int64_t t1) {
+  int64_t j = 0;
+  for (; j + 4 <= nj; j += 4)
+    outer_tile<T, TI, 4>(acc, ld, a, sa_t, sa_i, b, sb_t, sb_j, i, j, t0, t1);
+  for (; j < nj; ++j) outer_tile<T, TI, 1>(acc, ld, a, sa_t, sa_i, b, sb_t, sb_j, i, j, t0, t1);
+}
+
 // acc[i, j] += sum_t a[t, i] b[t, j], lane by lane (acc: a block of lanes per (i, j), ld
 // blocks a row), for t in [t0, t1): a's rows advance by (sa_t, sa_i) and b's by (sb_t, sb_j)
 // elements, each row a block of lanes. Called on a few samples at a time (their rows are in
-// the first-level cache), 2 x 4 accumulators in registers.
+// the first-level cache). Tiles of 4 x 4 accumulators (8 x 1 for a column): 16 independent
+// chains for the FMA units, 8 loads for 16 FMAs (tiles of 2 x 4 took 6 for 8 and ran the
+// reverse pass 8 % slower).
 template <typename T>
 SL_INLINE void outer_acc(T* acc, int64_t ld, const T* a, int64_t ni, int64_t sa_t, int64_t sa_i,
                          const T* b, int64_t nj, int64_t sb_t, int64_t sb_j, int64_t t0,
                          int64_t t1) {
-  constexpr int L = kLanes<T>;
   int64_t i = 0;
-  for (; i + 2 <= ni; i += 2) {
-    int64_t j = 0;
-    for (; j + 4 <= nj; j += 4) {
-      T* r0 = acc + (i * ld + j) * L;
-      T* r1 = r0 + ld * L;
-      V<T> c00 = load(r0), c01 = load(r0 + L), c02 = load(r0 + 2 * L), c03 = load(r0 + 3 * L);
-      V<T> c10 = load(r1), c11 = load(r1 + L), c12 = load(r1 + 2 * L), c13 = load(r1 + 3 * L);
-      for (int64_t t = t0; t < t1; ++t) {
-        const T* at = a + t * sa_t + i * sa_i;
-        const T* bt = b + t * sb_t + j * sb_j;
-        const V<T> a0 = load(at), a1 = load(at + sa_i);
-        const V<T> b0 = load(bt), b1 = load(bt + sb_j), b2 = load(bt + 2 * sb_j),
-                   b3 = load(bt + 3 * sb_j);
-        c00 += a0 * b0;
-        c01 += a0 * b1;
-        c02 += a0 * b2;
-        c03 += a0 * b3;
-        c10 += a1 * b0;
-        c11 += a1 * b1;
-        c12 += a1 * b2;
-        c13 += a1 * b3;
-      }
-      store(r0, c00), store(r0 + L, c01), store(r0 + 2 * L, c02), store(r0 + 3 * L, c03);
-      store(r1, c10), store(r1 + L, c11), store(r1 + 2 * L, c12), store(r1 + 3 * L, c13);
-    }
-    for (; j < nj; ++j) {
-      T* r0 = acc + (i * ld + j) * L;
-      T* r1 = r0 + ld * L;
-      V<T> c0 = load(r0), c1 = load(r1);
-      for (int64_t t = t0; t < t1; ++t) {
-        const V<T> bv = load(b + t * sb_t + j * sb_j);
-        c0 += load(a + t * sa_t + i * sa_i) * bv;
-        c1 += load(a + t * sa_t + (i + 1) * sa_i) * bv;
-      }
-      store(r0, c0), store(r1, c1);
-    }
-  }
-  for (; i < ni; ++i)
-    for (int64_t j = 0; j < nj; ++j) {
-      T* r = acc + (i * ld + j) * L;
-      V<T> c = load(r);
-      for (int64_t t = t0; t < t1; ++t)
-        c += load(a + t * sa_t + i * sa_i) * load(b + t * sb_t + j * sb_j);
-      store(r, c);
-    }
+  if (nj == 1)
+    for (; i + 8 <= ni; i += 8)
+      outer_tile<T, 8, 1>(acc, ld, a, sa_t, sa_i, b, sb_t, sb_j, i, 0, t0, t1);
+  for (; i + 4 <= ni; i += 4)
+    outer_rows<T, 4>(acc, ld, a, sa_t, sa_i, b, nj, sb_t, sb_j, i, t0, t1);
+  for (; i + 2 <= ni; i += 2)
+    outer_rows<T, 2>(acc, ld, a, sa_t, sa_i, b, nj, sb_t, sb_j, i, t0, t1);
+  for (; i < ni; ++i) outer_rows<T, 1>(acc, ld, a, sa_t, sa_i, b, nj, sb_t, sb_j, i, t0, t1);
 }
 
 // act[j] = tanh(bias[j] + sum_i in_i W[i, j]) for the K neurons from j on, in_i the rows of
@@ -365,7 +378,7 @@ template <typename T> struct Backward {
 
 // A thread's working memory for the reverse pass of a block.
 template <typename T> struct BackwardScratch {
-  std::vector<T> dxn, da, dg, dyb, sq, lanes, dxbuf, sums;
+  Lines<T> dxn, da, dg, dyb, sq, lanes, dxbuf, sums;
   explicit BackwardScratch(const Net<T>& m) {
     constexpr int L = kLanes<T>;
     const int64_t nx = m.nx, nf = m.nf, n = m.n, TT = m.T_, nz = m.nz(), no = m.no();
@@ -508,7 +521,7 @@ void backward_totals(const Backward<T>& r, T* dA, T* dW1, T* db1, T* dW2, T* dC,
 // a padded neuron's tanh(0) = 0 reaches no state and no output, a padded state stays zero.
 template <typename T> struct RowNet {
   int64_t nx, nf, n, np, npx;
-  std::vector<T> W1, b1, V1, d1, V2, A, W2, C, f0;
+  Lines<T> W1, b1, V1, d1, V2, A, W2, C, f0;
   T h0;
   explicit RowNet(const Net<T>& m)
       : nx(m.nx), nf(m.nf), n(m.n),
@@ -627,7 +640,7 @@ SL_CLONES void backward_block_f32(const Backward<float>& r, BackwardScratch<floa
   backward_block<float>(r, w, blk);
 }
 
-template <typename T> void run_block(const Forward<T>& f, std::vector<T>& xv, int64_t blk) {
+template <typename T> void run_block(const Forward<T>& f, Lines<T>& xv, int64_t blk) {
   if constexpr (sizeof(T) == 8) forward_block_f64(f, xv.data(), blk);
   else forward_block_f32(f, xv.data(), blk);
 }
@@ -635,8 +648,8 @@ template <typename T> void run_block(const Backward<T>& r, BackwardScratch<T>& w
   if constexpr (sizeof(T) == 8) backward_block_f64(r, w, blk);
   else backward_block_f32(r, w, blk);
 }
-template <typename T> std::vector<T> scratch_of(const Forward<T>& f) {
-  return std::vector<T>(f.m.nx * kLanes<T>);
+template <typename T> Lines<T> scratch_of(const Forward<T>& f) {
+  return Lines<T>(f.m.nx * kLanes<T>);
 }
 template <typename T> BackwardScratch<T> scratch_of(const Backward<T>& r) {
   return BackwardScratch<T>(r.m);
@@ -833,7 +846,7 @@ PyObject* free_run(PyObject*, PyObject* args) {
   Py_BEGIN_ALLOW_THREADS
   try {
     const RowNet<double> r(m);
-    std::vector<double> scratch(2 * r.npx + 2 * r.np);
+    Lines<double> scratch(2 * r.npx + 2 * r.np);
     for (long long row = 0; row < B; ++row)
       row_run_f64(r, d(8) + row * nx, d(9) + row * TT * nf, TT, y + row * TT, scratch.data());
   } catch (const std::bad_alloc&) {
