@@ -172,35 +172,33 @@ SL_INLINE void outer_tile(T* acc, int64_t ld, const T* a, int64_t sa_t, int64_t 
     for (int q = 0; q < TJ; ++q) store(acc + ((i + p) * ld + j + q) * L, c[p][q]);
 }
 
-// The tiles of TI rows of a from row i on.
+// The tiles of TI rows of a from row i on (a single row one accumulator at a time: fewer
+// kinds of tiles to inline at each of the reverse pass's ten products).
 template <typename T, int TI>
 SL_INLINE void outer_rows(T* acc, int64_t ld, const T* a, int64_t sa_t, int64_t sa_i,
                           const T* b, int64_t nj, int64_t sb_t, int64_t sb_j, int64_t i,
                           int64_t t0, int64_t t1) {
   int64_t j = 0;
-  for (; j + 4 <= nj; j += 4)
-    outer_tile<T, TI, 4>(acc, ld, a, sa_t, sa_i, b, sb_t, sb_j, i, j, t0, t1);
+  if constexpr (TI > 1)
+    for (; j + 4 <= nj; j += 4)
+      outer_tile<T, TI, 4>(acc, ld, a, sa_t, sa_i, b, sb_t, sb_j, i, j, t0, t1);
   for (; j < nj; ++j) outer_tile<T, TI, 1>(acc, ld, a, sa_t, sa_i, b, sb_t, sb_j, i, j, t0, t1);
 }
 
 // acc[i, j] += sum_t a[t, i] b[t, j], lane by lane (acc: a block of lanes per (i, j), ld
 // blocks a row), for t in [t0, t1): a's rows advance by (sa_t, sa_i) and b's by (sb_t, sb_j)
 // elements, each row a block of lanes. Called on a few samples at a time (their rows are in
-// the first-level cache). Tiles of 4 x 4 accumulators (8 x 1 for a column): 16 independent
-// chains for the FMA units, 8 loads for 16 FMAs (tiles of 2 x 4 took 6 for 8 and ran the
-// reverse pass 8 % slower).
+// the first-level cache). Tiles of 4 x 4 accumulators: 16 independent chains for the FMA
+// units, 8 loads for 16 FMAs (tiles of 2 x 4 took 6 for 8 and ran the reverse pass 8 %
+// slower). More kinds of tiles (8 x 1 for a column, 2 x 4 for the rows left) ran no faster
+// and took the build from 21 to 45 s.
 template <typename T>
 SL_INLINE void outer_acc(T* acc, int64_t ld, const T* a, int64_t ni, int64_t sa_t, int64_t sa_i,
                          const T* b, int64_t nj, int64_t sb_t, int64_t sb_j, int64_t t0,
                          int64_t t1) {
   int64_t i = 0;
-  if (nj == 1)
-    for (; i + 8 <= ni; i += 8)
-      outer_tile<T, 8, 1>(acc, ld, a, sa_t, sa_i, b, sb_t, sb_j, i, 0, t0, t1);
   for (; i + 4 <= ni; i += 4)
     outer_rows<T, 4>(acc, ld, a, sa_t, sa_i, b, nj, sb_t, sb_j, i, t0, t1);
-  for (; i + 2 <= ni; i += 2)
-    outer_rows<T, 2>(acc, ld, a, sa_t, sa_i, b, nj, sb_t, sb_j, i, t0, t1);
   for (; i < ni; ++i) outer_rows<T, 1>(acc, ld, a, sa_t, sa_i, b, nj, sb_t, sb_j, i, t0, t1);
 }
 
