@@ -13,7 +13,7 @@ the working memory was aligned to cache lines, the same build's reverse pass too
 one process and 3.0 ms in another, which no pair of separate runs can tell from a change in
 the code.
 
-Usage (one core; XLA on one thread)::
+Usage (one core, so the kernel runs its blocks on one thread)::
 
     g++ -O3 -std=c++17 -fPIC -shared variant.cc -o /tmp/variant.so \\
         -I$(.venv/bin/python -c 'import jax.ffi; print(jax.ffi.include_dir())') \\
@@ -35,9 +35,11 @@ import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
+from types import ModuleType
 
-os.environ.setdefault("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false "
-                      "intra_op_parallelism_threads=1")
+# Eigen's products on one thread; the kernel's blocks run on as many threads as the process
+# has cores (one under taskset -c N), which the script prints
+os.environ.setdefault("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false")
 
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
@@ -47,7 +49,7 @@ import numpy as np  # noqa: E402
 CALLS = 20
 
 
-def load_build(path: Path, prefix: str) -> None:
+def load_build(path: Path, prefix: str) -> ModuleType:
     """Load the extension at ``path`` as a module of its own and register its handlers with
     ``prefix`` before their names."""
     if not path.is_file():
@@ -70,6 +72,7 @@ def load_build(path: Path, prefix: str) -> None:
         sys.exit(f"{path}: not a build of the grey kernel's extension (no handlers())")
     for name, capsule in mod.handlers().items():
         jax.ffi.register_ffi_target(f"{prefix}{name}", capsule, platform="cpu")
+    return mod
 
 
 def programs(prefix: str, w: list[jax.Array], x0: jax.Array, seq: jax.Array, dy: jax.Array
@@ -124,11 +127,12 @@ def main() -> None:
     seq = jnp.asarray(rng.standard_normal((t, nf, b)), dt)
     dy = jnp.asarray(rng.standard_normal((t, b)), dt)
     names = [str(p) for p in a.builds]
-    progs = {}
+    progs, mods = {}, {}
     for k, path in enumerate(a.builds):
-        load_build(path, f"build{k}_")
+        mods[names[k]] = load_build(path, f"build{k}_")
         progs[names[k]] = programs(f"build{k}_", w, x0, seq, dy)
     ref = [np.asarray(g) for g in progs[names[0]][2]()]
+    print(f"threads that ran the kernel's blocks: {mods[names[0]].threads_used()}")
     for name in names[1:]:
         out = [np.asarray(g) for g in progs[name][2]()]
         if all(np.array_equal(x, y) for x, y in zip(ref, out, strict=True)):
