@@ -2,11 +2,12 @@
 
 Each build's shared object is loaded as a module of its own and its XLA FFI handlers are
 registered under a prefix, so one process runs them all on the same inputs (the default
-architecture: 8 states, 32 neurons, 5 features; 200 samples; 160 rows, the batch and the
-passivity probes of a step), alternated round by round. For each build it prints whether its
-gradients equal the first build's to the bit (else their largest relative difference), and the
-median and least time of the window's forward pass and of forward and reverse together, each
-inside one compiled loop of 20 calls (no buffer allocated between calls).
+architecture, 8 states, 32 neurons and 5 features, with the weights of
+``grey_free_run.network``; 200 samples; 160 rows, the batch and the passivity probes of a
+step), alternated round by round. For each build it prints whether its gradients equal the
+first build's to the bit (else their largest relative difference), and the median and least
+time of the window's forward pass and of forward and reverse together, each inside one
+compiled loop of 20 calls (no buffer allocated between calls).
 
 Why one process: how fast the kernel runs depends on where its working memory falls. Before
 the working memory was aligned to cache lines, the same build's reverse pass took 2.2 ms in
@@ -44,6 +45,10 @@ os.environ.setdefault("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false")
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
+
+from grey_free_run import network  # noqa: E402
+from sloshrom.rom.grey.kernel import WEIGHTS  # noqa: E402
+from sloshrom.rom.grey.network import N_FEATURES  # noqa: E402
 
 #: Calls of the kernel in one timed compiled loop.
 CALLS = 20
@@ -118,11 +123,10 @@ def main() -> None:
         sys.exit("--rounds must be at least 1")
     jax.config.update("jax_enable_x64", True)
     dt = np.dtype(a.dtype)
-    nx, n, nf, t, b = 8, 32, 5, 200, 160
+    nx, n, nf, t, b = 8, 32, 1 + N_FEATURES, 200, 160
+    p = network(nx, n, 0)
+    w = [jnp.asarray(p[k], dt) for k in WEIGHTS]
     rng = np.random.default_rng(0)
-    shapes = [(nx + nf, nx), (nx + nf, n), (n,), (n, nx), (nx + nf - 1,), (nx + nf - 1, n), (n,),
-              (n,)]  # A, W1, b1, W2, C, V1, d1, V2
-    w = [jnp.asarray(0.1 * rng.standard_normal(s), dt) for s in shapes]
     x0 = jnp.asarray(rng.standard_normal((nx, b)), dt)
     seq = jnp.asarray(rng.standard_normal((t, nf, b)), dt)
     dy = jnp.asarray(rng.standard_normal((t, b)), dt)
