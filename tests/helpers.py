@@ -19,6 +19,7 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import re
 from pathlib import Path
@@ -27,6 +28,7 @@ import jax.numpy as jnp
 import numba as nb
 import numpy as np
 import pytest
+import typer.testing
 from typer.testing import CliRunner
 
 from sloshrom.cli import app
@@ -41,6 +43,12 @@ REPO = TESTS.parent
 FS_RECORD = 100.0
 N_RECORD = 200
 runner = CliRunner()
+
+# typer builds the app's Click command again at every ``CliRunner.invoke`` (5-10 ms; the fast
+# tier invokes about a thousand times): once a process instead, for every runner of the tests.
+# The command keeps nothing of a run: each invocation makes its own context.
+if hasattr(typer.testing, "_get_command"):
+    typer.testing._get_command = functools.cache(typer.testing._get_command)
 
 
 def good_record() -> Record:

@@ -206,7 +206,11 @@ def _parse(module: str) -> _Visitor:
     return v
 
 
-PARSED = {m: _parse(m) for m in MODULES}
+@functools.cache
+def parsed() -> dict[str, _Visitor]:
+    """Every module's imports and calls, parsed once a process when a test first asks: not at
+    collection, where every test worker would parse the package."""
+    return {m: _parse(m) for m in MODULES}
 
 
 def _where(module: str, imp: Import) -> str:
@@ -221,14 +225,14 @@ def test_every_module_is_in_a_room():
 
 
 def test_nothing_outside_cli_imports_cli():
-    bad = [_where(m, i) for m, v in PARSED.items() for i in v.imports
+    bad = [_where(m, i) for m, v in parsed().items() for i in v.imports
            if room(m) != "cli" and room(i.target) == "cli"]
     assert not bad, "only the command line imports sloshrom.cli:\n" + "\n".join(bad)
 
 
 def test_imports_point_one_way():
     bad = [f"{_where(m, i)} ({room(m)} -> {room(i.target)})"
-           for m, v in PARSED.items() for i in v.imports
+           for m, v in parsed().items() for i in v.imports
            if room(i.target) != room(m) and room(i.target) not in ALLOWED[room(m)]]
     assert not bad, "imports against the direction of the rooms:\n" + "\n".join(bad)
 
@@ -260,7 +264,7 @@ def test_the_beam_rooms_import_one_way():
     rooms = {beam_room(m) for m in MODULES} - {None}
     assert rooms == set(BEAM_ROOMS), rooms
     bad = [f"{_where(m, i)} ({beam_room(m)} -> {beam_room(i.target)})"
-           for m, v in PARSED.items() if beam_room(m) is not None for i in v.imports
+           for m, v in parsed().items() if beam_room(m) is not None for i in v.imports
            if beam_room(i.target) is not None
            and order[beam_room(i.target)] > order[beam_room(m)]]
     assert not bad, "imports against the order of the beam's rooms:\n" + "\n".join(bad)
@@ -286,7 +290,7 @@ def test_no_import_runs_back_up_the_floors():
     names the studies as strings (the one such import there was, from the chain and the
     report, is gone)."""
     assert {r for rooms in FLOORS for r in rooms} == set(ALLOWED)
-    up = [f"{_where(m, i)} ({room(m)} -> {room(i.target)})" for m, v in PARSED.items()
+    up = [f"{_where(m, i)} ({room(m)} -> {room(i.target)})" for m, v in parsed().items()
           for i in v.imports if _runs_up(m, i.target)]
     assert len(up) == 0, "imports running back up the floors:\n" + "\n".join(up)
     # the finder finds what it should
@@ -318,13 +322,13 @@ def test_the_seam_rule_refuses_what_it_should():
 def test_pipeline_and_studies_meet_at_one_seam():
     """The pipeline imports no ``sloshrom.studies`` module; a study imports only the pipeline's
     infrastructure and the paper's stage helpers (so no study depends on the chain)."""
-    bad = [_where(m, i) for m, v in PARSED.items() for i in v.imports
+    bad = [_where(m, i) for m, v in parsed().items() for i in v.imports
            if _crosses_seam(m, i.target)]
     assert not bad, "imports across the pipeline/studies seam:\n" + "\n".join(bad)
     # the settings (the studies' tables) and the protocol (their declarations) reach the
     # studies through the registry
     for m in ("sloshrom.pipeline.settings", "sloshrom.pipeline.study"):
-        assert REGISTRY in {i.target for i in PARSED[m].imports}, m
+        assert REGISTRY in {i.target for i in parsed()[m].imports}, m
 
 
 def _study_packages() -> list[str]:
@@ -365,7 +369,7 @@ def test_every_study_is_registered_once_with_its_declaration():
         assert "TABLE" in _assigned(f"{entry}.table"), f"{entry}.table does not assign TABLE"
         assert (MODULES[entry].parent / "defaults.toml").is_file(), entry
         # the package itself imports nothing: the settings read its table when they start
-        assert not PARSED[entry].imports, entry
+        assert not parsed()[entry].imports, entry
 
 
 def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
@@ -423,20 +427,20 @@ def test_cycle_finder():
 def test_no_import_cycles():
     """Run-time imports (module level and inside functions; not ``if TYPE_CHECKING``)."""
     graph = {m: {i.target for i in v.imports if not i.type_checking and i.target != m}
-             for m, v in PARSED.items()}
+             for m, v in parsed().items()}
     cycles = _cycles(graph)
     lines = []
     for comp in cycles:
         members = set(comp)
         lines.append(" <-> ".join(comp) + ": " + "; ".join(
-            _where(m, i) for m in comp for i in PARSED[m].imports
+            _where(m, i) for m in comp for i in parsed()[m].imports
             if i.target in members and not i.type_checking))
     assert not cycles, "import cycles:\n" + "\n".join(lines)
 
 
 @pytest.mark.parametrize("call", sorted(FORBIDDEN_CALLS))
 def test_no_process_wide_switches(call):
-    bad = [f"{MODULES[m].relative_to(SRC)}:{line}" for m, v in PARSED.items()
+    bad = [f"{MODULES[m].relative_to(SRC)}:{line}" for m, v in parsed().items()
            for name, line in v.calls if name == call]
     assert not bad, f"{call} {FORBIDDEN_CALLS[call]}: " + ", ".join(bad)
 
@@ -449,7 +453,7 @@ HEAVY_FOR_CLI = {"rom", "rig", "beam", "energy", "plotting", "pipeline", "studie
 
 def test_no_function_local_imports_of_the_package():
     """Imports inside functions are for optional or heavy third-party packages only."""
-    bad = [_where(m, i) for m, v in PARSED.items() for i in v.imports if i.in_function
+    bad = [_where(m, i) for m, v in parsed().items() for i in v.imports if i.in_function
            and not (room(m) == "cli" and room(i.target) in HEAVY_FOR_CLI
                     and i.target != "sloshrom.pipeline.settings")]
     assert not bad, "function-local imports of sloshrom modules:\n" + "\n".join(bad)
@@ -707,7 +711,7 @@ def _rom_floor(module: str) -> tuple[int, str]:
 def test_no_import_runs_back_up_the_rom_floors():
     assert len(CLASS_PACKAGES) >= 4 and "sloshrom.rom.nss" in CLASS_PACKAGES
     bad = []
-    for m, v in PARSED.items():
+    for m, v in parsed().items():
         if room(m) != "rom":
             continue
         floor, pkg = _rom_floor(m)

@@ -108,6 +108,7 @@ def test_analysis_errors_are_package_errors():
     assert not isinstance(info.value, AnalysisError)
 
 
+@pytest.mark.long  # 2.7-3.1 s in the fast tier (2026-12-07)
 def test_table2_columns_and_banded_damping(tmp_path):
     fs, f1, zeta = 500.0, 10.0, 0.02
     rng = np.random.default_rng(0)

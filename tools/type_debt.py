@@ -65,6 +65,8 @@ def count_any(source: str) -> int:
 
 def count_type_ignores(source: str) -> int:
     """The number of ``# type: ignore`` comments in ``source``."""
+    if "type:" not in source:  # most files: no need to tokenize them
+        return 0
     tokens = tokenize.generate_tokens(io.StringIO(source).readline)
     return sum(1 for t in tokens if t.type == tokenize.COMMENT
                and "type: ignore" in t.string.replace("type:ignore", "type: ignore"))

@@ -180,6 +180,7 @@ def test_beam_free_writes_the_damping_bands(tmp_path):
         assert ds.attrs["f1_Hz"] > 0 and "psi_stations" in ds and "q" in ds
 
 
+@pytest.mark.long  # 3.1-3.7 s in the fast tier (2026-12-07)
 def test_one_map_for_a_campaign_and_units_from_the_command_line(lab, tmp_path):
     """The random test's map (it names the base) on the free decay, a station the file lacks,
     and a channel without a unit given by --unit: the results of the plain map."""

@@ -151,6 +151,7 @@ def test_is_a_sloshing_model_and_a_pytree():
         m.predict(np.full(10, 2.0))
 
 
+@pytest.mark.long  # 2.9-3.5 s in the fast tier (2026-12-07)
 def test_grad_of_coupled_response_matches_finite_differences(builtin_modal):
     m = _random_nss(seed=3)
     tank = Tank()

@@ -523,10 +523,11 @@ class CoupledSimulator:
             m, d, zj = tuple(_jax_argument(m) for m in self.models), self.disc, jnp.asarray(z0)
             if flat.shape[0] > 1:
                 res = _jitted(self.unroll, True)(m, d, jnp.asarray(flat), zj)
+                out = {k: np.asarray(v) for k, v in res.items()}
             else:
-                res = {k: v[None] for k, v in
-                       _jitted(self.unroll, False)(m, d, jnp.asarray(flat[0]), zj).items()}
-            out = {k: np.asarray(v) for k, v in res.items()}
+                # the batch axis added in NumPy (in jnp it would compile for each shape)
+                res = _jitted(self.unroll, False)(m, d, jnp.asarray(flat[0]), zj)
+                out = {k: np.asarray(v)[None] for k, v in res.items()}
         else:
             if self.backend == "numba":
                 # the batch's runs (e.g. a random test's levels) in threads, a core each
