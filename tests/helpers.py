@@ -45,7 +45,7 @@ N_RECORD = 200
 runner = CliRunner()
 
 # typer builds the app's Click command again at every ``CliRunner.invoke`` (5-10 ms a call;
-# tests/test_hostile_cli.py alone makes 474): once a process instead, for every runner of the
+# tests/test_hostile_cli.py alone makes 473): once a process instead, for every runner of the
 # tests. The command keeps nothing of a run: each invocation makes its own context.
 if hasattr(typer.testing, "_get_command"):
     typer.testing._get_command = functools.cache(typer.testing._get_command)
