@@ -8,6 +8,7 @@ would change one for the others fails where it writes; a test that needs its own
 from __future__ import annotations
 
 import dataclasses
+import functools
 import os
 import shutil
 import tempfile
@@ -30,6 +31,7 @@ if _OWN_JAX_CACHE:
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
+import typer.testing  # noqa: E402
 
 from helpers import (  # noqa: E402
     TINY_REPRODUCE,
@@ -37,6 +39,12 @@ from helpers import (  # noqa: E402
     make_model_files,
     reproduce_interrupted_then_resumed,
 )
+
+# typer builds the app's Click command again at every ``CliRunner.invoke`` (5-10 ms a call;
+# tests/test_hostile_cli.py alone makes 473): once a process instead, for every runner of the
+# tests. The command keeps nothing of a run: each invocation makes its own context.
+if hasattr(typer.testing, "_get_command"):
+    typer.testing._get_command = functools.cache(typer.testing._get_command)
 
 #: session fixtures too costly to build once per pytest-xdist worker
 SHARED_ON_ONE_WORKER = ("tiny_reproduce",)

@@ -19,7 +19,6 @@
 
 from __future__ import annotations
 
-import functools
 import json
 import re
 from pathlib import Path
@@ -28,7 +27,6 @@ import jax.numpy as jnp
 import numba as nb
 import numpy as np
 import pytest
-import typer.testing
 from typer.testing import CliRunner
 
 from sloshrom.cli import app
@@ -43,12 +41,6 @@ REPO = TESTS.parent
 FS_RECORD = 100.0
 N_RECORD = 200
 runner = CliRunner()
-
-# typer builds the app's Click command again at every ``CliRunner.invoke`` (5-10 ms a call;
-# tests/test_hostile_cli.py alone makes 473): once a process instead, for every runner of the
-# tests. The command keeps nothing of a run: each invocation makes its own context.
-if hasattr(typer.testing, "_get_command"):
-    typer.testing._get_command = functools.cache(typer.testing._get_command)
 
 
 def good_record() -> Record:
