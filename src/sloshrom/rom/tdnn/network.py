@@ -267,7 +267,7 @@ def nfir_free_run(theta: Any, u_s: Any, rest_u: Any, delays: tuple[int, ...], ne
 
     Rows are evaluated in chunks of ``chunk`` (memory bounded): 2048 rows of 70 float64
     regressors (1.1 MB) stay in the second-level cache, where 8192 did not; a validation run
-    of 251,000 samples 10-30 % faster (NFIR(70, 40) to NFIR(70, 5), one core), the same bits.
+    of 251,000 samples 7-30 % faster (NFIR(70, 40) to NFIR(70, 5), one core), the same bits.
     Returns the scaled output (n,).
     """
     d = np.asarray(delays)
