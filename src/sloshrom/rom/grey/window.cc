@@ -660,8 +660,9 @@ struct Claims {
   std::atomic<int64_t> next{0}, done{0}, threads{0};
   int64_t n = 0;
 };
-// The threads that ran blocks in the last call (threads_used(): what the tests check).
-std::atomic<int64_t> g_threads_used{0};
+// The threads that ran blocks in the last call and the threads of the pool it was given
+// (threads_used(), pool_threads(): what the tests check).
+std::atomic<int64_t> g_threads_used{0}, g_pool_threads{0};
 
 // Runs block b of job from b on, then every block it claims, with its own working memory. It
 // claims the next block before it says the current one is done: while it holds a claim the
@@ -686,6 +687,7 @@ template <typename Job> void drain(Claims& c, const Job& job, int64_t b) {
 template <typename Job> void run_blocks(ffi::ThreadPool& pool, int64_t n, const Job& job) {
   auto c = std::make_shared<Claims>();
   c->n = n;
+  g_pool_threads.store(pool.num_threads(), std::memory_order_relaxed);
   const int64_t helpers = std::min<int64_t>(pool.num_threads(), n) - 1;
   const Job* jp = &job;
   for (int64_t h = 0; h < helpers; ++h)
@@ -860,12 +862,18 @@ PyObject* threads_used(PyObject*, PyObject*) {
   return PyLong_FromLongLong(g_threads_used.load(std::memory_order_relaxed));
 }
 
+PyObject* pool_threads(PyObject*, PyObject*) {
+  return PyLong_FromLongLong(g_pool_threads.load(std::memory_order_relaxed));
+}
+
 PyMethodDef methods[] = {
     {"handlers", handlers, METH_NOARGS, "The XLA FFI handlers by target name (capsules)."},
     {"free_run", free_run, METH_VARARGS,
      "The float64 free run of a few rows, one at a time (neurons as the vector axis)."},
     {"threads_used", threads_used, METH_NOARGS,
      "The threads that ran the blocks of rows in the last call of a handler."},
+    {"pool_threads", pool_threads, METH_NOARGS,
+     "The threads of the pool XLA gave the last call of a handler."},
     {nullptr, nullptr, 0, nullptr}};
 
 PyModuleDef module = {PyModuleDef_HEAD_INIT, "_window",
