@@ -184,7 +184,8 @@ def adam_epochs(
         step_mse = math.nan
         t_steps = time.perf_counter()
         if epoch > 0:
-            draws = tuple(jnp.asarray(a) for a in problem.draw(rng))
+            # device_put: half jnp.asarray's time for an NFIR's 6.5 MB of indices (1 ms)
+            draws = tuple(jax.device_put(a) for a in problem.draw(rng))
             params, state, m = epoch_run(params, state, draws)
             step_mse = float(m)  # waits for the epoch: the time below is the epoch's
             if not math.isfinite(step_mse):

@@ -248,6 +248,8 @@ def nfir_problem(
     chunk = min(chunk, rows.size)
     r2, w2 = _padded_rows(rows, chunk)
     r2j, w2j = jnp.asarray(r2), jnp.asarray(w2)
+    # the chunks as device arrays of their own, made once (as the NOE's below)
+    r2c, w2c = [jnp.asarray(r) for r in r2], [jnp.asarray(w) for w in w2]
     p = n_params(d.size, neurons)
 
     def normal_eq(theta):
@@ -255,8 +257,8 @@ def nfir_problem(
         jtj = np.zeros((p, p))
         jte = np.zeros(p)
         sse = 0.0
-        for i in range(r2.shape[0]):
-            J, e = _nfir_jac_chunk(th, up, ys, r2j[i], w2j[i], delays, neurons, hidden)
+        for r, w in zip(r2c, w2c, strict=True):
+            J, e = _nfir_jac_chunk(th, up, ys, r, w, delays, neurons, hidden)
             J, e = np.asarray(J), np.asarray(e)
             jtj += J.T @ J  # NumPy detects A.T @ A -> BLAS syrk
             jte += J.T @ e
@@ -373,7 +375,9 @@ def noe_problem(
     yp[:n] = y_s
     w = np.zeros(m)
     w[:n] = 1.0
-    up, yp, w = (jnp.asarray(a.reshape(-1, chunk)) for a in (up, yp, w))
+    # each chunk a device array of its own, made once: slicing a (chunks, chunk) array at
+    # every epoch dispatched 3 x 60 slices (NOE(2, 15)'s normal equations 0.68 -> 0.61 s)
+    up, yp, w = ([jnp.asarray(r) for r in a.reshape(-1, chunk)] for a in (up, yp, w))
     p = n_params(d.size + out_delays, neurons)
     uj, ysj = jnp.asarray(u_s), np.asarray(y_s)
 
@@ -393,7 +397,7 @@ def noe_problem(
         lines = jnp.zeros((out_delays, p))  # the rest's outputs do not depend on theta
         jtj, jte, sse = np.zeros((p, p)), np.zeros(p), 0.0
         run = last.get("y") if np.array_equal(last.get("theta"), theta) else None
-        for i in range(up.shape[0]):
+        for i in range(len(up)):
             # the free run's outputs (the chunks' own simulation gives the same bits); the
             # padded end of the last chunk is simulated
             y_sim = (None if run is None or (i + 1) * chunk > n
