@@ -116,6 +116,49 @@ def test_search_in_threads_is_the_search_in_order(monkeypatch):
     assert np.max(np.abs(threaded[1])) > 0  # a column that makes a force: a real search
 
 
+def _search_case(seconds: float = 8.0) -> tuple[tuple[object, ...], dict[str, int]]:
+    u = _harmonic(12.0, 4.0, seconds=seconds)
+    y = grey_features(_phys(*RIG_LIKE), _unit_taps(), u, FS, N_BALLS, N_SUB, N_PAST)[0, :, 0]
+    spec = GreySpec(2, 4, 10, N_BALLS, N_SUB, N_PAST)
+    return (u, y, FS, spec, TANK.liquid_mass, TANK.ullage), {"generations": 6, "population": 3,
+                                                            "windows": 3}
+
+
+def test_search_with_trials_scored_in_part_is_the_search_in_full():
+    """A trial whose filter error alone exceeds its target's score is returned that error
+    (differential evolution discards it either way): the same search to the bit as scoring
+    every trial in full, with some trials really cut short."""
+    args, kw = _search_case()
+    cut = fit_physics(*args, **kw)
+    full = fit_physics(*args, **kw, prune=False)
+    np.testing.assert_array_equal(cut[0], full[0])
+    np.testing.assert_array_equal(cut[1], full[1])
+    assert cut[2]["objective"] == full[2]["objective"]
+    assert cut[2]["evaluations"] == full[2]["evaluations"]
+    assert full[2]["pruned"] == 0
+    assert 0 < cut[2]["pruned"] < cut[2]["evaluations"]
+    assert np.max(np.abs(full[1])) > 0  # a column that makes a force: a real search
+
+
+def test_search_scores_in_full_once_a_trial_scored_in_part_is_kept(monkeypatch, caplog):
+    """Targets that are not the trials' competitors (here below every score: every trial of
+    the first generation is cut short, and the improving ones are kept) are caught after that
+    generation, said once, and the search goes on scoring every trial in full."""
+    import logging
+
+    import sloshrom.rom.grey.training as gt
+
+    args, kw = _search_case()
+    monkeypatch.setattr(gt, "_best_first", lambda e: np.full_like(e, -1.0))
+    with caplog.at_level(logging.WARNING, logger="sloshrom"):
+        _, _, history = fit_physics(*args, **kw)
+    lines = [r.getMessage() for r in caplog.records if "scored in part was kept" in r.getMessage()]
+    assert len(lines) == 1
+    members = kw["population"] * len(PHYSICS_BOUNDS)
+    assert history["pruned"] == members  # the first generation's trials, none after them
+    assert history["evaluations"] > 2 * members
+
+
 def test_galilean_invariance():
     """The column reads the acceleration: a uniform velocity changes nothing (a record whose
     first sample is its own rest; from rest at 0 m/s, 0.3 m/s would be a jump, a real
