@@ -21,35 +21,8 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-import sloshrom.rom.grey.estimator as ge  # noqa: E402
-from sloshrom.rom import GreyBox  # noqa: E402
+from grey_threads import search_arguments  # noqa: E402
 from sloshrom.rom.grey import training as gt  # noqa: E402
-from sloshrom.rom.grey.entry import GREY_CLASS  # noqa: E402
-from train_speed import records  # noqa: E402
-
-
-def _search_arguments(run: Path, seed: int) -> tuple[tuple[object, ...], dict[str, object]]:
-    """``fit_physics``'s arguments as the default recipe's estimator makes them."""
-    (u, y, uv, yv, fs), _ = records(run)
-    caught: list[tuple[tuple[object, ...], dict[str, object]]] = []
-
-    class Stop(Exception):
-        pass
-
-    def stop(*args: object, **kw: object) -> None:
-        caught.append((args, kw))
-        raise Stop
-
-    real = ge.fit_physics
-    ge.fit_physics = stop
-    try:
-        GreyBox(seed=seed, velocity_offset=0.5, **GREY_CLASS.recipe).fit(
-            u, y, fs, validation=(uv, yv), fill=0.5)
-    except Stop:
-        pass
-    finally:
-        ge.fit_physics = real
-    return caught[0]
 
 
 def main() -> None:
@@ -57,7 +30,7 @@ def main() -> None:
     ap.add_argument("--run", type=Path, default=Path("results"))
     ap.add_argument("--seed", type=int, default=0, help="the member's seed (0, 1, ...)")
     a = ap.parse_args()
-    args, kw = _search_arguments(a.run, a.seed)
+    args, kw = search_arguments(a.run, a.seed)
     gt.fit_physics(*args, **{**kw, "generations": 1})  # numba's kernel loaded
     seconds: dict[bool, list[float]] = {False: [], True: []}
     found = []

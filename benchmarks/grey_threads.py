@@ -66,17 +66,17 @@ def _kernel() -> dict[str, float]:
     return out
 
 
-def _search(run: Path, generations: int) -> dict[str, float]:
+def search_arguments(run: Path, seed: int = 0) -> tuple[tuple[object, ...], dict[str, object]]:
+    """``fit_physics``'s arguments as the default recipe's estimator makes them for member
+    ``seed`` on the records of ``run`` (the fit stops there)."""
     import sloshrom.rom.grey.estimator as ge
     from sloshrom.rom import GreyBox
-    from sloshrom.rom.grey import training as gt
     from sloshrom.rom.grey.entry import GREY_CLASS
 
     sys.path.insert(0, str(HERE))
     from train_speed import records
 
     (u, y, uv, yv, fs), _ = records(run)
-    # the search's arguments as the estimator makes them (the fit stops there)
     caught: list[tuple[tuple[object, ...], dict[str, object]]] = []
 
     class Stop(Exception):
@@ -86,13 +86,22 @@ def _search(run: Path, generations: int) -> dict[str, float]:
         caught.append((args, kw))
         raise Stop
 
+    real = ge.fit_physics
     ge.fit_physics = stop
     try:
-        GreyBox(seed=0, velocity_offset=0.5, **GREY_CLASS.recipe).fit(
+        GreyBox(seed=seed, velocity_offset=0.5, **GREY_CLASS.recipe).fit(
             u, y, fs, validation=(uv, yv), fill=0.5)
     except Stop:
         pass
-    args, kw = caught[0]
+    finally:
+        ge.fit_physics = real
+    return caught[0]
+
+
+def _search(run: Path, generations: int) -> dict[str, float]:
+    from sloshrom.rom.grey import training as gt
+
+    args, kw = search_arguments(run)
     gt.fit_physics(*args, **{**kw, "generations": 1})  # numba's kernel loaded
     t0 = time.perf_counter()
     _, _, hist = gt.fit_physics(*args, **{**kw, "generations": generations})
