@@ -44,6 +44,11 @@ model what it is), with the default a model without the member gets:
     it. A combinator (an ensemble, a fill blend) sets it from its members.
 ``kernel()`` (:func:`has_kernel`)
     A numba-compiled step ``(step_fn, params, state)`` for fast loops (the rig, the ball).
+``stepper`` (:func:`stepper_of`, default the model itself)
+    The object whose ``init_state`` and ``step`` are the model's, handed to a compiled loop as
+    its argument: a fitted estimator's network, without the hyperparameters of its training.
+    A pytree's static part is part of ``jit``'s cache key, so two models that differ only there
+    (an ensemble's members: their seeds) would each compile the same loop.
 """
 
 from __future__ import annotations
@@ -78,6 +83,7 @@ __all__ = [
     "input_of",
     "is_jax_model",
     "model_input",
+    "stepper_of",
     "tank_of",
 ]
 
@@ -161,6 +167,12 @@ def is_jax_model(model: Any) -> bool:
     """True when ``model.jax_traceable`` is True: its ``step`` runs in ``jit``/``lax.scan`` and
     under ``jax.grad`` (the coupled simulation then runs in JAX)."""
     return getattr(model, "jax_traceable", False) is True
+
+
+def stepper_of(model: Any) -> Any:
+    """What runs ``model``'s steps in a compiled loop: its ``stepper`` member, or the model
+    itself."""
+    return getattr(model, "stepper", model)
 
 
 def has_kernel(model: Any) -> bool:

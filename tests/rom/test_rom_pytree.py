@@ -88,6 +88,27 @@ def test_one_compilation_per_architecture_and_shape(modal):
     assert one._cache_size() == n0 + 2
 
 
+def test_models_that_differ_only_in_their_training_share_one_compilation(modal):
+    # an ensemble's members: the same architecture, another seed (a hyperparameter, in the
+    # estimator's static part), coupled one at a time by the beam stage
+    a = np.sin(2 * np.pi * 9 * np.arange(401) / 500.0)  # a length no other test simulates
+    m1, m2 = _model(seed=1), _model(seed=2)
+    m2.set_params(seed=5, max_epochs=3)
+    assert jax.tree_util.tree_structure(m1) != jax.tree_util.tree_structure(m2)
+    one = coupled._jitted(1, False)
+    n0 = one._cache_size()
+    CoupledSimulator(m1, modal).run_raw(a)
+    r2 = CoupledSimulator(m2, modal).run_raw(a)
+    assert one._cache_size() == n0 + 1
+    # the fitted network steps as its estimator: the same program, to the bit
+    sim = CoupledSimulator(m2, modal)
+    with jax.enable_x64(True):
+        ref = jax.jit(simulate_jax)(m2, sim.disc, jnp.asarray(a), jnp.zeros(2 * modal.n_modes))
+    np.testing.assert_array_equal(r2["dynamic_force"], np.asarray(ref["dynamic_force"]))
+    np.testing.assert_array_equal(r2["q"], np.asarray(ref["q"]))
+    assert m2.stepper is m2.model_
+
+
 @pytest.mark.long
 def test_grad_of_coupled_response_matches_finite_differences(modal):
     m = _model(seed=3, scale=5.0)  # forces of a few N: a visible effect on the beam

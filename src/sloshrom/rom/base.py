@@ -483,6 +483,16 @@ class Estimator:
         """
         return cast("tuple[Any, Any]", self.model_.step(state, velocity, acceleration))
 
+    @property
+    def stepper(self) -> Any:
+        """The fitted network, whose ``init_state`` and ``step`` are this model's: what a
+        compiled loop takes as its argument (:func:`sloshrom.models.stepper_of`). Its pytree's
+        static part is the architecture alone, where this estimator's holds every
+        hyperparameter: models that differ only in their training (an ensemble's members, by
+        their seeds) share one compiled loop."""
+        self._check_fitted()
+        return self.model_
+
     # -- persistence --------------------------------------------------------------------------
     @float64
     def save(self, path: str | Path) -> Path:

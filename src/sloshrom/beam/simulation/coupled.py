@@ -33,7 +33,9 @@ for any other sloshing model.
 
 The JAX backend is the pure function :func:`simulate_jax` of the model and the discretisation,
 both pytrees: a model whose parameters are pytree leaves (the ROMs) is an *argument* of the
-jitted scan, so one compilation serves every model of the same architecture and record length,
+jitted scan (its stepper, :func:`~sloshrom.models.stepper_of`: a fitted estimator's network,
+without its training's hyperparameters such as the seed that sets an ensemble's members
+apart), so one compilation serves every model of the same architecture and record length,
 and ``jax.grad`` of any function of the response with respect to the model's parameters works.
 A jax-traceable model that is not a pytree (:class:`~sloshrom.models.FrozenLiquid`) is compiled
 in as a constant. Simulations run in float64 (``jax.enable_x64`` around the call) without
@@ -77,6 +79,7 @@ from sloshrom.models import (
     input_of,
     is_jax_model,
     model_input,
+    stepper_of,
 )
 from sloshrom.signals import random_base_acceleration
 
@@ -276,10 +279,12 @@ def _jitted(unroll: int, batch: bool) -> Any:
 
 
 def _jax_argument(model: SloshingModel) -> Any:
-    """The model as a jit argument: itself if it is a pytree, else wrapped as a constant."""
-    if jax.tree_util.treedef_is_leaf(jax.tree_util.tree_structure(model)):
-        return _Constant(model)
-    return model
+    """The model's stepper (:func:`~sloshrom.models.stepper_of`) as a jit argument: itself if
+    it is a pytree, else wrapped as a constant."""
+    stepper = stepper_of(model)
+    if jax.tree_util.treedef_is_leaf(jax.tree_util.tree_structure(stepper)):
+        return _Constant(stepper)
+    return stepper
 
 
 def _numba_loop_py(step_fn, mstate, mparams, active, Phi, Gam, A2, B2, psi, a_s, z0, dt):
