@@ -169,7 +169,7 @@ def is_jax_model(model: Any) -> bool:
     return getattr(model, "jax_traceable", False) is True
 
 
-def stepper_of(model: Any) -> Any:
+def stepper_of(model: SloshingModel) -> SloshingModel:
     """What runs ``model``'s steps in a compiled loop: its ``stepper`` member, or the model
     itself."""
     return getattr(model, "stepper", model)

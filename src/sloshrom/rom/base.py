@@ -30,7 +30,7 @@ from numpy.typing import ArrayLike
 from sloshrom import __version__
 from sloshrom._x64 import float64
 from sloshrom.limits import MIN_SCORED
-from sloshrom.models import check_envelope, model_input
+from sloshrom.models import SloshingModel, check_envelope, model_input
 from sloshrom.rom.errors import HistoryError, ModelSizeWarning, NotFittedError, ROMError
 from sloshrom.rom.family import check_training_fill
 from sloshrom.rom.modelfile import model_file_path, write_model_file
@@ -484,14 +484,14 @@ class Estimator:
         return cast("tuple[Any, Any]", self.model_.step(state, velocity, acceleration))
 
     @property
-    def stepper(self) -> Any:
+    def stepper(self) -> SloshingModel:
         """The fitted network, whose ``init_state`` and ``step`` are this model's: what a
         compiled loop takes as its argument (:func:`sloshrom.models.stepper_of`). Its pytree's
         static part is the architecture alone, where this estimator's holds every
         hyperparameter: models that differ only in their training (an ensemble's members, by
         their seeds) share one compiled loop."""
         self._check_fitted()
-        return self.model_
+        return cast(SloshingModel, self.model_)
 
     # -- persistence --------------------------------------------------------------------------
     @float64
