@@ -132,7 +132,7 @@ def main() -> None:
                     ep = epoch_program(pr.loss, pr.optimizer)
                     draws = tuple(jnp.asarray(x) for x in pr.draw(np.random.default_rng(99)))
                     jax.block_until_ready(ep(pr.params0, pr.optimizer.init(pr.params0),
-                                             draws)[2])
+                                             draws, pr.data)[2])
                     # the gradient away from the start (whose output layer is zero), where
                     # the runs stay bounded: with 0.05 the residual state map's windows blew
                     # up (a loss of 1e15, where float32's saturated tanh leaves a gradient
@@ -142,7 +142,7 @@ def main() -> None:
                             np.random.default_rng(v.size).standard_normal(v.shape), v.dtype),
                         pr.params0)
                     (value, _), grad = jax.jit(jax.value_and_grad(pr.loss, has_aux=True))(
-                        p1, *(x[0] for x in draws))
+                        p1, pr.data, *(x[0] for x in draws))
                 progs[name], checks[name] = (pr, ep), (float(value), grad)
             (v0, g0), (v1, g1) = checks["JAX (lax.scan)"], checks["C kernel (FFI)"]
             worst = max(float(jnp.max(jnp.abs(g1[k] - g0[k])) / jnp.max(jnp.abs(g0[k])))
@@ -156,7 +156,8 @@ def main() -> None:
                     d = tuple(jnp.asarray(x) for x in pr.draw(np.random.default_rng(rep)))
                     c0 = time.process_time()
                     t0 = time.perf_counter()
-                    jax.block_until_ready(ep(pr.params0, pr.optimizer.init(pr.params0), d)[2])
+                    jax.block_until_ready(ep(pr.params0, pr.optimizer.init(pr.params0), d,
+                                             pr.data)[2])
                     wall = time.perf_counter() - t0
                     times[name].append(min(wall, time.process_time() - c0) / a.steps)
             outside = times.pop(_OUTSIDE, None)

@@ -58,9 +58,10 @@ def problem(sim, spec, u, y, fs, scaler, opts):
         pr = sst.shooting_problem(spec, u, y, fs, scaler, None, opts, 0)
         ep = epoch_program(pr.loss, pr.optimizer)
         draws = tuple(jnp.asarray(a) for a in pr.draw(np.random.default_rng(99)))
-        jax.block_until_ready(ep(pr.params0, pr.optimizer.init(pr.params0), draws)[2])
+        jax.block_until_ready(ep(pr.params0, pr.optimizer.init(pr.params0), draws,
+                                 pr.data)[2])
         (value, _), grad = jax.value_and_grad(pr.loss, has_aux=True)(
-            pr.params0, *(a[0] for a in draws))
+            pr.params0, pr.data, *(a[0] for a in draws))
     finally:
         ss.ss_simulate = xla
     return pr, ep, float(value), grad
@@ -100,7 +101,8 @@ def main() -> None:
             for name, (pr, ep) in progs.items():  # interleaved: the machine's drift hits both
                 d = pr.draw(np.random.default_rng(rep))
                 t0 = time.perf_counter()
-                jax.block_until_ready(ep(pr.params0, pr.optimizer.init(pr.params0), d)[2])
+                jax.block_until_ready(ep(pr.params0, pr.optimizer.init(pr.params0), d,
+                                         pr.data)[2])
                 times[name].append((time.perf_counter() - t0) / a.steps)
     flops = nss_flops(est)[0] / est.steps_per_epoch
     peak = peak_rate(np.float32)

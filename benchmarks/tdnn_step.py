@@ -67,11 +67,11 @@ def nfir_epochs(u: np.ndarray, y: np.ndarray, delays: int, neurons: int,
     d, up, ys, theta = _nfir_data(u, y, delays, neurons, rng)
     rows = jnp.asarray(rng.integers(0, u.size, (200, 4096)))
 
-    def baseline(th, r):
+    def baseline(th, _, r):
         e = rbf_apply(unpack(th, delays, neurons), up[row_index(r, d)], "matlab") - ys[r]
         return jnp.mean(e**2), jnp.mean(e**2)
 
-    def ours(th, r):
+    def ours(th, _, r):
         e = training._loss_rows(th, up, r, d, neurons, "matlab") - ys[r]
         return jnp.mean(e**2), jnp.mean(e**2)
 
@@ -80,11 +80,11 @@ def nfir_epochs(u: np.ndarray, y: np.ndarray, delays: int, neurons: int,
     state = opt.init(theta)
     times: dict[str, list[float]] = {k: [] for k in epochs}
     for f in epochs.values():
-        _timed(f, theta, state, (rows,))  # compiles
+        _timed(f, theta, state, (rows,), ())  # compiles
     for _ in range(repeats):
         for k, f in epochs.items():
-            times[k].append(_timed(f, theta, state, (rows,)))
-    g0, g1 = (jax.jit(jax.grad(lambda t, f=f: f(t, rows[0])[0]))(theta)
+            times[k].append(_timed(f, theta, state, (rows,), ()))
+    g0, g1 = (jax.jit(jax.grad(lambda t, f=f: f(t, (), rows[0])[0]))(theta)
               for f in (baseline, ours))
     rel = float(jnp.max(jnp.abs(g1 - g0)) / jnp.max(jnp.abs(g0)))
     t0, t1 = statistics.median(times["baseline"]), statistics.median(times["ours"])
@@ -101,13 +101,13 @@ def cycle_energy_epochs(u: np.ndarray, y: np.ndarray, fs: float, delays: int, ne
     rows, weight = cyc.rows, jnp.asarray(cyc.weight, jnp.float32)
     slots = cycle_slots(cyc, 32)
 
-    def baseline(th, idx):
+    def baseline(th, _, idx):
         r = rows[idx]
         e = training._loss_rows(th, up, r.reshape(-1), d, neurons, "matlab").reshape(r.shape)
         v = jnp.mean(jnp.sum((e - ys[r]) * weight[idx], axis=-1) ** 2)
         return v, v
 
-    def ours(th, r, w, seg):
+    def ours(th, _, r, w, seg):
         v = training.cycle_energy_error(th, up, ys, r, w, seg, 32, d, neurons, "matlab")
         return v, v
 
@@ -124,7 +124,7 @@ def cycle_energy_epochs(u: np.ndarray, y: np.ndarray, fs: float, delays: int, ne
 
     def run(name):
         t0 = time.perf_counter()
-        jax.block_until_ready(programs[name](theta, state, draws(name)))
+        jax.block_until_ready(programs[name](theta, state, draws(name), ()))
         return time.perf_counter() - t0
 
     for k in programs:
@@ -134,9 +134,9 @@ def cycle_energy_epochs(u: np.ndarray, y: np.ndarray, fs: float, delays: int, ne
         for k in programs:
             times[k].append(run(k))
     p0 = pack_cycles(cyc, idx[:1], slots, np.float32)
-    v0, g0 = jax.jit(jax.value_and_grad(lambda t: baseline(t, idx[0])[0]))(theta)
+    v0, g0 = jax.jit(jax.value_and_grad(lambda t: baseline(t, (), idx[0])[0]))(theta)
     v1, g1 = jax.jit(jax.value_and_grad(
-        lambda t: ours(t, p0.rows[0], p0.weight[0], p0.segment[0])[0]))(theta)
+        lambda t: ours(t, (), p0.rows[0], p0.weight[0], p0.segment[0])[0]))(theta)
     rel_v = abs(float(v1) / float(v0) - 1.0)
     rel_g = float(jnp.max(jnp.abs(g1 - g0)) / jnp.max(jnp.abs(g0)))
     t0, t1 = statistics.median(times["baseline"]), statistics.median(times["ours"])

@@ -13,6 +13,7 @@
 - ``assert_bit_identical``: two results of one machine, to the last bit;
 - ``relative_change``, ``perturbation_tolerance``: compare with a stored reference written on
   another CPU, within the change that a relative 1e-13 perturbation of the input makes;
+- ``compiled_programs``: the names of the XLA programs compiled inside a block;
 - ``TESTS``, ``REPO``: the test folder and the repository, for a test module at any depth of
   ``tests/`` (``tests/beam/...``).
 """
@@ -20,9 +21,13 @@
 from __future__ import annotations
 
 import json
+import logging
 import re
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
+import jax
 import jax.numpy as jnp
 import numba as nb
 import numpy as np
@@ -41,6 +46,28 @@ REPO = TESTS.parent
 FS_RECORD = 100.0
 N_RECORD = 200
 runner = CliRunner()
+
+
+@contextmanager
+def compiled_programs() -> Iterator[list[str]]:
+    """The names of the XLA programs compiled inside the block (``jit(epoch)``, ...), from
+    JAX's compilation log; the list fills as the block runs."""
+    names: list[str] = []
+
+    class Handler(logging.Handler):
+        def emit(self, record: logging.LogRecord) -> None:
+            m = re.match(r"Finished XLA compilation of (\S+)", record.getMessage())
+            if m:
+                names.append(m.group(1))
+
+    handler = Handler()
+    logger = logging.getLogger("jax._src.dispatch")
+    logger.addHandler(handler)
+    try:
+        with jax.log_compiles(True):
+            yield names
+    finally:
+        logger.removeHandler(handler)
 
 
 def good_record() -> Record:

@@ -11,7 +11,8 @@ import numpy as np
 import optax
 import pytest
 
-from sloshrom.rom.engine import AdamProblem, adam_epochs, epoch_program
+from helpers import compiled_programs
+from sloshrom.rom.engine import AdamProblem, SharedJit, adam_epochs, epoch_program
 
 STEPS = 5
 
@@ -24,14 +25,16 @@ def _linear_problem(validate=None, lr=0.05, noise=0.0):
     y = X @ w_true + noise * rng.standard_normal(200)
     Xj, yj = jnp.asarray(X), jnp.asarray(y)
 
-    def loss(w, rows):
-        e = Xj[rows] @ w - yj[rows]
+    def loss(w, data, rows):
+        Xd, yd = data
+        e = Xd[rows] @ w - yd[rows]
         return jnp.mean(e**2), jnp.mean(e**2)
 
     def draw(g):
         return (g.integers(0, 200, (STEPS, 8)),)
 
-    return AdamProblem(loss, jnp.zeros(3), optax.adam(lr), draw, validate), X, y, w_true
+    return (AdamProblem(loss, jnp.zeros(3), optax.adam(lr), draw, validate, data=(Xj, yj)),
+            X, y, w_true)
 
 
 def test_epoch_program_is_the_loop_of_its_steps():
@@ -41,15 +44,82 @@ def test_epoch_program_is_the_loop_of_its_steps():
         opt = problem.optimizer
         p, s, mse = epoch_program(problem.loss, opt)(problem.params0,
                                                      opt.init(problem.params0),
-                                                     (jnp.asarray(rows),))
+                                                     (jnp.asarray(rows),), problem.data)
         q, t, mses = problem.params0, opt.init(problem.params0), []
         for r in rows:
-            (_, m), g = jax.value_and_grad(problem.loss, has_aux=True)(q, jnp.asarray(r))
+            (_, m), g = jax.value_and_grad(problem.loss, has_aux=True)(q, problem.data,
+                                                                       jnp.asarray(r))
             upd, t = opt.update(g, t, q)
             q = optax.apply_updates(q, upd)
             mses.append(float(m))
         np.testing.assert_allclose(np.asarray(p), np.asarray(q), rtol=1e-12, atol=1e-14)
         assert float(mse) == pytest.approx(np.mean(mses), rel=1e-12)
+
+
+def _problem_on(X, y):
+    """A least-squares problem on the record ``X``, ``y``: a new loss closure each call, the
+    record as the problem's data."""
+
+    def loss(w, data, rows):
+        e = data[0][rows] @ w - data[1][rows]
+        return jnp.mean(e**2), jnp.mean(e**2)
+
+    n = X.shape[0]
+    return AdamProblem(loss, jnp.zeros(X.shape[1]), optax.adam(0.05),
+                       lambda g: (g.integers(0, n, (STEPS, 8)),),
+                       data=(jnp.asarray(X), jnp.asarray(y)))
+
+
+def _steps_by_hand(problem, epochs, seed=0):
+    """The parameters after ``epochs`` epochs of the problem's Adam steps, one step at a time
+    (no compiled epoch): the engine's draws from the same seed."""
+    rng = np.random.default_rng(seed)
+    opt = problem.optimizer
+    q, t = problem.params0, opt.init(problem.params0)
+    for _ in range(epochs):
+        for r in problem.draw(rng)[0]:
+            g = jax.grad(lambda w, r=r: problem.loss(w, problem.data, jnp.asarray(r))[0])(q)
+            upd, t = opt.update(g, t, q)
+            q = optax.apply_updates(q, upd)
+    return np.asarray(q)
+
+
+def test_trainings_on_other_arrays_share_one_compiled_epoch():
+    """Two trainings whose losses are other closures over other records of one shape (an
+    ensemble's members) compile one epoch program; each still trains on its own record."""
+    rng = np.random.default_rng(7)
+    X1, X2 = rng.standard_normal((2, 173, 3))  # a shape no other test of the module trains
+    with jax.enable_x64(True):
+        a = _problem_on(X1, X1 @ np.array([1.0, -2.0, 0.5]))
+        b = _problem_on(X2, X2 @ np.array([-0.5, 1.0, 3.0]))
+        with compiled_programs() as first:
+            ra = adam_epochs(a, max_epochs=3)
+        with compiled_programs() as second:
+            rb = adam_epochs(b, max_epochs=3)
+        # the engine returns its best epoch's parameters
+        hand_a, hand_b = _steps_by_hand(a, ra.best_epoch), _steps_by_hand(b, rb.best_epoch)
+    assert first.count("jit(epoch)") == 1
+    assert second.count("jit(epoch)") == 0
+    np.testing.assert_allclose(np.asarray(ra.params), hand_a, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(np.asarray(rb.params), hand_b, rtol=1e-12, atol=1e-14)
+    assert ra.best_epoch > 0 and rb.best_epoch > 0
+    assert np.max(np.abs(hand_a - hand_b)) > 0.1
+
+
+def test_a_closure_over_an_array_is_its_own_program():
+    """An array a function closes over is a constant of its program: two such functions that
+    differ only in it never share a compilation (each gives its own result)."""
+
+    def times(c):
+        cj = jnp.asarray(c)
+        return SharedJit(lambda x: x * cj)
+
+    x = jnp.ones(1000)
+    two, three = times(np.full(1000, 2.0)), times(np.full(1000, 3.0))
+    np.testing.assert_array_equal(np.asarray(two(x)), 2.0)
+    np.testing.assert_array_equal(np.asarray(three(x)), 3.0)
+    # another shape or dtype: another program of the same function
+    np.testing.assert_array_equal(np.asarray(two(jnp.ones(1000, jnp.int32))), 2.0)
 
 
 def test_converges_and_records_every_epoch():
@@ -157,7 +227,7 @@ def test_callback_stops_and_constant_keys_are_recorded():
 
 
 def test_a_diverging_training_stops_and_keeps_its_last_finite_best():
-    def loss(w, rows):
+    def loss(w, data, rows):
         # unbounded below: gradient descent drives it to -inf, and the epoch's mse with it
         e = -jnp.exp(10.0 * jnp.sum(w)) * jnp.ones(rows.shape)
         return jnp.mean(e), jnp.mean(e)

@@ -29,7 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-from sloshrom.rom.engine import AdamProblem
+from sloshrom.rom.engine import AdamProblem, SharedJit
 from sloshrom.rom.errors import ROMError
 from sloshrom.rom.losses import (
     TRAIN_DTYPE,
@@ -62,13 +62,14 @@ class Recurrence:
     n_starts : int
         The starts drawn are ``0 .. n_starts - 1``.
     start : callable
-        ``start(params, starts, shift) -> state``: the states of the sub-sequences beginning at
-        ``starts`` (shape ``(B,)``), from the measured past whose scaled input is shifted by
-        ``shift`` (shape ``(B,)``: :attr:`ShootingOptions.velocity_offset`).
+        ``start(params, data, starts, shift) -> state``: the states of the sub-sequences
+        beginning at ``starts`` (shape ``(B,)``), from the measured past whose scaled input is
+        shifted by ``shift`` (shape ``(B,)``: :attr:`ShootingOptions.velocity_offset`);
+        ``data`` is :attr:`data`.
     rest : callable
         ``rest(k) -> state``: ``k`` states at rest (the passivity probes').
     simulate : callable
-        ``simulate(params, state, u) -> y``: the scaled outputs ``(B, T)`` of a batch of
+        ``simulate(params, data, state, u) -> y``: the scaled outputs ``(B, T)`` of a batch of
         states driven by scaled inputs ``u`` ``(B, T)``.
     free_run : callable
         ``free_run(params, u) -> y``: the scaled free run from rest (float64, NumPy) of a
@@ -86,17 +87,23 @@ class Recurrence:
         the scaled input (shifted by the augmentation) and the features of each sample,
         computed once for the training record and the probes (the augmentation's shift does
         not reach them: they must not depend on the input's uniform offset).
+    data : pytree
+        The arrays ``start`` and ``simulate`` read (e.g. the scaled record a start is encoded
+        from), in the steps' precision: the compiled epoch's arguments
+        (:attr:`~sloshrom.rom.engine.AdamProblem.data`). ``start`` and ``simulate`` must not
+        close over arrays.
     """
 
     offset: int
     n_starts: int
-    start: Callable[[PyTree, jax.Array, jax.Array], PyTree]
+    start: Callable[[PyTree, PyTree, jax.Array, jax.Array], PyTree]
     rest: Callable[[int], PyTree]
-    simulate: Callable[[PyTree, PyTree, jax.Array], jax.Array]
+    simulate: Callable[[PyTree, PyTree, PyTree, jax.Array], jax.Array]
     free_run: Callable[[PyTree, np.ndarray], np.ndarray]
     bound: float = 10.0
     history_run: Callable[[PyTree, np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None
     features: Callable[[np.ndarray], np.ndarray] | None = None
+    data: PyTree = ()
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -238,29 +245,33 @@ def shooting_problem(
         pv = (np.asarray(pu, dtype=np.float64) - float(sc.u(0.0))) / unit
         pu = jnp.concatenate([pu[..., None], jnp.asarray(rec.features(pv), f32)], axis=-1)
 
-    def loss(p: PyTree, starts: jax.Array, pidx: jax.Array,
+    # the loss's arrays: the compiled epoch's arguments (members of an ensemble share it)
+    data = {"rec": rec.data, "u_s": u_s, "y_s": y_s, "wts": wts, "v": vj, "ncyc": ncyc,
+            "pu": pu, "pw": pw, "feats": feats}
+
+    def loss(p: PyTree, d: PyTree, starts: jax.Array, pidx: jax.Array,
              shift: jax.Array) -> tuple[jax.Array, jax.Array]:
-        state = rec.start(p, starts, shift)
+        state = rec.start(p, d["rec"], starts, shift)
         fut = starts + off
-        uf = windows(u_s, fut, T) + shift[:, None]
-        if feats is not None:
-            uf = jnp.concatenate([uf[..., None], windows(feats, fut, T)], axis=-1)
+        uf = windows(d["u_s"], fut, T) + shift[:, None]
+        if d["feats"] is not None:
+            uf = jnp.concatenate([uf[..., None], windows(d["feats"], fut, T)], axis=-1)
         if n_probe:
             # the probes run from rest in the same batch
             state = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a, b]), state,
                                            rec.rest(n_probe))
-            uf = jnp.concatenate([uf, pu[pidx]])
-        yh = rec.simulate(p, state, uf)
-        e = yh[: starts.size] - windows(y_s, fut, T)
+            uf = jnp.concatenate([uf, d["pu"][pidx]])
+        yh = rec.simulate(p, d["rec"], state, uf)
+        e = yh[: starts.size] - windows(d["y_s"], fut, T)
         mse = jnp.mean(e**2)
-        value = jnp.mean(windows(wts, fut, T) * e**2)
+        value = jnp.mean(windows(d["wts"], fut, T) * e**2)
         if cycle_energy > 0:
-            vw = windows(vj, fut, T)
+            vw = windows(d["v"], fut, T)
             peak = jnp.maximum(jnp.max(jnp.abs(vw), axis=1), v_floor)
-            de = jnp.sum(e * vw, axis=1) * a_max / (fs * peak**2) / ncyc[starts]
+            de = jnp.sum(e * vw, axis=1) * a_max / (fs * peak**2) / d["ncyc"][starts]
             value += cycle_energy * jnp.mean(de**2)
         if n_probe:
-            phi = jnp.sum(yh[starts.size:] * pw[pidx], axis=1)
+            phi = jnp.sum(yh[starts.size:] * d["pw"][pidx], axis=1)
             value += passivity * jnp.mean(jnp.minimum(phi, 0.0) ** 2)
         return value, mse
 
@@ -303,11 +314,16 @@ def shooting_problem(
         if nwin:
             ew /= cycles_per_window(uv, 0, T)[vstarts][:, None]
 
-        @jax.jit
-        def penalty_all(p: PyTree) -> jax.Array:
-            yh = rec.simulate(p, rec.rest(pu.shape[0]), pu)
-            phi = jnp.sum(yh * pw, axis=1)
+        def every_probe(p: PyTree, d: PyTree) -> jax.Array:
+            yh = rec.simulate(p, d["rec"], rec.rest(d["pu"].shape[0]), d["pu"])
+            phi = jnp.sum(yh * d["pw"], axis=1)
             return jnp.mean(jnp.minimum(phi, 0.0) ** 2)
+
+        penalty_program = SharedJit(every_probe)
+        probe_data = {"rec": rec.data, "pu": pu, "pw": pw}
+
+        def penalty_all(p: PyTree) -> float:
+            return float(penalty_program(p, probe_data))
 
         def val(p: PyTree) -> tuple[float, float]:
             yh = run(p)
@@ -320,10 +336,10 @@ def shooting_problem(
                 de = np.sum(e[: nwin * T].reshape(nwin, T) * ew, axis=1)
                 obj += cycle_energy * float(np.mean(de**2))
             if passivity > 0 and math.isfinite(obj):
-                obj += passivity * float(penalty_all(p))
+                obj += passivity * penalty_all(p)
             return mse, obj
 
-    return AdamProblem(loss, params0, opt, draw, val)
+    return AdamProblem(loss, params0, opt, draw, val, data=data)
 
 
 def ss_encode(p: dict[str, Any], u_past: Any, y_past: Any, r_u: Any, r_y: Any) -> Any:

@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from helpers import perturbation_tolerance
+from helpers import compiled_programs, perturbation_tolerance
 from sloshrom.config import G, Tank
 from sloshrom.rom import GreyBox, load_model
 from sloshrom.rom.errors import ROMError
@@ -344,19 +344,25 @@ def test_physics_identifies_itself():
         assert lo <= hist[k] <= hi
 
 
-@pytest.fixture(scope="module")
-def tiny_grey(tmp_path_factory):
-    """A grey box fitted in seconds on a short harmonic-sweep record of the virtual rig."""
+def _vfa_records(duration: float, seeds: tuple[int, int]):
+    """The virtual rig's training and validation records of a harmonic sweep (VFA) of
+    ``duration`` s, preprocessed."""
     from sloshrom.io import record_from_measurement
     from sloshrom.rig import VirtualRig
     from sloshrom.signals import vfa
 
     rig = VirtualRig(TANK)
-    rec = {}
-    for split, seed in (("train", 1), ("validation", 2)):
-        path = vfa(1 / rig.dt, split, duration=24.0, tank=TANK, seed=seed)
-        rec[split] = record_from_measurement(rig.measure(path.acceleration), TANK)
-    tr, va = rec["train"], rec["validation"]
+    rec = []
+    for split, seed in zip(("train", "validation"), seeds, strict=True):
+        path = vfa(1 / rig.dt, split, duration=duration, tank=TANK, seed=seed)
+        rec.append(record_from_measurement(rig.measure(path.acceleration), TANK))
+    return rec[0], rec[1]
+
+
+@pytest.fixture(scope="module")
+def tiny_grey(tmp_path_factory):
+    """A grey box fitted in seconds on a short harmonic-sweep record of the virtual rig."""
+    tr, va = _vfa_records(24.0, (1, 2))
     model = GreyBox(n_states=3, neurons=8, window=10, horizon=40, batch=16, max_epochs=2,
                     steps_per_epoch=5, physics_generations=2, physics_population=3,
                     physics_windows=4, passivity=1.0, cycle_energy=0.1, velocity_offset=0.5)
@@ -364,6 +370,29 @@ def tiny_grey(tmp_path_factory):
               validation=(va["velocity"], va["dynamic_force"]), fill=0.5)
     path = model.save(tmp_path_factory.mktemp("grey") / "grey.npz")
     return model, path, va
+
+
+def test_members_share_the_compiled_epoch_and_validation():
+    """Two members (other seeds: other columns, so other features of the record) train the
+    network with one compilation of its epoch and of its validation's passivity penalty: the
+    arrays that differ are the programs' arguments."""
+    # 13 s: a length no other test trains on, so the first member must compile
+    tr, va = _vfa_records(13.0, (3, 4))
+    models, compiled = [], []
+    for seed in (1, 2):
+        m = GreyBox(n_states=3, neurons=8, window=10, horizon=40, batch=16, max_epochs=2,
+                    steps_per_epoch=3, physics_generations=2, physics_population=3,
+                    physics_windows=4, passivity=1.0, cycle_energy=0.1, seed=seed)
+        with compiled_programs() as names:
+            m.fit(tr["velocity"], tr["dynamic_force"], fs=tr.fs,
+                  validation=(va["velocity"], va["dynamic_force"]), fill=0.5)
+        models.append(m)
+        compiled.append(names)
+    assert models[0].physics_ != models[1].physics_
+    assert compiled[0].count("jit(epoch)") == 1 and compiled[0].count("jit(every_probe)") == 1
+    assert "jit(epoch)" not in compiled[1] and "jit(every_probe)" not in compiled[1]
+    u = np.asarray(tr["velocity"], dtype=float)  # inside both members' envelope
+    assert np.max(np.abs(models[0].predict(u) - models[1].predict(u))) > 0
 
 
 def test_strictly_proper(tiny_grey):

@@ -401,13 +401,13 @@ def shooting_problem(
         # the physics is not trained: its arrays ride along unchanged
         return {**p, **fixed}
 
-    def start(p: PyTree, starts: jax.Array, shift: jax.Array) -> jax.Array:
-        return ss_encode(p, windows(u_s, starts, w) + shift[:, None], windows(y_s, starts, w),
-                         ru, ry)
+    def start(p: PyTree, d: PyTree, starts: jax.Array, shift: jax.Array) -> jax.Array:
+        return ss_encode(p, windows(d["u_s"], starts, w) + shift[:, None],
+                         windows(d["y_s"], starts, w), ru, ry)
 
     use_kernel = kernel_available() if kernel is None else bool(kernel)
 
-    def simulate(p: PyTree, x0: jax.Array, seq: jax.Array) -> jax.Array:
+    def simulate(p: PyTree, d: PyTree, x0: jax.Array, seq: jax.Array) -> jax.Array:
         if use_kernel:
             return grey_window(p, x0, seq, ru, ry)
         return grey_simulate(p, x0, jnp.swapaxes(seq, 0, 1), ru, ry).T
@@ -427,7 +427,7 @@ def shooting_problem(
 
     rec = Recurrence(offset=w, n_starts=n - w - t, start=start,
                      rest=lambda k: jnp.zeros((k, spec.n_states), f32), simulate=simulate,
-                     free_run=free_run, features=features)
+                     free_run=free_run, features=features, data={"u_s": u_s, "y_s": y_s})
     trained = {k: jnp.asarray(v, f32) for k, v in params0.items()
                if k not in ("physics", "taps")}
     if validation_history:

@@ -106,14 +106,14 @@ def shooting_problem(
     u_s = jnp.asarray(scaler.u(np.asarray(u, dtype=np.float64)), f32)
     y_s = jnp.asarray(scaler.y(np.asarray(y, dtype=np.float64)), f32)
 
-    def start(p: PyTree, starts: jax.Array, shift: jax.Array) -> jax.Array:
+    def start(p: PyTree, d: PyTree, starts: jax.Array, shift: jax.Array) -> jax.Array:
         # the state encoded from the window of measured input and output before the start
-        return ss_encode(p, windows(u_s, starts, w) + shift[:, None], windows(y_s, starts, w),
-                         ru, ry)
+        return ss_encode(p, windows(d["u_s"], starts, w) + shift[:, None],
+                         windows(d["y_s"], starts, w), ru, ry)
 
     out_map = strictly_proper if spec.proper else (lambda p: p)
 
-    def simulate(p: PyTree, x0: jax.Array, uf: jax.Array) -> jax.Array:
+    def simulate(p: PyTree, d: PyTree, x0: jax.Array, uf: jax.Array) -> jax.Array:
         return ss_simulate(out_map(p), x0, uf.T, ru, ry)[1].T
 
     def free_run(p: PyTree, uv: np.ndarray) -> np.ndarray:
@@ -126,7 +126,8 @@ def shooting_problem(
 
     rec = Recurrence(offset=w, n_starts=n - w - T, start=start,
                      rest=lambda k: jnp.zeros((k, spec.n_states), f32), simulate=simulate,
-                     free_run=free_run, history_run=history_run)
+                     free_run=free_run, history_run=history_run,
+                     data={"u_s": u_s, "y_s": y_s})
     params0 = out_map({k: jnp.asarray(v, f32) for k, v in init_params(spec, seed).items()})
     return shooting(rec, params0, u, y, fs, scaler, validation, options, validation_history)
 

@@ -586,8 +586,9 @@ def nfir_adam_problem(
 
     slots = cycle_slots(cycles, c_draw) if c_draw else 0
 
-    def loss(th: jax.Array, rows: jax.Array, pidx: jax.Array, crows: jax.Array,
+    def loss(th: jax.Array, data: PyTree, rows: jax.Array, pidx: jax.Array, crows: jax.Array,
              cweight: jax.Array, cseg: jax.Array) -> tuple[jax.Array, jax.Array]:
+        up, ysj, wj, probes = data
         e = _loss_rows(th, up, rows, d, neurons, hidden) - ysj[rows]
         value = jnp.mean(wj[rows] * e**2)
         if n_draw:
@@ -636,7 +637,8 @@ def nfir_adam_problem(
                 value += cycle_energy * val_cycle_error(e)
         return vmse, value + (passivity * float(penalty_all(th)) if n_draw else 0.0)
 
-    return AdamProblem(loss, jnp.asarray(theta0), opt, draw, validate, train_mse)
+    return AdamProblem(loss, jnp.asarray(theta0), opt, draw, validate, train_mse,
+                       data=(up, ysj, wj, probes if n_draw else None))
 
 
 def adam_nfir(
@@ -771,13 +773,14 @@ def noe_shooting_problem(
     # the record padded in front with rest: every start has its measured (or rest) history
     up = jnp.asarray(np.concatenate([np.full(lag, ru), sc.u(np.asarray(u, np.float64))]), f32)
     yp = jnp.asarray(np.concatenate([np.full(lag, ry), sc.y(np.asarray(y, np.float64))]), f32)
-    u_lags = jnp.arange(1, dmax + 1)
-    y_lags = jnp.arange(1, m + 1)
     shoot = partial(noe_shoot, delays=tuple(int(x) for x in d), out_delays=m, neurons=neurons,
                     hidden=hidden)
 
-    def start(th: PyTree, starts: jax.Array, shift: jax.Array) -> PyTree:
+    def start(th: PyTree, data: PyTree, starts: jax.Array, shift: jax.Array) -> PyTree:
         # delay lines at start s (padded index s + lag): measured samples s-1, s-2, ...
+        up, yp = data
+        u_lags = jnp.arange(1, dmax + 1)
+        y_lags = jnp.arange(1, m + 1)
         return (up[starts[:, None] + lag - u_lags[None, :]] + shift[:, None],
                 yp[starts[:, None] + lag - y_lags[None, :]])
 
@@ -794,8 +797,8 @@ def noe_shooting_problem(
                                           hidden))
 
     rec = Recurrence(offset=0, n_starts=n - T + 1, start=start, rest=rest,
-                     simulate=lambda th, b, uf: shoot(th, b[0], b[1], uf), free_run=free_run,
-                     bound=bound, history_run=history_run)
+                     simulate=lambda th, _, b, uf: shoot(th, b[0], b[1], uf),
+                     free_run=free_run, bound=bound, history_run=history_run, data=(up, yp))
     return shooting(rec, jnp.asarray(theta0, f32), u, y, fs, scaler, validation, options,
                     validation_history)
 
