@@ -319,11 +319,7 @@ def shooting_problem(
             phi = jnp.sum(yh * d["pw"], axis=1)
             return jnp.mean(jnp.minimum(phi, 0.0) ** 2)
 
-        penalty_program = SharedJit(every_probe)
-        probe_data = {"rec": rec.data, "pu": pu, "pw": pw}
-
-        def penalty_all(p: PyTree) -> float:
-            return float(penalty_program(p, probe_data))
+        penalty_all = SharedJit(every_probe)
 
         def val(p: PyTree) -> tuple[float, float]:
             yh = run(p)
@@ -336,7 +332,7 @@ def shooting_problem(
                 de = np.sum(e[: nwin * T].reshape(nwin, T) * ew, axis=1)
                 obj += cycle_energy * float(np.mean(de**2))
             if passivity > 0 and math.isfinite(obj):
-                obj += passivity * penalty_all(p)
+                obj += passivity * float(penalty_all(p, data))
             return mse, obj
 
     return AdamProblem(loss, params0, opt, draw, val, data=data)
